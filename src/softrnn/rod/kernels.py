@@ -1,0 +1,468 @@
+"""Numba kernels of the Lie group variational integrator (Variant A of docs/lgvi.md §2.4).
+
+Per node: explicit translation (T) and a 3-unknown Newton solve on the Cayley vector for the
+rotation (R); segment strains use the SE(3)-Cayley measure (second order in space). One call
+advances many steps; ``advance_batch`` advances many independent rods with ``prange``.
+
+Array conventions (n nodes, n - 1 segments, K steps in the call, S saved samples):
+    R      (n, 3, 3)  node rotations Lambda (columns = directors d1, d2, d3), world <- body
+    r      (n, 3)     node positions [m]
+    v      (n, 3)     staggered linear velocities v^{k-1} [m/s], world frame
+    w      (n, 3)     staggered angular velocities omega^{k-1} [rad/s], body frame
+    Kp, Gp (n-1, 3)   previous segment strains (Kelvin-Voigt memory) [1/m], [-]
+
+The kernels never allocate inside the step loop and write results into arrays passed in.
+"""
+
+import numpy as np
+from numba import njit, prange
+
+FREE = 0
+CLAMPED = 1
+PINNED = 2
+
+# Status codes returned by the kernels.
+OK = 0
+DIVERGED = 1
+NEWTON_FAILED = 2
+
+_NEWTON_MAX_ITER = 12
+_NEWTON_RTOL = 1e-13
+
+
+@njit(fastmath={"contract"}, cache=True)
+def _advance_one(
+    R, r, v, w, Kp, Gp,
+    length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
+    h, k0, n_steps, stride, s0,
+    ext_idx, ext_w, pd_idx, pd_target, pd_gain, presc_idx, presc_r, presc_R,
+    save_slot, out_r, out_R, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e,
+    work_f,
+):
+    """Advance one rod by ``n_steps`` steps of size ``h``; returns (status, step index).
+
+    Loads at step i of this call (time t = (k0 + i) h):
+        ext_idx (m,)         nodes with tabulated loads
+        ext_w (K, m, 12)     [force world, torque world, force body, torque body] [N], [N m]
+        pd_idx (p,)          nodes with PD tracking forces f = kp (target - r) - kd v
+        pd_target (K, p, 3)  target positions [m];  pd_gain (p, 2) = [kp N/m, kd N s/m]
+        presc_idx (q,)       constrained nodes with prescribed motion
+        presc_r (K + 1, q, 3), presc_R (K + 1, q, 3, 3): poses at t and t + h
+    A sample is written when (k0 + i) % stride == 0, at row (k0 + i) // stride - s0:
+        positions, rotations, mid-step velocities (world), applied force and torque (world),
+        reaction force and torque of constrained nodes (world) for nodes with save_slot >= 0,
+        and out_e[row] = [kinetic, elastic, gravitational] energy [J].
+    work_f (n, 6): scratch for the applied world force/torque of each node.
+    """
+    n = r.shape[0]
+    l = length
+    for i in range(n_steps):
+        k = k0 + i
+        record = (k % stride) == 0
+        row = k // stride - s0
+        # ---- applied loads at t_k into work_f (world force, world torque) ----
+        for a in range(n):
+            for c in range(6):
+                work_f[a, c] = 0.0
+        for j in range(ext_idx.shape[0]):
+            a = ext_idx[j]
+            for c in range(3):
+                work_f[a, c] += ext_w[i, j, c] + (R[a, c, 0] * ext_w[i, j, 6] + R[a, c, 1] * ext_w[i, j, 7]
+                                                  + R[a, c, 2] * ext_w[i, j, 8])
+                work_f[a, 3 + c] += ext_w[i, j, 3 + c] + (R[a, c, 0] * ext_w[i, j, 9]
+                                                          + R[a, c, 1] * ext_w[i, j, 10]
+                                                          + R[a, c, 2] * ext_w[i, j, 11])
+        for j in range(pd_idx.shape[0]):
+            a = pd_idx[j]
+            for c in range(3):
+                work_f[a, c] += pd_gain[j, 0] * (pd_target[i, j, c] - r[a, c]) - pd_gain[j, 1] * v[a, c]
+        e_kin = 0.0
+        e_el = 0.0
+        e_g = 0.0
+        # carried from segment a - 1: spatial force n_{a-1}, torque T'_{a-1} in frame a
+        np0 = 0.0
+        np1 = 0.0
+        np2 = 0.0
+        tp0 = 0.0
+        tp1 = 0.0
+        tp2 = 0.0
+        for a in range(n):
+            # ---------------- segment a (nodes a, a + 1), old configuration ----------------
+            n0 = 0.0
+            n1 = 0.0
+            n2 = 0.0
+            T0 = 0.0
+            T1 = 0.0
+            T2 = 0.0
+            q0 = 0.0
+            q1 = 0.0
+            q2 = 0.0
+            if a < n - 1:
+                # Q = R_a^T R_{a+1}
+                Q00 = R[a, 0, 0] * R[a + 1, 0, 0] + R[a, 1, 0] * R[a + 1, 1, 0] + R[a, 2, 0] * R[a + 1, 2, 0]
+                Q01 = R[a, 0, 0] * R[a + 1, 0, 1] + R[a, 1, 0] * R[a + 1, 1, 1] + R[a, 2, 0] * R[a + 1, 2, 1]
+                Q02 = R[a, 0, 0] * R[a + 1, 0, 2] + R[a, 1, 0] * R[a + 1, 1, 2] + R[a, 2, 0] * R[a + 1, 2, 2]
+                Q10 = R[a, 0, 1] * R[a + 1, 0, 0] + R[a, 1, 1] * R[a + 1, 1, 0] + R[a, 2, 1] * R[a + 1, 2, 0]
+                Q11 = R[a, 0, 1] * R[a + 1, 0, 1] + R[a, 1, 1] * R[a + 1, 1, 1] + R[a, 2, 1] * R[a + 1, 2, 1]
+                Q12 = R[a, 0, 1] * R[a + 1, 0, 2] + R[a, 1, 1] * R[a + 1, 1, 2] + R[a, 2, 1] * R[a + 1, 2, 2]
+                Q20 = R[a, 0, 2] * R[a + 1, 0, 0] + R[a, 1, 2] * R[a + 1, 1, 0] + R[a, 2, 2] * R[a + 1, 2, 0]
+                Q21 = R[a, 0, 2] * R[a + 1, 0, 1] + R[a, 1, 2] * R[a + 1, 1, 1] + R[a, 2, 2] * R[a + 1, 2, 1]
+                Q22 = R[a, 0, 2] * R[a + 1, 0, 2] + R[a, 1, 2] * R[a + 1, 1, 2] + R[a, 2, 2] * R[a + 1, 2, 2]
+                d0 = r[a + 1, 0] - r[a, 0]
+                d1 = r[a + 1, 1] - r[a, 1]
+                d2 = r[a + 1, 2] - r[a, 2]
+                # p = R_a^T d
+                p0 = R[a, 0, 0] * d0 + R[a, 1, 0] * d1 + R[a, 2, 0] * d2
+                p1 = R[a, 0, 1] * d0 + R[a, 1, 1] * d1 + R[a, 2, 1] * d2
+                p2 = R[a, 0, 2] * d0 + R[a, 1, 2] * d1 + R[a, 2, 2] * d2
+                # x = cay^-1(Q) = 2/(1 + tr Q) vee(Q - Q^T)
+                s = 2.0 / (1.0 + Q00 + Q11 + Q22)
+                x0 = s * (Q21 - Q12)
+                x1 = s * (Q02 - Q20)
+                x2 = s * (Q10 - Q01)
+                # u = 2 (I + Q)^-1 p = p - x x p / 2
+                u0 = p0 - 0.5 * (x1 * p2 - x2 * p1)
+                u1 = p1 - 0.5 * (x2 * p0 - x0 * p2)
+                u2 = p2 - 0.5 * (x0 * p1 - x1 * p0)
+                il = 1.0 / l
+                ka0 = x0 * il
+                ka1 = x1 * il
+                ka2 = x2 * il
+                ga0 = u0 * il
+                ga1 = u1 * il
+                ga2 = u2 * il
+                eg0 = ga0 - G0[a, 0]
+                eg1 = ga1 - G0[a, 1]
+                eg2 = ga2 - G0[a, 2]
+                ek0 = ka0 - K0[a, 0]
+                ek1 = ka1 - K0[a, 1]
+                ek2 = ka2 - K0[a, 2]
+                N0 = C1[a, 0] * eg0
+                N1 = C1[a, 1] * eg1
+                N2 = C1[a, 2] * eg2
+                M0 = C2[a, 0] * ek0
+                M1 = C2[a, 1] * ek1
+                M2 = C2[a, 2] * ek2
+                if record:
+                    e_el += 0.5 * l * (N0 * eg0 + N1 * eg1 + N2 * eg2 + M0 * ek0 + M1 * ek1 + M2 * ek2)
+                if kv_on:
+                    ih = 1.0 / h
+                    N0 += D1[a, 0] * (ga0 - Gp[a, 0]) * ih
+                    N1 += D1[a, 1] * (ga1 - Gp[a, 1]) * ih
+                    N2 += D1[a, 2] * (ga2 - Gp[a, 2]) * ih
+                    M0 += D2[a, 0] * (ka0 - Kp[a, 0]) * ih
+                    M1 += D2[a, 1] * (ka1 - Kp[a, 1]) * ih
+                    M2 += D2[a, 2] * (ka2 - Kp[a, 2]) * ih
+                    Gp[a, 0] = ga0
+                    Gp[a, 1] = ga1
+                    Gp[a, 2] = ga2
+                    Kp[a, 0] = ka0
+                    Kp[a, 1] = ka1
+                    Kp[a, 2] = ka2
+                # c = N + x x N / 2
+                c0 = N0 + 0.5 * (x1 * N2 - x2 * N1)
+                c1 = N1 + 0.5 * (x2 * N0 - x0 * N2)
+                c2 = N2 + 0.5 * (x0 * N1 - x1 * N0)
+                # T = M + x x M / 2 + x (x.M) / 4 + u x c / 2
+                xm = 0.25 * (x0 * M0 + x1 * M1 + x2 * M2)
+                T0 = M0 + 0.5 * (x1 * M2 - x2 * M1) + xm * x0 + 0.5 * (u1 * c2 - u2 * c1)
+                T1 = M1 + 0.5 * (x2 * M0 - x0 * M2) + xm * x1 + 0.5 * (u2 * c0 - u0 * c2)
+                T2 = M2 + 0.5 * (x0 * M1 - x1 * M0) + xm * x2 + 0.5 * (u0 * c1 - u1 * c0)
+                # n_a = R_a c (spatial)
+                n0 = R[a, 0, 0] * c0 + R[a, 0, 1] * c1 + R[a, 0, 2] * c2
+                n1 = R[a, 1, 0] * c0 + R[a, 1, 1] * c1 + R[a, 1, 2] * c2
+                n2 = R[a, 2, 0] * c0 + R[a, 2, 1] * c1 + R[a, 2, 2] * c2
+                # T' = Q^T (T - p x c), carried to node a + 1
+                z0 = T0 - (p1 * c2 - p2 * c1)
+                z1 = T1 - (p2 * c0 - p0 * c2)
+                z2 = T2 - (p0 * c1 - p1 * c0)
+                q0 = Q00 * z0 + Q10 * z1 + Q20 * z2
+                q1 = Q01 * z0 + Q11 * z1 + Q21 * z2
+                q2 = Q02 * z0 + Q12 * z1 + Q22 * z2
+            # ---------------- node a ----------------
+            fi0 = n0 - np0
+            fi1 = n1 - np1
+            fi2 = n2 - np2
+            ti0 = T0 - tp0
+            ti1 = T1 - tp1
+            ti2 = T2 - tp2
+            np0 = n0
+            np1 = n1
+            np2 = n2
+            tp0 = q0
+            tp1 = q1
+            tp2 = q2
+            m = mass[a]
+            ja0 = inertia[a, 0]
+            ja1 = inertia[a, 1]
+            ja2 = inertia[a, 2]
+            fe0 = work_f[a, 0]
+            fe1 = work_f[a, 1]
+            fe2 = work_f[a, 2]
+            te0 = work_f[a, 3]
+            te1 = work_f[a, 4]
+            te2 = work_f[a, 5]
+            # total force on the node except inertia and viscous drag
+            F0 = fi0 + fe0 + m * gravity[0]
+            F1 = fi1 + fe1 + m * gravity[1]
+            F2 = fi2 + fe2 + m * gravity[2]
+            # body torque
+            tb0 = ti0 + R[a, 0, 0] * te0 + R[a, 1, 0] * te1 + R[a, 2, 0] * te2
+            tb1 = ti1 + R[a, 0, 1] * te0 + R[a, 1, 1] * te1 + R[a, 2, 1] * te2
+            tb2 = ti2 + R[a, 0, 2] * te0 + R[a, 1, 2] * te1 + R[a, 2, 2] * te2
+            vo0 = v[a, 0]
+            vo1 = v[a, 1]
+            vo2 = v[a, 2]
+            wo0 = w[a, 0]
+            wo1 = w[a, 1]
+            wo2 = w[a, 2]
+            kd = kind[a]
+            slot = save_slot[a]
+            if record:
+                e_g -= m * (gravity[0] * r[a, 0] + gravity[1] * r[a, 1] + gravity[2] * r[a, 2])
+                if slot >= 0:
+                    for c in range(3):
+                        out_r[row, slot, c] = r[a, c]
+                        out_f[row, slot, c] = work_f[a, c]
+                        out_t[row, slot, c] = work_f[a, 3 + c]
+                        for e in range(3):
+                            out_R[row, slot, c, e] = R[a, c, e]
+            # ---- translation (T) ----
+            if kd == FREE:
+                den = 1.0 / (m + h * ct[a])
+                vn0 = (m * vo0 + h * F0) * den
+                vn1 = (m * vo1 + h * F1) * den
+                vn2 = (m * vo2 + h * F2) * den
+                dx0 = h * vn0
+                dx1 = h * vn1
+                dx2 = h * vn2
+                if not (dx0 * dx0 + dx1 * dx1 + dx2 * dx2 < l * l):
+                    return DIVERGED, k
+                r[a, 0] += dx0
+                r[a, 1] += dx1
+                r[a, 2] += dx2
+            else:
+                jq = -1
+                for j in range(presc_idx.shape[0]):
+                    if presc_idx[j] == a:
+                        jq = j
+                if jq >= 0:
+                    vn0 = (presc_r[i + 1, jq, 0] - r[a, 0]) / h
+                    vn1 = (presc_r[i + 1, jq, 1] - r[a, 1]) / h
+                    vn2 = (presc_r[i + 1, jq, 2] - r[a, 2]) / h
+                    r[a, 0] = presc_r[i + 1, jq, 0]
+                    r[a, 1] = presc_r[i + 1, jq, 1]
+                    r[a, 2] = presc_r[i + 1, jq, 2]
+                else:
+                    vn0 = 0.0
+                    vn1 = 0.0
+                    vn2 = 0.0
+                if record and slot >= 0:
+                    # reaction = inertia + drag - applied
+                    out_rf[row, slot, 0] = (m * (vn0 - vo0) / h + ct[a] * vn0) - F0
+                    out_rf[row, slot, 1] = (m * (vn1 - vo1) / h + ct[a] * vn1) - F1
+                    out_rf[row, slot, 2] = (m * (vn2 - vo2) / h + ct[a] * vn2) - F2
+            # ---- rotation (R) ----
+            # b = h pi~ ; pi~ = J w- - h/2 w- x J w- + h^2/4 (w- . J w-) w- + h tb
+            jw0 = ja0 * wo0
+            jw1 = ja1 * wo1
+            jw2 = ja2 * wo2
+            wjw = wo0 * jw0 + wo1 * jw1 + wo2 * jw2
+            hh = h * h
+            b0 = h * (jw0 - 0.5 * h * (wo1 * jw2 - wo2 * jw1) + 0.25 * hh * wjw * wo0 + h * tb0)
+            b1 = h * (jw1 - 0.5 * h * (wo2 * jw0 - wo0 * jw2) + 0.25 * hh * wjw * wo1 + h * tb1)
+            b2 = h * (jw2 - 0.5 * h * (wo0 * jw1 - wo1 * jw0) + 0.25 * hh * wjw * wo2 + h * tb2)
+            if kd == CLAMPED:
+                jq = -1
+                for j in range(presc_idx.shape[0]):
+                    if presc_idx[j] == a:
+                        jq = j
+                y0 = 0.0
+                y1 = 0.0
+                y2 = 0.0
+                if jq >= 0:
+                    # y = cay^-1(R^T R_next)
+                    A00 = 0.0
+                    A11 = 0.0
+                    A22 = 0.0
+                    A01 = 0.0
+                    A10 = 0.0
+                    A02 = 0.0
+                    A20 = 0.0
+                    A12 = 0.0
+                    A21 = 0.0
+                    for c in range(3):
+                        A00 += R[a, c, 0] * presc_R[i + 1, jq, c, 0]
+                        A11 += R[a, c, 1] * presc_R[i + 1, jq, c, 1]
+                        A22 += R[a, c, 2] * presc_R[i + 1, jq, c, 2]
+                        A01 += R[a, c, 0] * presc_R[i + 1, jq, c, 1]
+                        A10 += R[a, c, 1] * presc_R[i + 1, jq, c, 0]
+                        A02 += R[a, c, 0] * presc_R[i + 1, jq, c, 2]
+                        A20 += R[a, c, 2] * presc_R[i + 1, jq, c, 0]
+                        A12 += R[a, c, 1] * presc_R[i + 1, jq, c, 2]
+                        A21 += R[a, c, 2] * presc_R[i + 1, jq, c, 1]
+                    s = 2.0 / (1.0 + A00 + A11 + A22)
+                    y0 = s * (A21 - A12)
+                    y1 = s * (A02 - A20)
+                    y2 = s * (A10 - A01)
+            else:
+                # Newton on Phi(y) = J y + y x J y / 2 + (y.Jy) y / 4 + h cr y - b
+                y0 = h * wo0
+                y1 = h * wo1
+                y2 = h * wo2
+                hc = h * cr[a]
+                tol = _NEWTON_RTOL * (abs(b0) + abs(b1) + abs(b2)
+                                      + (ja0 + ja1 + ja2) * (abs(y0) + abs(y1) + abs(y2)))
+                it = 0
+                while True:
+                    jy0 = ja0 * y0
+                    jy1 = ja1 * y1
+                    jy2 = ja2 * y2
+                    yjy = y0 * jy0 + y1 * jy1 + y2 * jy2
+                    f0 = jy0 + 0.5 * (y1 * jy2 - y2 * jy1) + 0.25 * yjy * y0 + hc * y0 - b0
+                    f1 = jy1 + 0.5 * (y2 * jy0 - y0 * jy2) + 0.25 * yjy * y1 + hc * y1 - b1
+                    f2 = jy2 + 0.5 * (y0 * jy1 - y1 * jy0) + 0.25 * yjy * y2 + hc * y2 - b2
+                    if abs(f0) + abs(f1) + abs(f2) <= tol:
+                        break
+                    it += 1
+                    if it > _NEWTON_MAX_ITER:
+                        return NEWTON_FAILED, k
+                    # DPhi = J + (y^ J - (Jy)^)/2 + (2 y (Jy)^T + (y.Jy) I)/4 + hc I
+                    dg = 0.25 * yjy + hc
+                    A00 = ja0 + 0.5 * y0 * jy0 + dg
+                    A11 = ja1 + 0.5 * y1 * jy1 + dg
+                    A22 = ja2 + 0.5 * y2 * jy2 + dg
+                    A01 = 0.5 * (-y2 * ja1 + jy2) + 0.5 * y0 * jy1
+                    A02 = 0.5 * (y1 * ja2 - jy1) + 0.5 * y0 * jy2
+                    A10 = 0.5 * (y2 * ja0 - jy2) + 0.5 * y1 * jy0
+                    A12 = 0.5 * (-y0 * ja2 + jy0) + 0.5 * y1 * jy2
+                    A20 = 0.5 * (-y1 * ja0 + jy1) + 0.5 * y2 * jy0
+                    A21 = 0.5 * (y0 * ja1 - jy0) + 0.5 * y2 * jy1
+                    C00 = A11 * A22 - A12 * A21
+                    C01 = A02 * A21 - A01 * A22
+                    C02 = A01 * A12 - A02 * A11
+                    det = A00 * C00 + A10 * C01 + A20 * C02
+                    idet = 1.0 / det
+                    C10 = A12 * A20 - A10 * A22
+                    C11 = A00 * A22 - A02 * A20
+                    C12 = A02 * A10 - A00 * A12
+                    C20 = A10 * A21 - A11 * A20
+                    C21 = A01 * A20 - A00 * A21
+                    C22 = A00 * A11 - A01 * A10
+                    y0 -= idet * (C00 * f0 + C01 * f1 + C02 * f2)
+                    y1 -= idet * (C10 * f0 + C11 * f1 + C12 * f2)
+                    y2 -= idet * (C20 * f0 + C21 * f1 + C22 * f2)
+                if not (y0 * y0 + y1 * y1 + y2 * y2 < 0.25):
+                    return DIVERGED, k
+            ih = 1.0 / h
+            wn0 = y0 * ih
+            wn1 = y1 * ih
+            wn2 = y2 * ih
+            if record:
+                jwn0 = ja0 * wn0
+                jwn1 = ja1 * wn1
+                jwn2 = ja2 * wn2
+                e_kin += 0.25 * (m * (vo0 * vo0 + vo1 * vo1 + vo2 * vo2 + vn0 * vn0 + vn1 * vn1 + vn2 * vn2)
+                                 + wjw + wn0 * jwn0 + wn1 * jwn1 + wn2 * jwn2)
+                if slot >= 0:
+                    mw0 = 0.5 * (wo0 + wn0)
+                    mw1 = 0.5 * (wo1 + wn1)
+                    mw2 = 0.5 * (wo2 + wn2)
+                    for c in range(3):
+                        out_w[row, slot, c] = R[a, c, 0] * mw0 + R[a, c, 1] * mw1 + R[a, c, 2] * mw2
+                    out_v[row, slot, 0] = 0.5 * (vo0 + vn0)
+                    out_v[row, slot, 1] = 0.5 * (vo1 + vn1)
+                    out_v[row, slot, 2] = 0.5 * (vo2 + vn2)
+                    if kd == CLAMPED:
+                        # body reaction torque: (pi(w_new) + hc-drag) h - b, over h^2
+                        yjy = y0 * ja0 * y0 + y1 * ja1 * y1 + y2 * ja2 * y2
+                        g0 = ja0 * y0 + 0.5 * (y1 * ja2 * y2 - y2 * ja1 * y1) + 0.25 * yjy * y0 + h * cr[a] * y0 - b0
+                        g1 = ja1 * y1 + 0.5 * (y2 * ja0 * y0 - y0 * ja2 * y2) + 0.25 * yjy * y1 + h * cr[a] * y1 - b1
+                        g2 = ja2 * y2 + 0.5 * (y0 * ja1 * y1 - y1 * ja0 * y0) + 0.25 * yjy * y2 + h * cr[a] * y2 - b2
+                        ihh = 1.0 / hh
+                        for c in range(3):
+                            out_rt[row, slot, c] = (R[a, c, 0] * g0 + R[a, c, 1] * g1 + R[a, c, 2] * g2) * ihh
+                    elif kd == PINNED:
+                        for c in range(3):
+                            out_rt[row, slot, c] = 0.0
+                    else:
+                        for c in range(3):
+                            out_rf[row, slot, c] = 0.0
+                            out_rt[row, slot, c] = 0.0
+            v[a, 0] = vn0
+            v[a, 1] = vn1
+            v[a, 2] = vn2
+            w[a, 0] = wn0
+            w[a, 1] = wn1
+            w[a, 2] = wn2
+            # R <- R cay(y)
+            if kd == CLAMPED and y0 == 0.0 and y1 == 0.0 and y2 == 0.0:
+                continue
+            yy = y0 * y0 + y1 * y1 + y2 * y2
+            ca = 4.0 / (4.0 + yy)
+            cb = 0.5 * ca
+            F00 = 1.0 - cb * (y1 * y1 + y2 * y2)
+            F11 = 1.0 - cb * (y0 * y0 + y2 * y2)
+            F22 = 1.0 - cb * (y0 * y0 + y1 * y1)
+            F01 = -ca * y2 + cb * y0 * y1
+            F10 = ca * y2 + cb * y0 * y1
+            F02 = ca * y1 + cb * y0 * y2
+            F20 = -ca * y1 + cb * y0 * y2
+            F12 = -ca * y0 + cb * y1 * y2
+            F21 = ca * y0 + cb * y1 * y2
+            for c in range(3):
+                R0 = R[a, c, 0]
+                R1 = R[a, c, 1]
+                R2 = R[a, c, 2]
+                R[a, c, 0] = R0 * F00 + R1 * F10 + R2 * F20
+                R[a, c, 1] = R0 * F01 + R1 * F11 + R2 * F21
+                R[a, c, 2] = R0 * F02 + R1 * F12 + R2 * F22
+        if record:
+            out_e[row, 0] = e_kin
+            out_e[row, 1] = e_el
+            out_e[row, 2] = e_g
+    return OK, k0 + n_steps
+
+
+@njit(cache=True)
+def advance(
+    R, r, v, w, Kp, Gp,
+    length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
+    h, k0, n_steps, stride, s0,
+    ext_idx, ext_w, pd_idx, pd_target, pd_gain, presc_idx, presc_r, presc_R,
+    save_slot, out_r, out_R, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e,
+):
+    """Advance one rod; see ``_advance_one``. Returns (status, step index of failure or end)."""
+    work_f = np.empty((r.shape[0], 6))
+    return _advance_one(
+        R, r, v, w, Kp, Gp,
+        length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
+        h, k0, n_steps, stride, s0,
+        ext_idx, ext_w, pd_idx, pd_target, pd_gain, presc_idx, presc_r, presc_R,
+        save_slot, out_r, out_R, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e, work_f,
+    )
+
+
+@njit(parallel=True, cache=True)
+def advance_batch(
+    R, r, v, w, Kp, Gp,
+    length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
+    h, k0, n_steps, stride, s0,
+    ext_idx, ext_w, pd_idx, pd_target, pd_gain, presc_idx, presc_r, presc_R,
+    save_slot, out_r, out_R, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e, status,
+):
+    """Advance B independent rods of the same spec; state, loads and outputs carry a leading
+    batch axis (B, ...). status (B, 2) receives (code, step) per rod."""
+    n_batch = r.shape[0]
+    for b in prange(n_batch):
+        work_f = np.empty((r.shape[1], 6))
+        code, step = _advance_one(
+            R[b], r[b], v[b], w[b], Kp[b], Gp[b],
+            length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
+            h, k0, n_steps, stride, s0,
+            ext_idx, ext_w[b], pd_idx, pd_target[b], pd_gain, presc_idx, presc_r[b], presc_R[b],
+            save_slot, out_r[b], out_R[b], out_v[b], out_w[b], out_f[b], out_t[b], out_rf[b],
+            out_rt[b], out_e[b], work_f,
+        )
+        status[b, 0] = code
+        status[b, 1] = step

@@ -1,0 +1,198 @@
+"""External loads: time functions, nodal forces and torques, and state-feedback (PD) forces.
+
+A time function maps times t (K,) [s] to values (K, 3) (forces [N], torques [N m] or target
+positions [m]); all are vectorised and evaluated chunk by chunk ahead of the numba kernel.
+"""
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from ..errors import bad
+
+
+class AbstractTimeFunction(Protocol):
+    def __call__(self, t: np.ndarray) -> np.ndarray:  # (K,) -> (K, 3)
+        ...
+
+
+def _vec3(name: str, x) -> np.ndarray:
+    a = np.asarray(x, dtype=float)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise bad(name, x, "a finite 3-vector [x, y, z]")
+    return a
+
+
+def _finite(name: str, x, *, positive: bool = False) -> float:
+    if isinstance(x, bool) or not isinstance(x, (int, float, np.floating, np.integer)) or not np.isfinite(x):
+        raise bad(name, x, "a finite number")
+    if positive and x <= 0:
+        raise bad(name, x, "a positive number")
+    return float(x)
+
+
+@dataclass(frozen=True)
+class Constant:
+    """value (3,) at all times."""
+
+    value: tuple
+
+    def __post_init__(self):
+        object.__setattr__(self, "value", tuple(_vec3("Constant.value", self.value)))
+
+    def __call__(self, t):
+        return np.broadcast_to(np.asarray(self.value), (np.shape(t)[0], 3)).copy()
+
+
+@dataclass(frozen=True)
+class Sinusoid:
+    """offset + amplitude * sin(2 pi frequency t + phase); amplitude, offset (3,), frequency [Hz]."""
+
+    amplitude: tuple
+    frequency: float
+    phase: float = 0.0
+    offset: tuple = (0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        object.__setattr__(self, "amplitude", tuple(_vec3("Sinusoid.amplitude", self.amplitude)))
+        object.__setattr__(self, "offset", tuple(_vec3("Sinusoid.offset", self.offset)))
+        _finite("Sinusoid.frequency", self.frequency)
+        _finite("Sinusoid.phase", self.phase)
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        s = np.sin(2 * np.pi * self.frequency * t + self.phase)
+        return np.asarray(self.offset) + s[:, None] * np.asarray(self.amplitude)
+
+
+@dataclass(frozen=True, eq=False)
+class Sampled:
+    """Values (m, 3) at increasing times (m,), linearly interpolated ('linear') or held from each
+    sample to the next ('hold'); zero before the first and after the last sample time."""
+
+    times: np.ndarray
+    values: np.ndarray
+    interpolation: str = "linear"
+
+    def __post_init__(self):
+        t = np.asarray(self.times, dtype=float)
+        v = np.asarray(self.values, dtype=float)
+        if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise bad("Sampled.times", self.times, "a 1-D array of strictly increasing finite times in s")
+        if v.shape != (t.size, 3) or not np.all(np.isfinite(v)):
+            raise bad("Sampled.values.shape", v.shape, f"({t.size}, 3) finite values, one row per time")
+        if self.interpolation not in ("linear", "hold"):
+            raise bad("Sampled.interpolation", self.interpolation, "'linear' or 'hold'")
+        object.__setattr__(self, "times", t)
+        object.__setattr__(self, "values", v)
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        out = np.zeros((t.size, 3))
+        inside = (t >= self.times[0]) & (t <= self.times[-1])
+        if self.interpolation == "linear":
+            for c in range(3):
+                out[inside, c] = np.interp(t[inside], self.times, self.values[:, c])
+        else:
+            idx = np.searchsorted(self.times, t[inside], side="right") - 1
+            out[inside] = self.values[idx]
+        return out
+
+
+def Piecewise(times, values) -> Sampled:
+    """Piecewise-constant: ``values[i]`` (3,) holds on [times[i], times[i+1]); the last value holds
+    at the last time only, so end a load with a zero row."""
+    return Sampled(times, values, interpolation="hold")
+
+
+@dataclass(frozen=True)
+class Window:
+    """``function`` on [start, stop), zero outside (e.g. a push for 0.5 s)."""
+
+    function: object
+    start: float
+    stop: float
+
+    def __post_init__(self):
+        _finite("Window.start", self.start)
+        _finite("Window.stop", self.stop)
+        if self.stop <= self.start:
+            raise bad("Window.stop", self.stop, f"a time after start={self.start} s")
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        on = (t >= self.start) & (t < self.stop)
+        return self.function(t) * on[:, None]
+
+
+def smoothstep(x: np.ndarray) -> np.ndarray:
+    """C2 ramp 0 -> 1 on [0, 1]: 6x^5 - 15x^4 + 10x^3."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * x * (x * (6 * x - 15) + 10)
+
+
+@dataclass(frozen=True)
+class SquarePath:
+    """A target moving at constant speed around a square of ``side`` [m] centred at ``center``,
+    in the plane of unit axes ``u`` and ``v``, one lap per ``period`` [s]; it starts at the centre
+    and blends onto the square over ``ramp`` [s] (smoothstep) so the start is gentle."""
+
+    center: tuple
+    side: float
+    period: float
+    u: tuple = (0.0, 1.0, 0.0)
+    v: tuple = (0.0, 0.0, 1.0)
+    ramp: float = 1.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "center", tuple(_vec3("SquarePath.center", self.center)))
+        _finite("SquarePath.side", self.side, positive=True)
+        _finite("SquarePath.period", self.period, positive=True)
+        _finite("SquarePath.ramp", self.ramp)
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        half = 0.5 * self.side
+        corners = np.array([[half, half], [-half, half], [-half, -half], [half, -half], [half, half]])
+        phase = (t / self.period) % 1.0 * 4.0
+        k = np.minimum(phase.astype(int), 3)
+        f = (phase - k)[:, None]
+        uv = corners[k] * (1 - f) + corners[k + 1] * f
+        blend = smoothstep(t / self.ramp) if self.ramp > 0 else np.ones_like(t)
+        u, v = np.asarray(self.u, float), np.asarray(self.v, float)
+        return np.asarray(self.center) + blend[:, None] * (uv[:, :1] * u + uv[:, 1:] * v)
+
+
+@dataclass(frozen=True)
+class NodalLoad:
+    """A force [N] and/or torque [N m] on one node; ``frame`` 'world' (fixed directions) or 'body'
+    (follower load, components in the node's frame d1, d2, d3)."""
+
+    node: int
+    force: object | None = None
+    torque: object | None = None
+    frame: str = "world"
+
+    def __post_init__(self):
+        if self.frame not in ("world", "body"):
+            raise bad("NodalLoad.frame", self.frame, "'world' or 'body'")
+        if self.force is None and self.torque is None:
+            raise bad("NodalLoad", "no force and no torque", "a force and/or a torque time function")
+
+
+@dataclass(frozen=True)
+class PDTracking:
+    """State feedback force on ``node``: f = stiffness (target(t) - r) - damping v [N], pulling
+    the node toward a moving target (the square-tracking case)."""
+
+    node: int
+    target: object
+    stiffness: float
+    damping: float = 0.0
+
+    def __post_init__(self):
+        _finite("PDTracking.stiffness", self.stiffness, positive=True)
+        _finite("PDTracking.damping", self.damping)
+        if self.damping < 0:
+            raise bad("PDTracking.damping", self.damping, "a damping gain >= 0 in N s/m")

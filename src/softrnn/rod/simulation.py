@@ -1,0 +1,358 @@
+"""Simulation driver: a physical ``Setup`` plus a ``RunConfig`` -> a ``Trajectory``.
+
+Python evaluates the time-dependent inputs (loads, PD targets, prescribed motions) chunk by chunk
+into arrays; ``kernels.advance`` runs the steps of a chunk in one numba call. The saved interval
+``dt`` is split into ``substeps`` solver steps h = dt / substeps below the stability limit.
+"""
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ..errors import SimulationError, bad
+from . import kernels
+from .boundary import Clamp, Pin
+from .discrete import segment_strains
+from .loads import NodalLoad, PDTracking
+from .shapes import RodShape
+from .so3 import matrix_to_quaternion
+from .spec import RodSpec
+from .stability import DEFAULT_SAFETY, stable_step
+
+_CHUNK_STEPS = 8192
+
+
+@dataclass(frozen=True, kw_only=True)
+class Damping:
+    """Dissipation (docs/lgvi.md §2.6).
+
+    translational : viscous drag per length c_t [N s/m^2] (force per node = -c_t w_a l v)
+    rotational    : viscous drag per length c_r [N m s/m] (torque per node = -c_r w_a l omega)
+    kelvin_voigt  : internal strain-rate damping, retardation time tau_d [s] (D = tau_d C)
+    """
+
+    translational: float = 0.0
+    rotational: float = 0.0
+    kelvin_voigt: float = 0.0
+
+    def __post_init__(self):
+        for name in ("translational", "rotational", "kelvin_voigt"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
+                raise bad(f"damping.{name}", value, "a finite number >= 0")
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Setup:
+    """The physical problem: rod, stress-free reference shape, initial shape (defaults to the
+    reference), boundary conditions, loads, damping and gravity [m/s^2] (3,)."""
+
+    rod: RodSpec
+    reference: RodShape
+    initial: RodShape | None = None
+    boundary: tuple = ()
+    loads: tuple = ()
+    damping: Damping = field(default_factory=Damping)
+    gravity: tuple = (0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        n = self.rod.n_nodes
+        initial = self.reference if self.initial is None else self.initial
+        object.__setattr__(self, "initial", initial)
+        for name, shape in (("reference", self.reference), ("initial", initial)):
+            if not isinstance(shape, RodShape):
+                raise bad(name, type(shape).__name__, "a RodShape (see softrnn.rod.shapes)")
+            if shape.n_nodes != n:
+                raise bad(f"{name}.n_nodes", shape.n_nodes, f"{n} nodes to match rod.n_nodes")
+        seg = np.linalg.norm(np.diff(self.reference.positions, axis=0), axis=1)
+        l = self.rod.segment_length
+        if np.max(np.abs(seg / l - 1.0)) > 0.05:
+            raise bad("reference", f"segment lengths {seg.min():.4g}..{seg.max():.4g} m",
+                      f"node spacing within 5% of length/(n_nodes-1) = {l:.4g} m (resample the shape)")
+        g = np.asarray(self.gravity, dtype=float)
+        if g.shape != (3,) or not np.all(np.isfinite(g)):
+            raise bad("gravity", self.gravity, "a finite 3-vector in m/s^2, e.g. (0, 0, -9.81)")
+        object.__setattr__(self, "gravity", tuple(g))
+        object.__setattr__(self, "boundary", tuple(self.boundary))
+        object.__setattr__(self, "loads", tuple(self.loads))
+        seen = set()
+        for bc in self.boundary:
+            if not isinstance(bc, (Clamp, Pin)):
+                raise bad("boundary", bc, "Clamp or Pin entries")
+            a = self.node_index(bc.node, "boundary node")
+            if a in seen:
+                raise bad("boundary node", bc.node, "each node at most once in the boundary conditions")
+            seen.add(a)
+        for load in self.loads:
+            if not isinstance(load, (NodalLoad, PDTracking)):
+                raise bad("loads", load, "NodalLoad or PDTracking entries")
+            self.node_index(load.node, "load node")
+
+    def node_index(self, node: int, what: str = "node") -> int:
+        """Normalise a node index (negative counts from the end), raising a clear error."""
+        n = self.rod.n_nodes
+        if isinstance(node, bool) or not isinstance(node, (int, np.integer)) or not -n <= node < n:
+            raise bad(what, node, f"an integer in [-{n}, {n - 1}] for a rod of {n} nodes")
+        return int(node) % n
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunConfig:
+    """How to run: saved interval ``dt`` [s], ``n_samples`` saved states (the first at the start),
+    solver ``substeps`` per saved interval (None: the fewest that are stable), the nodes to save
+    (None: all) and the stability ``safety`` factor."""
+
+    dt: float
+    n_samples: int
+    substeps: int | None = None
+    save_nodes: tuple | None = None
+    safety: float = DEFAULT_SAFETY
+
+    def __post_init__(self):
+        if not isinstance(self.dt, (int, float)) or not np.isfinite(self.dt) or self.dt <= 0:
+            raise bad("dt", self.dt, "a positive saved interval in s")
+        if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, (int, np.integer)) or self.n_samples < 1:
+            raise bad("n_samples", self.n_samples, "an integer >= 1")
+        if self.substeps is not None and (
+                isinstance(self.substeps, bool) or not isinstance(self.substeps, (int, np.integer)) or self.substeps < 1):
+            raise bad("substeps", self.substeps, "an integer >= 1, or None to choose automatically")
+        if not (0 < self.safety <= 1):
+            raise bad("safety", self.safety, "a factor in (0, 1] applied to 2/omega_max")
+        if self.save_nodes is not None:
+            object.__setattr__(self, "save_nodes", tuple(int(a) for a in self.save_nodes))
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """Saved states. S samples, s saved nodes.
+
+    time (S,) [s]; nodes (s,) 0-based node indices; positions (S, s, 3) [m];
+    quaternions (S, s, 4) unit, scalar first, body -> world; velocities (S, s, 3) [m/s];
+    angular_velocities (S, s, 3) [rad/s] world frame; forces (S, s, 3) [N] and torques (S, s, 3)
+    [N m]: applied external loads (including PD forces) in the world frame; reaction_forces,
+    reaction_torques (S, s, 3): support reactions of constrained nodes (zero for free nodes);
+    energy (S, 3) [J]: kinetic, elastic, gravitational. step [s] and substeps: the solver step;
+    wall_time [s] of the run.
+    """
+
+    time: np.ndarray
+    nodes: np.ndarray
+    positions: np.ndarray
+    quaternions: np.ndarray
+    velocities: np.ndarray
+    angular_velocities: np.ndarray
+    forces: np.ndarray
+    torques: np.ndarray
+    reaction_forces: np.ndarray
+    reaction_torques: np.ndarray
+    energy: np.ndarray
+    step: float
+    substeps: int
+    wall_time: float
+
+    @property
+    def n_steps(self) -> int:
+        return max(len(self.time) - 1, 0) * self.substeps
+
+
+@dataclass
+class RodState:
+    """Mutable integrator state (see kernels module docstring for shapes)."""
+
+    rotations: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
+    angular_velocities: np.ndarray
+    prev_curvature: np.ndarray
+    prev_shear: np.ndarray
+    time: float = 0.0
+
+    def copy(self) -> "RodState":
+        return RodState(self.rotations.copy(), self.positions.copy(), self.velocities.copy(),
+                        self.angular_velocities.copy(), self.prev_curvature.copy(), self.prev_shear.copy(),
+                        self.time)
+
+
+class Simulator:
+    """Steps a ``Setup`` forward. ``run`` continues from the current state each time it is called,
+    so a control loop can alternate runs with changes of its own loads."""
+
+    def __init__(self, setup: Setup):
+        self.setup = setup
+        rod = setup.rod
+        n = rod.n_nodes
+        self.seg_length = rod.segment_length
+        lump = rod.lumped()
+        self.lumped = lump
+        self.K0, self.G0 = segment_strains(setup.reference.rotations, setup.reference.positions, self.seg_length)
+        self.C1, self.C2 = lump["C1"], lump["C2"]
+        tau = setup.damping.kelvin_voigt
+        self.D1, self.D2 = tau * self.C1, tau * self.C2
+        self.mass, self.inertia = lump["mass"], lump["inertia"]
+        wl = lump["weight"] * self.seg_length
+        self.ct = setup.damping.translational * wl
+        self.cr = setup.damping.rotational * wl
+        self.gravity = np.asarray(setup.gravity, dtype=float)
+        self.kind = np.zeros(n, dtype=np.int64)
+        presc = []
+        for bc in setup.boundary:
+            a = setup.node_index(bc.node)
+            self.kind[a] = kernels.CLAMPED if isinstance(bc, Clamp) else kernels.PINNED
+            if (bc.motion if isinstance(bc, Clamp) else bc.path) is not None:
+                presc.append((a, bc))
+        self.presc = presc
+        self.presc_idx = np.array([a for a, _ in presc], dtype=np.int64)
+        ext = {}
+        pd = []
+        for load in setup.loads:
+            a = setup.node_index(load.node)
+            if isinstance(load, PDTracking):
+                pd.append((a, load))
+            else:
+                ext.setdefault(a, []).append(load)
+        self.ext = ext
+        self.ext_idx = np.array(sorted(ext), dtype=np.int64)
+        self.pd = pd
+        self.pd_idx = np.array([a for a, _ in pd], dtype=np.int64)
+        self.pd_gain = np.array([[p.stiffness, p.damping] for _, p in pd], dtype=float).reshape(-1, 2)
+        self.state = self._initial_state()
+
+    # ------------------------------------------------------------------ state
+    def _initial_state(self) -> RodState:
+        init = self.setup.initial
+        R = np.ascontiguousarray(init.rotations, dtype=float).copy()
+        r = np.ascontiguousarray(init.positions, dtype=float).copy()
+        if len(self.presc):
+            pos, rot = self._prescribed(np.array([0.0]))
+            for j, (a, _) in enumerate(self.presc):
+                r[a] = pos[0, j]
+                if self.kind[a] == kernels.CLAMPED:
+                    R[a] = rot[0, j]
+        K, G = segment_strains(R, r, self.seg_length)
+        n = r.shape[0]
+        return RodState(R, r, np.zeros((n, 3)), np.zeros((n, 3)), K, G, 0.0)
+
+    def stable_step(self, safety: float = DEFAULT_SAFETY) -> float:
+        """Largest accepted solver step h [s] for this setup."""
+        return stable_step(self.lumped, self.seg_length, self.setup.damping.kelvin_voigt, safety)
+
+    def resolve_substeps(self, config: RunConfig) -> int:
+        """Solver steps per saved interval; refuses an unstable explicit choice."""
+        limit = self.stable_step(config.safety)
+        if config.substeps is None:
+            return max(1, math.ceil(config.dt / limit * (1 - 1e-12)))
+        h = config.dt / config.substeps
+        if h > limit:
+            need = math.ceil(config.dt / limit)
+            raise bad("dt", config.dt,
+                      f"dt/substeps = {h:.3g} s exceeds the stable step limit {limit:.3g} s of this rod; "
+                      f"use substeps >= {need} (or substeps=None to choose it automatically)")
+        return int(config.substeps)
+
+    # ------------------------------------------------------------------ inputs per chunk
+    def _prescribed(self, t: np.ndarray):
+        q = len(self.presc)
+        pos = np.zeros((t.size, q, 3))
+        rot = np.broadcast_to(np.eye(3), (t.size, q, 3, 3)).copy()
+        for j, (_, bc) in enumerate(self.presc):
+            if isinstance(bc, Clamp):
+                p, R = bc.motion(t)
+                pos[:, j] = p
+                rot[:, j] = R
+            else:
+                pos[:, j] = bc.path(t)
+        return pos, rot
+
+    def _chunk_inputs(self, t: np.ndarray, h: float):
+        """Loads at times t (K,) and prescribed poses at t and t + h."""
+        K = t.size
+        ext_w = np.zeros((K, self.ext_idx.size, 12))
+        for j, a in enumerate(self.ext_idx):
+            for load in self.ext[a]:
+                off = 0 if load.frame == "world" else 6
+                if load.force is not None:
+                    ext_w[:, j, off:off + 3] += load.force(t)
+                if load.torque is not None:
+                    ext_w[:, j, off + 3:off + 6] += load.torque(t)
+        pd_target = np.zeros((K, len(self.pd), 3))
+        for j, (_, p) in enumerate(self.pd):
+            pd_target[:, j] = p.target(t)
+        tp = np.concatenate([t, [t[-1] + h]])
+        presc_r, presc_R = self._prescribed(tp)
+        return ext_w, pd_target, presc_r, presc_R
+
+    # ------------------------------------------------------------------ run
+    def run(self, config: RunConfig, progress: Callable[[int, int], None] | None = None) -> Trajectory:
+        """Advance ``(n_samples - 1) * substeps`` steps and return the saved samples, the first at
+        the current time. ``progress(samples_done, n_samples)`` is called after every chunk."""
+        substeps = self.resolve_substeps(config)
+        h = config.dt / substeps
+        n = self.setup.rod.n_nodes
+        nodes = np.arange(n) if config.save_nodes is None else np.array(
+            [self.setup.node_index(a, "save_nodes") for a in config.save_nodes], dtype=np.int64)
+        slot = np.full(n, -1, dtype=np.int64)
+        slot[nodes] = np.arange(nodes.size)
+        S, s = config.n_samples, nodes.size
+        out = {name: np.zeros((S, s, 3)) for name in ("r", "v", "w", "f", "t", "rf", "rt")}
+        out_R = np.zeros((S, s, 3, 3))
+        out_e = np.zeros((S, 3))
+        total = (S - 1) * substeps
+        t0 = self.state.time
+        chunk = max(substeps, (_CHUNK_STEPS // substeps) * substeps)
+        start = time.perf_counter()
+        done = 0
+        while done < total:
+            k = min(chunk, total - done)
+            self._advance(self.state, t0, h, done, k, substeps, slot, out, out_R, out_e)
+            done += k
+            self.state.time = t0 + done * h
+            if progress is not None:
+                progress(min(done // substeps + 1, S), S)
+        # last sample: its mid-step velocity needs one more step, taken on a copy of the state
+        probe = self.state.copy()
+        self._advance(probe, t0, h, total, 1, substeps, slot, out, out_R, out_e)
+        wall = time.perf_counter() - start
+        if progress is not None:
+            progress(S, S)
+        quats = matrix_to_quaternion(out_R)
+        traj = Trajectory(
+            time=t0 + config.dt * np.arange(S), nodes=nodes, positions=out["r"], quaternions=quats,
+            velocities=out["v"], angular_velocities=out["w"], forces=out["f"], torques=out["t"],
+            reaction_forces=out["rf"], reaction_torques=out["rt"], energy=out_e, step=h,
+            substeps=substeps, wall_time=wall)
+        return traj
+
+    def _advance(self, st: RodState, t0, h, k0, n_steps, stride, slot, out, out_R, out_e):
+        t = t0 + (k0 + np.arange(n_steps)) * h
+        ext_w, pd_target, presc_r, presc_R = self._chunk_inputs(t, h)
+        code, step = kernels.advance(
+            st.rotations, st.positions, st.velocities, st.angular_velocities, st.prev_curvature, st.prev_shear,
+            self.seg_length, self.C1, self.C2, self.D1, self.D2, self.K0, self.G0, self.mass, self.inertia,
+            self.ct, self.cr, self.gravity, self.kind, self.setup.damping.kelvin_voigt > 0,
+            h, k0, n_steps, stride, 0,
+            self.ext_idx, ext_w, self.pd_idx, pd_target, self.pd_gain, self.presc_idx, presc_r, presc_R,
+            slot, out["r"], out_R, out["v"], out["w"], out["f"], out["t"], out["rf"], out["rt"], out_e)
+        _raise_on_status(code, step, t0, h)
+
+
+def _raise_on_status(code: int, step: int, t0: float, h: float) -> None:
+    if code == kernels.OK:
+        return
+    t_fail = t0 + step * h
+    if code == kernels.DIVERGED:
+        raise SimulationError(
+            f"the simulation diverged at t = {t_fail:.6g} s (step {step}, h = {h:.3g} s): a node moved more "
+            f"than a segment or rotated more than ~28 deg in one step; use more substeps (a smaller "
+            f"safety factor) or add damping")
+    raise SimulationError(
+        f"the rotation Newton solve failed at t = {t_fail:.6g} s (step {step}, h = {h:.3g} s); "
+        f"use more substeps")
+
+
+def simulate(setup: Setup, config: RunConfig,
+             progress: Callable[[int, int], None] | None = None) -> Trajectory:
+    """Simulate ``setup`` from its initial shape at rest and return the saved trajectory."""
+    return Simulator(setup).run(config, progress)
