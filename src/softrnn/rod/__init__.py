@@ -8,3 +8,4 @@ from .shapes import RodShape as RodShape, arc as arc, ellipse as ellipse, polyli
 from .simulation import (Damping as Damping, RunConfig as RunConfig, Setup as Setup, Simulator as Simulator,
                          Trajectory as Trajectory, simulate as simulate)
 from .spec import NodeOverride as NodeOverride, RodSpec as RodSpec
+from .batch import simulate_batch as simulate_batch

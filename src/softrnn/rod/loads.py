@@ -196,3 +196,31 @@ class PDTracking:
         _finite("PDTracking.damping", self.damping)
         if self.damping < 0:
             raise bad("PDTracking.damping", self.damping, "a damping gain >= 0 in N s/m")
+
+
+@dataclass(frozen=True)
+class CirclePath:
+    """A target on a circle of ``radius`` [m] around ``center`` in the plane of unit axes ``u`` and
+    ``v``, one lap per ``period`` [s]: center + radius (sin(phase) u - cos(phase) v), blended in
+    from the centre over ``ramp`` [s]."""
+
+    center: tuple
+    radius: float
+    period: float
+    u: tuple = (0.0, 1.0, 0.0)
+    v: tuple = (0.0, 0.0, 1.0)
+    ramp: float = 1.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "center", tuple(_vec3("CirclePath.center", self.center)))
+        _finite("CirclePath.radius", self.radius, positive=True)
+        _finite("CirclePath.period", self.period, positive=True)
+        _finite("CirclePath.ramp", self.ramp)
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        ph = 2 * np.pi * t / self.period
+        blend = smoothstep(t / self.ramp) if self.ramp > 0 else np.ones_like(t)
+        u, v = np.asarray(self.u, float), np.asarray(self.v, float)
+        return (np.asarray(self.center)
+                + (blend * self.radius)[:, None] * (np.sin(ph)[:, None] * u - np.cos(ph)[:, None] * v))

@@ -18,11 +18,12 @@ from .boundary import Clamp, Pin
 from .discrete import segment_strains
 from .loads import NodalLoad, PDTracking
 from .shapes import RodShape
-from .so3 import matrix_to_quaternion
+from .so3 import matrix_to_quaternion, quaternion_to_matrix
 from .spec import RodSpec
 from .stability import DEFAULT_SAFETY, stable_step
 
-_CHUNK_STEPS = 8192
+_CHUNK_STEPS = 65536
+_CHUNK_SAMPLES = 4096
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -151,11 +152,61 @@ class Trajectory:
     energy: np.ndarray
     step: float
     substeps: int
-    wall_time: float
+    wall_time: float = 0.0
 
     @property
     def n_steps(self) -> int:
+        """Solver steps between the first and the last sample."""
         return max(len(self.time) - 1, 0) * self.substeps
+
+    def rotations(self) -> np.ndarray:
+        """Rotation matrices (S, s, 3, 3) from the quaternions."""
+        return quaternion_to_matrix(self.quaternions)
+
+
+@dataclass(frozen=True)
+class RunStats:
+    """What a run did: samples, solver step h [s], substeps per sample, wall time [s], nodes."""
+
+    n_samples: int
+    step: float
+    substeps: int
+    wall_time: float
+    n_nodes: int
+
+    @property
+    def n_steps(self) -> int:
+        return max(self.n_samples - 1, 0) * self.substeps
+
+    @property
+    def us_per_node_step(self) -> float:
+        """Wall time per node and solver step [microseconds]."""
+        return 1e6 * self.wall_time / max(self.n_steps * self.n_nodes, 1)
+
+
+_FIELDS = ("positions", "quaternions", "velocities", "angular_velocities", "forces", "torques",
+           "reaction_forces", "reaction_torques", "energy")
+
+
+def _allocate(n_samples: int, n_saved: int) -> dict:
+    out = {name: np.zeros((n_samples, n_saved, 3)) for name in ("r", "v", "w", "f", "t", "rf", "rt")}
+    out["R"] = np.zeros((n_samples, n_saved, 3, 3))
+    out["e"] = np.zeros((n_samples, 3))
+    return out
+
+
+def _to_trajectory(out: dict, times: np.ndarray, nodes: np.ndarray, h: float, substeps: int) -> "Trajectory":
+    return Trajectory(
+        time=times, nodes=nodes, positions=out["r"], quaternions=matrix_to_quaternion(out["R"]),
+        velocities=out["v"], angular_velocities=out["w"], forces=out["f"], torques=out["t"],
+        reaction_forces=out["rf"], reaction_torques=out["rt"], energy=out["e"], step=h, substeps=substeps)
+
+
+def _concatenate(chunks: list, stats: "RunStats") -> "Trajectory":
+    first = chunks[0]
+    arrays = {name: np.concatenate([getattr(c, name) for c in chunks]) for name in ("time",) + _FIELDS}
+    return Trajectory(nodes=first.nodes, step=stats.step, substeps=stats.substeps, wall_time=stats.wall_time,
+                      **arrays)
 
 
 @dataclass
@@ -219,6 +270,7 @@ class Simulator:
         self.pd_idx = np.array([a for a, _ in pd], dtype=np.int64)
         self.pd_gain = np.array([[p.stiffness, p.damping] for _, p in pd], dtype=float).reshape(-1, 2)
         self.state = self._initial_state()
+        self.steps_done = 0
 
     # ------------------------------------------------------------------ state
     def _initial_state(self) -> RodState:
@@ -285,9 +337,13 @@ class Simulator:
         return ext_w, pd_target, presc_r, presc_R
 
     # ------------------------------------------------------------------ run
-    def run(self, config: RunConfig, progress: Callable[[int, int], None] | None = None) -> Trajectory:
-        """Advance ``(n_samples - 1) * substeps`` steps and return the saved samples, the first at
-        the current time. ``progress(samples_done, n_samples)`` is called after every chunk."""
+    def run(self, config: RunConfig, progress: Callable[[int, int], None] | None = None,
+            sink: Callable[["Trajectory"], None] | None = None) -> "Trajectory | RunStats":
+        """Advance ``(n_samples - 1) * substeps`` steps from the current state; the first sample is
+        the current time. Samples are produced in chunks of at most ``_CHUNK_SAMPLES``: without a
+        ``sink`` they are collected and returned as one ``Trajectory``; with one, each chunk goes to
+        ``sink(chunk)`` (bounded memory, e.g. straight to a file) and ``RunStats`` is returned.
+        ``progress(samples_done, n_samples)`` is called after every chunk."""
         substeps = self.resolve_substeps(config)
         h = config.dt / substeps
         n = self.setup.rod.n_nodes
@@ -295,46 +351,50 @@ class Simulator:
             [self.setup.node_index(a, "save_nodes") for a in config.save_nodes], dtype=np.int64)
         slot = np.full(n, -1, dtype=np.int64)
         slot[nodes] = np.arange(nodes.size)
-        S, s = config.n_samples, nodes.size
-        out = {name: np.zeros((S, s, 3)) for name in ("r", "v", "w", "f", "t", "rf", "rt")}
-        out_R = np.zeros((S, s, 3, 3))
-        out_e = np.zeros((S, 3))
-        total = (S - 1) * substeps
+        S = config.n_samples
         t0 = self.state.time
-        chunk = max(substeps, (_CHUNK_STEPS // substeps) * substeps)
+        k_start = self.steps_done
+        chunks = []
+        # compile (or load from the numba cache) outside the timed region: one step on a copy
+        self._advance(self.state.copy(), t0, h, 0, 1, substeps, 0, slot, _allocate(1, nodes.size))
         start = time.perf_counter()
-        done = 0
-        while done < total:
-            k = min(chunk, total - done)
-            self._advance(self.state, t0, h, done, k, substeps, slot, out, out_R, out_e)
-            done += k
-            self.state.time = t0 + done * h
+        per_chunk = max(1, min(_CHUNK_SAMPLES, _CHUNK_STEPS // substeps))
+        j0 = 0
+        while j0 < S:
+            j1 = min(j0 + per_chunk, S - 1) if j0 < S - 1 else S
+            if j0 < S - 1:
+                out = _allocate(j1 - j0, nodes.size)
+                self._advance(self.state, t0, h, j0 * substeps, (j1 - j0) * substeps, substeps, j0, slot, out)
+                self.steps_done = k_start + j1 * substeps
+                self.state.time = t0 + j1 * substeps * h
+            else:
+                # the last sample's mid-step velocity needs one more step, taken on a copy
+                out = _allocate(1, nodes.size)
+                self._advance(self.state.copy(), t0, h, j0 * substeps, 1, substeps, j0, slot, out)
+            chunk = _to_trajectory(out, t0 + config.dt * np.arange(j0, j1), nodes, h, substeps)
+            if sink is None:
+                chunks.append(chunk)
+            else:
+                sink(chunk)
             if progress is not None:
-                progress(min(done // substeps + 1, S), S)
-        # last sample: its mid-step velocity needs one more step, taken on a copy of the state
-        probe = self.state.copy()
-        self._advance(probe, t0, h, total, 1, substeps, slot, out, out_R, out_e)
+                progress(j1, S)
+            j0 = j1
         wall = time.perf_counter() - start
-        if progress is not None:
-            progress(S, S)
-        quats = matrix_to_quaternion(out_R)
-        traj = Trajectory(
-            time=t0 + config.dt * np.arange(S), nodes=nodes, positions=out["r"], quaternions=quats,
-            velocities=out["v"], angular_velocities=out["w"], forces=out["f"], torques=out["t"],
-            reaction_forces=out["rf"], reaction_torques=out["rt"], energy=out_e, step=h,
-            substeps=substeps, wall_time=wall)
-        return traj
+        stats = RunStats(n_samples=S, step=h, substeps=substeps, wall_time=wall, n_nodes=n)
+        if sink is not None:
+            return stats
+        return _concatenate(chunks, stats)
 
-    def _advance(self, st: RodState, t0, h, k0, n_steps, stride, slot, out, out_R, out_e):
+    def _advance(self, st: RodState, t0, h, k0, n_steps, stride, s0, slot, out):
         t = t0 + (k0 + np.arange(n_steps)) * h
         ext_w, pd_target, presc_r, presc_R = self._chunk_inputs(t, h)
         code, step = kernels.advance(
             st.rotations, st.positions, st.velocities, st.angular_velocities, st.prev_curvature, st.prev_shear,
             self.seg_length, self.C1, self.C2, self.D1, self.D2, self.K0, self.G0, self.mass, self.inertia,
             self.ct, self.cr, self.gravity, self.kind, self.setup.damping.kelvin_voigt > 0,
-            h, k0, n_steps, stride, 0,
+            h, k0, n_steps, stride, s0,
             self.ext_idx, ext_w, self.pd_idx, pd_target, self.pd_gain, self.presc_idx, presc_r, presc_R,
-            slot, out["r"], out_R, out["v"], out["w"], out["f"], out["t"], out["rf"], out["rt"], out_e)
+            slot, out["r"], out["R"], out["v"], out["w"], out["f"], out["t"], out["rf"], out["rt"], out["e"])
         _raise_on_status(code, step, t0, h)
 
 

@@ -1,0 +1,33 @@
+# Two commands on a fresh machine:  make reproduce   and   make test
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: install reproduce reproduce-quick test test-all bench clean
+
+$(STAMP): pyproject.toml constraints.txt
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+reproduce: $(STAMP)
+	$(BIN)/softrnn reproduce --out out/reproduce
+
+reproduce-quick: $(STAMP)
+	$(BIN)/softrnn reproduce --quick --out out/reproduce-quick
+
+test: $(STAMP)
+	NUMBA_NUM_THREADS=1 $(BIN)/python -m pytest -q
+
+test-all: $(STAMP)
+	NUMBA_NUM_THREADS=1 $(BIN)/python -m pytest -q -m ''
+
+bench: $(STAMP)
+	$(BIN)/softrnn bench --json benchmarks/results/simulator.json
+
+clean:
+	rm -rf $(VENV) out build src/*.egg-info

@@ -1,0 +1,1 @@
+"""Benchmarks of the simulator (``softrnn bench``; ``benchmarks/bench_simulator.py``)."""

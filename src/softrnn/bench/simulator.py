@@ -1,0 +1,388 @@
+"""Speed of the Lie-group rod simulator on this machine.
+
+Measures (see benchmarks/README.md):
+
+* single-thread cost of ``Simulator(setup).run(config)`` in microseconds per node-step
+  (wall / (steps * nodes)) and the real-time factor (simulated s per wall s) for a 50-node
+  cantilever, 59- and 101-node cantilevers, and the paper's three cases (``softrnn.cases``);
+  saving one node (the node of interest) and saving all nodes;
+* start-up: the first tiny ``simulate`` in a fresh interpreter with an empty numba cache (cold
+  compile) and again with the filled cache (cached start), import time included;
+* a batch of 16 rods (59-node cantilevers, different tip loads) through ``simulate_batch`` on
+  2 threads (and, for reference, on 1 thread).
+
+``run_benchmark`` returns a JSON-ready dict, ``format_table`` renders it; neither prints.
+"""
+
+import dataclasses
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+
+import numba
+import numpy as np
+
+from ..rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, simulate_batch, straight
+
+PAPER_SOURCE = "Tariverdi et al. 2021, Front. Robot. AI 8:631303, sections 4.1-4.3"
+PAPER = {
+    "source": PAPER_SOURCE,
+    "hardware": "16 GB, 1.99 GHz Intel i7 laptop, Windows 10",
+    "what": "wall time per node and time step of the paper's analytical (Cosserat) dynamic model",
+    "s_per_node_step": {"ellipse": 162e-6, "square": 189e-6, "semicircle": 222e-6},
+    "us_per_node_step": {"ellipse": 162.0, "square": 189.0, "semicircle": 222.0},
+}
+GOALS = {
+    "us_per_node_step_at_59_and_101_nodes": 0.10,
+    "cold_compile_s": 3.0,
+    "cached_start_s": 0.5,
+    "batch16_2threads_us_per_node_step": 0.07,
+}
+PAPER_CASES = ("ellipse", "square", "semicircle")
+GOAL_NODES = (59, 101)
+
+# cantilever of the task: L = 1 m, r = 1 cm, E = 1 MPa, rho = 1000 kg/m^3, nu = 0.5, gravity,
+# clamped at node 0, horizontal along +x (it falls and swings under its own weight)
+_CANTILEVER = dict(length=1.0, radius=0.01, youngs_modulus=1e6, density=1000.0, poisson_ratio=0.5)
+_CANTILEVER_DT = 0.01
+_CANTILEVER_SAMPLES = 1001  # at most 10 s simulated
+
+_STARTUP_CODE = """\
+import time
+t = time.perf_counter()
+from softrnn.rod import Clamp, RodSpec, RunConfig, Setup, simulate, straight
+t_import = time.perf_counter() - t
+rod = RodSpec(length=0.1, radius=0.005, youngs_modulus=1e6, density=1000.0, n_nodes=5)
+setup = Setup(rod=rod, reference=straight(5, 0.1), boundary=(Clamp(0),), gravity=(0.0, 0.0, -9.81))
+simulate(setup, RunConfig(dt=1e-3, n_samples=3))
+print(t_import, time.perf_counter() - t)
+"""
+
+
+# ---------------------------------------------------------------------------------------------- setups
+def cantilever(n_nodes: int, tip_force=None) -> tuple[Setup, RunConfig]:
+    """The benchmark cantilever with ``n_nodes`` nodes and an optional constant world tip force (3,) [N]."""
+    rod = RodSpec(n_nodes=n_nodes, **_CANTILEVER)
+    shape = straight(n_nodes, rod.length, direction=(1.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
+    loads = () if tip_force is None else (NodalLoad(n_nodes - 1, force=Constant(tuple(tip_force))),)
+    setup = Setup(rod=rod, reference=shape, boundary=(Clamp(0),), loads=loads, gravity=(0.0, 0.0, -9.81))
+    config = RunConfig(dt=_CANTILEVER_DT, n_samples=_CANTILEVER_SAMPLES, save_nodes=(n_nodes - 1,))
+    return setup, config
+
+
+def _paper_case(name: str):
+    """(setup, config, save_nodes) of a paper case from softrnn.cases; accepts build_case returning
+    a (setup, config) pair or an object with .setup, .config and optionally .node_of_interest."""
+    from ..cases import build_case
+
+    built = build_case(name)
+    if isinstance(built, tuple):
+        setup, config = built[0], built[1]
+        node = None
+    else:
+        setup, config = built.setup, built.config
+        node = getattr(built, "node_of_interest", None)
+    if node is not None:
+        save = (int(node),)
+    elif config.save_nodes is not None:
+        save = tuple(config.save_nodes)
+    else:
+        save = (setup.rod.n_nodes - 1,)
+    return setup, config, save
+
+
+# ---------------------------------------------------------------------------------------------- timing
+def _wall(fn: Callable[[], object]) -> float:
+    t = time.perf_counter()
+    fn()
+    return time.perf_counter() - t
+
+
+def _samples_for(run: Callable[[int], object], max_samples: int, target_s: float) -> int:
+    """Samples for one timed run of about ``target_s`` (capped by ``max_samples``), found by
+    doubling a short run until it takes 5 ms or more."""
+    samples = min(max_samples, 3)
+    while True:
+        wall = _wall(lambda: run(samples))
+        if wall >= 5e-3 or samples >= max_samples:
+            break
+        samples = min(max_samples, 2 * samples)
+    per_sample = wall / max(samples - 1, 1)
+    return int(min(max_samples, max(2, 1 + round(target_s / per_sample))))
+
+
+def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, target_s: float) -> dict:
+    """Median wall of ``Simulator(setup).run(config')`` over ``reps`` runs, config' having fewer
+    samples (one run ~ ``target_s``) and saving ``save_nodes``; then the same with all nodes saved."""
+    n = setup.rod.n_nodes
+    cfg = dataclasses.replace(config, save_nodes=tuple(save_nodes))
+
+    def run(samples, save=cfg.save_nodes):
+        return Simulator(setup).run(dataclasses.replace(cfg, n_samples=samples, save_nodes=save))
+
+    run(2)  # warm-up: compiles the kernel or loads it from the cache
+    samples = _samples_for(run, config.n_samples, target_s)
+    walls = [_wall(lambda: run(samples)) for _ in range(reps)]
+    walls_all = [_wall(lambda: run(samples, None)) for _ in range(max(2, (reps + 1) // 2))]
+    substeps = Simulator(setup).resolve_substeps(cfg)
+    steps = (samples - 1) * substeps
+    wall = statistics.median(walls)
+    wall_all = statistics.median(walls_all)
+    simulated = (samples - 1) * cfg.dt
+    return {
+        "nodes": n,
+        "substeps": substeps,
+        "step_s": cfg.dt / substeps,
+        "us_per_node_step": 1e6 * wall / (steps * n),
+        "realtime_factor": simulated / wall,
+        "us_per_node_step_all_saved": 1e6 * wall_all / (steps * n),
+        "realtime_factor_all_saved": simulated / wall_all,
+        "saved_nodes": list(cfg.save_nodes),
+        "samples": samples,
+        "steps": steps,
+        "simulated_s": simulated,
+        "wall_s": wall,
+        "reps": reps,
+    }
+
+
+def time_startup(cache_dir: str) -> dict:
+    """First tiny simulate in a fresh interpreter with NUMBA_CACHE_DIR=cache_dir."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir, NUMBA_NUM_THREADS="1")
+    proc = subprocess.run([sys.executable, "-c", _STARTUP_CODE], env=env, capture_output=True, text=True,
+                          timeout=300)
+    if proc.returncode != 0:
+        raise RuntimeError(f"start-up subprocess failed ({proc.returncode}): {proc.stderr.strip()[-2000:]}")
+    t_import, total = (float(x) for x in proc.stdout.split()[-2:])
+    return {"import_s": t_import, "total_s": total}
+
+
+def time_compile(cached_reps: int) -> dict:
+    with tempfile.TemporaryDirectory(prefix="softrnn-numba-cache-") as cache:
+        cold = time_startup(cache)
+        cached = [time_startup(cache) for _ in range(cached_reps)]
+    med = statistics.median(c["total_s"] for c in cached)
+    return {
+        "cold_s": cold["total_s"],
+        "cached_s": med,
+        "import_s": statistics.median(c["import_s"] for c in cached),
+        "cold_import_s": cold["import_s"],
+        "cached_reps": cached_reps,
+        "what": "fresh interpreter: import softrnn.rod + first simulate of a 5-node rod (2 steps); "
+                "cold = empty NUMBA_CACHE_DIR, cached = the same directory again",
+    }
+
+
+def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, target_s: float) -> dict:
+    """``simulate_batch`` of ``n_rods`` cantilevers with different lateral tip loads on ``threads``."""
+    setups = []
+    config = None
+    for b in range(n_rods):
+        setup, config = cantilever(n_nodes, tip_force=(0.0, 0.01 * b, 0.0))
+        setups.append(setup)
+    previous = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        def run(samples):
+            return simulate_batch(setups, dataclasses.replace(config, n_samples=samples))
+
+        run(2)  # warm-up
+        samples = _samples_for(run, config.n_samples, target_s)
+        walls = [_wall(lambda: run(samples)) for _ in range(reps)]
+    finally:
+        numba.set_num_threads(previous)
+    substeps = Simulator(setups[0]).resolve_substeps(config)
+    steps = (samples - 1) * substeps
+    wall = statistics.median(walls)
+    return {
+        "rods": n_rods,
+        "nodes": n_nodes,
+        "threads": threads,
+        "substeps": substeps,
+        "us_per_node_step": 1e6 * wall / (steps * n_nodes * n_rods),
+        "realtime_factor": (samples - 1) * config.dt / wall,
+        "samples": samples,
+        "steps": steps,
+        "wall_s": wall,
+        "reps": reps,
+    }
+
+
+# ---------------------------------------------------------------------------------------------- report
+def machine_info() -> dict:
+    model = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    model = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return {
+        "cpu": model,
+        "cores": os.cpu_count(),
+        "usable_cores": usable,
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "numba_max_threads": numba.config.NUMBA_NUM_THREADS,
+    }
+
+
+def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | None = None) -> dict:
+    """Run all measurements (about 1-2 min; ``quick``: about 20-30 s, less precise) and return the
+    results as a JSON-ready dict. ``progress(items_done, n_items)`` is called after every item."""
+    reps, target = (3, 0.05) if quick else (5, 0.25)
+    batch_reps, batch_target = (3, 0.1) if quick else (5, 0.4)
+    sizes = (50, 59, 101)
+    n_items = len(sizes) + len(PAPER_CASES) + 2
+    done = 0
+
+    def tick():
+        nonlocal done
+        done += 1
+        if progress is not None:
+            progress(done, n_items)
+
+    if progress is not None:
+        progress(0, n_items)
+    started = time.perf_counter()
+    sim: dict = {}
+    previous = numba.get_num_threads()
+    numba.set_num_threads(1)  # the single-rod kernel is serial anyway; this pins numba's pool
+    try:
+        sizes_out = {}
+        for n in sizes:
+            setup, config = cantilever(n)
+            sizes_out[str(n)] = time_single(setup, config, config.save_nodes, reps, target)
+            tick()
+        sim["cantilever50"] = sizes_out.pop("50")
+        sim["cantilever_nodes"] = sizes_out
+
+        cases: dict = {}
+        try:
+            import softrnn.cases  # noqa: F401
+        except ImportError as exc:
+            sim["cases_note"] = f"softrnn.cases is not available ({exc}); paper cases skipped"
+            for _ in PAPER_CASES:
+                tick()
+        else:
+            for name in PAPER_CASES:
+                try:
+                    setup, config, save = _paper_case(name)
+                    cases[name] = time_single(setup, config, save, reps, target)
+                    cases[name]["paper_us_per_node_step"] = PAPER["us_per_node_step"][name]
+                    cases[name]["speedup_vs_paper"] = PAPER["us_per_node_step"][name] / cases[name]["us_per_node_step"]
+                except Exception as exc:  # a case under construction must not sink the benchmark
+                    cases[name] = {"error": f"{type(exc).__name__}: {exc}"}
+                tick()
+        sim["cases"] = cases
+    finally:
+        numba.set_num_threads(previous)
+
+    sim["compile"] = time_compile(1 if quick else 3)
+    tick()
+
+    threads = min(2, numba.config.NUMBA_NUM_THREADS)
+    batch = time_batch(16, 59, threads, batch_reps, batch_target)
+    batch1 = time_batch(16, 59, 1, batch_reps, batch_target)
+    batch["us_per_node_step_1thread"] = batch1["us_per_node_step"]
+    batch["speedup_vs_1thread"] = batch1["us_per_node_step"] / batch["us_per_node_step"]
+    sim["batch16_2threads"] = batch
+    tick()
+
+    result = {
+        "machine": machine_info(),
+        "simulator": sim,
+        "goals": dict(GOALS),
+        "paper": PAPER,
+        "settings": {"quick": quick, "reps": reps, "target_run_s": target,
+                     "elapsed_s": time.perf_counter() - started,
+                     "date": time.strftime("%Y-%m-%d %H:%M:%S %z")},
+    }
+    result["goals_met"] = goals_met(result)
+    return result
+
+
+def goals_met(result: dict) -> dict:
+    """Each goal -> True/False (None where it was not measured)."""
+    sim, goals = result["simulator"], result["goals"]
+    at_nodes = [e["us_per_node_step"] for _, e in _single_rows(sim)
+                if e.get("nodes") in GOAL_NODES and "us_per_node_step" in e]
+    return {
+        "us_per_node_step_at_59_and_101_nodes":
+            (max(at_nodes) <= goals["us_per_node_step_at_59_and_101_nodes"]) if at_nodes else None,
+        "cold_compile_s": sim["compile"]["cold_s"] < goals["cold_compile_s"],
+        "cached_start_s": sim["compile"]["cached_s"] < goals["cached_start_s"],
+        "batch16_2threads_us_per_node_step":
+            sim["batch16_2threads"]["us_per_node_step"] <= goals["batch16_2threads_us_per_node_step"],
+    }
+
+
+def _single_rows(sim: dict) -> list[tuple[str, dict]]:
+    rows = [("cantilever50", sim["cantilever50"])]
+    rows += [(f"cantilever{n}", e) for n, e in sim.get("cantilever_nodes", {}).items()]
+    rows += [(name, e) for name, e in sim.get("cases", {}).items()]
+    return rows
+
+
+def _ok(flag) -> str:
+    return "-" if flag is None else ("ok" if flag else "MISS")
+
+
+def format_table(result: dict) -> str:
+    """Plain-text table of a ``run_benchmark`` result, goals beside the measured figures."""
+    m, sim, goals = result["machine"], result["simulator"], result["goals"]
+    g_node = goals["us_per_node_step_at_59_and_101_nodes"]
+    lines = [
+        f"softrnn simulator benchmark{' (quick)' if result.get('settings', {}).get('quick') else ''}",
+        f"machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}, numba {m['numba']}",
+        "",
+        "single rod, 1 thread: Simulator(setup).run(config), median wall",
+    ]
+    head = (f"  {'case':<14}{'nodes':>6}{'substeps':>9}{'us/node-step':>14}{'goal':>8}{'':>6}"
+            f"{'all saved':>11}{'real-time x':>13}{'paper us':>10}{'vs paper':>10}")
+    lines += [head, "  " + "-" * (len(head) - 2)]
+    for name, e in _single_rows(sim):
+        if "error" in e:
+            lines.append(f"  {name:<14}  error: {e['error']}")
+            continue
+        judged = e["nodes"] in GOAL_NODES
+        goal = f"<={g_node:.2f}" if judged else ""
+        status = _ok(e["us_per_node_step"] <= g_node) if judged else ""
+        paper = e.get("paper_us_per_node_step")
+        lines.append(
+            f"  {name:<14}{e['nodes']:>6}{e['substeps']:>9}{e['us_per_node_step']:>14.4f}{goal:>8}{status:>6}"
+            f"{e['us_per_node_step_all_saved']:>11.4f}{e['realtime_factor']:>13.1f}"
+            + (f"{paper:>10.0f}{e['speedup_vs_paper']:>9.0f}x" if paper else ""))
+    if sim.get("cases_note"):
+        lines.append(f"  note: {sim['cases_note']}")
+    c = sim["compile"]
+    b = sim["batch16_2threads"]
+    met = result.get("goals_met") or goals_met(result)
+    lines += [
+        "",
+        "start-up (fresh interpreter, import + first 5-node simulate)",
+        f"  cold compile (empty numba cache) {c['cold_s']:>8.2f} s   goal < {goals['cold_compile_s']:.1f} s"
+        f"   {_ok(met['cold_compile_s'])}",
+        f"  cached start                     {c['cached_s']:>8.2f} s   goal < {goals['cached_start_s']:.1f} s"
+        f"   {_ok(met['cached_start_s'])}   (import alone {c['import_s']:.2f} s)",
+        "",
+        f"batch: simulate_batch, {b['rods']} x {b['nodes']}-node cantilevers, {b['threads']} threads",
+        f"  {b['us_per_node_step']:.4f} us/node-step   goal <= {goals['batch16_2threads_us_per_node_step']:.2f}"
+        f"   {_ok(met['batch16_2threads_us_per_node_step'])}   (1 thread: {b['us_per_node_step_1thread']:.4f}; "
+        f"speed-up {b['speedup_vs_1thread']:.2f}x)",
+        "",
+        f"paper: {result['paper']['source']}: analytical model "
+        + ", ".join(f"{k} {v:.0f}" for k, v in result["paper"]["us_per_node_step"].items())
+        + f" us/node-step ({result['paper']['hardware']})",
+    ]
+    return "\n".join(lines)

@@ -1,0 +1,28 @@
+"""Progress bars for the CLI (tqdm on stderr); the library only calls progress(done, total)."""
+
+import sys
+
+from tqdm import tqdm
+
+
+class Bar:
+    """A callable progress(done, total) backed by tqdm; use as a context manager."""
+
+    def __init__(self, desc: str, unit: str = "sample", enabled: bool = True):
+        self.desc, self.unit, self.enabled = desc, unit, enabled
+        self.bar = None
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        if self.bar is None:
+            self.bar = tqdm(total=total, desc=self.desc, unit=self.unit, file=sys.stderr, leave=False,
+                            dynamic_ncols=True, unit_scale=True)
+        self.bar.update(done - self.bar.n)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.close()

@@ -1,0 +1,29 @@
+"""softrnn reproduce: run the paper's pipeline end to end into --out DIR (resumable)."""
+
+from ..reproduce import reproduce
+from ._progress import Bar
+
+NAME = "reproduce"
+HELP = "reproduce the paper: simulated cases, benchmark, report.md/report.json and figures in --out"
+
+
+def add_args(p):
+    p.add_argument("--out", default="out/reproduce", help="output folder (default: out/reproduce)")
+    p.add_argument("--quick", action="store_true", help="shorter runs (10%% of each case), for a smoke test")
+
+
+def run(args) -> int:
+    bars = []
+
+    def factory(desc):
+        bar = Bar(desc)
+        bars.append(bar)
+        return bar
+
+    try:
+        reproduce(args.out, quick=args.quick, progress_factory=factory)
+    finally:
+        for bar in bars:
+            bar.__exit__(None, None, None)
+    print(f"report: {args.out}/report.md and {args.out}/report.json; figures in {args.out}/figures")
+    return 0

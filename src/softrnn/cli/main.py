@@ -1,0 +1,42 @@
+"""Entry point of the ``softrnn`` command."""
+
+import argparse
+import sys
+
+from ..errors import SimulationError, SoftrnnInputError
+from . import _bench, _reproduce, _simulate
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit code 2, no usage dump)."""
+
+    def error(self, message):
+        self.exit(2, f"softrnn: error: {message} (see 'softrnn {self.prog.split()[-1]} --help')\n"
+                  if " " in self.prog else f"softrnn: error: {message} (see 'softrnn --help')\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
+    sub = parser.add_subparsers(title="commands", dest="command", required=True, parser_class=_Parser)
+    for module in (_simulate, _reproduce, _bench):
+        p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
+        module.add_args(p)
+        p.set_defaults(func=module.run)
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except (SoftrnnInputError, SimulationError) as err:
+        print(f"softrnn: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("softrnn: interrupted; finished work is kept, run the same command again to resume",
+              file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

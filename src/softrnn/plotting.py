@@ -1,0 +1,82 @@
+"""Figures (matplotlib, Agg): functions take data and return a Figure; callers save it."""
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def node_trajectory(time: np.ndarray, positions: np.ndarray, title: str):
+    """Positions (T, 3) [m] of one node against time (T,) [s], one panel per axis, in mm."""
+    fig, axes = plt.subplots(3, 1, figsize=(7, 6), sharex=True)
+    for c, ax in enumerate(axes):
+        ax.plot(time, positions[:, c] * 1e3, lw=0.8)
+        ax.set_ylabel(f"{'xyz'[c]} [mm]")
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("t [s]")
+    axes[0].set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def rod_snapshots(times: np.ndarray, shapes: np.ndarray, title: str, node: int | None = None,
+                  forces: np.ndarray | None = None):
+    """Rod centrelines shapes (k, n, 3) [m] at times (k,) [s] in 3-D, the node of interest marked;
+    optional applied forces (k, n, 3) [N] drawn as arrows (scaled to 10% of the rod's extent)."""
+    fig = plt.figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection="3d")
+    colors = plt.cm.viridis(np.linspace(0, 1, len(times)))
+    extent = float(np.ptp(shapes.reshape(-1, 3), axis=0).max()) or 1.0
+    fmax = float(np.abs(forces).max()) if forces is not None else 0.0
+    for k, (t, X) in enumerate(zip(times, shapes)):
+        ax.plot(X[:, 0], X[:, 1], X[:, 2], color=colors[k], lw=1.5, label=f"t = {t:.2f} s")
+        if node is not None:
+            ax.scatter(*X[node], color=colors[k], s=12)
+        if forces is not None and fmax > 0:
+            F = forces[k]
+            on = np.linalg.norm(F, axis=1) > 1e-12
+            s = 0.1 * extent / fmax
+            ax.quiver(X[on, 0], X[on, 1], X[on, 2], s * F[on, 0], s * F[on, 1], s * F[on, 2], color="red")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    lo, hi = shapes.reshape(-1, 3).min(0), shapes.reshape(-1, 3).max(0)
+    mid, half = (lo + hi) / 2, (hi - lo).max() / 2 + 1e-3
+    ax.set_xlim(mid[0] - half, mid[0] + half)
+    ax.set_ylim(mid[1] - half, mid[1] + half)
+    ax.set_zlim(mid[2] - half, mid[2] + half)
+    if hi[2] - lo[2] < 1e-3 * (hi - lo).max():
+        ax.view_init(elev=90, azim=-90)  # planar motion in the xy-plane: look from +z
+    ax.set_title(title)
+    ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    return fig
+
+
+def energy(time: np.ndarray, energy: np.ndarray, title: str):
+    """Kinetic, elastic, gravitational and total energy (T, 3) [J] against time."""
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    for c, name in enumerate(("kinetic", "elastic", "gravitational")):
+        ax.plot(time, energy[:, c], lw=0.8, label=name)
+    ax.plot(time, energy.sum(1), "k", lw=1.0, label="total")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("energy [J]")
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def save(fig, path) -> None:
+    """Save atomically (temporary name, then rename) and close the figure."""
+    import os
+    from pathlib import Path
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    fig.savefig(tmp, dpi=110)
+    os.replace(tmp, path)
+    plt.close(fig)
