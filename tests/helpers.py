@@ -102,12 +102,13 @@ def random_deformed_rod(rng, n, l, *, rot_scale=0.3, pos_scale=0.2):
 # --------------------------------------------------------------------------- exact statics
 def reissner_cantilever_tip(P, L, EI, EA=np.inf, GAk=np.inf):
     """Tip position (x, z) of a planar Reissner (extensible, shearable) cantilever clamped at the
-    origin along +x, loaded at the free end by the dead force (0, -P); EA = GAk = inf gives the
-    inextensible Euler elastica. Solved by shooting on the root moment m(0).
+    origin along +x and loaded at its free end by the dead force (0, -P) [N]; EA = GAk = inf gives
+    the inextensible, unshearable Euler elastica. Solved by shooting on the root moment.
 
-    The internal force is n = (0, -P) everywhere; with tangent d3 = (cos th, -sin th) (th > 0 bends
-    down) and normal d1 = (sin th, cos th): r' = (1 + N/EA) d3 + (V/GAk) d1, N = n.d3, V = n.d1,
-    EI th' = m and m' = -(r' x n) . (-e_y) ... written out below for this sign convention.
+    Sign convention (xz-plane): th > 0 turns the tangent d3 = (cos th, -sin th) toward -z, i.e. a
+    rotation about +y; d1 = (sin th, cos th). The internal force is n = (0, -P) along the whole rod;
+    strains N/EA = n.d3/EA and V/GAk = n.d1/GAk give r' = (1 + N/EA) d3 + (V/GAk) d1; the bending
+    moment about +y is m = EI th' with m' = -(r' x n)_y and m(L) = 0.
     """
     n = np.array([0.0, -P])
 
@@ -124,7 +125,8 @@ def reissner_cantilever_tip(P, L, EI, EA=np.inf, GAk=np.inf):
         return [m / EI, -cross_y, rp[0], rp[1]]
 
     def end_moment(m0):
-        sol = solve_ivp(rhs, (0.0, L), [0.0, m0, 0.0, 0.0], rtol=1e-12, atol=1e-14, method="DOP853")
+        with np.errstate(under="ignore"):  # solve_ivp's step-size control underflows harmlessly
+            sol = solve_ivp(rhs, (0.0, L), [0.0, m0, 0.0, 0.0], rtol=1e-12, atol=1e-14, method="DOP853")
         return sol.y[1, -1], sol.y[:, -1]
 
     # the root moment is between 0 and P L (a straight lever arm bounds it)

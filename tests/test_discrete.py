@@ -5,7 +5,7 @@ are exactly minus the gradient of the discrete strain energy, in the NumPy refer
 import numpy as np
 import pytest
 
-from helpers import kernel_internal_loads, planar_bent_shape, random_deformed_rod
+from helpers import kernel_internal_loads, kernel_step, planar_bent_shape, random_deformed_rod
 from softrnn.rod import RodSpec, NodeOverride, arc, straight
 from softrnn.rod.discrete import internal_loads, segment_strains, strain_energy
 from softrnn.rod.so3 import cay
@@ -70,7 +70,6 @@ def test_kernel_loads_match_discrete_loads(seed, n):
 
 def test_kernel_gravitational_energy():
     """out_e[:, 2] = -sum m g.r at the start of the step."""
-    from helpers import kernel_step
     rng = np.random.default_rng(7)
     n, l = 5, 0.1
     R, r, K0, G0, C1, C2 = random_deformed_rod(rng, n, l)

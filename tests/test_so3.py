@@ -3,6 +3,7 @@ rotations over long runs (lgvi.md §2.2, §2.10 item 1, §2.8)."""
 
 import numpy as np
 import pytest
+from scipy.linalg import expm
 
 from softrnn.rod import (Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, Sinusoid, Window,
                          straight)
@@ -76,7 +77,6 @@ def test_cay_rotation_angle_and_axis(rng):
 
 def test_cay_matches_exp_to_second_order():
     # cay(x) = exp(x^) + O(|x|^3): halving x divides the difference by 8
-    from scipy.linalg import expm
     x = np.array([0.3, -0.2, 0.5])
     d1 = np.abs(cay(x) - expm(hat(x))).max()
     d2 = np.abs(cay(x / 2) - expm(hat(x / 2))).max()

@@ -103,6 +103,20 @@ def _wall(fn: Callable[[], object]) -> float:
     return time.perf_counter() - t
 
 
+def _timed(fn: Callable[[], object]) -> tuple[float, float]:
+    """(wall, CPU time of this process over all its threads) of one call [s]."""
+    c, t = time.process_time(), time.perf_counter()
+    fn()
+    return time.perf_counter() - t, time.process_time() - c
+
+
+def _load() -> list[float] | None:
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except (AttributeError, OSError):
+        return None
+
+
 def _samples_for(run: Callable[[int], object], max_samples: int, target_s: float) -> int:
     """Samples for one timed run of about ``target_s`` (capped by ``max_samples``), found by
     doubling a short run until it takes 5 ms or more."""
@@ -127,8 +141,9 @@ def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, target_s
 
     run(2)  # warm-up: compiles the kernel or loads it from the cache
     samples = _samples_for(run, config.n_samples, target_s)
-    walls = [_wall(lambda: run(samples)) for _ in range(reps)]
-    walls_all = [_wall(lambda: run(samples, None)) for _ in range(max(2, (reps + 1) // 2))]
+    timed = [_timed(lambda: run(samples)) for _ in range(reps)]
+    walls = [w for w, _ in timed]
+    walls_all = [_wall(lambda: run(samples, None)) for _ in range(3)]
     substeps = Simulator(setup).resolve_substeps(cfg)
     steps = (samples - 1) * substeps
     wall = statistics.median(walls)
@@ -142,6 +157,7 @@ def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, target_s
         "realtime_factor": simulated / wall,
         "us_per_node_step_all_saved": 1e6 * wall_all / (steps * n),
         "realtime_factor_all_saved": simulated / wall_all,
+        "cpu_fraction": statistics.median(c / w for w, c in timed),
         "saved_nodes": list(cfg.save_nodes),
         "samples": samples,
         "steps": steps,
@@ -193,7 +209,8 @@ def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, target_s: flo
 
         run(2)  # warm-up
         samples = _samples_for(run, config.n_samples, target_s)
-        walls = [_wall(lambda: run(samples)) for _ in range(reps)]
+        timed = [_timed(lambda: run(samples)) for _ in range(reps)]
+        walls = [w for w, _ in timed]
     finally:
         numba.set_num_threads(previous)
     substeps = Simulator(setups[0]).resolve_substeps(config)
@@ -206,6 +223,7 @@ def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, target_s: flo
         "substeps": substeps,
         "us_per_node_step": 1e6 * wall / (steps * n_nodes * n_rods),
         "realtime_factor": (samples - 1) * config.dt / wall,
+        "cpu_fraction": statistics.median(c / w for w, c in timed),
         "samples": samples,
         "steps": steps,
         "wall_s": wall,
@@ -238,10 +256,10 @@ def machine_info() -> dict:
 
 
 def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | None = None) -> dict:
-    """Run all measurements (about 1-2 min; ``quick``: about 20-30 s, less precise) and return the
+    """Run all measurements (about 1 min on 2 cores; ``quick``: about 15-20 s, less precise) and return the
     results as a JSON-ready dict. ``progress(items_done, n_items)`` is called after every item."""
-    reps, target = (3, 0.05) if quick else (5, 0.25)
-    batch_reps, batch_target = (3, 0.1) if quick else (5, 0.4)
+    reps, target = (5, 0.1) if quick else (7, 0.4)
+    batch_reps, batch_target = (5, 0.15) if quick else (5, 0.5)
     sizes = (50, 59, 101)
     n_items = len(sizes) + len(PAPER_CASES) + 2
     done = 0
@@ -255,6 +273,7 @@ def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | No
     if progress is not None:
         progress(0, n_items)
     started = time.perf_counter()
+    load_start = _load()
     sim: dict = {}
     previous = numba.get_num_threads()
     numba.set_num_threads(1)  # the single-rod kernel is serial anyway; this pins numba's pool
@@ -306,6 +325,7 @@ def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | No
         "paper": PAPER,
         "settings": {"quick": quick, "reps": reps, "target_run_s": target,
                      "elapsed_s": time.perf_counter() - started,
+                     "load_average_start": load_start, "load_average_end": _load(),
                      "date": time.strftime("%Y-%m-%d %H:%M:%S %z")},
     }
     result["goals_met"] = goals_met(result)
@@ -349,7 +369,7 @@ def format_table(result: dict) -> str:
         "single rod, 1 thread: Simulator(setup).run(config), median wall",
     ]
     head = (f"  {'case':<14}{'nodes':>6}{'substeps':>9}{'us/node-step':>14}{'goal':>8}{'':>6}"
-            f"{'all saved':>11}{'real-time x':>13}{'paper us':>10}{'vs paper':>10}")
+            f"{'all saved':>11}{'real-time x':>13}{'cpu':>6}{'paper us':>10}{'vs paper':>10}")
     lines += [head, "  " + "-" * (len(head) - 2)]
     for name, e in _single_rows(sim):
         if "error" in e:
@@ -362,9 +382,12 @@ def format_table(result: dict) -> str:
         lines.append(
             f"  {name:<14}{e['nodes']:>6}{e['substeps']:>9}{e['us_per_node_step']:>14.4f}{goal:>8}{status:>6}"
             f"{e['us_per_node_step_all_saved']:>11.4f}{e['realtime_factor']:>13.1f}"
+            f"{100 * e.get('cpu_fraction', float('nan')):>5.0f}%"
             + (f"{paper:>10.0f}{e['speedup_vs_paper']:>9.0f}x" if paper else ""))
     if sim.get("cases_note"):
         lines.append(f"  note: {sim['cases_note']}")
+    lines.append("  (all saved: every node saved at every sample; cpu: process CPU / wall, below ~95% means "
+                 "the benchmark was waiting for a core)")
     c = sim["compile"]
     b = sim["batch16_2threads"]
     met = result.get("goals_met") or goals_met(result)
@@ -379,10 +402,20 @@ def format_table(result: dict) -> str:
         f"batch: simulate_batch, {b['rods']} x {b['nodes']}-node cantilevers, {b['threads']} threads",
         f"  {b['us_per_node_step']:.4f} us/node-step   goal <= {goals['batch16_2threads_us_per_node_step']:.2f}"
         f"   {_ok(met['batch16_2threads_us_per_node_step'])}   (1 thread: {b['us_per_node_step_1thread']:.4f}; "
-        f"speed-up {b['speedup_vs_1thread']:.2f}x)",
+        f"speed-up {b['speedup_vs_1thread']:.2f}x; cpu {b.get('cpu_fraction', float('nan')):.2f} cores busy)",
         "",
         f"paper: {result['paper']['source']}: analytical model "
         + ", ".join(f"{k} {v:.0f}" for k, v in result["paper"]["us_per_node_step"].items())
         + f" us/node-step ({result['paper']['hardware']})",
     ]
+    settings = result.get("settings", {})
+    if settings.get("load_average_start") is not None:
+        lines.append(f"load average (1, 5, 15 min) at start {settings['load_average_start']}, "
+                     f"at end {settings.get('load_average_end')}; elapsed {settings.get('elapsed_s', 0):.0f} s")
+    contended = [name for name, e in _single_rows(sim) if e.get("cpu_fraction", 1.0) < 0.9]
+    if b.get("cpu_fraction", b["threads"]) < 0.9 * b["threads"]:
+        contended.append("batch")
+    if contended:
+        lines.append(f"warning: the benchmark waited for a core in {', '.join(contended)} (other processes "
+                     f"running?): those timings are inflated; rerun on an idle machine")
     return "\n".join(lines)

@@ -1,0 +1,82 @@
+"""The softrnn command in-process: summaries, one-line errors with exit code 2, reproduce resume."""
+
+import json
+
+import pytest
+
+import softrnn.bench.simulator as bench
+from softrnn import reproduce as reproduce_mod
+from softrnn.cli.main import main
+
+
+def run_cli(argv) -> int:
+    try:
+        return main(argv)
+    except SystemExit as exc:  # argparse errors
+        return exc.code
+
+
+def test_simulate_prints_summary_and_json(tmp_path, capsys):
+    out = tmp_path / "s.json"
+    assert run_cli(["simulate", "semicircle", "--samples", "201", "--quiet", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "semicircle" in text and "substeps" in text and "us per node-step" in text
+    summary = json.loads(out.read_text())
+    assert summary["n_samples"] == 201
+    assert summary["duration_s"] == pytest.approx(0.02)
+    assert summary["max_orthogonality_error"] < 1e-12
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["simulate", "spiral"], ["case='spiral'", "ellipse"]),
+    (["simulate", "square", "--samples", "0"], ["--samples=0", ">= 1"]),
+    (["simulate", "ellipse", "--samples", "5", "--substeps", "1"], ["stable step limit", "substeps >="]),
+    (["simulate", "square", "--samples", "x"], ["invalid int value"]),
+    (["frobnicate"], ["invalid choice"]),
+])
+def test_bad_input_is_one_line_exit_2(argv, words, capsys):
+    assert run_cli(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("softrnn: error:")
+    assert "Traceback" not in err
+    for w in words:
+        assert w in err
+
+
+def test_bad_input_leaves_no_partial_file(tmp_path):
+    target = tmp_path / "summary.json"
+    assert run_cli(["simulate", "square", "--samples", "0", "--json", str(target)]) == 2
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
+    monkeypatch.setattr(reproduce_mod, "QUICK_FRACTION", 0.002)
+    monkeypatch.setattr(bench, "run_benchmark", lambda quick=False, progress=None: {"simulator": {"fake": True}})
+    out = tmp_path / "rep"
+    assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
+    report = json.loads((out / "report.json").read_text())
+    for case in ("ellipse", "square", "semicircle"):
+        assert report[case]["simulation"]["n_samples"] > 1
+        assert report[case]["length_m"] > 0
+        assert "analytical_model_s_per_node_step" in report[case]["paper"]
+        for fig in report[case]["figures"]:
+            assert (out / "figures" / fig).stat().st_size > 1000
+    assert (out / "report.md").read_text().startswith("# softrnn reproduce report")
+
+    # an interrupted run (one case's result missing) recomputes only that case
+    (out / "cases" / "square.json").unlink()
+    calls = []
+    original = reproduce_mod.run_case
+
+    def counting(case, quick, progress=None):
+        calls.append(case.name)
+        return original(case, quick, progress)
+
+    def boom(*a, **k):
+        raise AssertionError("finished step recomputed")
+
+    monkeypatch.setattr(reproduce_mod, "run_case", counting)
+    monkeypatch.setattr(bench, "run_benchmark", boom)
+    assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
+    assert calls == ["square"]
