@@ -21,7 +21,7 @@ def kernel_step(R, r, v, w, *, l, C1, C2, K0, G0, mass, inertia, h, n_steps=1, k
     cr = np.zeros(n) if cr is None else np.asarray(cr, float)
     S = n_steps
     out = {k: np.zeros((S, n, 3)) for k in ("r", "v", "w", "f", "t", "rf", "rt")}
-    out_R = np.zeros((S, n, 3, 3))
+    out_q = np.zeros((S, n, 4))
     out_e = np.zeros((S, 3))
     Kp = np.zeros((n - 1, 3))
     Gp = np.zeros((n - 1, 3))
@@ -35,9 +35,9 @@ def kernel_step(R, r, v, w, *, l, C1, C2, K0, G0, mass, inertia, h, n_steps=1, k
         float(h), 0, int(n_steps), 1, 0,
         np.zeros(0, np.int64), np.zeros((n_steps, 0, 12)), np.zeros(0, np.int64), np.zeros((n_steps, 0, 3)),
         np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros((n_steps + 1, 0, 3)), np.zeros((n_steps + 1, 0, 3, 3)),
-        np.arange(n, dtype=np.int64), out["r"], out_R, out["v"], out["w"], out["f"], out["t"], out["rf"],
+        np.arange(n, dtype=np.int64), out["r"], out_q, out["v"], out["w"], out["f"], out["t"], out["rf"],
         out["rt"], out_e)
-    out["R"] = out_R
+    out["q"] = out_q
     out["e"] = out_e
     return int(code), int(step), out
 

@@ -117,22 +117,15 @@ def _load() -> list[float] | None:
         return None
 
 
-def _samples_for(run: Callable[[int], object], max_samples: int, target_s: float) -> int:
-    """Samples for one timed run of about ``target_s`` (capped by ``max_samples``), found by
-    doubling a short run until it takes 5 ms or more."""
-    samples = min(max_samples, 3)
-    while True:
-        wall = _wall(lambda: run(samples))
-        if wall >= 5e-3 or samples >= max_samples:
-            break
-        samples = min(max_samples, 2 * samples)
-    per_sample = wall / max(samples - 1, 1)
-    return int(min(max_samples, max(2, 1 + round(target_s / per_sample))))
+def _samples(config: RunConfig, duration_s: float) -> int:
+    """Samples covering the first ``duration_s`` of a run (at most the config's own)."""
+    return int(min(config.n_samples, max(2, 1 + round(duration_s / config.dt))))
 
 
-def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, target_s: float) -> dict:
-    """Median wall of ``Simulator(setup).run(config')`` over ``reps`` runs, config' having fewer
-    samples (one run ~ ``target_s``) and saving ``save_nodes``; then the same with all nodes saved."""
+def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, duration_s: float) -> dict:
+    """Median wall of ``Simulator(setup).run(config')`` over ``reps`` runs, config' covering the
+    first ``duration_s`` simulated seconds and saving ``save_nodes``; then the same with all nodes
+    saved (median of 3)."""
     n = setup.rod.n_nodes
     cfg = dataclasses.replace(config, save_nodes=tuple(save_nodes))
 
@@ -140,7 +133,7 @@ def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, target_s
         return Simulator(setup).run(dataclasses.replace(cfg, n_samples=samples, save_nodes=save))
 
     run(2)  # warm-up: compiles the kernel or loads it from the cache
-    samples = _samples_for(run, config.n_samples, target_s)
+    samples = _samples(config, duration_s)
     timed = [_timed(lambda: run(samples)) for _ in range(reps)]
     walls = [w for w, _ in timed]
     walls_all = [_wall(lambda: run(samples, None)) for _ in range(3)]
@@ -189,12 +182,12 @@ def time_compile(cached_reps: int) -> dict:
         "import_s": statistics.median(c["import_s"] for c in cached),
         "cold_import_s": cold["import_s"],
         "cached_reps": cached_reps,
-        "what": "fresh interpreter: import softrnn.rod + first simulate of a 5-node rod (2 steps); "
+        "what": "fresh interpreter: import softrnn.rod + first simulate of a 5-node rod (3 samples, 1 ms apart); "
                 "cold = empty NUMBA_CACHE_DIR, cached = the same directory again",
     }
 
 
-def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, target_s: float) -> dict:
+def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, duration_s: float) -> dict:
     """``simulate_batch`` of ``n_rods`` cantilevers with different lateral tip loads on ``threads``."""
     setups = []
     config = None
@@ -208,7 +201,7 @@ def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, target_s: flo
             return simulate_batch(setups, dataclasses.replace(config, n_samples=samples))
 
         run(2)  # warm-up
-        samples = _samples_for(run, config.n_samples, target_s)
+        samples = _samples(config, duration_s)
         timed = [_timed(lambda: run(samples)) for _ in range(reps)]
         walls = [w for w, _ in timed]
     finally:
@@ -258,8 +251,10 @@ def machine_info() -> dict:
 def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | None = None) -> dict:
     """Run all measurements (about 1 min on 2 cores; ``quick``: about 15-20 s, less precise) and return the
     results as a JSON-ready dict. ``progress(items_done, n_items)`` is called after every item."""
-    reps, target = (5, 0.1) if quick else (7, 0.4)
-    batch_reps, batch_target = (5, 0.15) if quick else (5, 0.5)
+    # simulated seconds per timed run (fixed, so that every machine times the same work; the cost
+    # per node-step depends on the motion, e.g. on the Newton iterations of fast rotations)
+    reps, duration, case_duration = (5, 1.0, 1.5) if quick else (9, 2.0, 5.0)
+    batch_reps = 3 if quick else 5
     sizes = (50, 59, 101)
     n_items = len(sizes) + len(PAPER_CASES) + 2
     done = 0
@@ -281,7 +276,7 @@ def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | No
         sizes_out = {}
         for n in sizes:
             setup, config = cantilever(n)
-            sizes_out[str(n)] = time_single(setup, config, config.save_nodes, reps, target)
+            sizes_out[str(n)] = time_single(setup, config, config.save_nodes, reps, duration)
             tick()
         sim["cantilever50"] = sizes_out.pop("50")
         sim["cantilever_nodes"] = sizes_out
@@ -297,7 +292,7 @@ def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | No
             for name in PAPER_CASES:
                 try:
                     setup, config, save = _paper_case(name)
-                    cases[name] = time_single(setup, config, save, reps, target)
+                    cases[name] = time_single(setup, config, save, reps, case_duration)
                     cases[name]["paper_us_per_node_step"] = PAPER["us_per_node_step"][name]
                     cases[name]["speedup_vs_paper"] = PAPER["us_per_node_step"][name] / cases[name]["us_per_node_step"]
                 except Exception as exc:  # a case under construction must not sink the benchmark
@@ -311,8 +306,8 @@ def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | No
     tick()
 
     threads = min(2, numba.config.NUMBA_NUM_THREADS)
-    batch = time_batch(16, 59, threads, batch_reps, batch_target)
-    batch1 = time_batch(16, 59, 1, batch_reps, batch_target)
+    batch = time_batch(16, 59, threads, batch_reps, duration)
+    batch1 = time_batch(16, 59, 1, batch_reps, duration)
     batch["us_per_node_step_1thread"] = batch1["us_per_node_step"]
     batch["speedup_vs_1thread"] = batch1["us_per_node_step"] / batch["us_per_node_step"]
     sim["batch16_2threads"] = batch
@@ -323,7 +318,8 @@ def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | No
         "simulator": sim,
         "goals": dict(GOALS),
         "paper": PAPER,
-        "settings": {"quick": quick, "reps": reps, "target_run_s": target,
+        "settings": {"quick": quick, "reps": reps, "cantilever_and_batch_simulated_s": duration,
+                     "case_simulated_s_max": case_duration,
                      "elapsed_s": time.perf_counter() - started,
                      "load_average_start": load_start, "load_average_end": _load(),
                      "date": time.strftime("%Y-%m-%d %H:%M:%S %z")},

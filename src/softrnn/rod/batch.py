@@ -20,7 +20,6 @@ import numpy as np
 from ..errors import SimulationError, bad
 from . import kernels
 from .simulation import RunConfig, Setup, Simulator, Trajectory, _raise_on_status
-from .so3 import matrix_to_quaternion
 
 _OUT_VECTORS = ("r", "v", "w", "f", "t", "rf", "rt")
 # rod-steps per kernel call: the per-chunk input arrays hold B x K steps (ext_w alone is
@@ -101,7 +100,7 @@ def simulate_batch(setups: Sequence[Setup], config: RunConfig,
     slot[nodes] = np.arange(nodes.size)
     S, s = config.n_samples, nodes.size
     out = {name: np.zeros((B, S, s, 3)) for name in _OUT_VECTORS}
-    out_R = np.zeros((B, S, s, 3, 3))
+    out_q = np.zeros((B, S, s, 4))
     out_e = np.zeros((B, S, 3))
 
     # shared load layout: the union of loaded nodes; each rod's columns go to their place
@@ -111,6 +110,10 @@ def simulate_batch(setups: Sequence[Setup], config: RunConfig,
     pd_idx = np.ascontiguousarray(ref.pd_idx[pd_orders[0]])
     pd_gain = np.ascontiguousarray(ref.pd_gain[pd_orders[0]]).reshape(-1, 2)
 
+    # as Simulator.run does for a fresh simulator: the half kick (rest start to second order)
+    for sim in sims:
+        if sim.steps_done == 0:
+            sim._half_kick(h)
     state = {
         "R": np.stack([sim.state.rotations for sim in sims]),
         "r": np.stack([sim.state.positions for sim in sims]),
@@ -142,7 +145,7 @@ def simulate_batch(setups: Sequence[Setup], config: RunConfig,
             ref.ct, ref.cr, ref.gravity, ref.kind, ref.setup.damping.kelvin_voigt > 0,
             h, k0, n_steps, substeps, 0,
             ext_idx, ext_w, pd_idx, pd_target, pd_gain, ref.presc_idx, presc_r, presc_R,
-            slot, out["r"], out_R, out["v"], out["w"], out["f"], out["t"], out["rf"], out["rt"], out_e,
+            slot, out["r"], out_q, out["v"], out["w"], out["f"], out["t"], out["rf"], out["rt"], out_e,
             status)
         for b in range(B):
             try:
@@ -171,7 +174,7 @@ def simulate_batch(setups: Sequence[Setup], config: RunConfig,
     trajs = []
     for b in range(B):
         trajs.append(Trajectory(
-            time=times.copy(), nodes=nodes.copy(), positions=out["r"][b], quaternions=matrix_to_quaternion(out_R[b]),
+            time=times.copy(), nodes=nodes.copy(), positions=out["r"][b], quaternions=out_q[b],
             velocities=out["v"][b], angular_velocities=out["w"][b], forces=out["f"][b], torques=out["t"][b],
             reaction_forces=out["rf"][b], reaction_torques=out["rt"][b], energy=out_e[b], step=h,
             substeps=substeps, wall_time=wall))

@@ -11,7 +11,7 @@ Array conventions (n nodes, n - 1 segments, K steps in the call, S saved samples
     w      (n, 3)     staggered angular velocities omega^{k-1} [rad/s], body frame
     Kp, Gp (n-1, 3)   previous segment strains (Kelvin-Voigt memory) [1/m], [-]
 
-The kernels never allocate inside the step loop and write results into arrays passed in.
+``advance_into`` never allocates and write results into arrays passed in.
 """
 
 import numpy as np
@@ -30,13 +30,84 @@ _NEWTON_MAX_ITER = 12
 _NEWTON_RTOL = 1e-13
 
 
-@njit(fastmath={"contract"}, cache=True)
-def _advance_one(
+@njit(error_model="numpy", cache=True)
+def _quaternion_into(M, q):
+    """q[4] <- unit quaternion (w, x, y, z), w >= 0, of the rotation matrix M[3, 3] (Shepperd)."""
+    tr = M[0, 0] + M[1, 1] + M[2, 2]
+    if tr > 0.0:
+        s = np.sqrt(tr + 1.0) * 2.0
+        w, x, y, z = 0.25 * s, (M[2, 1] - M[1, 2]) / s, (M[0, 2] - M[2, 0]) / s, (M[1, 0] - M[0, 1]) / s
+    elif M[0, 0] > M[1, 1] and M[0, 0] > M[2, 2]:
+        s = np.sqrt(1.0 + M[0, 0] - M[1, 1] - M[2, 2]) * 2.0
+        w, x, y, z = (M[2, 1] - M[1, 2]) / s, 0.25 * s, (M[0, 1] + M[1, 0]) / s, (M[0, 2] + M[2, 0]) / s
+    elif M[1, 1] > M[2, 2]:
+        s = np.sqrt(1.0 + M[1, 1] - M[0, 0] - M[2, 2]) * 2.0
+        w, x, y, z = (M[0, 2] - M[2, 0]) / s, (M[0, 1] + M[1, 0]) / s, 0.25 * s, (M[1, 2] + M[2, 1]) / s
+    else:
+        s = np.sqrt(1.0 + M[2, 2] - M[0, 0] - M[1, 1]) * 2.0
+        w, x, y, z = (M[1, 0] - M[0, 1]) / s, (M[0, 2] + M[2, 0]) / s, (M[1, 2] + M[2, 1]) / s, 0.25 * s
+    nrm = np.sqrt(w * w + x * x + y * y + z * z)
+    if w < 0.0:
+        nrm = -nrm
+    q[0] = w / nrm
+    q[1] = x / nrm
+    q[2] = y / nrm
+    q[3] = z / nrm
+
+
+@njit(fastmath={"contract"}, error_model="numpy", cache=True)
+def _solve_rotation(clamped, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol):
+    """Newton on Phi(y) = J y + y x J y / 2 + (y.Jy) y / 4 + hc y - b from the start y (docs/lgvi.md
+    section 2.5). Returns (converged, y, Phi(y)); for a clamped node, Phi at its prescribed y."""
+    it = 0
+    while True:
+        jy0 = ja0 * y0
+        jy1 = ja1 * y1
+        jy2 = ja2 * y2
+        yjy = y0 * jy0 + y1 * jy1 + y2 * jy2
+        f0 = jy0 + 0.5 * (y1 * jy2 - y2 * jy1) + 0.25 * yjy * y0 + hc * y0 - b0
+        f1 = jy1 + 0.5 * (y2 * jy0 - y0 * jy2) + 0.25 * yjy * y1 + hc * y1 - b1
+        f2 = jy2 + 0.5 * (y0 * jy1 - y1 * jy0) + 0.25 * yjy * y2 + hc * y2 - b2
+        if clamped or abs(f0) + abs(f1) + abs(f2) <= tol:
+            break
+        it += 1
+        if it > _NEWTON_MAX_ITER:
+            return False, y0, y1, y2, f0, f1, f2
+        # DPhi = J + (y^ J - (Jy)^)/2 + (2 y (Jy)^T + (y.Jy) I)/4 + hc I
+        dg = 0.25 * yjy + hc
+        A00 = ja0 + 0.5 * y0 * jy0 + dg
+        A11 = ja1 + 0.5 * y1 * jy1 + dg
+        A22 = ja2 + 0.5 * y2 * jy2 + dg
+        A01 = 0.5 * (-y2 * ja1 + jy2) + 0.5 * y0 * jy1
+        A02 = 0.5 * (y1 * ja2 - jy1) + 0.5 * y0 * jy2
+        A10 = 0.5 * (y2 * ja0 - jy2) + 0.5 * y1 * jy0
+        A12 = 0.5 * (-y0 * ja2 + jy0) + 0.5 * y1 * jy2
+        A20 = 0.5 * (-y1 * ja0 + jy1) + 0.5 * y2 * jy0
+        A21 = 0.5 * (y0 * ja1 - jy0) + 0.5 * y2 * jy1
+        C00 = A11 * A22 - A12 * A21
+        C01 = A02 * A21 - A01 * A22
+        C02 = A01 * A12 - A02 * A11
+        det = A00 * C00 + A10 * C01 + A20 * C02
+        idet = 1.0 / det
+        C10 = A12 * A20 - A10 * A22
+        C11 = A00 * A22 - A02 * A20
+        C12 = A02 * A10 - A00 * A12
+        C20 = A10 * A21 - A11 * A20
+        C21 = A01 * A20 - A00 * A21
+        C22 = A00 * A11 - A01 * A10
+        y0 -= idet * (C00 * f0 + C01 * f1 + C02 * f2)
+        y1 -= idet * (C10 * f0 + C11 * f1 + C12 * f2)
+        y2 -= idet * (C20 * f0 + C21 * f1 + C22 * f2)
+    return True, y0, y1, y2, f0, f1, f2
+
+
+@njit(fastmath={"contract"}, error_model="numpy", cache=True)
+def advance_into(
     R, r, v, w, Kp, Gp,
     length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
     h, k0, n_steps, stride, s0,
     ext_idx, ext_w, pd_idx, pd_target, pd_gain, presc_idx, presc_r, presc_R,
-    save_slot, out_r, out_R, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e,
+    save_slot, out_r, out_q, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e,
     work_f,
 ):
     """Advance one rod by ``n_steps`` steps of size ``h``; returns (status, step index).
@@ -49,7 +120,7 @@ def _advance_one(
         presc_idx (q,)       constrained nodes with prescribed motion
         presc_r (K + 1, q, 3), presc_R (K + 1, q, 3, 3): poses at t and t + h
     A sample is written when (k0 + i) % stride == 0, at row (k0 + i) // stride - s0:
-        positions, rotations, mid-step velocities (world), applied force and torque (world),
+        positions, unit quaternions (w, x, y, z) of the rotations, mid-step velocities (world), applied force and torque (world),
         reaction force and torque of constrained nodes (world) for nodes with save_slot >= 0,
         and out_e[row] = [kinetic, elastic, gravitational] energy [J].
     work_f (n, 6): scratch for the applied world force/torque of each node.
@@ -86,8 +157,27 @@ def _advance_one(
         tp0 = 0.0
         tp1 = 0.0
         tp2 = 0.0
+        Rb00 = R[0, 0, 0]
+        Rb01 = R[0, 0, 1]
+        Rb02 = R[0, 0, 2]
+        Rb10 = R[0, 1, 0]
+        Rb11 = R[0, 1, 1]
+        Rb12 = R[0, 1, 2]
+        Rb20 = R[0, 2, 0]
+        Rb21 = R[0, 2, 1]
+        Rb22 = R[0, 2, 2]
         for a in range(n):
             # ---------------- segment a (nodes a, a + 1), old configuration ----------------
+            # R_a (old) is R_{a+1} of the previous segment, kept in registers
+            Ra00 = Rb00
+            Ra01 = Rb01
+            Ra02 = Rb02
+            Ra10 = Rb10
+            Ra11 = Rb11
+            Ra12 = Rb12
+            Ra20 = Rb20
+            Ra21 = Rb21
+            Ra22 = Rb22
             n0 = 0.0
             n1 = 0.0
             n2 = 0.0
@@ -98,23 +188,32 @@ def _advance_one(
             q1 = 0.0
             q2 = 0.0
             if a < n - 1:
+                Rb00 = R[a + 1, 0, 0]
+                Rb01 = R[a + 1, 0, 1]
+                Rb02 = R[a + 1, 0, 2]
+                Rb10 = R[a + 1, 1, 0]
+                Rb11 = R[a + 1, 1, 1]
+                Rb12 = R[a + 1, 1, 2]
+                Rb20 = R[a + 1, 2, 0]
+                Rb21 = R[a + 1, 2, 1]
+                Rb22 = R[a + 1, 2, 2]
                 # Q = R_a^T R_{a+1}
-                Q00 = R[a, 0, 0] * R[a + 1, 0, 0] + R[a, 1, 0] * R[a + 1, 1, 0] + R[a, 2, 0] * R[a + 1, 2, 0]
-                Q01 = R[a, 0, 0] * R[a + 1, 0, 1] + R[a, 1, 0] * R[a + 1, 1, 1] + R[a, 2, 0] * R[a + 1, 2, 1]
-                Q02 = R[a, 0, 0] * R[a + 1, 0, 2] + R[a, 1, 0] * R[a + 1, 1, 2] + R[a, 2, 0] * R[a + 1, 2, 2]
-                Q10 = R[a, 0, 1] * R[a + 1, 0, 0] + R[a, 1, 1] * R[a + 1, 1, 0] + R[a, 2, 1] * R[a + 1, 2, 0]
-                Q11 = R[a, 0, 1] * R[a + 1, 0, 1] + R[a, 1, 1] * R[a + 1, 1, 1] + R[a, 2, 1] * R[a + 1, 2, 1]
-                Q12 = R[a, 0, 1] * R[a + 1, 0, 2] + R[a, 1, 1] * R[a + 1, 1, 2] + R[a, 2, 1] * R[a + 1, 2, 2]
-                Q20 = R[a, 0, 2] * R[a + 1, 0, 0] + R[a, 1, 2] * R[a + 1, 1, 0] + R[a, 2, 2] * R[a + 1, 2, 0]
-                Q21 = R[a, 0, 2] * R[a + 1, 0, 1] + R[a, 1, 2] * R[a + 1, 1, 1] + R[a, 2, 2] * R[a + 1, 2, 1]
-                Q22 = R[a, 0, 2] * R[a + 1, 0, 2] + R[a, 1, 2] * R[a + 1, 1, 2] + R[a, 2, 2] * R[a + 1, 2, 2]
+                Q00 = Ra00 * Rb00 + Ra10 * Rb10 + Ra20 * Rb20
+                Q01 = Ra00 * Rb01 + Ra10 * Rb11 + Ra20 * Rb21
+                Q02 = Ra00 * Rb02 + Ra10 * Rb12 + Ra20 * Rb22
+                Q10 = Ra01 * Rb00 + Ra11 * Rb10 + Ra21 * Rb20
+                Q11 = Ra01 * Rb01 + Ra11 * Rb11 + Ra21 * Rb21
+                Q12 = Ra01 * Rb02 + Ra11 * Rb12 + Ra21 * Rb22
+                Q20 = Ra02 * Rb00 + Ra12 * Rb10 + Ra22 * Rb20
+                Q21 = Ra02 * Rb01 + Ra12 * Rb11 + Ra22 * Rb21
+                Q22 = Ra02 * Rb02 + Ra12 * Rb12 + Ra22 * Rb22
                 d0 = r[a + 1, 0] - r[a, 0]
                 d1 = r[a + 1, 1] - r[a, 1]
                 d2 = r[a + 1, 2] - r[a, 2]
                 # p = R_a^T d
-                p0 = R[a, 0, 0] * d0 + R[a, 1, 0] * d1 + R[a, 2, 0] * d2
-                p1 = R[a, 0, 1] * d0 + R[a, 1, 1] * d1 + R[a, 2, 1] * d2
-                p2 = R[a, 0, 2] * d0 + R[a, 1, 2] * d1 + R[a, 2, 2] * d2
+                p0 = Ra00 * d0 + Ra10 * d1 + Ra20 * d2
+                p1 = Ra01 * d0 + Ra11 * d1 + Ra21 * d2
+                p2 = Ra02 * d0 + Ra12 * d1 + Ra22 * d2
                 # x = cay^-1(Q) = 2/(1 + tr Q) vee(Q - Q^T)
                 s = 2.0 / (1.0 + Q00 + Q11 + Q22)
                 x0 = s * (Q21 - Q12)
@@ -169,9 +268,9 @@ def _advance_one(
                 T1 = M1 + 0.5 * (x2 * M0 - x0 * M2) + xm * x1 + 0.5 * (u2 * c0 - u0 * c2)
                 T2 = M2 + 0.5 * (x0 * M1 - x1 * M0) + xm * x2 + 0.5 * (u0 * c1 - u1 * c0)
                 # n_a = R_a c (spatial)
-                n0 = R[a, 0, 0] * c0 + R[a, 0, 1] * c1 + R[a, 0, 2] * c2
-                n1 = R[a, 1, 0] * c0 + R[a, 1, 1] * c1 + R[a, 1, 2] * c2
-                n2 = R[a, 2, 0] * c0 + R[a, 2, 1] * c1 + R[a, 2, 2] * c2
+                n0 = Ra00 * c0 + Ra01 * c1 + Ra02 * c2
+                n1 = Ra10 * c0 + Ra11 * c1 + Ra12 * c2
+                n2 = Ra20 * c0 + Ra21 * c1 + Ra22 * c2
                 # T' = Q^T (T - p x c), carried to node a + 1
                 z0 = T0 - (p1 * c2 - p2 * c1)
                 z1 = T1 - (p2 * c0 - p0 * c2)
@@ -207,9 +306,9 @@ def _advance_one(
             F1 = fi1 + fe1 + m * gravity[1]
             F2 = fi2 + fe2 + m * gravity[2]
             # body torque
-            tb0 = ti0 + R[a, 0, 0] * te0 + R[a, 1, 0] * te1 + R[a, 2, 0] * te2
-            tb1 = ti1 + R[a, 0, 1] * te0 + R[a, 1, 1] * te1 + R[a, 2, 1] * te2
-            tb2 = ti2 + R[a, 0, 2] * te0 + R[a, 1, 2] * te1 + R[a, 2, 2] * te2
+            tb0 = ti0 + Ra00 * te0 + Ra10 * te1 + Ra20 * te2
+            tb1 = ti1 + Ra01 * te0 + Ra11 * te1 + Ra21 * te2
+            tb2 = ti2 + Ra02 * te0 + Ra12 * te1 + Ra22 * te2
             vo0 = v[a, 0]
             vo1 = v[a, 1]
             vo2 = v[a, 2]
@@ -218,6 +317,11 @@ def _advance_one(
             wo2 = w[a, 2]
             kd = kind[a]
             slot = save_slot[a]
+            jq = -1
+            if kd != FREE:
+                for j in range(presc_idx.shape[0]):
+                    if presc_idx[j] == a:
+                        jq = j
             if record:
                 e_g -= m * (gravity[0] * r[a, 0] + gravity[1] * r[a, 1] + gravity[2] * r[a, 2])
                 if slot >= 0:
@@ -225,8 +329,7 @@ def _advance_one(
                         out_r[row, slot, c] = r[a, c]
                         out_f[row, slot, c] = work_f[a, c]
                         out_t[row, slot, c] = work_f[a, 3 + c]
-                        for e in range(3):
-                            out_R[row, slot, c, e] = R[a, c, e]
+                    _quaternion_into(R[a], out_q[row, slot])
             # ---- translation (T) ----
             if kd == FREE:
                 den = 1.0 / (m + h * ct[a])
@@ -242,10 +345,6 @@ def _advance_one(
                 r[a, 1] += dx1
                 r[a, 2] += dx2
             else:
-                jq = -1
-                for j in range(presc_idx.shape[0]):
-                    if presc_idx[j] == a:
-                        jq = j
                 if jq >= 0:
                     vn0 = (presc_r[i + 1, jq, 0] - r[a, 0]) / h
                     vn1 = (presc_r[i + 1, jq, 1] - r[a, 1]) / h
@@ -272,11 +371,8 @@ def _advance_one(
             b0 = h * (jw0 - 0.5 * h * (wo1 * jw2 - wo2 * jw1) + 0.25 * hh * wjw * wo0 + h * tb0)
             b1 = h * (jw1 - 0.5 * h * (wo2 * jw0 - wo0 * jw2) + 0.25 * hh * wjw * wo1 + h * tb1)
             b2 = h * (jw2 - 0.5 * h * (wo0 * jw1 - wo1 * jw0) + 0.25 * hh * wjw * wo2 + h * tb2)
+            hc = h * cr[a]
             if kd == CLAMPED:
-                jq = -1
-                for j in range(presc_idx.shape[0]):
-                    if presc_idx[j] == a:
-                        jq = j
                 y0 = 0.0
                 y1 = 0.0
                 y2 = 0.0
@@ -306,52 +402,18 @@ def _advance_one(
                     y1 = s * (A02 - A20)
                     y2 = s * (A10 - A01)
             else:
-                # Newton on Phi(y) = J y + y x J y / 2 + (y.Jy) y / 4 + h cr y - b
-                y0 = h * wo0
-                y1 = h * wo1
-                y2 = h * wo2
-                hc = h * cr[a]
-                tol = _NEWTON_RTOL * (abs(b0) + abs(b1) + abs(b2)
-                                      + (ja0 + ja1 + ja2) * (abs(y0) + abs(y1) + abs(y2)))
-                it = 0
-                while True:
-                    jy0 = ja0 * y0
-                    jy1 = ja1 * y1
-                    jy2 = ja2 * y2
-                    yjy = y0 * jy0 + y1 * jy1 + y2 * jy2
-                    f0 = jy0 + 0.5 * (y1 * jy2 - y2 * jy1) + 0.25 * yjy * y0 + hc * y0 - b0
-                    f1 = jy1 + 0.5 * (y2 * jy0 - y0 * jy2) + 0.25 * yjy * y1 + hc * y1 - b1
-                    f2 = jy2 + 0.5 * (y0 * jy1 - y1 * jy0) + 0.25 * yjy * y2 + hc * y2 - b2
-                    if abs(f0) + abs(f1) + abs(f2) <= tol:
-                        break
-                    it += 1
-                    if it > _NEWTON_MAX_ITER:
-                        return NEWTON_FAILED, k
-                    # DPhi = J + (y^ J - (Jy)^)/2 + (2 y (Jy)^T + (y.Jy) I)/4 + hc I
-                    dg = 0.25 * yjy + hc
-                    A00 = ja0 + 0.5 * y0 * jy0 + dg
-                    A11 = ja1 + 0.5 * y1 * jy1 + dg
-                    A22 = ja2 + 0.5 * y2 * jy2 + dg
-                    A01 = 0.5 * (-y2 * ja1 + jy2) + 0.5 * y0 * jy1
-                    A02 = 0.5 * (y1 * ja2 - jy1) + 0.5 * y0 * jy2
-                    A10 = 0.5 * (y2 * ja0 - jy2) + 0.5 * y1 * jy0
-                    A12 = 0.5 * (-y0 * ja2 + jy0) + 0.5 * y1 * jy2
-                    A20 = 0.5 * (-y1 * ja0 + jy1) + 0.5 * y2 * jy0
-                    A21 = 0.5 * (y0 * ja1 - jy0) + 0.5 * y2 * jy1
-                    C00 = A11 * A22 - A12 * A21
-                    C01 = A02 * A21 - A01 * A22
-                    C02 = A01 * A12 - A02 * A11
-                    det = A00 * C00 + A10 * C01 + A20 * C02
-                    idet = 1.0 / det
-                    C10 = A12 * A20 - A10 * A22
-                    C11 = A00 * A22 - A02 * A20
-                    C12 = A02 * A10 - A00 * A12
-                    C20 = A10 * A21 - A11 * A20
-                    C21 = A01 * A20 - A00 * A21
-                    C22 = A00 * A11 - A01 * A10
-                    y0 -= idet * (C00 * f0 + C01 * f1 + C02 * f2)
-                    y1 -= idet * (C10 * f0 + C11 * f1 + C12 * f2)
-                    y2 -= idet * (C20 * f0 + C21 * f1 + C22 * f2)
+                # linearised solution as the start: one Newton iteration fewer than y = h w-
+                y0 = b0 / (ja0 + hc)
+                y1 = b1 / (ja1 + hc)
+                y2 = b2 / (ja2 + hc)
+            # Newton on Phi(y) = J y + y x J y / 2 + (y.Jy) y / 4 + h cr y - b; for a clamped node
+            # y is prescribed and Phi(y) = h^2 (body reaction torque)
+            tol = _NEWTON_RTOL * (abs(b0) + abs(b1) + abs(b2)
+                                  + (ja0 + ja1 + ja2) * h * (abs(wo0) + abs(wo1) + abs(wo2)))
+            ok, y0, y1, y2, f0, f1, f2 = _solve_rotation(kd == CLAMPED, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol)
+            if not ok:
+                return NEWTON_FAILED, k
+            if kd != CLAMPED:
                 if not (y0 * y0 + y1 * y1 + y2 * y2 < 0.25):
                     return DIVERGED, k
             ih = 1.0 / h
@@ -374,14 +436,10 @@ def _advance_one(
                     out_v[row, slot, 1] = 0.5 * (vo1 + vn1)
                     out_v[row, slot, 2] = 0.5 * (vo2 + vn2)
                     if kd == CLAMPED:
-                        # body reaction torque: (pi(w_new) + hc-drag) h - b, over h^2
-                        yjy = y0 * ja0 * y0 + y1 * ja1 * y1 + y2 * ja2 * y2
-                        g0 = ja0 * y0 + 0.5 * (y1 * ja2 * y2 - y2 * ja1 * y1) + 0.25 * yjy * y0 + h * cr[a] * y0 - b0
-                        g1 = ja1 * y1 + 0.5 * (y2 * ja0 * y0 - y0 * ja2 * y2) + 0.25 * yjy * y1 + h * cr[a] * y1 - b1
-                        g2 = ja2 * y2 + 0.5 * (y0 * ja1 * y1 - y1 * ja0 * y0) + 0.25 * yjy * y2 + h * cr[a] * y2 - b2
+                        # body reaction torque Phi(y) / h^2, reported in the world frame
                         ihh = 1.0 / hh
                         for c in range(3):
-                            out_rt[row, slot, c] = (R[a, c, 0] * g0 + R[a, c, 1] * g1 + R[a, c, 2] * g2) * ihh
+                            out_rt[row, slot, c] = (R[a, c, 0] * f0 + R[a, c, 1] * f1 + R[a, c, 2] * f2) * ihh
                     elif kd == PINNED:
                         for c in range(3):
                             out_rt[row, slot, c] = 0.0
@@ -424,23 +482,11 @@ def _advance_one(
     return OK, k0 + n_steps
 
 
-@njit(cache=True)
-def advance(
-    R, r, v, w, Kp, Gp,
-    length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
-    h, k0, n_steps, stride, s0,
-    ext_idx, ext_w, pd_idx, pd_target, pd_gain, presc_idx, presc_r, presc_R,
-    save_slot, out_r, out_R, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e,
-):
-    """Advance one rod; see ``_advance_one``. Returns (status, step index of failure or end)."""
-    work_f = np.empty((r.shape[0], 6))
-    return _advance_one(
-        R, r, v, w, Kp, Gp,
-        length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
-        h, k0, n_steps, stride, s0,
-        ext_idx, ext_w, pd_idx, pd_target, pd_gain, presc_idx, presc_r, presc_R,
-        save_slot, out_r, out_R, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e, work_f,
-    )
+def advance(*args):
+    """Advance one rod: ``advance_into`` with its scratch array allocated here (arguments as for
+    ``advance_into`` without ``work_f``). Returns (status, step index of failure or end)."""
+    r = args[1]
+    return advance_into(*args, np.empty((r.shape[0], 6)))
 
 
 @njit(parallel=True, cache=True)
@@ -449,19 +495,19 @@ def advance_batch(
     length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
     h, k0, n_steps, stride, s0,
     ext_idx, ext_w, pd_idx, pd_target, pd_gain, presc_idx, presc_r, presc_R,
-    save_slot, out_r, out_R, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e, status,
+    save_slot, out_r, out_q, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e, status,
 ):
-    """Advance B independent rods of the same spec; state, loads and outputs carry a leading
+    """Advance B independent rods of the same spec (see ``advance_into``); state, loads and outputs carry a leading
     batch axis (B, ...). status (B, 2) receives (code, step) per rod."""
     n_batch = r.shape[0]
     for b in prange(n_batch):
         work_f = np.empty((r.shape[1], 6))
-        code, step = _advance_one(
+        code, step = advance_into(
             R[b], r[b], v[b], w[b], Kp[b], Gp[b],
             length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
             h, k0, n_steps, stride, s0,
             ext_idx, ext_w[b], pd_idx, pd_target[b], pd_gain, presc_idx, presc_r[b], presc_R[b],
-            save_slot, out_r[b], out_R[b], out_v[b], out_w[b], out_f[b], out_t[b], out_rf[b],
+            save_slot, out_r[b], out_q[b], out_v[b], out_w[b], out_f[b], out_t[b], out_rf[b],
             out_rt[b], out_e[b], work_f,
         )
         status[b, 0] = code

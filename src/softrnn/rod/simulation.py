@@ -18,7 +18,7 @@ from .boundary import Clamp, Pin
 from .discrete import internal_loads, segment_strains
 from .loads import NodalLoad, PDTracking
 from .shapes import RodShape
-from .so3 import matrix_to_quaternion, quaternion_to_matrix
+from .so3 import quaternion_to_matrix
 from .spec import RodSpec
 from .stability import DEFAULT_SAFETY, stable_step
 
@@ -190,14 +190,14 @@ _FIELDS = ("positions", "quaternions", "velocities", "angular_velocities", "forc
 
 def _allocate(n_samples: int, n_saved: int) -> dict:
     out = {name: np.zeros((n_samples, n_saved, 3)) for name in ("r", "v", "w", "f", "t", "rf", "rt")}
-    out["R"] = np.zeros((n_samples, n_saved, 3, 3))
+    out["q"] = np.zeros((n_samples, n_saved, 4))
     out["e"] = np.zeros((n_samples, 3))
     return out
 
 
 def _to_trajectory(out: dict, times: np.ndarray, nodes: np.ndarray, h: float, substeps: int) -> "Trajectory":
     return Trajectory(
-        time=times, nodes=nodes, positions=out["r"], quaternions=matrix_to_quaternion(out["R"]),
+        time=times, nodes=nodes, positions=out["r"], quaternions=out["q"],
         velocities=out["v"], angular_velocities=out["w"], forces=out["f"], torques=out["t"],
         reaction_forces=out["rf"], reaction_torques=out["rt"], energy=out["e"], step=h, substeps=substeps)
 
@@ -415,7 +415,7 @@ class Simulator:
             self.ct, self.cr, self.gravity, self.kind, self.setup.damping.kelvin_voigt > 0,
             h, k0, n_steps, stride, s0,
             self.ext_idx, ext_w, self.pd_idx, pd_target, self.pd_gain, self.presc_idx, presc_r, presc_R,
-            slot, out["r"], out["R"], out["v"], out["w"], out["f"], out["t"], out["rf"], out["rt"], out["e"])
+            slot, out["r"], out["q"], out["v"], out["w"], out["f"], out["t"], out["rf"], out["rt"], out["e"])
         _raise_on_status(code, step, t0, h)
 
 
