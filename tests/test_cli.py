@@ -33,6 +33,12 @@ def test_simulate_prints_summary_and_json(tmp_path, capsys):
     (["simulate", "ellipse", "--samples", "5", "--substeps", "1"], ["stable step limit", "substeps >="]),
     (["simulate", "square", "--samples", "x"], ["invalid int value"]),
     (["frobnicate"], ["invalid choice"]),
+    (["simulate", "square", "--radius", "0"], ["radius=0.0", "positive"]),
+    (["simulate", "square", "--radius", "-0.01"], ["radius=-0.01", "positive"]),
+    (["simulate", "ellipse", "--youngs-modulus", "-5"], ["youngs_modulus=-5.0", "Pa"]),
+    (["simulate", "semicircle", "--density", "0"], ["density=0.0", "kg/m^3"]),
+    (["simulate", "semicircle", "--dt", "-1"], ["dt=-1.0", "positive"]),
+    (["simulate", "semicircle", "--dt", "0.01", "--substeps", "1"], ["stable step limit", "substeps >="]),
 ])
 def test_bad_input_is_one_line_exit_2(argv, words, capsys):
     assert run_cli(argv) == 2
@@ -42,6 +48,12 @@ def test_bad_input_is_one_line_exit_2(argv, words, capsys):
     assert "Traceback" not in err
     for w in words:
         assert w in err
+
+
+def test_rod_overrides_change_the_run(capsys):
+    assert run_cli(["simulate", "square", "--samples", "11", "--quiet", "--youngs-modulus", "1e7"]) == 0
+    out = capsys.readouterr().out
+    assert "E = 10 MPa" in out and "2 substeps" in out  # a stiffer rod needs a smaller step
 
 
 def test_bad_input_leaves_no_partial_file(tmp_path):

@@ -11,7 +11,7 @@ PMC-770: E = 2.5 MPa, nu = 0.5, rho = 1000 kg/m^3), so the three simulations des
 kind of soft polymer rod as the hardware.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -132,3 +132,13 @@ PAPER_CASES = ("ellipse", "square", "semicircle")
 def build_case(name: str) -> Case:
     """The named case; raises SoftrnnInputError for an unknown name."""
     return _build(name)
+
+
+def with_overrides(case: Case, *, rod: dict | None = None, dt: float | None = None) -> Case:
+    """The case with rod properties (RodSpec field names) and/or the saved interval replaced;
+    the new values are validated like any RodSpec / RunConfig."""
+    setup = case.setup
+    if rod:
+        setup = replace(setup, rod=replace(setup.rod, **rod))
+    config = case.config if dt is None else replace(case.config, dt=dt)
+    return replace(case, setup=setup, config=config)

@@ -2,7 +2,7 @@
 
 import json
 
-from ..cases import CASE_NAMES, build_case
+from ..cases import CASE_NAMES, build_case, with_overrides
 from ..errors import bad
 from ..io_util import atomic_write_text
 from ..summary import simulate_case
@@ -16,6 +16,11 @@ def add_args(p):
     p.add_argument("case", help="case name: " + ", ".join(CASE_NAMES))
     p.add_argument("--samples", type=int, default=None, help="saved samples (default: the paper's count)")
     p.add_argument("--substeps", type=int, default=None, help="solver steps per saved dt (default: automatic)")
+    p.add_argument("--dt", type=float, default=None, help="saved interval in s (default: the paper's)")
+    p.add_argument("--radius", type=float, default=None, help="override the rod radius [m]")
+    p.add_argument("--youngs-modulus", type=float, default=None, help="override Young's modulus [Pa]")
+    p.add_argument("--density", type=float, default=None, help="override the density [kg/m^3]")
+    p.add_argument("--poisson-ratio", type=float, default=None, help="override Poisson's ratio")
     p.add_argument("--json", default=None, metavar="PATH", help="also write the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -24,6 +29,9 @@ def run(args) -> int:
     case = build_case(args.case)
     if args.samples is not None and args.samples < 1:
         raise bad("--samples", args.samples, "an integer >= 1")
+    rod = {k: getattr(args, k) for k in ("radius", "youngs_modulus", "density", "poisson_ratio")
+           if getattr(args, k) is not None}
+    case = with_overrides(case, rod=rod, dt=args.dt)
     with Bar(f"simulate {args.case}", enabled=not args.quiet) as bar:
         summary = simulate_case(case, n_samples=args.samples, substeps=args.substeps, progress=bar)
     print(format_summary(summary))
