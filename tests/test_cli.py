@@ -28,7 +28,7 @@ def test_simulate_prints_summary_and_json(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["simulate", "spiral"], ["case='spiral'", "ellipse"]),
+    (["simulate", "spiral"], ["scenario='spiral'", "ellipse", ".toml"]),
     (["simulate", "square", "--samples", "0"], ["--samples=0", ">= 1"]),
     (["simulate", "ellipse", "--samples", "5", "--substeps", "1"], ["stable step limit", "substeps >="]),
     (["simulate", "square", "--samples", "x"], ["invalid int value"]),

@@ -80,3 +80,33 @@ def save(fig, path) -> None:
     fig.savefig(tmp, dpi=110)
     os.replace(tmp, path)
     plt.close(fig)
+
+
+def node_trajectory_with_forces(time: np.ndarray, positions: np.ndarray, forces: np.ndarray | None,
+                                title: str):
+    """Positions (T, 3) [m] of one node against time (T,) [s], one panel per axis in mm, and, when
+    ``forces`` (T, 3) [N] is given, a fourth panel with the force components and magnitude on it."""
+    rows = 3 if forces is None else 4
+    fig, axes = plt.subplots(rows, 1, figsize=(7, 1.9 * rows + 0.6), sharex=True)
+    for c in range(3):
+        ax = axes[c]
+        y = positions[:, c] * 1e3
+        ax.plot(time, y, lw=0.9, color=f"C{c}")
+        ax.ticklabel_format(axis="y", useOffset=False)
+        if y.size and np.ptp(y) < 1.0:  # an axis that (nearly) does not move: show +-1 mm, no offset
+            mid = 0.5 * (y.min() + y.max())
+            ax.set_ylim(mid - 1.0, mid + 1.0)
+        ax.set_ylabel(f"{'xyz'[c]} [mm]")
+        ax.grid(alpha=0.3)
+    if forces is not None:
+        ax = axes[3]
+        for c in range(3):
+            ax.plot(time, forces[:, c], lw=0.9, color=f"C{c}", label=f"F{'xyz'[c]}")
+        ax.plot(time, np.sqrt((forces ** 2).sum(-1)), lw=0.8, color="k", ls="--", label="|F|")
+        ax.set_ylabel("force [N]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, ncol=4, loc="upper right")
+    axes[-1].set_xlabel("t [s]")
+    axes[0].set_title(title)
+    fig.tight_layout()
+    return fig

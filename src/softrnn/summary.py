@@ -1,39 +1,70 @@
-"""Run a case and summarise it (library side of ``softrnn simulate``; returns plain data)."""
+"""Run a scenario, optionally into a dataset file, and summarise it (library side of
+``softrnn simulate``; returns plain data, prints nothing)."""
+
+import time
+from dataclasses import replace
 
 import numpy as np
 
-from .cases import Case
-from .rod import RunConfig, Simulator
+from .rod import RunConfig, Setup, Simulator
 
 
-def simulate_case(case: Case, *, n_samples: int | None = None, substeps: int | None = None,
-                  progress=None, save_all: bool = False) -> dict:
-    """Simulate ``case`` and return a JSON-ready summary (floats and lists only).
+class _NodeCollector:
+    """Sink keeping one saved column's positions and the energy of every chunk."""
 
-    Saves the node of interest only unless ``save_all`` (the timing then includes all outputs).
+    def __init__(self, column: int, forward=None):
+        self.column, self.forward = column, forward
+        self.positions, self.energy = [], []
+
+    def __call__(self, chunk):
+        self.positions.append(chunk.positions[:, self.column])
+        self.energy.append(chunk.energy)
+        if self.forward is not None:
+            self.forward(chunk)
+
+
+def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, node: int,
+                     out_path=None, scenario_text: str = "", seed: int | None = None, attrs: dict | None = None,
+                     progress=None) -> dict:
+    """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically).
+
+    Returns a JSON-ready summary: timing, step, the node of interest's range, energy, orthogonality.
     """
-    cfg = case.config
-    config = RunConfig(dt=cfg.dt, n_samples=n_samples or cfg.n_samples,
-                       substeps=substeps if substeps is not None else cfg.substeps,
-                       save_nodes=None if save_all else (case.node_of_interest,), safety=cfg.safety)
-    sim = Simulator(case.setup)
-    traj = sim.run(config, progress=progress)
-    a = case.node_of_interest if save_all else 0
-    p = traj.positions[:, a]
-    rod = case.setup.rod
-    E = traj.energy.sum(axis=1)
+    node = setup.node_index(node, "node of interest")
+    if out_path is None:
+        config = replace(config, save_nodes=(node,))
+    nodes = list(range(setup.rod.n_nodes)) if config.save_nodes is None else [
+        setup.node_index(a, "save_nodes") for a in config.save_nodes]
+    if node not in nodes:
+        nodes.append(node)
+        config = replace(config, save_nodes=tuple(nodes))
+    sim = Simulator(setup)
+    start = time.perf_counter()
+    if out_path is None:
+        sink = _NodeCollector(nodes.index(node))
+        stats = sim.run(config, progress=progress, sink=sink)
+    else:
+        from .io.dataset import DatasetWriter
+
+        with DatasetWriter(out_path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=setup.rod,
+                           scenario_text=scenario_text, seed=seed, attrs=attrs) as writer:
+            sink = _NodeCollector(nodes.index(node), forward=writer.append)
+            stats = sim.run(config, progress=progress, sink=sink)
+    total = time.perf_counter() - start
+    p = np.concatenate(sink.positions)
+    E = np.concatenate(sink.energy).sum(axis=1)
     R = sim.state.rotations
-    ortho = float(np.max(np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3))))
-    simulated = traj.time[-1] - traj.time[0]
+    rod = setup.rod
+    simulated = (config.n_samples - 1) * config.dt
     return {
-        "case": case.name, "title": case.title, "paper_section": case.paper_section,
-        "length_m": rod.length, "radius_m": rod.radius, "youngs_modulus_pa": rod.youngs_modulus,
-        "n_nodes": rod.n_nodes, "n_samples": int(traj.time.size), "dt_s": config.dt,
-        "duration_s": float(simulated), "step_s": traj.step, "substeps": traj.substeps,
-        "stable_step_s": sim.stable_step(config.safety), "wall_time_s": traj.wall_time,
-        "us_per_node_step": 1e6 * traj.wall_time / max(traj.n_steps * rod.n_nodes, 1),
-        "realtime_factor": float(simulated / traj.wall_time) if traj.wall_time > 0 else float("inf"),
-        "node": case.node_of_interest, "node_start_m": p[0].tolist(), "node_min_m": p.min(0).tolist(),
+        "case": name, "title": title, "length_m": rod.length, "radius_m": rod.radius,
+        "youngs_modulus_pa": rod.youngs_modulus, "n_nodes": rod.n_nodes, "n_samples": config.n_samples,
+        "dt_s": config.dt, "duration_s": simulated, "step_s": stats.step, "substeps": stats.substeps,
+        "stable_step_s": sim.stable_step(config.safety), "wall_time_s": stats.wall_time,
+        "total_time_s": total, "us_per_node_step": stats.us_per_node_step,
+        "realtime_factor": simulated / stats.wall_time if stats.wall_time > 0 else float("inf"),
+        "node": node, "node_start_m": p[0].tolist(), "node_min_m": p.min(0).tolist(),
         "node_max_m": p.max(0).tolist(), "energy_start_j": float(E[0]), "energy_end_j": float(E[-1]),
-        "max_orthogonality_error": ortho,
+        "max_orthogonality_error": float(np.max(np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)))),
+        "output": None if out_path is None else str(out_path), "saved_nodes": len(nodes),
     }

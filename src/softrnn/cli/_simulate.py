@@ -1,22 +1,24 @@
-"""softrnn simulate CASE: run one of the paper's cases and print a summary."""
+"""softrnn simulate SCENARIO [-o data.h5]: run a scenario, print a summary, optionally save it."""
 
 import json
+from dataclasses import replace
 
-from ..cases import CASE_NAMES, build_case, with_overrides
 from ..errors import bad
 from ..io_util import atomic_write_text
-from ..summary import simulate_case
+from ..scenario import SCENARIO_NAMES, load_scenario
+from ..summary import simulate_summary
 from ._progress import Bar
 
 NAME = "simulate"
-HELP = "run a simulated case (" + ", ".join(CASE_NAMES) + ") and print a summary"
+HELP = "run a scenario (" + ", ".join(SCENARIO_NAMES) + ", or a .toml file) and print a summary"
 
 
 def add_args(p):
-    p.add_argument("case", help="case name: " + ", ".join(CASE_NAMES))
-    p.add_argument("--samples", type=int, default=None, help="saved samples (default: the paper's count)")
-    p.add_argument("--substeps", type=int, default=None, help="solver steps per saved dt (default: automatic)")
-    p.add_argument("--dt", type=float, default=None, help="saved interval in s (default: the paper's)")
+    p.add_argument("scenario", help="a shipped scenario name or a path to a .toml file")
+    p.add_argument("-o", "--out", default=None, metavar="PATH.h5", help="save every node to this HDF5 dataset")
+    p.add_argument("--samples", type=int, default=None, help="saved samples (default: the scenario's)")
+    p.add_argument("--substeps", type=int, default=None, help="solver steps per saved dt (default: the scenario's)")
+    p.add_argument("--dt", type=float, default=None, help="saved interval in s (default: the scenario's)")
     p.add_argument("--radius", type=float, default=None, help="override the rod radius [m]")
     p.add_argument("--youngs-modulus", type=float, default=None, help="override Young's modulus [Pa]")
     p.add_argument("--density", type=float, default=None, help="override the density [kg/m^3]")
@@ -26,14 +28,25 @@ def add_args(p):
 
 
 def run(args) -> int:
-    case = build_case(args.case)
+    scenario = load_scenario(args.scenario)
     if args.samples is not None and args.samples < 1:
         raise bad("--samples", args.samples, "an integer >= 1")
+    if args.out is not None and not str(args.out).endswith((".h5", ".hdf5")):
+        raise bad("-o", args.out, "a file name ending in .h5 or .hdf5")
+    setup, config = scenario.setup, scenario.config
     rod = {k: getattr(args, k) for k in ("radius", "youngs_modulus", "density", "poisson_ratio")
            if getattr(args, k) is not None}
-    case = with_overrides(case, rod=rod, dt=args.dt)
-    with Bar(f"simulate {args.case}", enabled=not args.quiet) as bar:
-        summary = simulate_case(case, n_samples=args.samples, substeps=args.substeps, progress=bar)
+    if rod:
+        setup = replace(setup, rod=replace(setup.rod, **rod))
+    changes = {k: v for k, v in (("dt", args.dt), ("n_samples", args.samples), ("substeps", args.substeps))
+               if v is not None}
+    if changes:
+        config = replace(config, **changes)
+    with Bar(f"simulate {scenario.name}", enabled=not args.quiet) as bar:
+        summary = simulate_summary(name=scenario.name, title=scenario.title, setup=setup, config=config,
+                                   node=scenario.nodes_of_interest[0], out_path=args.out,
+                                   scenario_text=scenario.text, seed=scenario.seed,
+                                   attrs={"scenario_name": scenario.name}, progress=bar)
     print(format_summary(summary))
     if args.json:
         atomic_write_text(args.json, json.dumps(summary, indent=2))
@@ -47,12 +60,14 @@ def format_summary(s: dict) -> str:
         f"E = {s['youngs_modulus_pa'] / 1e6:.3g} MPa",
         f"  samples: {s['n_samples']} at dt = {s['dt_s']:g} s ({s['duration_s']:g} s simulated); "
         f"solver step h = {s['step_s']:.3g} s ({s['substeps']} substeps, stable limit {s['stable_step_s']:.3g} s)",
-        f"  wall time: {s['wall_time_s']:.3f} s run, {s['us_per_node_step']:.3f} us per node-step, "
-        f"real-time factor {s['realtime_factor']:.1f}",
+        f"  time: {s['total_time_s']:.2f} s in all ({s['wall_time_s']:.2f} s stepping and saving, "
+        f"{s['us_per_node_step']:.3f} us per node-step, real-time factor {s['realtime_factor']:.1f})",
         f"  node {s['node']}: start {_fmt(s['node_start_m'])} m, min {_fmt(s['node_min_m'])}, max {_fmt(s['node_max_m'])}",
         f"  energy [J]: start {s['energy_start_j']:.4g}, end {s['energy_end_j']:.4g}; "
         f"max |R^T R - I| = {s['max_orthogonality_error']:.1e}",
     ]
+    if s["output"]:
+        lines.append(f"  wrote {s['output']} ({s['saved_nodes']} nodes x {s['n_samples']} samples)")
     return "\n".join(lines)
 
 

@@ -4,7 +4,9 @@ import argparse
 import sys
 
 from ..errors import SimulationError, SoftrnnInputError
-from . import _bench, _reproduce, _simulate
+from . import _bench, _reproduce, _simulate, _sweep
+from . import _import_csv, _show
+from . import _animate, _plot
 
 
 class _Parser(argparse.ArgumentParser):
@@ -18,7 +20,7 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
     sub = parser.add_subparsers(title="commands", dest="command", required=True, parser_class=_Parser)
-    for module in (_simulate, _reproduce, _bench):
+    for module in (_simulate, _sweep, _reproduce, _bench, _show, _import_csv, _animate, _plot):
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_args(p)
         p.set_defaults(func=module.run)

@@ -1,0 +1,44 @@
+"""softrnn plot DATA.h5 --node 30 -o node30.png: one node's x, y, z against time (and its forces)."""
+
+from pathlib import Path
+
+from ..errors import bad
+
+NAME = "plot"
+HELP = "plot one node's position per axis [mm] against time, with the forces on it, to .png/.pdf/.svg"
+
+
+def add_args(p):
+    p.add_argument("data", help="an HDF5 dataset written by softrnn (e.g. by 'softrnn sweep')")
+    p.add_argument("--node", type=int, default=None,
+                   help="the node to plot (default: the node of interest the file names, if any)")
+    p.add_argument("-o", "--output", default=None, metavar="PATH",
+                   help="output .png, .pdf or .svg (default: DATA_nodeK.png next to DATA)")
+    p.add_argument("--group", default=None, help="the trajectory's group inside the file (default: the only one)")
+    p.add_argument("--start", type=float, default=None, help="first time shown [s] (default: the first sample)")
+    p.add_argument("--stop", type=float, default=None, help="last time shown [s] (default: the last sample)")
+    p.add_argument("--no-forces", action="store_true", help="leave out the force panel")
+
+
+def run(args) -> int:
+    from ..pictures import FIGURE_SUFFIXES, check_suffix, describe_nodes, load, node_of_interest, plot_node
+
+    if args.output:
+        check_suffix(args.output, FIGURE_SUFFIXES, argument="--output")
+    node = args.node
+    if node is None:
+        from ..io.dataset import read_dataset
+
+        meta = read_dataset(args.data, nodes=[], group=args.group)  # attrs and time only
+        node = node_of_interest(meta)
+        if node is None:
+            stored = read_dataset(args.data, nodes=None, group=args.group, stop=1).nodes
+            raise bad("--node", None, f"a node to plot: the file names no node of interest; choose one of "
+                      f"{describe_nodes(stored)}")
+    data = load(args.data, group=args.group, node=node, start=args.start, stop=args.stop)
+    node = int(data.nodes[0])  # a negative --node counts from the rod's end
+    out = Path(args.output) if args.output else Path(args.data).with_name(f"{Path(args.data).stem}_node{node}.png")
+    check_suffix(out, FIGURE_SUFFIXES, argument="--output")
+    plot_node(data, node, out, forces=not args.no_forces)
+    print(f"plot: wrote {out}")
+    return 0

@@ -1,0 +1,78 @@
+"""softrnn show DATA.h5: print a summary of a dataset file (text or JSON)."""
+
+import json
+
+from ..io.dataset import describe
+
+NAME = "show"
+HELP = "print a summary of a softrnn dataset file (HDF5)"
+
+
+def add_args(p):
+    p.add_argument("path", help="dataset file (.h5) written by softrnn")
+    p.add_argument("--group", default=None, help="trajectory of a sweep file (default: the first)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--quick", action="store_true",
+                   help="do not read and check every value (only the time axis and three nodes)")
+
+
+def run(args) -> int:
+    summary = describe(args.path, group=args.group, verify=not args.quick)
+    print(json.dumps(summary, indent=2) if args.json else format_summary(summary))
+    return 0
+
+
+def format_summary(s: dict) -> str:
+    """The text ``softrnn show`` prints for a ``describe`` result."""
+    a = s["attrs"]
+    mb = s["file_size_bytes"] / 1e6
+    lines = [f"{s['path']}: softrnn dataset (schema {a['schema_version']}, written by softrnn "
+             f"{a['softrnn_version']}), {mb:.3g} MB, {s['bytes_per_value']:.2f} bytes per stored value"]
+    if s["kind"] == "sweep":
+        groups = s["groups"]
+        shown = ", ".join(groups[:4]) + (", ..." if len(groups) > 4 else "")
+        lines.append(f"  sweep of {len(groups)} trajectories ({shown}); showing {s['group']}")
+    uniform = "uniform" if s["dt_uniform"] else "non-uniform, dt is the median step"
+    lines.append(f"  samples: {s['n_samples']}, t = {s['time_start_s']:g} .. {s['time_end_s']:g} s "
+                 f"({s['duration_s']:g} s), dt = {s['dt_s']:g} s ({uniform})")
+    lines.append(f"  nodes: {s['n_nodes']} of {s['n_nodes_total']} stored ({_nodes(s['nodes'])})")
+    rod = a.get("rod")
+    if isinstance(rod, dict) and rod:
+        parts = []
+        for key, label, scale, unit in (("length", "L", 1.0, "m"), ("radius", "r", 1e3, "mm"),
+                                        ("youngs_modulus", "E", 1e-6, "MPa"), ("density", "rho", 1.0, "kg/m^3"),
+                                        ("n_nodes", "nodes", 1, "")):
+            if rod.get(key) is not None:
+                parts.append(f"{label} = {rod[key] * scale:g} {unit}".rstrip())
+        lines.append("  rod: " + ", ".join(parts))
+    else:
+        lines.append("  rod: not recorded")
+    text = a.get("scenario_text") or ""
+    first = text.strip().splitlines()[0] if text.strip() else "(none)"
+    n_lines = len(text.strip().splitlines())
+    seed = a.get("seed")
+    lines.append(f"  seed: {seed if seed is not None else 'none'}; scenario: {first[:70]}"
+                 + (f" ... ({n_lines} lines)" if n_lines > 1 or len(first) > 70 else ""))
+    for r in s["node_ranges"]:
+        lo, hi = r["position_min_m"], r["position_max_m"]
+        span = ", ".join(f"{ax} [{l:+.4f}, {h:+.4f}]" for ax, l, h in zip("xyz", lo, hi))
+        lines.append(f"  node {r['node']}: {span} m; max |f| = {r['max_force_n']:.4g} N, "
+                     f"max |tau| = {r['max_torque_nm']:.4g} N m")
+    extra = {k: v for k, v in a.items() if k not in ("schema_version", "softrnn_version", "units", "rod",
+                                                      "scenario_text", "seed", "dt", "n_nodes_total")}
+    if extra:
+        shown = ", ".join(f"{k}={json.dumps(v)}" for k, v in extra.items())
+        lines.append(f"  attrs: {shown if len(shown) <= 200 else shown[:197] + '...'}")
+    st = s["storage"]["positions"]
+    lines.append(f"  storage: {st['dtype']}, chunks {tuple(st['chunks'])}, {st['compression']} "
+                 f"level {st['compression_opts']}{' + shuffle' if st['shuffle'] else ''}; "
+                 + ("every value checked" if s.get("verified") else "values not checked (--quick)"))
+    return "\n".join(lines)
+
+
+def _nodes(nodes) -> str:
+    if len(nodes) > 3 and nodes == list(range(nodes[0], nodes[-1] + 1)):
+        return f"{nodes[0]}..{nodes[-1]}"
+    if len(nodes) > 10:
+        return ", ".join(map(str, nodes[:8])) + ", ..."
+    return ", ".join(map(str, nodes))

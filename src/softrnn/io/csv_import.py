@@ -1,0 +1,289 @@
+"""Lab data in CSV <-> the HDF5 dataset format (layout and rules: docs/csv-format.md).
+
+A CSV holds one trajectory: a header line, then one line per sample::
+
+    time,n0_x,n0_y,n0_z,n10_x,n10_y,n10_z,n10_fx,n10_fy,n10_fz
+    0.00,0,0,0,0.5,0,0,0,0,0
+    0.01,0,0,0,0.5,0,-0.0003,0,0,-0.05
+
+``time`` [s] comes first; then, per node i (0-based rod node index), ``n{i}_x, n{i}_y, n{i}_z`` [m]
+(required), optionally ``n{i}_qw, n{i}_qx, n{i}_qy, n{i}_qz`` (unit quaternion, world frame; for every
+node or none), ``n{i}_fx, n{i}_fy, n{i}_fz`` [N] and ``n{i}_tx, n{i}_ty, n{i}_tz`` [N m] (applied
+wrench in the world frame; zero where absent). Import validates everything before anything is
+written and writes atomically, so a bad CSV leaves no output file.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import bad
+from .dataset import (POSITION_LIMIT_M, Dataset, DatasetError, DatasetWriter, _temp_path, read_dataset)
+
+_GROUPS = {
+    "positions": ("x", "y", "z"),
+    "quaternions": ("qw", "qx", "qy", "qz"),
+    "forces": ("fx", "fy", "fz"),
+    "torques": ("tx", "ty", "tz"),
+}
+_COMPONENT = {c: (field, k) for field, comps in _GROUPS.items() for k, c in enumerate(comps)}
+_NAME = re.compile(r"^n(0|[1-9][0-9]*)_([a-z]+)$")
+PATTERN = ("time, then per node i (0-based): n{i}_x, n{i}_y, n{i}_z, optional n{i}_qw, n{i}_qx, n{i}_qy, "
+           "n{i}_qz, optional n{i}_fx, n{i}_fy, n{i}_fz and n{i}_tx, n{i}_ty, n{i}_tz")
+QUATERNION_IMPORT_TOLERANCE = 1e-3
+"""CSV quaternions farther than this from unit norm are rejected; closer ones are normalised
+(those within 1e-6 of unit norm are stored as given, so that exported data re-imports exactly)."""
+
+
+def _fail(path: Path, message: str) -> DatasetError:
+    return DatasetError(f"{path}: {message}")
+
+
+# ----------------------------------------------------------------------------------------- parsing
+def _read_lines(path: Path) -> list[tuple[int, str]]:
+    if not path.exists():
+        raise _fail(path, "no such file; check the path")
+    if path.is_dir():
+        raise _fail(path, "is a folder; pass a CSV file")
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        raise _fail(path, "is not a UTF-8 text file; export the lab data as CSV (comma-separated text)") from None
+    lines = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if stripped and not stripped.startswith("#"):
+            lines.append((number, stripped))
+    if not lines:
+        raise _fail(path, f"is empty (no header line); expected a header with the columns {PATTERN}")
+    return lines
+
+
+def _parse_header(path: Path, number: int, line: str) -> tuple[list[str], dict]:
+    """Column names and, per node, the columns of each field: {node: {field: [col, ...]}}."""
+    names = [c.strip().lower() for c in line.split(",")]
+    for j, name in enumerate(names):
+        if not name:
+            raise _fail(path, f"line {number} (header): column {j + 1} has no name (a stray or trailing comma?); "
+                              f"expected {PATTERN}")
+    if names[0] != "time":
+        raise _fail(path, f"line {number} (header): the first column is {names[0]!r}; expected 'time' [s], "
+                          f"then {PATTERN.split(', then ')[1]}")
+    seen = {}
+    layout: dict[int, dict[str, list]] = {}
+    for j, name in enumerate(names):
+        if name in seen:
+            raise _fail(path, f"line {number} (header): column {name!r} appears twice (columns {seen[name] + 1} "
+                              f"and {j + 1}); keep one")
+        seen[name] = j
+        if j == 0:
+            continue
+        m = _NAME.match(name)
+        if not m or m.group(2) not in _COMPONENT:
+            raise _fail(path, f"line {number} (header): column {name!r} is not recognised; expected {PATTERN}")
+        node, (field, k) = int(m.group(1)), _COMPONENT[m.group(2)]
+        layout.setdefault(node, {}).setdefault(field, [None] * len(_GROUPS[field]))[k] = j
+    if not layout:
+        raise _fail(path, f"line {number} (header): no node columns; expected {PATTERN}")
+    with_q = sorted(a for a, f in layout.items() if "quaternions" in f)
+    for node in sorted(layout):
+        fields = layout[node]
+        if "positions" not in fields:
+            fields["positions"] = [None] * 3
+        for field, cols in fields.items():
+            missing = [f"n{node}_{c}" for c, col in zip(_GROUPS[field], cols) if col is None]
+            if missing:
+                what = {"positions": f"every node needs n{{i}}_x, n{{i}}_y, n{{i}}_z",
+                        "quaternions": "orientations need all of n{i}_qw, n{i}_qx, n{i}_qy, n{i}_qz",
+                        "forces": "a force needs all of n{i}_fx, n{i}_fy, n{i}_fz",
+                        "torques": "a torque needs all of n{i}_tx, n{i}_ty, n{i}_tz"}[field]
+                raise _fail(path, f"line {number} (header): missing column{'s' if len(missing) > 1 else ''} "
+                                  f"{', '.join(missing)} (node {node}: {what})")
+        if with_q and "quaternions" not in fields:
+            missing = ", ".join(f"n{node}_{c}" for c in _GROUPS["quaternions"])
+            raise _fail(path, f"line {number} (header): missing columns {missing}: orientations are given for "
+                              f"node {with_q[0]}, so every node needs n{{i}}_qw..n{{i}}_qz (or no node has them)")
+    return names, layout
+
+
+def _parse_values(path: Path, names: list[str], rows: list[tuple[int, str]]) -> np.ndarray:
+    width = len(names)
+    cells = [line.split(",") for _, line in rows]
+    for (number, _), row in zip(rows, cells):
+        if len(row) != width:
+            more = "more" if len(row) > width else "fewer"
+            raise _fail(path, f"line {number} has {len(row)} cells but the header has {width} columns "
+                              f"({more} cells than column names); every row needs one value per column")
+    try:
+        values = np.array(cells, dtype=np.float64).reshape(len(rows), width)
+    except ValueError:
+        for (number, _), row in zip(rows, cells):
+            for j, cell in enumerate(row):
+                try:
+                    float(cell)
+                except ValueError:
+                    shown = cell.strip()
+                    what = "is empty" if not shown else f"{shown!r} is not a number"
+                    raise _fail(path, f"line {number}, column {names[j]!r} (column {j + 1}): the cell {what}; "
+                                      f"every cell must be a number (decimal point '.', no units)") from None
+        raise  # pragma: no cover - numpy and float() accept the same strings
+    finite = np.isfinite(values)
+    if not finite.all():
+        i, j = (int(v) for v in np.argwhere(~finite)[0])
+        raise _fail(path, f"line {rows[i][0]}, column {names[j]!r} (column {j + 1}): the cell "
+                          f"{rows[i][1].split(',')[j].strip()!r} is not a finite number; every value must be finite")
+    return values
+
+
+def read_csv(csv_path) -> dict:
+    """Parse and validate a lab CSV without writing anything.
+
+    Returns
+    -------
+    dict with ``time`` (T,) float64 [s], ``nodes`` (N,) int64 (ascending), ``positions`` (T, N, 3),
+    ``quaternions`` (T, N, 4) (identity where absent), ``forces``, ``torques`` (T, N, 3), all float64,
+    ``has_orientations`` (bool), ``force_nodes``, ``torque_nodes`` (nodes with wrench columns).
+
+    Raises
+    ------
+    DatasetError
+        One line naming the file, the line and the column of the first problem.
+    """
+    path = Path(csv_path)
+    lines = _read_lines(path)
+    names, layout = _parse_header(path, *lines[0])
+    rows = lines[1:]
+    if len(rows) < 2:
+        raise _fail(path, f"has {len(rows)} data row{'s' if len(rows) != 1 else ''} after the header; at least 2 "
+                          f"samples are needed")
+    values = _parse_values(path, names, rows)
+    time = values[:, 0].copy()
+    steps = np.diff(time)
+    if np.any(steps <= 0):
+        i = int(np.argmax(steps <= 0))
+        raise _fail(path, f"line {rows[i + 1][0]}: time {float(time[i + 1])!r} is not after {float(time[i])!r} "
+                          f"(line {rows[i][0]}); rows must be in strictly increasing time order, without duplicates")
+    nodes = np.array(sorted(layout), dtype=np.int64)
+    T, N = len(rows), nodes.size
+    arrays = {field: np.zeros((T, N, len(comps))) for field, comps in _GROUPS.items()}
+    arrays["quaternions"][..., 0] = 1.0
+    for n, node in enumerate(nodes):
+        for field, cols in layout[int(node)].items():
+            arrays[field][:, n, :] = values[:, cols]
+    pos = arrays["positions"]
+    if np.abs(pos).max() > POSITION_LIMIT_M:
+        i, n, k = (int(v) for v in np.argwhere(np.abs(pos) > POSITION_LIMIT_M)[0])
+        col = f"n{nodes[n]}_{'xyz'[k]}"
+        raise _fail(path, f"line {rows[i][0]}, column {col!r}: {pos[i, n, k]:g} m is beyond {POSITION_LIMIT_M:g} m; "
+                          f"positions must be in metres (divide millimetres by 1000)")
+    has_q = any("quaternions" in f for f in layout.values())
+    if has_q:
+        q = arrays["quaternions"]
+        norm = np.sqrt(np.sum(q ** 2, axis=-1))
+        off = np.abs(norm - 1.0)
+        if off.max() > QUATERNION_IMPORT_TOLERANCE:
+            i, n = (int(v) for v in np.unravel_index(int(np.argmax(off)), off.shape))
+            raise _fail(path, f"line {rows[i][0]}: the quaternion n{nodes[n]}_qw..n{nodes[n]}_qz has norm "
+                              f"{norm[i, n]:.6g}; expected a unit quaternion, scalar first (qw, qx, qy, qz)")
+        fix = off > 1e-6
+        q[fix] = q[fix] / norm[fix][:, None]
+    return {"time": time, "nodes": nodes, **arrays, "has_orientations": has_q,
+            "force_nodes": [int(a) for a in nodes if "forces" in layout[int(a)]],
+            "torque_nodes": [int(a) for a in nodes if "torques" in layout[int(a)]]}
+
+
+# ----------------------------------------------------------------------------------------- import / export
+class _Chunk:
+    def __init__(self, data: dict):
+        self.time = data["time"]
+        for field in _GROUPS:
+            setattr(self, field, data[field])
+
+
+def import_csv(csv_path, out_path, *, rod_length: float | None = None, seed: int | None = None,
+               scenario_text: str = "") -> Dataset:
+    """Convert a lab CSV (docs/csv-format.md) into a softrnn HDF5 dataset, atomically.
+
+    Parameters
+    ----------
+    csv_path : str or Path
+        The CSV file (read only).
+    out_path : str or Path
+        The HDF5 file to write (replaced if it exists; untouched when the CSV is invalid).
+    rod_length : float or None
+        The rod's length L [m], stored as ``attrs['rod'] = {'length': L}`` (None: no rod record).
+    seed : int or None
+        Stored as the dataset's seed.
+    scenario_text : str
+        Free text describing the experiment.
+
+    Returns
+    -------
+    Dataset
+        The file as read back. ``attrs``: ``dt`` is the median time step (the real times are kept),
+        ``source='csv'``, ``source_file`` (the CSV's name), ``has_orientations``, ``force_nodes``,
+        ``torque_nodes``.
+    """
+    csv_path, out_path = Path(csv_path), Path(out_path)
+    if rod_length is not None and (isinstance(rod_length, bool) or not isinstance(rod_length, (int, float))
+                                   or not math.isfinite(rod_length) or rod_length <= 0):
+        raise bad("rod_length", rod_length, "a positive rod length in m")
+    if out_path.exists() and csv_path.exists() and out_path.resolve() == csv_path.resolve():
+        raise bad("out_path", str(out_path), "an output file other than the CSV itself")
+    data = read_csv(csv_path)
+    steps = np.diff(data["time"])
+    attrs = {"source": "csv", "source_file": csv_path.name, "has_orientations": data["has_orientations"],
+             "force_nodes": data["force_nodes"], "torque_nodes": data["torque_nodes"]}
+    with DatasetWriter(out_path, nodes=data["nodes"], n_samples=data["time"].size, dt=float(np.median(steps)),
+                       rod=None if rod_length is None else {"length": float(rod_length)},
+                       scenario_text=scenario_text, seed=seed, attrs=attrs) as writer:
+        writer.append(_Chunk(data))
+    return read_dataset(out_path)
+
+
+def export_csv(dataset, csv_path) -> None:
+    """Write a dataset as CSV in the import layout, atomically (the inverse of ``import_csv``).
+
+    Parameters
+    ----------
+    dataset : Dataset, or the path of a dataset file (single trajectory)
+    csv_path : str or Path
+
+    Columns: ``time`` (shortest exact repr of the float64 times), then per node x, y, z, the
+    quaternion (unless ``dataset.has_orientations`` is False) and the force/torque columns of the
+    nodes that have a nonzero value or are listed in ``attrs['force_nodes']``/``['torque_nodes']``.
+    Values are written with 9 significant digits, which re-import to the identical float32.
+    """
+    if not isinstance(dataset, Dataset):
+        dataset = read_dataset(dataset)
+    csv_path = Path(csv_path)
+    header, columns = ["time"], []
+    listed = {f: set(dataset.attrs.get(f"{f[:-1]}_nodes", ())) for f in ("forces", "torques")}
+    for n, node in enumerate(dataset.nodes):
+        fields = ["positions"] + (["quaternions"] if dataset.has_orientations else [])
+        for f in ("forces", "torques"):
+            arr = getattr(dataset, f)[:, n]
+            if int(node) in listed[f] or np.any(arr != 0):
+                fields.append(f)
+        for f in fields:
+            for k, c in enumerate(_GROUPS[f]):
+                header.append(f"n{int(node)}_{c}")
+                columns.append(getattr(dataset, f)[:, n, k])
+    block = np.column_stack(columns).astype(np.float64) if columns else np.zeros((dataset.n_samples, 0))
+    tmp = _temp_path(csv_path)
+    try:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(",".join(header) + "\n")
+            fmt = ",".join(["%.9g"] * block.shape[1])
+            for t, row in zip(dataset.time, block):
+                fh.write(repr(float(t)) + "," + fmt % tuple(row) + "\n")
+        os.replace(tmp, csv_path)
+    except BaseException:
+        if tmp.exists():
+            tmp.unlink()
+        raise

@@ -1,0 +1,181 @@
+"""Sweeps: many randomised variants of a scenario, simulated in parallel on Dask.
+
+Each variant i is ``scenario.variant(i)`` (deterministic from the scenario's seed and i) and is
+written to ``DIR/traj-{i:05d}.h5`` atomically, so a sweep that is interrupted and run again
+computes only the missing files, and its result equals an uninterrupted run. ``DIR/sweep.json``
+records what the folder holds; a rerun with another scenario or seed is refused.
+
+Dask: a ``distributed.LocalCluster`` of ``n_workers`` single-threaded processes by default, or an
+existing cluster given by its scheduler address (``tcp://HOST:PORT``); the workers need softrnn
+installed (same version).
+"""
+
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from . import __version__
+from .errors import SoftrnnInputError, bad
+from .io_util import atomic_write_text
+
+MANIFEST = "sweep.json"
+
+
+def trajectory_path(out_dir, index: int) -> Path:
+    """File of variant ``index`` in a sweep folder."""
+    return Path(out_dir) / f"traj-{index:05d}.h5"
+
+
+@dataclass
+class SweepResult:
+    """What a sweep call did: indices computed now, indices found complete, all files, wall time."""
+
+    computed: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+    files: list = field(default_factory=list)
+    wall_time: float = 0.0
+
+
+def _fingerprint(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+def _check_manifest(out_dir: Path, scenario, n_samples) -> None:
+    """Write the manifest, or refuse a folder that holds another scenario's sweep."""
+    want = {"scenario": scenario.name, "source": scenario.source, "scenario_sha256": _fingerprint(scenario.text),
+            "seed": scenario.seed, "n_samples": n_samples, "softrnn_version": __version__}
+    path = out_dir / MANIFEST
+    if path.exists():
+        try:
+            have = json.loads(path.read_text())
+        except (OSError, ValueError) as err:
+            raise bad("-o", str(out_dir), f"a sweep folder; its {MANIFEST} is unreadable ({err}); "
+                                           f"remove it or use another folder") from err
+        for key in ("scenario_sha256", "seed", "n_samples"):
+            if have.get(key) != want[key]:
+                raise bad("-o", str(out_dir),
+                          f"a folder for this sweep, but it holds a sweep of another scenario/seed/length "
+                          f"({key}: {have.get(key)!r} != {want[key]!r}); use another folder")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(path, json.dumps(want, indent=2))
+
+
+def _is_complete(path: Path) -> bool:
+    """A finished trajectory file: readable, of this format (writes are atomic, so present = whole)."""
+    if not path.exists():
+        return False
+    from .io.dataset import DatasetError, read_dataset
+
+    try:
+        read_dataset(path, nodes=[], stop=1)
+        return True
+    except (DatasetError, OSError, ValueError):
+        return False
+
+
+def run_variant(text: str, source: str, index: int, path: str, n_samples: int | None = None) -> dict:
+    """Simulate variant ``index`` of the scenario given by its TOML ``text`` and write it to
+    ``path`` (atomically). Runs on a Dask worker; returns a small summary."""
+    from .io.dataset import DatasetWriter
+    from .rod import Simulator
+    from .scenario import parse_scenario
+
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    scenario = parse_scenario(text, source).variant(index)
+    config = scenario.config
+    if n_samples is not None:
+        from dataclasses import replace
+
+        config = replace(config, n_samples=n_samples)
+    sim = Simulator(scenario.setup)
+    nodes = list(range(scenario.setup.rod.n_nodes)) if config.save_nodes is None else list(config.save_nodes)
+    attrs = {"variant_index": index, "sampled": json.dumps(scenario.sampled), "scenario_name": scenario.name}
+    start = time.perf_counter()
+    with DatasetWriter(path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=scenario.setup.rod,
+                       scenario_text=scenario.text, seed=scenario.seed, attrs=attrs) as writer:
+        stats = sim.run(config, sink=writer.append)
+    return {"index": index, "wall_time": time.perf_counter() - start, "substeps": stats.substeps}
+
+
+def _remove_stale_temporaries(out_dir: Path) -> None:
+    for p in out_dir.glob("traj-*.h5.tmp*"):
+        p.unlink(missing_ok=True)
+    for p in out_dir.glob(".traj-*"):
+        p.unlink(missing_ok=True)
+
+
+def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_workers: int = 2,
+              n_samples: int | None = None, progress: Callable[[int, int], None] | None = None) -> SweepResult:
+    """Simulate variants 0..count-1 of ``scenario`` into ``out_dir`` on Dask; skips finished files.
+
+    ``scheduler``: address of an existing Dask scheduler, or None for a LocalCluster of
+    ``n_workers`` processes. ``n_samples`` shortens every trajectory (default: the scenario's).
+    ``progress(done, count)`` counts finished trajectories, found or computed.
+    """
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise bad("--count", count, "an integer >= 1")
+    if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
+        raise bad("--workers", n_workers, "an integer >= 1")
+    if n_samples is not None and (not isinstance(n_samples, int) or n_samples < 1):
+        raise bad("--samples", n_samples, "an integer >= 1")
+    if not scenario.randomized:
+        raise bad("scenario", scenario.name, "a scenario with a [randomize] table (nothing to vary in a sweep)")
+    out = Path(out_dir)
+    _check_manifest(out, scenario, n_samples)
+    _remove_stale_temporaries(out)
+    result = SweepResult(files=[trajectory_path(out, i) for i in range(count)])
+    todo = []
+    for i in range(count):
+        (result.skipped if _is_complete(trajectory_path(out, i)) else todo).append(i)
+    done = len(result.skipped)
+    if progress is not None:
+        progress(done, count)
+    start = time.perf_counter()
+    if todo:
+        for index in _execute(scenario, todo, out, scheduler, n_workers, n_samples):
+            result.computed.append(index)
+            done += 1
+            if progress is not None:
+                progress(done, count)
+    result.wall_time = time.perf_counter() - start
+    result.computed.sort()
+    return result
+
+
+def _execute(scenario, todo, out: Path, scheduler, n_workers, n_samples):
+    """Yield the indices as their files are finished."""
+    from distributed import Client, LocalCluster, as_completed
+
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")  # inherited by local worker processes
+    cluster = None
+    try:
+        if scheduler is None:
+            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=50)
+            client = Client(cluster)
+        else:
+            try:
+                client = Client(scheduler, timeout="10s")
+            except (OSError, TimeoutError, ValueError) as err:
+                raise SoftrnnInputError(
+                    f"--scheduler={scheduler!r} is invalid: no Dask scheduler answered there ({err}); start one "
+                    f"with 'dask scheduler' and 'dask worker ADDRESS', or omit --scheduler for a local cluster"
+                ) from err
+        with client:
+            tag = _fingerprint(scenario.text)
+            futures = [client.submit(run_variant, scenario.text, scenario.source, i, str(trajectory_path(out, i)),
+                                     n_samples, key=f"softrnn-variant-{tag}-{i}")
+                       for i in todo]
+            try:
+                for fut in as_completed(futures):
+                    yield fut.result()["index"]
+            finally:
+                for fut in futures:
+                    fut.cancel()
+    finally:
+        if cluster is not None:
+            cluster.close()
