@@ -471,6 +471,7 @@ def test_describe_and_show(tmp_path, small, capsys):
     assert d["node_ranges"][2]["position_max_m"] == pytest.approx(tip.max(axis=0).tolist())
     assert d["node_ranges"][2]["max_force_n"] > 0.04
     assert d["storage"]["positions"]["compression"] == "gzip"
+    assert d["verified"] and not describe(path, verify=False)["verified"]
 
     assert run_cli(["show", str(path)]) == 0
     out = capsys.readouterr().out
@@ -479,6 +480,8 @@ def test_describe_and_show(tmp_path, small, capsys):
         assert words in out, (words, out)
     assert run_cli(["show", str(path), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["n_samples"] == 301
+    assert run_cli(["show", str(path), "--quick"]) == 0
+    assert "values not checked (--quick)" in capsys.readouterr().out
 
     sweep = tmp_path / "s.h5"
     merge_files([path, path], sweep)

@@ -117,6 +117,20 @@ def frame_indices(n_samples: int, *, frames: int | None = None, duration: float 
     return first + np.unique(np.round(np.linspace(0, n_samples - 1, count)).astype(int))
 
 
+def _resolve(node, nodes: np.ndarray, attrs: dict) -> int:
+    """A node index; negative ones count from the rod's end (``attrs['n_nodes_total']`` nodes, else the
+    highest stored node + 1)."""
+    if isinstance(node, bool) or not isinstance(node, (int, np.integer)):
+        raise bad("node", node, "an integer node index")
+    node = int(node)
+    if node < 0:
+        total = _first_int(attrs.get("n_nodes_total"))
+        total = total if total is not None else (int(nodes.max()) + 1 if nodes.size else 0)
+        if node + total >= 0:
+            return node + total
+    return node
+
+
 def _column(nodes: np.ndarray, node: int, what: str = "node") -> int:
     hits = np.flatnonzero(nodes == node)
     if hits.size == 0:
@@ -374,8 +388,15 @@ class _Scene:
         self.decimals = max(0, min(6, -math.floor(math.log10(dt_frame)) + 1)) if dt_frame > 0 else 3
 
         self.fig = fig = plt.figure(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
+        try:
+            self._build(fig, positions[i0], forces, lo, hi)
+        except BaseException:
+            plt.close(fig)
+            raise
+
+    def _build(self, fig, first, forces, lo, hi):
         handles = []
-        first = np.asarray(positions[i0], dtype=float)
+        first = np.asarray(first, dtype=float)
         if self.view == "3d":
             self._init_3d(fig, lo, hi, first, handles)
         else:
@@ -385,16 +406,27 @@ class _Scene:
                                   label=f"force: {_fmt(self.fref)} N = {_fmt(self.lref)} m"))
         elif forces is not None:
             handles.append(Line2D([], [], color="none", label="no applied forces"))
+        # the legend stays clear of the moving rod: the top-left corner of a 3-D picture, below a flat one
         if self.view == "3d":
-            fig.legend(handles=handles, loc="upper left", fontsize=7, framealpha=0.85, bbox_to_anchor=(0.01, 0.99))
+            fig.legend(handles=handles, loc="upper left", fontsize=7, framealpha=0.85,
+                       bbox_to_anchor=(0.01, 0.99))
         else:
-            self.ax.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.85)
+            fig.legend(handles=handles, loc="lower center", fontsize=7, ncol=3, frameon=False,
+                       bbox_to_anchor=(0.5, 0.0))
         self.stamp = fig.suptitle(" ", fontsize=11)
+        self.dynamic = [a for a in (getattr(self, "trail", None), self.rod, getattr(self, "quiver", None),
+                                    getattr(self, "arrows", None), getattr(self, "dot", None), self.stamp)
+                        if a is not None]
+
+    def _node_handle(self):
+        return Line2D([], [], color=_NODE, marker="o", ls="-" if self.trail_idx is not None else "none",
+                      ms=5, lw=1, label=f"node {self.node_label}")
 
     # -- 2-D (planar motion)
     def _init_2d(self, fig, lo, hi, first, handles):
         a, b = self.axes = _PLANES[self.view]
         ax = self.ax = fig.add_subplot()
+        fig.subplots_adjust(left=0.12, right=0.96, bottom=0.2, top=0.92)
         # widen the narrower range so that one metre is as long on both axes of the fixed box
         box = ax.get_position()
         aspect = (box.width * fig.get_figwidth()) / (box.height * fig.get_figheight())
@@ -423,8 +455,7 @@ class _Scene:
             (self.trail,) = ax.plot([], [], color=_TRAIL, lw=1.0, alpha=0.9, zorder=2)
         if self.node_col is not None:
             (self.dot,) = ax.plot([], [], "o", color=_NODE, ms=6, zorder=6)
-            handles.append(Line2D([], [], color=_NODE, marker="o", ls="-" if self.trail_idx is not None else "none",
-                                  mfc=_NODE, ms=5, lw=1, label=f"node {self.node_label}"))
+            handles.append(self._node_handle())
         if self.has_forces:
             n = self.positions.shape[1]
             self.quiver = ax.quiver(np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), angles="xy",
@@ -437,7 +468,7 @@ class _Scene:
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_zlim(lo[2], hi[2])
-        fig.subplots_adjust(left=0.0, right=0.9, bottom=0.0, top=0.97)
+        fig.subplots_adjust(left=0.0, right=0.86, bottom=0.0, top=0.97)
         ax.set_box_aspect(hi - lo, zoom=1.02)
         ax.view_init(elev=self.elev, azim=self.azim)
         ax.set_autoscale_on(False)
@@ -457,8 +488,7 @@ class _Scene:
             (self.trail,) = ax.plot([], [], [], color=_TRAIL, lw=1.0, alpha=0.9)
         if self.node_col is not None:
             (self.dot,) = ax.plot([], [], [], "o", color=_NODE, ms=6)
-            handles.append(Line2D([], [], color=_NODE, marker="o", ls="-" if self.trail_idx is not None else "none",
-                                  mfc=_NODE, ms=5, lw=1, label=f"node {self.node_label}"))
+            handles.append(self._node_handle())
         if self.has_forces:
             from mpl_toolkits.mplot3d.art3d import Line3DCollection
             self.arrows = Line3DCollection([], colors=_FORCE, linewidths=2.0)
@@ -510,8 +540,13 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
     [start, stop] [s] (default: the whole record). node: the node of interest to mark (default: the
     data's ``attrs['node_of_interest']`` or its case's, if any; None marks none). trail: draw the
     path of the node of interest so far. view: 'auto' (a flat view when the motion is planar, else
-    3-D), 'xy', 'xz', 'yz' or '3d'; elev, azim [deg]: the camera of the 3-D view. size: (width, height) in pixels. progress: optional callable
-    progress(done, total) per frame. Returns the path written.
+    3-D), 'xy', 'xz', 'yz' or '3d'; elev, azim [deg]: the camera of the 3-D view. size: (width,
+    height) in pixels (rounded up to even numbers for .mp4). max_frames: the default frame count's
+    cap. progress: optional callable progress(done, total) per frame. Returns the path written.
+
+    Rendering: the axes, ghost shape, clamps and legend are drawn once; each frame redraws only the
+    rod, trail, node, arrows and time stamp over them (about 5-10 ms a frame at 640x560). GIF frames
+    share one palette; all frames are held in memory (1 byte per pixel) until the file is written.
     """
     out_path = Path(out_path)
     suffix = check_suffix(out_path)
@@ -531,7 +566,7 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
         node = node_of_interest(data)
         node_col = None if node is None or node not in set(nodes.tolist()) else _column(nodes, node)
     else:
-        node_col = _column(nodes, int(node))
+        node_col = _column(nodes, _resolve(node, nodes, attrs))
     scene = _Scene(time, nodes, positions, forces, i0, i1, idx, node_col=node_col, view=view, trail=trail,
                    title=title or _title(attrs), size=(width, height), elev=float(elev), azim=float(azim))
     try:
@@ -549,45 +584,150 @@ def _publish(tmp: str, path: Path) -> None:
     os.replace(tmp, path)
 
 
-def _movie_writer(suffix: str, fps: float):
-    from matplotlib.animation import FFMpegWriter, PillowWriter
+class _GifSink:
+    """Collects frames as 8-bit palette images (a quarter of the memory of RGBA) and writes one GIF.
 
-    if suffix == ".mp4":
-        return FFMpegWriter(fps=fps, codec="libx264", extra_args=["-pix_fmt", "yuv420p"])
+    One palette serves all frames: a median cut of the first frame (which holds every static colour)
+    plus gradients from the backgrounds to each moving artist's colour, each entry set to the
+    commonest exact colour of its box (so white stays 255, not 252). Frames are mapped onto it by
+    exact nearest colour through a lookup table filled as new colours appear (a few ms a frame)."""
 
-    class _Gif(PillowWriter):
-        """PillowWriter keeping frames as 8-bit palette images (a quarter of the memory of RGBA)."""
+    def __init__(self, tmp: str, size: tuple[int, int], fps: float, colors=()):
+        self.tmp, self.size, self.fps, self.frames = tmp, size, fps, []
+        self.colors = colors
+        self.table = None  # (256, 3) palette
+        self.lut = None  # packed RGB -> palette index
+        self.known = None
 
-        def grab_frame(self, **savefig_kwargs):
-            super().grab_frame(**savefig_kwargs)
-            from PIL import Image
-            self._frames[-1] = self._frames[-1].convert("RGB").convert("P", palette=Image.Palette.ADAPTIVE)
+    def _make_palette(self, first: np.ndarray) -> None:
+        from matplotlib.colors import to_rgb
+        from PIL import Image
 
-    return _Gif(fps=fps)
+        h, w, _ = first.shape
+        grounds = [np.array([255.0, 255.0, 255.0]), first[h // 2, w // 2], first[h // 3, w // 3]]
+        ramp = np.linspace(0.0, 1.0, 32)[:, None]
+        strips = [(1 - ramp) * g + ramp * 255 * np.array(to_rgb(c)) for c in self.colors for g in grounds]
+        swatch = np.concatenate(strips).round().astype(np.uint8)
+        # repeated so that median cut (which splits by pixel count) gives the ramps about a third
+        # of the palette instead of lumping them with the static colours
+        reps = max(1, (h * w) // (2 * len(swatch)))
+        swatch = np.repeat(swatch, reps, axis=0)
+        rows = -(-len(swatch) // w)
+        pad = np.full((rows * w - len(swatch), 3), 255, dtype=np.uint8)
+        extra = np.concatenate([swatch, pad]).reshape(rows, w, 3)
+        sheet = np.concatenate([first, extra])
+        pal = Image.fromarray(sheet).quantize(colors=256, method=Image.Quantize.MEDIANCUT,
+                                              dither=Image.Dither.NONE)
+        idx = np.asarray(pal, dtype=np.int64).ravel()
+        code = _pack(sheet).ravel()
+        table = np.zeros((256, 3), dtype=np.int64)
+        given = np.array(pal.getpalette() or [], dtype=np.int64)[:768]
+        table.ravel()[:given.size] = given
+        pairs, counts = np.unique(idx * (1 << 24) + code, return_counts=True)
+        order = np.lexsort((-counts, pairs >> 24))
+        firsts = np.unique(pairs[order] >> 24, return_index=True)[1]
+        for pair in pairs[order][firsts]:
+            k, c = int(pair >> 24), int(pair & 0xFFFFFF)
+            table[k] = (c >> 16, (c >> 8) & 255, c & 255)
+        self.table = table
+        self.lut = np.zeros(1 << 24, dtype=np.uint8)
+        self.known = np.zeros(1 << 24, dtype=bool)
+
+    def _indices(self, rgb: np.ndarray) -> np.ndarray:
+        code = _pack(rgb)
+        new = np.unique(code[~self.known[code]])
+        for k in range(0, new.size, 2048):
+            part = new[k:k + 2048]
+            cols = np.stack([part >> 16, (part >> 8) & 255, part & 255], axis=1)
+            self.lut[part] = ((cols[:, None, :] - self.table[None, :, :]) ** 2).sum(-1).argmin(1)
+            self.known[part] = True
+        return self.lut[code]
+
+    def add(self, rgba) -> None:
+        from PIL import Image
+
+        rgb = np.asarray(rgba)[..., :3]
+        if self.table is None:
+            self._make_palette(rgb)
+        index = np.ascontiguousarray(self._indices(rgb))
+        im = Image.frombuffer("P", self.size, index, "raw", "P", 0, 1)
+        im.putpalette(self.table.astype(np.uint8).ravel().tolist())
+        self.frames.append(im)
+
+    def finish(self) -> None:
+        self.frames[0].save(self.tmp, format="GIF", save_all=True, append_images=self.frames[1:],
+                            duration=max(20, int(round(1000 / self.fps))), loop=0)
+
+    def abort(self) -> None:
+        self.frames = []
+
+
+def _pack(rgb: np.ndarray) -> np.ndarray:
+    """(..., 3) uint8 colours as int64 codes r << 16 | g << 8 | b."""
+    rgb = rgb.astype(np.int64)
+    return (rgb[..., 0] << 16) | (rgb[..., 1] << 8) | rgb[..., 2]
+
+
+class _FfmpegSink:
+    """Pipes raw RGBA frames to ffmpeg (matplotlib's FFMpegWriter builds the command line)."""
+
+    def __init__(self, tmp: str, fig, fps: float):
+        from matplotlib.animation import FFMpegWriter
+
+        self.writer = FFMpegWriter(fps=fps, codec="libx264", extra_args=["-pix_fmt", "yuv420p"])
+        self.writer.setup(fig, tmp, dpi=_DPI)
+
+    def add(self, rgba) -> None:
+        self.writer._proc.stdin.write(bytes(rgba))
+
+    def finish(self) -> None:
+        self.writer.finish()
+
+    def abort(self) -> None:
+        proc = getattr(self.writer, "_proc", None)
+        if proc is not None:  # stop ffmpeg without finishing the file
+            proc.kill()
+            proc.wait()
+
+
+def _render(scene: _Scene, idx: np.ndarray, add, progress=None) -> None:
+    """Draw the static parts once, then per frame only the moving artists over a copy of them (Agg
+    blitting) and hand the RGBA buffer to ``add``."""
+    fig = scene.fig
+    canvas = fig.canvas
+    for artist in scene.dynamic:
+        artist.set_animated(True)
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+    for n, i in enumerate(idx):
+        canvas.restore_region(background)
+        scene.update(int(i))
+        for artist in scene.dynamic:
+            if hasattr(artist, "do_3d_projection"):
+                artist.do_3d_projection()
+            fig.draw_artist(artist)
+        add(canvas.buffer_rgba())
+        if progress is not None:
+            progress(n + 1, len(idx))
 
 
 def _write_movie(scene: _Scene, idx: np.ndarray, out_path: Path, suffix: str, fps: float, progress) -> None:
     out_path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{out_path.stem}.", suffix=f".tmp{suffix}", dir=out_path.parent)
     os.close(fd)
-    writer = _movie_writer(suffix, fps)
+    sink = None
     try:
-        writer.setup(scene.fig, tmp, dpi=_DPI)
-        try:
-            for n, i in enumerate(idx):
-                scene.update(int(i))
-                writer.grab_frame()
-                if progress is not None:
-                    progress(n + 1, len(idx))
-        except BaseException:
-            proc = getattr(writer, "_proc", None)
-            if proc is not None:  # ffmpeg: stop it without finishing the file
-                proc.kill()
-                proc.wait()
-            raise
-        writer.finish()
+        w, h = (int(round(v)) for v in scene.fig.bbox.size)
+        if suffix == ".mp4":
+            sink = _FfmpegSink(tmp, scene.fig, fps)
+        else:
+            sink = _GifSink(tmp, (w, h), fps, colors=(_ROD, _NODE, _TRAIL, _FORCE, "k"))
+        _render(scene, idx, sink.add, progress)
+        sink.finish()
         _publish(tmp, out_path)
     except BaseException:
+        if sink is not None:
+            sink.abort()
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
@@ -606,7 +746,7 @@ def plot_node(data, node: int, out_path=None, *, start: float | None = None, sto
     if out_path is not None:
         check_suffix(out_path, FIGURE_SUFFIXES)
     time, nodes, positions, F, attrs = _fields(data)
-    col = _column(nodes, int(node))
+    col = _column(nodes, _resolve(node, nodes, attrs))
     i0, i1 = time_span(time, start, stop)
     sl = slice(i0, i1 + 1)
     f = F[sl, col] if forces and F is not None else None

@@ -19,7 +19,8 @@ def add_args(p):
     count = p.add_mutually_exclusive_group()
     count.add_argument("--frames", type=int, default=None,
                        help="number of frames, evenly spaced in time (default: up to 200)")
-    count.add_argument("--duration", type=float, default=None, help="playback length in s (frames = duration x fps)")
+    count.add_argument("--duration", type=float, default=None,
+                       help="playback length in s (frames = duration x fps)")
     p.add_argument("--start", type=float, default=None, help="first time shown [s] (default: the first sample)")
     p.add_argument("--stop", type=float, default=None, help="last time shown [s] (default: the last sample)")
     p.add_argument("--node", type=int, default=None,
@@ -38,6 +39,8 @@ def parse_size(text: str) -> tuple[int, int]:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
         raise bad("--size", text, "WIDTHxHEIGHT in pixels, e.g. 640x560") from None
+    if not (64 <= w <= 4096 and 64 <= h <= 4096):
+        raise bad("--size", text, "WIDTHxHEIGHT in pixels, each between 64 and 4096")
     return w, h
 
 
@@ -53,11 +56,14 @@ def run(args) -> int:
         raise bad("--duration", args.duration, "a playback length > 0 s")
     if not args.fps > 0:
         raise bad("--fps", args.fps, "a number of frames per second > 0")
+    node = args.node
+    if node is not None:  # check it first (cheap): the reader's error names the stored nodes
+        from ..io.dataset import read_dataset
+
+        node = int(read_dataset(args.data, nodes=[node], group=args.group, stop=1).nodes[0])
     data = load(args.data, group=args.group, start=args.start, stop=args.stop)
-    if args.node is not None and args.node not in set(data.nodes.tolist()):
-        load(args.data, group=args.group, node=args.node)  # the reader's error names the stored nodes
     with Bar(f"animate {Path(args.data).name}", unit="frame", enabled=not args.quiet) as bar:
-        animate(data, out, fps=args.fps, frames=args.frames, duration=args.duration, node=args.node,
+        animate(data, out, fps=args.fps, frames=args.frames, duration=args.duration, node=node,
                 trail=not args.no_trail, view=args.view, elev=args.elev, azim=args.azim, size=size,
                 title=None if _named(data) else Path(args.data).stem, progress=bar)
     print(f"animate: wrote {out}")

@@ -21,7 +21,7 @@ def add_args(p):
 
 
 def run(args) -> int:
-    from ..pictures import FIGURE_SUFFIXES, check_suffix, describe_nodes, load, node_of_interest, plot_node
+    from ..pictures import FIGURE_SUFFIXES, _title, check_suffix, describe_nodes, load, node_of_interest, plot_node
 
     if args.output:
         check_suffix(args.output, FIGURE_SUFFIXES, argument="--output")
@@ -39,6 +39,7 @@ def run(args) -> int:
     node = int(data.nodes[0])  # a negative --node counts from the rod's end
     out = Path(args.output) if args.output else Path(args.data).with_name(f"{Path(args.data).stem}_node{node}.png")
     check_suffix(out, FIGURE_SUFFIXES, argument="--output")
-    plot_node(data, node, out, forces=not args.no_forces)
+    title = None if _title(dict(data.attrs), fallback="") else f"{Path(args.data).stem}: node {node}"
+    plot_node(data, node, out, forces=not args.no_forces, title=title)
     print(f"plot: wrote {out}")
     return 0

@@ -4,9 +4,7 @@ import argparse
 import sys
 
 from ..errors import SimulationError, SoftrnnInputError
-from . import _bench, _reproduce, _simulate, _sweep
-from . import _import_csv, _show
-from . import _animate, _plot
+from . import _animate, _bench, _import_csv, _plot, _reproduce, _show, _simulate, _sweep
 
 
 class _Parser(argparse.ArgumentParser):
@@ -35,8 +33,8 @@ def main(argv=None) -> int:
         print(f"softrnn: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("softrnn: interrupted; finished work is kept, run the same command again to resume",
-              file=sys.stderr)
+        print("softrnn: interrupted; no partial file was left; reproduce and sweep keep their finished "
+              "steps and resume when run again", file=sys.stderr)
         return 130
 
 

@@ -39,6 +39,7 @@ import h5py
 import numpy as np
 
 from .. import __version__
+from ..io_util import umask_mode
 from ..errors import SoftrnnInputError, bad
 
 SCHEMA_VERSION = 1
@@ -219,6 +220,17 @@ def _node_list(nodes) -> str:
     return ", ".join(map(str, nodes))
 
 
+def _short(value):
+    """``value`` itself, or a shortened text of it when its repr is long (for error messages)."""
+    text = repr(value.tolist() if isinstance(value, np.ndarray) else value)
+    return value if len(text) <= 80 else _Text(text[:70] + " ...")
+
+
+class _Text(str):
+    def __repr__(self):
+        return str(self)
+
+
 def _json_default(value):
     if isinstance(value, np.generic):
         return value.item()
@@ -251,6 +263,7 @@ def _temp_path(path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f"{path.name}.tmp-", dir=path.parent)
     os.close(fd)
+    os.chmod(tmp, umask_mode())
     return Path(tmp)
 
 
@@ -314,12 +327,13 @@ class DatasetWriter:
             nodes = np.arange(int(nodes))
         node_arr = np.asarray(nodes)
         if node_arr.ndim != 1 or node_arr.size == 0 or not np.issubdtype(node_arr.dtype, np.integer):
-            raise bad("nodes", nodes, "a non-empty sequence of 0-based node indices")
+            raise bad("nodes", _short(nodes), "a non-empty sequence of 0-based node indices")
         if node_arr.min() < 0 or np.unique(node_arr).size != node_arr.size:
-            raise bad("nodes", node_arr.tolist(), "unique node indices >= 0")
+            raise bad("nodes", _short(node_arr.tolist()), "unique node indices >= 0")
         if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)) or n_samples < 1:
             raise bad("n_samples", n_samples, "an integer >= 1")
-        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.floating)) or not np.isfinite(dt) or dt <= 0:
+        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)) \
+                or not np.isfinite(dt) or dt <= 0:
             raise bad("dt", dt, "a positive sample interval in s")
         if not isinstance(scenario_text, str):
             raise bad("scenario_text", type(scenario_text).__name__, "a string")
@@ -338,7 +352,7 @@ class DatasetWriter:
         n_total = int(node_arr.max()) + 1
         if rod_d is not None and isinstance(rod_d.get("n_nodes"), int):
             if node_arr.max() >= rod_d["n_nodes"]:
-                raise bad("nodes", node_arr.tolist(), f"node indices below rod.n_nodes={rod_d['n_nodes']}")
+                raise bad("nodes", _short(node_arr.tolist()), f"node indices below rod.n_nodes={rod_d['n_nodes']}")
             n_total = rod_d["n_nodes"]
         if group is not None:
             group = _group_name(group)
