@@ -70,6 +70,8 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     report = json.loads((out / "report.json").read_text())
     for case in ("ellipse", "square", "semicircle"):
         assert report[case]["simulation"]["n_samples"] > 1
+        assert report[case]["generalisation_data"]["n_samples"] > 1
+        assert (out / report[case]["dataset"]).exists()
         assert report[case]["length_m"] > 0
         assert "analytical_model_s_per_node_step" in report[case]["paper"]
         for fig in report[case]["figures"]:
@@ -81,9 +83,9 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     calls = []
     original = reproduce_mod.run_case
 
-    def counting(case, quick, progress=None):
+    def counting(case, quick, data_path, progress=None):
         calls.append(case.name)
-        return original(case, quick, progress)
+        return original(case, quick, data_path, progress)
 
     def boom(*a, **k):
         raise AssertionError("finished step recomputed")

@@ -1,104 +1,68 @@
 """``softrnn reproduce``: the paper's pipeline, step by step, into one output folder.
 
-At this stage: the three simulated cases (section 4) and the simulator benchmark, with figures,
+At this stage: the datasets of the three simulated cases (section 4, Data-sets I-III) and of their
+generalisation variants (``data/*.h5``), figures and animations, the simulator benchmark,
 ``report.json`` and ``report.md``. Each finished step leaves its files; a rerun (after an
 interruption) skips the steps whose results are present for the same settings.
 """
 
 import json
 import platform
-from dataclasses import dataclass
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from . import __version__, plotting
+from . import __version__, pictures, plotting
 from .cases import ASSUMPTIONS, PAPER_CASES, Case, build_case
-from .io_util import atomic_write_bytes, atomic_write_text
+from .io_util import atomic_write_text
 from .paper import paper_case
-from .rod import RunConfig, Simulator
+from .summary import simulate_summary
 
 QUICK_FRACTION = 0.1  # --quick simulates this fraction of each case's duration
 N_SNAPSHOTS = 6
+GENERALISATION = {"ellipse": "ellipse-horizontal", "square": "square-figure8", "semicircle": "semicircle-cosine"}
 
 
-@dataclass
-class _Collector:
-    """Sink keeping the node of interest's series, the energy and a few whole-rod snapshots."""
-
-    node: int
-    snapshot_rows: np.ndarray
-
-    def __post_init__(self):
-        self.parts = {"time": [], "positions": [], "forces": [], "energy": []}
-        self.snapshots, self.snapshot_forces, self.snapshot_times = [], [], []
-        self.max_ortho = 0.0
-        self.row = 0
-
-    def __call__(self, chunk):
-        rows = np.arange(self.row, self.row + chunk.time.size)
-        self.parts["time"].append(chunk.time)
-        self.parts["positions"].append(chunk.positions[:, self.node])
-        self.parts["forces"].append(chunk.forces[:, self.node])
-        self.parts["energy"].append(chunk.energy)
-        for i in np.flatnonzero(np.isin(rows, self.snapshot_rows)):
-            self.snapshots.append(chunk.positions[i])
-            self.snapshot_forces.append(chunk.forces[i])
-            self.snapshot_times.append(chunk.time[i])
-        self.row += chunk.time.size
-
-    def arrays(self) -> dict:
-        out = {k: np.concatenate(v) for k, v in self.parts.items()}
-        out["snapshots"] = np.array(self.snapshots)
-        out["snapshot_forces"] = np.array(self.snapshot_forces)
-        out["snapshot_times"] = np.array(self.snapshot_times)
-        return out
-
-
-def run_case(case: Case, quick: bool, progress=None) -> tuple[dict, dict]:
-    """Simulate a case saving every node; returns (summary, arrays for figures)."""
+def run_case(case: Case, quick: bool, data_path, progress=None) -> tuple[dict, dict]:
+    """Simulate a case into the dataset ``data_path`` (every node saved); returns (summary, series)."""
     n_samples = case.config.n_samples
     if quick:
         n_samples = int((n_samples - 1) * QUICK_FRACTION) + 1
-    config = RunConfig(dt=case.config.dt, n_samples=n_samples, substeps=case.config.substeps)
-    sim = Simulator(case.setup)
-    rows = np.unique(np.linspace(0, n_samples - 1, N_SNAPSHOTS).round().astype(int))
-    sink = _Collector(case.node_of_interest, rows)
-    stats = sim.run(config, progress=progress, sink=sink)
-    data = sink.arrays()
-    R = sim.state.rotations
-    simulated = float(data["time"][-1] - data["time"][0])
-    rod = case.setup.rod
-    p = data["positions"]
-    E = data["energy"].sum(1)
-    summary = {
-        "case": case.name, "title": case.title, "paper_section": case.paper_section,
-        "node": case.node_of_interest, "length_m": rod.length, "radius_m": rod.radius,
-        "youngs_modulus_pa": rod.youngs_modulus, "density_kg_m3": rod.density, "n_nodes": rod.n_nodes,
-        "n_samples": n_samples, "dt_s": config.dt, "duration_s": simulated, "step_s": stats.step,
-        "substeps": stats.substeps, "stable_step_s": sim.stable_step(config.safety),
-        "wall_time_s": stats.wall_time, "us_per_node_step_all_saved": stats.us_per_node_step,
-        "realtime_factor_all_saved": simulated / stats.wall_time if stats.wall_time > 0 else None,
-        "node_start_m": p[0].tolist(), "node_min_m": p.min(0).tolist(), "node_max_m": p.max(0).tolist(),
-        "node_range_mm": (1e3 * (p.max(0) - p.min(0))).tolist(),
-        "energy_start_j": float(E[0]), "energy_end_j": float(E[-1]),
-        "max_orthogonality_error": float(np.max(np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)))),
-    }
-    return summary, data
+    config = replace(case.config, n_samples=n_samples)
+    scenario = case.scenario
+    series: dict = {}
+    summary = simulate_summary(
+        name=case.name, title=case.title, setup=case.setup, config=config, node=case.node_of_interest,
+        out_path=data_path, scenario_text=scenario.text if scenario is not None else "",
+        seed=scenario.seed if scenario is not None else None,
+        attrs={"scenario_name": case.name, "node_of_interest": case.node_of_interest, "quick": quick},
+        progress=progress, series=series)
+    summary["paper_section"] = case.paper_section
+    summary["node_range_mm"] = (1e3 * (series["node_positions"].max(0) - series["node_positions"].min(0))).tolist()
+    summary["density_kg_m3"] = case.setup.rod.density
+    return summary, series
 
 
-def _figures(case: Case, data: dict, fig_dir: Path) -> list[str]:
-    names = []
-    fig = plotting.node_trajectory(data["time"], data["positions"],
+def _figures(case: Case, data_path: Path, series: dict, fig_dir: Path) -> list[str]:
+    """Node trajectory, rod snapshots with forces, energy, and an animation of the dataset."""
+    from .io.dataset import read_dataset
+
+    t = series["time"]
+    fig = plotting.node_trajectory(t, series["node_positions"],
                                    f"{case.name}: node {case.node_of_interest} (analytical model)")
     plotting.save(fig, fig_dir / f"{case.name}_node.png")
-    fig = plotting.rod_snapshots(data["snapshot_times"], data["snapshots"], f"{case.name}: configurations",
-                                 node=case.node_of_interest, forces=data["snapshot_forces"])
+    rows = np.unique(np.linspace(0, t.size - 1, N_SNAPSHOTS).round().astype(int))
+    snaps = [read_dataset(data_path, start=int(i), stop=int(i) + 1) for i in rows]
+    fig = plotting.rod_snapshots(t[rows], np.concatenate([d.positions for d in snaps]).astype(float),
+                                 f"{case.name}: configurations", node=case.node_of_interest,
+                                 forces=np.concatenate([d.forces for d in snaps]).astype(float))
     plotting.save(fig, fig_dir / f"{case.name}_rod.png")
-    fig = plotting.energy(data["time"], data["energy"], f"{case.name}: energy")
+    fig = plotting.energy(t, series["energy"], f"{case.name}: energy")
     plotting.save(fig, fig_dir / f"{case.name}_energy.png")
-    names += [f"{case.name}_node.png", f"{case.name}_rod.png", f"{case.name}_energy.png"]
-    return names
+    pictures.animate(pictures.load(data_path), fig_dir / f"{case.name}.gif", node=case.node_of_interest,
+                     max_frames=120)
+    return [f"{case.name}_node.png", f"{case.name}_rod.png", f"{case.name}_energy.png", f"{case.name}.gif"]
 
 
 def _load_if_done(path: Path, quick: bool):
@@ -109,6 +73,22 @@ def _load_if_done(path: Path, quick: bool):
     except (OSError, ValueError):
         return None
     return done if done.get("quick") == quick and done.get("softrnn_version") == __version__ else None
+
+
+def _case_step(case: Case, out: Path, quick: bool, progress_factory, figures: bool) -> dict:
+    """Dataset (and figures) of one case, skipped when a finished result is present."""
+    step_file = out / "cases" / f"{case.name}.json"
+    data_path = out / "data" / f"{case.name}.h5"
+    done = _load_if_done(step_file, quick)
+    if done is not None and data_path.exists():
+        return done
+    progress = progress_factory(f"simulate {case.name}") if progress_factory else None
+    summary, series = run_case(case, quick, data_path, progress)
+    names = _figures(case, data_path, series, out / "figures") if figures else []
+    done = {"quick": quick, "softrnn_version": __version__, "simulation": summary, "figures": names,
+            "dataset": str(data_path.relative_to(out))}
+    atomic_write_text(step_file, json.dumps(done, indent=2))
+    return done
 
 
 def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
@@ -122,18 +102,14 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
     report = {"softrnn_version": __version__, "quick": quick, "machine": machine_info(),
               "assumptions": ASSUMPTIONS}
     for name in PAPER_CASES:
-        case = build_case(name)
-        step_file = out / "cases" / f"{name}.json"
-        done = _load_if_done(step_file, quick)
-        if done is None:
-            progress = progress_factory(f"simulate {name}") if progress_factory else None
-            summary, data = run_case(case, quick, progress)
-            figures = _figures(case, data, fig_dir)
-            done = {"quick": quick, "softrnn_version": __version__, "simulation": summary, "figures": figures}
-            atomic_write_text(step_file, json.dumps(done, indent=2))
-        report[name] = {"node": case.node_of_interest, "length_m": case.setup.rod.length, "unit": "mm",
-                        "simulation": done["simulation"], "figures": done["figures"],
-                        "paper": paper_case(case.paper_key)}
+        report[name] = {"paper": paper_case(build_case(name).paper_key)}
+        for key, case_name in (("simulation", name), ("generalisation_data", GENERALISATION[name])):
+            case = build_case(case_name)
+            done = _case_step(case, out, quick, progress_factory, figures=key == "simulation")
+            report[name][key] = done["simulation"]
+            if key == "simulation":
+                report[name].update(node=case.node_of_interest, length_m=case.setup.rod.length, unit="mm",
+                                    figures=done["figures"], dataset=done["dataset"])
     bench_file = out / "bench.json"
     bench = _load_if_done(bench_file, quick)
     if bench is None:
@@ -169,18 +145,21 @@ def render_markdown(report: dict) -> str:
              f"{', quick run' if report['quick'] else ''})", "",
              f"Machine: {report['machine']['cpu']}, {report['machine']['cores']} cores, "
              f"Python {report['machine']['python']}.", "",
-             "## Simulated cases (paper section 4): analytical model", "",
-             "| case | nodes | samples x dt | solver step (substeps) | wall time | us per node-step "
-             "(all nodes saved) | paper: us per node-step |",
-             "|---|---|---|---|---|---|---|"]
+             "## Datasets of the simulated cases (paper section 4): analytical model", "",
+             "Every node saved at every sample (`data/*.h5`, docs/dataset-format.md). Time = simulation "
+             "and writing the file.", "",
+             "| case | data set | nodes | samples x dt | solver step (substeps) | time | us per node-step "
+             "| paper: us per node-step |",
+             "|---|---|---|---|---|---|---|---|"]
     for name in PAPER_CASES:
-        s = report[name]["simulation"]
-        paper = report[name]["paper"]
-        paper_us = paper.get("analytical_model_s_per_node_step")
-        lines.append(
-            f"| {name} | {s['n_nodes']} | {s['n_samples']} x {s['dt_s']:g} s | {s['step_s']:.3g} s ({s['substeps']}) "
-            f"| {s['wall_time_s']:.2f} s | {s['us_per_node_step_all_saved']:.3f} | "
-            f"{paper_us * 1e6:.0f} |" if paper_us else "| - |")
+        paper_us = report[name]["paper"].get("analytical_model_s_per_node_step")
+        for key in ("simulation", "generalisation_data"):
+            s = report[name][key]
+            role = "training/test" if key == "simulation" else "generalisation"
+            lines.append(
+                f"| {s['case']} | {role} | {s['n_nodes']} | {s['n_samples']} x {s['dt_s']:g} s | "
+                f"{s['step_s']:.3g} s ({s['substeps']}) | {s['total_time_s']:.2f} s | {s['us_per_node_step']:.3f} | "
+                + (f"{paper_us * 1e6:.0f} |" if paper_us and key == "simulation" else "|"))
     lines += ["", "Node of interest (0-based), range of motion per axis [mm]:", ""]
     for name in PAPER_CASES:
         s = report[name]["simulation"]

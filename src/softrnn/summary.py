@@ -25,10 +25,12 @@ class _NodeCollector:
 
 def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, node: int,
                      out_path=None, scenario_text: str = "", seed: int | None = None, attrs: dict | None = None,
-                     progress=None) -> dict:
+                     progress=None, series: dict | None = None) -> dict:
     """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically).
 
     Returns a JSON-ready summary: timing, step, the node of interest's range, energy, orthogonality.
+    If a dict is passed as ``series`` it receives the arrays time (T,), node_positions (T, 3) [m]
+    and energy (T, 3) [J] (kinetic, elastic, gravitational).
     """
     node = setup.node_index(node, "node of interest")
     if out_path is None:
@@ -52,7 +54,10 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
             stats = sim.run(config, progress=progress, sink=sink)
     total = time.perf_counter() - start
     p = np.concatenate(sink.positions)
-    E = np.concatenate(sink.energy).sum(axis=1)
+    energy = np.concatenate(sink.energy)
+    E = energy.sum(axis=1)
+    if series is not None:
+        series.update(time=sim_time(config, p.shape[0]), node_positions=p, energy=energy)
     R = sim.state.rotations
     rod = setup.rod
     simulated = (config.n_samples - 1) * config.dt
@@ -68,3 +73,8 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
         "max_orthogonality_error": float(np.max(np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)))),
         "output": None if out_path is None else str(out_path), "saved_nodes": len(nodes),
     }
+
+
+def sim_time(config: RunConfig, n: int) -> np.ndarray:
+    """Saved times (n,) [s] of a run started at t = 0."""
+    return config.dt * np.arange(n)
