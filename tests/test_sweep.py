@@ -92,3 +92,18 @@ def test_bad_sweep_arguments(scenario, tmp_path):
     with pytest.raises(SoftrnnInputError, match="--workers=0"):
         run_sweep(scenario, 2, tmp_path, n_workers=0)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_cli_sweep_resumes_and_merges(full_sweep, tmp_path, capsys):
+    from softrnn.cli.main import main
+    from softrnn.io.dataset import list_groups
+
+    out, _ = full_sweep
+    merged = tmp_path / "all.h5"
+    assert main(["sweep", "semicircle", "--count", "32", "-o", str(out), "--samples", str(SAMPLES),
+                 "--merge", str(merged), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "0 computed" in text and "32 already there" in text
+    assert len(list_groups(merged)) == 32
+    np.testing.assert_array_equal(read_dataset(merged, group=list_groups(merged)[5]).positions,
+                                  read_dataset(trajectory_path(out, 5)).positions)

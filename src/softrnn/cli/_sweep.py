@@ -16,6 +16,8 @@ def add_args(p):
                    help="use an existing Dask cluster (default: a local cluster)")
     p.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
     p.add_argument("--samples", type=int, default=None, help="samples per trajectory (default: the scenario's)")
+    p.add_argument("--merge", default=None, metavar="FILE.h5",
+                   help="also combine the trajectories into one file, one group each")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -26,4 +28,9 @@ def run(args) -> int:
                            n_samples=args.samples, progress=bar)
     print(f"sweep {scenario.name}: {args.count} trajectories in {args.out} "
           f"({len(result.computed)} computed in {result.wall_time:.1f} s, {len(result.skipped)} already there)")
+    if args.merge:
+        from ..io.dataset import merge_files
+
+        merge_files(result.files, args.merge)
+        print(f"merged into {args.merge} (groups traj-00000 .. traj-{args.count - 1:05d})")
     return 0
