@@ -110,3 +110,81 @@ def node_trajectory_with_forces(time: np.ndarray, positions: np.ndarray, forces:
     axes[0].set_title(title)
     fig.tight_layout()
     return fig
+
+
+def prediction_vs_reference(time: np.ndarray, reference: np.ndarray, predictions: dict, title: str):
+    """A node's reference positions (T, 3) [m] and one or more predictions {label: (T, 3) [m]} of
+    the same samples against time (T,) [s], one panel per axis in mm (like the paper's Fig. 3D, 5B,
+    8B)."""
+    fig, axes = plt.subplots(3, 1, figsize=(7.5, 6.5), sharex=True)
+    styles = [("C1", "--"), ("C3", ":"), ("C2", "-."), ("C4", "--")]
+    for c, ax in enumerate(axes):
+        ax.plot(time, np.asarray(reference)[:, c] * 1e3, color="k", lw=1.2, label="reference")
+        for k, (label, pred) in enumerate(predictions.items()):
+            color, ls = styles[k % len(styles)]
+            ax.plot(time, np.asarray(pred)[:, c] * 1e3, color=color, ls=ls, lw=1.1, label=label)
+        shown = np.concatenate([np.asarray(reference)[:, c]] + [np.asarray(p)[:, c] for p in predictions.values()])
+        if shown.size and np.ptp(shown) * 1e3 < 1.0:  # an axis that (nearly) does not move: +-1 mm, no offset
+            mid = 0.5 * (shown.min() + shown.max()) * 1e3
+            ax.set_ylim(mid - 1.0, mid + 1.0)
+        ax.ticklabel_format(axis="y", useOffset=False)
+        ax.set_ylabel(f"{'xyz'[c]} [mm]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8, loc="upper right", ncol=1 + len(predictions))
+    axes[-1].set_xlabel("t [s]")
+    axes[0].set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def rmse_over_time(time: np.ndarray, series: dict, title: str, log: bool = False):
+    """RMSE(t) of paper Eq. 2, {label: (T,) [mm]} against time (T,) [s] (like Fig. 3E, 5C);
+    ``log``: logarithmic error axis (zeros are left out)."""
+    fig, ax = plt.subplots(figsize=(7.5, 3.2))
+    for k, (label, values) in enumerate(series.items()):
+        v = np.asarray(values, dtype=float)
+        if log:
+            v = np.where(v > 0, v, np.nan)
+        ax.plot(time, v, lw=0.9, color=f"C{k}", label=f"{label} (max {np.nanmax(np.r_[v, 0.0]):.3g} mm)")
+    if log:
+        ax.set_yscale("log")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("RMSE(t) [mm]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title)
+    fig.tight_layout()
+    return fig
+
+
+def predicted_shapes(times: np.ndarray, reference: np.ndarray, predicted: np.ndarray, title: str,
+                     modelled: np.ndarray | None = None):
+    """Rod centrelines at a few times (k,) [s]: reference (k, N, 3) [m] solid and predicted
+    (k, N, 3) [m] dashed, in mm, projected on the plane of the shape's two largest extents and,
+    when the axis along which the reference moves most is not one of them, also on the plane of
+    the largest extent and that axis; ``modelled`` (N,) bool marks the predicted nodes."""
+    ref, pred = np.asarray(reference, dtype=float), np.asarray(predicted, dtype=float)
+    extent = np.ptp(ref.reshape(-1, 3), axis=0)
+    a, b = sorted(int(i) for i in np.argsort(extent)[-2:])
+    moving = int(np.argmax(np.ptp(ref, axis=0).max(axis=0)))         # largest motion of any node
+    planes = [(a, b)] + ([(int(np.argmax(extent)), moving)] if moving not in (a, b) else [])
+    fig, axes = plt.subplots(len(planes), 1, figsize=(6.5, 4.2 * len(planes) + 0.6), squeeze=False)
+    colors = plt.cm.viridis(np.linspace(0, 0.9, len(times)))
+    m = None if modelled is None else np.asarray(modelled, dtype=bool)
+    for ax, (u, v) in zip(axes[:, 0], planes):
+        for k, t in enumerate(times):
+            ax.plot(ref[k, :, u] * 1e3, ref[k, :, v] * 1e3, color=colors[k], lw=1.4, label=f"t = {t:.3g} s")
+            ax.plot(pred[k, :, u] * 1e3, pred[k, :, v] * 1e3, color=colors[k], lw=1.2, ls="--")
+            if m is not None:
+                ax.plot(pred[k, m, u] * 1e3, pred[k, m, v] * 1e3, ls="none", marker=".", ms=3, color=colors[k])
+        ax.plot([], [], color="0.3", lw=1.4, label="reference")
+        ax.plot([], [], color="0.3", lw=1.2, ls="--", label="predicted")
+        ax.set_xlabel(f"{'xyz'[u]} [mm]")
+        ax.set_ylabel(f"{'xyz'[v]} [mm]")
+        if (u, v) == planes[0]:
+            ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=7, loc="best")
+    axes[0, 0].set_title(title)
+    fig.tight_layout()
+    return fig

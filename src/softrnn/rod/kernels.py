@@ -12,7 +12,28 @@ Array conventions (n nodes, n - 1 segments, K steps in the call, S saved samples
     Kp, Gp (n-1, 3)   previous segment strains (Kelvin-Voigt memory) [1/m], [-]
 
 ``advance_into`` never allocates and write results into arrays passed in.
+
+Structure, for compile time (a cold start compiles everything here; numba's Python front end
+costs far more than LLVM and grows faster than linearly with the size of a function):
+
+* one time step of ``advance_into`` is split into helpers that numba types and lowers on their
+  own: ``_applied_loads`` (per step), ``_segment`` (strains and stress resultants of segment a),
+  ``_node`` (translation, rotation with ``_solve_rotation``, sample outputs of node a) and
+  ``_quaternion_into``. They carry ``forceinline`` (LLVM inlines them into ``advance_into``, so
+  the machine code is that of one function: no call overhead per node) and ``_nrt=False`` (they
+  never allocate; without it the reference counting of the arrays they receive survives the
+  inlining as atomic calls in the node loop). They have no Python/C entry points and are not
+  cached themselves: their code is part of ``advance_into``'s cache entry, which numba keys on
+  this file, so they must stay in this module.
+* ``no_rewrites``: numba's IR rewrites cost time and mark operations with a constant operand
+  (``0.5 * x``) for a second, literal type resolution at lowering. Without them, take array
+  lengths with ``len(a)``, not ``a.shape[0]`` (a literal index into a tuple would compile a
+  numba overload).
+* loop-carried variables get their final type before the loop (``jq``, ``f0``), so that type
+  inference needs no extra pass over the function.
 """
+
+import math
 
 import numpy as np
 from numba import njit, prange
@@ -29,24 +50,44 @@ NEWTON_FAILED = 2
 _NEWTON_MAX_ITER = 12
 _NEWTON_RTOL = 1e-13
 
+# Helpers called only from compiled code (see the module docstring).
+_INLINE = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
+               forceinline=True, _nrt=False, no_rewrites=True)
 
-@njit(error_model="numpy", cache=True)
+
+@njit(**_INLINE)
 def _quaternion_into(M, q):
     """q[4] <- unit quaternion (w, x, y, z), w >= 0, of the rotation matrix M[3, 3] (Shepperd)."""
-    tr = M[0, 0] + M[1, 1] + M[2, 2]
+    m00 = M[0, 0]
+    m11 = M[1, 1]
+    m22 = M[2, 2]
+    tr = m00 + m11 + m22
+    # the largest of 4 w^2, 4 x^2, 4 y^2, 4 z^2 gives the best conditioned formula
     if tr > 0.0:
-        s = np.sqrt(tr + 1.0) * 2.0
-        w, x, y, z = 0.25 * s, (M[2, 1] - M[1, 2]) / s, (M[0, 2] - M[2, 0]) / s, (M[1, 0] - M[0, 1]) / s
-    elif M[0, 0] > M[1, 1] and M[0, 0] > M[2, 2]:
-        s = np.sqrt(1.0 + M[0, 0] - M[1, 1] - M[2, 2]) * 2.0
-        w, x, y, z = (M[2, 1] - M[1, 2]) / s, 0.25 * s, (M[0, 1] + M[1, 0]) / s, (M[0, 2] + M[2, 0]) / s
-    elif M[1, 1] > M[2, 2]:
-        s = np.sqrt(1.0 + M[1, 1] - M[0, 0] - M[2, 2]) * 2.0
-        w, x, y, z = (M[0, 2] - M[2, 0]) / s, (M[0, 1] + M[1, 0]) / s, 0.25 * s, (M[1, 2] + M[2, 1]) / s
+        s = math.sqrt(tr + 1.0) * 2.0
+        w = 0.25 * s
+        x = (M[2, 1] - M[1, 2]) / s
+        y = (M[0, 2] - M[2, 0]) / s
+        z = (M[1, 0] - M[0, 1]) / s
+    elif m00 > m11 and m00 > m22:
+        s = math.sqrt(1.0 + m00 - m11 - m22) * 2.0
+        w = (M[2, 1] - M[1, 2]) / s
+        x = 0.25 * s
+        y = (M[0, 1] + M[1, 0]) / s
+        z = (M[0, 2] + M[2, 0]) / s
+    elif m11 > m22:
+        s = math.sqrt(1.0 + m11 - m00 - m22) * 2.0
+        w = (M[0, 2] - M[2, 0]) / s
+        x = (M[0, 1] + M[1, 0]) / s
+        y = 0.25 * s
+        z = (M[1, 2] + M[2, 1]) / s
     else:
-        s = np.sqrt(1.0 + M[2, 2] - M[0, 0] - M[1, 1]) * 2.0
-        w, x, y, z = (M[1, 0] - M[0, 1]) / s, (M[0, 2] + M[2, 0]) / s, (M[1, 2] + M[2, 1]) / s, 0.25 * s
-    nrm = np.sqrt(w * w + x * x + y * y + z * z)
+        s = math.sqrt(1.0 + m22 - m00 - m11) * 2.0
+        w = (M[1, 0] - M[0, 1]) / s
+        x = (M[0, 2] + M[2, 0]) / s
+        y = (M[1, 2] + M[2, 1]) / s
+        z = 0.25 * s
+    nrm = math.sqrt(w * w + x * x + y * y + z * z)
     if w < 0.0:
         nrm = -nrm
     q[0] = w / nrm
@@ -55,12 +96,12 @@ def _quaternion_into(M, q):
     q[3] = z / nrm
 
 
-@njit(fastmath={"contract"}, error_model="numpy", cache=True)
+@njit(**_INLINE)
 def _solve_rotation(clamped, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol):
     """Newton on Phi(y) = J y + y x J y / 2 + (y.Jy) y / 4 + hc y - b from the start y (docs/lgvi.md
     section 2.5). Returns (converged, y, Phi(y)); for a clamped node, Phi at its prescribed y."""
-    it = 0
-    while True:
+    f0 = f1 = f2 = 0.0  # typed before the loop (no extra type-inference pass)
+    for it in range(_NEWTON_MAX_ITER + 1):
         jy0 = ja0 * y0
         jy1 = ja1 * y1
         jy2 = ja2 * y2
@@ -69,10 +110,9 @@ def _solve_rotation(clamped, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol):
         f1 = jy1 + 0.5 * (y2 * jy0 - y0 * jy2) + 0.25 * yjy * y1 + hc * y1 - b1
         f2 = jy2 + 0.5 * (y0 * jy1 - y1 * jy0) + 0.25 * yjy * y2 + hc * y2 - b2
         if clamped or abs(f0) + abs(f1) + abs(f2) <= tol:
+            return True, y0, y1, y2, f0, f1, f2
+        if it == _NEWTON_MAX_ITER:
             break
-        it += 1
-        if it > _NEWTON_MAX_ITER:
-            return False, y0, y1, y2, f0, f1, f2
         # DPhi = J + (y^ J - (Jy)^)/2 + (2 y (Jy)^T + (y.Jy) I)/4 + hc I
         dg = 0.25 * yjy + hc
         A00 = ja0 + 0.5 * y0 * jy0 + dg
@@ -98,10 +138,303 @@ def _solve_rotation(clamped, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol):
         y0 -= idet * (C00 * f0 + C01 * f1 + C02 * f2)
         y1 -= idet * (C10 * f0 + C11 * f1 + C12 * f2)
         y2 -= idet * (C20 * f0 + C21 * f1 + C22 * f2)
-    return True, y0, y1, y2, f0, f1, f2
+    return False, y0, y1, y2, f0, f1, f2
 
 
-@njit(fastmath={"contract"}, error_model="numpy", cache=True)
+@njit(**_INLINE)
+def _applied_loads(i, R, r, v, ext_idx, ext_w, pd_idx, pd_target, pd_gain, work_f):
+    """work_f <- applied world force and torque of every node at step i of the call."""
+    for a in range(len(work_f)):
+        for c in range(6):
+            work_f[a, c] = 0.0
+    for j in range(len(ext_idx)):
+        a = ext_idx[j]
+        for c in range(3):
+            work_f[a, c] += ext_w[i, j, c] + (R[a, c, 0] * ext_w[i, j, 6] + R[a, c, 1] * ext_w[i, j, 7]
+                                              + R[a, c, 2] * ext_w[i, j, 8])
+            work_f[a, 3 + c] += ext_w[i, j, 3 + c] + (R[a, c, 0] * ext_w[i, j, 9]
+                                                      + R[a, c, 1] * ext_w[i, j, 10]
+                                                      + R[a, c, 2] * ext_w[i, j, 11])
+    for j in range(len(pd_idx)):
+        a = pd_idx[j]
+        for c in range(3):
+            work_f[a, c] += pd_gain[j, 0] * (pd_target[i, j, c] - r[a, c]) - pd_gain[j, 1] * v[a, c]
+
+
+@njit(**_INLINE)
+def _segment(a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22,
+             l, h, C1, C2, D1, D2, K0, G0, Kp, Gp, kv_on, record):
+    """Stress resultants of segment a (nodes a, a + 1) in the old configuration, R_a = Ra..:
+    returns (n_a spatial force, T_a torque in frame a, T'_a = Q^T (T - p x c) torque carried to
+    node a + 1 in its frame, elastic energy of the segment when ``record``). Updates Kp, Gp when
+    ``kv_on``."""
+    Rb00 = R[a + 1, 0, 0]
+    Rb01 = R[a + 1, 0, 1]
+    Rb02 = R[a + 1, 0, 2]
+    Rb10 = R[a + 1, 1, 0]
+    Rb11 = R[a + 1, 1, 1]
+    Rb12 = R[a + 1, 1, 2]
+    Rb20 = R[a + 1, 2, 0]
+    Rb21 = R[a + 1, 2, 1]
+    Rb22 = R[a + 1, 2, 2]
+    # Q = R_a^T R_{a+1}
+    Q00 = Ra00 * Rb00 + Ra10 * Rb10 + Ra20 * Rb20
+    Q01 = Ra00 * Rb01 + Ra10 * Rb11 + Ra20 * Rb21
+    Q02 = Ra00 * Rb02 + Ra10 * Rb12 + Ra20 * Rb22
+    Q10 = Ra01 * Rb00 + Ra11 * Rb10 + Ra21 * Rb20
+    Q11 = Ra01 * Rb01 + Ra11 * Rb11 + Ra21 * Rb21
+    Q12 = Ra01 * Rb02 + Ra11 * Rb12 + Ra21 * Rb22
+    Q20 = Ra02 * Rb00 + Ra12 * Rb10 + Ra22 * Rb20
+    Q21 = Ra02 * Rb01 + Ra12 * Rb11 + Ra22 * Rb21
+    Q22 = Ra02 * Rb02 + Ra12 * Rb12 + Ra22 * Rb22
+    d0 = r[a + 1, 0] - r[a, 0]
+    d1 = r[a + 1, 1] - r[a, 1]
+    d2 = r[a + 1, 2] - r[a, 2]
+    # p = R_a^T d
+    p0 = Ra00 * d0 + Ra10 * d1 + Ra20 * d2
+    p1 = Ra01 * d0 + Ra11 * d1 + Ra21 * d2
+    p2 = Ra02 * d0 + Ra12 * d1 + Ra22 * d2
+    # x = cay^-1(Q) = 2/(1 + tr Q) vee(Q - Q^T)
+    s = 2.0 / (1.0 + Q00 + Q11 + Q22)
+    x0 = s * (Q21 - Q12)
+    x1 = s * (Q02 - Q20)
+    x2 = s * (Q10 - Q01)
+    # u = 2 (I + Q)^-1 p = p - x x p / 2
+    u0 = p0 - 0.5 * (x1 * p2 - x2 * p1)
+    u1 = p1 - 0.5 * (x2 * p0 - x0 * p2)
+    u2 = p2 - 0.5 * (x0 * p1 - x1 * p0)
+    il = 1.0 / l
+    ka0 = x0 * il
+    ka1 = x1 * il
+    ka2 = x2 * il
+    ga0 = u0 * il
+    ga1 = u1 * il
+    ga2 = u2 * il
+    eg0 = ga0 - G0[a, 0]
+    eg1 = ga1 - G0[a, 1]
+    eg2 = ga2 - G0[a, 2]
+    ek0 = ka0 - K0[a, 0]
+    ek1 = ka1 - K0[a, 1]
+    ek2 = ka2 - K0[a, 2]
+    N0 = C1[a, 0] * eg0
+    N1 = C1[a, 1] * eg1
+    N2 = C1[a, 2] * eg2
+    M0 = C2[a, 0] * ek0
+    M1 = C2[a, 1] * ek1
+    M2 = C2[a, 2] * ek2
+    e = 0.0
+    if record:
+        e = 0.5 * l * (N0 * eg0 + N1 * eg1 + N2 * eg2 + M0 * ek0 + M1 * ek1 + M2 * ek2)
+    if kv_on:
+        ih = 1.0 / h
+        N0 += D1[a, 0] * (ga0 - Gp[a, 0]) * ih
+        N1 += D1[a, 1] * (ga1 - Gp[a, 1]) * ih
+        N2 += D1[a, 2] * (ga2 - Gp[a, 2]) * ih
+        M0 += D2[a, 0] * (ka0 - Kp[a, 0]) * ih
+        M1 += D2[a, 1] * (ka1 - Kp[a, 1]) * ih
+        M2 += D2[a, 2] * (ka2 - Kp[a, 2]) * ih
+        Gp[a, 0] = ga0
+        Gp[a, 1] = ga1
+        Gp[a, 2] = ga2
+        Kp[a, 0] = ka0
+        Kp[a, 1] = ka1
+        Kp[a, 2] = ka2
+    # c = N + x x N / 2
+    c0 = N0 + 0.5 * (x1 * N2 - x2 * N1)
+    c1 = N1 + 0.5 * (x2 * N0 - x0 * N2)
+    c2 = N2 + 0.5 * (x0 * N1 - x1 * N0)
+    # T = M + x x M / 2 + x (x.M) / 4 + u x c / 2
+    xm = 0.25 * (x0 * M0 + x1 * M1 + x2 * M2)
+    T0 = M0 + 0.5 * (x1 * M2 - x2 * M1) + xm * x0 + 0.5 * (u1 * c2 - u2 * c1)
+    T1 = M1 + 0.5 * (x2 * M0 - x0 * M2) + xm * x1 + 0.5 * (u2 * c0 - u0 * c2)
+    T2 = M2 + 0.5 * (x0 * M1 - x1 * M0) + xm * x2 + 0.5 * (u0 * c1 - u1 * c0)
+    # n_a = R_a c (spatial)
+    n0 = Ra00 * c0 + Ra01 * c1 + Ra02 * c2
+    n1 = Ra10 * c0 + Ra11 * c1 + Ra12 * c2
+    n2 = Ra20 * c0 + Ra21 * c1 + Ra22 * c2
+    # T' = Q^T (T - p x c), carried to node a + 1
+    z0 = T0 - (p1 * c2 - p2 * c1)
+    z1 = T1 - (p2 * c0 - p0 * c2)
+    z2 = T2 - (p0 * c1 - p1 * c0)
+    q0 = Q00 * z0 + Q10 * z1 + Q20 * z2
+    q1 = Q01 * z0 + Q11 * z1 + Q21 * z2
+    q2 = Q02 * z0 + Q12 * z1 + Q22 * z2
+    return n0, n1, n2, T0, T1, T2, q0, q1, q2, e
+
+
+@njit(**_INLINE)
+def _node(a, i, row, record, h, l, F0, F1, F2, tb0, tb1, tb2,
+          R, r, v, w, mass, inertia, ct, cr, kind, presc_idx, presc_r, presc_R,
+          save_slot, out_v, out_w, out_rf, out_rt):
+    """Advance node a from the total non-inertial force F (world, without drag) and body torque
+    tb: r, v, w, R updated in place, outputs of the sample ``row`` written when ``record``.
+    Returns (status, kinetic energy of the node when ``record``)."""
+    m = mass[a]
+    ja0 = inertia[a, 0]
+    ja1 = inertia[a, 1]
+    ja2 = inertia[a, 2]
+    vo0 = v[a, 0]
+    vo1 = v[a, 1]
+    vo2 = v[a, 2]
+    wo0 = w[a, 0]
+    wo1 = w[a, 1]
+    wo2 = w[a, 2]
+    cta = ct[a]
+    kd = kind[a]
+    slot = save_slot[a]
+    # row of node a in the prescribed-motion arrays (-1: none); the last match, as a forward
+    # search would find; jq starts as an int64 (no extra type-inference pass)
+    jq = len(presc_idx) - 1
+    if kd == FREE:
+        jq = -1
+    while jq >= 0 and presc_idx[jq] != a:
+        jq -= 1
+    # ---- translation (T) ----
+    if kd == FREE:
+        den = 1.0 / (m + h * cta)
+        vn0 = (m * vo0 + h * F0) * den
+        vn1 = (m * vo1 + h * F1) * den
+        vn2 = (m * vo2 + h * F2) * den
+        dx0 = h * vn0
+        dx1 = h * vn1
+        dx2 = h * vn2
+        if not (dx0 * dx0 + dx1 * dx1 + dx2 * dx2 < l * l):
+            return DIVERGED, 0.0
+        r[a, 0] += dx0
+        r[a, 1] += dx1
+        r[a, 2] += dx2
+    else:
+        if jq >= 0:
+            vn0 = (presc_r[i + 1, jq, 0] - r[a, 0]) / h
+            vn1 = (presc_r[i + 1, jq, 1] - r[a, 1]) / h
+            vn2 = (presc_r[i + 1, jq, 2] - r[a, 2]) / h
+            r[a, 0] = presc_r[i + 1, jq, 0]
+            r[a, 1] = presc_r[i + 1, jq, 1]
+            r[a, 2] = presc_r[i + 1, jq, 2]
+        else:
+            vn0 = 0.0
+            vn1 = 0.0
+            vn2 = 0.0
+        if record and slot >= 0:
+            # reaction = inertia + drag - applied
+            out_rf[row, slot, 0] = (m * (vn0 - vo0) / h + cta * vn0) - F0
+            out_rf[row, slot, 1] = (m * (vn1 - vo1) / h + cta * vn1) - F1
+            out_rf[row, slot, 2] = (m * (vn2 - vo2) / h + cta * vn2) - F2
+    # ---- rotation (R) ----
+    # b = h pi~ ; pi~ = J w- - h/2 w- x J w- + h^2/4 (w- . J w-) w- + h tb
+    jw0 = ja0 * wo0
+    jw1 = ja1 * wo1
+    jw2 = ja2 * wo2
+    wjw = wo0 * jw0 + wo1 * jw1 + wo2 * jw2
+    hh = h * h
+    half_h = 0.5 * h
+    cw = 0.25 * hh * wjw
+    b0 = h * (jw0 - half_h * (wo1 * jw2 - wo2 * jw1) + cw * wo0 + h * tb0)
+    b1 = h * (jw1 - half_h * (wo2 * jw0 - wo0 * jw2) + cw * wo1 + h * tb1)
+    b2 = h * (jw2 - half_h * (wo0 * jw1 - wo1 * jw0) + cw * wo2 + h * tb2)
+    hc = h * cr[a]
+    if kd == CLAMPED:
+        y0 = 0.0
+        y1 = 0.0
+        y2 = 0.0
+        if jq >= 0:
+            # y = cay^-1(A), A = R^T R_next: s = 2 / (1 + tr A), y = s vee(A - A^T)
+            tr = 1.0
+            sk0 = 0.0
+            sk1 = 0.0
+            sk2 = 0.0
+            for c in range(3):
+                R0 = R[a, c, 0]
+                R1 = R[a, c, 1]
+                R2 = R[a, c, 2]
+                P0 = presc_R[i + 1, jq, c, 0]
+                P1 = presc_R[i + 1, jq, c, 1]
+                P2 = presc_R[i + 1, jq, c, 2]
+                tr += R0 * P0 + R1 * P1 + R2 * P2
+                sk0 += R2 * P1 - R1 * P2
+                sk1 += R0 * P2 - R2 * P0
+                sk2 += R1 * P0 - R0 * P1
+            s = 2.0 / tr
+            y0 = s * sk0
+            y1 = s * sk1
+            y2 = s * sk2
+    else:
+        # linearised solution as the start: one Newton iteration fewer than y = h w-
+        y0 = b0 / (ja0 + hc)
+        y1 = b1 / (ja1 + hc)
+        y2 = b2 / (ja2 + hc)
+    # Newton on Phi(y) = J y + y x J y / 2 + (y.Jy) y / 4 + h cr y - b; for a clamped node
+    # y is prescribed and Phi(y) = h^2 (body reaction torque)
+    tol = _NEWTON_RTOL * (abs(b0) + abs(b1) + abs(b2)
+                          + (ja0 + ja1 + ja2) * h * (abs(wo0) + abs(wo1) + abs(wo2)))
+    ok, y0, y1, y2, f0, f1, f2 = _solve_rotation(kd == CLAMPED, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol)
+    if not ok:
+        return NEWTON_FAILED, 0.0
+    if kd != CLAMPED:
+        if not (y0 * y0 + y1 * y1 + y2 * y2 < 0.25):
+            return DIVERGED, 0.0
+    ih = 1.0 / h
+    wn0 = y0 * ih
+    wn1 = y1 * ih
+    wn2 = y2 * ih
+    e_kin = 0.0
+    if record:
+        jwn0 = ja0 * wn0
+        jwn1 = ja1 * wn1
+        jwn2 = ja2 * wn2
+        e_kin = 0.25 * (m * (vo0 * vo0 + vo1 * vo1 + vo2 * vo2 + vn0 * vn0 + vn1 * vn1 + vn2 * vn2)
+                        + wjw + wn0 * jwn0 + wn1 * jwn1 + wn2 * jwn2)
+        if slot >= 0:
+            mw0 = 0.5 * (wo0 + wn0)
+            mw1 = 0.5 * (wo1 + wn1)
+            mw2 = 0.5 * (wo2 + wn2)
+            for c in range(3):
+                out_w[row, slot, c] = R[a, c, 0] * mw0 + R[a, c, 1] * mw1 + R[a, c, 2] * mw2
+            out_v[row, slot, 0] = 0.5 * (vo0 + vn0)
+            out_v[row, slot, 1] = 0.5 * (vo1 + vn1)
+            out_v[row, slot, 2] = 0.5 * (vo2 + vn2)
+            # reaction torque: Phi(y) / h^2 (body) of a clamped node, in the world frame; none
+            # for pinned and free nodes (and no reaction force for free ones)
+            ihh = 1.0 / hh
+            for c in range(3):
+                rt = 0.0
+                if kd == CLAMPED:
+                    rt = (R[a, c, 0] * f0 + R[a, c, 1] * f1 + R[a, c, 2] * f2) * ihh
+                out_rt[row, slot, c] = rt
+                if kd == FREE:
+                    out_rf[row, slot, c] = 0.0
+    v[a, 0] = vn0
+    v[a, 1] = vn1
+    v[a, 2] = vn2
+    w[a, 0] = wn0
+    w[a, 1] = wn1
+    w[a, 2] = wn2
+    # R <- R cay(y)
+    if kd == CLAMPED and y0 == 0.0 and y1 == 0.0 and y2 == 0.0:
+        return OK, e_kin
+    yy = y0 * y0 + y1 * y1 + y2 * y2
+    ca = 4.0 / (4.0 + yy)
+    cb = 0.5 * ca
+    F00 = 1.0 - cb * (y1 * y1 + y2 * y2)
+    F11 = 1.0 - cb * (y0 * y0 + y2 * y2)
+    F22 = 1.0 - cb * (y0 * y0 + y1 * y1)
+    F01 = -ca * y2 + cb * y0 * y1
+    F10 = ca * y2 + cb * y0 * y1
+    F02 = ca * y1 + cb * y0 * y2
+    F20 = -ca * y1 + cb * y0 * y2
+    F12 = -ca * y0 + cb * y1 * y2
+    F21 = ca * y0 + cb * y1 * y2
+    for c in range(3):
+        R0 = R[a, c, 0]
+        R1 = R[a, c, 1]
+        R2 = R[a, c, 2]
+        R[a, c, 0] = R0 * F00 + R1 * F10 + R2 * F20
+        R[a, c, 1] = R0 * F01 + R1 * F11 + R2 * F21
+        R[a, c, 2] = R0 * F02 + R1 * F12 + R2 * F22
+    return OK, e_kin
+
+
+@njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
 def advance_into(
     R, r, v, w, Kp, Gp,
     length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
@@ -125,28 +458,17 @@ def advance_into(
         and out_e[row] = [kinetic, elastic, gravitational] energy [J].
     work_f (n, 6): scratch for the applied world force/torque of each node.
     """
-    n = r.shape[0]
+    n = len(r)
     l = length
+    g0 = gravity[0]
+    g1 = gravity[1]
+    g2 = gravity[2]
     for i in range(n_steps):
         k = k0 + i
         record = (k % stride) == 0
         row = k // stride - s0
         # ---- applied loads at t_k into work_f (world force, world torque) ----
-        for a in range(n):
-            for c in range(6):
-                work_f[a, c] = 0.0
-        for j in range(ext_idx.shape[0]):
-            a = ext_idx[j]
-            for c in range(3):
-                work_f[a, c] += ext_w[i, j, c] + (R[a, c, 0] * ext_w[i, j, 6] + R[a, c, 1] * ext_w[i, j, 7]
-                                                  + R[a, c, 2] * ext_w[i, j, 8])
-                work_f[a, 3 + c] += ext_w[i, j, 3 + c] + (R[a, c, 0] * ext_w[i, j, 9]
-                                                          + R[a, c, 1] * ext_w[i, j, 10]
-                                                          + R[a, c, 2] * ext_w[i, j, 11])
-        for j in range(pd_idx.shape[0]):
-            a = pd_idx[j]
-            for c in range(3):
-                work_f[a, c] += pd_gain[j, 0] * (pd_target[i, j, c] - r[a, c]) - pd_gain[j, 1] * v[a, c]
+        _applied_loads(i, R, r, v, ext_idx, ext_w, pd_idx, pd_target, pd_gain, work_f)
         e_kin = 0.0
         e_el = 0.0
         e_g = 0.0
@@ -157,128 +479,26 @@ def advance_into(
         tp0 = 0.0
         tp1 = 0.0
         tp2 = 0.0
-        Rb00 = R[0, 0, 0]
-        Rb01 = R[0, 0, 1]
-        Rb02 = R[0, 0, 2]
-        Rb10 = R[0, 1, 0]
-        Rb11 = R[0, 1, 1]
-        Rb12 = R[0, 1, 2]
-        Rb20 = R[0, 2, 0]
-        Rb21 = R[0, 2, 1]
-        Rb22 = R[0, 2, 2]
         for a in range(n):
-            # ---------------- segment a (nodes a, a + 1), old configuration ----------------
-            # R_a (old) is R_{a+1} of the previous segment, kept in registers
-            Ra00 = Rb00
-            Ra01 = Rb01
-            Ra02 = Rb02
-            Ra10 = Rb10
-            Ra11 = Rb11
-            Ra12 = Rb12
-            Ra20 = Rb20
-            Ra21 = Rb21
-            Ra22 = Rb22
-            n0 = 0.0
-            n1 = 0.0
-            n2 = 0.0
-            T0 = 0.0
-            T1 = 0.0
-            T2 = 0.0
-            q0 = 0.0
-            q1 = 0.0
-            q2 = 0.0
+            # R_a is still the old rotation: node a is updated at the end of this iteration
+            Ra00 = R[a, 0, 0]
+            Ra01 = R[a, 0, 1]
+            Ra02 = R[a, 0, 2]
+            Ra10 = R[a, 1, 0]
+            Ra11 = R[a, 1, 1]
+            Ra12 = R[a, 1, 2]
+            Ra20 = R[a, 2, 0]
+            Ra21 = R[a, 2, 1]
+            Ra22 = R[a, 2, 2]
+            # ---- segment a (nodes a, a + 1), old configuration; none after the last node ----
+            # n_a (world), T_a (frame a), T'_a (frame a + 1)
+            n0 = n1 = n2 = T0 = T1 = T2 = q0 = q1 = q2 = 0.0
             if a < n - 1:
-                Rb00 = R[a + 1, 0, 0]
-                Rb01 = R[a + 1, 0, 1]
-                Rb02 = R[a + 1, 0, 2]
-                Rb10 = R[a + 1, 1, 0]
-                Rb11 = R[a + 1, 1, 1]
-                Rb12 = R[a + 1, 1, 2]
-                Rb20 = R[a + 1, 2, 0]
-                Rb21 = R[a + 1, 2, 1]
-                Rb22 = R[a + 1, 2, 2]
-                # Q = R_a^T R_{a+1}
-                Q00 = Ra00 * Rb00 + Ra10 * Rb10 + Ra20 * Rb20
-                Q01 = Ra00 * Rb01 + Ra10 * Rb11 + Ra20 * Rb21
-                Q02 = Ra00 * Rb02 + Ra10 * Rb12 + Ra20 * Rb22
-                Q10 = Ra01 * Rb00 + Ra11 * Rb10 + Ra21 * Rb20
-                Q11 = Ra01 * Rb01 + Ra11 * Rb11 + Ra21 * Rb21
-                Q12 = Ra01 * Rb02 + Ra11 * Rb12 + Ra21 * Rb22
-                Q20 = Ra02 * Rb00 + Ra12 * Rb10 + Ra22 * Rb20
-                Q21 = Ra02 * Rb01 + Ra12 * Rb11 + Ra22 * Rb21
-                Q22 = Ra02 * Rb02 + Ra12 * Rb12 + Ra22 * Rb22
-                d0 = r[a + 1, 0] - r[a, 0]
-                d1 = r[a + 1, 1] - r[a, 1]
-                d2 = r[a + 1, 2] - r[a, 2]
-                # p = R_a^T d
-                p0 = Ra00 * d0 + Ra10 * d1 + Ra20 * d2
-                p1 = Ra01 * d0 + Ra11 * d1 + Ra21 * d2
-                p2 = Ra02 * d0 + Ra12 * d1 + Ra22 * d2
-                # x = cay^-1(Q) = 2/(1 + tr Q) vee(Q - Q^T)
-                s = 2.0 / (1.0 + Q00 + Q11 + Q22)
-                x0 = s * (Q21 - Q12)
-                x1 = s * (Q02 - Q20)
-                x2 = s * (Q10 - Q01)
-                # u = 2 (I + Q)^-1 p = p - x x p / 2
-                u0 = p0 - 0.5 * (x1 * p2 - x2 * p1)
-                u1 = p1 - 0.5 * (x2 * p0 - x0 * p2)
-                u2 = p2 - 0.5 * (x0 * p1 - x1 * p0)
-                il = 1.0 / l
-                ka0 = x0 * il
-                ka1 = x1 * il
-                ka2 = x2 * il
-                ga0 = u0 * il
-                ga1 = u1 * il
-                ga2 = u2 * il
-                eg0 = ga0 - G0[a, 0]
-                eg1 = ga1 - G0[a, 1]
-                eg2 = ga2 - G0[a, 2]
-                ek0 = ka0 - K0[a, 0]
-                ek1 = ka1 - K0[a, 1]
-                ek2 = ka2 - K0[a, 2]
-                N0 = C1[a, 0] * eg0
-                N1 = C1[a, 1] * eg1
-                N2 = C1[a, 2] * eg2
-                M0 = C2[a, 0] * ek0
-                M1 = C2[a, 1] * ek1
-                M2 = C2[a, 2] * ek2
-                if record:
-                    e_el += 0.5 * l * (N0 * eg0 + N1 * eg1 + N2 * eg2 + M0 * ek0 + M1 * ek1 + M2 * ek2)
-                if kv_on:
-                    ih = 1.0 / h
-                    N0 += D1[a, 0] * (ga0 - Gp[a, 0]) * ih
-                    N1 += D1[a, 1] * (ga1 - Gp[a, 1]) * ih
-                    N2 += D1[a, 2] * (ga2 - Gp[a, 2]) * ih
-                    M0 += D2[a, 0] * (ka0 - Kp[a, 0]) * ih
-                    M1 += D2[a, 1] * (ka1 - Kp[a, 1]) * ih
-                    M2 += D2[a, 2] * (ka2 - Kp[a, 2]) * ih
-                    Gp[a, 0] = ga0
-                    Gp[a, 1] = ga1
-                    Gp[a, 2] = ga2
-                    Kp[a, 0] = ka0
-                    Kp[a, 1] = ka1
-                    Kp[a, 2] = ka2
-                # c = N + x x N / 2
-                c0 = N0 + 0.5 * (x1 * N2 - x2 * N1)
-                c1 = N1 + 0.5 * (x2 * N0 - x0 * N2)
-                c2 = N2 + 0.5 * (x0 * N1 - x1 * N0)
-                # T = M + x x M / 2 + x (x.M) / 4 + u x c / 2
-                xm = 0.25 * (x0 * M0 + x1 * M1 + x2 * M2)
-                T0 = M0 + 0.5 * (x1 * M2 - x2 * M1) + xm * x0 + 0.5 * (u1 * c2 - u2 * c1)
-                T1 = M1 + 0.5 * (x2 * M0 - x0 * M2) + xm * x1 + 0.5 * (u2 * c0 - u0 * c2)
-                T2 = M2 + 0.5 * (x0 * M1 - x1 * M0) + xm * x2 + 0.5 * (u0 * c1 - u1 * c0)
-                # n_a = R_a c (spatial)
-                n0 = Ra00 * c0 + Ra01 * c1 + Ra02 * c2
-                n1 = Ra10 * c0 + Ra11 * c1 + Ra12 * c2
-                n2 = Ra20 * c0 + Ra21 * c1 + Ra22 * c2
-                # T' = Q^T (T - p x c), carried to node a + 1
-                z0 = T0 - (p1 * c2 - p2 * c1)
-                z1 = T1 - (p2 * c0 - p0 * c2)
-                z2 = T2 - (p0 * c1 - p1 * c0)
-                q0 = Q00 * z0 + Q10 * z1 + Q20 * z2
-                q1 = Q01 * z0 + Q11 * z1 + Q21 * z2
-                q2 = Q02 * z0 + Q12 * z1 + Q22 * z2
-            # ---------------- node a ----------------
+                n0, n1, n2, T0, T1, T2, q0, q1, q2, e = _segment(
+                    a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22,
+                    l, h, C1, C2, D1, D2, K0, G0, Kp, Gp, kv_on, record)
+                e_el += e
+            # ---- node a: internal force and torque from segments a - 1 and a, then the update ----
             fi0 = n0 - np0
             fi1 = n1 - np1
             fi2 = n2 - np2
@@ -292,189 +512,32 @@ def advance_into(
             tp1 = q1
             tp2 = q2
             m = mass[a]
-            ja0 = inertia[a, 0]
-            ja1 = inertia[a, 1]
-            ja2 = inertia[a, 2]
-            fe0 = work_f[a, 0]
-            fe1 = work_f[a, 1]
-            fe2 = work_f[a, 2]
             te0 = work_f[a, 3]
             te1 = work_f[a, 4]
             te2 = work_f[a, 5]
             # total force on the node except inertia and viscous drag
-            F0 = fi0 + fe0 + m * gravity[0]
-            F1 = fi1 + fe1 + m * gravity[1]
-            F2 = fi2 + fe2 + m * gravity[2]
+            F0 = fi0 + work_f[a, 0] + m * g0
+            F1 = fi1 + work_f[a, 1] + m * g1
+            F2 = fi2 + work_f[a, 2] + m * g2
             # body torque
             tb0 = ti0 + Ra00 * te0 + Ra10 * te1 + Ra20 * te2
             tb1 = ti1 + Ra01 * te0 + Ra11 * te1 + Ra21 * te2
             tb2 = ti2 + Ra02 * te0 + Ra12 * te1 + Ra22 * te2
-            vo0 = v[a, 0]
-            vo1 = v[a, 1]
-            vo2 = v[a, 2]
-            wo0 = w[a, 0]
-            wo1 = w[a, 1]
-            wo2 = w[a, 2]
-            kd = kind[a]
-            slot = save_slot[a]
-            jq = -1
-            if kd != FREE:
-                for j in range(presc_idx.shape[0]):
-                    if presc_idx[j] == a:
-                        jq = j
             if record:
-                e_g -= m * (gravity[0] * r[a, 0] + gravity[1] * r[a, 1] + gravity[2] * r[a, 2])
+                e_g -= m * (g0 * r[a, 0] + g1 * r[a, 1] + g2 * r[a, 2])
+                slot = save_slot[a]
                 if slot >= 0:
                     for c in range(3):
                         out_r[row, slot, c] = r[a, c]
                         out_f[row, slot, c] = work_f[a, c]
                         out_t[row, slot, c] = work_f[a, 3 + c]
                     _quaternion_into(R[a], out_q[row, slot])
-            # ---- translation (T) ----
-            if kd == FREE:
-                den = 1.0 / (m + h * ct[a])
-                vn0 = (m * vo0 + h * F0) * den
-                vn1 = (m * vo1 + h * F1) * den
-                vn2 = (m * vo2 + h * F2) * den
-                dx0 = h * vn0
-                dx1 = h * vn1
-                dx2 = h * vn2
-                if not (dx0 * dx0 + dx1 * dx1 + dx2 * dx2 < l * l):
-                    return DIVERGED, k
-                r[a, 0] += dx0
-                r[a, 1] += dx1
-                r[a, 2] += dx2
-            else:
-                if jq >= 0:
-                    vn0 = (presc_r[i + 1, jq, 0] - r[a, 0]) / h
-                    vn1 = (presc_r[i + 1, jq, 1] - r[a, 1]) / h
-                    vn2 = (presc_r[i + 1, jq, 2] - r[a, 2]) / h
-                    r[a, 0] = presc_r[i + 1, jq, 0]
-                    r[a, 1] = presc_r[i + 1, jq, 1]
-                    r[a, 2] = presc_r[i + 1, jq, 2]
-                else:
-                    vn0 = 0.0
-                    vn1 = 0.0
-                    vn2 = 0.0
-                if record and slot >= 0:
-                    # reaction = inertia + drag - applied
-                    out_rf[row, slot, 0] = (m * (vn0 - vo0) / h + ct[a] * vn0) - F0
-                    out_rf[row, slot, 1] = (m * (vn1 - vo1) / h + ct[a] * vn1) - F1
-                    out_rf[row, slot, 2] = (m * (vn2 - vo2) / h + ct[a] * vn2) - F2
-            # ---- rotation (R) ----
-            # b = h pi~ ; pi~ = J w- - h/2 w- x J w- + h^2/4 (w- . J w-) w- + h tb
-            jw0 = ja0 * wo0
-            jw1 = ja1 * wo1
-            jw2 = ja2 * wo2
-            wjw = wo0 * jw0 + wo1 * jw1 + wo2 * jw2
-            hh = h * h
-            b0 = h * (jw0 - 0.5 * h * (wo1 * jw2 - wo2 * jw1) + 0.25 * hh * wjw * wo0 + h * tb0)
-            b1 = h * (jw1 - 0.5 * h * (wo2 * jw0 - wo0 * jw2) + 0.25 * hh * wjw * wo1 + h * tb1)
-            b2 = h * (jw2 - 0.5 * h * (wo0 * jw1 - wo1 * jw0) + 0.25 * hh * wjw * wo2 + h * tb2)
-            hc = h * cr[a]
-            if kd == CLAMPED:
-                y0 = 0.0
-                y1 = 0.0
-                y2 = 0.0
-                if jq >= 0:
-                    # y = cay^-1(R^T R_next)
-                    A00 = 0.0
-                    A11 = 0.0
-                    A22 = 0.0
-                    A01 = 0.0
-                    A10 = 0.0
-                    A02 = 0.0
-                    A20 = 0.0
-                    A12 = 0.0
-                    A21 = 0.0
-                    for c in range(3):
-                        A00 += R[a, c, 0] * presc_R[i + 1, jq, c, 0]
-                        A11 += R[a, c, 1] * presc_R[i + 1, jq, c, 1]
-                        A22 += R[a, c, 2] * presc_R[i + 1, jq, c, 2]
-                        A01 += R[a, c, 0] * presc_R[i + 1, jq, c, 1]
-                        A10 += R[a, c, 1] * presc_R[i + 1, jq, c, 0]
-                        A02 += R[a, c, 0] * presc_R[i + 1, jq, c, 2]
-                        A20 += R[a, c, 2] * presc_R[i + 1, jq, c, 0]
-                        A12 += R[a, c, 1] * presc_R[i + 1, jq, c, 2]
-                        A21 += R[a, c, 2] * presc_R[i + 1, jq, c, 1]
-                    s = 2.0 / (1.0 + A00 + A11 + A22)
-                    y0 = s * (A21 - A12)
-                    y1 = s * (A02 - A20)
-                    y2 = s * (A10 - A01)
-            else:
-                # linearised solution as the start: one Newton iteration fewer than y = h w-
-                y0 = b0 / (ja0 + hc)
-                y1 = b1 / (ja1 + hc)
-                y2 = b2 / (ja2 + hc)
-            # Newton on Phi(y) = J y + y x J y / 2 + (y.Jy) y / 4 + h cr y - b; for a clamped node
-            # y is prescribed and Phi(y) = h^2 (body reaction torque)
-            tol = _NEWTON_RTOL * (abs(b0) + abs(b1) + abs(b2)
-                                  + (ja0 + ja1 + ja2) * h * (abs(wo0) + abs(wo1) + abs(wo2)))
-            ok, y0, y1, y2, f0, f1, f2 = _solve_rotation(kd == CLAMPED, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol)
-            if not ok:
-                return NEWTON_FAILED, k
-            if kd != CLAMPED:
-                if not (y0 * y0 + y1 * y1 + y2 * y2 < 0.25):
-                    return DIVERGED, k
-            ih = 1.0 / h
-            wn0 = y0 * ih
-            wn1 = y1 * ih
-            wn2 = y2 * ih
-            if record:
-                jwn0 = ja0 * wn0
-                jwn1 = ja1 * wn1
-                jwn2 = ja2 * wn2
-                e_kin += 0.25 * (m * (vo0 * vo0 + vo1 * vo1 + vo2 * vo2 + vn0 * vn0 + vn1 * vn1 + vn2 * vn2)
-                                 + wjw + wn0 * jwn0 + wn1 * jwn1 + wn2 * jwn2)
-                if slot >= 0:
-                    mw0 = 0.5 * (wo0 + wn0)
-                    mw1 = 0.5 * (wo1 + wn1)
-                    mw2 = 0.5 * (wo2 + wn2)
-                    for c in range(3):
-                        out_w[row, slot, c] = R[a, c, 0] * mw0 + R[a, c, 1] * mw1 + R[a, c, 2] * mw2
-                    out_v[row, slot, 0] = 0.5 * (vo0 + vn0)
-                    out_v[row, slot, 1] = 0.5 * (vo1 + vn1)
-                    out_v[row, slot, 2] = 0.5 * (vo2 + vn2)
-                    if kd == CLAMPED:
-                        # body reaction torque Phi(y) / h^2, reported in the world frame
-                        ihh = 1.0 / hh
-                        for c in range(3):
-                            out_rt[row, slot, c] = (R[a, c, 0] * f0 + R[a, c, 1] * f1 + R[a, c, 2] * f2) * ihh
-                    elif kd == PINNED:
-                        for c in range(3):
-                            out_rt[row, slot, c] = 0.0
-                    else:
-                        for c in range(3):
-                            out_rf[row, slot, c] = 0.0
-                            out_rt[row, slot, c] = 0.0
-            v[a, 0] = vn0
-            v[a, 1] = vn1
-            v[a, 2] = vn2
-            w[a, 0] = wn0
-            w[a, 1] = wn1
-            w[a, 2] = wn2
-            # R <- R cay(y)
-            if kd == CLAMPED and y0 == 0.0 and y1 == 0.0 and y2 == 0.0:
-                continue
-            yy = y0 * y0 + y1 * y1 + y2 * y2
-            ca = 4.0 / (4.0 + yy)
-            cb = 0.5 * ca
-            F00 = 1.0 - cb * (y1 * y1 + y2 * y2)
-            F11 = 1.0 - cb * (y0 * y0 + y2 * y2)
-            F22 = 1.0 - cb * (y0 * y0 + y1 * y1)
-            F01 = -ca * y2 + cb * y0 * y1
-            F10 = ca * y2 + cb * y0 * y1
-            F02 = ca * y1 + cb * y0 * y2
-            F20 = -ca * y1 + cb * y0 * y2
-            F12 = -ca * y0 + cb * y1 * y2
-            F21 = ca * y0 + cb * y1 * y2
-            for c in range(3):
-                R0 = R[a, c, 0]
-                R1 = R[a, c, 1]
-                R2 = R[a, c, 2]
-                R[a, c, 0] = R0 * F00 + R1 * F10 + R2 * F20
-                R[a, c, 1] = R0 * F01 + R1 * F11 + R2 * F21
-                R[a, c, 2] = R0 * F02 + R1 * F12 + R2 * F22
+            status, ek = _node(a, i, row, record, h, l, F0, F1, F2, tb0, tb1, tb2,
+                               R, r, v, w, mass, inertia, ct, cr, kind, presc_idx, presc_r, presc_R,
+                               save_slot, out_v, out_w, out_rf, out_rt)
+            if status != OK:
+                return status, k
+            e_kin += ek
         if record:
             out_e[row, 0] = e_kin
             out_e[row, 1] = e_el

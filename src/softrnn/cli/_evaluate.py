@@ -1,0 +1,125 @@
+"""softrnn evaluate MODEL DATA.h5 [--json out.json] [--figures DIR] [--generalisation]: a node model's
+errors per axis [mm] and RMSE(t) (paper Eq. 2), one step ahead and free running, beside the paper's."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..io_util import atomic_write_text
+from ._progress import Bar
+
+NAME = "evaluate"
+HELP = ("evaluate a trained node model on a data set: max/mean errors per axis [mm], % of the rod length "
+        "and RMSE(t), one step ahead and free running, beside the paper's figures")
+
+
+def add_args(p):
+    p.add_argument("model", help="a model folder written by 'softrnn train'")
+    p.add_argument("data", help="an HDF5 data set storing the model's node and neighbours")
+    p.add_argument("--group", default=None, help="the trajectory's group inside a sweep file")
+    p.add_argument("--generalisation", action="store_true",
+                   help="evaluate on the whole record (data of another scenario the model never saw) "
+                        "instead of the test span")
+    p.add_argument("--json", default=None, metavar="PATH", help="also write the report as JSON")
+    p.add_argument("--figures", default=None, metavar="DIR",
+                   help="write predicted vs reference per axis (prediction.png), RMSE(t) (rmse.png) and "
+                        "the RMSE(t) series (rmse_t.csv) to this folder")
+    p.add_argument("--no-free-running", action="store_true", help="only the one-step-ahead evaluation")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def run(args) -> int:
+    from ..surrogate.artifact import load_model
+    from ..surrogate.evaluate import evaluate
+
+    model = load_model(args.model)
+    with Bar(f"free-running {Path(args.data).name}", unit="step",
+             enabled=not args.quiet and not args.no_free_running) as bar:
+        ev = evaluate(model, args.data, group=args.group, generalisation=args.generalisation,
+                      free=not args.no_free_running, progress=bar, model_name=str(args.model))
+    report = ev.to_json()
+    print(format_report(report))
+    if args.json:
+        atomic_write_text(args.json, json.dumps(report, indent=2) + "\n")
+        print(f"evaluate: wrote {args.json}")
+    if args.figures:
+        for path in write_figures(ev, args.figures):
+            print(f"evaluate: wrote {path}")
+    return 0
+
+
+def _row(label: str, values, fmt: str = "{:9.3g}") -> str:
+    if values is None:
+        return f"  {label:<36}" + "".join(f"{'-':>9}" for _ in range(3))
+    return f"  {label:<36}" + "".join(fmt.format(v) for v in values)
+
+
+def format_report(r: dict) -> str:
+    """The text ``softrnn evaluate`` prints for an ``Evaluation.to_json()`` report."""
+    neigh = ", ".join(map(str, r["neighbours"])) or "none"
+    wrench = {"none": "", "force": " + force", "wrench": " + force, torque"}.get(r["wrench"], "")
+    name = f" ({r['scenario_name']})" if r.get("scenario_name") else ""
+    lines = [f"evaluate: node {r['node']} (neighbours {neigh}; history {r['history']}; {r['inputs']}{wrench}) "
+             f"of {r['model'] or 'the model'} on {r['data'] or 'the data'}{name}"]
+    length = f"rod length {r['length_m']:g} m" if r.get("length_m") else "rod length unknown (no % of length)"
+    lines.append(f"  span: {r['span']}, samples {r['span_samples'][0]}..{r['span_samples'][1]} "
+                 f"(t = {r['span_s'][0]:g} .. {r['span_s'][1]:g} s, {r['n_targets']} targets); {length}")
+    if r.get("trained_on") and r.get("scenario_name") and r["trained_on"] != r["scenario_name"] \
+            and r["span"] == "test":
+        lines.append(f"  note: the model was trained on {r['trained_on']!r}; for another scenario's data, "
+                     f"--generalisation evaluates the whole record")
+    lines.append(f"  {'':<36}{'x':>9}{'y':>9}{'z':>9}")
+    blocks = [("one step", r["one_step"])]
+    fr = r.get("free_running")
+    if fr and not fr["diverged"]:
+        blocks.append(("free running", fr))
+    paper = r.get("paper")
+    if paper:
+        blocks.append((f"paper {paper['section']} {paper['figures']}", paper))
+    for label, m in blocks:
+        lines.append(_row(f"{label}: max [mm]", m["max_abs_mm"]))
+        lines.append(_row("  mean [mm]", m["mean_abs_mm"]))
+        lines.append(_row("  max [% of length]", m["max_pct_of_length"]))
+    rmse = [f"one step {r['one_step']['rmse_mm']:.3g} mm (max {r['one_step']['max_rmse_t_mm']:.3g})"]
+    if fr and not fr["diverged"]:
+        rmse.append(f"free running {fr['rmse_mm']:.3g} mm (max {fr['max_rmse_t_mm']:.3g}; neighbours from the "
+                    f"reference)")
+    lines.append("  RMSE over the span: " + ", ".join(rmse))
+    if fr and fr["diverged"]:
+        lines.append(f"  free running: diverged at t = {fr['time_s']:g} s (sample {fr['sample']}): the model's "
+                     f"prediction left the +-16 m range when fed its own outputs")
+    if paper and paper.get("predicted_node") is not None:
+        lines.append(f"  (the paper's figures are for its node {paper['predicted_node']}, as the paper numbers it)")
+    return "\n".join(lines)
+
+
+def write_figures(ev, folder) -> list:
+    """prediction.png (per axis, like Fig. 3D), rmse.png (RMSE(t), like Fig. 3E) and rmse_t.csv in
+    ``folder``; returns the paths."""
+    from .. import plotting
+    from ..pictures import save_figure
+
+    folder = Path(folder)
+    r = ev.info
+    what = "whole record" if r["span"] == "whole record" else "test span"
+    title = f"{r.get('scenario_name') or 'data'}: node {r['node']}, {what}"
+    preds = {"one step": ev.one_step.predicted}
+    rmse = {"one step": ev.one_step_errors.rmse_t_mm}
+    if ev.free_running is not None:
+        preds["free running"] = ev.free_running.predicted
+        rmse["free running"] = ev.free_running_errors.rmse_t_mm
+    out = []
+    fig = plotting.prediction_vs_reference(ev.one_step.time, ev.one_step.reference, preds, title)
+    save_figure(fig, folder / "prediction.png")
+    out.append(folder / "prediction.png")
+    fig = plotting.rmse_over_time(ev.one_step.time, rmse, f"{title}: RMSE(t), Eq. 2")
+    save_figure(fig, folder / "rmse.png")
+    out.append(folder / "rmse.png")
+    series = ev.rmse_series()
+    names = [k for k in ("time_s", "one_step_mm", "free_running_mm") if k in series]
+    table = np.column_stack([series[k] for k in names])
+    lines = [",".join(names)] + [",".join(f"{v:.9g}" for v in row) for row in table]
+    atomic_write_text(folder / "rmse_t.csv", "\n".join(lines) + "\n")
+    out.append(folder / "rmse_t.csv")
+    return out

@@ -1,0 +1,129 @@
+"""softrnn train DATA.h5 --node N -o FOLDER: train one node's LSTM model (paper Fig. 2A/B)."""
+
+import sys
+
+from ..errors import bad
+from ._progress import Bar
+
+NAME = "train"
+HELP = "train a node's LSTM model (paper Fig. 2A/B) on a dataset and save it as a model folder"
+
+
+def add_args(p):
+    p.add_argument("data", help="an HDF5 dataset written by softrnn (simulate, sweep, import-csv)")
+    p.add_argument("--node", type=int, default=None,
+                   help="the node to model (default: the node of interest the file names, if any)")
+    p.add_argument("-o", "--out", required=True, metavar="FOLDER", help="the model folder to write")
+    p.add_argument("--neighbours", default=None, metavar="A,B",
+                   help="nodes whose poses join the node's, comma-separated ('none' for none; default: the "
+                        "adjacent nodes n-1, n+1, one at an end of the rod)")
+    p.add_argument("--history", type=int, default=2, help="past time steps per window, eta + 1 (default: 2, the paper's)")
+    p.add_argument("--inputs", choices=("positions", "poses"), default="positions",
+                   help="input I per node: positions (3) or positions and quaternions (7) (default: positions)")
+    p.add_argument("--wrench", choices=("none", "force", "wrench"), default=None,
+                   help="input II: the node's force, force and torque, or none (Fig. 2A) (default: force if any "
+                        "force acts on the node in the training span, else none)")
+    p.add_argument("--output", choices=("increment", "acceleration", "pose"), default=None,
+                   help="what the network predicts: the next position minus the last (default), the change of "
+                        "that increment, or the next position itself (as the paper)")
+    p.add_argument("--epochs", type=int, default=None, help="most epochs (default: 30)")
+    p.add_argument("--batch-size", type=int, default=None,
+                   help="windows per step (default: 256; the paper used 1, about 100x slower on a CPU)")
+    p.add_argument("--lr", type=float, default=None, help="Adam's initial learning rate (default: 0.002, cosine decay)")
+    p.add_argument("--patience", type=int, default=None, help="early-stopping patience in epochs (default: 8)")
+    p.add_argument("--units", type=int, default=None, help="LSTM units per layer (default: 32)")
+    p.add_argument("--layers", type=int, default=None, help="LSTM layers (default: 2)")
+    p.add_argument("--dense", default=None, metavar="W,...", help="dense widths after the LSTM (default: 32)")
+    p.add_argument("--seed", type=int, default=None, help="random seed of the weights and shuffling (default: 0)")
+    p.add_argument("--threads", type=int, default=None, help="CPU threads (default: 1)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted training from FOLDER/checkpoint.pt (no finished epoch is lost)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _ints(text: str, argument: str) -> tuple:
+    if text.strip().lower() in ("", "none"):
+        return ()
+    try:
+        return tuple(int(a) for a in text.split(","))
+    except ValueError:
+        raise bad(argument, text, "comma-separated integers, e.g. 29,31 (or 'none')") from None
+
+
+class _LossBar(Bar):
+    """The tqdm bar with the epoch and the losses in its postfix."""
+
+    finished = False
+
+    def __call__(self, done, total, info=None):
+        if self.finished:
+            return
+        self.finished = done >= total
+        super().__call__(done, total)
+        if self.bar is not None and info:
+            text = f"epoch {info.get('epoch')}/{info.get('epochs')} loss {info.get('loss', float('nan')):.3g}"
+            if "validation_loss" in info:
+                text += f" val {info['validation_loss']:.3g} best {info['best_validation_loss']:.3g}"
+            self.bar.set_postfix_str(text, refresh=False)
+
+
+def run(args) -> int:
+    from ..io.dataset import read_dataset
+    from ..surrogate.data import SampleSpec
+    from ..surrogate.train import TrainConfig, train_node_model
+
+    node = args.node
+    head = None
+    if node is None:
+        from ..pictures import describe_nodes, node_of_interest
+
+        head = read_dataset(args.data, stop=1)
+        node = node_of_interest(head)
+        if node is None:
+            raise bad("--node", None, f"a node to model: the file names no node of interest; choose one of "
+                                      f"{describe_nodes(head.nodes)}")
+    wrench = args.wrench
+    if wrench is None:
+        wrench = _default_wrench(args.data, node)
+    neighbours = None if args.neighbours is None else _ints(args.neighbours, "--neighbours")
+    spec = SampleSpec(node=node, neighbours=neighbours, history=args.history, inputs=args.inputs, wrench=wrench)
+    overrides = {k: v for k, v in (("lstm_units", args.units), ("lstm_layers", args.layers),
+                                   ("output", args.output)) if v is not None}
+    if args.dense is not None:
+        overrides["dense_units"] = _ints(args.dense, "--dense")
+    train = {k: v for k, v in (("epochs", args.epochs), ("batch_size", args.batch_size), ("learning_rate", args.lr),
+                               ("patience", args.patience), ("seed", args.seed), ("threads", args.threads))
+             if v is not None}
+    config = TrainConfig(**train)
+    with _LossBar(f"train node {node}", unit="batch", enabled=not args.quiet) as bar:
+        try:
+            model = train_node_model(args.data, spec, overrides, config, args.out, resume=args.resume, progress=bar)
+        except KeyboardInterrupt:
+            bar.close()
+            print(f"softrnn: interrupted; the finished epochs are kept in {args.out}/checkpoint.pt; run the same "
+                  f"command with --resume to continue", file=sys.stderr)
+            return 130
+    m = model.meta
+    spans = m["spans"]
+    print(f"train: node {model.spec.node} <- {', '.join(map(str, model.spec.neighbours)) or 'no neighbours'}, "
+          f"history {model.spec.history}, {model.spec.inputs} + {model.spec.wrench}; "
+          f"{m['train_windows']} training windows (stride {m['stride']}), validation samples "
+          f"{spans['validation'][0]}..{spans['validation'][1] - 1}, test samples {spans['test'][0]}.."
+          f"{spans['test'][1] - 1}")
+    print(f"train: best validation loss {m['best_validation_loss']:.4g} at epoch {m['best_epoch']} of "
+          f"{m['epochs_run']}{' (early stop)' if m['early_stopped'] else ''}, {m['train_seconds']:.1f} s; "
+          f"model written to {args.out}")
+    return 0
+
+
+def _default_wrench(path, node) -> str:
+    """'force' if any force or torque acts on ``node`` in the training span (the first 60 % of the
+    samples; the test span is not looked at), else 'none' (Fig. 2A)."""
+    import numpy as np
+
+    from ..io.dataset import read_dataset
+    from ..surrogate.data import SampleSpec, split
+
+    d = read_dataset(path, nodes=[node])
+    cut = split(d.n_samples, SampleSpec(node=node, history=1))[0].stop if d.n_samples >= 4 else d.n_samples
+    return "force" if np.any(d.forces[:cut] != 0) or np.any(d.torques[:cut] != 0) else "none"
