@@ -23,7 +23,8 @@ def synthetic(n_samples: int = 400, n_nodes: int = 5, dt: float = 0.01, *, poiso
     k = np.arange(n_nodes)                                                    # (N,)
     pos = np.zeros((n_samples, n_nodes, 3))                                   # (T, N, 3)
     pos[:, :, 0] = 0.1 * k
-    pos[:, :, 1] = 0.01 * np.sin(2 * np.pi * f1 * t[:, None] + 0.3 * k) + 0.002 * k * np.sin(2 * np.pi * f2 * t[:, None])
+    pos[:, :, 1] = (0.01 * np.sin(2 * np.pi * f1 * t[:, None] + 0.3 * k)
+                    + 0.002 * k * np.sin(2 * np.pi * f2 * t[:, None]))
     pos[:, :, 2] = 0.005 * np.cos(2 * np.pi * f3 * t[:, None] + 0.2 * k)
     quat = np.zeros((n_samples, n_nodes, 4))                                  # (T, N, 4)
     angle = 0.1 * np.sin(2 * np.pi * f1 * t[:, None] + 0.1 * k)
@@ -36,7 +37,8 @@ def synthetic(n_samples: int = 400, n_nodes: int = 5, dt: float = 0.01, *, poiso
         for arr in (pos, quat, forces, torques):
             arr[poison_from:] = np.nan
     return Dataset(time=t, nodes=k, positions=pos, quaternions=quat, forces=forces, torques=torques,
-                   attrs={"dt": dt, "n_nodes_total": n_nodes, "units": {"positions": "m"}, "scenario_name": "synthetic"})
+                   attrs={"dt": dt, "n_nodes_total": n_nodes, "units": {"positions": "m"},
+                          "scenario_name": "synthetic"})
 
 
 # ----------------------------------------------------------------------------------------- SampleSpec

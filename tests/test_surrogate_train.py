@@ -71,12 +71,12 @@ def test_bad_model_config(kwargs, word):
 
 # ----------------------------------------------------------------------------------------- training
 def test_a_model_overfits_a_tiny_dataset(tmp_path):
-    """A periodic motion (period 20 samples) of 120 samples: the network learns its ~70 training
-    windows to a few per cent of the motion per step (the validation span repeats them, so the
-    best validation epoch is a late one)."""
+    """A periodic motion (period 20 samples) of 120 samples: trained one step ahead, the network
+    learns its 70 training windows to a few per cent of the motion per step (the validation span
+    repeats them, so the best validation epoch is a late one)."""
     data = synthetic(120, freqs=(5.0, 10.0, 5.0, 5.0))
     spec = SampleSpec(node=2, wrench="force")
-    train = TrainConfig(epochs=60, batch_size=16, learning_rate=3e-3, patience=1000)
+    train = TrainConfig(epochs=60, batch_size=16, learning_rate=3e-3, patience=1000, rollout_steps=1)
     model = train_node_model(data, spec, {"lstm_units": 16, "dense_units": (16,)}, train, tmp_path / "m")
     fit = make_windows(data, model.spec, *model.meta["spans"]["fit"])
     losses = [h["loss"] for h in model.meta["history"]]
@@ -94,13 +94,18 @@ def test_the_same_seed_gives_the_same_weights(data_file, tmp_path, trained):
     assert not _same(_state(other), _state(trained[1]))
 
 
-def test_no_test_span_sample_reaches_training(tmp_path):
+ONE_STEP_NOISY = TrainConfig(epochs=2, batch_size=32, rollout_steps=1, input_noise=1.0)
+
+
+@pytest.mark.parametrize("train, relative", [(FAST, False), (ONE_STEP_NOISY, False), (ONE_STEP_NOISY, True)])
+def test_no_test_span_sample_reaches_training(tmp_path, train, relative):
     """Every test-span value is NaN: had one reached the normalisation, a gradient step or the
     validation, the statistics, weights or losses would be NaN."""
     n = 200
     cut = split(n, SampleSpec(node=2))[0].stop
     data = synthetic(n, poison_from=cut)
-    model = train_node_model(data, SampleSpec(node=2, wrench="wrench", inputs="poses"), SMALL, FAST, tmp_path / "m")
+    model = train_node_model(data, SampleSpec(node=2, wrench="wrench", inputs="poses"), dict(SMALL, relative=relative),
+                             train, tmp_path / "m")
     norm = model.normalizer.to_dict()
     assert all(np.isfinite(v).all() for v in norm.values() if isinstance(v, list))
     assert all(torch.isfinite(v).all() for v in model.module.state_dict().values())

@@ -268,12 +268,13 @@ def load_model(folder) -> NodeModel:
         raise
     except SoftrnnInputError as err:
         raise ModelFolderError(f"{folder}: normalizer.json is invalid ({err}); train the model again") from None
-    if (normalizer.pose_features, normalizer.wrench_features, normalizer.output) != \
-            (model_config.pose_features, model_config.wrench_features, model_config.output):
-        raise ModelFolderError(f"{folder}: normalizer.json does not match config.json (P, W, output = "
-                               f"{normalizer.pose_features}, {normalizer.wrench_features}, {normalizer.output!r} "
-                               f"vs {model_config.pose_features}, {model_config.wrench_features}, "
-                               f"{model_config.output!r}); train the model again")
+    have = (normalizer.pose_features, normalizer.wrench_features, normalizer.output, normalizer.relative,
+            normalizer.per_node)
+    want = (model_config.pose_features, model_config.wrench_features, model_config.output, model_config.relative,
+            spec.per_node)
+    if have != want:
+        raise ModelFolderError(f"{folder}: normalizer.json does not match config.json (P, W, output, relative, "
+                               f"per node = {have} vs {want}); train the model again")
     meta = _read_json(folder, "meta.json")
     if not isinstance(meta, dict):
         raise ModelFolderError(f"{folder}: meta.json is invalid (a {type(meta).__name__}, expected an object); "

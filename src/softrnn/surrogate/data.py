@@ -387,11 +387,17 @@ class Normalizer:
         Of input II (W may be 0).
     target_mean, target_std : ndarray (3,) float64
         Of the model's output before scaling: the increment (next position minus the node's last
-        position) for ``output="increment"``, the next position for ``output="pose"``.
+        position) for ``output="increment"``, its change (next - 2 last + previous position) for
+        ``"acceleration"``, the next position for ``"pose"``.
     delta_mean, delta_std : ndarray (P,) float64
         Of the step-to-step differences of input I (the velocity-like inputs the model derives).
     output : str
-        ``"increment"`` or ``"pose"``: what the target statistics describe.
+        ``"increment"``, ``"acceleration"`` or ``"pose"``: what the target statistics describe.
+    relative : bool
+        Input I is expressed relative to the node's last position (every node's position minus it;
+        quaternions unchanged) before the z-score; the statistics are of those relative poses.
+    per_node : int
+        Pose values per node in input I (3 or 7), to find the position columns.
 
     Standard deviations are floored at ``STD_RELATIVE_FLOOR`` times the largest of their group
     (1 for an all-constant group), so constant features stay finite.

@@ -1,9 +1,10 @@
 """The per-node LSTM of paper Fig. 2A (poses only) and Fig. 2B (poses and the node's wrench).
 
 Input I (the window's poses) goes through stacked LSTM layers; its last hidden state is the pose
-summary. Input II (the wrench over the same steps), flattened, goes through dense layers (Fig. 2B).
-Both are concatenated and mapped by dense layers to the 3 outputs: the normalised increment of the
-node's position over the next step (default) or the normalised next position.
+summary. Input II (the wrench over the same steps), flattened, goes through tanh dense layers
+(Fig. 2B). Both are concatenated and mapped by dense layers to the 3 outputs: the normalised
+increment of the node's position over the next step (default), or its change, or the normalised
+next position (``ModelConfig.output``; ``Normalizer`` converts to and from physical units).
 
 Two additions to the paper's structure (both on by default, ``ModelConfig`` switches them off):
 
@@ -63,7 +64,9 @@ class ModelConfig:
         Widths of the tanh dense layers of input II (Fig. 2B; unused when W = 0). Empty: the flat
         wrench window is concatenated directly.
     output : str
-        ``"increment"``: the next position minus the node's last position; ``"pose"``: the next position.
+        ``"increment"`` (default): the next position minus the node's last position;
+        ``"acceleration"``: the change of that increment (next - 2 last + previous; needs history
+        >= 2); ``"pose"``: the next position itself (as the paper, about 10x less accurate here).
     differences : bool
         Feed the normalised step-to-step pose changes to the LSTM as well.
     linear_skip : bool
@@ -95,7 +98,11 @@ class ModelConfig:
         object.__setattr__(self, "dense_units", _widths("dense_units", self.dense_units))
         object.__setattr__(self, "wrench_dense", _widths("wrench_dense", self.wrench_dense))
         if self.output not in OUTPUTS:
-            raise bad("output", self.output, "'increment' (next minus last position) or 'pose' (next position)")
+            raise bad("output", self.output, "'increment' (next minus last position), 'acceleration' (the change "
+                                             "of the increment) or 'pose' (next position)")
+        if self.output == "acceleration" and self.history < 2:
+            raise bad("output", self.output,
+                      "'increment' or 'pose' for history 1 ('acceleration' needs two past steps)")
         for name in ("differences", "linear_skip", "relative"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise bad(name, getattr(self, name), "true or false")
