@@ -91,6 +91,63 @@ def _case_step(case: Case, out: Path, quick: bool, progress_factory, figures: bo
     return done
 
 
+WRENCH = {"ellipse": "none", "square": "force", "semicircle": "force"}  # paper Fig. 2A / 2B
+QUICK_TRAIN = {"epochs": 4, "max_train_windows": 3000, "rollout_steps": 2}
+
+
+def _errors(block: dict | None) -> dict | None:
+    """The report's error shape: max_abs, mean_abs [mm] and max_pct_of_length as [x, y, z]."""
+    if block is None or block.get("diverged"):
+        return block
+    return {"max_abs": block["max_abs_mm"], "mean_abs": block["mean_abs_mm"],
+            "max_pct_of_length": block["max_pct_of_length"]}
+
+
+def _model_step(name: str, out: Path, quick: bool, progress_factory) -> dict:
+    """Train the case's node model on the first 60 % of its data set, evaluate it one step ahead and
+    free running on the test span, and on the generalisation data set; skipped when done."""
+    from .cli._evaluate import write_figures
+    from .surrogate.data import SampleSpec
+    from .surrogate.evaluate import evaluate
+    from .surrogate.train import TrainConfig, train_node_model
+
+    step_file = out / "models" / f"{name}.json"
+    done = _load_if_done(step_file, quick)
+    if done is not None:
+        return done
+    case = build_case(name)
+    data = out / "data" / f"{name}.h5"
+    spec = SampleSpec(node=case.node_of_interest, wrench=WRENCH[name])
+    train = TrainConfig(**QUICK_TRAIN) if quick else TrainConfig()
+    progress = progress_factory(f"train {name}") if progress_factory else None
+    bar = None if progress is None else (lambda done, total, info=None: progress(done, total))
+    model = train_node_model(data, spec, None, train, out / "models" / name, resume=True, progress=bar)
+    test = evaluate(model, data, model_name=name)
+    gen = evaluate(model, out / "data" / f"{GENERALISATION[name]}.h5", generalisation=True, model_name=name)
+    figures = []
+    for tag, ev in (("test", test), ("generalisation", gen)):
+        paths = write_figures(ev, out / "figures" / f"{name}_model_{tag}")
+        figures += [str(p.relative_to(out / "figures")) for p in paths if p.suffix == ".png"]
+    tj, gj = test.to_json(), gen.to_json()
+    done = {"quick": quick, "softrnn_version": __version__, "one_step": _errors(tj["one_step"]),
+            "rollout": _errors(tj["free_running"]), "generalisation": _errors(gj["one_step"]),
+            "generalisation_rollout": _errors(gj["free_running"]), "test_span_s": tj.get("span_s"),
+            "model": {"folder": f"models/{name}", "spec": model.spec.to_dict(),
+                      "training": model.meta.get("training")}, "figures": figures}
+    atomic_write_text(step_file, json.dumps(done, indent=2, default=str))
+    return done
+
+
+def _paper_errors(paper: dict) -> dict:
+    """The paper's test and generalisation figures in the report's shape, beside its raw entry."""
+    out = dict(paper)
+    for key in ("test", "generalisation"):
+        block = paper.get(key, {})
+        out[key] = {"max_abs": block.get("max_abs_mm"), "mean_abs": block.get("mean_abs_mm"),
+                    "max_pct_of_length": block.get("max_pct_of_length")}
+    return out
+
+
 def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
     """Run every step into ``out_dir`` and return the report dictionary.
 
@@ -102,7 +159,7 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
     report = {"softrnn_version": __version__, "quick": quick, "machine": machine_info(),
               "assumptions": ASSUMPTIONS}
     for name in PAPER_CASES:
-        report[name] = {"paper": paper_case(build_case(name).paper_key)}
+        report[name] = {"paper": _paper_errors(paper_case(build_case(name).paper_key))}
         for key, case_name in (("simulation", name), ("generalisation_data", GENERALISATION[name])):
             case = build_case(case_name)
             done = _case_step(case, out, quick, progress_factory, figures=key == "simulation")
@@ -110,6 +167,11 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
             if key == "simulation":
                 report[name].update(node=case.node_of_interest, length_m=case.setup.rod.length, unit="mm",
                                     figures=done["figures"], dataset=done["dataset"])
+    for name in PAPER_CASES:
+        result = _model_step(name, out, quick, progress_factory)
+        for key in ("one_step", "rollout", "generalisation", "generalisation_rollout", "model", "test_span_s"):
+            report[name][key] = result[key]
+        report[name]["figures"] = report[name]["figures"] + result["figures"]
     bench_file = out / "bench.json"
     bench = _load_if_done(bench_file, quick)
     if bench is None:
@@ -169,6 +231,22 @@ def render_markdown(report: dict) -> str:
                      f"max |R^T R - I| = {s['max_orthogonality_error']:.1e}")
         for fig in report[name]["figures"]:
             lines.append(f"  ![{fig}](figures/{fig})")
+    lines += ["", "## Learned node models (paper Fig. 2A/2B): errors on the test span [mm]", "",
+              "Trained on the first 60 % of each data set; one step ahead from the reference history (as "
+              "the paper evaluates), free running (the node's own predictions fed back, neighbours and "
+              "forces from the data), and one step ahead on the generalisation data set.", "",
+              "| case | what | mean abs x, y, z | max abs x, y, z | max % of length | paper mean abs | paper max abs |",
+              "|---|---|---|---|---|---|---|"]
+    for name in PAPER_CASES:
+        r = report[name]
+        for key, paper_key in (("one_step", "test"), ("rollout", None), ("generalisation", "generalisation")):
+            e = r.get(key)
+            p = r["paper"].get(paper_key) if paper_key else None
+            if not e or e.get("diverged"):
+                lines.append(f"| {name} | {key} | diverged | | | | |")
+                continue
+            lines.append(f"| {name} | {key} | {_v(e['mean_abs'])} | {_v(e['max_abs'])} | {_v(e['max_pct_of_length'])} | "
+                         f"{_v(p['mean_abs']) if p else ''} | {_v(p['max_abs']) if p else ''} |")
     bench = report["simulator_benchmark"]
     lines += ["", "## Simulator benchmark (`softrnn bench`)", "", "```"]
     try:
@@ -182,3 +260,7 @@ def render_markdown(report: dict) -> str:
         lines.append(f"- **{key}**: {text}")
     lines.append("")
     return "\n".join(lines)
+
+
+def _v(values) -> str:
+    return "-" if values is None else ", ".join(f"{x:.3g}" for x in values)
