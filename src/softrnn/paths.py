@@ -11,42 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import bad
-from .rod.loads import smoothstep
-
-
-def _vec3(name: str, x) -> tuple:
-    a = np.asarray(x, dtype=float) if _is_numeric_seq(x) else None
-    if a is None or a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise bad(name, x, "a finite 3-vector [x, y, z]")
-    return tuple(float(c) for c in a)
-
-
-def _is_numeric_seq(x) -> bool:
-    try:
-        return all(isinstance(c, (int, float, np.integer, np.floating)) and not isinstance(c, bool) for c in x)
-    except TypeError:
-        return False
-
-
-def _number(name: str, x, *, positive: bool = False, nonnegative: bool = False) -> float:
-    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)) or not np.isfinite(x):
-        raise bad(name, x, "a finite number")
-    if positive and x <= 0:
-        raise bad(name, x, "a positive number")
-    if nonnegative and x < 0:
-        raise bad(name, x, "a number >= 0")
-    return float(x)
-
-
-def _blend(t: np.ndarray, ramp: float) -> np.ndarray:
-    return smoothstep(t / ramp) if ramp > 0 else np.ones_like(t)
-
-
-def _plane_axes(name: str, u, v) -> tuple[tuple, tuple]:
-    u, v = _vec3(f"{name}.u", u), _vec3(f"{name}.v", v)
-    if np.linalg.norm(u) == 0 or np.linalg.norm(v) == 0:
-        raise bad(f"{name}.u/v", (u, v), "nonzero axis vectors")
-    return u, v
+from .rod.loads import _blend, _finite, _plane_axes, _vec3
 
 
 @dataclass(frozen=True)
@@ -66,10 +31,10 @@ class Figure8Path:
 
     def __post_init__(self):
         object.__setattr__(self, "center", _vec3("Figure8Path.center", self.center))
-        _number("Figure8Path.width", self.width, positive=True)
-        _number("Figure8Path.height", self.height, positive=True)
-        _number("Figure8Path.period", self.period, positive=True)
-        _number("Figure8Path.ramp", self.ramp, nonnegative=True)
+        _finite("Figure8Path.width", self.width, positive=True)
+        _finite("Figure8Path.height", self.height, positive=True)
+        _finite("Figure8Path.period", self.period, positive=True)
+        _finite("Figure8Path.ramp", self.ramp, nonnegative=True)
         u, v = _plane_axes("Figure8Path", self.u, self.v)
         object.__setattr__(self, "u", u)
         object.__setattr__(self, "v", v)
@@ -106,9 +71,9 @@ class RandomSmoothPath:
 
     def __post_init__(self):
         object.__setattr__(self, "center", _vec3("RandomSmoothPath.center", self.center))
-        _number("RandomSmoothPath.amplitude", self.amplitude, positive=True)
-        _number("RandomSmoothPath.cutoff", self.cutoff, positive=True)
-        _number("RandomSmoothPath.ramp", self.ramp, nonnegative=True)
+        _finite("RandomSmoothPath.amplitude", self.amplitude, positive=True)
+        _finite("RandomSmoothPath.cutoff", self.cutoff, positive=True)
+        _finite("RandomSmoothPath.ramp", self.ramp, nonnegative=True)
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise bad("RandomSmoothPath.seed", self.seed, "an integer >= 0")
         if isinstance(self.n_modes, bool) or not isinstance(self.n_modes, (int, np.integer)) or not 1 <= self.n_modes <= 64:

@@ -17,19 +17,43 @@ class AbstractTimeFunction(Protocol):
         ...
 
 
-def _vec3(name: str, x) -> np.ndarray:
-    a = np.asarray(x, dtype=float)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
+def _is_numeric_seq(x) -> bool:
+    try:
+        return all(isinstance(c, (int, float, np.integer, np.floating)) and not isinstance(c, bool) for c in x)
+    except TypeError:
+        return False
+
+
+def _vec3(name: str, x) -> tuple:
+    """A finite 3-vector as a tuple of floats, or a one-line error naming ``name``."""
+    a = np.asarray(x, dtype=float) if _is_numeric_seq(x) else None
+    if a is None or a.shape != (3,) or not np.all(np.isfinite(a)):
         raise bad(name, x, "a finite 3-vector [x, y, z]")
-    return a
+    return tuple(float(c) for c in a)
 
 
-def _finite(name: str, x, *, positive: bool = False) -> float:
+def _finite(name: str, x, *, positive: bool = False, nonnegative: bool = False) -> float:
+    """A finite number (optionally > 0 or >= 0), or a one-line error naming ``name``."""
     if isinstance(x, bool) or not isinstance(x, (int, float, np.floating, np.integer)) or not np.isfinite(x):
         raise bad(name, x, "a finite number")
     if positive and x <= 0:
         raise bad(name, x, "a positive number")
+    if nonnegative and x < 0:
+        raise bad(name, x, "a number >= 0")
     return float(x)
+
+
+def _plane_axes(name: str, u, v) -> tuple[tuple, tuple]:
+    """The in-plane axes u, v of a target path: finite, nonzero 3-vectors."""
+    u, v = _vec3(f"{name}.u", u), _vec3(f"{name}.v", v)
+    if np.linalg.norm(u) == 0 or np.linalg.norm(v) == 0:
+        raise bad(f"{name}.u/v", (u, v), "nonzero axis vectors")
+    return u, v
+
+
+def _blend(t: np.ndarray, ramp: float) -> np.ndarray:
+    """Smoothstep ramp from 0 to 1 over ``ramp`` seconds (1 everywhere for ramp = 0)."""
+    return smoothstep(t / ramp) if ramp > 0 else np.ones_like(t)
 
 
 @dataclass(frozen=True)
@@ -149,7 +173,10 @@ class SquarePath:
         object.__setattr__(self, "center", tuple(_vec3("SquarePath.center", self.center)))
         _finite("SquarePath.side", self.side, positive=True)
         _finite("SquarePath.period", self.period, positive=True)
-        _finite("SquarePath.ramp", self.ramp)
+        _finite("SquarePath.ramp", self.ramp, nonnegative=True)
+        u, v = _plane_axes("SquarePath", self.u, self.v)
+        object.__setattr__(self, "u", u)
+        object.__setattr__(self, "v", v)
 
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
@@ -159,7 +186,7 @@ class SquarePath:
         k = np.minimum(phase.astype(int), 3)
         f = (phase - k)[:, None]
         uv = corners[k] * (1 - f) + corners[k + 1] * f
-        blend = smoothstep(t / self.ramp) if self.ramp > 0 else np.ones_like(t)
+        blend = _blend(t, self.ramp)
         u, v = np.asarray(self.u, float), np.asarray(self.v, float)
         return np.asarray(self.center) + blend[:, None] * (uv[:, :1] * u + uv[:, 1:] * v)
 
@@ -215,12 +242,15 @@ class CirclePath:
         object.__setattr__(self, "center", tuple(_vec3("CirclePath.center", self.center)))
         _finite("CirclePath.radius", self.radius, positive=True)
         _finite("CirclePath.period", self.period, positive=True)
-        _finite("CirclePath.ramp", self.ramp)
+        _finite("CirclePath.ramp", self.ramp, nonnegative=True)
+        u, v = _plane_axes("CirclePath", self.u, self.v)
+        object.__setattr__(self, "u", u)
+        object.__setattr__(self, "v", v)
 
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
         ph = 2 * np.pi * t / self.period
-        blend = smoothstep(t / self.ramp) if self.ramp > 0 else np.ones_like(t)
+        blend = _blend(t, self.ramp)
         u, v = np.asarray(self.u, float), np.asarray(self.v, float)
         return (np.asarray(self.center)
                 + (blend * self.radius)[:, None] * (np.sin(ph)[:, None] * u - np.cos(ph)[:, None] * v))
