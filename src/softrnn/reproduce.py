@@ -7,6 +7,7 @@ interruption) skips the steps whose results are present for the same settings.
 """
 
 import json
+import shutil
 import platform
 from dataclasses import replace
 from pathlib import Path
@@ -117,11 +118,16 @@ def _model_step(name: str, out: Path, quick: bool, progress_factory) -> dict:
         return done
     case = build_case(name)
     data = out / "data" / f"{name}.h5"
+    folder = out / "models" / name
+    if step_file.exists() and folder.exists():
+        # finished earlier with other settings (--quick or another version): train afresh;
+        # without a step file the folder is an interrupted training, which resumes
+        shutil.rmtree(folder)
     spec = SampleSpec(node=case.node_of_interest, wrench=WRENCH[name])
     train = TrainConfig(**QUICK_TRAIN) if quick else TrainConfig()
     progress = progress_factory(f"train {name}") if progress_factory else None
     bar = None if progress is None else (lambda done, total, info=None: progress(done, total))
-    model = train_node_model(data, spec, None, train, out / "models" / name, resume=True, progress=bar)
+    model = train_node_model(data, spec, None, train, folder, resume=True, progress=bar)
     test = evaluate(model, data, model_name=name)
     gen = evaluate(model, out / "data" / f"{GENERALISATION[name]}.h5", generalisation=True, model_name=name)
     figures = []
