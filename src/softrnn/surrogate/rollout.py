@@ -7,10 +7,12 @@ taken at the same offsets as in its ``spec``). ``rollout`` steps them together:
 
 * **Seed.** The ``history`` samples before ``start`` are copied from the reference data set.
 * **Step k.** Every modelled node's input window is gathered from the state (rows k-H .. k-1),
-  one batched ``predict`` runs per distinct model (all nodes sharing it stacked in one batch), and
-  only then are the new positions written to row k: a synchronous (Jacobi) update, so the order of
-  the models does not matter and every node sees its neighbours' *predictions* of the previous
-  steps, never the reference's.
+  every model predicts, and only then are the new positions written to row k: a synchronous
+  (Jacobi) update, so the order of the models does not matter and every node sees its neighbours'
+  *predictions* of the previous steps, never the reference's. Trained ``NodeModel`` s run in the
+  compiled inference engine (``softrnn.surrogate.engine``): the models of one architecture are
+  stacked and the whole span runs inside one call. Other model objects (anything with ``spec``
+  and ``predict``) get one batched ``predict`` per distinct model and step.
 * **Nodes without a model** follow the reference data set (``unmodelled="reference"``, default):
   for clamped boundary nodes this is exactly their boundary condition, for any other node the
   rollout is then driven by that node's recorded motion. ``unmodelled="hold"`` instead keeps them
@@ -325,7 +327,7 @@ def torch_threads(threads: int | None):
 
 
 def rollout(models, dataset, start: int | None = None, stop: int | None = None, *,
-            unmodelled: str = "reference", threads: int | None = 1, progress=None) -> Rollout:
+            unmodelled: str = "reference", threads: int | None = 1, progress=None, engine: bool = True) -> Rollout:
     """Free-running prediction of samples ``start .. stop-1`` of ``dataset``.
 
     Parameters
@@ -341,9 +343,13 @@ def rollout(models, dataset, start: int | None = None, stop: int | None = None, 
     unmodelled : 'reference' or 'hold'
         Nodes without a model follow the reference, or hold their last seed pose.
     threads : int or None
-        Torch threads during the rollout (``torch_threads``; None leaves the setting alone).
+        Torch threads during a rollout through ``predict`` (``torch_threads``; None leaves the setting alone).
+    engine : bool
+        Run trained ``NodeModel`` s with the compiled inference engine (``softrnn.surrogate.engine``,
+        every step inside one call; equal to ``predict`` within float32 rounding); False, or models
+        that are not NodeModels, call ``predict`` once per distinct model and step.
     progress : callable(done, total) or None
-        Called every 256 steps and at the end.
+        Called every 256 steps (every 4096 with the engine) and at the end.
 
     Returns
     -------
@@ -377,6 +383,22 @@ def rollout(models, dataset, start: int | None = None, stop: int | None = None, 
         quats[H:, others] = quats[H - 1, others]
     state[H:, modelled_cols] = np.nan   # written step by step; a read before the write would show
     total = stop - start
+    if engine and all(_compiled(g.model) for g in groups):
+        from .engine import engine_rollout, group_by_architecture
+
+        bound = group_by_architecture(groups)
+        done = 0
+        while done < total:   # chunks of 4096 steps, so progress is reported during long rollouts
+            k0 = H + done
+            k1 = min(H + total, k0 + 4096)
+            status, node, k = engine_rollout(bound, state, quats, forces, torques, k0, k1, DIVERGED_M)
+            if status:
+                _diverged(node, float(dataset.time[first + k]), first + k)
+            done = k1 - H
+            if progress is not None:
+                progress(done, total)
+        return Rollout(time=np.asarray(dataset.time[first:stop], dtype=np.float64), nodes=np.asarray(dataset.nodes),
+                       positions=state, first=first, seed=H, modelled=manip.nodes, unmodelled=unmodelled)
     with torch_threads(threads):
         for k in range(H, H + total):
             outputs = []
@@ -388,12 +410,7 @@ def rollout(models, dataset, start: int | None = None, stop: int | None = None, 
                                           f"{g.nodes.size} nodes; expected ({g.nodes.size}, 3)")
                 ok = np.isfinite(pred).all(axis=1) & (np.abs(pred) <= DIVERGED_M).all(axis=1)
                 if not ok.all():
-                    node, t = int(g.nodes[np.flatnonzero(~ok)[0]]), float(dataset.time[first + k])
-                    raise RolloutDiverged(
-                        f"the rollout diverged: the model of node {node} predicted a position beyond "
-                        f"{DIVERGED_M:g} m (or not finite) at t = {t:.6g} s (sample {first + k}); the models' errors "
-                        f"grow without bound when fed their own predictions (try a shorter span, or models "
-                        f"trained for the nodes they predict)", node=node, sample=first + k, time=t)
+                    _diverged(int(g.nodes[np.flatnonzero(~ok)[0]]), float(dataset.time[first + k]), first + k)
                 outputs.append(pred)
             for g, pred in zip(groups, outputs):   # synchronous update: all windows were read first
                 state[k, g.target_cols] = pred
@@ -401,6 +418,23 @@ def rollout(models, dataset, start: int | None = None, stop: int | None = None, 
                 progress(k - H + 1, total)
     return Rollout(time=np.asarray(dataset.time[first:stop], dtype=np.float64), nodes=np.asarray(dataset.nodes),
                    positions=state, first=first, seed=H, modelled=manip.nodes, unmodelled=unmodelled)
+
+
+def _diverged(node: int, t: float, sample: int):
+    raise RolloutDiverged(
+        f"the rollout diverged: the model of node {node} predicted a position beyond "
+        f"{DIVERGED_M:g} m (or not finite) at t = {t:.6g} s (sample {sample}); the models' errors "
+        f"grow without bound when fed their own predictions (try a shorter span, or models "
+        f"trained for the nodes they predict)", node=node, sample=sample, time=t)
+
+
+def _compiled(model) -> bool:
+    """True for a NodeModel the compiled engine can run (any object with a NodeLSTM ``module``,
+    ``config`` and ``normalizer``); other model objects are called through ``predict``."""
+    from .model import NodeLSTM
+
+    return isinstance(getattr(model, "module", None), NodeLSTM) and hasattr(model, "config") and hasattr(
+        model, "normalizer")
 
 
 def _as_manipulator(models) -> Manipulator:

@@ -1,0 +1,372 @@
+"""Compiled forward pass of stacked node LSTMs (the inference engine's numba kernels).
+
+The weights of M models of one architecture are packed by ``softrnn.surrogate.engine.pack`` into
+
+* ``params`` (M, S) float32: per model, the LSTM layers (input weights transposed (in, 4U),
+  recurrent weights transposed (U, 4U), summed bias (4U)), the wrench and head dense layers
+  (transposed (in, out) and bias), the output layer and the linear skip (transposed), then the
+  difference scale and shift (P each). Rows of tanh units (the LSTM's cell gate g, the dense layers)
+  are stored times 2, so every activation is one logistic: tanh(x) = 2 sigma(2x) - 1.
+* ``norm`` (M, Sn) float64: pose mean and std (P each), wrench mean and std (W each), target mean
+  and std (3 each).
+* ``lay`` (int64): the architecture and the offsets into a params row (layout in ``engine.pack``).
+
+The logistic is computed in float32 with a range-reduced degree-7 exponential (max error 9e-8
+against the exact logistic), in two passes over a contiguous row so LLVM vectorises both (the
+exponent is built in an int32 scratch row and read through a float32 view).
+"""
+
+import numpy as np
+from numba import njit
+
+FM = {"contract", "nnan", "ninf", "nsz", "arcp", "afn"}
+_LOG2E = np.float32(1.4426950408889634)
+_LN2 = np.float32(0.6931471805599453)
+
+# header of ``lay``
+L_P, L_W, L_H, L_LAYERS, L_U, L_DIFF, L_NWD, L_NHD, L_SKIP, L_IN1, L_REL, L_PER, L_OUT, L_OFF_DS, L_OFF_DSH = range(15)
+L_OFF_OUT, L_OUT_IN, L_OFF_SKIP, L_SKIP_IN, L_FEAT = range(15, 20)
+L_HEADER = 20
+# then per LSTM layer: off_ih, off_hh, off_b, n_in ; per dense layer (wrench, then head): off_w, off_b, n_in, n_out
+OUT_INCREMENT, OUT_ACCELERATION, OUT_POSE = 0, 1, 2
+
+# work row regions: see ``work_size``
+
+
+@njit(fastmath=FM, cache=True)
+def _logistic(a, lo, n, eb, ebf):
+    """a[lo:lo+n] <- sigma(a[lo:lo+n]) in place (eb int32 scratch, ebf its float32 view).
+
+    Indices are unsigned so numba emits no negative-index wraparound (which would turn the
+    vectorised loads and stores into gathers and scatters)."""
+    o = np.uint64(lo)
+    for i in range(np.uint64(n)):
+        x = -a[o + i]
+        x = np.float32(87.0) if x > np.float32(87.0) else x
+        x = np.float32(-87.0) if x < np.float32(-87.0) else x
+        k = np.floor(x * _LOG2E + np.float32(0.5))
+        r = x - k * _LN2
+        p = np.float32(1.0 / 5040.0)
+        p = p * r + np.float32(1.0 / 720.0)
+        p = p * r + np.float32(1.0 / 120.0)
+        p = p * r + np.float32(1.0 / 24.0)
+        p = p * r + np.float32(1.0 / 6.0)
+        p = p * r + np.float32(0.5)
+        p = p * r + np.float32(1.0)
+        p = p * r + np.float32(1.0)
+        a[o + i] = p
+        eb[i] = np.int32((k + np.float32(127.0)) * np.float32(8388608.0))
+    for i in range(np.uint64(n)):
+        a[o + i] = np.float32(1.0) / (np.float32(1.0) + a[o + i] * ebf[i])
+
+
+@njit(fastmath=FM, cache=True)
+def _affine(p, off_w, off_b, n_in, n_out, x, xlo, y, ylo):
+    """y[ylo:ylo+n_out] = W x[xlo:xlo+n_in] + b with W stored transposed (n_in, n_out) at off_w
+    (off_b < 0: no bias); unsigned indices as in ``_logistic``."""
+    no = np.uint64(n_out)
+    yl = np.uint64(ylo)
+    xl = np.uint64(xlo)
+    if off_b >= 0:
+        ob = np.uint64(off_b)
+        for j in range(no):
+            y[yl + j] = p[ob + j]
+    else:
+        for j in range(no):
+            y[yl + j] = np.float32(0.0)
+    ow = np.uint64(off_w)
+    for i in range(np.uint64(n_in)):
+        xi = x[xl + i]
+        o = ow + i * no
+        for j in range(no):
+            y[yl + j] += xi * p[o + j]
+
+
+@njit(fastmath=FM, cache=True)
+def _recurrent(p, off_hh, U, G, wk, h_lo, g_lo):
+    """wk[g_lo:g_lo+G] += W_hh h with h = wk[h_lo:h_lo+U] and W_hh stored transposed (U, G)."""
+    ug = np.uint64(G)
+    gl = np.uint64(g_lo)
+    hl = np.uint64(h_lo)
+    ow = np.uint64(off_hh)
+    for i in range(np.uint64(U)):
+        hi = wk[hl + i]
+        o = ow + i * ug
+        for q in range(ug):
+            wk[gl + q] += hi * p[o + q]
+
+
+def work_size(lay) -> int:
+    """Length of one node's float32 work row (see ``forward``)."""
+    H, U, in1, feat = int(lay[L_H]), int(lay[L_U]), int(lay[L_IN1]), int(lay[L_FEAT])
+    widest = max(4 * U, feat, int(lay[L_SKIP_IN]), 8)
+    nl = int(lay[L_LAYERS])
+    for k in range(int(lay[L_NWD]) + int(lay[L_NHD])):
+        widest = max(widest, int(lay[L_HEADER + 4 * nl + 4 * k + 3]))
+    return H * in1 + 2 * H * U + U + 4 * widest + int(lay[L_W]) * H + 8
+
+
+@njit(fastmath=FM, cache=True)
+def forward(p, nrm, lay, xw, ww, wk, eb, ebf, out):
+    """One node's next position from its physical window.
+
+    p (S,) float32 params row; nrm (Sn,) float64 normalisation row; lay int64 layout;
+    xw (H, P) float32 physical input I [m, 1]; ww (H, W) float32 physical input II [N, N m];
+    wk (work_size,) float32 work row; eb (>= widest,) int32 scratch and ebf its float32 view;
+    out (3,) float64 <- the node's position at the next step [m].
+    """
+    P, W, H, NL, U = lay[L_P], lay[L_W], lay[L_H], lay[L_LAYERS], lay[L_U]
+    diff, rel, per = lay[L_DIFF], lay[L_REL], lay[L_PER]
+    in1 = lay[L_IN1]
+    G = 4 * U
+    # regions of the work row
+    o_x = 0                         # (H, in1) LSTM input sequence, then the skip input
+    o_h = o_x + H * in1             # (2, H, U) hidden sequences of two layers (ping-pong)
+    o_c = o_h + 2 * H * U           # (U,) cell state
+    o_g = o_c + U                   # (widest,) gates / dense activations
+    widest = (wk.shape[0] - o_g - W * H - 8) // 4
+    o_f = o_g + widest              # (widest,) features
+    o_d = o_f + widest              # (widest,) dense buffer
+    o_s = o_d + widest              # (widest,) skip input (x flat then wrench flat)
+    o_w = o_s + widest              # (H*W,) normalised wrenches
+    # ---- input I normalised (float64 like Normalizer, then float32)
+    lx0 = np.float64(xw[H - 1, 0])
+    lx1 = np.float64(xw[H - 1, 1])
+    lx2 = np.float64(xw[H - 1, 2])
+    for j in range(H):
+        for c in range(P):
+            v = np.float64(xw[j, c])
+            if rel != 0:
+                q = c % per
+                if q == 0:
+                    v -= lx0
+                elif q == 1:
+                    v -= lx1
+                elif q == 2:
+                    v -= lx2
+            wk[o_x + j * in1 + c] = np.float32((v - nrm[c]) / nrm[P + c])
+    if diff != 0:
+        ods, odsh = lay[L_OFF_DS], lay[L_OFF_DSH]
+        for c in range(P):
+            wk[o_x + P + c] = np.float32(0.0)
+        for j in range(1, H):
+            for c in range(P):
+                wk[o_x + j * in1 + P + c] = ((wk[o_x + j * in1 + c] - wk[o_x + (j - 1) * in1 + c]) * p[ods + c]
+                                             - p[odsh + c])
+    # ---- input II normalised
+    for j in range(H):
+        for c in range(W):
+            wk[o_w + j * W + c] = np.float32((np.float64(ww[j, c]) - nrm[2 * P + c]) / nrm[2 * P + W + c])
+    # ---- LSTM layers over the window, zero initial state
+    src, n_src = o_x, in1
+    for layer in range(NL):
+        rec = L_HEADER + 4 * layer
+        off_ih, off_hh, off_b, n_in = lay[rec], lay[rec + 1], lay[rec + 2], lay[rec + 3]
+        dst = o_h + (layer % 2) * H * U
+        for u in range(U):
+            wk[o_c + u] = np.float32(0.0)
+        for j in range(H):
+            _affine(p, off_ih, off_b, n_in, G, wk, src + j * n_src, wk, o_g)
+            if j > 0:
+                _recurrent(p, off_hh, U, G, wk, dst + (j - 1) * U, o_g)
+            _logistic(wk, o_g, G, eb, ebf)
+            for u in range(U):   # gates i, f, g (stored x2: tanh = 2 sigma - 1), o
+                gi = wk[o_g + u]
+                gf = wk[o_g + U + u]
+                gg = np.float32(2.0) * wk[o_g + 2 * U + u] - np.float32(1.0)
+                c = gf * wk[o_c + u] + gi * gg
+                wk[o_c + u] = c
+                wk[o_f + u] = np.float32(2.0) * c   # tanh(c) via the logistic of 2c
+            _logistic(wk, o_f, U, eb, ebf)
+            for u in range(U):
+                wk[dst + j * U + u] = wk[o_g + 3 * U + u] * (np.float32(2.0) * wk[o_f + u] - np.float32(1.0))
+        src, n_src = dst, U
+    # ---- features: last hidden state, then the wrench branch
+    for u in range(U):
+        wk[o_f + u] = wk[src + (H - 1) * U + u]
+    n_feat = U
+    nwd, nhd = lay[L_NWD], lay[L_NHD]
+    base = L_HEADER + 4 * NL
+    if W > 0:
+        cur, n_cur = o_w, H * W
+        for k in range(nwd):
+            r = base + 4 * k
+            _affine(p, lay[r], lay[r + 1], lay[r + 2], lay[r + 3], wk, cur, wk, o_d)
+            _logistic(wk, o_d, lay[r + 3], eb, ebf)
+            for q in range(lay[r + 3]):
+                wk[o_g + q] = np.float32(2.0) * wk[o_d + q] - np.float32(1.0)
+            cur, n_cur = o_g, lay[r + 3]
+        for q in range(n_cur):
+            wk[o_f + n_feat + q] = wk[cur + q]
+        n_feat += n_cur
+    # ---- head dense layers
+    cur = o_f
+    for k in range(nhd):
+        r = base + 4 * (nwd + k)
+        _affine(p, lay[r], lay[r + 1], lay[r + 2], lay[r + 3], wk, cur, wk, o_d)
+        _logistic(wk, o_d, lay[r + 3], eb, ebf)
+        dst = o_g if cur != o_g else o_s
+        for q in range(lay[r + 3]):
+            wk[dst + q] = np.float32(2.0) * wk[o_d + q] - np.float32(1.0)
+        cur = dst
+    # ---- output layer (+ linear skip of the LSTM input window and the wrench window)
+    _affine(p, lay[L_OFF_OUT], lay[L_OFF_OUT] + 3 * lay[L_OUT_IN], lay[L_OUT_IN], 3, wk, cur, wk, o_d)
+    if lay[L_SKIP] != 0:
+        n_x = H * in1
+        off = lay[L_OFF_SKIP]
+        for i in range(n_x):
+            xi = wk[o_x + i]
+            for q in range(3):
+                wk[o_d + q] += xi * p[off + i * 3 + q]
+        for i in range(H * W):
+            xi = wk[o_w + i]
+            for q in range(3):
+                wk[o_d + q] += xi * p[off + (n_x + i) * 3 + q]
+    # ---- denormalise (float64, like Normalizer.denormalise_outputs)
+    tm = 2 * P + 2 * W
+    mode = lay[L_OUT]
+    for q in range(3):
+        y = np.float64(wk[o_d + q]) * nrm[tm + 3 + q] + nrm[tm + q]
+        if mode == OUT_INCREMENT:
+            y += np.float64(xw[H - 1, q])
+        elif mode == OUT_ACCELERATION:
+            y += 2.0 * np.float64(xw[H - 1, q]) - np.float64(xw[H - 2, q])
+        out[q] = y
+
+
+@njit(cache=True)
+def predict_windows(params, norm, lay, which, X, Wr, wk, eb, out):
+    """Batched stateless prediction: window b uses model ``which[b]``.
+
+    X (B, H, P) float32; Wr (B, H, W) float32; wk (work_size,) float32; eb int32 scratch;
+    out (B, 3) float64 [m]."""
+    ebf = eb.view(np.float32)
+    o3 = np.empty(3)
+    for b in range(X.shape[0]):
+        m = which[b]
+        forward(params[m], norm[m], lay, X[b], Wr[b], wk, eb, ebf, o3)
+        for q in range(3):
+            out[b, q] = o3[q]
+
+
+@njit(cache=True)
+def gather_window(pos, quat, rows, cols, per, xw):
+    """xw (H, P) <- the window of one node: for each of the H ``rows`` of pos (T, N, 3) and quat
+    (T, N, 4) float32, the ``cols`` nodes' positions (per = 3) or positions then quaternions (per = 7)."""
+    for j in range(rows.shape[0]):
+        k = rows[j]
+        for a in range(cols.shape[0]):
+            col = cols[a]
+            for c in range(3):
+                xw[j, a * per + c] = pos[k, col, c]
+            if per == 7:
+                for c in range(4):
+                    xw[j, a * per + 3 + c] = quat[k, col, c]
+
+
+@njit(cache=True)
+def rollout_steps(params, norm, lay, which, in_cols, tgt_cols, pos, quat, wrench, k0, k1, limit, pred, wk, eb):
+    """Free-running steps k0 .. k1-1 of the rows of ``pos`` (T, N, 3) float32, in place.
+
+    At step k every modelled node b (model ``which[b]``, window columns ``in_cols[b]``, own column
+    ``tgt_cols[b]``) reads rows k-H .. k-1 of pos and quat (T, N, 4) and its wrench rows of
+    ``wrench`` (T, B, W) float32; all predictions (pred (B, 3) float64 scratch) are computed before
+    any is written to row k (synchronous update). Returns (status, b, k): status 0 done, 1 a
+    prediction was not finite or beyond ``limit`` [m] (node b, step k)."""
+    H = lay[L_H]
+    P = lay[L_P]
+    W = lay[L_W]
+    per = lay[L_PER]
+    B = which.shape[0]
+    ebf = eb.view(np.float32)
+    xw = np.empty((H, P), np.float32)
+    ww = np.empty((H, W), np.float32)
+    rows = np.empty(H, np.int64)
+    o3 = np.empty(3)
+    for k in range(k0, k1):
+        for j in range(H):
+            rows[j] = k - H + j
+        for b in range(B):
+            gather_window(pos, quat, rows, in_cols[b], per, xw)
+            for j in range(H):
+                for c in range(W):
+                    ww[j, c] = wrench[rows[j], b, c]
+            forward(params[which[b]], norm[which[b]], lay, xw, ww, wk, eb, ebf, o3)
+            for q in range(3):
+                v = o3[q]
+                if not (abs(v) <= limit):
+                    return 1, b, k
+                pred[b, q] = v
+        for b in range(B):
+            for q in range(3):
+                pos[k, tgt_cols[b], q] = np.float32(pred[b, q])
+    return 0, -1, k1
+
+
+# ---------------------------------------------------------------------- one node, one call per step
+# A NodeStepper keeps everything in three arrays so a step costs one dispatch with few arguments:
+# f32 = [params row | window I (H*P) | window II (H*W) | work row | exponent scratch], f64 = [norm row | out (3)],
+# ints = [offsets (S_I), lay...]. The offsets header:
+S_P, S_NP, S_X, S_W, S_WK, S_NWK, S_EB, S_NEB, S_OUT, S_I = range(10)
+
+
+@njit(cache=True)
+def node_step(f32, f64, ints, pose, wrench, push):
+    """Append ``pose`` (P,) and ``wrench`` (W,) to the windows (if ``push``) and predict the next
+    position into f64[out:out+3]."""
+    lay = ints[S_I:]
+    H, P, W = lay[L_H], lay[L_P], lay[L_W]
+    x = f32[ints[S_X]:ints[S_X] + H * P].reshape(H, P)
+    w = f32[ints[S_W]:ints[S_W] + H * W].reshape(H, W)
+    if push:
+        for j in range(H - 1):
+            for c in range(P):
+                x[j, c] = x[j + 1, c]
+            for c in range(W):
+                w[j, c] = w[j + 1, c]
+        for c in range(P):
+            x[H - 1, c] = pose[c]
+        for c in range(W):
+            w[H - 1, c] = wrench[c]
+    eb = f32[ints[S_EB]:ints[S_EB] + ints[S_NEB]].view(np.int32)
+    forward(f32[ints[S_P]:ints[S_P] + ints[S_NP]], f64[:ints[S_OUT]], lay, x, w,
+            f32[ints[S_WK]:ints[S_WK] + ints[S_NWK]], eb, f32[ints[S_EB]:ints[S_EB] + ints[S_NEB]],
+            f64[ints[S_OUT]:ints[S_OUT] + 3])
+
+
+@njit(cache=True)
+def manipulator_step(params, norm, lay, which, in_cols, tgt_cols, pos, quat, wrench, wrench_next, hold,
+                     limit, pred, wk, eb):
+    """One sample of a whole manipulator, in place.
+
+    pos (H+1, N, 3), quat (H+1, N, 4) and wrench (H+1, B, W) float32 hold the window in rows
+    0 .. H-1; row H of pos holds the boundary positions of the next sample (unless ``hold``: the
+    last row is copied). The modelled nodes' next positions are predicted from rows 0 .. H-1 and
+    written to row H, ``wrench_next`` (B, W) becomes row H of the wrenches, the quaternions of
+    row H copy row H-1, and every array moves up one row (row 0 drops out). Returns (status, b):
+    0 done, 1 node b's prediction was not finite or beyond ``limit`` [m] (nothing moved)."""
+    H = lay[L_H]
+    if hold:
+        for a in range(pos.shape[1]):
+            for c in range(3):
+                pos[H, a, c] = pos[H - 1, a, c]
+    status, b, _ = rollout_steps(params, norm, lay, which, in_cols, tgt_cols, pos, quat, wrench, H, H + 1,
+                                 limit, pred, wk, eb)
+    if status != 0:
+        return status, b
+    for a in range(quat.shape[1]):
+        for c in range(4):
+            quat[H, a, c] = quat[H - 1, a, c]
+    for bb in range(wrench.shape[1]):
+        for c in range(wrench.shape[2]):
+            wrench[H, bb, c] = wrench_next[bb, c]
+    for j in range(H):
+        for a in range(pos.shape[1]):
+            for c in range(3):
+                pos[j, a, c] = pos[j + 1, a, c]
+            for c in range(4):
+                quat[j, a, c] = quat[j + 1, a, c]
+        for bb in range(wrench.shape[1]):
+            for c in range(wrench.shape[2]):
+                wrench[j, bb, c] = wrench[j + 1, bb, c]
+    return 0, -1
