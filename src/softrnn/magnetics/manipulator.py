@@ -1,0 +1,561 @@
+"""The magnetic manipulator in the dynamic simulator: a clamped PMC-770 rod with two embedded magnets,
+driven by coil currents (Tariverdi et al. 2021, Fig. 9; defaults of magnetic.md §1.3).
+
+The rod is the Lie-group Cosserat rod of ``softrnn.rod``; ``_driver.drive`` recomputes the magnet
+wrenches from the magnets' current poses and the coil currents at every solver step.
+
+Modelling choices (assumptions, with numbers for the defaults):
+
+* Magnet segments: the nodes covering a magnet (its ends snapped to the nearest nodes) form a stiff
+  segment. The true 41.4 GPa limits the explicit step to 2.5e-7 s (26 nodes), about 13 s of
+  computing per simulated second on one core; the default caps its Young's modulus at
+  ``magnet_stiffness_factor`` = 100 times the rod's (250 MPa): a magnet segment then bends 1% as
+  much as the same length of rod, the two 2 mm segments add 0.08% to the compliance of the 50 mm
+  rod, and the step is 3.2e-6 s (about 1.1-1.4 s per simulated second). Over 0.1 s of random
+  currents the capped and the true rod differ by 5 micrometres at most.
+* Magnet mass: the covered nodes get the density that conserves the mass of rod material plus
+  magnet over their lumped length (2698 kg/m^3 for the proximal, 3263 kg/m^3 for the distal
+  magnet by default), so gravity and inertia see the magnets' 5.6e-5 kg each.
+* Damping: light viscous drag on the rod (``DEFAULT_DAMPING``), about 5% of critical on the first
+  bending mode (6.9 Hz); the rubber's real loss factor is not known.
+* The magnets are point dipoles at their centres (uniform magnetisation, no induced magnetisation,
+  no magnet-magnet coupling: ~0.1 mT at 25 mm, under 1% of the applied field, magnetic.md §1.3).
+"""
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import SimulationError, bad
+from ..rod import kernels
+from ..rod.boundary import Clamp
+from ..rod.discrete import internal_loads, segment_strains
+from ..rod.loads import smoothstep
+from ..rod.shapes import RodShape, straight
+from ..rod.simulation import Damping, Setup, Trajectory
+from ..rod.spec import NodeOverride, RodSpec
+from ..rod.stability import DEFAULT_SAFETY, stable_step
+from . import _driver
+from .coils import MIN_DISTANCE, CoilLayout, bigmag_like, unit_field_maps
+from .magnets import Magnet, default_magnets
+
+DEFAULT_DAMPING = Damping(translational=0.05, rotational=0.0)
+"""Light viscous drag [N s/m^2] of the default manipulator: about 5% of critical on the first bending
+mode (6.9 Hz; measured 2.1% at 0.02 N s/m^2); higher modes get less (the ratio falls as 1/omega)."""
+
+SETTLE_DAMPING = Damping(translational=1.0, rotational=0.0)
+"""Heavy drag [N s/m^2] used only while settling before a run: about critical on the first mode, so
+every mode decays at about 30/s or faster."""
+
+# the base frame: tangent d3 = +x, d1 = +z (so d2 = -y), as the rod's straight() builds it
+_AXIS = (1.0, 0.0, 0.0)
+_NORMAL = (0.0, 0.0, 1.0)
+
+
+def _vec3(name: str, value, what: str) -> tuple:
+    """A finite 3-vector as a tuple of floats, or a one-line error."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise bad(name, value, f"a finite 3-vector [x, y, z] {what}")
+    return tuple(float(c) for c in a)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ManipulatorSpec:
+    """The physical magnetic manipulator (magnetic.md §1.3; rod material of Tariverdi et al. 2021).
+
+    length, diameter  : free length L and circular section diameter D of the rod [m]
+    youngs_modulus, poisson_ratio, density : PMC-770 urethane rubber [Pa], [-], [kg/m^3]
+    magnets           : ``Magnet`` entries (None: N42 at L/2 and N45 at L - 1 mm, 2 mm cubes, axial;
+                        resolved here, so ``replace(spec, length=...)`` keeps them: pass magnets=None)
+    coils             : the electromagnets (``bigmag_like()`` by default)
+    n_nodes           : rod nodes (26: 2 mm segments, one per default magnet)
+    base              : clamped base position [m] (None: (-L/2, 0, 0)); the rod points along +x
+    gravity           : [m/s^2]
+    damping           : rod damping (``DEFAULT_DAMPING``)
+    magnet_stiffness_factor : cap on the magnet segments' Young's modulus as a multiple of the rod's
+                        (None: the magnets' own modulus, e.g. 41.4 GPa; see the module docstring)
+    """
+
+    length: float = 0.05
+    diameter: float = 3e-3
+    youngs_modulus: float = 2.5e6
+    poisson_ratio: float = 0.5
+    density: float = 1000.0
+    magnets: tuple | None = None
+    coils: CoilLayout = field(default_factory=bigmag_like)
+    n_nodes: int = 26
+    base: tuple | None = None
+    gravity: tuple = (0.0, 0.0, -9.81)
+    damping: Damping = DEFAULT_DAMPING
+    magnet_stiffness_factor: float | None = 100.0
+
+    def __post_init__(self):
+        for name in ("length", "diameter", "youngs_modulus", "density"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+                raise bad(name, value, "a positive finite number (SI units)")
+        if self.magnet_stiffness_factor is not None and (
+                isinstance(self.magnet_stiffness_factor, bool)
+                or not isinstance(self.magnet_stiffness_factor, (int, float))
+                or not np.isfinite(self.magnet_stiffness_factor) or self.magnet_stiffness_factor < 1):
+            raise bad("magnet_stiffness_factor", self.magnet_stiffness_factor,
+                      "a factor >= 1 times the rod's Young's modulus, or None for the magnets' own modulus")
+        if not isinstance(self.coils, CoilLayout):
+            raise bad("coils", type(self.coils).__name__, "a CoilLayout (see softrnn.magnetics.bigmag_like)")
+        if not isinstance(self.damping, Damping):
+            raise bad("damping", self.damping, "a softrnn.rod.Damping")
+        try:
+            magnets = default_magnets(self.length) if self.magnets is None else tuple(self.magnets)
+        except TypeError:
+            raise bad("magnets", self.magnets, "a tuple of Magnet entries, or None for the defaults") from None
+        object.__setattr__(self, "magnets", magnets)
+        base = (-0.5 * self.length, 0.0, 0.0) if self.base is None else self.base
+        object.__setattr__(self, "base", _vec3("base", base, "the clamped base position in m"))
+        object.__setattr__(self, "gravity", _vec3("gravity", self.gravity, "in m/s^2, e.g. (0, 0, -9.81)"))
+        # RodSpec checks n_nodes, poisson_ratio and the radius/length ratio
+        RodSpec(length=self.length, radius=0.5 * self.diameter, youngs_modulus=self.youngs_modulus,
+                density=self.density, n_nodes=self.n_nodes, poisson_ratio=self.poisson_ratio)
+        self._check_magnets()
+        self._check_workspace()
+
+    # ------------------------------------------------------------------ validation
+    def _check_magnets(self) -> None:
+        L, D = self.length, self.diameter
+        ranges = []
+        for j, m in enumerate(self.magnets):
+            if not isinstance(m, Magnet):
+                raise bad(f"magnets[{j}]", m, "a softrnn.magnetics.Magnet")
+            half = 0.5 * m.length
+            tol = 1e-9 * L
+            if m.arc_length - half < -tol or m.arc_length + half > L + tol:
+                raise bad(f"magnets[{j}].arc_length", m.arc_length,
+                          f"a centre in [{half:.4g}, {L - half:.4g}] m so that the {m.length:.4g} m long magnet "
+                          f"lies inside the {L:.4g} m rod")
+            diag = math.hypot(m.size[0], m.size[1])
+            if diag > D * (1 + 1e-9):
+                raise bad(f"magnets[{j}].size", m.size,
+                          f"a cross-section that fits inside the rod: its diagonal {diag * 1e3:.3g} mm exceeds "
+                          f"the diameter {D * 1e3:.3g} mm")
+            ranges.append(self.magnet_node_range(j))
+        order = np.argsort([a for a, _ in ranges])
+        for i0, i1 in zip(order[:-1], order[1:]):
+            if ranges[i1][0] <= ranges[i0][1]:
+                raise bad("magnets", f"magnets[{i0}] and magnets[{i1}] on nodes {ranges[i0]} and {ranges[i1]}",
+                          "magnets that do not share rod nodes (move them apart or use more n_nodes)")
+
+    def _check_workspace(self) -> None:
+        s = np.linspace(0.0, self.length, self.n_nodes)
+        pts = np.asarray(self.base) + s[:, None] * np.asarray(_AXIS)
+        reach = float(np.max(np.linalg.norm(pts, axis=1)))
+        if reach > self.coils.workspace_radius:
+            raise bad("base", self.base,
+                      f"a rod inside the coils' workspace: it reaches {reach:.4g} m from the centre, beyond "
+                      f"workspace_radius = {self.coils.workspace_radius:.4g} m")
+
+    # ------------------------------------------------------------------ derived quantities
+    @property
+    def segment_length(self) -> float:
+        return self.length / (self.n_nodes - 1)
+
+    def magnet_node_range(self, j: int) -> tuple[int, int]:
+        """Nodes (first, last) covered by magnet j: its ends snapped to the nearest nodes."""
+        m = self.magnets[j]
+        l = self.segment_length
+        first = int(math.floor((m.arc_length - 0.5 * m.length) / l + 0.5))
+        last = int(math.floor((m.arc_length + 0.5 * m.length) / l + 0.5))
+        return max(first, 0), min(last, self.n_nodes - 1)
+
+    def magnet_anchor(self, j: int) -> tuple[int, float]:
+        """(a, t): magnet j's centre lies a fraction t of the way from node a to node a + 1."""
+        x = self.magnets[j].arc_length / self.segment_length
+        a = min(int(math.floor(x)), self.n_nodes - 2)
+        return a, float(x - a)
+
+    def rod_spec(self) -> RodSpec:
+        """The rod with one ``NodeOverride`` per magnet (stiff segment, mass-conserving density)."""
+        l = self.segment_length
+        area = math.pi * (0.5 * self.diameter) ** 2
+        overrides = []
+        for j, m in enumerate(self.magnets):
+            first, last = self.magnet_node_range(j)
+            weights = np.ones(self.n_nodes)
+            weights[0] = weights[-1] = 0.5
+            lumped = area * l * float(np.sum(weights[first:last + 1]))
+            rho = self.density + (m.density - self.density) * m.volume / lumped
+            E = m.youngs_modulus if self.magnet_stiffness_factor is None else \
+                min(m.youngs_modulus, self.magnet_stiffness_factor * self.youngs_modulus)
+            overrides.append(NodeOverride(first=first, last=last, youngs_modulus=E,
+                                          poisson_ratio=m.poisson_ratio, density=rho))
+        return RodSpec(length=self.length, radius=0.5 * self.diameter, youngs_modulus=self.youngs_modulus,
+                       density=self.density, n_nodes=self.n_nodes, poisson_ratio=self.poisson_ratio,
+                       overrides=tuple(overrides))
+
+    def reference_shape(self) -> RodShape:
+        """The straight, stress-free rod from ``base`` along +x (d1 = +z)."""
+        return straight(self.n_nodes, self.length, origin=self.base, direction=_AXIS, normal=_NORMAL)
+
+    def setup(self) -> Setup:
+        """The rod problem without magnetic loads (base clamped, gravity, damping): a plain
+        ``softrnn.rod.Simulator`` on it gives the zero-current motion."""
+        return Setup(rod=self.rod_spec(), reference=self.reference_shape(), boundary=(Clamp(0),),
+                     damping=self.damping, gravity=self.gravity)
+
+    def stable_step(self, safety: float = DEFAULT_SAFETY) -> float:
+        """Largest accepted solver step h [s]."""
+        return stable_step(self.rod_spec().lumped(), self.segment_length, self.damping.kelvin_voigt, safety)
+
+    def scaled(self, *, stiffness: float = 1.0, remanence: float = 1.0, damping: float = 1.0,
+               density: float = 1.0) -> "ManipulatorSpec":
+        """A perturbed copy (e.g. the 'real robot' a few % off the nominal model): the rod's Young's
+        modulus, every magnet's remanence, every damping coefficient and the rod's density multiplied
+        by the given factors."""
+        factors = {"stiffness": stiffness, "remanence": remanence, "damping": damping, "density": density}
+        for name, f in factors.items():
+            if isinstance(f, bool) or not isinstance(f, (int, float)) or not np.isfinite(f) or f <= 0:
+                raise bad(name, f, "a positive scale factor (1 = nominal)")
+        d = self.damping
+        return replace(self, youngs_modulus=self.youngs_modulus * stiffness, density=self.density * density,
+                       magnets=tuple(m.scaled(remanence) for m in self.magnets),
+                       damping=Damping(translational=d.translational * damping, rotational=d.rotational * damping,
+                                       kelvin_voigt=d.kelvin_voigt * damping))
+
+
+# --------------------------------------------------------------------------- currents
+@dataclass(frozen=True, eq=False)
+class CurrentSchedule:
+    """Coil currents as time inputs: values (T, n) [A] at increasing times (T,) [s], linear in
+    between, held at the first/last value outside."""
+
+    times: np.ndarray
+    values: np.ndarray
+
+    def __post_init__(self):
+        # private C-ordered copies, frozen (the caller's arrays stay writable)
+        t = np.array(self.times, dtype=float, order="C")
+        v = np.array(self.values, dtype=float, order="C")
+        if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise bad("currents.times", f"array of shape {t.shape}",
+                      "a 1-D array of strictly increasing finite times in s")
+        if v.ndim != 2 or v.shape[0] != t.size or not np.all(np.isfinite(v)):
+            raise bad("currents.values.shape", v.shape, f"({t.size}, n_coils) finite currents in A, one row per time")
+        t.setflags(write=False)
+        v.setflags(write=False)
+        object.__setattr__(self, "times", t)
+        object.__setattr__(self, "values", v)
+
+    @property
+    def n_coils(self) -> int:
+        return self.values.shape[1]
+
+    def __call__(self, t) -> np.ndarray:
+        """Currents (K, n) [A] at times t (K,) [s]."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        return np.stack([np.interp(t, self.times, self.values[:, k]) for k in range(self.n_coils)], -1)
+
+
+def random_currents(layout: CoilLayout, duration: float, *, seed: int, band: tuple = (0.1, 2.0),
+                    n_components: int = 6, peak: float = 0.9, ramp: float = 1.0,
+                    rate: float = 1000.0) -> CurrentSchedule:
+    """Smooth, band-limited random currents for every coil, reproducible from ``seed``.
+
+    Each coil's current is a sum of ``n_components`` sinusoids with frequencies drawn log-uniformly
+    in ``band`` [Hz], random phases and amplitudes, scaled so that its largest |I| is
+    ``peak * layout.current_limit``, and faded in from zero over ``ramp`` [s] (smoothstep). The
+    schedule is sampled at ``rate`` [Hz] from 0 to ``duration`` [s]; linear interpolation between
+    samples never exceeds the sampled peak, so the bound holds at every time.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise bad("seed", seed, "an integer")
+    for name, value in (("duration", duration), ("rate", rate)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+            raise bad(name, value, "a positive finite number")
+    if not (isinstance(peak, (int, float)) and 0 < peak <= 1):
+        raise bad("peak", peak, "a fraction in (0, 1] of the current limit")
+    if not (isinstance(ramp, (int, float)) and np.isfinite(ramp) and ramp >= 0):
+        raise bad("ramp", ramp, "a fade-in time >= 0 in s")
+    try:
+        f_lo, f_hi = (float(b) for b in band)
+    except (TypeError, ValueError):
+        raise bad("band", band, "(f_min, f_max) in Hz") from None
+    if not (0 < f_lo <= f_hi < 0.5 * rate):
+        raise bad("band", band, f"0 < f_min <= f_max < rate/2 = {0.5 * rate:g} Hz")
+    if isinstance(n_components, bool) or not isinstance(n_components, int) or n_components < 1:
+        raise bad("n_components", n_components, "an integer >= 1")
+    rng = np.random.default_rng(seed)
+    n = layout.n_coils
+    t = np.arange(int(math.ceil(duration * rate)) + 1) / rate
+    freq = np.exp(rng.uniform(math.log(f_lo), math.log(f_hi), size=(n, n_components)))
+    phase = rng.uniform(0.0, 2.0 * math.pi, size=(n, n_components))
+    amp = rng.uniform(0.5, 1.0, size=(n, n_components))
+    I = np.einsum("kc,tkc->tk", amp, np.sin(2.0 * math.pi * freq[None] * t[:, None, None] + phase[None]))
+    fade = smoothstep(t / ramp) if ramp > 0 else np.ones_like(t)
+    I *= fade[:, None]
+    scale = np.max(np.abs(I), axis=0)
+    I *= peak * layout.current_limit / np.where(scale > 0, scale, 1.0)
+    return CurrentSchedule(t, I)
+
+
+def currents_for_field(layout: CoilLayout, point, field_t) -> np.ndarray:
+    """Minimum-norm currents (n,) [A] that produce the field ``field_t`` (3,) [T] at ``point`` (3,) [m]
+    (I = pinv(A_B(p)) B, magnetic.md §2.6; gradients are left uncontrolled). Raises if beyond the limit."""
+    beta, _ = unit_field_maps(layout, point)
+    b = np.asarray(field_t, dtype=float)
+    if b.shape != (3,) or not np.all(np.isfinite(b)):
+        raise bad("field", field_t, "a finite 3-vector in T")
+    I = np.linalg.pinv(beta) @ b
+    return layout.check_currents(I, "currents for the requested field")
+
+
+# --------------------------------------------------------------------------- run configuration and result
+@dataclass(frozen=True, kw_only=True)
+class ManipulatorRun:
+    """How to run: saved interval dt [s], n_samples (the first at t = 0), solver substeps per
+    interval (None: the fewest that are stable), stability safety factor, and an optional settling
+    phase of ``settle`` [s] before t = 0 with the currents held at their t = 0 value and
+    ``settle_damping`` (heavy drag), so that a run can start from the sagged equilibrium."""
+
+    dt: float
+    n_samples: int
+    substeps: int | None = None
+    safety: float = DEFAULT_SAFETY
+    settle: float = 0.0
+    settle_damping: Damping = SETTLE_DAMPING
+
+    def __post_init__(self):
+        if isinstance(self.dt, bool) or not isinstance(self.dt, (int, float)) or not np.isfinite(self.dt) \
+                or self.dt <= 0:
+            raise bad("dt", self.dt, "a positive saved interval in s")
+        if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, (int, np.integer)) or self.n_samples < 1:
+            raise bad("n_samples", self.n_samples, "an integer >= 1")
+        if self.substeps is not None and (isinstance(self.substeps, bool)
+                                          or not isinstance(self.substeps, (int, np.integer)) or self.substeps < 1):
+            raise bad("substeps", self.substeps, "an integer >= 1, or None to choose automatically")
+        if not (isinstance(self.safety, (int, float)) and 0 < self.safety <= 1):
+            raise bad("safety", self.safety, "a factor in (0, 1] applied to 2/omega_max")
+        if isinstance(self.settle, bool) or not isinstance(self.settle, (int, float)) or not np.isfinite(self.settle) \
+                or self.settle < 0:
+            raise bad("settle", self.settle, "a settling time >= 0 in s")
+        if not isinstance(self.settle_damping, Damping):
+            raise bad("settle_damping", self.settle_damping, "a softrnn.rod.Damping")
+
+    @property
+    def duration(self) -> float:
+        return (self.n_samples - 1) * self.dt
+
+
+@dataclass(frozen=True, eq=False)
+class ManipulatorTrajectory:
+    """A run of the magnetic manipulator. S samples, n nodes, M magnets, n_c coils; world frame.
+
+    rod        : the rod's ``Trajectory`` (time (S,), positions (S, n, 3), quaternions (S, n, 4),
+                 velocities, applied forces/torques including the magnetic ones, reactions, energy)
+    currents   : (S, n_c) [A]
+    magnet_positions (S, M, 3) [m] centres; magnet_rotations (S, M, 3, 3) body -> world;
+    magnet_moments (S, M, 3) [A m^2]; fields (S, M, 3) [T] and gradients (S, M, 3, 3) [T/m] at the
+    magnets; wrenches (S, M, 6) [N, N m]: force G mu and torque mu x B on each magnet.
+    step [s], substeps, wall_time [s] (of the recorded part, settling excluded).
+    """
+
+    rod: Trajectory
+    currents: np.ndarray
+    magnet_positions: np.ndarray
+    magnet_rotations: np.ndarray
+    magnet_moments: np.ndarray
+    fields: np.ndarray
+    gradients: np.ndarray
+    wrenches: np.ndarray
+    step: float
+    substeps: int
+    wall_time: float
+
+    @property
+    def time(self) -> np.ndarray:
+        return self.rod.time
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self.rod.positions
+
+    @property
+    def quaternions(self) -> np.ndarray:
+        return self.rod.quaternions
+
+
+# --------------------------------------------------------------------------- simulation
+class _Model:
+    """The arrays the driver needs, built once from a spec."""
+
+    def __init__(self, spec: ManipulatorSpec):
+        self.spec = spec
+        rod = spec.rod_spec()
+        lump = rod.lumped()
+        ref = spec.reference_shape()
+        n = spec.n_nodes
+        self.l = spec.segment_length
+        self.C1, self.C2 = lump["C1"], lump["C2"]
+        self.mass, self.inertia, self.weight = lump["mass"], lump["inertia"], lump["weight"]
+        self.K0, self.G0 = segment_strains(ref.rotations, ref.positions, self.l)
+        self.kind = np.zeros(n, dtype=np.int64)
+        self.kind[0] = kernels.CLAMPED
+        self.gravity = np.asarray(spec.gravity, dtype=float)
+        anchors = [spec.magnet_anchor(j) for j in range(len(spec.magnets))]
+        self.mag_node = np.array([a for a, _ in anchors], dtype=np.int64)
+        self.mag_frac = np.array([t for _, t in anchors], dtype=float)
+        self.mag_mu_body = np.array([m.moment_body for m in spec.magnets], dtype=float).reshape(-1, 3)
+        self.ext_idx = np.unique(np.concatenate([self.mag_node, self.mag_node + 1])).astype(np.int64)
+        self.ext_slot = np.full(n, -1, dtype=np.int64)
+        self.ext_slot[self.ext_idx] = np.arange(self.ext_idx.size)
+        self.coil_pos = spec.coils.positions
+        self.coil_moment = spec.coils.moments_per_ampere
+        self.R = np.ascontiguousarray(ref.rotations).copy()
+        self.r = np.ascontiguousarray(ref.positions).copy()
+        self.v = np.zeros((n, 3))
+        self.w = np.zeros((n, 3))
+        self.Kp, self.Gp = segment_strains(self.R, self.r, self.l)
+
+    def drag(self, damping: Damping) -> tuple[np.ndarray, np.ndarray]:
+        wl = self.weight * self.l
+        return damping.translational * wl, damping.rotational * wl
+
+    def _scratch(self) -> tuple:
+        """One row of the magnet outputs: p (M, 3), R (M, 3, 3), B (M, 3), G (M, 3, 3), W (M, 6)."""
+        M = self.mag_node.size
+        return np.zeros((M, 3)), np.zeros((M, 3, 3)), np.zeros((M, 3)), np.zeros((M, 3, 3)), np.zeros((M, 6))
+
+    def loads(self, currents: np.ndarray) -> np.ndarray:
+        """ext_w (1, m, 12) of the magnets in the current pose."""
+        ext_w = np.zeros((1, self.ext_idx.size, 12))
+        bad_magnet = _driver.magnet_loads_into(self.R, self.r, np.array(currents, dtype=float),  # writable, as in drive
+                                               self.coil_pos, self.coil_moment, self.mag_node, self.mag_frac,
+                                               self.mag_mu_body, self.ext_slot, ext_w, *self._scratch())
+        if bad_magnet >= 0:
+            raise SimulationError(f"magnet {bad_magnet} is within {MIN_DISTANCE} m of a coil at the start; "
+                                  f"move the rod or the coils apart")
+        return ext_w
+
+    def half_kick(self, h: float, currents: np.ndarray) -> None:
+        """Start at rest to second order, as ``rod.Simulator`` does: v^-1 = -(h/2) f/m, omega^-1 = -(h/2) J^-1 t."""
+        f, t = internal_loads(self.R, self.r, self.l, self.C1, self.C2, self.K0, self.G0)
+        f += self.mass[:, None] * self.gravity
+        ext_w = self.loads(currents)
+        for j, a in enumerate(self.ext_idx):
+            f[a] += ext_w[0, j, 0:3]
+            t[a] += self.R[a].T @ ext_w[0, j, 3:6]
+        free = self.kind == kernels.FREE
+        self.v[free] = -0.5 * h * f[free] / self.mass[free, None]
+        rot = self.kind != kernels.CLAMPED
+        self.w[rot] = -0.5 * h * t[rot] / self.inertia[rot]
+
+    def drive(self, damping: Damping, h: float, t0: float, n_steps: int, stride: int, schedule, n_rows: int):
+        """Run the numba driver; returns the rod outputs and the magnet outputs (dicts of arrays)."""
+        n, M, nc = self.spec.n_nodes, self.mag_node.size, self.coil_pos.shape[0]
+        out = {k: np.zeros((n_rows, n, 3)) for k in ("r", "v", "w", "f", "t", "rf", "rt")}
+        out["q"] = np.zeros((n_rows, n, 4))
+        out["e"] = np.zeros((n_rows, 3))
+        mag = {"I": np.zeros((n_rows, nc)), "p": np.zeros((n_rows, M, 3)), "R": np.zeros((n_rows, M, 3, 3)),
+               "B": np.zeros((n_rows, M, 3)), "G": np.zeros((n_rows, M, 3, 3)), "W": np.zeros((n_rows, M, 6))}
+        ct, cr = self.drag(damping)
+        tau = damping.kelvin_voigt
+        status, step, magnet = _driver.drive(
+            self.R, self.r, self.v, self.w, self.Kp, self.Gp,
+            self.l, self.C1, self.C2, tau * self.C1, tau * self.C2,
+            self.K0, self.G0, self.mass, self.inertia, ct, cr, self.gravity, self.kind, tau > 0,
+            float(h), float(t0), int(n_steps), int(stride),
+            schedule.times, schedule.values, self.coil_pos, self.coil_moment,
+            self.mag_node, self.mag_frac, self.mag_mu_body, self.ext_idx, self.ext_slot,
+            np.arange(n, dtype=np.int64), out["r"], out["q"], out["v"], out["w"], out["f"], out["t"], out["rf"],
+            out["rt"], out["e"], mag["I"], mag["p"], mag["R"], mag["B"], mag["G"], mag["W"],
+            np.zeros((n, 6)), np.zeros((1, self.ext_idx.size, 12)), np.zeros(0, dtype=np.int64),
+            np.zeros((1, 0, 3)), np.zeros((0, 2)), np.zeros((2, 0, 3)), np.zeros((2, 0, 3, 3)),
+            np.zeros(nc), *self._scratch())
+        _raise_on_status(int(status), int(step), int(magnet), t0, h)
+        return out, mag
+
+
+def _raise_on_status(status: int, step: int, magnet: int, t0: float, h: float) -> None:
+    if status == kernels.OK:
+        return
+    t = t0 + step * h
+    if status == _driver.TOO_CLOSE:
+        raise SimulationError(f"magnet {magnet} came within {MIN_DISTANCE} m of a coil at t = {t:.6g} s; "
+                              f"lower the currents or move the coils out")
+    if status == kernels.DIVERGED:
+        raise SimulationError(f"the simulation diverged at t = {t:.6g} s (step {step}, h = {h:.3g} s); use more "
+                              f"substeps (a smaller safety factor), more damping or lower currents")
+    raise SimulationError(f"the rotation Newton solve failed at t = {t:.6g} s (step {step}, h = {h:.3g} s); "
+                          f"use more substeps")
+
+
+def _schedule(spec: ManipulatorSpec, run: ManipulatorRun, currents) -> CurrentSchedule:
+    """A validated CurrentSchedule from a schedule or sampled currents (n_samples, n_c) at the save times."""
+    if not isinstance(currents, CurrentSchedule):
+        try:
+            values = np.asarray(currents, dtype=float)
+        except (TypeError, ValueError):
+            raise bad("currents", type(currents).__name__,
+                      f"a CurrentSchedule or an array (n_samples, {spec.coils.n_coils}) in A") from None
+        if values.ndim != 2 or values.shape[0] != run.n_samples:
+            raise bad("currents.shape", values.shape,
+                      f"(n_samples, n_coils) = ({run.n_samples}, {spec.coils.n_coils}): one row per saved sample, "
+                      f"or a CurrentSchedule")
+        currents = CurrentSchedule(run.dt * np.arange(run.n_samples), values)
+    if currents.n_coils != spec.coils.n_coils:
+        raise bad("currents.shape", currents.values.shape, f"(T, {spec.coils.n_coils}): one column per coil")
+    spec.coils.check_currents(currents.values)
+    if currents.times[-1] < run.duration - 1e-9 * max(run.duration, 1.0) and currents.times.size > 1:
+        raise bad("currents.times", f"ending at {currents.times[-1]:.6g} s",
+                  f"a schedule that covers the run to t = {run.duration:.6g} s")
+    return currents
+
+
+def resolve_substeps(spec: ManipulatorSpec, run: ManipulatorRun) -> int:
+    """Solver steps per saved interval, stable for the run's damping and the settling damping;
+    refuses an unstable explicit choice."""
+    limit = spec.stable_step(run.safety)
+    if run.settle > 0:
+        limit = min(limit, replace(spec, damping=run.settle_damping).stable_step(run.safety))
+    if run.substeps is None:
+        return max(1, math.ceil(run.dt / limit * (1 - 1e-12)))
+    if run.dt / run.substeps > limit:
+        raise bad("substeps", run.substeps, f"at least {math.ceil(run.dt / limit)}: dt/substeps = "
+                  f"{run.dt / run.substeps:.3g} s exceeds the stable step {limit:.3g} s (or None for automatic)")
+    return int(run.substeps)
+
+
+def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun) -> ManipulatorTrajectory:
+    """Simulate the manipulator from the straight rod at rest, driven by ``currents``.
+
+    currents : a ``CurrentSchedule`` covering [0, run.duration], or sampled currents
+               (run.n_samples, n_coils) [A] at the save times (linear in between)
+    """
+    if not isinstance(spec, ManipulatorSpec):
+        raise bad("spec", type(spec).__name__, "a ManipulatorSpec")
+    if not isinstance(run, ManipulatorRun):
+        raise bad("run", type(run).__name__, "a ManipulatorRun")
+    schedule = _schedule(spec, run, currents)
+    substeps = resolve_substeps(spec, run)
+    h = run.dt / substeps
+    model = _Model(spec)
+    model.half_kick(h, schedule.values[0])
+    if run.settle > 0:
+        n_settle = int(math.ceil(run.settle / h))
+        model.drive(run.settle_damping, h, -n_settle * h, n_settle, n_settle + 1, schedule, 1)
+    n_steps = (run.n_samples - 1) * substeps + 1
+    start = time.perf_counter()
+    out, mag = model.drive(spec.damping, h, 0.0, n_steps, substeps, schedule, run.n_samples)
+    wall = time.perf_counter() - start
+    times = run.dt * np.arange(run.n_samples)
+    traj = Trajectory(time=times, nodes=np.arange(spec.n_nodes), positions=out["r"], quaternions=out["q"],
+                      velocities=out["v"], angular_velocities=out["w"], forces=out["f"], torques=out["t"],
+                      reaction_forces=out["rf"], reaction_torques=out["rt"], energy=out["e"], step=h,
+                      substeps=substeps, wall_time=wall)
+    mu = np.einsum("smij,mj->smi", mag["R"], model.mag_mu_body)
+    return ManipulatorTrajectory(rod=traj, currents=mag["I"], magnet_positions=mag["p"], magnet_rotations=mag["R"],
+                                 magnet_moments=mu, fields=mag["B"], gradients=mag["G"], wrenches=mag["W"],
+                                 step=h, substeps=substeps, wall_time=wall)
