@@ -116,9 +116,21 @@ def test_errors_are_one_line():
         st.step(np.zeros(8), np.zeros(3))
     with pytest.raises(SoftrnnInputError, match="architecture"):
         Engine([m, model(units=8)])
-    with pytest.raises(SoftrnnInputError, match="architectures"):
-        ManipulatorStepper([m, model(node=4, units=8)], DS.nodes)
+    with pytest.raises(SoftrnnInputError, match="agree on history"):
+        ManipulatorStepper([m, model(node=4, history=3)], DS.nodes)
     with pytest.raises(SoftrnnInputError, match="does not store"):
         ManipulatorStepper([m], [0, 1, 2, 3])
     with pytest.raises(SoftrnnInputError, match="which"):
         Engine([m]).predict(np.zeros((2, 2, 9)), np.zeros((2, 2, 3)), which=[0, 1])
+
+
+def test_mixed_architectures_and_threads_give_the_same_manipulator():
+    ends = [model(node=a, seed=a) for a in (1, 2, 3, 4)] + [model(node=5, seed=5)]   # node 5: one neighbour
+    ref = rollout(ends, DS, start=10, stop=40, unmodelled="hold")
+    f = DS.forces.astype(np.float32)
+    for threads in (1, 2):
+        st = ManipulatorStepper(ends, DS.nodes, threads=threads)
+        cols = [int(np.flatnonzero(DS.nodes == a)[0]) for a in st.modelled]
+        st.reset(DS.positions[8:10], f[8:10][:, cols])
+        for k in range(10, 40):
+            np.testing.assert_array_equal(st.step(f[k][cols]), ref.positions[k - 8])

@@ -17,7 +17,7 @@ exponent is built in an int32 scratch row and read through a float32 view).
 """
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 FM = {"contract", "nnan", "ninf", "nsz", "arcp", "afn"}
 _LOG2E = np.float32(1.4426950408889634)
@@ -135,16 +135,12 @@ def forward(p, nrm, lay, xw, ww, wk, eb, ebf, out):
     lx2 = np.float64(xw[H - 1, 2])
     for j in range(H):
         for c in range(P):
-            v = np.float64(xw[j, c])
-            if rel != 0:
-                q = c % per
-                if q == 0:
-                    v -= lx0
-                elif q == 1:
-                    v -= lx1
-                elif q == 2:
-                    v -= lx2
-            wk[o_x + j * in1 + c] = np.float32((v - nrm[c]) / nrm[P + c])
+            wk[o_x + j * in1 + c] = np.float32((np.float64(xw[j, c]) - nrm[c]) / nrm[P + c])
+        if rel != 0:   # positions relative to the node's last one (the first 3 values of each node)
+            for a in range(0, P, per):
+                for q, last in ((0, lx0), (1, lx1), (2, lx2)):
+                    c = a + q
+                    wk[o_x + j * in1 + c] = np.float32((np.float64(xw[j, c]) - last - nrm[c]) / nrm[P + c])
     if diff != 0:
         ods, odsh = lay[L_OFF_DS], lay[L_OFF_DSH]
         for c in range(P):
@@ -273,31 +269,11 @@ def rollout_steps(params, norm, lay, which, in_cols, tgt_cols, pos, quat, wrench
     ``wrench`` (T, B, W) float32; all predictions (pred (B, 3) float64 scratch) are computed before
     any is written to row k (synchronous update). Returns (status, b, k): status 0 done, 1 a
     prediction was not finite or beyond ``limit`` [m] (node b, step k)."""
-    H = lay[L_H]
-    P = lay[L_P]
-    W = lay[L_W]
-    per = lay[L_PER]
-    B = which.shape[0]
-    ebf = eb.view(np.float32)
-    xw = np.empty((H, P), np.float32)
-    ww = np.empty((H, W), np.float32)
-    rows = np.empty(H, np.int64)
-    o3 = np.empty(3)
     for k in range(k0, k1):
-        for j in range(H):
-            rows[j] = k - H + j
-        for b in range(B):
-            gather_window(pos, quat, rows, in_cols[b], per, xw)
-            for j in range(H):
-                for c in range(W):
-                    ww[j, c] = wrench[rows[j], b, c]
-            forward(params[which[b]], norm[which[b]], lay, xw, ww, wk, eb, ebf, o3)
-            for q in range(3):
-                v = o3[q]
-                if not (abs(v) <= limit):
-                    return 1, b, k
-                pred[b, q] = v
-        for b in range(B):
+        status, b = predict_row(params, norm, lay, which, in_cols, pos, quat, wrench, k, limit, pred, wk, eb)
+        if status != 0:
+            return status, b, k
+        for b in range(which.shape[0]):
             for q in range(3):
                 pos[k, tgt_cols[b], q] = np.float32(pred[b, q])
     return 0, -1, k1
@@ -335,38 +311,86 @@ def node_step(f32, f64, ints, pose, wrench, push):
 
 
 @njit(cache=True)
-def manipulator_step(params, norm, lay, which, in_cols, tgt_cols, pos, quat, wrench, wrench_next, hold,
-                     limit, pred, wk, eb):
-    """One sample of a whole manipulator, in place.
+def predict_row(params, norm, lay, which, in_cols, pos, quat, wrench, k, limit, pred, wk, eb):
+    """pred (B, 3) float64 <- every node's prediction of row k of ``pos`` from rows k-H .. k-1
+    (nothing is written to pos). Returns (status, b) as ``rollout_steps``."""
+    H, P, W, per = lay[L_H], lay[L_P], lay[L_W], lay[L_PER]
+    ebf = eb.view(np.float32)
+    xw = np.empty((H, P), np.float32)
+    ww = np.empty((H, W), np.float32)
+    rows = np.empty(H, np.int64)
+    o3 = np.empty(3)
+    for j in range(H):
+        rows[j] = k - H + j
+    for b in range(which.shape[0]):
+        gather_window(pos, quat, rows, in_cols[b], per, xw)
+        for j in range(H):
+            for c in range(W):
+                ww[j, c] = wrench[rows[j], b, c]
+        forward(params[which[b]], norm[which[b]], lay, xw, ww, wk, eb, ebf, o3)
+        for q in range(3):
+            if not (abs(o3[q]) <= limit):
+                return 1, b
+            pred[b, q] = o3[q]
+    return 0, -1
 
-    pos (H+1, N, 3), quat (H+1, N, 4) and wrench (H+1, B, W) float32 hold the window in rows
-    0 .. H-1; row H of pos holds the boundary positions of the next sample (unless ``hold``: the
-    last row is copied). The modelled nodes' next positions are predicted from rows 0 .. H-1 and
-    written to row H, ``wrench_next`` (B, W) becomes row H of the wrenches, the quaternions of
-    row H copy row H-1, and every array moves up one row (row 0 drops out). Returns (status, b):
-    0 done, 1 node b's prediction was not finite or beyond ``limit`` [m] (nothing moved)."""
-    H = lay[L_H]
+
+@njit(cache=True, parallel=True)
+def predict_row_parallel(params, norm, lay, which, in_cols, pos, quat, wrench, k, limit, pred, wk2, eb2, flags):
+    """``predict_row`` with the nodes split over numba's threads; wk2 (B, work) float32 and eb2
+    (B, work) int32 give every node its own scratch row, flags (B,) int64 scratch."""
+    H, P, W, per = lay[L_H], lay[L_P], lay[L_W], lay[L_PER]
+    B = which.shape[0]
+    for b in prange(B):
+        xw = np.empty((H, P), np.float32)
+        ww = np.empty((H, W), np.float32)
+        rows = np.empty(H, np.int64)
+        o3 = np.empty(3)
+        for j in range(H):
+            rows[j] = k - H + j
+        gather_window(pos, quat, rows, in_cols[b], per, xw)
+        for j in range(H):
+            for c in range(W):
+                ww[j, c] = wrench[rows[j], b, c]
+        eb = eb2[b]
+        forward(params[which[b]], norm[which[b]], lay, xw, ww, wk2[b], eb, eb.view(np.float32), o3)
+        flags[b] = 0
+        for q in range(3):
+            if not (abs(o3[q]) <= limit):
+                flags[b] = 1
+            pred[b, q] = o3[q]
+    for b in range(B):
+        if flags[b] != 0:
+            return 1, b
+    return 0, -1
+
+
+@njit(cache=True)
+def commit_row(pos, quat, wrench, wrench_next, tgt_cols, pred, hold):
+    """Close one manipulator sample: row H of pos (H+1, N, 3) gets the boundary positions (or,
+    if ``hold``, row H-1) and then the predictions pred (B, 3) at columns ``tgt_cols``; row H of
+    quat copies row H-1, row H of wrench (H+1, B, W) becomes ``wrench_next`` (B, W); every array
+    moves up one row."""
+    H = pos.shape[0] - 1
     if hold:
         for a in range(pos.shape[1]):
             for c in range(3):
                 pos[H, a, c] = pos[H - 1, a, c]
-    status, b, _ = rollout_steps(params, norm, lay, which, in_cols, tgt_cols, pos, quat, wrench, H, H + 1,
-                                 limit, pred, wk, eb)
-    if status != 0:
-        return status, b
+    for b in range(tgt_cols.shape[0]):
+        for c in range(3):
+            pos[H, tgt_cols[b], c] = np.float32(pred[b, c])
     for a in range(quat.shape[1]):
         for c in range(4):
             quat[H, a, c] = quat[H - 1, a, c]
-    for bb in range(wrench.shape[1]):
+    for b in range(wrench.shape[1]):
         for c in range(wrench.shape[2]):
-            wrench[H, bb, c] = wrench_next[bb, c]
+            wrench[H, b, c] = wrench_next[b, c]
     for j in range(H):
         for a in range(pos.shape[1]):
             for c in range(3):
                 pos[j, a, c] = pos[j + 1, a, c]
             for c in range(4):
                 quat[j, a, c] = quat[j + 1, a, c]
-        for bb in range(wrench.shape[1]):
+        for b in range(wrench.shape[1]):
             for c in range(wrench.shape[2]):
-                wrench[j, bb, c] = wrench[j + 1, bb, c]
-    return 0, -1
+                wrench[j, b, c] = wrench[j + 1, b, c]

@@ -251,16 +251,21 @@ class NodeStepper:
 
 
 class ManipulatorStepper:
-    """Every modelled node of a manipulator advanced together, one compiled call per sample (Fig. 2C).
+    """Every modelled node of a manipulator advanced together, one compiled call per sample and
+    architecture (Fig. 2C).
 
     Parameters
     ----------
     models : Manipulator, NodeModel or sequence of NodeModel
-        The node models (``softrnn.surrogate.rollout.Manipulator``; nodes may share a model). They
-        must share one architecture (``ModelConfig`` and normalisation mode).
+        The node models (``softrnn.surrogate.rollout.Manipulator``; nodes may share a model). Models
+        of one architecture (``ModelConfig`` and normalisation mode) are stacked; the architectures
+        must agree on history and wrench width.
     nodes : sequence of int
         The rod nodes whose positions make up the state (N), in state order; every modelled node
         and neighbour must be among them.
+    threads : int
+        1: serial. More: the nodes are split over numba's thread pool (``numba.set_num_threads``
+        caps it); worth it from a few tens of nodes.
 
     ``reset(positions (H, N, 3), wrenches (H, B, W), quaternions (H, N, 4) or None)`` loads the
     last H samples; ``step(wrench_next (B, W), boundary (N, 3) or None)`` predicts the modelled
@@ -271,11 +276,14 @@ class ManipulatorStepper:
     last value.
     """
 
-    def __init__(self, models, nodes):
+    def __init__(self, models, nodes, *, threads: int = 1):
         from .rollout import _as_manipulator, bind
 
         manip = _as_manipulator(models)
         nodes = np.asarray(nodes, dtype=np.int64).reshape(-1)
+        if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+            raise bad("threads", threads, "an integer >= 1")
+        self.threads = int(threads)
 
         class _Nodes:   # bind() only needs the stored node list
             pass
@@ -283,23 +291,35 @@ class ManipulatorStepper:
         holder = _Nodes()
         holder.nodes = nodes
         bound = group_by_architecture(bind(manip, holder, "the stepper's node list"))
-        if len(bound) != 1:
-            raise bad("models", f"{len(bound)} architectures", "models of one architecture (ModelConfig and "
-                      "normalisation mode) in one ManipulatorStepper; use one stepper per architecture")
-        self._g = g = bound[0]
-        e = g.engine
-        self.history, self.n_nodes = e.history, int(nodes.size)
-        self.nodes, self.modelled = nodes, tuple(int(a) for a in g.nodes)
-        H, N, B, W = e.history, nodes.size, g.which.size, e.wrench_features
-        self.wrench_features = W
-        self._pos = np.zeros((H + 1, N, 3), np.float32)
-        self._quat = np.zeros((H + 1, N, 4), np.float32)
+        shapes = {(g.engine.history, g.engine.wrench_features) for g in bound}
+        if len(shapes) != 1:
+            raise bad("models", f"(history, wrench width) pairs {sorted(shapes)}",
+                      "models that agree on history and wrench inputs (one ManipulatorStepper per such set)")
+        H, W = shapes.pop()
+        self.history, self.wrench_features, self.n_nodes, self.nodes = H, W, int(nodes.size), nodes
+        self.modelled = tuple(int(a) for g in bound for a in g.nodes)
+        B = len(self.modelled)
+        self._pos = np.zeros((H + 1, nodes.size, 3), np.float32)
+        self._quat = np.zeros((H + 1, nodes.size, 4), np.float32)
         self._quat[..., 0] = 1.0
         self._wr = np.zeros((H + 1, B, W), np.float32)
         self._pred = np.zeros((B, 3))
-        self._wk, self._eb = _scratch(e.lay)
+        self._tgt = np.ascontiguousarray(np.concatenate([g.target_cols for g in bound]))
+        self._calls = []
+        lo = 0
+        for g in bound:
+            e, n = g.engine, g.which.size
+            wr = self._wr[:, lo:lo + n] if len(bound) > 1 else self._wr
+            head = (e.params, e.norm, e.lay, g.which, g.input_cols, self._pos, self._quat, wr, H, _LIMIT,
+                    self._pred[lo:lo + n])
+            if self.threads > 1:
+                n_wk = K.work_size(e.lay)
+                tail = (np.zeros((n, n_wk), np.float32), np.zeros((n, n_wk), np.int32), np.zeros(n, np.int64))
+                self._calls.append((K.predict_row_parallel, head + tail, lo))
+            else:
+                self._calls.append((K.predict_row, head + _scratch(e.lay), lo))
+            lo += n
         self._no_wrench = np.zeros((B, W), np.float32)
-        self._args = (e.params, e.norm, e.lay, g.which, g.input_cols, g.target_cols)
         self.ready = False
 
     @property
@@ -330,18 +350,19 @@ class ManipulatorStepper:
         if not self.ready:
             raise SoftrnnInputError("ManipulatorStepper.step was called before reset: load the last H samples "
                                     "with reset(positions, wrenches) first")
+        for kernel, args, lo in self._calls:
+            status, b = kernel(*args)
+            if status:
+                from .rollout import RolloutDiverged
+                node = self.modelled[lo + b]
+                raise RolloutDiverged(f"the manipulator diverged: the model of node {node} predicted a position "
+                                      f"beyond {_LIMIT:g} m (or not finite); reset the stepper from measured poses",
+                                      node=node, sample=-1, time=float("nan"))
         hold = boundary is None
         if not hold:
             self._pos[self.history] = boundary
-        wn = self._no_wrench if wrench_next is None else wrench_next
-        status, b = K.manipulator_step(*self._args, self._pos, self._quat, self._wr, wn, hold, _LIMIT, self._pred,
-                                       self._wk, self._eb)
-        if status:
-            from .rollout import RolloutDiverged
-            node = self.modelled[b] if 0 <= b < len(self.modelled) else -1
-            raise RolloutDiverged(f"the manipulator diverged: the model of node {node} predicted a position beyond "
-                                  f"{_LIMIT:g} m (or not finite); reset the stepper from measured poses",
-                                  node=node, sample=-1, time=float("nan"))
+        K.commit_row(self._pos, self._quat, self._wr, self._no_wrench if wrench_next is None else wrench_next,
+                     self._tgt, self._pred, hold)
         return self._pos[self.history - 1]
 
 
