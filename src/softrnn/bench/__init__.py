@@ -1,1 +1,71 @@
-"""Benchmarks of the simulator (``softrnn bench``; ``benchmarks/bench_simulator.py``)."""
+"""Benchmarks on this machine (``softrnn bench``; scripts in ``benchmarks/``).
+
+``run_all(parts)`` runs the learned-model (``bench.model``), simulator (``bench.simulator``) and
+static-solver (``bench.statics``) measurements and returns one JSON-ready dict::
+
+    {"machine": {...}, "model": {...}, "simulator": {"cases": {...}, ...}, "statics": {...},
+     "paper": {...}, "goals_met": {...}, "settings": {...}}
+
+``format_all`` renders it as text. Neither prints.
+"""
+
+from __future__ import annotations
+
+
+def run_all(parts=("model", "simulator", "statics"), *, quick: bool = False, model=None, progress=None) -> dict:
+    """Run the selected parts in this order: model, simulator, statics (each after the last, so
+    none competes with another for a core)."""
+    from .simulator import PAPER, _load, machine_info
+
+    result: dict = {"machine": machine_info(), "settings": {"quick": bool(quick), "parts": list(parts),
+                                                          "load_average_start": _load()}}
+    paper = {"source": PAPER["source"], "hardware": PAPER["hardware"]}
+    goals_met: dict = {}
+    if "model" in parts:
+        from .model import PAPER as MODEL_PAPER, run_model_benchmark
+        result["model"] = run_model_benchmark(quick=quick, model=model, progress=progress)
+        paper["rnn_bandwidth_hz"] = MODEL_PAPER["rnn_bandwidth_hz"]
+        goals_met.update({f"model.{k}": v for k, v in result["model"]["goals_met"].items()})
+    if "simulator" in parts:
+        from .simulator import run_benchmark
+        sim = run_benchmark(quick=quick, progress=progress)
+        result["simulator"] = sim["simulator"]
+        result["simulator"]["goals"] = sim["goals"]
+        result["simulator"]["settings"] = sim.get("settings", {})
+        paper["analytical_model_us_per_node_step"] = sim["paper"]["us_per_node_step"]
+        goals_met.update({f"simulator.{k}": v for k, v in sim["goals_met"].items()})
+    if "statics" in parts:
+        from .statics import run_static_benchmark
+        result["statics"] = run_static_benchmark(quick=quick)
+        paper["static_solver_hz"] = list(result["statics"]["paper"]["bandwidth_hz"])
+        goals_met["statics.warm_solves_per_s"] = bool(result["statics"]["goal"]["met"])
+        if progress is not None:
+            progress(1, 1)
+    result["paper"] = paper
+    result["goals_met"] = goals_met
+    result["settings"]["load_average_end"] = _load()
+    return result
+
+
+def format_all(result: dict) -> str:
+    """Text tables of ``run_all``'s result."""
+    from .simulator import format_table
+
+    m = result["machine"]
+    out = [f"machine: {m['cpu']}, {m['usable_cores']} usable cores, {m['platform']}; load average "
+           f"{result['settings'].get('load_average_start')} -> {result['settings'].get('load_average_end')}"]
+    if "model" in result:
+        from .model import format_model_table
+        out += ["", format_model_table(result["model"])]
+    if "simulator" in result:
+        sim = {"machine": m, "simulator": result["simulator"], "goals": result["simulator"]["goals"],
+               "paper": {"source": result["paper"]["source"], "hardware": result["paper"]["hardware"],
+                         "us_per_node_step": result["paper"]["analytical_model_us_per_node_step"]},
+               "goals_met": {k.split(".", 1)[1]: v for k, v in result["goals_met"].items()
+                             if k.startswith("simulator.")},
+               "settings": result["simulator"].get("settings", {})}
+        out += ["", format_table(sim)]
+    if "statics" in result:
+        from .statics import format_static_table
+        out += ["", format_static_table(result["statics"])]
+    return "\n".join(out)

@@ -1,4 +1,4 @@
-"""softrnn bench: measure the simulator's speed on this machine (table, optional JSON)."""
+"""softrnn bench: the learned models, the simulator and the static solver on this machine (table, JSON)."""
 
 import json
 
@@ -6,20 +6,36 @@ from ..io_util import atomic_write_text
 from ._progress import Bar
 
 NAME = "bench"
-HELP = "benchmark the simulator on this machine (us per node-step, real-time factor, compile times)"
+HELP = ("benchmark this machine: learned-model steps (compiled vs eager PyTorch), the simulator and the "
+        "static solver")
+PARTS = ("model", "simulator", "statics")
 
 
 def add_args(p):
     p.add_argument("--json", default=None, metavar="PATH", help="write the results as JSON")
     p.add_argument("--quick", action="store_true", help="shorter runs (less precise)")
+    p.add_argument("--only", default=None, metavar="PART[,PART]",
+                   help=f"run only some parts: {', '.join(PARTS)} (default: all)")
+    p.add_argument("--model", default=None, metavar="DIR",
+                   help="time this trained model folder for the node step (default: the default architecture "
+                        "with random weights)")
 
 
 def run(args) -> int:
-    from ..bench.simulator import format_table, run_benchmark
+    from ..bench import run_all, format_all
+    from ..errors import bad
 
+    parts = PARTS if args.only is None else tuple(x.strip() for x in args.only.split(",") if x.strip())
+    unknown = [x for x in parts if x not in PARTS]
+    if unknown or not parts:
+        raise bad("--only", args.only, f"a comma-separated subset of {', '.join(PARTS)}")
+    model = None
+    if args.model is not None:
+        from ..surrogate.artifact import load_model
+        model = load_model(args.model)
     with Bar("bench", unit="item") as bar:
-        result = run_benchmark(quick=args.quick, progress=bar)
-    print(format_table(result))
+        result = run_all(parts, quick=args.quick, model=model, progress=bar)
+    print(format_all(result))
     if args.json:
         atomic_write_text(args.json, json.dumps(result, indent=2))
     return 0

@@ -33,7 +33,7 @@ OUT_INCREMENT, OUT_ACCELERATION, OUT_POSE = 0, 1, 2
 # work row regions: see ``work_size``
 
 
-@njit(fastmath=FM, cache=True)
+@njit(fastmath=FM, cache=True, inline="always")
 def _logistic(a, lo, n, eb, ebf):
     """a[lo:lo+n] <- sigma(a[lo:lo+n]) in place (eb int32 scratch, ebf its float32 view).
 
@@ -60,7 +60,7 @@ def _logistic(a, lo, n, eb, ebf):
         a[o + i] = np.float32(1.0) / (np.float32(1.0) + a[o + i] * ebf[i])
 
 
-@njit(fastmath=FM, cache=True)
+@njit(fastmath=FM, cache=True, inline="always")
 def _affine(p, off_w, off_b, n_in, n_out, x, xlo, y, ylo):
     """y[ylo:ylo+n_out] = W x[xlo:xlo+n_in] + b with W stored transposed (n_in, n_out) at off_w
     (off_b < 0: no bias); unsigned indices as in ``_logistic``."""
@@ -82,7 +82,7 @@ def _affine(p, off_w, off_b, n_in, n_out, x, xlo, y, ylo):
             y[yl + j] += xi * p[o + j]
 
 
-@njit(fastmath=FM, cache=True)
+@njit(fastmath=FM, cache=True, inline="always")
 def _recurrent(p, off_hh, U, G, wk, h_lo, g_lo):
     """wk[g_lo:g_lo+G] += W_hh h with h = wk[h_lo:h_lo+U] and W_hh stored transposed (U, G)."""
     ug = np.uint64(G)
