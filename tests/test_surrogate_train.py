@@ -262,6 +262,8 @@ def test_cli_trains_and_reports(data_file, tmp_path, capsys):
     (["--node", "2", "--neighbours", "1,7"], ["node 7 is not stored"]),
     (["--node", "2", "--epochs", "0"], ["epochs=0"]),
     (["--node", "2", "--units", "0"], ["lstm_units=0"]),
+    (["--node", "2", "--pool", "1..x"], ["--pool", "A..B"]),
+    (["--node", "2", "--pool", "0..3"], ["pool", "node 0", "offsets"]),
 ])
 def test_cli_bad_input_is_one_line_and_exit_2(data_file, tmp_path, capsys, extra, words):
     assert run_cli(["train", str(data_file), "-o", str(tmp_path / "m"), "--quiet"] + extra) == 2
@@ -288,3 +290,28 @@ def test_cli_corrupt_or_foreign_model_folder_exit_2(data_file, trained, tmp_path
     assert run_cli(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("softrnn: error:") and "\n" not in err and str(folder) in err
+
+
+# ------------------------------------------------------------------------------ pooled (shared) model
+def test_a_pooled_model_learns_from_every_pooled_node(tmp_path):
+    from softrnn.surrogate.rollout import Manipulator, rollout
+    from softrnn.surrogate.train import pooled_specs, training_windows
+
+    data = synthetic(200)
+    spec = SampleSpec(node=2, wrench="force")
+    train = TrainConfig(epochs=2, batch_size=32, rollout_steps=1, input_noise=0.5)
+    model = train_node_model(data, spec, dict(SMALL, relative=True), train, tmp_path / "shared", pool=[1, 2, 3])
+    assert model.meta["pool"] == [1, 2, 3] and model.spec.node == 2 and model.normalizer.relative
+    resolved = spec.resolve(data.nodes, n_nodes_total=data.attrs.get("n_nodes_total"))
+    one = training_windows(data, resolved, train)[0]
+    pooled = training_windows(data, resolved, train, [1, 2, 3])[0]
+    assert len(pooled) == 3 * len(one) == model.meta["train_windows"]
+    # the windows of node 3 are node 2's spec moved by one node
+    moved = [sp.window_nodes for sp in pooled_specs(resolved, [3])]
+    assert moved == [(3, 2, 4)]
+    np.testing.assert_array_equal(pooled.targets[2 * len(one):], make_windows(data, pooled_specs(resolved, [3])[0],
+                                                                              0, len(data.time)).targets[:len(one)])
+    manip = Manipulator.of([], shared=model, shared_nodes=[1, 2, 3])
+    r = rollout(manip, data, start=150, stop=170)
+    assert np.isfinite(r.positions).all() and r.modelled == (1, 2, 3)
+    assert load_model(tmp_path / "shared").meta["pool"] == [1, 2, 3]

@@ -18,6 +18,7 @@ from . import __version__, pictures, plotting
 from .cases import ASSUMPTIONS, PAPER_CASES, Case, build_case
 from .io_util import atomic_write_text
 from .paper import paper_case
+from .reproduce_extra import engine_agreement, fig13_step, manipulator_step
 from .summary import simulate_summary
 
 QUICK_FRACTION = 0.1  # --quick simulates this fraction of each case's duration
@@ -135,7 +136,10 @@ def _model_step(name: str, out: Path, quick: bool, progress_factory) -> dict:
         paths = write_figures(ev, out / "figures" / f"{name}_model_{tag}")
         figures += [str(p.relative_to(out / "figures")) for p in paths if p.suffix == ".png"]
     tj, gj = test.to_json(), gen.to_json()
-    done = {"quick": quick, "softrnn_version": __version__, "one_step": _errors(tj["one_step"]),
+    span = model.meta["test_span"]
+    engine = engine_agreement(model, data, int(span[0]) + model.spec.history, int(span[1]))
+    done = {"quick": quick, "softrnn_version": __version__, "engine_vs_pytorch": engine,
+            "one_step": _errors(tj["one_step"]),
             "rollout": _errors(tj["free_running"]), "generalisation": _errors(gj["one_step"]),
             "generalisation_rollout": _errors(gj["free_running"]), "test_span_s": tj.get("span_s"),
             "model": {"folder": f"models/{name}", "spec": model.spec.to_dict(),
@@ -175,18 +179,21 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
                                     figures=done["figures"], dataset=done["dataset"])
     for name in PAPER_CASES:
         result = _model_step(name, out, quick, progress_factory)
-        for key in ("one_step", "rollout", "generalisation", "generalisation_rollout", "model", "test_span_s"):
-            report[name][key] = result[key]
+        for key in ("one_step", "rollout", "generalisation", "generalisation_rollout", "model", "test_span_s",
+                    "engine_vs_pytorch"):
+            report[name][key] = result.get(key)
         report[name]["figures"] = report[name]["figures"] + result["figures"]
+    report["manipulator"] = manipulator_step(out, quick, progress_factory)
+    report["fig13"] = fig13_step(out, quick)
     bench_file = out / "bench.json"
     bench = _load_if_done(bench_file, quick)
-    if bench is None:
-        from .bench.simulator import run_benchmark
+    if bench is None or "model" not in bench:
+        from .bench import run_all
 
         progress = progress_factory("benchmark") if progress_factory else None
-        bench = {"quick": quick, "softrnn_version": __version__, **run_benchmark(quick=quick, progress=progress)}
+        bench = {"quick": quick, "softrnn_version": __version__, **run_all(quick=quick, progress=progress)}
         atomic_write_text(bench_file, json.dumps(bench, indent=2))
-    report["simulator_benchmark"] = bench
+    report["benchmark"] = bench
     atomic_write_text(out / "report.json", json.dumps(report, indent=2))
     atomic_write_text(out / "report.md", render_markdown(report))
     return report
@@ -253,14 +260,15 @@ def render_markdown(report: dict) -> str:
                 continue
             lines.append(f"| {name} | {key} | {_v(e['mean_abs'])} | {_v(e['max_abs'])} | {_v(e['max_pct_of_length'])} | "
                          f"{_v(p['mean_abs']) if p else ''} | {_v(p['max_abs']) if p else ''} |")
-    bench = report["simulator_benchmark"]
-    lines += ["", "## Simulator benchmark (`softrnn bench`)", "", "```"]
+    lines += _engine_lines(report) + _manipulator_lines(report.get("manipulator")) + _fig13_lines(report.get("fig13"))
+    bench = report["benchmark"]
+    lines += ["", "## Benchmark (`softrnn bench`)", "", "```"]
     try:
-        from .bench.simulator import format_table
+        from .bench import format_all
 
-        lines.append(format_table(bench))
+        lines.append(format_all(bench))
     except Exception:  # a bench result from another version: show the JSON instead
-        lines.append(json.dumps(bench.get("simulator", bench), indent=1))
+        lines.append(json.dumps(bench, indent=1)[:4000])
     lines += ["```", "", "## Assumptions (values the paper does not give)", ""]
     for key, text in report["assumptions"].items():
         lines.append(f"- **{key}**: {text}")
@@ -270,3 +278,63 @@ def render_markdown(report: dict) -> str:
 
 def _v(values) -> str:
     return "-" if values is None else ", ".join(f"{x:.3g}" for x in values)
+
+
+def _engine_lines(report: dict) -> list[str]:
+    lines = ["", "## Inference engine against PyTorch (free-running rollout over each test span)", "",
+             "| case | steps | max abs difference [m] | engine [s] | PyTorch [s] |", "|---|---|---|---|---|"]
+    for name in PAPER_CASES:
+        e = report[name].get("engine_vs_pytorch") or {}
+        if "max_abs_difference_m" in e:
+            lines.append(f"| {name} | {e['steps']} | {e['max_abs_difference_m']:.2g} | {e['engine_s']:.3f} | "
+                         f"{e['pytorch_s']:.2f} |")
+        elif e:
+            lines.append(f"| {name} | {e.get('steps')} | diverged | | |")
+    return lines
+
+
+def _manipulator_lines(m: dict | None) -> list[str]:
+    if not m:
+        return []
+    lines = ["", f"## Whole manipulator, one shared model (paper Fig. 2C, beyond the paper): {m['case']}", "",
+             f"One {m['architecture']['lstm_layers']} x {m['architecture']['lstm_units']} LSTM shared by the "
+             f"{m['modelled_nodes']} interior nodes {m['pool'][0]}..{m['pool'][1]} (neighbours at offsets "
+             f"{m['neighbour_offsets']}, relative inputs), trained on the first 60 % (pooled windows); every "
+             f"interior node runs free on the test span, fed its own and its neighbours' predictions; "
+             f"{m['unmodelled']}."]
+    if m.get("diverged"):
+        return lines + ["", f"The free run diverged: {m['diverged']}"]
+    lines += ["", f"| horizon | steps | node {m['node']} max abs x, y, z [mm] | max % of length | all nodes max abs [mm] |",
+              "|---|---|---|---|---|"]
+    for key, e in m["errors"].items():
+        lines.append(f"| {key} | {e['steps']} | {_v(e['node_max_abs_mm'])} | {_v(e['node_max_pct_of_length'])} | "
+                     f"{_v(e['all_nodes_max_abs_mm'])} |")
+    lines += ["", f"Holding node {m['node']} at its last seed position would be off by at most "
+              f"{_v(m['hold_baseline_node_max_abs_mm'])} mm over the test span. One step of the whole manipulator "
+              f"(ManipulatorStepper, {m['stepper']['modelled_nodes']} nodes, 1 thread): "
+              f"{m['stepper']['median_us']:.1f} us median ({m['stepper']['hz_median']:,.0f} Hz)."]
+    return lines
+
+
+def _fig13_lines(f: dict | None) -> list[str]:
+    if not f:
+        return []
+    s = f["summary"]
+    tol, nodes = s["tolerance_sweep"], s["node_sweep"]
+    lines = ["", "## Static Cosserat solver: solve time (paper Fig. 13)", "",
+             f"Mean +- std of {s['repetitions']} solves per point; rows: guess error "
+             f"{', '.join(f'{100 * e:g} %' for e in s['guess_errors'])}. Paper: "
+             f"{s['paper']['solve_time_ms'][0]:g}-{s['paper']['solve_time_ms'][1]:g} ms per solve "
+             f"({s['paper']['bandwidth_hz'][0]:g}-{s['paper']['bandwidth_hz'][1]:g} Hz) on an i7 laptop.", "",
+             f"![fig13](figures/{f['figure']})", "",
+             f"| N = {tol['n_steps']}, tolerance E | " + " | ".join(f"{t:g}" for t in tol["tolerances"]) + " |",
+             "|---|" + "---|" * len(tol["tolerances"])]
+    for i, e in enumerate(s["guess_errors"]):
+        lines.append(f"| guess error {100 * e:g} % [ms] | " + " | ".join(
+            f"{tol['mean_ms'][k][i]:.3f} +- {tol['std_ms'][k][i]:.3f}" for k in range(len(tol["tolerances"]))) + " |")
+    lines += ["", f"| E = {nodes['tol']:g}, steps N | " + " | ".join(str(n) for n in nodes["n_steps"]) + " |",
+              "|---|" + "---|" * len(nodes["n_steps"])]
+    for i, e in enumerate(s["guess_errors"]):
+        lines.append(f"| guess error {100 * e:g} % [ms] | " + " | ".join(
+            f"{nodes['mean_ms'][k][i]:.3f} +- {nodes['std_ms'][k][i]:.3f}" for k in range(len(nodes["n_steps"]))) + " |")
+    return lines

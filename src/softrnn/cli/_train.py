@@ -38,11 +38,34 @@ def add_args(p):
     p.add_argument("--rollout-steps", type=int, default=None,
                    help="steps of the multi-step loss, feeding the node's predictions back (default: 4; 1: plain "
                         "one-step training, about 3x faster)")
+    p.add_argument("--pool", default=None, metavar="A..B|A,B,...",
+                   help="beyond the paper: train one model shared by these nodes (their windows pooled; "
+                        "e.g. 1..99 for every interior node); implies --relative")
+    p.add_argument("--relative", action="store_true",
+                   help="express the window's positions relative to the node's last position (translation-invariant)")
     p.add_argument("--seed", type=int, default=None, help="random seed of the weights and shuffling (default: 0)")
     p.add_argument("--threads", type=int, default=None, help="CPU threads (default: 1)")
     p.add_argument("--resume", action="store_true",
                    help="continue an interrupted training from FOLDER/checkpoint.pt (no finished epoch is lost)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _pool(text: str) -> tuple:
+    """'A..B' (inclusive) or 'A,B,...'."""
+    t = text.strip()
+    if ".." in t:
+        a, _, b = t.partition("..")
+        try:
+            lo, hi = int(a), int(b)
+        except ValueError:
+            raise bad("--pool", text, "a node range A..B (inclusive) or comma-separated nodes, e.g. 1..99") from None
+        if hi < lo:
+            raise bad("--pool", text, "a range A..B with A <= B")
+        return tuple(range(lo, hi + 1))
+    out = _ints(t, "--pool")
+    if not out:
+        raise bad("--pool", text, "a node range A..B (inclusive) or comma-separated nodes, e.g. 1..99")
+    return out
 
 
 def _ints(text: str, argument: str) -> tuple:
@@ -95,14 +118,20 @@ def run(args) -> int:
                                    ("output", args.output)) if v is not None}
     if args.dense is not None:
         overrides["dense_units"] = _ints(args.dense, "--dense")
+    pool = _pool(args.pool) if args.pool is not None else None
+    if args.relative or pool is not None:
+        overrides["relative"] = True
     train = {k: v for k, v in (("epochs", args.epochs), ("batch_size", args.batch_size), ("learning_rate", args.lr),
                                ("patience", args.patience), ("seed", args.seed), ("threads", args.threads),
                                ("rollout_steps", args.rollout_steps))
              if v is not None}
+    if overrides.get("relative") and "rollout_steps" not in train:
+        train["rollout_steps"] = 1   # the multi-step loss feeds back absolute positions
     config = TrainConfig(**train)
     with _LossBar(f"train node {node}", unit="batch", enabled=not args.quiet) as bar:
         try:
-            model = train_node_model(args.data, spec, overrides, config, args.out, resume=args.resume, progress=bar)
+            model = train_node_model(args.data, spec, overrides, config, args.out, resume=args.resume, progress=bar,
+                                     pool=pool)
         except KeyboardInterrupt:
             bar.close()
             print(f"softrnn: interrupted; the finished epochs are kept in {args.out}/checkpoint.pt; run the same "
@@ -110,7 +139,8 @@ def run(args) -> int:
             return 130
     m = model.meta
     spans = m["spans"]
-    print(f"train: node {model.spec.node} <- {', '.join(map(str, model.spec.neighbours)) or 'no neighbours'}, "
+    shared = f" (shared by {len(m['pool'])} pooled nodes)" if m.get("pool") else ""
+    print(f"train: node {model.spec.node}{shared} <- {', '.join(map(str, model.spec.neighbours)) or 'no neighbours'}, "
           f"history {model.spec.history}, {model.spec.inputs} + {model.spec.wrench}; "
           f"{m['train_windows']} training windows (stride {m['stride']}), validation samples "
           f"{spans['validation'][0]}..{spans['validation'][1] - 1}, test samples {spans['test'][0]}.."

@@ -151,15 +151,34 @@ def spans(n_samples: int, spec: SampleSpec, validation_fraction: float) -> Spans
     return Spans(fit=range(0, vcut), validation=range(vcut, cut), test=test_span)
 
 
-def training_windows(dataset, spec: SampleSpec, train: TrainConfig) -> tuple[Windows, Windows, Spans, int]:
+def pooled_specs(spec: SampleSpec, pool) -> list[SampleSpec]:
+    """The resolved ``spec`` moved to every node of ``pool`` (neighbours at the same offsets from
+    the node, as ``rollout.model_inputs`` applies a shared model); None: ``[spec]``."""
+    if pool is None:
+        return [spec]
+    offsets = [a - spec.node for a in spec.neighbours]
+    return [replace(spec, node=int(a), neighbours=tuple(int(a) + o for o in offsets)) for a in pool]
+
+
+def _concat(parts: list[Windows]) -> Windows:
+    if len(parts) == 1:
+        return parts[0]
+    return Windows(poses=np.concatenate([w.poses for w in parts]), wrenches=np.concatenate([w.wrenches for w in parts]),
+                   targets=np.concatenate([w.targets for w in parts]), index=np.concatenate([w.index for w in parts]))
+
+
+def training_windows(dataset, spec: SampleSpec, train: TrainConfig, pool=None) -> tuple[Windows, Windows, Spans, int]:
     """The (subsampled) fit and validation windows of ``dataset`` and the spans and stride used.
 
     Only samples of the training span are touched: every returned window and target has a sample
-    index below ``spans.test.start``.
+    index below ``spans.test.start``. ``pool``: the windows of every node of ``pool`` (the spec
+    moved there, ``pooled_specs``) are concatenated, for one model shared by those nodes; the
+    stride then applies to the pooled count.
     """
     s = spans(int(np.asarray(dataset.time).shape[0]), spec, train.validation_fraction)
-    fit = make_windows(dataset, spec, s.fit.start, s.fit.stop)
-    val = make_windows(dataset, spec, s.validation.start, s.validation.stop)
+    specs = pooled_specs(spec, pool)
+    fit = _concat([make_windows(dataset, sp, s.fit.start, s.fit.stop) for sp in specs])
+    val = _concat([make_windows(dataset, sp, s.validation.start, s.validation.stop) for sp in specs])
     stride = max(1, math.ceil(len(fit) / train.max_train_windows))
     if stride > 1:
         fit, val = fit.take(slice(None, None, stride)), val.take(slice(None, None, stride))
@@ -182,19 +201,48 @@ def _torch_settings(threads: int):
         torch.use_deterministic_algorithms(old_det, warn_only=old_warn)
 
 
-def _load_data(dataset_path, spec: SampleSpec):
-    """(resolved spec, dataset of the window nodes, source description)."""
+def _load_data(dataset_path, spec: SampleSpec, pool=None):
+    """(resolved spec, dataset of the window nodes (of every pooled node), source description,
+    the pool as absolute node indices or None)."""
     from ..io.dataset import Dataset, read_dataset
 
     if isinstance(dataset_path, Dataset):
-        data = dataset_path
-        resolved = spec.resolve(data.nodes, n_nodes_total=data.attrs.get("n_nodes_total"))
-        return resolved, data, None
-    path = Path(dataset_path)
-    head = read_dataset(path, stop=1)                                 # every stored node, one sample
-    resolved = spec.resolve(head.nodes, n_nodes_total=head.attrs.get("n_nodes_total"))
-    data = read_dataset(path, nodes=list(resolved.window_nodes))      # only the window's columns
-    return resolved, data, path
+        data, path = dataset_path, None
+        head = data
+    else:
+        path = Path(dataset_path)
+        head = read_dataset(path, stop=1)                             # every stored node, one sample
+    total = head.attrs.get("n_nodes_total")
+    resolved = spec.resolve(head.nodes, n_nodes_total=total)
+    pool = _resolve_pool(pool, resolved, head.nodes, total)
+    if path is not None:
+        need = sorted({a for sp in pooled_specs(resolved, pool) for a in sp.window_nodes})
+        data = read_dataset(path, nodes=need)                         # only the windows' columns
+    return resolved, data, path, pool
+
+
+def _resolve_pool(pool, spec: SampleSpec, stored, total) -> tuple[int, ...] | None:
+    """Absolute pool nodes, each with its neighbours (at the spec's offsets) stored."""
+    if pool is None:
+        return None
+    if isinstance(pool, (str, bytes)) or not hasattr(pool, "__iter__"):
+        raise bad("pool", pool, "a sequence of node indices (the nodes sharing the model)")
+    stored_set = {int(a) for a in np.asarray(stored).reshape(-1)}
+    n = int(total) if total is not None else max(stored_set) + 1
+    out = []
+    for a in pool:
+        if isinstance(a, bool) or not isinstance(a, (int, np.integer)):
+            raise bad("pool", list(pool), "integer node indices")
+        out.append(int(a) + n if a < 0 else int(a))
+    if not out or len(set(out)) != len(out):
+        raise bad("pool", list(pool), "distinct node indices, at least one")
+    offsets = [b - spec.node for b in spec.neighbours]
+    for a in out:
+        missing = [a + o for o in (0, *offsets) if a + o not in stored_set]
+        if missing:
+            raise bad("pool", f"node {a}", f"nodes whose neighbours at offsets {offsets} are stored (node {missing[0]} "
+                                           f"is not); pool interior nodes only, e.g. 1..{n - 2}")
+    return tuple(out)
 
 
 def _scenario_name(attrs: dict, path) -> str | None:
@@ -279,7 +327,7 @@ def _clone_state(module: torch.nn.Module) -> dict:
 
 # ------------------------------------------------------------------------------------------ train
 def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dict | None, train: TrainConfig,
-                     out_folder, *, resume: bool = False, progress=None) -> NodeModel:
+                     out_folder, *, resume: bool = False, progress=None, pool=None) -> NodeModel:
     """Train one node's model and save it to ``out_folder``.
 
     Parameters
@@ -297,6 +345,12 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
     resume : bool
         Continue from ``out_folder/checkpoint.pt`` if present (the settings must match, except
         epochs and patience); a finished model there is loaded and returned as is.
+    pool : sequence of int or None
+        Beyond the paper: train one model shared by these nodes (their windows pooled, the spec's
+        neighbours taken at the same offsets from each; ``Manipulator.of(shared=model,
+        shared_nodes=pool)`` applies it). Use ``relative=True`` inputs (``model_config_overrides``)
+        so the model does not depend on where a node is; the normaliser is fitted on the pooled
+        windows. The model's ``spec.node`` stays the spec's node (it is evaluated there).
     progress : callable or None
         ``progress(done, total, info)`` after every batch: done/total count batches over all epochs,
         ``info`` holds ``epoch``, ``epochs``, ``loss`` (running mean of this epoch), and, from the
@@ -315,8 +369,8 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
     out_folder = Path(out_folder)
     check_replaceable(out_folder)
     t0 = time.perf_counter()
-    resolved, data, path = _load_data(dataset_path, spec)
-    fit, val, sp, stride = training_windows(data, resolved, train)
+    resolved, data, path, pool = _load_data(dataset_path, spec, pool)
+    fit, val, sp, stride = training_windows(data, resolved, train, pool)
     for name in _FIXED:
         if name in overrides and overrides[name] != getattr(resolved, name):
             raise bad(f"model_config_overrides[{name!r}]", overrides[name], "no value: it comes from the spec")
@@ -328,6 +382,7 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
         raise bad("model_config_overrides", sorted(overrides), f"ModelConfig fields ({err})") from None
     normalizer = Normalizer.fit(fit, output=config.output, relative=config.relative, per_node=resolved.per_node)
     settings = _settings(resolved, config, train, _fingerprint(fit, val))
+    settings["pool"] = list(pool) if pool is not None else None
     ckpt_path = out_folder / CHECKPOINT
 
     if resume and not ckpt_path.exists() and (out_folder / "config.json").exists():
@@ -335,7 +390,7 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
         was = model.meta.get("train_config") if isinstance(model.meta.get("train_config"), dict) else {}
         done = {"spec": model.spec.to_dict(), "model": model.config.to_dict(),
                 "train": {k: v for k, v in was.items() if k not in ("epochs", "patience", "threads")},
-                "data": model.meta.get("data_fingerprint")}
+                "data": model.meta.get("data_fingerprint"), "pool": model.meta.get("pool")}
         why = _diff(done, settings)
         if why:
             raise ModelFolderError(f"{out_folder}: holds a finished model trained with other settings ({why}); "
@@ -354,7 +409,7 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
                                           "absolute positions)")
         long_spec = replace(resolved, history=resolved.history + K - 1)
         try:
-            fit_l, val_l = training_windows(data, long_spec, train)[:2]
+            fit_l, val_l = training_windows(data, long_spec, train, pool)[:2]
         except SoftrnnInputError:
             raise bad("rollout_steps", K, f"fewer steps: history + rollout_steps = {long_spec.history + 1} samples "
                                           f"do not fit the fit and validation spans; use rollout_steps=1 or longer "
@@ -442,6 +497,7 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
         "dataset": _dataset_meta(data, path),
         "node": resolved.node,
         "window_nodes": list(resolved.window_nodes),
+        "pool": list(pool) if pool is not None else None,
         "spans": sp.to_dict(),
         "train_span": [sp.fit.start, sp.validation.stop],
         "test_span": [sp.test.start, sp.test.stop],
