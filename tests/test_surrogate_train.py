@@ -315,3 +315,26 @@ def test_a_pooled_model_learns_from_every_pooled_node(tmp_path):
     r = rollout(manip, data, start=150, stop=170)
     assert np.isfinite(r.positions).all() and r.modelled == (1, 2, 3)
     assert load_model(tmp_path / "shared").meta["pool"] == [1, 2, 3]
+
+
+@pytest.mark.parametrize("output", ["increment", "acceleration"])
+def test_the_relative_multi_step_loss_at_one_step_is_the_plain_loss(output):
+    from softrnn.surrogate.data import Normalizer
+    from softrnn.surrogate.train import _RelativeMultiStep
+
+    data = synthetic(200)
+    spec = SampleSpec(node=2, wrench="force", inputs="poses").resolve(data.nodes, n_nodes_total=5)
+    w = make_windows(data, spec, 0, 150)
+    norm = Normalizer.fit(w, output=output, relative=True, per_node=7)
+    cfg = ModelConfig(pose_features=spec.pose_features, wrench_features=3, history=2, relative=True, output=output)
+    torch.manual_seed(0)
+    module = NodeLSTM(cfg)
+    module.set_normalizer(norm)
+    module.eval()
+    multi = _RelativeMultiStep(norm, cfg, 1, 0.0)
+    with torch.no_grad():
+        got = float(multi.loss(module, *multi.tensors(w)))
+        z = torch.from_numpy(norm.normalise_poses(w.poses))
+        y = torch.from_numpy(norm.normalise_targets(w.targets, w.poses))
+        want = float(torch.mean((module(z, torch.from_numpy(norm.normalise_wrenches(w.wrenches))) - y) ** 2))
+    assert got == pytest.approx(want, rel=1e-5)

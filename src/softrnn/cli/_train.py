@@ -125,8 +125,6 @@ def run(args) -> int:
                                ("patience", args.patience), ("seed", args.seed), ("threads", args.threads),
                                ("rollout_steps", args.rollout_steps))
              if v is not None}
-    if overrides.get("relative") and "rollout_steps" not in train:
-        train["rollout_steps"] = 1   # the multi-step loss feeds back absolute positions
     config = TrainConfig(**train)
     with _LossBar(f"train node {node}", unit="batch", enabled=not args.quiet) as bar:
         try:

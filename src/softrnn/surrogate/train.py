@@ -404,9 +404,9 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
 
     K = train.rollout_steps
     if K > 1:
-        if config.relative:
-            raise bad("rollout_steps", K, "1 for a model with relative inputs (multi-step training feeds back "
-                                          "absolute positions)")
+        if config.relative and config.output == "pose":
+            raise bad("rollout_steps", K, "1 for a model with relative inputs that predicts the next position "
+                                          "itself (output='pose'); or use output='increment'")
         long_spec = replace(resolved, history=resolved.history + K - 1)
         try:
             fit_l, val_l = training_windows(data, long_spec, train, pool)[:2]
@@ -414,7 +414,7 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
             raise bad("rollout_steps", K, f"fewer steps: history + rollout_steps = {long_spec.history + 1} samples "
                                           f"do not fit the fit and validation spans; use rollout_steps=1 or longer "
                                           f"data") from None
-        multi = _MultiStep(normalizer, config, K, train.input_noise)
+        multi = (_RelativeMultiStep if config.relative else _MultiStep)(normalizer, config, K, train.input_noise)
         fp, fw, fy = multi.tensors(fit_l)
         vp, vw, vy = multi.tensors(val_l)
     else:
@@ -590,6 +590,66 @@ class _MultiStep:
                 b = min(n, a + chunk)
                 total += float(self.loss(module, poses[a:b], wrenches[a:b], truth[a:b])) * (b - a)
         return total / max(1, n)
+
+
+class _RelativeMultiStep(_MultiStep):
+    """``_MultiStep`` for relative inputs: the windows stay in physical units, anchored at the
+    node's last position of the first window (small float32 numbers), and every fed-back window is
+    re-expressed relative to its own last node position before the normalisation, as
+    ``Normalizer.normalise_poses`` does for a single window."""
+
+    def __init__(self, normalizer: Normalizer, config: ModelConfig, K: int, input_noise: float):
+        super().__init__(normalizer, config, K, input_noise)
+        P, per = normalizer.pose_features, normalizer.per_node
+        col = np.arange(P) % per
+        self.is_pos = torch.tensor((col < 3).astype(np.float32))                            # (P,)
+        self.axis = torch.as_tensor(np.where(col < 3, col, 0))                              # (P,)
+        self.pmean = torch.tensor(normalizer.pose_mean.astype(np.float32))                 # (P,)
+        self.pstd = torch.tensor(normalizer.pose_std.astype(np.float32))                   # (P,)
+        self.step_std = torch.tensor((input_noise * normalizer.delta_std[0:3]).astype(np.float32))  # (3,) [m]
+
+    def tensors(self, w: Windows):
+        """Long windows -> anchored physical poses (M, H+K-1, P), normalised wrenches, and the true
+        node positions of the K predicted steps (M, K, 3), anchored like the poses."""
+        n, H = self.normalizer, self.H
+        anchor = w.poses[:, H - 1, 0:3].astype(np.float64)                                # (M, 3)
+        shift = np.where(self.is_pos.numpy() > 0, anchor[:, self.axis.numpy()], 0.0)        # (M, P)
+        poses = (w.poses.astype(np.float64) - shift[:, None, :]).astype(np.float32)         # (M, H+K-1, P)
+        wrenches = torch.from_numpy(n.normalise_wrenches(w.wrenches))                     # (M, H+K-1, W)
+        nxt = np.concatenate([w.poses[:, H:, 0:3], w.targets[:, None, :]], axis=1)         # (M, K, 3)
+        truth = (nxt.astype(np.float64) - anchor[:, None, :]).astype(np.float32)
+        return torch.from_numpy(poses), wrenches, torch.from_numpy(truth)
+
+    def _normalise(self, cur):
+        """Anchored physical windows (b, H, P) -> the model's relative, normalised input."""
+        last = cur[:, -1, 0:3][:, self.axis] * self.is_pos                                  # (b, P)
+        return (cur - last[:, None, :] - self.pmean) / self.pstd
+
+    def _raw_target(self, truth, cur):
+        raw = truth - cur[:, -1, 0:3]
+        if self.output == "acceleration":
+            raw = raw - (cur[:, -1, 0:3] - cur[:, -2, 0:3])
+        return raw
+
+    def loss(self, module, poses, wrenches, truth, generator=None):
+        """Mean squared normalised error over the K steps; poses anchored physical (b, H+K-1, P)."""
+        H = self.H
+        cur = poses[:, :H]                                                                 # (b, H, P)
+        if generator is not None and bool((self.step_std > 0).any()):
+            d = torch.randn(poses.shape[0], 1, 3, generator=generator) * self.step_std    # (b, 1, 3) [m]
+            cur = torch.cat([cur[:, :, 0:3] + d, cur[:, :, 3:]], dim=2)
+        total = 0.0
+        for s in range(self.K):
+            y = module(self._normalise(cur), wrenches[:, s:s + H])                         # (b, 3)
+            target = (self._raw_target(truth[:, s], cur) - self.tmean) / self.tstd
+            total = total + torch.mean((y - target) ** 2)
+            if s + 1 < self.K:
+                step = y * self.tstd + self.tmean                                          # (b, 3) [m]
+                if self.output == "acceleration":
+                    step = step + (cur[:, -1, 0:3] - cur[:, -2, 0:3])
+                row = torch.cat([cur[:, -1, 0:3] + step, poses[:, s + H, 3:]], dim=1)      # (b, P)
+                cur = torch.cat([cur[:, 1:], row[:, None, :]], dim=1)                      # (b, H, P)
+        return total / self.K
 
 
 def _noise_scales(normalizer: Normalizer, spec: SampleSpec, input_noise: float) -> dict:
