@@ -18,7 +18,7 @@ from . import __version__, pictures, plotting
 from .cases import ASSUMPTIONS, PAPER_CASES, Case, build_case
 from .io_util import atomic_write_text
 from .paper import paper_case
-from .reproduce_extra import engine_agreement, fig13_step, manipulator_step
+from .reproduce_extra import engine_agreement, fig13_step, fig14_step, manipulator_step
 from .summary import simulate_summary
 
 QUICK_FRACTION = 0.1  # --quick simulates this fraction of each case's duration
@@ -185,6 +185,7 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
         report[name]["figures"] = report[name]["figures"] + result["figures"]
     report["manipulator"] = manipulator_step(out, quick, progress_factory)
     report["fig13"] = fig13_step(out, quick)
+    report["fig14"] = fig14_step(out, quick, progress_factory)
     bench_file = out / "bench.json"
     bench = _load_if_done(bench_file, quick)
     if bench is None or "model" not in bench:
@@ -260,7 +261,8 @@ def render_markdown(report: dict) -> str:
                 continue
             lines.append(f"| {name} | {key} | {_v(e['mean_abs'])} | {_v(e['max_abs'])} | {_v(e['max_pct_of_length'])} | "
                          f"{_v(p['mean_abs']) if p else ''} | {_v(p['max_abs']) if p else ''} |")
-    lines += _engine_lines(report) + _manipulator_lines(report.get("manipulator")) + _fig13_lines(report.get("fig13"))
+    lines += (_engine_lines(report) + _manipulator_lines(report.get("manipulator")) + _fig14_lines(report.get("fig14"))
+              + _fig13_lines(report.get("fig13")))
     bench = report["benchmark"]
     lines += ["", "## Benchmark (`softrnn bench`)", "", "```"]
     try:
@@ -338,3 +340,29 @@ def _fig13_lines(f: dict | None) -> list[str]:
         lines.append(f"| guess error {100 * e:g} % [ms] | " + " | ".join(
             f"{nodes['mean_ms'][k][i]:.3f} +- {nodes['std_ms'][k][i]:.3f}" for k in range(len(nodes["n_steps"]))) + " |")
     return lines
+
+
+def _fig14_lines(f: dict | None) -> list[str]:
+    if not f:
+        return []
+    lines = ["", f"## LSTM units x history (paper Fig. 14): {f['case']}, node {f['node']}", "",
+             f"![fig14](figures/{f['figure']})", ""]
+    for key, what in (("bandwidth", "compiled stepper bandwidth"), ("torch_bandwidth", "eager PyTorch bandwidth"),
+                      ("rms_error", "one-step RMS error")):
+        r = (f.get("regions") or {}).get(key)
+        if not r:
+            continue
+        pts = ", ".join(f"({u}, {h})" for u, h in r["points"])
+        p = r["paper"]
+        lines.append(f"- {what}: best region (units, history) {pts}; the paper's: units {p['lstm_units'][0]}-"
+                     f"{p['lstm_units'][1]}, history {p['history'][0]}-{p['history'][1]} "
+                     f"({100 * r['fraction_in_paper_region']:.0f} % of ours inside it)")
+    t = f.get("trends") or {}
+    lines.append(f"- trends from the smallest to the largest grid value: bandwidth {_pct(t.get('bandwidth_vs_units'))} "
+                 f"with units, {_pct(t.get('bandwidth_vs_history'))} with history; RMS error "
+                 f"{_pct(t.get('rms_error_vs_units'))} with units, {_pct(t.get('rms_error_vs_history'))} with history")
+    return lines
+
+
+def _pct(x) -> str:
+    return "n/a" if x is None else f"{100 * x:+.0f} %"
