@@ -94,3 +94,23 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(bench, "run_benchmark", boom)
     assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
     assert calls == ["square"]
+
+
+def test_every_command_has_a_working_help(capsys):
+    from softrnn.cli.main import build_parser, main
+
+    commands = build_parser()._subparsers._group_actions[0].choices
+    for argv in [["--help"]] + [[name, "--help"] for name in commands]:
+        try:
+            main(argv)
+        except SystemExit as exc:
+            assert exc.code == 0, argv
+    assert "usage" in capsys.readouterr().out
+
+
+def test_bench_refuses_unknown_parts(capsys):
+    from softrnn.cli.main import main
+
+    assert main(["bench", "--only", "model,gpu"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("softrnn: error: --only") and "\n" not in err

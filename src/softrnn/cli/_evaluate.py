@@ -10,7 +10,7 @@ from ..io_util import atomic_write_text
 from ._progress import Bar
 
 NAME = "evaluate"
-HELP = ("evaluate a trained node model on a data set: max/mean errors per axis [mm], % of the rod length "
+HELP = ("evaluate a trained node model on a data set: max/mean errors per axis [mm], %% of the rod length "
         "and RMSE(t), one step ahead and free running, beside the paper's figures")
 
 

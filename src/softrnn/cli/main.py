@@ -4,7 +4,7 @@ import argparse
 import sys
 
 from ..errors import SimulationError, SoftrnnInputError
-from . import (_animate, _bench, _evaluate, _export, _import_csv, _plot, _reproduce, _rollout, _show,
+from . import (_animate, _bench, _evaluate, _export, _import_csv, _magnetic, _plot, _reproduce, _rollout, _show,
                _simulate, _study, _sweep, _train)
 
 
@@ -20,7 +20,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
     sub = parser.add_subparsers(title="commands", dest="command", required=True, parser_class=_Parser)
     for module in (_simulate, _sweep, _reproduce, _bench, _show, _import_csv, _animate, _plot, _train, _evaluate,
-                   _rollout, _export, _study):
+                   _rollout, _export, _study, _magnetic):
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_args(p)
         p.set_defaults(func=module.run)

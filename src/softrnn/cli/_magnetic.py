@@ -1,0 +1,160 @@
+"""softrnn magnetic experiment|compare|example-csv: the paper's magnetic experiment (section 5, Table 1)."""
+
+import json
+
+from ._progress import Bar
+
+NAME = "magnetic"
+HELP = "the paper's magnetic experiment (Table 1): simulated, or on lab data (a CSV of currents and orientations)"
+
+
+def _sub_parser_class(parent_class):
+    """The parent's one-line-error parser, naming the whole command in its hint."""
+
+    class _Sub(parent_class):
+        def error(self, message):
+            self.exit(2, f"softrnn: error: {message} (see '{self.prog} --help')\n")
+
+    return _Sub
+
+
+def _training_args(p, epochs_help: str):
+    p.add_argument("--epochs", type=int, default=None, help=epochs_help)
+    p.add_argument("--seed", type=int, default=0, help="random seed of the currents, camera noise and training "
+                                                       "(default: 0)")
+    p.add_argument("--output", choices=("increment", "pose"), default="increment",
+                   help="what the LSTMs predict: the next orientation minus the last (default, most accurate one "
+                        "step ahead) or the next orientation (as the paper; stable when free running)")
+    p.add_argument("--json", default=None, metavar="PATH", help="also write the table as JSON to PATH")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def add_args(p):
+    sub = p.add_subparsers(title="subcommands", dest="magnetic", required=True,
+                           parser_class=_sub_parser_class(type(p)))
+    e = sub.add_parser("experiment", help="simulate the experiment and reproduce Table 1 and Fig. 12",
+                       description="The dynamic model plays the real robot (parameters a few percent off the "
+                                   "nominal ones), a camera model measures the magnets' orientations, the static "
+                                   "Cosserat model and one LSTM per magnet predict them; prints Table 1 beside the "
+                                   "paper's and writes DIR/table1.json, DIR/fig12.png, DIR/robot.h5 (reused when "
+                                   "run again with the same settings) and DIR/models.")
+    e.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder (created)")
+    e.add_argument("--quick", action="store_true", help="240 samples and 8 epochs (under a minute) instead of the "
+                                                        "paper's 669 samples and 25 epochs")
+    e.add_argument("--samples", type=int, default=None, help="measured samples (default: 669, quick: 240)")
+    _training_args(e, "training epochs (default: 25, quick: 8)")
+    c = sub.add_parser("compare", help="the same comparison on a lab CSV (docs/magnetic-format.md)",
+                       description="Read a CSV of coil currents (and/or magnet wrenches) and measured magnet "
+                                   "orientations, predict the orientations with the static Cosserat model from the "
+                                   "currents and with one LSTM per magnet trained on the first 60 per cent, and print the "
+                                   "table; writes DIR/table1.json, DIR/fig12.png and DIR/models.")
+    c.add_argument("csv", help="the lab CSV (layout in docs/magnetic-format.md, e.g. examples/magnetic_lab.csv)")
+    c.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder (created)")
+    _training_args(c, "training epochs (default: 25)")
+    x = sub.add_parser("example-csv", help="write a simulated example lab CSV",
+                       description="Simulate a short run of the experiment and write it in the lab format "
+                                   "(currents, orientations, magnet positions): examples/magnetic_lab.csv is made so.")
+    x.add_argument("path", help="the CSV to write (replaced)")
+    x.add_argument("--samples", type=int, default=300, help="rows (default: 300)")
+    x.add_argument("--seed", type=int, default=1, help="random seed (default: 1)")
+
+
+class _Stages:
+    """progress(stage, done, total) with one tqdm bar per stage."""
+
+    def __init__(self, enabled: bool):
+        self.enabled = enabled
+        self.bar = None
+        self.stage = None
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        if stage != self.stage:
+            self.close()
+            self.stage = stage
+            self.bar = Bar(stage, unit="step")
+        self.bar(done, total)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _print_result(result: dict) -> None:
+    from ..magnetics.experiment import format_table
+
+    print("Table 1: max and mean absolute error (deg) of the magnets' orientations about x, y, z on the test span")
+    for line in format_table(result):
+        print(line)
+    axis = result["bending_axis"]
+    ranges = ", ".join(f"{name} {r[['x', 'y', 'z'].index(axis)]:.1f} deg"
+                       for name, r in result["motion_range_deg"].items())
+    print(f"bending axis: {axis} (measured range {ranges}); orientation about z is identically 0 by the paper's "
+          f"definition (k perpendicular to z)")
+    beats, beats_max = result.get("lstm_beats_static_on_bending_axis"), result.get(
+        "lstm_beats_static_on_bending_axis_max") or {}
+    if beats is not None:
+        i = ["x", "y", "z"].index(axis)
+        for name, won in beats.items():
+            r, c = result[name]["rnn"][i], result[name]["cosserat"][i]
+            print(f"{name}: about {axis} the LSTM {'beats' if won else 'does not beat'} the static model on the mean "
+                  f"error ({r[1]:.2f} vs {c[1]:.2f} deg) and {'beats' if beats_max.get(name) else 'does not beat'} it "
+                  f"on the max ({r[0]:.2f} vs {c[0]:.2f} deg)")
+    st = result.get("static")
+    if st:
+        print(f"static model: {st['solves']} solves, {st['failures']} failed samples (left out)")
+    t = result.get("timings", {})
+    parts = []
+    if "simulation_s" in t:
+        parts.append(f"simulation {t['simulation_s']:.1f} s{' (reused)' if t.get('simulation_resumed') else ''}")
+    if "static_s" in t:
+        parts.append(f"static model {t['static_s']:.1f} s ({t['static_solves_per_second']:.0f} solves/s, "
+                     f"{t['static_predictions_per_second']:.0f} predictions/s)")
+    parts.append(f"training {t['training_s']:.1f} s")
+    rates = t.get("rnn_steps_per_second") or {}
+    if rates:
+        parts.append("LSTM " + ", ".join(f"{name} {hz:.3g} steps/s" for name, hz in rates.items()))
+    if "total_s" in t:
+        parts.append(f"total {t['total_s']:.1f} s")
+    print("timings: " + "; ".join(parts))
+    print(f"figure: {result['figure']}")
+
+
+def run(args) -> int:
+    from ..errors import bad
+    from ..io_util import atomic_write_text
+    from ..magnetics.experiment import ExperimentConfig, run_experiment
+
+    if args.magnetic == "example-csv":
+        from ..magnetics.lab import write_example_csv
+
+        if args.samples < 20:
+            raise bad("--samples", args.samples, "at least 20 rows")
+        data = write_example_csv(args.path, args.samples, seed=args.seed)
+        print(f"wrote {args.path}: {data.n_samples} rows, t = 0 .. {data.time[-1]:g} s")
+        return 0
+    fields = {"seed": args.seed, "output": args.output}
+    if args.epochs is not None:
+        fields["epochs"] = args.epochs
+    with _Stages(not args.quiet) as progress:
+        if args.magnetic == "experiment":
+            if args.samples is not None:
+                fields["samples"] = args.samples
+            result = run_experiment(ExperimentConfig(quick=args.quick, **fields), args.out, progress=progress)
+        else:
+            from ..magnetics.lab import compare_lab
+
+            result = compare_lab(args.csv, ExperimentConfig(**fields), args.out, progress=progress)
+    _print_result(result)
+    if args.json:
+        atomic_write_text(args.json, json.dumps(result, indent=2, allow_nan=False) + "\n")
+        print(f"table written to {args.json}")
+    return 0
