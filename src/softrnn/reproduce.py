@@ -18,7 +18,7 @@ from . import __version__, pictures, plotting
 from .cases import ASSUMPTIONS, PAPER_CASES, Case, build_case
 from .io_util import atomic_write_text
 from .paper import paper_case
-from .reproduce_extra import engine_agreement, fig13_step, fig14_step, manipulator_step
+from .reproduce_extra import engine_agreement, fig13_step, fig14_step, magnetic_step, manipulator_step
 from .summary import simulate_summary
 
 QUICK_FRACTION = 0.1  # --quick simulates this fraction of each case's duration
@@ -184,6 +184,7 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
             report[name][key] = result.get(key)
         report[name]["figures"] = report[name]["figures"] + result["figures"]
     report["manipulator"] = manipulator_step(out, quick, progress_factory)
+    report["magnetic"] = magnetic_step(out, quick, progress_factory)
     report["fig13"] = fig13_step(out, quick)
     report["fig14"] = fig14_step(out, quick, progress_factory)
     bench_file = out / "bench.json"
@@ -262,7 +263,7 @@ def render_markdown(report: dict) -> str:
             lines.append(f"| {name} | {key} | {_v(e['mean_abs'])} | {_v(e['max_abs'])} | {_v(e['max_pct_of_length'])} | "
                          f"{_v(p['mean_abs']) if p else ''} | {_v(p['max_abs']) if p else ''} |")
     lines += (_engine_lines(report) + _manipulator_lines(report.get("manipulator")) + _fig14_lines(report.get("fig14"))
-              + _fig13_lines(report.get("fig13")))
+              + _magnetic_lines(report.get("magnetic")) + _fig13_lines(report.get("fig13")))
     bench = report["benchmark"]
     lines += ["", "## Benchmark (`softrnn bench`)", "", "```"]
     try:
@@ -366,3 +367,34 @@ def _fig14_lines(f: dict | None) -> list[str]:
 
 def _pct(x) -> str:
     return "n/a" if x is None else f"{100 * x:+.0f} %"
+
+
+def _magnetic_lines(m: dict | None) -> list[str]:
+    if not m:
+        return []
+    axes = "xyz"
+    lines = ["", "## The magnetic experiment, simulated (paper section 5, Table 1)", "",
+             "Errors (max, mean) in degrees about x, y, z on the last 40 % of the samples: the LSTM one step ahead "
+             "from the measured history (as the paper), the LSTM free running, and the static Cosserat model from the "
+             "coil currents. The simulated robot's parameters are perturbed from the static model's (see "
+             "docs/magnetic-format.md).", "",
+             "| magnet | model | x | y | z | paper x | paper y | paper z |", "|---|---|---|---|---|---|---|---|"]
+    paper = m.get("paper", {})
+    for magnet in ("distal", "proximal"):
+        for key, label, pkey in (("rnn", "LSTM (one step)", "rnn"), ("rnn_free_running", "LSTM (free running)", None),
+                                 ("cosserat", "static Cosserat", "cosserat")):
+            row = m[magnet].get(key)
+            if row is None:
+                continue
+            p = paper.get(magnet, {}).get(pkey) if pkey else None
+            cells = [f"{a:.2f}, {b:.2f}" for a, b in row]
+            pcells = [f"{a:.2f}, {b:.2f}" for a, b in p] if p else ["", "", ""]
+            lines.append(f"| {magnet} | {label} | " + " | ".join(cells) + " | " + " | ".join(pcells) + " |")
+    bend = m.get("bending_axis")
+    if bend is not None:
+        name = axes[bend] if isinstance(bend, int) else str(bend)
+        wins = m.get("lstm_beats_static_on_bending_axis") or {}
+        lines += ["", f"Bending axis: {name}. The LSTM's mean error is below the static model's there: distal "
+                      f"{wins.get('distal')}, proximal {wins.get('proximal')}."]
+    lines += ["", "![fig12](figures/fig12.png)"]
+    return lines

@@ -211,3 +211,22 @@ def fig14_step(out: Path, quick: bool, progress_factory=None) -> dict:
             "wall_seconds")
     return save_step(step_file, {"case": FIG14["case"], "node": case.node_of_interest, "figure": "fig14.png",
                                  "folder": str(folder.relative_to(out)), **{k: result[k] for k in keep}}, quick)
+
+
+# ------------------------------------------------------------------------------ magnetic experiment
+def magnetic_step(out: Path, quick: bool, progress_factory=None) -> dict:
+    """The paper's experiment (section 5) simulated: Table 1 and Fig. 12 (``softrnn.magnetics.experiment``)."""
+    from .magnetics.experiment import ExperimentConfig, run_experiment
+
+    step_file = out / "magnetic" / "step.json"
+    done = load_step(step_file, quick)
+    if done is not None:
+        return done
+    bar = progress_factory("magnetic experiment") if progress_factory else None
+    progress = None if bar is None else (lambda stage, done, total: bar(done, total))
+    result = run_experiment(ExperimentConfig(quick=quick), out / "magnetic", progress=progress)
+    fig = out / "magnetic" / "fig12.png"
+    if fig.exists():
+        (out / "figures").mkdir(parents=True, exist_ok=True)
+        (out / "figures" / "fig12.png").write_bytes(fig.read_bytes())
+    return save_step(step_file, result, quick)
