@@ -18,7 +18,7 @@ from . import __version__, pictures, plotting
 from .cases import ASSUMPTIONS, PAPER_CASES, Case, build_case
 from .io_util import atomic_write_text
 from .paper import paper_case
-from .reproduce_extra import engine_agreement, fig13_step, fig14_step, magnetic_step, manipulator_step
+from .reproduce_extra import engine_agreement, fig13_step, fig14_step, load_step, magnetic_step, manipulator_step
 from .summary import simulate_summary
 
 QUICK_FRACTION = 0.1  # --quick simulates this fraction of each case's duration
@@ -67,14 +67,7 @@ def _figures(case: Case, data_path: Path, series: dict, fig_dir: Path) -> list[s
     return [f"{case.name}_node.png", f"{case.name}_rod.png", f"{case.name}_energy.png", f"{case.name}.gif"]
 
 
-def _load_if_done(path: Path, quick: bool):
-    if not path.exists():
-        return None
-    try:
-        done = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return None
-    return done if done.get("quick") == quick and done.get("softrnn_version") == __version__ else None
+_load_if_done = load_step   # a finished step's file (same settings and version), else None
 
 
 def _case_step(case: Case, out: Path, quick: bool, progress_factory, figures: bool) -> dict:
@@ -165,7 +158,6 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
     """
     out = Path(out_dir)
     (out / "cases").mkdir(parents=True, exist_ok=True)
-    fig_dir = out / "figures"
     report = {"softrnn_version": __version__, "quick": quick, "machine": machine_info(),
               "assumptions": ASSUMPTIONS}
     for name in PAPER_CASES:

@@ -550,37 +550,12 @@ def _execute(data_path: str, config: StudyConfig, out_dir: str, todo: list, sche
         for u, h in todo:
             yield train_point(data_path, cd, u, h, out_dir)
         return
-    from distributed import Client, LocalCluster, as_completed
+    from ._dask import completed
 
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")  # inherited by local worker processes
-    cluster = None
-    try:
-        if scheduler is None:
-            with _workers_ignore_ctrl_c():
-                cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=50)
-            client = Client(cluster)
-        else:
-            try:
-                client = Client(scheduler, timeout="10s")
-            except (OSError, TimeoutError, ValueError) as err:
-                raise SoftrnnInputError(
-                    f"--scheduler={scheduler!r} is invalid: no Dask scheduler answered there ({err}); start one "
-                    f"with 'dask scheduler' and 'dask worker ADDRESS', use {SYNCHRONOUS!r} to run in this "
-                    f"process, or omit --scheduler for a local cluster") from None
-        with client:
-            tag = hashlib.sha256(json.dumps([data_path, out_dir, cd], sort_keys=True).encode()).hexdigest()[:16]
-            futures = [client.submit(train_point, data_path, cd, u, h, out_dir,
-                                     key=f"softrnn-study-{tag}-{point_name(u, h)}") for u, h in todo]
-            try:
-                for fut in as_completed(futures):
-                    yield fut.result()
-            finally:
-                for fut in futures:
-                    fut.cancel()
-    finally:
-        if cluster is not None:
-            cluster.close()
+    tag = hashlib.sha256(json.dumps([data_path, out_dir, cd], sort_keys=True).encode()).hexdigest()[:16]
+    tasks = [(train_point, (data_path, cd, u, h, out_dir), f"softrnn-study-{tag}-{point_name(u, h)}") for u, h in todo]
+    yield from completed(tasks, scheduler, workers, alternatives=f"use {SYNCHRONOUS!r} to run in this process, ",
+                         local_guard=_workers_ignore_ctrl_c)
 
 
 # ------------------------------------------------------------------------------------------ summary

@@ -14,12 +14,13 @@ import hashlib
 import json
 import os
 import time
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 from . import __version__
-from .errors import SoftrnnInputError, bad
+from .errors import bad
 from .io_util import atomic_write_text
 
 MANIFEST = "sweep.json"
@@ -148,34 +149,12 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
 
 def _execute(scenario, todo, out: Path, scheduler, n_workers, n_samples):
     """Yield the indices as their files are finished."""
-    from distributed import Client, LocalCluster, as_completed
+    from ._dask import completed
 
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")  # inherited by local worker processes
-    cluster = None
-    try:
-        if scheduler is None:
-            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=50)
-            client = Client(cluster)
-        else:
-            try:
-                client = Client(scheduler, timeout="10s")
-            except (OSError, TimeoutError, ValueError) as err:
-                raise SoftrnnInputError(
-                    f"--scheduler={scheduler!r} is invalid: no Dask scheduler answered there ({err}); start one "
-                    f"with 'dask scheduler' and 'dask worker ADDRESS', or omit --scheduler for a local cluster"
-                ) from err
-        with client:
-            tag = _fingerprint(scenario.text)
-            futures = [client.submit(run_variant, scenario.text, scenario.source, i, str(trajectory_path(out, i)),
-                                     n_samples, key=f"softrnn-variant-{tag}-{i}")
-                       for i in todo]
-            try:
-                for fut in as_completed(futures):
-                    yield fut.result()["index"]
-            finally:
-                for fut in futures:
-                    fut.cancel()
-    finally:
-        if cluster is not None:
-            cluster.close()
+    tag = _fingerprint(scenario.text)
+    tasks = [(run_variant, (scenario.text, scenario.source, i, str(trajectory_path(out, i)), n_samples),
+              f"softrnn-variant-{tag}-{i}") for i in todo]
+    with closing(completed(tasks, scheduler, n_workers)) as results:
+        for record in results:
+            yield record["index"]
+
