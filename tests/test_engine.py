@@ -134,3 +134,37 @@ def test_mixed_architectures_and_threads_give_the_same_manipulator():
         st.reset(DS.positions[8:10], f[8:10][:, cols])
         for k in range(10, 40):
             np.testing.assert_array_equal(st.step(f[k][cols]), ref.positions[k - 8])
+
+
+@pytest.mark.parametrize("kw", VARIANTS)
+def test_the_shared_weight_kernel_equals_the_one_node_kernel(kw):
+    from softrnn.surrogate import _engine_kernels as K
+    from softrnn.surrogate.engine import _shared_scratch
+
+    m = model(**kw)
+    w = make_windows(DS, m.spec, 0, 300)
+    e = Engine([m])
+    ref = e.predict(w.poses, w.wrenches if m.config.wrench_features else None)
+    X = np.ascontiguousarray(w.poses, np.float32)
+    Wr = np.ascontiguousarray(w.wrenches if m.config.wrench_features else np.zeros((len(w), m.config.history, 0)),
+                              np.float32)
+    eb = _shared_scratch(e, len(w))[2]
+    out = np.empty((len(w), 3))
+    K.forward_gemm(e.params[0], e.norm[0], e.lay, X, Wr, eb, out)
+    scale = np.abs(ref - w.poses[:, -1, :3]).max()
+    np.testing.assert_allclose(out, ref, rtol=0, atol=1e-6 * scale)   # BLAS sums in another order
+
+
+def test_a_shared_model_manipulator_equals_pytorch_and_the_stepper():
+    shared = model(node=2, seed=3, output="pose", skip=False)
+    manip = Manipulator.of([], shared=shared, shared_nodes=[1, 2, 3, 4])
+    fast = rollout(manip, DS, start=50, stop=1050, unmodelled="hold")
+    slow = rollout(manip, DS, start=50, stop=1050, unmodelled="hold", engine=False)
+    assert np.abs(fast.positions - slow.positions).max() < 1e-5
+    for threads in (1, 2):
+        st = ManipulatorStepper(manip, DS.nodes, threads=threads)
+        cols = [int(np.flatnonzero(DS.nodes == a)[0]) for a in st.modelled]
+        f = DS.forces.astype(np.float32)
+        st.reset(DS.positions[48:50], f[48:50][:, cols])
+        for k in range(50, 80):
+            np.testing.assert_allclose(st.step(f[k][cols]), fast.positions[k - 48], rtol=0, atol=1e-7)

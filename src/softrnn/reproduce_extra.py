@@ -146,18 +146,22 @@ def manipulator_step(out: Path, quick: bool, progress_factory=None) -> dict:
     result["errors"] = horizons
     result["hold_baseline_node_max_abs_mm"] = hold.tolist()
     # speed of the trained manipulator in a control loop: one ManipulatorStepper.step per sample
-    st = ManipulatorStepper(manip, ds.nodes)
-    wcols = [int(np.flatnonzero(ds.nodes == a)[0]) for a in st.modelled]
-    f = np.asarray(ds.forces[start - 2:start + 1000], np.float32)[:, wcols]
-    st.reset(ds.positions[start - 2:start], f[:2])
-    times = []
-    for k in range(2, f.shape[0]):
-        t = time.perf_counter_ns()
-        st.step(f[k])
-        times.append(time.perf_counter_ns() - t)
-    med = float(np.median(times)) * 1e-3
-    result["stepper"] = {"median_us": med, "hz_median": 1e6 / med, "modelled_nodes": len(st.modelled),
-                         "threads": 1}
+    import numba
+
+    result["stepper"] = []
+    for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+        st = ManipulatorStepper(manip, ds.nodes, threads=threads)
+        wcols = [int(np.flatnonzero(ds.nodes == a)[0]) for a in st.modelled]
+        f = np.asarray(ds.forces[start - 2:start + 2000], np.float32)[:, wcols]
+        st.reset(ds.positions[start - 2:start], f[:2])
+        times = []
+        for k in range(2, f.shape[0]):
+            t = time.perf_counter_ns()
+            st.step(f[k])
+            times.append(time.perf_counter_ns() - t)
+        med = float(np.median(times[100:])) * 1e-3
+        result["stepper"].append({"median_us": med, "hz_median": 1e6 / med, "modelled_nodes": len(st.modelled),
+                                  "threads": threads})
     return save_step(step_file, result, quick)
 
 

@@ -7,9 +7,10 @@ Measures (see benchmarks/README.md):
 * **eager PyTorch, same model, same run**: ``module(poses, wrenches)`` on ready tensors at batch 1
   under ``torch.inference_mode`` with one torch thread (the fair, favourable baseline: no numpy
   conversion, no normalisation), and ``NodeModel.predict`` (what the paper's kind of loop pays);
-* **whole manipulator**: ``ManipulatorStepper.step`` with every node of the 101-node semicircle
-  modelled by its own model (101 weight sets), for the default architecture and the compact one
-  used for whole-manipulator models, on 1 thread and on all threads.
+* **whole manipulator**: ``ManipulatorStepper.step`` with every node of a 101-node rod modelled,
+  each by its own model (101 weight sets; 1 thread and all threads) or the interior nodes by one
+  shared model (the structure-of-arrays kernel; 1 thread), for the default architecture and the
+  compact one used for whole-manipulator models.
 
 The models are the package's default architectures (``ModelConfig`` defaults: 2 x 32 LSTM, dense
 32, wrench dense 16, history 2, node + 2 neighbours, force input) with seeded random weights: the
@@ -117,13 +118,20 @@ def time_eager_torch(model: NodeModel, n: int) -> dict:
     return {"module": module, "predict": predict, "torch_threads": 1}
 
 
-def time_manipulator(config: dict | None, threads: int, n: int, n_nodes: int = MANIPULATOR_NODES) -> dict:
-    """``ManipulatorStepper.step`` for a straight ``n_nodes`` rod, every node with its own model."""
+def time_manipulator(config: dict | None, threads: int, n: int, n_nodes: int = MANIPULATOR_NODES,
+                     shared: bool = False) -> dict:
+    """``ManipulatorStepper.step`` for a straight ``n_nodes`` rod, every node modelled: each node by
+    its own model, or (``shared``) the interior nodes by one model and the two ends by their own."""
     import numba
 
     from ..surrogate.engine import ManipulatorStepper
+    from ..surrogate.rollout import Manipulator
 
-    models = [synthetic_model(a, n_nodes, config, seed=a) for a in range(n_nodes)]
+    if shared:
+        models = Manipulator.of([synthetic_model(0, n_nodes, config), synthetic_model(n_nodes - 1, n_nodes, config)],
+                                shared=synthetic_model(1, n_nodes, config), shared_nodes=range(1, n_nodes - 1))
+    else:
+        models = [synthetic_model(a, n_nodes, config, seed=a) for a in range(n_nodes)]
     old = numba.get_num_threads()
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     try:
@@ -160,9 +168,12 @@ def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, pro
     node_model = model if model is not None else synthetic_model()
     items = [("node", None), ("torch", None)]
     all_threads = max(1, numba.config.NUMBA_NUM_THREADS)
-    manip_cases = [("default", None, 1), ("compact", COMPACT, 1)]
+    manip_cases = [("default", None, 1, False), ("compact", COMPACT, 1, False)]
     if all_threads > 1:
-        manip_cases += [("compact", COMPACT, all_threads), ("default", None, all_threads)]
+        manip_cases += [("compact", COMPACT, all_threads, False), ("default", None, all_threads, False)]
+    manip_cases += [("default", None, 1, True), ("compact", COMPACT, 1, True)]
+    if all_threads > 1:
+        manip_cases += [("compact", COMPACT, all_threads, True), ("default", None, all_threads, True)]
     total = len(items) + len(manip_cases)
     done = 0
 
@@ -177,10 +188,11 @@ def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, pro
     torch_ = time_eager_torch(node_model, n_torch)
     tick()
     manip = []
-    for name, cfg, threads in manip_cases:
-        m = time_manipulator(cfg, threads, n_manip)
-        m.update(architecture=name, **{"lstm_layers": (cfg or {}).get("lstm_layers", ModelConfig.lstm_layers),
-                                       "lstm_units": (cfg or {}).get("lstm_units", ModelConfig.lstm_units)})
+    for name, cfg, threads, shared in manip_cases:
+        m = time_manipulator(cfg, threads, n_manip, shared=shared)
+        m.update(architecture=name, shared=shared,
+                 **{"lstm_layers": (cfg or {}).get("lstm_layers", ModelConfig.lstm_layers),
+                    "lstm_units": (cfg or {}).get("lstm_units", ModelConfig.lstm_units)})
         manip.append(m)
         tick()
     best = max(manip, key=lambda m: m["hz_median"])
@@ -197,6 +209,7 @@ def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, pro
         "manipulator_nodes": MANIPULATOR_NODES,
         "manipulator_architecture": best["architecture"],
         "manipulator_threads": best["threads"],
+        "manipulator_shared_model": best["shared"],
         "manipulator_default_1thread_hz_median": default_1["hz_median"],
         "manipulator_cases": manip,
         "node_model": {"trained": model is not None, **_arch(node_model)},
@@ -227,10 +240,11 @@ def format_model_table(r: dict) -> str:
         f"{r['eager_torch_predict_hz_median']:,.0f} Hz (NodeModel.predict); speed-up "
         f"{r['speedup_vs_eager_torch']:.0f}x, goal >= {GOALS['speedup_vs_eager_torch']}x: "
         f"{ok[g['speedup_vs_eager_torch']]}",
-        f"  whole manipulator, {r['manipulator_nodes']} nodes, one model per node:",
+        f"  whole manipulator, {r['manipulator_nodes']} nodes, every node modelled:",
     ]
     for m in r["manipulator_cases"]:
-        rows.append(f"    {m['architecture']:8s} ({m['lstm_layers']} x {m['lstm_units']}), {m['threads']} thread(s): "
+        how = "one model shared by the interior nodes" if m.get("shared") else "one model per node"
+        rows.append(f"    {m['architecture']:8s} ({m['lstm_layers']} x {m['lstm_units']}), {how}, {m['threads']} thread(s): "
                     f"{m['hz_median']:,.0f} Hz ({m['median_us']:.1f} us/step, {m['us_per_node']:.2f} us/node, "
                     f"p99 {m['p99_us']:.0f} us)")
     rows.append(f"  best: {r['manipulator_step_hz_median']:,.0f} Hz; goal >= {GOALS['manipulator_step_hz_median']:,}: "

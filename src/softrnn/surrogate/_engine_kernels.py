@@ -410,3 +410,202 @@ def commit_row(pos, quat, wrench, wrench_next, tgt_cols, pred, hold):
         for b in range(wrench.shape[1]):
             for c in range(wrench.shape[2]):
                 wrench[j, b, c] = wrench[j + 1, b, c]
+
+
+# ------------------------------------------------ many nodes, one shared weight set, through BLAS
+# For a model shared by many nodes every layer is one matrix product over all nodes (B x in) @
+# (in x out): BLAS's sgemm runs it near the machine's peak, and the activations are one vectorised
+# pass over the (B, out) block. Equal to ``forward`` within float32 rounding (the sums run in
+# another order).
+
+
+@njit(fastmath=FM, cache=True)
+def _mat(p, off, n_in, n_out):
+    """The transposed weights (n_in, n_out) stored at ``off`` of a params row, as a view."""
+    return p[off:off + n_in * n_out].reshape(n_in, n_out)
+
+
+@njit(fastmath=FM, cache=True)
+def _dense(x, p, off_w, off_b, n_in, n_out):
+    """x (B, n_in) @ W (n_in, n_out) + b (off_b < 0: no bias) -> new (B, n_out) float32."""
+    y = np.dot(x, _mat(p, off_w, n_in, n_out))
+    if off_b >= 0:
+        for b in range(y.shape[0]):
+            for j in range(n_out):
+                y[b, j] += p[off_b + j]
+    return y
+
+
+@njit(fastmath=FM, cache=True)
+def _sigma_block(y, eb):
+    """y (B, n) <- sigma(y) in place (eb int32 scratch of >= B n values)."""
+    flat = y.reshape(-1)
+    n = flat.shape[0]
+    _logistic(flat, 0, n, eb, eb.view(np.float32))
+
+
+@njit(fastmath=FM, cache=True)
+def forward_gemm(p, nrm, lay, X, Wr, eb, out):
+    """``forward`` for B nodes sharing one model, every layer one BLAS product.
+
+    X (B, H, P), Wr (B, H, W) float32 physical windows; eb (>= B * widest,) int32 scratch;
+    out (B, 3) float64 [m]."""
+    P, W, H, NL, U = lay[L_P], lay[L_W], lay[L_H], lay[L_LAYERS], lay[L_U]
+    diff, rel, per = lay[L_DIFF], lay[L_REL], lay[L_PER]
+    in1 = lay[L_IN1]
+    G = 4 * U
+    B = X.shape[0]
+    zs = np.empty((H, B, in1), np.float32)                 # LSTM input sequence
+    n_skip = H * in1 + H * W
+    sk = np.empty((B, n_skip), np.float32)                 # skip input: the window, then the wrenches
+    wn = np.empty((B, H * W), np.float32)                  # normalised wrench window
+    for b in range(B):
+        lx0 = np.float64(X[b, H - 1, 0])
+        lx1 = np.float64(X[b, H - 1, 1])
+        lx2 = np.float64(X[b, H - 1, 2])
+        for j in range(H):
+            for c in range(P):
+                zs[j, b, c] = np.float32((np.float64(X[b, j, c]) - nrm[c]) / nrm[P + c])
+            if rel != 0:
+                for a0 in range(0, P, per):
+                    for q, last in ((0, lx0), (1, lx1), (2, lx2)):
+                        cc = a0 + q
+                        zs[j, b, cc] = np.float32((np.float64(X[b, j, cc]) - last - nrm[cc]) / nrm[P + cc])
+            for c in range(W):
+                wn[b, j * W + c] = np.float32((np.float64(Wr[b, j, c]) - nrm[2 * P + c]) / nrm[2 * P + W + c])
+        if diff != 0:
+            ods, odsh = lay[L_OFF_DS], lay[L_OFF_DSH]
+            for c in range(P):
+                zs[0, b, P + c] = np.float32(0.0)
+            for j in range(1, H):
+                for c in range(P):
+                    zs[j, b, P + c] = (zs[j, b, c] - zs[j - 1, b, c]) * p[ods + c] - p[odsh + c]
+        for j in range(H):
+            for c in range(in1):
+                sk[b, j * in1 + c] = zs[j, b, c]
+        for i in range(H * W):
+            sk[b, H * in1 + i] = wn[b, i]
+    seq = zs
+    hs = np.empty((H, B, U), np.float32)
+    for layer in range(NL):
+        rec = L_HEADER + 4 * layer
+        off_ih, off_hh, off_b, n_in = lay[rec], lay[rec + 1], lay[rec + 2], lay[rec + 3]
+        hs = np.empty((H, B, U), np.float32)
+        c = np.zeros((B, U), np.float32)
+        for j in range(H):
+            g = _dense(seq[j], p, off_ih, off_b, n_in, G)
+            if j > 0:
+                g += np.dot(hs[j - 1], _mat(p, off_hh, U, G))
+            _sigma_block(g, eb)
+            t = np.empty((B, U), np.float32)
+            for b in range(B):
+                for u in range(U):
+                    cc = g[b, U + u] * c[b, u] + g[b, u] * (np.float32(2.0) * g[b, 2 * U + u] - np.float32(1.0))
+                    c[b, u] = cc
+                    t[b, u] = np.float32(2.0) * cc
+            _sigma_block(t, eb)
+            for b in range(B):
+                for u in range(U):
+                    hs[j, b, u] = g[b, 3 * U + u] * (np.float32(2.0) * t[b, u] - np.float32(1.0))
+        seq = hs
+    nwd, nhd = lay[L_NWD], lay[L_NHD]
+    base = L_HEADER + 4 * NL
+    feat_w = wn
+    if W > 0:
+        for k in range(nwd):
+            r = base + 4 * k
+            y = _dense(feat_w, p, lay[r], lay[r + 1], lay[r + 2], lay[r + 3])
+            _sigma_block(y, eb)
+            for b in range(B):
+                for q in range(lay[r + 3]):
+                    y[b, q] = np.float32(2.0) * y[b, q] - np.float32(1.0)
+            feat_w = y
+    n_w = feat_w.shape[1] if W > 0 else 0
+    feat = np.empty((B, U + n_w), np.float32)
+    for b in range(B):
+        for u in range(U):
+            feat[b, u] = seq[H - 1, b, u]
+        for q in range(n_w):
+            feat[b, U + q] = feat_w[b, q]
+    cur = feat
+    for k in range(nhd):
+        r = base + 4 * (nwd + k)
+        y = _dense(cur, p, lay[r], lay[r + 1], lay[r + 2], lay[r + 3])
+        _sigma_block(y, eb)
+        for b in range(B):
+            for q in range(lay[r + 3]):
+                y[b, q] = np.float32(2.0) * y[b, q] - np.float32(1.0)
+        cur = y
+    y = _dense(cur, p, lay[L_OFF_OUT], lay[L_OFF_OUT] + 3 * lay[L_OUT_IN], lay[L_OUT_IN], 3)
+    if lay[L_SKIP] != 0:
+        y += np.dot(sk, _mat(p, lay[L_OFF_SKIP], n_skip, 3))
+    tm = 2 * P + 2 * W
+    mode = lay[L_OUT]
+    for b in range(B):
+        for q in range(3):
+            v = np.float64(y[b, q]) * nrm[tm + 3 + q] + nrm[tm + q]
+            if mode == OUT_INCREMENT:
+                v += np.float64(X[b, H - 1, q])
+            elif mode == OUT_ACCELERATION:
+                v += 2.0 * np.float64(X[b, H - 1, q]) - np.float64(X[b, H - 2, q])
+            out[b, q] = v
+
+
+@njit(cache=True)
+def predict_row_shared(params, norm, lay, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb):
+    """``predict_row`` for nodes that all use model 0 of ``params``, through ``forward_gemm``;
+    X (B, H, P), Wr (B, H, W) float32 window scratch, eb int32 scratch."""
+    H, W, per = lay[L_H], lay[L_W], lay[L_PER]
+    rows = np.empty(H, np.int64)
+    for j in range(H):
+        rows[j] = k - H + j
+    B = in_cols.shape[0]
+    for b in range(B):
+        gather_window(pos, quat, rows, in_cols[b], per, X[b])
+        for j in range(H):
+            for c in range(W):
+                Wr[b, j, c] = wrench[rows[j], b, c]
+    forward_gemm(params[0], norm[0], lay, X, Wr, eb, pred)
+    for b in range(B):
+        for q in range(3):
+            if not (abs(pred[b, q]) <= limit):
+                return 1, b
+    return 0, -1
+
+
+@njit(cache=True)
+def rollout_steps_shared(params, norm, lay, in_cols, tgt_cols, pos, quat, wrench, k0, k1, limit, pred, X, Wr, eb):
+    """``rollout_steps`` for nodes that all use model 0, through ``forward_gemm``."""
+    for k in range(k0, k1):
+        status, b = predict_row_shared(params, norm, lay, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb)
+        if status != 0:
+            return status, b, k
+        for b in range(in_cols.shape[0]):
+            for q in range(3):
+                pos[k, tgt_cols[b], q] = np.float32(pred[b, q])
+    return 0, -1, k1
+
+
+@njit(cache=True, parallel=True)
+def predict_row_shared_parallel(params, norm, lay, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb, chunks):
+    """``predict_row_shared`` with the nodes cut into ``chunks`` (C+1,) boundaries, one BLAS pass per
+    chunk on numba's threads; eb (C, n) int32 scratch, one row per chunk."""
+    H, W, per = lay[L_H], lay[L_W], lay[L_PER]
+    rows = np.empty(H, np.int64)
+    for j in range(H):
+        rows[j] = k - H + j
+    B = in_cols.shape[0]
+    for b in range(B):
+        gather_window(pos, quat, rows, in_cols[b], per, X[b])
+        for j in range(H):
+            for c in range(W):
+                Wr[b, j, c] = wrench[rows[j], b, c]
+    n_chunks = chunks.shape[0] - 1
+    for i in prange(n_chunks):
+        lo, hi = chunks[i], chunks[i + 1]
+        forward_gemm(params[0], norm[0], lay, X[lo:hi], Wr[lo:hi], eb[i], pred[lo:hi])
+    for b in range(B):
+        for q in range(3):
+            if not (abs(pred[b, q]) <= limit):
+                return 1, b
+    return 0, -1

@@ -130,6 +130,13 @@ def _scratch(lay) -> tuple[np.ndarray, np.ndarray]:
     return np.zeros(n, np.float32), np.zeros(n, np.int32)
 
 
+def _shared_scratch(e, B: int) -> tuple:
+    """Window and scratch arrays of ``forward_gemm`` for B nodes: X, Wr, eb."""
+    widest = max(4 * e.lay[K.L_U], K.work_size(e.lay))
+    return (np.zeros((B, e.history, e.pose_features), np.float32), np.zeros((B, e.history, e.wrench_features), np.float32),
+            np.zeros(B * widest, np.int32))
+
+
 # ------------------------------------------------------------------------------------------ Engine
 class Engine:
     """Stacked node models of one architecture, run by the compiled kernel.
@@ -312,7 +319,15 @@ class ManipulatorStepper:
             wr = self._wr[:, lo:lo + n] if len(bound) > 1 else self._wr
             head = (e.params, e.norm, e.lay, g.which, g.input_cols, self._pos, self._quat, wr, H, _LIMIT,
                     self._pred[lo:lo + n])
-            if self.threads > 1:
+            if len(e) == 1 and n > 1:   # one weight set: every layer one BLAS product over the nodes
+                X, Wr, eb = _shared_scratch(e, n)
+                if self.threads > 1 and n >= 2 * self.threads:
+                    chunks = np.linspace(0, n, self.threads + 1).round().astype(np.int64)
+                    eb = np.zeros((self.threads, eb.size), np.int32)
+                    self._calls.append((K.predict_row_shared_parallel, head[:3] + head[4:] + (X, Wr, eb, chunks), lo))
+                else:
+                    self._calls.append((K.predict_row_shared, head[:3] + head[4:] + (X, Wr, eb), lo))
+            elif self.threads > 1:
                 n_wk = K.work_size(e.lay)
                 tail = (np.zeros((n, n_wk), np.float32), np.zeros((n, n_wk), np.int32), np.zeros(n, np.int64))
                 self._calls.append((K.predict_row_parallel, head + tail, lo))
@@ -418,6 +433,12 @@ def engine_rollout(bound: list[BoundGroup], positions, quaternions, forces, torq
     quats = np.ascontiguousarray(quaternions, dtype=np.float32)
     wrenches = [wrench_rows(forces, torques, g.target_cols, g.wrench) for g in bound]
     scratch = [(np.zeros((g.which.size, 3)),) + _scratch(g.engine.lay) for g in bound]
+    if len(bound) == 1 and len(bound[0].engine) == 1 and bound[0].which.size > 1:   # one shared model
+        g, wr = bound[0], wrenches[0]
+        e = g.engine
+        status, b, k = K.rollout_steps_shared(e.params, e.norm, e.lay, g.input_cols, g.target_cols, positions, quats,
+                                              wr, k0, k1, float(limit), scratch[0][0], *_shared_scratch(e, g.which.size))
+        return int(status), (int(g.nodes[b]) if status else -1), int(k)
     if len(bound) == 1:   # the common case: every step inside one kernel call
         g, (pred, wk, eb), wr = bound[0], scratch[0], wrenches[0]
         e = g.engine
