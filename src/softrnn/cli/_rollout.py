@@ -21,8 +21,9 @@ def add_args(p):
     p.add_argument("--shared", default=None, metavar="MODEL",
                    help="one model applied to many nodes (beyond the paper), neighbours at the same offsets")
     p.add_argument("--shared-nodes", default=None, metavar="LIST",
-                   help="nodes for --shared, e.g. '1-49' or '1,2,10-20' (default: every stored node whose "
-                        "neighbours are stored and that has no model of its own)")
+                   help="nodes for --shared, e.g. '1-49' or '1,2,10-20' (default: the nodes a pooled model was "
+                        "trained for (train --pool), else every stored node whose neighbours are stored and that "
+                        "has no model of its own)")
     p.add_argument("--group", default=None, help="the trajectory's group inside a sweep file")
     p.add_argument("--start", type=float, default=None,
                    help="time of the first predicted sample [s] (default: right after the seed history)")
@@ -85,6 +86,8 @@ def run(args) -> int:
         own = {int(m.spec.node) for m in models}
         if args.shared_nodes is not None:
             shared_nodes = [a for a in parse_nodes(args.shared_nodes) if a not in own]
+        elif shared.meta.get("pool"):   # a pooled model: the nodes it was trained for
+            shared_nodes = [int(a) for a in shared.meta["pool"] if int(a) not in own]
         else:
             stored = set(int(a) for a in head.nodes)
             shared_nodes = [a for a in sorted(stored) if a not in own
