@@ -27,7 +27,7 @@ test-all: $(STAMP)
 	NUMBA_NUM_THREADS=1 $(BIN)/python -m pytest -q -m ''
 
 bench: $(STAMP)
-	$(BIN)/softrnn bench --json benchmarks/results/simulator.json
+	$(BIN)/softrnn bench --json benchmarks/results/bench.json
 
 clean:
 	rm -rf $(VENV) out build src/*.egg-info
