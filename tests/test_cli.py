@@ -4,7 +4,6 @@ import json
 
 import pytest
 
-import softrnn.bench.simulator as bench
 from softrnn import reproduce as reproduce_mod
 from softrnn.cli.main import main
 
@@ -62,12 +61,36 @@ def test_bad_input_leaves_no_partial_file(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def _light_steps(monkeypatch):
+    """The slow steps that have their own tests (bench, the magnetic experiment, Fig. 13/14) replaced by
+    fakes that record their calls; the data, node-model and manipulator steps run for real."""
+    import softrnn.bench as bench_pkg
+
+    calls = []
+
+    def fake(name, value):
+        def step(*a, **k):
+            calls.append(name)
+            return value
+        return step
+
+    monkeypatch.setattr(bench_pkg, "run_all", fake("bench", {"machine": {"cpu": "x"}, "fake": True}))
+    monkeypatch.setattr(reproduce_mod, "magnetic_step", fake("magnetic", None))
+    monkeypatch.setattr(reproduce_mod, "fig13_step", fake("fig13", None))
+    monkeypatch.setattr(reproduce_mod, "fig14_step", fake("fig14", None))
+    return calls
+
+
 def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(reproduce_mod, "QUICK_FRACTION", 0.002)
-    monkeypatch.setattr(bench, "run_benchmark", lambda quick=False, progress=None: {"simulator": {"fake": True}})
+    steps = _light_steps(monkeypatch)
     out = tmp_path / "rep"
     assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
+    assert sorted(steps) == ["bench", "fig13", "fig14", "magnetic"]
     report = json.loads((out / "report.json").read_text())
+    assert report["manipulator"]["modelled_nodes"] > 0 and "errors" in report["manipulator"]
+    for case in ("ellipse", "square", "semicircle"):
+        assert report[case]["engine_vs_pytorch"]["steps"] > 0
     for case in ("ellipse", "square", "semicircle"):
         assert report[case]["simulation"]["n_samples"] > 1
         assert report[case]["generalisation_data"]["n_samples"] > 1
@@ -91,7 +114,8 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
         raise AssertionError("finished step recomputed")
 
     monkeypatch.setattr(reproduce_mod, "run_case", counting)
-    monkeypatch.setattr(bench, "run_benchmark", boom)
+    import softrnn.surrogate.train as train_mod
+    monkeypatch.setattr(train_mod, "train_node_model", boom)   # no model is trained again
     assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
     assert calls == ["square"]
 

@@ -306,7 +306,7 @@ def _manipulator_lines(m: dict | None) -> list[str]:
                      f"{_v(e['all_nodes_max_abs_mm'])} |")
     lines += ["", f"Holding node {m['node']} at its last seed position would be off by at most "
               f"{_v(m['hold_baseline_node_max_abs_mm'])} mm over the test span. One step of the whole manipulator "
-              f"(ManipulatorStepper, {m['stepper'][0]['modelled_nodes']} nodes): "
+              f"(ManipulatorStepper, {m['modelled_nodes']} nodes): "
               + "; ".join(f"{s['median_us']:.1f} us median ({s['hz_median']:,.0f} Hz) on {s['threads']} thread(s)"
                           for s in m["stepper"]) + "."]
     return lines

@@ -159,7 +159,9 @@ def manipulator_step(out: Path, quick: bool, progress_factory=None) -> dict:
             t = time.perf_counter_ns()
             st.step(f[k])
             times.append(time.perf_counter_ns() - t)
-        med = float(np.median(times[100:])) * 1e-3
+        if not times:
+            continue
+        med = float(np.median(times[min(100, len(times) // 2):])) * 1e-3   # after a warm-up
         result["stepper"].append({"median_us": med, "hz_median": 1e6 / med, "modelled_nodes": len(st.modelled),
                                   "threads": threads})
     return save_step(step_file, result, quick)
