@@ -552,19 +552,25 @@ def forward_gemm(p, nrm, lay, X, Wr, eb, out):
 
 
 @njit(cache=True)
-def predict_row_shared(params, norm, lay, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb):
-    """``predict_row`` for nodes that all use model 0 of ``params``, through ``forward_gemm``;
-    X (B, H, P), Wr (B, H, W) float32 window scratch, eb int32 scratch."""
+def _gather_all(lay, in_cols, pos, quat, wrench, k, X, Wr):
+    """X (B, H, P) and Wr (B, H, W) <- every node's windows for row k (rows k-H .. k-1)."""
     H, W, per = lay[L_H], lay[L_W], lay[L_PER]
     rows = np.empty(H, np.int64)
     for j in range(H):
         rows[j] = k - H + j
-    B = in_cols.shape[0]
-    for b in range(B):
+    for b in range(in_cols.shape[0]):
         gather_window(pos, quat, rows, in_cols[b], per, X[b])
         for j in range(H):
             for c in range(W):
                 Wr[b, j, c] = wrench[rows[j], b, c]
+
+
+@njit(cache=True)
+def predict_row_shared(params, norm, lay, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb):
+    """``predict_row`` for nodes that all use model 0 of ``params``, through ``forward_gemm``;
+    X (B, H, P), Wr (B, H, W) float32 window scratch, eb int32 scratch."""
+    B = in_cols.shape[0]
+    _gather_all(lay, in_cols, pos, quat, wrench, k, X, Wr)
     forward_gemm(params[0], norm[0], lay, X, Wr, eb, pred)
     for b in range(B):
         for q in range(3):
@@ -590,16 +596,8 @@ def rollout_steps_shared(params, norm, lay, in_cols, tgt_cols, pos, quat, wrench
 def predict_row_shared_parallel(params, norm, lay, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb, chunks):
     """``predict_row_shared`` with the nodes cut into ``chunks`` (C+1,) boundaries, one BLAS pass per
     chunk on numba's threads; eb (C, n) int32 scratch, one row per chunk."""
-    H, W, per = lay[L_H], lay[L_W], lay[L_PER]
-    rows = np.empty(H, np.int64)
-    for j in range(H):
-        rows[j] = k - H + j
     B = in_cols.shape[0]
-    for b in range(B):
-        gather_window(pos, quat, rows, in_cols[b], per, X[b])
-        for j in range(H):
-            for c in range(W):
-                Wr[b, j, c] = wrench[rows[j], b, c]
+    _gather_all(lay, in_cols, pos, quat, wrench, k, X, Wr)
     n_chunks = chunks.shape[0] - 1
     for i in prange(n_chunks):
         lo, hi = chunks[i], chunks[i + 1]
