@@ -45,23 +45,30 @@ def _fail(path: Path, message: str) -> DatasetError:
 
 
 # ----------------------------------------------------------------------------------------- parsing
-def _read_lines(path: Path) -> list[tuple[int, str]]:
+def read_csv_lines(path: Path, expected: str, error=None) -> list[tuple[int, str]]:
+    """The non-empty, non-comment lines of a UTF-8 CSV file as (line number, stripped text);
+    a missing, folder, non-UTF-8 or empty file raises ``error`` (default ``DatasetError``) with a
+    one-line message naming the file (``expected``: what the header should hold)."""
+    def fail(message):
+        return (error or DatasetError)(f"{path}: {message}")
+
     if not path.exists():
-        raise _fail(path, "no such file; check the path")
+        raise fail("no such file; check the path")
     if path.is_dir():
-        raise _fail(path, "is a folder; pass a CSV file")
+        raise fail("is a folder; pass a CSV file")
     try:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError:
-        raise _fail(path, "is not a UTF-8 text file; export the lab data as CSV (comma-separated text)") from None
-    lines = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        stripped = line.strip()
-        if stripped and not stripped.startswith("#"):
-            lines.append((number, stripped))
+        raise fail("is not a UTF-8 text file; export the lab data as CSV (comma-separated text)") from None
+    lines = [(n, line.strip()) for n, line in enumerate(text.splitlines(), start=1)
+             if line.strip() and not line.strip().startswith("#")]
     if not lines:
-        raise _fail(path, f"is empty (no header line); expected a header with the columns {PATTERN}")
+        raise fail(f"is empty (no header line); expected {expected}")
     return lines
+
+
+def _read_lines(path: Path) -> list[tuple[int, str]]:
+    return read_csv_lines(path, f"a header with the columns {PATTERN}")
 
 
 def _parse_header(path: Path, number: int, line: str) -> tuple[list[str], dict]:

@@ -71,19 +71,9 @@ class LabData:
 
 # ----------------------------------------------------------------------------------------- reading
 def _lines(path: Path) -> list[tuple[int, str]]:
-    if not path.exists():
-        raise _fail(path, "no such file; check the path")
-    if path.is_dir():
-        raise _fail(path, "is a folder; pass a CSV file")
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        raise _fail(path, "is not a UTF-8 text file; export the lab data as CSV (comma-separated text)") from None
-    lines = [(n, line.strip()) for n, line in enumerate(text.splitlines(), start=1)
-             if line.strip() and not line.strip().startswith("#")]
-    if not lines:
-        raise _fail(path, f"is empty (no header line); expected the columns {LAYOUT}")
-    return lines
+    from ..io.csv_import import read_csv_lines
+
+    return read_csv_lines(path, f"the columns {LAYOUT}", SoftrnnInputError)
 
 
 def _header(path: Path, number: int, line: str) -> list[str]:
