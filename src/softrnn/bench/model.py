@@ -118,6 +118,51 @@ def time_eager_torch(model: NodeModel, n: int) -> dict:
     return {"module": module, "predict": predict, "torch_threads": 1}
 
 
+def time_runtimes(model: NodeModel, n: int) -> dict:
+    """The same model exported (``softrnn export``) and run at batch 1 on one thread in ONNX Runtime
+    (``session.run`` with numpy inputs) and as TorchScript (``torch.jit.load``, called on ready
+    tensors): the alternatives the compiled engine was chosen against. Entries are None where a
+    runtime is not installed."""
+    import tempfile
+    from pathlib import Path
+
+    import torch
+
+    from ..surrogate.export import export_onnx, export_torchscript
+
+    H, P, W = model.config.history, model.config.pose_features, model.config.wrench_features
+    poses = np.tile(np.asarray(model.normalizer.pose_mean, np.float32), (1, H, 1))
+    wr = np.zeros((1, H, W), np.float32)
+    out = {"onnxruntime": None, "torchscript": None}
+    with tempfile.TemporaryDirectory() as tmp:
+        try:
+            import onnxruntime as ort
+        except ImportError:
+            ort = None
+        if ort is not None:
+            path = export_onnx(model, Path(tmp) / "m.onnx")
+            opts = ort.SessionOptions()
+            opts.intra_op_num_threads = 1
+            opts.inter_op_num_threads = 1
+            sess = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+            feed = {i.name: (poses if i.name.startswith("pose") else wr) for i in sess.get_inputs()}
+            out["onnxruntime"] = _stats(_per_call_us(lambda: sess.run(None, feed), n))
+        old = torch.get_num_threads()
+        torch.set_num_threads(1)
+        try:
+            path = export_torchscript(model, Path(tmp) / "m.pt")
+            import warnings
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                ts = torch.jit.load(str(path))
+            args = (torch.from_numpy(poses),) + ((torch.from_numpy(wr),) if W else ())
+            with torch.inference_mode():
+                out["torchscript"] = _stats(_per_call_us(lambda: ts(*args), n))
+        finally:
+            torch.set_num_threads(old)
+    return out
+
+
 def time_manipulator(config: dict | None, threads: int, n: int, n_nodes: int = MANIPULATOR_NODES,
                      shared: bool = False) -> dict:
     """``ManipulatorStepper.step`` for a straight ``n_nodes`` rod, every node modelled: each node by
@@ -186,6 +231,7 @@ def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, pro
     node = time_node_step(node_model, n_node)
     tick()
     torch_ = time_eager_torch(node_model, n_torch)
+    runtimes = time_runtimes(node_model, n_torch)
     tick()
     manip = []
     for name, cfg, threads, shared in manip_cases:
@@ -204,6 +250,8 @@ def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, pro
         "node_step_median_us": node["median_us"],
         "eager_torch_node_step_hz_median": eager_hz,
         "eager_torch_predict_hz_median": torch_["predict"]["hz_median"],
+        "onnxruntime_node_step_hz_median": (runtimes["onnxruntime"] or {}).get("hz_median"),
+        "torchscript_node_step_hz_median": (runtimes["torchscript"] or {}).get("hz_median"),
         "speedup_vs_eager_torch": node["hz_median"] / eager_hz,
         "manipulator_step_hz_median": best["hz_median"],
         "manipulator_nodes": MANIPULATOR_NODES,
@@ -214,7 +262,7 @@ def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, pro
         "manipulator_cases": manip,
         "node_model": {"trained": model is not None, **_arch(node_model)},
         "compact_architecture": {k: list(v) if isinstance(v, tuple) else v for k, v in COMPACT.items()},
-        "details": {"node_step": node, "eager_torch": torch_},
+        "details": {"node_step": node, "eager_torch": torch_, "runtimes": runtimes},
         "goals": dict(GOALS),
         "paper": dict(PAPER),
     }
@@ -240,6 +288,10 @@ def format_model_table(r: dict) -> str:
         f"{r['eager_torch_predict_hz_median']:,.0f} Hz (NodeModel.predict); speed-up "
         f"{r['speedup_vs_eager_torch']:.0f}x, goal >= {GOALS['speedup_vs_eager_torch']}x: "
         f"{ok[g['speedup_vs_eager_torch']]}",
+        "  the same model exported, one thread: " + ", ".join(
+            f"{name} {r[key]:,.0f} Hz" for name, key in (("ONNX Runtime", "onnxruntime_node_step_hz_median"),
+                                                         ("TorchScript", "torchscript_node_step_hz_median"))
+            if r.get(key)),
         f"  whole manipulator, {r['manipulator_nodes']} nodes, every node modelled:",
     ]
     for m in r["manipulator_cases"]:
