@@ -1,9 +1,13 @@
 """``softrnn reproduce``: the paper's pipeline, step by step, into one output folder.
 
-At this stage: the datasets of the three simulated cases (section 4, Data-sets I-III) and of their
-generalisation variants (``data/*.h5``), figures and animations, the simulator benchmark,
-``report.json`` and ``report.md``. Each finished step leaves its files; a rerun (after an
-interruption) skips the steps whose results are present for the same settings.
+The steps: the data sets of the three simulated cases (section 4, Data-sets I-III) and of their
+generalisation variants (``data/*.h5``) with figures and animations; the node model of each case
+(trained, evaluated one step ahead and free running, generalised, checked against PyTorch); the
+whole semicircle with one shared model (Fig. 2C); the magnetic experiment simulated (section 5,
+Table 1, Fig. 12); the static solver's Fig. 13 study; the Fig. 14 hyper-parameter study;
+``softrnn bench``; then ``report.json`` and ``report.md`` (docs/report-format.md). Each finished step
+leaves its files and a step file; a rerun (after an interruption) skips the steps whose results
+are present for the same settings and version.
 """
 
 import json

@@ -4,7 +4,8 @@ from ..reproduce import reproduce
 from ._progress import Bar
 
 NAME = "reproduce"
-HELP = "reproduce the paper: simulated cases, benchmark, report.md/report.json and figures in --out"
+HELP = ("reproduce the paper: simulated cases, node models, the whole manipulator, the magnetic experiment "
+        "(Table 1), Fig. 13/14, benchmark; report.md/report.json and figures in --out")
 
 
 def add_args(p):
@@ -16,7 +17,7 @@ def run(args) -> int:
     bars = []
 
     def factory(desc):
-        bar = Bar(desc)
+        bar = Bar(desc, unit="step")
         bars.append(bar)
         return bar
 
