@@ -35,7 +35,7 @@ def main(argv=None) -> int:
         print(f"softrnn: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("softrnn: interrupted; no partial file was left; reproduce and sweep keep their finished "
+        print("softrnn: interrupted; no partial file was left; reproduce, sweep and study keep their finished "
               "steps and resume when run again", file=sys.stderr)
         return 130
 
