@@ -3,7 +3,9 @@
 The PyTorch module is for training; for prediction its weights are packed into flat float32 rows
 (one per model, ``pack``) and run by a numba kernel (``_engine_kernels.forward``) that keeps every
 buffer preallocated. Models of one architecture are stacked, so a whole manipulator advances in one
-call whatever mix of per-node and shared models it uses.
+call per architecture whatever mix of per-node and shared models it uses. A model shared by many
+nodes runs through ``_engine_kernels.forward_gemm`` instead: every layer is one BLAS product over
+all its nodes (split over numba's threads on request), which is 2-3x faster per node.
 
 * ``Engine``: the stacked models; ``predict(poses, wrenches, which)`` is the batched, stateless
   equivalent of ``NodeModel.predict`` (outputs equal within float32 rounding, about 1e-7 of the
@@ -15,9 +17,10 @@ call whatever mix of per-node and shared models it uses.
 * ``engine_rollout``: the free-running rollout over a data set's span, every step inside numba
   (``softrnn.surrogate.rollout.rollout`` uses it).
 
-Choice of implementation (measured on the 2-core development VM, see ``benchmarks/README.md``):
-a numba kernel at batch 1 beats eager PyTorch by about two orders of magnitude, because one forward
-of a 2 x 32 LSTM is about 25 k multiply-adds, far less than PyTorch's per-operator dispatch cost.
+Choice of implementation (measured by ``softrnn bench`` on the 2-core development VM, see
+``benchmarks/README.md``): at batch 1 the numba kernel takes about 4 µs per step from Python,
+ONNX Runtime on one thread about 30 µs, TorchScript about 200 µs and eager PyTorch about 250 µs: one
+forward of a 2 x 32 LSTM is about 25 k multiply-adds, far less than a runtime's per-operator cost.
 """
 
 from __future__ import annotations
