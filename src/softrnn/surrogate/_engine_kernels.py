@@ -64,19 +64,12 @@ def _logistic(a, lo, n, eb, ebf):
 
 
 @njit(fastmath=FM, cache=True, inline="always")
-def _affine(p, off_w, off_b, n_in, n_out, x, xlo, y, ylo):
-    """y[ylo:ylo+n_out] = W x[xlo:xlo+n_in] + b with W stored transposed (n_in, n_out) at off_w
-    (off_b < 0: no bias); unsigned indices as in ``_logistic``."""
+def _accumulate(p, off_w, n_in, n_out, x, xlo, y, ylo):
+    """y[ylo:ylo+n_out] += W x[xlo:xlo+n_in] with W stored transposed (n_in, n_out) at off_w;
+    unsigned indices as in ``_logistic``."""
     no = np.uint64(n_out)
     yl = np.uint64(ylo)
     xl = np.uint64(xlo)
-    if off_b >= 0:
-        ob = np.uint64(off_b)
-        for j in range(no):
-            y[yl + j] = p[ob + j]
-    else:
-        for j in range(no):
-            y[yl + j] = np.float32(0.0)
     ow = np.uint64(off_w)
     for i in range(np.uint64(n_in)):
         xi = x[xl + i]
@@ -86,17 +79,18 @@ def _affine(p, off_w, off_b, n_in, n_out, x, xlo, y, ylo):
 
 
 @njit(fastmath=FM, cache=True, inline="always")
-def _recurrent(p, off_hh, U, G, wk, h_lo, g_lo):
-    """wk[g_lo:g_lo+G] += W_hh h with h = wk[h_lo:h_lo+U] and W_hh stored transposed (U, G)."""
-    ug = np.uint64(G)
-    gl = np.uint64(g_lo)
-    hl = np.uint64(h_lo)
-    ow = np.uint64(off_hh)
-    for i in range(np.uint64(U)):
-        hi = wk[hl + i]
-        o = ow + i * ug
-        for q in range(ug):
-            wk[gl + q] += hi * p[o + q]
+def _affine(p, off_w, off_b, n_in, n_out, x, xlo, y, ylo):
+    """y[ylo:ylo+n_out] = W x[xlo:xlo+n_in] + b (off_b < 0: no bias); see ``_accumulate``."""
+    no = np.uint64(n_out)
+    yl = np.uint64(ylo)
+    if off_b >= 0:
+        ob = np.uint64(off_b)
+        for j in range(no):
+            y[yl + j] = p[ob + j]
+    else:
+        for j in range(no):
+            y[yl + j] = np.float32(0.0)
+    _accumulate(p, off_w, n_in, n_out, x, xlo, y, ylo)
 
 
 @njit(fastmath=FM, cache=True, inline="always")
@@ -187,7 +181,7 @@ def forward(p, nrm, lay, xw, ww, wk, eb, ebf, out):
         for j in range(H):
             _affine(p, off_ih, off_b, n_in, G, wk, src + j * n_src, wk, o_g)
             if j > 0:
-                _recurrent(p, off_hh, U, G, wk, dst + (j - 1) * U, o_g)
+                _accumulate(p, off_hh, U, G, wk, dst + (j - 1) * U, wk, o_g)   # + W_hh h
             _logistic(wk, o_g, G, eb, ebf)
             _cell(wk, o_g, o_c, o_f, U)
             _logistic(wk, o_f, U, eb, ebf)
