@@ -2,6 +2,7 @@
 are computed), refused settings, bad grids, the figure, Dask = in-process, and ``softrnn study hparams``."""
 
 import json
+import os
 import shutil
 
 import numpy as np
@@ -204,7 +205,9 @@ def test_a_missing_data_file_is_one_line(tmp_path):
 # ------------------------------------------------------------------------------------------ Dask
 def test_a_local_dask_cluster_gives_the_in_process_results(full, data_file, tmp_path):
     config = StudyConfig(**dict(TINY, units=(4,), torch_steps=0))
+    environ = dict(os.environ)
     result = run_study(data_file, config, tmp_path, workers=1)
+    assert dict(os.environ) == environ   # worker settings never leak into the calling process
     assert result["computed"] == [[4, 2], [4, 3]]
     assert {p: v for p, v in _rmse(result).items()} == {p: v for p, v in _rmse(full[1]).items() if p[0] == 4}
     assert all(r["bandwidth"]["torch"] is None for r in result["points"])

@@ -3,16 +3,36 @@
 from __future__ import annotations
 
 import os
-from contextlib import nullcontext
+from contextlib import contextmanager, nullcontext
 
 from .errors import SoftrnnInputError
+
+WORKER_ENV = {"NUMBA_NUM_THREADS": "1"}
+"""Environment of local worker processes only: one task per single-threaded process. The parent's
+environment is never changed: numba re-reads it at every compile and refuses a thread count that
+differs from the one its thread pool was launched with."""
+
+
+@contextmanager
+def restored_environ():
+    """Run the body, then put ``os.environ`` back exactly as it was (Dask's nannies run in this
+    process and write variables meant for the workers they spawn, e.g. ``PYTHONHASHSEED``)."""
+    saved = dict(os.environ)
+    try:
+        yield
+    finally:
+        for key in set(os.environ) - set(saved):
+            del os.environ[key]
+        for key, value in saved.items():
+            if os.environ.get(key) != value:
+                os.environ[key] = value
 
 
 def completed(tasks, scheduler: str | None, n_workers: int, *, alternatives: str = "", local_guard=None):
     """Yield the results of ``tasks`` (a list of ``(function, args, key)``) as they finish.
 
     ``scheduler`` None: a ``LocalCluster`` of ``n_workers`` single-threaded processes (their numba
-    pinned to one thread), closed at the end; otherwise the address of a running Dask scheduler
+    pinned to one thread through the workers' own environment, ``WORKER_ENV``), closed at the end; otherwise the address of a running Dask scheduler
     (one that does not answer is a one-line ``SoftrnnInputError`` naming ``--scheduler``;
     ``alternatives`` adds other options to its message). ``local_guard``: a context manager
     entered while the local cluster starts (e.g. to make its workers ignore Ctrl-C). Tasks not yet
@@ -20,13 +40,12 @@ def completed(tasks, scheduler: str | None, n_workers: int, *, alternatives: str
     """
     from distributed import Client, LocalCluster, as_completed
 
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")  # inherited by local worker processes
     cluster = None
     try:
         if scheduler is None:
-            with (local_guard() if local_guard is not None else nullcontext()):
+            with restored_environ(), (local_guard() if local_guard is not None else nullcontext()):
                 cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=50)
+                                       dashboard_address=None, silence_logs=50, env=dict(WORKER_ENV))
             client = Client(cluster)
         else:
             try:
@@ -46,4 +65,5 @@ def completed(tasks, scheduler: str | None, n_workers: int, *, alternatives: str
                     fut.cancel()
     finally:
         if cluster is not None:
-            cluster.close()
+            with restored_environ():
+                cluster.close()

@@ -45,7 +45,6 @@ import gc
 import hashlib
 import json
 import math
-import os
 import signal
 import threading
 import time
@@ -286,7 +285,6 @@ def train_point(data_path: str, config_dict: dict, units: int, history: int, out
     from .surrogate.evaluate import load_for_model, metrics, one_step, rod_length
     from .surrogate.train import train_node_model
 
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     config = _config_from_dict(config_dict)
     folder = model_folder(out_dir, units, history)
     t0 = time.perf_counter()

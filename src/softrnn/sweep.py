@@ -12,7 +12,6 @@ installed (same version).
 
 import hashlib
 import json
-import os
 import time
 from contextlib import closing
 from dataclasses import dataclass, field
@@ -85,7 +84,6 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
     from .rod import Simulator
     from .scenario import parse_scenario
 
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     scenario = parse_scenario(text, source).variant(index)
     config = scenario.config
     if n_samples is not None:
