@@ -9,7 +9,7 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[all,test,docs]'
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -27,7 +27,7 @@ test-all: $(STAMP)
 	NUMBA_NUM_THREADS=1 $(BIN)/python -m pytest -q -m ''
 
 bench: $(STAMP)
-	$(BIN)/softrnn bench --json benchmarks/results/bench.json
+	$(BIN)/softrnn bench --overwrite --json benchmarks/results/bench.json
 
 clean:
 	rm -rf $(VENV) out build src/*.egg-info

@@ -202,7 +202,10 @@ def test_other_import_errors(tmp_path, capsys):
     assert run_cli(["import-csv", str(good), "-o", str(out)]) == 0
     old = out.read_bytes()
     bad = _write(tmp_path, GOOD + "0.05,0,0,0,1,0,0\n", "bad.csv")
-    assert run_cli(["import-csv", str(bad), "-o", str(out)]) == 2
+    assert run_cli(["import-csv", str(bad), "-o", str(out)]) == 2       # exists: refused before reading
+    assert "--overwrite" in capsys.readouterr().err
+    assert run_cli(["import-csv", str(bad), "-o", str(out), "--overwrite"]) == 2
+    assert "not after" in capsys.readouterr().err
     assert out.read_bytes() == old
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.csv", "lab.csv", "out.h5", "x.csv"]
     with pytest.raises(DatasetError, match="not after"):

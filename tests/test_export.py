@@ -198,7 +198,7 @@ def test_cli_refuses_bad_input(data, tmp_path, capsys):
         (["export", str(folder)], "at least one of --onnx PATH and --torchscript PATH"),
         (["export", str(tmp_path / "not_a_model"), "--onnx", str(out / "a.onnx")], "config.json is missing"),
         (["export", str(tmp_path / "missing"), "--onnx", str(out / "a.onnx")], "no such model folder"),
-        (["export", str(folder), "--onnx", str(out / "keep.onnx"), "--opset", "99"], "opset=99"),
+        (["export", str(folder), "--onnx", str(out / "keep.onnx"), "--opset", "99", "--overwrite"], "opset=99"),
         (["export", str(folder), "--onnx", str(out / "x"), "--torchscript", str(out / "x")], "other than --onnx"),
         (["export", str(folder), "--onnx", str(out), "--torchscript", str(out / "b.pt")], "not a folder"),
         (["export", str(folder), "--onnx", str(folder / "m.onnx")], "outside the model folder"),

@@ -192,6 +192,7 @@ def test_full_experiment_lstm_beats_the_static_model_on_the_bending_axis(tmp_pat
 @pytest.mark.parametrize("kwargs, match", [
     (dict(samples=5), "samples=5 is invalid"),
     (dict(samples=12), "samples=12 is invalid: enough samples"),
+    (dict(samples=40), "samples=40 is invalid: at least 44 samples: the validation part"),
     (dict(stiffness=0.0), "stiffness=0.0 is invalid"),
     (dict(field_amplitude=(0.1, 0, 0)), r"field_amplitude=\(0.1, 0, 0\) is invalid"),
     (dict(field_band=(1.0, 0.5)), "field_band"),

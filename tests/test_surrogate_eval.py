@@ -285,7 +285,7 @@ def test_rollout_command_writes_a_prediction_file(files, capsys):
     assert pred.attrs["scenario_name"] == "semicircle (predicted)" and (tmp / "shapes.png").exists()
     # one model shared by the interior nodes, the tip its own; a time span
     assert run_cli(["rollout", str(folders[5]), str(data), "--shared", str(folders[2]), "-o", str(out),
-                    "--start", "0.3", "--stop", "0.5", "--quiet"]) == 0
+                    "--start", "0.3", "--stop", "0.5", "--quiet", "--overwrite"]) == 0
     pred = read_dataset(out)
     assert pred.n_samples == 23 and pred.attrs["modelled_nodes"] == [1, 2, 3, 4, 5]
     assert "shared: nodes 1-4" in pred.attrs["models"][1]

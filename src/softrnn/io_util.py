@@ -1,8 +1,11 @@
-"""Atomic file writes: write to a temporary name in the same folder, then rename."""
+"""Atomic file writes (a temporary name in the same folder, then rename) and the checks of output
+paths that every command makes before any long work (``prepare_output``)."""
 
 import os
 import tempfile
 from pathlib import Path
+
+from .errors import bad
 
 
 def umask_mode() -> int:
@@ -31,3 +34,86 @@ def atomic_write_bytes(path, data: bytes) -> None:
 
 def atomic_write_text(path, text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+# ------------------------------------------------------------------------------------------ outputs
+_OVERWRITE = "pass --overwrite to replace it, or choose another path"
+
+
+def _os_reason(err: OSError) -> str:
+    """'Permission denied: /x/y' from an OSError (one line)."""
+    what = err.strerror or type(err).__name__
+    where = err.filename if err.filename is not None else None
+    return f"{what}: {where}" if where is not None else what
+
+
+def _visible(folder: Path) -> list:
+    """Names in ``folder`` other than hidden ones (temporary files are hidden)."""
+    return sorted(p.name for p in folder.iterdir() if not p.name.startswith("."))
+
+
+def _shown(names) -> str:
+    names = list(names)
+    return ", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else "")
+
+
+def _check_parent(path: Path, argument: str) -> None:
+    """The nearest existing folder above ``path`` must be a folder this process may write into."""
+    folder = path.absolute().parent
+    while not os.path.lexists(folder) and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise bad(argument, str(path), f"a path inside a folder, but {folder} is a file, not a folder; choose "
+                                       f"another path")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise bad(argument, str(path), f"a path in a writable folder, but {folder} is not writable (permission "
+                                       f"denied); choose another path")
+
+
+def prepare_output(path, argument: str, *, kind: str = "file", overwrite: bool = False, holds=None,
+                   mine=(), fix: str = _OVERWRITE) -> Path:
+    """Check, before any long work, that ``path`` can be written as the output named ``argument``
+    (e.g. ``"-o"``); raise ``SoftrnnInputError`` (one line: the argument, the path, the fix) if not.
+    Creates and changes nothing (the writers create missing parent folders themselves).
+
+    kind="file":   ``path`` must not be a folder; an existing file is refused unless ``overwrite``.
+    kind="folder": ``path`` must be a folder or not exist. Unless ``overwrite``, refused when it
+                   already holds one of the names in ``holds`` (None: anything but hidden files).
+                   ``mine``: names of which a non-empty existing folder must hold at least one (a
+                   resumable command's own folder; refused even with ``overwrite`` otherwise).
+    In both cases the nearest existing folder above ``path`` must be a writable folder. Any
+    OSError (NotADirectoryError, PermissionError, ...) becomes the one-line error. ``fix`` is the
+    advice given for an existing output. Returns ``Path(path)``.
+    """
+    if kind not in ("file", "folder"):
+        raise bad("kind", kind, "'file' or 'folder'")
+    p = Path(path)
+    try:
+        if kind == "file":
+            if p.is_dir():
+                raise bad(argument, str(p), "a file path, but it is a folder; choose a file name")
+            if os.path.lexists(p) and not overwrite:
+                raise bad(argument, str(p), f"a new file, but it exists; {fix}")
+            _check_parent(p, argument)
+            return p
+        if os.path.lexists(p) and not p.is_dir():
+            raise bad(argument, str(p), "a folder, but it exists and is a file; choose another path")
+        if not p.is_dir():
+            _check_parent(p, argument)
+            return p
+        names = _visible(p)
+        if mine and names and not set(mine) & set(names):
+            raise bad(argument, str(p), f"a new or empty folder, or one this command wrote (holding "
+                                        f"{' or '.join(mine)}), but it holds other files ({_shown(names)}); "
+                                        f"choose another folder")
+        if not overwrite:
+            found = names if holds is None else [n for n in holds if n in names]
+            if found:
+                raise bad(argument, str(p), f"a folder without earlier output, but it holds {_shown(found)}; {fix}")
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise bad(argument, str(p), "a writable folder, but it is not writable (permission denied); choose "
+                                        "another folder")
+        return p
+    except OSError as err:
+        raise bad(argument, str(p), f"a path that can be written ({_os_reason(err)}); choose another "
+                                    f"path") from None

@@ -41,6 +41,8 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
         nodes.append(node)
         config = replace(config, save_nodes=tuple(nodes))
     sim = Simulator(setup)
+    # refuse an absurd run before the file is opened (the node's positions and the energy are kept)
+    sim.check_size(config, streamed=True, extra_bytes_per_sample=8 * 6)
     start = time.perf_counter()
     if out_path is None:
         sink = _NodeCollector(nodes.index(node))

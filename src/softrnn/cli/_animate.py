@@ -4,6 +4,7 @@ with ffmpeg)."""
 from pathlib import Path
 
 from ..errors import bad
+from ..io_util import prepare_output
 from ._progress import Bar
 
 NAME = "animate"
@@ -31,6 +32,7 @@ def add_args(p):
     p.add_argument("--elev", type=float, default=22.0, help="3-D camera elevation in degrees (default 22)")
     p.add_argument("--azim", type=float, default=-50.0, help="3-D camera azimuth in degrees (default -50)")
     p.add_argument("--size", default="640x560", metavar="WxH", help="frame size in pixels (default 640x560)")
+    p.add_argument("--overwrite", action="store_true", help="replace the output file if it exists (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -49,6 +51,7 @@ def run(args) -> int:
 
     out = Path(args.output) if args.output else Path(args.data).with_suffix(".gif")
     check_suffix(out, argument="--output")
+    prepare_output(out, "--output", overwrite=args.overwrite)
     size = parse_size(args.size)
     if args.frames is not None and args.frames < 1:
         raise bad("--frames", args.frames, "an integer >= 1")

@@ -2,7 +2,7 @@
 
 import json
 
-from ..io_util import atomic_write_text
+from ..io_util import atomic_write_text, prepare_output
 from ._progress import Bar
 
 NAME = "bench"
@@ -13,6 +13,7 @@ PARTS = ("model", "simulator", "statics")
 
 def add_args(p):
     p.add_argument("--json", default=None, metavar="PATH", help="write the results as JSON")
+    p.add_argument("--overwrite", action="store_true", help="replace the --json file if it exists (default: refuse)")
     p.add_argument("--quick", action="store_true", help="shorter runs (less precise)")
     p.add_argument("--only", default=None, metavar="PART[,PART]",
                    help=f"run only some parts: {', '.join(PARTS)} (default: all)")
@@ -29,6 +30,8 @@ def run(args) -> int:
     unknown = [x for x in parts if x not in PARTS]
     if unknown or not parts:
         raise bad("--only", args.only, f"a comma-separated subset of {', '.join(PARTS)}")
+    if args.json:
+        prepare_output(args.json, "--json", overwrite=args.overwrite)
     model = None
     if args.model is not None:
         from ..surrogate.artifact import load_model

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io_util import atomic_write_text
+from ..io_util import atomic_write_text, prepare_output
 from ._progress import Bar
 
 NAME = "evaluate"
@@ -26,6 +26,8 @@ def add_args(p):
                    help="write predicted vs reference per axis (prediction.png), RMSE(t) (rmse.png) and "
                         "the RMSE(t) series (rmse_t.csv) to this folder")
     p.add_argument("--no-free-running", action="store_true", help="only the one-step-ahead evaluation")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the --json file and the --figures files if they exist (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -33,6 +35,11 @@ def run(args) -> int:
     from ..surrogate.artifact import load_model
     from ..surrogate.evaluate import evaluate
 
+    if args.json:
+        prepare_output(args.json, "--json", overwrite=args.overwrite)
+    if args.figures:
+        prepare_output(args.figures, "--figures", kind="folder", overwrite=args.overwrite, holds=FIGURE_FILES,
+                       fix="pass --overwrite to replace them, or choose another folder")
     model = load_model(args.model)
     with Bar(f"free-running {Path(args.data).name}", unit="step",
              enabled=not args.quiet and not args.no_free_running) as bar:
@@ -92,6 +99,9 @@ def format_report(r: dict) -> str:
     if paper and paper.get("predicted_node") is not None:
         lines.append(f"  (the paper's figures are for its node {paper['predicted_node']}, as the paper numbers it)")
     return "\n".join(lines)
+
+
+FIGURE_FILES = ("prediction.png", "rmse.png", "rmse_t.csv")   # what write_figures writes
 
 
 def write_figures(ev, folder) -> list:

@@ -4,6 +4,7 @@ normalisation as one file for a control loop (physical windows in, the next posi
 from pathlib import Path
 
 from ..errors import bad
+from ..io_util import prepare_output
 
 NAME = "export"
 HELP = ("export a trained node model, normalisation included, to ONNX (ONNX Runtime, C++ or Python) and/or "
@@ -18,6 +19,8 @@ def add_args(p):
     p.add_argument("--opset", type=int, default=None, help="ONNX opset, 11 to 20 (default: 17)")
     p.add_argument("--static-batch", action="store_true",
                    help="fix the ONNX batch dimension to 1 (default: any batch size)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the --onnx and --torchscript files if they exist (default: refuse)")
 
 
 def _targets(args) -> dict:
@@ -38,6 +41,7 @@ def _targets(args) -> dict:
         if model_dir in path.resolve().parents:
             raise bad(f"--{kind}", str(path), "a path outside the model folder (a foreign file there would stop "
                                               "'softrnn train' from replacing the model)")
+        prepare_output(path, f"--{kind}", overwrite=args.overwrite)
     return targets
 
 

@@ -2,6 +2,7 @@
 
 from ..errors import bad
 from ..io.csv_import import import_csv
+from ..io_util import prepare_output
 
 NAME = "import-csv"
 HELP = "convert a lab CSV (time, node positions, optional orientations and wrenches) into a dataset file"
@@ -9,15 +10,17 @@ HELP = "convert a lab CSV (time, node positions, optional orientations and wrenc
 
 def add_args(p):
     p.add_argument("csv", help="CSV file, layout in docs/csv-format.md (e.g. examples/lab_data.csv)")
-    p.add_argument("-o", "--output", required=True, metavar="PATH", help="HDF5 dataset to write (replaced)")
+    p.add_argument("-o", "--output", required=True, metavar="PATH", help="HDF5 dataset to write")
     p.add_argument("--length", type=float, default=None, metavar="L", help="rod length in m (recorded)")
     p.add_argument("--seed", type=int, default=None, help="seed to record with the data")
     p.add_argument("--scenario", default="", metavar="TEXT", help="free text describing the experiment")
+    p.add_argument("--overwrite", action="store_true", help="replace the -o file if it exists (default: refuse)")
 
 
 def run(args) -> int:
     if args.length is not None and not args.length > 0:
         raise bad("--length", args.length, "a positive rod length in m")
+    prepare_output(args.output, "-o", overwrite=args.overwrite)
     ds = import_csv(args.csv, args.output, rod_length=args.length, seed=args.seed, scenario_text=args.scenario)
     extras = []
     if not ds.has_orientations:

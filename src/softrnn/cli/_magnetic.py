@@ -26,6 +26,9 @@ def _training_args(p, epochs_help: str):
                    help="what the LSTMs predict: the next orientation minus the last (default, most accurate one "
                         "step ahead) or the next orientation (as the paper; stable when free running)")
     p.add_argument("--json", default=None, metavar="PATH", help="also write the table as JSON to PATH")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the results in DIR (table1.json, fig12.png, models) and the --json file if they "
+                        "exist (default: refuse; the simulated robot.h5 is reused when the settings match)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
@@ -54,9 +57,10 @@ def add_args(p):
     x = sub.add_parser("example-csv", help="write a simulated example lab CSV",
                        description="Simulate a short run of the experiment and write it in the lab format "
                                    "(currents, orientations, magnet positions): examples/magnetic_lab.csv is made so.")
-    x.add_argument("path", help="the CSV to write (replaced)")
+    x.add_argument("path", help="the CSV to write")
     x.add_argument("--samples", type=int, default=300, help="rows (default: 300)")
     x.add_argument("--seed", type=int, default=1, help="random seed (default: 1)")
+    x.add_argument("--overwrite", action="store_true", help="replace PATH if it exists (default: refuse)")
 
 
 class _Stages:
@@ -130,17 +134,22 @@ def _print_result(result: dict) -> None:
 
 def run(args) -> int:
     from ..errors import bad
-    from ..io_util import atomic_write_text
-    from ..magnetics.experiment import ExperimentConfig, run_experiment
+    from ..io_util import atomic_write_text, prepare_output
+    from ..magnetics.experiment import FIGURE_FILE, TABLE_FILE, ExperimentConfig, run_experiment
 
     if args.magnetic == "example-csv":
         from ..magnetics.lab import write_example_csv
 
         if args.samples < 20:
             raise bad("--samples", args.samples, "at least 20 rows")
+        prepare_output(args.path, "PATH", overwrite=args.overwrite)
         data = write_example_csv(args.path, args.samples, seed=args.seed)
         print(f"wrote {args.path}: {data.n_samples} rows, t = 0 .. {data.time[-1]:g} s")
         return 0
+    prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite, holds=(TABLE_FILE, FIGURE_FILE),
+                   fix="pass --overwrite to replace them, or choose another folder")
+    if args.json:
+        prepare_output(args.json, "--json", overwrite=args.overwrite)
     fields = {"seed": args.seed, "output": args.output}
     if args.epochs is not None:
         fields["epochs"] = args.epochs

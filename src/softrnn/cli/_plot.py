@@ -3,6 +3,7 @@
 from pathlib import Path
 
 from ..errors import bad
+from ..io_util import prepare_output
 
 NAME = "plot"
 HELP = "plot one node's position per axis [mm] against time, with the forces on it, to .png/.pdf/.svg"
@@ -18,6 +19,7 @@ def add_args(p):
     p.add_argument("--start", type=float, default=None, help="first time shown [s] (default: the first sample)")
     p.add_argument("--stop", type=float, default=None, help="last time shown [s] (default: the last sample)")
     p.add_argument("--no-forces", action="store_true", help="leave out the force panel")
+    p.add_argument("--overwrite", action="store_true", help="replace the output file if it exists (default: refuse)")
 
 
 def run(args) -> int:
@@ -25,6 +27,7 @@ def run(args) -> int:
 
     if args.output:
         check_suffix(args.output, FIGURE_SUFFIXES, argument="--output")
+        prepare_output(args.output, "--output", overwrite=args.overwrite)
     node = args.node
     if node is None:
         from ..io.dataset import read_dataset
@@ -39,6 +42,7 @@ def run(args) -> int:
     node = int(data.nodes[0])  # a negative --node counts from the rod's end
     out = Path(args.output) if args.output else Path(args.data).with_name(f"{Path(args.data).stem}_node{node}.png")
     check_suffix(out, FIGURE_SUFFIXES, argument="--output")
+    prepare_output(out, "--output", overwrite=args.overwrite)
     title = None if _title(dict(data.attrs), fallback="") else f"{Path(args.data).stem}: node {node}"
     plot_node(data, node, out, forces=not args.no_forces, title=title)
     print(f"plot: wrote {out}")

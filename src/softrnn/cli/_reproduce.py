@@ -1,5 +1,6 @@
 """softrnn reproduce: run the paper's pipeline end to end into --out DIR (resumable)."""
 
+from ..io_util import prepare_output
 from ..reproduce import reproduce
 from ._progress import Bar
 
@@ -14,6 +15,8 @@ def add_args(p):
 
 
 def run(args) -> int:
+    # resumable by design: its own folder is continued, anything else is refused
+    prepare_output(args.out, "--out", kind="folder", overwrite=True, mine=("cases", "report.json"))
     bars = []
 
     def factory(desc):

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
+from ..io_util import prepare_output
 from ._progress import Bar
 
 NAME = "rollout"
@@ -33,6 +34,8 @@ def add_args(p):
                         "condition) or hold their last seed pose")
     p.add_argument("--figure", default=None, metavar="PATH",
                    help="also draw predicted (dashed) and reference rod shapes at a few times (.png/.pdf/.svg)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the -o and --figure files if they exist (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -75,6 +78,9 @@ def run(args) -> int:
         check_suffix(args.figure, FIGURE_SUFFIXES, argument="--figure")
     if args.shared_nodes is not None and args.shared is None:
         raise bad("--shared-nodes", args.shared_nodes, "--shared MODEL as well")
+    prepare_output(args.output, "-o", overwrite=args.overwrite)
+    if args.figure:
+        prepare_output(args.figure, "--figure", overwrite=args.overwrite)
     models = [load_model(f) for f in folders]
     shared = load_model(args.shared) if args.shared else None
     head = read_dataset(data_path, group=args.group, stop=1)  # stored nodes and attrs, one sample

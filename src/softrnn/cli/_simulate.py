@@ -4,7 +4,7 @@ import json
 from dataclasses import replace
 
 from ..errors import bad
-from ..io_util import atomic_write_text
+from ..io_util import atomic_write_text, prepare_output
 from ..scenario import SCENARIO_NAMES, load_scenario
 from ..summary import simulate_summary
 from ._progress import Bar
@@ -24,6 +24,8 @@ def add_args(p):
     p.add_argument("--density", type=float, default=None, help="override the density [kg/m^3]")
     p.add_argument("--poisson-ratio", type=float, default=None, help="override Poisson's ratio")
     p.add_argument("--json", default=None, metavar="PATH", help="also write the summary as JSON")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the -o and --json files if they exist (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -33,6 +35,9 @@ def run(args) -> int:
         raise bad("--samples", args.samples, "an integer >= 1")
     if args.out is not None and not str(args.out).endswith((".h5", ".hdf5")):
         raise bad("-o", args.out, "a file name ending in .h5 or .hdf5")
+    for argument, path in (("-o", args.out), ("--json", args.json)):
+        if path is not None:
+            prepare_output(path, argument, overwrite=args.overwrite)
     setup, config = scenario.setup, scenario.config
     rod = {k: getattr(args, k) for k in ("radius", "youngs_modulus", "density", "poisson_ratio")
            if getattr(args, k) is not None}

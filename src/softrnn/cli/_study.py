@@ -97,12 +97,16 @@ def _print_regions(result: dict) -> None:
 
 
 def run(args) -> int:
-    from ..io_util import atomic_write_text
-    from ..study import StudyConfig, run_study
+    from ..io_util import atomic_write_text, prepare_output
+    from ..study import MANIFEST, StudyConfig, run_study
     from ._train import _default_wrench
 
     if args.workers < 1:
         raise bad("--workers", args.workers, "an integer >= 1")
+    # resumable by design: its own folder is continued, anything else is refused
+    prepare_output(args.out, "-o", kind="folder", overwrite=True, mine=(MANIFEST,))
+    if args.json:
+        prepare_output(args.json, "--json", overwrite=True)   # the summary, rewritten on every run
     wrench = args.wrench or _default_wrench(args.data, args.node)
     config = StudyConfig(node=args.node, units=_ints(args.units, "--units"), history=_ints(args.history, "--history"),
                          epochs=args.epochs, seed=args.seed, wrench=wrench, bandwidth_steps=args.bandwidth_steps)

@@ -1,7 +1,8 @@
 """softrnn sweep SCENARIO --count N -o DIR: randomised variants in parallel on Dask (resumable)."""
 
+from ..io_util import prepare_output
 from ..scenario import load_scenario
-from ..sweep import run_sweep
+from ..sweep import MANIFEST, run_sweep
 from ._progress import Bar
 
 NAME = "sweep"
@@ -23,6 +24,10 @@ def add_args(p):
 
 def run(args) -> int:
     scenario = load_scenario(args.scenario)
+    # resumable by design: its own folder is continued, anything else is refused
+    prepare_output(args.out, "-o", kind="folder", overwrite=True, mine=(MANIFEST,))
+    if args.merge:
+        prepare_output(args.merge, "--merge", overwrite=True)   # remade from the folder on every run
     with Bar(f"sweep {scenario.name}", unit="traj", enabled=not args.quiet) as bar:
         result = run_sweep(scenario, args.count, args.out, scheduler=args.scheduler, n_workers=args.workers,
                            n_samples=args.samples, progress=bar)

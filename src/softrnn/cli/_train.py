@@ -45,8 +45,11 @@ def add_args(p):
                    help="express the window's positions relative to the node's last position (translation-invariant)")
     p.add_argument("--seed", type=int, default=None, help="random seed of the weights and shuffling (default: 0)")
     p.add_argument("--threads", type=int, default=None, help="CPU threads (default: 1)")
-    p.add_argument("--resume", action="store_true",
-                   help="continue an interrupted training from FOLDER/checkpoint.pt (no finished epoch is lost)")
+    again = p.add_mutually_exclusive_group()
+    again.add_argument("--resume", action="store_true",
+                       help="continue an interrupted training from FOLDER/checkpoint.pt (no finished epoch is lost)")
+    again.add_argument("--overwrite", action="store_true",
+                       help="replace the model or unfinished training in FOLDER (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -96,9 +99,15 @@ class _LossBar(Bar):
 
 def run(args) -> int:
     from ..io.dataset import read_dataset
+    from ..io_util import prepare_output
+    from ..surrogate.artifact import CHECKPOINT, check_replaceable
     from ..surrogate.data import SampleSpec
     from ..surrogate.train import TrainConfig, train_node_model
 
+    prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite or args.resume,
+                   holds=("config.json", CHECKPOINT),
+                   fix="pass --overwrite to replace it or --resume to continue it")
+    check_replaceable(args.out)   # a folder of other files is never replaced
     node = args.node
     head = None
     if node is None:

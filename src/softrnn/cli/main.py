@@ -34,6 +34,15 @@ def main(argv=None) -> int:
     except (SoftrnnInputError, SimulationError) as err:
         print(f"softrnn: error: {err}", file=sys.stderr)
         return 2
+    except OSError as err:
+        # last resort: the commands check their outputs first (io_util.prepare_output), but a disk
+        # can fill up or a folder vanish while they run
+        if err.filename is None:
+            raise
+        reason = err.strerror or type(err).__name__
+        print(f"softrnn: error: cannot write {err.filename}: {reason}; check that its folder exists and is "
+              f"writable and that the disk has room, or choose another path", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("softrnn: interrupted; no partial file was left; reproduce, sweep and study keep their finished "
               "steps and resume when run again", file=sys.stderr)

@@ -45,7 +45,7 @@ from .. import __version__
 from ..errors import SimulationError, SoftrnnInputError, bad
 from .coils import unit_field_maps
 from .magnets import wrench as magnet_wrench
-from .manipulator import CurrentSchedule, ManipulatorRun, ManipulatorSpec, simulate_manipulator
+from .manipulator import CurrentSchedule, ManipulatorRun, ManipulatorSpec, check_manipulator_run, simulate_manipulator
 
 MAGNETS = ("proximal", "distal")
 """Magnet names in index order (0 at L/2, 1 at the tip; the paper's m = 1, 2 from the base)."""
@@ -244,6 +244,14 @@ class ExperimentConfig:
             raise bad("samples", self.samples, f"enough samples for a training and a test span of at least "
                                                f"history + 4 = {self.history + 4} each (train_fraction "
                                                f"{self.train_fraction:g})")
+        # the training span's last 20 % (TrainConfig.validation_fraction) validates the multi-step loss
+        validation = cut - int(math.floor(cut * 0.8))
+        need = self.history + self.rollout_steps
+        if validation < need:
+            least = next(n for n in range(self.samples, 100 * self.samples + 1000)
+                         if (c := int(math.floor(self.train_fraction * n))) - int(math.floor(c * 0.8)) >= need)
+            raise bad("samples", self.samples, f"at least {least} samples: the validation part of the training "
+                                               f"span must hold history + rollout_steps = {need} samples")
 
     @property
     def dt(self) -> float:
@@ -916,8 +924,12 @@ def run_experiment(config: ExperimentConfig, out_dir, progress=None) -> dict:
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise bad("out_dir", str(out), "a folder (it exists and is a file)")
-    out.mkdir(parents=True, exist_ok=True)
     spec = ManipulatorSpec()
+    # refuse an absurd run before the currents are made and the folder is created
+    check_manipulator_run(config.robot_spec(spec), ManipulatorRun(dt=config.dt, n_samples=config.samples,
+                                                                  settle=config.settle),
+                          extra_bytes=(config.samples - 1) * 10 * 17 * 8)   # experiment_currents' arrays
+    out.mkdir(parents=True, exist_ok=True)
     time_s, X, currents, sim_seconds, resumed = _simulate_robot(config, spec, out / ROBOT_FILE, progress)
     s_nodes = np.linspace(0.0, spec.length, spec.n_nodes)
     s_magnets = np.array([m.arc_length for m in spec.magnets])

@@ -34,7 +34,7 @@ from ..rod.boundary import Clamp
 from ..rod.discrete import internal_loads, segment_strains
 from ..rod.loads import smoothstep
 from ..rod.shapes import RodShape, straight
-from ..rod.simulation import Damping, Setup, Trajectory
+from ..rod.simulation import Damping, Setup, Trajectory, check_run_size
 from ..rod.spec import NodeOverride, RodSpec
 from ..rod.stability import DEFAULT_SAFETY, stable_step
 from . import _driver
@@ -528,6 +528,20 @@ def resolve_substeps(spec: ManipulatorSpec, run: ManipulatorRun) -> int:
     return int(run.substeps)
 
 
+def check_manipulator_run(spec: ManipulatorSpec, run: ManipulatorRun, extra_bytes: int = 0) -> int:
+    """Refuse a run too large for this machine (``rod.simulation.check_run_size``: every node of every
+    sample is held, with the magnets' and coils' outputs) before anything is allocated; ``extra_bytes``:
+    what the caller holds besides (e.g. the current schedule). Returns the substeps."""
+    substeps = resolve_substeps(spec, run)
+    h = run.dt / substeps
+    settle_steps = int(math.ceil(run.settle / h)) if run.settle > 0 else 0
+    per_sample = 8 * (spec.coils.n_coils + 30 * len(spec.magnets))   # currents, p, R, B, G, W
+    check_run_size(n_samples=run.n_samples, dt=run.dt, substeps=substeps, n_saved=spec.n_nodes,
+                   held_samples=run.n_samples, extra_bytes=run.n_samples * per_sample + extra_bytes,
+                   extra_steps=1 + settle_steps, streamable=False, auto_substeps=run.substeps is None)
+    return substeps
+
+
 def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun) -> ManipulatorTrajectory:
     """Simulate the manipulator from the straight rod at rest, driven by ``currents``.
 
@@ -538,8 +552,8 @@ def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun) -
         raise bad("spec", type(spec).__name__, "a ManipulatorSpec")
     if not isinstance(run, ManipulatorRun):
         raise bad("run", type(run).__name__, "a ManipulatorRun")
+    substeps = check_manipulator_run(spec, run)
     schedule = _schedule(spec, run, currents)
-    substeps = resolve_substeps(spec, run)
     h = run.dt / substeps
     model = _Model(spec)
     model.half_kick(h, schedule.values[0])

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import SimulationError, bad
 from . import kernels
-from .simulation import RunConfig, Setup, Simulator, Trajectory, _raise_on_status
+from .simulation import RunConfig, Setup, Simulator, Trajectory, _raise_on_status, check_run_size
 
 _OUT_VECTORS = ("r", "v", "w", "f", "t", "rf", "rt")
 # rod-steps per kernel call: the per-chunk input arrays hold B x K steps (ext_w alone is
@@ -96,6 +96,11 @@ def simulate_batch(setups: Sequence[Setup], config: RunConfig,
     n = ref.setup.rod.n_nodes
     nodes = np.arange(n) if config.save_nodes is None else np.array(
         [ref.setup.node_index(a, "save_nodes") for a in config.save_nodes], dtype=np.int64)
+    chunk = max(substeps, (_CHUNK_ROD_STEPS // B // substeps) * substeps)
+    check_run_size(n_samples=config.n_samples, dt=config.dt, substeps=substeps, n_saved=nodes.size,
+                   held_samples=config.n_samples, chunk_steps=chunk,
+                   step_bytes=max(sim.step_input_bytes() for sim in sims), batch=B,
+                   streamable=False, auto_substeps=config.substeps is None)
     slot = np.full(n, -1, dtype=np.int64)
     slot[nodes] = np.arange(nodes.size)
     S, s = config.n_samples, nodes.size
@@ -154,7 +159,6 @@ def simulate_batch(setups: Sequence[Setup], config: RunConfig,
                 raise SimulationError(f"setups[{b}]: {exc}") from None
 
     total = (S - 1) * substeps
-    chunk = max(substeps, (_CHUNK_ROD_STEPS // B // substeps) * substeps)
     start = time.perf_counter()
     done = 0
     while done < total:

@@ -6,13 +6,14 @@ into arrays; ``kernels.advance`` runs the steps of a chunk in one numba call. Th
 """
 
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
-from ..errors import SimulationError, bad
+from ..errors import SimulationError, SoftrnnInputError, bad
 from . import kernels
 from .boundary import Clamp, Pin
 from .discrete import internal_loads, segment_strains
@@ -24,6 +25,68 @@ from .stability import DEFAULT_SAFETY, stable_step
 
 _CHUNK_STEPS = 65536
 _CHUNK_SAMPLES = 4096
+
+# ------------------------------------------------------------------ run size
+MAX_SOLVER_STEPS = 10**10          # rod-steps of one run (about a day of stepping for a 100-node rod)
+MAX_ARRAY_BYTES = 8 * 2**30        # arrays a run may hold at once (less on a machine with under 16 GiB)
+SAMPLE_VALUES = 7 * 3 + 4          # float64 values per saved node and sample: r, v, w, f, t, rf, rt, q
+
+
+def array_limit() -> int:
+    """Bytes of arrays a run may hold: ``MAX_ARRAY_BYTES`` or half the machine's memory, the smaller."""
+    try:
+        ram = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, OSError, ValueError):
+        return MAX_ARRAY_BYTES
+    return min(MAX_ARRAY_BYTES, ram // 2) if ram > 0 else MAX_ARRAY_BYTES
+
+
+def _size(n: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if n < 1024 or unit == "PiB":
+            return f"{n:.3g} {unit}" if unit != "B" else f"{int(n)} B"
+        n /= 1024
+    return f"{n:.3g} PiB"  # pragma: no cover
+
+
+def check_run_size(*, n_samples: int, dt: float, substeps: int, n_saved: int, held_samples: int,
+                   chunk_steps: int = 0, step_bytes: int = 0, batch: int = 1, extra_bytes: int = 0,
+                   extra_steps: int = 0, streamed: bool = False, streamable: bool = True,
+                   auto_substeps: bool = True) -> None:
+    """Refuse, before anything is allocated or stepped, a run too large for this machine.
+
+    Every simulation path calls it (``Simulator.run``, ``simulate_batch``, the magnetic
+    ``simulate_manipulator``) with what it really holds at once: ``held_samples`` saved samples
+    of ``n_saved`` nodes per rod (all of them without a sink, a chunk when streamed), the inputs of
+    one chunk of ``chunk_steps`` solver steps at ``step_bytes`` each (per rod of a ``batch``), and
+    ``extra_bytes`` (in all). ``streamable``: the caller could stream the samples (a sink) instead;
+    ``auto_substeps``: the substeps were chosen automatically. Raises SoftrnnInputError saying how
+    large the run would be and what to change when the arrays exceed ``array_limit()`` or the
+    solver steps ``MAX_SOLVER_STEPS``.
+    """
+    held = batch * (held_samples * (n_saved * SAMPLE_VALUES + 4) * 8 + chunk_steps * step_bytes) + extra_bytes
+    steps = batch * (max(n_samples - 1, 0) * substeps + extra_steps)
+    limit = array_limit()
+    if held <= limit and steps <= MAX_SOLVER_STEPS:
+        return
+    over = []
+    if held > limit:
+        over.append(f"hold {_size(held)} of arrays in memory (limit {_size(limit)})")
+    if steps > MAX_SOLVER_STEPS:
+        over.append(f"take {steps:.3g} solver steps (limit {MAX_SOLVER_STEPS:.0e})")
+    fixes = [f"fewer samples or a smaller dt (now {(n_samples - 1) * dt:.4g} s simulated at a solver step of "
+             f"{dt / substeps:.3g} s{'' if auto_substeps else ', or fewer substeps'})"]
+    samples_heavy = batch * held_samples * (n_saved * SAMPLE_VALUES + 4) * 8 > limit / 2
+    if held > limit and samples_heavy and n_saved > 1:
+        fixes.append("save fewer nodes (save_nodes)")
+    if held > limit and samples_heavy and streamable and not streamed:
+        fixes.append("write to a file, which streams the samples (softrnn simulate -o FILE.h5, or a sink)")
+    if batch > 1:
+        fixes.append("fewer rods per batch")
+    raise SoftrnnInputError(
+        f"the run n_samples={n_samples}, dt={dt:g} s is too large for this machine ({substeps:.3g} solver steps per "
+        f"sample, {n_saved} saved node{'s' if n_saved != 1 else ''}"
+        f"{f', {batch} rods' if batch > 1 else ''}): it would {' and '.join(over)}; use {'; or '.join(fixes)}")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -310,6 +373,24 @@ class Simulator:
         """Largest accepted solver step h [s] for this setup."""
         return stable_step(self.lumped, self.seg_length, self.setup.damping.kelvin_voigt, safety)
 
+    def step_input_bytes(self) -> int:
+        """Bytes of per-step inputs a chunk holds (times, loads, PD targets, prescribed poses and
+        the load functions' temporaries)."""
+        return 8 * (4 + 15 * self.ext_idx.size + 6 * len(self.pd) + 12 * len(self.presc))
+
+    def check_size(self, config: RunConfig, *, streamed: bool, extra_bytes_per_sample: int = 0) -> int:
+        """Refuse a run too large for this machine (``check_run_size``) before anything is
+        allocated; ``streamed``: the samples go to a sink chunk by chunk. Returns the substeps."""
+        substeps = self.resolve_substeps(config)
+        S = config.n_samples
+        per_chunk = max(1, min(_CHUNK_SAMPLES, _CHUNK_STEPS // substeps))
+        n_saved = self.setup.rod.n_nodes if config.save_nodes is None else len(config.save_nodes)
+        check_run_size(n_samples=S, dt=config.dt, substeps=substeps, n_saved=n_saved,
+                       held_samples=min(S, per_chunk) if streamed else S, chunk_steps=per_chunk * substeps,
+                       step_bytes=self.step_input_bytes(), extra_bytes=S * extra_bytes_per_sample,
+                       streamed=streamed, auto_substeps=config.substeps is None)
+        return substeps
+
     def resolve_substeps(self, config: RunConfig) -> int:
         """Solver steps per saved interval; refuses an unstable explicit choice."""
         limit = self.stable_step(config.safety)
@@ -362,8 +443,9 @@ class Simulator:
         the current time. Samples are produced in chunks of at most ``_CHUNK_SAMPLES``: without a
         ``sink`` they are collected and returned as one ``Trajectory``; with one, each chunk goes to
         ``sink(chunk)`` (bounded memory, e.g. straight to a file) and ``RunStats`` is returned.
-        ``progress(samples_done, n_samples)`` is called after every chunk."""
-        substeps = self.resolve_substeps(config)
+        ``progress(samples_done, n_samples)`` is called after every chunk. A run too large for this
+        machine is refused first (``check_run_size``)."""
+        substeps = self.check_size(config, streamed=sink is not None)
         h = config.dt / substeps
         if self.steps_done == 0:
             self._half_kick(h)
