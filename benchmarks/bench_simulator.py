@@ -24,7 +24,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
 
     from softrnn.bench.simulator import format_table, run_benchmark
-    from softrnn.io_util import atomic_write_text
+    from softrnn.files import atomic_write_text
 
     def progress(done, total):
         print(f"\r[{done}/{total}]", end="" if done < total else "\n", file=sys.stderr, flush=True)

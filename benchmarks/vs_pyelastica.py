@@ -585,7 +585,7 @@ def main(argv=None) -> int:
         print("vs_pyelastica: PyElastica is not installed (pip install -e '.[pyelastica]'); nothing to compare",
               file=sys.stderr)
         return 2
-    from softrnn.io_util import atomic_write_text
+    from softrnn.files import atomic_write_text
 
     result = run_benchmark(quick=args.quick, elements=tuple(args.elements),
                            progress=lambda msg: print(f"[{msg}]", file=sys.stderr, flush=True))

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from softrnn import reproduce as reproduce_mod
+from softrnn.reproduce import pipeline as reproduce_mod
 from softrnn.cli.main import main
 
 

@@ -5,9 +5,9 @@ import os
 
 import numpy as np
 
-from softrnn._dask import WORKER_ENV, completed, restored_environ
-from softrnn.scenario import load_scenario
-from softrnn.sweep import run_sweep
+from softrnn.sweeps.dask import WORKER_ENV, completed, restored_environ
+from softrnn.scenarios.scenario import load_scenario
+from softrnn.sweeps.sweep import run_sweep
 
 
 def _worker_settings(tag):

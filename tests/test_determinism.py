@@ -4,7 +4,7 @@ import numpy as np
 
 from softrnn.cli.main import main
 from softrnn.io.dataset import read_dataset
-from softrnn.scenario import load_scenario, parse_scenario, scenario_text
+from softrnn.scenarios.scenario import load_scenario, parse_scenario, scenario_text
 
 
 def test_same_scenario_same_arrays(tmp_path):

@@ -273,8 +273,8 @@ _DASK_THEN_COMPILE = textwrap.dedent("""
 
     from softrnn.bench import run_all
     from softrnn.rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, simulate_batch, straight
-    from softrnn.scenario import load_scenario
-    from softrnn.sweep import run_sweep
+    from softrnn.scenarios.scenario import load_scenario
+    from softrnn.sweeps.sweep import run_sweep
 
 
     def main():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.paths import Figure8Path
+from softrnn.scenarios.paths import Figure8Path
 from softrnn.rod.loads import CirclePath, Constant, SquarePath
 
 

@@ -13,10 +13,10 @@ import pytest
 from softrnn.cli.main import main
 from softrnn.errors import SimulationError, SoftrnnInputError
 from softrnn.magnetics import ManipulatorRun, ManipulatorSpec, currents_for_field, simulate_manipulator
-from softrnn.magnetics.experiment import (ExperimentConfig, camera_measure, camera_orientations,
+from softrnn.experiments.magnetic.experiment import (ExperimentConfig, camera_measure, camera_orientations,
                                           check_result_shape, measured_wrenches, rotation_vectors, run_experiment,
                                           static_predictions, tangents_from_rotation_vectors)
-from softrnn.magnetics.lab import LabData, read_lab_csv, simulated_lab_data, write_lab_csv
+from softrnn.experiments.magnetic.lab import LabData, read_lab_csv, simulated_lab_data, write_lab_csv
 from softrnn.paper import paper_case
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "magnetic_lab.csv"

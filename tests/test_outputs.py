@@ -12,10 +12,10 @@ import pytest
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.io.dataset import write_trajectory
-from softrnn.io_util import prepare_output
+from softrnn.files import prepare_output
 from softrnn.rod.batch import simulate_batch
 from softrnn.rod.simulation import RunConfig, Simulator
-from softrnn.scenario import load_scenario
+from softrnn.scenarios.scenario import load_scenario
 from test_cli import run_cli
 from test_surrogate_data import synthetic
 
@@ -138,7 +138,7 @@ def test_the_simulate_example_from_the_issue(tmp_path, capsys, monkeypatch):
 
 def test_an_unwritable_folder_is_one_line(tmp_path, monkeypatch, capsys):
     """Permission denied (os.access mocked: the tests may run as root, who may write anywhere)."""
-    monkeypatch.setattr("softrnn.io_util.os.access", lambda *a, **k: False)
+    monkeypatch.setattr("softrnn.files.os.access", lambda *a, **k: False)
     assert run_cli(["simulate", "semicircle", "--samples", "5", "--quiet", "-o", str(tmp_path / "a" / "x.h5")]) == 2
     one_line_error(capsys, "-o=", "not writable (permission denied)")
     assert listing(tmp_path) == []

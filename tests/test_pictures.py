@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from softrnn import pictures
+from softrnn.figures import pictures
 from softrnn.cli.main import main
 from softrnn.errors import SoftrnnInputError
 

@@ -8,14 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from softrnn.cases import ASSUMPTIONS, CASE_NAMES, PAPER_CASES, build_case
+from softrnn.scenarios.cases import ASSUMPTIONS, CASE_NAMES, PAPER_CASES, build_case
 from softrnn.errors import SoftrnnInputError
-from softrnn.paths import Figure8Path, PoseMotion, RandomSmoothPath, rotation_vector_to_matrix
+from softrnn.scenarios.paths import Figure8Path, PoseMotion, RandomSmoothPath, rotation_vector_to_matrix
 from softrnn.rod import (Clamp, Constant, Damping, NodalLoad, PDTracking, RodSpec, RunConfig, Setup, Simulator,
                          SquarePath, Window, arc, ellipse, straight)
 from softrnn.rod.loads import CirclePath, Sinusoid
 from softrnn.rod.shapes import ellipse_perimeter
-from softrnn.scenario import (SCENARIO_NAMES, Scenario, ScenarioError, load_scenario, parse_scenario,
+from softrnn.scenarios.scenario import (SCENARIO_NAMES, Scenario, ScenarioError, load_scenario, parse_scenario,
                               scenario_text)
 
 T_GRID = np.arange(0.0, 3.0, 1e-3)
@@ -23,7 +23,7 @@ T_GRID = np.arange(0.0, 3.0, 1e-3)
 
 # --------------------------------------------------------------------------- the cases as they were
 def _legacy(name):
-    """The paper cases as softrnn.cases built them in Python before the scenario files (verbatim
+    """The paper cases as softrnn.scenarios.cases built them in Python before the scenario files (verbatim
     values), as (setup, config, node_of_interest, paper_key, paper_section)."""
     def rubber(length, radius, n):
         return RodSpec(length=length, radius=radius, youngs_modulus=2.5e6, density=1000.0, n_nodes=n,

@@ -16,7 +16,7 @@ from softrnn.rod import Constant, Damping, NodalLoad, RodSpec, RunConfig, Setup,
 from softrnn.rod.so3 import axis_rotation
 from softrnn.statics import (PointLoad, PointMagnet, RigidSegment, StaticLoads, StaticRod, StaticSolver, Status,
                              build_grid, solve)
-from softrnn.statics.study import magnetic_loads, magnetic_rod, run_fig13_study, write_fig13
+from softrnn.experiments.fig13 import magnetic_loads, magnetic_rod, run_fig13_study, write_fig13
 
 L, RADIUS, E, RHO, NU = 0.2, 0.01, 1e7, 1000.0, 0.5
 BEAM_RTOL = 0.01             # small tip load vs Timoshenko / Euler-Bernoulli

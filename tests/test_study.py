@@ -11,7 +11,7 @@ import pytest
 from softrnn.cli.main import main
 from softrnn.errors import SoftrnnInputError
 from softrnn.io.dataset import write_trajectory
-from softrnn.study import (FIGURE, MANIFEST, PAPER_FIG14, StudyConfig, model_folder, point_path, region, run_study,
+from softrnn.surrogate.study import (FIGURE, MANIFEST, PAPER_FIG14, StudyConfig, model_folder, point_path, region, run_study,
                            summary)
 from softrnn.surrogate.artifact import load_model
 from softrnn.surrogate.evaluate import evaluate
@@ -250,12 +250,12 @@ def test_cli_bad_input_is_one_line_exit_2(data_file, tmp_path, capsys, extra, wo
 
 
 def test_cli_ctrl_c_keeps_the_finished_points(data_file, tmp_path, capsys, monkeypatch):
-    import softrnn.study
+    import softrnn.surrogate.study
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(softrnn.study, "run_study", interrupted)
+    monkeypatch.setattr(softrnn.surrogate.study, "run_study", interrupted)
     argv = ["study", "hparams", str(data_file), "--node", "2", "-o", str(tmp_path), "--quiet"]
     assert run_cli(argv) == 130
     assert "finished grid points are kept" in capsys.readouterr().err

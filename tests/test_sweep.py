@@ -7,8 +7,8 @@ import pytest
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.io.dataset import read_dataset
-from softrnn.scenario import load_scenario
-from softrnn.sweep import run_sweep, trajectory_path
+from softrnn.scenarios.scenario import load_scenario
+from softrnn.sweeps.sweep import run_sweep, trajectory_path
 
 SAMPLES = 21  # short trajectories: the test is about the sweep machinery
 

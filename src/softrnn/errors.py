@@ -12,3 +12,19 @@ class SimulationError(RuntimeError):
 def bad(argument: str, value, expected: str) -> SoftrnnInputError:
     """Build the standard one-line error: ``argument=value is invalid: expected ...``."""
     return SoftrnnInputError(f"{argument}={value!r} is invalid: {expected}")
+
+
+EXTRAS = {"torch": "learn", "safetensors": "learn", "onnx": "learn", "onnxruntime": "learn",
+          "distributed": "dask", "dask": "dask"}
+"""Optional packages and the extra of ``softrnn`` that installs each (pyproject.toml)."""
+
+
+def missing_extra(err: ImportError) -> SoftrnnInputError | None:
+    """The one-line error for an import of an optional package that is not installed (None when
+    ``err`` is about anything else)."""
+    name = (getattr(err, "name", None) or "").split(".")[0]
+    extra = EXTRAS.get(name)
+    if extra is None:
+        return None
+    return SoftrnnInputError(f"this needs the optional package {name!r}, which is not installed; install the "
+                             f"'{extra}' extra: pip install 'softrnn[{extra}]' (or 'softrnn[all]')")

@@ -4,7 +4,7 @@ Measures (see benchmarks/README.md):
 
 * single-thread cost of ``Simulator(setup).run(config)`` in microseconds per node-step
   (wall / (steps * nodes)) and the real-time factor (simulated s per wall s) for a 50-node
-  cantilever, 59- and 101-node cantilevers, and the paper's three cases (``softrnn.cases``);
+  cantilever, 59- and 101-node cantilevers, and the paper's three cases (``softrnn.scenarios.cases``);
   saving one node (the node of interest) and saving all nodes;
 * start-up: the first tiny ``simulate`` in a fresh interpreter with an empty numba cache (cold
   compile) and again with the filled cache (cached start), import time included;
@@ -76,9 +76,9 @@ def cantilever(n_nodes: int, tip_force=None) -> tuple[Setup, RunConfig]:
 
 
 def _paper_case(name: str):
-    """(setup, config, save_nodes) of a paper case from softrnn.cases; accepts build_case returning
+    """(setup, config, save_nodes) of a paper case from softrnn.scenarios.cases; accepts build_case returning
     a (setup, config) pair or an object with .setup, .config and optionally .node_of_interest."""
-    from ..cases import build_case
+    from ..scenarios.cases import build_case
 
     built = build_case(name)
     if isinstance(built, tuple):
@@ -283,9 +283,9 @@ def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | No
 
         cases: dict = {}
         try:
-            import softrnn.cases  # noqa: F401
+            import softrnn.scenarios.cases  # noqa: F401
         except ImportError as exc:
-            sim["cases_note"] = f"softrnn.cases is not available ({exc}); paper cases skipped"
+            sim["cases_note"] = f"softrnn.scenarios.cases is not available ({exc}); paper cases skipped"
             for _ in PAPER_CASES:
                 tick()
         else:

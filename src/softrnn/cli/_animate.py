@@ -4,7 +4,7 @@ with ffmpeg)."""
 from pathlib import Path
 
 from ..errors import bad
-from ..io_util import prepare_output
+from ..files import prepare_output
 from ._progress import Bar
 
 NAME = "animate"
@@ -47,7 +47,7 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def run(args) -> int:
-    from ..pictures import animate, check_suffix, load
+    from ..figures.pictures import animate, check_suffix, load
 
     out = Path(args.output) if args.output else Path(args.data).with_suffix(".gif")
     check_suffix(out, argument="--output")
@@ -74,6 +74,6 @@ def run(args) -> int:
 
 
 def _named(data) -> bool:
-    from ..pictures import _title
+    from ..figures.pictures import _title
 
     return _title(dict(getattr(data, "attrs", None) or {}), fallback="") != ""

@@ -2,7 +2,7 @@
 
 import json
 
-from ..io_util import atomic_write_text, prepare_output
+from ..files import atomic_write_text, prepare_output
 from ._progress import Bar
 
 NAME = "bench"

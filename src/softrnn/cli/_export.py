@@ -4,7 +4,7 @@ normalisation as one file for a control loop (physical windows in, the next posi
 from pathlib import Path
 
 from ..errors import bad
-from ..io_util import prepare_output
+from ..files import prepare_output
 
 NAME = "export"
 HELP = ("export a trained node model, normalisation included, to ONNX (ONNX Runtime, C++ or Python) and/or "

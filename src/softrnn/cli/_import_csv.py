@@ -2,7 +2,7 @@
 
 from ..errors import bad
 from ..io.csv_import import import_csv
-from ..io_util import prepare_output
+from ..files import prepare_output
 
 NAME = "import-csv"
 HELP = "convert a lab CSV (time, node positions, optional orientations and wrenches) into a dataset file"

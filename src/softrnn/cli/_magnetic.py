@@ -93,7 +93,7 @@ class _Stages:
 
 
 def _print_result(result: dict) -> None:
-    from ..magnetics.experiment import format_table
+    from ..experiments.magnetic.experiment import format_table
 
     print("Table 1: max and mean absolute error (deg) of the magnets' orientations about x, y, z on the test span")
     for line in format_table(result):
@@ -134,11 +134,11 @@ def _print_result(result: dict) -> None:
 
 def run(args) -> int:
     from ..errors import bad
-    from ..io_util import atomic_write_text, prepare_output
-    from ..magnetics.experiment import FIGURE_FILE, TABLE_FILE, ExperimentConfig, run_experiment
+    from ..files import atomic_write_text, prepare_output
+    from ..experiments.magnetic.experiment import FIGURE_FILE, TABLE_FILE, ExperimentConfig, run_experiment
 
     if args.magnetic == "example-csv":
-        from ..magnetics.lab import write_example_csv
+        from ..experiments.magnetic.lab import write_example_csv
 
         if args.samples < 20:
             raise bad("--samples", args.samples, "at least 20 rows")
@@ -159,7 +159,7 @@ def run(args) -> int:
                 fields["samples"] = args.samples
             result = run_experiment(ExperimentConfig(quick=args.quick, **fields), args.out, progress=progress)
         else:
-            from ..magnetics.lab import compare_lab
+            from ..experiments.magnetic.lab import compare_lab
 
             result = compare_lab(args.csv, ExperimentConfig(**fields), args.out, progress=progress)
     _print_result(result)

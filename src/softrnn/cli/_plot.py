@@ -3,7 +3,7 @@
 from pathlib import Path
 
 from ..errors import bad
-from ..io_util import prepare_output
+from ..files import prepare_output
 
 NAME = "plot"
 HELP = "plot one node's position per axis [mm] against time, with the forces on it, to .png/.pdf/.svg"
@@ -23,7 +23,7 @@ def add_args(p):
 
 
 def run(args) -> int:
-    from ..pictures import FIGURE_SUFFIXES, _title, check_suffix, describe_nodes, load, node_of_interest, plot_node
+    from ..figures.pictures import FIGURE_SUFFIXES, _title, check_suffix, describe_nodes, load, node_of_interest, plot_node
 
     if args.output:
         check_suffix(args.output, FIGURE_SUFFIXES, argument="--output")

@@ -1,7 +1,7 @@
 """softrnn reproduce: run the paper's pipeline end to end into --out DIR (resumable)."""
 
-from ..io_util import prepare_output
-from ..reproduce import reproduce
+from ..files import prepare_output
+from ..reproduce.pipeline import reproduce
 from ._progress import Bar
 
 NAME = "reproduce"

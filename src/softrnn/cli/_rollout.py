@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
-from ..io_util import prepare_output
+from ..files import prepare_output
 from ._progress import Bar
 
 NAME = "rollout"
@@ -62,7 +62,7 @@ def parse_nodes(text: str, argument: str = "--shared-nodes") -> list[int]:
 
 def run(args) -> int:
     from ..io.dataset import read_dataset
-    from ..pictures import FIGURE_SUFFIXES, check_suffix
+    from ..figures.pictures import FIGURE_SUFFIXES, check_suffix
     from ..surrogate.artifact import load_model
     from ..surrogate.evaluate import check_compatible
     from ..surrogate.rollout import Manipulator, max_error_mm, model_inputs, rollout, write_rollout
@@ -130,7 +130,7 @@ def run(args) -> int:
 
 def _span(time: np.ndarray, history: int, start, stop) -> tuple[int, int]:
     """Sample indices [start, stop) of the predicted samples for times --start/--stop [s]."""
-    from ..pictures import time_span
+    from ..figures.pictures import time_span
 
     T = time.shape[0]
     if T <= history:
@@ -160,8 +160,8 @@ def _ranges(nodes) -> str:
 
 
 def _figure(result, data, path) -> None:
-    from .. import plotting
-    from ..pictures import save_figure
+    from ..figures import plots as plotting
+    from ..figures.pictures import save_figure
 
     rows = np.unique(np.linspace(result.seed, result.positions.shape[0] - 1, 5).round().astype(int))
     ref = data.positions[result.first + rows]

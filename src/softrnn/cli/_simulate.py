@@ -4,9 +4,9 @@ import json
 from dataclasses import replace
 
 from ..errors import bad
-from ..io_util import atomic_write_text, prepare_output
-from ..scenario import SCENARIO_NAMES, load_scenario
-from ..summary import simulate_summary
+from ..files import atomic_write_text, prepare_output
+from ..scenarios.scenario import SCENARIO_NAMES, load_scenario
+from ..scenarios.summary import simulate_summary
 from ._progress import Bar
 
 NAME = "simulate"

@@ -1,8 +1,8 @@
 """softrnn sweep SCENARIO --count N -o DIR: randomised variants in parallel on Dask (resumable)."""
 
-from ..io_util import prepare_output
-from ..scenario import load_scenario
-from ..sweep import MANIFEST, run_sweep
+from ..files import prepare_output
+from ..scenarios.scenario import load_scenario
+from ..sweeps.sweep import MANIFEST, run_sweep
 from ._progress import Bar
 
 NAME = "sweep"

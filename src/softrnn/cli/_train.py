@@ -99,7 +99,7 @@ class _LossBar(Bar):
 
 def run(args) -> int:
     from ..io.dataset import read_dataset
-    from ..io_util import prepare_output
+    from ..files import prepare_output
     from ..surrogate.artifact import CHECKPOINT, check_replaceable
     from ..surrogate.data import SampleSpec
     from ..surrogate.train import TrainConfig, train_node_model
@@ -111,7 +111,7 @@ def run(args) -> int:
     node = args.node
     head = None
     if node is None:
-        from ..pictures import describe_nodes, node_of_interest
+        from ..figures.pictures import describe_nodes, node_of_interest
 
         head = read_dataset(args.data, stop=1)
         node = node_of_interest(head)

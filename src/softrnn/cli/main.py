@@ -3,7 +3,7 @@
 import argparse
 import sys
 
-from ..errors import SimulationError, SoftrnnInputError
+from ..errors import SimulationError, SoftrnnInputError, missing_extra
 from . import (_animate, _bench, _evaluate, _export, _import_csv, _magnetic, _plot, _reproduce, _rollout, _show,
                _simulate, _study, _sweep, _train)
 
@@ -33,6 +33,12 @@ def main(argv=None) -> int:
         return int(args.func(args) or 0)
     except (SoftrnnInputError, SimulationError) as err:
         print(f"softrnn: error: {err}", file=sys.stderr)
+        return 2
+    except ImportError as err:
+        missing = missing_extra(err)
+        if missing is None:
+            raise
+        print(f"softrnn: error: softrnn {args.command}: {missing}", file=sys.stderr)
         return 2
     except OSError as err:
         # last resort: the commands check their outputs first (io_util.prepare_output), but a disk

@@ -39,7 +39,7 @@ import h5py
 import numpy as np
 
 from .. import __version__
-from ..io_util import umask_mode
+from ..files import umask_mode
 from ..errors import SoftrnnInputError, bad
 
 SCHEMA_VERSION = 1

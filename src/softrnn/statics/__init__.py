@@ -1,5 +1,5 @@
 """Static Cosserat rod solver (paper appendix): RK4 shooting with Levenberg-Marquardt on the base
-wrench, point loads and magnets, stiff segments; the paper's Fig. 13 timing study."""
+wrench, point loads and magnets, stiff segments (the Fig. 13 timing study is softrnn.experiments.fig13)."""
 
 from .rod import (PointLoad as PointLoad, PointMagnet as PointMagnet, RigidSegment as RigidSegment,
                   StaticLoads as StaticLoads, StaticRod as StaticRod)

@@ -29,7 +29,7 @@ import numpy as np
 import torch
 
 from ..errors import SoftrnnInputError, bad
-from ..io_util import umask_mode
+from ..files import umask_mode
 from .data import Normalizer, SampleSpec
 from .model import ModelConfig, NodeLSTM
 

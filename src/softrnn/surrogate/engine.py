@@ -31,6 +31,7 @@ import numpy as np
 
 from ..errors import SoftrnnInputError, bad
 from . import _engine_kernels as K
+from .manipulator import RolloutDiverged, _as_manipulator, bind
 
 _OUT_MODES = {"increment": K.OUT_INCREMENT, "acceleration": K.OUT_ACCELERATION, "pose": K.OUT_POSE}
 
@@ -287,7 +288,6 @@ class ManipulatorStepper:
     """
 
     def __init__(self, models, nodes, *, threads: int = 1):
-        from .rollout import _as_manipulator, bind
 
         manip = _as_manipulator(models)
         nodes = np.asarray(nodes, dtype=np.int64).reshape(-1)
@@ -371,7 +371,6 @@ class ManipulatorStepper:
         for kernel, args, lo in self._calls:
             status, b = kernel(*args)
             if status:
-                from .rollout import RolloutDiverged
                 node = self.modelled[lo + b]
                 raise RolloutDiverged(f"the manipulator diverged: the model of node {node} predicted a position "
                                       f"beyond {_LIMIT:g} m (or not finite); reset the stepper from measured poses",

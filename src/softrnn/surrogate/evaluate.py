@@ -35,7 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
-from .rollout import RolloutDiverged, _stored, describe_model, model_inputs, rollout
+from .manipulator import RolloutDiverged, _stored, describe_model, model_inputs
+from .rollout import rollout
 
 UNIT = "mm"
 """Unit of every reported position error (and of RMSE(t))."""

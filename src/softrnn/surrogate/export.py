@@ -34,7 +34,7 @@ import torch
 from torch import nn
 
 from ..errors import SoftrnnInputError, bad
-from ..io_util import atomic_write_bytes
+from ..files import atomic_write_bytes
 from .artifact import NodeModel
 from .data import NODE_POSITION
 

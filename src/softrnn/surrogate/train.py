@@ -37,7 +37,7 @@ import torch
 
 from .. import __version__
 from ..errors import SoftrnnInputError, bad
-from ..io_util import atomic_write_bytes
+from ..files import atomic_write_bytes
 from .artifact import CHECKPOINT, ModelFolderError, NodeModel, check_replaceable, load_model, save_model
 from .data import Normalizer, SampleSpec, Windows, make_windows, split
 from .model import ModelConfig, NodeLSTM

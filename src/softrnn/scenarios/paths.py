@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import bad
-from .rod.loads import _blend, _finite, _plane_axes, _vec3
+from ..errors import bad
+from ..rod.loads import _blend, _finite, _plane_axes, _vec3
 
 
 @dataclass(frozen=True)

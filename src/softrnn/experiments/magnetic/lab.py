@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SoftrnnInputError, bad
+from ...errors import SoftrnnInputError, bad
 from .experiment import (ExperimentConfig, camera_measure, compare, experiment_currents, measured_wrenches,
                          orientation_dataset, static_predictions, tangents_from_rotation_vectors)
-from .manipulator import ManipulatorRun, ManipulatorSpec, simulate_manipulator
+from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, simulate_manipulator
 
 N_COILS = 6
 N_MAGNETS = 2
@@ -71,7 +71,7 @@ class LabData:
 
 # ----------------------------------------------------------------------------------------- reading
 def _lines(path: Path) -> list[tuple[int, str]]:
-    from ..io.csv_import import read_csv_lines
+    from ...io.csv_import import read_csv_lines
 
     return read_csv_lines(path, f"the columns {LAYOUT}", SoftrnnInputError)
 
@@ -208,7 +208,7 @@ def write_lab_csv(path, data: LabData, *, comment: str = "") -> None:
     """Write ``data`` in the lab format (atomically): currents and wrenches and positions where
     present, orientations in degrees. Values are rounded (time 1e-6 s, currents 1e-4 A, orientations
     1e-4 deg, positions 1e-7 m, wrenches 6 significant digits)."""
-    from ..io_util import atomic_write_text
+    from ...files import atomic_write_text
 
     names = ["time"]
     if data.currents is not None:
@@ -258,7 +258,7 @@ def write_example_csv(path, samples: int = 300, *, seed: int = 1) -> LabData:
     config = ExperimentConfig(samples=samples, seed=seed)
     write_lab_csv(path, data, comment=(
         "softrnn magnetic lab data (docs/magnetic-format.md): a simulated example, not a measurement.\n"
-        f"softrnn.magnetics.lab.write_example_csv(path, samples={samples}, seed={seed}): the perturbed 'real robot' "
+        f"softrnn.experiments.magnetic.lab.write_example_csv(path, samples={samples}, seed={seed}): the perturbed 'real robot' "
         f"of the simulated experiment at {config.sample_rate:g} Hz,\n"
         "read by the camera model. time [s]; I0..I5 coil currents [A]; m{j}_rx,ry,rz rotation vector phi k [deg] "
         "(paper Sec. 5.2);\n"
@@ -327,7 +327,7 @@ def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, pr
         "wrenches": f"input II from {source}",
         "orientation": "the CSV's rotation vectors phi k [deg] are the measurement the models are scored against",
     }
-    from ..io_util import atomic_write_text
+    from ...files import atomic_write_text
     import json
 
     atomic_write_text(out / "table1.json", json.dumps(result, indent=2, allow_nan=False) + "\n")

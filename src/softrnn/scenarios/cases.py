@@ -1,6 +1,6 @@
 """The paper's three simulated cases (Tariverdi et al. 2021, section 4) and their variants.
 
-Every case is a scenario file shipped in ``softrnn/scenarios/`` (``softrnn.scenario``): the values
+Every case is a scenario file shipped in ``softrnn/scenarios/`` (``softrnn.scenarios.scenario``): the values
 the paper gives, and every value it leaves out with its reason, live there, as TOML comments and in
 each file's ``[assumptions]`` table. ``ASSUMPTIONS`` collects those tables of the paper's training
 cases (reports quote it). Node numbers are 0-based.
@@ -8,8 +8,8 @@ cases (reports quote it). Node numbers are 0-based.
 
 from dataclasses import dataclass, field, replace
 
-from .errors import bad
-from .rod import RunConfig, Setup
+from ..errors import bad
+from ..rod import RunConfig, Setup
 from .scenario import SCENARIO_NAMES, Scenario, load_scenario
 
 CASE_NAMES = SCENARIO_NAMES

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from contextlib import contextmanager, nullcontext
 
-from .errors import SoftrnnInputError
+from ..errors import SoftrnnInputError
 
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1"}
 """Environment of local worker processes only: one task per single-threaded process. The parent's
@@ -26,6 +26,12 @@ def restored_environ():
         for key, value in saved.items():
             if os.environ.get(key) != value:
                 os.environ[key] = value
+
+
+def require() -> None:
+    """Raise ``ModuleNotFoundError`` (named ``distributed``) now, before any output is written,
+    when the ``softrnn[dask]`` extra is not installed."""
+    import distributed  # noqa: F401
 
 
 def completed(tasks, scheduler: str | None, n_workers: int, *, alternatives: str = "", local_guard=None):

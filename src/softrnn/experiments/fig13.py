@@ -17,8 +17,8 @@ import time
 
 import numpy as np
 
-from .rod import PointMagnet, RigidSegment, StaticLoads, StaticRod
-from .solver import StaticSolver
+from ..statics.rod import PointMagnet, RigidSegment, StaticLoads, StaticRod
+from ..statics.solver import StaticSolver
 
 PAPER_FIG13 = {
     "source": "Tariverdi et al. 2021, Front. Robot. AI 8:631303, Sec. 5.2 and Figure 13 (static Cosserat BVP, "
@@ -140,7 +140,7 @@ def run_fig13_study(repetitions: int = REPETITIONS, tolerances=TOLERANCES, n_ste
 def plot_fig13(result: dict):
     """Two panels like the paper's Fig. 13: solve time [ms] (mean +- std) against E (A) and N
     (B), one line per guess error, with the paper's reported range shaded; returns the Figure."""
-    from .. import plotting  # noqa: F401  (selects the Agg backend)
+    from ..figures import plots as plotting  # noqa: F401  (selects the Agg backend)
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
@@ -180,8 +180,8 @@ def write_fig13(result: dict, json_path, figure_path) -> None:
     """Write the study's JSON and figure atomically."""
     import json
 
-    from .. import plotting
-    from ..io_util import atomic_write_text
+    from ..figures import plots as plotting
+    from ..files import atomic_write_text
 
     atomic_write_text(json_path, json.dumps(result, indent=2))
     plotting.save(plot_fig13(result), figure_path)

@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .rod import RunConfig, Setup, Simulator
+from ..rod import RunConfig, Setup, Simulator
 
 
 class _NodeCollector:
@@ -48,7 +48,7 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
         sink = _NodeCollector(nodes.index(node))
         stats = sim.run(config, progress=progress, sink=sink)
     else:
-        from .io.dataset import DatasetWriter
+        from ..io.dataset import DatasetWriter
 
         with DatasetWriter(out_path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=setup.rod,
                            scenario_text=scenario_text, seed=seed, attrs=attrs) as writer:

@@ -30,7 +30,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from .errors import SoftrnnInputError, bad  # noqa: E402
+from ..errors import SoftrnnInputError, bad  # noqa: E402
 
 ANIMATION_SUFFIXES = (".gif", ".mp4")
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -172,7 +172,7 @@ def node_of_interest(data) -> int | None:
     if node is None:
         name = _text(attrs.get("case"))
         if name:
-            from .cases import CASE_NAMES, build_case
+            from ..scenarios.cases import CASE_NAMES, build_case
             if name in CASE_NAMES:
                 node = build_case(name).node_of_interest
     if node is not None and node < 0:
@@ -229,7 +229,7 @@ def load(path, *, group: str | None = None, start: float | None = None, stop: fl
     """Read a softrnn HDF5 dataset for a picture: all stored nodes (or only ``node``), only the samples
     in [start, stop] [s]. Errors (missing or broken file, unknown group or node, times outside the
     record) are one-line ``SoftrnnInputError``s."""
-    from .io.dataset import read_dataset, read_node
+    from ..io.dataset import read_dataset, read_node
 
     if node is not None:
         data = read_node(path, int(node), group=group)
@@ -741,7 +741,7 @@ def plot_node(data, node: int, out_path=None, *, start: float | None = None, sto
     """Figure of one node's x, y, z [mm] against time [s], with the forces on it [N] in a fourth panel
     (when ``forces`` and the data has non-zero forces on that node). Saved atomically to ``out_path``
     (.png, .pdf, .svg) when given; returns the path, else returns the Figure."""
-    from .plotting import node_trajectory_with_forces
+    from .plots import node_trajectory_with_forces
 
     if out_path is not None:
         check_suffix(out_path, FIGURE_SUFFIXES)

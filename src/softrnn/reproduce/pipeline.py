@@ -11,19 +11,28 @@ are present for the same settings and version.
 """
 
 import json
-import shutil
 import platform
+import shutil
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from . import __version__, pictures, plotting
-from .cases import ASSUMPTIONS, PAPER_CASES, Case, build_case
-from .io_util import atomic_write_text
-from .paper import paper_case
-from .reproduce_extra import engine_agreement, fig13_step, fig14_step, load_step, magnetic_step, manipulator_step
-from .summary import simulate_summary
+from .. import __version__
+from ..figures import pictures
+from ..figures import plots as plotting
+from ..files import atomic_write_text
+from ..paper import paper_case
+from ..scenarios.cases import ASSUMPTIONS, PAPER_CASES, Case, build_case
+from ..scenarios.summary import simulate_summary
+from .steps import (
+    engine_agreement,
+    fig13_step,
+    fig14_step,
+    load_step,
+    magnetic_step,
+    manipulator_step,
+)
 
 QUICK_FRACTION = 0.1  # --quick simulates this fraction of each case's duration
 N_SNAPSHOTS = 6
@@ -52,7 +61,7 @@ def run_case(case: Case, quick: bool, data_path, progress=None) -> tuple[dict, d
 
 def _figures(case: Case, data_path: Path, series: dict, fig_dir: Path) -> list[str]:
     """Node trajectory, rod snapshots with forces, energy, and an animation of the dataset."""
-    from .io.dataset import read_dataset
+    from ..io.dataset import read_dataset
 
     t = series["time"]
     fig = plotting.node_trajectory(t, series["node_positions"],
@@ -105,10 +114,10 @@ def _errors(block: dict | None) -> dict | None:
 def _model_step(name: str, out: Path, quick: bool, progress_factory) -> dict:
     """Train the case's node model on the first 60 % of its data set, evaluate it one step ahead and
     free running on the test span, and on the generalisation data set; skipped when done."""
-    from .cli._evaluate import write_figures
-    from .surrogate.data import SampleSpec
-    from .surrogate.evaluate import evaluate
-    from .surrogate.train import TrainConfig, train_node_model
+    from ..figures.evaluation import write_figures
+    from ..surrogate.data import SampleSpec
+    from ..surrogate.evaluate import evaluate
+    from ..surrogate.train import TrainConfig, train_node_model
 
     step_file = out / "models" / f"{name}.json"
     done = _load_if_done(step_file, quick)
@@ -186,7 +195,7 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
     bench_file = out / "bench.json"
     bench = _load_if_done(bench_file, quick)
     if bench is None or "model" not in bench:
-        from .bench import run_all
+        from ..bench import run_all
 
         progress = progress_factory("benchmark") if progress_factory else None
         bench = {"quick": quick, "softrnn_version": __version__, **run_all(quick=quick, progress=progress)}
@@ -263,7 +272,7 @@ def render_markdown(report: dict) -> str:
     bench = report["benchmark"]
     lines += ["", "## Benchmark (`softrnn bench`)", "", "```"]
     try:
-        from .bench import format_all
+        from ..bench import format_all
 
         lines.append(format_all(bench))
     except Exception:  # a bench result from another version: show the JSON instead

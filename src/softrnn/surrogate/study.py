@@ -55,10 +55,10 @@ from typing import Callable
 
 import numpy as np
 
-from . import __version__
-from .errors import SoftrnnInputError, bad
-from .io_util import atomic_write_text
-from .surrogate.train import TrainConfig
+from .. import __version__
+from ..errors import SoftrnnInputError, bad
+from ..files import atomic_write_text
+from .train import TrainConfig
 
 MANIFEST = "study.json"
 FIGURE = "fig14.png"
@@ -178,7 +178,7 @@ class StudyConfig:
 
     def spec(self, history: int):
         """The ``SampleSpec`` of the grid points of history ``history``."""
-        from .surrogate.data import SampleSpec
+        from .data import SampleSpec
 
         return SampleSpec(node=self.node, neighbours=self.neighbours, history=history, inputs=self.inputs,
                           wrench=self.wrench)
@@ -282,8 +282,8 @@ def train_point(data_path: str, config_dict: dict, units: int, history: int, out
     ``config_dict`` is ``StudyConfig.to_dict()`` (plain data, so the call pickles cheaply). An
     unfinished training in the point's model folder continues from its checkpoint.
     """
-    from .surrogate.evaluate import load_for_model, metrics, one_step, rod_length
-    from .surrogate.train import train_node_model
+    from .evaluate import load_for_model, metrics, one_step, rod_length
+    from .train import train_node_model
 
     config = _config_from_dict(config_dict)
     folder = model_folder(out_dir, units, history)
@@ -364,9 +364,9 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
     """
     import torch
 
-    from .surrogate.data import pose_rows, wrench_rows
-    from .surrogate.engine import NodeStepper
-    from .surrogate.evaluate import evaluation_span
+    from .data import pose_rows, wrench_rows
+    from .engine import NodeStepper
+    from .evaluate import evaluation_span
 
     H = int(model.spec.history)
     s0, s1 = evaluation_span(model, dataset.n_samples)
@@ -401,7 +401,7 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
 
 def _measure_point(out_dir: Path, record: dict, dataset, config: StudyConfig) -> dict:
     """Measure a trained point's bandwidths and rewrite its point file."""
-    from .surrogate.artifact import load_model
+    from .artifact import load_model
 
     model = load_model(out_dir / record["model"])
     record = dict(record, bandwidth=measure_bandwidth(model, dataset, steps=config.bandwidth_steps,
@@ -415,8 +415,8 @@ def _measure_point(out_dir: Path, record: dict, dataset, config: StudyConfig) ->
 def _check_data(data_path: Path, config: StudyConfig):
     """The resolved spec of the longest history, after checking that the node, its neighbours and
     that history fit the data file (one-line errors)."""
-    from .io.dataset import read_dataset
-    from .surrogate.train import spans
+    from ..io.dataset import read_dataset
+    from .train import spans
 
     head = read_dataset(data_path, stop=1)
     spec = config.spec(max(config.history)).resolve(head.nodes, n_nodes_total=head.attrs.get("n_nodes_total"))
@@ -487,6 +487,12 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
     data_path = Path(data_path)
     if not data_path.is_file():
         raise bad("data", str(data_path), "an existing softrnn HDF5 data set (softrnn simulate ... -o FILE.h5)")
+    import torch  # noqa: F401  (the 'learn' extra: refused here, before any output is written)
+
+    if scheduler != SYNCHRONOUS:
+        from ..sweeps.dask import require
+
+        require()
     t0 = time.perf_counter()
     spec = _check_data(data_path, config)
     out = Path(out_dir)
@@ -507,7 +513,7 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
             tick()
     measured = [p for p in config.points if not records[p].get("bandwidth")]
     if measured:
-        from .io.dataset import read_dataset
+        from ..io.dataset import read_dataset
 
         dataset = read_dataset(data_path, nodes=list(spec.window_nodes))
         for p in measured:
@@ -517,7 +523,7 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
     result = summary(config, [records[p] for p in config.points])
     result.update(data=data, out_dir=str(out), computed=[list(p) for p in sorted(computed)],
                   measured=[list(p) for p in sorted(measured)], found=[list(p) for p in sorted(found)])
-    from .plotting import save
+    from ..figures.plots import save
 
     save(fig14_figure(result), out / FIGURE)
     result["figure"] = str(out / FIGURE)
@@ -548,7 +554,7 @@ def _execute(data_path: str, config: StudyConfig, out_dir: str, todo: list, sche
         for u, h in todo:
             yield train_point(data_path, cd, u, h, out_dir)
         return
-    from ._dask import completed
+    from ..sweeps.dask import completed
 
     tag = hashlib.sha256(json.dumps([data_path, out_dir, cd], sort_keys=True).encode()).hexdigest()[:16]
     tasks = [(train_point, (data_path, cd, u, h, out_dir), f"softrnn-study-{tag}-{point_name(u, h)}") for u, h in todo]
@@ -655,7 +661,7 @@ def fig14_figure(result: dict):
     history size (y). Solid outlines: the region found (within the tolerance of the best); dashed:
     the grid points inside the paper's region; the error's colour scale is logarithmic. Returns
     the matplotlib Figure."""
-    from . import plotting  # noqa: F401  (selects the Agg backend)
+    from ..figures import plots as plotting  # noqa: F401  (selects the Agg backend)
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
     from matplotlib.patches import Rectangle

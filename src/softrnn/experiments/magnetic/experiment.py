@@ -25,7 +25,7 @@ Two models predict the measured orientations of the last 40 % of the samples:
 ``run_experiment`` writes the real robot's record (``robot.h5``, resumable), the two model folders,
 ``table1.json`` and ``fig12.png`` and returns the report (errors as [[max, mean] per axis x, y, z]
 in degrees beside the paper's). ``compare`` is the comparison alone, shared with lab data
-(``softrnn.magnetics.lab``).
+(``softrnn.experiments.magnetic.lab``).
 
 Progress: ``progress(stage, done, total)`` with stage one of ``STAGES``.
 """
@@ -41,11 +41,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from ..errors import SimulationError, SoftrnnInputError, bad
-from .coils import unit_field_maps
-from .magnets import wrench as magnet_wrench
-from .manipulator import CurrentSchedule, ManipulatorRun, ManipulatorSpec, check_manipulator_run, simulate_manipulator
+from ... import __version__
+from ...errors import SimulationError, SoftrnnInputError, bad
+from ...magnetics.coils import unit_field_maps
+from ...magnetics.magnets import wrench as magnet_wrench
+from ...magnetics.manipulator import CurrentSchedule, ManipulatorRun, ManipulatorSpec, check_manipulator_run, simulate_manipulator
 
 MAGNETS = ("proximal", "distal")
 """Magnet names in index order (0 at L/2, 1 at the tip; the paper's m = 1, 2 from the base)."""
@@ -506,8 +506,8 @@ def static_rod(spec: ManipulatorSpec | None = None):
     41.4 GPa magnet segments, PMC-770) placed at ``spec.base`` along +x, with ``spec``'s magnets as
     point dipoles. ``spec`` must keep the default rod and magnet geometry (length, diameter,
     magnets at L/2 and L - 1 mm, 2 mm cubes) that ``magnetic_rod`` builds."""
-    from ..statics import PointMagnet
-    from ..statics.study import MAGNET_SIDE, magnetic_rod
+    from ...statics import PointMagnet
+    from ..fig13 import MAGNET_SIDE, magnetic_rod
 
     spec = ManipulatorSpec() if spec is None else spec
     rod = magnetic_rod(length=spec.length, diameter=spec.diameter, gravity=spec.gravity)
@@ -555,7 +555,7 @@ def static_predictions(currents, *, spec: ManipulatorSpec | None = None, n_steps
         Largest tolerated fraction of failed samples.
     progress : callable(stage, done, total) or None
     """
-    from ..statics import StaticLoads, StaticSolver, Status
+    from ...statics import StaticLoads, StaticSolver, Status
 
     spec = ManipulatorSpec() if spec is None else spec
     I = spec.coils.check_currents(currents)
@@ -626,7 +626,7 @@ def orientation_dataset(time_s, orientations, wrenches, *, name: str = "magnetic
     (0 proximal, 1 distal), whose positions hold their measured orientations (rotation vectors
     (T, 2, 3) [rad]) and whose forces and torques hold their wrenches (T, 2, 6) [N, N m]. The
     quaternions are identity placeholders (``has_orientations`` False)."""
-    from ..io.dataset import Dataset
+    from ...io.dataset import Dataset
 
     t = np.asarray(time_s, dtype=float)
     r = np.asarray(orientations, dtype=float)
@@ -672,8 +672,8 @@ def _angle_errors(predicted, measured) -> dict:
 
 def _stepper_rate(model, dataset, steps: int = 2000) -> float:
     """Batch-1 steps per second of the compiled ``NodeStepper`` fed the test span's rows."""
-    from ..surrogate.data import pose_rows, wrench_rows
-    from ..surrogate.engine import NodeStepper
+    from ...surrogate.data import pose_rows, wrench_rows
+    from ...surrogate.engine import NodeStepper
 
     H = int(model.spec.history)
     rows = pose_rows(dataset, model.spec)
@@ -691,7 +691,7 @@ def _stepper_rate(model, dataset, steps: int = 2000) -> float:
 
 
 def _paper_table() -> dict:
-    from ..paper import paper_case
+    from ...paper import paper_case
 
     return paper_case("magnetic_experiment")["test_max_mean_abs_deg"]
 
@@ -703,11 +703,11 @@ def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, 
     the static model's ``static_orientations`` (T, 2, 3) [rad] (None: no static model) on the same
     targets. Writes ``out_dir/models/{proximal,distal}``, ``table1.json`` and ``fig12.png``;
     returns the table dict (see ``run_experiment``)."""
-    from ..io_util import atomic_write_text
-    from ..surrogate.data import SampleSpec
-    from ..surrogate.evaluate import free_running, one_step
-    from ..surrogate.rollout import RolloutDiverged
-    from ..surrogate.train import TrainConfig, train_node_model
+    from ...files import atomic_write_text
+    from ...surrogate.data import SampleSpec
+    from ...surrogate.evaluate import free_running, one_step
+    from ...surrogate.rollout import RolloutDiverged
+    from ...surrogate.train import TrainConfig, train_node_model
 
     out = Path(out_dir)
     measured = np.asarray(dataset.positions, dtype=np.float64)                     # (T, 2, 3) rad
@@ -782,7 +782,7 @@ def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, 
     fig = plot_fig12(np.asarray(dataset.time), measured, predictions,
                      None if static_orientations is None else np.asarray(static_orientations, float),
                      title=figure_title)
-    from .. import plotting
+    from ...figures import plots as plotting
 
     plotting.save(fig, out / FIGURE_FILE)
     result["figure"] = str(out / FIGURE_FILE)
@@ -794,7 +794,7 @@ def plot_fig12(time_s, measured, predictions: dict, static, title: str = ""):
     """Like the paper's Fig. 12: measured and predicted orientation over the test span, both magnets
     (columns), about y (the bending axis) and about x (rows), plus the absolute error about y;
     LSTM one step ahead (and free running, dotted), static Cosserat model. Returns the Figure."""
-    from .. import plotting  # noqa: F401  (selects the Agg backend)
+    from ...figures import plots as plotting  # noqa: F401  (selects the Agg backend)
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(3, 2, figsize=(11, 7.5), sharex=True)
@@ -837,7 +837,7 @@ def plot_fig12(time_s, measured, predictions: dict, static, title: str = ""):
 # ------------------------------------------------------------------------------------------ the experiment
 def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path, progress) -> tuple:
     """(time (T,), node positions (T, n, 3) as stored (float32), currents (T, n_c), wall seconds, resumed)."""
-    from ..io.dataset import DatasetError, read_dataset, write_trajectory
+    from ...io.dataset import DatasetError, read_dataset, write_trajectory
 
     fingerprint = config.simulation_fingerprint()
     if path.exists():
@@ -861,7 +861,7 @@ def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path,
     attrs = {"experiment_fingerprint": fingerprint, "experiment": config.to_dict(),
              "currents": traj.currents.tolist(), "currents_units": "A, one row per sample, coils 0..5",
              "simulation_seconds": seconds, "scenario_name": "magnetic-experiment-robot",
-             "description": "the simulated 'real robot' of the magnetic experiment (softrnn.magnetics.experiment)"}
+             "description": "the simulated 'real robot' of the magnetic experiment (softrnn.experiments.magnetic.experiment)"}
     write_trajectory(path, traj.rod, dt=config.dt, rod=robot.rod_spec(), seed=config.seed, attrs=attrs,
                      scenario_text=json.dumps(config.to_dict()))
     if progress is not None:
@@ -960,7 +960,7 @@ def run_experiment(config: ExperimentConfig, out_dir, progress=None) -> dict:
     result["config"] = config.to_dict()
     result["files"] = {"robot": str(out / ROBOT_FILE), "table": str(out / TABLE_FILE), "figure": result["figure"],
                        "models": {name: result[name]["model"] for name in MAGNETS}}
-    from ..io_util import atomic_write_text
+    from ...files import atomic_write_text
 
     atomic_write_text(out / TABLE_FILE, json.dumps(result, indent=2, allow_nan=False) + "\n")
     return result

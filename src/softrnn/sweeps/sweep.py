@@ -18,9 +18,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from . import __version__
-from .errors import bad
-from .io_util import atomic_write_text
+from .. import __version__
+from ..errors import bad
+from ..files import atomic_write_text
 
 MANIFEST = "sweep.json"
 
@@ -68,7 +68,7 @@ def _is_complete(path: Path) -> bool:
     """A finished trajectory file: readable, of this format (writes are atomic, so present = whole)."""
     if not path.exists():
         return False
-    from .io.dataset import DatasetError, read_dataset
+    from ..io.dataset import DatasetError, read_dataset
 
     try:
         read_dataset(path, nodes=[], stop=1)
@@ -80,9 +80,9 @@ def _is_complete(path: Path) -> bool:
 def run_variant(text: str, source: str, index: int, path: str, n_samples: int | None = None) -> dict:
     """Simulate variant ``index`` of the scenario given by its TOML ``text`` and write it to
     ``path`` (atomically). Runs on a Dask worker; returns a small summary."""
-    from .io.dataset import DatasetWriter
-    from .rod import Simulator
-    from .scenario import parse_scenario
+    from ..io.dataset import DatasetWriter
+    from ..rod import Simulator
+    from ..scenarios.scenario import parse_scenario
 
     scenario = parse_scenario(text, source).variant(index)
     config = scenario.config
@@ -123,6 +123,9 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
         raise bad("--samples", n_samples, "an integer >= 1")
     if not scenario.randomized:
         raise bad("scenario", scenario.name, "a scenario with a [randomize] table (nothing to vary in a sweep)")
+    from .dask import require
+
+    require()
     out = Path(out_dir)
     _check_manifest(out, scenario, n_samples)
     _remove_stale_temporaries(out)
@@ -147,7 +150,7 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
 
 def _execute(scenario, todo, out: Path, scheduler, n_workers, n_samples):
     """Yield the indices as their files are finished."""
-    from ._dask import completed
+    from .dask import completed
 
     tag = _fingerprint(scenario.text)
     tasks = [(run_variant, (scenario.text, scenario.source, i, str(trajectory_path(out, i)), n_samples),

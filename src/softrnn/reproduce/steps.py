@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .io_util import atomic_write_text
+from .. import __version__
+from ..files import atomic_write_text
 
 MANIPULATOR = {
     "case": "semicircle",
@@ -62,8 +62,8 @@ def _jsonable(x):
 def engine_agreement(model, data_path, start: int, stop: int) -> dict:
     """The free-running rollout of ``model`` over [start, stop) by the compiled engine and by
     PyTorch (``predict`` per step): the largest position difference [m] and both wall times."""
-    from .io.dataset import read_dataset
-    from .surrogate.rollout import RolloutDiverged, rollout
+    from ..io.dataset import read_dataset
+    from ..surrogate.rollout import RolloutDiverged, rollout
 
     ds = read_dataset(data_path, nodes=list(model.spec.window_nodes))
     out = {"steps": int(stop - start)}
@@ -84,12 +84,12 @@ def engine_agreement(model, data_path, start: int, stop: int) -> dict:
 def manipulator_step(out: Path, quick: bool, progress_factory=None) -> dict:
     """Train the shared whole-manipulator model on the semicircle's training span and run every
     interior node free on the test span (paper Fig. 2C); errors by horizon, speed."""
-    from .io.dataset import read_dataset
-    from .surrogate.data import SampleSpec
-    from .surrogate.engine import ManipulatorStepper
-    from .surrogate.evaluate import metrics
-    from .surrogate.rollout import Manipulator, RolloutDiverged, rollout
-    from .surrogate.train import TrainConfig, train_node_model
+    from ..io.dataset import read_dataset
+    from ..surrogate.data import SampleSpec
+    from ..surrogate.engine import ManipulatorStepper
+    from ..surrogate.evaluate import metrics
+    from ..surrogate.rollout import Manipulator, RolloutDiverged, rollout
+    from ..surrogate.train import TrainConfig, train_node_model
 
     step_file = out / "models" / "manipulator.json"
     done = load_step(step_file, quick)
@@ -170,7 +170,7 @@ def manipulator_step(out: Path, quick: bool, progress_factory=None) -> dict:
 # ------------------------------------------------------------------------------ static solver, Fig. 13
 def fig13_step(out: Path, quick: bool) -> dict:
     """The static solver's solve time against tolerance, node count and guess error (Fig. 13)."""
-    from .statics.study import run_fig13_study, write_fig13
+    from ..experiments.fig13 import run_fig13_study, write_fig13
 
     step_file = out / "statics" / "fig13-step.json"
     done = load_step(step_file, quick)
@@ -196,8 +196,8 @@ FIG14 = {"case": "semicircle", "units": (5, 10, 15, 20, 25), "history": (2, 5, 1
 def fig14_step(out: Path, quick: bool, progress_factory=None) -> dict:
     """The paper's Fig. 14 (LSTM units x history: bandwidth and RMS error) on the semicircle's node
     of interest, two Dask workers; a rerun completes only missing grid points."""
-    from .cases import build_case
-    from .study import StudyConfig, run_study
+    from ..scenarios.cases import build_case
+    from ..surrogate.study import StudyConfig, run_study
 
     step_file = out / "study" / "fig14-step.json"
     done = load_step(step_file, quick)
@@ -221,8 +221,8 @@ def fig14_step(out: Path, quick: bool, progress_factory=None) -> dict:
 
 # ------------------------------------------------------------------------------ magnetic experiment
 def magnetic_step(out: Path, quick: bool, progress_factory=None) -> dict:
-    """The paper's experiment (section 5) simulated: Table 1 and Fig. 12 (``softrnn.magnetics.experiment``)."""
-    from .magnetics.experiment import ExperimentConfig, run_experiment
+    """The paper's experiment (section 5) simulated: Table 1 and Fig. 12 (``softrnn.experiments.magnetic.experiment``)."""
+    from ..experiments.magnetic.experiment import ExperimentConfig, run_experiment
 
     step_file = out / "magnetic" / "step.json"
     done = load_step(step_file, quick)

@@ -1,0 +1,13 @@
+"""Scenarios: the TOML files shipped beside this module (the paper's cases and their
+generalisation variants), their loading and validation, the target paths they name, the paper's
+cases built from them, and the summary of a scenario's run.
+
+* ``scenario``: ``load_scenario``, ``parse_scenario``, ``Scenario`` (and its ``variant`` for sweeps);
+* ``paths``: target and motion paths (figure-8, random smooth, pose motions);
+* ``cases``: the paper's Data-sets I-III as ``Case`` records and their ``ASSUMPTIONS``;
+* ``summary``: ``simulate_summary``, the run behind ``softrnn simulate``.
+"""
+
+from .scenario import (SCENARIO_NAMES as SCENARIO_NAMES, Scenario as Scenario, ScenarioError as ScenarioError,
+                       load_scenario as load_scenario, parse_scenario as parse_scenario,
+                       scenario_text as scenario_text)
