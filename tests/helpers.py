@@ -6,8 +6,10 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from softrnn.rod import kernels
+from softrnn.rod.lumped import frozen
 from softrnn.rod.shapes import RodShape
 from softrnn.rod.so3 import axis_rotation, cay, frame_from_tangent
+from softrnn.rod.state import empty_samples
 
 
 # --------------------------------------------------------------------------- kernel access
@@ -16,29 +18,19 @@ def kernel_step(R, r, v, w, *, l, C1, C2, K0, G0, mass, inertia, h, n_steps=1, k
     """Advance (in place) ``n_steps`` steps of size h with kernels.advance: no loads, no
     Kelvin-Voigt damping, every node saved at every step. Returns (status, step, out dict)."""
     n = r.shape[0]
-    kind = np.zeros(n, dtype=np.int64) if kind is None else np.asarray(kind, dtype=np.int64)
-    ct = np.zeros(n) if ct is None else np.asarray(ct, float)
-    cr = np.zeros(n) if cr is None else np.asarray(cr, float)
-    S = n_steps
-    out = {k: np.zeros((S, n, 3)) for k in ("r", "v", "w", "f", "t", "rf", "rt")}
-    out_q = np.zeros((S, n, 4))
-    out_e = np.zeros((S, 3))
-    Kp = np.zeros((n - 1, 3))
-    Gp = np.zeros((n - 1, 3))
     zeros_seg = np.zeros((n - 1, 3))
-    code, step = kernels.advance(
-        R, r, v, w, Kp, Gp,
-        float(l), np.ascontiguousarray(C1, float), np.ascontiguousarray(C2, float), zeros_seg, zeros_seg,
-        np.ascontiguousarray(K0, float), np.ascontiguousarray(G0, float),
-        np.ascontiguousarray(mass, float), np.ascontiguousarray(inertia, float), ct, cr,
-        np.asarray(gravity, float), kind, False,
-        float(h), 0, int(n_steps), 1, 0,
-        np.zeros(0, np.int64), np.zeros((n_steps, 0, 12)), np.zeros(0, np.int64), np.zeros((n_steps, 0, 3)),
-        np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros((n_steps + 1, 0, 3)), np.zeros((n_steps + 1, 0, 3, 3)),
-        np.arange(n, dtype=np.int64), out["r"], out_q, out["v"], out["w"], out["f"], out["t"], out["rf"],
-        out["rt"], out_e)
-    out["q"] = out_q
-    out["e"] = out_e
+    rod = frozen(length=l, weight=np.ones(n), mass=mass, inertia=inertia, C1=C1, C2=C2, D1=zeros_seg, D2=zeros_seg,
+                 K0=K0, G0=G0, ct=np.zeros(n) if ct is None else ct, cr=np.zeros(n) if cr is None else cr,
+                 gravity=gravity, kind=np.zeros(n) if kind is None else kind, kv_on=False)
+    state = kernels.StateArrays(R, r, v, w, np.zeros((n - 1, 3)), np.zeros((n - 1, 3)))
+    none = np.zeros(0, np.int64)
+    inputs = kernels.StepInputs(none, np.zeros((n_steps, 0, 12)), none, np.zeros((n_steps, 0, 3)), np.zeros((0, 2)),
+                                none, np.zeros((n_steps + 1, 0, 3)), np.zeros((n_steps + 1, 0, 3, 3)))
+    samples = empty_samples(np.arange(n, dtype=np.int64), n_steps, n)
+    code, step = kernels.advance(rod, state, inputs, samples, float(h), 0, int(n_steps), 1, 0)
+    out = {"r": samples.positions, "q": samples.quaternions, "v": samples.velocities,
+           "w": samples.angular_velocities, "f": samples.forces, "t": samples.torques,
+           "rf": samples.reaction_forces, "rt": samples.reaction_torques, "e": samples.energy}
     return int(code), int(step), out
 
 

@@ -4,6 +4,7 @@ import json
 
 import pytest
 
+from softrnn.reproduce import cases as reproduce_cases
 from softrnn.reproduce import pipeline as reproduce_mod
 from softrnn.cli.main import main
 
@@ -82,7 +83,7 @@ def _light_steps(monkeypatch):
 
 
 def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
-    monkeypatch.setattr(reproduce_mod, "QUICK_FRACTION", 0.002)
+    monkeypatch.setattr(reproduce_cases, "QUICK_FRACTION", 0.002)
     steps = _light_steps(monkeypatch)
     out = tmp_path / "rep"
     assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
@@ -104,7 +105,7 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     # an interrupted run (one case's result missing) recomputes only that case
     (out / "cases" / "square.json").unlink()
     calls = []
-    original = reproduce_mod.run_case
+    original = reproduce_cases.run_case
 
     def counting(case, quick, data_path, progress=None):
         calls.append(case.name)
@@ -113,7 +114,7 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise AssertionError("finished step recomputed")
 
-    monkeypatch.setattr(reproduce_mod, "run_case", counting)
+    monkeypatch.setattr(reproduce_cases, "run_case", counting)
     import softrnn.surrogate.train as train_mod
     monkeypatch.setattr(train_mod, "train_node_model", boom)   # no model is trained again
     assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0

@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 import softrnn
+import softrnn.io._h5files as h5files_mod
 import softrnn.io.dataset as dsmod
+import softrnn.io.writer as writer_mod
 from softrnn.cli.main import main
 from softrnn.io import (SCHEMA_VERSION, Dataset, DatasetError, DatasetWriter, describe, list_groups, merge_files,
                         read_dataset, read_node, sweep_group_name, trajectories, write_dataset, write_trajectory)
@@ -129,7 +131,7 @@ def test_rewriting_a_read_dataset_is_bit_exact(tmp_path, small):
 
 def test_streaming_writer_equals_one_shot(tmp_path, small, monkeypatch):
     setup, traj = small
-    monkeypatch.setattr(dsmod, "TIME_CHUNK", 64)  # exercise buffering across several HDF5 chunks
+    monkeypatch.setattr(writer_mod, "TIME_CHUNK", 64)  # exercise buffering across several HDF5 chunks
     write_trajectory(tmp_path / "one.h5", traj, dt=1e-3, rod=setup.rod)
     with DatasetWriter(tmp_path / "many.h5", nodes=traj.nodes, n_samples=301, dt=1e-3, rod=setup.rod) as w:
         for a, b in ((0, 1), (1, 64), (64, 64), (64, 165), (165, 172), (172, 301)):
@@ -143,7 +145,7 @@ def test_streaming_writer_equals_one_shot(tmp_path, small, monkeypatch):
         assert f["positions"].chunks == (64, 1, 3)
 
     # as the simulator's sink: chunks as the simulator produces them
-    monkeypatch.setattr(dsmod, "TIME_CHUNK", 4096)
+    monkeypatch.setattr(writer_mod, "TIME_CHUNK", 4096)
     with DatasetWriter(tmp_path / "sink.h5", nodes=range(11), n_samples=301, dt=1e-3, rod=setup.rod) as w:
         stats = Simulator(setup).run(RunConfig(dt=1e-3, n_samples=301), sink=w.append)
     assert stats.n_samples == 301
@@ -184,7 +186,7 @@ class _CountingFile(io.FileIO):
 
 def test_reading_one_node_reads_only_its_chunks(realistic, monkeypatch):
     _, traj, path = realistic
-    monkeypatch.setattr(dsmod, "_h5open", lambda p, mode="r": h5py.File(_CountingFile(str(p), "r"), mode))
+    monkeypatch.setattr(h5files_mod, "_h5open", lambda p, mode="r": h5py.File(_CountingFile(str(p), "r"), mode))
     _CountingFile.total = 0
     one = read_node(path, 25)
     node_bytes = _CountingFile.total

@@ -85,3 +85,28 @@ def test_only_the_command_line_imports_the_command_line():
     offenders = {m: sorted(e for e in edges if e.startswith("softrnn.cli"))
                  for m, edges in import_graph().items() if not m.startswith("softrnn.cli")}
     assert {m: e for m, e in offenders.items() if e} == {}
+
+
+def _is_kernel(node) -> bool:
+    """A numba kernel (``@njit``/``@jit``/``@vectorize``, with or without arguments)."""
+    return any("jit" in ast.unparse(d) or "vectorize" in ast.unparse(d) for d in node.decorator_list)
+
+
+def test_no_function_outside_numba_kernels_is_longer_than_80_lines():
+    long = []
+    for path in ROOT.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and not _is_kernel(node):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > 80:
+                    long.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({lines} lines)")
+    assert long == []
+
+
+ROOT_MODULES = {"__init__.py", "errors.py", "files.py", "paper.py"}
+"""What stays in the package root: what every part uses (errors and validators, atomic file
+writing, the paper's figures) and the version."""
+
+
+def test_the_package_root_holds_only_what_every_part_uses():
+    assert {p.name for p in ROOT.glob("*.py")} <= ROOT_MODULES

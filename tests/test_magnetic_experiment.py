@@ -13,9 +13,12 @@ import pytest
 from softrnn.cli.main import main
 from softrnn.errors import SimulationError, SoftrnnInputError
 from softrnn.magnetics import ManipulatorRun, ManipulatorSpec, currents_for_field, simulate_manipulator
-from softrnn.experiments.magnetic.experiment import (ExperimentConfig, camera_measure, camera_orientations,
-                                          check_result_shape, measured_wrenches, rotation_vectors, run_experiment,
-                                          static_predictions, tangents_from_rotation_vectors)
+from softrnn.experiments.magnetic.comparison import check_result_shape
+from softrnn.experiments.magnetic.config import ExperimentConfig
+from softrnn.experiments.magnetic.dataset import measured_wrenches
+from softrnn.experiments.magnetic.run import run_experiment
+from softrnn.experiments.magnetic.static import static_predictions
+from softrnn.magnetics.camera import camera_measure, camera_orientations, rotation_vectors, tangents_from_rotation_vectors
 from softrnn.experiments.magnetic.lab import LabData, read_lab_csv, simulated_lab_data, write_lab_csv
 from softrnn.paper import paper_case
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from softrnn.figures import pictures
+from softrnn.figures import animation, pictures
+from softrnn.figures import data as figure_data
 from softrnn.cli.main import main
 from softrnn.errors import SoftrnnInputError
 
@@ -113,12 +114,12 @@ def test_interrupted_animation_leaves_no_file(tmp_path, monkeypatch):
         if len(calls) == 3:
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(pictures._Scene, "update", update)
+    monkeypatch.setattr(animation._Scene, "update", update)
     with pytest.raises(KeyboardInterrupt):
         pictures.animate(rod_data(), tmp_path / "rod.gif", frames=10, size=(160, 140))
     assert files_in(tmp_path) == []
     calls.clear()
-    monkeypatch.setattr(pictures._GifSink, "finish", lambda self: (_ for _ in ()).throw(OSError("disk full")))
+    monkeypatch.setattr(animation._GifSink, "finish", lambda self: (_ for _ in ()).throw(OSError("disk full")))
     with pytest.raises(OSError):
         pictures.animate(rod_data(), tmp_path / "rod.gif", frames=2, size=(160, 140))
     assert files_in(tmp_path) == []
@@ -127,7 +128,7 @@ def test_interrupted_animation_leaves_no_file(tmp_path, monkeypatch):
 def test_existing_file_is_kept_when_a_new_write_fails(tmp_path, monkeypatch):
     out = tmp_path / "rod.gif"
     out.write_bytes(b"old")
-    monkeypatch.setattr(pictures._Scene, "update", lambda self, i: (_ for _ in ()).throw(RuntimeError("boom")))
+    monkeypatch.setattr(animation._Scene, "update", lambda self, i: (_ for _ in ()).throw(RuntimeError("boom")))
     with pytest.raises(RuntimeError):
         pictures.animate(rod_data(), out, frames=3, size=(160, 140))
     assert out.read_bytes() == b"old" and files_in(tmp_path) == ["rod.gif"]
@@ -203,7 +204,7 @@ def test_cli_plot_needs_a_node_when_the_file_names_none(tmp_path, capsys):
 
 
 def test_cli_mp4_without_ffmpeg_says_so(h5, tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(pictures.shutil, "which", lambda name: None)
+    monkeypatch.setattr(figure_data.shutil, "which", lambda name: None)
     assert run_cli(["animate", str(h5), "-o", str(tmp_path / "rod.mp4")]) == 2
     err = capsys.readouterr().err
     assert "ffmpeg" in err and ".gif" in err
@@ -214,13 +215,13 @@ def test_cli_interrupted_animation_leaves_no_file(h5, tmp_path, monkeypatch, cap
     def update(self, i):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pictures._Scene, "update", update)
+    monkeypatch.setattr(animation._Scene, "update", update)
     before = files_in(tmp_path)
     assert run_cli(["animate", str(h5), "-o", str(tmp_path / "rod.gif"), "--quiet"]) == 130
     assert files_in(tmp_path) == before
 
 
-@pytest.mark.skipif(pictures.shutil.which("ffmpeg") is None, reason="ffmpeg is not installed")
+@pytest.mark.skipif(figure_data.shutil.which("ffmpeg") is None, reason="ffmpeg is not installed")
 def test_mp4_with_ffmpeg(tmp_path):
     out = pictures.animate(rod_data(), tmp_path / "rod.mp4", frames=5, size=(161, 141))
     assert out.stat().st_size > 1000

@@ -320,7 +320,7 @@ def test_a_pooled_model_learns_from_every_pooled_node(tmp_path):
 @pytest.mark.parametrize("output", ["increment", "acceleration"])
 def test_the_relative_multi_step_loss_at_one_step_is_the_plain_loss(output):
     from softrnn.surrogate.data import Normalizer
-    from softrnn.surrogate.train import _RelativeMultiStep
+    from softrnn.surrogate._losses import _RelativeMultiStep
 
     data = synthetic(200)
     spec = SampleSpec(node=2, wrench="force", inputs="poses").resolve(data.nodes, n_nodes_total=5)

@@ -1,5 +1,8 @@
 """Dataset files: trajectories in HDF5 (``dataset``) and lab data imported from CSV (``csv_import``).
 
+``dataset`` re-exports the HDF5 parts: the format (``schema``), ``reader``, ``writer``, sweep
+files (``sweepfiles``) and summaries (``summary``).
+
 See docs/dataset-format.md and docs/csv-format.md.
 """
 

@@ -23,7 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import bad
-from .dataset import (POSITION_LIMIT_M, Dataset, DatasetError, DatasetWriter, _temp_path, read_dataset)
+from ._h5files import _temp_path
+from .reader import Dataset, read_dataset
+from .schema import POSITION_LIMIT_M, DatasetError
+from .writer import DatasetWriter
 
 _GROUPS = {
     "positions": ("x", "y", "z"),

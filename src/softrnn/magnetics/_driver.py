@@ -6,20 +6,27 @@ segment. Its centre is p = (1 - t) r_a + t r_{a+1}, its rotation R_c = R_a cay(t
 and its moment mu = R_c mu_body. The force f = G mu and torque tau = mu x B act at p; node a takes
 (1 - t) and node a + 1 takes t of both, which gives the same net force and the same moment about p.
 
+The driver takes the rod's records of ``rod.kernels`` (``LumpedRod``, ``StateArrays``,
+``StepInputs``, ``Samples``) and two of its own: ``MagnetModel`` (coils and magnets) and
+``MagnetSamples`` (currents and per-magnet outputs).
+
 Caching: numba checks a cached function against its own source file only, so a cached driver would
-keep the old code of ``rod/kernels.py`` and ``magnetics/coils.py`` after they change (their kernels
-are compiled into it). ``magnet_loads_into`` and ``drive`` are therefore built as closures over a
-hash of those two files: numba puts closure variables into the cache key, so an edit there
-recompiles them.
+keep the old code of ``rod/kernels.py`` and ``magnetics/coils.py`` after they change (their kernels,
+the Cayley update ``times_cayley_into`` and the record types are compiled into it).
+``magnet_loads_into`` and ``drive`` are therefore built as closures over a hash of those two files:
+numba puts closure variables into the cache key, so an edit there recompiles them. The helper
+``_interp_rotation_into`` is not cached on its own: it is compiled into ``magnet_loads_into``.
 """
 
 import hashlib
 from pathlib import Path
+from typing import NamedTuple
 
+import numpy as np
 from numba import njit
 
 from ..rod import kernels as _rod_kernels
-from ..rod.kernels import OK, advance_into
+from ..rod.kernels import MAGNET_TOO_CLOSE, OK, advance_into, times_cayley_into
 from . import coils as _coils
 from .coils import MIN_DISTANCE, field_gradient_into
 
@@ -37,11 +44,68 @@ def _dependency_stamp() -> str:
 
 _STAMP = _dependency_stamp()
 
-TOO_CLOSE = 10
-"""Status: a magnet came closer than ``MIN_DISTANCE`` to a coil."""
+TOO_CLOSE = MAGNET_TOO_CLOSE
+"""Status: a magnet came closer than ``MIN_DISTANCE`` to a coil (``rod.status.KernelStatus``)."""
 
 
-@njit(cache=True, fastmath={"contract"}, error_model="numpy")
+class MagnetModel(NamedTuple):
+    """The coils and magnets as the driver needs them (n_c coils, M magnets, n rod nodes).
+
+    Attributes
+    ----------
+    coil_pos : (n_c, 3)          coil dipole centres [m]
+    coil_moment : (n_c, 3)       coil moments per ampere [A m^2/A]
+    mag_node : (M,) int64        magnet j lies between nodes mag_node[j] and mag_node[j] + 1 ...
+    mag_frac : (M,)              ... at the fraction mag_frac[j] of that segment
+    mag_mu_body : (M, 3)         magnet moments in the body frame [A m^2]
+    ext_slot : (n,) int64        column of each node in the loads ext_w (StepInputs), -1: none
+    """
+
+    coil_pos: np.ndarray
+    coil_moment: np.ndarray
+    mag_node: np.ndarray
+    mag_frac: np.ndarray
+    mag_mu_body: np.ndarray
+    ext_slot: np.ndarray
+
+
+class MagnetSamples(NamedTuple):
+    """Currents and per-magnet quantities: S samples in ``drive``'s outputs; without the S axis, the
+    one row that ``magnet_loads_into`` reads (currents) and writes (the rest).
+
+    Attributes
+    ----------
+    currents : (S, n_c)          coil currents [A]
+    positions : (S, M, 3)        magnet centres [m]
+    rotations : (S, M, 3, 3)     magnet rotations, body -> world
+    fields : (S, M, 3)           field at the magnets [T]
+    gradients : (S, M, 3, 3)     field gradient at the magnets [T/m]
+    wrenches : (S, M, 6)         force G mu [N] and torque mu x B [N m] on each magnet
+    """
+
+    currents: np.ndarray
+    positions: np.ndarray
+    rotations: np.ndarray
+    fields: np.ndarray
+    gradients: np.ndarray
+    wrenches: np.ndarray
+
+
+def empty_magnet_samples(n_coils: int, n_magnets: int, lead: tuple = ()) -> MagnetSamples:
+    """Zeroed ``MagnetSamples`` with the leading axes ``lead`` ((S,) for outputs, () for one row)."""
+    lead = tuple(lead)
+    M = n_magnets
+    return MagnetSamples(currents=np.zeros(lead + (n_coils,)), positions=np.zeros(lead + (M, 3)),
+                         rotations=np.zeros(lead + (M, 3, 3)), fields=np.zeros(lead + (M, 3)),
+                         gradients=np.zeros(lead + (M, 3, 3)), wrenches=np.zeros(lead + (M, 6)))
+
+
+# compiled into its callers (see the module docstring); never allocates
+_INLINE = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
+               forceinline=True, _nrt=False)
+
+
+@njit(**_INLINE)
 def _interp_rotation_into(R, a, t, out):
     """out (3, 3) <- R_a cay(t x), x = cay^-1(R_a^T R_{a+1}) (rotation a fraction t from node a to a + 1)."""
     # vee(Q - Q^T) and tr Q of Q = R_a^T R_b, Q_ij = sum_c R_a[c, i] R_b[c, j]
@@ -64,24 +128,7 @@ def _interp_rotation_into(R, a, t, out):
     y0 = s * v0
     y1 = s * v1
     y2 = s * v2
-    ca = 4.0 / (4.0 + y0 * y0 + y1 * y1 + y2 * y2)
-    cb = 0.5 * ca
-    F00 = 1.0 - cb * (y1 * y1 + y2 * y2)
-    F11 = 1.0 - cb * (y0 * y0 + y2 * y2)
-    F22 = 1.0 - cb * (y0 * y0 + y1 * y1)
-    F01 = -ca * y2 + cb * y0 * y1
-    F10 = ca * y2 + cb * y0 * y1
-    F02 = ca * y1 + cb * y0 * y2
-    F20 = -ca * y1 + cb * y0 * y2
-    F12 = -ca * y0 + cb * y1 * y2
-    F21 = ca * y0 + cb * y1 * y2
-    for i in range(3):
-        R0 = R[a, i, 0]
-        R1 = R[a, i, 1]
-        R2 = R[a, i, 2]
-        out[i, 0] = R0 * F00 + R1 * F10 + R2 * F20
-        out[i, 1] = R0 * F01 + R1 * F11 + R2 * F21
-        out[i, 2] = R0 * F02 + R1 * F12 + R2 * F22
+    times_cayley_into(R[a], y0, y1, y2, 4.0 / (4.0 + y0 * y0 + y1 * y1 + y2 * y2), out)
 
 
 @njit(cache=True, fastmath={"contract"}, error_model="numpy")
@@ -110,47 +157,50 @@ def currents_at(t, times, values, j, out):
 
 def _build_magnet_loads(stamp):
     @njit(cache=True, fastmath={"contract"}, error_model="numpy")
-    def magnet_loads_into(R, r, currents, coil_pos, coil_moment, mag_node, mag_frac, mag_mu_body, ext_slot,
-                          ext_w, mag_p, mag_R, mag_B, mag_G, mag_W):
-        """Magnet wrenches for the pose (R (n, 3, 3), r (n, 3)) and currents (n_c,) [A].
+    def magnet_loads_into(R, r, row, magnets, ext_w):
+        """Magnet wrenches for the pose (R (n, 3, 3), r (n, 3)) and the currents row.currents (n_c,) [A].
 
-        Writes ext_w[0] (m, 12) (world force and torque of the loaded nodes, slot ext_slot[node]) and per
-        magnet: centre mag_p (M, 3) [m], rotation mag_R (M, 3, 3), field mag_B (M, 3) [T], gradient
-        mag_G (M, 3, 3) [T/m], wrench mag_W (M, 6) [N, N m]. Returns -1, or the index of a magnet
-        closer than MIN_DISTANCE to a coil.
+        Writes ext_w[0] (m, 12) (world force and torque of the loaded nodes, column
+        magnets.ext_slot[node]) and per magnet the other fields of the ``MagnetSamples`` row: centre,
+        rotation, field, gradient, wrench. Returns -1, or the index of a magnet closer than
+        MIN_DISTANCE to a coil.
         """
         if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
             return -2
+        mag_node = magnets.mag_node
+        mag_frac = magnets.mag_frac
+        mag_mu_body = magnets.mag_mu_body
         for jj in range(ext_w.shape[1]):
             for c in range(12):
                 ext_w[0, jj, c] = 0.0
         for j in range(len(mag_node)):
             a = mag_node[j]
             t = mag_frac[j]
+            P = row.positions[j]
             for c in range(3):
-                mag_p[j, c] = (1.0 - t) * r[a, c] + t * r[a + 1, c]
-            _interp_rotation_into(R, a, t, mag_R[j])
+                P[c] = (1.0 - t) * r[a, c] + t * r[a + 1, c]
+            Rm = row.rotations[j]
+            _interp_rotation_into(R, a, t, Rm)
             mu0 = 0.0
             mu1 = 0.0
             mu2 = 0.0
             for c in range(3):
-                mu0 += mag_R[j, 0, c] * mag_mu_body[j, c]
-                mu1 += mag_R[j, 1, c] * mag_mu_body[j, c]
-                mu2 += mag_R[j, 2, c] * mag_mu_body[j, c]
-            dmin = field_gradient_into(coil_pos, coil_moment, currents, mag_p[j, 0], mag_p[j, 1], mag_p[j, 2],
-                                       mag_B[j], mag_G[j])
+                mu0 += Rm[0, c] * mag_mu_body[j, c]
+                mu1 += Rm[1, c] * mag_mu_body[j, c]
+                mu2 += Rm[2, c] * mag_mu_body[j, c]
+            B = row.fields[j]
+            G = row.gradients[j]
+            dmin = field_gradient_into(magnets.coil_pos, magnets.coil_moment, row.currents, P[0], P[1], P[2], B, G)
             if not dmin >= MIN_DISTANCE:
                 return j
-            B = mag_B[j]
-            G = mag_G[j]
-            W = mag_W[j]
+            W = row.wrenches[j]
             for c in range(3):
                 W[c] = G[c, 0] * mu0 + G[c, 1] * mu1 + G[c, 2] * mu2
             W[3] = mu1 * B[2] - mu2 * B[1]
             W[4] = mu2 * B[0] - mu0 * B[2]
             W[5] = mu0 * B[1] - mu1 * B[0]
-            sa = ext_slot[a]
-            sb = ext_slot[a + 1]
+            sa = magnets.ext_slot[a]
+            sb = magnets.ext_slot[a + 1]
             for c in range(6):
                 ext_w[0, sa, c] += (1.0 - t) * W[c]
                 ext_w[0, sb, c] += t * W[c]
@@ -161,60 +211,49 @@ def _build_magnet_loads(stamp):
 magnet_loads_into = _build_magnet_loads(_STAMP)
 
 
+@njit(**_INLINE)
+def _record_row(row, out, k):
+    """out[k] <- row (every field of two ``MagnetSamples``, the first without the S axis)."""
+    for c in range(len(row.currents)):
+        out.currents[k, c] = row.currents[c]
+    for jm in range(len(row.positions)):
+        for c in range(3):
+            out.positions[k, jm, c] = row.positions[jm, c]
+            out.fields[k, jm, c] = row.fields[jm, c]
+            for d in range(3):
+                out.rotations[k, jm, c, d] = row.rotations[jm, c, d]
+                out.gradients[k, jm, c, d] = row.gradients[jm, c, d]
+        for c in range(6):
+            out.wrenches[k, jm, c] = row.wrenches[jm, c]
+
+
 def _build_drive(stamp):
     @njit(cache=True, no_rewrites=True)
-    def drive(R, r, v, w, Kp, Gp,
-              length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
-              h, t0, n_steps, stride,
-              times, values, coil_pos, coil_moment, mag_node, mag_frac, mag_mu_body, ext_idx, ext_slot,
-              save_slot, out_r, out_q, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e,
-              out_I, out_p, out_R, out_B, out_G, out_W,
-              work_f, ext_w, pd_idx, pd_target, pd_gain, presc_r, presc_R,
-              cur, mag_p, mag_R, mag_B, mag_G, mag_W):
+    def drive(rod, state, inputs, out, mag_out, magnets, times, values, h, t0, n_steps, stride, work_f, row):
         """Advance ``n_steps`` steps of size h [s] from time t0 [s]; returns (status, step, magnet index).
 
-        Rod arguments as for ``rod.kernels.advance_into``; samples are written at steps k with
-        k % stride == 0 into row k // stride of out_* (rod outputs as there; out_I (S, n_c) currents [A];
-        per magnet out_p (S, M, 3), out_R (S, M, 3, 3), out_B (S, M, 3), out_G (S, M, 3, 3), out_W (S, M, 6)).
-        Currents follow ``currents_at(t, times, values)``. Scratch: work_f (n, 6), ext_w (1, m, 12),
-        empty PD and prescribed-motion arrays for ``advance_into`` (pd_idx (0,), pd_target (1, 0, 3),
-        pd_gain (0, 2), presc_r (2, 0, 3), presc_R (2, 0, 3, 3)), cur (n_c,) and one row of the
-        magnet outputs (mag_p, mag_R, mag_B, mag_G, mag_W as in ``magnet_loads_into``).
+        rod, state, inputs, out, work_f as for ``rod.kernels.advance_into``, with inputs for one step
+        (ext_w (1, m, 12), overwritten at every step with the magnet loads; no PD tracking and no
+        prescribed motion). Samples are written at steps k with k % stride == 0 into row k // stride
+        of out and of mag_out (``MagnetSamples``). Currents follow ``currents_at(t, times, values)``.
+        magnets : ``MagnetModel``; row : one ``MagnetSamples`` row of scratch.
         """
         if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
             return -1, 0, -1
-        n_mag = len(mag_node)
+        n_mag = len(magnets.mag_node)
         # int64 from the start (a literal 0 would compile a second currents_at for Literal[int](0))
-        s0 = len(mag_node) - n_mag
+        s0 = n_mag - n_mag
         one = s0 + 1
         j = s0
         for k in range(n_steps):
             t = t0 + k * h
-            j = currents_at(t, times, values, j, cur)
-            bad_magnet = magnet_loads_into(R, r, cur, coil_pos, coil_moment, mag_node, mag_frac, mag_mu_body,
-                                           ext_slot, ext_w, mag_p, mag_R, mag_B, mag_G, mag_W)
+            j = currents_at(t, times, values, j, row.currents)
+            bad_magnet = magnet_loads_into(state.rotations, state.positions, row, magnets, inputs.ext_w)
             if bad_magnet >= 0:
                 return TOO_CLOSE, k, bad_magnet
             if k % stride == 0:
-                row = k // stride
-                for c in range(len(cur)):
-                    out_I[row, c] = cur[c]
-                for jm in range(n_mag):
-                    for c in range(3):
-                        out_p[row, jm, c] = mag_p[jm, c]
-                        out_B[row, jm, c] = mag_B[jm, c]
-                        for d in range(3):
-                            out_R[row, jm, c, d] = mag_R[jm, c, d]
-                            out_G[row, jm, c, d] = mag_G[jm, c, d]
-                    for c in range(6):
-                        out_W[row, jm, c] = mag_W[jm, c]
-            status, step = advance_into(
-                R, r, v, w, Kp, Gp,
-                length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
-                h, k, one, stride, s0,
-                ext_idx, ext_w, pd_idx, pd_target, pd_gain, pd_idx, presc_r, presc_R,
-                save_slot, out_r, out_q, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e,
-                work_f)
+                _record_row(row, mag_out, k // stride)
+            status, step = advance_into(rod, state, inputs, out, h, k, one, stride, s0, work_f)
             if status != OK:
                 return status, step, -1
         return OK, n_steps, -1

@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import bad
+from ..rod.so3 import hat
 from .coils import MU0
 
 GRADES = {"N42": 1.30, "N45": 1.35}
@@ -121,14 +122,6 @@ def moment_world(magnet: Magnet, rotation: np.ndarray) -> np.ndarray:
     return np.asarray(rotation, float) @ magnet.moment_body
 
 
-def skew(mu: np.ndarray) -> np.ndarray:
-    """S(mu) (..., 3, 3) with S(mu) B = mu x B."""
-    mu = np.asarray(mu, float)
-    z = np.zeros(mu.shape[:-1])
-    x, y, w = mu[..., 0], mu[..., 1], mu[..., 2]
-    return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2)
-
-
 def force_matrix(mu: np.ndarray) -> np.ndarray:
     """The Petruska-Nelson M(mu) (..., 3, 5) with f = M(mu) pack5(G) = G mu (magnetic.md §2.3; valid for
     curl-free, divergence-free fields)."""
@@ -141,12 +134,12 @@ def force_matrix(mu: np.ndarray) -> np.ndarray:
 
 
 def wrench_matrix(mu: np.ndarray) -> np.ndarray:
-    """W(mu) (..., 6, 8) with [f; tau] = W(mu) [B; g] = [[0, M(mu)], [S(mu), 0]] [B; g]; the wrench per
-    ampere of coil currents is then W(mu) A(p) (6 x n)."""
+    """W(mu) (..., 6, 8) with [f; tau] = W(mu) [B; g] = [[0, M(mu)], [S(mu), 0]] [B; g], S(mu) = hat(mu)
+    the skew matrix (S(mu) B = mu x B); the wrench per ampere of coil currents is then W(mu) A(p) (6 x n)."""
     mu = np.asarray(mu, float)
     W = np.zeros(mu.shape[:-1] + (6, 8))
     W[..., :3, 3:] = force_matrix(mu)
-    W[..., 3:, :3] = skew(mu)
+    W[..., 3:, :3] = hat(mu)
     return W
 
 

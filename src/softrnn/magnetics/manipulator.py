@@ -29,14 +29,17 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import SimulationError, bad
-from ..rod import kernels
 from ..rod.boundary import Clamp
-from ..rod.discrete import internal_loads, segment_strains
+from ..rod.inputs import SetupInputs
+from ..rod.kernels import Samples, StepInputs
 from ..rod.loads import smoothstep
+from ..rod.lumped import lumped_rod, with_damping
 from ..rod.shapes import RodShape, straight
 from ..rod.simulation import Damping, Setup, Trajectory, check_run_size
 from ..rod.spec import NodeOverride, RodSpec
 from ..rod.stability import DEFAULT_SAFETY, stable_step
+from ..rod.state import SAMPLE_FIELDS, empty_samples, half_kick, initial_state
+from ..rod.status import raise_for_status
 from . import _driver
 from .coils import MIN_DISTANCE, CoilLayout, bigmag_like, unit_field_maps
 from .magnets import Magnet, default_magnets
@@ -161,6 +164,7 @@ class ManipulatorSpec:
     # ------------------------------------------------------------------ derived quantities
     @property
     def segment_length(self) -> float:
+        """l = L / (n_nodes - 1) [m]."""
         return self.length / (self.n_nodes - 1)
 
     def magnet_node_range(self, j: int) -> tuple[int, int]:
@@ -251,6 +255,7 @@ class CurrentSchedule:
 
     @property
     def n_coils(self) -> int:
+        """Coils n (columns of values)."""
         return self.values.shape[1]
 
     def __call__(self, t) -> np.ndarray:
@@ -346,6 +351,7 @@ class ManipulatorRun:
 
     @property
     def duration(self) -> float:
+        """Time of the last sample, (n_samples - 1) dt [s]."""
         return (self.n_samples - 1) * self.dt
 
 
@@ -376,120 +382,82 @@ class ManipulatorTrajectory:
 
     @property
     def time(self) -> np.ndarray:
+        """rod.time (S,) [s]."""
         return self.rod.time
 
     @property
     def positions(self) -> np.ndarray:
+        """rod.positions (S, n, 3) [m]."""
         return self.rod.positions
 
     @property
     def quaternions(self) -> np.ndarray:
+        """rod.quaternions (S, n, 4), unit, scalar first, body -> world."""
         return self.rod.quaternions
 
 
 # --------------------------------------------------------------------------- simulation
 class _Model:
-    """The arrays the driver needs, built once from a spec."""
+    """The manipulator as the driver needs it, built once from a spec: the lumped rod
+    (``rod.lumped``), its state, the coils and magnets (``_driver.MagnetModel``) and the loaded nodes."""
 
     def __init__(self, spec: ManipulatorSpec):
         self.spec = spec
-        rod = spec.rod_spec()
-        lump = rod.lumped()
-        ref = spec.reference_shape()
-        n = spec.n_nodes
-        self.l = spec.segment_length
-        self.C1, self.C2 = lump["C1"], lump["C2"]
-        self.mass, self.inertia, self.weight = lump["mass"], lump["inertia"], lump["weight"]
-        self.K0, self.G0 = segment_strains(ref.rotations, ref.positions, self.l)
-        self.kind = np.zeros(n, dtype=np.int64)
-        self.kind[0] = kernels.CLAMPED
-        self.gravity = np.asarray(spec.gravity, dtype=float)
+        setup = spec.setup()
+        self.rod = lumped_rod(setup)
+        self.state = initial_state(setup, self.rod, SetupInputs(setup))
         anchors = [spec.magnet_anchor(j) for j in range(len(spec.magnets))]
-        self.mag_node = np.array([a for a, _ in anchors], dtype=np.int64)
-        self.mag_frac = np.array([t for _, t in anchors], dtype=float)
-        self.mag_mu_body = np.array([m.moment_body for m in spec.magnets], dtype=float).reshape(-1, 3)
-        self.ext_idx = np.unique(np.concatenate([self.mag_node, self.mag_node + 1])).astype(np.int64)
-        self.ext_slot = np.full(n, -1, dtype=np.int64)
-        self.ext_slot[self.ext_idx] = np.arange(self.ext_idx.size)
-        self.coil_pos = spec.coils.positions
-        self.coil_moment = spec.coils.moments_per_ampere
-        self.R = np.ascontiguousarray(ref.rotations).copy()
-        self.r = np.ascontiguousarray(ref.positions).copy()
-        self.v = np.zeros((n, 3))
-        self.w = np.zeros((n, 3))
-        self.Kp, self.Gp = segment_strains(self.R, self.r, self.l)
+        mag_node = np.array([a for a, _ in anchors], dtype=np.int64)
+        self.ext_idx = np.unique(np.concatenate([mag_node, mag_node + 1])).astype(np.int64)
+        ext_slot = np.full(spec.n_nodes, -1, dtype=np.int64)
+        ext_slot[self.ext_idx] = np.arange(self.ext_idx.size)
+        self.magnets = _driver.MagnetModel(
+            coil_pos=spec.coils.positions, coil_moment=spec.coils.moments_per_ampere, mag_node=mag_node,
+            mag_frac=np.array([t for _, t in anchors], dtype=float),
+            mag_mu_body=np.array([m.moment_body for m in spec.magnets], dtype=float).reshape(-1, 3),
+            ext_slot=ext_slot)
 
-    def drag(self, damping: Damping) -> tuple[np.ndarray, np.ndarray]:
-        wl = self.weight * self.l
-        return damping.translational * wl, damping.rotational * wl
+    def _row(self, currents: np.ndarray | None = None) -> _driver.MagnetSamples:
+        """One row of magnet quantities (scratch), with the given currents (n_c,) [A] or zeros."""
+        row = _driver.empty_magnet_samples(self.spec.coils.n_coils, self.magnets.mag_node.size)
+        if currents is not None:
+            row.currents[:] = currents
+        return row
 
-    def _scratch(self) -> tuple:
-        """One row of the magnet outputs: p (M, 3), R (M, 3, 3), B (M, 3), G (M, 3, 3), W (M, 6)."""
-        M = self.mag_node.size
-        return np.zeros((M, 3)), np.zeros((M, 3, 3)), np.zeros((M, 3)), np.zeros((M, 3, 3)), np.zeros((M, 6))
+    def step_inputs(self) -> StepInputs:
+        """Rod inputs of one step: zero magnet loads ext_w (1, m, 12), no PD tracking or prescribed motion."""
+        none = np.zeros(0, dtype=np.int64)
+        return StepInputs(ext_idx=self.ext_idx, ext_w=np.zeros((1, self.ext_idx.size, 12)), pd_idx=none,
+                          pd_target=np.zeros((1, 0, 3)), pd_gain=np.zeros((0, 2)), presc_idx=none,
+                          presc_r=np.zeros((2, 0, 3)), presc_R=np.zeros((2, 0, 3, 3)))
 
-    def loads(self, currents: np.ndarray) -> np.ndarray:
-        """ext_w (1, m, 12) of the magnets in the current pose."""
-        ext_w = np.zeros((1, self.ext_idx.size, 12))
-        bad_magnet = _driver.magnet_loads_into(self.R, self.r, np.array(currents, dtype=float),  # writable, as in drive
-                                               self.coil_pos, self.coil_moment, self.mag_node, self.mag_frac,
-                                               self.mag_mu_body, self.ext_slot, ext_w, *self._scratch())
+    def loads(self, currents: np.ndarray) -> StepInputs:
+        """Rod inputs of one step with the magnet loads of the current pose and currents (n_c,) [A]."""
+        inputs = self.step_inputs()
+        bad_magnet = _driver.magnet_loads_into(self.state.rotations, self.state.positions, self._row(currents),
+                                               self.magnets, inputs.ext_w)
         if bad_magnet >= 0:
             raise SimulationError(f"magnet {bad_magnet} is within {MIN_DISTANCE} m of a coil at the start; "
                                   f"move the rod or the coils apart")
-        return ext_w
+        return inputs
 
     def half_kick(self, h: float, currents: np.ndarray) -> None:
-        """Start at rest to second order, as ``rod.Simulator`` does: v^-1 = -(h/2) f/m, omega^-1 = -(h/2) J^-1 t."""
-        f, t = internal_loads(self.R, self.r, self.l, self.C1, self.C2, self.K0, self.G0)
-        f += self.mass[:, None] * self.gravity
-        ext_w = self.loads(currents)
-        for j, a in enumerate(self.ext_idx):
-            f[a] += ext_w[0, j, 0:3]
-            t[a] += self.R[a].T @ ext_w[0, j, 3:6]
-        free = self.kind == kernels.FREE
-        self.v[free] = -0.5 * h * f[free] / self.mass[free, None]
-        rot = self.kind != kernels.CLAMPED
-        self.w[rot] = -0.5 * h * t[rot] / self.inertia[rot]
+        """Start at rest to second order, as ``rod.Simulator`` does (``rod.state.half_kick``)."""
+        half_kick(self.rod, self.state, self.loads(currents), h)
 
-    def drive(self, damping: Damping, h: float, t0: float, n_steps: int, stride: int, schedule, n_rows: int):
-        """Run the numba driver; returns the rod outputs and the magnet outputs (dicts of arrays)."""
-        n, M, nc = self.spec.n_nodes, self.mag_node.size, self.coil_pos.shape[0]
-        out = {k: np.zeros((n_rows, n, 3)) for k in ("r", "v", "w", "f", "t", "rf", "rt")}
-        out["q"] = np.zeros((n_rows, n, 4))
-        out["e"] = np.zeros((n_rows, 3))
-        mag = {"I": np.zeros((n_rows, nc)), "p": np.zeros((n_rows, M, 3)), "R": np.zeros((n_rows, M, 3, 3)),
-               "B": np.zeros((n_rows, M, 3)), "G": np.zeros((n_rows, M, 3, 3)), "W": np.zeros((n_rows, M, 6))}
-        ct, cr = self.drag(damping)
-        tau = damping.kelvin_voigt
+    def drive(self, damping: Damping, h: float, t0: float, n_steps: int, stride: int, schedule,
+              n_rows: int) -> tuple[Samples, "_driver.MagnetSamples"]:
+        """Run the numba driver with ``damping``; returns the rod's and the magnets' outputs (n_rows samples)."""
+        n = self.spec.n_nodes
+        out = empty_samples(np.arange(n, dtype=np.int64), n_rows, n)
+        mag = _driver.empty_magnet_samples(self.spec.coils.n_coils, self.magnets.mag_node.size, lead=(n_rows,))
         status, step, magnet = _driver.drive(
-            self.R, self.r, self.v, self.w, self.Kp, self.Gp,
-            self.l, self.C1, self.C2, tau * self.C1, tau * self.C2,
-            self.K0, self.G0, self.mass, self.inertia, ct, cr, self.gravity, self.kind, tau > 0,
-            float(h), float(t0), int(n_steps), int(stride),
-            schedule.times, schedule.values, self.coil_pos, self.coil_moment,
-            self.mag_node, self.mag_frac, self.mag_mu_body, self.ext_idx, self.ext_slot,
-            np.arange(n, dtype=np.int64), out["r"], out["q"], out["v"], out["w"], out["f"], out["t"], out["rf"],
-            out["rt"], out["e"], mag["I"], mag["p"], mag["R"], mag["B"], mag["G"], mag["W"],
-            np.zeros((n, 6)), np.zeros((1, self.ext_idx.size, 12)), np.zeros(0, dtype=np.int64),
-            np.zeros((1, 0, 3)), np.zeros((0, 2)), np.zeros((2, 0, 3)), np.zeros((2, 0, 3, 3)),
-            np.zeros(nc), *self._scratch())
-        _raise_on_status(int(status), int(step), int(magnet), t0, h)
+            with_damping(self.rod, damping), self.state.arrays(), self.step_inputs(), out, mag, self.magnets,
+            schedule.times, schedule.values, float(h), float(t0), int(n_steps), int(stride), np.zeros((n, 6)),
+            self._row())
+        raise_for_status(int(status), step=int(step), t0=t0, h=h, magnet=int(magnet), min_distance=MIN_DISTANCE,
+                         more_fixes=("lower the currents",))
         return out, mag
-
-
-def _raise_on_status(status: int, step: int, magnet: int, t0: float, h: float) -> None:
-    if status == kernels.OK:
-        return
-    t = t0 + step * h
-    if status == _driver.TOO_CLOSE:
-        raise SimulationError(f"magnet {magnet} came within {MIN_DISTANCE} m of a coil at t = {t:.6g} s; "
-                              f"lower the currents or move the coils out")
-    if status == kernels.DIVERGED:
-        raise SimulationError(f"the simulation diverged at t = {t:.6g} s (step {step}, h = {h:.3g} s); use more "
-                              f"substeps (a smaller safety factor), more damping or lower currents")
-    raise SimulationError(f"the rotation Newton solve failed at t = {t:.6g} s (step {step}, h = {h:.3g} s); "
-                          f"use more substeps")
 
 
 def _schedule(spec: ManipulatorSpec, run: ManipulatorRun, currents) -> CurrentSchedule:
@@ -564,12 +532,10 @@ def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun) -
     start = time.perf_counter()
     out, mag = model.drive(spec.damping, h, 0.0, n_steps, substeps, schedule, run.n_samples)
     wall = time.perf_counter() - start
-    times = run.dt * np.arange(run.n_samples)
-    traj = Trajectory(time=times, nodes=np.arange(spec.n_nodes), positions=out["r"], quaternions=out["q"],
-                      velocities=out["v"], angular_velocities=out["w"], forces=out["f"], torques=out["t"],
-                      reaction_forces=out["rf"], reaction_torques=out["rt"], energy=out["e"], step=h,
-                      substeps=substeps, wall_time=wall)
-    mu = np.einsum("smij,mj->smi", mag["R"], model.mag_mu_body)
-    return ManipulatorTrajectory(rod=traj, currents=mag["I"], magnet_positions=mag["p"], magnet_rotations=mag["R"],
-                                 magnet_moments=mu, fields=mag["B"], gradients=mag["G"], wrenches=mag["W"],
-                                 step=h, substeps=substeps, wall_time=wall)
+    traj = Trajectory(time=run.dt * np.arange(run.n_samples), nodes=np.arange(spec.n_nodes), step=h,
+                      substeps=substeps, wall_time=wall, **{name: getattr(out, name) for name in SAMPLE_FIELDS})
+    mu = np.einsum("smij,mj->smi", mag.rotations, model.magnets.mag_mu_body)
+    return ManipulatorTrajectory(rod=traj, currents=mag.currents, magnet_positions=mag.positions,
+                                 magnet_rotations=mag.rotations, magnet_moments=mu, fields=mag.fields,
+                                 gradients=mag.gradients, wrenches=mag.wrenches, step=h, substeps=substeps,
+                                 wall_time=wall)

@@ -1,5 +1,12 @@
 """``softrnn reproduce``: the paper's results, step by step, resumable (``pipeline.reproduce``),
-and the report they make (``render_markdown``)."""
+and the report they make (``render_markdown``).
 
-from .pipeline import render_markdown as render_markdown
+* ``pipeline``: ``reproduce``, which runs the steps in order and writes ``report.json`` and ``report.md``;
+* ``cases``, ``node_models``, ``manipulator``, ``magnetic``, ``fig13``, ``fig14``, ``benchmark``: one
+  module per step;
+* ``stepfiles``: the step files that make a rerun resume;
+* ``report``: ``render_markdown``, the Markdown report.
+"""
+
 from .pipeline import reproduce as reproduce
+from .report import render_markdown as render_markdown

@@ -4,27 +4,31 @@ Per node: explicit translation (T) and a 3-unknown Newton solve on the Cayley ve
 rotation (R); segment strains use the SE(3)-Cayley measure (second order in space). One call
 advances many steps; ``advance_batch`` advances many independent rods with ``prange``.
 
-Array conventions (n nodes, n - 1 segments, K steps in the call, S saved samples):
-    R      (n, 3, 3)  node rotations Lambda (columns = directors d1, d2, d3), world <- body
-    r      (n, 3)     node positions [m]
-    v      (n, 3)     staggered linear velocities v^{k-1} [m/s], world frame
-    w      (n, 3)     staggered angular velocities omega^{k-1} [rad/s], body frame
-    Kp, Gp (n-1, 3)   previous segment strains (Kelvin-Voigt memory) [1/m], [-]
+The kernels take their arrays in four records (``typing.NamedTuple``, which numba passes as one
+heterogeneous tuple): ``LumpedRod`` (the rod, built once per setup by ``rod.lumped.lumped_rod``),
+``StateArrays`` (the state stepped in place), ``StepInputs`` (loads and prescribed motions of the
+steps of one call) and ``Samples`` (the output buffers). Their fields are listed in their
+docstrings, with n nodes, n - 1 segments, K steps in the call and S saved samples. The records are
+defined here, not in ``rod/lumped.py``, because numba keys a cached kernel on this file and on the
+records' field types only: reordering two fields of one type in another file would leave a stale
+cache entry that reads the wrong arrays.
 
-``advance_into`` never allocates and write results into arrays passed in.
+``advance_into`` never allocates and writes its results into the arrays passed in.
 
 Structure, for compile time (a cold start compiles everything here; numba's Python front end
 costs far more than LLVM and grows faster than linearly with the size of a function):
 
 * one time step of ``advance_into`` is split into helpers that numba types and lowers on their
   own: ``_applied_loads`` (per step), ``_segment`` (strains and stress resultants of segment a),
-  ``_node`` (translation, rotation with ``_solve_rotation``, sample outputs of node a) and
-  ``_quaternion_into``. They carry ``forceinline`` (LLVM inlines them into ``advance_into``, so
+  ``_node`` (translation, rotation with ``_solve_rotation`` and ``times_cayley_into``, sample
+  outputs of node a) and ``_quaternion_into``. They take the records whole and read the fields
+  they need. They carry ``forceinline`` (LLVM inlines them into ``advance_into``, so
   the machine code is that of one function: no call overhead per node) and ``_nrt=False`` (they
   never allocate; without it the reference counting of the arrays they receive survives the
   inlining as atomic calls in the node loop). They have no Python/C entry points and are not
   cached themselves: their code is part of ``advance_into``'s cache entry, which numba keys on
-  this file, so they must stay in this module.
+  this file, so they must stay in this module (``magnetics._driver`` also compiles
+  ``times_cayley_into`` into its functions, and hashes this file for that reason).
 * ``no_rewrites``: numba's IR rewrites cost time and mark operations with a constant operand
   (``0.5 * x``) for a second, literal type resolution at lowering. Without them, take array
   lengths with ``len(a)``, not ``a.shape[0]`` (a literal index into a tuple would compile a
@@ -34,6 +38,7 @@ costs far more than LLVM and grows faster than linearly with the size of a funct
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -42,10 +47,128 @@ FREE = 0
 CLAMPED = 1
 PINNED = 2
 
-# Status codes returned by the kernels.
+# Status codes returned by the kernels (``rod.status.KernelStatus`` gives them names and messages;
+# they are defined here because compiled code freezes their values into the numba cache of this file).
 OK = 0
 DIVERGED = 1
 NEWTON_FAILED = 2
+MAGNET_TOO_CLOSE = 10  # returned by ``magnetics._driver.drive``
+
+
+class LumpedRod(NamedTuple):
+    """The rod's lumped arrays, one record per setup (built by ``rod.lumped.lumped_rod``).
+
+    Attributes
+    ----------
+    length : float            segment length l [m]
+    weight : (n,)             trapezoid weights w_a, 1/2 at the ends [-]
+    mass : (n,)               node masses m_a [kg]
+    inertia : (n, 3)          node inertias J_a, body frame [kg m^2]
+    C1 : (n - 1, 3)           diag(kappa G A, kappa G A, E A) per segment [N]
+    C2 : (n - 1, 3)           diag(E I, E I, G J) per segment [N m^2]
+    D1, D2 : (n - 1, 3)       Kelvin-Voigt coefficients tau_d C1 [N s], tau_d C2 [N m^2 s]
+    K0 : (n - 1, 3)           stress-free curvature and twist [1/m]
+    G0 : (n - 1, 3)           stress-free shear and stretch [-]
+    ct : (n,)                 translational drag per node [N s/m]
+    cr : (n,)                 rotational drag per node [N m s]
+    gravity : (3,)            [m/s^2]
+    kind : (n,) int64         FREE, CLAMPED or PINNED
+    kv_on : bool              Kelvin-Voigt damping on (tau_d > 0)
+    """
+
+    length: float
+    weight: np.ndarray
+    mass: np.ndarray
+    inertia: np.ndarray
+    C1: np.ndarray
+    C2: np.ndarray
+    D1: np.ndarray
+    D2: np.ndarray
+    K0: np.ndarray
+    G0: np.ndarray
+    ct: np.ndarray
+    cr: np.ndarray
+    gravity: np.ndarray
+    kind: np.ndarray
+    kv_on: bool
+
+
+class StateArrays(NamedTuple):
+    """The integrator state, stepped in place (a leading batch axis (B, ...) in ``advance_batch``).
+
+    Attributes
+    ----------
+    rotations : (n, 3, 3)          node rotations Lambda (columns d1, d2, d3), world <- body
+    positions : (n, 3)             node positions [m]
+    velocities : (n, 3)            staggered linear velocities v^{k-1} [m/s], world frame
+    angular_velocities : (n, 3)    staggered angular velocities omega^{k-1} [rad/s], body frame
+    prev_curvature : (n - 1, 3)    previous segment curvature (Kelvin-Voigt memory) [1/m]
+    prev_shear : (n - 1, 3)        previous segment shear and stretch [-]
+    """
+
+    rotations: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
+    angular_velocities: np.ndarray
+    prev_curvature: np.ndarray
+    prev_shear: np.ndarray
+
+
+class StepInputs(NamedTuple):
+    """Loads and prescribed motions of the K steps of one call (step i at t = (k0 + i) h).
+
+    In ``advance_batch`` ext_w, pd_target, presc_r and presc_R carry a leading batch axis (B, ...).
+
+    Attributes
+    ----------
+    ext_idx : (m,) int64              nodes with tabulated loads
+    ext_w : (K, m, 12)                force world, torque world, force body, torque body [N], [N m]
+    pd_idx : (p,) int64               nodes with PD tracking forces f = kp (target - r) - kd v
+    pd_target : (K, p, 3)             target positions [m]
+    pd_gain : (p, 2)                  kp [N/m] and kd [N s/m]
+    presc_idx : (q,) int64            constrained nodes with prescribed motion
+    presc_r : (K + 1, q, 3)           their positions at t and t + h [m]
+    presc_R : (K + 1, q, 3, 3)        their rotations at t and t + h
+    """
+
+    ext_idx: np.ndarray
+    ext_w: np.ndarray
+    pd_idx: np.ndarray
+    pd_target: np.ndarray
+    pd_gain: np.ndarray
+    presc_idx: np.ndarray
+    presc_r: np.ndarray
+    presc_R: np.ndarray
+
+
+class Samples(NamedTuple):
+    """Output buffers: S samples of the s saved nodes (a leading batch axis (B, ...) in
+    ``advance_batch``, except save_slot). The field names are those of ``Trajectory``.
+
+    Attributes
+    ----------
+    save_slot : (n,) int64            column of each node in the outputs, -1: not saved
+    positions : (S, s, 3)             [m]
+    quaternions : (S, s, 4)           unit, scalar first (w, x, y, z), body -> world
+    velocities : (S, s, 3)            mid-step velocities [m/s], world frame
+    angular_velocities : (S, s, 3)    mid-step angular velocities [rad/s], world frame
+    forces, torques : (S, s, 3)       applied force [N] and torque [N m], world frame
+    reaction_forces : (S, s, 3)       support reaction force of constrained nodes [N], world frame
+    reaction_torques : (S, s, 3)      support reaction torque of clamped nodes [N m], world frame
+    energy : (S, 3)                   kinetic, elastic and gravitational energy [J]
+    """
+
+    save_slot: np.ndarray
+    positions: np.ndarray
+    quaternions: np.ndarray
+    velocities: np.ndarray
+    angular_velocities: np.ndarray
+    forces: np.ndarray
+    torques: np.ndarray
+    reaction_forces: np.ndarray
+    reaction_torques: np.ndarray
+    energy: np.ndarray
+
 
 _NEWTON_MAX_ITER = 12
 _NEWTON_RTOL = 1e-13
@@ -97,6 +220,30 @@ def _quaternion_into(M, q):
 
 
 @njit(**_INLINE)
+def times_cayley_into(A, y0, y1, y2, ca, out):
+    """out[3, 3] <- A[3, 3] cay(y), cay(y) = I + ca (y^ + y^ y^/2), ca = 4/(4 + |y|^2) (docs/lgvi.md
+    section 2.2); out may be A. The caller computes ca: ``_node`` and ``magnetics._driver`` sum
+    |y|^2 in different orders, and each keeps its own rounding. Compiled code only."""
+    cb = 0.5 * ca
+    F00 = 1.0 - cb * (y1 * y1 + y2 * y2)
+    F11 = 1.0 - cb * (y0 * y0 + y2 * y2)
+    F22 = 1.0 - cb * (y0 * y0 + y1 * y1)
+    F01 = -ca * y2 + cb * y0 * y1
+    F10 = ca * y2 + cb * y0 * y1
+    F02 = ca * y1 + cb * y0 * y2
+    F20 = -ca * y1 + cb * y0 * y2
+    F12 = -ca * y0 + cb * y1 * y2
+    F21 = ca * y0 + cb * y1 * y2
+    for c in range(3):
+        A0 = A[c, 0]
+        A1 = A[c, 1]
+        A2 = A[c, 2]
+        out[c, 0] = A0 * F00 + A1 * F10 + A2 * F20
+        out[c, 1] = A0 * F01 + A1 * F11 + A2 * F21
+        out[c, 2] = A0 * F02 + A1 * F12 + A2 * F22
+
+
+@njit(**_INLINE)
 def _solve_rotation(clamped, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol):
     """Newton on Phi(y) = J y + y x J y / 2 + (y.Jy) y / 4 + hc y - b from the start y (docs/lgvi.md
     section 2.5). Returns (converged, y, Phi(y)); for a clamped node, Phi at its prescribed y."""
@@ -142,8 +289,13 @@ def _solve_rotation(clamped, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol):
 
 
 @njit(**_INLINE)
-def _applied_loads(i, R, r, v, ext_idx, ext_w, pd_idx, pd_target, pd_gain, work_f):
+def _applied_loads(i, R, r, v, inputs, work_f):
     """work_f <- applied world force and torque of every node at step i of the call."""
+    ext_idx = inputs.ext_idx
+    ext_w = inputs.ext_w
+    pd_idx = inputs.pd_idx
+    pd_target = inputs.pd_target
+    pd_gain = inputs.pd_gain
     for a in range(len(work_f)):
         for c in range(6):
             work_f[a, c] = 0.0
@@ -162,12 +314,16 @@ def _applied_loads(i, R, r, v, ext_idx, ext_w, pd_idx, pd_target, pd_gain, work_
 
 
 @njit(**_INLINE)
-def _segment(a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22,
-             l, h, C1, C2, D1, D2, K0, G0, Kp, Gp, kv_on, record):
+def _segment(a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, rod, h, Kp, Gp, record):
     """Stress resultants of segment a (nodes a, a + 1) in the old configuration, R_a = Ra..:
     returns (n_a spatial force, T_a torque in frame a, T'_a = Q^T (T - p x c) torque carried to
     node a + 1 in its frame, elastic energy of the segment when ``record``). Updates Kp, Gp when
-    ``kv_on``."""
+    ``rod.kv_on``."""
+    l = rod.length
+    C1 = rod.C1
+    C2 = rod.C2
+    K0 = rod.K0
+    G0 = rod.G0
     Rb00 = R[a + 1, 0, 0]
     Rb01 = R[a + 1, 0, 1]
     Rb02 = R[a + 1, 0, 2]
@@ -225,7 +381,9 @@ def _segment(a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22,
     e = 0.0
     if record:
         e = 0.5 * l * (N0 * eg0 + N1 * eg1 + N2 * eg2 + M0 * ek0 + M1 * ek1 + M2 * ek2)
-    if kv_on:
+    if rod.kv_on:
+        D1 = rod.D1
+        D2 = rod.D2
         ih = 1.0 / h
         N0 += D1[a, 0] * (ga0 - Gp[a, 0]) * ih
         N1 += D1[a, 1] * (ga1 - Gp[a, 1]) * ih
@@ -263,13 +421,25 @@ def _segment(a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22,
 
 
 @njit(**_INLINE)
-def _node(a, i, row, record, h, l, F0, F1, F2, tb0, tb1, tb2,
-          R, r, v, w, mass, inertia, ct, cr, kind, presc_idx, presc_r, presc_R,
-          save_slot, out_v, out_w, out_rf, out_rt):
+def _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, out):
     """Advance node a from the total non-inertial force F (world, without drag) and body torque
     tb: r, v, w, R updated in place, outputs of the sample ``row`` written when ``record``.
     Returns (status, kinetic energy of the node when ``record``)."""
-    m = mass[a]
+    l = rod.length
+    inertia = rod.inertia
+    R = state.rotations
+    r = state.positions
+    v = state.velocities
+    w = state.angular_velocities
+    presc_idx = inputs.presc_idx
+    presc_r = inputs.presc_r
+    presc_R = inputs.presc_R
+    save_slot = out.save_slot
+    out_v = out.velocities
+    out_w = out.angular_velocities
+    out_rf = out.reaction_forces
+    out_rt = out.reaction_torques
+    m = rod.mass[a]
     ja0 = inertia[a, 0]
     ja1 = inertia[a, 1]
     ja2 = inertia[a, 2]
@@ -279,8 +449,8 @@ def _node(a, i, row, record, h, l, F0, F1, F2, tb0, tb1, tb2,
     wo0 = w[a, 0]
     wo1 = w[a, 1]
     wo2 = w[a, 2]
-    cta = ct[a]
-    kd = kind[a]
+    cta = rod.ct[a]
+    kd = rod.kind[a]
     slot = save_slot[a]
     # row of node a in the prescribed-motion arrays (-1: none); the last match, as a forward
     # search would find; jq starts as an int64 (no extra type-inference pass)
@@ -332,7 +502,7 @@ def _node(a, i, row, record, h, l, F0, F1, F2, tb0, tb1, tb2,
     b0 = h * (jw0 - half_h * (wo1 * jw2 - wo2 * jw1) + cw * wo0 + h * tb0)
     b1 = h * (jw1 - half_h * (wo2 * jw0 - wo0 * jw2) + cw * wo1 + h * tb1)
     b2 = h * (jw2 - half_h * (wo0 * jw1 - wo1 * jw0) + cw * wo2 + h * tb2)
-    hc = h * cr[a]
+    hc = h * rod.cr[a]
     if kd == CLAMPED:
         y0 = 0.0
         y1 = 0.0
@@ -412,63 +582,42 @@ def _node(a, i, row, record, h, l, F0, F1, F2, tb0, tb1, tb2,
     # R <- R cay(y)
     if kd == CLAMPED and y0 == 0.0 and y1 == 0.0 and y2 == 0.0:
         return OK, e_kin
-    yy = y0 * y0 + y1 * y1 + y2 * y2
-    ca = 4.0 / (4.0 + yy)
-    cb = 0.5 * ca
-    F00 = 1.0 - cb * (y1 * y1 + y2 * y2)
-    F11 = 1.0 - cb * (y0 * y0 + y2 * y2)
-    F22 = 1.0 - cb * (y0 * y0 + y1 * y1)
-    F01 = -ca * y2 + cb * y0 * y1
-    F10 = ca * y2 + cb * y0 * y1
-    F02 = ca * y1 + cb * y0 * y2
-    F20 = -ca * y1 + cb * y0 * y2
-    F12 = -ca * y0 + cb * y1 * y2
-    F21 = ca * y0 + cb * y1 * y2
-    for c in range(3):
-        R0 = R[a, c, 0]
-        R1 = R[a, c, 1]
-        R2 = R[a, c, 2]
-        R[a, c, 0] = R0 * F00 + R1 * F10 + R2 * F20
-        R[a, c, 1] = R0 * F01 + R1 * F11 + R2 * F21
-        R[a, c, 2] = R0 * F02 + R1 * F12 + R2 * F22
+    times_cayley_into(R[a], y0, y1, y2, 4.0 / (4.0 + (y0 * y0 + y1 * y1 + y2 * y2)), R[a])
     return OK, e_kin
 
 
 @njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
-def advance_into(
-    R, r, v, w, Kp, Gp,
-    length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
-    h, k0, n_steps, stride, s0,
-    ext_idx, ext_w, pd_idx, pd_target, pd_gain, presc_idx, presc_r, presc_R,
-    save_slot, out_r, out_q, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e,
-    work_f,
-):
-    """Advance one rod by ``n_steps`` steps of size ``h``; returns (status, step index).
+def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
+    """Advance one rod by ``n_steps`` steps of size ``h`` [s]; returns (status, step index).
 
-    Loads at step i of this call (time t = (k0 + i) h):
-        ext_idx (m,)         nodes with tabulated loads
-        ext_w (K, m, 12)     [force world, torque world, force body, torque body] [N], [N m]
-        pd_idx (p,)          nodes with PD tracking forces f = kp (target - r) - kd v
-        pd_target (K, p, 3)  target positions [m];  pd_gain (p, 2) = [kp N/m, kd N s/m]
-        presc_idx (q,)       constrained nodes with prescribed motion
-        presc_r (K + 1, q, 3), presc_R (K + 1, q, 3, 3): poses at t and t + h
-    A sample is written when (k0 + i) % stride == 0, at row (k0 + i) // stride - s0:
-        positions, unit quaternions (w, x, y, z) of the rotations, mid-step velocities (world), applied force and torque (world),
-        reaction force and torque of constrained nodes (world) for nodes with save_slot >= 0,
-        and out_e[row] = [kinetic, elastic, gravitational] energy [J].
-    work_f (n, 6): scratch for the applied world force/torque of each node.
+    rod : LumpedRod; state : StateArrays, advanced in place; inputs : StepInputs of the steps of
+    this call (step i at t = (k0 + i) h); out : Samples. A sample is written when
+    (k0 + i) % stride == 0, at row (k0 + i) // stride - s0, for the nodes with
+    out.save_slot >= 0, and the energies of the whole rod. work_f (n, 6): scratch for the applied
+    world force and torque of each node. status is OK, DIVERGED or NEWTON_FAILED; the step index
+    is k0 + n_steps, or that of the failed step.
     """
+    R = state.rotations
+    r = state.positions
+    Kp = state.prev_curvature
+    Gp = state.prev_shear
+    mass = rod.mass
+    save_slot = out.save_slot
+    out_r = out.positions
+    out_q = out.quaternions
+    out_f = out.forces
+    out_t = out.torques
+    out_e = out.energy
     n = len(r)
-    l = length
-    g0 = gravity[0]
-    g1 = gravity[1]
-    g2 = gravity[2]
+    g0 = rod.gravity[0]
+    g1 = rod.gravity[1]
+    g2 = rod.gravity[2]
     for i in range(n_steps):
         k = k0 + i
         record = (k % stride) == 0
         row = k // stride - s0
         # ---- applied loads at t_k into work_f (world force, world torque) ----
-        _applied_loads(i, R, r, v, ext_idx, ext_w, pd_idx, pd_target, pd_gain, work_f)
+        _applied_loads(i, R, r, state.velocities, inputs, work_f)
         e_kin = 0.0
         e_el = 0.0
         e_g = 0.0
@@ -495,8 +644,7 @@ def advance_into(
             n0 = n1 = n2 = T0 = T1 = T2 = q0 = q1 = q2 = 0.0
             if a < n - 1:
                 n0, n1, n2, T0, T1, T2, q0, q1, q2, e = _segment(
-                    a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22,
-                    l, h, C1, C2, D1, D2, K0, G0, Kp, Gp, kv_on, record)
+                    a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, rod, h, Kp, Gp, record)
                 e_el += e
             # ---- node a: internal force and torque from segments a - 1 and a, then the update ----
             fi0 = n0 - np0
@@ -532,9 +680,7 @@ def advance_into(
                         out_f[row, slot, c] = work_f[a, c]
                         out_t[row, slot, c] = work_f[a, 3 + c]
                     _quaternion_into(R[a], out_q[row, slot])
-            status, ek = _node(a, i, row, record, h, l, F0, F1, F2, tb0, tb1, tb2,
-                               R, r, v, w, mass, inertia, ct, cr, kind, presc_idx, presc_r, presc_R,
-                               save_slot, out_v, out_w, out_rf, out_rt)
+            status, ek = _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, out)
             if status != OK:
                 return status, k
             e_kin += ek
@@ -545,33 +691,31 @@ def advance_into(
     return OK, k0 + n_steps
 
 
-def advance(*args):
-    """Advance one rod: ``advance_into`` with its scratch array allocated here (arguments as for
-    ``advance_into`` without ``work_f``). Returns (status, step index of failure or end)."""
-    r = args[1]
-    return advance_into(*args, np.empty((r.shape[0], 6)))
+def advance(rod, state, inputs, out, h, k0, n_steps, stride, s0):
+    """``advance_into`` with its scratch array allocated here; returns (status, step index)."""
+    return advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0,
+                        np.empty((len(state.positions), 6)))
 
 
 @njit(parallel=True, cache=True)
-def advance_batch(
-    R, r, v, w, Kp, Gp,
-    length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
-    h, k0, n_steps, stride, s0,
-    ext_idx, ext_w, pd_idx, pd_target, pd_gain, presc_idx, presc_r, presc_R,
-    save_slot, out_r, out_q, out_v, out_w, out_f, out_t, out_rf, out_rt, out_e, status,
-):
-    """Advance B independent rods of the same spec (see ``advance_into``); state, loads and outputs carry a leading
-    batch axis (B, ...). status (B, 2) receives (code, step) per rod."""
-    n_batch = r.shape[0]
+def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
+    """Advance B independent rods of one ``rod`` (see ``advance_into``): state, inputs (except
+    the node indices and gains) and out (except save_slot) carry a leading batch axis (B, ...).
+    status (B, 2) int64 receives (code, step) per rod."""
+    st = state
+    inp = inputs
+    n_batch = len(st.positions)
     for b in prange(n_batch):
-        work_f = np.empty((r.shape[1], 6))
+        work_f = np.empty((st.positions.shape[1], 6))
         code, step = advance_into(
-            R[b], r[b], v[b], w[b], Kp[b], Gp[b],
-            length, C1, C2, D1, D2, K0, G0, mass, inertia, ct, cr, gravity, kind, kv_on,
-            h, k0, n_steps, stride, s0,
-            ext_idx, ext_w[b], pd_idx, pd_target[b], pd_gain, presc_idx, presc_r[b], presc_R[b],
-            save_slot, out_r[b], out_q[b], out_v[b], out_w[b], out_f[b], out_t[b], out_rf[b],
-            out_rt[b], out_e[b], work_f,
-        )
+            rod,
+            StateArrays(st.rotations[b], st.positions[b], st.velocities[b], st.angular_velocities[b],
+                        st.prev_curvature[b], st.prev_shear[b]),
+            StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
+                       inp.presc_r[b], inp.presc_R[b]),
+            Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b],
+                    out.angular_velocities[b], out.forces[b], out.torques[b], out.reaction_forces[b],
+                    out.reaction_torques[b], out.energy[b]),
+            h, k0, n_steps, stride, s0, work_f)
         status[b, 0] = code
         status[b, 1] = step

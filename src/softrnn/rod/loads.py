@@ -13,6 +13,9 @@ from ..errors import bad
 
 
 class AbstractTimeFunction(Protocol):
+    """A vectorised time function: times t (K,) [s] -> values (K, 3) (a force [N], torque [N m] or
+    position [m])."""
+
     def __call__(self, t: np.ndarray) -> np.ndarray:  # (K,) -> (K, 3)
         ...
 

@@ -42,6 +42,7 @@ class RodShape:
 
     @property
     def n_nodes(self) -> int:
+        """Number of nodes n."""
         return self.positions.shape[0]
 
     def arc_length(self) -> float:

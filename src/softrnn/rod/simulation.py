@@ -1,7 +1,8 @@
 """Simulation driver: a physical ``Setup`` plus a ``RunConfig`` -> a ``Trajectory``.
 
 Python evaluates the time-dependent inputs (loads, PD targets, prescribed motions) chunk by chunk
-into arrays; ``kernels.advance`` runs the steps of a chunk in one numba call. The saved interval
+into arrays (``rod.inputs``); ``kernels.advance`` runs the steps of a chunk in one numba call on the
+rod's lumped arrays, built once (``rod.lumped``). The saved interval
 ``dt`` is split into ``substeps`` solver steps h = dt / substeps below the stability limit.
 """
 
@@ -13,15 +14,19 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import SimulationError, SoftrnnInputError, bad
+from ..errors import SoftrnnInputError, bad
 from . import kernels
 from .boundary import Clamp, Pin
-from .discrete import internal_loads, segment_strains
+from .inputs import SetupInputs
+from .kernels import Samples
 from .loads import NodalLoad, PDTracking
+from .lumped import lumped_rod
 from .shapes import RodShape
 from .so3 import quaternion_to_matrix
 from .spec import RodSpec
 from .stability import DEFAULT_SAFETY, stable_step
+from .state import SAMPLE_FIELDS, RodState, empty_samples, half_kick, initial_state
+from .status import raise_for_status
 
 _CHUNK_STEPS = 65536
 _CHUNK_SAMPLES = 4096
@@ -239,6 +244,7 @@ class RunStats:
 
     @property
     def n_steps(self) -> int:
+        """Solver steps between the first and the last sample."""
         return max(self.n_samples - 1, 0) * self.substeps
 
     @property
@@ -247,136 +253,59 @@ class RunStats:
         return 1e6 * self.wall_time / max(self.n_steps * self.n_nodes, 1)
 
 
-_FIELDS = ("positions", "quaternions", "velocities", "angular_velocities", "forces", "torques",
-           "reaction_forces", "reaction_torques", "energy")
-
-
-def _allocate(n_samples: int, n_saved: int) -> dict:
-    out = {name: np.zeros((n_samples, n_saved, 3)) for name in ("r", "v", "w", "f", "t", "rf", "rt")}
-    out["q"] = np.zeros((n_samples, n_saved, 4))
-    out["e"] = np.zeros((n_samples, 3))
-    return out
-
-
-def _to_trajectory(out: dict, times: np.ndarray, nodes: np.ndarray, h: float, substeps: int) -> "Trajectory":
-    return Trajectory(
-        time=times, nodes=nodes, positions=out["r"], quaternions=out["q"],
-        velocities=out["v"], angular_velocities=out["w"], forces=out["f"], torques=out["t"],
-        reaction_forces=out["rf"], reaction_torques=out["rt"], energy=out["e"], step=h, substeps=substeps)
+def _to_trajectory(out: Samples, times: np.ndarray, nodes: np.ndarray, h: float, substeps: int) -> "Trajectory":
+    return Trajectory(time=times, nodes=nodes, step=h, substeps=substeps,
+                      **{name: getattr(out, name) for name in SAMPLE_FIELDS})
 
 
 def _concatenate(chunks: list, stats: "RunStats") -> "Trajectory":
     first = chunks[0]
-    arrays = {name: np.concatenate([getattr(c, name) for c in chunks]) for name in ("time",) + _FIELDS}
+    arrays = {name: np.concatenate([getattr(c, name) for c in chunks]) for name in ("time",) + SAMPLE_FIELDS}
     return Trajectory(nodes=first.nodes, step=stats.step, substeps=stats.substeps, wall_time=stats.wall_time,
                       **arrays)
 
 
-@dataclass
-class RodState:
-    """Mutable integrator state (see kernels module docstring for shapes)."""
-
-    rotations: np.ndarray
-    positions: np.ndarray
-    velocities: np.ndarray
-    angular_velocities: np.ndarray
-    prev_curvature: np.ndarray
-    prev_shear: np.ndarray
-    time: float = 0.0
-
-    def copy(self) -> "RodState":
-        return RodState(self.rotations.copy(), self.positions.copy(), self.velocities.copy(),
-                        self.angular_velocities.copy(), self.prev_curvature.copy(), self.prev_shear.copy(),
-                        self.time)
+def _from_rod(name: str, doc: str) -> property:
+    """A read-only property giving the field ``name`` of the simulator's ``LumpedRod``."""
+    return property(lambda self: getattr(self.rod, name), doc=doc)
 
 
 class Simulator:
     """Steps a ``Setup`` forward. ``run`` continues from the current state each time it is called,
-    so a control loop can alternate runs with changes of its own loads."""
+    so a control loop can alternate runs with changes of its own loads.
+
+    Attributes
+    ----------
+    setup : Setup
+    rod : LumpedRod            the lumped arrays (``rod.lumped.lumped_rod``), shared with the kernels
+    inputs : SetupInputs       the loads and prescribed motions, evaluated chunk by chunk
+    state : RodState           the current state
+    steps_done : int           solver steps taken so far
+    """
 
     def __init__(self, setup: Setup):
         self.setup = setup
-        rod = setup.rod
-        n = rod.n_nodes
-        self.seg_length = rod.segment_length
-        lump = rod.lumped()
-        self.lumped = lump
-        self.K0, self.G0 = segment_strains(setup.reference.rotations, setup.reference.positions, self.seg_length)
-        self.C1, self.C2 = lump["C1"], lump["C2"]
-        tau = setup.damping.kelvin_voigt
-        self.D1, self.D2 = tau * self.C1, tau * self.C2
-        self.mass, self.inertia = lump["mass"], lump["inertia"]
-        wl = lump["weight"] * self.seg_length
-        self.ct = setup.damping.translational * wl
-        self.cr = setup.damping.rotational * wl
-        self.gravity = np.asarray(setup.gravity, dtype=float)
-        self.kind = np.zeros(n, dtype=np.int64)
-        presc = []
-        for bc in setup.boundary:
-            a = setup.node_index(bc.node)
-            self.kind[a] = kernels.CLAMPED if isinstance(bc, Clamp) else kernels.PINNED
-            if (bc.motion if isinstance(bc, Clamp) else bc.path) is not None:
-                presc.append((a, bc))
-        self.presc = presc
-        self.presc_idx = np.array([a for a, _ in presc], dtype=np.int64)
-        ext = {}
-        pd = []
-        for load in setup.loads:
-            a = setup.node_index(load.node)
-            if isinstance(load, PDTracking):
-                pd.append((a, load))
-            else:
-                ext.setdefault(a, []).append(load)
-        self.ext = ext
-        self.ext_idx = np.array(sorted(ext), dtype=np.int64)
-        self.pd = pd
-        self.pd_idx = np.array([a for a, _ in pd], dtype=np.int64)
-        self.pd_gain = np.array([[p.stiffness, p.damping] for _, p in pd], dtype=float).reshape(-1, 2)
-        self.state = self._initial_state()
+        self.rod = lumped_rod(setup)
+        self.inputs = SetupInputs(setup)
+        self.state = initial_state(setup, self.rod, self.inputs)
         self.steps_done = 0
 
-    # ------------------------------------------------------------------ state
-    def _initial_state(self) -> RodState:
-        init = self.setup.initial
-        R = np.ascontiguousarray(init.rotations, dtype=float).copy()
-        r = np.ascontiguousarray(init.positions, dtype=float).copy()
-        if len(self.presc):
-            pos, rot = self._prescribed(np.array([0.0]))
-            for j, (a, _) in enumerate(self.presc):
-                r[a] = pos[0, j]
-                if self.kind[a] == kernels.CLAMPED:
-                    R[a] = rot[0, j]
-        K, G = segment_strains(R, r, self.seg_length)
-        n = r.shape[0]
-        return RodState(R, r, np.zeros((n, 3)), np.zeros((n, 3)), K, G, 0.0)
-
-    def _half_kick(self, h: float) -> None:
-        """Start at rest to second order: the staggered velocities before the first step are
-        v^-1 = -(h/2) f(q^0)/m and omega^-1 = -(h/2) J^-1 t(q^0), so the mid-step velocity at t0 is
-        zero (plain v^-1 = 0 shifts the motion by h/2 in time, a global O(h) error)."""
-        st = self.state
-        f, t = internal_loads(st.rotations, st.positions, self.seg_length, self.C1, self.C2, self.K0, self.G0)
-        f += self.mass[:, None] * self.gravity
-        ext_w, pd_target, _, _ = self._chunk_inputs(np.array([st.time]), h)
-        for j, a in enumerate(self.ext_idx):
-            R = st.rotations[a]
-            f[a] += ext_w[0, j, 0:3] + R @ ext_w[0, j, 6:9]
-            t[a] += R.T @ ext_w[0, j, 3:6] + ext_w[0, j, 9:12]
-        for j, a in enumerate(self.pd_idx):
-            f[a] += self.pd_gain[j, 0] * (pd_target[0, j] - st.positions[a])
-        free = self.kind == kernels.FREE
-        st.velocities[free] = -0.5 * h * f[free] / self.mass[free, None]
-        rot = self.kind != kernels.CLAMPED
-        st.angular_velocities[rot] = -0.5 * h * t[rot] / self.inertia[rot]
+    seg_length = _from_rod("length", "Segment length l [m].")
+    C1 = _from_rod("C1", "Shear and stretch stiffness (n - 1, 3) [N].")
+    C2 = _from_rod("C2", "Bending and twist stiffness (n - 1, 3) [N m^2].")
+    K0 = _from_rod("K0", "Stress-free curvature and twist (n - 1, 3) [1/m].")
+    G0 = _from_rod("G0", "Stress-free shear and stretch (n - 1, 3) [-].")
+    mass = _from_rod("mass", "Node masses (n,) [kg].")
+    inertia = _from_rod("inertia", "Node inertias (n, 3) [kg m^2], body frame.")
+    kind = _from_rod("kind", "Node kinds (n,) int64: kernels.FREE, CLAMPED or PINNED.")
 
     def stable_step(self, safety: float = DEFAULT_SAFETY) -> float:
         """Largest accepted solver step h [s] for this setup."""
-        return stable_step(self.lumped, self.seg_length, self.setup.damping.kelvin_voigt, safety)
+        return stable_step(self.rod._asdict(), self.rod.length, self.setup.damping.kelvin_voigt, safety)
 
     def step_input_bytes(self) -> int:
-        """Bytes of per-step inputs a chunk holds (times, loads, PD targets, prescribed poses and
-        the load functions' temporaries)."""
-        return 8 * (4 + 15 * self.ext_idx.size + 6 * len(self.pd) + 12 * len(self.presc))
+        """Bytes of per-step inputs a chunk holds (``SetupInputs.step_bytes``)."""
+        return self.inputs.step_bytes()
 
     def check_size(self, config: RunConfig, *, streamed: bool, extra_bytes_per_sample: int = 0) -> int:
         """Refuse a run too large for this machine (``check_run_size``) before anything is
@@ -387,54 +316,13 @@ class Simulator:
         n_saved = self.setup.rod.n_nodes if config.save_nodes is None else len(config.save_nodes)
         check_run_size(n_samples=S, dt=config.dt, substeps=substeps, n_saved=n_saved,
                        held_samples=min(S, per_chunk) if streamed else S, chunk_steps=per_chunk * substeps,
-                       step_bytes=self.step_input_bytes(), extra_bytes=S * extra_bytes_per_sample,
+                       step_bytes=self.inputs.step_bytes(), extra_bytes=S * extra_bytes_per_sample,
                        streamed=streamed, auto_substeps=config.substeps is None)
         return substeps
 
     def resolve_substeps(self, config: RunConfig) -> int:
         """Solver steps per saved interval; refuses an unstable explicit choice."""
-        limit = self.stable_step(config.safety)
-        if config.substeps is None:
-            return max(1, math.ceil(config.dt / limit * (1 - 1e-12)))
-        h = config.dt / config.substeps
-        if h > limit:
-            need = math.ceil(config.dt / limit)
-            raise bad("dt", config.dt,
-                      f"dt/substeps = {h:.3g} s exceeds the stable step limit {limit:.3g} s of this rod; "
-                      f"use substeps >= {need} (or substeps=None to choose it automatically)")
-        return int(config.substeps)
-
-    # ------------------------------------------------------------------ inputs per chunk
-    def _prescribed(self, t: np.ndarray):
-        q = len(self.presc)
-        pos = np.zeros((t.size, q, 3))
-        rot = np.broadcast_to(np.eye(3), (t.size, q, 3, 3)).copy()
-        for j, (_, bc) in enumerate(self.presc):
-            if isinstance(bc, Clamp):
-                p, R = bc.motion(t)
-                pos[:, j] = p
-                rot[:, j] = R
-            else:
-                pos[:, j] = bc.path(t)
-        return pos, rot
-
-    def _chunk_inputs(self, t: np.ndarray, h: float):
-        """Loads at times t (K,) and prescribed poses at t and t + h."""
-        K = t.size
-        ext_w = np.zeros((K, self.ext_idx.size, 12))
-        for j, a in enumerate(self.ext_idx):
-            for load in self.ext[a]:
-                off = 0 if load.frame == "world" else 6
-                if load.force is not None:
-                    ext_w[:, j, off:off + 3] += load.force(t)
-                if load.torque is not None:
-                    ext_w[:, j, off + 3:off + 6] += load.torque(t)
-        pd_target = np.zeros((K, len(self.pd), 3))
-        for j, (_, p) in enumerate(self.pd):
-            pd_target[:, j] = p.target(t)
-        tp = np.concatenate([t, [t[-1] + h]])
-        presc_r, presc_R = self._prescribed(tp)
-        return ext_w, pd_target, presc_r, presc_R
+        return choose_substeps(config, self.stable_step(config.safety))
 
     # ------------------------------------------------------------------ run
     def run(self, config: RunConfig, progress: Callable[[int, int], None] | None = None,
@@ -448,32 +336,28 @@ class Simulator:
         substeps = self.check_size(config, streamed=sink is not None)
         h = config.dt / substeps
         if self.steps_done == 0:
-            self._half_kick(h)
-        n = self.setup.rod.n_nodes
-        nodes = np.arange(n) if config.save_nodes is None else np.array(
-            [self.setup.node_index(a, "save_nodes") for a in config.save_nodes], dtype=np.int64)
-        slot = np.full(n, -1, dtype=np.int64)
-        slot[nodes] = np.arange(nodes.size)
+            half_kick(self.rod, self.state, self.inputs.at(np.array([self.state.time]), h), h)
+        nodes = save_nodes(self.setup, config)
+        slot = save_slots(self.setup.rod.n_nodes, nodes)
         S = config.n_samples
         t0 = self.state.time
         k_start = self.steps_done
         chunks = []
         # compile (or load from the numba cache) outside the timed region: one step on a copy
-        self._advance(self.state.copy(), t0, h, 0, 1, substeps, 0, slot, _allocate(1, nodes.size))
+        self._advance(self.state.copy(), t0, h, 0, 1, substeps, 0, empty_samples(slot, 1, nodes.size))
         start = time.perf_counter()
         per_chunk = max(1, min(_CHUNK_SAMPLES, _CHUNK_STEPS // substeps))
         j0 = 0
         while j0 < S:
             j1 = min(j0 + per_chunk, S - 1) if j0 < S - 1 else S
+            out = empty_samples(slot, j1 - j0, nodes.size)
             if j0 < S - 1:
-                out = _allocate(j1 - j0, nodes.size)
-                self._advance(self.state, t0, h, j0 * substeps, (j1 - j0) * substeps, substeps, j0, slot, out)
+                self._advance(self.state, t0, h, j0 * substeps, (j1 - j0) * substeps, substeps, j0, out)
                 self.steps_done = k_start + j1 * substeps
                 self.state.time = t0 + j1 * substeps * h
             else:
                 # the last sample's mid-step velocity needs one more step, taken on a copy
-                out = _allocate(1, nodes.size)
-                self._advance(self.state.copy(), t0, h, j0 * substeps, 1, substeps, j0, slot, out)
+                self._advance(self.state.copy(), t0, h, j0 * substeps, 1, substeps, j0, out)
             chunk = _to_trajectory(out, t0 + config.dt * np.arange(j0, j1), nodes, h, substeps)
             if sink is None:
                 chunks.append(chunk)
@@ -482,37 +366,43 @@ class Simulator:
             if progress is not None:
                 progress(j1, S)
             j0 = j1
-        wall = time.perf_counter() - start
-        stats = RunStats(n_samples=S, step=h, substeps=substeps, wall_time=wall, n_nodes=n)
-        if sink is not None:
-            return stats
-        return _concatenate(chunks, stats)
+        stats = RunStats(n_samples=S, step=h, substeps=substeps, wall_time=time.perf_counter() - start,
+                         n_nodes=self.setup.rod.n_nodes)
+        return stats if sink is not None else _concatenate(chunks, stats)
 
-    def _advance(self, st: RodState, t0, h, k0, n_steps, stride, s0, slot, out):
+    def _advance(self, st: RodState, t0: float, h: float, k0: int, n_steps: int, stride: int, s0: int,
+                 out: Samples) -> None:
         t = t0 + (k0 + np.arange(n_steps)) * h
-        ext_w, pd_target, presc_r, presc_R = self._chunk_inputs(t, h)
-        code, step = kernels.advance(
-            st.rotations, st.positions, st.velocities, st.angular_velocities, st.prev_curvature, st.prev_shear,
-            self.seg_length, self.C1, self.C2, self.D1, self.D2, self.K0, self.G0, self.mass, self.inertia,
-            self.ct, self.cr, self.gravity, self.kind, self.setup.damping.kelvin_voigt > 0,
-            h, k0, n_steps, stride, s0,
-            self.ext_idx, ext_w, self.pd_idx, pd_target, self.pd_gain, self.presc_idx, presc_r, presc_R,
-            slot, out["r"], out["q"], out["v"], out["w"], out["f"], out["t"], out["rf"], out["rt"], out["e"])
-        _raise_on_status(code, step, t0, h)
+        code, step = kernels.advance(self.rod, st.arrays(), self.inputs.at(t, h), out, h, k0, n_steps, stride, s0)
+        raise_for_status(code, step=step, t0=t0, h=h)
 
 
-def _raise_on_status(code: int, step: int, t0: float, h: float) -> None:
-    if code == kernels.OK:
-        return
-    t_fail = t0 + step * h
-    if code == kernels.DIVERGED:
-        raise SimulationError(
-            f"the simulation diverged at t = {t_fail:.6g} s (step {step}, h = {h:.3g} s): a node moved more "
-            f"than a segment or rotated more than ~28 deg in one step; use more substeps (a smaller "
-            f"safety factor) or add damping")
-    raise SimulationError(
-        f"the rotation Newton solve failed at t = {t_fail:.6g} s (step {step}, h = {h:.3g} s); "
-        f"use more substeps")
+def choose_substeps(config: RunConfig, limit: float) -> int:
+    """Solver steps per saved interval of ``config`` for the stable step ``limit`` [s]: the fewest
+    stable ones, or ``config.substeps``, refused if unstable."""
+    if config.substeps is None:
+        return max(1, math.ceil(config.dt / limit * (1 - 1e-12)))
+    h = config.dt / config.substeps
+    if h > limit:
+        need = math.ceil(config.dt / limit)
+        raise bad("dt", config.dt,
+                  f"dt/substeps = {h:.3g} s exceeds the stable step limit {limit:.3g} s of this rod; "
+                  f"use substeps >= {need} (or substeps=None to choose it automatically)")
+    return int(config.substeps)
+
+
+def save_nodes(setup: Setup, config: RunConfig) -> np.ndarray:
+    """The saved nodes (s,) int64 of a run: ``config.save_nodes`` normalised, or every node."""
+    if config.save_nodes is None:
+        return np.arange(setup.rod.n_nodes)
+    return np.array([setup.node_index(a, "save_nodes") for a in config.save_nodes], dtype=np.int64)
+
+
+def save_slots(n_nodes: int, nodes: np.ndarray) -> np.ndarray:
+    """Column of each of the n nodes in the outputs (n,) int64: slot[nodes[j]] = j, -1 if not saved."""
+    slot = np.full(n_nodes, -1, dtype=np.int64)
+    slot[nodes] = np.arange(nodes.size)
+    return slot
 
 
 def simulate(setup: Setup, config: RunConfig,

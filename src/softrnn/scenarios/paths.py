@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import bad
 from ..rod.loads import _blend, _finite, _plane_axes, _vec3
+from ..rod.so3 import hat
 
 
 @dataclass(frozen=True)
@@ -120,10 +121,7 @@ def rotation_vector_to_matrix(x: np.ndarray) -> np.ndarray:
     """Rodrigues: rotation vectors (..., 3) (axis times angle [rad]) -> matrices (..., 3, 3)."""
     x = np.asarray(x, dtype=float)
     th = np.linalg.norm(x, axis=-1)[..., None, None]
-    z = np.zeros(x.shape[:-1])
-    X = np.stack([np.stack([z, -x[..., 2], x[..., 1]], -1),
-                  np.stack([x[..., 2], z, -x[..., 0]], -1),
-                  np.stack([-x[..., 1], x[..., 0], z], -1)], -2)
+    X = hat(x)
     a = np.sinc(th / np.pi)  # sin(th)/th, 1 at 0
     b = 0.5 * np.sinc(th / (2 * np.pi)) ** 2  # (1 - cos th)/th^2, 1/2 at 0
     return np.eye(3) + a * X + b * (X @ X)

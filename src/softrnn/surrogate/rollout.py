@@ -88,6 +88,7 @@ class Rollout:
 
     @property
     def stop(self) -> int:
+        """Reference sample index one past the last row."""
         return self.first + int(self.time.shape[0])
 
     def node_positions(self, node: int, predicted_only: bool = True) -> np.ndarray:
@@ -182,6 +183,20 @@ def rollout(models, dataset, start: int | None = None, stop: int | None = None, 
     H = manip.history
     start, stop = check_span(dataset.n_samples, H, start, stop)
     first = start - H
+    state, quats, forces, torques = _seeded_state(dataset, groups, H, first, stop, unmodelled)
+    step = _engine_steps if engine and all(_compiled(g.model) for g in groups) else _python_steps
+    step(groups, state, quats, forces, torques, H=H, total=stop - start, time=dataset.time, first=first,
+         threads=threads, progress=progress)
+    return Rollout(time=np.asarray(dataset.time[first:stop], dtype=np.float64), nodes=np.asarray(dataset.nodes),
+                   positions=state, first=first, seed=H, modelled=manip.nodes, unmodelled=unmodelled)
+
+
+def _seeded_state(dataset, groups, H: int, first: int, stop: int, unmodelled: str) -> tuple:
+    """The rollout's state (T', N, 3) float32 [m], seeded with the reference's rows ``first ..
+    first+H-1``, the modelled nodes' later rows NaN (written step by step; a read before the write
+    would show), the unmodelled nodes' later rows the reference's (or their last seed pose,
+    ``"hold"``); and the reference's quaternions (T', N, 4), forces and torques (T', N, 3) of the
+    span, which the models do not predict."""
     state = np.array(dataset.positions[first:stop], dtype=np.float32, copy=True)   # (T', N, 3)
     quats = dataset.quaternions[first:stop]
     if unmodelled == "hold":
@@ -193,44 +208,53 @@ def rollout(models, dataset, start: int | None = None, stop: int | None = None, 
         state[H:, others] = state[H - 1, others]
         quats[H:, others] = quats[H - 1, others]
     state[H:, modelled_cols] = np.nan   # written step by step; a read before the write would show
-    total = stop - start
-    if engine and all(_compiled(g.model) for g in groups):
-        from .engine import engine_rollout, group_by_architecture
+    return state, quats, forces, torques
 
-        bound = group_by_architecture(groups)
-        done = 0
-        while done < total:   # chunks of 4096 steps, so progress is reported during long rollouts
-            k0 = H + done
-            k1 = min(H + total, k0 + 4096)
-            status, node, k = engine_rollout(bound, state, quats, forces, torques, k0, k1, DIVERGED_M)
-            if status:
-                _diverged(node, float(dataset.time[first + k]), first + k)
-            done = k1 - H
-            if progress is not None:
-                progress(done, total)
-        return Rollout(time=np.asarray(dataset.time[first:stop], dtype=np.float64), nodes=np.asarray(dataset.nodes),
-                       positions=state, first=first, seed=H, modelled=manip.nodes, unmodelled=unmodelled)
+
+def _engine_steps(groups, state, quats, forces, torques, *, H: int, total: int, time, first: int,
+                  threads, progress) -> None:
+    """Rows ``H .. H+total-1`` of ``state`` predicted in place by the compiled engine, in chunks of
+    4096 steps so progress is reported during long rollouts (``threads`` is not used)."""
+    from .engine import engine_rollout, group_by_architecture
+
+    bound = group_by_architecture(groups)
+    done = 0
+    while done < total:
+        k0 = H + done
+        k1 = min(H + total, k0 + 4096)
+        status, node, k = engine_rollout(bound, state, quats, forces, torques, k0, k1, DIVERGED_M)
+        if status:
+            _diverged(node, float(time[first + k]), first + k)
+        done = k1 - H
+        if progress is not None:
+            progress(done, total)
+
+
+def _python_steps(groups, state, quats, forces, torques, *, H: int, total: int, time, first: int,
+                  threads, progress) -> None:
+    """Rows ``H .. H+total-1`` of ``state`` predicted in place by one batched ``predict`` per
+    model and step, a synchronous update (every window is read before any row is written)."""
     with torch_threads(threads):
         for k in range(H, H + total):
-            outputs = []
-            for g in groups:
-                poses, wrenches = g.gather(state, quats, forces, torques, k)
-                pred = np.asarray(g.model.predict(poses, wrenches), dtype=np.float64)
-                if pred.shape != (g.nodes.size, 3):
-                    raise SimulationError(f"model ({describe_model(g.model)}) returned shape {pred.shape} for "
-                                          f"{g.nodes.size} nodes; expected ({g.nodes.size}, 3)")
-                ok = np.isfinite(pred).all(axis=1) & (np.abs(pred) <= DIVERGED_M).all(axis=1)
-                if not ok.all():
-                    _diverged(int(g.nodes[np.flatnonzero(~ok)[0]]), float(dataset.time[first + k]), first + k)
-                outputs.append(pred)
+            outputs = [_predict_group(g, state, quats, forces, torques, k, time, first) for g in groups]
             for g, pred in zip(groups, outputs):   # synchronous update: all windows were read first
                 state[k, g.target_cols] = pred
             if progress is not None and ((k - H + 1) % 256 == 0 or k == H + total - 1):
                 progress(k - H + 1, total)
-    return Rollout(time=np.asarray(dataset.time[first:stop], dtype=np.float64), nodes=np.asarray(dataset.nodes),
-                   positions=state, first=first, seed=H, modelled=manip.nodes, unmodelled=unmodelled)
 
 
+def _predict_group(g, state, quats, forces, torques, k: int, time, first: int) -> np.ndarray:
+    """The next positions (n, 3) float64 [m] of group ``g``'s n nodes at row ``k``, checked for
+    shape and divergence."""
+    poses, wrenches = g.gather(state, quats, forces, torques, k)
+    pred = np.asarray(g.model.predict(poses, wrenches), dtype=np.float64)
+    if pred.shape != (g.nodes.size, 3):
+        raise SimulationError(f"model ({describe_model(g.model)}) returned shape {pred.shape} for "
+                              f"{g.nodes.size} nodes; expected ({g.nodes.size}, 3)")
+    ok = np.isfinite(pred).all(axis=1) & (np.abs(pred) <= DIVERGED_M).all(axis=1)
+    if not ok.all():
+        _diverged(int(g.nodes[np.flatnonzero(~ok)[0]]), float(time[first + k]), first + k)
+    return pred
 
 
 # --------------------------------------------------------------------------------------- output

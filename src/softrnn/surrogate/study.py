@@ -511,14 +511,7 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
             records[(rec["units"], rec["history"])] = rec
             computed.append((rec["units"], rec["history"]))
             tick()
-    measured = [p for p in config.points if not records[p].get("bandwidth")]
-    if measured:
-        from ..io.dataset import read_dataset
-
-        dataset = read_dataset(data_path, nodes=list(spec.window_nodes))
-        for p in measured:
-            records[p] = _measure_point(out, records[p], dataset, config)
-            tick()
+    measured = _measure_missing(out, records, data_path, spec, config, tick)
 
     result = summary(config, [records[p] for p in config.points])
     result.update(data=data, out_dir=str(out), computed=[list(p) for p in sorted(computed)],
@@ -529,6 +522,21 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
     result["figure"] = str(out / FIGURE)
     result["wall_seconds"] = time.perf_counter() - t0
     return result
+
+
+def _measure_missing(out: Path, records: dict, data_path: Path, spec, config: StudyConfig, tick) -> list:
+    """Measure the bandwidths of every point of ``records`` ({(units, history): record}) that has
+    none yet, in this process (timings from parallel workers would disturb each other); updates
+    ``records`` and returns the points measured, in grid order."""
+    measured = [p for p in config.points if not records[p].get("bandwidth")]
+    if measured:
+        from ..io.dataset import read_dataset
+
+        dataset = read_dataset(data_path, nodes=list(spec.window_nodes))
+        for p in measured:
+            records[p] = _measure_point(out, records[p], dataset, config)
+            tick()
+    return measured
 
 
 @contextmanager

@@ -23,9 +23,13 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import SoftrnnInputError, bad
-from .experiment import (ExperimentConfig, camera_measure, compare, experiment_currents, measured_wrenches,
-                         orientation_dataset, static_predictions, tangents_from_rotation_vectors)
+from ...magnetics.camera import camera_measure, tangents_from_rotation_vectors
 from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, simulate_manipulator
+from .comparison import compare
+from .config import ExperimentConfig
+from .currents import experiment_currents
+from .dataset import measured_wrenches, orientation_dataset
+from .static import static_predictions
 
 N_COILS = 6
 N_MAGNETS = 2
@@ -66,6 +70,7 @@ class LabData:
 
     @property
     def n_samples(self) -> int:
+        """T, the number of samples."""
         return int(self.time.shape[0])
 
 
@@ -258,7 +263,8 @@ def write_example_csv(path, samples: int = 300, *, seed: int = 1) -> LabData:
     config = ExperimentConfig(samples=samples, seed=seed)
     write_lab_csv(path, data, comment=(
         "softrnn magnetic lab data (docs/magnetic-format.md): a simulated example, not a measurement.\n"
-        f"softrnn.experiments.magnetic.lab.write_example_csv(path, samples={samples}, seed={seed}): the perturbed 'real robot' "
+        f"softrnn.experiments.magnetic.lab.write_example_csv(path, samples={samples}, seed={seed}): "
+        "the perturbed 'real robot' "
         f"of the simulated experiment at {config.sample_rate:g} Hz,\n"
         "read by the camera model. time [s]; I0..I5 coil currents [A]; m{j}_rx,ry,rz rotation vector phi k [deg] "
         "(paper Sec. 5.2);\n"
@@ -272,7 +278,7 @@ def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, pr
     and coil layout, ``static_rod``) predicts the magnets' orientations from the currents; one LSTM
     per magnet (paper Fig. 11) trains on the first ``config.train_fraction`` of the samples and
     predicts the rest. Writes ``out_dir/table1.json``, ``out_dir/fig12.png`` and the two model
-    folders; returns the table (``experiment.compare``) with ``source``, ``wrenches_from`` and
+    folders; returns the table (``comparison.compare``) with ``source``, ``wrenches_from`` and
     ``assumptions`` added.
 
     The LSTMs' input II is the magnet wrench: the CSV's, or else computed from the currents, the
@@ -327,8 +333,9 @@ def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, pr
         "wrenches": f"input II from {source}",
         "orientation": "the CSV's rotation vectors phi k [deg] are the measurement the models are scored against",
     }
-    from ...files import atomic_write_text
     import json
+
+    from ...files import atomic_write_text
 
     atomic_write_text(out / "table1.json", json.dumps(result, indent=2, allow_nan=False) + "\n")
     return result

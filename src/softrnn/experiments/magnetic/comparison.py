@@ -1,0 +1,207 @@
+"""The comparison of paper section 5: the LSTMs (paper Fig. 11) trained and scored against the static model, Table 1."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import SoftrnnInputError
+from ...magnetics.camera import tangents_from_rotation_vectors
+from .config import AXES, FIGURE_FILE, MAGNETS, MODELS_DIR, ORIENTATION_NOTE, TABLE_FILE, ExperimentConfig
+from .figure import plot_fig12
+
+
+def _errors_deg(predicted, measured) -> list:
+    """[[max, mean] per axis] of |predicted - measured| [rad -> deg] over rows (K, 3), NaN rows left out."""
+    d = np.degrees(np.abs(np.asarray(predicted, float) - np.asarray(measured, float)))     # (K, 3)
+    d = d[np.all(np.isfinite(d), axis=1)]
+    if d.shape[0] == 0:
+        return [[None, None] for _ in AXES]
+    return [[float(d[:, c].max()), float(d[:, c].mean())] for c in range(3)]
+
+
+def _tangent_angles(orientations) -> np.ndarray:
+    """(..., 2) [deg]: the tangent's elevation above the horizontal xy-plane (bending in the vertical
+    plane, about y) and its heading in the xy-plane from +x (about z)."""
+    t = tangents_from_rotation_vectors(orientations)
+    return np.degrees(np.stack([np.arcsin(np.clip(t[..., 2], -1, 1)), np.arctan2(t[..., 1], t[..., 0])], -1))
+
+
+def _angle_errors(predicted, measured) -> dict:
+    d = np.abs(_tangent_angles(predicted) - _tangent_angles(measured))
+    d = d[np.all(np.isfinite(d), axis=1)]
+    if d.shape[0] == 0:
+        return {"elevation": [None, None], "heading": [None, None]}
+    return {name: [float(d[:, c].max()), float(d[:, c].mean())] for c, name in enumerate(("elevation", "heading"))}
+
+
+def _stepper_rate(model, dataset, steps: int = 2000) -> float:
+    """Batch-1 steps per second of the compiled ``NodeStepper`` fed the test span's rows."""
+    from ...surrogate.data import pose_rows, wrench_rows
+    from ...surrogate.engine import NodeStepper
+
+    H = int(model.spec.history)
+    rows = pose_rows(dataset, model.spec)
+    wr = wrench_rows(dataset, model.spec)
+    stepper = NodeStepper(model)
+    stepper.reset(rows[:H], wr[:H])
+    L = rows.shape[0]
+    for i in range(100):
+        stepper.step(rows[H + i % (L - H)], wr[H + i % (L - H)])
+    t0 = time.perf_counter()
+    for i in range(steps):
+        k = H + i % (L - H)
+        stepper.step(rows[k], wr[k])
+    return steps / (time.perf_counter() - t0)
+
+
+def _paper_table() -> dict:
+    from ...paper import paper_case
+
+    return paper_case("magnetic_experiment")["test_max_mean_abs_deg"]
+
+
+def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, progress=None,
+            static_info: dict | None = None, figure_title: str = "") -> dict:
+    """Train the two LSTMs (paper Fig. 11) on the first ``train_fraction`` of ``dataset``
+    (``orientation_dataset``), predict the rest one step ahead and free running, and compare with
+    the static model's ``static_orientations`` (T, 2, 3) [rad] (None: no static model) on the same
+    targets. Writes ``out_dir/models/{proximal,distal}``, ``table1.json`` and ``fig12.png``;
+    returns the table dict (see ``run_experiment``)."""
+    from ...files import atomic_write_text
+    from ...surrogate.train import TrainConfig
+
+    out = Path(out_dir)
+    measured = np.asarray(dataset.positions, dtype=np.float64)                     # (T, 2, 3) rad
+    T = measured.shape[0]
+    train = TrainConfig(epochs=config.epochs, batch_size=config.batch_size, seed=config.seed, patience=config.epochs,
+                        rollout_steps=config.rollout_steps)
+    static = None if static_orientations is None else np.asarray(static_orientations, float)
+    result = {"unit": "deg", "axes": list(AXES), "orientation": ORIENTATION_NOTE}
+    predictions, rates, train_seconds = {}, {}, 0.0
+    for m, name in enumerate(MAGNETS):
+        model, seconds = _train_magnet(dataset, m, config, train, out / MODELS_DIR / name, progress)
+        train_seconds += seconds
+        result[name], predictions[name] = _score_magnet(model, dataset, measured, m, static, out / MODELS_DIR / name)
+        rates[name] = _stepper_rate(model, dataset)
+        if progress is not None:
+            progress("evaluate", m + 1, len(MAGNETS))
+    idx = predictions["distal"]["index"]
+    motion = np.degrees(np.ptp(measured, axis=0))                                   # (2, 3) range per axis
+    bending = AXES[int(np.argmax(motion.max(axis=0)))]
+    beats, beats_max = _beats(result, AXES.index(bending)) if static is not None else (None, None)
+    result.update({
+        "paper": _paper_table(),
+        "bending_axis": bending,
+        "motion_range_deg": {name: [float(v) for v in motion[m]] for m, name in enumerate(MAGNETS)},
+        "lstm_beats_static_on_bending_axis": beats,
+        "lstm_beats_static_on_bending_axis_max": beats_max,
+        "samples": int(T),
+        "train_samples": int(math.floor(config.train_fraction * T)),
+        "test_targets": int(idx.size),
+        "test_time_s": [float(dataset.time[idx[0]]), float(dataset.time[idx[-1]])],
+        "history": config.history,
+        "static": static_info,
+        "timings": {"training_s": train_seconds,
+                    "rnn_steps_per_second": {name: float(rates[name]) for name in MAGNETS}},
+    })
+    fig = plot_fig12(np.asarray(dataset.time), measured, predictions, static, title=figure_title)
+    from ...figures import plots as plotting
+
+    plotting.save(fig, out / FIGURE_FILE)
+    result["figure"] = str(out / FIGURE_FILE)
+    atomic_write_text(out / TABLE_FILE, json.dumps(result, indent=2, allow_nan=False) + "\n")
+    return result
+
+
+def _train_magnet(dataset, m: int, config: ExperimentConfig, train, model_dir: Path, progress) -> tuple:
+    """(model, seconds): magnet ``m``'s LSTM (input I both magnets' orientations, input II its wrench)
+    trained with ``train`` (a ``TrainConfig``) and saved to ``model_dir``."""
+    from ...surrogate.data import SampleSpec
+    from ...surrogate.train import train_node_model
+
+    name = MAGNETS[m]
+    spec = SampleSpec(node=m, neighbours=(1 - m,), history=config.history, inputs="positions", wrench="wrench",
+                      train_fraction=config.train_fraction)
+    report = None if progress is None else (lambda d, n, info=None, s=f"train {name}": progress(s, d, n))
+    t0 = time.perf_counter()
+    overrides = {"lstm_units": config.lstm_units, "output": config.output}
+    model = train_node_model(dataset, spec, overrides, train, model_dir, progress=report)
+    return model, time.perf_counter() - t0
+
+
+def _score_magnet(model, dataset, measured, m: int, static, model_dir: Path) -> tuple:
+    """(Table 1 entry, predictions) of magnet ``m``'s ``model`` on the test span: errors one step
+    ahead and free running against ``measured`` (T, 2, 3) [rad], and the ``static`` model's
+    (T, 2, 3) [rad] or None on the same targets."""
+    from ...surrogate.evaluate import free_running, one_step
+    from ...surrogate.rollout import RolloutDiverged
+
+    one = one_step(model, dataset)
+    try:
+        free_pred = free_running(model, dataset).predicted
+    except RolloutDiverged:
+        free_pred = None
+    idx = one.index
+    meas = measured[idx, m]
+    entry = {"rnn": _errors_deg(one.predicted, meas),
+             "rnn_free_running": None if free_pred is None else _errors_deg(free_pred, meas),
+             "cosserat": None}
+    angles = {"rnn": _angle_errors(one.predicted, meas)}
+    if static is not None:
+        st = static[idx, m]
+        entry["cosserat"] = _errors_deg(st, meas)
+        angles["cosserat"] = _angle_errors(st, meas)
+        entry["cosserat_samples"] = int(np.all(np.isfinite(st), axis=1).sum())
+    entry["tangent_angles"] = angles
+    entry["model"] = str(model_dir)
+    entry["epochs_run"] = model.meta.get("epochs_run")
+    entry["best_epoch"] = model.meta.get("best_epoch")
+    return entry, {"index": idx, "rnn": one.predicted, "free": free_pred}
+
+
+def _beats(result: dict, axis: int) -> tuple:
+    """Per magnet, whether the LSTM's mean (first dict) and max (second) error about ``axis`` is
+    lower than the static model's."""
+    def lower(name, k):
+        r, c = result[name]["rnn"][axis][k], result[name]["cosserat"][axis][k]
+        return bool(r is not None and c is not None and r < c)
+
+    return {name: lower(name, 1) for name in MAGNETS}, {name: lower(name, 0) for name in MAGNETS}
+
+
+def format_table(result: dict) -> list[str]:
+    """Table 1 beside the paper's as text lines: per magnet and model, (max, mean) [deg] about x, y, z."""
+    def cell(v):
+        return "-" if v is None or v[0] is None else f"({v[0]:.2f}, {v[1]:.2f})"
+
+    lines = [f"{'':34}{'x-axis':>18}{'y-axis':>18}{'z-axis':>18}"]
+    for name in ("distal", "proximal"):
+        lines.append(f"{name} magnet")
+        rows = [("LSTM (one step ahead)", result[name]["rnn"]),
+                ("LSTM (free running)", result[name].get("rnn_free_running")),
+                ("static Cosserat model", result[name].get("cosserat")),
+                ("paper: RNN-based model", result["paper"][name]["rnn"]),
+                ("paper: Cosserat rod model", result["paper"][name]["cosserat"])]
+        for label, table in rows:
+            cells = ["-"] * 3 if table is None else [cell(v) for v in table]
+            lines.append(f"  {label:32}" + "".join(f"{c:>18}" for c in cells))
+    return lines
+
+
+def check_result_shape(result: dict) -> None:
+    """Raise ``SoftrnnInputError`` unless ``result`` has the documented Table 1 shape (tests, reproduce)."""
+    for name in MAGNETS:
+        for model in ("rnn", "cosserat"):
+            table = result.get(name, {}).get(model)
+            if table is None and model == "cosserat":
+                continue
+            ok = isinstance(table, list) and len(table) == 3 and all(
+                isinstance(v, list) and len(v) == 2 and all(isinstance(x, float) for x in v) for v in table)
+            if not ok:
+                raise SoftrnnInputError(f"result[{name!r}][{model!r}]={table!r} is invalid: expected [[max, mean] "
+                                        f"per axis x, y, z] in degrees")

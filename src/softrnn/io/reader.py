@@ -1,0 +1,204 @@
+"""Reading trajectories: the ``Dataset`` of one trajectory, and reading (part of) one from a file, checked."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SoftrnnInputError, bad
+from ._checks import _check_values, _inspect, _layout, _select
+from ._h5files import _Reading
+from .schema import _WIDTH, FIELDS, DatasetError, _node_list, _to_float32
+
+
+@dataclass(frozen=True, eq=False)
+class Dataset:
+    """One trajectory as stored (or read back): T samples of N nodes.
+
+    Parameters
+    ----------
+    time : ndarray (T,) float64
+        Sample times [s], strictly increasing.
+    nodes : ndarray (N,) int64
+        0-based rod node index of each column.
+    positions : ndarray (T, N, 3) float32
+        Node positions [m], world frame.
+    quaternions : ndarray (T, N, 4) float32
+        Unit quaternions (w, x, y, z), body -> world. Identity placeholders where the source had
+        no orientations (``attrs["has_orientations"] is False``, CSV imports).
+    forces : ndarray (T, N, 3) float32
+        Applied external forces [N], world frame.
+    torques : ndarray (T, N, 3) float32
+        Applied external torques [N m], world frame.
+    attrs : dict
+        ``schema_version``, ``softrnn_version``, ``units`` (dict), ``rod`` (dict or None),
+        ``scenario_text``, ``seed`` (int or None), ``dt`` [s], ``n_nodes_total`` and every key the
+        writer was given in ``attrs=``.
+
+    Notes
+    -----
+    Arrays are converted to these dtypes on construction (a copy only where needed; inputs are
+    never modified); the file reader also checks finiteness and unit quaternions.
+    """
+
+    time: np.ndarray
+    nodes: np.ndarray
+    positions: np.ndarray
+    quaternions: np.ndarray
+    forces: np.ndarray
+    torques: np.ndarray
+    attrs: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        time = np.asarray(self.time, dtype=np.float64)
+        nodes = np.asarray(self.nodes)
+        if time.ndim != 1:
+            raise bad("time", f"array of shape {time.shape}", "a 1-D array of sample times (T,) in s")
+        if nodes.ndim != 1 or (nodes.size and not np.issubdtype(nodes.dtype, np.integer)):
+            raise bad("nodes", f"{nodes.dtype} array of shape {nodes.shape}", "a 1-D array of node indices (N,)")
+        object.__setattr__(self, "time", time)
+        object.__setattr__(self, "nodes", nodes.astype(np.int64, copy=False))
+        T, N = time.shape[0], nodes.shape[0]
+        for name in FIELDS:
+            value = getattr(self, name)
+            arr = np.asarray(value)
+            if arr.shape != (T, N, _WIDTH[name]):
+                raise bad(name, f"array of shape {arr.shape}",
+                          f"shape (T, N, {_WIDTH[name]}) = {(T, N, _WIDTH[name])} to match time (T={T}) "
+                          f"and nodes (N={N})")
+            object.__setattr__(self, name, _to_float32(arr))
+        if not isinstance(self.attrs, dict):
+            raise bad("attrs", type(self.attrs).__name__, "a dict")
+
+    @property
+    def n_samples(self) -> int:
+        """T."""
+        return int(self.time.shape[0])
+
+    @property
+    def n_nodes(self) -> int:
+        """N, the stored nodes."""
+        return int(self.nodes.shape[0])
+
+    @property
+    def dt(self) -> float:
+        """Nominal sample interval [s]: ``attrs['dt']``, else the median step of ``time``."""
+        if "dt" in self.attrs:
+            return float(self.attrs["dt"])
+        return float(np.median(np.diff(self.time))) if self.n_samples > 1 else 0.0
+
+    @property
+    def has_orientations(self) -> bool:
+        """False where the quaternions are identity placeholders (a CSV without orientations)."""
+        return bool(self.attrs.get("has_orientations", True))
+
+    def column(self, node: int) -> int:
+        """Column of rod node ``node`` (negative: counted from the rod's end, as in ``Setup``)."""
+        return _columns(self.nodes, [node], self.attrs.get("n_nodes_total"), "dataset")[0]
+
+    def rod_spec(self):
+        """The ``softrnn.rod.RodSpec`` in ``attrs['rod']``, or None if absent or partial (lab data)."""
+        from ..rod.spec import NodeOverride, RodSpec
+
+        rod = self.attrs.get("rod")
+        if not isinstance(rod, dict):
+            return None
+        try:
+            values = dict(rod)
+            values["overrides"] = tuple(NodeOverride(**o) for o in values.get("overrides", ()))
+            return RodSpec(**values)
+        except (TypeError, SoftrnnInputError):
+            return None
+
+
+def _columns(stored: np.ndarray, wanted, n_total, where) -> list[int]:
+    """Columns of the node indices ``wanted`` in ``stored`` (negative: from the rod's end)."""
+    lookup = {int(a): j for j, a in enumerate(stored)}
+    total = int(n_total) if n_total is not None else (int(stored.max()) + 1 if stored.size else 0)
+    cols = []
+    for node in wanted:
+        if isinstance(node, bool) or not isinstance(node, (int, np.integer)):
+            raise bad("node", node, "an integer node index")
+        a = int(node) + total if node < 0 else int(node)
+        if a not in lookup:
+            shown = _node_list(stored)
+            raise DatasetError(f"{where}: node {int(node)} is not stored (stored nodes: {shown}); "
+                               f"pass one of those node indices")
+        cols.append(lookup[a])
+    return cols
+
+
+def read_dataset(path, *, nodes=None, group: str | None = None, start: int | None = None,
+                 stop: int | None = None) -> Dataset:
+    """Read (part of) a trajectory, checking the layout, shapes, dtypes and values.
+
+    Parameters
+    ----------
+    path : str or Path
+        A softrnn HDF5 file.
+    nodes : sequence of int or None
+        Rod node indices to read (negative: from the rod's end), in the order wanted; only those
+        columns are read from disk. None: all stored nodes.
+    group : str or None
+        The trajectory of a sweep file (one of ``list_groups(path)``); None or '/' for a
+        single-trajectory file.
+    start, stop : int or None
+        Sample range ``start:stop`` (Python slice rules, negative from the end).
+
+    Returns
+    -------
+    Dataset
+        Arrays in the stored dtypes (time float64, nodes int64, the rest float32) and the attrs.
+
+    Raises
+    ------
+    DatasetError
+        One line naming the file and the problem: missing file, not HDF5, truncated or corrupt, not
+        a softrnn dataset, newer schema, missing or malformed dataset/attribute, non-finite values.
+    """
+    path = Path(path)
+    for name, value in (("start", start), ("stop", stop)):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer))):
+            raise bad(name, value, "an integer sample index or None")
+    if nodes is not None and (isinstance(nodes, (int, np.integer, str)) or not hasattr(nodes, "__iter__")):
+        raise bad("nodes", nodes, "a list of node indices (use read_node for one node) or None")
+    with _Reading(path) as f:
+        g, where = _select(f, path, group)
+        T, N, attrs = _layout(g, path, where)
+        stored = g["nodes"][...]
+        a, b, _ = slice(start, stop).indices(T)
+        b = max(a, b)
+        time = g["time"][a:b]
+        if nodes is None:
+            cols = None
+            arrays = {name: g[name][a:b] for name in FIELDS}
+        else:
+            cols = _columns(stored, list(nodes), attrs["n_nodes_total"], str(path))
+            arrays = {}
+            for name in FIELDS:
+                out = np.empty((b - a, len(cols), _WIDTH[name]), dtype=np.float32)
+                for j, c in enumerate(cols):
+                    out[:, j] = g[name][a:b, c, :]
+                arrays[name] = out
+        _check_values(path, where, time, stored, arrays, a)
+    sel = stored if cols is None else stored[cols]
+    return Dataset(time=time, nodes=sel, attrs=attrs, **arrays)
+
+
+def read_node(path, node: int, *, group: str | None = None) -> Dataset:
+    """One node's whole series (N = 1), reading only that node's chunks from disk."""
+    if isinstance(node, bool) or not isinstance(node, (int, np.integer)):
+        raise bad("node", node, "an integer node index")
+    return read_dataset(path, nodes=[int(node)], group=group)
+
+
+def list_groups(path) -> list[str]:
+    """The trajectories in ``path``, as values for ``group=``.
+
+    A single-trajectory file gives ``['/']``; a sweep file gives its groups sorted by name
+    (``['/traj-00000', '/traj-00001', ...]``, possibly empty). So
+    ``for g in list_groups(p): read_dataset(p, group=g)`` works for both kinds.
+    """
+    return list(_inspect(path)["groups"])

@@ -1,0 +1,108 @@
+"""The HDF5 file format of a trajectory, schema 1: constants, units, the error type and shared helpers.
+
+The format is documented in docs/dataset-format.md.
+
+One trajectory is a group (the file's root, or ``/traj-00000`` ... in a sweep file) holding
+
+========== ============ ======= =====================================================
+dataset    shape        dtype   meaning
+========== ============ ======= =====================================================
+time       (T,)         float64 sample times [s], strictly increasing
+nodes      (N,)         int64   0-based rod node index of each stored column
+positions  (T, N, 3)    float32 node positions [m], world frame
+quaternions(T, N, 4)    float32 unit quaternions (w, x, y, z), body -> world
+forces     (T, N, 3)    float32 applied external forces [N], world frame
+torques    (T, N, 3)    float32 applied external torques [N m], world frame
+========== ============ ======= =====================================================
+
+and the attributes ``softrnn_schema``, ``softrnn_version``, ``dt``, ``seed`` (absent when there is
+none), ``rod`` (JSON), ``scenario`` (text), ``units`` (JSON), ``n_nodes_total`` and ``attrs`` (JSON,
+the caller's own metadata). The per-node arrays are chunked ``(TIME_CHUNK, 1, c)`` and compressed
+(gzip level 4 with byte shuffle, Fletcher-32 checksums), so one node's series is read without
+touching the other nodes' chunks.
+
+Writes are atomic: data goes to ``<path>.tmp-XXXX`` in the same folder and is renamed onto ``path``
+only when the trajectory is complete; a failed or interrupted write leaves no file at ``path`` (and
+the previous file, if any, unchanged). Every problem with a file is a one-line ``DatasetError``
+naming the file, what is wrong and what to do.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SoftrnnInputError, bad
+
+SCHEMA_VERSION = 1
+"""Version of the file layout; readers refuse files with a newer one."""
+
+TIME_CHUNK = 4096
+"""Samples per HDF5 chunk along time (the simulator's chunk length; docs/dataset-format.md#size)."""
+
+COMPRESSION = {"compression": "gzip", "compression_opts": 4, "shuffle": True, "fletcher32": True}
+"""HDF5 filters of every chunked dataset: gzip level 4 after a byte shuffle, with checksums."""
+
+POSITION_LIMIT_M = 16.0
+"""Largest |coordinate| accepted [m]: float32 rounds a coordinate x by at most 2^-24 |x|, so positions
+below 16 m are stored to better than 1e-6 m (1 micrometre)."""
+
+QUATERNION_TOLERANCE = 1e-5
+"""Largest accepted | |q| - 1 | of a stored quaternion (float32 rounding itself gives < 2.4e-7)."""
+
+FIELDS = ("positions", "quaternions", "forces", "torques")
+_WIDTH = {"positions": 3, "quaternions": 4, "forces": 3, "torques": 3}
+UNITS = {"time": "s", "positions": "m", "quaternions": "1 (unit, scalar first w x y z, body to world)",
+         "forces": "N", "torques": "N m"}
+_DESCRIPTION = {
+    "time": "sample times, strictly increasing",
+    "nodes": "0-based rod node index of each stored column",
+    "positions": "node positions, world frame",
+    "quaternions": "node orientations as unit quaternions (w, x, y, z), body to world",
+    "forces": "applied external forces, world frame",
+    "torques": "applied external torques, world frame",
+}
+RESERVED_ATTRS = ("schema_version", "softrnn_version", "units", "rod", "scenario_text", "seed", "dt",
+                  "n_nodes_total")
+SWEEP_PREFIX = "traj-"
+_REQUIRED_ATTRS = ("softrnn_schema", "softrnn_version", "dt", "rod", "scenario", "units", "n_nodes_total", "attrs")
+
+
+class DatasetError(SoftrnnInputError):
+    """A dataset file (or data written to one) that cannot be used; the message is one line:
+    ``<path>: what is wrong; what to do``."""
+
+
+def _one_line(text) -> str:
+    return " ".join(str(text).split())
+
+
+def _group_name(group: str) -> str:
+    if not isinstance(group, str) or not group.strip("/") or "/" in group.strip("/") or group.startswith("/."):
+        raise bad("group", group, "a group name such as 'traj-00000' (see list_groups)")
+    return group.strip("/")
+
+
+def _to_float32(arr: np.ndarray) -> np.ndarray:
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        return np.asarray(arr, dtype=np.float32)
+
+
+def _node_list(nodes) -> str:
+    nodes = [int(a) for a in nodes]
+    if nodes and nodes == list(range(nodes[0], nodes[-1] + 1)) and len(nodes) > 3:
+        return f"{nodes[0]}..{nodes[-1]}"
+    if len(nodes) > 12:
+        return ", ".join(map(str, nodes[:10])) + f", ... ({len(nodes)} nodes)"
+    return ", ".join(map(str, nodes))
+
+
+def _short(value):
+    """``value`` itself, or a shortened text of it when its repr is long (for error messages)."""
+    text = repr(value.tolist() if isinstance(value, np.ndarray) else value)
+    return value if len(text) <= 80 else _Text(text[:70] + " ...")
+
+
+class _Text(str):
+    def __repr__(self):
+        return str(self)
+

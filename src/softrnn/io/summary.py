@@ -1,0 +1,105 @@
+"""Summaries of dataset files (``softrnn show``): layout, time axis, storage, per-node ranges, every value checked."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ._checks import _check_values, _layout, _root_info, _select
+from ._h5files import _Reading
+from .reader import read_dataset
+from .schema import FIELDS, TIME_CHUNK, DatasetError
+
+
+def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool = True) -> dict:
+    """Summary of a dataset file for ``softrnn show``.
+
+    Parameters
+    ----------
+    path : str or Path
+    group : str or None
+        Trajectory to summarise in a sweep file (default: its first).
+    max_nodes : int
+        How many nodes get per-node ranges (first, middle, last).
+    verify : bool
+        Also read the whole trajectory, block by block (bounded memory), and check every value
+        (finite, unit quaternions, readable chunks). False: read only the time axis and the
+        summarised nodes.
+
+    Returns
+    -------
+    dict (JSON-ready)
+        ``path``, ``file_size_bytes``, ``kind``, ``groups``, ``group``, ``n_samples``, ``n_nodes``,
+        ``n_nodes_total``, ``nodes``, ``time_start_s``, ``time_end_s``, ``duration_s``, ``dt_s``,
+        ``dt_uniform`` (every step within 1e-6 dt of dt), ``stored_values`` (all arrays of all groups),
+        ``bytes_per_value`` (file size / stored values), ``storage`` (per array: dtype, chunks,
+        compression, stored bytes), ``node_ranges`` (per summarised node: position min/max [m],
+        max |force| [N], max |torque| [N m]), ``verified`` and ``attrs``.
+    """
+    path = Path(path)
+    with _Reading(path) as f:
+        info = _root_info(f, path)
+        if group in (None, "", "/") and info["kind"] == "sweep":
+            if not info["groups"]:
+                raise DatasetError(f"{path}: the sweep holds no trajectories")
+            group = info["groups"][0]
+        g, where = _select(f, path, group)
+        T, N, attrs = _layout(g, path, where)
+        stored = g["nodes"][...]
+        time = g["time"][...]
+        total_values = sum(_stored_values(f[gname]) for gname in info["groups"])
+        if verify:
+            _verify(g, path, where, time, stored)
+        storage = {name: _storage(g[name]) for name in ("time", "nodes") + FIELDS}
+    size = path.stat().st_size
+    picks = sorted({0, N // 2, N - 1})[:max_nodes]
+    ranges = _node_ranges(read_dataset(path, nodes=[int(stored[j]) for j in picks], group=where))
+    _check_values(path, where, time, stored, {}, 0)
+    dt = attrs["dt"]
+    steps = np.diff(time)
+    return {
+        "path": str(path), "file_size_bytes": int(size), "kind": info["kind"], "groups": info["groups"],
+        "group": where, "n_samples": int(T), "n_nodes": int(N), "n_nodes_total": attrs["n_nodes_total"],
+        "nodes": stored.tolist(), "time_start_s": float(time[0]), "time_end_s": float(time[-1]),
+        "duration_s": float(time[-1] - time[0]), "dt_s": dt,
+        "dt_uniform": bool(steps.size == 0 or np.max(np.abs(steps - dt)) <= 1e-6 * dt),
+        "stored_values": int(total_values), "bytes_per_value": size / max(total_values, 1),
+        "storage": storage, "node_ranges": ranges, "verified": bool(verify), "attrs": attrs,
+    }
+
+
+def _stored_values(g) -> int:
+    """Values stored in the arrays of trajectory group ``g``."""
+    return sum(int(g[n].size) for n in ("time", "nodes") + FIELDS if n in g)
+
+
+def _verify(g, path: Path, where: str, time, stored) -> None:
+    """Read every array of group ``g`` block by block (``TIME_CHUNK`` samples: bounded memory) and
+    check every value (``_check_values``)."""
+    step = max(1, TIME_CHUNK)
+    for a in range(0, time.shape[0], step):
+        block = {name: g[name][a:a + step] for name in FIELDS}
+        _check_values(path, where, time[a:a + step], stored, block, a)
+
+
+def _storage(ds) -> dict:
+    """How HDF5 dataset ``ds`` is stored: dtype, shape, chunks, filters and bytes on disk."""
+    return {"dtype": ds.dtype.name, "shape": list(ds.shape), "chunks": list(ds.chunks) if ds.chunks else None,
+            "compression": ds.compression, "compression_opts": ds.compression_opts,
+            "shuffle": bool(ds.shuffle), "stored_bytes": int(ds.id.get_storage_size())}
+
+
+def _node_ranges(part) -> list[dict]:
+    """Per node of the ``Dataset`` ``part``: its position min/max [m] per axis (3,), and its
+    largest |force| [N] and |torque| [N m]."""
+    ranges = []
+    for j in range(part.n_nodes):
+        p = part.positions[:, j].astype(np.float64)
+        ranges.append({
+            "node": int(part.nodes[j]),
+            "position_min_m": p.min(axis=0).tolist(), "position_max_m": p.max(axis=0).tolist(),
+            "max_force_n": float(np.linalg.norm(part.forces[:, j].astype(np.float64), axis=1).max()),
+            "max_torque_nm": float(np.linalg.norm(part.torques[:, j].astype(np.float64), axis=1).max()),
+        })
+    return ranges

@@ -1,0 +1,79 @@
+"""Sweep files and folders: many trajectories in one file (one group each) or in a folder of files."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from .. import __version__
+from ..errors import bad
+from ._h5files import _h5open, _Reading, _temp_path
+from .reader import list_groups, read_dataset
+from .schema import FIELDS, SCHEMA_VERSION, SWEEP_PREFIX, DatasetError
+
+
+def sweep_group_name(index: int) -> str:
+    """Name of the ``index``-th trajectory of a sweep file: ``traj-00000``, ``traj-00001``, ..."""
+    return f"{SWEEP_PREFIX}{int(index):05d}"
+
+
+def trajectories(path) -> list[tuple[Path, str]]:
+    """Every trajectory under ``path`` as (file, group) pairs: a file (single or sweep) or a folder
+    of ``*.h5`` files (sorted by name; not recursive)."""
+    path = Path(path)
+    files = sorted(path.glob("*.h5")) if path.is_dir() else [path]
+    return [(f, g) for f in files for g in list_groups(f)]
+
+
+def merge_files(paths, out_path) -> None:
+    """Combine trajectory files into one sweep file, one group each (``traj-00000``, ... in order).
+
+    Parameters
+    ----------
+    paths : folder, or sequence of files
+        A folder means its ``*.h5`` files sorted by name. Sweep files contribute all their groups.
+    out_path : str or Path
+        The sweep file, written atomically (not one of the inputs).
+
+    Notes
+    -----
+    Every input is read and validated first; the chunks are then copied without recompression.
+    """
+    out_path = Path(out_path)
+    if isinstance(paths, (str, os.PathLike)) and Path(paths).is_dir():
+        files = sorted(Path(paths).glob("*.h5"))
+        if not files:
+            raise DatasetError(f"{paths}: the folder holds no *.h5 files to merge")
+    elif isinstance(paths, (str, os.PathLike)):
+        files = [Path(paths)]
+    else:
+        files = [Path(p) for p in paths]
+    if not files:
+        raise bad("paths", paths, "a folder of .h5 files or a non-empty list of files")
+    if any(f.resolve() == out_path.resolve() for f in files):
+        raise bad("out_path", str(out_path), "a file that is not one of the inputs")
+    sources = []
+    for f in files:
+        for g in list_groups(f):
+            read_dataset(f, group=g)  # full validation before anything is written
+            sources.append((f, g))
+    tmp = _temp_path(out_path)
+    try:
+        with _h5open(tmp, "w") as out:
+            out.attrs["softrnn_schema"] = SCHEMA_VERSION
+            out.attrs["softrnn_version"] = __version__
+            out.attrs["kind"] = "sweep"
+            for i, (f, g) in enumerate(sources):
+                with _Reading(f) as src:
+                    grp = src[g]
+                    dst = out.create_group(sweep_group_name(i))
+                    for key, value in grp.attrs.items():
+                        if key != "kind":
+                            dst.attrs[key] = value
+                    for name in ("time", "nodes") + FIELDS:
+                        src.copy(grp[name], dst, name=name)
+        os.replace(tmp, out_path)
+    except BaseException:
+        if tmp.exists():
+            tmp.unlink()
+        raise

@@ -1,0 +1,138 @@
+"""Reproduce step: the whole manipulator with one shared model (paper Fig. 2C, beyond the paper),
+trained on the semicircle's training span, every interior node run free on the test span; errors by
+horizon and the speed of one ``ManipulatorStepper`` step."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .stepfiles import load_step, save_step
+
+MANIPULATOR = {
+    "case": "semicircle",
+    "pool": (2, 98),            # interior nodes sharing the model (inclusive); 0, 1, 99, 100 follow the data
+    "neighbours": (-2, -1, 1, 2),
+    "architecture": {"lstm_layers": 1, "lstm_units": 16, "dense_units": (16,), "wrench_dense": (8,),
+                     "relative": True},
+    "train": {"epochs": 15, "rollout_steps": 1, "input_noise": 0.5},
+    "quick_train": {"epochs": 3, "rollout_steps": 1, "input_noise": 0.5, "max_train_windows": 3000},
+    "horizons_s": (0.001, 0.01, 0.1),
+}
+"""The whole-manipulator model (beyond the paper): one compact LSTM shared by the interior nodes.
+Two neighbours on each side: the bending moments that move a node depend on the curvature at its
+neighbours, which needs the nodes two away. Relative inputs make the model independent of where a
+node sits; input noise (offsets of the node's own history) teaches it to pull a drifted node back."""
+
+
+def _train_shared(ds, out: Path, quick: bool, progress_factory):
+    """The shared model trained (or resumed) on the pooled interior nodes of ``ds``: (model, pool,
+    the reference node in the middle of the pool, training seconds)."""
+    from ..surrogate.data import SampleSpec
+    from ..surrogate.train import TrainConfig, train_node_model
+
+    cfg = MANIPULATOR
+    n = int(ds.nodes.size)
+    pool = tuple(range(cfg["pool"][0], min(cfg["pool"][1], n - 3) + 1))
+    ref_node = pool[len(pool) // 2]
+    spec = SampleSpec(node=ref_node, neighbours=tuple(ref_node + o for o in cfg["neighbours"]), wrench="force")
+    train = TrainConfig(**(cfg["quick_train"] if quick else cfg["train"]))
+    folder = out / "models" / "manipulator"
+    progress = progress_factory("train shared model") if progress_factory else None
+    bar = None if progress is None else (lambda d, t, info=None: progress(d, t))
+    t0 = time.perf_counter()
+    model = train_node_model(ds, spec, dict(cfg["architecture"]), train, folder, resume=True, progress=bar,
+                             pool=pool)
+    return model, pool, ref_node, time.perf_counter() - t0
+
+
+def _describe(model, ds, pool: tuple, ref_node: int, train_s: float, quick: bool, start: int, stop: int) -> dict:
+    """The step's settings: the pool, the architecture, the training and the test span."""
+    cfg = MANIPULATOR
+    return {"case": cfg["case"], "pool": [pool[0], pool[-1]], "modelled_nodes": len(pool),
+            "unmodelled": "nodes 0, 1 and the last two follow the data (clamps and their neighbours)",
+            "neighbour_offsets": list(cfg["neighbours"]), "architecture": {
+                k: list(v) if isinstance(v, tuple) else v for k, v in cfg["architecture"].items()},
+            "train": {"windows": model.meta["train_windows"], "seconds": train_s,
+                      "best_validation_loss": model.meta["best_validation_loss"],
+                      **{k: v for k, v in (cfg["quick_train"] if quick else cfg["train"]).items()}},
+            "test_span_s": [float(ds.time[start]), float(ds.time[stop - 1])], "node": ref_node}
+
+
+def _horizon_errors(r, ds, pool: tuple, ref_node: int, start: int, stop: int) -> tuple[dict, list]:
+    """Errors of the free run ``r`` by horizon (the reference node's and all modelled nodes' in mm),
+    and the error of holding the reference node at its first test position (mm per axis)."""
+    from ..surrogate.evaluate import metrics
+
+    length = float(ds.attrs["rod"]["length"])
+    pred = r.positions[r.seed:].astype(np.float64)                       # (T', N, 3)
+    ref = np.asarray(ds.positions[start:stop], np.float64)               # (T', N, 3)
+    cols = [int(np.flatnonzero(ds.nodes == a)[0]) for a in pool]
+    j = int(np.flatnonzero(ds.nodes == ref_node)[0])
+    dt = float(ds.dt)
+    horizons = {}
+    for h in (*MANIPULATOR["horizons_s"], None):
+        k = pred.shape[0] if h is None else max(1, min(pred.shape[0], int(round(h / dt))))
+        m = metrics(pred[:k, j], ref[:k, j], length)
+        all_nodes = np.abs(pred[:k, cols] - ref[:k, cols]).max(axis=(0, 1)) * 1e3
+        horizons["test_span" if h is None else f"{h:g}s"] = {
+            "steps": k, "node_max_abs_mm": m.max_abs_mm.tolist(), "node_mean_abs_mm": m.mean_abs_mm.tolist(),
+            "node_max_pct_of_length": m.max_pct_of_length.tolist(), "all_nodes_max_abs_mm": all_nodes.tolist()}
+    hold = np.abs(ref[:, j] - ref[0:1, j]).max(axis=0) * 1e3
+    return horizons, hold.tolist()
+
+
+def _stepper_speed(manip, ds, start: int) -> list[dict]:
+    """The speed of the trained manipulator in a control loop: one ``ManipulatorStepper.step`` per
+    sample, median microseconds after a warm-up, on one thread and on numba's thread count."""
+    import numba
+
+    from ..surrogate.engine import ManipulatorStepper
+
+    speeds = []
+    for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+        st = ManipulatorStepper(manip, ds.nodes, threads=threads)
+        wcols = [int(np.flatnonzero(ds.nodes == a)[0]) for a in st.modelled]
+        f = np.asarray(ds.forces[start - 2:start + 2000], np.float32)[:, wcols]
+        st.reset(ds.positions[start - 2:start], f[:2])
+        times = []
+        for k in range(2, f.shape[0]):
+            t = time.perf_counter_ns()
+            st.step(f[k])
+            times.append(time.perf_counter_ns() - t)
+        if not times:
+            continue
+        med = float(np.median(times[min(100, len(times) // 2):])) * 1e-3   # after a warm-up
+        speeds.append({"median_us": med, "hz_median": 1e6 / med, "modelled_nodes": len(st.modelled),
+                       "threads": threads})
+    return speeds
+
+
+def manipulator_step(out: Path, quick: bool, progress_factory=None) -> dict:
+    """Train the shared whole-manipulator model on the semicircle's training span and run every
+    interior node free on the test span (paper Fig. 2C); errors by horizon, speed."""
+    from ..io.dataset import read_dataset
+    from ..surrogate.rollout import Manipulator, RolloutDiverged, rollout
+
+    step_file = out / "models" / "manipulator.json"
+    done = load_step(step_file, quick)
+    if done is not None:
+        return done
+    ds = read_dataset(out / "data" / f"{MANIPULATOR['case']}.h5")
+    model, pool, ref_node, train_s = _train_shared(ds, out, quick, progress_factory)
+    manip = Manipulator.of([], shared=model, shared_nodes=pool)
+    start = int(model.meta["test_span"][0])
+    stop = ds.n_samples
+    result = _describe(model, ds, pool, ref_node, train_s, quick, start, stop)
+    t = time.perf_counter()
+    try:
+        r = rollout(manip, ds, start=start, stop=stop)
+        result["rollout_s"] = time.perf_counter() - t
+    except RolloutDiverged as err:
+        result["diverged"] = str(err)
+        return save_step(step_file, result, quick)
+    result["errors"], result["hold_baseline_node_max_abs_mm"] = _horizon_errors(r, ds, pool, ref_node, start, stop)
+    result["stepper"] = _stepper_speed(manip, ds, start)
+    return save_step(step_file, result, quick)

@@ -1,0 +1,75 @@
+"""The time-dependent inputs of a setup (nodal loads, PD targets, prescribed boundary motions)
+evaluated chunk by chunk into the kernels' ``StepInputs`` record."""
+
+import numpy as np
+
+from .boundary import Clamp
+from .kernels import StepInputs
+from .loads import PDTracking
+
+
+class SetupInputs:
+    """A ``softrnn.rod.Setup``'s inputs, sorted once by kind and node.
+
+    Attributes
+    ----------
+    ext_idx : (m,) int64       nodes with ``NodalLoad`` entries, increasing
+    pd_idx : (p,) int64        nodes of the ``PDTracking`` entries, in the setup's order
+    pd_gain : (p, 2)           their stiffness [N/m] and damping [N s/m]
+    presc_idx : (q,) int64     nodes whose Clamp/Pin carries a motion/path, in the setup's order
+    """
+
+    def __init__(self, setup):
+        presc, ext, pd = [], {}, []
+        for bc in setup.boundary:
+            if (bc.motion if isinstance(bc, Clamp) else bc.path) is not None:
+                presc.append((setup.node_index(bc.node), bc))
+        for load in setup.loads:
+            a = setup.node_index(load.node)
+            if isinstance(load, PDTracking):
+                pd.append((a, load))
+            else:
+                ext.setdefault(a, []).append(load)
+        self._presc, self._ext, self._pd = presc, ext, pd
+        self.presc_idx = np.array([a for a, _ in presc], dtype=np.int64)
+        self.ext_idx = np.array(sorted(ext), dtype=np.int64)
+        self.pd_idx = np.array([a for a, _ in pd], dtype=np.int64)
+        self.pd_gain = np.array([[p.stiffness, p.damping] for _, p in pd], dtype=float).reshape(-1, 2)
+
+    def step_bytes(self) -> int:
+        """Bytes of per-step inputs a chunk holds (times, loads, PD targets, prescribed poses and
+        the load functions' temporaries)."""
+        return 8 * (4 + 15 * self.ext_idx.size + 6 * len(self._pd) + 12 * len(self._presc))
+
+    def prescribed(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Prescribed positions (K, q, 3) [m] and rotations (K, q, 3, 3) at times t (K,) [s]
+        (identity rotations for pinned nodes)."""
+        q = len(self._presc)
+        pos = np.zeros((t.size, q, 3))
+        rot = np.broadcast_to(np.eye(3), (t.size, q, 3, 3)).copy()
+        for j, (_, bc) in enumerate(self._presc):
+            if isinstance(bc, Clamp):
+                p, R = bc.motion(t)
+                pos[:, j] = p
+                rot[:, j] = R
+            else:
+                pos[:, j] = bc.path(t)
+        return pos, rot
+
+    def at(self, t: np.ndarray, h: float) -> StepInputs:
+        """The inputs of the steps at times t (K,) [s]: loads at t, prescribed poses at t and t + h."""
+        K = t.size
+        ext_w = np.zeros((K, self.ext_idx.size, 12))
+        for j, a in enumerate(self.ext_idx):
+            for load in self._ext[a]:
+                off = 0 if load.frame == "world" else 6
+                if load.force is not None:
+                    ext_w[:, j, off:off + 3] += load.force(t)
+                if load.torque is not None:
+                    ext_w[:, j, off + 3:off + 6] += load.torque(t)
+        pd_target = np.zeros((K, len(self._pd), 3))
+        for j, (_, p) in enumerate(self._pd):
+            pd_target[:, j] = p.target(t)
+        presc_r, presc_R = self.prescribed(np.concatenate([t, [t[-1] + h]]))
+        return StepInputs(ext_idx=self.ext_idx, ext_w=ext_w, pd_idx=self.pd_idx, pd_target=pd_target,
+                          pd_gain=self.pd_gain, presc_idx=self.presc_idx, presc_r=presc_r, presc_R=presc_R)
