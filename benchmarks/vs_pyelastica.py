@@ -424,7 +424,7 @@ def machine_info() -> dict:
     import numba
 
     try:
-        from softrnn.bench.simulator import machine_info as softrnn_machine
+        from softrnn.timing import machine_info as softrnn_machine
         info = softrnn_machine()
     except ImportError:  # pragma: no cover - older checkouts
         info = {"platform": platform.platform(), "python": platform.python_version(), "numpy": np.__version__,
@@ -481,7 +481,8 @@ def run_benchmark(quick: bool = False, progress=None, elements=RESOLUTIONS) -> d
         },
         "resolutions": resolutions,
         "goals": dict(GOALS),
-        "settings": {"quick": quick, "reps": reps, "elements": list(elements), "numba_threads": 1, "pyelastica_factors": list(PYELASTICA_FACTORS),
+        "settings": {"quick": quick, "reps": reps, "elements": list(elements), "numba_threads": 1,
+                     "pyelastica_factors": list(PYELASTICA_FACTORS),
                      "elapsed_s": time.perf_counter() - started, "load_average_start": load_start,
                      "load_average_end": _load(), "date": time.strftime("%Y-%m-%d %H:%M:%S %z")},
     }
@@ -534,7 +535,8 @@ def format_table(result: dict) -> str:
                 r = e[code][name]
                 err = f"{100 * r['error']:+.3f}%" if r.get("stable") else "unstable"
                 lines.append(
-                    f"  {n:>8}  {name:<12}{code:<11}{r['step_s']:>10.3e}{r['step_s'] / dx:>8.4f}{r['us_per_step']:>9.2f}"
+                    f"  {n:>8}  {name:<12}{code:<11}{r['step_s']:>10.3e}{r['step_s'] / dx:>8.4f}"
+                    f"{r['us_per_step']:>9.2f}"
                     f"{r['wall_per_simulated_s']:>11.4f}{r['realtime_factor']:>12.2f}{err:>10}"
                     f"{100 * r['cpu_fraction']:>5.0f}%")
             comp = e["comparison"][name]
@@ -543,8 +545,10 @@ def format_table(result: dict) -> str:
                              f"simulated s per wall s (step {comp['step_ratio']:.2f}x, cost per step "
                              f"{comp['cost_per_step_ratio']:.2f}x lower); |error| "
                              f"{100 * comp['abs_error_softrnn']:.3f}% vs {100 * comp['abs_error_pyelastica']:.3f}%")
-        trials = ", ".join(f"{t['dt_over_dx']:g}{'' if t['stable'] else ' x'}" for t in e["pyelastica"]["stability_trials"])
-        lines.append(f"  {'':>8}  PyElastica dt/dx trials ({e['pyelastica']['trial_s']:g} s each, x = diverged): {trials}")
+        trials = ", ".join(f"{t['dt_over_dx']:g}{'' if t['stable'] else ' x'}"
+                           for t in e["pyelastica"]["stability_trials"])
+        lines.append(f"  {'':>8}  PyElastica dt/dx trials ({e['pyelastica']['trial_s']:g} s each, x = diverged): "
+                     f"{trials}")
     goals, met = result["goals"], result["goals_met"]
     lines += ["", f"goals (softrnn >= {goals['speed_ratio_min']:g}x PyElastica's real-time factor in both tests, "
                   f"|error| not larger, within {100 * goals['error_equal_tol']:g} %):"]

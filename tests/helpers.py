@@ -1,5 +1,6 @@
-"""Helpers shared by the physics tests: direct kernel calls, exact reference solutions and
-shear-free bent rod shapes. Imported as ``helpers`` (pytest puts tests/ on sys.path)."""
+"""Helpers shared by the tests: the command line run in-process (``run_cli``), and for the physics
+tests direct kernel calls, exact reference solutions and shear-free bent rod shapes. Imported as
+``helpers`` (pytest puts tests/ on sys.path)."""
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -10,6 +11,18 @@ from softrnn.rod.lumped import frozen
 from softrnn.rod.shapes import RodShape
 from softrnn.rod.so3 import axis_rotation, cay, frame_from_tangent
 from softrnn.rod.state import empty_samples
+
+
+# --------------------------------------------------------------------------- command line
+def run_cli(argv) -> int:
+    """``softrnn ARGV`` in this process (``softrnn.cli.main.main``): its exit code, also when argparse
+    exits (2 for a usage error)."""
+    from softrnn.cli.main import main
+
+    try:
+        return main(argv)
+    except SystemExit as exc:  # argparse errors
+        return exc.code
 
 
 # --------------------------------------------------------------------------- kernel access

@@ -5,8 +5,21 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SimulationError, SoftrnnInputError
-from softrnn.rod import (Clamp, Constant, Damping, NodalLoad, PDTracking, RodSpec, RunConfig, Setup,
-                         Sinusoid, arc, simulate, simulate_batch, straight)
+from softrnn.rod import (
+    Clamp,
+    Constant,
+    Damping,
+    NodalLoad,
+    PDTracking,
+    RodSpec,
+    RunConfig,
+    Setup,
+    Sinusoid,
+    arc,
+    simulate,
+    simulate_batch,
+    straight,
+)
 from softrnn.rod import batch as batch_module
 from softrnn.rod import simulation as simulation_module
 
@@ -21,7 +34,8 @@ def _rod(**kw):
     return RodSpec(**args)
 
 
-def _setup(loads=(), rod=None, initial=None, boundary=(Clamp(0),), **kw):
+def _setup(loads=(), rod=None, initial=None, boundary=None, **kw):
+    boundary = (Clamp(0),) if boundary is None else boundary
     rod = _rod() if rod is None else rod
     ref = straight(N, rod.length, direction=(1.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
     return Setup(rod=rod, reference=ref, initial=initial, boundary=boundary, loads=tuple(loads),

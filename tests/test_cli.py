@@ -6,14 +6,8 @@ import pytest
 
 from softrnn.reproduce import cases as reproduce_cases
 from softrnn.reproduce import pipeline as reproduce_mod
-from softrnn.cli.main import main
 
-
-def run_cli(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as exc:  # argparse errors
-        return exc.code
+from helpers import run_cli
 
 
 def test_simulate_prints_summary_and_json(tmp_path, capsys):

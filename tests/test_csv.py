@@ -7,19 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from softrnn.cli.main import main
 from softrnn.io import Dataset, DatasetError, export_csv, import_csv, read_dataset, write_trajectory
 from softrnn.io.csv_import import read_csv
 
+from helpers import run_cli
+
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "lab_data.csv"
 FIELDS = ("positions", "quaternions", "forces", "torques")
-
-
-def run_cli(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as exc:  # argparse errors
-        return exc.code
 
 
 def _dataset(T=40, nodes=(0, 4, 9), seed=0) -> Dataset:

@@ -5,8 +5,8 @@ import os
 
 import numpy as np
 
-from softrnn.sweeps.dask import WORKER_ENV, completed, restored_environ
 from softrnn.scenarios.scenario import load_scenario
+from softrnn.sweeps.dask import WORKER_ENV, completed, restored_environ
 from softrnn.sweeps.sweep import run_sweep
 
 

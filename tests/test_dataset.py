@@ -15,20 +15,27 @@ import softrnn
 import softrnn.io._h5files as h5files_mod
 import softrnn.io.dataset as dsmod
 import softrnn.io.writer as writer_mod
-from softrnn.cli.main import main
-from softrnn.io import (SCHEMA_VERSION, Dataset, DatasetError, DatasetWriter, describe, list_groups, merge_files,
-                        read_dataset, read_node, sweep_group_name, trajectories, write_dataset, write_trajectory)
+from softrnn.io import (
+    SCHEMA_VERSION,
+    Dataset,
+    DatasetError,
+    DatasetWriter,
+    describe,
+    list_groups,
+    merge_files,
+    read_dataset,
+    read_node,
+    sweep_group_name,
+    trajectories,
+    write_dataset,
+    write_trajectory,
+)
 from softrnn.rod import Clamp, NodalLoad, RodSpec, RunConfig, Setup, Simulator, Sinusoid, straight
+
+from helpers import run_cli
 
 FIELDS = ("positions", "quaternions", "forces", "torques")
 SCENARIO = "[rod]\nlength = 0.5\n# a cantilever with a swinging tip force\n"
-
-
-def run_cli(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as exc:  # argparse errors
-        return exc.code
 
 
 def _setup(n_nodes: int) -> Setup:

@@ -5,10 +5,11 @@ are exactly minus the gradient of the discrete strain energy, in the NumPy refer
 import numpy as np
 import pytest
 
-from helpers import kernel_internal_loads, kernel_step, planar_bent_shape, random_deformed_rod
-from softrnn.rod import RodSpec, NodeOverride, arc, straight
+from softrnn.rod import NodeOverride, RodSpec, arc, straight
 from softrnn.rod.discrete import internal_loads, segment_strains, strain_energy
 from softrnn.rod.so3 import cay
+
+from helpers import kernel_internal_loads, kernel_step, planar_bent_shape, random_deformed_rod
 
 GRADIENT_RTOL = 1e-6      # central finite differences vs closed-form loads (relative to max |load|)
 KERNEL_RTOL = 1e-10       # numba kernel loads vs discrete.internal_loads (relative to max |load|)

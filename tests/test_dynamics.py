@@ -8,13 +8,28 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from helpers import kernel_step, planar_bent_shape
 from softrnn.errors import SimulationError, SoftrnnInputError
-from softrnn.rod import (Clamp, Constant, Damping, NodalLoad, RodSpec, RunConfig, Setup, Simulator, Sinusoid,
-                         Window, arc, kernels, polyline, straight)
+from softrnn.rod import (
+    Clamp,
+    Constant,
+    Damping,
+    NodalLoad,
+    RodSpec,
+    RunConfig,
+    Setup,
+    Simulator,
+    Sinusoid,
+    Window,
+    arc,
+    kernels,
+    polyline,
+    straight,
+)
 from softrnn.rod.discrete import internal_loads
 from softrnn.rod.shapes import RodShape
 from softrnn.rod.so3 import cay
+
+from helpers import kernel_step, planar_bent_shape
 
 FREQUENCY_RTOL = 0.02            # first bending frequency vs Euler-Bernoulli
 ENERGY_BOUND = 1e-5              # max |E - E0| / energy exchanged, undamped, 1e5 steps

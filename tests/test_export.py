@@ -13,9 +13,17 @@ import torch
 from softrnn.errors import SoftrnnInputError
 from softrnn.surrogate.artifact import NodeModel, save_model
 from softrnn.surrogate.data import Normalizer, SampleSpec, make_windows, split
-from softrnn.surrogate.export import (DEFAULT_OPSET, FORMAT, TORCHSCRIPT_EXTRA_FILE, PhysicalNodeModel, export_onnx,
-                                      export_torchscript, onnx_metadata)
+from softrnn.surrogate.export import (
+    DEFAULT_OPSET,
+    FORMAT,
+    TORCHSCRIPT_EXTRA_FILE,
+    PhysicalNodeModel,
+    export_onnx,
+    export_torchscript,
+    onnx_metadata,
+)
 from softrnn.surrogate.model import ModelConfig, NodeLSTM
+
 from test_surrogate_eval import run_cli, synthetic
 
 pytestmark = pytest.mark.filterwarnings("ignore:`torch.jit.load` is deprecated:DeprecationWarning")

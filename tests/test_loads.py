@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.scenarios.paths import Figure8Path
 from softrnn.rod.loads import CirclePath, Constant, SquarePath
+from softrnn.scenarios.paths import Figure8Path
 
 
 @pytest.mark.parametrize("cls, kwargs, words", [
@@ -23,5 +23,6 @@ def test_constant_rejects_non_numbers_and_paths_start_at_centre():
     with pytest.raises(SoftrnnInputError, match="Constant.value"):
         Constant(("a", 0, 0))
     t = np.array([0.0, 0.5, 2.0])
-    for path in (SquarePath(center=(1, 2, 3), side=0.2, period=4.0), CirclePath(center=(1, 2, 3), radius=0.1, period=4.0)):
+    for path in (SquarePath(center=(1, 2, 3), side=0.2, period=4.0),
+                 CirclePath(center=(1, 2, 3), radius=0.1, period=4.0)):
         np.testing.assert_allclose(path(t)[0], (1, 2, 3))

@@ -12,14 +12,19 @@ import pytest
 
 from softrnn.cli.main import main
 from softrnn.errors import SimulationError, SoftrnnInputError
-from softrnn.magnetics import ManipulatorRun, ManipulatorSpec, currents_for_field, simulate_manipulator
 from softrnn.experiments.magnetic.comparison import check_result_shape
 from softrnn.experiments.magnetic.config import ExperimentConfig
 from softrnn.experiments.magnetic.dataset import measured_wrenches
+from softrnn.experiments.magnetic.lab import LabData, read_lab_csv, simulated_lab_data, write_lab_csv
 from softrnn.experiments.magnetic.run import run_experiment
 from softrnn.experiments.magnetic.static import static_predictions
-from softrnn.magnetics.camera import camera_measure, camera_orientations, rotation_vectors, tangents_from_rotation_vectors
-from softrnn.experiments.magnetic.lab import LabData, read_lab_csv, simulated_lab_data, write_lab_csv
+from softrnn.magnetics import ManipulatorRun, ManipulatorSpec, currents_for_field, simulate_manipulator
+from softrnn.magnetics.camera import (
+    camera_measure,
+    camera_orientations,
+    rotation_vectors,
+    tangents_from_rotation_vectors,
+)
 from softrnn.paper import paper_case
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "magnetic_lab.csv"

@@ -6,9 +6,28 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.magnetics import (GRADES, MU0, Coil, CoilLayout, Magnet, actuation_matrix, bigmag_like, dipole_field,
-                               dipole_gradient, field, force, force_matrix, gradient, moment_world, pack5, torque,
-                               unit_field_maps, unpack5, wrench, wrench_matrix)
+from softrnn.magnetics import (
+    GRADES,
+    MU0,
+    Coil,
+    CoilLayout,
+    Magnet,
+    actuation_matrix,
+    bigmag_like,
+    dipole_field,
+    dipole_gradient,
+    field,
+    force,
+    force_matrix,
+    gradient,
+    moment_world,
+    pack5,
+    torque,
+    unit_field_maps,
+    unpack5,
+    wrench,
+    wrench_matrix,
+)
 from softrnn.magnetics.coils import field_gradient_into
 from softrnn.rod.so3 import cay
 
@@ -50,7 +69,7 @@ def test_gradient_is_the_finite_difference_of_the_field_symmetric_and_traceless(
         c *= 0.12 / np.linalg.norm(c)
         p = _random_points(rng, 1)[0]
         G = dipole_gradient(m, c, p)
-        G_fd = _fd_gradient(lambda x: dipole_field(m, c, x), p)
+        G_fd = _fd_gradient(lambda x, m=m, c=c: dipole_field(m, c, x), p)
         np.testing.assert_allclose(G, G_fd, rtol=0, atol=1e-8 * np.abs(G).max())
         np.testing.assert_allclose(G, G.T, atol=1e-15 * np.abs(G).max())
         assert abs(np.trace(G)) <= 1e-13 * np.abs(G).max()
@@ -74,7 +93,7 @@ def test_force_is_the_gradient_of_mu_dot_B_and_equals_M_mu_g():
         mu = rng.normal(size=3) * 8e-3
         G = gradient(layout, p, I)
         f = force(mu, G)
-        f_fd = _fd_gradient(lambda x: np.atleast_1d(mu @ field(layout, x, I)), p)[0]
+        f_fd = _fd_gradient(lambda x, mu=mu: np.atleast_1d(mu @ field(layout, x, I)), p)[0]
         np.testing.assert_allclose(f, f_fd, rtol=1e-7)
         np.testing.assert_allclose(force_matrix(mu) @ pack5(G), f, rtol=1e-12)
         np.testing.assert_allclose(G.T @ mu, f, rtol=1e-12)

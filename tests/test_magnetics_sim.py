@@ -7,8 +7,19 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.magnetics import (CurrentSchedule, ManipulatorRun, ManipulatorSpec, Magnet, bigmag_like,
-                               currents_for_field, field, gradient, random_currents, simulate_manipulator, wrench)
+from softrnn.magnetics import (
+    CurrentSchedule,
+    Magnet,
+    ManipulatorRun,
+    ManipulatorSpec,
+    bigmag_like,
+    currents_for_field,
+    field,
+    gradient,
+    random_currents,
+    simulate_manipulator,
+    wrench,
+)
 from softrnn.rod import Damping, RunConfig, Simulator
 
 L = 0.05

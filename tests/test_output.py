@@ -4,8 +4,7 @@ equal the collected trajectory, continuation runs pick up where they stopped."""
 import numpy as np
 import pytest
 
-from softrnn.rod import (Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, Sinusoid, Window,
-                         straight)
+from softrnn.rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, Sinusoid, Window, straight
 from softrnn.rod import simulation as simulation_mod
 from softrnn.rod.so3 import matrix_to_quaternion, quaternion_to_matrix
 

@@ -11,12 +11,13 @@ from pathlib import Path
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.io.dataset import write_trajectory
 from softrnn.files import prepare_output
+from softrnn.io.dataset import write_trajectory
 from softrnn.rod.batch import simulate_batch
 from softrnn.rod.simulation import RunConfig, Simulator
 from softrnn.scenarios.scenario import load_scenario
-from test_cli import run_cli
+
+from helpers import run_cli
 from test_surrogate_data import synthetic
 
 ROOT = Path(__file__).resolve().parents[1]

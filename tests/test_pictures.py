@@ -7,17 +7,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from softrnn.errors import SoftrnnInputError
 from softrnn.figures import animation, pictures
 from softrnn.figures import data as figure_data
-from softrnn.cli.main import main
-from softrnn.errors import SoftrnnInputError
 
-
-def run_cli(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as exc:  # argparse errors
-        return exc.code
+from helpers import run_cli
 
 
 def rod_data(n_samples=41, n_nodes=11, planar=False, force=True):

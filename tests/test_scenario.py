@@ -8,15 +8,35 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from softrnn.scenarios.cases import ASSUMPTIONS, CASE_NAMES, PAPER_CASES, build_case
 from softrnn.errors import SoftrnnInputError
-from softrnn.scenarios.paths import Figure8Path, PoseMotion, RandomSmoothPath, rotation_vector_to_matrix
-from softrnn.rod import (Clamp, Constant, Damping, NodalLoad, PDTracking, RodSpec, RunConfig, Setup, Simulator,
-                         SquarePath, Window, arc, ellipse, straight)
+from softrnn.rod import (
+    Clamp,
+    Constant,
+    Damping,
+    NodalLoad,
+    PDTracking,
+    RodSpec,
+    RunConfig,
+    Setup,
+    Simulator,
+    SquarePath,
+    Window,
+    arc,
+    ellipse,
+    straight,
+)
 from softrnn.rod.loads import CirclePath, Sinusoid
 from softrnn.rod.shapes import ellipse_perimeter
-from softrnn.scenarios.scenario import (SCENARIO_NAMES, Scenario, ScenarioError, load_scenario, parse_scenario,
-                              scenario_text)
+from softrnn.scenarios.cases import ASSUMPTIONS, CASE_NAMES, PAPER_CASES, build_case
+from softrnn.scenarios.paths import Figure8Path, PoseMotion, RandomSmoothPath, rotation_vector_to_matrix
+from softrnn.scenarios.scenario import (
+    SCENARIO_NAMES,
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    parse_scenario,
+    scenario_text,
+)
 
 T_GRID = np.arange(0.0, 3.0, 1e-3)
 
@@ -252,7 +272,8 @@ target = { kind = "figure8", center = [0.24, 0.0, 0.0], width = 0.02, height = 0
 [randomize]
 loads.0.profile.frequency = { uniform = [1.0, 3.0] }
 "loads.2.target" = { choice = [{ kind = "circle", center = [0.24, 0.0, 0.0], radius = 0.01, period = 1.0 },
-                               { kind = "random_smooth", center = [0.24, 0.0, 0.0], amplitude = 0.01, cutoff = 1.0, seed = 4 }] }
+                               { kind = "random_smooth", center = [0.24, 0.0, 0.0], amplitude = 0.01,
+                                 cutoff = 1.0, seed = 4 }] }
 "run.substeps" = { integers = [8, 12] }
 """
     sc = load_scenario(_write(tmp_path, text))
@@ -260,7 +281,8 @@ loads.0.profile.frequency = { uniform = [1.0, 3.0] }
     assert isinstance(clamp.motion, PoseMotion)
     pos, rot = clamp.motion(np.array([0.0, 0.25]))
     np.testing.assert_allclose(pos[1], [0.0, 0.001, 0.0], atol=1e-15)
-    np.testing.assert_allclose(rot[0], rotation_vector_to_matrix(np.array([0, 0, 0.01])) @ sc.setup.initial.rotations[0])
+    np.testing.assert_allclose(rot[0],
+                               rotation_vector_to_matrix(np.array([0, 0, 0.01])) @ sc.setup.initial.rotations[0])
     np.testing.assert_allclose(sc.setup.loads[1].force(np.array([0.01, 0.02, 0.05]))[:, 1], [0.005, 0.01, 0.0])
     v = sc.variant(2)
     assert set(v.sampled) == {"loads.0.profile.frequency", "loads.2.target", "run.substeps"}

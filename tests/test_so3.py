@@ -5,10 +5,17 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from softrnn.rod import (Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, Sinusoid, Window,
-                         straight)
-from softrnn.rod.so3 import (axis_rotation, cay, cay_inv, dcay_inv, frame_from_tangent, hat,
-                             matrix_to_quaternion, quaternion_to_matrix)
+from softrnn.rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, Sinusoid, Window, straight
+from softrnn.rod.so3 import (
+    axis_rotation,
+    cay,
+    cay_inv,
+    dcay_inv,
+    frame_from_tangent,
+    hat,
+    matrix_to_quaternion,
+    quaternion_to_matrix,
+)
 
 IDENTITY_TOL = 1e-12          # algebraic identities on O(1) quantities
 FD_TOL = 1e-8                 # finite-difference derivative checks (central, step 1e-6)

@@ -10,13 +10,23 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from helpers import reissner_cantilever_tip
 from softrnn.errors import SimulationError, SoftrnnInputError
-from softrnn.rod import Constant, Damping, NodalLoad, RodSpec, RunConfig, Setup, Simulator, Clamp, straight
-from softrnn.rod.so3 import axis_rotation
-from softrnn.statics import (PointLoad, PointMagnet, RigidSegment, StaticLoads, StaticRod, StaticSolver, Status,
-                             build_grid, solve)
 from softrnn.experiments.fig13 import magnetic_loads, magnetic_rod, run_fig13_study, write_fig13
+from softrnn.rod import Clamp, Constant, Damping, NodalLoad, RodSpec, RunConfig, Setup, Simulator, straight
+from softrnn.rod.so3 import axis_rotation
+from softrnn.statics import (
+    PointLoad,
+    PointMagnet,
+    RigidSegment,
+    StaticLoads,
+    StaticRod,
+    StaticSolver,
+    Status,
+    build_grid,
+    solve,
+)
+
+from helpers import reissner_cantilever_tip
 
 L, RADIUS, E, RHO, NU = 0.2, 0.01, 1e7, 1000.0, 0.5
 BEAM_RTOL = 0.01             # small tip load vs Timoshenko / Euler-Bernoulli

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from helpers import planar_bent_shape, reissner_cantilever_tip
 from softrnn.rod import Clamp, Constant, Damping, NodalLoad, Pin, RodSpec, RunConfig, Setup, Simulator, straight
+
+from helpers import planar_bent_shape, reissner_cantilever_tip
 
 L, RADIUS, E, RHO, NU = 0.2, 0.01, 1e7, 1000.0, 0.5
 AREA, I2 = np.pi * RADIUS**2, np.pi * RADIUS**4 / 4

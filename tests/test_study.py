@@ -8,14 +8,24 @@ import shutil
 import numpy as np
 import pytest
 
-from softrnn.cli.main import main
 from softrnn.errors import SoftrnnInputError
 from softrnn.io.dataset import write_trajectory
-from softrnn.surrogate.study import (FIGURE, MANIFEST, PAPER_FIG14, StudyConfig, model_folder, point_path, region, run_study,
-                           summary)
 from softrnn.surrogate.artifact import load_model
 from softrnn.surrogate.evaluate import evaluate
+from softrnn.surrogate.study import (
+    FIGURE,
+    MANIFEST,
+    PAPER_FIG14,
+    StudyConfig,
+    model_folder,
+    point_path,
+    region,
+    run_study,
+    summary,
+)
 from softrnn.surrogate.train import TrainConfig
+
+from helpers import run_cli
 from test_surrogate_data import synthetic
 
 SYNC = "synchronous"
@@ -29,16 +39,9 @@ class _Interrupt:
     def __init__(self, after):
         self.after = after
 
-    def __call__(self, done, total):
+    def __call__(self, done, total, info=None):
         if done >= self.after:
             raise KeyboardInterrupt
-
-
-def run_cli(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as exc:  # argparse errors
-        return exc.code
 
 
 def _mtimes(paths) -> dict:

@@ -8,8 +8,7 @@ import pytest
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.io.dataset import Dataset
-from softrnn.surrogate.data import (NODE_POSITION, Normalizer, SampleSpec, make_windows, pose_rows, split,
-                                    wrench_rows)
+from softrnn.surrogate.data import NODE_POSITION, Normalizer, SampleSpec, make_windows, pose_rows, split, wrench_rows
 from softrnn.surrogate.train import TrainConfig, spans, training_windows
 
 
@@ -84,7 +83,7 @@ def test_bad_spec_fields(kwargs, word):
 
 def test_unresolved_spec_says_to_resolve():
     with pytest.raises(SoftrnnInputError, match="resolve"):
-        SampleSpec(node=2).pose_features
+        _ = SampleSpec(node=2).pose_features
 
 
 def test_spec_round_trips_through_a_dict():

@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 import torch
 
-from softrnn.cli.main import main
+from softrnn.errors import SoftrnnInputError
 from softrnn.io.dataset import UNITS, Dataset, read_dataset, write_trajectory
 from softrnn.surrogate.artifact import NodeModel, save_model
 from softrnn.surrogate.data import Normalizer, SampleSpec, make_windows, split
 from softrnn.surrogate.evaluate import evaluate, free_running, metrics, one_step, paper_reference
 from softrnn.surrogate.model import ModelConfig, NodeLSTM
-from softrnn.surrogate.rollout import (Manipulator, RolloutDiverged, bind, rollout, rollout_dataset,
-                                      write_rollout)
-from softrnn.errors import SoftrnnInputError
+from softrnn.surrogate.rollout import Manipulator, RolloutDiverged, bind, rollout, rollout_dataset, write_rollout
+
+from helpers import run_cli
 
 N_NODES, DT, LENGTH = 6, 0.01, 0.5
 
@@ -90,13 +90,6 @@ def real_model(ds: Dataset, spec: SampleSpec, meta: dict | None = None) -> NodeM
                     "rod": {"length": LENGTH}, "scenario_name": "synthetic"}
     dataset_meta.update(meta or {})
     return NodeModel(config=config, spec=spec, normalizer=norm, module=module, meta={"dataset": dataset_meta})
-
-
-def run_cli(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as exc:
-        return exc.code
 
 
 # ------------------------------------------------------------------------------------------ metrics

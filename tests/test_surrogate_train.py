@@ -8,24 +8,18 @@ import numpy as np
 import pytest
 import torch
 
-from softrnn.cli.main import main
 from softrnn.errors import SoftrnnInputError
 from softrnn.io.dataset import write_trajectory
-from softrnn.surrogate.artifact import (CHECKPOINT, FILES, ModelFolderError, NodeModel, load_model, save_model)
+from softrnn.surrogate.artifact import CHECKPOINT, FILES, ModelFolderError, NodeModel, load_model, save_model
 from softrnn.surrogate.data import SampleSpec, make_windows, split
 from softrnn.surrogate.model import ModelConfig, NodeLSTM
 from softrnn.surrogate.train import TrainConfig, train_node_model
+
+from helpers import run_cli
 from test_surrogate_data import synthetic
 
 SMALL = {"lstm_units": 8, "dense_units": (8,), "wrench_dense": (4,)}
 FAST = TrainConfig(epochs=3, batch_size=32, patience=10)
-
-
-def run_cli(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as exc:  # argparse errors
-        return exc.code
 
 
 @pytest.fixture(scope="module")
@@ -118,8 +112,8 @@ def test_resume_after_an_interruption_gives_the_same_weights(data_file, tmp_path
     train = TrainConfig(epochs=4, batch_size=32, patience=10)
     whole = train_node_model(data_file, spec, SMALL, train, tmp_path / "whole")
 
-    def stop_after_two_epochs(done, total, info):
-        if info.get("epoch") == 3:                                # interrupted inside epoch 3
+    def stop_after_two_epochs(done, total, info=None):
+        if (info or {}).get("epoch") == 3:                                # interrupted inside epoch 3
             raise KeyboardInterrupt
 
     folder = tmp_path / "parts"
@@ -144,8 +138,8 @@ def test_resume_after_an_interruption_gives_the_same_weights(data_file, tmp_path
 def test_resume_with_other_settings_is_refused(data_file, tmp_path):
     spec = SampleSpec(node=2, wrench="force")
 
-    def interrupt(done, total, info):
-        if info.get("epoch") == 2:
+    def interrupt(done, total, info=None):
+        if (info or {}).get("epoch") == 2:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
@@ -319,8 +313,8 @@ def test_a_pooled_model_learns_from_every_pooled_node(tmp_path):
 
 @pytest.mark.parametrize("output", ["increment", "acceleration"])
 def test_the_relative_multi_step_loss_at_one_step_is_the_plain_loss(output):
-    from softrnn.surrogate.data import Normalizer
     from softrnn.surrogate._losses import _RelativeMultiStep
+    from softrnn.surrogate.data import Normalizer
 
     data = synthetic(200)
     spec = SampleSpec(node=2, wrench="force", inputs="poses").resolve(data.nodes, n_nodes_total=5)

@@ -19,7 +19,7 @@ class _Interrupt:
     def __init__(self, after):
         self.after = after
 
-    def __call__(self, done, total):
+    def __call__(self, done, total, info=None):
         if done >= self.after:
             raise KeyboardInterrupt
 

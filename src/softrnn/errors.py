@@ -1,4 +1,10 @@
-"""Exceptions with one-line, fix-it messages (the CLI prints them and exits with code 2)."""
+"""Exceptions with one-line, fix-it messages (the CLI prints them and exits with code 2), and the
+validators every part uses to build them (``is_int``, ``integer``, ``finite``, ``positive``,
+``nonnegative``, ``vec3``, ``one_line``)."""
+
+import math
+
+import numpy as np
 
 
 class SoftrnnInputError(ValueError):
@@ -12,6 +18,75 @@ class SimulationError(RuntimeError):
 def bad(argument: str, value, expected: str) -> SoftrnnInputError:
     """Build the standard one-line error: ``argument=value is invalid: expected ...``."""
     return SoftrnnInputError(f"{argument}={value!r} is invalid: {expected}")
+
+
+# --------------------------------------------------------------------------------------- validators
+def one_line(text) -> str:
+    """``str(text)`` on one line: every run of white space (newlines included) becomes one space."""
+    return " ".join(str(text).split())
+
+
+def is_int(value) -> bool:
+    """True for a Python or numpy integer that is not a bool."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def is_finite_number(value) -> bool:
+    """True for a finite Python or numpy integer or float that is not a bool."""
+    return (isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def integer(name: str, value, low: int = 1) -> int:
+    """``value`` as an ``int`` >= ``low``; a ``SoftrnnInputError`` (``name=value is invalid: an
+    integer >= low``) for anything else (bools, floats, strings included)."""
+    if not is_int(value) or value < low:
+        raise bad(name, value, f"an integer >= {low}")
+    return int(value)
+
+
+def _in(unit: str) -> str:
+    return f" in {unit}" if unit else ""
+
+
+def finite(name: str, value, unit: str = "") -> float:
+    """``value`` (an int or float, not a bool) as a finite ``float``, or a ``SoftrnnInputError``
+    naming ``name`` (``... a finite number in unit``)."""
+    if not is_finite_number(value):
+        raise bad(name, value, f"a finite number{_in(unit)}")
+    return float(value)
+
+
+def positive(name: str, value, unit: str = "") -> float:
+    """``value`` (an int or float, not a bool) as a finite ``float`` > 0, or a ``SoftrnnInputError``
+    naming ``name`` (``... a positive finite number in unit``)."""
+    if not is_finite_number(value) or value <= 0:
+        raise bad(name, value, f"a positive finite number{_in(unit)}")
+    return float(value)
+
+
+def nonnegative(name: str, value, unit: str = "") -> float:
+    """``value`` (an int or float, not a bool) as a finite ``float`` >= 0, or a ``SoftrnnInputError``
+    naming ``name`` (``... a finite number >= 0 in unit``)."""
+    if not is_finite_number(value) or value < 0:
+        raise bad(name, value, f"a finite number >= 0{_in(unit)}")
+    return float(value)
+
+
+def vec3(name: str, value, what: str = "", *, nonzero: bool = False) -> tuple[float, float, float]:
+    """``value`` (a sequence or array of three ints or floats, not bools) as a tuple of three finite
+    floats, or a ``SoftrnnInputError`` naming ``name``: ``... a finite 3-vector [x, y, z] what``
+    (``nonzero``: also refused when all three are 0, ``a finite, nonzero 3-vector``). ``what`` says
+    what the vector is, e.g. ``"in m/s^2, e.g. (0, 0, -9.81)"``."""
+    try:
+        items = list(value)
+    except TypeError:
+        items = None
+    if items is None or len(items) != 3 or not all(is_finite_number(c) for c in items) \
+            or (nonzero and not any(items)):
+        kind = "a finite, nonzero 3-vector" if nonzero else "a finite 3-vector"
+        raise bad(name, value, f"{kind} [x, y, z]{' ' + what if what else ''}")
+    return tuple(float(c) for c in items)
 
 
 EXTRAS = {"torch": "learn", "safetensors": "learn", "onnx": "learn", "onnxruntime": "learn",
@@ -28,3 +103,13 @@ def missing_extra(err: ImportError) -> SoftrnnInputError | None:
         return None
     return SoftrnnInputError(f"this needs the optional package {name!r}, which is not installed; install the "
                              f"'{extra}' extra: pip install 'softrnn[{extra}]' (or 'softrnn[all]')")
+
+
+def require_extra(extra: str) -> None:
+    """Raise the one-line ``missing_extra`` error now, before any output is written, when a package
+    of the optional ``extra`` ('learn' or 'dask') is not installed."""
+    import importlib.util
+
+    for name, owner in EXTRAS.items():
+        if owner == extra and name != "dask" and importlib.util.find_spec(name) is None:
+            raise missing_extra(ModuleNotFoundError(f"No module named {name!r}", name=name))

@@ -1,9 +1,13 @@
-"""Atomic file writes (a temporary name in the same folder, then rename) and the checks of output
-paths that every command makes before any long work (``prepare_output``)."""
+"""Atomic file writes (a temporary name in the same folder, then rename), the ``default=`` of every
+``json.dumps`` (``json_default``) and the checks of output paths that every command makes before
+any long work (``prepare_output``)."""
 
+import dataclasses
 import os
 import tempfile
 from pathlib import Path
+
+import numpy as np
 
 from .errors import bad
 
@@ -33,7 +37,29 @@ def atomic_write_bytes(path, data: bytes) -> None:
 
 
 def atomic_write_text(path, text: str) -> None:
+    """Write ``text`` to ``path`` as UTF-8, atomically (``atomic_write_bytes``)."""
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def json_default(value):
+    """``json.dumps``'s ``default=`` for everything softrnn writes as JSON: numpy scalars as Python
+    numbers, numpy arrays as nested lists, paths as strings, ranges as ``[start, stop]``, sets as
+    sorted lists and dataclass instances as dicts (``dataclasses.asdict``); anything else raises
+    the ``TypeError`` that ``json.dumps`` expects. Non-finite floats are ``json.dumps``'s to refuse
+    (``allow_nan=False``)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, range):
+        return [value.start, value.stop]
+    if isinstance(value, (set, frozenset)):
+        return sorted(value)
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return dataclasses.asdict(value)
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
 # ------------------------------------------------------------------------------------------ outputs

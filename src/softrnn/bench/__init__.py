@@ -11,18 +11,23 @@ static-solver (``bench.statics``) measurements and returns one JSON-ready dict::
 
 from __future__ import annotations
 
+from ..progress import Progress
 
-def run_all(parts=("model", "simulator", "statics"), *, quick: bool = False, model=None, progress=None) -> dict:
+
+def run_all(parts=("model", "simulator", "statics"), *, quick: bool = False, model=None,
+            progress: Progress | None = None) -> dict:
     """Run the selected parts in this order: model, simulator, statics (each after the last, so
     none competes with another for a core)."""
-    from .simulator import PAPER, _load, machine_info
+    from ..timing import load_average, machine_info
+    from .simulator import PAPER
 
     result: dict = {"machine": machine_info(), "settings": {"quick": bool(quick), "parts": list(parts),
-                                                          "load_average_start": _load()}}
+                                                          "load_average_start": load_average()}}
     paper = {"source": PAPER["source"], "hardware": PAPER["hardware"]}
     goals_met: dict = {}
     if "model" in parts:
-        from .model import PAPER as MODEL_PAPER, run_model_benchmark
+        from .model import PAPER as MODEL_PAPER
+        from .model import run_model_benchmark
         result["model"] = run_model_benchmark(quick=quick, model=model, progress=progress)
         paper["rnn_bandwidth_hz"] = MODEL_PAPER["rnn_bandwidth_hz"]
         goals_met.update({f"model.{k}": v for k, v in result["model"]["goals_met"].items()})
@@ -43,7 +48,7 @@ def run_all(parts=("model", "simulator", "statics"), *, quick: bool = False, mod
             progress(1, 1)
     result["paper"] = paper
     result["goals_met"] = goals_met
-    result["settings"]["load_average_end"] = _load()
+    result["settings"]["load_average_end"] = load_average()
     return result
 
 

@@ -3,7 +3,8 @@
 Measures (see benchmarks/README.md):
 
 * **node step, batch 1**: ``NodeStepper.step(pose_row, wrench_row)`` called from Python, one call
-  per sample, each call timed alone (``perf_counter_ns``); median rate and 99th percentile;
+  per sample, timed by ``timing.step_rate`` (each call alone, ``perf_counter_ns``; the median over
+  5 runs of each run's mean rate, and the 99th percentile of the call times);
 * **eager PyTorch, same model, same run**: ``module(poses, wrenches)`` on ready tensors at batch 1
   under ``torch.inference_mode`` with one torch thread (the fair, favourable baseline: no numpy
   conversion, no normalisation), and ``NodeModel.predict`` (what the paper's kind of loop pays);
@@ -22,13 +23,13 @@ where it starts (the arithmetic is unchanged). ``--model DIR`` times a trained m
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
+from ..progress import Progress
 from ..surrogate.artifact import NodeModel
 from ..surrogate.data import Normalizer, SampleSpec
 from ..surrogate.model import ModelConfig, NodeLSTM
+from ..timing import step_rate
 
 GOALS = {"node_step_hz_median": 200_000, "speedup_vs_eager_torch": 15, "manipulator_step_hz_median": 20_000}
 PAPER = {"rnn_bandwidth_hz": 60.75, "source": "Tariverdi et al. 2021, section 5.3 (Fig. 7 model, i7 laptop)"}
@@ -65,22 +66,12 @@ def synthetic_model(node: int = 1, n_nodes: int = 3, config: dict | None = None,
     return NodeModel(config=cfg, spec=spec, normalizer=norm, module=module, meta={"synthetic": True})
 
 
-def _per_call_us(fn, n: int) -> np.ndarray:
-    """Wall time of each of ``n`` calls [us] (after 200 warm-up calls)."""
-    for _ in range(200):
-        fn()
-    out = np.empty(n)
-    clock = time.perf_counter_ns
-    for i in range(n):
-        t = clock()
-        fn()
-        out[i] = clock() - t
-    return out * 1e-3
-
-
-def _stats(us: np.ndarray) -> dict:
-    med = float(np.median(us))
-    return {"median_us": med, "p99_us": float(np.percentile(us, 99)), "hz_median": 1e6 / med, "calls": int(us.size)}
+def _stats(fn, n: int) -> dict:
+    """``n`` timed calls of ``fn`` after 200 untimed ones (``timing.step_rate``): ``hz_median`` (the
+    median over 5 runs of each run's calls per second), ``median_us`` (1e6 / ``hz_median``),
+    ``p99_us`` (99th percentile of the single call times) and ``calls``."""
+    r = step_rate(fn, steps=n, warmup=200)
+    return {"median_us": r.step_us, "p99_us": r.p99_us, "hz_median": r.median_hz, "calls": r.steps}
 
 
 def time_node_step(model: NodeModel, n: int) -> dict:
@@ -95,7 +86,7 @@ def time_node_step(model: NodeModel, n: int) -> dict:
     st = NodeStepper(model)
     st.reset(poses, wrench)
     row, wrow = poses[-1].copy(), wrench[-1].copy()
-    return _stats(_per_call_us(lambda: st.step(row, wrow), n))
+    return _stats(lambda: st.step(row, wrow), n)
 
 
 def time_eager_torch(model: NodeModel, n: int) -> dict:
@@ -111,8 +102,8 @@ def time_eager_torch(model: NodeModel, n: int) -> dict:
         poses = np.tile(np.asarray(model.normalizer.pose_mean, np.float32), (1, H, 1))
         wr = np.zeros((1, H, W), np.float32)
         with torch.inference_mode():
-            module = _stats(_per_call_us(lambda: model.module(z, w), n))
-        predict = _stats(_per_call_us(lambda: model.predict(poses, wr), max(200, n // 2)))
+            module = _stats(lambda: model.module(z, w), n)
+        predict = _stats(lambda: model.predict(poses, wr), max(200, n // 2))
     finally:
         torch.set_num_threads(old)
     return {"module": module, "predict": predict, "torch_threads": 1}
@@ -130,7 +121,7 @@ def time_runtimes(model: NodeModel, n: int) -> dict:
 
     from ..surrogate.export import export_onnx, export_torchscript
 
-    H, P, W = model.config.history, model.config.pose_features, model.config.wrench_features
+    H, W = model.config.history, model.config.wrench_features
     poses = np.tile(np.asarray(model.normalizer.pose_mean, np.float32), (1, H, 1))
     wr = np.zeros((1, H, W), np.float32)
     out = {"onnxruntime": None, "torchscript": None}
@@ -146,7 +137,7 @@ def time_runtimes(model: NodeModel, n: int) -> dict:
             opts.inter_op_num_threads = 1
             sess = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
             feed = {i.name: (poses if i.name.startswith("pose") else wr) for i in sess.get_inputs()}
-            out["onnxruntime"] = _stats(_per_call_us(lambda: sess.run(None, feed), n))
+            out["onnxruntime"] = _stats(lambda: sess.run(None, feed), n)
         old = torch.get_num_threads()
         torch.set_num_threads(1)
         try:
@@ -157,7 +148,7 @@ def time_runtimes(model: NodeModel, n: int) -> dict:
                 ts = torch.jit.load(str(path))
             args = (torch.from_numpy(poses),) + ((torch.from_numpy(wr),) if W else ())
             with torch.inference_mode():
-                out["torchscript"] = _stats(_per_call_us(lambda: ts(*args), n))
+                out["torchscript"] = _stats(lambda: ts(*args), n)
         finally:
             torch.set_num_threads(old)
     return out
@@ -185,7 +176,7 @@ def time_manipulator(config: dict | None, threads: int, n: int, n_nodes: int = M
         x[:, :, 0] = np.linspace(0.0, 0.5, n_nodes)
         st.reset(x, np.zeros((2, n_nodes, 3), np.float32))
         w = np.zeros((n_nodes, 3), np.float32)
-        out = _stats(_per_call_us(lambda: st.step(w), n))
+        out = _stats(lambda: st.step(w), n)
         out["threads"] = int(numba.get_num_threads()) if threads > 1 else 1
     finally:
         numba.set_num_threads(old)
@@ -201,7 +192,7 @@ def _arch(model: NodeModel) -> dict:
             "wrench_features": c.wrench_features}
 
 
-def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, progress=None) -> dict:
+def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, progress: Progress | None = None) -> dict:
     """All model measurements as a JSON-ready dict (about 20 s; ``quick``: about 8 s).
 
     ``model``: time this trained model for the node step (default: ``synthetic_model()``).
@@ -283,7 +274,8 @@ def format_model_table(r: dict) -> str:
         f"learned model ({arch['lstm_layers']} x {arch['lstm_units']} LSTM, history {arch['history']}, "
         f"{'trained' if arch['trained'] else 'random weights'}), batch 1, one thread",
         f"  compiled node step: {r['node_step_hz_median']:,.0f} Hz median ({r['node_step_median_us']:.2f} us, "
-        f"p99 {r['node_step_p99_us']:.2f} us); goal >= {GOALS['node_step_hz_median']:,}: {ok[g['node_step_hz_median']]}",
+        f"p99 {r['node_step_p99_us']:.2f} us); goal >= {GOALS['node_step_hz_median']:,}: "
+        f"{ok[g['node_step_hz_median']]}",
         f"  eager PyTorch, same model: {r['eager_torch_node_step_hz_median']:,.0f} Hz (module), "
         f"{r['eager_torch_predict_hz_median']:,.0f} Hz (NodeModel.predict); speed-up "
         f"{r['speedup_vs_eager_torch']:.0f}x, goal >= {GOALS['speedup_vs_eager_torch']}x: "
@@ -296,7 +288,8 @@ def format_model_table(r: dict) -> str:
     ]
     for m in r["manipulator_cases"]:
         how = "one model shared by the interior nodes" if m.get("shared") else "one model per node"
-        rows.append(f"    {m['architecture']:8s} ({m['lstm_layers']} x {m['lstm_units']}), {how}, {m['threads']} thread(s): "
+        rows.append(f"    {m['architecture']:8s} ({m['lstm_layers']} x {m['lstm_units']}), {how}, "
+                    f"{m['threads']} thread(s): "
                     f"{m['hz_median']:,.0f} Hz ({m['median_us']:.1f} us/step, {m['us_per_node']:.2f} us/node, "
                     f"p99 {m['p99_us']:.0f} us)")
     rows.append(f"  best: {r['manipulator_step_hz_median']:,.0f} Hz; goal >= {GOALS['manipulator_step_hz_median']:,}: "

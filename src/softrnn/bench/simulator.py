@@ -16,7 +16,6 @@ Measures (see benchmarks/README.md):
 
 import dataclasses
 import os
-import platform
 import statistics
 import subprocess
 import sys
@@ -25,9 +24,10 @@ import time
 from collections.abc import Callable
 
 import numba
-import numpy as np
 
+from ..progress import Progress
 from ..rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, simulate_batch, straight
+from ..timing import load_average, machine_info
 
 PAPER_SOURCE = "Tariverdi et al. 2021, Front. Robot. AI 8:631303, sections 4.1-4.3"
 PAPER = {
@@ -110,13 +110,6 @@ def _timed(fn: Callable[[], object]) -> tuple[float, float]:
     return time.perf_counter() - t, time.process_time() - c
 
 
-def _load() -> list[float] | None:
-    try:
-        return [round(x, 2) for x in os.getloadavg()]
-    except (AttributeError, OSError):
-        return None
-
-
 def _samples(config: RunConfig, duration_s: float) -> int:
     """Samples covering the first ``duration_s`` of a run (at most the config's own)."""
     return int(min(config.n_samples, max(2, 1 + round(duration_s / config.dt))))
@@ -172,6 +165,9 @@ def time_startup(cache_dir: str) -> dict:
 
 
 def time_compile(cached_reps: int) -> dict:
+    """Start-up cost of the compiled kernels: one ``time_startup`` with an empty numba cache (cold:
+    compiles) and ``cached_reps`` more with the same cache folder (cached: loads), each in a fresh
+    interpreter; total and import times [s] (medians of the cached runs)."""
     with tempfile.TemporaryDirectory(prefix="softrnn-numba-cache-") as cache:
         cold = time_startup(cache)
         cached = [time_startup(cache) for _ in range(cached_reps)]
@@ -225,30 +221,7 @@ def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, duration_s: f
 
 
 # ---------------------------------------------------------------------------------------------- report
-def machine_info() -> dict:
-    model = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return {
-        "cpu": model,
-        "cores": os.cpu_count(),
-        "usable_cores": usable,
-        "platform": platform.platform(),
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "numba": numba.__version__,
-        "numba_max_threads": numba.config.NUMBA_NUM_THREADS,
-    }
-
-
-def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | None = None) -> dict:
+def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict:
     """Run all measurements (about 1 min on 2 cores; ``quick``: about 15-20 s, less precise) and return the
     results as a JSON-ready dict. ``progress(items_done, n_items)`` is called after every item."""
     # simulated seconds per timed run (fixed, so that every machine times the same work; the cost
@@ -268,7 +241,7 @@ def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | No
     if progress is not None:
         progress(0, n_items)
     started = time.perf_counter()
-    load_start = _load()
+    load_start = load_average()
     sim: dict = {}
     previous = numba.get_num_threads()
     numba.set_num_threads(1)  # the single-rod kernel is serial anyway; this pins numba's pool
@@ -321,7 +294,7 @@ def run_benchmark(quick: bool = False, progress: Callable[[int, int], None] | No
         "settings": {"quick": quick, "reps": reps, "cantilever_and_batch_simulated_s": duration,
                      "case_simulated_s_max": case_duration,
                      "elapsed_s": time.perf_counter() - started,
-                     "load_average_start": load_start, "load_average_end": _load(),
+                     "load_average_start": load_start, "load_average_end": load_average(),
                      "date": time.strftime("%Y-%m-%d %H:%M:%S %z")},
     }
     result["goals_met"] = goals_met(result)

@@ -20,8 +20,8 @@ import time
 
 import numpy as np
 
-from ..statics import StaticLoads, StaticSolver
 from ..experiments.fig13 import FIELD, GRADIENT, PAPER_FIG13, magnetic_rod
+from ..statics import StaticLoads, StaticSolver
 
 N_STEPS = 13
 TOL = 1e-6

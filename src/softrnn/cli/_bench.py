@@ -23,13 +23,15 @@ def add_args(p):
 
 
 def run(args) -> int:
-    from ..bench import run_all, format_all
-    from ..errors import bad
+    from ..bench import format_all, run_all
+    from ..errors import bad, require_extra
 
     parts = PARTS if args.only is None else tuple(x.strip() for x in args.only.split(",") if x.strip())
     unknown = [x for x in parts if x not in PARTS]
     if unknown or not parts:
         raise bad("--only", args.only, f"a comma-separated subset of {', '.join(PARTS)}")
+    if "model" in parts:
+        require_extra("learn")   # or run the other parts: --only simulator,statics
     if args.json:
         prepare_output(args.json, "--json", overwrite=args.overwrite)
     model = None

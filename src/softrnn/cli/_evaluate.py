@@ -1,5 +1,6 @@
 """softrnn evaluate MODEL DATA.h5 [--json out.json] [--figures DIR] [--generalisation]: a node model's
-errors per axis [mm] and RMSE(t) (paper Eq. 2), one step ahead and free running, beside the paper's."""
+errors per axis [mm] and RMSE(t) (paper Eq. 2), one step ahead and free running, beside the paper's
+and beside the baselines (persistence, constant velocity, a linear AR model; by horizon too)."""
 
 import json
 from pathlib import Path
@@ -10,7 +11,8 @@ from ._progress import Bar
 
 NAME = "evaluate"
 HELP = ("evaluate a trained node model on a data set: max/mean errors per axis [mm], %% of the rod length "
-        "and RMSE(t), one step ahead and free running, beside the paper's figures")
+        "and RMSE(t), one step ahead and free running, beside the paper's figures and beside baselines "
+        "(persistence, constant velocity, linear AR), also by horizon (1, 10, 100, 1000 steps)")
 
 
 def add_args(p):
@@ -24,7 +26,8 @@ def add_args(p):
     p.add_argument("--figures", default=None, metavar="DIR",
                    help="write predicted vs reference per axis (prediction.png), RMSE(t) (rmse.png) and "
                         "the RMSE(t) series (rmse_t.csv) to this folder")
-    p.add_argument("--no-free-running", action="store_true", help="only the one-step-ahead evaluation")
+    p.add_argument("--no-free-running", action="store_true",
+                   help="only the one-step-ahead evaluation (of the model and the baselines; no horizons)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace the --json file and the --figures files if they exist (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -97,4 +100,63 @@ def format_report(r: dict) -> str:
                      f"prediction left the +-16 m range when fed its own outputs")
     if paper and paper.get("predicted_node") is not None:
         lines.append(f"  (the paper's figures are for its node {paper['predicted_node']}, as the paper numbers it)")
-    return "\n".join(lines)
+    return "\n".join(lines + baseline_lines(r))
+
+
+_COLUMNS = {"model": "model", "persistence": "persistence", "constant_velocity": "const. vel.", "linear": "linear AR"}
+
+
+def _cell(value, fmt: str = "{:.3g}") -> str:
+    """A table cell: a number, 'diverged', or '-' (not run)."""
+    if isinstance(value, str):
+        return f"{value:>12}"
+    return f"{'-':>12}" if value is None else f"{fmt.format(value):>12}"
+
+
+def _max_pct(block) -> float | str | None:
+    """The largest of a free-running block's per-axis % of length, 'diverged', or None."""
+    if not block:
+        return None
+    if block.get("diverged"):
+        return "diverged"
+    pct = block.get("max_pct_of_length")
+    return None if pct is None else max(pct)
+
+
+def baseline_lines(r: dict) -> list[str]:
+    """The table of the model beside the baselines (one step, free running, by horizon) and the
+    plain statements of where a baseline beats the model, for an ``Evaluation.to_json()`` report."""
+    from ..surrogate.evaluate import horizon_keys
+
+    base = r.get("baselines")
+    if not base:
+        return []
+    lin = base.get("linear", {})
+    fitted = lin.get("fitted_on", {}).get("what", "?")
+    lines = [f"  beside baselines over the same targets; linear AR (ridge, per node) on {lin.get('inputs', '?')}, "
+             f"fitted on {fitted}" + (f"; not fitted: {lin['skipped']}" if "skipped" in lin else ""),
+             f"  {'':<36}" + "".join(f"{v:>12}" for v in _COLUMNS.values())]
+    blocks = {"model": r}
+    blocks.update({k: base.get(k) or {} for k in _COLUMNS if k != "model"})
+
+    def free(b):
+        fr = b.get("free_running")
+        return None if not fr else "diverged" if fr.get("diverged") else fr["rmse_mm"]
+
+    rows = [("one step RMSE [mm]", [b.get("one_step", {}).get("rmse_mm") for b in blocks.values()]),
+            ("free running RMSE [mm]", [free(b) for b in blocks.values()]),
+            ("free running max [% of length]", [_max_pct(b.get("free_running")) for b in blocks.values()])]
+    h = r.get("horizons")
+    unit = (h or {}).get("unit", "% of length")
+    for key in horizon_keys(h):
+        row = h[key]
+        label = f"at {key} step{'s' if key != '1' else ''}: max [{unit}]"
+        rows.append((label, None if row is None else [row.get(k) for k in _COLUMNS]))
+    for label, values in rows:
+        if values is None:
+            lines.append(f"  {label:<36}  (longer than the span: not evaluated)")
+        else:
+            lines.append(f"  {label:<36}" + "".join(_cell(v) for v in values))
+    said = r.get("misses") or []
+    lines += [f"  {s}" for s in said] or ["  no baseline beats the model on these figures"]
+    return lines

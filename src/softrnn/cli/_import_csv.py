@@ -1,8 +1,8 @@
 """softrnn import-csv LAB.csv -o DATA.h5: turn lab data (docs/csv-format.md) into a dataset file."""
 
 from ..errors import bad
-from ..io.csv_import import import_csv
 from ..files import prepare_output
+from ..io.csv_import import import_csv
 
 NAME = "import-csv"
 HELP = "convert a lab CSV (time, node positions, optional orientations and wrenches) into a dataset file"

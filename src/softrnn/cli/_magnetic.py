@@ -49,8 +49,8 @@ def add_args(p):
     c = sub.add_parser("compare", help="the same comparison on a lab CSV (docs/magnetic-format.md)",
                        description="Read a CSV of coil currents (and/or magnet wrenches) and measured magnet "
                                    "orientations, predict the orientations with the static Cosserat model from the "
-                                   "currents and with one LSTM per magnet trained on the first 60 per cent, and print the "
-                                   "table; writes DIR/table1.json, DIR/fig12.png and DIR/models.")
+                                   "currents and with one LSTM per magnet trained on the first 60 per cent, and "
+                                   "print the table; writes DIR/table1.json, DIR/fig12.png and DIR/models.")
     c.add_argument("csv", help="the lab CSV (layout in docs/magnetic-format.md, e.g. examples/magnetic_lab.csv)")
     c.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder (created)")
     _training_args(c, "training epochs (default: 25)")
@@ -64,16 +64,17 @@ def add_args(p):
 
 
 class _Stages:
-    """progress(stage, done, total) with one tqdm bar per stage."""
+    """A ``Progress`` with one tqdm bar per stage (``info["stage"]``, as the experiment reports it)."""
 
     def __init__(self, enabled: bool):
         self.enabled = enabled
         self.bar = None
         self.stage = None
 
-    def __call__(self, stage: str, done: int, total: int) -> None:
+    def __call__(self, done: int, total: int, info: dict | None = None) -> None:
         if not self.enabled:
             return
+        stage = (info or {}).get("stage", "magnetic")
         if stage != self.stage:
             self.close()
             self.stage = stage
@@ -133,9 +134,9 @@ def _print_result(result: dict) -> None:
 
 
 def run(args) -> int:
-    from ..errors import bad
-    from ..files import atomic_write_text, prepare_output
+    from ..errors import bad, require_extra
     from ..experiments.magnetic.experiment import FIGURE_FILE, TABLE_FILE, ExperimentConfig, run_experiment
+    from ..files import atomic_write_text, prepare_output
 
     if args.magnetic == "example-csv":
         from ..experiments.magnetic.lab import write_example_csv
@@ -146,6 +147,7 @@ def run(args) -> int:
         data = write_example_csv(args.path, args.samples, seed=args.seed)
         print(f"wrote {args.path}: {data.n_samples} rows, t = 0 .. {data.time[-1]:g} s")
         return 0
+    require_extra("learn")    # the LSTMs: refused before the robot is simulated
     prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite, holds=(TABLE_FILE, FIGURE_FILE),
                    fix="pass --overwrite to replace them, or choose another folder")
     if args.json:

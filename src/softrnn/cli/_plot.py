@@ -23,7 +23,15 @@ def add_args(p):
 
 
 def run(args) -> int:
-    from ..figures.pictures import FIGURE_SUFFIXES, _title, check_suffix, describe_nodes, load, node_of_interest, plot_node
+    from ..figures.pictures import (
+        FIGURE_SUFFIXES,
+        _title,
+        check_suffix,
+        describe_nodes,
+        load,
+        node_of_interest,
+        plot_node,
+    )
 
     if args.output:
         check_suffix(args.output, FIGURE_SUFFIXES, argument="--output")

@@ -1,4 +1,5 @@
-"""Progress bars for the CLI (tqdm on stderr); the library only calls progress(done, total)."""
+"""Progress bars for the CLI (tqdm on stderr): the command line's ``softrnn.progress.Progress``; the
+library only calls progress(done, total[, info])."""
 
 import sys
 
@@ -6,13 +7,13 @@ from tqdm import tqdm
 
 
 class Bar:
-    """A callable progress(done, total) backed by tqdm; use as a context manager."""
+    """A ``Progress`` backed by tqdm (``info`` is not shown); use as a context manager."""
 
     def __init__(self, desc: str, unit: str = "sample", enabled: bool = True):
         self.desc, self.unit, self.enabled = desc, unit, enabled
         self.bar = None
 
-    def __call__(self, done: int, total: int) -> None:
+    def __call__(self, done: int, total: int, info: dict | None = None) -> None:
         if not self.enabled:
             return
         if self.bar is None:

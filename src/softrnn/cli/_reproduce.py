@@ -1,5 +1,6 @@
 """softrnn reproduce: run the paper's pipeline end to end into --out DIR (resumable)."""
 
+from ..errors import require_extra
 from ..files import prepare_output
 from ..reproduce.pipeline import reproduce
 from ._progress import Bar
@@ -16,6 +17,8 @@ def add_args(p):
 
 def run(args) -> int:
     # resumable by design: its own folder is continued, anything else is refused
+    for extra in ("learn", "dask"):     # every step is needed: refuse before the first one runs
+        require_extra(extra)
     prepare_output(args.out, "--out", kind="folder", overwrite=True, mine=("cases", "report.json"))
     bars = []
 

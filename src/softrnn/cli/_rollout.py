@@ -61,8 +61,8 @@ def parse_nodes(text: str, argument: str = "--shared-nodes") -> list[int]:
 
 
 def run(args) -> int:
-    from ..io.dataset import read_dataset
     from ..figures.pictures import FIGURE_SUFFIXES, check_suffix
+    from ..io.dataset import read_dataset
     from ..surrogate.artifact import load_model
     from ..surrogate.evaluate import check_compatible
     from ..surrogate.rollout import Manipulator, max_error_mm, model_inputs, rollout, write_rollout

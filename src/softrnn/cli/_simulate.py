@@ -67,7 +67,8 @@ def format_summary(s: dict) -> str:
         f"solver step h = {s['step_s']:.3g} s ({s['substeps']} substeps, stable limit {s['stable_step_s']:.3g} s)",
         f"  time: {s['total_time_s']:.2f} s in all ({s['wall_time_s']:.2f} s stepping and saving, "
         f"{s['us_per_node_step']:.3f} us per node-step, real-time factor {s['realtime_factor']:.1f})",
-        f"  node {s['node']}: start {_fmt(s['node_start_m'])} m, min {_fmt(s['node_min_m'])}, max {_fmt(s['node_max_m'])}",
+        f"  node {s['node']}: start {_fmt(s['node_start_m'])} m, min {_fmt(s['node_min_m'])}, "
+        f"max {_fmt(s['node_max_m'])}",
         f"  energy [J]: start {s['energy_start_j']:.4g}, end {s['energy_end_j']:.4g}; "
         f"max |R^T R - I| = {s['max_orthogonality_error']:.1e}",
     ]

@@ -122,8 +122,8 @@ def run(args) -> int:
     n = len(result["points"])
     print(f"study hparams: {n} grid points in {args.out} ({len(result['computed'])} trained, "
           f"{len(result['measured'])} timed now, {len(result['found'])} already there) in "
-          f"{result['wall_seconds']:.1f} s; one-step RMS error on the test span, bandwidth = 1 / median call time "
-          f"on one thread")
+          f"{result['wall_seconds']:.1f} s; one-step RMS error on the test span, bandwidth = calls per second on one "
+          f"thread (the median of 5 runs)")
     _print_table(result)
     _print_regions(result)
     print(f"figure: {result['figure']}")

@@ -98,8 +98,8 @@ class _LossBar(Bar):
 
 
 def run(args) -> int:
-    from ..io.dataset import read_dataset
     from ..files import prepare_output
+    from ..io.dataset import read_dataset
     from ..surrogate.artifact import CHECKPOINT, check_replaceable
     from ..surrogate.data import SampleSpec
     from ..surrogate.train import TrainConfig, train_node_model

@@ -4,8 +4,22 @@ import argparse
 import sys
 
 from ..errors import SimulationError, SoftrnnInputError, missing_extra
-from . import (_animate, _bench, _evaluate, _export, _import_csv, _magnetic, _plot, _reproduce, _rollout, _show,
-               _simulate, _study, _sweep, _train)
+from . import (
+    _animate,
+    _bench,
+    _evaluate,
+    _export,
+    _import_csv,
+    _magnetic,
+    _plot,
+    _reproduce,
+    _rollout,
+    _show,
+    _simulate,
+    _study,
+    _sweep,
+    _train,
+)
 
 
 class _Parser(argparse.ArgumentParser):

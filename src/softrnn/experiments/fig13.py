@@ -11,7 +11,6 @@ against gravity to a tip angle of about 42 deg.
 """
 
 import math
-import platform
 import statistics
 import time
 
@@ -19,6 +18,7 @@ import numpy as np
 
 from ..statics.rod import PointMagnet, RigidSegment, StaticLoads, StaticRod
 from ..statics.solver import StaticSolver
+from ..timing import machine_info
 
 PAPER_FIG13 = {
     "source": "Tariverdi et al. 2021, Front. Robot. AI 8:631303, Sec. 5.2 and Figure 13 (static Cosserat BVP, "
@@ -110,7 +110,7 @@ def run_fig13_study(repetitions: int = REPETITIONS, tolerances=TOLERANCES, n_ste
     ``n_steps``. For each point and each guess error e in ``guess_errors`` the solve starts from
     (1 - e) times the exact base wrench (solved to E = 1e-12 at that N) with a fresh Jacobian and
     is timed ``repetitions`` times (wall time of ``StaticSolver.solve``, Python call included).
-    Tables are indexed [point][guess error].
+    Tables are indexed ``[point][guess error]``.
     """
     rod, loads = magnetic_rod(), magnetic_loads()
     exact = StaticSolver(rod, n_steps=200, tol=1e-12).solve(loads).raise_for_status()
@@ -132,7 +132,7 @@ def run_fig13_study(repetitions: int = REPETITIONS, tolerances=TOLERANCES, n_ste
         "guess_errors": list(guess_errors),
         "tolerance_sweep": {"n_steps": PANEL_A_N, "tolerances": list(tolerances), **panel_a},
         "node_sweep": {"tol": PANEL_B_TOL, "n_steps": list(n_steps), **panel_b},
-        "machine": {"python": platform.python_version(), "processor": platform.processor() or platform.machine()},
+        "machine": machine_info(),
         "timing": "wall time of StaticSolver.solve(loads, guess=...) including the Python call, single thread",
     }
 
@@ -140,8 +140,9 @@ def run_fig13_study(repetitions: int = REPETITIONS, tolerances=TOLERANCES, n_ste
 def plot_fig13(result: dict):
     """Two panels like the paper's Fig. 13: solve time [ms] (mean +- std) against E (A) and N
     (B), one line per guess error, with the paper's reported range shaded; returns the Figure."""
-    from ..figures import plots as plotting  # noqa: F401  (selects the Agg backend)
     import matplotlib.pyplot as plt
+
+    from ..figures import plots as plotting  # noqa: F401  (selects the Agg backend)
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     errors = result["guess_errors"]

@@ -22,6 +22,7 @@ import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
 from ..errors import bad  # noqa: E402
+from ..progress import Progress
 from ._output import publish  # noqa: E402
 from .data import (  # noqa: E402
     DEFAULT_MAX_FRAMES,
@@ -241,7 +242,7 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
             trail: bool = True, view: str = "auto", elev: float = 22.0, azim: float = -50.0,
             title: str | None = None,
             size: tuple[int, int] = DEFAULT_SIZE, max_frames: int = DEFAULT_MAX_FRAMES,
-            progress=None) -> Path:
+            progress: Progress | None = None) -> Path:
     """Write an animation of the rod to ``out_path`` (``.gif``, or ``.mp4`` with ffmpeg installed).
 
     data: dataset-like (time, nodes, positions, optional forces and attrs; see the module docstring).
@@ -400,7 +401,7 @@ class _FfmpegSink:
             proc.wait()
 
 
-def _render(scene: _Scene, idx: np.ndarray, add, progress=None) -> None:
+def _render(scene: _Scene, idx: np.ndarray, add, progress: Progress | None = None) -> None:
     """Draw the static parts once, then per frame only the moving artists over a copy of them (Agg
     blitting) and hand the RGBA buffer to ``add``."""
     fig = scene.fig

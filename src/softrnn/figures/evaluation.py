@@ -25,6 +25,9 @@ def write_figures(ev, folder) -> list:
     if ev.free_running is not None:
         preds["free running"] = ev.free_running.predicted
         rmse["free running"] = ev.free_running_errors.rmse_t_mm
+    for key, series in ev.rmse_series().items():      # the baselines, free running over the same targets
+        if key.endswith("_free_running_mm") and key != "free_running_mm":
+            rmse[key[: -len("_free_running_mm")].replace("_", " ") + " (free running)"] = series
     out = []
     fig = plotting.prediction_vs_reference(ev.one_step.time, ev.one_step.reference, preds, title)
     save_figure(fig, folder / "prediction.png")

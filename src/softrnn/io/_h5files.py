@@ -8,9 +8,9 @@ from pathlib import Path
 
 import h5py
 
-from ..errors import SoftrnnInputError
+from ..errors import SoftrnnInputError, one_line
 from ..files import umask_mode
-from .schema import DatasetError, _one_line
+from .schema import DatasetError
 
 
 def _temp_path(path: Path) -> Path:
@@ -55,7 +55,7 @@ class _Reading:
         try:
             signature = h5py.is_hdf5(str(p))
         except OSError as err:
-            raise DatasetError(f"{p}: cannot be read ({_one_line(err)})") from None
+            raise DatasetError(f"{p}: cannot be read ({one_line(err)})") from None
         if not signature:
             raise DatasetError(f"{p}: not an HDF5 file (no HDF5 signature); softrnn datasets are HDF5 files "
                                f"written by softrnn (DatasetWriter, 'softrnn import-csv')")
@@ -80,7 +80,7 @@ class _Reading:
 
 
 def _h5_reason(err) -> str:
-    text = _one_line(err)
+    text = one_line(err)
     for prefix in ("Unable to synchronously open file ", "Unable to open file ", "Can't synchronously read data ",
                    "Can't read data "):
         if text.startswith(prefix):

@@ -108,7 +108,7 @@ def _parse_header(path: Path, number: int, line: str) -> tuple[list[str], dict]:
         for field, cols in fields.items():
             missing = [f"n{node}_{c}" for c, col in zip(_GROUPS[field], cols) if col is None]
             if missing:
-                what = {"positions": f"every node needs n{{i}}_x, n{{i}}_y, n{{i}}_z",
+                what = {"positions": "every node needs n{i}_x, n{i}_y, n{i}_z",
                         "quaternions": "orientations need all of n{i}_qw, n{i}_qx, n{i}_qy, n{i}_qz",
                         "forces": "a force needs all of n{i}_fx, n{i}_fy, n{i}_fz",
                         "torques": "a torque needs all of n{i}_tx, n{i}_ty, n{i}_tz"}[field]
@@ -264,6 +264,8 @@ def export_csv(dataset, csv_path) -> None:
     dataset : Dataset, or the path of a dataset file (single trajectory)
     csv_path : str or Path
 
+    Notes
+    -----
     Columns: ``time`` (shortest exact repr of the float64 times), then per node x, y, z, the
     quaternion (unless ``dataset.has_orientations`` is False) and the force/torque columns of the
     nodes that have a nonzero value or are listed in ``attrs['force_nodes']``/``['torque_nodes']``.

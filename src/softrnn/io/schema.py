@@ -72,10 +72,6 @@ class DatasetError(SoftrnnInputError):
     ``<path>: what is wrong; what to do``."""
 
 
-def _one_line(text) -> str:
-    return " ".join(str(text).split())
-
-
 def _group_name(group: str) -> str:
     if not isinstance(group, str) or not group.strip("/") or "/" in group.strip("/") or group.startswith("/."):
         raise bad("group", group, "a group name such as 'traj-00000' (see list_groups)")

@@ -13,31 +13,36 @@ import h5py
 import numpy as np
 
 from .. import __version__
-from ..errors import SoftrnnInputError, bad
+from ..errors import SoftrnnInputError, bad, one_line
+from ..files import json_default
 from ._checks import _inspect
 from ._h5files import _discard, _h5open, _temp_path
 from .reader import Dataset
-from .schema import (_DESCRIPTION, _WIDTH, COMPRESSION, FIELDS, POSITION_LIMIT_M, QUATERNION_TOLERANCE,
-                     RESERVED_ATTRS, SCHEMA_VERSION, TIME_CHUNK, UNITS, DatasetError, _group_name, _node_list,
-                     _one_line, _short, _to_float32)
-
-
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if is_dataclass(value) and not isinstance(value, type):
-        return asdict(value)
-    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+from .schema import (
+    _DESCRIPTION,
+    _WIDTH,
+    COMPRESSION,
+    FIELDS,
+    POSITION_LIMIT_M,
+    QUATERNION_TOLERANCE,
+    RESERVED_ATTRS,
+    SCHEMA_VERSION,
+    TIME_CHUNK,
+    UNITS,
+    DatasetError,
+    _group_name,
+    _node_list,
+    _short,
+    _to_float32,
+)
 
 
 def _to_json(argument: str, value) -> str:
     try:
-        return json.dumps(value, allow_nan=False, default=_json_default)
+        return json.dumps(value, allow_nan=False, default=json_default)
     except (TypeError, ValueError) as err:
         raise bad(argument, value, f"JSON-serialisable values (numbers, strings, lists, dicts; "
-                                   f"no NaN/inf): {_one_line(err)}") from None
+                                   f"no NaN/inf): {one_line(err)}") from None
 
 
 def _rod_dict(rod):

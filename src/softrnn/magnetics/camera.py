@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import bad
+from ..errors import bad, is_int
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,10 +59,6 @@ def tangents_from_rotation_vectors(orientations) -> np.ndarray:
     return t / np.linalg.norm(t, axis=-1, keepdims=True)
 
 
-def _is_int(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-
-
 def _checked(positions, s_nodes, s_magnets, noise, points, degree) -> tuple:
     """``camera_measure``'s arguments as float arrays X (T, n, 3), s (n,), sm (M,) and the noise [m],
     or a ``SoftrnnInputError`` naming the bad one."""
@@ -75,7 +71,7 @@ def _checked(positions, s_nodes, s_magnets, noise, points, degree) -> tuple:
         raise bad("s_nodes", "non-increasing or non-finite values", "finite, strictly increasing arc lengths in m")
     if sm.ndim != 1 or np.any(sm < s[0]) or np.any(sm > s[-1]):
         raise bad("s_magnets", sm.tolist(), f"arc lengths in [{s[0]:g}, {s[-1]:g}] m")
-    if not _is_int(points) or not _is_int(degree) or degree < 1 or points <= degree:
+    if not is_int(points) or not is_int(degree) or degree < 1 or points <= degree:
         raise bad("points, degree", (points, degree), "integers with points > degree >= 1")
     if isinstance(noise, bool) or not isinstance(noise, (int, float, np.integer, np.floating)) \
             or not math.isfinite(noise) or noise < 0:

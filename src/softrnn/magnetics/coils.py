@@ -21,30 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ..errors import bad
+from ..errors import bad, positive, vec3
 
 MU0 = 4e-7 * math.pi
 """Vacuum permeability mu0 [T m/A] (the pre-2019 exact value; CODATA 2018 differs by 5e-10 relative)."""
 
 MIN_DISTANCE = 0.02
 """Closest approach [m] of a field point to a coil's dipole (magnetic.md §2.1 guard R > r_min)."""
-
-
-def _vec3(name: str, value) -> np.ndarray:
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        a = None
-    if a is None or a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise bad(name, value, "a finite 3-vector [x, y, z]")
-    return a
-
-
-def _positive(name: str, value, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(value) or value <= 0:
-        raise bad(name, value, f"a positive finite number in {unit}")
-    return float(value)
 
 
 def centre_field_factor(position: np.ndarray, axis: np.ndarray) -> float:
@@ -73,19 +56,17 @@ class Coil:
     b0: float | None = None
 
     def __post_init__(self):
-        p = _vec3("coil.position", self.position)
-        a = _vec3("coil.axis", self.axis)
-        if np.linalg.norm(a) == 0:
-            raise bad("coil.axis", self.axis, "a nonzero 3-vector")
+        p = np.array(vec3("coil.position", self.position))
+        a = np.array(vec3("coil.axis", self.axis, nonzero=True))
         if np.linalg.norm(p) == 0:
             raise bad("coil.position", self.position, "a point away from the workspace centre (0, 0, 0)")
         a = a / np.linalg.norm(a)
         if (self.kappa is None) == (self.b0 is None):
             raise bad("coil strength", (self.kappa, self.b0), "exactly one of kappa [A m^2/A] or b0 [T/A]")
         if self.kappa is not None:
-            kappa = _positive("coil.kappa", self.kappa, "A m^2 per A")
+            kappa = positive("coil.kappa", self.kappa, "A m^2 per A")
         else:
-            b0 = _positive("coil.b0", self.b0, "T/A")
+            b0 = positive("coil.b0", self.b0, "T/A")
             d = np.linalg.norm(p)
             kappa = 4.0 * math.pi * d**3 * b0 / (MU0 * centre_field_factor(p, a))
         object.__setattr__(self, "position", tuple(float(c) for c in p))
@@ -119,8 +100,8 @@ class CoilLayout:
         for k, c in enumerate(coils):
             if not isinstance(c, Coil):
                 raise bad(f"coils[{k}]", c, "a Coil")
-        _positive("current_limit", self.current_limit, "A")
-        _positive("workspace_radius", self.workspace_radius, "m")
+        positive("current_limit", self.current_limit, "A")
+        positive("workspace_radius", self.workspace_radius, "m")
         object.__setattr__(self, "coils", coils)
         for k, c in enumerate(coils):
             d = float(np.linalg.norm(c.position))
@@ -131,6 +112,7 @@ class CoilLayout:
 
     @property
     def n_coils(self) -> int:
+        """Number of coils n."""
         return len(self.coils)
 
     @property
@@ -183,7 +165,7 @@ def bigmag_like(*, radius: float = 0.12, b0: float = 1.0e-3, elevation_deg: floa
     [m], azimuth phi_k = 60 k deg, elevation +elevation_deg for even k and -elevation_deg for odd k,
     each pointing at the origin with ``b0`` [T/A] there (1 mT/A: kappa = 8.64 A m^2/A at 0.12 m),
     currents within +/-``current_limit`` [A]. Not BigMag's calibrated geometry, which is not public."""
-    _positive("radius", radius, "m")
+    positive("radius", radius, "m")
     coils = []
     for k in range(6):
         phi = math.radians(60.0 * k)

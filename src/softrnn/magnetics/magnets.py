@@ -10,7 +10,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import bad
+from ..errors import bad, finite, positive
 from ..rod.so3 import hat
 from .coils import MU0
 
@@ -24,13 +24,6 @@ MAGNET_YOUNGS_MODULUS = 41.4e9
 """Magnet Young's modulus [Pa] (Tariverdi et al. 2021)."""
 MAGNET_POISSON_RATIO = 0.3
 """Magnet Poisson ratio (Tariverdi et al. 2021)."""
-
-
-def _finite(name: str, value, *, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(value) or (positive and value <= 0):
-        raise bad(name, value, "a positive finite number" if positive else "a finite number")
-    return float(value)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -56,12 +49,12 @@ class Magnet:
     poisson_ratio: float = MAGNET_POISSON_RATIO
 
     def __post_init__(self):
-        _finite("magnet.arc_length", self.arc_length)
+        finite("magnet.arc_length", self.arc_length)
         if self.remanence is None:
             if self.grade not in GRADES:
                 raise bad("magnet.grade", self.grade, f"one of {sorted(GRADES)} or an explicit remanence in T")
         else:
-            _finite("magnet.remanence", self.remanence, positive=True)
+            positive("magnet.remanence", self.remanence)
         try:
             size = np.asarray(self.size, dtype=float)
         except (TypeError, ValueError):
@@ -74,9 +67,9 @@ class Magnet:
             e = None
         if e is None or e.shape != (3,) or not np.all(np.isfinite(e)) or np.linalg.norm(e) == 0:
             raise bad("magnet.direction", self.direction, "a nonzero 3-vector in the body frame (d1, d2, d3)")
-        _finite("magnet.density", self.density, positive=True)
-        _finite("magnet.youngs_modulus", self.youngs_modulus, positive=True)
-        if not (-1.0 < _finite("magnet.poisson_ratio", self.poisson_ratio) <= 0.5):
+        positive("magnet.density", self.density)
+        positive("magnet.youngs_modulus", self.youngs_modulus)
+        if not (-1.0 < finite("magnet.poisson_ratio", self.poisson_ratio) <= 0.5):
             raise bad("magnet.poisson_ratio", self.poisson_ratio, "a value in (-1, 0.5]")
         object.__setattr__(self, "size", tuple(float(c) for c in size))
         object.__setattr__(self, "direction", tuple(float(c) for c in e / np.linalg.norm(e)))
@@ -114,7 +107,7 @@ class Magnet:
 
     def scaled(self, remanence: float = 1.0) -> "Magnet":
         """A copy with Br multiplied by ``remanence`` (a perturbed 'real' magnet)."""
-        return replace(self, remanence=self.br * _finite("remanence factor", remanence, positive=True))
+        return replace(self, remanence=self.br * positive("remanence factor", remanence))
 
 
 def moment_world(magnet: Magnet, rotation: np.ndarray) -> np.ndarray:
@@ -134,7 +127,7 @@ def force_matrix(mu: np.ndarray) -> np.ndarray:
 
 
 def wrench_matrix(mu: np.ndarray) -> np.ndarray:
-    """W(mu) (..., 6, 8) with [f; tau] = W(mu) [B; g] = [[0, M(mu)], [S(mu), 0]] [B; g], S(mu) = hat(mu)
+    """W(mu) (..., 6, 8) with ``[f; tau] = W(mu) [B; g] = [[0, M(mu)], [S(mu), 0]] [B; g]``, S(mu) = hat(mu)
     the skew matrix (S(mu) B = mu x B); the wrench per ampere of coil currents is then W(mu) A(p) (6 x n)."""
     mu = np.asarray(mu, float)
     W = np.zeros(mu.shape[:-1] + (6, 8))
@@ -161,7 +154,7 @@ def wrench(mu: np.ndarray, B: np.ndarray, G: np.ndarray) -> np.ndarray:
 def default_magnets(length: float) -> tuple[Magnet, Magnet]:
     """The two magnets of magnetic.md §1.3 [D] for a rod of ``length`` [m]: 2 mm cubes, axial
     magnetisation, N42 proximal at s = L/2 and N45 distal at s = L - 1 mm (flush with the tip)."""
-    _finite("length", length, positive=True)
+    positive("length", length)
     return (Magnet(arc_length=0.5 * length, grade="N42"),
             Magnet(arc_length=length - 1e-3, grade="N45"))
 

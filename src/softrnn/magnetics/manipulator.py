@@ -28,7 +28,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import SimulationError, bad
+from ..errors import SimulationError, bad, vec3
 from ..rod.boundary import Clamp
 from ..rod.inputs import SetupInputs
 from ..rod.kernels import Samples, StepInputs
@@ -55,17 +55,6 @@ every mode decays at about 30/s or faster."""
 # the base frame: tangent d3 = +x, d1 = +z (so d2 = -y), as the rod's straight() builds it
 _AXIS = (1.0, 0.0, 0.0)
 _NORMAL = (0.0, 0.0, 1.0)
-
-
-def _vec3(name: str, value, what: str) -> tuple:
-    """A finite 3-vector as a tuple of floats, or a one-line error."""
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        a = None
-    if a is None or a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise bad(name, value, f"a finite 3-vector [x, y, z] {what}")
-    return tuple(float(c) for c in a)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -119,8 +108,8 @@ class ManipulatorSpec:
             raise bad("magnets", self.magnets, "a tuple of Magnet entries, or None for the defaults") from None
         object.__setattr__(self, "magnets", magnets)
         base = (-0.5 * self.length, 0.0, 0.0) if self.base is None else self.base
-        object.__setattr__(self, "base", _vec3("base", base, "the clamped base position in m"))
-        object.__setattr__(self, "gravity", _vec3("gravity", self.gravity, "in m/s^2, e.g. (0, 0, -9.81)"))
+        object.__setattr__(self, "base", vec3("base", base, "the clamped base position in m"))
+        object.__setattr__(self, "gravity", vec3("gravity", self.gravity, "in m/s^2, e.g. (0, 0, -9.81)"))
         # RodSpec checks n_nodes, poisson_ratio and the radius/length ratio
         RodSpec(length=self.length, radius=0.5 * self.diameter, youngs_modulus=self.youngs_modulus,
                 density=self.density, n_nodes=self.n_nodes, poisson_ratio=self.poisson_ratio)

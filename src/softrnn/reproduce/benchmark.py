@@ -5,10 +5,11 @@ from pathlib import Path
 
 from .. import __version__
 from ..files import atomic_write_text
+from ..progress import ProgressFactory
 from .stepfiles import load_step
 
 
-def benchmark_step(out: Path, quick: bool, progress_factory=None) -> dict:
+def benchmark_step(out: Path, quick: bool, progress_factory: ProgressFactory | None = None) -> dict:
     """Every benchmark of ``softrnn bench`` (the quick set when ``quick``), skipped when ``bench.json``
     holds a finished result of this version with the same settings."""
     bench_file = out / "bench.json"

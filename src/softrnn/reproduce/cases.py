@@ -11,6 +11,7 @@ from .. import __version__
 from ..figures import pictures
 from ..figures import plots as plotting
 from ..files import atomic_write_text
+from ..progress import Progress, ProgressFactory
 from ..scenarios.cases import Case
 from ..scenarios.summary import simulate_summary
 from .stepfiles import load_step
@@ -20,7 +21,7 @@ N_SNAPSHOTS = 6
 GENERALISATION = {"ellipse": "ellipse-horizontal", "square": "square-figure8", "semicircle": "semicircle-cosine"}
 
 
-def run_case(case: Case, quick: bool, data_path, progress=None) -> tuple[dict, dict]:
+def run_case(case: Case, quick: bool, data_path, progress: Progress | None = None) -> tuple[dict, dict]:
     """Simulate a case into the dataset ``data_path`` (every node saved); returns (summary, series)."""
     n_samples = case.config.n_samples
     if quick:
@@ -61,7 +62,7 @@ def _figures(case: Case, data_path: Path, series: dict, fig_dir: Path) -> list[s
     return [f"{case.name}_node.png", f"{case.name}_rod.png", f"{case.name}_energy.png", f"{case.name}.gif"]
 
 
-def case_step(case: Case, out: Path, quick: bool, progress_factory, figures: bool) -> dict:
+def case_step(case: Case, out: Path, quick: bool, progress_factory: ProgressFactory | None, figures: bool) -> dict:
     """Dataset (and figures) of one case, skipped when a finished result is present.
 
     The dataset goes to ``out/data/<name>.h5``, the step file to ``out/cases/<name>.json`` and, when

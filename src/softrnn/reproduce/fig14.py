@@ -3,6 +3,7 @@ error) on the semicircle's node of interest, on Dask, under ``study/``."""
 
 from pathlib import Path
 
+from ..progress import ProgressFactory
 from ..scenarios.cases import build_case
 from .stepfiles import load_step, save_step
 
@@ -10,7 +11,7 @@ FIG14 = {"case": "semicircle", "units": (5, 10, 15, 20, 25), "history": (2, 5, 1
          "quick_units": (5, 20), "quick_history": (2, 10), "quick_epochs": 2}
 
 
-def fig14_step(out: Path, quick: bool, progress_factory=None) -> dict:
+def fig14_step(out: Path, quick: bool, progress_factory: ProgressFactory | None = None) -> dict:
     """The paper's Fig. 14 (LSTM units x history: bandwidth and RMS error) on the semicircle's node
     of interest, two Dask workers; a rerun completes only missing grid points."""
     from ..surrogate.study import StudyConfig, run_study

@@ -3,10 +3,11 @@
 
 from pathlib import Path
 
+from ..progress import ProgressFactory
 from .stepfiles import load_step, save_step
 
 
-def magnetic_step(out: Path, quick: bool, progress_factory=None) -> dict:
+def magnetic_step(out: Path, quick: bool, progress_factory: ProgressFactory | None = None) -> dict:
     """The paper's experiment (section 5) simulated: Table 1 and Fig. 12
     (``softrnn.experiments.magnetic.experiment``)."""
     from ..experiments.magnetic.experiment import ExperimentConfig, run_experiment
@@ -15,8 +16,7 @@ def magnetic_step(out: Path, quick: bool, progress_factory=None) -> dict:
     done = load_step(step_file, quick)
     if done is not None:
         return done
-    bar = progress_factory("magnetic experiment") if progress_factory else None
-    progress = None if bar is None else (lambda stage, done, total: bar(done, total))
+    progress = progress_factory("magnetic experiment") if progress_factory else None
     result = run_experiment(ExperimentConfig(quick=quick), out / "magnetic", progress=progress)
     fig = out / "magnetic" / "fig12.png"
     if fig.exists():

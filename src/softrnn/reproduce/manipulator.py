@@ -20,6 +20,9 @@ MANIPULATOR = {
     "train": {"epochs": 15, "rollout_steps": 1, "input_noise": 0.5},
     "quick_train": {"epochs": 3, "rollout_steps": 1, "input_noise": 0.5, "max_train_windows": 3000},
     "horizons_s": (0.001, 0.01, 0.1),
+    "baseline_horizons": (10, 100, 1000),     # samples
+    "horizon_starts": 5,
+    "quick_horizon_starts": 2,
 }
 """The whole-manipulator model (beyond the paper): one compact LSTM shared by the interior nodes.
 Two neighbours on each side: the bending moments that move a node depend on the curvature at its
@@ -41,7 +44,7 @@ def _train_shared(ds, out: Path, quick: bool, progress_factory):
     train = TrainConfig(**(cfg["quick_train"] if quick else cfg["train"]))
     folder = out / "models" / "manipulator"
     progress = progress_factory("train shared model") if progress_factory else None
-    bar = None if progress is None else (lambda d, t, info=None: progress(d, t))
+    bar = progress
     t0 = time.perf_counter()
     model = train_node_model(ds, spec, dict(cfg["architecture"]), train, folder, resume=True, progress=bar,
                              pool=pool)
@@ -84,29 +87,129 @@ def _horizon_errors(r, ds, pool: tuple, ref_node: int, start: int, stop: int) ->
     return horizons, hold.tolist()
 
 
+def _fit_baselines(model, P, Wr, pool_cols: list, cut: int) -> tuple[dict, dict]:
+    """The baselines of the whole manipulator: persistence, constant velocity and the linear AR
+    models (``"node"``: one per modelled node with the shared model's neighbours; ``"manipulator"``:
+    one of every node), fitted on the training span [0, cut); ({name: baseline}, {name: {skipped:
+    reason, ...} or the linear models' fit details})."""
+    from ..errors import SoftrnnInputError
+    from ..surrogate.baselines import ConstantVelocity, LinearAR, LinearARConfig, Persistence
+
+    ready = {"persistence": Persistence(), "constant_velocity": ConstantVelocity()}
+    details = {}
+    for name, mode in (("linear_node", "node"), ("linear_manipulator", "manipulator")):
+        config = LinearARConfig(history=int(model.spec.history), mode=mode, neighbours=MANIPULATOR["neighbours"])
+        info = {"fitted_on": {"samples": [0, cut], "what": f"the training span (samples 0..{cut - 1})"}}
+        try:
+            ready[name] = LinearAR.fit(config, P, Wr, 0, cut, modelled=pool_cols)
+            details[name] = dict(info, fit=ready[name].summary())
+        except SoftrnnInputError as err:
+            details[name] = dict(info, skipped=str(err))
+    return ready, details
+
+
+def _span_errors(pred, ref, cols: list, length: float) -> dict:
+    """Errors of a whole-manipulator free run over the modelled columns: max_abs_mm [x, y, z] (the
+    largest over the nodes and samples), max_pct_of_length (the largest axis) and rmse_mm."""
+    err_mm = (pred[:, cols] - ref[:, cols]) * 1e3                          # (T', n, 3)
+    max_abs = np.abs(err_mm).max(axis=(0, 1))
+    with np.errstate(under="ignore"):
+        rmse = float(np.sqrt(np.mean(err_mm ** 2)))
+    return {"max_abs_mm": max_abs.tolist(), "max_pct_of_length": float(max_abs.max() / (length * 1e3) * 100.0),
+            "rmse_mm": rmse}
+
+
+def _model_run(manip, ds, positions, wrenches, start: int, stop: int) -> np.ndarray:
+    """The shared model's whole-manipulator free run as a ``horizon_table`` predictor: (T', N, 3) [m]."""
+    from ..surrogate.rollout import rollout
+
+    r = rollout(manip, ds, start=start, stop=stop)
+    return r.positions[r.seed:].astype(np.float64)
+
+
+def compare_baselines(manip, model, ds, r, pool: tuple, start: int, stop: int, quick: bool) -> dict:
+    """The shared model's free run beside the baselines, all run free over the test span from the
+    same seed (``baselines.free_run``; the unmodelled nodes follow the data).
+
+    Parameters
+    ----------
+    manip : Manipulator
+        The shared model over ``pool``.
+    model : NodeModel
+        The shared model: its ``spec.history``, and ``meta['test_span']`` (the linear models are
+        fitted on the samples before it).
+    ds : Dataset
+        The whole record, every node stored (positions (T, N, 3) [m], forces (T, N, 3) [N]).
+    r : Rollout or None
+        The model's free run over [start, stop) (None: it diverged).
+    pool : tuple of int
+        The modelled nodes.
+    start, stop : int
+        The test span's predicted samples.
+    quick : bool
+        Fewer starts per horizon (``quick_horizon_starts``).
+
+    Returns
+    -------
+    dict
+        {baselines: {name: {test_span: errors, or {diverged, node, sample, time_s}} or {skipped},
+        model_test_span, horizons: ``evaluate.horizon_table`` at ``baseline_horizons`` plus
+        ``test_span`` (% of length, the largest over the modelled nodes), misses, baselines_s}.
+    """
+    from functools import partial
+
+    from ..surrogate.baselines import free_run
+    from ..surrogate.evaluate import horizon_misses, horizon_table
+    from ..surrogate.rollout import RolloutDiverged
+
+    t0 = time.perf_counter()
+    cfg, length = MANIPULATOR, float(ds.attrs["rod"]["length"])
+    P = np.asarray(ds.positions, dtype=np.float64)                          # (T, N, 3)
+    Wr = np.asarray(ds.forces, dtype=np.float64)                            # the shared model's wrench input
+    cols = [int(np.flatnonzero(ds.nodes == a)[0]) for a in pool]
+    ready, out = _fit_baselines(model, P, Wr, cols, int(model.meta["test_span"][0]))
+    whole = {"model": {"diverged": True} if r is None
+             else _span_errors(r.positions[r.seed:], P[start:stop], cols, length)}
+    for name, b in ready.items():
+        try:
+            whole[name] = _span_errors(free_run(b, P, Wr, start, stop, modelled=cols), P[start:stop], cols, length)
+        except RolloutDiverged as exc:
+            whole[name] = {"diverged": True, "node": int(ds.nodes[exc.node]), "sample": exc.sample,
+                           "time_s": float(ds.time[exc.sample])}
+        out[name] = dict(out.get(name, {}), test_span=whole[name])
+    runs = {"model": partial(_model_run, manip, ds)}
+    runs.update({k: partial(free_run, b, modelled=cols) for k, b in ready.items()})
+    n = cfg["quick_horizon_starts"] if quick else cfg["horizon_starts"]
+    table = horizon_table(runs, P, Wr, start, stop, cfg["baseline_horizons"], n_starts=n, nodes=cols, length=length)
+    table["test_span"] = {k: v.get("max_pct_of_length", "diverged") for k, v in whole.items()}
+    return {"baselines": out, "model_test_span": whole["model"], "horizons": table, "misses": horizon_misses(table),
+            "baselines_s": time.perf_counter() - t0}
+
+
 def _stepper_speed(manip, ds, start: int) -> list[dict]:
     """The speed of the trained manipulator in a control loop: one ``ManipulatorStepper.step`` per
-    sample, median microseconds after a warm-up, on one thread and on numba's thread count."""
+    sample (the recorded forces in turn), timed by ``softrnn.timing.step_rate``, on one thread and
+    on numba's thread count."""
+    import itertools
+
     import numba
 
     from ..surrogate.engine import ManipulatorStepper
+    from ..timing import step_rate
 
     speeds = []
     for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
         st = ManipulatorStepper(manip, ds.nodes, threads=threads)
         wcols = [int(np.flatnonzero(ds.nodes == a)[0]) for a in st.modelled]
         f = np.asarray(ds.forces[start - 2:start + 2000], np.float32)[:, wcols]
-        st.reset(ds.positions[start - 2:start], f[:2])
-        times = []
-        for k in range(2, f.shape[0]):
-            t = time.perf_counter_ns()
-            st.step(f[k])
-            times.append(time.perf_counter_ns() - t)
-        if not times:
+        n = f.shape[0] - 2
+        if n < 10:
             continue
-        med = float(np.median(times[min(100, len(times) // 2):])) * 1e-3   # after a warm-up
-        speeds.append({"median_us": med, "hz_median": 1e6 / med, "modelled_nodes": len(st.modelled),
-                       "threads": threads})
+        st.reset(ds.positions[start - 2:start], f[:2])
+        rows = itertools.cycle(range(2, f.shape[0]))
+        rate = step_rate(lambda st=st, f=f, rows=rows: st.step(f[next(rows)]), steps=n, warmup=min(100, n // 2))
+        speeds.append({"median_us": rate.step_us, "hz_median": rate.median_hz, "p99_us": rate.p99_us,
+                       "modelled_nodes": len(st.modelled), "threads": threads})
     return speeds
 
 
@@ -131,7 +234,10 @@ def manipulator_step(out: Path, quick: bool, progress_factory=None) -> dict:
         r = rollout(manip, ds, start=start, stop=stop)
         result["rollout_s"] = time.perf_counter() - t
     except RolloutDiverged as err:
+        r = None
         result["diverged"] = str(err)
+    result.update(compare_baselines(manip, model, ds, r, pool, start, stop, quick))   # a diverged model beside them too
+    if r is None:
         return save_step(step_file, result, quick)
     result["errors"], result["hold_baseline_node_max_abs_mm"] = _horizon_errors(r, ds, pool, ref_node, start, stop)
     result["stepper"] = _stepper_speed(manip, ds, start)

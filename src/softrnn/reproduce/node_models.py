@@ -1,6 +1,7 @@
 """Reproduce step: the node model of each case (paper Fig. 2A/2B), trained on the first 60 % of its
 data set, evaluated one step ahead and free running on the test span and on the generalisation data
-set, and the compiled inference engine's agreement with PyTorch."""
+set, each beside the baselines (``softrnn.surrogate.evaluate.compare_baselines``), and the compiled
+inference engine's agreement with PyTorch."""
 
 import json
 import shutil
@@ -10,13 +11,14 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..files import atomic_write_text
+from ..files import atomic_write_text, json_default
 from ..scenarios.cases import build_case
 from .cases import GENERALISATION
 from .stepfiles import load_step
 
 WRENCH = {"ellipse": "none", "square": "force", "semicircle": "force"}  # paper Fig. 2A / 2B
 QUICK_TRAIN = {"epochs": 4, "max_train_windows": 3000, "rollout_steps": 2}
+QUICK_HORIZON_STARTS = 2   # --quick: free-running starts per horizon (full runs: evaluate's default, 5)
 
 
 def _errors(block: dict | None) -> dict | None:
@@ -25,6 +27,14 @@ def _errors(block: dict | None) -> dict | None:
         return block
     return {"max_abs": block["max_abs_mm"], "mean_abs": block["mean_abs_mm"],
             "max_pct_of_length": block["max_pct_of_length"]}
+
+
+def comparison(report: dict) -> dict:
+    """The model beside the baselines, from an ``Evaluation.to_json()`` report: ``one_step`` and
+    ``free_running`` (the model's errors, RMSE included), ``baselines``, ``horizons`` and ``misses``
+    as ``softrnn evaluate --json`` writes them."""
+    return {key: report.get(key) for key in ("span", "span_samples", "one_step", "free_running", "baselines",
+                                             "horizons", "misses")}
 
 
 def paper_errors(paper: dict) -> dict:
@@ -78,7 +88,8 @@ def _train(name: str, out: Path, quick: bool, progress_factory):
 
 def model_step(name: str, out: Path, quick: bool, progress_factory) -> dict:
     """Train the case's node model on the first 60 % of its data set, evaluate it one step ahead and
-    free running on the test span, and on the generalisation data set; skipped when done."""
+    free running on the test span, and on the generalisation data set, each beside the baselines
+    (persistence, constant velocity, linear AR; by horizon too); skipped when done."""
     from ..figures.evaluation import write_figures
     from ..surrogate.evaluate import evaluate
 
@@ -88,8 +99,10 @@ def model_step(name: str, out: Path, quick: bool, progress_factory) -> dict:
         return done
     data = out / "data" / f"{name}.h5"
     model = _train(name, out, quick, progress_factory)
-    test = evaluate(model, data, model_name=name)
-    gen = evaluate(model, out / "data" / f"{GENERALISATION[name]}.h5", generalisation=True, model_name=name)
+    starts = {"horizon_starts": QUICK_HORIZON_STARTS} if quick else {}
+    test = evaluate(model, data, model_name=name, **starts)
+    gen = evaluate(model, out / "data" / f"{GENERALISATION[name]}.h5", generalisation=True, model_name=name,
+                   **starts)
     figures = []
     for tag, ev in (("test", test), ("generalisation", gen)):
         paths = write_figures(ev, out / "figures" / f"{name}_model_{tag}")
@@ -102,6 +115,7 @@ def model_step(name: str, out: Path, quick: bool, progress_factory) -> dict:
             "rollout": _errors(tj["free_running"]), "generalisation": _errors(gj["one_step"]),
             "generalisation_rollout": _errors(gj["free_running"]), "test_span_s": tj.get("span_s"),
             "model": {"folder": f"models/{name}", "spec": model.spec.to_dict(),
-                      "training": model.meta.get("training")}, "figures": figures}
-    atomic_write_text(step_file, json.dumps(done, indent=2, default=str))
+                      "training": model.meta.get("training"), "test": comparison(tj),
+                      "generalisation": comparison(gj)}, "figures": figures}
+    atomic_write_text(step_file, json.dumps(done, indent=2, default=json_default))
     return done

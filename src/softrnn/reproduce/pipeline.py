@@ -17,13 +17,14 @@ here (a test's monkeypatch) replaces it in the pipeline; what a step uses inside
 """
 
 import json
-import platform
 from pathlib import Path
 
 from .. import __version__
 from ..files import atomic_write_text
 from ..paper import paper_case
+from ..progress import ProgressFactory
 from ..scenarios.cases import ASSUMPTIONS, PAPER_CASES, build_case
+from ..timing import machine_info
 from .benchmark import benchmark_step as benchmark_step
 from .cases import GENERALISATION as GENERALISATION
 from .cases import QUICK_FRACTION as QUICK_FRACTION
@@ -44,7 +45,7 @@ _MODEL_KEYS = ("one_step", "rollout", "generalisation", "generalisation_rollout"
                "engine_vs_pytorch")
 
 
-def _case_reports(report: dict, out: Path, quick: bool, progress_factory) -> None:
+def _case_reports(report: dict, out: Path, quick: bool, progress_factory: ProgressFactory | None) -> None:
     """Each paper case's block of ``report``: the paper's figures and its two data sets."""
     for name in PAPER_CASES:
         report[name] = {"paper": paper_errors(paper_case(build_case(name).paper_key))}
@@ -57,7 +58,7 @@ def _case_reports(report: dict, out: Path, quick: bool, progress_factory) -> Non
                                     figures=done["figures"], dataset=done["dataset"])
 
 
-def _model_reports(report: dict, out: Path, quick: bool, progress_factory) -> None:
+def _model_reports(report: dict, out: Path, quick: bool, progress_factory: ProgressFactory | None) -> None:
     """Each paper case's node model into its block of ``report``."""
     for name in PAPER_CASES:
         result = model_step(name, out, quick, progress_factory)
@@ -66,10 +67,11 @@ def _model_reports(report: dict, out: Path, quick: bool, progress_factory) -> No
         report[name]["figures"] = report[name]["figures"] + result["figures"]
 
 
-def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
+def reproduce(out_dir, *, quick: bool = False, progress_factory: ProgressFactory | None = None) -> dict:
     """Run every step into ``out_dir`` and return the report dictionary.
 
-    ``progress_factory(description)`` returns a progress(done, total) callable (or None).
+    ``progress_factory(description)`` returns the ``softrnn.progress.Progress`` of each step (e.g. a
+    progress bar); None: silent.
     """
     out = Path(out_dir)
     (out / "cases").mkdir(parents=True, exist_ok=True)
@@ -85,19 +87,3 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory=None) -> dict:
     atomic_write_text(out / "report.json", json.dumps(report, indent=2))
     atomic_write_text(out / "report.md", render_markdown(report))
     return report
-
-
-def machine_info() -> dict:
-    """The machine the report was made on: CPU model, core count, Python version and system."""
-    import os
-
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
-            "system": platform.system()}

@@ -8,8 +8,9 @@ from ..scenarios.cases import PAPER_CASES
 
 def render_markdown(report: dict) -> str:
     """The human-readable report (``report.md``) of a ``reproduce`` report dictionary: the data sets,
-    the node models beside the paper's errors, the engine, the whole manipulator, the Fig. 14 study,
-    the magnetic experiment, the Fig. 13 study, the benchmark and the assumptions."""
+    the node models beside the paper's errors and beside the baselines, the engine, the whole
+    manipulator (beside its baselines), the Fig. 14 study, the magnetic experiment, the Fig. 13
+    study, the benchmark and the assumptions."""
     lines = _dataset_lines(report) + _model_lines(report)
     lines += (_engine_lines(report) + _manipulator_lines(report.get("manipulator")) + _fig14_lines(report.get("fig14"))
               + _magnetic_lines(report.get("magnetic")) + _fig13_lines(report.get("fig13")))
@@ -52,25 +53,134 @@ def _dataset_lines(report: dict) -> list[str]:
 
 
 def _model_lines(report: dict) -> list[str]:
-    """The node models' errors on the test span (one step, free running, generalisation) beside the paper's."""
+    """The node models' errors on the test span (one step, free running, generalisation) beside the
+    paper's, then beside the baselines."""
     lines = ["", "## Learned node models (paper Fig. 2A/2B): errors on the test span [mm]", "",
              "Trained on the first 60 % of each data set; one step ahead from the reference history (as "
              "the paper evaluates), free running (the node's own predictions fed back, neighbours and "
-             "forces from the data), and one step ahead on the generalisation data set.", "",
+             "forces from the data), and one step ahead and free running on the generalisation data set.", "",
              "| case | what | mean abs x, y, z | max abs x, y, z | max % of length | paper mean abs | paper max abs |",
              "|---|---|---|---|---|---|---|"]
     for name in PAPER_CASES:
         r = report[name]
-        for key, paper_key in (("one_step", "test"), ("rollout", None), ("generalisation", "generalisation")):
+        for key, paper_key in (("one_step", "test"), ("rollout", None), ("generalisation", "generalisation"),
+                               ("generalisation_rollout", None)):
             e = r.get(key)
             p = r["paper"].get(paper_key) if paper_key else None
             if not e or e.get("diverged"):
-                lines.append(f"| {name} | {key} | diverged | | | | |")
+                lines.append(f"| {name} | {key} | {_diverged_text(e)} | | | | |")
                 continue
             lines.append(f"| {name} | {key} | {_v(e['mean_abs'])} | {_v(e['max_abs'])} | "
                          f"{_v(e['max_pct_of_length'])} | "
                          f"{_v(p['mean_abs']) if p else ''} | {_v(p['max_abs']) if p else ''} |")
-    return lines
+    return lines + _model_baseline_lines(report)
+
+
+def _diverged_text(block: dict | None) -> str:
+    """'diverged at t = ... s (sample ...)' for a diverged block, 'not run' for None."""
+    if not block:
+        return "not run"
+    if block.get("time_s") is not None and block.get("sample") is not None:
+        return f"diverged at t = {block['time_s']:.4g} s (sample {block['sample']})"
+    return "diverged"
+
+
+_NODE_BASELINES = ("persistence", "constant_velocity", "linear")
+_MANIPULATOR_BASELINES = ("persistence", "constant_velocity", "linear_node", "linear_manipulator")
+_LABELS = {"persistence": "persistence", "constant_velocity": "constant velocity", "linear": "linear AR",
+          "linear_node": "linear AR (node)", "linear_manipulator": "linear AR (manipulator)"}
+
+
+def _number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _cell(x) -> str:
+    """A table cell: a number to 3 significant digits, 'diverged', or '-' (not run, skipped)."""
+    return f"{x:.3g}" if _number(x) else x if isinstance(x, str) else "-"
+
+
+def _ratio(model, baselines: dict) -> str:
+    """model / the best (smallest) baseline, naming it; above 1 a baseline beats the model."""
+    known = {k: v for k, v in baselines.items() if _number(v)}
+    if not known:
+        return "-"
+    best = min(known, key=known.get)
+    if model == "diverged":
+        return f"model diverged ({_LABELS.get(best, best)}: {known[best]:.3g})"
+    if not _number(model):
+        return "-"
+    if known[best] == 0:
+        return f"{'1' if model == 0 else 'inf'} ({_LABELS.get(best, best)})"
+    return f"{model / known[best]:.3g} ({_LABELS.get(best, best)})"
+
+
+def _free_value(block: dict | None, key: str):
+    """A free-running block's figure ('rmse_mm', or 'max_pct' for the largest axis's % of
+    length), 'diverged', or None."""
+    if not block:
+        return None
+    if block.get("diverged"):
+        return "diverged"
+    if key == "max_pct":
+        return max(block["max_pct_of_length"]) if block.get("max_pct_of_length") else None
+    return block.get(key)
+
+
+def _comparison_rows(c: dict) -> list[tuple[str, object, dict]]:
+    """(what, model value, {baseline: value}) rows of one ``model.test`` / ``model.generalisation``
+    block: RMSE one step and free running [mm], the free run's largest % of length, and by horizon."""
+    base = c.get("baselines") or {}
+    rows = [("one step RMSE [mm]", (c.get("one_step") or {}).get("rmse_mm"),
+             {k: (base.get(k, {}).get("one_step") or {}).get("rmse_mm") for k in _NODE_BASELINES})]
+    for what, key in (("free running RMSE [mm]", "rmse_mm"), ("free running max [% of length]", "max_pct")):
+        rows.append((what, _free_value(c.get("free_running"), key),
+                     {k: _free_value(base.get(k, {}).get("free_running"), key) for k in _NODE_BASELINES}))
+    return rows + _horizon_rows(c.get("horizons"), _NODE_BASELINES)
+
+
+def _horizon_rows(h: dict | None, names: tuple) -> list[tuple[str, object, dict]]:
+    """One row per horizon of a ``horizon_table`` (None values: longer than the span)."""
+    rows = []
+    for key in [k for k in (h or {}) if k.isdigit()] + (["test_span"] if "test_span" in (h or {}) else []):
+        what = "whole test span" if key == "test_span" else f"at {key} step{'s' if key != '1' else ''}"
+        what += f" [{h.get('unit', '% of length')}]"
+        row = h[key]
+        rows.append((what, None, None) if row is None else (what, row.get("model"), {k: row.get(k) for k in names}))
+    return rows
+
+
+def _table_row(cells: list[str], model, values: dict | None, n_baselines: int) -> str:
+    """A Markdown row: the leading cells, the model, the ``n_baselines`` baselines and the ratio
+    (values None: 'longer than the span', the rest empty)."""
+    if values is None:
+        return "| " + " | ".join(cells) + " | longer than the span: not evaluated |" + " |" * (n_baselines + 1)
+    return ("| " + " | ".join(cells + [_cell(model)] + [_cell(v) for v in values.values()]
+                              + [_ratio(model, values)]) + " |")
+
+
+def _model_baseline_lines(report: dict) -> list[str]:
+    """Each node model beside persistence, constant velocity and the linear AR model, on the test
+    span and on the generalisation data set, and the plain statements of where a baseline wins."""
+    blocks = [(name, span, (report[name].get("model") or {}).get(span)) for name in PAPER_CASES
+              for span in ("test", "generalisation")]
+    blocks = [b for b in blocks if b[2]]
+    if not blocks:
+        return []
+    lines = ["", "### The node models beside baselines", "",
+             "Over the same targets: persistence, constant velocity and a linear AR model (ridge, per node) with "
+             "the model's inputs, fitted on the model's training span (on the generalisation data set: on its "
+             "first 60 %, which the model never saw). By horizon: the largest error h samples after a free-"
+             "running start, over a few starts spread over the span. Ratio = model / best baseline: above 1 a "
+             "baseline beats the model.", "",
+             "| case | span | what | model | " + " | ".join(_LABELS[k] for k in _NODE_BASELINES)
+             + " | model / best baseline |", "|---|---|---|---|" + "---|" * len(_NODE_BASELINES) + "---|"]
+    said = []
+    for name, span, c in blocks:
+        for what, model, values in _comparison_rows(c):
+            lines.append(_table_row([name, span, what], model, values, len(_NODE_BASELINES)))
+        said += [f"- {name}, {span}: {text}" for text in c.get("misses") or []]
+    return lines + [""] + (said or ["No baseline beats the node models on these figures."])
 
 
 def _benchmark_lines(bench: dict) -> list[str]:
@@ -114,7 +224,8 @@ def _engine_lines(report: dict) -> list[str]:
 
 
 def _manipulator_lines(m: dict | None) -> list[str]:
-    """The whole manipulator with one shared model: errors by horizon and the stepper's speed."""
+    """The whole manipulator with one shared model: errors by horizon, the stepper's speed, and the
+    baselines."""
     if not m:
         return []
     lines = ["", f"## Whole manipulator, one shared model (paper Fig. 2C, beyond the paper): {m['case']}", "",
@@ -124,7 +235,7 @@ def _manipulator_lines(m: dict | None) -> list[str]:
              f"interior node runs free on the test span, fed its own and its neighbours' predictions; "
              f"{m['unmodelled']}."]
     if m.get("diverged"):
-        return lines + ["", f"The free run diverged: {m['diverged']}"]
+        return lines + ["", f"The free run diverged: {m['diverged']}"] + _manipulator_baseline_lines(m)
     lines += ["", f"| horizon | steps | node {m['node']} max abs x, y, z [mm] | max % of length "
                   "| all nodes max abs [mm] |",
               "|---|---|---|---|---|"]
@@ -136,7 +247,31 @@ def _manipulator_lines(m: dict | None) -> list[str]:
               f"(ManipulatorStepper, {m['modelled_nodes']} nodes): "
               + "; ".join(f"{s['median_us']:.1f} us median ({s['hz_median']:,.0f} Hz) on {s['threads']} thread(s)"
                           for s in m["stepper"]) + "."]
-    return lines
+    return lines + _manipulator_baseline_lines(m)
+
+
+def _manipulator_baseline_lines(m: dict) -> list[str]:
+    """The whole manipulator's free run beside the baselines' by horizon (% of length), the ratio
+    model / best baseline, and the plain statements of where a baseline wins."""
+    h = m.get("horizons")
+    if not h:
+        return []
+    names = _MANIPULATOR_BASELINES
+    lines = ["", "### The whole manipulator beside baselines", "",
+             "Every modelled node runs free from the same seed: persistence, constant velocity, a linear AR "
+             "model per node (the shared model's neighbours and force) and one linear AR model of the whole "
+             "manipulator, both fitted on the training span. Errors: the largest over the modelled nodes and "
+             f"axes [{h.get('unit', '% of length')}], h samples after each of {h.get('n_starts', '?')} starts "
+             "spread over the test span, and over the whole test span from its start. Ratio = model / best "
+             "baseline: above 1 a baseline beats the model.", "",
+             "| horizon | model | " + " | ".join(_LABELS[k] for k in names) + " | model / best baseline |",
+             "|---|---|" + "---|" * len(names) + "---|"]
+    for what, model, values in _horizon_rows(h, names):
+        lines.append(_table_row([what], model, values, len(names)))
+    skipped = [f"- {_LABELS[k]} not run: {v['skipped']}" for k, v in (m.get("baselines") or {}).items()
+               if isinstance(v, dict) and v.get("skipped")]
+    return lines + [""] + (m.get("misses") and [f"- {t}" for t in m["misses"]]
+                           or ["No baseline beats the shared model on these figures."]) + skipped
 
 
 def _fig13_lines(f: dict | None) -> list[str]:

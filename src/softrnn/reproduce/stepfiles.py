@@ -6,10 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
-
 from .. import __version__
-from ..files import atomic_write_text
+from ..files import atomic_write_text, json_default
 
 
 def load_step(path: Path, quick: bool) -> dict | None:
@@ -25,16 +23,17 @@ def load_step(path: Path, quick: bool) -> dict | None:
 
 def save_step(path: Path, result: dict, quick: bool) -> dict:
     """Write ``result`` with ``quick`` and the softrnn version in front to the step file ``path``
-    (atomically; numpy arrays and scalars as JSON lists and numbers) and return what was written."""
+    (atomically; numpy arrays and scalars as JSON lists and numbers, ``files.json_default``) and
+    return what was written."""
     result = {"quick": quick, "softrnn_version": __version__, **result}
     atomic_write_text(path, json.dumps(result, indent=2, default=_jsonable))
     return result
 
 
 def _jsonable(x):
-    """``json.dumps``'s fallback: numpy arrays as lists, numpy scalars as numbers, the rest as str."""
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, (np.floating, np.integer)):
-        return x.item()
-    return str(x)
+    """``json.dumps``'s fallback: ``files.json_default``, and anything it refuses as its ``str`` (a
+    finished step is never lost to an odd value in its result)."""
+    try:
+        return json_default(x)
+    except TypeError:
+        return str(x)

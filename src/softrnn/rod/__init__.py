@@ -1,11 +1,26 @@
 """The Lie-group Cosserat rod simulator ("analytical dynamic model" of Tariverdi et al. 2021)."""
 
-from .boundary import Clamp as Clamp, Pin as Pin
-from .loads import (Constant as Constant, NodalLoad as NodalLoad, PDTracking as PDTracking,
-                    Piecewise as Piecewise, Sampled as Sampled, Sinusoid as Sinusoid,
-                    SquarePath as SquarePath, Window as Window)
-from .shapes import RodShape as RodShape, arc as arc, ellipse as ellipse, polyline as polyline, straight as straight
-from .simulation import (Damping as Damping, RunConfig as RunConfig, Setup as Setup, Simulator as Simulator,
-                         Trajectory as Trajectory, simulate as simulate)
-from .spec import NodeOverride as NodeOverride, RodSpec as RodSpec
 from .batch import simulate_batch as simulate_batch
+from .boundary import Clamp as Clamp
+from .boundary import Pin as Pin
+from .loads import Constant as Constant
+from .loads import NodalLoad as NodalLoad
+from .loads import PDTracking as PDTracking
+from .loads import Piecewise as Piecewise
+from .loads import Sampled as Sampled
+from .loads import Sinusoid as Sinusoid
+from .loads import SquarePath as SquarePath
+from .loads import Window as Window
+from .shapes import RodShape as RodShape
+from .shapes import arc as arc
+from .shapes import ellipse as ellipse
+from .shapes import polyline as polyline
+from .shapes import straight as straight
+from .simulation import Damping as Damping
+from .simulation import RunConfig as RunConfig
+from .simulation import Setup as Setup
+from .simulation import Simulator as Simulator
+from .simulation import Trajectory as Trajectory
+from .simulation import simulate as simulate
+from .spec import NodeOverride as NodeOverride
+from .spec import RodSpec as RodSpec

@@ -14,11 +14,12 @@ prescribed poses) are evaluated by its own ``SetupInputs`` chunk by chunk, and e
 """
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from ..errors import bad
+from ..progress import Progress
 from . import kernels
 from .inputs import SetupInputs
 from .kernels import StateArrays, StepInputs
@@ -142,7 +143,7 @@ class _Batch:
 
 
 def simulate_batch(setups: Sequence[Setup], config: RunConfig,
-                   progress: Callable[[int, int], None] | None = None) -> list[Trajectory]:
+                   progress: Progress | None = None) -> list[Trajectory]:
     """Simulate several compatible setups at once (in parallel over rods) from their initial shapes
     at rest; returns one ``Trajectory`` per setup, in order, each equal to ``simulate(setup,
     config)``. ``wall_time`` of every trajectory is the wall time of the whole batch.

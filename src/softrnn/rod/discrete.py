@@ -24,7 +24,7 @@ def segment_strains(rotations: np.ndarray, positions: np.ndarray, seg_length: fl
 
 
 def strain_energy(rotations, positions, seg_length, C1, C2, K0, G0) -> float:
-    """U = sum_b l [ (G-G0).C1(G-G0)/2 + (K-K0).C2(K-K0)/2 ] [J]."""
+    """``U = sum_b l [ (G-G0).C1(G-G0)/2 + (K-K0).C2(K-K0)/2 ]`` [J]."""
     K, G = segment_strains(rotations, positions, seg_length)
     eg, ek = G - G0, K - K0
     return float(0.5 * seg_length * np.sum(C1 * eg * eg + C2 * ek * ek))

@@ -9,7 +9,7 @@ from typing import Protocol
 
 import numpy as np
 
-from ..errors import bad
+from ..errors import bad, finite, nonnegative, positive, vec3
 
 
 class AbstractTimeFunction(Protocol):
@@ -20,35 +20,9 @@ class AbstractTimeFunction(Protocol):
         ...
 
 
-def _is_numeric_seq(x) -> bool:
-    try:
-        return all(isinstance(c, (int, float, np.integer, np.floating)) and not isinstance(c, bool) for c in x)
-    except TypeError:
-        return False
-
-
-def _vec3(name: str, x) -> tuple:
-    """A finite 3-vector as a tuple of floats, or a one-line error naming ``name``."""
-    a = np.asarray(x, dtype=float) if _is_numeric_seq(x) else None
-    if a is None or a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise bad(name, x, "a finite 3-vector [x, y, z]")
-    return tuple(float(c) for c in a)
-
-
-def _finite(name: str, x, *, positive: bool = False, nonnegative: bool = False) -> float:
-    """A finite number (optionally > 0 or >= 0), or a one-line error naming ``name``."""
-    if isinstance(x, bool) or not isinstance(x, (int, float, np.floating, np.integer)) or not np.isfinite(x):
-        raise bad(name, x, "a finite number")
-    if positive and x <= 0:
-        raise bad(name, x, "a positive number")
-    if nonnegative and x < 0:
-        raise bad(name, x, "a number >= 0")
-    return float(x)
-
-
 def _plane_axes(name: str, u, v) -> tuple[tuple, tuple]:
     """The in-plane axes u, v of a target path: finite, nonzero 3-vectors."""
-    u, v = _vec3(f"{name}.u", u), _vec3(f"{name}.v", v)
+    u, v = vec3(f"{name}.u", u), vec3(f"{name}.v", v)
     if np.linalg.norm(u) == 0 or np.linalg.norm(v) == 0:
         raise bad(f"{name}.u/v", (u, v), "nonzero axis vectors")
     return u, v
@@ -66,7 +40,7 @@ class Constant:
     value: tuple
 
     def __post_init__(self):
-        object.__setattr__(self, "value", tuple(_vec3("Constant.value", self.value)))
+        object.__setattr__(self, "value", vec3("Constant.value", self.value))
 
     def __call__(self, t):
         return np.broadcast_to(np.asarray(self.value), (np.shape(t)[0], 3)).copy()
@@ -82,10 +56,10 @@ class Sinusoid:
     offset: tuple = (0.0, 0.0, 0.0)
 
     def __post_init__(self):
-        object.__setattr__(self, "amplitude", tuple(_vec3("Sinusoid.amplitude", self.amplitude)))
-        object.__setattr__(self, "offset", tuple(_vec3("Sinusoid.offset", self.offset)))
-        _finite("Sinusoid.frequency", self.frequency)
-        _finite("Sinusoid.phase", self.phase)
+        object.__setattr__(self, "amplitude", vec3("Sinusoid.amplitude", self.amplitude))
+        object.__setattr__(self, "offset", vec3("Sinusoid.offset", self.offset))
+        finite("Sinusoid.frequency", self.frequency)
+        finite("Sinusoid.phase", self.phase)
 
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
@@ -142,8 +116,8 @@ class Window:
     stop: float
 
     def __post_init__(self):
-        _finite("Window.start", self.start)
-        _finite("Window.stop", self.stop)
+        finite("Window.start", self.start)
+        finite("Window.stop", self.stop)
         if self.stop <= self.start:
             raise bad("Window.stop", self.stop, f"a time after start={self.start} s")
 
@@ -173,10 +147,10 @@ class SquarePath:
     ramp: float = 1.0
 
     def __post_init__(self):
-        object.__setattr__(self, "center", tuple(_vec3("SquarePath.center", self.center)))
-        _finite("SquarePath.side", self.side, positive=True)
-        _finite("SquarePath.period", self.period, positive=True)
-        _finite("SquarePath.ramp", self.ramp, nonnegative=True)
+        object.__setattr__(self, "center", vec3("SquarePath.center", self.center))
+        positive("SquarePath.side", self.side)
+        positive("SquarePath.period", self.period)
+        nonnegative("SquarePath.ramp", self.ramp)
         u, v = _plane_axes("SquarePath", self.u, self.v)
         object.__setattr__(self, "u", u)
         object.__setattr__(self, "v", v)
@@ -222,8 +196,8 @@ class PDTracking:
     damping: float = 0.0
 
     def __post_init__(self):
-        _finite("PDTracking.stiffness", self.stiffness, positive=True)
-        _finite("PDTracking.damping", self.damping)
+        positive("PDTracking.stiffness", self.stiffness)
+        finite("PDTracking.damping", self.damping)
         if self.damping < 0:
             raise bad("PDTracking.damping", self.damping, "a damping gain >= 0 in N s/m")
 
@@ -242,10 +216,10 @@ class CirclePath:
     ramp: float = 1.0
 
     def __post_init__(self):
-        object.__setattr__(self, "center", tuple(_vec3("CirclePath.center", self.center)))
-        _finite("CirclePath.radius", self.radius, positive=True)
-        _finite("CirclePath.period", self.period, positive=True)
-        _finite("CirclePath.ramp", self.ramp, nonnegative=True)
+        object.__setattr__(self, "center", vec3("CirclePath.center", self.center))
+        positive("CirclePath.radius", self.radius)
+        positive("CirclePath.period", self.period)
+        nonnegative("CirclePath.ramp", self.ramp)
         u, v = _plane_axes("CirclePath", self.u, self.v)
         object.__setattr__(self, "u", u)
         object.__setattr__(self, "v", v)

@@ -9,12 +9,13 @@ rod's lumped arrays, built once (``rod.lumped``). The saved interval
 import math
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
+from ..progress import Progress
 from . import kernels
 from .boundary import Clamp, Pin
 from .inputs import SetupInputs
@@ -186,7 +187,8 @@ class RunConfig:
         if isinstance(self.n_samples, bool) or not isinstance(self.n_samples, (int, np.integer)) or self.n_samples < 1:
             raise bad("n_samples", self.n_samples, "an integer >= 1")
         if self.substeps is not None and (
-                isinstance(self.substeps, bool) or not isinstance(self.substeps, (int, np.integer)) or self.substeps < 1):
+                isinstance(self.substeps, bool) or not isinstance(self.substeps, (int, np.integer))
+                or self.substeps < 1):
             raise bad("substeps", self.substeps, "an integer >= 1, or None to choose automatically")
         if not (0 < self.safety <= 1):
             raise bad("safety", self.safety, "a factor in (0, 1] applied to 2/omega_max")
@@ -325,7 +327,7 @@ class Simulator:
         return choose_substeps(config, self.stable_step(config.safety))
 
     # ------------------------------------------------------------------ run
-    def run(self, config: RunConfig, progress: Callable[[int, int], None] | None = None,
+    def run(self, config: RunConfig, progress: Progress | None = None,
             sink: Callable[["Trajectory"], None] | None = None) -> "Trajectory | RunStats":
         """Advance ``(n_samples - 1) * substeps`` steps from the current state; the first sample is
         the current time. Samples are produced in chunks of at most ``_CHUNK_SAMPLES``: without a
@@ -406,6 +408,6 @@ def save_slots(n_nodes: int, nodes: np.ndarray) -> np.ndarray:
 
 
 def simulate(setup: Setup, config: RunConfig,
-             progress: Callable[[int, int], None] | None = None) -> Trajectory:
+             progress: Progress | None = None) -> Trajectory:
     """Simulate ``setup`` from its initial shape at rest and return the saved trajectory."""
     return Simulator(setup).run(config, progress)

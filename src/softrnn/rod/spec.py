@@ -8,12 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import bad
-
-
-def _positive(name: str, value: float, unit: str) -> None:
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not np.isfinite(value) or value <= 0:
-        raise bad(name, value, f"a positive finite number in {unit}")
+from ..errors import bad, is_int, positive
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -32,12 +27,13 @@ class NodeOverride:
     density: float | None = None
 
     def __post_init__(self):
-        if not isinstance(self.first, int) or not isinstance(self.last, int) or self.first < 0 or self.last < self.first:
+        if (not isinstance(self.first, int) or not isinstance(self.last, int) or self.first < 0
+                or self.last < self.first):
             raise bad("override nodes", (self.first, self.last), "0 <= first <= last node indices")
         for name, unit in (("radius", "m"), ("youngs_modulus", "Pa"), ("density", "kg/m^3")):
             value = getattr(self, name)
             if value is not None:
-                _positive(f"override.{name}", value, unit)
+                positive(f"override.{name}", value, unit)
         if self.poisson_ratio is not None and not (-1.0 < self.poisson_ratio <= 0.5):
             raise bad("override.poisson_ratio", self.poisson_ratio, "a value in (-1, 0.5]")
 
@@ -70,17 +66,17 @@ class RodSpec:
     overrides: tuple[NodeOverride, ...] = field(default_factory=tuple)
 
     def __post_init__(self):
-        _positive("length", self.length, "m")
-        _positive("radius", self.radius, "m")
-        _positive("youngs_modulus", self.youngs_modulus, "Pa")
-        _positive("density", self.density, "kg/m^3")
-        if not isinstance(self.n_nodes, (int, np.integer)) or isinstance(self.n_nodes, bool) or self.n_nodes < 2:
+        positive("length", self.length, "m")
+        positive("radius", self.radius, "m")
+        positive("youngs_modulus", self.youngs_modulus, "Pa")
+        positive("density", self.density, "kg/m^3")
+        if not is_int(self.n_nodes) or self.n_nodes < 2:
             raise bad("n_nodes", self.n_nodes, "an integer >= 2 (a rod needs at least one segment)")
         if not (-1.0 < self.poisson_ratio <= 0.5):
             raise bad("poisson_ratio", self.poisson_ratio, "a value in (-1, 0.5]")
         if self.shear_modulus is not None:
-            _positive("shear_modulus", self.shear_modulus, "Pa")
-        _positive("shear_coefficient", self.shear_coefficient, "(dimensionless)")
+            positive("shear_modulus", self.shear_modulus, "Pa")
+        positive("shear_coefficient", self.shear_coefficient, "(dimensionless)")
         if self.radius >= self.length:
             raise bad("radius", self.radius, f"a radius smaller than the length {self.length} m (a rod is slender)")
         object.__setattr__(self, "overrides", tuple(self.overrides))

@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import bad
-from ..rod.loads import _blend, _finite, _plane_axes, _vec3
+from ..errors import bad, is_int, nonnegative, positive, vec3
+from ..rod.loads import _blend, _plane_axes
 from ..rod.so3 import hat
 
 
@@ -31,11 +31,11 @@ class Figure8Path:
     ramp: float = 1.0
 
     def __post_init__(self):
-        object.__setattr__(self, "center", _vec3("Figure8Path.center", self.center))
-        _finite("Figure8Path.width", self.width, positive=True)
-        _finite("Figure8Path.height", self.height, positive=True)
-        _finite("Figure8Path.period", self.period, positive=True)
-        _finite("Figure8Path.ramp", self.ramp, nonnegative=True)
+        object.__setattr__(self, "center", vec3("Figure8Path.center", self.center))
+        positive("Figure8Path.width", self.width)
+        positive("Figure8Path.height", self.height)
+        positive("Figure8Path.period", self.period)
+        nonnegative("Figure8Path.ramp", self.ramp)
         u, v = _plane_axes("Figure8Path", self.u, self.v)
         object.__setattr__(self, "u", u)
         object.__setattr__(self, "v", v)
@@ -55,7 +55,7 @@ class RandomSmoothPath:
     """A smooth random path around ``center`` in the plane of axes ``u`` and ``v``, fixed by ``seed``.
 
     Each of the two in-plane coordinates is a sum of ``n_modes`` sinusoids whose frequencies are
-    drawn uniformly in [cutoff / 10, cutoff] [Hz] (band-limited: nothing faster than ``cutoff``),
+    drawn uniformly between cutoff / 10 and cutoff [Hz] (band-limited: nothing faster than ``cutoff``),
     with random phases and random positive weights normalised to sum to ``amplitude`` [m], so each
     coordinate stays within +-amplitude of the centre. The path starts at the centre and blends in
     over ``ramp`` [s]. The same seed gives the same path on every machine (NumPy's PCG64)."""
@@ -71,13 +71,13 @@ class RandomSmoothPath:
     _coef: tuple = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        object.__setattr__(self, "center", _vec3("RandomSmoothPath.center", self.center))
-        _finite("RandomSmoothPath.amplitude", self.amplitude, positive=True)
-        _finite("RandomSmoothPath.cutoff", self.cutoff, positive=True)
-        _finite("RandomSmoothPath.ramp", self.ramp, nonnegative=True)
-        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+        object.__setattr__(self, "center", vec3("RandomSmoothPath.center", self.center))
+        positive("RandomSmoothPath.amplitude", self.amplitude)
+        positive("RandomSmoothPath.cutoff", self.cutoff)
+        nonnegative("RandomSmoothPath.ramp", self.ramp)
+        if not is_int(self.seed) or self.seed < 0:
             raise bad("RandomSmoothPath.seed", self.seed, "an integer >= 0")
-        if isinstance(self.n_modes, bool) or not isinstance(self.n_modes, (int, np.integer)) or not 1 <= self.n_modes <= 64:
+        if not is_int(self.n_modes) or not 1 <= self.n_modes <= 64:
             raise bad("RandomSmoothPath.n_modes", self.n_modes, "an integer in [1, 64]")
         u, v = _plane_axes("RandomSmoothPath", self.u, self.v)
         object.__setattr__(self, "u", u)
@@ -139,7 +139,7 @@ class PoseMotion:
     rotation: object | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "position", _vec3("PoseMotion.position", self.position))
+        object.__setattr__(self, "position", vec3("PoseMotion.position", self.position))
         R = np.array(self.rotation0, dtype=float)
         if R.shape != (3, 3) or not np.allclose(R.T @ R, np.eye(3), atol=1e-8):
             raise bad("PoseMotion.rotation0", R.shape, "a 3x3 rotation matrix")
@@ -166,7 +166,7 @@ class PositionPath:
     displacement: object
 
     def __post_init__(self):
-        object.__setattr__(self, "position", _vec3("PositionPath.position", self.position))
+        object.__setattr__(self, "position", vec3("PositionPath.position", self.position))
         if not callable(self.displacement):
             raise bad("PositionPath.displacement", self.displacement, "a time function t (K,) -> (K, 3)")
 

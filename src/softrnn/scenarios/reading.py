@@ -10,21 +10,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SoftrnnInputError
+from ..errors import SoftrnnInputError, one_line
 
 
 class ScenarioError(SoftrnnInputError):
     """A bad scenario file: ``source`` (file or builtin name) and ``key`` (dotted, '' for the file)."""
 
     def __init__(self, source: str, key: str, message: str):
-        super().__init__(f"{source}: {_one_line(message)}")
+        super().__init__(f"{source}: {one_line(message)}")
         self.source = source
         self.key = key
-
-
-def _one_line(text: str) -> str:
-    """``text`` on one line (runs of white space as one space)."""
-    return " ".join(str(text).split())
 
 
 def _show(value) -> str:

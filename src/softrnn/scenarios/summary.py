@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..progress import Progress
 from ..rod import RunConfig, Setup, Simulator
 
 
@@ -25,7 +26,7 @@ class _NodeCollector:
 
 def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, node: int,
                      out_path=None, scenario_text: str = "", seed: int | None = None, attrs: dict | None = None,
-                     progress=None, series: dict | None = None) -> dict:
+                     progress: Progress | None = None, series: dict | None = None) -> dict:
     """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically).
 
     Returns a JSON-ready summary: timing, step, the node of interest's range, energy, orthogonality.

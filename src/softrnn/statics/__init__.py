@@ -1,7 +1,14 @@
 """Static Cosserat rod solver (paper appendix): RK4 shooting with Levenberg-Marquardt on the base
 wrench, point loads and magnets, stiff segments (the Fig. 13 timing study is softrnn.experiments.fig13)."""
 
-from .rod import (PointLoad as PointLoad, PointMagnet as PointMagnet, RigidSegment as RigidSegment,
-                  StaticLoads as StaticLoads, StaticRod as StaticRod)
-from .solver import (Grid as Grid, StaticSolution as StaticSolution, StaticSolver as StaticSolver, Status as Status,
-                     build_grid as build_grid, solve as solve)
+from .rod import PointLoad as PointLoad
+from .rod import PointMagnet as PointMagnet
+from .rod import RigidSegment as RigidSegment
+from .rod import StaticLoads as StaticLoads
+from .rod import StaticRod as StaticRod
+from .solver import Grid as Grid
+from .solver import StaticSolution as StaticSolution
+from .solver import StaticSolver as StaticSolver
+from .solver import Status as Status
+from .solver import build_grid as build_grid
+from .solver import solve as solve

@@ -13,17 +13,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import bad
+from ..errors import bad, is_finite_number, positive
 from ..rod.so3 import frame_from_tangent
 
 DEFAULT_BASE_ROTATION = frame_from_tangent(np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]))
-
-
-def _positive(name: str, value, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not math.isfinite(value) \
-            or value <= 0:
-        raise bad(name, value, f"a positive finite number in {unit}")
-    return float(value)
 
 
 def one_line(value):
@@ -46,7 +39,7 @@ def _vector(name: str, value, unit: str, shape=(3,)) -> np.ndarray:
 
 
 def _arc_length(name: str, s, length: float, what: str) -> float:
-    if isinstance(s, bool) or not isinstance(s, (int, float, np.floating)) or not math.isfinite(s):
+    if not is_finite_number(s):
         raise bad(name, s, f"an arc length in [0, {length:g}] m")
     if not 0.0 <= s <= length:
         raise bad(name, s, f"an arc length in [0, {length:g}] m ({what} outside the rod)")
@@ -55,7 +48,7 @@ def _arc_length(name: str, s, length: float, what: str) -> float:
 
 @dataclass(frozen=True, kw_only=True)
 class RigidSegment:
-    """A stiffer and heavier part over s in [s0, s1] [m], e.g. an embedded magnet.
+    """A stiffer and heavier part over the arc lengths s0 <= s <= s1 [m], e.g. an embedded magnet.
 
     youngs_modulus [Pa] and density [kg/m^3] of the segment; radius [m] of its circular section
     (None: the rod's radius); poisson_ratio (None: the rod's) gives its shear modulus.
@@ -71,14 +64,14 @@ class RigidSegment:
     def __post_init__(self):
         for name in ("s0", "s1"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
+            if not is_finite_number(value):
                 raise bad(f"rigid_segment.{name}", value, "a finite arc length in m")
         if not self.s0 < self.s1:
             raise bad("rigid_segment", (self.s0, self.s1), "s0 < s1 (the segment's start and end arc lengths in m)")
-        _positive("rigid_segment.youngs_modulus", self.youngs_modulus, "Pa")
-        _positive("rigid_segment.density", self.density, "kg/m^3")
+        positive("rigid_segment.youngs_modulus", self.youngs_modulus, "Pa")
+        positive("rigid_segment.density", self.density, "kg/m^3")
         if self.radius is not None:
-            _positive("rigid_segment.radius", self.radius, "m")
+            positive("rigid_segment.radius", self.radius, "m")
         if self.poisson_ratio is not None and not -1.0 < self.poisson_ratio <= 0.5:
             raise bad("rigid_segment.poisson_ratio", self.poisson_ratio, "a value in (-1, 0.5]")
 
@@ -93,7 +86,7 @@ class PointMagnet:
     moment_body: tuple
 
     def __post_init__(self):
-        if isinstance(self.s, bool) or not isinstance(self.s, (int, float, np.floating)) or not math.isfinite(self.s):
+        if not is_finite_number(self.s):
             raise bad("magnet.s", self.s, "a finite arc length in m")
         mu = _vector("magnet.moment_body", self.moment_body, "A m^2")
         object.__setattr__(self, "moment_body", tuple(float(x) for x in mu))
@@ -108,7 +101,7 @@ class PointLoad:
     torque: tuple = (0.0, 0.0, 0.0)
 
     def __post_init__(self):
-        if isinstance(self.s, bool) or not isinstance(self.s, (int, float, np.floating)) or not math.isfinite(self.s):
+        if not is_finite_number(self.s):
             raise bad("point_load.s", self.s, "a finite arc length in m")
         object.__setattr__(self, "force", tuple(float(x) for x in _vector("point_load.force", self.force, "N")))
         object.__setattr__(self, "torque",
@@ -156,18 +149,18 @@ class StaticRod:
     magnets: tuple = ()
 
     def __post_init__(self):
-        L = _positive("length", self.length, "m")
-        _positive("radius", self.radius, "m")
-        _positive("youngs_modulus", self.youngs_modulus, "Pa")
-        _positive("density", self.density, "kg/m^3")
+        L = positive("length", self.length, "m")
+        positive("radius", self.radius, "m")
+        positive("youngs_modulus", self.youngs_modulus, "Pa")
+        positive("density", self.density, "kg/m^3")
         if isinstance(self.poisson_ratio, bool) or not isinstance(self.poisson_ratio, (int, float)) \
                 or not -1.0 < self.poisson_ratio <= 0.5:
             raise bad("poisson_ratio", self.poisson_ratio, "a value in (-1, 0.5]")
-        _positive("shear_coefficient", self.shear_coefficient, "(dimensionless)")
+        positive("shear_coefficient", self.shear_coefficient, "(dimensionless)")
         for name, unit in (("bending_stiffness", "N m^2"), ("torsional_stiffness", "N m^2"),
                            ("axial_stiffness", "N"), ("shear_stiffness", "N")):
             if getattr(self, name) is not None:
-                _positive(name, getattr(self, name), unit)
+                positive(name, getattr(self, name), unit)
         if not isinstance(self.extensible_shearable, bool):
             raise bad("extensible_shearable", self.extensible_shearable, "True (paper's model) or False (Kirchhoff)")
         object.__setattr__(self, "gravity", tuple(_vector("gravity", self.gravity, "m/s^2").tolist()))

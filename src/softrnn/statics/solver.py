@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SimulationError, bad
+from ..errors import SimulationError, bad, integer
 from ..rod.so3 import matrix_to_quaternion, quaternion_to_matrix
 from . import kernels
 from .rod import StaticLoads, StaticRod, _arc_length, one_line
@@ -145,6 +145,7 @@ class StaticSolution:
 
     @property
     def converged(self) -> bool:
+        """True when the solve met its tolerance (``status`` is ``Status.CONVERGED``)."""
         return self.status is Status.CONVERGED
 
     @property
@@ -183,12 +184,6 @@ def _message(status: Status, residual: float, tol: float, iterations: int, max_i
             "and the guess are physically sized (N, N m, T) for this rod")
 
 
-def _positive_int(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise bad(name, value, "an integer >= 1")
-    return int(value)
-
-
 def _check_tol(tol) -> float:
     if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) or not math.isfinite(tol) or tol <= 0:
         raise bad("tol", tol, "a positive tolerance E on the tip wrench residual [N, N m]")
@@ -213,9 +208,9 @@ class StaticSolver:
         if not isinstance(rod, StaticRod):
             raise bad("rod", type(rod).__name__, "a StaticRod (softrnn.statics.StaticRod)")
         self.rod = rod
-        self.n_steps = _positive_int("n_steps", n_steps)
+        self.n_steps = integer("n_steps", n_steps)
         self.tol = _check_tol(tol)
-        self.max_iter = _positive_int("max_iter", max_iter)
+        self.max_iter = integer("max_iter", max_iter)
         self._layouts: dict[tuple, tuple] = {}
         self.grid = self._grid(())  # checks n_steps against the rod's own load points
         EI = rod.stiffness()["EI"]

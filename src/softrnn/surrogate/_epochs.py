@@ -15,6 +15,7 @@ from contextlib import contextmanager
 import torch
 
 from ..errors import SoftrnnInputError
+from ..progress import Progress
 from ._checkpoint import Checkpoint
 from .data import Normalizer
 from .model import ModelConfig, NodeLSTM
@@ -58,7 +59,7 @@ def _clone_state(module: torch.nn.Module) -> dict:
 
 
 def train_epochs(module: NodeLSTM, objective, fit: tuple, validation: tuple, train, checkpoint: Checkpoint, *,
-                 resume: bool, progress=None) -> dict:
+                 resume: bool, progress: Progress | None = None) -> dict:
     """Train ``module`` on the ``fit`` tensors (poses, wrenches, targets) with the loss ``objective``
     (``_losses``) until ``train.epochs`` (a ``TrainConfig``) or early stopping, continuing from
     ``checkpoint`` when ``resume`` and it exists. Leaves the best validation epoch's weights in

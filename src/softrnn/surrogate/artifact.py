@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..errors import SoftrnnInputError, bad
-from ..files import umask_mode
+from ..errors import SoftrnnInputError, bad, one_line
+from ..files import json_default, umask_mode
 from .data import Normalizer, SampleSpec
 from .model import ModelConfig, NodeLSTM
 
@@ -48,10 +48,6 @@ _OURS = set(FILES) | {CHECKPOINT}
 
 class ModelFolderError(SoftrnnInputError):
     """A model folder that cannot be used; one line: ``<folder>: <file> what is wrong; what to do``."""
-
-
-def _one_line(text) -> str:
-    return " ".join(str(text).split())
 
 
 @dataclass
@@ -189,22 +185,10 @@ def save_model(folder, model: NodeModel) -> None:
 
 def _write_json(path: Path, value) -> None:
     try:
-        text = json.dumps(value, indent=2, allow_nan=False, default=_json_default)
+        text = json.dumps(value, indent=2, allow_nan=False, default=json_default)
     except (TypeError, ValueError) as err:
-        raise bad(path.stem, "...", f"JSON-serialisable values without NaN/inf ({_one_line(err)})") from None
+        raise bad(path.stem, "...", f"JSON-serialisable values without NaN/inf ({one_line(err)})") from None
     path.write_text(text + "\n")
-
-
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, (Path, range)):
-        return str(value) if isinstance(value, Path) else [value.start, value.stop]
-    if isinstance(value, tuple):
-        return list(value)
-    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
 # ------------------------------------------------------------------------------------------ load
@@ -215,7 +199,7 @@ def _read_json(folder: Path, name: str):
     try:
         return json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, ValueError) as err:
-        raise ModelFolderError(f"{folder}: {name} is corrupt ({_one_line(err)}); train the model again") from None
+        raise ModelFolderError(f"{folder}: {name} is corrupt ({one_line(err)}); train the model again") from None
 
 
 def load_model(folder) -> NodeModel:
@@ -295,7 +279,7 @@ def _read_weights(folder: Path, module: NodeLSTM) -> dict:
     try:
         state = load_file(str(path))
     except Exception as err:  # noqa: BLE001 - safetensors raises several types for corrupt files
-        raise ModelFolderError(f"{folder}: weights.safetensors is corrupt ({_one_line(err)[:200]}); "
+        raise ModelFolderError(f"{folder}: weights.safetensors is corrupt ({one_line(err)[:200]}); "
                                f"train the model again") from None
     expected = module.state_dict()
     missing = sorted(set(expected) - set(state))

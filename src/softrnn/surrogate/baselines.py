@@ -27,7 +27,7 @@ from typing import Protocol, final
 
 import numpy as np
 
-from ..errors import bad
+from ..errors import bad, is_finite_number, is_int
 from .manipulator import DIVERGED_M, RolloutDiverged
 
 MODES = ("node", "manipulator")
@@ -65,10 +65,6 @@ class AbstractBaseline(Protocol):
 
 
 # ------------------------------------------------------------------------------------- validation
-def _is_int(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-
-
 def _shape_text(value) -> str:
     return f"array of shape {np.shape(value)}"
 
@@ -106,15 +102,15 @@ def _columns(name: str, value, n_nodes: int) -> np.ndarray:
     """Column indices (n,) int64, distinct, in [0, n_nodes); None: every column."""
     if value is None:
         return np.arange(n_nodes, dtype=np.int64)
-    items = [value] if _is_int(value) else list(value) if isinstance(value, (Sequence, np.ndarray)) else None
-    if not items or not all(_is_int(a) and 0 <= a < n_nodes for a in items) or len(set(items)) != len(items):
+    items = [value] if is_int(value) else list(value) if isinstance(value, (Sequence, np.ndarray)) else None
+    if not items or not all(is_int(a) and 0 <= a < n_nodes for a in items) or len(set(items)) != len(items):
         raise bad(name, value, f"None or distinct column indices in 0..{n_nodes - 1} (positions of the nodes "
                                f"in the arrays' node axis)")
     return np.array([int(a) for a in items], dtype=np.int64)
 
 
 def _history(value) -> int:
-    if not _is_int(value) or value < 1:
+    if not is_int(value) or value < 1:
         raise bad("history", value, "an integer >= 1 (past samples per prediction)")
     return int(value)
 
@@ -123,7 +119,7 @@ def _span(n_samples: int, history: int, start, stop, *, targets: int = 1) -> tup
     """Validated (start, stop) of predicted samples: ``history`` rows before ``start`` exist and
     ``[start, stop)`` holds at least ``targets`` samples."""
     for name, value in (("start", start), ("stop", stop)):
-        if not _is_int(value):
+        if not is_int(value):
             raise bad(name, value, "a sample index (integer)")
     start, stop = int(start), int(stop)
     if not history <= start < n_samples:
@@ -138,7 +134,7 @@ def _span(n_samples: int, history: int, start, stop, *, targets: int = 1) -> tup
 def _fit_span(n_samples: int, history: int, start, stop, targets: int) -> tuple[int, int]:
     """Validated training span [start, stop): ``history`` + ``targets`` samples at least."""
     for name, value in (("start", start), ("stop", stop)):
-        if not _is_int(value) or not 0 <= value <= n_samples:
+        if not is_int(value) or not 0 <= value <= n_samples:
             raise bad(name, value, f"a sample index in 0..{n_samples}")
     need = history + targets
     if stop - start < need:
@@ -264,10 +260,10 @@ class LinearARConfig:
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise bad(name, getattr(self, name), "true or false")
             object.__setattr__(self, name, bool(getattr(self, name)))
-        if self.alpha is not None and not _positive(self.alpha):
+        if self.alpha is not None and not (is_finite_number(self.alpha) and self.alpha > 0):
             raise bad("alpha", self.alpha, "a positive ridge penalty, or None to choose one of alphas")
         alphas = tuple(self.alphas) if isinstance(self.alphas, (Sequence, np.ndarray)) else ()
-        if not alphas or not all(_positive(a) for a in alphas):
+        if not alphas or not all(is_finite_number(a) and a > 0 for a in alphas):
             raise bad("alphas", self.alphas, "a non-empty sequence of positive ridge penalties")
         object.__setattr__(self, "alphas", tuple(float(a) for a in alphas))
         f = self.validation_fraction
@@ -276,16 +272,11 @@ class LinearARConfig:
         object.__setattr__(self, "validation_fraction", float(f))
 
 
-def _positive(value) -> bool:
-    return (isinstance(value, (int, float, np.floating)) and not isinstance(value, bool)
-            and bool(np.isfinite(value)) and value > 0)
-
-
 def _offsets(value) -> tuple[int, ...]:
-    if _is_int(value) and value >= 0:
+    if is_int(value) and value >= 0:
         return tuple(range(-int(value), 0)) + tuple(range(1, int(value) + 1))
     items = list(value) if isinstance(value, (Sequence, np.ndarray)) and not isinstance(value, str) else None
-    if items is None or not all(_is_int(a) and a != 0 for a in items) or len(set(items)) != len(items):
+    if items is None or not all(is_int(a) and a != 0 for a in items) or len(set(items)) != len(items):
         raise bad("neighbours", value, "a radius r >= 0 (offsets -r..-1, 1..r) or distinct non-zero column offsets")
     return tuple(int(a) for a in items)
 
@@ -721,7 +712,7 @@ def horizon_errors(pred_fn: Callable, positions, wrenches, starts, horizons=HORI
     Wr = _wrenches("wrenches", wrenches, P.shape[:2])
     T = P.shape[0]
     stop = T if stop is None else stop
-    if not _is_int(stop) or not 1 <= stop <= T:
+    if not is_int(stop) or not 1 <= stop <= T:
         raise bad("stop", stop, f"a sample index in 1..{T}")
     starts = _indices("starts", starts, 0, int(stop) - 1)
     hs = sorted(set(_indices("horizons", horizons, 1, None)))
@@ -743,7 +734,7 @@ def horizon_errors(pred_fn: Callable, positions, wrenches, starts, horizons=HORI
 
 def _indices(name: str, value, lo: int, hi: int | None) -> list[int]:
     items = list(value) if isinstance(value, (Sequence, np.ndarray)) else None
-    if not items or not all(_is_int(a) and lo <= a and (hi is None or a <= hi) for a in items):
+    if not items or not all(is_int(a) and lo <= a and (hi is None or a <= hi) for a in items):
         span = f"{lo}..{hi}" if hi is not None else f">= {lo}"
         raise bad(name, value, f"a non-empty sequence of integers {span}")
     return [int(a) for a in items]

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SoftrnnInputError, bad
+from ..errors import SoftrnnInputError, bad, is_int
 
 INPUTS = ("positions", "poses")
 WRENCHES = ("none", "force", "wrench")
@@ -39,10 +39,6 @@ STD_RELATIVE_FLOOR = 1e-3
 """Smallest standard deviation kept, relative to the largest of its group (poses, step differences,
 wrenches, targets): a constant feature (z of a planar motion, the forces of a free motion) is then
 centred but not blown up from rounding noise."""
-
-
-def _is_int(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
 # ------------------------------------------------------------------------------------- SampleSpec
@@ -77,17 +73,17 @@ class SampleSpec:
     train_fraction: float = 0.6
 
     def __post_init__(self):
-        if not _is_int(self.node):
+        if not is_int(self.node):
             raise bad("node", self.node, "an integer node index")
         object.__setattr__(self, "node", int(self.node))
         if self.neighbours is not None:
             if isinstance(self.neighbours, (str, bytes)) or not hasattr(self.neighbours, "__iter__"):
                 raise bad("neighbours", self.neighbours, "a sequence of integer node indices, or None")
             nb = tuple(self.neighbours)
-            if not all(_is_int(a) for a in nb):
+            if not all(is_int(a) for a in nb):
                 raise bad("neighbours", self.neighbours, "a sequence of integer node indices, or None")
             object.__setattr__(self, "neighbours", tuple(int(a) for a in nb))
-        if not _is_int(self.history) or self.history < 1:
+        if not is_int(self.history) or self.history < 1:
             raise bad("history", self.history, "an integer >= 1 (past time steps per window, eta + 1; paper: 2)")
         object.__setattr__(self, "history", int(self.history))
         if self.inputs not in INPUTS:
@@ -100,7 +96,7 @@ class SampleSpec:
         object.__setattr__(self, "train_fraction", float(self.train_fraction))
 
     # ------------------------------------------------------------------ resolution and layout
-    def resolve(self, dataset_nodes, *, n_nodes_total: int | None = None) -> "SampleSpec":
+    def resolve(self, dataset_nodes, *, n_nodes_total: int | None = None) -> SampleSpec:
         """This spec with absolute node indices and the neighbours filled in, checked against the
         stored nodes.
 
@@ -182,7 +178,7 @@ class SampleSpec:
                 "train_fraction": self.train_fraction}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "SampleSpec":
+    def from_dict(cls, d: dict) -> SampleSpec:
         """Inverse of ``to_dict``; unknown or missing keys raise SoftrnnInputError."""
         if not isinstance(d, dict):
             raise bad("spec", type(d).__name__, "a dict of SampleSpec fields")
@@ -267,7 +263,7 @@ class Windows:
     def __len__(self) -> int:
         return int(self.index.shape[0])
 
-    def take(self, which) -> "Windows":
+    def take(self, which) -> Windows:
         """The windows selected by ``which`` (indices, a slice or a boolean mask)."""
         return Windows(poses=self.poses[which], wrenches=self.wrenches[which], targets=self.targets[which],
                        index=self.index[which])
@@ -299,7 +295,7 @@ def make_windows(dataset, spec: SampleSpec, start: int, stop: int) -> Windows:
         spec = spec.resolve(dataset.nodes, n_nodes_total=(getattr(dataset, "attrs", None) or {}).get("n_nodes_total"))
     T = int(np.asarray(dataset.time).shape[0])
     for name, value in (("start", start), ("stop", stop)):
-        if not _is_int(value) or not 0 <= value <= T:
+        if not is_int(value) or not 0 <= value <= T:
             raise bad(name, value, f"a sample index in 0..{T}")
     if stop < start:
         raise bad("stop", stop, f"an index >= start ({start})")
@@ -334,7 +330,7 @@ def split(n_samples: int, spec: SampleSpec) -> tuple[range, range]:
     SoftrnnInputError
         A span too short to hold one window (history + 1 samples).
     """
-    if not _is_int(n_samples) or n_samples < 0:
+    if not is_int(n_samples) or n_samples < 0:
         raise bad("n_samples", n_samples, "a number of samples >= 0")
     cut = int(math.floor(spec.train_fraction * n_samples))
     need = spec.history + 1
@@ -453,7 +449,7 @@ class Normalizer:
 
     @classmethod
     def fit(cls, windows: Windows, *, output: str = "increment", relative: bool = False,
-            per_node: int = 3) -> "Normalizer":
+            per_node: int = 3) -> Normalizer:
         """Statistics of ``windows`` (the training windows; never pass test windows).
 
         ``relative``: express every position of a window relative to the node's last position
@@ -534,7 +530,7 @@ class Normalizer:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Normalizer":
+    def from_dict(cls, d: dict) -> Normalizer:
         """Inverse of ``to_dict``; a malformed dict raises SoftrnnInputError."""
         if not isinstance(d, dict):
             raise bad("normalizer", type(d).__name__, "a dict of Normalizer fields")

@@ -137,7 +137,8 @@ def _scratch(lay) -> tuple[np.ndarray, np.ndarray]:
 def _shared_scratch(e, B: int) -> tuple:
     """Window and scratch arrays of ``forward_gemm`` for B nodes: X, Wr, eb."""
     widest = max(4 * e.lay[K.L_U], K.work_size(e.lay))
-    return (np.zeros((B, e.history, e.pose_features), np.float32), np.zeros((B, e.history, e.wrench_features), np.float32),
+    return (np.zeros((B, e.history, e.pose_features), np.float32),
+            np.zeros((B, e.history, e.wrench_features), np.float32),
             np.zeros(B * widest, np.int32))
 
 
@@ -278,6 +279,8 @@ class ManipulatorStepper:
         1: serial. More: the nodes are split over numba's thread pool (``numba.set_num_threads``
         caps it); worth it from a few tens of nodes.
 
+    Notes
+    -----
     ``reset(positions (H, N, 3), wrenches (H, B, W), quaternions (H, N, 4) or None)`` loads the
     last H samples; ``step(wrench_next (B, W), boundary (N, 3) or None)`` predicts the modelled
     nodes' positions at the next sample, takes the other nodes' positions from ``boundary`` (None:
@@ -439,7 +442,8 @@ def engine_rollout(bound: list[BoundGroup], positions, quaternions, forces, torq
         g, wr = bound[0], wrenches[0]
         e = g.engine
         status, b, k = K.rollout_steps_shared(e.params, e.norm, e.lay, g.input_cols, g.target_cols, positions, quats,
-                                              wr, k0, k1, float(limit), scratch[0][0], *_shared_scratch(e, g.which.size))
+                                              wr, k0, k1, float(limit), scratch[0][0],
+                                              *_shared_scratch(e, g.which.size))
         return int(status), (int(g.nodes[b]) if status else -1), int(k)
     if len(bound) == 1:   # the common case: every step inside one kernel call
         g, (pred, wk, eb), wr = bound[0], scratch[0], wrenches[0]

@@ -82,6 +82,8 @@ class PhysicalNodeModel(nn.Module):
     model : NodeModel
         A loaded model (``load_model``); its module is used as is (put in eval mode), not copied.
 
+    Notes
+    -----
     The forward pass reproduces ``NodeModel.predict`` (``Normalizer.normalise_poses``,
     ``normalise_wrenches``, the module, ``denormalise_outputs``) for ``relative`` on or off and
     every ``output`` mode, computing in float32.

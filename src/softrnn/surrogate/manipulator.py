@@ -93,7 +93,7 @@ class Manipulator:
         object.__setattr__(self, "models", dict(sorted(clean.items())))
 
     @classmethod
-    def of(cls, models=(), *, shared=None, shared_nodes=()) -> "Manipulator":
+    def of(cls, models=(), *, shared=None, shared_nodes=()) -> Manipulator:
         """Each model of ``models`` predicts its own ``spec.node``; ``shared`` (one model), if
         given, predicts every node of ``shared_nodes`` not already covered. Two models for one node
         is an error."""

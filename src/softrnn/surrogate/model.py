@@ -23,21 +23,17 @@ import numpy as np
 import torch
 from torch import nn
 
-from ..errors import SoftrnnInputError, bad
+from ..errors import SoftrnnInputError, bad, integer, is_int
 from .data import OUTPUTS
 
 
-def _is_int(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-
-
 def _widths(name: str, value) -> tuple[int, ...]:
-    if _is_int(value):
+    if is_int(value):
         value = (value,)
     if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
         raise bad(name, value, "a sequence of positive layer widths (may be empty)")
     out = tuple(value)
-    if not all(_is_int(a) and a >= 1 for a in out):
+    if not all(is_int(a) and a >= 1 for a in out):
         raise bad(name, value, "a sequence of positive layer widths (may be empty)")
     return tuple(int(a) for a in out)
 
@@ -91,10 +87,7 @@ class ModelConfig:
     def __post_init__(self):
         for name, low in (("pose_features", 1), ("wrench_features", 0), ("history", 1), ("lstm_layers", 1),
                           ("lstm_units", 1)):
-            value = getattr(self, name)
-            if not _is_int(value) or value < low:
-                raise bad(name, value, f"an integer >= {low}")
-            object.__setattr__(self, name, int(value))
+            object.__setattr__(self, name, integer(name, getattr(self, name), low))
         object.__setattr__(self, "dense_units", _widths("dense_units", self.dense_units))
         object.__setattr__(self, "wrench_dense", _widths("wrench_dense", self.wrench_dense))
         if self.output not in OUTPUTS:
@@ -115,7 +108,7 @@ class ModelConfig:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict) -> "ModelConfig":
+    def from_dict(cls, d: dict) -> ModelConfig:
         """Inverse of ``to_dict``; unknown or missing keys raise SoftrnnInputError."""
         if not isinstance(d, dict):
             raise bad("model", type(d).__name__, "a dict of ModelConfig fields")

@@ -43,10 +43,15 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SimulationError, SoftrnnInputError, bad
-from .manipulator import (DIVERGED_M as DIVERGED_M, UNMODELLED as UNMODELLED, Manipulator as Manipulator,
-                          RolloutDiverged as RolloutDiverged, _as_manipulator, _column_lookup, _compiled, _diverged,
-                          _stored, bind,
-                          describe_model as describe_model, model_inputs as model_inputs)
+from ..progress import Progress
+from .manipulator import DIVERGED_M as DIVERGED_M
+from .manipulator import UNMODELLED as UNMODELLED
+from .manipulator import Manipulator as Manipulator
+from .manipulator import RolloutDiverged as RolloutDiverged
+from .manipulator import _as_manipulator, _column_lookup, _compiled, _diverged, _stored, bind
+from .manipulator import describe_model as describe_model
+from .manipulator import model_inputs as model_inputs
+
 
 # --------------------------------------------------------------------------------------- rollout
 @dataclass(frozen=True, eq=False)
@@ -139,7 +144,8 @@ def torch_threads(threads: int | None):
 
 
 def rollout(models, dataset, start: int | None = None, stop: int | None = None, *,
-            unmodelled: str = "reference", threads: int | None = 1, progress=None, engine: bool = True) -> Rollout:
+            unmodelled: str = "reference", threads: int | None = 1, progress: Progress | None = None,
+            engine: bool = True) -> Rollout:
     """Free-running prediction of samples ``start .. stop-1`` of ``dataset``.
 
     Parameters

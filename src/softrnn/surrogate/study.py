@@ -3,9 +3,10 @@
 Every grid point (LSTM units U, history H) trains one node model on the same data set with the same
 settings (``train_node_model``), evaluates its one-step-ahead RMS error on the test span
 (``surrogate.evaluate.one_step`` and ``metrics``, in mm, per axis and overall) and measures its
-computation bandwidth: the median rate [Hz] of ``NodeStepper.step(pose_row, wrench_row)`` calls
-(the compiled batch-1 engine a control loop would use), and for reference the median rate of the
-eager PyTorch call ``NodeModel.predict`` at batch 1 (what the paper's own bandwidths, about 60 Hz
+computation bandwidth: the rate [Hz] of ``NodeStepper.step(pose_row, wrench_row)`` calls (the
+compiled batch-1 engine a control loop would use), and for reference the rate of the eager PyTorch
+call ``NodeModel.predict`` at batch 1, both timed by ``softrnn.timing.step_rate`` (the median
+over 5 runs of each run's mean rate) (what the paper's own bandwidths, about 60 Hz
 with Keras, measure).
 
 Where the work runs:
@@ -23,7 +24,8 @@ The output folder:
 =========================== ======================================================================
 ``study.json``              the manifest: the study's settings and the data file's SHA-256
 ``models/uUU-hHH/``         the model folder of each grid point (``artifact.save_model``)
-``point-uUU-hHH.json``      each point's training record, errors and (once measured) bandwidths
+``point-uUU-hHH.json``      each point's training record, errors and (once measured) bandwidths, with
+                            the machine they were measured on
 ``fig14.png``               the two heatmaps (bandwidth [Hz] and RMS error [mm] over U x H)
 =========================== ======================================================================
 
@@ -41,8 +43,8 @@ here in the summary.
 
 from __future__ import annotations
 
-import gc
 import hashlib
+import itertools
 import json
 import math
 import signal
@@ -51,13 +53,14 @@ import time
 from contextlib import closing, contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
 from .. import __version__
-from ..errors import SoftrnnInputError, bad
+from ..errors import SoftrnnInputError, bad, integer, is_int
 from ..files import atomic_write_text
+from ..progress import Progress
+from ..timing import step_rate
 from .train import TrainConfig
 
 MANIFEST = "study.json"
@@ -86,18 +89,14 @@ PAPER_FIG14 = {
 """The paper's Fig. 14 statements, quoted, and its two optimal regions (history and LSTM unit ranges)."""
 
 
-def _is_int(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-
-
 def _grid(name: str, value) -> tuple[int, ...]:
     """A non-empty sequence of distinct positive integers, sorted."""
-    if _is_int(value):
+    if is_int(value):
         value = (value,)
     if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
         raise bad(name, value, "a non-empty list of distinct positive integers, e.g. 5,10,15")
     out = tuple(value)
-    if not out or not all(_is_int(a) and a >= 1 for a in out) or len(set(out)) != len(out):
+    if not out or not all(is_int(a) and a >= 1 for a in out) or len(set(out)) != len(out):
         raise bad(name, list(out), "a non-empty list of distinct positive integers, e.g. 5,10,15")
     return tuple(sorted(int(a) for a in out))
 
@@ -156,16 +155,13 @@ class StudyConfig:
     region_tolerance: float = 0.1
 
     def __post_init__(self):
-        if not _is_int(self.node):
+        if not is_int(self.node):
             raise bad("node", self.node, "an integer node index")
         object.__setattr__(self, "node", int(self.node))
         object.__setattr__(self, "units", _grid("units", self.units))
         object.__setattr__(self, "history", _grid("history", self.history))
         for name, low in (("epochs", 1), ("seed", 0), ("bandwidth_steps", 10), ("torch_steps", 0)):
-            value = getattr(self, name)
-            if not _is_int(value) or value < low:
-                raise bad(name, value, f"an integer >= {low}")
-            object.__setattr__(self, name, int(value))
+            object.__setattr__(self, name, integer(name, getattr(self, name), low))
         if not isinstance(self.train, TrainConfig):
             raise bad("train", type(self.train).__name__, "a TrainConfig")
         object.__setattr__(self, "train", replace(self.train, epochs=self.epochs, seed=self.seed))
@@ -322,25 +318,10 @@ def _config_from_dict(d: dict) -> StudyConfig:
 
 
 # ------------------------------------------------------------------------------------------ bandwidth
-def _median_hz(call, n: int, warmup: int) -> dict:
-    """Time ``call(i)`` for i < warmup + n one call at a time; the median and mean rate of the last n."""
-    for i in range(warmup):
-        call(i)
-    times = np.empty(n)
-    clock = time.perf_counter_ns
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        for i in range(n):
-            t = clock()
-            call(warmup + i)
-            times[i] = clock() - t
-    finally:
-        if enabled:
-            gc.enable()
-    med = float(np.median(times)) * 1e-9
-    return {"hz": 1.0 / med, "median_us": med * 1e6, "p90_us": float(np.percentile(times, 90)) * 1e-3,
-            "mean_hz": n / (float(times.sum()) * 1e-9), "calls": n}
+def _rate(call, n: int, warmup: int) -> dict:
+    """``n`` timed calls of ``call()`` after ``warmup`` untimed ones (``softrnn.timing.step_rate``)."""
+    r = step_rate(call, steps=n, warmup=warmup)
+    return {"hz": r.median_hz, "median_us": r.step_us, "p90_us": r.p90_us, "mean_hz": r.mean_hz, "calls": r.steps}
 
 
 def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 200) -> dict:
@@ -359,8 +340,10 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
     Returns
     -------
     dict
-        ``stepper`` and ``torch`` (or None): ``hz`` (1 / median call time), ``median_us``,
-        ``p90_us``, ``mean_hz`` (calls / total time), ``calls``.
+        ``stepper`` and ``torch`` (or None), each timed by ``softrnn.timing.step_rate``: ``hz`` (the
+        median over 5 runs of each run's calls per second), ``median_us`` (1e6 / ``hz``),
+        ``p90_us`` (90th percentile of the single call times), ``mean_hz`` (calls / total time),
+        ``calls``.
     """
     import torch
 
@@ -376,37 +359,44 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
     stepper = NodeStepper(model)
     stepper.reset(rows[:H], wr[:H])
 
-    def step(i):
-        k = H + i % (L - H)
+    rows_in_turn = itertools.cycle(range(H, L))
+
+    def step():
+        k = next(rows_in_turn)
         stepper.step(rows[k], wr[k])
 
-    out = {"stepper": _median_hz(step, steps, 200), "torch": None}
+    out = {"stepper": _rate(step, steps, 200), "torch": None}
     if torch_steps:
         windows = np.lib.stride_tricks.sliding_window_view(rows, H, axis=0).transpose(0, 2, 1)   # (L-H+1, H, P)
         wwin = np.lib.stride_tricks.sliding_window_view(wr, H, axis=0).transpose(0, 2, 1)        # (L-H+1, H, W)
         n_win = windows.shape[0]
 
-        def predict(i):
-            k = i % n_win
+        windows_in_turn = itertools.cycle(range(n_win))
+
+        def predict():
+            k = next(windows_in_turn)
             model.predict(windows[k:k + 1], wwin[k:k + 1])
 
         old = torch.get_num_threads()
         torch.set_num_threads(1)
         try:
-            out["torch"] = _median_hz(predict, torch_steps, 20)
+            out["torch"] = _rate(predict, torch_steps, 20)
         finally:
             torch.set_num_threads(old)
     return out
 
 
 def _measure_point(out_dir: Path, record: dict, dataset, config: StudyConfig) -> dict:
-    """Measure a trained point's bandwidths and rewrite its point file."""
+    """Measure a trained point's bandwidths and rewrite its point file (with the machine they were
+    measured on, ``softrnn.timing.machine_info``)."""
+    from ..timing import machine_info
     from .artifact import load_model
 
     model = load_model(out_dir / record["model"])
     record = dict(record, bandwidth=measure_bandwidth(model, dataset, steps=config.bandwidth_steps,
                                                       torch_steps=config.torch_steps))
     record["bandwidth"]["threads"] = 1
+    record["bandwidth"]["machine"] = machine_info()
     _write_json(point_path(out_dir, record["units"], record["history"]), record)
     return record
 
@@ -448,7 +438,7 @@ class _Steps:
 
 
 def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None = None, workers: int | None = None,
-              progress: Callable[[int, int], None] | None = None) -> dict:
+              progress: Progress | None = None) -> dict:
     """Run (or complete) a Fig. 14 study of ``data_path`` in ``out_dir``.
 
     Parameters
@@ -480,7 +470,7 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
         raise bad("config", type(config).__name__, "a StudyConfig")
     if workers is None:
         workers = 2
-    if not _is_int(workers) or workers < 1:
+    if not is_int(workers) or workers < 1:
         raise bad("--workers", workers, "an integer >= 1")
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise bad("--scheduler", scheduler, f"a Dask scheduler address tcp://HOST:PORT or {SYNCHRONOUS!r}")
@@ -669,10 +659,11 @@ def fig14_figure(result: dict):
     history size (y). Solid outlines: the region found (within the tolerance of the best); dashed:
     the grid points inside the paper's region; the error's colour scale is logarithmic. Returns
     the matplotlib Figure."""
-    from ..figures import plots as plotting  # noqa: F401  (selects the Agg backend)
     import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
     from matplotlib.patches import Rectangle
+
+    from ..figures import plots as plotting  # noqa: F401  (selects the Agg backend)
 
     units, hist = result["units"], result["history"]
     panels = [("A: bandwidth, compiled stepper [Hz]", result["bandwidth_hz"], "bandwidth", "viridis")]

@@ -32,7 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..errors import bad
+from ..errors import bad, integer
+from ..progress import Progress
 from ._checkpoint import Checkpoint, load_finished, training_settings
 from ._epochs import new_module, torch_settings, train_epochs
 from ._training_data import Spans as Spans
@@ -47,10 +48,6 @@ from .model import ModelConfig
 __all__ = ["TrainConfig", "train_node_model", "Spans", "spans", "pooled_specs", "training_windows"]
 
 _FIXED = ("pose_features", "wrench_features", "history")
-
-
-def _is_int(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -107,10 +104,7 @@ class TrainConfig:
     def __post_init__(self):
         for name, low in (("epochs", 1), ("batch_size", 1), ("patience", 1), ("max_train_windows", 1),
                           ("threads", 1), ("seed", 0), ("rollout_steps", 1)):
-            value = getattr(self, name)
-            if not _is_int(value) or value < low:
-                raise bad(name, value, f"an integer >= {low}")
-            object.__setattr__(self, name, int(value))
+            object.__setattr__(self, name, integer(name, getattr(self, name), low))
         if isinstance(self.input_noise, bool) or not isinstance(self.input_noise, (int, float, np.floating)) \
                 or not 0.0 <= self.input_noise < math.inf:
             raise bad("input_noise", self.input_noise, "a number >= 0 (0: no noise)")
@@ -127,7 +121,7 @@ class TrainConfig:
 
 # ------------------------------------------------------------------------------------------ train
 def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dict | None, train: TrainConfig,
-                     out_folder, *, resume: bool = False, progress=None, pool=None) -> NodeModel:
+                     out_folder, *, resume: bool = False, progress: Progress | None = None, pool=None) -> NodeModel:
     """Train one node's model and save it to ``out_folder``.
 
     Parameters

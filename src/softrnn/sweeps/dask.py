@@ -38,7 +38,8 @@ def completed(tasks, scheduler: str | None, n_workers: int, *, alternatives: str
     """Yield the results of ``tasks`` (a list of ``(function, args, key)``) as they finish.
 
     ``scheduler`` None: a ``LocalCluster`` of ``n_workers`` single-threaded processes (their numba
-    pinned to one thread through the workers' own environment, ``WORKER_ENV``), closed at the end; otherwise the address of a running Dask scheduler
+    pinned to one thread through the workers' own environment, ``WORKER_ENV``), closed at the end;
+    otherwise the address of a running Dask scheduler
     (one that does not answer is a one-line ``SoftrnnInputError`` naming ``--scheduler``;
     ``alternatives`` adds other options to its message). ``local_guard``: a context manager
     entered while the local cluster starts (e.g. to make its workers ignore Ctrl-C). Tasks not yet

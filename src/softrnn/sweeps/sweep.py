@@ -16,11 +16,11 @@ import time
 from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 from .. import __version__
 from ..errors import bad
 from ..files import atomic_write_text
+from ..progress import Progress
 
 MANIFEST = "sweep.json"
 
@@ -108,7 +108,7 @@ def _remove_stale_temporaries(out_dir: Path) -> None:
 
 
 def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_workers: int = 2,
-              n_samples: int | None = None, progress: Callable[[int, int], None] | None = None) -> SweepResult:
+              n_samples: int | None = None, progress: Progress | None = None) -> SweepResult:
     """Simulate variants 0..count-1 of ``scenario`` into ``out_dir`` on Dask; skips finished files.
 
     ``scheduler``: address of an existing Dask scheduler, or None for a LocalCluster of

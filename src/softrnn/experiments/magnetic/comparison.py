@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import time
@@ -11,6 +12,8 @@ import numpy as np
 
 from ...errors import SoftrnnInputError
 from ...magnetics.camera import tangents_from_rotation_vectors
+from ...progress import Progress
+from ...timing import step_rate
 from .config import AXES, FIGURE_FILE, MAGNETS, MODELS_DIR, ORIENTATION_NOTE, TABLE_FILE, ExperimentConfig
 from .figure import plot_fig12
 
@@ -40,7 +43,8 @@ def _angle_errors(predicted, measured) -> dict:
 
 
 def _stepper_rate(model, dataset, steps: int = 2000) -> float:
-    """Batch-1 steps per second of the compiled ``NodeStepper`` fed the test span's rows."""
+    """Batch-1 steps per second of the compiled ``NodeStepper`` fed the data set's rows in turn
+    (``softrnn.timing.step_rate``: the median over 5 runs of each run's mean rate)."""
     from ...surrogate.data import pose_rows, wrench_rows
     from ...surrogate.engine import NodeStepper
 
@@ -49,14 +53,13 @@ def _stepper_rate(model, dataset, steps: int = 2000) -> float:
     wr = wrench_rows(dataset, model.spec)
     stepper = NodeStepper(model)
     stepper.reset(rows[:H], wr[:H])
-    L = rows.shape[0]
-    for i in range(100):
-        stepper.step(rows[H + i % (L - H)], wr[H + i % (L - H)])
-    t0 = time.perf_counter()
-    for i in range(steps):
-        k = H + i % (L - H)
+    rows_in_turn = itertools.cycle(range(H, rows.shape[0]))
+
+    def step():
+        k = next(rows_in_turn)
         stepper.step(rows[k], wr[k])
-    return steps / (time.perf_counter() - t0)
+
+    return step_rate(step, steps=steps, warmup=100).median_hz
 
 
 def _paper_table() -> dict:
@@ -65,7 +68,7 @@ def _paper_table() -> dict:
     return paper_case("magnetic_experiment")["test_max_mean_abs_deg"]
 
 
-def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, progress=None,
+def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, progress: Progress | None = None,
             static_info: dict | None = None, figure_title: str = "") -> dict:
     """Train the two LSTMs (paper Fig. 11) on the first ``train_fraction`` of ``dataset``
     (``orientation_dataset``), predict the rest one step ahead and free running, and compare with
@@ -89,7 +92,7 @@ def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, 
         result[name], predictions[name] = _score_magnet(model, dataset, measured, m, static, out / MODELS_DIR / name)
         rates[name] = _stepper_rate(model, dataset)
         if progress is not None:
-            progress("evaluate", m + 1, len(MAGNETS))
+            progress(m + 1, len(MAGNETS), {"stage": "evaluate"})
     idx = predictions["distal"]["index"]
     motion = np.degrees(np.ptp(measured, axis=0))                                   # (2, 3) range per axis
     bending = AXES[int(np.argmax(motion.max(axis=0)))]
@@ -118,7 +121,8 @@ def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, 
     return result
 
 
-def _train_magnet(dataset, m: int, config: ExperimentConfig, train, model_dir: Path, progress) -> tuple:
+def _train_magnet(dataset, m: int, config: ExperimentConfig, train, model_dir: Path,
+                  progress: Progress | None) -> tuple:
     """(model, seconds): magnet ``m``'s LSTM (input I both magnets' orientations, input II its wrench)
     trained with ``train`` (a ``TrainConfig``) and saved to ``model_dir``."""
     from ...surrogate.data import SampleSpec
@@ -127,10 +131,13 @@ def _train_magnet(dataset, m: int, config: ExperimentConfig, train, model_dir: P
     name = MAGNETS[m]
     spec = SampleSpec(node=m, neighbours=(1 - m,), history=config.history, inputs="positions", wrench="wrench",
                       train_fraction=config.train_fraction)
-    report = None if progress is None else (lambda d, n, info=None, s=f"train {name}": progress(s, d, n))
+
+    def report(done: int, total: int, info: dict | None = None) -> None:
+        progress(done, total, {**(info or {}), "stage": f"train {name}"})
+
     t0 = time.perf_counter()
     overrides = {"lstm_units": config.lstm_units, "output": config.output}
-    model = train_node_model(dataset, spec, overrides, train, model_dir, progress=report)
+    model = train_node_model(dataset, spec, overrides, train, model_dir, progress=None if progress is None else report)
     return model, time.perf_counter() - t0
 
 

@@ -10,9 +10,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ... import __version__
-from ...errors import bad
+from ...errors import bad, integer
 from ...magnetics.manipulator import ManipulatorSpec
-from ._checks import integer, number, triple
+from ._checks import number, triple
 
 MAGNETS = ("proximal", "distal")
 """Magnet names in index order (0 at L/2, 1 at the tip; the paper's m = 1, 2 from the base)."""
@@ -21,7 +21,7 @@ AXES = ("x", "y", "z")
 """The world axes of the orientation components (rotation vectors (..., 3) [rad] in this order)."""
 
 STAGES = ("simulate", "camera", "static", "train proximal", "train distal", "evaluate")
-"""The stages that ``progress(stage, done, total)`` reports, in order."""
+"""The stages the experiment reports, in order, as ``info["stage"]`` of ``progress(done, total, info)``."""
 
 QUICK_SAMPLES = 240
 QUICK_EPOCHS = 8

@@ -27,7 +27,8 @@ Two models predict the measured orientations of the last 40 % of the samples:
 in degrees beside the paper's). ``compare`` is the comparison alone, shared with lab data
 (``softrnn.experiments.magnetic.lab``).
 
-Progress: ``progress(stage, done, total)`` with stage one of ``STAGES``.
+Progress: ``progress(done, total, {"stage": stage})`` (``softrnn.progress.Progress``) with stage one of
+``STAGES``; the training stages pass the training's details too.
 
 This module gathers the experiment's public names from where they live: ``config``
 (``ExperimentConfig``, the file names), ``currents`` (``experiment_currents``),

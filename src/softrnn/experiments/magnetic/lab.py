@@ -25,6 +25,7 @@ import numpy as np
 from ...errors import SoftrnnInputError, bad
 from ...magnetics.camera import camera_measure, tangents_from_rotation_vectors
 from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, simulate_manipulator
+from ...progress import Progress
 from .comparison import compare
 from .config import ExperimentConfig
 from .currents import experiment_currents
@@ -273,7 +274,7 @@ def write_example_csv(path, samples: int = 300, *, seed: int = 1) -> LabData:
 
 
 # ----------------------------------------------------------------------------------------- comparison
-def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, progress=None) -> dict:
+def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, progress: Progress | None = None) -> dict:
     """The paper's comparison on a lab CSV: the static Cosserat model (nominal softrnn manipulator
     and coil layout, ``static_rod``) predicts the magnets' orientations from the currents; one LSTM
     per magnet (paper Fig. 11) trains on the first ``config.train_fraction`` of the samples and

@@ -11,6 +11,7 @@ import numpy as np
 from ...errors import bad
 from ...magnetics.camera import camera_measure
 from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, check_manipulator_run, simulate_manipulator
+from ...progress import Progress
 from .comparison import compare
 from .config import MAGNETS, ORIENTATION_NOTE, ROBOT_FILE, TABLE_FILE, ExperimentConfig
 from .currents import experiment_currents
@@ -18,7 +19,7 @@ from .dataset import measured_wrenches, orientation_dataset
 from .static import static_predictions
 
 
-def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path, progress) -> tuple:
+def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path, progress: Progress | None) -> tuple:
     """(time (T,), node positions (T, n, 3) as stored (float32), currents (T, n_c), wall seconds, resumed)."""
     from ...io.dataset import DatasetError, read_dataset, write_trajectory
 
@@ -28,13 +29,13 @@ def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path,
             data = read_dataset(path)
             if data.attrs.get("experiment_fingerprint") == fingerprint:
                 if progress is not None:
-                    progress("simulate", 1, 1)
+                    progress(1, 1, {"stage": "simulate"})
                 return (data.time, np.asarray(data.positions, np.float64), np.asarray(data.attrs["currents"], float),
                         float(data.attrs.get("simulation_seconds", 0.0)), True)
         except (DatasetError, KeyError, TypeError, ValueError):
             pass                                                                   # re-simulate and replace it
     if progress is not None:
-        progress("simulate", 0, 1)
+        progress(0, 1, {"stage": "simulate"})
     robot = config.robot_spec(spec)
     schedule = experiment_currents(spec, config)
     run = ManipulatorRun(dt=config.dt, n_samples=config.samples, settle=config.settle)
@@ -49,7 +50,7 @@ def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path,
     write_trajectory(path, traj.rod, dt=config.dt, rod=robot.rod_spec(), seed=config.seed, attrs=attrs,
                      scenario_text=json.dumps(config.to_dict()))
     if progress is not None:
-        progress("simulate", 1, 1)
+        progress(1, 1, {"stage": "simulate"})
     stored = read_dataset(path)
     return stored.time, np.asarray(stored.positions, np.float64), traj.currents, seconds, False
 
@@ -84,7 +85,7 @@ def assumptions(config: ExperimentConfig) -> dict:
     }
 
 
-def run_experiment(config: ExperimentConfig, out_dir, progress=None) -> dict:
+def run_experiment(config: ExperimentConfig, out_dir, progress: Progress | None = None) -> dict:
     """Run the simulated experiment into ``out_dir`` and return the report.
 
     Files: ``robot.h5`` (the real robot's record: every node, the currents in its attrs; reused when
@@ -122,7 +123,7 @@ def run_experiment(config: ExperimentConfig, out_dir, progress=None) -> dict:
                          degree=config.polynomial_degree)
     wrenches = measured_wrenches(spec, currents, cam.positions, cam.tangents)
     if progress is not None:
-        progress("camera", 1, 1)
+        progress(1, 1, {"stage": "camera"})
     static = static_predictions(currents, spec=spec, n_steps=config.static_steps, tol=config.static_tol,
                                 position_tol=config.position_tol, max_failures=config.max_static_failures,
                                 progress=progress)

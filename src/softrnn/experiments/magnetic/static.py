@@ -8,11 +8,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...errors import SimulationError, bad
+from ...errors import SimulationError, bad, integer
 from ...magnetics.camera import rotation_vectors
 from ...magnetics.coils import unit_field_maps
 from ...magnetics.manipulator import ManipulatorSpec
-from ._checks import integer, number
+from ...progress import Progress
+from ._checks import number
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,7 +71,7 @@ def static_rod(spec: ManipulatorSpec | None = None):
 
 def static_predictions(currents, *, spec: ManipulatorSpec | None = None, n_steps: int = 40, tol: float = 1e-7,
                        position_tol: float = 1e-7, max_iterations: int = 30, max_failures: float = 0.05,
-                       progress=None) -> StaticPrediction:
+                       progress: Progress | None = None) -> StaticPrediction:
     """The static Cosserat model's magnet orientations for each sample of coil currents.
 
     For each sample the field B and gradient G at the magnets depend on where the magnets are, and
@@ -97,7 +98,7 @@ def static_predictions(currents, *, spec: ManipulatorSpec | None = None, n_steps
         Fixed-point iterations per sample.
     max_failures : float
         Largest tolerated fraction of failed samples.
-    progress : callable(stage, done, total) or None
+    progress : softrnn.progress.Progress or None
     """
     from ...statics import StaticSolver
 
@@ -131,7 +132,7 @@ def static_predictions(currents, *, spec: ManipulatorSpec | None = None, n_steps
             out_p[k] = p
             out_r[k] = rotation_vectors(sol.rotations[idx][:, :, 2])
         if progress is not None and (k % 10 == 9 or k == T - 1):
-            progress("static", k + 1, T)
+            progress(k + 1, T, {"stage": "static"})
     seconds = time.perf_counter() - t0
     _check_failures(failures, T, max_failures)
     return StaticPrediction(orientations=out_r, positions=out_p, converged=converged, solves=solves,
