@@ -271,9 +271,9 @@ stiffness = 2.0
 target = { kind = "figure8", center = [0.24, 0.0, 0.0], width = 0.02, height = 0.01, period = 1.0 }
 [randomize]
 loads.0.profile.frequency = { uniform = [1.0, 3.0] }
-"loads.2.target" = { choice = [{ kind = "circle", center = [0.24, 0.0, 0.0], radius = 0.01, period = 1.0 },
-                               { kind = "random_smooth", center = [0.24, 0.0, 0.0], amplitude = 0.01,
-                                 cutoff = 1.0, seed = 4 }] }
+"loads.2.target" = { choice = [
+    { kind = "circle", center = [0.24, 0.0, 0.0], radius = 0.01, period = 1.0 },
+    { kind = "random_smooth", center = [0.24, 0.0, 0.0], amplitude = 0.01, cutoff = 1.0, seed = 4 }] }
 "run.substeps" = { integers = [8, 12] }
 """
     sc = load_scenario(_write(tmp_path, text))
