@@ -190,11 +190,10 @@ def _stepper_speed(manip, ds, start: int) -> list[dict]:
     """The speed of the trained manipulator in a control loop: one ``ManipulatorStepper.step`` per
     sample (the recorded forces in turn), timed by ``softrnn.timing.step_rate``, on one thread and
     on numba's thread count."""
-    import itertools
-
     import numba
 
     from ..surrogate.engine import ManipulatorStepper
+    from ..surrogate.manipulator import RolloutDiverged
     from ..timing import step_rate
 
     speeds = []
@@ -206,8 +205,13 @@ def _stepper_speed(manip, ds, start: int) -> list[dict]:
         if n < 10:
             continue
         st.reset(ds.positions[start - 2:start], f[:2])
-        rows = itertools.cycle(range(2, f.shape[0]))
-        rate = step_rate(lambda st=st, f=f, rows=rows: st.step(f[next(rows)]), steps=n, warmup=min(100, n // 2))
+        rows = iter(range(2, f.shape[0]))         # each recorded sample once: warm-up and timed steps
+        warmup = min(100, n // 2)
+        try:
+            rate = step_rate(lambda st=st, f=f, rows=rows: st.step(f[next(rows)]), steps=n - warmup, warmup=warmup)
+        except RolloutDiverged as err:   # a speed check must not stop the report: say so instead
+            speeds.append({"diverged": str(err), "modelled_nodes": len(st.modelled), "threads": threads})
+            continue
         speeds.append({"median_us": rate.step_us, "hz_median": rate.median_hz, "p99_us": rate.p99_us,
                        "modelled_nodes": len(st.modelled), "threads": threads})
     return speeds

@@ -223,6 +223,13 @@ def _engine_lines(report: dict) -> list[str]:
     return lines
 
 
+def _stepper_text(s: dict) -> str:
+    """One stepper speed entry, or why it has none (the free-running stepper diverged)."""
+    if "diverged" in s:
+        return f"not timed on {s['threads']} thread(s): {s['diverged']}"
+    return f"{s['median_us']:.1f} us median ({s['hz_median']:,.0f} Hz) on {s['threads']} thread(s)"
+
+
 def _manipulator_lines(m: dict | None) -> list[str]:
     """The whole manipulator with one shared model: errors by horizon, the stepper's speed, and the
     baselines."""
@@ -245,8 +252,7 @@ def _manipulator_lines(m: dict | None) -> list[str]:
     lines += ["", f"Holding node {m['node']} at its last seed position would be off by at most "
               f"{_v(m['hold_baseline_node_max_abs_mm'])} mm over the test span. One step of the whole manipulator "
               f"(ManipulatorStepper, {m['modelled_nodes']} nodes): "
-              + "; ".join(f"{s['median_us']:.1f} us median ({s['hz_median']:,.0f} Hz) on {s['threads']} thread(s)"
-                          for s in m["stepper"]) + "."]
+              + "; ".join(_stepper_text(s) for s in m["stepper"]) + "."]
     return lines + _manipulator_baseline_lines(m)
 
 
