@@ -111,5 +111,5 @@ def require_extra(extra: str) -> None:
     import importlib.util
 
     for name, owner in EXTRAS.items():
-        if owner == extra and name != "dask" and importlib.util.find_spec(name) is None:
+        if owner == extra and importlib.util.find_spec(name) is None:
             raise missing_extra(ModuleNotFoundError(f"No module named {name!r}", name=name))

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SoftrnnInputError, bad
+from ..errors import SoftrnnInputError, bad, nonnegative
 from ..progress import Progress
 from . import kernels
 from .boundary import Clamp, Pin
@@ -110,9 +110,7 @@ class Damping:
 
     def __post_init__(self):
         for name in ("translational", "rotational", "kelvin_voigt"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
-                raise bad(f"damping.{name}", value, "a finite number >= 0")
+            nonnegative(f"damping.{name}", getattr(self, name))
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
