@@ -41,6 +41,33 @@ def atomic_write_text(path, text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def atomic_folder(folder, write) -> None:
+    """Make ``folder`` appear whole: ``write(tmp)`` fills a temporary folder beside it, which is then
+    renamed onto ``folder`` (an existing one is moved aside first and removed after)."""
+    import shutil
+
+    folder = Path(folder)
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=folder.parent))
+    try:
+        mode = umask_mode()
+        os.chmod(tmp, mode | ((mode & 0o444) >> 2))  # a folder's mode under the umask (0o755 for 022)
+        write(tmp)
+        for p in tmp.iterdir():
+            os.chmod(p, mode)
+        old = None
+        if folder.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.old-", dir=folder.parent))
+            os.rmdir(old)
+            os.replace(folder, old)
+        os.replace(tmp, folder)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
 def json_default(value):
     """``json.dumps``'s ``default=`` for everything softrnn writes as JSON: numpy scalars as Python
     numbers, numpy arrays as nested lists, paths as strings, ranges as ``[start, stop]``, sets as

@@ -19,9 +19,6 @@ meta.json           provenance: the dataset's metadata (file, scenario, rod, uni
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,7 +26,7 @@ import numpy as np
 import torch
 
 from ..errors import SoftrnnInputError, bad, one_line
-from ..files import json_default, umask_mode
+from ..files import atomic_folder, json_default
 from .data import Normalizer, SampleSpec
 from .model import ModelConfig, NodeLSTM
 
@@ -153,11 +150,8 @@ def save_model(folder, model: NodeModel) -> None:
     check_replaceable(folder)
     if not model.spec.resolved:
         raise bad("model.spec", model.spec, "a resolved SampleSpec (spec.resolve(dataset.nodes))")
-    folder.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=folder.parent))
-    try:
-        mode = umask_mode()
-        os.chmod(tmp, mode | ((mode & 0o444) >> 2))  # a folder's mode under the umask (0o755 for 022)
+
+    def write(tmp: Path) -> None:
         state = {k: v.detach().to(torch.float32).contiguous().clone() for k, v in model.module.state_dict().items()}
         from safetensors.torch import save_file
 
@@ -168,19 +162,8 @@ def save_model(folder, model: NodeModel) -> None:
         _write_json(tmp / "config.json", config)
         _write_json(tmp / "normalizer.json", model.normalizer.to_dict())
         _write_json(tmp / "meta.json", model.meta)
-        for p in tmp.iterdir():
-            os.chmod(p, umask_mode())
-        old = None
-        if folder.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.old-", dir=folder.parent))
-            os.rmdir(old)
-            os.replace(folder, old)
-        os.replace(tmp, folder)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+
+    atomic_folder(folder, write)
 
 
 def _write_json(path: Path, value) -> None:

@@ -1,0 +1,129 @@
+"""``DynamicConfig``: the architecture and training of a whole-manipulator model (frozen, validated)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields, replace
+
+from ..errors import bad, integer, nonnegative, positive
+
+MEMORIES = ("window", "lstm")
+
+
+@dataclass(frozen=True)
+class DynamicConfig:
+    """How a whole-manipulator model is built and trained.
+
+    Parameters
+    ----------
+    model_dt : float
+        The model's step [s]; a whole multiple of the data's saved interval (default 20 ms).
+    node_stride : int or None
+        Predict every ``node_stride``-th node and both ends (None: about 20 segments along the rod).
+    history : int
+        States the model reads per step (>= 2): the current one and ``history - 1`` velocities.
+    memory : {"window", "lstm"}
+        Temporal memory: the ``history`` window alone, or also a per-node LSTM cell (shared along
+        the rod) carried from step to step.
+    width, layers, kernel : int
+        The 1-D convolution along the rod: channels, hidden layers, kernel size (odd).
+    linear : bool
+        Add a global linear map of the whole state (initialised by ridge regression).
+    conv : bool
+        Add the convolution (one set of weights shared along the rod).
+    noise : float
+        Input noise during training, as a random walk on the history's velocities, in units of
+        their standard deviation (GNS-style); 0 switches it off.
+    unroll : int
+        Free steps in the training loss (the model feeds its own predictions back); 1 is a
+        one-step loss. The unroll grows from 1 to this over the first half of training.
+    steps, batch : int
+        Optimiser steps and windows per step.
+    lr : float
+        Adam's learning rate (cosine decay to 5 % of it).
+    linear_lr : float
+        The linear term's learning rate as a fraction of ``lr`` (0 keeps the ridge fit as it is).
+    ridge : float
+        Ridge penalty of the linear term's initial fit (relative to the mean feature variance).
+    seed : int
+        Seeds weights, window draws and noise: the same seed and data give the same weights.
+    """
+
+    model_dt: float = 0.02
+    node_stride: int | None = None
+    history: int = 3
+    memory: str = "window"
+    width: int = 48
+    layers: int = 3
+    kernel: int = 5
+    linear: bool = True
+    conv: bool = True
+    noise: float = 0.05
+    unroll: int = 12
+    steps: int = 1500
+    batch: int = 32
+    lr: float = 2e-3
+    linear_lr: float = 0.01
+    ridge: float = 1e-6
+    seed: int = 0
+
+    def __post_init__(self):
+        positive("model_dt", self.model_dt, "s")
+        if self.node_stride is not None:
+            integer("node_stride", self.node_stride, 1)
+        integer("history", self.history, 2)
+        if self.memory not in MEMORIES:
+            raise bad("memory", self.memory, f"one of {', '.join(MEMORIES)}")
+        integer("width", self.width, 1)
+        integer("layers", self.layers, 1)
+        integer("kernel", self.kernel, 1)
+        if self.kernel % 2 == 0:
+            raise bad("kernel", self.kernel, "an odd kernel size (1, 3, 5, ...)")
+        for name in ("linear", "conv"):
+            if not isinstance(getattr(self, name), bool):
+                raise bad(name, getattr(self, name), "true or false")
+        if not (self.linear or self.conv or self.memory == "lstm"):
+            raise bad("linear", False, "at least one of linear, conv or memory = 'lstm'")
+        nonnegative("noise", self.noise)
+        integer("unroll", self.unroll, 1)
+        integer("steps", self.steps, 0)
+        integer("batch", self.batch, 1)
+        positive("lr", self.lr)
+        nonnegative("linear_lr", self.linear_lr)
+        nonnegative("ridge", self.ridge)
+        integer("seed", self.seed, 0)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> DynamicConfig:
+        if not isinstance(d, dict):
+            raise bad("config", type(d).__name__, "a dict of DynamicConfig fields")
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            raise bad("config", unknown[0], f"one of {', '.join(sorted(names))}")
+        return cls(**d)
+
+
+def resolve_stride(model_dt: float, data_dt: float) -> int:
+    """The model's step in data samples; ``model_dt`` must be a whole multiple of ``data_dt``."""
+    k = round(model_dt / data_dt)
+    if k < 1 or abs(k * data_dt - model_dt) > 1e-6 * model_dt:
+        raise bad("model_dt", model_dt, f"a whole multiple of the data's saved interval {data_dt:g} s")
+    return int(k)
+
+
+def resolve_node_stride(node_stride: int | None, n_nodes: int) -> int:
+    """``node_stride``, or about 20 segments along the rod when None."""
+    if node_stride is None:
+        return max(1, round((n_nodes - 1) / 20))
+    if node_stride >= n_nodes:
+        raise bad("node_stride", node_stride, f"a stride below the rod's {n_nodes} nodes")
+    return int(node_stride)
+
+
+
+def linear_config(config: DynamicConfig) -> DynamicConfig:
+    """The linear baseline's config: the linear term alone, same inputs, no training."""
+    return replace(config, linear=True, conv=False, memory="window", steps=0)

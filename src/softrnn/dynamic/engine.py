@@ -1,0 +1,131 @@
+"""``DynamicEngine``: a trained whole-manipulator model in NumPy, stepping free on one core.
+
+The same arithmetic as ``DynamicNet.forward`` (float64, no PyTorch): the global linear term is one
+matrix-vector product, each convolution along the rod one small matrix product over a sliding
+window of the padded node axis. It is what ``softrnn dynamic rollout``, the evaluation and the
+benchmark run, and what a control loop would call.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from ..errors import SimulationError, bad
+
+DIVERGED_M = 16.0
+"""A state component beyond this (m or rad) ends a free run as diverged."""
+_C = float(np.sqrt(2.0 / np.pi))
+
+
+def _gelu(x: np.ndarray) -> np.ndarray:
+    return 0.5 * x * (1.0 + np.tanh(_C * (x + 0.044715 * x * x * x)))
+
+
+def _sigmoid(x: np.ndarray) -> np.ndarray:
+    return 0.5 * (1.0 + np.tanh(0.5 * x))
+
+
+class Diverged(SimulationError):
+    """A free run left the range of a rod (non-finite or beyond ``DIVERGED_M``) at model ``step``."""
+
+    def __init__(self, message: str, step: int):
+        super().__init__(message)
+        self.step = int(step)
+
+
+class DynamicEngine:
+    """Step a trained model: ``step(hist, loads)`` and ``run(hist, loads)``.
+
+    Parameters
+    ----------
+    weights : dict of ndarray
+        ``DynamicNet.state_dict()`` as NumPy arrays (``load_dynamic`` reads them from a folder).
+    config : DynamicConfig
+    """
+
+    def __init__(self, weights: dict, config):
+        w = {k: np.asarray(v, dtype=np.float64) for k, v in weights.items()}
+        self.config = config
+        self.history = int(config.history)
+        self.node_features = w["node_features"]
+        self.fixed = np.asarray(weights["fixed"], dtype=bool)
+        self.sx, self.sv, self.su, self.sa = w["sx"], w["sv"], w["su"], w["sa"]
+        self.n_kept = int(self.node_features.shape[0])
+        self.linear = (w["linear.weight"].T.copy(), w["linear.bias"]) if "linear.weight" in w else None
+        self.cell = None
+        if "cell.weight_ih" in w:
+            self.cell = (w["cell.weight_ih"].T.copy(), w["cell.weight_hh"].T.copy(),
+                         w["cell.bias_ih"] + w["cell.bias_hh"])
+        convs = sorted({int(k.split(".")[1]) for k in w if k.startswith("conv.")})
+        self.convs = []
+        for i in convs:
+            W = w[f"conv.{i}.weight"]                          # (Cout, Cin, k)
+            cout, cin, k = W.shape
+            self.convs.append((W.reshape(cout, cin * k).T.copy(), w[f"conv.{i}.bias"], k // 2))
+        self._free = ~self.fixed
+
+    def _conv(self, g: np.ndarray) -> np.ndarray:
+        """(M, Cin) -> (M, 6) through the convolution stack (GELU between layers)."""
+        for j, (W, b, pad) in enumerate(self.convs):
+            if pad:
+                g = np.pad(g, ((pad, pad), (0, 0)))
+                g = sliding_window_view(g, 2 * pad + 1, axis=0).reshape(self.n_kept, -1)
+            g = g @ W + b
+            if j < len(self.convs) - 1:
+                g = _gelu(g)
+        return g
+
+    def features(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:
+        """hist (H, M, 6), loads (M, 6) -> (M, C), as ``DynamicNet.features``."""
+        parts = [hist[-1] / self.sx]
+        for j in range(self.history - 1):
+            parts.append((hist[-1 - j] - hist[-2 - j]) / self.sv)
+        parts.append(loads / self.su)
+        parts.append(self.node_features)
+        return np.concatenate(parts, axis=1)
+
+    def step(self, hist: np.ndarray, loads: np.ndarray, memory=None):
+        """hist (H, M, 6) states, oldest first; loads (M, 6) -> (next state (M, 6), memory)."""
+        f = self.features(hist, loads)
+        a = np.zeros((self.n_kept, 6))
+        if self.linear is not None:
+            a += (f.reshape(-1) @ self.linear[0] + self.linear[1]).reshape(self.n_kept, 6)
+        g = f
+        if self.cell is not None:
+            Wi, Wh, b = self.cell
+            h, c = memory if memory is not None else (np.zeros((self.n_kept, Wh.shape[0])),) * 2
+            z = f @ Wi + h @ Wh + b
+            i, fg, gg, o = np.split(z, 4, axis=1)
+            c = _sigmoid(fg) * c + _sigmoid(i) * np.tanh(gg)
+            h = _sigmoid(o) * np.tanh(c)
+            memory = (h, c)
+            g = np.concatenate([f, h], axis=1)
+        if self.convs:
+            a += self._conv(g)
+        x = hist[-1]
+        nxt = x.copy()
+        nxt[self._free] = (2 * x - hist[-2] + a * self.sa)[self._free]
+        return nxt, memory
+
+    def run(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:
+        """Free run: history (H, M, 6), loads (K, M, 6) of each step -> states (K, M, 6).
+        Raises ``Diverged`` (with the states so far as ``.states``) if the run leaves the rod's range."""
+        hist = np.array(hist, dtype=np.float64)
+        loads = np.asarray(loads, dtype=np.float64)
+        if hist.shape != (self.history, self.n_kept, 6):
+            raise bad("history", f"array of shape {hist.shape}", f"shape ({self.history}, {self.n_kept}, 6)")
+        if loads.ndim != 3 or loads.shape[1:] != (self.n_kept, 6):
+            raise bad("loads", f"array of shape {loads.shape}", f"shape (K, {self.n_kept}, 6)")
+        out = np.empty((loads.shape[0], self.n_kept, 6))
+        memory = None
+        for k in range(loads.shape[0]):
+            nxt, memory = self.step(hist, loads[k], memory)
+            if not np.all(np.abs(nxt) < DIVERGED_M):
+                err = Diverged(f"the free run diverged at model step {k + 1}", k + 1)
+                err.states = out[:k]
+                raise err
+            out[k] = nxt
+            hist[:-1] = hist[1:]
+            hist[-1] = nxt
+        return out

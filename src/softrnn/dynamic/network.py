@@ -1,0 +1,105 @@
+"""``DynamicNet``: one step of the whole-manipulator model in PyTorch (training and export).
+
+Per step, each kept node's features (channels) are its displacement and rotation vector from the
+reference, its last ``history - 1`` velocities (state differences per model step), the step's mean
+load and three constants (arc position, distance to a fixed node, fixed flag), each scaled by its
+training standard deviation. The output is the normalised change of velocity over the step
+(a second difference, as in GNS); the new state is ``x + v + dv``. Two terms are summed:
+
+* ``linear``: a global linear map of every node's features (M*C -> M*6), fitted by ridge regression
+  before training: by itself, the one-step linear model (the "linear" baseline);
+* ``conv``: a 1-D convolution along the rod (one set of weights for every node; the chain graph's
+  message passing) whose last layer starts at zero, so training starts from the linear model.
+
+With ``memory = "lstm"`` a per-node LSTM cell (shared along the rod) also carries a hidden state
+from step to step and feeds the convolution. Fixed nodes keep their state.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from .config import DynamicConfig
+
+N_CONST = 3
+"""Per-node constant features (``Encoding.node_features``)."""
+
+
+def n_channels(history: int) -> int:
+    """Features per node: state 6, velocities 6 (history - 1), load 6, constants 3."""
+    return 6 + 6 * (history - 1) + 6 + N_CONST
+
+
+class DynamicNet(nn.Module):
+    """One model step. Buffers: ``node_features`` (M, 3), ``fixed`` (M,) bool and the scales
+    ``sx``, ``sv``, ``su``, ``sa`` (6,) of states, velocities, loads and velocity changes."""
+
+    def __init__(self, config: DynamicConfig, node_features, fixed, scales: dict):
+        super().__init__()
+        self.config = config
+        self.register_buffer("node_features", torch.as_tensor(node_features, dtype=torch.float32))
+        self.register_buffer("fixed", torch.as_tensor(fixed, dtype=torch.bool))
+        for key in ("sx", "sv", "su", "sa"):
+            self.register_buffer(key, torch.as_tensor(scales[key], dtype=torch.float32))
+        M = int(self.node_features.shape[0])
+        C = n_channels(config.history)
+        self.n_kept, self.n_in = M, C
+        self.linear = nn.Linear(M * C, M * 6) if config.linear else None
+        self.cell = nn.LSTMCell(C, config.width) if config.memory == "lstm" else None
+        if config.conv or self.cell is not None:
+            width, pad = config.width, config.kernel // 2
+            cin = C + (config.width if self.cell is not None else 0)
+            layers = [nn.Conv1d(cin, width, config.kernel, padding=pad), nn.GELU(approximate="tanh")]
+            for _ in range(config.layers - 1):
+                layers += [nn.Conv1d(width, width, config.kernel, padding=pad), nn.GELU(approximate="tanh")]
+            out = nn.Conv1d(width, 6, 1)
+            nn.init.zeros_(out.weight)
+            nn.init.zeros_(out.bias)
+            self.conv = nn.Sequential(*layers, out)
+        else:
+            self.conv = None
+        if self.linear is not None:
+            nn.init.zeros_(self.linear.weight)
+            nn.init.zeros_(self.linear.bias)
+
+    def features(self, hist: torch.Tensor, loads: torch.Tensor) -> torch.Tensor:
+        """hist (B, H, M, 6) states, oldest first; loads (B, M, 6) -> features (B, M, C)."""
+        B = hist.shape[0]
+        parts = [hist[:, -1] / self.sx]
+        for j in range(self.config.history - 1):
+            parts.append((hist[:, -1 - j] - hist[:, -2 - j]) / self.sv)
+        parts.append(loads / self.su)
+        parts.append(self.node_features.expand(B, -1, -1))
+        return torch.cat(parts, dim=-1)
+
+    def forward(self, hist: torch.Tensor, loads: torch.Tensor, memory=None):
+        """hist (B, H, M, 6), loads (B, M, 6) -> (next state (B, M, 6), memory for the next step)."""
+        f = self.features(hist, loads)
+        B, M, C = f.shape
+        a = torch.zeros(B, M, 6, dtype=f.dtype)
+        if self.linear is not None:
+            a = a + self.linear(f.reshape(B, M * C)).reshape(B, M, 6)
+        g = f
+        if self.cell is not None:
+            if memory is None:
+                z = torch.zeros(B * M, self.config.width, dtype=f.dtype)
+                memory = (z, z)
+            h, c = self.cell(f.reshape(B * M, C), memory)
+            memory = (h, c)
+            g = torch.cat([f, h.reshape(B, M, -1)], dim=-1)
+        if self.conv is not None:
+            a = a + self.conv(g.transpose(1, 2)).transpose(1, 2)
+        x, v = hist[:, -1], hist[:, -1] - hist[:, -2]
+        nxt = x + v + a * self.sa
+        nxt = torch.where(self.fixed[None, :, None], x, nxt)
+        return nxt, memory
+
+    def rollout(self, hist: torch.Tensor, loads: torch.Tensor) -> torch.Tensor:
+        """Free run: hist (B, H, M, 6), loads (B, K, M, 6) for each step -> states (B, K, M, 6)."""
+        out, memory = [], None
+        for k in range(loads.shape[1]):
+            nxt, memory = self.forward(hist, loads[:, k], memory)
+            out.append(nxt)
+            hist = torch.cat([hist[:, 1:], nxt[:, None]], dim=1)
+        return torch.stack(out, dim=1)

@@ -1,0 +1,227 @@
+"""Training a whole-manipulator model: ridge start, unrolled multi-step loss, noise injection.
+
+1. Scales: the standard deviation of every state, velocity, load and velocity-change channel over
+   the training trajectories (shared by all nodes, so the weights stay shared along the rod).
+2. The linear term is fitted by ridge regression to the one-step velocity changes. If that linear
+   model is unstable (spectral radius of its state map above 1), the penalty is raised tenfold
+   until it is not: a free run must not start from an exploding model.
+3. Adam on every weight, on windows drawn at random from the training trajectories: the model runs
+   free for ``unroll`` steps from a (noised) history and the loss is the mean squared state error
+   over those steps, in units of the velocity scale. The unroll grows from 1 step to ``unroll``
+   over the first half of training (a curriculum), and the history gets random-walk noise
+   (``noise``), so the model learns to pull a perturbed state back onto the data.
+
+A checkpoint is written every ``CHECKPOINT_EVERY`` steps; a run given the same folder resumes from
+it with the same result as an uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..errors import SoftrnnInputError
+from ..files import atomic_write_bytes
+from ..progress import Progress
+from .config import DynamicConfig, linear_config
+from .encoding import Encoding, Trajectory
+from .network import DynamicNet
+
+CHECKPOINT_EVERY = 100
+STABLE_RADIUS = 1.001
+_FLOOR = 1e-12
+
+
+@dataclass(eq=False)
+class TrainedDynamic:
+    """A trained model: ``net`` (``DynamicNet``), its ``encoding`` and ``config``, ``linear``: the
+    one-step ridge model on the same inputs (the "linear" baseline, a ``DynamicNet`` with the
+    linear term only, config ``linear_config(config)``), and ``info`` (losses, the ridge penalty
+    used and the linear model's spectral radius, seconds, windows)."""
+
+    net: DynamicNet
+    encoding: Encoding
+    config: DynamicConfig
+    linear: DynamicNet
+    info: dict = field(default_factory=dict)
+
+
+def scales(trajectories: list[Trajectory]) -> dict:
+    """Per-channel standard deviations (6,) of states ``sx``, velocities ``sv``, loads ``su`` and
+    velocity changes ``sa`` over ``trajectories``; a channel that never varies gets 1."""
+    X = [t.states for t in trajectories]
+    out = {
+        "sx": np.concatenate([x.reshape(-1, 6) for x in X]),
+        "sv": np.concatenate([np.diff(x, axis=0).reshape(-1, 6) for x in X]),
+        "su": np.concatenate([t.loads.reshape(-1, 6) for t in trajectories]),
+        "sa": np.concatenate([np.diff(x, 2, axis=0).reshape(-1, 6) for x in X]),
+    }
+    res = {}
+    for key, rows in out.items():
+        s = rows.std(axis=0)
+        res[key] = np.where(s > _FLOOR, s, 1.0)
+    return res
+
+
+def _windows(trajectories: list[Trajectory], length: int) -> np.ndarray:
+    """(n, 2) int64 (trajectory, first index) of every window of ``length`` states."""
+    rows = [np.stack([np.full(t.n_steps - length + 1, i), np.arange(t.n_steps - length + 1)], 1)
+            for i, t in enumerate(trajectories) if t.n_steps >= length]
+    if not rows:
+        raise SoftrnnInputError(f"training data: every trajectory is shorter than {length} model steps "
+                                "(history + 1); give longer trajectories or a smaller model_dt")
+    return np.concatenate(rows)
+
+
+def _batch(trajectories, picks: np.ndarray, H: int, K: int):
+    """hist (B, H, M, 6), loads (B, K, M, 6), future (B, K, M, 6) as float32 tensors."""
+    hist, loads, future = [], [], []
+    for i, s in picks:
+        t = trajectories[i]
+        hist.append(t.states[s:s + H])
+        loads.append(t.loads[s + H - 1:s + H - 1 + K])
+        future.append(t.states[s + H:s + H + K])
+    as_t = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32)  # noqa: E731
+    return as_t(hist), as_t(loads), as_t(future)
+
+
+def _ridge_fit(net: DynamicNet, trajectories, ridge: float) -> None:
+    """Set the linear term to the ridge solution of the one-step velocity changes."""
+    H = net.config.history
+    win = _windows(trajectories, H + 1)
+    F, A = [], []
+    with torch.no_grad():
+        for chunk in np.array_split(win, max(1, len(win) // 4096)):
+            hist, loads, future = _batch(trajectories, chunk, H, 1)
+            f = net.features(hist, loads[:, 0])
+            F.append(f.reshape(len(chunk), -1).double().numpy())
+            a = (future[:, 0] - 2 * hist[:, -1] + hist[:, -2]) / net.sa
+            A.append(a.reshape(len(chunk), -1).double().numpy())
+    F, A = np.concatenate(F), np.concatenate(A)
+    fm, am = F.mean(axis=0), A.mean(axis=0)
+    Fc = F - fm
+    G = Fc.T @ Fc
+    lam = ridge * max(float(np.trace(G)) / G.shape[0], _FLOOR)
+    W = np.linalg.solve(G + lam * np.eye(G.shape[0]), Fc.T @ (A - am))
+    with torch.no_grad():
+        net.linear.weight.copy_(torch.as_tensor(W.T, dtype=torch.float32))
+        net.linear.bias.copy_(torch.as_tensor(am - fm @ W, dtype=torch.float32))
+
+
+def spectral_radius(net: DynamicNet) -> float:
+    """Largest |eigenvalue| of the model's state map with no load, linearised at the reference
+    (exact for the linear term alone). Fixed nodes contribute eigenvalues 1."""
+    H, M = net.config.history, net.n_kept
+    n = H * M * 6
+    with torch.no_grad():
+        base = torch.zeros(1, H, M, 6)
+        basis = torch.eye(n).reshape(n, H, M, 6) * 1e-3
+        hist = torch.cat([base, basis])
+        loads = torch.zeros(n + 1, M, 6)
+        nxt, _ = net.forward(hist, loads)
+        J = ((nxt[1:] - nxt[:1]) / 1e-3).reshape(n, M * 6).double().numpy().T   # d next / d hist
+    companion = np.zeros((n, n))
+    companion[:-M * 6, M * 6:] = np.eye(n - M * 6)       # shift: old states move one slot back
+    companion[-M * 6:, :] = J
+    return float(np.max(np.abs(np.linalg.eigvals(companion))))
+
+
+def _fit_linear(net: DynamicNet, trajectories, ridge: float) -> tuple[float, float]:
+    """Ridge fit, raising the penalty until the linear model is stable: (penalty, radius)."""
+    lam = ridge
+    for _ in range(12):
+        _ridge_fit(net, trajectories, lam)
+        rho = spectral_radius(net)
+        if rho <= STABLE_RADIUS:
+            return lam, rho
+        lam = max(lam * 10.0, 1e-8)
+    return lam, rho
+
+
+def _unroll_at(config: DynamicConfig, step: int) -> int:
+    ramp = max(1, config.steps // 2)
+    return 1 + int((config.unroll - 1) * min(1.0, step / ramp))
+
+
+def _lr_at(config: DynamicConfig, step: int) -> float:
+    frac = step / max(1, config.steps)
+    return config.lr * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * frac)))
+
+
+def _save_checkpoint(path: Path, net, opt, gen, step: int, losses: list, fit: dict) -> None:
+    buf = io.BytesIO()
+    torch.save({"net": net.state_dict(), "opt": opt.state_dict(), "gen": gen.get_state(), "step": step,
+                "losses": losses, "fit": fit}, buf)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def train_dynamic_model(trajectories: list[Trajectory], encoding: Encoding, config: DynamicConfig, *,
+                        progress: Progress | None = None, checkpoint=None, threads: int | None = None
+                        ) -> TrainedDynamic:
+    """Train on encoded ``trajectories`` (``Encoding.trajectory``). ``checkpoint``: a file path to
+    save to every ``CHECKPOINT_EVERY`` steps and resume from. ``threads``: PyTorch's threads while
+    training (None: as set). ``progress(step, steps, {"loss", "unroll"})`` after every step."""
+    if threads is not None:
+        torch.set_num_threads(int(threads))
+    torch.manual_seed(config.seed)
+    H = config.history
+    windows = _windows(trajectories, H + config.unroll)
+    sc = scales(trajectories)
+    net = DynamicNet(config, encoding.node_features(), encoding.fixed, sc)
+    start = time.perf_counter()
+    baseline = DynamicNet(linear_config(config), encoding.node_features(), encoding.fixed, sc)
+    fit = dict(zip(("ridge", "linear_radius"), _fit_linear(baseline, trajectories, config.ridge)))
+    baseline.eval()
+    if net.linear is not None:
+        net.linear.load_state_dict(baseline.linear.state_dict())
+    lin = [p for n, p in net.named_parameters() if n.startswith("linear.")]
+    rest = [p for n, p in net.named_parameters() if not n.startswith("linear.")]
+    groups = [{"params": rest, "scale": 1.0}] if rest else []
+    if lin:
+        groups.append({"params": lin, "scale": config.linear_lr})
+    opt = torch.optim.Adam(groups, lr=config.lr)
+    gen = torch.Generator().manual_seed(config.seed)
+    step, losses = 0, []
+    path = Path(checkpoint) if checkpoint is not None else None
+    if path is not None and path.is_file():
+        state = torch.load(path, weights_only=False)
+        net.load_state_dict(state["net"])
+        opt.load_state_dict(state["opt"])
+        gen.set_state(state["gen"])
+        step, losses, fit = int(state["step"]), list(state["losses"]), dict(state["fit"])
+    mask = (~net.fixed).float()[None, None, :, None]
+    denom = float(mask.sum()) * 6
+    while step < config.steps:
+        K = _unroll_at(config, step)
+        for group in opt.param_groups:
+            group["lr"] = _lr_at(config, step) * group["scale"]
+        idx = torch.randint(len(windows), (config.batch,), generator=gen).numpy()
+        picks = windows[idx]
+        hist, loads, future = _batch(trajectories, picks, H, K)
+        if config.noise > 0:
+            eps = torch.randn(hist.shape, generator=gen) * (config.noise * net.sv / math.sqrt(H))
+            hist = hist + torch.cumsum(eps, dim=1) * mask
+        pred = net.rollout(hist, loads)
+        err = (pred - future) / net.sv * mask
+        loss = (err ** 2).sum() / (denom * config.batch * K)
+        opt.zero_grad()
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(net.parameters(), 1.0)
+        opt.step()
+        step += 1
+        losses.append(float(loss))
+        if progress is not None:
+            progress(step, config.steps, {"loss": losses[-1], "unroll": K})
+        if path is not None and (step % CHECKPOINT_EVERY == 0 or step == config.steps):
+            _save_checkpoint(path, net, opt, gen, step, losses, fit)
+    net.eval()
+    info = {"ridge": fit["ridge"], "linear_radius": fit["linear_radius"], "final_loss": losses[-1] if losses else None,
+            "losses": losses[::max(1, len(losses) // 200)], "train_seconds": time.perf_counter() - start,
+            "windows": int(len(windows)), "trajectories": len(trajectories)}
+    return TrainedDynamic(net=net, encoding=encoding, config=config, linear=baseline, info=info)
