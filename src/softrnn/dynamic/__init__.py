@@ -8,7 +8,9 @@ the rod, free running step after step at its own (coarser) time step on a subset
 * ``training``: ``train_dynamic_model`` (unrolled multi-step loss, noise injection, resumable);
 * ``engine``: ``DynamicEngine``: the trained model in NumPy, stepping free (one core, no PyTorch);
 * ``artifact``: ``save_dynamic``, ``load_dynamic``;
-* ``evaluation``: errors at every node beside persistence, constant velocity and a linear model.
+* ``evaluation``: errors at every node beside persistence, constant velocity and a linear model;
+* ``data``: ``split_inputs`` (training parts and held-out variants of files and sweep folders);
+* ``fit``: ``fit`` (train on a ``Split``).
 
 Names are imported lazily, so the NumPy parts do not import PyTorch.
 """
@@ -23,6 +25,8 @@ _EXPORTS = {
     "DynamicEngine": "engine",
     "save_dynamic": "artifact", "load_dynamic": "artifact",
     "evaluate_dynamic": "evaluation",
+    "split_inputs": "data", "Split": "data",
+    "fit": "fit",
 }
 
 __all__ = sorted(_EXPORTS)
