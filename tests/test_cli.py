@@ -4,7 +4,9 @@ import json
 
 import pytest
 
+from softrnn.dynamic.config import DynamicConfig
 from softrnn.reproduce import cases as reproduce_cases
+from softrnn.reproduce import dynamic as reproduce_dynamic
 from softrnn.reproduce import pipeline as reproduce_mod
 
 from helpers import run_cli
@@ -76,9 +78,42 @@ def _light_steps(monkeypatch):
     return calls
 
 
+def _tiny_dynamic(monkeypatch):
+    """The whole-manipulator model step at its smallest: one training and one held-out variant of
+    1 s per case, a small model trained 3 steps, short speed runs."""
+    cases = reproduce_dynamic.CASES
+    monkeypatch.setattr(reproduce_dynamic, "QUICK_SWEEP", {"dt": 0.01, "n_train": 1, "n_validation": 0,
+                                                           "n_heldout": 1, "workers": 1,
+                                                           "duration_s": dict.fromkeys(cases, 1.0)})
+    monkeypatch.setattr(reproduce_dynamic, "CONFIGS", dict.fromkeys(
+        cases, DynamicConfig(node_stride=10, width=8, layers=1, unroll=2, batch=4)))
+    monkeypatch.setattr(reproduce_dynamic, "QUICK_STEPS", 3)
+    monkeypatch.setattr(reproduce_dynamic, "QUICK_SPEED", {"duration_s": 0.3, "reps": 1, "steps": 50})
+
+
+def _check_dynamic(out, report):
+    """report.json's whole-manipulator entries have every key docs/report-format.md promises."""
+    for case in reproduce_dynamic.CASES:
+        e = report["dynamic_model"][case]
+        for key in ("model_dt_s", "predicted_nodes", "test_span_max_pct_of_length", "generalisation_max_pct_of_length",
+                    "speed_ratio_vs_simulator", "simulator_sim_s_per_wall_s", "model_sim_s_per_wall_s",
+                    "train_seconds", "train_config", "figure", "rollout", "goals"):
+            assert key in e, (case, key)
+        assert set(e["heldout"]) >= {"variants", "median_max_pct_of_length", "worst_max_pct_of_length"}
+        assert set(e["horizons"]) == {"10", "100", "1000"}
+        for row in e["horizons"].values():
+            assert set(row) == {"model", "persistence", "constant_velocity", "linear"}
+        assert e["speed_ratio_vs_simulator"] > 0 and e["model_dt_s"] == 0.02
+        assert all(isinstance(g["met"], bool) for g in e["goals"].values())
+        assert (out / e["model"] / "model.json").is_file()
+        assert (out / "figures" / e["figure"]).stat().st_size > 1000
+    assert "## Whole-manipulator dynamic model" in (out / "report.md").read_text()
+
+
 def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(reproduce_cases, "QUICK_FRACTION", 0.002)
     steps = _light_steps(monkeypatch)
+    _tiny_dynamic(monkeypatch)
     out = tmp_path / "rep"
     assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
     assert sorted(steps) == ["bench", "fig13", "fig14", "magnetic"]
@@ -95,6 +130,7 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
         for fig in report[case]["figures"]:
             assert (out / "figures" / fig).stat().st_size > 1000
     assert (out / "report.md").read_text().startswith("# softrnn reproduce report")
+    _check_dynamic(out, report)
 
     # an interrupted run (one case's result missing) recomputes only that case
     (out / "cases" / "square.json").unlink()
@@ -109,8 +145,12 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
         raise AssertionError("finished step recomputed")
 
     monkeypatch.setattr(reproduce_cases, "run_case", counting)
+    import softrnn.dynamic.fit as dynamic_fit
     import softrnn.surrogate.train as train_mod
+    import softrnn.sweeps.sweep as sweep_mod
     monkeypatch.setattr(train_mod, "train_node_model", boom)   # no model is trained again
+    monkeypatch.setattr(dynamic_fit, "fit", boom)
+    monkeypatch.setattr(sweep_mod, "run_sweep", boom)          # nor a sweep run
     assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
     assert calls == ["square"]
 

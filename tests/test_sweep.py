@@ -107,3 +107,35 @@ def test_cli_sweep_resumes_and_merges(full_sweep, tmp_path, capsys):
     assert len(list_groups(merged)) == 32
     np.testing.assert_array_equal(read_dataset(merged, group=list_groups(merged)[5]).positions,
                                   read_dataset(trajectory_path(out, 5)).positions)
+
+
+def test_sweep_with_a_coarser_saved_interval_is_recorded_and_kept(scenario, tmp_path, capsys):
+    from softrnn.cli.main import main
+
+    result = run_sweep(scenario, 1, tmp_path, n_workers=1, n_samples=4, dt=0.01)
+    assert result.computed == [0]
+    ds = read_dataset(trajectory_path(tmp_path, 0))
+    assert ds.dt == 0.01 and ds.n_samples == 4
+    np.testing.assert_allclose(np.diff(ds.time), 0.01, rtol=1e-9)
+    assert json.loads((tmp_path / "sweep.json").read_text())["dt"] == 0.01
+    assert run_sweep(scenario, 1, tmp_path, n_workers=1, n_samples=4, dt=0.01).skipped == [0]
+    for other in (0.02, None):                          # another interval, or the scenario's own
+        with pytest.raises(SoftrnnInputError, match="dt: 0.01 !="):
+            run_sweep(scenario, 1, tmp_path, n_workers=1, n_samples=4, dt=other)
+    assert main(["sweep", "semicircle", "--count", "1", "-o", str(tmp_path), "--samples", "4", "--dt", "0.02",
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "dt: 0.01 != 0.02" in err
+
+
+@pytest.mark.parametrize("dt", [0, -0.01, float("nan"), "0.01"])
+def test_bad_saved_interval_is_refused_before_anything_is_written(scenario, tmp_path, dt):
+    with pytest.raises(SoftrnnInputError, match="--dt=.* is invalid: a positive"):
+        run_sweep(scenario, 2, tmp_path, n_workers=1, dt=dt)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_absurd_saved_interval_is_refused_before_any_worker_starts(scenario, tmp_path):
+    with pytest.raises(SoftrnnInputError, match="dt=1e\\+09 s is too large"):
+        run_sweep(scenario, 1, tmp_path, n_workers=1, n_samples=3, dt=1e9)
+    assert list(tmp_path.iterdir()) == []

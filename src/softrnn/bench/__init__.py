@@ -1,10 +1,11 @@
 """Benchmarks on this machine (``softrnn bench``; scripts in ``benchmarks/``).
 
-``run_all(parts)`` runs the learned-model (``bench.model``), simulator (``bench.simulator``) and
-static-solver (``bench.statics``) measurements and returns one JSON-ready dict::
+``run_all(parts)`` runs the learned-model (``bench.model``), simulator (``bench.simulator``),
+static-solver (``bench.statics``) and whole-manipulator-model (``bench.dynamic``) measurements and
+returns one JSON-ready dict::
 
     {"machine": {...}, "model": {...}, "simulator": {"cases": {...}, ...}, "statics": {...},
-     "paper": {...}, "goals_met": {...}, "settings": {...}}
+     "dynamic": {"cases": {...}, ...}, "paper": {...}, "goals_met": {...}, "settings": {...}}
 
 ``format_all`` renders it as text. Neither prints.
 """
@@ -14,10 +15,13 @@ from __future__ import annotations
 from ..progress import Progress
 
 
-def run_all(parts=("model", "simulator", "statics"), *, quick: bool = False, model=None,
+def run_all(parts=("model", "simulator", "statics", "dynamic"), *, quick: bool = False, model=None,
+            dynamic_configs: dict | None = None, dynamic_models: dict | None = None,
             progress: Progress | None = None) -> dict:
-    """Run the selected parts in this order: model, simulator, statics (each after the last, so
-    none competes with another for a core)."""
+    """Run the selected parts in this order: model, simulator, statics, dynamic (each after the
+    last, so none competes with another for a core). ``model``: the node model to time (default: a
+    synthetic one); ``dynamic_configs`` ({case: DynamicConfig}) the whole-manipulator models' stand-in
+    architecture, ``dynamic_models`` ({case: LoadedDynamic}) trained ones timed instead."""
     from ..timing import load_average, machine_info
     from .simulator import PAPER
 
@@ -46,6 +50,11 @@ def run_all(parts=("model", "simulator", "statics"), *, quick: bool = False, mod
         goals_met["statics.warm_solves_per_s"] = bool(result["statics"]["goal"]["met"])
         if progress is not None:
             progress(1, 1)
+    if "dynamic" in parts:
+        from .dynamic import run_dynamic_benchmark
+        result["dynamic"] = run_dynamic_benchmark(quick=quick, configs=dynamic_configs, models=dynamic_models,
+                                                  progress=progress)
+        goals_met.update({f"dynamic.{k}": v for k, v in result["dynamic"]["goals_met"].items()})
     result["paper"] = paper
     result["goals_met"] = goals_met
     result["settings"]["load_average_end"] = load_average()
@@ -73,4 +82,7 @@ def format_all(result: dict) -> str:
     if "statics" in result:
         from .statics import format_static_table
         out += ["", format_static_table(result["statics"])]
+    if "dynamic" in result:
+        from .dynamic import format_dynamic_table
+        out += ["", format_dynamic_table(result["dynamic"])]
     return "\n".join(out)

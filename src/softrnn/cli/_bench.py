@@ -6,9 +6,9 @@ from ..files import atomic_write_text, prepare_output
 from ._progress import Bar
 
 NAME = "bench"
-HELP = ("benchmark this machine: learned-model steps (compiled vs eager PyTorch), the simulator and the "
-        "static solver")
-PARTS = ("model", "simulator", "statics")
+HELP = ("benchmark this machine: learned-model steps (compiled vs eager PyTorch), the simulator, the "
+        "static solver and the whole-manipulator model against the simulator")
+PARTS = ("model", "simulator", "statics", "dynamic")
 
 
 def add_args(p):
@@ -20,6 +20,10 @@ def add_args(p):
     p.add_argument("--model", default=None, metavar="DIR",
                    help="time this trained model folder for the node step (default: the default architecture "
                         "with random weights)")
+    p.add_argument("--dynamic-model", default=None, metavar="DIR",
+                   help="time this whole-manipulator model folder (or a folder of CASE/model folders, e.g. "
+                        "softrnn reproduce's dynamic/) against the simulator (default: the default architecture "
+                        "of each case, untrained: the arithmetic per step is timed)")
 
 
 def run(args) -> int:
@@ -30,7 +34,7 @@ def run(args) -> int:
     unknown = [x for x in parts if x not in PARTS]
     if unknown or not parts:
         raise bad("--only", args.only, f"a comma-separated subset of {', '.join(PARTS)}")
-    if "model" in parts:
+    if "model" in parts or "dynamic" in parts:
         require_extra("learn")   # or run the other parts: --only simulator,statics
     if args.json:
         prepare_output(args.json, "--json", overwrite=args.overwrite)
@@ -38,8 +42,15 @@ def run(args) -> int:
     if args.model is not None:
         from ..surrogate.artifact import load_model
         model = load_model(args.model)
+    dynamic = {}
+    if "dynamic" in parts:
+        from ..bench.dynamic import find_models
+        from ..reproduce.dynamic import CONFIGS  # the architecture softrnn reproduce trains
+
+        dynamic = {"dynamic_configs": CONFIGS,
+                   "dynamic_models": find_models(args.dynamic_model) if args.dynamic_model else None}
     with Bar("bench", unit="item") as bar:
-        result = run_all(parts, quick=args.quick, model=model, progress=bar)
+        result = run_all(parts, quick=args.quick, model=model, progress=bar, **dynamic)
     print(format_all(result))
     if args.json:
         atomic_write_text(args.json, json.dumps(result, indent=2))

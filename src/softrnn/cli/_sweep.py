@@ -17,6 +17,8 @@ def add_args(p):
                    help="use an existing Dask cluster (default: a local cluster)")
     p.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
     p.add_argument("--samples", type=int, default=None, help="samples per trajectory (default: the scenario's)")
+    p.add_argument("--dt", type=float, default=None, metavar="SECONDS",
+                   help="saved interval [s] (default: the scenario's); the solver step stays the stable one")
     p.add_argument("--merge", default=None, metavar="FILE.h5",
                    help="also combine the trajectories into one file, one group each")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -30,7 +32,7 @@ def run(args) -> int:
         prepare_output(args.merge, "--merge", overwrite=True)   # remade from the folder on every run
     with Bar(f"sweep {scenario.name}", unit="traj", enabled=not args.quiet) as bar:
         result = run_sweep(scenario, args.count, args.out, scheduler=args.scheduler, n_workers=args.workers,
-                           n_samples=args.samples, progress=bar)
+                           n_samples=args.samples, dt=args.dt, progress=bar)
     print(f"sweep {scenario.name}: {args.count} trajectories in {args.out} "
           f"({len(result.computed)} computed in {result.wall_time:.1f} s, {len(result.skipped)} already there)")
     if args.merge:

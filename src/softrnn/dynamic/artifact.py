@@ -53,12 +53,14 @@ class LoadedDynamic:
 
 
 def encoding_to_dict(enc: Encoding) -> dict:
+    """The ``Encoding`` as JSON-ready values (model.json's ``encoding``)."""
     return {"n_nodes": enc.n_nodes, "kept": enc.kept.tolist(), "model_dt": enc.model_dt, "data_dt": enc.data_dt,
             "length": enc.length, "ref_positions": enc.ref_positions.tolist(),
             "ref_quaternions": enc.ref_quaternions.tolist(), "fixed": enc.fixed.tolist()}
 
 
 def encoding_from_dict(d: dict) -> Encoding:
+    """The ``Encoding`` from model.json's ``encoding``."""
     return Encoding(n_nodes=int(d["n_nodes"]), kept=np.asarray(d["kept"]), model_dt=float(d["model_dt"]),
                     data_dt=float(d["data_dt"]), length=float(d["length"]),
                     ref_positions=np.asarray(d["ref_positions"]), ref_quaternions=np.asarray(d["ref_quaternions"]),
@@ -134,6 +136,13 @@ def load_dynamic(folder) -> LoadedDynamic:
     except Exception as err:  # noqa: BLE001 - safetensors and a damaged json raise several types
         raise DynamicFolderError(f"{folder}: the model files are corrupt or do not match "
                                  f"({one_line(err)[:160]}); train the model again") from None
+    try:   # one step on a rest state: weights of another layout fail here, not in a user's loop
+        engine.step(np.zeros((engine.history, engine.n_kept, 6)), np.zeros((engine.n_kept, 6)))
+        linear.step(np.zeros((linear.history, linear.n_kept, 6)), np.zeros((linear.n_kept, 6)))
+    except ValueError as err:
+        why = one_line(err)[:100]
+        raise DynamicFolderError(f"{folder}: the weights do not fit this softrnn's model layout ({why}); "
+                                 "train the model again") from None
     if engine.n_kept != encoding.n_kept:
         raise DynamicFolderError(f"{folder}: weights.safetensors and model.json disagree on the node count; "
                                  "train the model again")

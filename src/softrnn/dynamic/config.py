@@ -30,6 +30,9 @@ class DynamicConfig:
         Add a global linear map of the whole state (initialised by ridge regression).
     conv : bool
         Add the convolution (one set of weights shared along the rod).
+    bound : float
+        The convolution's output is limited to +-bound (in units of the velocity-change scale) by
+        a tanh: a correction cannot run away by itself; 0: no limit.
     noise : float
         Input noise during training, as a random walk on the history's velocities, in units of
         their standard deviation (GNS-style); 0 switches it off.
@@ -57,7 +60,8 @@ class DynamicConfig:
     kernel: int = 5
     linear: bool = True
     conv: bool = True
-    noise: float = 0.05
+    bound: float = 0.0
+    noise: float = 0.01
     unroll: int = 12
     steps: int = 1500
     batch: int = 32
@@ -83,6 +87,7 @@ class DynamicConfig:
                 raise bad(name, getattr(self, name), "true or false")
         if not (self.linear or self.conv or self.memory == "lstm"):
             raise bad("linear", False, "at least one of linear, conv or memory = 'lstm'")
+        nonnegative("bound", self.bound)
         nonnegative("noise", self.noise)
         integer("unroll", self.unroll, 1)
         integer("steps", self.steps, 0)
@@ -93,10 +98,12 @@ class DynamicConfig:
         integer("seed", self.seed, 0)
 
     def to_dict(self) -> dict:
+        """The fields as a dict (model.json's ``config``)."""
         return asdict(self)
 
     @classmethod
     def from_dict(cls, d: dict) -> DynamicConfig:
+        """A config from ``to_dict``'s dict; an unknown key is a one-line error."""
         if not isinstance(d, dict):
             raise bad("config", type(d).__name__, "a dict of DynamicConfig fields")
         names = {f.name for f in fields(cls)}

@@ -5,7 +5,9 @@ folders (``softrnn sweep ... -o DIR``: one ``traj-NNNNN.h5`` per variant). ``spl
 them into training parts and held-out trajectories:
 
 * of every sweep folder or sweep file, the **last** ``heldout`` variants (highest indices) are
-  held out: they never reach training (``Split.heldout``), the others are trained on whole;
+  held out: they never reach training (``Split.heldout``); the ``validation`` variants before them
+  are only used to choose among the training's checkpoints (``Split.validation``: free runs, never
+  a gradient); the others are trained on whole;
 * of every single-trajectory file, the first ``train_fraction`` is trained on (the paper's 60/40
   chronological split: the rest is the test span).
 
@@ -32,31 +34,40 @@ class Part:
     stop: int | None = None
 
     def read(self):
+        """The part's ``Dataset`` (its first ``stop`` samples)."""
         return read_dataset(self.path, group=None if self.group == "/" else self.group, stop=self.stop)
 
     def describe(self) -> dict:
+        """{path, group, stop}, as a model folder records it."""
         return {"path": self.path, "group": self.group, "stop": self.stop}
 
 
 @dataclass(frozen=True)
 class Split:
-    """``train`` and ``heldout`` parts (lists of ``Part``)."""
+    """``train``, ``validation`` and ``heldout`` parts (lists of ``Part``)."""
 
     train: list = field(default_factory=list)
     heldout: list = field(default_factory=list)
+    validation: list = field(default_factory=list)
 
     def describe(self) -> dict:
-        return {"train": [p.describe() for p in self.train], "heldout": [p.describe() for p in self.heldout]}
+        """{"train", "validation", "heldout"}: each a list of ``Part.describe()``."""
+        return {key: [p.describe() for p in getattr(self, key)] for key in ("train", "validation", "heldout")}
+
+    def __add__(self, other: Split) -> Split:
+        return Split(train=self.train + other.train, heldout=self.heldout + other.heldout,
+                     validation=self.validation + other.validation)
 
 
-def split_inputs(paths, *, heldout: int = 0, train_fraction: float = 1.0) -> Split:
-    """Training parts and held-out trajectories of ``paths`` (files or sweep folders)."""
+def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction: float = 1.0) -> Split:
+    """Training, validation and held-out parts of ``paths`` (files or sweep folders)."""
     heldout = integer("heldout", heldout, 0)
+    validation = integer("validation", validation, 0)
     if not (0.0 < float(train_fraction) <= 1.0):
         raise bad("train_fraction", train_fraction, "a fraction in (0, 1]")
     if isinstance(paths, (str, Path)):
         paths = [paths]
-    train, held = [], []
+    train, held, val = [], [], []
     for raw in paths:
         path = Path(raw)
         if path.is_dir():
@@ -75,12 +86,15 @@ def split_inputs(paths, *, heldout: int = 0, train_fraction: float = 1.0) -> Spl
             variants = [(path, g) for g in groups]
         else:
             raise bad("data", str(path), "an existing data set file or sweep folder")
-        if heldout >= len(variants):
-            raise bad("heldout", heldout, f"fewer than the {len(variants)} variants in {path}")
+        if heldout + validation >= len(variants):
+            raise bad("heldout", heldout, f"a count that leaves training variants of the {len(variants)} in {path} "
+                      f"(with {validation} for validation)")
         cut = len(variants) - heldout
-        train += [Part(str(f), g) for f, g in variants[:cut]]
+        cut_val = cut - validation
+        train += [Part(str(f), g) for f, g in variants[:cut_val]]
+        val += [Part(str(f), g) for f, g in variants[cut_val:cut]]
         held += [Part(str(f), g) for f, g in variants[cut:]]
-    return Split(train=train, heldout=held)
+    return Split(train=train, heldout=held, validation=val)
 
 
 def rod_length(dataset) -> float:

@@ -79,6 +79,7 @@ class Trajectory:
 
     @property
     def n_steps(self) -> int:
+        """S, the model steps held."""
         return int(self.states.shape[0])
 
 
@@ -124,6 +125,7 @@ class Encoding:
 
     @property
     def n_kept(self) -> int:
+        """M, the predicted nodes."""
         return int(len(self.kept))
 
     def node_features(self) -> np.ndarray:

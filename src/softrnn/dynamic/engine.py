@@ -9,7 +9,7 @@ benchmark run, and what a control loop would call.
 from __future__ import annotations
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
+from numpy.lib.stride_tricks import as_strided
 
 from ..errors import SimulationError, bad
 
@@ -48,6 +48,7 @@ class DynamicEngine:
         w = {k: np.asarray(v, dtype=np.float64) for k, v in weights.items()}
         self.config = config
         self.history = int(config.history)
+        self.bound = float(config.bound)
         self.node_features = w["node_features"]
         self.fixed = np.asarray(weights["fixed"], dtype=bool)
         self.sx, self.sv, self.su, self.sa = w["sx"], w["sv"], w["su"], w["sa"]
@@ -62,15 +63,21 @@ class DynamicEngine:
         for i in convs:
             W = w[f"conv.{i}.weight"]                          # (Cout, Cin, k)
             cout, cin, k = W.shape
-            self.convs.append((W.reshape(cout, cin * k).T.copy(), w[f"conv.{i}.bias"], k // 2))
+            # rows ordered (tap, channel) to match the strided view of the padded buffer below
+            Wk = np.ascontiguousarray(W.transpose(2, 1, 0).reshape(k * cin, cout))
+            pad = k // 2
+            buf = np.zeros((self.n_kept + 2 * pad, cin))       # zero padding along the rod, reused
+            s0, s1 = buf.strides
+            view = as_strided(buf, shape=(self.n_kept, k * cin), strides=(s0, s1)) if k > 1 else buf
+            self.convs.append((Wk, w[f"conv.{i}.bias"], pad, buf, view))
         self._free = ~self.fixed
 
     def _conv(self, g: np.ndarray) -> np.ndarray:
         """(M, Cin) -> (M, 6) through the convolution stack (GELU between layers)."""
-        for j, (W, b, pad) in enumerate(self.convs):
+        for j, (W, b, pad, buf, view) in enumerate(self.convs):
             if pad:
-                g = np.pad(g, ((pad, pad), (0, 0)))
-                g = sliding_window_view(g, 2 * pad + 1, axis=0).reshape(self.n_kept, -1)
+                buf[pad:pad + self.n_kept] = g
+                g = view
             g = g @ W + b
             if j < len(self.convs) - 1:
                 g = _gelu(g)
@@ -91,18 +98,20 @@ class DynamicEngine:
         a = np.zeros((self.n_kept, 6))
         if self.linear is not None:
             a += (f.reshape(-1) @ self.linear[0] + self.linear[1]).reshape(self.n_kept, 6)
-        g = f
+        cut = 6 * self.history
+        g = np.concatenate([f[:, :cut], f[:, cut + 6:]], axis=1)
         if self.cell is not None:
             Wi, Wh, b = self.cell
             h, c = memory if memory is not None else (np.zeros((self.n_kept, Wh.shape[0])),) * 2
-            z = f @ Wi + h @ Wh + b
+            z = g @ Wi + h @ Wh + b
             i, fg, gg, o = np.split(z, 4, axis=1)
             c = _sigmoid(fg) * c + _sigmoid(i) * np.tanh(gg)
             h = _sigmoid(o) * np.tanh(c)
             memory = (h, c)
-            g = np.concatenate([f, h], axis=1)
+            g = np.concatenate([g, h], axis=1)
         if self.convs:
-            a += self._conv(g)
+            c, b = self._conv(g), self.bound
+            a += b * np.tanh(c / b) if b > 0 else c
         x = hist[-1]
         nxt = x.copy()
         nxt[self._free] = (2 * x - hist[-2] + a * self.sa)[self._free]

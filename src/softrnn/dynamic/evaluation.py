@@ -32,6 +32,7 @@ class Persistence:
     history = 2
 
     def step(self, hist, loads, memory=None):
+        """hist (H, M, 6) -> (its last state, None)."""
         return hist[-1].copy(), None
 
 
@@ -41,13 +42,14 @@ class ConstantVelocity:
     history = 2
 
     def step(self, hist, loads, memory=None):
+        """hist (H, M, 6) -> (2 x_t - x_(t-1), None)."""
         return 2 * hist[-1] - hist[-2], None
 
 
 def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -> tuple[np.ndarray, int | None]:
     """Run ``predictor`` free from model step ``start`` (the last history state) to ``stop``
-    (default: the end): states (stop - start - 1, M, 6) for steps start+1 .. stop-1... [sic: exclusive]
-    and the step (1-based) where it diverged, or None. Rows after a divergence are NaN."""
+    (exclusive; default: the end): states (stop - start - 1, M, 6) of steps start+1 .. stop-1 and
+    the step (1-based) where it diverged, or None. Rows from a divergence on are NaN."""
     H = int(predictor.history)
     stop = traj.n_steps if stop is None else int(stop)
     if start < H - 1 or start >= stop - 1:
@@ -153,7 +155,8 @@ def compare(engine, linear, encoding, runs: list, horizons=HORIZONS) -> dict:
 
 def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_start_fraction: float = 0.6,
                      horizons=HORIZONS) -> dict:
-    """The free-running evaluation of a loaded model (``load_dynamic``) beside its baselines.
+    """The free-running evaluation of a loaded model (``load_dynamic``) beside its baselines; a
+    JSON-ready dict.
 
     Parameters
     ----------
@@ -165,10 +168,13 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
     generalisation : Dataset or None
         The paper's generalisation scenario, run free from its start.
 
-    Returns a JSON-ready dict: ``model_dt_s``, ``predicted_nodes``, ``nodes``, ``test_span`` and
-    ``test_span_max_pct_of_length``, ``heldout`` {variants, per_variant, median/worst}, ``generalisation``
-    and ``generalisation_max_pct_of_length``, ``horizons`` (model and baselines), with every
-    baseline's span errors beside the model's.
+    Returns
+    -------
+    dict
+        ``model_dt_s``, ``predicted_nodes``, ``nodes``, ``test_span`` and
+        ``test_span_max_pct_of_length``, ``heldout`` {variants, per_variant, median/worst},
+        ``generalisation`` and ``generalisation_max_pct_of_length``, ``horizons`` (model and
+        baselines), with every baseline's span errors beside the model's.
     """
     enc, engine, linear = model.encoding, model.engine, model.linear
     preds = {"model": engine, "persistence": Persistence(), "constant_velocity": ConstantVelocity(), "linear": linear}

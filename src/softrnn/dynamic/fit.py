@@ -24,6 +24,7 @@ def fit(split: Split, config: DynamicConfig, *, progress: Progress | None = None
                              node_stride=resolve_node_stride(config.node_stride, first.n_nodes),
                              length=rod_length(first))
     trajectories = [encoding.trajectory(d, name=f"{p.path}:{p.group}") for d, p in zip(datasets, split.train)]
-    trained = train_dynamic_model(trajectories, encoding, config, progress=progress, checkpoint=checkpoint,
-                                  threads=threads)
+    validation = [encoding.trajectory(p.read(), name=f"{p.path}:{p.group}") for p in split.validation]
+    trained = train_dynamic_model(trajectories, encoding, config, validation=validation, progress=progress,
+                                  checkpoint=checkpoint, threads=threads)
     return trained, {"data": split.describe()}

@@ -34,7 +34,9 @@ from .encoding import Encoding, Trajectory
 from .network import DynamicNet
 
 CHECKPOINT_EVERY = 100
+VALIDATION_STEPS = 1000
 STABLE_RADIUS = 1.001
+RIDGE_TRIES = 10
 _FLOOR = 1e-12
 
 
@@ -129,19 +131,24 @@ def spectral_radius(net: DynamicNet) -> float:
     companion = np.zeros((n, n))
     companion[:-M * 6, M * 6:] = np.eye(n - M * 6)       # shift: old states move one slot back
     companion[-M * 6:, :] = J
-    return float(np.max(np.abs(np.linalg.eigvals(companion))))
+    from scipy.sparse.linalg import ArpackNoConvergence, eigs
+
+    try:   # the largest eigenvalue only (ARPACK): a full eigvals of a few hundred rows is slow on a busy machine
+        return float(np.max(np.abs(eigs(companion, k=1, which="LM", return_eigenvectors=False, tol=1e-8))))
+    except ArpackNoConvergence:
+        return float(np.max(np.abs(np.linalg.eigvals(companion))))
 
 
 def _fit_linear(net: DynamicNet, trajectories, ridge: float) -> tuple[float, float]:
     """Ridge fit, raising the penalty until the linear model is stable: (penalty, radius)."""
     lam = ridge
-    for _ in range(12):
+    for _ in range(RIDGE_TRIES):
         _ridge_fit(net, trajectories, lam)
         rho = spectral_radius(net)
         if rho <= STABLE_RADIUS:
             return lam, rho
         lam = max(lam * 10.0, 1e-8)
-    return lam, rho
+    return lam, rho      # still above STABLE_RADIUS: TrainedDynamic.info["linear_stable"] says so
 
 
 def _unroll_at(config: DynamicConfig, step: int) -> int:
@@ -154,74 +161,134 @@ def _lr_at(config: DynamicConfig, step: int) -> float:
     return config.lr * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * frac)))
 
 
-def _save_checkpoint(path: Path, net, opt, gen, step: int, losses: list, fit: dict) -> None:
+def _save_checkpoint(path: Path, net, opt, gen, loop) -> None:
     buf = io.BytesIO()
-    torch.save({"net": net.state_dict(), "opt": opt.state_dict(), "gen": gen.get_state(), "step": step,
-                "losses": losses, "fit": fit}, buf)
+    torch.save({"net": net.state_dict(), "opt": opt.state_dict(), "gen": gen.get_state(), "loop": loop}, buf)
     atomic_write_bytes(path, buf.getvalue())
 
 
-def train_dynamic_model(trajectories: list[Trajectory], encoding: Encoding, config: DynamicConfig, *,
-                        progress: Progress | None = None, checkpoint=None, threads: int | None = None
-                        ) -> TrainedDynamic:
-    """Train on encoded ``trajectories`` (``Encoding.trajectory``). ``checkpoint``: a file path to
-    save to every ``CHECKPOINT_EVERY`` steps and resume from. ``threads``: PyTorch's threads while
-    training (None: as set). ``progress(step, steps, {"loss", "unroll"})`` after every step."""
-    if threads is not None:
-        torch.set_num_threads(int(threads))
-    torch.manual_seed(config.seed)
-    H = config.history
-    windows = _windows(trajectories, H + config.unroll)
-    sc = scales(trajectories)
-    net = DynamicNet(config, encoding.node_features(), encoding.fixed, sc)
-    start = time.perf_counter()
-    baseline = DynamicNet(linear_config(config), encoding.node_features(), encoding.fixed, sc)
-    fit = dict(zip(("ridge", "linear_radius"), _fit_linear(baseline, trajectories, config.ridge)))
-    baseline.eval()
-    if net.linear is not None:
-        net.linear.load_state_dict(baseline.linear.state_dict())
+def validation_error(net: DynamicNet, validation: list[Trajectory], max_steps: int = VALIDATION_STEPS) -> float:
+    """Largest position error [m] of the kept nodes over free runs (from the first full history,
+    up to ``max_steps``) on ``validation``; inf where a run diverges."""
+    from .artifact import engine_of
+    from .evaluation import free_run
+
+    engine, H, worst = engine_of(net), net.config.history, 0.0
+    for traj in validation:
+        stop = min(traj.n_steps, H + max_steps)
+        if stop <= H:
+            continue
+        states, diverged = free_run(engine, traj, H - 1, stop)
+        if diverged is not None:
+            return math.inf
+        worst = max(worst, float(np.linalg.norm(states[..., :3] - traj.states[H:stop, :, :3], axis=-1).max()))
+    return worst
+
+
+def _optimizer(net: DynamicNet, config: DynamicConfig) -> torch.optim.Optimizer:
     lin = [p for n, p in net.named_parameters() if n.startswith("linear.")]
     rest = [p for n, p in net.named_parameters() if not n.startswith("linear.")]
     groups = [{"params": rest, "scale": 1.0}] if rest else []
     if lin:
         groups.append({"params": lin, "scale": config.linear_lr})
-    opt = torch.optim.Adam(groups, lr=config.lr)
-    gen = torch.Generator().manual_seed(config.seed)
-    step, losses = 0, []
+    return torch.optim.Adam(groups, lr=config.lr)
+
+
+def _loss(net: DynamicNet, trajectories, windows, config: DynamicConfig, gen, step: int) -> torch.Tensor:
+    """One batch's unrolled loss: mean squared state error in units of ``sv`` over the free nodes."""
+    H, K = config.history, _unroll_at(config, step)
+    picks = windows[torch.randint(len(windows), (config.batch,), generator=gen).numpy()]
+    hist, loads, future = _batch(trajectories, picks, H, K)
+    mask = (~net.fixed).float()[None, None, :, None]
+    if config.noise > 0:
+        eps = torch.randn(hist.shape, generator=gen) * (config.noise * net.sv / math.sqrt(H))
+        hist = hist + torch.cumsum(eps, dim=1) * mask
+    err = (net.rollout(hist, loads) - future) / net.sv * mask
+    return (err ** 2).sum() / (float(mask.sum()) * 6 * config.batch * K)
+
+
+@dataclass
+class _Loop:
+    step: int = 0
+    losses: list = field(default_factory=list)
+    fit: dict = field(default_factory=dict)
+    validation: list = field(default_factory=list)
+    best: tuple = (math.inf, -1, None)           # (error, step, state dict)
+
+
+def _validate(net, loop: _Loop, validation) -> None:
+    if not validation:
+        return
+    err = validation_error(net, validation)
+    loop.validation.append((loop.step, err))
+    if err < loop.best[0]:
+        loop.best = (err, loop.step, {k: v.detach().clone() for k, v in net.state_dict().items()})
+
+
+def _start(net, trajectories, encoding, config, sc):
+    """The linear baseline fitted by ridge, copied into ``net``'s linear term: (baseline, fit info)."""
+    baseline = DynamicNet(linear_config(config), encoding.node_features(), encoding.fixed, sc)
+    fit = dict(zip(("ridge", "linear_radius"), _fit_linear(baseline, trajectories, config.ridge)))
+    baseline.eval()
+    if net.linear is not None:
+        net.linear.load_state_dict(baseline.linear.state_dict())
+    return baseline, fit
+
+
+def train_dynamic_model(trajectories: list[Trajectory], encoding: Encoding, config: DynamicConfig, *,
+                        validation: list[Trajectory] = (), progress: Progress | None = None, checkpoint=None,
+                        threads: int | None = None) -> TrainedDynamic:
+    """Train on encoded ``trajectories`` (``Encoding.trajectory``).
+
+    ``validation``: trajectories never trained on; every ``CHECKPOINT_EVERY`` steps (and before the
+    first) the model runs free on them and the weights with the smallest largest error are kept
+    (model selection on long free runs; without validation the last weights are kept).
+    ``checkpoint``: a file path to save to every ``CHECKPOINT_EVERY`` steps and resume from.
+    ``threads``: PyTorch's threads while training (None: as set).
+    ``progress(step, steps, {"loss", "unroll"})`` after every step."""
+    if threads is not None:
+        torch.set_num_threads(int(threads))
+    torch.manual_seed(config.seed)
+    windows = _windows(trajectories, config.history + config.unroll)
+    sc = scales(trajectories)
+    net = DynamicNet(config, encoding.node_features(), encoding.fixed, sc)
+    start = time.perf_counter()
+    baseline, fit = _start(net, trajectories, encoding, config, sc)
+    opt, gen = _optimizer(net, config), torch.Generator().manual_seed(config.seed)
+    loop = _Loop(fit=fit)
     path = Path(checkpoint) if checkpoint is not None else None
     if path is not None and path.is_file():
         state = torch.load(path, weights_only=False)
         net.load_state_dict(state["net"])
         opt.load_state_dict(state["opt"])
         gen.set_state(state["gen"])
-        step, losses, fit = int(state["step"]), list(state["losses"]), dict(state["fit"])
-    mask = (~net.fixed).float()[None, None, :, None]
-    denom = float(mask.sum()) * 6
-    while step < config.steps:
-        K = _unroll_at(config, step)
+        loop = state["loop"]
+    if loop.step == 0:
+        _validate(net, loop, validation)
+    while loop.step < config.steps:
         for group in opt.param_groups:
-            group["lr"] = _lr_at(config, step) * group["scale"]
-        idx = torch.randint(len(windows), (config.batch,), generator=gen).numpy()
-        picks = windows[idx]
-        hist, loads, future = _batch(trajectories, picks, H, K)
-        if config.noise > 0:
-            eps = torch.randn(hist.shape, generator=gen) * (config.noise * net.sv / math.sqrt(H))
-            hist = hist + torch.cumsum(eps, dim=1) * mask
-        pred = net.rollout(hist, loads)
-        err = (pred - future) / net.sv * mask
-        loss = (err ** 2).sum() / (denom * config.batch * K)
+            group["lr"] = _lr_at(config, loop.step) * group["scale"]
+        loss = _loss(net, trajectories, windows, config, gen, loop.step)
         opt.zero_grad()
         loss.backward()
         torch.nn.utils.clip_grad_norm_(net.parameters(), 1.0)
         opt.step()
-        step += 1
-        losses.append(float(loss))
+        loop.step += 1
+        loop.losses.append(loss.item())
         if progress is not None:
-            progress(step, config.steps, {"loss": losses[-1], "unroll": K})
-        if path is not None and (step % CHECKPOINT_EVERY == 0 or step == config.steps):
-            _save_checkpoint(path, net, opt, gen, step, losses, fit)
+            progress(loop.step, config.steps, {"loss": loop.losses[-1], "unroll": _unroll_at(config, loop.step - 1)})
+        if loop.step % CHECKPOINT_EVERY == 0 or loop.step == config.steps:
+            _validate(net, loop, validation)
+            if path is not None:
+                _save_checkpoint(path, net, opt, gen, loop)
+    if loop.best[2] is not None:
+        net.load_state_dict(loop.best[2])
     net.eval()
-    info = {"ridge": fit["ridge"], "linear_radius": fit["linear_radius"], "final_loss": losses[-1] if losses else None,
-            "losses": losses[::max(1, len(losses) // 200)], "train_seconds": time.perf_counter() - start,
-            "windows": int(len(windows)), "trajectories": len(trajectories)}
+    info = {"ridge": loop.fit["ridge"], "linear_radius": loop.fit["linear_radius"],
+            "linear_stable": bool(loop.fit["linear_radius"] <= STABLE_RADIUS),
+            "final_loss": loop.losses[-1] if loop.losses else None,
+            "losses": loop.losses[::max(1, len(loop.losses) // 200)], "train_seconds": time.perf_counter() - start,
+            "windows": int(len(windows)), "trajectories": len(trajectories),
+            "validation": [[s, (None if not math.isfinite(e) else e)] for s, e in loop.validation],
+            "selected_step": loop.best[1] if loop.best[2] is not None else loop.step}
     return TrainedDynamic(net=net, encoding=encoding, config=config, linear=baseline, info=info)

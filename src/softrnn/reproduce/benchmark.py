@@ -16,8 +16,10 @@ def benchmark_step(out: Path, quick: bool, progress_factory: ProgressFactory | N
     bench = load_step(bench_file, quick)
     if bench is None or "model" not in bench:
         from ..bench import run_all
+        from .dynamic import CONFIGS
 
         progress = progress_factory("benchmark") if progress_factory else None
-        bench = {"quick": quick, "softrnn_version": __version__, **run_all(quick=quick, progress=progress)}
+        bench = {"quick": quick, "softrnn_version": __version__,
+                 **run_all(quick=quick, progress=progress, dynamic_configs=CONFIGS)}
         atomic_write_text(bench_file, json.dumps(bench, indent=2))
     return bench

@@ -9,10 +9,12 @@ from ..scenarios.cases import PAPER_CASES
 def render_markdown(report: dict) -> str:
     """The human-readable report (``report.md``) of a ``reproduce`` report dictionary: the data sets,
     the node models beside the paper's errors and beside the baselines, the engine, the whole
-    manipulator (beside its baselines), the Fig. 14 study, the magnetic experiment, the Fig. 13
+    manipulator (beside its baselines), the learned whole-manipulator dynamic model of each case, the
+    Fig. 14 study, the magnetic experiment, the Fig. 13
     study, the benchmark and the assumptions."""
     lines = _dataset_lines(report) + _model_lines(report)
-    lines += (_engine_lines(report) + _manipulator_lines(report.get("manipulator")) + _fig14_lines(report.get("fig14"))
+    lines += (_engine_lines(report) + _manipulator_lines(report.get("manipulator"))
+              + _dynamic_lines(report.get("dynamic_model")) + _fig14_lines(report.get("fig14"))
               + _magnetic_lines(report.get("magnetic")) + _fig13_lines(report.get("fig13")))
     lines += _benchmark_lines(report["benchmark"]) + _assumption_lines(report["assumptions"])
     return "\n".join(lines)
@@ -100,19 +102,19 @@ def _cell(x) -> str:
     return f"{x:.3g}" if _number(x) else x if isinstance(x, str) else "-"
 
 
-def _ratio(model, baselines: dict) -> str:
-    """model / the best (smallest) baseline, naming it; above 1 a baseline beats the model."""
+def _ratio(model, baselines: dict, labels: dict = _LABELS) -> str:
+    """model / the best (smallest) baseline, naming it (``labels``); above 1 a baseline beats the model."""
     known = {k: v for k, v in baselines.items() if _number(v)}
     if not known:
         return "-"
     best = min(known, key=known.get)
     if model == "diverged":
-        return f"model diverged ({_LABELS.get(best, best)}: {known[best]:.3g})"
+        return f"model diverged ({labels.get(best, best)}: {known[best]:.3g})"
     if not _number(model):
         return "-"
     if known[best] == 0:
-        return f"{'1' if model == 0 else 'inf'} ({_LABELS.get(best, best)})"
-    return f"{model / known[best]:.3g} ({_LABELS.get(best, best)})"
+        return f"{'1' if model == 0 else 'inf'} ({labels.get(best, best)})"
+    return f"{model / known[best]:.3g} ({labels.get(best, best)})"
 
 
 def _free_value(block: dict | None, key: str):
@@ -150,13 +152,13 @@ def _horizon_rows(h: dict | None, names: tuple) -> list[tuple[str, object, dict]
     return rows
 
 
-def _table_row(cells: list[str], model, values: dict | None, n_baselines: int) -> str:
+def _table_row(cells: list[str], model, values: dict | None, n_baselines: int, labels: dict = _LABELS) -> str:
     """A Markdown row: the leading cells, the model, the ``n_baselines`` baselines and the ratio
-    (values None: 'longer than the span', the rest empty)."""
+    (values None: 'longer than the span', the rest empty; ``labels`` name the best baseline)."""
     if values is None:
         return "| " + " | ".join(cells) + " | longer than the span: not evaluated |" + " |" * (n_baselines + 1)
     return ("| " + " | ".join(cells + [_cell(model)] + [_cell(v) for v in values.values()]
-                              + [_ratio(model, values)]) + " |")
+                              + [_ratio(model, values, labels)]) + " |")
 
 
 def _model_baseline_lines(report: dict) -> list[str]:
@@ -278,6 +280,123 @@ def _manipulator_baseline_lines(m: dict) -> list[str]:
                if isinstance(v, dict) and v.get("skipped")]
     return lines + [""] + (m.get("misses") and [f"- {t}" for t in m["misses"]]
                            or ["No baseline beats the shared model on these figures."]) + skipped
+
+
+_DYNAMIC_BASELINES = ("persistence", "constant_velocity", "linear")
+_DYNAMIC_LABELS = {"persistence": "persistence", "constant_velocity": "constant velocity",
+                   "linear": "linear"}
+_GOAL_TEXT = {
+    "test_span_max_pct_of_length": ("paper test span, largest error", "< {goal:g} % of L", "{value:.3g} %"),
+    "heldout_median_max_pct_of_length": ("held-out variants, median of the largest errors", "< {goal:g} % of L",
+                                         "{value:.3g} %"),
+    "heldout_worst_max_pct_of_length": ("held-out variants, worst largest error", "< {goal:g} % of L",
+                                        "{value:.3g} %"),
+    "generalisation_max_pct_of_length": ("generalisation data set, largest error", "< {goal:g} % of L",
+                                         "{value:.3g} %"),
+    "beats_every_baseline_at_10": ("better than every baseline at 10 model steps", "{goal}", "{value:.3g} %"),
+    "beats_every_baseline_at_100": ("better than every baseline at 100 model steps", "{goal}", "{value:.3g} %"),
+    "beats_every_baseline_at_1000": ("better than every baseline at 1000 model steps", "{goal}", "{value:.3g} %"),
+    "times_better_than_best_baseline_at_100": ("best baseline's error / the model's at 100 model steps",
+                                               ">= {goal:g}x", "{value:.3g}x"),
+    "speed_ratio_vs_simulator": ("simulated seconds per wall second, model / simulator (one core each)",
+                                 ">= {goal:g}x", "{value:.3g}x"),
+}
+
+
+def _dynamic_lines(d: dict | None) -> list[str]:
+    """The learned whole-manipulator model of each case: horizons, spans, speed and goals."""
+    if not d:
+        return []
+    lines = ["", "## Whole-manipulator dynamic model (beyond the paper)", "",
+             "One learned model per case (`softrnn.dynamic`): a subset of the nodes stepped at the model's own, "
+             "coarser step, every node recovered by interpolation along the rod. Trained on the paper "
+             "trajectory's first 60 % and on sweep variants of the case's scenario; the last sweep variants "
+             "are held out (never trained on). Every predictor runs free (its own predictions fed back, the "
+             "loads from the data); errors are the largest distance over all nodes in % of the rod length L. "
+             "Baselines: persistence (the state stays), constant velocity (the last step repeats) and the "
+             "linear model (ridge, the whole state) on the same inputs. Horizons: the worst over the held-out "
+             "variants and a few starts in each, n model steps after the start; '-': diverged, or longer than "
+             "the runs. Ratio = model / best baseline: above 1 a baseline beats the model."]
+    for case, e in d.items():
+        if isinstance(e, dict) and "model_dt_s" in e:
+            lines += _dynamic_case_lines(case, e)
+    return lines
+
+
+def _or_diverged(value):
+    """A held-out figure, or 'diverged' (None: a run diverged, so the median or worst is infinite)."""
+    return "diverged" if value is None else value
+
+
+def _span_value(block: dict | None):
+    """A span's largest error [% of L], or 'diverged at step k', or None."""
+    if not block:
+        return None
+    if block.get("max_pct_of_length") is None and block.get("diverged_at") is not None:
+        return f"diverged at step {block['diverged_at']}"
+    return block.get("max_pct_of_length")
+
+
+def _dynamic_span_rows(e: dict) -> list[tuple[str, object, dict]]:
+    """(what, model, {baseline: value}) of the test span, the held-out variants and generalisation."""
+    rows = []
+    span = e.get("test_span")
+    if span:
+        rows.append((f"paper test span {span['start_s']:.3g}-{span['end_s']:.3g} s", _span_value(span.get("model")),
+                     {k: _span_value(span.get(k)) for k in _DYNAMIC_BASELINES}))
+    held = e.get("heldout")
+    if held:
+        base = held.get("baselines") or {}
+        for key, what in (("median_max_pct_of_length", "median"), ("worst_max_pct_of_length", "worst")):
+            rows.append((f"held-out variants ({held['variants']}), {what}", _or_diverged(held.get(key)),
+                         {k: _or_diverged((base.get(k) or {}).get(key)) for k in _DYNAMIC_BASELINES}))
+    gen = e.get("generalisation")
+    if gen:
+        rows.append(("generalisation data set", _span_value(gen.get("model")),
+                     {k: _span_value(gen.get(k)) for k in _DYNAMIC_BASELINES}))
+    return rows
+
+
+def _goal_line(key: str, g: dict) -> str:
+    """'- what (goal): met/MISSED, measured ...'."""
+    what, goal, value = _GOAL_TEXT.get(key, (key, "{goal}", "{value}"))
+    text = f"- {what} ({goal.format(goal=g.get('goal'))}): "
+    if g.get("value") is None:
+        return text + f"**missed** ({g.get('note') or 'not measured'})"
+    measured = value.format(value=g["value"])
+    if g.get("best_baseline"):
+        best = _DYNAMIC_LABELS.get(g["best_baseline"], g["best_baseline"])
+        measured += f"; best baseline {best}" + (f" {g['best_baseline_value']:.3g} %" if _number(
+            g.get("best_baseline_value")) else "")
+    return text + ("met" if g.get("met") else "**missed**") + f" ({measured})"
+
+
+def _dynamic_case_lines(case: str, e: dict) -> list[str]:
+    """One case: settings, the horizons and spans beside the baselines, speed, goals, figure."""
+    sweep, n = e.get("sweep") or {}, len(_DYNAMIC_BASELINES)
+    lines = ["", f"### {case}", "",
+             f"Model step {e['model_dt_s']:g} s, {e['predicted_nodes']} of {e.get('nodes', '?')} nodes predicted; "
+             f"trained in {e.get('train_seconds', 0):.0f} s ({(e.get('train_config') or {}).get('steps', '?')} "
+             f"steps) on the paper trajectory's first 60 % and {sweep.get('n_train', '?')} sweep variants "
+             f"({sweep.get('duration_s', '?')} s saved every {sweep.get('dt', '?')} s); "
+             f"{sweep.get('n_heldout', '?')} held out.", "",
+             "| what [% of L] | model | " + " | ".join(_DYNAMIC_LABELS[k] for k in _DYNAMIC_BASELINES)
+             + " | model / best baseline |", "|---|---|" + "---|" * n + "---|"]
+    for key in ("10", "100", "1000"):
+        row = (e.get("horizons") or {}).get(key) or {}
+        lines.append(_table_row([f"at {key} model steps"], row.get("model"),
+                                {k: row.get(k) for k in _DYNAMIC_BASELINES}, n, _DYNAMIC_LABELS))
+    for what, model, values in _dynamic_span_rows(e):
+        lines.append(_table_row([what], model, values, n, _DYNAMIC_LABELS))
+    if _number(e.get("speed_ratio_vs_simulator")):
+        lines += ["", f"Speed, one core each: the simulator {e['simulator_sim_s_per_wall_s']:.3g} simulated s per "
+                      f"wall s, the model {e['model_sim_s_per_wall_s']:.3g}: {e['speed_ratio_vs_simulator']:.3g}x."]
+    lines += ["", "Goals:"] + [_goal_line(k, g) for k, g in (e.get("goals") or {}).items()]
+    if e.get("figure"):
+        lines += ["", f"![dynamic {case}](figures/{e['figure']})"]
+    if e.get("rollout"):
+        lines += ["", f"The free run over the test span, every node: `{e['rollout']}` (`softrnn animate`)."]
+    return lines
 
 
 def _fig13_lines(f: dict | None) -> list[str]:

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import __version__
-from ..errors import bad
+from ..errors import bad, positive
 from ..files import atomic_write_text
 from ..progress import Progress
 
@@ -44,10 +44,11 @@ def _fingerprint(text: str) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
 
 
-def _check_manifest(out_dir: Path, scenario, n_samples) -> None:
-    """Write the manifest, or refuse a folder that holds another scenario's sweep."""
+def _check_manifest(out_dir: Path, scenario, n_samples, dt=None) -> None:
+    """Write the manifest, or refuse a folder that holds another scenario's sweep (or the same
+    scenario with another length or saved interval; ``dt`` None: the scenario's own)."""
     want = {"scenario": scenario.name, "source": scenario.source, "scenario_sha256": _fingerprint(scenario.text),
-            "seed": scenario.seed, "n_samples": n_samples, "softrnn_version": __version__}
+            "seed": scenario.seed, "n_samples": n_samples, "dt": dt, "softrnn_version": __version__}
     path = out_dir / MANIFEST
     if path.exists():
         try:
@@ -55,10 +56,10 @@ def _check_manifest(out_dir: Path, scenario, n_samples) -> None:
         except (OSError, ValueError) as err:
             raise bad("-o", str(out_dir), f"a sweep folder; its {MANIFEST} is unreadable ({err}); "
                                            f"remove it or use another folder") from err
-        for key in ("scenario_sha256", "seed", "n_samples"):
+        for key in ("scenario_sha256", "seed", "n_samples", "dt"):
             if have.get(key) != want[key]:
                 raise bad("-o", str(out_dir),
-                          f"a folder for this sweep, but it holds a sweep of another scenario/seed/length "
+                          f"a folder for this sweep, but it holds a sweep of another scenario/seed/length/dt "
                           f"({key}: {have.get(key)!r} != {want[key]!r}); use another folder")
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, json.dumps(want, indent=2))
@@ -77,19 +78,17 @@ def _is_complete(path: Path) -> bool:
         return False
 
 
-def run_variant(text: str, source: str, index: int, path: str, n_samples: int | None = None) -> dict:
+def run_variant(text: str, source: str, index: int, path: str, n_samples: int | None = None,
+                dt: float | None = None) -> dict:
     """Simulate variant ``index`` of the scenario given by its TOML ``text`` and write it to
-    ``path`` (atomically). Runs on a Dask worker; returns a small summary."""
+    ``path`` (atomically), ``n_samples`` samples ``dt`` s apart (None: the scenario's). Runs on a
+    Dask worker; returns a small summary."""
     from ..io.dataset import DatasetWriter
     from ..rod import Simulator
     from ..scenarios.scenario import parse_scenario
 
     scenario = parse_scenario(text, source).variant(index)
-    config = scenario.config
-    if n_samples is not None:
-        from dataclasses import replace
-
-        config = replace(config, n_samples=n_samples)
+    config = run_config(scenario.config, n_samples, dt)
     sim = Simulator(scenario.setup)
     nodes = list(range(scenario.setup.rod.n_nodes)) if config.save_nodes is None else list(config.save_nodes)
     attrs = {"variant_index": index, "sampled": json.dumps(scenario.sampled), "scenario_name": scenario.name}
@@ -100,6 +99,16 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
     return {"index": index, "wall_time": time.perf_counter() - start, "substeps": stats.substeps}
 
 
+def run_config(config, n_samples: int | None = None, dt: float | None = None):
+    """The scenario's ``RunConfig`` with ``n_samples`` and/or the saved interval ``dt`` [s] replaced
+    (None: kept); the solver's substeps are chosen for the new interval when the scenario's are
+    automatic."""
+    from dataclasses import replace
+
+    changes = {k: v for k, v in (("n_samples", n_samples), ("dt", dt)) if v is not None}
+    return replace(config, **changes) if changes else config
+
+
 def _remove_stale_temporaries(out_dir: Path) -> None:
     for p in out_dir.glob("traj-*.h5.tmp*"):
         p.unlink(missing_ok=True)
@@ -108,12 +117,16 @@ def _remove_stale_temporaries(out_dir: Path) -> None:
 
 
 def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_workers: int = 2,
-              n_samples: int | None = None, progress: Progress | None = None) -> SweepResult:
+              n_samples: int | None = None, dt: float | None = None,
+              progress: Progress | None = None) -> SweepResult:
     """Simulate variants 0..count-1 of ``scenario`` into ``out_dir`` on Dask; skips finished files.
 
     ``scheduler``: address of an existing Dask scheduler, or None for a LocalCluster of
-    ``n_workers`` processes. ``n_samples`` shortens every trajectory (default: the scenario's).
-    ``progress(done, count)`` counts finished trajectories, found or computed.
+    ``n_workers`` processes. ``n_samples`` sets every trajectory's length (default: the scenario's)
+    and ``dt`` its saved interval [s] (default: the scenario's; the solver step stays the stable
+    one, so a coarser ``dt`` saves fewer samples, not a coarser simulation). Both are recorded in
+    ``sweep.json``: resuming with others is refused. ``progress(done, count)`` counts finished
+    trajectories, found or computed.
     """
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
         raise bad("--count", count, "an integer >= 1")
@@ -121,13 +134,19 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
         raise bad("--workers", n_workers, "an integer >= 1")
     if n_samples is not None and (not isinstance(n_samples, int) or n_samples < 1):
         raise bad("--samples", n_samples, "an integer >= 1")
+    if dt is not None:
+        dt = positive("--dt", dt, "s")
     if not scenario.randomized:
         raise bad("scenario", scenario.name, "a scenario with a [randomize] table (nothing to vary in a sweep)")
+    from ..rod import Simulator
     from .dask import require
+
+    # a run too large for the machine is refused here, before any file or worker (as simulate does)
+    Simulator(scenario.setup).check_size(run_config(scenario.config, n_samples, dt), streamed=True)
 
     require()
     out = Path(out_dir)
-    _check_manifest(out, scenario, n_samples)
+    _check_manifest(out, scenario, n_samples, dt)
     _remove_stale_temporaries(out)
     result = SweepResult(files=[trajectory_path(out, i) for i in range(count)])
     todo = []
@@ -138,7 +157,7 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
         progress(done, count)
     start = time.perf_counter()
     if todo:
-        for index in _execute(scenario, todo, out, scheduler, n_workers, n_samples):
+        for index in _execute(scenario, todo, out, scheduler, n_workers, n_samples, dt):
             result.computed.append(index)
             done += 1
             if progress is not None:
@@ -148,12 +167,12 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
     return result
 
 
-def _execute(scenario, todo, out: Path, scheduler, n_workers, n_samples):
+def _execute(scenario, todo, out: Path, scheduler, n_workers, n_samples, dt=None):
     """Yield the indices as their files are finished."""
     from .dask import completed
 
-    tag = _fingerprint(scenario.text)
-    tasks = [(run_variant, (scenario.text, scenario.source, i, str(trajectory_path(out, i)), n_samples),
+    tag = _fingerprint(f"{scenario.text}\n{n_samples}\n{dt}")
+    tasks = [(run_variant, (scenario.text, scenario.source, i, str(trajectory_path(out, i)), n_samples, dt),
               f"softrnn-variant-{tag}-{i}") for i in todo]
     with closing(completed(tasks, scheduler, n_workers)) as results:
         for record in results:

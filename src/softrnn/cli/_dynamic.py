@@ -1,0 +1,538 @@
+"""softrnn dynamic train|evaluate|rollout|export: the learned whole-manipulator model (beyond the
+paper; ``softrnn.dynamic``): one set of weights along the rod, free running at its own step."""
+
+import argparse
+import json
+import sys
+import time as _time
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SimulationError, SoftrnnInputError, bad, require_extra
+from ..files import atomic_write_text, json_default, prepare_output
+from ._progress import Bar
+
+NAME = "dynamic"
+HELP = ("the learned whole-manipulator model (beyond the paper): train it on data sets and sweeps, evaluate it "
+        "free running at every node beside baselines, roll it out as a data set, export a step to ONNX")
+
+CHECKPOINT = "checkpoint.pt"
+SETTINGS = "checkpoint.json"
+_OPTIONS = {"model_dt": "--model-dt", "node_stride": "--node-stride", "history": "--history", "memory": "--memory",
+            "width": "--width", "layers": "--layers", "steps": "--steps", "unroll": "--unroll", "noise": "--noise",
+            "seed": "--seed", "heldout": "--heldout", "validation": "--validation",
+            "train_fraction": "--train-fraction", "data": "DATA"}
+"""Library argument names -> the options that set them (for the one-line errors)."""
+
+
+class _SubParser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit code 2) pointing at the subcommand's own help."""
+
+    def error(self, message):
+        self.exit(2, f"softrnn: error: {message} (see '{self.prog} --help')\n")
+
+
+def add_args(p):
+    sub = p.add_subparsers(title="subcommands", dest="dynamic_command", required=True, parser_class=_SubParser,
+                           metavar="{" + ",".join(c[0] for c in _COMMANDS) + "}")
+    for name, help_, adder, runner in _COMMANDS:
+        q = sub.add_parser(name, help=help_, description=help_)
+        adder(q)
+        q.set_defaults(dynamic_run=runner)
+
+
+def run(args) -> int:
+    return args.dynamic_run(args)
+
+
+@contextmanager
+def _as_options():
+    """Re-raise the library's ``name=value is invalid`` errors under the option's name (--model-dt)."""
+    try:
+        yield
+    except SoftrnnInputError as err:
+        text = str(err)
+        for name, option in _OPTIONS.items():
+            if text.startswith(f"{name}="):
+                raise SoftrnnInputError(option + text[len(name):]) from None
+        raise
+
+
+# ------------------------------------------------------------------------------------------ train
+def _add_train(p):
+    p.add_argument("data", nargs="+", metavar="DATA",
+                   help="data set files (every node stored) or sweep folders (traj-NNNNN.h5 files)")
+    p.add_argument("-o", "--out", required=True, metavar="MODEL_DIR", help="the model folder to write")
+    p.add_argument("--heldout", type=int, default=0, metavar="N",
+                   help="hold out the last N variants of every sweep (never trained on; recorded) (default: 0)")
+    p.add_argument("--validation", type=int, default=0, metavar="N",
+                   help="of every sweep, N variants before the held-out ones choose among the training's "
+                        "checkpoints by free runs (never trained on; recorded) (default: 0)")
+    p.add_argument("--train-fraction", type=float, default=0.6, metavar="F",
+                   help="train on the first F of every single-trajectory file (default: 0.6, the rest is the "
+                        "test span)")
+    p.add_argument("--model-dt", type=float, default=None, metavar="S",
+                   help="the model's step [s], a whole multiple of the data's interval (default: 0.02)")
+    p.add_argument("--node-stride", type=int, default=None, metavar="K",
+                   help="predict every K-th node and both ends (default: about 20 segments)")
+    p.add_argument("--history", type=int, default=None, metavar="H", help="states read per step (default: 3)")
+    p.add_argument("--memory", choices=("window", "lstm"), default=None,
+                   help="the history window alone, or also an LSTM cell per node (default: window)")
+    p.add_argument("--width", type=int, default=None, metavar="W", help="channels of the convolution (default: 48)")
+    p.add_argument("--layers", type=int, default=None, metavar="L",
+                   help="hidden layers of the convolution (default: 3)")
+    p.add_argument("--steps", type=int, default=None, metavar="N", help="optimiser steps (default: 1500)")
+    p.add_argument("--unroll", type=int, default=None, metavar="K", help="free steps in the loss (default: 12)")
+    p.add_argument("--noise", type=float, default=None, metavar="X",
+                   help="input noise in units of the velocities' spread (default: 0.05)")
+    p.add_argument("--seed", type=int, default=None, metavar="S", help="random seed (default: 0)")
+    p.add_argument("--threads", type=int, default=None, metavar="T",
+                   help="PyTorch threads while training (default: PyTorch's own choice)")
+    again = p.add_mutually_exclusive_group()
+    again.add_argument("--resume", action="store_true",
+                       help=f"continue an interrupted training from MODEL_DIR/{CHECKPOINT} (same settings)")
+    again.add_argument("--overwrite", action="store_true",
+                       help="replace the model or unfinished training in MODEL_DIR (default: refuse)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+class _StepBar(Bar):
+    """The tqdm bar with the training loss and the unroll in its postfix."""
+
+    def __call__(self, done, total, info=None):
+        super().__call__(done, total)
+        if self.bar is not None and info:
+            self.bar.set_postfix_str(f"loss {info.get('loss', float('nan')):.3g} unroll {info.get('unroll')}",
+                                     refresh=False)
+
+
+def _config(args):
+    from ..dynamic.config import DynamicConfig
+
+    names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed")
+    return DynamicConfig(**{k: getattr(args, k) for k in names if getattr(args, k) is not None})
+
+
+def _check_step(split, config) -> None:
+    """Every input's saved interval must divide the model's step (checked before anything is written)."""
+    from ..dynamic.config import resolve_stride
+    from ..io.dataset import read_dataset
+
+    for part in split.train + split.validation:
+        head = read_dataset(part.path, group=None if part.group == "/" else part.group, stop=1)
+        resolve_stride(config.model_dt, float(head.dt))
+
+
+def _model_folder(args) -> Path:
+    """The checked -o folder: new, empty, or holding only a model or an unfinished training."""
+    from ..dynamic.artifact import FILES
+
+    folder = prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite or args.resume,
+                            holds=("model.json", CHECKPOINT, SETTINGS),
+                            fix="pass --overwrite to replace it or --resume to continue it")
+    if folder.is_dir():
+        foreign = sorted(p.name for p in folder.iterdir()
+                         if not p.name.startswith(".") and p.name not in set(FILES) | {CHECKPOINT, SETTINGS})
+        if foreign:
+            raise bad("-o", str(folder), f"a new or empty folder, or one 'softrnn dynamic train' wrote, but it holds "
+                                         f"other files ({', '.join(foreign[:3])}); choose another folder")
+    return folder
+
+
+def _difference(then: dict, now: dict) -> str:
+    """The first setting that differs ('config.steps: 5 then, 6 now'), or ''."""
+    for key in ("config", "data"):
+        a, b = then.get(key) or {}, now.get(key) or {}
+        for name in sorted(set(a) | set(b)):
+            if a.get(name) != b.get(name):
+                return f"{key}.{name}: {a.get(name)!r} then, {b.get(name)!r} now" if key == "config" else \
+                    f"the {name} data differ"
+    return ""
+
+
+def _start_checkpoint(folder: Path, settings: dict, resume: bool) -> None:
+    """Check a checkpoint to resume against ``settings``; or, starting afresh, remove an old one.
+    Either way ``SETTINGS`` records the settings beside the checkpoint."""
+    ckpt, saved = folder / CHECKPOINT, folder / SETTINGS
+    if resume and ckpt.is_file():
+        try:
+            then = json.loads(saved.read_text())
+        except (OSError, ValueError):
+            raise bad("--resume", True, f"a checkpoint with its settings, but {saved} is missing or unreadable; "
+                                        "train with --overwrite to start again") from None
+        why = _difference(then, settings)
+        if why:
+            raise bad("--resume", True, f"the settings of the checkpoint in {folder} ({why}); resume with the "
+                                        "same settings, or train with --overwrite to start again")
+        return
+    ckpt.unlink(missing_ok=True)
+    atomic_write_text(saved, json.dumps(settings, indent=1, default=json_default) + "\n")
+
+
+def _discard(folder: Path, created: bool) -> None:
+    """After a failed start: remove the settings written for a checkpoint that never came, and the
+    folder if this run created it and it is empty again (no partial output)."""
+    if not (folder / CHECKPOINT).exists():
+        (folder / SETTINGS).unlink(missing_ok=True)
+        if created and folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()
+
+
+def _interrupted(folder: Path, created: bool) -> None:
+    """Say what an interrupted training kept (its last checkpoint, or nothing)."""
+    from ..dynamic import training
+
+    _discard(folder, created)
+    if (folder / CHECKPOINT).is_file():
+        print(f"softrnn: interrupted; the training's last checkpoint (one every {training.CHECKPOINT_EVERY} steps) "
+              f"is kept in {folder}/{CHECKPOINT}; run the same command with --resume to continue", file=sys.stderr)
+    else:
+        print(f"softrnn: interrupted before the first checkpoint (after {training.CHECKPOINT_EVERY} steps); "
+              "nothing was kept", file=sys.stderr)
+
+
+def _finished(folder: Path, settings: dict):
+    """The finished model in ``folder`` (--resume after the end), if it was trained with ``settings``."""
+    from ..dynamic.artifact import load_dynamic
+
+    model = load_dynamic(folder)
+    why = _difference({"config": model.config.to_dict(), "data": model.meta.get("data")}, settings)
+    if why:
+        raise bad("--resume", True, f"the settings of the finished model in {folder} ({why}); train with "
+                                    "--overwrite to replace it, or choose another folder")
+    return model
+
+
+def _train_summary(folder, config, encoding, info: dict, data: dict, head: str = "dynamic train:") -> str:
+    n = {key: len(data.get(key) or []) for key in ("train", "validation", "heldout")}
+    loss = info.get("final_loss")
+    selected = f", weights of step {info['selected_step']}" if n["validation"] and "selected_step" in info else ""
+    return (f"{head} {config.steps} steps in {info.get('train_seconds', float('nan')):.1f} s, final loss "
+            f"{'-' if loss is None else f'{loss:.4g}'}{selected}; model_dt {encoding.model_dt:g} s, "
+            f"{encoding.n_kept} of {encoding.n_nodes} nodes predicted; {n['train']} training trajectories, "
+            f"{n['validation']} for validation, {n['heldout']} held out (listed in {folder}/model.json)")
+
+
+def _train(args) -> int:
+    require_extra("learn")
+    from ..dynamic.artifact import save_dynamic
+    from ..dynamic.data import split_inputs
+    from ..dynamic.fit import fit
+
+    folder = _model_folder(args)
+    if args.threads is not None and args.threads < 1:
+        raise bad("--threads", args.threads, "an integer >= 1")
+    with _as_options():
+        config = _config(args)
+        split = split_inputs([Path(p).absolute() for p in args.data], heldout=args.heldout,
+                             validation=args.validation, train_fraction=args.train_fraction)
+        _check_step(split, config)
+    settings = {"config": config.to_dict(), "data": split.describe()}
+    if args.resume and (folder / "model.json").is_file() and not (folder / CHECKPOINT).is_file():
+        model = _finished(folder, settings)
+        print(_train_summary(folder, model.config, model.encoding, model.meta.get("training", {}),
+                             model.meta.get("data", {}), head="dynamic train: already finished,"))
+        return 0
+    created = not folder.exists()
+    _start_checkpoint(folder, settings, args.resume)
+    with _StepBar("dynamic train", unit="step", enabled=not args.quiet) as bar, _as_options():
+        try:
+            trained, meta = fit(split, config, progress=bar, checkpoint=folder / CHECKPOINT, threads=args.threads)
+        except KeyboardInterrupt:
+            bar.close()
+            _interrupted(folder, created)
+            return 130
+        except BaseException:
+            _discard(folder, created)
+            raise
+    save_dynamic(folder, trained, meta)
+    print(_train_summary(folder, config, trained.encoding, trained.info, meta["data"]))
+    print(f"dynamic train: wrote {folder} (evaluate it with 'softrnn dynamic evaluate {folder} --heldout ...')")
+    return 0
+
+
+# ------------------------------------------------------------------------------------------ evaluate
+def _add_evaluate(p):
+    p.add_argument("model", metavar="MODEL_DIR", help="a model folder written by 'softrnn dynamic train'")
+    p.add_argument("--test", default=None, metavar="FILE",
+                   help="a trajectory the model trained the first part of: run free over the rest")
+    p.add_argument("--test-start", type=float, default=0.6, metavar="F",
+                   help="where the test span starts, as a fraction of --test (default: 0.6)")
+    p.add_argument("--heldout", nargs="+", action="extend", default=[], metavar="PATH",
+                   help="held-out trajectories: files (every group of a sweep file) or sweep folders (every "
+                        "traj-*.h5); refused if the model trained on them")
+    p.add_argument("--generalisation", default=None, metavar="FILE",
+                   help="a trajectory of another scenario, run free from its start")
+    p.add_argument("-o", "--output", default=None, metavar="EVAL.json", help="also write the report as JSON")
+    p.add_argument("--overwrite", action="store_true", help="replace the -o file if it exists (default: refuse)")
+
+
+def _trajectories(path: str) -> list[tuple[Path, str]]:
+    """(file, group) of every trajectory of a file or a sweep folder."""
+    from ..io.dataset import list_groups
+
+    p = Path(path)
+    if p.is_dir():
+        files = sorted(p.glob("traj-*.h5"))
+        if not files:
+            raise bad("--heldout", path, "a data set file or a sweep folder holding traj-NNNNN.h5 files")
+        return [(f, "/") for f in files]
+    if not p.is_file():
+        raise bad("--heldout", path, "an existing data set file or sweep folder")
+    return [(p, g) for g in list_groups(p)]
+
+
+def _read(model, argument: str, path, group: str = "/"):
+    """The data set at ``path`` (``group``), checked against the model's encoding."""
+    from ..dynamic.encoding import check_compatible
+    from ..io.dataset import read_dataset
+
+    data = read_dataset(path, group=None if group == "/" else group)
+    check_compatible(model.encoding, data, argument)
+    return data
+
+
+def _seen(model, path, group: str = "/") -> tuple[str, dict] | None:
+    """('train' or 'validation', the entry) of ``model``'s record that names this trajectory, or None."""
+    where = Path(path).resolve()
+    for role in ("train", "validation"):
+        for entry in (model.meta.get("data") or {}).get(role) or []:
+            if Path(entry["path"]).resolve() == where and entry.get("group", "/") == group:
+                return role, entry
+    return None
+
+
+def _unseen(model, argument: str, path, group: str = "/") -> None:
+    """Refuse a trajectory the model trained on (or chose its weights by) as held-out data."""
+    seen = _seen(model, path, group)
+    if seen is not None:
+        what = "trained on it" if seen[0] == "train" else "chose its weights by free runs on it (validation)"
+        name = str(path) + ("" if group == "/" else f":{group}")
+        raise bad(argument, name, f"a trajectory the model never saw, but it {what} (model.json lists it); "
+                                  "give a held-out variant (train with --heldout N to keep some back)")
+
+
+def _check_test(model, path, data, fraction: float) -> None:
+    """The test span must start after the part of --test the model trained on."""
+    seen = _seen(model, path)
+    if seen is None:
+        return
+    role, entry = seen
+    if role == "validation" or entry.get("stop") is None:
+        raise bad("--test", str(path), "a trajectory whose test span the model never saw, but it "
+                                       f"{'trained on' if role == 'train' else 'validated on'} all of it; "
+                                       "use --heldout or --generalisation data instead")
+    k = model.encoding.stride(float(data.dt))
+    n_steps = (data.n_samples - 1) // k + 1
+    start = max(max(model.engine.history, 2) - 1, int(round(fraction * (n_steps - 1)))) * k
+    if start < int(entry["stop"]) - 1:
+        first = (int(entry["stop"]) - 1) / max(1, data.n_samples - 1)
+        raise bad("--test-start", fraction, f"a start after the trained part of {path} (its first "
+                                            f"{entry['stop']} samples): a fraction >= {first:.3g}")
+
+
+def _evaluate(args) -> int:
+    from ..dynamic.artifact import load_dynamic
+    from ..dynamic.evaluation import evaluate_dynamic
+
+    if args.test is None and not args.heldout and args.generalisation is None:
+        raise bad("--test", None, "at least one of --test FILE, --heldout PATH ... and --generalisation FILE")
+    if not 0.0 < args.test_start < 1.0:
+        raise bad("--test-start", args.test_start, "a fraction in (0, 1), e.g. 0.6")
+    if args.output:
+        prepare_output(args.output, "-o", overwrite=args.overwrite)
+    model = load_dynamic(args.model)
+    heldout = [t for path in args.heldout for t in _trajectories(path)]
+    for path, group in heldout:
+        _unseen(model, "--heldout", path, group)
+    if args.generalisation is not None:
+        _unseen(model, "--generalisation", args.generalisation)
+    test = None if args.test is None else _read(model, "--test", args.test)
+    if test is not None:
+        _check_test(model, args.test, test, args.test_start)
+    general = None if args.generalisation is None else _read(model, "--generalisation", args.generalisation)
+    report = evaluate_dynamic(model, test=test, heldout=[_read(model, "--heldout", p, g) for p, g in heldout],
+                              generalisation=general, test_start_fraction=args.test_start)
+    report = {"model": str(args.model), "test": args.test, "heldout_files": [f"{p}:{g}" for p, g in heldout],
+              "generalisation_file": args.generalisation, **report}
+    print(format_evaluation(report))
+    if args.output:
+        atomic_write_text(args.output, json.dumps(report, indent=2, allow_nan=False, default=json_default) + "\n")
+        print(f"dynamic evaluate: wrote {args.output}")
+    return 0
+
+
+_NAMES = ("model", "persistence", "constant_velocity", "linear")
+_HEADS = ("model", "persistence", "const. vel.", "linear")
+
+
+def _cell(value) -> str:
+    return f"{value:>12.3g}" if isinstance(value, (int, float)) else f"{value or '-':>12}"
+
+
+def _span_cell(span: dict):
+    return "diverged" if span.get("diverged_at") is not None else span.get("max_pct_of_length")
+
+
+def _rows(r: dict) -> list[tuple[str, list]]:
+    rows = []
+    if "test_span" in r:
+        t = r["test_span"]
+        rows.append((f"test span {t['start_s']:g}..{t['end_s']:g} s", [_span_cell(t[n]) for n in _NAMES]))
+    if "heldout" in r:
+        h = r["heldout"]
+        for stat in ("median", "worst"):
+            key = f"{stat}_max_pct_of_length"
+            values = [h[key]] + [h["baselines"][n][key] for n in _NAMES[1:]]
+            rows.append((f"held out ({h['variants']}): {stat}", values))
+    if "generalisation" in r:
+        rows.append(("generalisation", [_span_cell(r["generalisation"][n]) for n in _NAMES]))
+    for n, row in (r.get("horizons") or {}).items():
+        rows.append((f"at {n} steps ({int(n) * r['model_dt_s']:g} s)", [row.get(k) for k in _NAMES]))
+    return rows
+
+
+def format_evaluation(r: dict) -> str:
+    """The table ``softrnn dynamic evaluate`` prints for an ``evaluate_dynamic`` report."""
+    lines = [f"dynamic evaluate: {r['model']} (model_dt {r['model_dt_s']:g} s, {r['predicted_nodes']} of "
+             f"{r['nodes']} nodes predicted, history {r['history']})",
+             f"  largest position error over every node, % of the rod length ({r['length_m']:g} m); free running",
+             f"  {'':<32}" + "".join(f"{h:>12}" for h in _HEADS)]
+    lines += [f"  {label:<32}" + "".join(_cell(v) for v in values) for label, values in _rows(r)]
+    if r.get("horizons"):
+        lines.append("  ('-' at a horizon: no held-out trajectory is that long, or the run diverged)")
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------------------ rollout
+def _add_rollout(p):
+    p.add_argument("model", metavar="MODEL_DIR", help="a model folder written by 'softrnn dynamic train'")
+    p.add_argument("data", metavar="DATA", help="a data set storing every node (the history and the loads)")
+    p.add_argument("--group", default=None, help="the trajectory's group inside a sweep file")
+    p.add_argument("--start-time", type=float, default=None, metavar="T",
+                   help="the last state taken from the data [s]; the model runs free after it (default: at 60 %% "
+                        "of the data)")
+    p.add_argument("--stop-time", type=float, default=None, metavar="T", help="the last predicted time [s] "
+                                                                              "(default: the end)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.h5", help="the predicted trajectory (.h5)")
+    p.add_argument("--overwrite", action="store_true", help="replace the -o file if it exists (default: refuse)")
+
+
+def _steps(traj, history: int, start_time, stop_time) -> tuple[int, int]:
+    """Model steps: ``start`` (the last data state) and ``stop`` (exclusive) for the given times [s]."""
+    t, eps = traj.time, 1e-9 * max(1.0, abs(float(traj.time[-1])))
+    stop = traj.n_steps if stop_time is None else int(np.searchsorted(t, stop_time + eps, side="right"))
+    if stop_time is not None and not stop_time <= t[-1] + eps:
+        raise bad("--stop-time", stop_time, f"a time up to the data's end ({t[-1]:g} s)")
+    start = int(round(0.6 * (traj.n_steps - 1))) if start_time is None else \
+        int(np.searchsorted(t, start_time + eps, side="right")) - 1
+    first = history - 1
+    if start < first or start > traj.n_steps - 2:
+        raise bad("--start-time", start_time, f"a time from {t[first]:g} s (the model reads {history} states) to "
+                                              f"{t[-2]:g} s (one model step before the end)")
+    if stop < start + 2:
+        raise bad("--stop-time", stop_time, f"a time after the start ({t[start]:g} s) by a model step "
+                                            f"({t[start + 1] - t[start]:g} s) or more")
+    return start, stop
+
+
+def _rollout_dataset(model, data, traj, states, start: int, stop: int, source: dict):
+    """The free run (with the start state first) as a Dataset of every node at the model's steps."""
+    from ..io.dataset import RESERVED_ATTRS, Dataset
+
+    k = model.encoding.stride(float(data.dt))
+    rows = np.arange(start, stop) * k
+    positions, quaternions = model.encoding.decode(np.concatenate([traj.states[start:start + 1], states]))
+    attrs = {key: v for key, v in data.attrs.items() if key not in RESERVED_ATTRS}
+    attrs.update(scenario_name=f"{attrs.get('scenario_name') or 'data'} (predicted)", prediction=True,
+                 rollout="dynamic", **source)
+    return Dataset(time=traj.time[start:stop], nodes=np.arange(model.encoding.n_nodes), positions=positions,
+                   quaternions=quaternions, forces=data.forces[rows], torques=data.torques[rows], attrs=attrs)
+
+
+def _rollout(args) -> int:
+    from ..dynamic.artifact import load_dynamic
+    from ..dynamic.encoding import check_compatible
+    from ..dynamic.evaluation import free_run
+    from ..io.dataset import read_dataset, write_trajectory
+
+    if not str(args.output).endswith((".h5", ".hdf5")):
+        raise bad("-o", args.output, "a file name ending in .h5 or .hdf5")
+    if Path(args.output).resolve() == Path(args.data).resolve():
+        raise bad("-o", args.output, "another file than DATA")
+    prepare_output(args.output, "-o", overwrite=args.overwrite)
+    model = load_dynamic(args.model)
+    data = read_dataset(args.data, group=args.group)
+    check_compatible(model.encoding, data, "DATA")
+    traj = model.encoding.trajectory(data)
+    start, stop = _steps(traj, model.engine.history, args.start_time, args.stop_time)
+    t0 = _time.perf_counter()
+    states, diverged = free_run(model.engine, traj, start, stop)
+    seconds = _time.perf_counter() - t0
+    if diverged is not None:
+        raise SimulationError(f"the free run diverged at t = {traj.time[start + diverged]:g} s ({diverged} model "
+                              f"steps after the start at {traj.time[start]:g} s); nothing was written; start later "
+                              "or stop earlier (--start-time, --stop-time), or train the model on more data")
+    source = {"model": str(args.model), "reference": str(args.data), "start_time_s": float(traj.time[start]),
+              "model_dt_s": model.encoding.model_dt}
+    ds = _rollout_dataset(model, data, traj, states, start, stop, source)
+    write_trajectory(args.output, ds, dt=model.encoding.model_dt, rod=data.attrs.get("rod"),
+                     scenario_text=data.attrs.get("scenario_text") or "", seed=data.attrs.get("seed"), attrs=ds.attrs)
+    _rollout_summary(model, data, ds, seconds, args.output)
+    return 0
+
+
+def _rollout_summary(model, data, ds, seconds: float, out) -> None:
+    k = model.encoding.stride(float(data.dt))
+    rows = np.searchsorted(data.time, ds.time - 1e-9 * float(data.dt))       # the data's samples at ds.time
+    err = np.linalg.norm(ds.positions[1:].astype(np.float64) - data.positions[rows[1:]].astype(np.float64), axis=-1)
+    steps = len(ds.time) - 1
+    print(f"dynamic rollout: {steps} model steps of {model.encoding.model_dt:g} s ({k} data samples each) from "
+          f"t = {ds.time[0]:g} to {ds.time[-1]:g} s, {model.encoding.n_kept} of {model.encoding.n_nodes} nodes "
+          f"predicted, in {seconds:.3f} s ({seconds / steps * 1e6:.0f} us per step)")
+    print(f"  largest error vs the data over every node: {err.max() * 1e3:.3g} mm "
+          f"({100 * err.max() / model.encoding.length:.3g} % of the rod length)")
+    print(f"dynamic rollout: wrote {out} (show it with 'softrnn animate {out}')")
+
+
+# ------------------------------------------------------------------------------------------ export
+def _add_export(p):
+    p.add_argument("model", metavar="MODEL_DIR", help="a model folder written by 'softrnn dynamic train'")
+    p.add_argument("--onnx", required=True, metavar="OUT.onnx",
+                   help="the ONNX file of one model step; its encoding goes to OUT.onnx.json beside it")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the ONNX file and its .json sidecar if they exist (default: refuse)")
+
+
+def _export(args) -> int:
+    require_extra("learn")
+    from ..dynamic.artifact import load_dynamic
+    from ..dynamic.export import export_onnx, input_names, output_names, sidecar_path
+
+    path = Path(args.onnx)
+    if Path(args.model).resolve() in path.resolve().parents:
+        raise bad("--onnx", args.onnx, "a path outside the model folder (a foreign file there would stop "
+                                       "'softrnn dynamic train' from replacing the model)")
+    prepare_output(path, "--onnx", overwrite=args.overwrite)
+    prepare_output(sidecar_path(path), "--onnx", overwrite=args.overwrite,
+                   fix="this is the sidecar of --onnx; pass --overwrite to replace both, or choose another path")
+    model = load_dynamic(args.model)
+    result = export_onnx(model, path)
+    print(f"dynamic export: wrote {result.path} (ONNX; {', '.join(input_names(model))} -> "
+          f"{', '.join(output_names(model))}) and {result.sidecar} (encoding and layouts)")
+    print(f"  checked with ONNX Runtime against the NumPy engine on a random input: largest difference "
+          f"{result.max_difference:.2g} (m or rad)")
+    return 0
+
+
+_COMMANDS = (
+    ("train", "train a whole-manipulator model on data set files and sweep folders (resumable)", _add_train, _train),
+    ("evaluate", "free-running errors at every node on test, held-out and generalisation data beside persistence, "
+                 "constant velocity and a linear model", _add_evaluate, _evaluate),
+    ("rollout", "run the model free from a data set's history with its loads and write every node as a data set",
+     _add_rollout, _rollout),
+    ("export", "export one model step to ONNX (with its encoding as a .json sidecar), checked with ONNX Runtime",
+     _add_export, _export),
+)

@@ -1,0 +1,342 @@
+"""Reproduce step: the learned whole-manipulator dynamic model (``softrnn.dynamic``, beyond the paper)
+of each paper case, trained, run free beside its baselines, and timed against the simulator.
+
+Per case (``out/dynamic/CASE/``, step file ``out/dynamic/CASE.json``):
+
+1. a sweep of the case's scenario (``softrnn.sweeps.run_sweep``, 2 local workers) into
+   ``out/sweeps/CASE/``: ``n_train + n_heldout`` variants saved every ``dt`` (``SWEEP``); the last
+   ``n_heldout`` are held out (never trained on);
+2. training (``softrnn.dynamic.fit``, config ``CONFIGS[CASE]``) on the paper trajectory's first 60 %
+   (``out/data/CASE.h5``; its first sample is the reference pose) and the training variants, with a
+   checkpoint in the case's folder (an interrupted run resumes); the model goes to ``model/``;
+3. ``evaluate_dynamic``: the paper trajectory's test span, the held-out variants (and the horizons),
+   the generalisation data set (``cases.GENERALISATION``);
+4. speed: the simulator and the model on one core each, one after the other
+   (``softrnn.bench.dynamic.compare_speed``);
+5. ``rollout.h5`` (the free run over the test span, every node, for ``softrnn animate``) and
+   ``figures/dynamic_CASE.png`` (largest error over the nodes against time, model and baselines, on
+   the test span and on the first held-out variant);
+6. ``goals``: each goal (``GOALS``) with its measured value and whether it is met (reported, never
+   asserted).
+
+A finished case is skipped on a rerun with the same settings (``settings``: the sweep, the case's
+``CONFIGS`` entry, ``--quick``) and version. A case folder or sweep made with other settings is
+removed and made again, so changing ``CONFIGS`` retrains that case on the next run.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..dynamic.config import DynamicConfig
+from ..files import atomic_write_text, json_default
+from .cases import GENERALISATION
+from .stepfiles import load_step, save_step
+
+CASES = ("ellipse", "square", "semicircle")
+CONFIGS = {
+    "ellipse": DynamicConfig(unroll=20),
+    "square": DynamicConfig(unroll=20),
+    "semicircle": DynamicConfig(unroll=20),
+}
+"""The model of each case (architecture and training); ``--quick`` trains ``QUICK_STEPS`` steps."""
+QUICK_STEPS = 20
+SWEEP = {"dt": 0.01, "n_train": 12, "n_validation": 1, "n_heldout": 8, "workers": 2,
+         "duration_s": {"ellipse": 30.0, "square": 21.0, "semicircle": 21.0}}
+"""Each case's sweep: variants 0..n_train-1 are trained on, the next n_validation select the weights
+(``fit``'s validation), the last n_heldout are held out; saved every dt [s] for duration_s [s]."""
+QUICK_SWEEP = {"dt": 0.01, "n_train": 2, "n_validation": 0, "n_heldout": 1, "workers": 2,
+               "duration_s": {"ellipse": 3.0, "square": 3.0, "semicircle": 3.0}}
+TRAIN_FRACTION = 0.6
+SPEED = {"duration_s": 2.0, "reps": 5, "steps": 2000}
+QUICK_SPEED = {"duration_s": 1.0, "reps": 3, "steps": 500}
+GOALS = {"test_span_max_pct_of_length": 2.0, "heldout_median_max_pct_of_length": 2.0,
+         "heldout_worst_max_pct_of_length": 5.0, "generalisation_max_pct_of_length": 5.0,
+         "beats_every_baseline_at": (10, 100, 1000), "times_better_than_best_baseline_at_100": 5.0,
+         "times_better_cases": ("ellipse", "square"), "speed_ratio_vs_simulator": 10.0}
+"""The goals each case is measured against (``goals``): errors in % of the rod length."""
+
+
+def config_for(case: str, quick: bool) -> DynamicConfig:
+    """The case's ``DynamicConfig`` (``QUICK_STEPS`` optimiser steps with ``quick``)."""
+    return replace(CONFIGS[case], steps=QUICK_STEPS) if quick else CONFIGS[case]
+
+
+def settings(case: str, quick: bool) -> dict:
+    """What makes a case's results: the sweep (dt, counts, duration, samples; not the workers, which
+    change nothing), the model config and the softrnn version."""
+    s = QUICK_SWEEP if quick else SWEEP
+    duration = float(s["duration_s"][case])
+    sweep = {"dt": s["dt"], "n_train": s["n_train"], "n_validation": s["n_validation"], "n_heldout": s["n_heldout"],
+             "count": s["n_train"] + s["n_validation"] + s["n_heldout"], "duration_s": duration,
+             "n_samples": int(round(duration / s["dt"])) + 1}
+    return {"sweep": sweep, "config": config_for(case, quick).to_dict(), "train_fraction": TRAIN_FRACTION,
+            "softrnn_version": __version__}
+
+
+def _fresh(folder: Path, want: dict) -> None:
+    """Keep ``folder`` only if it was made with the settings ``want`` (its ``settings.json``)."""
+    path = folder / "settings.json"
+    text = json.dumps(want, indent=1, sort_keys=True, default=json_default)
+    if folder.exists() and (not path.is_file() or path.read_text() != text):
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    if not path.is_file():
+        atomic_write_text(path, text)
+
+
+def run_case_sweep(case: str, out: Path, s: dict, workers: int, progress_factory=None) -> Path:
+    """The case's sweep ``s`` (``settings(...)["sweep"]``) in ``out/sweeps/CASE`` on ``workers``
+    local Dask workers (resumed; remade when it holds another sweep)."""
+    from ..scenarios.scenario import load_scenario
+    from ..sweeps.sweep import MANIFEST, run_sweep, trajectory_path
+
+    folder = out / "sweeps" / case
+    manifest = folder / MANIFEST
+    if manifest.is_file():
+        try:
+            have = json.loads(manifest.read_text())
+        except (OSError, ValueError):
+            have = {}
+        names = {trajectory_path(folder, i).name for i in range(s["count"])}
+        extra = [p for p in folder.glob("traj-*.h5") if p.name not in names]
+        stale = [have.get(k) != v for k, v in (("n_samples", s["n_samples"]), ("dt", s["dt"]),
+                                                ("softrnn_version", __version__))]
+        if any(stale) or extra:
+            shutil.rmtree(folder)
+    progress = progress_factory(f"sweep {case}") if progress_factory else None
+    run_sweep(load_scenario(case), s["count"], folder, n_workers=workers, n_samples=s["n_samples"],
+              dt=s["dt"], progress=progress)
+    return folder
+
+
+def training_split(out: Path, case: str, sweep_dir: Path, s: dict):
+    """The paper trajectory's first 60 % first (its first sample: the reference pose), then the
+    sweep's training variants; the sweep's last ``n_heldout`` variants held out, the
+    ``n_validation`` before them for validation."""
+    from ..dynamic.data import split_inputs
+
+    paper = split_inputs([out / "data" / f"{case}.h5"], train_fraction=TRAIN_FRACTION)
+    return paper + split_inputs([sweep_dir], heldout=s["n_heldout"], validation=s["n_validation"])
+
+
+def train_case(case: str, folder: Path, split, config: DynamicConfig, progress_factory=None):
+    """The model in ``folder/model`` (trained, or read when finished earlier): (LoadedDynamic, the
+    training's seconds). Training checkpoints to ``folder/checkpoint.pt`` and resumes from it."""
+    from ..dynamic.artifact import is_dynamic_folder, load_dynamic
+
+    model_dir = folder / "model"
+    if not is_dynamic_folder(model_dir):
+        from ..dynamic.artifact import save_dynamic
+        from ..dynamic.fit import fit
+
+        progress = progress_factory(f"train dynamic {case}") if progress_factory else None
+        trained, meta = fit(split, config, progress=progress, checkpoint=folder / "checkpoint.pt")
+        save_dynamic(model_dir, trained, meta)
+        (folder / "checkpoint.pt").unlink(missing_ok=True)
+    loaded = load_dynamic(model_dir)
+    return loaded, float((loaded.meta.get("training") or {}).get("train_seconds", 0.0))
+
+
+def _speed(case: str, loaded, trajectories: list, quick: bool) -> dict:
+    """The simulator and the model, one core each (``bench.dynamic.compare_speed``), the model stepped
+    over the longest of ``trajectories`` (encoded), the simulator saved at the sweep's interval."""
+    from ..bench.dynamic import case_run, compare_speed
+
+    p = QUICK_SPEED if quick else SPEED
+    setup, config, node = case_run(case, (QUICK_SWEEP if quick else SWEEP)["dt"])
+    traj = max(trajectories, key=lambda t: t.n_steps)
+    return compare_speed(setup, config, node, loaded.engine, traj, loaded.encoding.model_dt,
+                         duration_s=p["duration_s"], reps=p["reps"], steps=p["steps"])
+
+
+def span_start(loaded, traj) -> int:
+    """The test span's first model step, as ``evaluate_dynamic`` starts it."""
+    return max(int(loaded.engine.history) - 1, 1, int(round(TRAIN_FRACTION * (traj.n_steps - 1))))
+
+
+def write_rollout(loaded, dataset, path: Path) -> dict:
+    """The model's free run over the test span of ``dataset``, every node decoded, as a data set
+    (``softrnn animate``); up to where it diverged or left the data format's range."""
+    from ..dynamic.evaluation import free_run
+    from ..io.dataset import Dataset, write_dataset
+    from ..io.schema import POSITION_LIMIT_M
+
+    enc = loaded.encoding
+    traj = enc.trajectory(dataset)
+    start = span_start(loaded, traj)
+    states, diverged = free_run(loaded.engine, traj, start)
+    ok = np.all(np.isfinite(states), axis=(1, 2))
+    states = np.concatenate([traj.states[start:start + 1], states[:int(np.argmin(ok)) if not ok.all() else None]])
+    positions, quaternions = enc.decode(states)
+    inside = np.all(np.abs(positions) < POSITION_LIMIT_M, axis=(1, 2))
+    n = int(np.argmin(inside)) if not inside.all() else len(states)
+    rows = (start + np.arange(n)) * enc.stride(float(dataset.dt))
+    rod = dataset.attrs.get("rod")
+    ds = Dataset(time=traj.time[start:start + n], nodes=np.arange(enc.n_nodes), positions=positions[:n],
+                 quaternions=quaternions[:n], forces=dataset.forces[rows], torques=dataset.torques[rows],
+                 attrs={"dt": enc.model_dt, "rod": rod, "scenario_text": dataset.attrs.get("scenario_text", ""),
+                        "scenario_name": dataset.attrs.get("scenario_name", ""), "source": "softrnn.dynamic free run",
+                        "diverged_at_step": diverged})
+    write_dataset(path, ds)
+    return {"samples": n, "start_s": float(traj.time[start]), "diverged_at": diverged}
+
+
+def _errors(loaded, dataset, start: int | None) -> tuple[np.ndarray, dict]:
+    """(times, {predictor: errors [% of L]}) of the model and the baselines run free from ``start``
+    (None: the test span's start) to the end."""
+    from ..dynamic.evaluation import ConstantVelocity, Persistence, run_errors
+
+    enc = loaded.encoding
+    traj = enc.trajectory(dataset)
+    start = span_start(loaded, traj) if start is None else start
+    preds = {"model": loaded.engine, "persistence": Persistence(), "constant_velocity": ConstantVelocity(),
+             "linear": loaded.linear}
+    series = {name: run_errors(p, enc, traj, dataset, start)[0] for name, p in preds.items()}
+    return traj.time[start + 1:start + 1 + len(series["model"])], series
+
+
+def write_figure(case: str, loaded, test, held, path: Path) -> str | None:
+    """``figures/dynamic_CASE.png``: the errors over time on the test span of ``test`` and on the
+    held-out variant ``held`` (either may be None); returns its name, or None when neither is given."""
+    from ..figures.dynamic import error_over_time
+    from ..figures.plots import save
+
+    panels = []
+    if test is not None:
+        panels.append((f"paper trajectory, test span (last {100 * (1 - TRAIN_FRACTION):.0f} %)",
+                       *_errors(loaded, test, None), GOALS["test_span_max_pct_of_length"]))
+    if held is not None:
+        s0 = max(int(loaded.engine.history), 2) - 1
+        panels.append(("held-out sweep variant (never trained on), from its start", *_errors(loaded, held, s0),
+                       GOALS["heldout_worst_max_pct_of_length"]))
+    if not panels:
+        return None
+    save(error_over_time(panels, f"{case}: whole-manipulator model, free running, every node"), path)
+    return path.name
+
+
+def _met(value, goal: float, below: bool = True) -> dict:
+    if value is None:
+        return {"value": None, "goal": goal, "met": False, "note": "diverged or not measured"}
+    return {"value": value, "goal": goal, "met": bool(value < goal if below else value >= goal)}
+
+
+def _horizon_goals(case: str, horizons: dict, longest: int, history: int) -> dict:
+    """The model better than every baseline at each horizon, and 5x the best at 100 (some cases);
+    ``longest``: the longest held-out variant [model steps] (a shorter one than a horizon needs
+    leaves it unmeasured)."""
+    out = {}
+    for n in GOALS["beats_every_baseline_at"]:
+        row = (horizons or {}).get(str(n)) or {}
+        model = row.get("model")
+        base = {k: v for k, v in row.items() if k != "model"}
+        known = {k: v for k, v in base.items() if v is not None}
+        best = min(known, key=known.get) if known else None
+        entry = {"value": model, "best_baseline": best, "best_baseline_value": known.get(best),
+                 "goal": "model < each baseline"}
+        if model is None:
+            why = (f"not measured: the held-out variants have at most {longest} model steps"
+                   if longest < n + 1 + max(history - 1, 2) else "the model diverged")
+            out[f"beats_every_baseline_at_{n}"] = {**entry, "met": False, "note": why}
+        else:
+            out[f"beats_every_baseline_at_{n}"] = {**entry, "met": all(model < v for v in known.values())}
+        if n == 100 and case in GOALS["times_better_cases"]:
+            k = GOALS["times_better_than_best_baseline_at_100"]
+            ratio = None if model is None or best is None else (known[best] / model if model > 0 else float("inf"))
+            out["times_better_than_best_baseline_at_100"] = {
+                "value": ratio, "goal": k, "best_baseline": best, "met": ratio is not None and ratio >= k,
+                **({} if ratio is not None else {"note": out["beats_every_baseline_at_100"].get("note", "")})}
+    return out
+
+
+def goals(case: str, entry: dict, longest: int) -> dict:
+    """Each goal with its measured value and ``met`` (reported, never asserted); ``longest``: the
+    longest held-out variant [model steps]."""
+    held = entry.get("heldout") or {}
+    out = {"test_span_max_pct_of_length": _met(entry.get("test_span_max_pct_of_length"),
+                                               GOALS["test_span_max_pct_of_length"]),
+           "heldout_median_max_pct_of_length": _met(held.get("median_max_pct_of_length"),
+                                                    GOALS["heldout_median_max_pct_of_length"]),
+           "heldout_worst_max_pct_of_length": _met(held.get("worst_max_pct_of_length"),
+                                                   GOALS["heldout_worst_max_pct_of_length"]),
+           "generalisation_max_pct_of_length": _met(entry.get("generalisation_max_pct_of_length"),
+                                                    GOALS["generalisation_max_pct_of_length"])}
+    out.update(_horizon_goals(case, entry.get("horizons"), longest, int(entry.get("history", 2))))
+    out["speed_ratio_vs_simulator"] = _met(entry.get("speed_ratio_vs_simulator"), GOALS["speed_ratio_vs_simulator"],
+                                           below=False)
+    return out
+
+
+def _usable(loaded, dataset, need: int, what: str, skipped: list):
+    """``dataset`` if it has at least the model's history + ``need`` model steps, else None (and
+    why, in ``skipped``): a free run needs a history and a step to predict (``--quick`` data can be
+    shorter)."""
+    n = (dataset.n_samples - 1) // loaded.encoding.stride(float(dataset.dt)) + 1
+    if n >= int(loaded.engine.history) + need:
+        return dataset
+    skipped.append(f"{what}: {n} model steps, too short to run free (needs {int(loaded.engine.history) + need})")
+    return None
+
+
+def _measure(case: str, out: Path, folder: Path, loaded, split, quick: bool) -> dict:
+    """Evaluation, speed, rollout and figure of a trained model: the case's entry (less training)."""
+    from ..dynamic.evaluation import evaluate_dynamic
+    from ..io.dataset import read_dataset
+
+    paper = read_dataset(out / "data" / f"{case}.h5")
+    held = [part.read() for part in split.heldout]
+    skipped: list = []
+    test = _usable(loaded, paper, 2, "paper trajectory", skipped)
+    gen = _usable(loaded, read_dataset(out / "data" / f"{GENERALISATION[case]}.h5"), 1, "generalisation data set",
+                  skipped)
+    entry = evaluate_dynamic(loaded, test=test, heldout=held, generalisation=gen)
+    for key in ("test_span_max_pct_of_length", "generalisation_max_pct_of_length", "heldout", "horizons"):
+        entry.setdefault(key, None)                  # skipped: present all the same, as null
+    entry["skipped"] = skipped
+    trajs = [loaded.encoding.trajectory(d) for d in [paper, *held]]
+    speed = _speed(case, loaded, trajs, quick)
+    entry.update({k: speed[k] for k in ("speed_ratio_vs_simulator", "simulator_sim_s_per_wall_s",
+                                        "model_sim_s_per_wall_s")}, speed=speed)
+    entry["rollout"] = None if test is None else str((folder / "rollout.h5").relative_to(out))
+    entry["rollout_run"] = None if test is None else write_rollout(loaded, test, folder / "rollout.h5")
+    entry["figure"] = write_figure(case, loaded, test, held[0] if held else None,
+                                   out / "figures" / f"dynamic_{case}.png")
+    entry["goals"] = goals(case, entry, max((t.n_steps for t in trajs[1:]), default=0))
+    return entry
+
+
+def dynamic_case(case: str, out: Path, quick: bool, progress_factory=None) -> dict:
+    """One case, skipped when its step file ``out/dynamic/CASE.json`` holds a finished result of the
+    same settings (``settings``: the sweep and ``CONFIGS[CASE]``)."""
+    step_file = out / "dynamic" / f"{case}.json"
+    folder = out / "dynamic" / case
+    s = settings(case, quick)
+    done = load_step(step_file, quick)
+    if done is not None and done.get("settings") == s and (folder / "model").is_dir():
+        return done
+    t0 = time.perf_counter()
+    _fresh(folder, s)
+    workers = (QUICK_SWEEP if quick else SWEEP)["workers"]
+    sweep_dir = run_case_sweep(case, out, s["sweep"], workers, progress_factory)
+    split = training_split(out, case, sweep_dir, s["sweep"])
+    loaded, train_s = train_case(case, folder, split, config_for(case, quick), progress_factory)
+    entry = _measure(case, out, folder, loaded, split, quick)
+    training = {k: v for k, v in (loaded.meta.get("training") or {}).items() if k != "losses"}
+    entry.update(train_seconds=train_s, train_config=loaded.config.to_dict(), training=training,
+                 model=str((folder / "model").relative_to(out)), data=split.describe(), settings=s,
+                 sweep={"folder": f"sweeps/{case}", **s["sweep"], "workers": workers},
+                 step_s=time.perf_counter() - t0)
+    return save_step(step_file, entry, quick)
+
+
+def dynamic_step(out: Path, quick: bool, progress_factory=None) -> dict:
+    """Every case's whole-manipulator model ({case: entry}; docs/report-format.md)."""
+    return {case: dynamic_case(case, Path(out), quick, progress_factory) for case in CASES}
