@@ -27,8 +27,11 @@ from ..errors import SoftrnnInputError, bad
 from .config import resolve_stride
 
 FIXED_TOLERANCE_M = 1e-9
-"""A kept node whose pose never moves by more than this in any training trajectory is held at the
-reference (a clamped boundary) instead of being predicted."""
+"""A kept node whose position never moves by more than this [m], and whose orientation never turns
+(1 - |q . q_ref| at most ``FIXED_TURN``, about 3 mrad; float32 quaternions are not exactly unit),
+in any training trajectory is held at the reference (a clamped boundary) instead of being
+predicted."""
+FIXED_TURN = 1e-6
 
 
 def _rotation(q: np.ndarray) -> Rotation:
@@ -226,6 +229,10 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
         check_compatible(probe, d, "training data")
         p = np.asarray(d.positions[:, probe.kept], dtype=np.float64)
         moved = np.maximum(moved, np.abs(p - probe.ref_positions[probe.kept]).max(axis=(0, 2)))
+        # a pinned node keeps its position but turns: only a node whose whole pose stays is fixed
+        q = np.asarray(d.quaternions[:, probe.kept], dtype=np.float64)
+        turn = 1.0 - np.abs(np.sum(q * probe.ref_quaternions[probe.kept], axis=-1))
+        moved = np.maximum(moved, np.where(turn.max(axis=0) > FIXED_TURN, np.inf, 0.0))
     return Encoding(n_nodes=n, kept=probe.kept, model_dt=model_dt, data_dt=probe.data_dt, length=length,
                     ref_positions=probe.ref_positions, ref_quaternions=probe.ref_quaternions,
                     fixed=moved <= FIXED_TOLERANCE_M)

@@ -56,7 +56,9 @@ class TrainedDynamic:
 
 def scales(trajectories: list[Trajectory]) -> dict:
     """Per-channel standard deviations (6,) of states ``sx``, velocities ``sv``, loads ``su`` and
-    velocity changes ``sa`` over ``trajectories``; a channel that never varies gets 1."""
+    velocity changes ``sa`` over ``trajectories``. An input channel that never varies gets 1; a
+    state channel that never moves (planar data: the out-of-plane ones) gets ``sa = 0``, so the
+    model's output cannot move it either (a scale of 1 would turn a tiny output into metres)."""
     X = [t.states for t in trajectories]
     out = {
         "sx": np.concatenate([x.reshape(-1, 6) for x in X]),
@@ -68,6 +70,8 @@ def scales(trajectories: list[Trajectory]) -> dict:
     for key, rows in out.items():
         s = rows.std(axis=0)
         res[key] = np.where(s > _FLOOR, s, 1.0)
+    moving = out["sv"].std(axis=0) > _FLOOR
+    res["sa"] = np.where(moving, res["sa"], 0.0)
     return res
 
 
@@ -103,7 +107,7 @@ def _ridge_fit(net: DynamicNet, trajectories, ridge: float) -> None:
             hist, loads, future = _batch(trajectories, chunk, H, 1)
             f = net.features(hist, loads[:, 0])
             F.append(f.reshape(len(chunk), -1).double().numpy())
-            a = (future[:, 0] - 2 * hist[:, -1] + hist[:, -2]) / net.sa
+            a = (future[:, 0] - 2 * hist[:, -1] + hist[:, -2]) / torch.where(net.sa > 0, net.sa, 1.0)
             A.append(a.reshape(len(chunk), -1).double().numpy())
     F, A = np.concatenate(F), np.concatenate(A)
     fm, am = F.mean(axis=0), A.mean(axis=0)
@@ -131,11 +135,11 @@ def spectral_radius(net: DynamicNet) -> float:
     companion = np.zeros((n, n))
     companion[:-M * 6, M * 6:] = np.eye(n - M * 6)       # shift: old states move one slot back
     companion[-M * 6:, :] = J
-    from scipy.sparse.linalg import ArpackNoConvergence, eigs
+    from scipy.sparse.linalg import ArpackError, ArpackNoConvergence, eigs
 
     try:   # the largest eigenvalue only (ARPACK): a full eigvals of a few hundred rows is slow on a busy machine
         return float(np.max(np.abs(eigs(companion, k=1, which="LM", return_eigenvectors=False, tol=1e-8))))
-    except ArpackNoConvergence:
+    except (ArpackNoConvergence, ArpackError):
         return float(np.max(np.abs(np.linalg.eigvals(companion))))
 
 
@@ -201,7 +205,7 @@ def _loss(net: DynamicNet, trajectories, windows, config: DynamicConfig, gen, st
     hist, loads, future = _batch(trajectories, picks, H, K)
     mask = (~net.fixed).float()[None, None, :, None]
     if config.noise > 0:
-        eps = torch.randn(hist.shape, generator=gen) * (config.noise * net.sv / math.sqrt(H))
+        eps = torch.randn(hist.shape, generator=gen) * (config.noise * net.sv * (net.sa > 0) / math.sqrt(H))
         hist = hist + torch.cumsum(eps, dim=1) * mask
     err = (net.rollout(hist, loads) - future) / net.sv * mask
     return (err ** 2).sum() / (float(mask.sum()) * 6 * config.batch * K)
