@@ -73,7 +73,9 @@ def test_a_case_folder_of_other_settings_is_made_again(tmp_path):
     rd._fresh(folder, rd.settings("square", quick=False))
     assert not (folder / "checkpoint.pt").exists()                         # other settings: remade
     s = rd.settings("ellipse", quick=False)["sweep"]
-    assert s["count"] == 20 and s["n_samples"] == 3001 and s["dt"] == 0.01
+    n = rd.SWEEP["n_train"] + rd.SWEEP["n_validation"] + rd.SWEEP["n_heldout"]
+    assert s["count"] == n and s["n_validation"] == rd.SWEEP["n_validation"] and s["n_samples"] == 3001
+    assert s["dt"] == 0.01
 
 
 def test_bench_times_the_simulator_and_the_stand_in_model(monkeypatch):
