@@ -133,12 +133,12 @@ def test_rollout_writes_a_data_set_of_every_node(model, data, tmp_path, capsys):
 
 
 def test_a_diverging_rollout_is_one_line_naming_the_time(model, data, tmp_path, capsys, monkeypatch):
-    import softrnn.dynamic.evaluation as evaluation
+    import softrnn.dynamic.rollout as rollout
 
     def diverging(predictor, traj, start, stop=None):
         return np.full((stop - start - 1,) + traj.states.shape[1:], np.nan), 3
 
-    monkeypatch.setattr(evaluation, "free_run", diverging)
+    monkeypatch.setattr(rollout, "free_run", diverging)
     out = tmp_path / "pred.h5"
     assert run_cli(["dynamic", "rollout", str(model[0]), str(data / "one.h5"), "-o", str(out),
                     "--start-time", "0.2"]) == 2

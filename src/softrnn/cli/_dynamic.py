@@ -438,25 +438,11 @@ def _steps(traj, history: int, start_time, stop_time) -> tuple[int, int]:
     return start, stop
 
 
-def _rollout_dataset(model, data, traj, states, start: int, stop: int, source: dict):
-    """The free run (with the start state first) as a Dataset of every node at the model's steps."""
-    from ..io.dataset import RESERVED_ATTRS, Dataset
-
-    k = model.encoding.stride(float(data.dt))
-    rows = np.arange(start, stop) * k
-    positions, quaternions = model.encoding.decode(np.concatenate([traj.states[start:start + 1], states]))
-    attrs = {key: v for key, v in data.attrs.items() if key not in RESERVED_ATTRS}
-    attrs.update(scenario_name=f"{attrs.get('scenario_name') or 'data'} (predicted)", prediction=True,
-                 rollout="dynamic", **source)
-    return Dataset(time=traj.time[start:stop], nodes=np.arange(model.encoding.n_nodes), positions=positions,
-                   quaternions=quaternions, forces=data.forces[rows], torques=data.torques[rows], attrs=attrs)
-
-
 def _rollout(args) -> int:
     from ..dynamic.artifact import load_dynamic
     from ..dynamic.encoding import check_compatible
-    from ..dynamic.evaluation import free_run
-    from ..io.dataset import read_dataset, write_trajectory
+    from ..dynamic.rollout import rollout_dataset
+    from ..io.dataset import read_dataset, write_dataset
 
     if not str(args.output).endswith((".h5", ".hdf5")):
         raise bad("-o", args.output, "a file name ending in .h5 or .hdf5")
@@ -469,17 +455,14 @@ def _rollout(args) -> int:
     traj = model.encoding.trajectory(data)
     start, stop = _steps(traj, model.engine.history, args.start_time, args.stop_time)
     t0 = _time.perf_counter()
-    states, diverged = free_run(model.engine, traj, start, stop)
+    source = {"model": str(args.model), "reference": str(args.data)}
+    ds, diverged = rollout_dataset(model, data, start, stop, attrs=source)
     seconds = _time.perf_counter() - t0
     if diverged is not None:
         raise SimulationError(f"the free run diverged at t = {traj.time[start + diverged]:g} s ({diverged} model "
                               f"steps after the start at {traj.time[start]:g} s); nothing was written; start later "
                               "or stop earlier (--start-time, --stop-time), or train the model on more data")
-    source = {"model": str(args.model), "reference": str(args.data), "start_time_s": float(traj.time[start]),
-              "model_dt_s": model.encoding.model_dt}
-    ds = _rollout_dataset(model, data, traj, states, start, stop, source)
-    write_trajectory(args.output, ds, dt=model.encoding.model_dt, rod=data.attrs.get("rod"),
-                     scenario_text=data.attrs.get("scenario_text") or "", seed=data.attrs.get("seed"), attrs=ds.attrs)
+    write_dataset(args.output, ds)
     _rollout_summary(model, data, ds, seconds, args.output)
     return 0
 

@@ -10,7 +10,8 @@ the rod, free running step after step at its own (coarser) time step on a subset
 * ``artifact``: ``save_dynamic``, ``load_dynamic``;
 * ``evaluation``: errors at every node beside persistence, constant velocity and a linear model;
 * ``data``: ``split_inputs`` (training parts and held-out variants of files and sweep folders);
-* ``fit``: ``fit`` (train on a ``Split``).
+* ``fit``: ``fit`` (train on a ``Split``);
+* ``rollout``: ``rollout_dataset`` (a free run as a data set of every node).
 
 Names are imported lazily, so the NumPy parts do not import PyTorch.
 """
@@ -18,7 +19,7 @@ Names are imported lazily, so the NumPy parts do not import PyTorch.
 from importlib import import_module
 
 _EXPORTS = {
-    "Encoding": "encoding", "Trajectory": "encoding", "encode_dataset": "encoding",
+    "Encoding": "encoding", "Trajectory": "encoding",
     "DynamicConfig": "config",
     "DynamicNet": "network",
     "train_dynamic_model": "training", "TrainedDynamic": "training",
@@ -27,6 +28,7 @@ _EXPORTS = {
     "evaluate_dynamic": "evaluation",
     "split_inputs": "data", "Split": "data",
     "fit": "fit",
+    "rollout_dataset": "rollout",
 }
 
 __all__ = sorted(_EXPORTS)

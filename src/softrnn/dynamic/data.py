@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import bad, integer
-from ..io.dataset import list_groups, read_dataset
+from ..io.dataset import list_groups, read_dataset, read_node
 
 
 @dataclass(frozen=True)
@@ -79,7 +79,7 @@ def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction
             if groups == ["/"]:
                 stop = None
                 if train_fraction < 1.0:
-                    n = len(read_dataset(path).time)
+                    n = len(read_node(path, 0).time)      # one column: the sample count
                     stop = int(train_fraction * (n - 1)) + 1
                 train.append(Part(str(path), "/", stop))
                 continue

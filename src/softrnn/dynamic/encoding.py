@@ -208,10 +208,11 @@ def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
         raise bad(argument, "a data set without orientations",
                   "a data set with node orientations (the whole-manipulator model predicts full poses)")
     dt = float(dataset.dt)
-    k = round(encoding.model_dt / dt)
-    if k < 1 or abs(k * dt - encoding.model_dt) > 1e-6 * encoding.model_dt:
+    try:
+        resolve_stride(encoding.model_dt, dt)
+    except SoftrnnInputError:
         raise bad(argument, f"a data set saved every {dt:g} s",
-                  f"data saved at an interval that divides the model's step {encoding.model_dt:g} s")
+                  f"data saved at an interval that divides the model's step {encoding.model_dt:g} s") from None
 
 
 def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: float) -> Encoding:
@@ -237,7 +238,3 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
                     ref_positions=probe.ref_positions, ref_quaternions=probe.ref_quaternions,
                     fixed=moved <= FIXED_TOLERANCE_M)
 
-
-def encode_dataset(encoding: Encoding, dataset, name: str = "") -> Trajectory:
-    """``encoding.trajectory(dataset, name)``."""
-    return encoding.trajectory(dataset, name)

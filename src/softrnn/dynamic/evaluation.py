@@ -13,8 +13,6 @@ on (reported as ``null`` with ``diverged_at``).
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from ..errors import bad
@@ -96,6 +94,12 @@ def _pct(value: float) -> float | None:
     return None if not np.isfinite(value) else float(value)
 
 
+def _spread(values: list) -> dict:
+    """Median and worst of span errors (None = diverged counts as infinite)."""
+    v = [np.inf if x is None else x for x in values]
+    return {"median_max_pct_of_length": _pct(float(np.median(v))), "worst_max_pct_of_length": _pct(float(np.max(v)))}
+
+
 def span_error(predictor, encoding, traj, dataset, start: int) -> dict:
     """The largest error over all nodes from ``start`` to the end: {max_pct_of_length, diverged_at}."""
     err, diverged = run_errors(predictor, encoding, traj, dataset, start)
@@ -120,28 +124,12 @@ def horizon_errors(predictor, encoding, runs: list, horizons=HORIZONS, n_starts:
                 err, _ = run_errors(predictor, encoding, traj, dataset, int(s), int(s) + n + 1)
                 worst = max(worst, float(err.max()))
         out[str(n)] = _pct(worst) if any_run else None
-        if any_run and not np.isfinite(worst):
-            out[str(n)] = None
     return out
 
 
 def first_start(*predictors) -> int:
     """The first model step every predictor can start from (its history fits before it)."""
     return max(int(p.history) for p in predictors) - 1
-
-
-def steps_per_second(engine, traj: Trajectory, n_steps: int = 500, repeats: int = 3) -> float:
-    """Model steps per wall second of a free run (best of ``repeats``), on the calling thread."""
-    H = int(engine.history)
-    n = min(n_steps, traj.n_steps - H)
-    if n < 10:
-        raise bad("trajectory", f"{traj.n_steps} model steps", f"at least {H + 10} model steps to time")
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        free_run(engine, traj, H - 1, H - 1 + n + 1)
-        best = min(best, time.perf_counter() - t0)
-    return n / best
 
 
 def compare(engine, linear, encoding, runs: list, horizons=HORIZONS) -> dict:
@@ -189,20 +177,10 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
         out["test_span_max_pct_of_length"] = spans["model"]["max_pct_of_length"]
     runs = [(enc.trajectory(d), d) for d in heldout]
     if runs:
-        per = {name: [span_error(p, enc, t, d, s0) for t, d in runs] for name, p in preds.items()}
-        model_max = [r["max_pct_of_length"] for r in per["model"]]
-        finite = [np.inf if v is None else v for v in model_max]
-        out["heldout"] = {
-            "variants": len(runs),
-            "median_max_pct_of_length": _pct(float(np.median(finite))),
-            "worst_max_pct_of_length": _pct(float(np.max(finite))),
-            "per_variant": model_max,
-            "baselines": {name: {"median_max_pct_of_length": _pct(float(np.median(
-                [np.inf if r["max_pct_of_length"] is None else r["max_pct_of_length"] for r in per[name]]))),
-                "worst_max_pct_of_length": _pct(float(np.max(
-                    [np.inf if r["max_pct_of_length"] is None else r["max_pct_of_length"] for r in per[name]])))}
-                for name in BASELINES},
-        }
+        per = {name: [span_error(p, enc, t, d, s0)["max_pct_of_length"] for t, d in runs]
+               for name, p in preds.items()}
+        out["heldout"] = {"variants": len(runs), **_spread(per["model"]), "per_variant": per["model"],
+                          "baselines": {name: _spread(per[name]) for name in BASELINES}}
         out["horizons"] = compare(engine, linear, enc, runs, horizons)
     if generalisation is not None:
         traj = enc.trajectory(generalisation)

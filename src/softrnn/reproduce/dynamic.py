@@ -165,28 +165,14 @@ def span_start(loaded, traj) -> int:
 def write_rollout(loaded, dataset, path: Path) -> dict:
     """The model's free run over the test span of ``dataset``, every node decoded, as a data set
     (``softrnn animate``); up to where it diverged or left the data format's range."""
-    from ..dynamic.evaluation import free_run
-    from ..io.dataset import Dataset, write_dataset
-    from ..io.schema import POSITION_LIMIT_M
+    from ..dynamic.rollout import rollout_dataset
+    from ..io.dataset import write_dataset
 
-    enc = loaded.encoding
-    traj = enc.trajectory(dataset)
-    start = span_start(loaded, traj)
-    states, diverged = free_run(loaded.engine, traj, start)
-    ok = np.all(np.isfinite(states), axis=(1, 2))
-    states = np.concatenate([traj.states[start:start + 1], states[:int(np.argmin(ok)) if not ok.all() else None]])
-    positions, quaternions = enc.decode(states)
-    inside = np.all(np.abs(positions) < POSITION_LIMIT_M, axis=(1, 2))
-    n = int(np.argmin(inside)) if not inside.all() else len(states)
-    rows = (start + np.arange(n)) * enc.stride(float(dataset.dt))
-    rod = dataset.attrs.get("rod")
-    ds = Dataset(time=traj.time[start:start + n], nodes=np.arange(enc.n_nodes), positions=positions[:n],
-                 quaternions=quaternions[:n], forces=dataset.forces[rows], torques=dataset.torques[rows],
-                 attrs={"dt": enc.model_dt, "rod": rod, "scenario_text": dataset.attrs.get("scenario_text", ""),
-                        "scenario_name": dataset.attrs.get("scenario_name", ""), "source": "softrnn.dynamic free run",
-                        "diverged_at_step": diverged})
+    start = span_start(loaded, loaded.encoding.trajectory(dataset))
+    ds, diverged = rollout_dataset(loaded, dataset, start, attrs={"source": "softrnn.dynamic free run"})
+    ds.attrs["diverged_at_step"] = diverged
     write_dataset(path, ds)
-    return {"samples": n, "start_s": float(traj.time[start]), "diverged_at": diverged}
+    return {"samples": ds.n_samples, "start_s": float(ds.time[0]), "diverged_at": diverged}
 
 
 def _errors(loaded, dataset, start: int | None) -> tuple[np.ndarray, dict]:
