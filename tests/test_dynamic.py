@@ -349,8 +349,8 @@ def test_torch_rollout_and_numpy_engine_agree(memory, bound, kernel):
     net64 = net.double()
     with torch.no_grad():
         ref64 = net64.rollout(torch.as_tensor(hist[None]), torch.as_tensor(loads[None]))[0].numpy()
-    np.testing.assert_allclose(DynamicEngine({k: v.numpy() for k, v in net64.state_dict().items()}, config)
-                               .run(hist, loads), ref64, rtol=0, atol=1e-12 * np.abs(ref64).max())
+    engine64 = DynamicEngine({k: v.numpy() for k, v in net64.state_dict().items()}, config, dtype=np.float64)
+    np.testing.assert_allclose(engine64.run(hist, loads), ref64, rtol=0, atol=1e-12 * np.abs(ref64).max())
 
 
 # ------------------------------------------------------------------------------- 5 save / load

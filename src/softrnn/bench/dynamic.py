@@ -81,7 +81,8 @@ def simulator_speed(setup, config, node: int, duration_s: float, reps: int) -> d
 
 def model_speed(engine, traj, model_dt: float, steps: int) -> dict:
     """Model steps per wall second of ``engine.step`` on the calling thread, each call from a recorded
-    history of ``traj`` (``Trajectory``, in turn), and simulated seconds per wall second."""
+    history of ``traj`` (``Trajectory``, in turn; its feedback laws computed in the call, as in a
+    free run), and simulated seconds per wall second."""
     from ..errors import bad
 
     H = int(engine.history)
@@ -92,7 +93,8 @@ def model_speed(engine, traj, model_dt: float, steps: int) -> dict:
 
     def one():
         i = next(rows)
-        engine.step(traj.states[i:i + H], traj.loads[i + H - 1])
+        hist = traj.states[i:i + H]
+        engine.step(hist, traj.inputs(hist, i + H - 1))
 
     c, t = time.process_time(), time.perf_counter()
     r = step_rate(one, steps=steps, warmup=200)

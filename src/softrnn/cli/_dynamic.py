@@ -83,11 +83,16 @@ def _add_train(p):
     p.add_argument("--width", type=int, default=None, metavar="W", help="channels of the convolution (default: 48)")
     p.add_argument("--layers", type=int, default=None, metavar="L",
                    help="hidden layers of the convolution (default: 3)")
-    p.add_argument("--steps", type=int, default=None, metavar="N", help="optimiser steps (default: 1500)")
-    p.add_argument("--unroll", type=int, default=None, metavar="K", help="free steps in the loss (default: 12)")
+    p.add_argument("--steps", type=int, default=None, metavar="N", help="optimiser steps (default: 4000)")
+    p.add_argument("--unroll", type=int, default=None, metavar="K", help="free steps in the loss (default: 20)")
     p.add_argument("--noise", type=float, default=None, metavar="X",
                    help="input noise in units of the velocities' spread (default: 0.05)")
     p.add_argument("--seed", type=int, default=None, metavar="S", help="random seed (default: 0)")
+    p.add_argument("--ema", type=float, default=None, metavar="D",
+                   help="decay of the running average of the weights validated beside them (default: 0.995; 0: off)")
+    p.add_argument("--recorded-feedback", dest="feedback", action="store_false", default=None,
+                   help="take the recorded forces of PD tracking loads as inputs instead of applying the law to "
+                        "the model's own state (default: the law, where a data set's scenario has PD loads)")
     p.add_argument("--threads", type=int, default=None, metavar="T",
                    help="PyTorch threads while training (default: PyTorch's own choice)")
     again = p.add_mutually_exclusive_group()
@@ -111,7 +116,8 @@ class _StepBar(Bar):
 def _config(args):
     from ..dynamic.config import DynamicConfig
 
-    names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed")
+    names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed",
+             "ema", "feedback")
     return DynamicConfig(**{k: getattr(args, k) for k in names if getattr(args, k) is not None})
 
 

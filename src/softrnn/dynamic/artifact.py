@@ -56,7 +56,8 @@ def encoding_to_dict(enc: Encoding) -> dict:
     """The ``Encoding`` as JSON-ready values (model.json's ``encoding``)."""
     return {"n_nodes": enc.n_nodes, "kept": enc.kept.tolist(), "model_dt": enc.model_dt, "data_dt": enc.data_dt,
             "length": enc.length, "ref_positions": enc.ref_positions.tolist(),
-            "ref_quaternions": enc.ref_quaternions.tolist(), "fixed": enc.fixed.tolist()}
+            "ref_quaternions": enc.ref_quaternions.tolist(), "fixed": enc.fixed.tolist(),
+            "feedback": bool(enc.feedback)}
 
 
 def encoding_from_dict(d: dict) -> Encoding:
@@ -64,7 +65,7 @@ def encoding_from_dict(d: dict) -> Encoding:
     return Encoding(n_nodes=int(d["n_nodes"]), kept=np.asarray(d["kept"]), model_dt=float(d["model_dt"]),
                     data_dt=float(d["data_dt"]), length=float(d["length"]),
                     ref_positions=np.asarray(d["ref_positions"]), ref_quaternions=np.asarray(d["ref_quaternions"]),
-                    fixed=np.asarray(d["fixed"], dtype=bool))
+                    fixed=np.asarray(d["fixed"], dtype=bool), feedback=bool(d.get("feedback", False)))
 
 
 def save_dynamic(folder, trained, meta: dict | None = None) -> None:

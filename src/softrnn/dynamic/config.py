@@ -49,6 +49,13 @@ class DynamicConfig:
         Ridge penalty of the linear term's initial fit (relative to the mean feature variance).
     seed : int
         Seeds weights, window draws and noise: the same seed and data give the same weights.
+    ema : float
+        Decay of a running average of the weights (Polyak averaging), validated beside the current
+        weights at every checkpoint (and kept without validation); 0 switches it off.
+    feedback : bool
+        Where a data set's scenario has PD tracking loads, apply their law to the model's own state
+        (the target and gains are the inputs; ``softrnn.dynamic.feedback``) instead of taking the
+        recorded forces, which the simulated rod's state produced, as inputs.
     """
 
     model_dt: float = 0.02
@@ -62,13 +69,15 @@ class DynamicConfig:
     conv: bool = True
     bound: float = 0.0
     noise: float = 0.01
-    unroll: int = 12
-    steps: int = 1500
+    unroll: int = 20
+    steps: int = 4000
     batch: int = 32
     lr: float = 2e-3
     linear_lr: float = 0.01
     ridge: float = 1e-6
     seed: int = 0
+    ema: float = 0.995
+    feedback: bool = True
 
     def __post_init__(self):
         positive("model_dt", self.model_dt, "s")
@@ -82,7 +91,7 @@ class DynamicConfig:
         integer("kernel", self.kernel, 1)
         if self.kernel % 2 == 0:
             raise bad("kernel", self.kernel, "an odd kernel size (1, 3, 5, ...)")
-        for name in ("linear", "conv"):
+        for name in ("linear", "conv", "feedback"):
             if not isinstance(getattr(self, name), bool):
                 raise bad(name, getattr(self, name), "true or false")
         if not (self.linear or self.conv or self.memory == "lstm"):
@@ -96,6 +105,8 @@ class DynamicConfig:
         nonnegative("linear_lr", self.linear_lr)
         nonnegative("ridge", self.ridge)
         integer("seed", self.seed, 0)
+        if not (0.0 <= float(self.ema) < 1.0):
+            raise bad("ema", self.ema, "a decay in [0, 1) (0: no averaging)")
 
     def to_dict(self) -> dict:
         """The fields as a dict (model.json's ``config``)."""

@@ -73,12 +73,26 @@ def lumping_matrix(n_nodes: int, kept: np.ndarray) -> np.ndarray:
 class Trajectory:
     """One trajectory as a model sees it: ``states`` (S, M, 6) encoded poses at the model's step
     times ``time`` (S,) [s] and ``loads`` (S, M, 6): the mean force [N] and torque [N m] over each
-    step (the last row: the last sample's loads). ``name`` says where it came from."""
+    step (the last row: the last sample's loads). ``feedback``: the PD laws applied to the model's
+    own state (``softrnn.dynamic.feedback``; their nodes' recorded forces are not in ``loads``), or
+    None. ``name`` says where it came from."""
 
     time: np.ndarray
     states: np.ndarray
     loads: np.ndarray
     name: str = ""
+    feedback: object = None
+
+    def inputs(self, hist: np.ndarray, k: int) -> np.ndarray:
+        """The loads (M, 6) of model step ``k`` given the history ``hist`` (H, M, 6) ending at state
+        k: the recorded loads plus the feedback laws' forces from ``hist``'s last two states."""
+        if self.feedback is None:
+            return self.loads[k]
+        return self.loads[k] + self.feedback.force(hist[-1], hist[-2], k)
+
+    def forced_loads(self) -> np.ndarray:
+        """The loads (S, M, 6) with the feedback laws applied to the recorded states (teacher forcing)."""
+        return self.loads if self.feedback is None else self.loads + self.feedback.forced(self.states)
 
     @property
     def n_steps(self) -> int:
@@ -100,6 +114,8 @@ class Encoding:
     ref_positions : ndarray (N, 3)    reference positions [m]
     ref_quaternions : ndarray (N, 4)  reference orientations, scalar-first unit quaternions
     fixed : ndarray (M,) bool          kept nodes held at the reference (clamped boundaries)
+    feedback : bool          apply the PD laws of a data set's scenario to the model's own state
+                             (``softrnn.dynamic.feedback``) instead of taking their recorded forces
     """
 
     n_nodes: int
@@ -110,6 +126,7 @@ class Encoding:
     ref_positions: np.ndarray
     ref_quaternions: np.ndarray
     fixed: np.ndarray
+    feedback: bool = False
 
     def __post_init__(self):
         kept = np.asarray(self.kept, dtype=np.int64)
@@ -193,8 +210,17 @@ class Encoding:
         n_steps = (dataset.n_samples - 1) // k + 1
         idx = np.arange(n_steps) * k
         states = self.encode(dataset.positions[idx], dataset.quaternions[idx])
-        loads = self.loads(dataset.forces, dataset.torques, n_steps, k)
-        return Trajectory(time=dataset.time[idx], states=states, loads=loads, name=name)
+        time = np.asarray(dataset.time[idx], dtype=np.float64)
+        fb, forces = None, dataset.forces
+        if self.feedback:
+            from .feedback import feedback_of
+
+            fb = feedback_of(self, dataset, time)
+            if fb is not None:       # the law's recorded force is replaced by the law itself
+                forces = np.array(forces, dtype=np.float64)
+                forces[:, list(fb.nodes)] = 0.0
+        loads = self.loads(forces, dataset.torques, n_steps, k)
+        return Trajectory(time=time, states=states, loads=loads, name=name, feedback=fb)
 
 
 def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
@@ -215,9 +241,11 @@ def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
                   f"data saved at an interval that divides the model's step {encoding.model_dt:g} s") from None
 
 
-def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: float) -> Encoding:
+def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: float,
+                  feedback: bool = False) -> Encoding:
     """The encoding for training on ``datasets`` (each holding every node, the same saved step):
-    the reference pose is the first sample of the first one; fixed nodes are those that never move."""
+    the reference pose is the first sample of the first one; fixed nodes are those that never move;
+    ``feedback``: PD laws act on the model's state (``Encoding.feedback``)."""
     if not datasets:
         raise SoftrnnInputError("no training data: give at least one trajectory")
     first = datasets[0]
@@ -236,5 +264,5 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
         moved = np.maximum(moved, np.where(turn.max(axis=0) > FIXED_TURN, np.inf, 0.0))
     return Encoding(n_nodes=n, kept=probe.kept, model_dt=model_dt, data_dt=probe.data_dt, length=length,
                     ref_positions=probe.ref_positions, ref_quaternions=probe.ref_quaternions,
-                    fixed=moved <= FIXED_TOLERANCE_M)
+                    fixed=moved <= FIXED_TOLERANCE_M, feedback=bool(feedback))
 

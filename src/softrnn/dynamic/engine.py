@@ -18,8 +18,16 @@ DIVERGED_M = 16.0
 _C = float(np.sqrt(2.0 / np.pi))
 
 
-def _gelu(x: np.ndarray) -> np.ndarray:
-    return 0.5 * x * (1.0 + np.tanh(_C * (x + 0.044715 * x * x * x)))
+def _twice_gelu_(x: np.ndarray) -> None:
+    """2 GELU(x) (tanh form, as ``nn.GELU(approximate="tanh")``) in place; the factor 2 is taken out
+    of the next layer's weights (one array operation less per layer)."""
+    t = x * x
+    t *= 0.044715 * _C
+    t += _C
+    t *= x
+    np.tanh(t, out=t)
+    t += 1.0
+    x *= t
 
 
 def _sigmoid(x: np.ndarray) -> np.ndarray:
@@ -42,22 +50,38 @@ class DynamicEngine:
     weights : dict of ndarray
         ``DynamicNet.state_dict()`` as NumPy arrays (``load_dynamic`` reads them from a folder).
     config : DynamicConfig
+    dtype : numpy dtype
+        The network's arithmetic (features, linear term, convolution; float32 by default, as the
+        network was trained and as ONNX exports it: BLAS runs about 3x faster than in float64). The
+        state update ``x + v + dv`` is always float64. ``np.float64`` reproduces a float64
+        ``DynamicNet`` to rounding.
     """
 
-    def __init__(self, weights: dict, config):
+    def __init__(self, weights: dict, config, dtype=np.float32):
+        dt = np.dtype(dtype)
         w = {k: np.asarray(v, dtype=np.float64) for k, v in weights.items()}
         self.config = config
+        self.dtype = dt
         self.history = int(config.history)
         self.bound = float(config.bound)
         self.node_features = w["node_features"]
         self.fixed = np.asarray(weights["fixed"], dtype=bool)
         self.sx, self.sv, self.su, self.sa = w["sx"], w["sv"], w["su"], w["sa"]
-        self.n_kept = int(self.node_features.shape[0])
-        self.linear = (w["linear.weight"].T.copy(), w["linear.bias"]) if "linear.weight" in w else None
+        self.n_kept = M = int(self.node_features.shape[0])
+        H = self.history
+        self.linear = None
+        if "linear.weight" in w:
+            self.linear = (w["linear.weight"].T.astype(dt), w["linear.bias"].astype(dt))
         self.cell = None
         if "cell.weight_ih" in w:
-            self.cell = (w["cell.weight_ih"].T.copy(), w["cell.weight_hh"].T.copy(),
-                         w["cell.bias_ih"] + w["cell.bias_hh"])
+            self.cell = (w["cell.weight_ih"].T.astype(dt), w["cell.weight_hh"].T.astype(dt),
+                         (w["cell.bias_ih"] + w["cell.bias_hh"]).astype(dt))
+        # features (M, C): state, H-1 velocities, load, constants; the convolution reads all but the load
+        C = 6 * H + 6 + self.node_features.shape[1]
+        self._f = np.zeros((M, C), dtype=dt)
+        self._f[:, 6 * H + 6:] = self.node_features
+        self._scale = np.concatenate([1.0 / self.sx] + [1.0 / self.sv] * (H - 1) + [1.0 / self.su]).astype(dt)
+        self._keep = np.r_[0:6 * H, 6 * H + 6:C]
         convs = sorted({int(k.split(".")[1]) for k in w if k.startswith("conv.")})
         self.convs = []
         for i in convs:
@@ -65,32 +89,42 @@ class DynamicEngine:
             cout, cin, k = W.shape
             # rows ordered (tap, channel) to match the strided view of the padded buffer below
             Wk = np.ascontiguousarray(W.transpose(2, 1, 0).reshape(k * cin, cout))
+            Wk = (0.5 * Wk if self.convs else Wk).astype(dt)     # after a layer: its input is 2 GELU
             pad = k // 2
-            buf = np.zeros((self.n_kept + 2 * pad, cin))       # zero padding along the rod, reused
+            buf = np.zeros((M + 2 * pad, cin), dtype=dt)       # zero padding along the rod, reused
             s0, s1 = buf.strides
-            view = as_strided(buf, shape=(self.n_kept, k * cin), strides=(s0, s1)) if k > 1 else buf
-            self.convs.append((Wk, w[f"conv.{i}.bias"], pad, buf, view))
+            # the windows (M, k*cin) overlap in memory; BLAS needs them copied to a contiguous block
+            view = as_strided(buf, shape=(M, k * cin), strides=(s0, s1)) if k > 1 else buf
+            cols = np.empty((M, k * cin), dtype=dt)
+            self.convs.append((Wk, w[f"conv.{i}.bias"].astype(dt), pad, buf, view, cols,
+                               np.empty((M, cout), dtype=dt)))
         self._free = ~self.fixed
+        self._sa = self.sa[None, :] * self._free[:, None]     # fixed nodes: no change
 
     def _conv(self, g: np.ndarray) -> np.ndarray:
         """(M, Cin) -> (M, 6) through the convolution stack (GELU between layers)."""
-        for j, (W, b, pad, buf, view) in enumerate(self.convs):
+        last = len(self.convs) - 1
+        for j, (W, b, pad, buf, view, cols, out) in enumerate(self.convs):
             if pad:
                 buf[pad:pad + self.n_kept] = g
-                g = view
-            g = g @ W + b
-            if j < len(self.convs) - 1:
-                g = _gelu(g)
+                cols[...] = view
+                g = cols
+            np.matmul(g, W, out=out)
+            out += b
+            if j < last:
+                _twice_gelu_(out)
+            g = out
         return g
 
     def features(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:
-        """hist (H, M, 6), loads (M, 6) -> (M, C), as ``DynamicNet.features``."""
-        parts = [hist[-1] / self.sx]
-        for j in range(self.history - 1):
-            parts.append((hist[-1 - j] - hist[-2 - j]) / self.sv)
-        parts.append(loads / self.su)
-        parts.append(self.node_features)
-        return np.concatenate(parts, axis=1)
+        """hist (H, M, 6), loads (M, 6) -> (M, C), as ``DynamicNet.features`` (a reused buffer)."""
+        f, H = self._f, self.history
+        f[:, :6] = hist[-1]
+        for j in range(H - 1):
+            np.subtract(hist[-1 - j], hist[-2 - j], out=f[:, 6 + 6 * j:12 + 6 * j])
+        f[:, 6 * H:6 * H + 6] = loads
+        f[:, :6 * H + 6] *= self._scale
+        return f
 
     def step(self, hist: np.ndarray, loads: np.ndarray, memory=None):
         """hist (H, M, 6) states, oldest first; loads (M, 6) -> (next state (M, 6), memory)."""
@@ -98,24 +132,27 @@ class DynamicEngine:
         a = np.zeros((self.n_kept, 6))
         if self.linear is not None:
             a += (f.reshape(-1) @ self.linear[0] + self.linear[1]).reshape(self.n_kept, 6)
-        cut = 6 * self.history
-        g = np.concatenate([f[:, :cut], f[:, cut + 6:]], axis=1)
-        if self.cell is not None:
-            Wi, Wh, b = self.cell
-            h, c = memory if memory is not None else (np.zeros((self.n_kept, Wh.shape[0])),) * 2
-            z = g @ Wi + h @ Wh + b
-            i, fg, gg, o = np.split(z, 4, axis=1)
-            c = _sigmoid(fg) * c + _sigmoid(i) * np.tanh(gg)
-            h = _sigmoid(o) * np.tanh(c)
-            memory = (h, c)
-            g = np.concatenate([g, h], axis=1)
-        if self.convs:
-            c, b = self._conv(g), self.bound
-            a += b * np.tanh(c / b) if b > 0 else c
+        if self.convs or self.cell is not None:
+            g = f[:, self._keep]
+            if self.cell is not None:
+                Wi, Wh, b = self.cell
+                h, c = memory if memory is not None else (np.zeros((self.n_kept, Wh.shape[0]), dtype=self.dtype),) * 2
+                z = g @ Wi + h @ Wh + b
+                i, fg, gg, o = np.split(z, 4, axis=1)
+                c = _sigmoid(fg) * c + _sigmoid(i) * np.tanh(gg)
+                h = _sigmoid(o) * np.tanh(c)
+                memory = (h, c)
+                g = np.concatenate([g, h], axis=1)
+            if self.convs:
+                c, b = self._conv(g), self.bound
+                a += b * np.tanh(c / b) if b > 0 else c
         x = hist[-1]
-        nxt = x.copy()
-        nxt[self._free] = (2 * x - hist[-2] + a * self.sa)[self._free]
-        return nxt, memory
+        a *= self._sa
+        a += x
+        a += x
+        a -= hist[-2]
+        a[self.fixed] = x[self.fixed]
+        return a, memory
 
     def run(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:
         """Free run: history (H, M, 6), loads (K, M, 6) of each step -> states (K, M, 6).

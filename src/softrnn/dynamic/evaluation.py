@@ -47,7 +47,9 @@ class ConstantVelocity:
 def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -> tuple[np.ndarray, int | None]:
     """Run ``predictor`` free from model step ``start`` (the last history state) to ``stop``
     (exclusive; default: the end): states (stop - start - 1, M, 6) of steps start+1 .. stop-1 and
-    the step (1-based) where it diverged, or None. Rows from a divergence on are NaN."""
+    the step (1-based) where it diverged, or None. Rows from a divergence on are NaN. The loads are
+    the data's, with the trajectory's feedback laws applied to the run's own states
+    (``Trajectory.inputs``)."""
     H = int(predictor.history)
     stop = traj.n_steps if stop is None else int(stop)
     if start < H - 1 or start >= stop - 1:
@@ -56,7 +58,7 @@ def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -
     out = np.full((stop - start - 1,) + traj.states.shape[1:], np.nan)
     memory = None
     for k in range(stop - start - 1):
-        nxt, memory = predictor.step(hist, traj.loads[start + k], memory)
+        nxt, memory = predictor.step(hist, traj.inputs(hist, start + k), memory)
         if not np.all(np.abs(nxt) < DIVERGED_M):
             return out, k + 1
         out[k] = nxt

@@ -184,7 +184,10 @@ _LAYOUT = {
              "log(R_ref^T R) (rad; R, R_ref from the scalar-first quaternions, body to world)",
     "history": "history[0, k] is the state k steps of model_dt apart, k = 0 the oldest, H - 1 the current one",
     "loads": "loads[0] = lumping @ (the mean over the coming model step of every node's force, torque), "
-             "world frame; lumping (M, N) spreads node i's load over the kept nodes around it",
+             "world frame; lumping (M, N) spreads node i's load over the kept nodes around it. With "
+             "encoding.feedback, a node driven by a PD tracking law (stiffness K, damping D, target(t)) is "
+             "not given its force: the caller adds K (mean target over the step - r_ref - x) - D (x - x_prev) "
+             "/ model_dt to its force columns, x and x_prev the displacements of the last two history states",
     "next_state": "the state one model step (model_dt) after history[0, H - 1]; fixed nodes keep theirs",
     "memory": "memory = 'lstm' only: feed zeros at the start, then the previous call's memory_*_out",
     "decode": "every node's pose: a cubic spline (scipy CubicSpline, not-a-knot) of the states along the node "

@@ -41,6 +41,15 @@ def load_channels(history: int) -> slice:
     return slice(6 * history, 6 * history + 6)
 
 
+def feedback_force(hist: torch.Tensor, feedback, k: int) -> torch.Tensor:
+    """The PD laws' loads (B, M, 6) at step ``k`` of a free run from ``hist`` (B, H, M, 6), as
+    ``Feedback.force``: stiffness (target - x) - damping (x - x_prev) / model_dt, zero torques."""
+    gains, targets, dt = feedback
+    x, prev = hist[:, -1, :, :3], hist[:, -2, :, :3]
+    f = gains[..., :1] * (targets[:, k] - x) - gains[..., 1:] * (x - prev) / dt
+    return torch.cat([f, torch.zeros_like(f)], dim=-1)
+
+
 class DynamicNet(nn.Module):
     """One model step. Buffers: ``node_features`` (M, 3), ``fixed`` (M,) bool and the scales
     ``sx``, ``sv``, ``su``, ``sa`` (6,) of states, velocities, loads and velocity changes."""
@@ -108,11 +117,14 @@ class DynamicNet(nn.Module):
         nxt = torch.where(self.fixed[None, :, None], x, nxt)
         return nxt, memory
 
-    def rollout(self, hist: torch.Tensor, loads: torch.Tensor) -> torch.Tensor:
-        """Free run: hist (B, H, M, 6), loads (B, K, M, 6) for each step -> states (B, K, M, 6)."""
+    def rollout(self, hist: torch.Tensor, loads: torch.Tensor, feedback=None) -> torch.Tensor:
+        """Free run: hist (B, H, M, 6), loads (B, K, M, 6) for each step -> states (B, K, M, 6).
+        ``feedback``: (gains (B, M, 2), targets (B, K, M, 3), model_dt) of PD laws applied to the
+        run's own states at every step (``softrnn.dynamic.feedback``), or None."""
         out, memory = [], None
         for k in range(loads.shape[1]):
-            nxt, memory = self.forward(hist, loads[:, k], memory)
+            u = loads[:, k] if feedback is None else loads[:, k] + feedback_force(hist, feedback, k)
+            nxt, memory = self.forward(hist, u, memory)
             out.append(nxt)
             hist = torch.cat([hist[:, 1:], nxt[:, None]], dim=1)
         return torch.stack(out, dim=1)

@@ -31,13 +31,14 @@ from ..files import atomic_write_bytes
 from ..progress import Progress
 from .config import DynamicConfig, linear_config
 from .encoding import Encoding, Trajectory
-from .network import DynamicNet
+from .network import DynamicNet, feedback_force
 
 CHECKPOINT_EVERY = 100
 VALIDATION_STEPS = 1000
 STABLE_RADIUS = 1.001
 RIDGE_TRIES = 10
 _FLOOR = 1e-12
+SCALE_FLOOR = 0.1
 
 
 @dataclass(eq=False)
@@ -56,23 +57,39 @@ class TrainedDynamic:
 
 def scales(trajectories: list[Trajectory]) -> dict:
     """Per-channel standard deviations (6,) of states ``sx``, velocities ``sv``, loads ``su`` and
-    velocity changes ``sa`` over ``trajectories``. An input channel that never varies gets 1; a
+    velocity changes ``sa`` over ``trajectories``; the inputs' floored within each kind
+    (``_group_floor``). An input channel that never varies gets 1; a
     state channel that never moves (planar data: the out-of-plane ones) gets ``sa = 0``, so the
     model's output cannot move it either (a scale of 1 would turn a tiny output into metres)."""
     X = [t.states for t in trajectories]
     out = {
         "sx": np.concatenate([x.reshape(-1, 6) for x in X]),
         "sv": np.concatenate([np.diff(x, axis=0).reshape(-1, 6) for x in X]),
-        "su": np.concatenate([t.loads.reshape(-1, 6) for t in trajectories]),
+        "su": np.concatenate([t.forced_loads().reshape(-1, 6) for t in trajectories]),
         "sa": np.concatenate([np.diff(x, 2, axis=0).reshape(-1, 6) for x in X]),
     }
     res = {}
     for key, rows in out.items():
         s = rows.std(axis=0)
+        if key != "sa":
+            s = _group_floor(s)
         res[key] = np.where(s > _FLOOR, s, 1.0)
     moving = out["sv"].std(axis=0) > _FLOOR
     res["sa"] = np.where(moving, res["sa"], 0.0)
     return res
+
+
+def _group_floor(s: np.ndarray) -> np.ndarray:
+    """Input scales (6,) with each moving channel raised to at least ``SCALE_FLOOR`` times the
+    largest of its kind (displacements 0-2, rotations 3-5): a channel that barely moves in the data
+    (the twist of a bending rod, about 1e-3 of the bending angles) would otherwise turn a physically
+    negligible error of a free run into an input far outside the training range."""
+    out = s.copy()
+    for g in (slice(0, 3), slice(3, 6)):
+        moving = s[g] > _FLOOR
+        if moving.any():
+            out[g] = np.where(moving, np.maximum(s[g], SCALE_FLOOR * s[g][moving].max()), s[g])
+    return out
 
 
 def _windows(trajectories: list[Trajectory], length: int) -> np.ndarray:
@@ -86,35 +103,55 @@ def _windows(trajectories: list[Trajectory], length: int) -> np.ndarray:
 
 
 def _batch(trajectories, picks: np.ndarray, H: int, K: int):
-    """hist (B, H, M, 6), loads (B, K, M, 6), future (B, K, M, 6) as float32 tensors."""
-    hist, loads, future = [], [], []
+    """hist (B, H, M, 6), loads (B, K, M, 6), future (B, K, M, 6) as float32 tensors and the
+    feedback laws (gains (B, M, 2), targets (B, K, M, 3), model_dt) for ``DynamicNet.rollout``, or
+    None when no trajectory has any."""
+    hist, loads, future, gains, targets = [], [], [], [], []
+    M = trajectories[0].states.shape[1]
     for i, s in picks:
         t = trajectories[i]
         hist.append(t.states[s:s + H])
         loads.append(t.loads[s + H - 1:s + H - 1 + K])
         future.append(t.states[s + H:s + H + K])
+        fb = t.feedback
+        gains.append(np.zeros((M, 2)) if fb is None else fb.gains)
+        targets.append(np.zeros((K, M, 3)) if fb is None else fb.targets[s + H - 1:s + H - 1 + K])
     as_t = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32)  # noqa: E731
-    return as_t(hist), as_t(loads), as_t(future)
+    dts = {t.feedback.model_dt for t in trajectories if t.feedback is not None}
+    feedback = (as_t(gains), as_t(targets), dts.pop()) if dts else None
+    return as_t(hist), as_t(loads), as_t(future), feedback
 
 
-def _ridge_fit(net: DynamicNet, trajectories, ridge: float) -> None:
-    """Set the linear term to the ridge solution of the one-step velocity changes."""
+def _first_loads(hist, loads, feedback) -> torch.Tensor:
+    """The first step's loads (B, M, 6) with the feedback laws applied to ``hist`` (teacher forcing)."""
+    return loads[:, 0] if feedback is None else loads[:, 0] + feedback_force(hist, feedback, 0)
+
+
+def _normal_equations(net: DynamicNet, trajectories) -> tuple:
+    """(G, b, feature means, target means) of the one-step least squares for the linear term:
+    features (teacher-forced loads) against the scaled velocity changes, centred."""
     H = net.config.history
     win = _windows(trajectories, H + 1)
     F, A = [], []
     with torch.no_grad():
         for chunk in np.array_split(win, max(1, len(win) // 4096)):
-            hist, loads, future = _batch(trajectories, chunk, H, 1)
-            f = net.features(hist, loads[:, 0])
+            hist, loads, future, fb = _batch(trajectories, chunk, H, 1)
+            f = net.features(hist, _first_loads(hist, loads, fb))
             F.append(f.reshape(len(chunk), -1).double().numpy())
             a = (future[:, 0] - 2 * hist[:, -1] + hist[:, -2]) / torch.where(net.sa > 0, net.sa, 1.0)
             A.append(a.reshape(len(chunk), -1).double().numpy())
     F, A = np.concatenate(F), np.concatenate(A)
     fm, am = F.mean(axis=0), A.mean(axis=0)
     Fc = F - fm
-    G = Fc.T @ Fc
+    return Fc.T @ Fc, Fc.T @ (A - am), fm, am
+
+
+def _ridge_fit(net: DynamicNet, normal: tuple, ridge: float) -> None:
+    """Set the linear term to the ridge solution of the one-step velocity changes (``normal``:
+    ``_normal_equations``; the penalty is ``ridge`` times the mean feature variance)."""
+    G, b, fm, am = normal
     lam = ridge * max(float(np.trace(G)) / G.shape[0], _FLOOR)
-    W = np.linalg.solve(G + lam * np.eye(G.shape[0]), Fc.T @ (A - am))
+    W = np.linalg.solve(G + lam * np.eye(G.shape[0]), b)
     with torch.no_grad():
         net.linear.weight.copy_(torch.as_tensor(W.T, dtype=torch.float32))
         net.linear.bias.copy_(torch.as_tensor(am - fm @ W, dtype=torch.float32))
@@ -143,16 +180,32 @@ def spectral_radius(net: DynamicNet) -> float:
         return float(np.max(np.abs(np.linalg.eigvals(companion))))
 
 
-def _fit_linear(net: DynamicNet, trajectories, ridge: float) -> tuple[float, float]:
-    """Ridge fit, raising the penalty until the linear model is stable: (penalty, radius)."""
-    lam = ridge
+def _fit_linear(net: DynamicNet, trajectories, ridge: float, validation=()) -> dict:
+    """The ridge fit of the linear term; returns {ridge, linear_radius, ridge_validation}.
+
+    Without ``validation`` the penalty is raised tenfold from ``ridge`` until the linear model is
+    stable (spectral radius of its state map at most ``STABLE_RADIUS``). With ``validation``
+    trajectories, every penalty of that ladder is tried and the one whose free runs on them have
+    the smallest error is kept (``validation_error``): a one-step fit says little about a long free
+    run, and with feedback laws (``softrnn.dynamic.feedback``) the open-loop radius does not
+    describe the closed loop either."""
+    normal = _normal_equations(net, trajectories)
+    lam, tried = ridge, []
     for _ in range(RIDGE_TRIES):
-        _ridge_fit(net, trajectories, lam)
+        _ridge_fit(net, normal, lam)
         rho = spectral_radius(net)
-        if rho <= STABLE_RADIUS:
-            return lam, rho
+        if not validation:
+            if rho <= STABLE_RADIUS:
+                return {"ridge": lam, "linear_radius": rho, "ridge_validation": []}
+        else:
+            tried.append((validation_error(net, validation), lam, rho))
         lam = max(lam * 10.0, 1e-8)
-    return lam, rho      # still above STABLE_RADIUS: TrainedDynamic.info["linear_stable"] says so
+    if not validation:    # still above STABLE_RADIUS: TrainedDynamic.info["linear_stable"] says so
+        return {"ridge": lam / 10.0, "linear_radius": rho, "ridge_validation": []}
+    err, lam, rho = min(tried, key=lambda r: (r[0], r[1]))
+    _ridge_fit(net, normal, lam)
+    return {"ridge": lam, "linear_radius": rho,
+            "ridge_validation": [[p, None if not math.isfinite(e) else e] for e, p, _ in tried]}
 
 
 def _unroll_at(config: DynamicConfig, step: int) -> int:
@@ -172,12 +225,12 @@ def _save_checkpoint(path: Path, net, opt, gen, loop) -> None:
 
 
 def validation_error(net: DynamicNet, validation: list[Trajectory], max_steps: int = VALIDATION_STEPS) -> float:
-    """Largest position error [m] of the kept nodes over free runs (from the first full history,
-    up to ``max_steps``) on ``validation``; inf where a run diverges."""
+    """The mean over ``validation`` of each free run's largest position error [m] over the kept
+    nodes (from the first full history, up to ``max_steps``); inf where a run diverges."""
     from .artifact import engine_of
     from .evaluation import free_run
 
-    engine, H, worst = engine_of(net), net.config.history, 0.0
+    engine, H, errors = engine_of(net), net.config.history, []
     for traj in validation:
         stop = min(traj.n_steps, H + max_steps)
         if stop <= H:
@@ -185,8 +238,8 @@ def validation_error(net: DynamicNet, validation: list[Trajectory], max_steps: i
         states, diverged = free_run(engine, traj, H - 1, stop)
         if diverged is not None:
             return math.inf
-        worst = max(worst, float(np.linalg.norm(states[..., :3] - traj.states[H:stop, :, :3], axis=-1).max()))
-    return worst
+        errors.append(float(np.linalg.norm(states[..., :3] - traj.states[H:stop, :, :3], axis=-1).max()))
+    return float(np.mean(errors)) if errors else 0.0
 
 
 def _optimizer(net: DynamicNet, config: DynamicConfig) -> torch.optim.Optimizer:
@@ -202,12 +255,12 @@ def _loss(net: DynamicNet, trajectories, windows, config: DynamicConfig, gen, st
     """One batch's unrolled loss: mean squared state error in units of ``sv`` over the free nodes."""
     H, K = config.history, _unroll_at(config, step)
     picks = windows[torch.randint(len(windows), (config.batch,), generator=gen).numpy()]
-    hist, loads, future = _batch(trajectories, picks, H, K)
+    hist, loads, future, feedback = _batch(trajectories, picks, H, K)
     mask = (~net.fixed).float()[None, None, :, None]
     if config.noise > 0:
         eps = torch.randn(hist.shape, generator=gen) * (config.noise * net.sv * (net.sa > 0) / math.sqrt(H))
         hist = hist + torch.cumsum(eps, dim=1) * mask
-    err = (net.rollout(hist, loads) - future) / net.sv * mask
+    err = (net.rollout(hist, loads, feedback) - future) / net.sv * mask
     return (err ** 2).sum() / (float(mask.sum()) * 6 * config.batch * K)
 
 
@@ -218,21 +271,43 @@ class _Loop:
     fit: dict = field(default_factory=dict)
     validation: list = field(default_factory=list)
     best: tuple = (math.inf, -1, None)           # (error, step, state dict)
+    ema: dict = field(default_factory=dict)      # running average of the weights (config.ema)
 
 
-def _validate(net, loop: _Loop, validation) -> None:
+def _validate(net, loop: _Loop, validation, shadow=None) -> None:
+    """Free runs of the current weights and, with ``shadow`` (a net holding the running average
+    ``loop.ema``), of the averaged ones: the better becomes ``loop.best`` if it beats it."""
     if not validation:
         return
-    err = validation_error(net, validation)
+    candidates = [(validation_error(net, validation), net)]
+    if shadow is not None and loop.ema:
+        shadow.load_state_dict(loop.ema)
+        candidates.append((validation_error(shadow, validation), shadow))
+    err, which = min(candidates, key=lambda c: c[0])
     loop.validation.append((loop.step, err))
     if err < loop.best[0]:
-        loop.best = (err, loop.step, {k: v.detach().clone() for k, v in net.state_dict().items()})
+        loop.best = (err, loop.step, {k: v.detach().clone() for k, v in which.state_dict().items()})
 
 
-def _start(net, trajectories, encoding, config, sc):
-    """The linear baseline fitted by ridge, copied into ``net``'s linear term: (baseline, fit info)."""
+def _average(loop: _Loop, net, decay: float) -> None:
+    """``loop.ema`` <- decay ``loop.ema`` + (1 - decay) weights (buffers copied)."""
+    with torch.no_grad():
+        state = net.state_dict()
+        if not loop.ema:
+            loop.ema = {k: v.detach().clone() for k, v in state.items()}
+            return
+        for k, v in state.items():
+            if v.is_floating_point():
+                loop.ema[k].mul_(decay).add_(v.detach(), alpha=1.0 - decay)
+            else:
+                loop.ema[k].copy_(v)
+
+
+def _start(net, trajectories, encoding, config, sc, validation=()):
+    """The linear baseline fitted by ridge (its penalty chosen on ``validation`` free runs, if any),
+    copied into ``net``'s linear term: (baseline, fit info)."""
     baseline = DynamicNet(linear_config(config), encoding.node_features(), encoding.fixed, sc)
-    fit = dict(zip(("ridge", "linear_radius"), _fit_linear(baseline, trajectories, config.ridge)))
+    fit = _fit_linear(baseline, trajectories, config.ridge, validation)
     baseline.eval()
     if net.linear is not None:
         net.linear.load_state_dict(baseline.linear.state_dict())
@@ -257,7 +332,7 @@ def train_dynamic_model(trajectories: list[Trajectory], encoding: Encoding, conf
     sc = scales(trajectories)
     net = DynamicNet(config, encoding.node_features(), encoding.fixed, sc)
     start = time.perf_counter()
-    baseline, fit = _start(net, trajectories, encoding, config, sc)
+    baseline, fit = _start(net, trajectories, encoding, config, sc, validation)
     opt, gen = _optimizer(net, config), torch.Generator().manual_seed(config.seed)
     loop = _Loop(fit=fit)
     path = Path(checkpoint) if checkpoint is not None else None
@@ -267,6 +342,7 @@ def train_dynamic_model(trajectories: list[Trajectory], encoding: Encoding, conf
         opt.load_state_dict(state["opt"])
         gen.set_state(state["gen"])
         loop = state["loop"]
+    shadow = DynamicNet(config, encoding.node_features(), encoding.fixed, sc) if config.ema > 0 else None
     if loop.step == 0:
         _validate(net, loop, validation)
     while loop.step < config.steps:
@@ -277,18 +353,23 @@ def train_dynamic_model(trajectories: list[Trajectory], encoding: Encoding, conf
         loss.backward()
         torch.nn.utils.clip_grad_norm_(net.parameters(), 1.0)
         opt.step()
+        if config.ema > 0:
+            _average(loop, net, config.ema)
         loop.step += 1
         loop.losses.append(loss.item())
         if progress is not None:
             progress(loop.step, config.steps, {"loss": loop.losses[-1], "unroll": _unroll_at(config, loop.step - 1)})
         if loop.step % CHECKPOINT_EVERY == 0 or loop.step == config.steps:
-            _validate(net, loop, validation)
+            _validate(net, loop, validation, shadow)
             if path is not None:
                 _save_checkpoint(path, net, opt, gen, loop)
     if loop.best[2] is not None:
         net.load_state_dict(loop.best[2])
+    elif loop.ema:        # no validation: the averaged weights
+        net.load_state_dict(loop.ema)
     net.eval()
     info = {"ridge": loop.fit["ridge"], "linear_radius": loop.fit["linear_radius"],
+            "ridge_validation": loop.fit.get("ridge_validation", []),
             "linear_stable": bool(loop.fit["linear_radius"] <= STABLE_RADIUS),
             "final_loss": loop.losses[-1] if loop.losses else None,
             "losses": loop.losses[::max(1, len(loop.losses) // 200)], "train_seconds": time.perf_counter() - start,

@@ -42,13 +42,13 @@ from .stepfiles import load_step, save_step
 
 CASES = ("ellipse", "square", "semicircle")
 CONFIGS = {
-    "ellipse": DynamicConfig(unroll=20),
-    "square": DynamicConfig(unroll=20),
-    "semicircle": DynamicConfig(unroll=20),
+    "ellipse": DynamicConfig(),
+    "square": DynamicConfig(),
+    "semicircle": DynamicConfig(),
 }
 """The model of each case (architecture and training); ``--quick`` trains ``QUICK_STEPS`` steps."""
 QUICK_STEPS = 20
-SWEEP = {"dt": 0.01, "n_train": 12, "n_validation": 1, "n_heldout": 8, "workers": 2,
+SWEEP = {"dt": 0.01, "n_train": 12, "n_validation": 3, "n_heldout": 8, "workers": 2,
          "duration_s": {"ellipse": 30.0, "square": 21.0, "semicircle": 21.0}}
 """Each case's sweep: variants 0..n_train-1 are trained on, the next n_validation select the weights
 (``fit``'s validation), the last n_heldout are held out; saved every dt [s] for duration_s [s]."""
@@ -288,6 +288,11 @@ def _measure(case: str, out: Path, folder: Path, loaded, split, quick: bool) -> 
         entry.setdefault(key, None)                  # skipped: present all the same, as null
     entry["skipped"] = skipped
     trajs = [loaded.encoding.trajectory(d) for d in [paper, *held]]
+    fb = trajs[0].feedback
+    entry["inputs"] = {"feedback": bool(loaded.encoding.feedback),
+                       "feedback_law_nodes": [] if fb is None else list(fb.nodes),
+                       "loads": "recorded forces and torques" + ("" if fb is None else
+                                                                 "; PD tracking laws applied to the model's own state")}
     speed = _speed(case, loaded, trajs, quick)
     entry.update({k: speed[k] for k in ("speed_ratio_vs_simulator", "simulator_sim_s_per_wall_s",
                                         "model_sim_s_per_wall_s")}, speed=speed)

@@ -371,6 +371,23 @@ def _goal_line(key: str, g: dict) -> str:
     return text + ("met" if g.get("met") else "**missed**") + f" ({measured})"
 
 
+def _dynamic_inputs_text(e: dict) -> str:
+    """What drives the model and which weights were kept, as a sentence or two (or '')."""
+    text = ""
+    nodes = (e.get("inputs") or {}).get("feedback_law_nodes")
+    if nodes:
+        text += (f" The PD tracking force on node{'s' if len(nodes) > 1 else ''} {', '.join(map(str, nodes))} is "
+                 "computed by its law from the model's own state (the target and gains are the inputs), as the "
+                 "simulator computes it from the rod's.")
+    step = (e.get("training") or {}).get("selected_step")
+    if step == 0:
+        text += (" Validation free runs kept the linear start (no trained checkpoint beat it): the model is the "
+                 "linear model.")
+    elif step is not None:
+        text += f" Validation free runs kept the weights of step {step}."
+    return text
+
+
 def _dynamic_case_lines(case: str, e: dict) -> list[str]:
     """One case: settings, the horizons and spans beside the baselines, speed, goals, figure."""
     sweep, n = e.get("sweep") or {}, len(_DYNAMIC_BASELINES)
@@ -379,7 +396,7 @@ def _dynamic_case_lines(case: str, e: dict) -> list[str]:
              f"trained in {e.get('train_seconds', 0):.0f} s ({(e.get('train_config') or {}).get('steps', '?')} "
              f"steps) on the paper trajectory's first 60 % and {sweep.get('n_train', '?')} sweep variants "
              f"({sweep.get('duration_s', '?')} s saved every {sweep.get('dt', '?')} s); "
-             f"{sweep.get('n_heldout', '?')} held out.", "",
+             f"{sweep.get('n_heldout', '?')} held out." + _dynamic_inputs_text(e), "",
              "| what [% of L] | model | " + " | ".join(_DYNAMIC_LABELS[k] for k in _DYNAMIC_BASELINES)
              + " | model / best baseline |", "|---|---|" + "---|" * n + "---|"]
     for key in ("10", "100", "1000"):
