@@ -317,10 +317,11 @@ def test_free_run_reports_a_divergence():
 
 
 # ---------------------------------------------------------------------------- 4 torch vs NumPy
-@pytest.mark.parametrize("memory, bound, kernel", [("window", 0.0, 5), ("lstm", 0.0, 3), ("window", 0.5, 3),
-                                                   ("lstm", 2.0, 5)])
-def test_torch_rollout_and_numpy_engine_agree(memory, bound, kernel):
-    config = DynamicConfig(history=3, memory=memory, width=8, layers=2, kernel=kernel, bound=bound)
+@pytest.mark.parametrize("memory, bound, kernel, reads", [("window", 0.0, 5, "all"), ("lstm", 0.0, 3, "all"),
+                                                          ("window", 0.5, 3, "all"), ("lstm", 2.0, 5, "all"),
+                                                          ("window", 0.0, 5, "displacements")])
+def test_torch_rollout_and_numpy_engine_agree(memory, bound, kernel, reads):
+    config = DynamicConfig(history=3, memory=memory, width=8, layers=2, kernel=kernel, bound=bound, conv_reads=reads)
     M, H, K = 9, 3, 30
     rng = np.random.default_rng(1)
     fixed = np.zeros(M, bool)

@@ -171,3 +171,18 @@ def test_training_with_the_law_runs_and_the_penalty_is_chosen_on_validation(squa
     assert trained.info["ridge"] == min(finite)[1]
     # the chosen penalty's linear model is what the validation error measured
     assert training.validation_error(trained.linear, val) == pytest.approx(min(finite)[0], rel=1e-6)
+
+
+def test_the_convolution_reads_no_load_and_optionally_no_rotation():
+    from softrnn.dynamic.config import conv_channels, load_channels, n_channels
+
+    H = 3
+    loads = set(range(load_channels(H).start, load_channels(H).stop))
+    every = conv_channels(H)
+    assert len(every) == n_channels(H) - 6 and not loads & set(every)
+    disp = conv_channels(H, "displacements")
+    # state and both velocities lose their rotation columns (3 each); the constants stay
+    assert len(disp) == len(every) - 3 * H
+    assert all(c % 6 < 3 for c in disp if c < 6 * H) and set(range(6 * H + 6, n_channels(H))) <= set(disp)
+    with pytest.raises(SoftrnnInputError, match="conv_reads"):
+        DynamicConfig(conv_reads="rotations")

@@ -7,6 +7,7 @@ from dataclasses import asdict, dataclass, fields, replace
 from ..errors import bad, integer, nonnegative, positive
 
 MEMORIES = ("window", "lstm")
+CONV_READS = ("all", "displacements")
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,9 @@ class DynamicConfig:
     ema : float
         Decay of a running average of the weights (Polyak averaging), validated beside the current
         weights at every checkpoint (and kept without validation); 0 switches it off.
+    conv_reads : {"all", "displacements"}
+        The state and velocity columns the convolution reads (never the loads): all of them, or the
+        displacements only (rotations then reach the next state through the linear term alone).
     feedback : bool
         Where a data set's scenario has PD tracking loads, apply their law to the model's own state
         (the target and gains are the inputs; ``softrnn.dynamic.feedback``) instead of taking the
@@ -77,6 +81,7 @@ class DynamicConfig:
     ridge: float = 1e-6
     seed: int = 0
     ema: float = 0.995
+    conv_reads: str = "all"
     feedback: bool = True
 
     def __post_init__(self):
@@ -105,6 +110,8 @@ class DynamicConfig:
         nonnegative("linear_lr", self.linear_lr)
         nonnegative("ridge", self.ridge)
         integer("seed", self.seed, 0)
+        if self.conv_reads not in CONV_READS:
+            raise bad("conv_reads", self.conv_reads, f"one of {', '.join(CONV_READS)}")
         if not (0.0 <= float(self.ema) < 1.0):
             raise bad("ema", self.ema, "a decay in [0, 1) (0: no averaging)")
 
@@ -145,3 +152,28 @@ def resolve_node_stride(node_stride: int | None, n_nodes: int) -> int:
 def linear_config(config: DynamicConfig) -> DynamicConfig:
     """The linear baseline's config: the linear term alone, same inputs, no training."""
     return replace(config, linear=True, conv=False, memory="window", steps=0)
+
+
+N_CONST = 3
+"""Per-node constant features (``Encoding.node_features``)."""
+
+
+def n_channels(history: int) -> int:
+    """Features per node: state 6, velocities 6 (history - 1), load 6, constants 3."""
+    return 6 + 6 * (history - 1) + 6 + N_CONST
+
+
+def conv_channels(history: int, reads: str = "all") -> list[int]:
+    """The feature columns the convolution (and the LSTM cell) read: every one but the load's, or
+    with ``reads = "displacements"`` also none of the rotation columns of the state and velocities."""
+    C = n_channels(history)
+    cut = load_channels(history)
+    cols = [c for c in range(C) if not cut.start <= c < cut.stop]
+    if reads == "displacements":
+        cols = [c for c in cols if c >= cut.stop or c % 6 < 3]
+    return cols
+
+
+def load_channels(history: int) -> slice:
+    """Where the load's 6 channels sit among the features (the convolution skips them)."""
+    return slice(6 * history, 6 * history + 6)

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
 from ..errors import SimulationError, bad
+from .config import conv_channels
 
 DIVERGED_M = 16.0
 """A state component beyond this (m or rad) ends a free run as diverged."""
@@ -81,7 +82,7 @@ class DynamicEngine:
         self._f = np.zeros((M, C), dtype=dt)
         self._f[:, 6 * H + 6:] = self.node_features
         self._scale = np.concatenate([1.0 / self.sx] + [1.0 / self.sv] * (H - 1) + [1.0 / self.su]).astype(dt)
-        self._keep = np.r_[0:6 * H, 6 * H + 6:C]
+        self._keep = np.asarray(conv_channels(H, getattr(config, "conv_reads", "all")))
         convs = sorted({int(k.split(".")[1]) for k in w if k.startswith("conv.")})
         self.convs = []
         for i in convs:

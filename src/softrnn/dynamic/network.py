@@ -25,20 +25,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from .config import DynamicConfig
-
-N_CONST = 3
-"""Per-node constant features (``Encoding.node_features``)."""
-
-
-def n_channels(history: int) -> int:
-    """Features per node: state 6, velocities 6 (history - 1), load 6, constants 3."""
-    return 6 + 6 * (history - 1) + 6 + N_CONST
-
-
-def load_channels(history: int) -> slice:
-    """Where the load's 6 channels sit among the features (the convolution skips them)."""
-    return slice(6 * history, 6 * history + 6)
+from .config import DynamicConfig, conv_channels, n_channels
 
 
 def feedback_force(hist: torch.Tensor, feedback, k: int) -> torch.Tensor:
@@ -65,10 +52,13 @@ class DynamicNet(nn.Module):
         C = n_channels(config.history)
         self.n_kept, self.n_in = M, C
         self.linear = nn.Linear(M * C, M * 6) if config.linear else None
-        self.cell = nn.LSTMCell(C - 6, config.width) if config.memory == "lstm" else None
+        self.register_buffer("conv_cols", torch.as_tensor(conv_channels(config.history, config.conv_reads)),
+                             persistent=False)
+        G = int(self.conv_cols.numel())
+        self.cell = nn.LSTMCell(G, config.width) if config.memory == "lstm" else None
         if config.conv or self.cell is not None:
             width, pad = config.width, config.kernel // 2
-            cin = C - 6 + (config.width if self.cell is not None else 0)
+            cin = G + (config.width if self.cell is not None else 0)
             layers = [nn.Conv1d(cin, width, config.kernel, padding=pad), nn.GELU(approximate="tanh")]
             for _ in range(config.layers - 1):
                 layers += [nn.Conv1d(width, width, config.kernel, padding=pad), nn.GELU(approximate="tanh")]
@@ -99,13 +89,12 @@ class DynamicNet(nn.Module):
         a = torch.zeros(B, M, 6, dtype=f.dtype)
         if self.linear is not None:
             a = a + self.linear(f.reshape(B, M * C)).reshape(B, M, 6)
-        cut = load_channels(self.config.history)
-        g = torch.cat([f[..., :cut.start], f[..., cut.stop:]], dim=-1)
+        g = f[..., self.conv_cols]
         if self.cell is not None:
             if memory is None:
                 z = torch.zeros(B * M, self.config.width, dtype=f.dtype)
                 memory = (z, z)
-            h, c = self.cell(g.reshape(B * M, C - 6), memory)
+            h, c = self.cell(g.reshape(B * M, g.shape[-1]), memory)
             memory = (h, c)
             g = torch.cat([g, h.reshape(B, M, -1)], dim=-1)
         if self.conv is not None:

@@ -48,7 +48,7 @@ CONFIGS = {
 }
 """The model of each case (architecture and training); ``--quick`` trains ``QUICK_STEPS`` steps."""
 QUICK_STEPS = 20
-SWEEP = {"dt": 0.01, "n_train": 12, "n_validation": 3, "n_heldout": 8, "workers": 2,
+SWEEP = {"dt": 0.01, "n_train": 12, "n_validation": 6, "n_heldout": 8, "workers": 2,
          "duration_s": {"ellipse": 30.0, "square": 21.0, "semicircle": 21.0}}
 """Each case's sweep: variants 0..n_train-1 are trained on, the next n_validation select the weights
 (``fit``'s validation), the last n_heldout are held out; saved every dt [s] for duration_s [s]."""
