@@ -214,7 +214,11 @@ def _finished(folder: Path, settings: dict):
 def _train_summary(folder, config, encoding, info: dict, data: dict, head: str = "dynamic train:") -> str:
     n = {key: len(data.get(key) or []) for key in ("train", "validation", "heldout")}
     loss = info.get("final_loss")
-    selected = f", weights of step {info['selected_step']}" if n["validation"] and "selected_step" in info else ""
+    selected = ""
+    if n["validation"] and "selected_step" in info:
+        step = info["selected_step"]
+        selected = f", weights of step {step}" + (" (the linear start: no trained checkpoint beat it)" if step == 0
+                                                  else "")
     return (f"{head} {config.steps} steps in {info.get('train_seconds', float('nan')):.1f} s, final loss "
             f"{'-' if loss is None else f'{loss:.4g}'}{selected}; model_dt {encoding.model_dt:g} s, "
             f"{encoding.n_kept} of {encoding.n_nodes} nodes predicted; {n['train']} training trajectories, "
