@@ -1,6 +1,7 @@
 """Entry point of the ``softrnn`` command."""
 
 import argparse
+import signal
 import sys
 
 from ..errors import SimulationError, SoftrnnInputError, missing_extra
@@ -42,8 +43,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM (a scheduler or ``kill`` stopping the job), raised like Ctrl-C so that every command's
+    clean-up runs: temporary files removed, finished steps kept."""
+
+
+def _terminate(signum, frame):
+    raise _Terminated()
+
+
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
+    try:   # only the main thread may set a handler; a caller's own handler comes back afterwards
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:
+        previous = None
+    try:
+        return _main(args)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main(args) -> int:
     try:
         return int(args.func(args) or 0)
     except (SoftrnnInputError, SimulationError) as err:
@@ -64,10 +86,11 @@ def main(argv=None) -> int:
         print(f"softrnn: error: cannot write {err.filename}: {reason}; check that its folder exists and is "
               f"writable and that the disk has room, or choose another path", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("softrnn: interrupted; no partial file was left; reproduce, sweep and study keep their finished "
+    except KeyboardInterrupt as err:
+        what, code = ("terminated", 143) if isinstance(err, _Terminated) else ("interrupted", 130)
+        print(f"softrnn: {what}; no partial file was left; reproduce, sweep and study keep their finished "
               "steps and resume when run again", file=sys.stderr)
-        return 130
+        return code
 
 
 if __name__ == "__main__":

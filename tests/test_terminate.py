@@ -1,0 +1,42 @@
+"""A job stopped by SIGTERM (a scheduler's time limit, ``kill``) cleans up as after Ctrl-C: no
+temporary file is left beside the output, no partial output appears, one line says so, exit 143."""
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+TIMEOUT_S = 300
+
+
+def _command() -> list:
+    script = Path(sys.executable).with_name("softrnn")
+    return [str(script)] if script.is_file() else [sys.executable, "-m", "softrnn.cli.main"]
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_sigterm_while_writing_leaves_no_temporary_file(tmp_path):
+    out = tmp_path / "square.h5"
+    # the square's full run (160,001 samples) takes seconds after its file is opened
+    proc = subprocess.Popen(_command() + ["simulate", "square", "-o", str(out)], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + TIMEOUT_S
+        while not list(tmp_path.glob("*.tmp*")):
+            assert proc.poll() is None, "the run ended before its temporary file was seen"
+            assert time.monotonic() < deadline, "no temporary file appeared"
+            time.sleep(0.02)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=TIMEOUT_S)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 143, err
+    lines = err.strip().splitlines()
+    assert lines and lines[-1].startswith("softrnn: terminated;") and "Traceback" not in err, err
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [], list(tmp_path.iterdir())
