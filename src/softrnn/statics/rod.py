@@ -19,7 +19,7 @@ from ..rod.so3 import frame_from_tangent
 DEFAULT_BASE_ROTATION = frame_from_tangent(np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]))
 
 
-def one_line(value):
+def shown(value):
     """A short one-line stand-in for ``value`` in error messages (arrays become lists, or their
     shape when large)."""
     if isinstance(value, np.ndarray):
@@ -31,9 +31,9 @@ def _vector(name: str, value, unit: str, shape=(3,)) -> np.ndarray:
     try:
         a = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        raise bad(name, one_line(value), f"an array of shape {shape} in {unit}") from None
+        raise bad(name, shown(value), f"an array of shape {shape} in {unit}") from None
     if a.shape != shape or not np.isfinite(a).all():
-        raise bad(name, one_line(value), f"a finite array of shape {shape} in {unit}")
+        raise bad(name, shown(value), f"a finite array of shape {shape} in {unit}")
     a.setflags(write=False)
     return a
 
@@ -259,12 +259,12 @@ class StaticLoads:
             try:
                 a = np.array(value, dtype=float)
             except (TypeError, ValueError):
-                raise bad(name, one_line(value), f"an array of shape (M, {', '.join(map(str, tail))}) in {unit}") \
+                raise bad(name, shown(value), f"an array of shape (M, {', '.join(map(str, tail))}) in {unit}") \
                     from None
             if a.shape == tail:
                 a = a[None]
             if a.ndim != len(tail) + 1 or a.shape[1:] != tail or not np.isfinite(a).all():
-                raise bad(name, one_line(value), f"a finite array of shape (M, {', '.join(map(str, tail))}) or "
+                raise bad(name, shown(value), f"a finite array of shape (M, {', '.join(map(str, tail))}) or "
                                                  f"{tail} in {unit}, one entry per magnet")
             a.setflags(write=False)
             object.__setattr__(self, name, a)

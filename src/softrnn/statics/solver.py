@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import SimulationError, bad, integer
 from ..rod.so3 import matrix_to_quaternion, quaternion_to_matrix
 from . import kernels
-from .rod import StaticLoads, StaticRod, _arc_length, one_line
+from .rod import StaticLoads, StaticRod, _arc_length, shown
 
 DEFAULT_N_STEPS = 40
 DEFAULT_TOL = 1e-6
@@ -414,9 +414,9 @@ def _guess_array(guess) -> np.ndarray:
     try:
         xi = np.array(guess, dtype=float)
     except (TypeError, ValueError):
-        raise bad("guess", one_line(guess), "a base wrench (6,) [N, N m] or a StaticSolution") from None
+        raise bad("guess", shown(guess), "a base wrench (6,) [N, N m] or a StaticSolution") from None
     if xi.shape != (6,) or not np.isfinite(xi).all():
-        raise bad("guess", one_line(guess), "a finite base wrench of shape (6,) [n(0) in N, m(0) in N m]")
+        raise bad("guess", shown(guess), "a finite base wrench of shape (6,) [n(0) in N, m(0) in N m]")
     return xi
 
 
