@@ -12,7 +12,7 @@ import pytest
 from softrnn.dynamic import evaluation
 from softrnn.dynamic.config import DynamicConfig
 from softrnn.dynamic.encoding import make_encoding
-from softrnn.dynamic.feedback import Feedback, feedback_nodes, pd_laws
+from softrnn.dynamic.feedback import Feedback, pd_laws
 from softrnn.errors import SoftrnnInputError
 from softrnn.io.dataset import Dataset
 
@@ -77,7 +77,7 @@ def test_a_sweep_variant_gives_its_own_gains_and_target(square_variant):
     assert law.stiffness != 5.0                         # not the base scenario's gain
     t = np.linspace(0.0, 3.0, 7)
     np.testing.assert_array_equal(law.target(t), want.target(t))
-    assert feedback_nodes(ds, 51) == [50]
+    assert [int(law.node) % 51 for law in pd_laws(ds)] == [50]
 
 
 def test_the_trajectory_drops_the_recorded_pd_force_and_rebuilds_it_from_the_law(square_variant):

@@ -82,7 +82,7 @@ class DynamicEngine:
         self._f = np.zeros((M, C), dtype=dt)
         self._f[:, 6 * H + 6:] = self.node_features
         self._scale = np.concatenate([1.0 / self.sx] + [1.0 / self.sv] * (H - 1) + [1.0 / self.su]).astype(dt)
-        self._keep = np.asarray(conv_channels(H, getattr(config, "conv_reads", "all")))
+        self._keep = np.asarray(conv_channels(H, config.conv_reads))
         convs = sorted({int(k.split(".")[1]) for k in w if k.startswith("conv.")})
         self.convs = []
         for i in convs:
@@ -99,8 +99,6 @@ class DynamicEngine:
             cols = np.empty((M, k * cin), dtype=dt)
             self.convs.append((Wk, w[f"conv.{i}.bias"].astype(dt), pad, buf, view, cols,
                                np.empty((M, cout), dtype=dt)))
-        self._free = ~self.fixed
-        self._sa = self.sa[None, :] * self._free[:, None]     # fixed nodes: no change
 
     def _conv(self, g: np.ndarray) -> np.ndarray:
         """(M, Cin) -> (M, 6) through the convolution stack (GELU between layers)."""
@@ -148,11 +146,11 @@ class DynamicEngine:
                 c, b = self._conv(g), self.bound
                 a += b * np.tanh(c / b) if b > 0 else c
         x = hist[-1]
-        a *= self._sa
+        a *= self.sa
         a += x
         a += x
         a -= hist[-2]
-        a[self.fixed] = x[self.fixed]
+        a[self.fixed] = x[self.fixed]          # fixed nodes keep their state
         return a, memory
 
     def run(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:

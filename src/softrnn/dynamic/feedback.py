@@ -54,18 +54,18 @@ class Feedback:
     def force(self, x: np.ndarray, x_prev: np.ndarray, k: int) -> np.ndarray:
         """The laws' loads (M, 6) [N, N m] at model step ``k`` from states ``x`` = x_k and
         ``x_prev`` = x_(k-1) (M, 6) (the torque columns are zero)."""
-        out = np.zeros((x.shape[0], 6))
-        out[:, :3] = (self.gains[:, :1] * (self.targets[k] - x[:, :3])
-                      - self.gains[:, 1:] * (x[:, :3] - x_prev[:, :3]) / self.model_dt)
-        return out
+        return self._law(self.targets[k], x, x_prev)
 
     def forced(self, states: np.ndarray) -> np.ndarray:
         """The laws' loads along a recorded trajectory (S, M, 6): the teacher-forced inputs (the
         first step, which has no previous state, takes zero velocity)."""
-        out = np.zeros(states.shape[:2] + (6,))
-        prev = np.concatenate([states[:1], states[:-1]])
-        out[..., :3] = (self.gains[None, :, :1] * (self.targets - states[..., :3])
-                        - self.gains[None, :, 1:] * (states[..., :3] - prev[..., :3]) / self.model_dt)
+        return self._law(self.targets, states, np.concatenate([states[:1], states[:-1]]))
+
+    def _law(self, targets: np.ndarray, x: np.ndarray, x_prev: np.ndarray) -> np.ndarray:
+        """stiffness (target - x) - damping (x - x_prev) / model_dt in the force columns of (..., M, 6)."""
+        out = np.zeros(x.shape[:-1] + (6,))
+        out[..., :3] = (self.gains[:, :1] * (targets - x[..., :3])
+                        - self.gains[:, 1:] * (x[..., :3] - x_prev[..., :3]) / self.model_dt)
         return out
 
 
@@ -92,11 +92,6 @@ def pd_laws(dataset) -> list:
                   "data whose scenario_text softrnn can read, or feedback = false (the recorded PD forces "
                   "as inputs)") from None
     return [load for load in scenario.setup.loads if isinstance(load, PDTracking)]
-
-
-def feedback_nodes(dataset, n_nodes: int) -> list[int]:
-    """The rod nodes (0-based) that carry a PD law in ``dataset``'s scenario."""
-    return sorted({int(law.node) % n_nodes for law in pd_laws(dataset)})
 
 
 def feedback_of(encoding, dataset, time: np.ndarray) -> Feedback | None:

@@ -105,19 +105,20 @@ def _windows(trajectories: list[Trajectory], length: int) -> np.ndarray:
 def _batch(trajectories, picks: np.ndarray, H: int, K: int):
     """hist (B, H, M, 6), loads (B, K, M, 6), future (B, K, M, 6) as float32 tensors and the
     feedback laws (gains (B, M, 2), targets (B, K, M, 3), model_dt) for ``DynamicNet.rollout``, or
-    None when no trajectory has any."""
+    None when no picked trajectory has any."""
     hist, loads, future, gains, targets = [], [], [], [], []
     M = trajectories[0].states.shape[1]
+    dts = {trajectories[i].feedback.model_dt for i, _ in picks if trajectories[i].feedback is not None}
     for i, s in picks:
         t = trajectories[i]
         hist.append(t.states[s:s + H])
         loads.append(t.loads[s + H - 1:s + H - 1 + K])
         future.append(t.states[s + H:s + H + K])
-        fb = t.feedback
-        gains.append(np.zeros((M, 2)) if fb is None else fb.gains)
-        targets.append(np.zeros((K, M, 3)) if fb is None else fb.targets[s + H - 1:s + H - 1 + K])
+        if dts:          # zero gains where a trajectory has no law
+            fb = t.feedback
+            gains.append(np.zeros((M, 2)) if fb is None else fb.gains)
+            targets.append(np.zeros((K, M, 3)) if fb is None else fb.targets[s + H - 1:s + H - 1 + K])
     as_t = lambda a: torch.as_tensor(np.asarray(a), dtype=torch.float32)  # noqa: E731
-    dts = {t.feedback.model_dt for t in trajectories if t.feedback is not None}
     feedback = (as_t(gains), as_t(targets), dts.pop()) if dts else None
     return as_t(hist), as_t(loads), as_t(future), feedback
 
