@@ -34,18 +34,18 @@ def require() -> None:
     import distributed  # noqa: F401
 
 
-def completed(tasks, scheduler: str | None, n_workers: int, *, alternatives: str = "", local_guard=None):
-    """Yield the results of ``tasks`` (a list of ``(function, args, key)``) as they finish.
+@contextmanager
+def dask_client(scheduler: str | None, n_workers: int, *, alternatives: str = "", local_guard=None):
+    """A ``distributed.Client``, closed at the end.
 
     ``scheduler`` None: a ``LocalCluster`` of ``n_workers`` single-threaded processes (their numba
     pinned to one thread through the workers' own environment, ``WORKER_ENV``), closed at the end;
-    otherwise the address of a running Dask scheduler
-    (one that does not answer is a one-line ``SoftrnnInputError`` naming ``--scheduler``;
-    ``alternatives`` adds other options to its message). ``local_guard``: a context manager
-    entered while the local cluster starts (e.g. to make its workers ignore Ctrl-C). Tasks not yet
-    finished are cancelled when the generator is closed.
+    otherwise the address of a running Dask scheduler (one that does not answer is a one-line
+    ``SoftrnnInputError`` naming ``--scheduler``; ``alternatives`` adds other options to its
+    message). ``local_guard``: a context manager entered while the local cluster starts (e.g. to
+    make its workers ignore Ctrl-C).
     """
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, LocalCluster
 
     cluster = None
     try:
@@ -63,14 +63,24 @@ def completed(tasks, scheduler: str | None, n_workers: int, *, alternatives: str
                     f"with 'dask scheduler' and 'dask worker ADDRESS', {alternatives}or omit --scheduler for a "
                     f"local cluster") from None
         with client:
-            futures = [client.submit(fn, *args, key=key) for fn, args, key in tasks]
-            try:
-                for fut in as_completed(futures):
-                    yield fut.result()
-            finally:
-                for fut in futures:
-                    fut.cancel()
+            yield client
     finally:
         if cluster is not None:
             with restored_environ():
                 cluster.close()
+
+
+def completed(tasks, scheduler: str | None, n_workers: int, *, alternatives: str = "", local_guard=None):
+    """Yield the results of ``tasks`` (a list of ``(function, args, key)``) as they finish, on the
+    client of ``dask_client(scheduler, n_workers, alternatives=..., local_guard=...)``. Tasks not
+    yet finished are cancelled when the generator is closed."""
+    from distributed import as_completed
+
+    with dask_client(scheduler, n_workers, alternatives=alternatives, local_guard=local_guard) as client:
+        futures = [client.submit(fn, *args, key=key) for fn, args, key in tasks]
+        try:
+            for fut in as_completed(futures):
+                yield fut.result()
+        finally:
+            for fut in futures:
+                fut.cancel()

@@ -1,0 +1,388 @@
+"""Bounded nonlinear least squares over a simulator's parameters, with parallel finite differences.
+
+The simulator is a picklable callable ``model(values) -> prediction``: ``values`` a tuple of the
+parameters' values in ``Parameter`` order, ``prediction`` a 1-D float array of m values comparable
+with the measurement (raising ``SimulationError`` where the trial value makes it unstable). ``fit``
+minimises ``sum((w * (prediction - measured))**2)`` over the finite entries of ``measured`` with
+``scipy.optimize.least_squares`` (trust region reflective, bounds).
+
+* **Parameter space.** Each parameter is fitted as x = ln(value / start) where its lower bound is
+  positive (a relative step is equally meaningful for a modulus of 2.5 MPa and a damping of 0.1),
+  else as x = (value - start) / (upper - lower); both put the start at x = 0.
+* **Jacobian.** Forward differences of step ``diff_step`` in x (backward at an upper bound). The
+  n + 1 simulations of a point and its differences are independent and go to the ``Evaluator`` in
+  one batch (in this process, or on Dask), speculatively, before the optimiser asks for the
+  Jacobian, when it has more than one worker.
+* **Failed trials.** A trial the simulator cannot run (``SimulationError``, or a non-finite
+  prediction) gets a residual of ``PENALTY`` times the starting point's root-mean-square residual
+  (so the optimiser rejects the step) and is counted; a difference that fails is taken in the other
+  direction. A start that fails is an error.
+* **Uncertainty.** Standard errors from the Jacobian J at the optimum: cov = s^2 (J^T J)^-1 with
+  s^2 = sum(r^2) / (m - n), mapped back to the values (delta method). They assume independent
+  measurement errors; a model error correlated over time makes them optimistic. Pairs correlated
+  beyond ``CORRELATION_LIMIT`` and parameters the data do not move (a zero column of J) are
+  reported as not identifiable.
+* **Resuming.** With ``cache_dir``, every trial's prediction is kept in a file named by a hash of
+  ``fingerprint`` and the trial's x; the optimiser is deterministic, so a run that is interrupted
+  and started again replays the finished trials from the files and goes on where it stopped.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SimulationError, SoftrnnInputError, bad, is_finite_number
+from ..progress import Progress
+
+PENALTY = 1e3
+"""Residual of a failed trial, as a multiple of the start's root-mean-square residual."""
+
+CORRELATION_LIMIT = 0.99
+"""Parameter pairs correlated beyond this (in absolute value) are reported as not identifiable."""
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A fitted parameter: its ``name`` (e.g. a dotted scenario key), ``start`` value and bounds
+    ``lower`` < ``upper`` (the start within them)."""
+
+    name: str
+    start: float
+    lower: float
+    upper: float
+
+    def __post_init__(self):
+        for what in ("start", "lower", "upper"):
+            if not is_finite_number(getattr(self, what)):
+                raise bad(f"{self.name}.{what}", getattr(self, what), "a finite number")
+            object.__setattr__(self, what, float(getattr(self, what)))
+        if not self.lower < self.upper:
+            raise bad(f"{self.name}.bounds", [self.lower, self.upper], "[lower, upper] with lower < upper")
+        if not self.lower <= self.start <= self.upper:
+            raise bad(f"{self.name}.start", self.start,
+                      f"a start within its bounds [{self.lower:g}, {self.upper:g}] (widen the bounds or move "
+                      f"the start)")
+        if self.lower > 0 and self.start <= 0:
+            raise bad(f"{self.name}.start", self.start, "a positive start (the bounds are positive)")
+
+    @property
+    def log(self) -> bool:
+        """Whether it is fitted in ln(value) (positive bounds) rather than in value."""
+        return self.lower > 0
+
+    def to_x(self, value: float) -> float:
+        """The optimiser's coordinate of ``value`` (0 at the start)."""
+        if self.log:
+            return math.log(value / self.start)
+        return (value - self.start) / (self.upper - self.lower)
+
+    def from_x(self, x: float) -> float:
+        """The value at the optimiser's coordinate ``x``."""
+        if self.log:
+            return self.start * math.exp(x)
+        return self.start + x * (self.upper - self.lower)
+
+    def value_scale(self, x: float) -> float:
+        """d value / d x at ``x`` (maps a standard error in x to one in the value)."""
+        return self.from_x(x) if self.log else self.upper - self.lower
+
+
+@dataclass(frozen=True, kw_only=True)
+class FitOptions:
+    """How to fit.
+
+    max_evaluations : int
+        Largest number of points the optimiser evaluates (``least_squares``' ``max_nfev``; each
+        costs one simulation, and a Jacobian n more).
+    diff_step : float
+        Finite-difference step in the fitted coordinate x (a relative step for ln-fitted values).
+    xtol, ftol, gtol : float
+        ``least_squares``' tolerances on the step, the cost's decrease and the gradient.
+    """
+
+    max_evaluations: int = 40
+    diff_step: float = 1e-4
+    xtol: float = 1e-8
+    ftol: float = 1e-8
+    gtol: float = 1e-10
+
+    def __post_init__(self):
+        if isinstance(self.max_evaluations, bool) or not isinstance(self.max_evaluations, int) \
+                or self.max_evaluations < 2:
+            raise bad("max_evaluations", self.max_evaluations, "an integer >= 2")
+        for name in ("diff_step", "xtol", "ftol", "gtol"):
+            v = getattr(self, name)
+            if not is_finite_number(v) or not 0 < v < 1:
+                raise bad(name, v, "a number in (0, 1)")
+
+
+@dataclass(frozen=True, eq=False)
+class FitResult:
+    """A finished fit (n parameters, m measured values used).
+
+    names : parameter names; start, fitted, std_error : (n,) values in the parameters' units
+    correlation : (n, n) correlation of the estimates; not_identifiable : lines saying which are not
+    rms_start, rms_fitted : root-mean-square weighted residual at the start and at the optimum
+    prediction_start, prediction_fitted : (m_all,) the model's predictions (the full vector)
+    trials : simulations run (cached ones included); failed_trials : those the simulator could not run
+    cached_trials : those read from ``cache_dir``; evaluations : points the optimiser evaluated
+    seconds : wall time; success, message : ``least_squares``' verdict
+    """
+
+    names: tuple
+    start: np.ndarray
+    fitted: np.ndarray
+    std_error: np.ndarray
+    correlation: np.ndarray
+    not_identifiable: list
+    rms_start: float
+    rms_fitted: float
+    prediction_start: np.ndarray
+    prediction_fitted: np.ndarray
+    trials: int
+    failed_trials: int
+    cached_trials: int
+    evaluations: int
+    seconds: float
+    success: bool
+    message: str
+    measurements: int = 0
+    history: list = field(default_factory=list)
+
+    def values(self) -> dict:
+        """{name: fitted value}."""
+        return {n: float(v) for n, v in zip(self.names, self.fitted)}
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (no prediction arrays)."""
+        return {
+            "parameters": {n: {"start": float(s), "fitted": float(f), "std_error": float(e)}
+                           for n, s, f, e in zip(self.names, self.start, self.fitted, self.std_error)},
+            "correlation": [[float(c) for c in row] for row in self.correlation],
+            "not_identifiable": list(self.not_identifiable),
+            "rms_residual_start": self.rms_start, "rms_residual_fitted": self.rms_fitted,
+            "measurements": self.measurements, "trials": self.trials, "failed_trials": self.failed_trials,
+            "cached_trials": self.cached_trials, "evaluations": self.evaluations, "seconds": self.seconds,
+            "success": self.success, "message": self.message,
+            "history": [{"trial": t, "rms_residual": r, "values": v} for t, r, v in self.history],
+        }
+
+
+# --------------------------------------------------------------------------------------------- trials
+def run_trial(model, values: tuple) -> tuple:
+    """(prediction or None, message): ``model(values)``, with a failure caught (runs on a worker)."""
+    try:
+        pred = np.asarray(model(tuple(float(v) for v in values)), dtype=np.float64).ravel()
+    except (SimulationError, FloatingPointError, ZeroDivisionError) as err:
+        return None, str(err).splitlines()[0] if str(err) else type(err).__name__
+    except SoftrnnInputError as err:          # e.g. a trial value the model's own checks refuse
+        return None, str(err)
+    if not np.all(np.isfinite(pred)):
+        return None, "the prediction is not finite"
+    return pred, ""
+
+
+class _Trials:
+    """The predictions of every x tried, from memory, the cache folder or a batch of simulations."""
+
+    def __init__(self, model, parameters, evaluator, cache_dir, fingerprint: str, progress, budget: int):
+        self.model, self.parameters, self.evaluator = model, parameters, evaluator
+        self.cache_dir = None if cache_dir is None else Path(cache_dir)
+        self.fingerprint = fingerprint
+        self.progress, self.budget = progress, budget
+        self.memory: dict = {}
+        self.trials = self.failed = self.cached = 0
+        self.last_message = ""
+
+    def values(self, x: np.ndarray) -> tuple:
+        return tuple(p.from_x(float(v)) for p, v in zip(self.parameters, x))
+
+    def _file(self, key: bytes) -> Path:
+        digest = hashlib.sha256(self.fingerprint.encode() + key).hexdigest()[:24]
+        return self.cache_dir / f"trial-{digest}.npy"
+
+    def _from_cache(self, key: bytes):
+        if self.cache_dir is None:
+            return False, None
+        path = self._file(key)
+        failed = path.with_suffix(".failed")
+        if failed.exists():
+            return True, (None, failed.read_text(encoding="utf-8"))
+        if path.exists():
+            try:
+                return True, (np.load(path), "")
+            except (OSError, ValueError):
+                path.unlink(missing_ok=True)
+        return False, None
+
+    def _to_cache(self, key: bytes, pred, message: str) -> None:
+        if self.cache_dir is None:
+            return
+        from ..files import atomic_write_bytes, atomic_write_text
+
+        self.cache_dir.mkdir(parents=True, exist_ok=True)
+        path = self._file(key)
+        if pred is None:
+            atomic_write_text(path.with_suffix(".failed"), message)
+        else:
+            import io
+
+            buf = io.BytesIO()
+            np.save(buf, pred)
+            atomic_write_bytes(path, buf.getvalue())
+
+    def get(self, points: list) -> list:
+        """The (prediction or None, message) of every x in ``points`` (new ones simulated as one batch)."""
+        todo = []
+        for x in points:
+            key = np.asarray(x, np.float64).tobytes()
+            if key in self.memory or any(key == k for k, _ in todo):
+                continue
+            hit, entry = self._from_cache(key)
+            if hit:
+                self.memory[key] = entry
+                self.trials += 1
+                self.cached += 1
+                self.failed += entry[0] is None
+            else:
+                todo.append((key, x))
+        if todo:
+            results = self.evaluator.map(run_trial, self.model, [self.values(x) for _, x in todo])
+            for (key, _), (pred, message) in zip(todo, results):
+                self.memory[key] = (pred, message)
+                self._to_cache(key, pred, message)
+                self.trials += 1
+                if pred is None:
+                    self.failed += 1
+                    self.last_message = message
+        if self.progress is not None:
+            self.progress(min(self.trials, self.budget), self.budget, {"trials": self.trials, "failed": self.failed})
+        return [self.memory[np.asarray(x, np.float64).tobytes()] for x in points]
+
+
+def _fd_points(x: np.ndarray, h: float, upper: np.ndarray) -> list:
+    """The n forward-difference points of x (backward where x + h passes the upper bound)."""
+    pts = []
+    for i in range(x.size):
+        p = x.copy()
+        p[i] = x[i] + h if x[i] + h <= upper[i] else x[i] - h
+        pts.append(p)
+    return pts
+
+
+def fit(model, measured, parameters, *, weights=None, evaluator=None, options: FitOptions | None = None,
+        progress: Progress | None = None, cache_dir=None, fingerprint: str = "") -> FitResult:
+    """Fit ``parameters`` (``Parameter`` list) so that ``model(values)`` matches ``measured``.
+
+    measured : (m,) measurements, NaN where there is none (left out)
+    weights : (m,) or scalar or None (1): multiplies each residual (e.g. 1 / its noise level)
+    evaluator : ``Evaluator`` (None: this process)
+    progress : ``progress(trials, budget, info)`` after every batch of simulations
+    cache_dir, fingerprint : keep every trial in ``cache_dir`` to resume (see the module docstring)
+    """
+    from scipy.optimize import least_squares
+
+    from .parallel import Evaluator
+
+    options = FitOptions() if options is None else options
+    parameters = list(parameters)
+    if not parameters or not all(isinstance(p, Parameter) for p in parameters):
+        raise bad("parameters", parameters, "a non-empty list of Parameter entries")
+    names = tuple(p.name for p in parameters)
+    if len(set(names)) != len(names):
+        raise bad("parameters", list(names), "each parameter once")
+    evaluator = Evaluator() if evaluator is None else evaluator
+    y = np.asarray(measured, dtype=np.float64).ravel()
+    use = np.isfinite(y)
+    if use.sum() <= len(parameters):
+        raise bad("measured", f"{int(use.sum())} finite values", f"more measurements than the {len(parameters)} "
+                                                                  f"fitted parameters")
+    w = np.broadcast_to(np.asarray(1.0 if weights is None else weights, np.float64), y.shape)
+    if not np.all(np.isfinite(w[use])) or np.any(w[use] < 0):
+        raise bad("weights", "non-finite or negative values", "finite weights >= 0")
+    n = len(parameters)
+    lower = np.array([p.to_x(p.lower) for p in parameters])
+    upper = np.array([p.to_x(p.upper) for p in parameters])
+    x0 = np.zeros(n)
+    h = options.diff_step
+    budget = options.max_evaluations * (n + 1)
+    trials = _Trials(model, parameters, evaluator, cache_dir, fingerprint, progress, budget)
+    speculate = evaluator.workers > 1
+    t0 = time.perf_counter()
+
+    (pred0, message0), *_ = trials.get([x0] + (_fd_points(x0, h, upper) if speculate else []))
+    if pred0 is None:
+        raise SoftrnnInputError(f"the simulation fails at the start values {dict(zip(names, trials.values(x0)))}: "
+                                f"{message0}; start from values the simulator can run")
+    if pred0.shape != y.shape:
+        raise bad("measured", f"{y.size} values", f"as many values as the model predicts ({pred0.size})")
+    r0 = (w * (pred0 - y))[use]
+    rms0 = float(np.sqrt(np.mean(r0 ** 2)))
+    penalty = PENALTY * max(rms0, 1e-300)
+    history = []
+
+    def residual_of(pred):
+        if pred is None:
+            return np.full(int(use.sum()), penalty)
+        return (w * (pred - y))[use]
+
+    def fun(x):
+        batch = [x] + (_fd_points(x, h, upper) if speculate else [])
+        pred, _ = trials.get(batch)[0]
+        r = residual_of(pred)
+        history.append((trials.trials, float(np.sqrt(np.mean(r ** 2))), dict(zip(names, trials.values(x)))))
+        return r
+
+    def jac(x):
+        pts = _fd_points(x, h, upper)
+        base = residual_of(trials.get([x])[0][0])
+        results = trials.get(pts)
+        J = np.zeros((base.size, n))
+        for i, (p, (pred, _)) in enumerate(zip(pts, results)):
+            if pred is None:                       # try the other side once
+                q = x.copy()
+                q[i] = 2 * x[i] - p[i]
+                if lower[i] <= q[i] <= upper[i]:
+                    p = q
+                    pred = trials.get([q])[0][0]
+            if pred is not None:
+                J[:, i] = (residual_of(pred) - base) / (p[i] - x[i])
+        return J
+
+    res = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf", x_scale=1.0,
+                        max_nfev=options.max_evaluations, xtol=options.xtol, ftol=options.ftol, gtol=options.gtol)
+    xf = np.asarray(res.x, np.float64)
+    pred_f = trials.get([xf])[0][0]
+    rf = residual_of(pred_f)
+    J = jac(xf)
+    m = rf.size
+    s2 = float(rf @ rf) / max(m - n, 1)
+    JTJ = J.T @ J
+    cov = s2 * np.linalg.pinv(JTJ)
+    se_x = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    scale = np.array([p.value_scale(v) for p, v in zip(parameters, xf)])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(se_x, se_x)
+    corr = np.where(np.isfinite(corr), corr, 0.0)
+    np.fill_diagonal(corr, 1.0)
+    issues = [f"{names[i]}: the data do not depend on it (zero sensitivity)"
+              for i in range(n) if not np.any(J[:, i])]
+    for i in range(n):
+        for j in range(i + 1, n):
+            if abs(corr[i, j]) > CORRELATION_LIMIT:
+                issues.append(f"{names[i]} and {names[j]}: correlated {corr[i, j]:+.4f} (beyond "
+                              f"{CORRELATION_LIMIT}); the data fix a combination of them, not each one")
+    return FitResult(names=names, start=np.array([p.start for p in parameters]),
+                     fitted=np.array(trials.values(xf)), std_error=se_x * scale, correlation=corr,
+                     not_identifiable=issues, rms_start=rms0, rms_fitted=float(np.sqrt(np.mean(rf ** 2))),
+                     prediction_start=pred0,
+                     prediction_fitted=pred_f if pred_f is not None else np.full_like(y, np.nan),
+                     trials=trials.trials, failed_trials=trials.failed, cached_trials=trials.cached,
+                     evaluations=int(res.nfev), seconds=time.perf_counter() - t0, success=bool(res.success),
+                     message=str(res.message), measurements=int(m), history=history)
