@@ -149,8 +149,8 @@ def test_failed_static_solves_are_counted_never_used():
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("experiment")
-    config = ExperimentConfig(**TINY)
-    return config, out, run_experiment(config, out)
+    config = ExperimentConfig(**TINY, calibration_evaluations=3)
+    return config, out, run_experiment(config, out, workers=1)
 
 
 def test_table1_has_the_documented_shape(tiny_run):
@@ -159,7 +159,7 @@ def test_table1_has_the_documented_shape(tiny_run):
     paper = paper_case("magnetic_experiment")["test_max_mean_abs_deg"]
     assert result["paper"] == paper
     for name in ("distal", "proximal"):
-        for model in ("rnn", "cosserat"):
+        for model in ("rnn", "cosserat", "calibrated"):
             table = result[name][model]
             assert all(v[0] >= v[1] >= 0 for v in table)                       # max >= mean
         assert result[name]["cosserat"][2] == [0.0, 0.0]                         # about z: 0 by definition,
@@ -173,18 +173,30 @@ def test_table1_has_the_documented_shape(tiny_run):
                 "rnn_steps_per_second", "total_s"):
         assert key in result["timings"]
     assert set(result["assumptions"]) >= {"robot", "camera", "orientation", "static_model", "lstm"}
-    for f in ("robot.h5", "table1.json", "fig12.png", "models/proximal/config.json", "models/distal/config.json"):
+    cal = result["calibration"]
+    assert set(cal["parameters"]) == {"stiffness", "remanence", "damping"}
+    for name, p in cal["parameters"].items():
+        assert p["truth"] == getattr(config, name) and p["std_error"] > 0
+        assert p["bounds"][0] <= p["fitted"] <= p["bounds"][1]
+    assert cal["samples"] == 18 and cal["evaluations"] <= 3 and cal["failed_trials"] == 0
+    assert cal["rms_residual_fitted"] < cal["rms_residual_start"]
+    assert set(result["best_on_bending_axis"]) == {"distal", "proximal"}
+    assert not (out / ".calibration-trials").exists()
+    for f in ("robot.h5", "table1.json", "fig12.png", "calibration.json", "models/proximal/config.json",
+              "models/distal/config.json"):
         assert (out / f).is_file()
     assert json.loads((out / "table1.json").read_text())["distal"] == result["distal"]
 
 
 def test_a_rerun_reuses_the_simulation_and_gives_the_same_table(tiny_run):
     config, out, result = tiny_run
-    again = run_experiment(config, out)
+    again = run_experiment(config, out, workers=1)
     assert again["timings"]["simulation_resumed"] and not result["timings"]["simulation_resumed"]
     for name in ("distal", "proximal"):
         assert again[name]["rnn"] == result[name]["rnn"]
         assert again[name]["cosserat"] == result[name]["cosserat"]
+        assert again[name]["calibrated"] == result[name]["calibrated"]
+    assert again["calibration"] == result["calibration"]                         # read from calibration.json
 
 
 @pytest.mark.slow

@@ -103,12 +103,15 @@ class FitOptions:
     diff_step : float
         Finite-difference step in the fitted coordinate x (a relative step for ln-fitted values).
     xtol, ftol, gtol : float
-        ``least_squares``' tolerances on the step, the cost's decrease and the gradient.
+        ``least_squares``' tolerances on the step, the cost's decrease and the gradient. Besides,
+        the fit stops as soon as a point's cost is within ``ftol`` (relative) of the best so far,
+        whether it improves on it or not: the optimum is then known as well as the finite
+        differences allow, and ``least_squares`` would only shrink its trust region further.
     """
 
     max_evaluations: int = 40
     diff_step: float = 1e-4
-    xtol: float = 1e-8
+    xtol: float = 1e-6
     ftol: float = 1e-8
     gtol: float = 1e-10
 
@@ -266,6 +269,10 @@ class _Trials:
         return [self.memory[np.asarray(x, np.float64).tobytes()] for x in points]
 
 
+class _Converged(Exception):
+    """Raised inside the optimiser's residual call to stop it (``FitOptions`` says when)."""
+
+
 def _fd_points(x: np.ndarray, h: float, upper: np.ndarray) -> list:
     """The n forward-difference points of x (backward where x + h passes the upper bound)."""
     pts = []
@@ -332,11 +339,21 @@ def fit(model, measured, parameters, *, weights=None, evaluator=None, options: F
             return np.full(int(use.sum()), penalty)
         return (w * (pred - y))[use]
 
+    best = {"cost": None, "x": x0}
+    evaluations = [0]
+
     def fun(x):
         batch = [x] + (_fd_points(x, h, upper) if speculate else [])
         pred, _ = trials.get(batch)[0]
         r = residual_of(pred)
+        evaluations[0] += 1
+        cost = float(r @ r)
         history.append((trials.trials, float(np.sqrt(np.mean(r ** 2))), dict(zip(names, trials.values(x)))))
+        previous = best["cost"]
+        if previous is None or cost < previous:
+            best.update(cost=cost, x=np.array(x, dtype=np.float64))
+        if previous is not None and abs(cost - previous) <= options.ftol * previous:
+            raise _Converged()
         return r
 
     def jac(x):
@@ -355,9 +372,14 @@ def fit(model, measured, parameters, *, weights=None, evaluator=None, options: F
                 J[:, i] = (residual_of(pred) - base) / (p[i] - x[i])
         return J
 
-    res = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf", x_scale=1.0,
-                        max_nfev=options.max_evaluations, xtol=options.xtol, ftol=options.ftol, gtol=options.gtol)
-    xf = np.asarray(res.x, np.float64)
+    try:
+        res = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf", x_scale=1.0,
+                            max_nfev=options.max_evaluations, xtol=options.xtol, ftol=options.ftol,
+                            gtol=options.gtol)
+        xf, success, message = np.asarray(res.x, np.float64), bool(res.success), str(res.message)
+    except _Converged:
+        xf, success = best["x"], True
+        message = f"the cost changed by less than ftol = {options.ftol:g} (relative) from the best point"
     pred_f = trials.get([xf])[0][0]
     rf = residual_of(pred_f)
     J = jac(xf)
@@ -384,5 +406,5 @@ def fit(model, measured, parameters, *, weights=None, evaluator=None, options: F
                      prediction_start=pred0,
                      prediction_fitted=pred_f if pred_f is not None else np.full_like(y, np.nan),
                      trials=trials.trials, failed_trials=trials.failed, cached_trials=trials.cached,
-                     evaluations=int(res.nfev), seconds=time.perf_counter() - t0, success=bool(res.success),
-                     message=str(res.message), measurements=int(m), history=history)
+                     evaluations=evaluations[0], seconds=time.perf_counter() - t0, success=success,
+                     message=message, measurements=int(m), history=history)

@@ -32,6 +32,21 @@ def _training_args(p, epochs_help: str):
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
+def _calibration_args(p, default: bool):
+    if default:
+        p.add_argument("--no-calibrate", dest="calibrate", action="store_false",
+                       help="skip the calibrated dynamic Cosserat model (fitted to the training span's camera record)")
+    else:
+        p.add_argument("--calibrate", action="store_true",
+                       help="also fit the dynamic Cosserat model's stiffness, remanence and damping factors to the "
+                            "training span (needs currents at a constant interval) and predict the test span with "
+                            "it from the currents alone (the 'calibrated dynamic Cosserat' row)")
+    p.add_argument("--workers", type=int, default=2, help="local Dask worker processes for the calibration's "
+                                                          "simulations (default 2; 1: in this process)")
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="run the calibration's simulations on an existing Dask cluster")
+
+
 def add_args(p):
     sub = p.add_subparsers(title="subcommands", dest="magnetic", required=True,
                            parser_class=_sub_parser_class(type(p)))
@@ -46,6 +61,7 @@ def add_args(p):
                                                         "paper's 669 samples and 25 epochs")
     e.add_argument("--samples", type=int, default=None, help="measured samples (default: 669, quick: 240)")
     _training_args(e, "training epochs (default: 25, quick: 8)")
+    _calibration_args(e, True)
     c = sub.add_parser("compare", help="the same comparison on a lab CSV (docs/magnetic-format.md)",
                        description="Read a CSV of coil currents (and/or magnet wrenches) and measured magnet "
                                    "orientations, predict the orientations with the static Cosserat model from the "
@@ -54,6 +70,7 @@ def add_args(p):
     c.add_argument("csv", help="the lab CSV (layout in docs/magnetic-format.md, e.g. examples/magnetic_lab.csv)")
     c.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder (created)")
     _training_args(c, "training epochs (default: 25)")
+    _calibration_args(c, False)
     x = sub.add_parser("example-csv", help="write a simulated example lab CSV",
                        description="Simulate a short run of the experiment and write it in the lab format "
                                    "(currents, orientations, magnet positions): examples/magnetic_lab.csv is made so.")
@@ -113,6 +130,15 @@ def _print_result(result: dict) -> None:
             print(f"{name}: about {axis} the LSTM {'beats' if won else 'does not beat'} the static model on the mean "
                   f"error ({r[1]:.2f} vs {c[1]:.2f} deg) and {'beats' if beats_max.get(name) else 'does not beat'} it "
                   f"on the max ({r[0]:.2f} vs {c[0]:.2f} deg)")
+    cal = result.get("calibration")
+    if cal:
+        fitted = ", ".join(f"{name} x{p['fitted']:.4f} +- {p['std_error']:.4f}"
+                           + (f" (real {p['truth']:g}, {p['error_pct']:+.2f} %)" if "truth" in p else "")
+                           for name, p in cal["parameters"].items())
+        print(f"calibration ({cal['samples']} samples, {cal['trials']} simulations, {cal['failed_trials']} failed, "
+              f"{cal['seconds']:.1f} s): {fitted}")
+        for warning in cal.get("not_identifiable") or []:
+            print(f"calibration: not identifiable: {warning}")
     st = result.get("static")
     if st:
         print(f"static model: {st['solves']} solves, {st['failures']} failed samples (left out)")
@@ -152,18 +178,23 @@ def run(args) -> int:
                    fix="pass --overwrite to replace them, or choose another folder")
     if args.json:
         prepare_output(args.json, "--json", overwrite=args.overwrite)
-    fields = {"seed": args.seed, "output": args.output}
+    fields = {"seed": args.seed, "output": args.output, "calibrate": bool(args.calibrate)}
+    from ..calibration.parallel import Evaluator
+
+    Evaluator(workers=args.workers, scheduler=args.scheduler)          # checks --workers, --scheduler now
     if args.epochs is not None:
         fields["epochs"] = args.epochs
     with _Stages(not args.quiet) as progress:
         if args.magnetic == "experiment":
             if args.samples is not None:
                 fields["samples"] = args.samples
-            result = run_experiment(ExperimentConfig(quick=args.quick, **fields), args.out, progress=progress)
+            result = run_experiment(ExperimentConfig(quick=args.quick, **fields), args.out, progress=progress,
+                                    workers=args.workers, scheduler=args.scheduler)
         else:
             from ..experiments.magnetic.lab import compare_lab
 
-            result = compare_lab(args.csv, ExperimentConfig(**fields), args.out, progress=progress)
+            result = compare_lab(args.csv, ExperimentConfig(**fields), args.out, progress=progress,
+                                 workers=args.workers, scheduler=args.scheduler)
     _print_result(result)
     if args.json:
         atomic_write_text(args.json, json.dumps(result, indent=2, allow_nan=False) + "\n")

@@ -477,14 +477,16 @@ def _magnetic_lines(m: dict | None) -> list[str]:
     axes = "xyz"
     lines = ["", "## The magnetic experiment, simulated (paper section 5, Table 1)", "",
              "Errors (max, mean) in degrees about x, y, z on the last 40 % of the samples: the LSTM one step ahead "
-             "from the measured history (as the paper), the LSTM free running, and the static Cosserat model from the "
-             "coil currents. The simulated robot's parameters are perturbed from the static model's (see "
+             "from the measured history (as the paper), the LSTM free running, the static Cosserat model from the "
+             "coil currents, and the dynamic Cosserat model calibrated to the training span's camera record, from "
+             "the coil currents alone. The simulated robot's parameters are perturbed from the nominal ones (see "
              "docs/magnetic-format.md).", "",
              "| magnet | model | x | y | z | paper x | paper y | paper z |", "|---|---|---|---|---|---|---|---|"]
     paper = m.get("paper", {})
     for magnet in ("distal", "proximal"):
         for key, label, pkey in (("rnn", "LSTM (one step)", "rnn"), ("rnn_free_running", "LSTM (free running)", None),
-                                 ("cosserat", "static Cosserat", "cosserat")):
+                                 ("cosserat", "static Cosserat", "cosserat"),
+                                 ("calibrated", "calibrated dynamic Cosserat", None)):
             row = m[magnet].get(key)
             if row is None:
                 continue
@@ -498,5 +500,35 @@ def _magnetic_lines(m: dict | None) -> list[str]:
         wins = m.get("lstm_beats_static_on_bending_axis") or {}
         lines += ["", f"Bending axis: {name}. The LSTM's mean error is below the static model's there: distal "
                       f"{wins.get('distal')}, proximal {wins.get('proximal')}."]
+        best = m.get("best_on_bending_axis")
+        if best:
+            names = {"rnn": "LSTM (one step)", "rnn_free_running": "LSTM (free running)", "cosserat": "static Cosserat",
+                     "calibrated": "calibrated dynamic Cosserat"}
+            lines += ["", "Lowest error about the bending axis: " + "; ".join(
+                f"{magnet} max {names.get(b['max'], b['max'])}, mean {names.get(b['mean'], b['mean'])}"
+                for magnet, b in best.items()) + "."]
+    lines += _calibration_lines(m.get("calibration"))
     lines += ["", "![fig12](figures/fig12.png)"]
+    return lines
+
+
+def _calibration_lines(c: dict | None) -> list[str]:
+    """The magnetic calibration: fitted factors beside the real robot's, time and trials."""
+    if not c:
+        return []
+    lines = ["", "### Calibration of the dynamic model (softrnn.calibration)", "",
+             f"Fitted to {c['samples']} samples ({c['span_s'][1]:.1f} s) of the training span: {c['measured']}. "
+             f"{c['trials']} simulations ({c['failed_trials']} failed, {c.get('cached_trials', 0)} reused), "
+             f"{c['seconds']:.1f} s on {c['workers']} worker(s).", "",
+             "| factor | fitted | std error | real robot | error |", "|---|---|---|---|---|"]
+    for name, p in c["parameters"].items():
+        truth = p.get("truth")
+        lines.append(f"| {name} ({p['factor_of']}) | {p['fitted']:.4f} | {p['std_error']:.4f} | "
+                     + (f"{truth:g} | {p['error_pct']:+.2f} % |" if truth is not None else "- | - |"))
+    goals = c.get("goals")
+    if goals:
+        lines += ["", "Goals: " + ", ".join(f"{k.replace('_', ' ')}: {'met' if v else 'MISSED'}"
+                                           for k, v in goals.items()) + "."]
+    for warning in c.get("not_identifiable") or []:
+        lines.append(f"Not identifiable: {warning}.")
     return lines

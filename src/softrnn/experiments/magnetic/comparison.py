@@ -69,10 +69,11 @@ def _paper_table() -> dict:
 
 
 def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, progress: Progress | None = None,
-            static_info: dict | None = None, figure_title: str = "") -> dict:
+            static_info: dict | None = None, figure_title: str = "", calibrated_orientations=None) -> dict:
     """Train the two LSTMs (paper Fig. 11) on the first ``train_fraction`` of ``dataset``
     (``orientation_dataset``), predict the rest one step ahead and free running, and compare with
-    the static model's ``static_orientations`` (T, 2, 3) [rad] (None: no static model) on the same
+    the static model's ``static_orientations`` (T, 2, 3) [rad] (None: no static model) and the
+    calibrated dynamic model's ``calibrated_orientations`` (T, 2, 3) [rad] (None: none) on the same
     targets. Writes ``out_dir/models/{proximal,distal}``, ``table1.json`` and ``fig12.png``;
     returns the table dict (see ``run_experiment``)."""
     from ...files import atomic_write_text
@@ -84,12 +85,14 @@ def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, 
     train = TrainConfig(epochs=config.epochs, batch_size=config.batch_size, seed=config.seed, patience=config.epochs,
                         rollout_steps=config.rollout_steps)
     static = None if static_orientations is None else np.asarray(static_orientations, float)
+    calibrated = None if calibrated_orientations is None else np.asarray(calibrated_orientations, float)
     result = {"unit": "deg", "axes": list(AXES), "orientation": ORIENTATION_NOTE}
     predictions, rates, train_seconds = {}, {}, 0.0
     for m, name in enumerate(MAGNETS):
         model, seconds = _train_magnet(dataset, m, config, train, out / MODELS_DIR / name, progress)
         train_seconds += seconds
-        result[name], predictions[name] = _score_magnet(model, dataset, measured, m, static, out / MODELS_DIR / name)
+        result[name], predictions[name] = _score_magnet(model, dataset, measured, m, static, out / MODELS_DIR / name,
+                                                        calibrated)
         rates[name] = _stepper_rate(model, dataset)
         if progress is not None:
             progress(m + 1, len(MAGNETS), {"stage": "evaluate"})
@@ -112,7 +115,10 @@ def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, 
         "timings": {"training_s": train_seconds,
                     "rnn_steps_per_second": {name: float(rates[name]) for name in MAGNETS}},
     })
-    fig = plot_fig12(np.asarray(dataset.time), measured, predictions, static, title=figure_title)
+    if calibrated is not None:
+        result["best_on_bending_axis"] = _best(result, AXES.index(bending))
+    fig = plot_fig12(np.asarray(dataset.time), measured, predictions, static, title=figure_title,
+                     calibrated=calibrated)
     from ...figures import plots as plotting
 
     plotting.save(fig, out / FIGURE_FILE)
@@ -141,10 +147,10 @@ def _train_magnet(dataset, m: int, config: ExperimentConfig, train, model_dir: P
     return model, time.perf_counter() - t0
 
 
-def _score_magnet(model, dataset, measured, m: int, static, model_dir: Path) -> tuple:
+def _score_magnet(model, dataset, measured, m: int, static, model_dir: Path, calibrated=None) -> tuple:
     """(Table 1 entry, predictions) of magnet ``m``'s ``model`` on the test span: errors one step
-    ahead and free running against ``measured`` (T, 2, 3) [rad], and the ``static`` model's
-    (T, 2, 3) [rad] or None on the same targets."""
+    ahead and free running against ``measured`` (T, 2, 3) [rad], and the ``static`` and
+    ``calibrated`` models' (T, 2, 3) [rad] (each None: absent) on the same targets."""
     from ...surrogate.evaluate import free_running, one_step
     from ...surrogate.rollout import RolloutDiverged
 
@@ -157,13 +163,17 @@ def _score_magnet(model, dataset, measured, m: int, static, model_dir: Path) -> 
     meas = measured[idx, m]
     entry = {"rnn": _errors_deg(one.predicted, meas),
              "rnn_free_running": None if free_pred is None else _errors_deg(free_pred, meas),
-             "cosserat": None}
+             "cosserat": None, "calibrated": None}
     angles = {"rnn": _angle_errors(one.predicted, meas)}
     if static is not None:
         st = static[idx, m]
         entry["cosserat"] = _errors_deg(st, meas)
         angles["cosserat"] = _angle_errors(st, meas)
         entry["cosserat_samples"] = int(np.all(np.isfinite(st), axis=1).sum())
+    if calibrated is not None:
+        cal = calibrated[idx, m]
+        entry["calibrated"] = _errors_deg(cal, meas)
+        angles["calibrated"] = _angle_errors(cal, meas)
     entry["tangent_angles"] = angles
     entry["model"] = str(model_dir)
     entry["epochs_run"] = model.meta.get("epochs_run")
@@ -181,6 +191,21 @@ def _beats(result: dict, axis: int) -> tuple:
     return {name: lower(name, 1) for name in MAGNETS}, {name: lower(name, 0) for name in MAGNETS}
 
 
+def _best(result: dict, axis: int) -> dict:
+    """Per magnet and statistic ("max", "mean"), the model with the lowest error about ``axis``
+    among the LSTM one step ahead ("rnn"), the LSTM free running ("rnn_free_running"), the static
+    ("cosserat") and the calibrated dynamic model ("calibrated")."""
+    out = {}
+    for name in MAGNETS:
+        out[name] = {}
+        for k, stat in enumerate(("max", "mean")):
+            scores = {model: result[name][model][axis][k] for model in
+                      ("rnn", "rnn_free_running", "cosserat", "calibrated")
+                      if result[name].get(model) is not None and result[name][model][axis][k] is not None}
+            out[name][stat] = min(scores, key=scores.get) if scores else None
+    return out
+
+
 def format_table(result: dict) -> list[str]:
     """Table 1 beside the paper's as text lines: per magnet and model, (max, mean) [deg] about x, y, z."""
     def cell(v):
@@ -192,6 +217,7 @@ def format_table(result: dict) -> list[str]:
         rows = [("LSTM (one step ahead)", result[name]["rnn"]),
                 ("LSTM (free running)", result[name].get("rnn_free_running")),
                 ("static Cosserat model", result[name].get("cosserat")),
+                ("calibrated dynamic Cosserat", result[name].get("calibrated")),
                 ("paper: RNN-based model", result["paper"][name]["rnn"]),
                 ("paper: Cosserat rod model", result["paper"][name]["cosserat"])]
         for label, table in rows:
@@ -203,9 +229,9 @@ def format_table(result: dict) -> list[str]:
 def check_result_shape(result: dict) -> None:
     """Raise ``SoftrnnInputError`` unless ``result`` has the documented Table 1 shape (tests, reproduce)."""
     for name in MAGNETS:
-        for model in ("rnn", "cosserat"):
+        for model in ("rnn", "cosserat", "calibrated"):
             table = result.get(name, {}).get(model)
-            if table is None and model == "cosserat":
+            if table is None and model != "rnn":
                 continue
             ok = isinstance(table, list) and len(table) == 3 and all(
                 isinstance(v, list) and len(v) == 2 and all(isinstance(x, float) for x in v) for v in table)

@@ -20,7 +20,7 @@ MAGNETS = ("proximal", "distal")
 AXES = ("x", "y", "z")
 """The world axes of the orientation components (rotation vectors (..., 3) [rad] in this order)."""
 
-STAGES = ("simulate", "camera", "static", "train proximal", "train distal", "evaluate")
+STAGES = ("simulate", "camera", "calibrate", "predict", "static", "train proximal", "train distal", "evaluate")
 """The stages the experiment reports, in order, as ``info["stage"]`` of ``progress(done, total, info)``."""
 
 QUICK_SAMPLES = 240
@@ -32,6 +32,7 @@ ROBOT_FILE = "robot.h5"
 TABLE_FILE = "table1.json"
 FIGURE_FILE = "fig12.png"
 MODELS_DIR = "models"
+CALIBRATION_FILE = "calibration.json"
 """File and folder names inside the output folder (the real robot's record, Table 1, Fig. 12, the LSTMs)."""
 
 ORIENTATION_NOTE = (
@@ -110,6 +111,16 @@ class ExperimentConfig:
         What the LSTM predicts (``ModelConfig.output``): ``"increment"`` (the next orientation minus
         the last; the most accurate one step ahead) or ``"pose"`` (the next orientation itself, as
         the paper; about 1.5x less accurate one step ahead here, but stable when free running).
+    calibrate : bool
+        Also fit the dynamic Cosserat model's stiffness, remanence and damping factors to the camera
+        record of the training span (``calibration``), and predict the test span with it from the
+        currents alone (the "calibrated dynamic Cosserat" row of Table 1).
+    calibration_fraction : float
+        Leading fraction of the training span the calibration fits to (0.5: the first 6.7 s of the
+        paper-length record; enough to fix stiffness and remanence to 0.1 % and damping to a few %,
+        and within the 2-minute budget on 2 cores: each trial simulates the span at a 3 us step).
+    calibration_evaluations : int
+        Largest number of points the calibration's optimiser evaluates (``FitOptions.max_evaluations``).
     quick : bool
         Fewer samples and epochs (a smoke test under a minute).
     """
@@ -139,6 +150,9 @@ class ExperimentConfig:
     lstm_units: int = 32
     rollout_steps: int = 4
     output: str = "increment"
+    calibrate: bool = True
+    calibration_fraction: float = 0.5
+    calibration_evaluations: int = 12
     quick: bool = False
 
     def __post_init__(self):
@@ -198,6 +212,13 @@ class ExperimentConfig:
         object.__setattr__(self, "batch_size", integer("batch_size", self.batch_size, 1))
         object.__setattr__(self, "lstm_units", integer("lstm_units", self.lstm_units, 1))
         object.__setattr__(self, "rollout_steps", integer("rollout_steps", self.rollout_steps, 1))
+        if not isinstance(self.calibrate, (bool, np.bool_)):
+            raise bad("calibrate", self.calibrate, "true or false")
+        object.__setattr__(self, "calibrate", bool(self.calibrate))
+        number("calibration_fraction", self.calibration_fraction, low=0.05, high=1.0,
+               unit="(leading fraction of the training span)")
+        object.__setattr__(self, "calibration_evaluations",
+                           integer("calibration_evaluations", self.calibration_evaluations, 2))
         if self.output not in ("increment", "pose"):
             raise bad("output", self.output, "'increment' (next minus last orientation) or 'pose' (next orientation)")
 
@@ -233,6 +254,12 @@ class ExperimentConfig:
         nominal = ManipulatorSpec() if nominal is None else nominal
         return nominal.scaled(stiffness=self.stiffness, remanence=self.remanence, damping=self.damping,
                               density=self.density)
+
+    def calibration_samples(self, samples: int | None = None) -> int:
+        """Samples the calibration fits to: the leading ``calibration_fraction`` of the training span
+        of a record of ``samples`` (None: ``self.samples``)."""
+        T = self.samples if samples is None else int(samples)
+        return max(8, int(math.floor(self.calibration_fraction * math.floor(self.train_fraction * T))))
 
     def simulation_fingerprint(self) -> str:
         """Hash of everything the real robot's record depends on (resuming checks it)."""

@@ -7,7 +7,7 @@ import numpy as np
 from .config import AXES, MAGNETS
 
 
-def plot_fig12(time_s, measured, predictions: dict, static, title: str = ""):
+def plot_fig12(time_s, measured, predictions: dict, static, title: str = "", calibrated=None):
     """Like the paper's Fig. 12: measured and predicted orientation over the test span, both magnets
     (columns), about y (the bending axis) and about x (rows), plus the absolute error about y;
     LSTM one step ahead (and free running, dotted), static Cosserat model.
@@ -25,6 +25,8 @@ def plot_fig12(time_s, measured, predictions: dict, static, title: str = ""):
         The static model's predictions (NaN where it failed), or None for no static model.
     title : str
         Figure title (empty: a default).
+    calibrated : (T, 2, 3) [rad] or None
+        The calibrated dynamic Cosserat model's predictions from the currents alone, or None.
 
     Returns
     -------
@@ -47,6 +49,10 @@ def plot_fig12(time_s, measured, predictions: dict, static, title: str = ""):
             if static is not None:
                 ax.plot(t, np.degrees(static[idx, m, c]), color="tab:red", lw=1.0, label="static Cosserat model")
                 shown.append(np.degrees(static[idx, m, c]))
+            if calibrated is not None:
+                ax.plot(t, np.degrees(calibrated[idx, m, c]), color="tab:green", lw=1.0,
+                        label="calibrated dynamic Cosserat")
+                shown.append(np.degrees(calibrated[idx, m, c]))
             lo, hi = np.nanmin(np.concatenate(shown)), np.nanmax(np.concatenate(shown))
             pad = 0.15 * max(hi - lo, 1.0)
             if p["free"] is not None:                     # may drift far: keep the axis on the others
@@ -60,6 +66,9 @@ def plot_fig12(time_s, measured, predictions: dict, static, title: str = ""):
         if static is not None:
             ax.plot(t, np.degrees(np.abs(static[idx, m, 1] - measured[idx, m, 1])), color="tab:red", lw=0.8,
                     label="static Cosserat")
+        if calibrated is not None:
+            ax.plot(t, np.degrees(np.abs(calibrated[idx, m, 1] - measured[idx, m, 1])), color="tab:green", lw=0.8,
+                    label="calibrated dynamic")
         ax.set_ylabel(f"{name}: |error| about y [deg]")
         ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)

@@ -274,7 +274,8 @@ def write_example_csv(path, samples: int = 300, *, seed: int = 1) -> LabData:
 
 
 # ----------------------------------------------------------------------------------------- comparison
-def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, progress: Progress | None = None) -> dict:
+def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, progress: Progress | None = None,
+                workers: int = 1, scheduler: str | None = None) -> dict:
     """The paper's comparison on a lab CSV: the static Cosserat model (nominal softrnn manipulator
     and coil layout, ``static_rod``) predicts the magnets' orientations from the currents; one LSTM
     per magnet (paper Fig. 11) trains on the first ``config.train_fraction`` of the samples and
@@ -285,6 +286,12 @@ def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, pr
     The LSTMs' input II is the magnet wrench: the CSV's, or else computed from the currents, the
     nominal magnet moments along the measured tangents and the magnet positions (the CSV's, else
     the static model's). Without currents the static model is skipped (``cosserat`` is None).
+
+    With ``config.calibrate`` (and currents at a constant interval), the dynamic model's stiffness,
+    remanence and damping factors are also fitted to the first ``config.calibration_fraction`` of
+    the training span (``run.calibrate_and_predict``; simulations on ``workers`` local processes or
+    the Dask ``scheduler``), and the fitted model predicts the rest from the currents alone: the
+    ``calibrated`` row, and ``calibration`` in the result.
     """
     config = ExperimentConfig() if config is None else config
     if not isinstance(config, ExperimentConfig):
@@ -302,6 +309,14 @@ def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, pr
     if min(cut, T - cut) < need:
         raise _fail(Path(csv), f"has {T} samples: the {100 * config.train_fraction:g} % training and the test span "
                                f"need at least history + 4 = {need} samples each; record more samples")
+    calibration, calibrated = None, None
+    if config.calibrate:
+        from .run import calibrate_and_predict
+
+        dt = _constant_interval(Path(csv), data)
+        calibration, calibrated = calibrate_and_predict(
+            data.currents, data.orientations, data.positions, config, spec=spec, dt=dt, workers=workers,
+            scheduler=scheduler, progress=progress)
     static = None
     if data.currents is not None:
         static = static_predictions(data.currents, spec=spec, n_steps=config.static_steps, tol=config.static_tol,
@@ -324,7 +339,9 @@ def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, pr
                        "n_steps": config.static_steps, "tol": config.static_tol,
                        "solves_per_second": static.solves_per_second}
     result = compare(dataset, None if static is None else static.orientations, config, out, progress=progress,
-                     static_info=static_info, figure_title=f"{Path(csv).name}: orientations over the test span")
+                     static_info=static_info, figure_title=f"{Path(csv).name}: orientations over the test span",
+                     calibrated_orientations=calibrated)
+    result["calibration"] = calibration
     result["source"] = str(csv)
     result["wrenches_from"] = source
     result["assumptions"] = {
@@ -340,6 +357,27 @@ def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, pr
 
     atomic_write_text(out / "table1.json", json.dumps(result, indent=2, allow_nan=False) + "\n")
     return result
+
+
+CALIBRATION_DT_SPREAD = 0.01
+"""Largest relative deviation of a time step from the median step for ``--calibrate`` (the dynamic
+model is driven by the currents at t = k dt)."""
+
+
+def _constant_interval(path: Path, data: LabData) -> float:
+    """The record's sample interval [s] for the calibration, or a one-line error: it needs currents
+    and a constant interval."""
+    if data.currents is None:
+        raise _fail(path, "has no current columns I0..I5: --calibrate drives the dynamic model with the coil "
+                          "currents; add them or leave out --calibrate")
+    steps = np.diff(data.time)
+    dt = float(np.median(steps))
+    spread = float(np.max(np.abs(steps / dt - 1.0)))
+    if spread > CALIBRATION_DT_SPREAD:
+        raise _fail(path, f"has time steps up to {100 * spread:.1f} % off the median {dt:.6g} s: --calibrate needs "
+                          f"samples at a constant interval (within {100 * CALIBRATION_DT_SPREAD:g} %); resample the "
+                          f"record or leave out --calibrate")
+    return dt
 
 
 def _filled(positions: np.ndarray) -> np.ndarray:

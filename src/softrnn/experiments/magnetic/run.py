@@ -13,7 +13,7 @@ from ...magnetics.camera import camera_measure
 from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, check_manipulator_run, simulate_manipulator
 from ...progress import Progress
 from .comparison import compare
-from .config import MAGNETS, ORIENTATION_NOTE, ROBOT_FILE, TABLE_FILE, ExperimentConfig
+from .config import CALIBRATION_FILE, MAGNETS, ORIENTATION_NOTE, ROBOT_FILE, TABLE_FILE, ExperimentConfig
 from .currents import experiment_currents
 from .dataset import measured_wrenches, orientation_dataset
 from .static import static_predictions
@@ -55,6 +55,115 @@ def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path,
     return stored.time, np.asarray(stored.positions, np.float64), traj.currents, seconds, False
 
 
+def _calibration_fingerprint(config: ExperimentConfig) -> str:
+    import hashlib
+
+    keys = ("camera_noise", "camera_points", "polynomial_degree", "train_fraction", "calibration_fraction",
+            "calibration_evaluations")
+    d = {k: config.to_dict()[k] for k in keys}
+    d["simulation"] = config.simulation_fingerprint()
+    return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def calibrate_and_predict(currents, orientations, positions, config: ExperimentConfig, *, spec: ManipulatorSpec,
+                          dt: float | None = None, truth: dict | None = None, workers: int = 2,
+                          scheduler: str | None = None, progress: Progress | None = None,
+                          cache_dir=None) -> tuple[dict, np.ndarray]:
+    """Fit the dynamic model's stiffness, remanence and damping factors to the first
+    ``config.calibration_samples`` samples of a record (``currents`` (T, n_c) [A], measured
+    ``orientations`` (T, M, 3) [rad], ``positions`` (T, M, 3) [m] or None; samples ``dt`` [s] apart,
+    None: ``config.dt``), then predict the whole record from the currents alone with the fitted
+    model. Returns (the report's ``calibration`` dict, the predicted orientations (T, M, 3) [rad]).
+    ``truth``: the real robot's factors, when known (the simulated experiment), reported beside
+    the fitted ones."""
+    from dataclasses import replace as dc_replace
+
+    from ...calibration.fit import FitOptions
+    from ...calibration.parallel import Evaluator
+    from .calibration import BOUNDS, FACTORS, calibrate_manipulator
+
+    T = int(np.asarray(currents).shape[0])
+    n = config.calibration_samples(T)
+    dt = config.dt if dt is None else float(dt)
+
+    def report(done: int, total: int, info: dict | None = None) -> None:
+        progress(done, total, {**(info or {}), "stage": "calibrate"})
+
+    t0 = time.perf_counter()
+    with Evaluator(workers=workers, scheduler=scheduler) as evaluator:
+        fitted, model = calibrate_manipulator(
+            currents[:n], orientations[:n], None if positions is None else positions[:n], dt=dt,
+            settle=config.settle, points=config.camera_points, degree=config.polynomial_degree, spec=spec,
+            evaluator=evaluator, options=FitOptions(max_evaluations=config.calibration_evaluations),
+            progress=None if progress is None else report, cache_dir=cache_dir)
+        n_workers = evaluator.workers
+    seconds = time.perf_counter() - t0
+    if progress is not None:
+        progress(0, 1, {"stage": "predict"})
+    t1 = time.perf_counter()
+    full = dc_replace(model, currents=np.asarray(currents, dtype=np.float64))
+    predicted, _ = full.camera(fitted.fitted)
+    predict_seconds = time.perf_counter() - t1
+    if progress is not None:
+        progress(1, 1, {"stage": "predict"})
+    nominal = {"stiffness": f"Young's modulus {spec.youngs_modulus:g} Pa",
+               "remanence": "remanence " + ", ".join(f"{m.br:g} T" for m in spec.magnets),
+               "damping": f"damping {spec.damping}"}
+    params = {}
+    for i, name in enumerate(FACTORS):
+        entry = {"fitted": float(fitted.fitted[i]), "std_error": float(fitted.std_error[i]), "start": 1.0,
+                 "bounds": list(BOUNDS[name]), "factor_of": nominal[name]}
+        if truth is not None:
+            entry["truth"] = float(truth[name])
+            entry["error_pct"] = 100.0 * (entry["fitted"] / entry["truth"] - 1.0)
+        params[name] = entry
+    info = {"parameters": params, "seconds": seconds, "trials": fitted.trials, "failed_trials": fitted.failed_trials,
+            "cached_trials": fitted.cached_trials, "evaluations": fitted.evaluations, "workers": n_workers,
+            "samples": n, "span_s": [0.0, (n - 1) * dt],
+            "measured": "each magnet's orientation about x and y" + ("" if positions is None else " and position")
+                        + ", per channel over its noise level (estimated from the fourth differences)",
+            "rms_residual_start": fitted.rms_start, "rms_residual_fitted": fitted.rms_fitted,
+            "correlation": fitted.to_dict()["correlation"], "not_identifiable": fitted.not_identifiable,
+            "success": fitted.success, "message": fitted.message, "prediction_seconds": predict_seconds,
+            "history": fitted.to_dict()["history"]}
+    if truth is not None:
+        err = {k: abs(v["error_pct"]) for k, v in params.items()}
+        info["goals"] = {"stiffness_within_1pct": err["stiffness"] <= 1.0,
+                         "remanence_within_1pct": err["remanence"] <= 1.0,
+                         "damping_within_10pct": err["damping"] <= 10.0,
+                         "within_2_minutes": seconds <= 120.0}
+    return info, predicted
+
+
+def _calibrated(config: ExperimentConfig, spec: ManipulatorSpec, currents, cam, out: Path, workers: int,
+                scheduler: str | None, progress: Progress | None) -> tuple:
+    """(calibration dict, predicted orientations (T, M, 3) [rad]), reused from ``calibration.json``
+    when it holds this record's calibration."""
+    from ...files import atomic_write_text
+
+    path = out / CALIBRATION_FILE
+    fingerprint = _calibration_fingerprint(config)
+    if path.exists():
+        try:
+            stored = json.loads(path.read_text())
+            if stored.get("fingerprint") == fingerprint:
+                if progress is not None:
+                    progress(1, 1, {"stage": "predict"})
+                return stored["calibration"], np.asarray(stored["predicted_orientations"], float)
+        except (OSError, ValueError, KeyError, TypeError):
+            pass                                                                  # calibrate again
+    truth = {"stiffness": config.stiffness, "remanence": config.remanence, "damping": config.damping}
+    info, predicted = calibrate_and_predict(currents, cam.orientations, cam.positions, config, spec=spec, truth=truth,
+                                            workers=workers, scheduler=scheduler, progress=progress,
+                                            cache_dir=out / ".calibration-trials")
+    atomic_write_text(path, json.dumps({"fingerprint": fingerprint, "calibration": info,
+                                        "predicted_orientations": predicted.tolist()}) + "\n")
+    import shutil
+
+    shutil.rmtree(out / ".calibration-trials", ignore_errors=True)
+    return info, predicted
+
+
 def assumptions(config: ExperimentConfig) -> dict:
     """The documented modelling choices of the simulated experiment (for the report)."""
     return {
@@ -80,23 +189,35 @@ def assumptions(config: ExperimentConfig) -> dict:
                 f"paper computed it); history {config.history}, first {100 * config.train_fraction:g} % for "
                 f"training (its last 20 % for early stopping), {config.epochs} epochs, batch {config.batch_size}, "
                 f"2 x {config.lstm_units} LSTM units",
+        "calibration": (f"the dynamic Cosserat model (the robot's structure, nominal values) with its Young's "
+                        f"modulus, remanence and damping scaled by factors fitted (softrnn.calibration, bounded least "
+                        f"squares) to the camera's magnet orientations about x and y and positions over the first "
+                        f"{100 * config.calibration_fraction:g} % of the training span, each channel weighted by its "
+                        f"noise level; the recorded 30 Hz currents drive it, linear in between (the robot had them "
+                        f"10x finer); it then predicts the whole record from the currents alone"
+                        if config.calibrate else "not run"),
         "evaluation": "errors against the camera measurement on the test span; the LSTM one step ahead from the "
                       "measured history (as Table 1) and free running (own history, the other magnet measured)",
     }
 
 
-def run_experiment(config: ExperimentConfig, out_dir, progress: Progress | None = None) -> dict:
+def run_experiment(config: ExperimentConfig, out_dir, progress: Progress | None = None, *, workers: int = 2,
+                   scheduler: str | None = None) -> dict:
     """Run the simulated experiment into ``out_dir`` and return the report.
 
     Files: ``robot.h5`` (the real robot's record: every node, the currents in its attrs; reused when
-    it exists with the same simulation settings), ``models/proximal`` and ``models/distal`` (the
-    LSTMs), ``table1.json`` (the report) and ``fig12.png``.
+    it exists with the same simulation settings), ``calibration.json`` (the calibration and the
+    calibrated model's predictions; reused likewise), ``models/proximal`` and ``models/distal``
+    (the LSTMs), ``table1.json`` (the report) and ``fig12.png``. ``workers``, ``scheduler``: where
+    the calibration's simulations run (``softrnn.calibration.parallel.Evaluator``).
 
     Returns
     -------
     dict (JSON-ready)
-        ``distal`` and ``proximal``, each with ``rnn``, ``cosserat`` and ``rnn_free_running`` as
-        [[max, mean] per axis x, y, z] in degrees (and ``tangent_angles``); ``paper`` (Table 1 in the
+        ``distal`` and ``proximal``, each with ``rnn``, ``cosserat``, ``calibrated`` and
+        ``rnn_free_running`` as [[max, mean] per axis x, y, z] in degrees (and ``tangent_angles``);
+        ``calibration`` (``calibrate_and_predict``; None with ``config.calibrate`` false);
+        ``best_on_bending_axis`` (per magnet and statistic, the model with the lowest error); ``paper`` (Table 1 in the
         same shape); ``bending_axis`` (the axis of the largest measured range); per magnet
         ``lstm_beats_static_on_bending_axis`` (a lower mean error about it) and ``..._max`` (a lower
         max error); ``static`` (failures,
@@ -124,6 +245,9 @@ def run_experiment(config: ExperimentConfig, out_dir, progress: Progress | None 
     wrenches = measured_wrenches(spec, currents, cam.positions, cam.tangents)
     if progress is not None:
         progress(1, 1, {"stage": "camera"})
+    calibration, calibrated = None, None
+    if config.calibrate:
+        calibration, calibrated = _calibrated(config, spec, currents, cam, out, workers, scheduler, progress)
     static = static_predictions(currents, spec=spec, n_steps=config.static_steps, tol=config.static_tol,
                                 position_tol=config.position_tol, max_failures=config.max_static_failures,
                                 progress=progress)
@@ -134,7 +258,9 @@ def run_experiment(config: ExperimentConfig, out_dir, progress: Progress | None 
     dataset = orientation_dataset(time_s, cam.orientations, wrenches, extra={"experiment": config.to_dict()})
     result = compare(dataset, static.orientations, config, out, progress=progress, static_info=static_info,
                      figure_title=f"Simulated magnetic experiment ({config.samples} samples at "
-                                  f"{config.sample_rate:g} Hz): orientations over the test span (the paper's Fig. 12)")
+                                  f"{config.sample_rate:g} Hz): orientations over the test span (the paper's Fig. 12)",
+                     calibrated_orientations=calibrated)
+    result["calibration"] = calibration
     result["timings"].update({
         "simulation_s": sim_seconds, "simulation_resumed": resumed,
         "simulated_seconds": float(time_s[-1] - time_s[0]) + config.settle,
