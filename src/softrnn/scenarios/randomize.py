@@ -69,35 +69,36 @@ def _draw(rng: np.random.Generator, dist: str, p):
     return copy.deepcopy(p[int(rng.integers(0, len(p)))])  # choice
 
 
-def _set_path(ctx: _Ctx, doc: dict, dotted: str, value) -> None:
+def _set_path(ctx: _Ctx, doc: dict, dotted: str, value, table: str = "randomize") -> None:
     """Set doc[a][b][0]... = value; every container on the way must exist (the last key of a table
-    may be new, e.g. an optional key left at its default)."""
+    may be new, e.g. an optional key left at its default). ``table`` names the key's table in errors."""
     parts = dotted.split(".")
-    if parts[0] in ("randomize", "format", "name", "seed"):
-        raise ctx.error(f"randomize.{dotted}", f"randomize: '{dotted}' cannot be randomised")
+    if parts[0] in ("randomize", "calibrate", "format", "name", "seed"):
+        raise ctx.error(f"{table}.{dotted}", f"{table}: '{dotted}' cannot be "
+                                             f"{'randomised' if table == 'randomize' else 'set'}")
     node = doc
     for depth, part in enumerate(parts):
         last = depth == len(parts) - 1
         here = ".".join(parts[:depth]) or "the document"
         if isinstance(node, dict):
             if part not in node and not last:
-                raise ctx.error(f"randomize.{dotted}",
-                                f"randomize: '{dotted}' names no value: {here} has no key '{part}'")
+                raise ctx.error(f"{table}.{dotted}",
+                                f"{table}: '{dotted}' names no value: {here} has no key '{part}'")
             if last:
                 node[part] = value
             else:
                 node = node[part]
         elif isinstance(node, list):
             if not part.isdigit() or int(part) >= len(node):
-                raise ctx.error(f"randomize.{dotted}", f"randomize: '{dotted}' names no value: {here} is a list of "
+                raise ctx.error(f"{table}.{dotted}", f"{table}: '{dotted}' names no value: {here} is a list of "
                                                        f"{len(node)} entries, '{part}' is not an index in it")
             if last:
                 node[int(part)] = value
             else:
                 node = node[int(part)]
         else:
-            raise ctx.error(f"randomize.{dotted}",
-                            f"randomize: '{dotted}' names no value: {here} = {_show(node)} has no entries")
+            raise ctx.error(f"{table}.{dotted}",
+                            f"{table}: '{dotted}' names no value: {here} = {_show(node)} has no entries")
 
 
 def _sample(ctx: _Ctx, doc: dict, randomize: dict, seed: int, index: int) -> tuple[dict, dict]:

@@ -4,8 +4,9 @@ Python API (``RodSpec``, shapes, ``Clamp``/``Pin``, loads, ``Damping``, ``Setup`
 A scenario names the rod, its reference (stress-free) and initial shapes, the boundary conditions,
 the loads, damping and gravity, the saved interval and duration (or sample count), the solver
 sub-steps, the nodes of interest and a seed; an optional ``[randomize]`` table declares which values
-a sweep varies and how (``Scenario.variant(i)``). The format is documented in
-docs/scenario-format.md. The paper's cases and their generalisation variants ship inside the
+a sweep varies and how (``Scenario.variant(i)``), and an optional ``[calibrate]`` table the bounds of
+the values ``softrnn calibrate`` may fit (``Scenario.with_values`` builds a trial). The format is
+documented in docs/scenario-format.md. The paper's cases and their generalisation variants ship inside the
 package (``SCENARIO_NAMES``, files in ``softrnn/scenarios/``).
 
 Every problem found on load is a one-line ``ScenarioError`` (a ``SoftrnnInputError``) that starts
@@ -24,7 +25,8 @@ import numpy as np
 from ..errors import SoftrnnInputError, bad
 from ..rod.simulation import Damping, RunConfig, Setup
 from ._sections import _DAMPING_KEYS, _boundary, _loads, _rod, _run, _shape
-from .randomize import _flatten_randomize, _sample
+from .calibrate import _check_calibrate, _flatten_calibrate
+from .randomize import _flatten_randomize, _sample, _set_path
 from .reading import ScenarioError as ScenarioError
 from .reading import _as_is, _Ctx, _show, _Table, integer, number, string, table_list, vec3
 
@@ -49,13 +51,16 @@ _TOP_KEYS = {
     "damping": "the damping table: translational, rotational, kelvin_voigt",
     "run": "the run table: dt, duration or n_samples, substeps, nodes_of_interest, ...",
     "randomize": "a table of dotted keys -> distributions for sweeps",
+    "calibrate": "a table of dotted keys -> {bounds = [lo, hi], start = value} for softrnn calibrate",
 }
 
 
 @dataclass(frozen=True, eq=False)
 class Scenario:
     """A loaded scenario: the TOML ``text`` and its parsed ``data`` (for a variant: with the sampled
-    values substituted), and what they build: ``setup``, ``config``, ``nodes_of_interest``."""
+    values substituted), and what they build: ``setup``, ``config``, ``nodes_of_interest``.
+    ``randomize`` maps dotted keys to their distributions, ``calibrate`` to (lower, upper, start or
+    None) from the ``[calibrate]`` table."""
 
     name: str
     title: str
@@ -71,6 +76,7 @@ class Scenario:
     sampled: dict = field(default_factory=dict)
     assumptions: dict = field(default_factory=dict)
     randomize: dict = field(default_factory=dict, repr=False)
+    calibrate: dict = field(default_factory=dict, repr=False)
 
     @property
     def randomized(self) -> bool:
@@ -94,6 +100,21 @@ class Scenario:
         except ScenarioError as exc:
             raise ScenarioError(exc.source, exc.key, f"{str(exc)[len(exc.source) + 2:]} "
                                                      f"(variant {index}, sampled {_show(sampled)})") from None
+
+    def with_values(self, values: dict) -> Scenario:
+        """The scenario with each dotted key of ``values`` (as in ``[randomize]``) set to its value
+        in a copy of the file's document (a variant's draws are not kept), built with the same
+        validation as the file (a trial of ``softrnn calibrate``). ``sampled`` records the values;
+        ``text`` stays the original."""
+        ctx = _Ctx(self.source, _base_for(self.source))
+        doc = _parse_toml(ctx, self.text)
+        for key, value in values.items():
+            _set_path(ctx, doc, key, value, table="calibrate")
+        try:
+            return _build(ctx, self.text, doc, sampled=dict(values))
+        except ScenarioError as exc:
+            raise ScenarioError(exc.source, exc.key, f"{str(exc)[len(exc.source) + 2:]} "
+                                                     f"(with {_show(dict(values))})") from None
 
 
 def _parse_toml(ctx: _Ctx, text: str) -> dict:
@@ -164,9 +185,11 @@ def _build(ctx: _Ctx, text: str, doc: dict, variant_index: int | None = None, sa
     setup = _setup(ctx, top, doc, gravity)
     config, interest = _run(ctx, top.raw_value("run"), setup.rod, setup.damping)
     randomize = _flatten_randomize(ctx, top.get("randomize", _as_is, {}))
+    calibrate = _flatten_calibrate(ctx, top.get("calibrate", _as_is, {}))
     return Scenario(name=name, title=title, source=ctx.source, text=text, data=doc, setup=setup, config=config,
                     nodes_of_interest=interest, seed=seed, paper=dict(paper), variant_index=variant_index,
-                    sampled=dict(sampled or {}), assumptions=dict(assumptions), randomize=randomize)
+                    sampled=dict(sampled or {}), assumptions=dict(assumptions), randomize=randomize,
+                    calibrate=calibrate)
 
 
 def _builtin_dir():
@@ -186,12 +209,16 @@ def _base_for(source: str):
 def parse_scenario(text: str, source: str = "<string>") -> Scenario:
     """A scenario from TOML ``text``; ``source`` (a path, ``builtin:NAME`` or ``<string>``) prefixes
     every error and locates relative file names. A randomised scenario also builds its variant 0 as
-    a check, so a bad ``[randomize]`` key is reported on load."""
+    a check, so a bad ``[randomize]`` key is reported on load; every ``[calibrate]`` key must name a
+    number whose bounds hold its start."""
     if not isinstance(text, str):
         raise bad("text", type(text).__name__, "the TOML text as a str")
     ctx = _Ctx(str(source), _base_for(str(source)))
     doc = _parse_toml(ctx, text)
     scenario = _build(ctx, text, doc)
+    starts = _check_calibrate(ctx, doc, scenario.calibrate)
+    if starts:
+        scenario.with_values({key: start for key, (_, _, start) in starts.items()})
     if scenario.randomized:
         scenario.variant(0)
     return scenario
