@@ -8,6 +8,7 @@ from ..errors import SimulationError, SoftrnnInputError, missing_extra
 from . import (
     _animate,
     _bench,
+    _calibrate,
     _dynamic,
     _evaluate,
     _export,
@@ -36,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
     sub = parser.add_subparsers(title="commands", dest="command", required=True, parser_class=_Parser)
     for module in (_simulate, _sweep, _reproduce, _bench, _show, _import_csv, _animate, _plot, _train, _evaluate,
-                   _rollout, _export, _study, _magnetic, _dynamic):
+                   _rollout, _export, _study, _magnetic, _dynamic, _calibrate):
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_args(p)
         p.set_defaults(func=module.run)
@@ -88,8 +89,8 @@ def _main(args) -> int:
         return 2
     except KeyboardInterrupt as err:
         what, code = ("terminated", 143) if isinstance(err, _Terminated) else ("interrupted", 130)
-        print(f"softrnn: {what}; no partial file was left; reproduce, sweep and study keep their finished "
-              "steps and resume when run again", file=sys.stderr)
+        print(f"softrnn: {what}; no partial file was left; reproduce, sweep, study and calibrate keep their "
+              "finished steps and resume when run again", file=sys.stderr)
         return code
 
 
