@@ -203,7 +203,9 @@ def check_dataset(scenario: Scenario, dataset, data: str, fitted=()) -> None:
     if isinstance(rod.get("n_nodes"), int) and rod["n_nodes"] != n:
         raise bad("DATA", data, f"data of the scenario's rod, but the dataset's rod has {rod['n_nodes']} nodes and "
                                 f"the scenario's {n} (rod.n_nodes); use a scenario of the rod that was recorded")
-    if dataset.nodes.size == 0 or int(dataset.nodes.min()) < 0 or int(dataset.nodes.max()) >= n:
+    if dataset.nodes.size == 0:
+        raise bad("DATA", data, "a recording of at least one node")
+    if int(dataset.nodes.min()) < 0 or int(dataset.nodes.max()) >= n:
         raise bad("DATA", data, f"nodes of the scenario's {n}-node rod, but the dataset records nodes "
                                 f"{int(dataset.nodes.min())}..{int(dataset.nodes.max())}")
     length = scenario.setup.rod.length

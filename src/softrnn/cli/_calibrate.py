@@ -25,6 +25,7 @@ HELP = ("fit chosen values of a scenario (dotted keys, e.g. rod.youngs_modulus) 
 def add_args(p):
     p.add_argument("data", metavar="DATA",
                    help="the recorded dataset (.h5, e.g. from softrnn simulate -o or import-csv)")
+    p.add_argument("--group", default=None, help="the trajectory's group inside a sweep file")
     p.add_argument("--scenario", required=True, metavar="FILE.toml",
                    help="the scenario of the recorded rod (a .toml file or a shipped scenario's name); bounds of the "
                         "fitted values from its [calibrate] table (or their [randomize] ranges)")
@@ -98,7 +99,7 @@ def run(args) -> int:
         raise bad("--max-evaluations", args.max_evaluations, "an integer >= 2")
     nodes = _nodes(args.nodes)
     scenario = load_scenario(args.scenario)
-    dataset = read_dataset(args.data)
+    dataset = read_dataset(args.data, group=args.group)
     cache = out.parent / f".{out.name}.trials"
     options = FitOptions(max_evaluations=args.max_evaluations)
     problem = prepare(scenario, dataset, args.fit, span=args.span, nodes=nodes, data=str(args.data))
