@@ -306,6 +306,7 @@ def test_substeps_are_the_most_any_corner_needs():
     assert n > int(np.ceil(0.005 / Simulator(sc.setup).stable_step(sc.config.safety)))
     fixed = parse_scenario(cantilever(substeps=48))
     assert calibration.fixed_substeps(fixed, calibration.parameters_of(fixed, FIT), 0.005) == 48
+    assert calibration.fixed_substeps(fixed, calibration.parameters_of(fixed, FIT), 0.02) == 192   # the same step
 
 
 def test_fitted_text_replaces_an_earlier_header():

@@ -7,8 +7,8 @@ of the recorded nodes match the data over a span of time.
   ``[randomize]``. A key whose lower bound is positive is fitted in ln(value) (``Parameter``).
 * **Model.** ``ScenarioModel``: the scenario built with the trial values (``Scenario.with_values``),
   simulated from its initial state at t = 0 to the end of the span at the data's ``dt`` with a fixed
-  number of solver steps per sample (the scenario's own, else the largest stable count over the
-  corners of the bounds box, so the step never jumps between trials and spoils the finite
+  number of solver steps per sample (the scenario's own step, else the largest stable count over
+  the corners of the bounds box, so the step never jumps between trials and spoils the finite
   differences); its prediction is the recorded nodes' positions over the span divided by the rod's
   length L, so residuals are fractions of L.
 * **Data.** Positions (T, N, 3) on a time grid k dt from 0, of a rod with the scenario's node count
@@ -127,10 +127,12 @@ def _corners(parameters: list[Parameter]) -> list[tuple]:
 
 
 def fixed_substeps(scenario: Scenario, parameters: list[Parameter], dt: float) -> int:
-    """Solver steps per sample of ``dt`` [s] for every trial: the scenario's ``run.substeps`` if it
-    sets them, else the largest stable count over the start and the corners of the bounds box."""
+    """Solver steps per sample of ``dt`` [s] for every trial: where the scenario sets ``run.substeps``,
+    as many as keep its solver step ``run.dt / run.substeps`` (the same count at the same ``dt``),
+    else the largest stable count over the start and the corners of the bounds box."""
     if scenario.config.substeps is not None:
-        return int(scenario.config.substeps)
+        step = scenario.config.dt / scenario.config.substeps
+        return max(1, math.ceil(dt / step * (1 - 1e-9)))
     names = [p.name for p in parameters]
     config = RunConfig(dt=dt, n_samples=2, safety=scenario.config.safety)
     most = 1
