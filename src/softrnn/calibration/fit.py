@@ -199,9 +199,23 @@ class _Trials:
         self.cache_dir = None if cache_dir is None else Path(cache_dir)
         self.fingerprint = fingerprint
         self.progress, self.budget = progress, budget
-        self.memory: dict = {}
+        self.names = tuple(p.name for p in parameters)
+        self.memory: dict = {}            # the most recent trials (a bounded number, oldest dropped first)
+        self.kept: dict = {}              # trials kept for the whole fit (the start)
+        self.held: dict = {}              # the best point's trials (replaced when a better one comes)
+        self.limit = 4 * (len(parameters) + 1)
         self.trials = self.failed = self.cached = 0
         self.last_message = ""
+
+    def keep(self, x) -> None:
+        """Hold the trial of ``x`` for the whole fit (the memory forgets old trials)."""
+        key = np.asarray(x, np.float64).tobytes()
+        self.kept[key] = self.memory[key]
+
+    def hold(self, points) -> None:
+        """Hold the trials of ``points`` (those in memory) until the next call."""
+        keys = (np.asarray(x, np.float64).tobytes() for x in points)
+        self.held = {k: self.memory[k] for k in keys if k in self.memory}
 
     def values(self, x: np.ndarray) -> tuple:
         return tuple(p.from_x(float(v)) for p, v in zip(self.parameters, x))
@@ -245,7 +259,7 @@ class _Trials:
         todo = []
         for x in points:
             key = np.asarray(x, np.float64).tobytes()
-            if key in self.memory or any(key == k for k, _ in todo):
+            if key in self.memory or key in self.kept or key in self.held or any(key == k for k, _ in todo):
                 continue
             hit, entry = self._from_cache(key)
             if hit:
@@ -266,7 +280,11 @@ class _Trials:
                     self.last_message = message
         if self.progress is not None:
             self.progress(min(self.trials, self.budget), self.budget, {"trials": self.trials, "failed": self.failed})
-        return [self.memory[np.asarray(x, np.float64).tobytes()] for x in points]
+        found = [self.kept.get(k) or self.held.get(k) or self.memory[k]
+                 for k in (np.asarray(x, np.float64).tobytes() for x in points)]
+        while len(self.memory) > max(self.limit, len(points)):
+            self.memory.pop(next(iter(self.memory)))
+        return found
 
 
 class _Converged(Exception):
@@ -281,6 +299,100 @@ def _fd_points(x: np.ndarray, h: float, upper: np.ndarray) -> list:
         p[i] = x[i] + h if x[i] + h <= upper[i] else x[i] - h
         pts.append(p)
     return pts
+
+
+def _checked(measured, parameters, weights) -> tuple:
+    """(parameters list, names, y (m,), use (m,) bool, w (m,)) checked."""
+    parameters = list(parameters)
+    if not parameters or not all(isinstance(p, Parameter) for p in parameters):
+        raise bad("parameters", parameters, "a non-empty list of Parameter entries")
+    names = tuple(p.name for p in parameters)
+    if len(set(names)) != len(names):
+        raise bad("parameters", list(names), "each parameter once")
+    y = np.asarray(measured, dtype=np.float64).ravel()
+    use = np.isfinite(y)
+    if use.sum() <= len(parameters):
+        raise bad("measured", f"{int(use.sum())} finite values", f"more measurements than the {len(parameters)} "
+                                                                  f"fitted parameters")
+    w = np.broadcast_to(np.asarray(1.0 if weights is None else weights, np.float64), y.shape)
+    if not np.all(np.isfinite(w[use])) or np.any(w[use] < 0):
+        raise bad("weights", "non-finite or negative values", "finite weights >= 0")
+    return parameters, names, y, use, w
+
+
+class _Problem:
+    """The residual and its finite-difference Jacobian for ``least_squares``, in the fitted
+    coordinates x; remembers the best point and stops the optimiser (``_Converged``) once the cost
+    no longer changes."""
+
+    def __init__(self, trials: _Trials, y, use, w, upper, lower, options: FitOptions, speculate: bool):
+        self.trials, self.y, self.use, self.w = trials, y, use, w
+        self.upper, self.lower, self.options, self.speculate = upper, lower, options, speculate
+        self.h = options.diff_step
+        self.penalty = None
+        self.best_cost, self.best_x = None, None
+        self.evaluations = 0
+        self.history = []
+
+    def residual_of(self, pred) -> np.ndarray:
+        if pred is None:
+            return np.full(int(self.use.sum()), self.penalty)
+        return (self.w * (pred - self.y))[self.use]
+
+    def batch(self, x) -> list:
+        """x, and its finite-difference points when the evaluator runs several simulations at once."""
+        return [x] + (_fd_points(x, self.h, self.upper) if self.speculate else [])
+
+    def fun(self, x) -> np.ndarray:
+        batch = self.batch(x)
+        pred, _ = self.trials.get(batch)[0]
+        r = self.residual_of(pred)
+        self.evaluations += 1
+        cost = float(r @ r)
+        self.history.append((self.trials.trials, float(np.sqrt(np.mean(r ** 2))),
+                             dict(zip(self.trials.names, self.trials.values(x)))))
+        previous = self.best_cost
+        if previous is None or cost < previous:
+            self.best_cost, self.best_x = cost, np.array(x, dtype=np.float64)
+            self.trials.hold(batch)
+        if previous is not None and abs(cost - previous) <= self.options.ftol * previous:
+            raise _Converged()
+        return r
+
+    def jac(self, x) -> np.ndarray:
+        pts = _fd_points(x, self.h, self.upper)
+        base = self.residual_of(self.trials.get([x])[0][0])
+        J = np.zeros((base.size, x.size))
+        for i, (p, (pred, _)) in enumerate(zip(pts, self.trials.get(pts))):
+            if pred is None:                       # try the other side once
+                q = x.copy()
+                q[i] = 2 * x[i] - p[i]
+                if self.lower[i] <= q[i] <= self.upper[i]:
+                    p = q
+                    pred = self.trials.get([q])[0][0]
+            if pred is not None:
+                J[:, i] = (self.residual_of(pred) - base) / (p[i] - x[i])
+        return J
+
+
+def _uncertainty(J: np.ndarray, r: np.ndarray, names: tuple, scale: np.ndarray) -> tuple:
+    """(standard errors (n,) of the values, correlation (n, n), identifiability warnings) from the
+    Jacobian J (m, n) in x and the residual r (m,) at the optimum; ``scale`` (n,) = d value / d x."""
+    m, n = J.shape
+    s2 = float(r @ r) / max(m - n, 1)
+    inverse = np.linalg.pinv(J.T @ J)
+    se_x = np.sqrt(np.clip(np.diag(inverse), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = inverse / np.outer(se_x, se_x)                 # independent of s2: defined for an exact fit too
+    corr = np.where(np.isfinite(corr), corr, 0.0)
+    np.fill_diagonal(corr, 1.0)
+    issues = [f"{names[i]}: the data do not depend on it (zero sensitivity)" for i in range(n) if not np.any(J[:, i])]
+    for i in range(n):
+        for j in range(i + 1, n):
+            if abs(corr[i, j]) > CORRELATION_LIMIT:
+                issues.append(f"{names[i]} and {names[j]}: correlated {corr[i, j]:+.4f} (beyond "
+                              f"{CORRELATION_LIMIT}); the data fix a combination of them, not each one")
+    return se_x * np.sqrt(s2) * scale, corr, issues
 
 
 def fit(model, measured, parameters, *, weights=None, evaluator=None, options: FitOptions | None = None,
@@ -298,113 +410,40 @@ def fit(model, measured, parameters, *, weights=None, evaluator=None, options: F
     from .parallel import Evaluator
 
     options = FitOptions() if options is None else options
-    parameters = list(parameters)
-    if not parameters or not all(isinstance(p, Parameter) for p in parameters):
-        raise bad("parameters", parameters, "a non-empty list of Parameter entries")
-    names = tuple(p.name for p in parameters)
-    if len(set(names)) != len(names):
-        raise bad("parameters", list(names), "each parameter once")
+    parameters, names, y, use, w = _checked(measured, parameters, weights)
     evaluator = Evaluator() if evaluator is None else evaluator
-    y = np.asarray(measured, dtype=np.float64).ravel()
-    use = np.isfinite(y)
-    if use.sum() <= len(parameters):
-        raise bad("measured", f"{int(use.sum())} finite values", f"more measurements than the {len(parameters)} "
-                                                                  f"fitted parameters")
-    w = np.broadcast_to(np.asarray(1.0 if weights is None else weights, np.float64), y.shape)
-    if not np.all(np.isfinite(w[use])) or np.any(w[use] < 0):
-        raise bad("weights", "non-finite or negative values", "finite weights >= 0")
     n = len(parameters)
     lower = np.array([p.to_x(p.lower) for p in parameters])
     upper = np.array([p.to_x(p.upper) for p in parameters])
     x0 = np.zeros(n)
-    h = options.diff_step
-    budget = options.max_evaluations * (n + 1)
-    trials = _Trials(model, parameters, evaluator, cache_dir, fingerprint, progress, budget)
-    speculate = evaluator.workers > 1
+    trials = _Trials(model, parameters, evaluator, cache_dir, fingerprint, progress, options.max_evaluations * (n + 1))
+    problem = _Problem(trials, y, use, w, upper, lower, options, speculate=evaluator.workers > 1)
     t0 = time.perf_counter()
-
-    (pred0, message0), *_ = trials.get([x0] + (_fd_points(x0, h, upper) if speculate else []))
+    (pred0, message0), *_ = trials.get(problem.batch(x0))
     if pred0 is None:
         raise SoftrnnInputError(f"the simulation fails at the start values {dict(zip(names, trials.values(x0)))}: "
                                 f"{message0}; start from values the simulator can run")
     if pred0.shape != y.shape:
         raise bad("measured", f"{y.size} values", f"as many values as the model predicts ({pred0.size})")
-    r0 = (w * (pred0 - y))[use]
-    rms0 = float(np.sqrt(np.mean(r0 ** 2)))
-    penalty = PENALTY * max(rms0, 1e-300)
-    history = []
-
-    def residual_of(pred):
-        if pred is None:
-            return np.full(int(use.sum()), penalty)
-        return (w * (pred - y))[use]
-
-    best = {"cost": None, "x": x0}
-    evaluations = [0]
-
-    def fun(x):
-        batch = [x] + (_fd_points(x, h, upper) if speculate else [])
-        pred, _ = trials.get(batch)[0]
-        r = residual_of(pred)
-        evaluations[0] += 1
-        cost = float(r @ r)
-        history.append((trials.trials, float(np.sqrt(np.mean(r ** 2))), dict(zip(names, trials.values(x)))))
-        previous = best["cost"]
-        if previous is None or cost < previous:
-            best.update(cost=cost, x=np.array(x, dtype=np.float64))
-        if previous is not None and abs(cost - previous) <= options.ftol * previous:
-            raise _Converged()
-        return r
-
-    def jac(x):
-        pts = _fd_points(x, h, upper)
-        base = residual_of(trials.get([x])[0][0])
-        results = trials.get(pts)
-        J = np.zeros((base.size, n))
-        for i, (p, (pred, _)) in enumerate(zip(pts, results)):
-            if pred is None:                       # try the other side once
-                q = x.copy()
-                q[i] = 2 * x[i] - p[i]
-                if lower[i] <= q[i] <= upper[i]:
-                    p = q
-                    pred = trials.get([q])[0][0]
-            if pred is not None:
-                J[:, i] = (residual_of(pred) - base) / (p[i] - x[i])
-        return J
-
+    trials.keep(x0)
+    rms0 = float(np.sqrt(np.mean(problem.residual_of(pred0) ** 2)))
+    problem.penalty = PENALTY * max(rms0, 1e-300)
     try:
-        res = least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf", x_scale=1.0,
+        res = least_squares(problem.fun, x0, jac=problem.jac, bounds=(lower, upper), method="trf", x_scale=1.0,
                             max_nfev=options.max_evaluations, xtol=options.xtol, ftol=options.ftol,
                             gtol=options.gtol)
         xf, success, message = np.asarray(res.x, np.float64), bool(res.success), str(res.message)
     except _Converged:
-        xf, success = best["x"], True
+        xf, success = problem.best_x, True
         message = f"the cost changed by less than ftol = {options.ftol:g} (relative) from the best point"
     pred_f = trials.get([xf])[0][0]
-    rf = residual_of(pred_f)
-    J = jac(xf)
-    m = rf.size
-    s2 = float(rf @ rf) / max(m - n, 1)
-    JTJ = J.T @ J
-    cov = s2 * np.linalg.pinv(JTJ)
-    se_x = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    rf = problem.residual_of(pred_f)
     scale = np.array([p.value_scale(v) for p, v in zip(parameters, xf)])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = cov / np.outer(se_x, se_x)
-    corr = np.where(np.isfinite(corr), corr, 0.0)
-    np.fill_diagonal(corr, 1.0)
-    issues = [f"{names[i]}: the data do not depend on it (zero sensitivity)"
-              for i in range(n) if not np.any(J[:, i])]
-    for i in range(n):
-        for j in range(i + 1, n):
-            if abs(corr[i, j]) > CORRELATION_LIMIT:
-                issues.append(f"{names[i]} and {names[j]}: correlated {corr[i, j]:+.4f} (beyond "
-                              f"{CORRELATION_LIMIT}); the data fix a combination of them, not each one")
-    return FitResult(names=names, start=np.array([p.start for p in parameters]),
-                     fitted=np.array(trials.values(xf)), std_error=se_x * scale, correlation=corr,
-                     not_identifiable=issues, rms_start=rms0, rms_fitted=float(np.sqrt(np.mean(rf ** 2))),
-                     prediction_start=pred0,
+    se, corr, issues = _uncertainty(problem.jac(xf), rf, names, scale)
+    return FitResult(names=names, start=np.array([p.start for p in parameters]), fitted=np.array(trials.values(xf)),
+                     std_error=se, correlation=corr, not_identifiable=issues, rms_start=rms0,
+                     rms_fitted=float(np.sqrt(np.mean(rf ** 2))), prediction_start=pred0,
                      prediction_fitted=pred_f if pred_f is not None else np.full_like(y, np.nan),
                      trials=trials.trials, failed_trials=trials.failed, cached_trials=trials.cached,
-                     evaluations=evaluations[0], seconds=time.perf_counter() - t0, success=success,
-                     message=message, measurements=int(m), history=history)
+                     evaluations=problem.evaluations, seconds=time.perf_counter() - t0, success=success,
+                     message=message, measurements=int(rf.size), history=problem.history)

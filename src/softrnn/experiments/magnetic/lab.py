@@ -30,7 +30,7 @@ from .comparison import compare
 from .config import ExperimentConfig
 from .currents import experiment_currents
 from .dataset import measured_wrenches, orientation_dataset
-from .static import static_predictions
+from .static import static_predictions, static_summary
 
 N_COILS = 6
 N_MAGNETS = 2
@@ -333,11 +333,7 @@ def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, pr
                                   extra={"source": str(csv)})
     static_info = None
     if static is not None:
-        static_info = {"failures": len(static.failures), "failed_samples": [k for k, _ in static.failures][:20],
-                       "first_failure": static.failures[0][1] if static.failures else None,
-                       "solves": int(static.solves.sum()), "mean_solves_per_sample": float(static.solves.mean()),
-                       "n_steps": config.static_steps, "tol": config.static_tol,
-                       "solves_per_second": static.solves_per_second}
+        static_info = static_summary(static, config.static_steps, config.static_tol)
     result = compare(dataset, None if static is None else static.orientations, config, out, progress=progress,
                      static_info=static_info, figure_title=f"{Path(csv).name}: orientations over the test span",
                      calibrated_orientations=calibrated)

@@ -16,7 +16,7 @@ from .comparison import compare
 from .config import CALIBRATION_FILE, MAGNETS, ORIENTATION_NOTE, ROBOT_FILE, TABLE_FILE, ExperimentConfig
 from .currents import experiment_currents
 from .dataset import measured_wrenches, orientation_dataset
-from .static import static_predictions
+from .static import static_predictions, static_summary
 
 
 def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path, progress: Progress | None) -> tuple:
@@ -251,10 +251,7 @@ def run_experiment(config: ExperimentConfig, out_dir, progress: Progress | None 
     static = static_predictions(currents, spec=spec, n_steps=config.static_steps, tol=config.static_tol,
                                 position_tol=config.position_tol, max_failures=config.max_static_failures,
                                 progress=progress)
-    static_info = {"failures": len(static.failures), "failed_samples": [k for k, _ in static.failures][:20],
-                   "first_failure": static.failures[0][1] if static.failures else None,
-                   "solves": int(static.solves.sum()), "mean_solves_per_sample": float(static.solves.mean()),
-                   "n_steps": config.static_steps, "tol": config.static_tol}
+    static_info = static_summary(static, config.static_steps, config.static_tol)
     dataset = orientation_dataset(time_s, cam.orientations, wrenches, extra={"experiment": config.to_dict()})
     result = compare(dataset, static.orientations, config, out, progress=progress, static_info=static_info,
                      figure_title=f"Simulated magnetic experiment ({config.samples} samples at "

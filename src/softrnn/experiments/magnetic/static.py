@@ -69,6 +69,15 @@ def static_rod(spec: ManipulatorSpec | None = None):
     return replace(rod, base_position=spec.base, magnets=magnets)
 
 
+def static_summary(static: StaticPrediction, n_steps: int, tol: float) -> dict:
+    """The report's ``static`` entry: failures (count, the first 20 samples, the first message),
+    solves (total, mean per sample, per second) and the solver's ``n_steps`` and ``tol``."""
+    return {"failures": len(static.failures), "failed_samples": [k for k, _ in static.failures][:20],
+            "first_failure": static.failures[0][1] if static.failures else None,
+            "solves": int(static.solves.sum()), "mean_solves_per_sample": float(static.solves.mean()),
+            "n_steps": n_steps, "tol": tol, "solves_per_second": static.solves_per_second}
+
+
 def static_predictions(currents, *, spec: ManipulatorSpec | None = None, n_steps: int = 40, tol: float = 1e-7,
                        position_tol: float = 1e-7, max_iterations: int = 30, max_failures: float = 0.05,
                        progress: Progress | None = None) -> StaticPrediction:
