@@ -1,0 +1,56 @@
+"""softrnn control magnetic: close the loop on the simulated magnetic rod (camera at 30 Hz, a
+controller setting the coil currents each frame)."""
+
+from ..control.controllers import CONTROLLERS
+from ..control.references import REFERENCES
+from ._progress import Bar
+
+NAME = "control"
+HELP = "closed-loop control of the simulated magnetic rod: a controller tracks a reference of the distal magnet"
+
+
+def add_args(p):
+    sub = p.add_subparsers(title="plants", dest="plant", required=True, parser_class=type(p))
+    m = sub.add_parser("magnetic", help="the magnetic experiment's perturbed robot, measured by the camera model",
+                       description="Run a controller in closed loop on the simulated magnetic robot (the "
+                                   "experiment's perturbed dynamic model, the camera with its noise at 30 Hz) and "
+                                   "write DIR/run.h5 (the plant's record), DIR/control.png and DIR/control.json "
+                                   "(tracking errors, limit violations, the controller's time per frame).")
+    m.add_argument("--reference", required=True, metavar="REF",
+                   help=f"one of {', '.join(REFERENCES)}, or a CSV of time,about_y_deg,about_x_deg")
+    m.add_argument("--controller", required=True, metavar="CTRL", help=f"one of {', '.join(CONTROLLERS)}")
+    m.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder (created)")
+    m.add_argument("--duration", type=float, default=60.0, help="seconds of closed loop (default 60)")
+    m.add_argument("--seed", type=int, default=0, help="seeds the camera noise and the random reference")
+    m.add_argument("--stiffness", type=float, default=1.04, help="the robot's Young's modulus over the nominal "
+                                                                 "(default 1.04, the experiment's robot)")
+    m.add_argument("--remanence", type=float, default=0.97, help="the robot's remanence over the nominal "
+                                                                 "(default 0.97)")
+    m.add_argument("--overwrite", action="store_true", help="replace the results in DIR")
+    m.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def run(args) -> int:
+    from ..control.loop import LoopConfig
+    from ..control.run import FIGURE_FILE, RUN_FILE, SUMMARY_FILE, control_run
+    from ..errors import bad
+    from ..files import prepare_output
+
+    if args.controller not in CONTROLLERS:
+        raise bad("--controller", args.controller, f"one of {', '.join(CONTROLLERS)}")
+    from ..control.references import reference
+
+    reference(args.reference, duration=args.duration, seed=args.seed)          # checks REF and --duration now
+    config = LoopConfig(stiffness=args.stiffness, remanence=args.remanence, seed=args.seed)
+    prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite, holds=(RUN_FILE, FIGURE_FILE, SUMMARY_FILE),
+                   fix="pass --overwrite to replace them, or choose another folder")
+    with Bar(f"control {args.controller}", unit="frame", enabled=not args.quiet) as bar:
+        s = control_run(args.reference, args.controller, args.out, duration=args.duration, config=config,
+                        progress=bar)
+    print(f"{s['controller']} on {s['reference']} ({s['duration_s']:g} s): tracking RMS {s['rms_deg']:.2f} deg "
+          f"(about y {s['rms_deg_about']['y']:.2f}, about x {s['rms_deg_about']['x']:.2f}), "
+          f"max {s['max_deg']:.2f} deg; "
+          f"limit violations {s['limit_violations']}; controller {s['compute_ms_median']:.3f} ms per frame "
+          f"(p99 {s['compute_ms_p99']:.3f})")
+    print(f"wrote {args.out}/{RUN_FILE}, {FIGURE_FILE}, {SUMMARY_FILE}")
+    return 0

@@ -1,0 +1,129 @@
+"""Reference trajectories of the distal magnet's orientation for the closed loop: its bending angle
+(the orientation about y, the large one) and its out-of-plane angle (about x), both in the form the
+camera reports (rotation vector phi k components, ``softrnn.experiments.magnetic.config.ORIENTATION_NOTE``).
+
+A ``Reference`` holds target angles at the frame times; the shipped ones are centred on the rod's
+rest pose under no field and stay inside what the coils reach (``REST_DEG``, ``SPAN_DEG``):
+
+* ``step``: a staircase of bending targets held 5 s each;
+* ``sine``: bending angle sin(2 pi 0.2 t), out-of-plane angle a quarter period behind;
+* ``random``: a smooth random trajectory (sums of sinusoids, 0.02-0.3 Hz) of both angles;
+* a CSV file: ``time,about_y_deg,about_x_deg`` (header first; time from 0, strictly increasing),
+  interpolated linearly at the frame times and held after its last row.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SoftrnnInputError, bad
+
+REFERENCES = ("step", "sine", "random")
+"""The shipped references (``reference(name, ...)``); a path to a CSV is the user's own."""
+
+REST_DEG = (0.0, 97.0)
+"""(about x, about y) [deg]: the distal magnet's orientation near rest (the rod sags under gravity
+and the magnets' weight: 90 deg is horizontal)."""
+
+SPAN_DEG = (4.0, 25.0)
+"""Largest excursion (about x, about y) [deg] of the shipped references from ``REST_DEG``: inside
+what the coils reach with room to spare (the experiment's random fields moved the distal magnet
+about 67 deg about y and a few degrees about x)."""
+
+CSV_COLUMNS = ("time", "about_y_deg", "about_x_deg")
+
+
+@dataclass(frozen=True, eq=False)
+class Reference:
+    """Target orientation of the distal magnet at the frame times.
+
+    name : str
+    times : (K,) [s], the frame times from 0
+    angles : (K, 2) [rad], columns (about x, about y) as the camera reports them
+    """
+
+    name: str
+    times: np.ndarray
+    angles: np.ndarray
+
+    def __post_init__(self):
+        t = np.asarray(self.times, dtype=np.float64)
+        a = np.asarray(self.angles, dtype=np.float64)
+        if t.ndim != 1 or a.shape != (t.size, 2) or not (np.all(np.isfinite(t)) and np.all(np.isfinite(a))):
+            raise bad("reference", f"times {t.shape}, angles {a.shape}", "finite times (K,) and angles (K, 2)")
+        object.__setattr__(self, "times", t)
+        object.__setattr__(self, "angles", a)
+
+    def window(self, k: int, horizon: int) -> np.ndarray:
+        """Targets (horizon, 2) [rad] of frames k + 1 .. k + horizon (the last one held past the end)."""
+        idx = np.minimum(np.arange(k + 1, k + 1 + horizon), self.times.size - 1)
+        return self.angles[idx]
+
+
+def _frames(duration: float, rate: float) -> np.ndarray:
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise bad("--duration", duration, "a positive number of seconds")
+    return np.arange(int(round(duration * rate)) + 1) / rate
+
+
+def reference(name_or_path, *, duration: float = 60.0, rate: float = 30.0, seed: int = 0) -> Reference:
+    """A shipped reference by name (``REFERENCES``) or a CSV file, at ``rate`` [Hz] over ``duration`` [s]."""
+    t = _frames(duration, rate)
+    rest = np.radians(REST_DEG)
+    span = np.radians(SPAN_DEG)
+    name = str(name_or_path)
+    if name == "step":
+        levels = np.array([0.0, 0.6, -0.6, 1.0, -1.0, 0.3, -0.3, 0.8, -0.8, 0.0, 0.5, -0.5, 0.0])
+        level = levels[np.minimum((t // 5.0).astype(int), levels.size - 1)]
+        angles = np.stack([np.full_like(t, rest[0]), rest[1] + span[1] * level], 1)
+    elif name == "sine":
+        w = 2 * math.pi * 0.2
+        angles = np.stack([rest[0] + 0.5 * span[0] * np.sin(w * t - 0.5 * math.pi) + 0.5 * span[0],
+                           rest[1] + span[1] * np.sin(w * t)], 1)
+    elif name == "random":
+        rng = np.random.default_rng([seed, 0x726566])
+        cols = []
+        for c in range(2):
+            f = np.exp(rng.uniform(math.log(0.02), math.log(0.3), 5))
+            ph = rng.uniform(0, 2 * math.pi, 5)
+            s = np.sin(2 * math.pi * f[None] * t[:, None] + ph[None]).sum(1)
+            s = s - s[0]                                                         # start at rest
+            cols.append(rest[c] + span[c] * s / max(float(np.max(np.abs(s))), 1e-12))
+        angles = np.stack(cols, 1)
+    else:
+        return _csv_reference(Path(name), t)
+    return Reference(name=name, times=t, angles=angles)
+
+
+def _csv_reference(path: Path, t: np.ndarray) -> Reference:
+    if path.suffix.lower() != ".csv":
+        raise bad("--reference", str(path), f"one of {', '.join(REFERENCES)}, or a .csv file "
+                                            f"({','.join(CSV_COLUMNS)})")
+    if not path.is_file():
+        raise bad("--reference", str(path), "an existing .csv file (no such file)")
+    lines = [ln.strip() for ln in path.read_text(encoding="utf-8", errors="replace").splitlines()]
+    lines = [(i + 1, ln) for i, ln in enumerate(lines) if ln and not ln.startswith("#")]
+    if not lines or tuple(c.strip() for c in lines[0][1].split(",")) != CSV_COLUMNS:
+        raise SoftrnnInputError(f"{path}: the header must be {','.join(CSV_COLUMNS)} (time [s], target angles "
+                                f"about y and about x [deg])")
+    rows = []
+    for number, line in lines[1:]:
+        parts = line.split(",")
+        try:
+            values = [float(p) for p in parts]
+        except ValueError:
+            values = []
+        if len(values) != 3 or not all(math.isfinite(v) for v in values):
+            raise SoftrnnInputError(f"{path}: line {number}: expected 3 finite numbers ({','.join(CSV_COLUMNS)}), "
+                                    f"got {line!r}")
+        rows.append(values)
+    data = np.array(rows, dtype=np.float64).reshape(-1, 3)
+    if data.shape[0] < 2 or data[0, 0] != 0.0 or np.any(np.diff(data[:, 0]) <= 0):
+        raise SoftrnnInputError(f"{path}: the times must start at 0 and increase strictly (at least 2 rows)")
+    angles = np.stack([np.interp(t, data[:, 0], np.radians(data[:, 2])),
+                       np.interp(t, data[:, 0], np.radians(data[:, 1]))], 1)
+    return Reference(name=path.stem, times=t, angles=angles)

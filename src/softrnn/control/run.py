@@ -1,0 +1,88 @@
+"""A closed-loop run written out: the plant's record as a dataset (``run.h5``, for ``softrnn
+animate``), the figure (``control.png``: reference and measured angles, currents) and the summary
+(``control.json``)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..files import atomic_write_text
+from ..progress import Progress
+from .controllers import controller as make_controller
+from .loop import LoopConfig, LoopResult, run_loop
+from .references import reference as make_reference
+
+RUN_FILE = "run.h5"
+FIGURE_FILE = "control.png"
+SUMMARY_FILE = "control.json"
+
+
+def write_run(path, result: LoopResult, config: LoopConfig, attrs: dict) -> None:
+    """The plant's record as a softrnn dataset (every node; orientations are not kept: identity
+    placeholders), the currents and the reference in its attrs."""
+    from ..io.dataset import Dataset
+    from ..io.writer import write_dataset
+    from ..magnetics.manipulator import ManipulatorSpec
+
+    spec = config.plant_spec(ManipulatorSpec())
+    T, n = result.positions.shape[:2]
+    quats = np.zeros((T, n, 4), np.float32)
+    quats[..., 0] = 1.0
+    zeros = np.zeros((T, n, 3), np.float32)
+    meta = {"has_orientations": False, "currents": result.currents.tolist(), "currents_units": "A, coils 0..5",
+            "reference_deg": np.degrees(result.reference).tolist(), "rod": spec.rod_spec(),
+            "dt": 1.0 / config.rate, **attrs}
+    data = Dataset(time=result.time, nodes=np.arange(n), positions=result.positions.astype(np.float32),
+                   quaternions=quats, forces=zeros, torques=zeros, attrs=meta)
+    write_dataset(path, data)
+
+
+def plot_run(result: LoopResult, title: str):
+    """Reference and measured distal angles about y and x, and the six currents, against time."""
+    from ..figures import plots as plotting  # noqa: F401, I001  (selects the Agg backend first)
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(3, 1, figsize=(10, 7.5), sharex=True)
+    meas = np.degrees(result.measured[:, 1, :2])
+    true = np.degrees(result.true[:, 1, :2])
+    ref = np.degrees(result.reference)
+    for ax, c, name in ((axes[0], 1, "about y (bending)"), (axes[1], 0, "about x (out of plane)")):
+        ax.plot(result.time, ref[:, c], color="k", lw=1.2, label="reference")
+        ax.plot(result.time, meas[:, c], color="tab:blue", lw=0.6, alpha=0.6, label="measured (camera)")
+        ax.plot(result.time, true[:, c], color="tab:blue", lw=1.0, label="true")
+        ax.set_ylabel(f"distal {name} [deg]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    axes[2].plot(result.time, result.currents, lw=0.8)
+    axes[2].set_ylabel("coil currents [A]")
+    axes[2].set_xlabel("t [s]")
+    axes[2].grid(alpha=0.3)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def control_run(reference: str, controller: str, out_dir, *, duration: float = 60.0, config: LoopConfig | None = None,
+                progress: Progress | None = None) -> dict:
+    """Run ``controller`` on ``reference`` for ``duration`` s and write ``RUN_FILE``, ``FIGURE_FILE``
+    and ``SUMMARY_FILE`` into ``out_dir``; returns the summary (``LoopResult.summary`` with the
+    reference, controller, config and files)."""
+    from ..figures import plots as plotting
+
+    config = LoopConfig() if config is None else config
+    ref = make_reference(reference, duration=duration, rate=config.rate, seed=config.seed)
+    ctrl = make_controller(controller)
+    result = run_loop(ctrl, ref, config, progress=progress)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = {"reference": ref.name, "controller": controller, "duration_s": float(ref.times[-1]),
+               **result.summary(), "config": config.to_dict(),
+               "files": {"run": str(out / RUN_FILE), "figure": str(out / FIGURE_FILE)}}
+    write_run(out / RUN_FILE, result, config, {"controller": controller, "reference": ref.name})
+    plotting.save(plot_run(result, f"{controller} on the {ref.name} reference: RMS {summary['rms_deg']:.2f} deg"),
+                  out / FIGURE_FILE)
+    atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    return summary

@@ -1,0 +1,104 @@
+"""Closed-loop control of the magnetic rod (issue 14): the frame-by-frame plant equals the batch
+simulation, references and their CSV errors, the controller's currents within the limits, the
+loop's bookkeeping, and the CLI's one-line errors."""
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+from softrnn.cli.main import main
+from softrnn.control.references import REFERENCES, reference
+from softrnn.errors import SoftrnnInputError
+from softrnn.magnetics import ManipulatorRun, ManipulatorSpec, currents_for_field, simulate_manipulator
+from softrnn.magnetics.stepper import ManipulatorStepper
+
+DT = 1 / 30
+
+
+def test_stepping_frame_by_frame_equals_the_batch_simulation():
+    spec = ManipulatorSpec()
+    I = currents_for_field(spec.coils, np.zeros(3), [0.004, 0.0, -0.008])
+    batch = simulate_manipulator(spec, np.tile(I, (4, 1)), ManipulatorRun(dt=DT, n_samples=4, settle=0.1))
+    stepper = ManipulatorStepper(spec, DT, I, settle=0.1)
+    got = [stepper.positions]
+    for _ in range(3):
+        stepper.step(I)
+        got.append(stepper.positions)
+    np.testing.assert_allclose(np.array(got), batch.positions, rtol=0, atol=1e-13)     # round-off of t = t0 + k h
+    assert stepper.time == pytest.approx(3 * DT) and stepper.frames == 3
+    with pytest.raises(SoftrnnInputError, match=r"max \|currents\|=9.0 is invalid: currents within the coil limit"):
+        stepper.step(np.full(6, 9.0))
+
+
+@pytest.mark.parametrize("name", REFERENCES)
+def test_shipped_references_start_at_rest_and_stay_in_their_span(name):
+    from softrnn.control.references import REST_DEG, SPAN_DEG
+
+    ref = reference(name, duration=30.0)
+    assert ref.times.shape == (901,) and ref.angles.shape == (901, 2)
+    dev = np.degrees(ref.angles) - np.array(REST_DEG)
+    assert np.all(np.abs(dev) <= np.array(SPAN_DEG) + 1e-9)
+    assert np.allclose(dev[0], 0.0, atol=1e-9) or name == "sine"
+    np.testing.assert_array_equal(ref.window(899, 3), ref.angles[[900, 900, 900]])   # held past the end
+
+
+@pytest.mark.parametrize("text, match", [
+    ("t,a,b\n0,1,2\n1,2,3\n", r"the header must be time,about_y_deg,about_x_deg"),
+    ("time,about_y_deg,about_x_deg\n0,1\n", r"line 2: expected 3 finite numbers"),
+    ("time,about_y_deg,about_x_deg\n0,90,0\n0,91,0\n", r"the times must start at 0 and increase strictly"),
+    ("time,about_y_deg,about_x_deg\n0.5,90,0\n1,91,0\n", r"the times must start at 0"),
+])
+def test_csv_reference_errors_are_one_line(tmp_path, text, match):
+    path = tmp_path / "ref.csv"
+    path.write_text(text)
+    with pytest.raises(SoftrnnInputError, match=match) as err:
+        reference(str(path), duration=1.0)
+    assert "\n" not in str(err.value)
+
+
+def test_csv_reference_is_interpolated_at_the_frames(tmp_path):
+    path = tmp_path / "ref.csv"
+    path.write_text("time,about_y_deg,about_x_deg\n0,90,0\n1,100,-2\n")
+    ref = reference(str(path), duration=2.0)
+    np.testing.assert_allclose(np.degrees(ref.angles[15]), [-1.0, 95.0])             # t = 0.5 s
+    np.testing.assert_allclose(np.degrees(ref.angles[-1]), [-2.0, 100.0])            # held after the last row
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["control", "magnetic", "--reference", "zigzag", "--controller", "static-inverse", "-o", "{out}"],
+     r"--reference='zigzag' is invalid: one of step, sine, random, or a .csv file"),
+    (["control", "magnetic", "--reference", "step", "--controller", "pid", "-o", "{out}"],
+     r"--controller='pid' is invalid: one of static-inverse"),
+    (["control", "magnetic", "--reference", "step", "--controller", "static-inverse", "-o", "{out}",
+      "--duration", "0"], r"--duration=0.0 is invalid"),
+])
+def test_cli_bad_input_exits_2_with_one_line(tmp_path, capsys, argv, match):
+    assert main([a.format(out=tmp_path / "out") for a in argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("softrnn: error:") and "\n" not in err and re.search(match, err)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.fixture(scope="module")
+def short_loop(tmp_path_factory):
+    out = tmp_path_factory.mktemp("control")
+    code = main(["control", "magnetic", "--reference", "step", "--controller", "static-inverse", "-o", str(out),
+                 "--duration", "1.0", "--quiet"])
+    return code, out
+
+
+def test_static_inverse_closes_the_loop_within_the_limits(short_loop):
+    code, out = short_loop
+    assert code == 0
+    s = json.loads((out / "control.json").read_text())
+    assert s["frames"] == 31 and s["limit_violations"] == 0 and s["stable"]
+    assert 0 < s["rms_deg"] < 10 and s["compute_ms_p99"] > 0
+    from softrnn.io.dataset import read_dataset
+
+    data = read_dataset(out / "run.h5")
+    assert data.positions.shape == (31, 26, 3)
+    currents = np.asarray(data.attrs["currents"])
+    assert currents.shape == (31, 6) and np.max(np.abs(currents)) <= 8.0
+    assert (out / "control.png").is_file()
