@@ -2,7 +2,7 @@
 the coil currents for the next frame.
 
 A controller is an object with ``reset(reference)`` (before the first frame; returns the currents
-the plant settles under) and ``__call__(k, measured) -> currents (n_c,) [A]``: ``measured`` is the
+the plant settles under) and ``__call__(k, measured, reference) -> currents (n_c,) [A]``: ``measured`` is the
 camera's orientations (M, 3) [rad] of frame k (NaN where the camera lost the rod). It must never
 return currents beyond the coils' limit; on a measurement it cannot use it holds its last currents
 (``held`` counts those frames).
@@ -102,12 +102,14 @@ class StaticInverse:
         return x
 
     def reset(self, reference) -> np.ndarray:
+        """Before the first frame: the currents (n_c,) [A] for the reference's first target."""
         self.x = self.solve(reference.angles[0])
         self.currents = self._currents(self.x)
         self.held = 0
         return self.currents
 
     def __call__(self, k: int, measured, reference) -> np.ndarray:
+        """The currents (n_c,) [A] for frame k + 1's target (``measured`` is not used)."""
         self.x = self.solve(reference.window(k, 1)[0])
         self.currents = self._currents(self.x)
         return self.currents

@@ -53,10 +53,12 @@ class LoopConfig:
             raise bad("camera_noise", self.camera_noise, "a noise level >= 0 in m")
 
     def plant_spec(self, nominal: ManipulatorSpec | None = None) -> ManipulatorSpec:
+        """The plant: ``nominal`` (None: ``ManipulatorSpec()``) scaled by the three factors."""
         nominal = ManipulatorSpec() if nominal is None else nominal
         return nominal.scaled(stiffness=self.stiffness, remanence=self.remanence, damping=self.damping)
 
     def to_dict(self) -> dict:
+        """JSON-ready fields (``LoopConfig(**d)`` rebuilds it)."""
         return asdict(self)
 
 
