@@ -106,9 +106,11 @@ def calibrate_and_predict(currents, orientations, positions, config: ExperimentC
     predict_seconds = time.perf_counter() - t1
     if progress is not None:
         progress(1, 1, {"stage": "predict"})
+    d = spec.damping
     nominal = {"stiffness": f"Young's modulus {spec.youngs_modulus:g} Pa",
                "remanence": "remanence " + ", ".join(f"{m.br:g} T" for m in spec.magnets),
-               "damping": f"damping {spec.damping}"}
+               "damping": f"damping (translational {d.translational:g} N s/m^2, rotational {d.rotational:g} N m s/m, "
+                          f"Kelvin-Voigt {d.kelvin_voigt:g} s)"}
     params = {}
     for i, name in enumerate(FACTORS):
         entry = {"fitted": float(fitted.fitted[i]), "std_error": float(fitted.std_error[i]), "start": 1.0,
