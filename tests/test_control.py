@@ -102,3 +102,61 @@ def test_static_inverse_closes_the_loop_within_the_limits(short_loop):
     currents = np.asarray(data.attrs["currents"])
     assert currents.shape == (31, 6) and np.max(np.abs(currents)) <= 8.0
     assert (out / "control.png").is_file()
+
+
+# --------------------------------------------------------------------------- the learned MPC
+def _linear_narx(rate: float = 0.5, eps: float = 1e-4):
+    """A NarxModel that is linear to ~eps^2: the distal state relaxes to G u at ``rate`` per frame,
+    G u = (u_y, u_z) (about x <- the field's y, about y <- its z); the proximal state stays put."""
+    from softrnn.control.model import HISTORY, NarxModel
+
+    D = HISTORY * 7
+    W1 = np.eye(D)                                   # hidden = tanh(eps z) ~ eps z, z = the raw inputs
+    last_y = (HISTORY - 1) * 4                       # columns of y[k] and u[k] in the input
+    last_u = HISTORY * 4 + (HISTORY - 1) * 3
+    W2 = np.zeros((4, D))
+    W2[2, last_y + 2], W2[3, last_y + 3] = -rate, -rate
+    W2[2, last_u + 1], W2[3, last_u + 2] = rate, rate
+    return NarxModel(mean=np.zeros(D), std=np.full(D, 1 / eps), W1=W1, b1=np.zeros(D), W2=W2 / eps,
+                     b2=np.zeros(4), meta={})
+
+
+def test_mpc_on_a_known_linear_model_finds_the_input_that_holds_the_target():
+    """The plant is the MPC's own (linear) model: the answer is known, c = asin(x*), a = asin(y* / cos c)."""
+    from softrnn.control.model import field_direction
+    from softrnn.control.mpc import LearnedMPC
+    from softrnn.control.references import Reference
+
+    model = _linear_narx()
+    target = np.array([0.1, 0.3])                                              # (about x, about y) [rad]
+    ref = Reference(name="hold", times=np.arange(80) / 30, angles=np.tile(target, (80, 1)))
+    mpc = LearnedMPC(model, move_weight=1e-8, iterations=6, observer_gain=1.0, disturbance_gain=0.0)
+    mpc.reset(ref)
+    y = np.zeros(4)
+    us = np.tile(field_direction(*mpc.applied), (2, 1))
+    ys = np.tile(y, (2, 1))
+    for k in range(79):
+        measured = np.array([[y[0], y[1], 0.0], [y[2], y[3], 0.0]])
+        I = mpc(k, measured, ref)
+        assert np.max(np.abs(I)) <= 8.0
+        us = np.concatenate([us[1:], field_direction(*mpc.applied)[None]])
+        y = model.step(ys[None], us[None])[0]
+        ys = np.concatenate([ys[1:], y[None]])
+    c = np.arcsin(target[0])
+    np.testing.assert_allclose(mpc.applied, [np.arcsin(target[1] / np.cos(c)), c], atol=1e-5)
+    np.testing.assert_allclose(y[2:], target, atol=1e-6)
+
+
+def test_controllers_hold_the_last_currents_on_a_lost_measurement_and_stay_within_the_limits():
+    from softrnn.control.mpc import LearnedMPC
+    from softrnn.control.references import Reference
+
+    mpc = LearnedMPC(_linear_narx())
+    far = Reference(name="out of reach", times=np.arange(10) / 30, angles=np.tile([0.0, 3.0], (10, 1)))
+    first = mpc.reset(far)
+    ok = np.array([[0.0, 1.6, 0.0], [0.0, 1.7, 0.0]])
+    currents = [mpc(k, ok, far) for k in range(3)]
+    lost = mpc(3, np.full((2, 3), np.nan), far)
+    np.testing.assert_array_equal(lost, currents[-1])
+    assert mpc.held == 1
+    assert max(np.max(np.abs(I)) for I in [first, *currents]) <= 0.95 * 8.0 + 1e-9

@@ -23,9 +23,16 @@ def add_args(p):
     m.add_argument("--duration", type=float, default=60.0, help="seconds of closed loop (default 60)")
     m.add_argument("--seed", type=int, default=0, help="seeds the camera noise and the random reference")
     m.add_argument("--stiffness", type=float, default=1.04, help="the robot's Young's modulus over the nominal "
-                                                                 "(default 1.04, the experiment's robot)")
+                                                                 "(default 1.04, the experiment's robot; mpc-learned "
+                                                                 "is identified on that robot, so another value tests "
+                                                                 "its robustness)")
     m.add_argument("--remanence", type=float, default=0.97, help="the robot's remanence over the nominal "
                                                                  "(default 0.97)")
+    m.add_argument("--model", default=None, metavar="FILE.npz",
+                   help="mpc-learned: the control model of an earlier run (DIR/control-model.npz); default: identify "
+                        "the robot open loop and train it now (about a minute), kept in DIR")
+    m.add_argument("--identify-seconds", type=float, default=90.0,
+                   help="mpc-learned: seconds of open-loop identification (default 90)")
     m.add_argument("--overwrite", action="store_true", help="replace the results in DIR")
     m.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -44,9 +51,18 @@ def run(args) -> int:
     config = LoopConfig(stiffness=args.stiffness, remanence=args.remanence, seed=args.seed)
     prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite, holds=(RUN_FILE, FIGURE_FILE, SUMMARY_FILE),
                    fix="pass --overwrite to replace them, or choose another folder")
+    model = None
+    if args.controller == "mpc-learned":
+        from ..control.run import learned_model
+
+        if args.identify_seconds < 5:
+            raise bad("--identify-seconds", args.identify_seconds, "at least 5 s of identification")
+        # identified on the experiment's robot: --stiffness/--remanence perturb the plant after it
+        model = learned_model(args.out, args.model, identify_seconds=args.identify_seconds,
+                              config=LoopConfig(seed=args.seed), seed=args.seed)
     with Bar(f"control {args.controller}", unit="frame", enabled=not args.quiet) as bar:
         s = control_run(args.reference, args.controller, args.out, duration=args.duration, config=config,
-                        progress=bar)
+                        model=model, progress=bar)
     print(f"{s['controller']} on {s['reference']} ({s['duration_s']:g} s): tracking RMS {s['rms_deg']:.2f} deg "
           f"(about y {s['rms_deg_about']['y']:.2f}, about x {s['rms_deg_about']['x']:.2f}), "
           f"max {s['max_deg']:.2f} deg; "

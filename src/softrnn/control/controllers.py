@@ -27,7 +27,7 @@ from ..errors import SimulationError, bad
 from ..magnetics.coils import unit_field_maps
 from ..magnetics.manipulator import ManipulatorSpec
 
-CONTROLLERS = ("static-inverse",)
+CONTROLLERS = ("static-inverse", "mpc-learned")
 """Controllers ``controller(name)`` builds."""
 
 DISTAL = 1
@@ -38,6 +38,16 @@ def field_to_currents(spec: ManipulatorSpec) -> np.ndarray:
     """P (n_c, 3) [A/T]: the minimum-norm currents P b that make the field b [T] at the workspace centre."""
     beta, _ = unit_field_maps(spec.coils, np.zeros(3))
     return np.linalg.pinv(beta)
+
+
+def field_magnitude(P: np.ndarray, limit: float, cap: float = 0.02) -> float:
+    """The largest field magnitude B0 [T] (at most ``cap``) whose minimum-norm currents P b stay within
+    95 % of the coil ``limit`` [A] for every direction of elevation in [-90, 90] deg and azimuth in
+    [-30, 30] deg (a fine grid of them)."""
+    a, c = np.meshgrid(np.radians(np.linspace(-90, 90, 181)), np.radians(np.linspace(-30, 30, 61)), indexing="ij")
+    unit = np.stack([np.cos(a) * np.cos(c), np.sin(c), np.sin(a) * np.cos(c)], -1).reshape(-1, 3)
+    peak = float(np.max(np.abs(unit @ P.T)))
+    return min(cap, 0.95 * limit / peak)
 
 
 class StaticInverse:
@@ -63,13 +73,14 @@ class StaticInverse:
         unit = np.stack([np.cos(A) * np.cos(C), np.sin(C), np.sin(A) * np.cos(C)], -1).reshape(-1, 3)
         peak = float(np.max(np.abs(unit @ self.P.T)))
         limit = self.spec.coils.current_limit
-        self.field = min(0.02, 0.95 * limit / peak) if field is None else float(field)
+        self.field = field_magnitude(self.P, limit) if field is None else float(field)
         if not (0 < self.field and self.field * peak <= limit):
             raise bad("field", field, f"a field magnitude in (0, {limit / peak:.4g}] T (within the coil limit)")
-        pred = static_predictions(self.field * unit @ self.P.T, spec=self.spec, max_failures=0.2)
+        pred = static_predictions(self.field * unit @ self.P.T, spec=self.spec, max_failures=0.5)
         theta = pred.orientations[:, DISTAL, :2].reshape(A.shape + (2,))          # (na, nc, 2) [rad]
-        if not np.all(np.isfinite(theta)):
-            theta = _filled(theta)
+        keep = _solved_range(np.all(np.isfinite(theta), axis=(1, 2)))
+        self.a = self.a[keep]
+        theta = theta[keep]
         self.splines = [RectBivariateSpline(self.a, self.c, theta[..., i], kx=3, ky=3) for i in range(2)]
         self.table_failures = len(pred.failures)
         self.x = np.zeros(2)
@@ -115,22 +126,32 @@ class StaticInverse:
         return self.currents
 
 
-def _filled(theta: np.ndarray) -> np.ndarray:
-    """NaN entries of a grid (na, nc, 2) replaced by their nearest finite neighbour along the first axis."""
-    out = theta.copy()
-    for j in range(out.shape[1]):
-        ok = np.all(np.isfinite(out[:, j]), axis=1)
-        if not ok.any():
-            raise SimulationError("the static model failed along a whole column of the field grid; lower the field")
-        idx = np.where(ok, np.arange(out.shape[0]), -1)
-        idx = np.maximum.accumulate(idx)
-        idx[idx < 0] = int(np.argmax(ok))
-        out[:, j] = out[idx, j]
-    return out
+def _solved_range(ok: np.ndarray) -> slice:
+    """The longest run of consecutive True in ``ok`` (elevations where the static model solved every
+    azimuth) as a slice: where it fails, the planar pose is no static solution, and the controller
+    never commands a field there."""
+    best, start = (0, 0), None
+    for i, v in enumerate(list(ok) + [False]):
+        if v and start is None:
+            start = i
+        elif not v and start is not None:
+            if i - start > best[1] - best[0]:
+                best = (start, i)
+            start = None
+    if best[1] - best[0] < 4:
+        raise SimulationError("the static model failed on most field directions; lower the field")
+    return slice(*best)
 
 
-def controller(name: str, spec: ManipulatorSpec | None = None):
-    """A controller by name (``CONTROLLERS``)."""
+def controller(name: str, spec: ManipulatorSpec | None = None, *, model=None):
+    """A controller by name (``CONTROLLERS``); ``mpc-learned`` needs the trained ``model``
+    (``softrnn.control.model.NarxModel``)."""
     if name == "static-inverse":
         return StaticInverse(spec)
+    if name == "mpc-learned":
+        from .mpc import LearnedMPC
+
+        if model is None:
+            raise bad("model", None, "a trained control model (softrnn.control.identify.identified_model)")
+        return LearnedMPC(model, spec)
     raise bad("--controller", name, f"one of {', '.join(CONTROLLERS)}")

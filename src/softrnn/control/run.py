@@ -16,6 +16,7 @@ from .loop import LoopConfig, LoopResult, run_loop
 from .references import reference as make_reference
 
 RUN_FILE = "run.h5"
+MODEL_FILE = "control-model.npz"
 FIGURE_FILE = "control.png"
 SUMMARY_FILE = "control.json"
 
@@ -65,16 +66,43 @@ def plot_run(result: LoopResult, title: str):
     return fig
 
 
+def learned_model(out_dir, model_path=None, *, identify_seconds: float = 90.0, config: LoopConfig | None = None,
+                  seed: int = 0):
+    """The MPC's NARX model: read from ``model_path``, or from ``out_dir/MODEL_FILE`` when an earlier
+    run left it there with the same identification settings, or identified on the plant of
+    ``config`` and trained now (then saved there)."""
+    from .identify import identified_model
+    from .model import NarxModel
+
+    if model_path is not None:
+        return NarxModel.load(model_path)
+    config = LoopConfig() if config is None else config
+    path = Path(out_dir) / MODEL_FILE
+    want = {"identification_seconds": float(identify_seconds), "plant": config.to_dict(), "seed": seed}
+    if path.exists():
+        try:
+            model = NarxModel.load(path)
+            if model.meta.get("settings") == want:
+                return model
+        except Exception:                                                         # noqa: BLE001 - remade below
+            pass
+    model = identified_model(seconds=identify_seconds, config=config, seed=seed)
+    model.meta["settings"] = want
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    model.save(path)
+    return model
+
+
 def control_run(reference: str, controller: str, out_dir, *, duration: float = 60.0, config: LoopConfig | None = None,
-                progress: Progress | None = None) -> dict:
+                model=None, progress: Progress | None = None) -> dict:
     """Run ``controller`` on ``reference`` for ``duration`` s and write ``RUN_FILE``, ``FIGURE_FILE``
     and ``SUMMARY_FILE`` into ``out_dir``; returns the summary (``LoopResult.summary`` with the
-    reference, controller, config and files)."""
+    reference, controller, config and files). ``model``: the ``NarxModel`` of ``mpc-learned``."""
     from ..figures import plots as plotting
 
     config = LoopConfig() if config is None else config
     ref = make_reference(reference, duration=duration, rate=config.rate, seed=config.seed)
-    ctrl = make_controller(controller)
+    ctrl = make_controller(controller, model=model)
     result = run_loop(ctrl, ref, config, progress=progress)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

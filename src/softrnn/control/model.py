@@ -1,0 +1,167 @@
+"""The learned model the MPC plans with: a NARX network of the magnets' measured orientations.
+
+State y (4,) [rad]: the proximal and distal magnets' orientations about x and y (the camera's). Input
+u (3,): the unit direction of the commanded field (the currents are the minimum-norm ones for a
+field of fixed magnitude along u, as ``controllers.StaticInverse`` commands). The network predicts
+the next frame's change from the last ``HISTORY`` frames:
+
+    y[k+1] = y[k] + W2 tanh(W1 z[k] + b1) + b2,   z[k] = normalised (y[k-H+1..k], u[k-H+1..k])
+
+It is trained (PyTorch) on an identification run of the robot (``identify``: random smooth field
+directions held frame by frame, the camera with its noise), with a loss over ``UNROLL``-frame
+free runs from every start (the model's own predictions fed back), which keeps its long-horizon
+predictions honest. The trained weights are plain NumPy arrays (``NarxModel``), so the MPC runs
+without PyTorch: a batch of B rollouts is a few small matrix products per frame.
+
+Why not the experiment's magnet LSTMs: their input II is the magnet wrench computed from the
+*measured* pose, not a command, so a planner would have to predict poses to form its own inputs;
+and a recurrent state is awkward to differentiate through a horizon. A NARX network on the
+commanded field is what MPC needs.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import bad
+
+HISTORY = 2
+"""Frames of history the network reads."""
+
+UNROLL = 15
+"""Frames of the free runs in the training loss (half a second at 30 Hz; the MPC's horizon)."""
+
+STATE = 4
+INPUT = 3
+
+
+def field_direction(a, c) -> np.ndarray:
+    """Unit field directions (..., 3) for elevation a and azimuth c [rad] (arrays of one shape)."""
+    a = np.asarray(a, float)
+    c = np.asarray(c, float)
+    return np.stack([np.cos(a) * np.cos(c), np.sin(c), np.sin(a) * np.cos(c)], -1)
+
+
+def state_of(orientations) -> np.ndarray:
+    """The model's state (..., 4) [rad] from camera orientations (..., 2, 3): (proximal x, y, distal x, y)."""
+    o = np.asarray(orientations, float)
+    return o[..., :, :2].reshape(o.shape[:-2] + (STATE,))
+
+
+@dataclass(frozen=True, eq=False)
+class NarxModel:
+    """Trained NARX weights (NumPy): mean, std (H (4 + 3),) normalisation of the inputs; W1 (m, H (4 + 3)),
+    b1 (m,), W2 (4, m), b2 (4,); ``meta`` says how it was trained."""
+
+    mean: np.ndarray
+    std: np.ndarray
+    W1: np.ndarray
+    b1: np.ndarray
+    W2: np.ndarray
+    b2: np.ndarray
+    meta: dict
+
+    def step(self, ys: np.ndarray, us: np.ndarray) -> np.ndarray:
+        """Next states (B, 4) from histories ys (B, H, 4) [rad] and us (B, H, 3)."""
+        z = (np.concatenate([ys.reshape(ys.shape[0], -1), us.reshape(us.shape[0], -1)], 1) - self.mean) / self.std
+        return ys[:, -1] + np.tanh(z @ self.W1.T + self.b1) @ self.W2.T + self.b2
+
+    def rollout(self, ys: np.ndarray, us_past: np.ndarray, us_future: np.ndarray) -> np.ndarray:
+        """States (B, N, 4) of N frames ahead, from histories ys (B, H, 4), the applied inputs us_past
+        (B, H - 1, 3) and the planned ones us_future (B, N, 3) (applied over frames k, k + 1, ...)."""
+        B, N = us_future.shape[:2]
+        hist_y = ys.copy()
+        hist_u = np.concatenate([us_past, us_future[:, :1]], 1)
+        out = np.empty((B, N, STATE))
+        for i in range(N):
+            nxt = self.step(hist_y, hist_u)
+            out[:, i] = nxt
+            hist_y = np.concatenate([hist_y[:, 1:], nxt[:, None]], 1)
+            if i + 1 < N:
+                hist_u = np.concatenate([hist_u[:, 1:], us_future[:, i + 1:i + 2]], 1)
+        return out
+
+    def save(self, path) -> None:
+        """Write the weights and ``meta`` to an ``.npz`` file (atomically)."""
+        import io
+        import json
+
+        from ..files import atomic_write_bytes
+
+        buf = io.BytesIO()
+        np.savez(buf, mean=self.mean, std=self.std, W1=self.W1, b1=self.b1, W2=self.W2, b2=self.b2,
+                 meta=np.array(json.dumps(self.meta)))
+        atomic_write_bytes(path, buf.getvalue())
+
+    @classmethod
+    def load(cls, path) -> NarxModel:
+        """Read ``save``'s file; a missing or foreign file is a one-line error naming ``--model``."""
+        import json
+
+        try:
+            with np.load(path) as f:
+                return cls(mean=f["mean"], std=f["std"], W1=f["W1"], b1=f["b1"], W2=f["W2"], b2=f["b2"],
+                           meta=json.loads(str(f["meta"])))
+        except (OSError, KeyError, ValueError) as err:
+            raise bad("--model", str(path), f"a control model file written by softrnn control ({err})") from None
+
+
+def windows(y: np.ndarray, u: np.ndarray, length: int) -> tuple:
+    """Training windows of a run (y (K, 4), u (K, 3), u[k] applied over frame k to k + 1): histories
+    (W, H, 4) and (W, H, 3) ending at frame k, the future inputs (W, length, 3) and the targets
+    (W, length, 4) of frames k + 1 .. k + length, for every k that fits."""
+    H = HISTORY
+    ks = np.arange(H - 1, y.shape[0] - length)
+    hy = np.stack([y[k - H + 1:k + 1] for k in ks])
+    hu = np.stack([u[k - H + 1:k + 1] for k in ks])
+    fu = np.stack([u[k:k + length] for k in ks])
+    ty = np.stack([y[k + 1:k + 1 + length] for k in ks])
+    return hy, hu, fu, ty
+
+
+def train_narx(runs: list, *, hidden: int = 48, steps: int = 2000, unroll: int = UNROLL, seed: int = 0,
+               lr: float = 1e-2) -> NarxModel:
+    """Train the NARX network on identification runs [(y (K, 4) [rad], u (K, 3)), ...] with the
+    ``unroll``-frame free-run loss (Adam, full batch of every window). Deterministic for a seed."""
+    import torch
+
+    torch.manual_seed(seed)
+    parts = [windows(y, u, unroll) for y, u in runs]
+    hy, hu, fu, ty = (np.concatenate([p[i] for p in parts]) for i in range(4))
+    zin = np.concatenate([hy.reshape(len(hy), -1), hu.reshape(len(hu), -1)], 1)
+    mean, std = zin.mean(0), zin.std(0) + 1e-6
+    step_scale = float(np.std(np.diff(ty, axis=1))) + 1e-9
+    T = {k: torch.tensor(v, dtype=torch.float32) for k, v in
+         dict(hy=hy, hu=hu, fu=fu, ty=ty, mean=mean, std=std).items()}
+    H, D = HISTORY, zin.shape[1]
+    W1 = torch.nn.Parameter(torch.randn(hidden, D, dtype=torch.float32) / math.sqrt(D))
+    b1 = torch.nn.Parameter(torch.zeros(hidden, dtype=torch.float32))
+    W2 = torch.nn.Parameter(torch.zeros(STATE, hidden, dtype=torch.float32))
+    b2 = torch.nn.Parameter(torch.zeros(STATE, dtype=torch.float32))
+    opt = torch.optim.Adam([W1, b1, W2, b2], lr=lr)
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, steps)
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        ys, us = T["hy"], T["hu"]
+        loss = 0.0
+        for i in range(unroll):
+            z = (torch.cat([ys.reshape(len(ys), -1), us.reshape(len(us), -1)], 1) - T["mean"]) / T["std"]
+            nxt = ys[:, -1] + torch.tanh(z @ W1.T + b1) @ W2.T + b2
+            loss = loss + torch.mean(((nxt - T["ty"][:, i]) / step_scale) ** 2)
+            ys = torch.cat([ys[:, 1:], nxt[:, None]], 1)
+            if i + 1 < unroll:
+                us = torch.cat([us[:, 1:], T["fu"][:, i + 1:i + 2]], 1)
+        opt.zero_grad()
+        (loss / unroll).backward()
+        opt.step()
+        sched.step()
+    meta = {"history": H, "hidden": hidden, "steps": steps, "unroll": unroll, "seed": seed, "lr": lr,
+            "windows": int(len(hy)), "frames": int(sum(len(y) for y, _ in runs)),
+            "final_loss": float(loss.detach()) / unroll,
+            "seconds": time.perf_counter() - t0}
+    weights = {k: v.detach().numpy().astype(np.float64) for k, v in dict(W1=W1, b1=b1, W2=W2, b2=b2).items()}
+    return NarxModel(mean=mean, std=std, meta=meta, **weights)
