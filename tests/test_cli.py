@@ -59,7 +59,7 @@ def test_bad_input_leaves_no_partial_file(tmp_path):
 
 
 def _light_steps(monkeypatch):
-    """The slow steps that have their own tests (bench, the magnetic experiment, Fig. 13/14) replaced by
+    """The slow steps that have their own tests (bench, the magnetic experiment, control, Fig. 13/14) replaced by
     fakes that record their calls; the data, node-model and manipulator steps run for real."""
     import softrnn.bench as bench_pkg
 
@@ -73,6 +73,7 @@ def _light_steps(monkeypatch):
 
     monkeypatch.setattr(bench_pkg, "run_all", fake("bench", {"machine": {"cpu": "x"}, "fake": True}))
     monkeypatch.setattr(reproduce_mod, "magnetic_step", fake("magnetic", None))
+    monkeypatch.setattr(reproduce_mod, "control_step", fake("control", None))
     monkeypatch.setattr(reproduce_mod, "fig13_step", fake("fig13", None))
     monkeypatch.setattr(reproduce_mod, "fig14_step", fake("fig14", None))
     return calls
@@ -116,7 +117,7 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     _tiny_dynamic(monkeypatch)
     out = tmp_path / "rep"
     assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
-    assert sorted(steps) == ["bench", "fig13", "fig14", "magnetic"]
+    assert sorted(steps) == ["bench", "control", "fig13", "fig14", "magnetic"]
     report = json.loads((out / "report.json").read_text())
     assert report["manipulator"]["modelled_nodes"] > 0 and "errors" in report["manipulator"]
     for case in ("ellipse", "square", "semicircle"):

@@ -19,6 +19,7 @@ RUN_FILE = "run.h5"
 MODEL_FILE = "control-model.npz"
 FIGURE_FILE = "control.png"
 SUMMARY_FILE = "control.json"
+TRACE_FILE = "trace.npz"
 
 
 def write_run(path, result: LoopResult, config: LoopConfig, attrs: dict) -> None:
@@ -67,7 +68,7 @@ def plot_run(result: LoopResult, title: str):
 
 
 def learned_model(out_dir, model_path=None, *, identify_seconds: float = 90.0, config: LoopConfig | None = None,
-                  seed: int = 0):
+                  seed: int = 0, steps: int = 2000):
     """The MPC's NARX model: read from ``model_path``, or from ``out_dir/MODEL_FILE`` when an earlier
     run left it there with the same identification settings, or identified on the plant of
     ``config`` and trained now (then saved there)."""
@@ -78,7 +79,8 @@ def learned_model(out_dir, model_path=None, *, identify_seconds: float = 90.0, c
         return NarxModel.load(model_path)
     config = LoopConfig() if config is None else config
     path = Path(out_dir) / MODEL_FILE
-    want = {"identification_seconds": float(identify_seconds), "plant": config.to_dict(), "seed": seed}
+    want = {"identification_seconds": float(identify_seconds), "plant": config.to_dict(), "seed": seed,
+            "steps": int(steps)}
     if path.exists():
         try:
             model = NarxModel.load(path)
@@ -86,7 +88,7 @@ def learned_model(out_dir, model_path=None, *, identify_seconds: float = 90.0, c
                 return model
         except Exception:                                                         # noqa: BLE001 - remade below
             pass
-    model = identified_model(seconds=identify_seconds, config=config, seed=seed)
+    model = identified_model(seconds=identify_seconds, config=config, seed=seed, steps=steps)
     model.meta["settings"] = want
     Path(out_dir).mkdir(parents=True, exist_ok=True)
     model.save(path)
@@ -95,8 +97,9 @@ def learned_model(out_dir, model_path=None, *, identify_seconds: float = 90.0, c
 
 def control_run(reference: str, controller: str, out_dir, *, duration: float = 60.0, config: LoopConfig | None = None,
                 model=None, progress: Progress | None = None) -> dict:
-    """Run ``controller`` on ``reference`` for ``duration`` s and write ``RUN_FILE``, ``FIGURE_FILE``
-    and ``SUMMARY_FILE`` into ``out_dir``; returns the summary (``LoopResult.summary`` with the
+    """Run ``controller`` on ``reference`` for ``duration`` s and write ``RUN_FILE``, ``FIGURE_FILE``,
+    ``SUMMARY_FILE`` and ``TRACE_FILE`` (time, reference, true and measured orientations, currents)
+    into ``out_dir``; returns the summary (``LoopResult.summary`` with the
     reference, controller, config and files). ``model``: the ``NarxModel`` of ``mpc-learned``."""
     from ..figures import plots as plotting
 
@@ -110,7 +113,20 @@ def control_run(reference: str, controller: str, out_dir, *, duration: float = 6
                **result.summary(), "config": config.to_dict(),
                "files": {"run": str(out / RUN_FILE), "figure": str(out / FIGURE_FILE)}}
     write_run(out / RUN_FILE, result, config, {"controller": controller, "reference": ref.name})
+    import io
+
+    from ..files import atomic_write_bytes
+
+    buf = io.BytesIO()
+    np.savez(buf, time=result.time, reference=result.reference, true=result.true, measured=result.measured,
+             currents=result.currents)
+    atomic_write_bytes(out / TRACE_FILE, buf.getvalue())
     plotting.save(plot_run(result, f"{controller} on the {ref.name} reference: RMS {summary['rms_deg']:.2f} deg"),
                   out / FIGURE_FILE)
     atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2, allow_nan=False) + "\n")
     return summary
+
+
+def run_one(reference: str, controller: str, out_dir: str, duration: float, config: dict, model=None) -> dict:
+    """``control_run`` with a plain-dict ``config`` (``LoopConfig`` fields), for a Dask worker."""
+    return control_run(reference, controller, out_dir, duration=duration, config=LoopConfig(**config), model=model)

@@ -6,7 +6,8 @@ node model of each case, trained, evaluated one step ahead and free running, gen
 against PyTorch (``node_models``); the whole semicircle with one shared model, Fig. 2C
 (``manipulator``); the learned whole-manipulator dynamic model of each case, on its own sweep,
 beside its baselines and timed against the simulator (``dynamic``, beyond the paper); the
-magnetic experiment simulated, section 5, Table 1, Fig. 12 (``magnetic``);
+magnetic experiment simulated, section 5, Table 1, Fig. 12 (``magnetic``); closed-loop control
+of the magnetic rod, static-inverse against MPC on a learned model (``control``, beyond the paper);
 the static solver's Fig. 13 study (``fig13``); the Fig. 14 hyper-parameter study (``fig14``);
 ``softrnn bench`` (``benchmark``); then ``report.json`` and ``report.md`` (``report``,
 docs/report-format.md). Each finished step leaves its files and a step file (``stepfiles``); a
@@ -32,6 +33,7 @@ from .cases import GENERALISATION as GENERALISATION
 from .cases import QUICK_FRACTION as QUICK_FRACTION
 from .cases import case_step as case_step
 from .cases import run_case as run_case
+from .control import control_step as control_step
 from .dynamic import dynamic_step as dynamic_step
 from .fig13 import fig13_step as fig13_step
 from .fig14 import fig14_step as fig14_step
@@ -85,6 +87,7 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory: ProgressFactory
     report["manipulator"] = manipulator_step(out, quick, progress_factory)
     report["dynamic_model"] = dynamic_step(out, quick, progress_factory)
     report["magnetic"] = magnetic_step(out, quick, progress_factory)
+    report["control"] = control_step(out, quick, progress_factory)
     report["fig13"] = fig13_step(out, quick)
     report["fig14"] = fig14_step(out, quick, progress_factory)
     report["benchmark"] = benchmark_step(out, quick, progress_factory)

@@ -1,0 +1,129 @@
+"""Reproduce step: closed-loop control of the simulated magnetic rod (issue 14) under ``control/``:
+``static-inverse`` and ``mpc-learned`` on the step, sine and random references, and ``mpc-learned``
+on robots 10 % stiffer and stronger, and 10 % softer and weaker, than the one it was identified on."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..progress import ProgressFactory
+from .stepfiles import load_step, save_step
+
+REFERENCES = ("step", "sine", "random")
+CONTROLLERS = ("static-inverse", "mpc-learned")
+PERTURBATIONS = {"+10%": 1.1, "-10%": 0.9}
+"""Robustness: the plant's stiffness and remanence multiplied further by these factors."""
+
+FULL = {"duration": 30.0, "identify": 90.0, "train_steps": 2000}
+QUICK = {"duration": 4.0, "identify": 15.0, "train_steps": 300}
+KEYS = ("rms_deg", "max_deg", "limit_violations", "compute_ms_median", "compute_ms_p99", "stable")
+
+
+def _tasks(folder: Path, settings: dict, model) -> list:
+    from ..control.loop import LoopConfig
+    from ..control.run import run_one
+
+    base = LoopConfig().to_dict()
+    tasks = []
+    for controller in CONTROLLERS:
+        for ref in REFERENCES:
+            path = folder / controller / ref
+            tasks.append(((controller, ref), (run_one, (ref, controller, str(path), settings["duration"], base,
+                                                        model if controller == "mpc-learned" else None))))
+    for name, f in PERTURBATIONS.items():
+        plant = {**base, "stiffness": base["stiffness"] * f, "remanence": base["remanence"] * f}
+        for ref in REFERENCES:
+            path = folder / "robustness" / name / ref
+            tasks.append(((name, ref), (run_one, (ref, "mpc-learned", str(path), settings["duration"], plant, model))))
+    return tasks
+
+
+def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | None = None, workers: int = 2) -> dict:
+    """The control table: report["control"][CONTROLLER][REFERENCE] and ["robustness"][PERTURBATION][REFERENCE]
+    (``KEYS``), the goals, the model's training and ``figures/control.png``."""
+    from ..control.loop import LoopConfig
+    from ..control.run import learned_model
+    from ..sweeps.dask import completed
+
+    folder = out / "control"
+    step_file = folder / "step.json"
+    done = load_step(step_file, quick)
+    if done is not None:
+        return done
+    settings = QUICK if quick else FULL
+    progress = progress_factory("control") if progress_factory else None
+    model = learned_model(folder, identify_seconds=settings["identify"], config=LoopConfig(), seed=0,
+                          steps=settings["train_steps"])
+    tasks = _tasks(folder, settings, model)
+    jobs = [(_keyed, (key, fn, args), f"softrnn-control-{'-'.join(key)}-{quick}") for key, (fn, args) in tasks]
+    if progress is not None:
+        progress(0, len(jobs))
+    summaries = {}
+    for n, (key, summary) in enumerate(completed(jobs, None, workers), start=1):
+        summaries[key] = summary
+        if progress is not None:
+            progress(n, len(jobs))
+    result = {c: {r: {k: summaries[(c, r)][k] for k in KEYS} for r in REFERENCES} for c in CONTROLLERS}
+    result["robustness"] = {p: {r: {k: summaries[(p, r)][k] for k in KEYS} for r in REFERENCES}
+                            for p in PERTURBATIONS}
+    result["goals"] = _goals(result)
+    result["settings"] = {**settings, "references": list(REFERENCES), "perturbations": PERTURBATIONS,
+                          "plant": LoopConfig().to_dict()}
+    result["model"] = {k: v for k, v in model.meta.items() if k != "settings"}
+    result["figure"] = _figure(out, folder)
+    return save_step(step_file, result, quick)
+
+
+def _keyed(key: tuple, fn, args: tuple) -> tuple:
+    """(key, fn(*args)): a task's result with the key it was submitted under (runs on a worker)."""
+    return key, fn(*args)
+
+
+def _goals(result: dict) -> dict:
+    """Issue 14's goals, measured: mpc-learned's RMS at most half static-inverse's on every reference,
+    its p99 below 1 ms, robustness runs stable, no limit violation anywhere."""
+    ratios = {r: result["mpc-learned"][r]["rms_deg"] / result["static-inverse"][r]["rms_deg"] for r in REFERENCES}
+    p99 = max(result["mpc-learned"][r]["compute_ms_p99"] for r in REFERENCES)
+    runs = [result[c][r] for c in CONTROLLERS for r in REFERENCES] + \
+        [result["robustness"][p][r] for p in PERTURBATIONS for r in REFERENCES]
+    return {
+        "mpc_over_static_rms": {"value": ratios, "goal": "<= 0.5 on every reference",
+                                "met": all(v <= 0.5 for v in ratios.values())},
+        "mpc_compute_ms_p99": {"value": p99, "goal": "< 1", "met": p99 < 1.0},
+        "robust_stable": {"value": {p: {r: result["robustness"][p][r]["stable"] for r in REFERENCES}
+                                    for p in PERTURBATIONS},
+                          "goal": "stable on every reference", "met": all(result["robustness"][p][r]["stable"]
+                                                                          for p in PERTURBATIONS for r in REFERENCES)},
+        "no_limit_violation": {"value": sum(run["limit_violations"] for run in runs), "goal": "0",
+                               "met": all(run["limit_violations"] == 0 for run in runs)},
+    }
+
+
+def _figure(out: Path, folder: Path) -> str:
+    """``figures/control.png``: the step and random references, static-inverse and mpc-learned (true
+    distal orientation about y), and their errors."""
+    from ..figures import plots as plotting  # noqa: I001  (selects the Agg backend first)
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    fig, axes = plt.subplots(2, 2, figsize=(12, 6.5), sharex="col")
+    for col, ref in enumerate(("step", "random")):
+        for controller, color in (("static-inverse", "tab:red"), ("mpc-learned", "tab:blue")):
+            with np.load(folder / controller / ref / "trace.npz") as t:
+                if controller == "static-inverse":
+                    axes[0, col].plot(t["time"], np.degrees(t["reference"][:, 1]), color="k", lw=1.2,
+                                      label="reference")
+                axes[0, col].plot(t["time"], np.degrees(t["true"][:, 1, 1]), color=color, lw=1.0, label=controller)
+                err = np.degrees(np.hypot(*(t["true"][:, 1, :2] - t["reference"]).T))
+                axes[1, col].plot(t["time"], err, color=color, lw=0.8, label=controller)
+        axes[0, col].set_title(f"{ref} reference: distal magnet about y (bending)", fontsize=9)
+        axes[0, col].set_ylabel("deg")
+        axes[1, col].set_ylabel("|error| [deg]")
+        axes[1, col].set_xlabel("t [s]")
+        for ax in axes[:, col]:
+            ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    path = out / "figures" / "control.png"
+    plotting.save(fig, path)
+    return str(path.relative_to(out))
