@@ -24,30 +24,14 @@ import math
 import numpy as np
 
 from ..errors import SimulationError, bad
-from ..magnetics.coils import unit_field_maps
 from ..magnetics.manipulator import ManipulatorSpec
+from .fields import field_magnitude, field_to_currents
 
 CONTROLLERS = ("static-inverse", "mpc-learned")
 """Controllers ``controller(name)`` builds."""
 
 DISTAL = 1
 """Index of the distal magnet (the tracked one) in the camera's (M, 3) orientations."""
-
-
-def field_to_currents(spec: ManipulatorSpec) -> np.ndarray:
-    """P (n_c, 3) [A/T]: the minimum-norm currents P b that make the field b [T] at the workspace centre."""
-    beta, _ = unit_field_maps(spec.coils, np.zeros(3))
-    return np.linalg.pinv(beta)
-
-
-def field_magnitude(P: np.ndarray, limit: float, cap: float = 0.02) -> float:
-    """The largest field magnitude B0 [T] (at most ``cap``) whose minimum-norm currents P b stay within
-    95 % of the coil ``limit`` [A] for every direction of elevation in [-90, 90] deg and azimuth in
-    [-30, 30] deg (a fine grid of them)."""
-    a, c = np.meshgrid(np.radians(np.linspace(-90, 90, 181)), np.radians(np.linspace(-30, 30, 61)), indexing="ij")
-    unit = np.stack([np.cos(a) * np.cos(c), np.sin(c), np.sin(a) * np.cos(c)], -1).reshape(-1, 3)
-    peak = float(np.max(np.abs(unit @ P.T)))
-    return min(cap, 0.95 * limit / peak)
 
 
 class StaticInverse:

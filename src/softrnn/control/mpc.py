@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import bad
 from ..magnetics.manipulator import ManipulatorSpec
-from .controllers import field_magnitude, field_to_currents
+from .fields import field_magnitude, field_to_currents
 from .model import HISTORY, NarxModel, field_direction, state_of
 
 A_RANGE = (-math.pi / 2, math.pi / 2)

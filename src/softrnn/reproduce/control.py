@@ -39,8 +39,9 @@ def _tasks(folder: Path, settings: dict, model) -> list:
 
 
 def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | None = None, workers: int = 2) -> dict:
-    """The control table: report["control"][CONTROLLER][REFERENCE] and ["robustness"][PERTURBATION][REFERENCE]
-    (``KEYS``), the goals, the model's training and ``figures/control.png``."""
+    """The control table: ``report["control"][controller][reference]`` and
+    ``report["control"]["robustness"][perturbation][reference]`` (``KEYS``), the goals, the model's
+    training and ``figures/control.png``."""
     from ..control.loop import LoopConfig
     from ..control.run import learned_model
     from ..sweeps.dask import completed
