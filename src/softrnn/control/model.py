@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -65,25 +66,33 @@ class NarxModel:
     b2: np.ndarray
     meta: dict
 
+    @cached_property
+    def _folded(self) -> tuple:
+        """(Wy (m, H 4), Wu (m, H 3), b (m,)): the first layer with the normalisation folded in."""
+        W = self.W1 / self.std
+        n = self.mean.size - HISTORY * INPUT
+        return np.ascontiguousarray(W[:, :n]), np.ascontiguousarray(W[:, n:]), self.b1 - W @ self.mean
+
     def step(self, ys: np.ndarray, us: np.ndarray) -> np.ndarray:
         """Next states (B, 4) from histories ys (B, H, 4) [rad] and us (B, H, 3)."""
-        z = (np.concatenate([ys.reshape(ys.shape[0], -1), us.reshape(us.shape[0], -1)], 1) - self.mean) / self.std
-        return ys[:, -1] + np.tanh(z @ self.W1.T + self.b1) @ self.W2.T + self.b2
+        Wy, Wu, b = self._folded
+        B = ys.shape[0]
+        return ys[:, -1] + np.tanh(ys.reshape(B, -1) @ Wy.T + us.reshape(B, -1) @ Wu.T + b) @ self.W2.T + self.b2
 
     def rollout(self, ys: np.ndarray, us_past: np.ndarray, us_future: np.ndarray) -> np.ndarray:
         """States (B, N, 4) of N frames ahead, from histories ys (B, H, 4), the applied inputs us_past
         (B, H - 1, 3) and the planned ones us_future (B, N, 3) (applied over frames k, k + 1, ...)."""
         B, N = us_future.shape[:2]
-        hist_y = ys.copy()
-        hist_u = np.concatenate([us_past, us_future[:, :1]], 1)
-        out = np.empty((B, N, STATE))
+        H = ys.shape[1]
+        y = np.empty((B, H + N, STATE))                 # the known history, then the predictions
+        y[:, :H] = ys
+        u = np.concatenate([us_past, us_future], 1)      # (B, H - 1 + N, 3)
+        Wy, Wu, b = self._folded
+        W2T = self.W2.T
         for i in range(N):
-            nxt = self.step(hist_y, hist_u)
-            out[:, i] = nxt
-            hist_y = np.concatenate([hist_y[:, 1:], nxt[:, None]], 1)
-            if i + 1 < N:
-                hist_u = np.concatenate([hist_u[:, 1:], us_future[:, i + 1:i + 2]], 1)
-        return out
+            pre = y[:, i:i + H].reshape(B, -1) @ Wy.T + u[:, i:i + H].reshape(B, -1) @ Wu.T + b
+            y[:, H + i] = y[:, H + i - 1] + np.tanh(pre) @ W2T + self.b2
+        return y[:, H:]
 
     def save(self, path) -> None:
         """Write the weights and ``meta`` to an ``.npz`` file (atomically)."""
