@@ -48,6 +48,9 @@ def run(args) -> int:
     from ..control.references import reference
 
     reference(args.reference, duration=args.duration, seed=args.seed)          # checks REF and --duration now
+    for flag, value in (("--stiffness", args.stiffness), ("--remanence", args.remanence)):
+        if not 0.2 <= value <= 5.0:
+            raise bad(flag, value, "a factor in [0.2, 5] on the nominal value (1.04 and 0.97: the experiment's robot)")
     config = LoopConfig(stiffness=args.stiffness, remanence=args.remanence, seed=args.seed)
     prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite, holds=(RUN_FILE, FIGURE_FILE, SUMMARY_FILE),
                    fix="pass --overwrite to replace them, or choose another folder")
@@ -63,10 +66,12 @@ def run(args) -> int:
     with Bar(f"control {args.controller}", unit="frame", enabled=not args.quiet) as bar:
         s = control_run(args.reference, args.controller, args.out, duration=args.duration, config=config,
                         model=model, progress=bar)
-    print(f"{s['controller']} on {s['reference']} ({s['duration_s']:g} s): tracking RMS {s['rms_deg']:.2f} deg "
-          f"(about y {s['rms_deg_about']['y']:.2f}, about x {s['rms_deg_about']['x']:.2f}), "
-          f"max {s['max_deg']:.2f} deg; "
-          f"limit violations {s['limit_violations']}; controller {s['compute_ms_median']:.3f} ms per frame "
-          f"(p99 {s['compute_ms_p99']:.3f})")
+    def deg(v):
+        return "not finite" if v is None else f"{v:.2f}"
+
+    print(f"{s['controller']} on {s['reference']} ({s['duration_s']:g} s): tracking RMS {deg(s['rms_deg'])} deg "
+          f"(about y {deg(s['rms_deg_about']['y'])}, about x {deg(s['rms_deg_about']['x'])}), "
+          f"max {deg(s['max_deg'])} deg; limit violations {s['limit_violations']}; controller "
+          f"{s['compute_ms_median']:.3f} ms per frame (p99 {s['compute_ms_p99']:.3f})")
     print(f"wrote {args.out}/{RUN_FILE}, {FIGURE_FILE}, {SUMMARY_FILE}")
     return 0

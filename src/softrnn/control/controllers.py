@@ -19,13 +19,11 @@ perturbation and dynamics show up as tracking error.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..errors import SimulationError, bad
 from ..magnetics.manipulator import ManipulatorSpec
-from .fields import field_magnitude, field_to_currents
+from .fields import field_direction, field_magnitude, field_to_currents
 
 CONTROLLERS = ("static-inverse", "mpc-learned")
 """Controllers ``controller(name)`` builds."""
@@ -54,7 +52,7 @@ class StaticInverse:
         self.a = np.radians(np.linspace(-90.0, 90.0, int(elevations)))
         self.c = np.radians(np.linspace(-30.0, 30.0, int(azimuths)))
         A, C = np.meshgrid(self.a, self.c, indexing="ij")
-        unit = np.stack([np.cos(A) * np.cos(C), np.sin(C), np.sin(A) * np.cos(C)], -1).reshape(-1, 3)
+        unit = field_direction(A, C).reshape(-1, 3)
         peak = float(np.max(np.abs(unit @ self.P.T)))
         limit = self.spec.coils.current_limit
         self.field = field_magnitude(self.P, limit) if field is None else float(field)
@@ -79,9 +77,7 @@ class StaticInverse:
         return th, J
 
     def _currents(self, x) -> np.ndarray:
-        a, c = x
-        b = self.field * np.array([math.cos(a) * math.cos(c), math.sin(c), math.sin(a) * math.cos(c)])
-        return self.P @ b
+        return self.P @ (self.field * field_direction(*x))
 
     def solve(self, target) -> np.ndarray:
         """The field angles (a, c) [rad] whose static orientation is ``target`` (about x, about y) [rad]."""

@@ -15,9 +15,9 @@ import math
 import numpy as np
 
 from ..magnetics.manipulator import ManipulatorSpec
-from .fields import field_magnitude, field_to_currents
+from .fields import field_direction, field_magnitude, field_to_currents
 from .loop import LoopConfig, run_loop
-from .model import NarxModel, field_direction, state_of, train_narx
+from .model import NarxModel, state_of, train_narx
 from .references import Reference
 
 

@@ -98,14 +98,15 @@ class LoopResult:
         finite = bool(np.all(np.isfinite(e)))
         ms = 1e3 * self.compute_s
         return {
-            "rms_deg": float(np.sqrt(np.nanmean(e ** 2))) if finite else None,
-            "max_deg": float(np.nanmax(np.abs(e))) if finite else None,
-            "rms_deg_about": {axis: float(np.sqrt(np.nanmean(e[:, i] ** 2))) for i, axis in enumerate("xy")},
-            "max_deg_about": {axis: float(np.nanmax(np.abs(e[:, i]))) for i, axis in enumerate("xy")},
+            "rms_deg": float(np.sqrt(np.mean(e ** 2))) if finite else None,
+            "max_deg": float(np.max(np.abs(e))) if finite else None,
+            "rms_deg_about": {axis: float(np.sqrt(np.mean(e[:, i] ** 2))) if finite else None
+                              for i, axis in enumerate("xy")},
+            "max_deg_about": {axis: float(np.max(np.abs(e[:, i]))) if finite else None for i, axis in enumerate("xy")},
             "measured_rms_deg": float(np.sqrt(np.nanmean(m ** 2))),
             "limit_violations": int(self.limit_violations), "held_frames": int(self.held),
             "compute_ms_median": float(np.median(ms)), "compute_ms_p99": float(np.percentile(ms, 99)),
-            "stable": finite and float(np.nanmax(np.abs(e))) < bound_deg,
+            "stable": finite and float(np.max(np.abs(e))) < bound_deg,
             "frames": int(self.time.size),
         }
 

@@ -29,6 +29,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import bad
+from .fields import field_direction as field_direction
 
 HISTORY = 2
 """Frames of history the network reads."""
@@ -38,13 +39,6 @@ UNROLL = 15
 
 STATE = 4
 INPUT = 3
-
-
-def field_direction(a, c) -> np.ndarray:
-    """Unit field directions (..., 3) for elevation a and azimuth c [rad] (arrays of one shape)."""
-    a = np.asarray(a, float)
-    c = np.asarray(c, float)
-    return np.stack([np.cos(a) * np.cos(c), np.sin(c), np.sin(a) * np.cos(c)], -1)
 
 
 def state_of(orientations) -> np.ndarray:

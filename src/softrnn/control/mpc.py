@@ -32,8 +32,8 @@ import numpy as np
 
 from ..errors import bad
 from ..magnetics.manipulator import ManipulatorSpec
-from .fields import field_magnitude, field_to_currents
-from .model import HISTORY, NarxModel, field_direction, state_of
+from .fields import field_direction, field_magnitude, field_to_currents
+from .model import HISTORY, NarxModel, state_of
 
 A_RANGE = (-math.pi / 2, math.pi / 2)
 C_RANGE = (-math.pi / 6, math.pi / 6)

@@ -121,8 +121,8 @@ def control_run(reference: str, controller: str, out_dir, *, duration: float = 6
     np.savez(buf, time=result.time, reference=result.reference, true=result.true, measured=result.measured,
              currents=result.currents)
     atomic_write_bytes(out / TRACE_FILE, buf.getvalue())
-    plotting.save(plot_run(result, f"{controller} on the {ref.name} reference: RMS {summary['rms_deg']:.2f} deg"),
-                  out / FIGURE_FILE)
+    rms = "not finite" if summary["rms_deg"] is None else f"{summary['rms_deg']:.2f} deg"
+    plotting.save(plot_run(result, f"{controller} on the {ref.name} reference: RMS {rms}"), out / FIGURE_FILE)
     atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2, allow_nan=False) + "\n")
     return summary
 

@@ -14,6 +14,7 @@ and is left out.
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
 
@@ -125,8 +126,6 @@ def calibrate_manipulator(currents, orientations, positions=None, *, dt: float, 
                           with_positions=positions is not None)
     params = [Parameter(name, 1.0, *BOUNDS[name]) for name in FACTORS]
     weights = np.broadcast_to(1.0 / sigma, y.shape)
-    import hashlib
-
     fingerprint = hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in (I, y))
                                  + repr((dt, settle, points, degree, repr(spec))).encode()).hexdigest()
     result = fit(model, y.ravel(), params, weights=weights.ravel(), evaluator=evaluator, options=options,

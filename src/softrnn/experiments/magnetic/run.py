@@ -111,6 +111,7 @@ def calibrate_and_predict(currents, orientations, positions, config: ExperimentC
                "remanence": "remanence " + ", ".join(f"{m.br:g} T" for m in spec.magnets),
                "damping": f"damping (translational {d.translational:g} N s/m^2, rotational {d.rotational:g} N m s/m, "
                           f"Kelvin-Voigt {d.kelvin_voigt:g} s)"}
+    summary = fitted.to_dict()
     params = {}
     for i, name in enumerate(FACTORS):
         entry = {"fitted": float(fitted.fitted[i]), "std_error": float(fitted.std_error[i]), "start": 1.0,
@@ -125,9 +126,9 @@ def calibrate_and_predict(currents, orientations, positions, config: ExperimentC
             "measured": "each magnet's orientation about x and y" + ("" if positions is None else " and position")
                         + ", per channel over its noise level (estimated from the fourth differences)",
             "rms_residual_start": fitted.rms_start, "rms_residual_fitted": fitted.rms_fitted,
-            "correlation": fitted.to_dict()["correlation"], "not_identifiable": fitted.not_identifiable,
+            "correlation": summary["correlation"], "not_identifiable": fitted.not_identifiable,
             "success": fitted.success, "message": fitted.message, "prediction_seconds": predict_seconds,
-            "history": fitted.to_dict()["history"]}
+            "history": summary["history"]}
     if truth is not None:
         err = {k: abs(v["error_pct"]) for k, v in params.items()}
         info["goals"] = {"stiffness_within_1pct": err["stiffness"] <= 1.0,
