@@ -5,7 +5,8 @@ from ..files import prepare_output
 from ..io.csv_import import import_csv
 
 NAME = "import-csv"
-HELP = "convert a lab CSV (time, node positions, optional orientations and wrenches) into a dataset file"
+HELP = ("convert a lab CSV (time, node positions, optional orientations, wrenches and actuation inputs) into a "
+        "dataset file")
 
 
 def add_args(p):
@@ -29,6 +30,8 @@ def run(args) -> int:
         extras.append(f"wrenches at nodes {sorted(set(ds.attrs['force_nodes']) | set(ds.attrs['torque_nodes']))}")
     else:
         extras.append("no wrench columns (zero)")
+    if ds.n_actuation:
+        extras.append("actuation " + ", ".join(f"{n} [{u}]" for n, u in ds.actuation_units.items()))
     print(f"wrote {args.output}: {ds.n_samples} samples x {ds.n_nodes} nodes, "
           f"t = {ds.time[0]:g} .. {ds.time[-1]:g} s, dt = {ds.dt:g} s; " + "; ".join(extras))
     return 0

@@ -58,6 +58,12 @@ def format_summary(s: dict) -> str:
         span = ", ".join(f"{ax} [{l:+.4f}, {h:+.4f}]" for ax, l, h in zip("xyz", lo, hi))
         lines.append(f"  node {r['node']}: {span} m; max |f| = {r['max_force_n']:.4g} N, "
                      f"max |tau| = {r['max_torque_nm']:.4g} N m")
+    channels = s.get("actuation") or []
+    if channels:
+        shown = ", ".join(f"{c['name']} [{c['unit']}] {c['min']:.4g} .. {c['max']:.4g}" for c in channels)
+        lines.append(f"  actuation: {len(channels)} channel{'s' if len(channels) > 1 else ''}: {shown}")
+    else:
+        lines.append("  actuation: none")
     extra = {k: v for k, v in a.items() if k not in ("schema_version", "softrnn_version", "units", "rod",
                                                       "scenario_text", "seed", "dt", "n_nodes_total")}
     if extra:

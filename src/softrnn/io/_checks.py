@@ -9,8 +9,19 @@ import h5py
 import numpy as np
 
 from .. import __version__
+from ..errors import SoftrnnInputError
 from ._h5files import _Reading
-from .schema import _REQUIRED_ATTRS, _WIDTH, FIELDS, QUATERNION_TOLERANCE, SCHEMA_VERSION, DatasetError, _group_name
+from .schema import (
+    _REQUIRED_ATTRS,
+    _WIDTH,
+    ACTUATION,
+    FIELDS,
+    QUATERNION_TOLERANCE,
+    SCHEMA_VERSION,
+    DatasetError,
+    _group_name,
+    actuation_units,
+)
 
 
 def _root_info(f: h5py.File, path: Path) -> dict:
@@ -141,7 +152,35 @@ def _layout(g: h5py.Group, path: Path, where: str) -> tuple[int, int, dict]:
     if not isinstance(extra, dict):
         raise DatasetError(f"{path}: attribute 'attrs' of {where} is not a JSON object; re-create the file")
     attrs.update(extra)
+    attrs["actuation_units"] = _actuation_layout(g, path, where, T)
     return T, N, attrs
+
+
+def _actuation_layout(g: h5py.Group, path: Path, where: str, T: int) -> dict[str, str]:
+    """The group's actuation channels {name: unit} in column order, after checking the optional
+    ``actuation`` dataset (shape (T, m), float32, attributes ``names`` and ``units``: JSON lists of
+    m strings); {} when the group has none (schema 1 files never do)."""
+    if ACTUATION not in g:
+        return {}
+    ds = g[ACTUATION]
+    if not isinstance(ds, h5py.Dataset) or ds.ndim != 2 or ds.dtype != np.float32 or ds.shape[0] != T:
+        shape = getattr(ds, "shape", None)
+        raise DatasetError(f"{path}: actuation of {where} has shape {shape} and dtype {getattr(ds, 'dtype', None)}; "
+                           f"expected float32 (T, m) with T={T}, re-create the file")
+    lists = []
+    for key in ("names", "units"):
+        if key not in ds.attrs:
+            raise DatasetError(f"{path}: attribute '{key}' of actuation of {where} is missing; re-create the file")
+        value = _json_attr(ds.attrs, key, path, f"actuation of {where}")
+        if not isinstance(value, list) or len(value) != ds.shape[1] or len(set(map(str, value))) != len(value):
+            raise DatasetError(f"{path}: attribute '{key}' of actuation of {where} is not a list of {ds.shape[1]} "
+                               f"distinct strings (one per column); re-create the file")
+        lists.append(value)
+    try:
+        return actuation_units(dict(zip(*lists)), "actuation")
+    except SoftrnnInputError as err:
+        raise DatasetError(f"{path}: the actuation channels of {where} are invalid ({err}); re-create the "
+                           f"file") from None
 
 
 def _check_values(path: Path, where: str, time, nodes, arrays: dict, t_offset: int) -> None:

@@ -9,8 +9,10 @@ A CSV holds one trajectory: a header line, then one line per sample::
 ``time`` [s] comes first; then, per node i (0-based rod node index), ``n{i}_x, n{i}_y, n{i}_z`` [m]
 (required), optionally ``n{i}_qw, n{i}_qx, n{i}_qy, n{i}_qz`` (unit quaternion, world frame; for every
 node or none), ``n{i}_fx, n{i}_fy, n{i}_fz`` [N] and ``n{i}_tx, n{i}_ty, n{i}_tz`` [N m] (applied
-wrench in the world frame; zero where absent). Import validates everything before anything is
-written and writes atomically, so a bad CSV leaves no output file.
+wrench in the world frame; zero where absent) and, anywhere after ``time``, actuation inputs
+``act_<name>[<unit>]`` (e.g. ``act_tendon_1[N]``, ``act_p_chamber_2[kPa]``; the unit one of
+``softrnn.io.schema.ACTUATION_UNITS``). Import validates everything before anything is written and
+writes atomically, so a bad CSV leaves no output file.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import numpy as np
 from ..errors import bad
 from ._h5files import _temp_path
 from .reader import Dataset, read_dataset
-from .schema import POSITION_LIMIT_M, DatasetError
+from .schema import ACTUATION_NAME, ACTUATION_UNITS, POSITION_LIMIT_M, DatasetError
 from .writer import DatasetWriter
 
 _GROUPS = {
@@ -37,7 +39,12 @@ _GROUPS = {
 _COMPONENT = {c: (field, k) for field, comps in _GROUPS.items() for k, c in enumerate(comps)}
 _NAME = re.compile(r"^n(0|[1-9][0-9]*)_([a-z]+)$")
 PATTERN = ("time, then per node i (0-based): n{i}_x, n{i}_y, n{i}_z, optional n{i}_qw, n{i}_qx, n{i}_qy, "
-           "n{i}_qz, optional n{i}_fx, n{i}_fy, n{i}_fz and n{i}_tx, n{i}_ty, n{i}_tz")
+           "n{i}_qz, optional n{i}_fx, n{i}_fy, n{i}_fz and n{i}_tx, n{i}_ty, n{i}_tz, and optional actuation "
+           "columns act_<name>[<unit>]")
+ACTUATION_PREFIX = "act_"
+"""Prefix of an actuation column: ``act_<name>[<unit>]``, e.g. ``act_tendon_1[N]``."""
+_ACT = re.compile(r"^act_([^\[\]]*?)\s*(?:\[\s*([^\[\]]*?)\s*\])?$", re.IGNORECASE)
+_ACT_EXAMPLE = "act_<name>[<unit>], e.g. act_tendon_1[N] or act_p_chamber_2[kPa]"
 QUATERNION_IMPORT_TOLERANCE = 1e-3
 """CSV quaternions farther than this from unit norm are rejected; closer ones are normalised
 (those within 1e-6 of unit norm are stored as given, so that exported data re-imports exactly)."""
@@ -74,9 +81,33 @@ def _read_lines(path: Path) -> list[tuple[int, str]]:
     return read_csv_lines(path, f"a header with the columns {PATTERN}")
 
 
-def _parse_header(path: Path, number: int, line: str) -> tuple[list[str], dict]:
-    """Column names and, per node, the columns of each field: {node: {field: [col, ...]}}."""
-    names = [c.strip().lower() for c in line.split(",")]
+def _actuation_column(path: Path, number: int, text: str) -> tuple[str, str]:
+    """(channel name, unit) of the actuation column ``text`` (``act_<name>[<unit>]``), or a
+    one-line DatasetError naming the column, what is wrong and the fix."""
+    where = f"line {number} (header), column {text!r}"
+    m = _ACT.match(text)
+    if not m:
+        raise _fail(path, f"{where}: is not an actuation column; write {_ACT_EXAMPLE}")
+    name, unit = m.group(1).lower(), m.group(2)
+    if not ACTUATION_NAME.match(name):
+        raise _fail(path, f"{where}: the channel name {name!r} is invalid; use lower-case letters, digits and '_', "
+                          f"starting with a letter: {_ACT_EXAMPLE}")
+    units = ", ".join(ACTUATION_UNITS)
+    if unit is None or not unit:
+        raise _fail(path, f"{where}: has no unit; write it as act_{name}[<unit>] with one of: {units}")
+    if unit not in ACTUATION_UNITS:
+        close = [u for u in ACTUATION_UNITS if u.lower() == unit.lower()]
+        hint = f" (units are case-sensitive: did you mean {close[0]!r}?)" if close else ""
+        raise _fail(path, f"{where}: the unit {unit!r} is not recognised{hint}; use one of: {units}")
+    return name, unit
+
+
+def _parse_header(path: Path, number: int, line: str) -> tuple[list[str], dict, dict]:
+    """Column names (actuation columns as written, the others lower-case); per node, the columns
+    of each field: {node: {field: [col, ...]}}; the actuation channels {name: (column, unit)}, in
+    column order."""
+    raw = [c.strip() for c in line.split(",")]
+    names = [c if c.lower().startswith(ACTUATION_PREFIX) else c.lower() for c in raw]
     for j, name in enumerate(names):
         if not name:
             raise _fail(path, f"line {number} (header): column {j + 1} has no name (a stray or trailing comma?); "
@@ -85,21 +116,38 @@ def _parse_header(path: Path, number: int, line: str) -> tuple[list[str], dict]:
         raise _fail(path, f"line {number} (header): the first column is {names[0]!r}; expected 'time' [s], "
                           f"then {PATTERN.split(', then ')[1]}")
     seen = {}
-    layout: dict[int, dict[str, list]] = {}
+    layout: dict = {}
+    channels: dict[str, tuple[int, str]] = {}
     for j, name in enumerate(names):
-        if name in seen:
-            raise _fail(path, f"line {number} (header): column {name!r} appears twice (columns {seen[name] + 1} "
+        actuation = j > 0 and name.lower().startswith(ACTUATION_PREFIX)
+        key = ACTUATION_PREFIX + _actuation_column(path, number, name)[0] if actuation else name
+        if key in seen:
+            raise _fail(path, f"line {number} (header): column {name!r} appears twice (columns {seen[key] + 1} "
                               f"and {j + 1}); keep one")
-        seen[name] = j
+        seen[key] = j
         if j == 0:
+            continue
+        if actuation:
+            channel, unit = _actuation_column(path, number, name)
+            channels[channel] = (j, unit)
             continue
         m = _NAME.match(name)
         if not m or m.group(2) not in _COMPONENT:
-            raise _fail(path, f"line {number} (header): column {name!r} is not recognised; expected {PATTERN}")
+            hint = (f"; actuation columns are named {_ACT_EXAMPLE}" if "[" in name or "]" in name
+                    else f"; expected {PATTERN}")
+            shown = raw[j] if "[" in name or "]" in name else name
+            raise _fail(path, f"line {number} (header): column {shown!r} is not recognised{hint}")
         node, (field, k) = int(m.group(1)), _COMPONENT[m.group(2)]
         layout.setdefault(node, {}).setdefault(field, [None] * len(_GROUPS[field]))[k] = j
     if not layout:
         raise _fail(path, f"line {number} (header): no node columns; expected {PATTERN}")
+    _check_node_groups(path, number, layout)
+    return names, layout, channels
+
+
+def _check_node_groups(path: Path, number: int, layout: dict) -> None:
+    """Every node has its position and only whole groups (x, y, z; the quaternion; the force;
+    the torque); orientations for every node or none."""
     with_q = sorted(a for a, f in layout.items() if "quaternions" in f)
     for node in sorted(layout):
         fields = layout[node]
@@ -118,7 +166,6 @@ def _parse_header(path: Path, number: int, line: str) -> tuple[list[str], dict]:
             missing = ", ".join(f"n{node}_{c}" for c in _GROUPS["quaternions"])
             raise _fail(path, f"line {number} (header): missing columns {missing}: orientations are given for "
                               f"node {with_q[0]}, so every node needs n{{i}}_qw..n{{i}}_qz (or no node has them)")
-    return names, layout
 
 
 def _parse_values(path: Path, names: list[str], rows: list[tuple[int, str]]) -> np.ndarray:
@@ -157,7 +204,9 @@ def read_csv(csv_path) -> dict:
     -------
     dict with ``time`` (T,) float64 [s], ``nodes`` (N,) int64 (ascending), ``positions`` (T, N, 3),
     ``quaternions`` (T, N, 4) (identity where absent), ``forces``, ``torques`` (T, N, 3), all float64,
-    ``has_orientations`` (bool), ``force_nodes``, ``torque_nodes`` (nodes with wrench columns).
+    ``has_orientations`` (bool), ``force_nodes``, ``torque_nodes`` (nodes with wrench columns),
+    ``actuation`` (T, m) float64 (the ``act_<name>[<unit>]`` columns in header order; m = 0 without
+    any) and ``actuation_units`` ({name: unit}, in that order).
 
     Raises
     ------
@@ -166,7 +215,7 @@ def read_csv(csv_path) -> dict:
     """
     path = Path(csv_path)
     lines = _read_lines(path)
-    names, layout = _parse_header(path, *lines[0])
+    names, layout, channels = _parse_header(path, *lines[0])
     rows = lines[1:]
     if len(rows) < 2:
         raise _fail(path, f"has {len(rows)} data row{'s' if len(rows) != 1 else ''} after the header; at least 2 "
@@ -204,13 +253,16 @@ def read_csv(csv_path) -> dict:
         q[fix] = q[fix] / norm[fix][:, None]
     return {"time": time, "nodes": nodes, **arrays, "has_orientations": has_q,
             "force_nodes": [int(a) for a in nodes if "forces" in layout[int(a)]],
-            "torque_nodes": [int(a) for a in nodes if "torques" in layout[int(a)]]}
+            "torque_nodes": [int(a) for a in nodes if "torques" in layout[int(a)]],
+            "actuation": values[:, [c for c, _ in channels.values()]].reshape(T, len(channels)),
+            "actuation_units": {name: unit for name, (_, unit) in channels.items()}}
 
 
 # ----------------------------------------------------------------------------------------- import / export
 class _Chunk:
     def __init__(self, data: dict):
         self.time = data["time"]
+        self.actuation = data["actuation"]
         for field in _GROUPS:
             setattr(self, field, data[field])
 
@@ -237,7 +289,8 @@ def import_csv(csv_path, out_path, *, rod_length: float | None = None, seed: int
     Dataset
         The file as read back. ``attrs``: ``dt`` is the median time step (the real times are kept),
         ``source='csv'``, ``source_file`` (the CSV's name), ``has_orientations``, ``force_nodes``,
-        ``torque_nodes``.
+        ``torque_nodes``; ``actuation`` and ``actuation_units`` hold the ``act_<name>[<unit>]``
+        columns (m = 0 without any).
     """
     csv_path, out_path = Path(csv_path), Path(out_path)
     if rod_length is not None and (isinstance(rod_length, bool) or not isinstance(rod_length, (int, float))
@@ -251,7 +304,8 @@ def import_csv(csv_path, out_path, *, rod_length: float | None = None, seed: int
              "force_nodes": data["force_nodes"], "torque_nodes": data["torque_nodes"]}
     with DatasetWriter(out_path, nodes=data["nodes"], n_samples=data["time"].size, dt=float(np.median(steps)),
                        rod=None if rod_length is None else {"length": float(rod_length)},
-                       scenario_text=scenario_text, seed=seed, attrs=attrs) as writer:
+                       scenario_text=scenario_text, seed=seed, attrs=attrs,
+                       actuation_units=data["actuation_units"]) as writer:
         writer.append(_Chunk(data))
     return read_dataset(out_path)
 
@@ -268,7 +322,8 @@ def export_csv(dataset, csv_path) -> None:
     -----
     Columns: ``time`` (shortest exact repr of the float64 times), then per node x, y, z, the
     quaternion (unless ``dataset.has_orientations`` is False) and the force/torque columns of the
-    nodes that have a nonzero value or are listed in ``attrs['force_nodes']``/``['torque_nodes']``.
+    nodes that have a nonzero value or are listed in ``attrs['force_nodes']``/``['torque_nodes']``,
+    then the actuation channels as ``act_<name>[<unit>]``.
     Values are written with 9 significant digits, which re-import to the identical float32.
     """
     if not isinstance(dataset, Dataset):
@@ -286,6 +341,9 @@ def export_csv(dataset, csv_path) -> None:
             for k, c in enumerate(_GROUPS[f]):
                 header.append(f"n{int(node)}_{c}")
                 columns.append(getattr(dataset, f)[:, n, k])
+    for j, (name, unit) in enumerate(dataset.actuation_units.items()):
+        header.append(f"{ACTUATION_PREFIX}{name}[{unit}]")
+        columns.append(dataset.actuation[:, j])
     block = np.column_stack(columns).astype(np.float64) if columns else np.zeros((dataset.n_samples, 0))
     tmp = _temp_path(csv_path)
     try:

@@ -10,7 +10,7 @@ import numpy as np
 from ..errors import SoftrnnInputError, bad
 from ._checks import _check_values, _inspect, _layout, _select
 from ._h5files import _Reading
-from .schema import _WIDTH, FIELDS, DatasetError, _node_list, _to_float32
+from .schema import _WIDTH, ACTUATION, FIELDS, DatasetError, _node_list, _to_float32, actuation_units
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,6 +36,14 @@ class Dataset:
         ``schema_version``, ``softrnn_version``, ``units`` (dict), ``rod`` (dict or None),
         ``scenario_text``, ``seed`` (int or None), ``dt`` [s], ``n_nodes_total`` and every key the
         writer was given in ``attrs=``.
+    actuation : ndarray (T, m) float32 or None
+        Named actuation inputs (tendon tensions, chamber pressures, coil currents, ...), one column
+        per channel of ``actuation_units``, in those units. None (the default) means no channels:
+        it becomes an empty (T, 0) array, so ``actuation`` is always an array and m = 0 marks a
+        trajectory without actuation (every schema-1 file).
+    actuation_units : dict {str: str} or None
+        The channels in column order, name -> unit (``softrnn.io.schema.ACTUATION_UNITS``), e.g.
+        ``{"tendon_1": "N", "p_chamber_2": "kPa"}``; None or {}: none.
 
     Notes
     -----
@@ -50,6 +58,8 @@ class Dataset:
     forces: np.ndarray
     torques: np.ndarray
     attrs: dict = field(default_factory=dict)
+    actuation: np.ndarray | None = None
+    actuation_units: dict | None = None
 
     def __post_init__(self):
         time = np.asarray(self.time, dtype=np.float64)
@@ -71,6 +81,14 @@ class Dataset:
             object.__setattr__(self, name, _to_float32(arr))
         if not isinstance(self.attrs, dict):
             raise bad("attrs", type(self.attrs).__name__, "a dict")
+        units = actuation_units(self.actuation_units)
+        object.__setattr__(self, "actuation_units", units)
+        act = np.zeros((T, 0), np.float32) if self.actuation is None and not units else np.asarray(self.actuation)
+        if act.shape != (T, len(units)):
+            raise bad("actuation", None if self.actuation is None else f"array of shape {act.shape}",
+                      f"shape (T, m) = {(T, len(units))}: one column per channel of actuation_units "
+                      f"({', '.join(units) or 'none'})")
+        object.__setattr__(self, "actuation", _to_float32(act))
 
     @property
     def n_samples(self) -> int:
@@ -88,6 +106,16 @@ class Dataset:
         if "dt" in self.attrs:
             return float(self.attrs["dt"])
         return float(np.median(np.diff(self.time))) if self.n_samples > 1 else 0.0
+
+    @property
+    def n_actuation(self) -> int:
+        """m, the actuation channels (0: none)."""
+        return int(self.actuation.shape[1])
+
+    @property
+    def actuation_names(self) -> tuple[str, ...]:
+        """The actuation channels' names, in column order (() without actuation)."""
+        return tuple(self.actuation_units)
 
     @property
     def has_orientations(self) -> bool:
@@ -150,7 +178,9 @@ def read_dataset(path, *, nodes=None, group: str | None = None, start: int | Non
     Returns
     -------
     Dataset
-        Arrays in the stored dtypes (time float64, nodes int64, the rest float32) and the attrs.
+        Arrays in the stored dtypes (time float64, nodes int64, the rest float32) and the attrs;
+        ``actuation`` (T', m) holds every actuation channel of samples ``start:stop`` (whatever
+        ``nodes`` is), (T', 0) for a file without actuation (schema 1, or none recorded).
 
     Raises
     ------
@@ -182,9 +212,11 @@ def read_dataset(path, *, nodes=None, group: str | None = None, start: int | Non
                 for j, c in enumerate(cols):
                     out[:, j] = g[name][a:b, c, :]
                 arrays[name] = out
-        _check_values(path, where, time, stored, arrays, a)
+        units = attrs.pop("actuation_units")
+        act = g[ACTUATION][a:b] if units else None
+        _check_values(path, where, time, stored, arrays if act is None else dict(arrays, actuation=act), a)
     sel = stored if cols is None else stored[cols]
-    return Dataset(time=time, nodes=sel, attrs=attrs, **arrays)
+    return Dataset(time=time, nodes=sel, attrs=attrs, actuation=act, actuation_units=units, **arrays)
 
 
 def read_node(path, node: int, *, group: str | None = None) -> Dataset:

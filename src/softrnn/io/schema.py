@@ -1,4 +1,4 @@
-"""The HDF5 file format of a trajectory, schema 1: constants, units, the error type and shared helpers.
+"""The HDF5 file format of a trajectory, schema 2: constants, units, the error type and shared helpers.
 
 The format is documented in docs/dataset-format.md.
 
@@ -13,6 +13,9 @@ positions  (T, N, 3)    float32 node positions [m], world frame
 quaternions(T, N, 4)    float32 unit quaternions (w, x, y, z), body -> world
 forces     (T, N, 3)    float32 applied external forces [N], world frame
 torques    (T, N, 3)    float32 applied external torques [N m], world frame
+actuation  (T, m)       float32 optional: named actuation inputs (tendon tensions, chamber
+                                pressures, coil currents, ...), one column per channel, with the
+                                attributes ``names`` and ``units`` (JSON lists of m strings)
 ========== ============ ======= =====================================================
 
 and the attributes ``softrnn_schema``, ``softrnn_version``, ``dt``, ``seed`` (absent when there is
@@ -29,12 +32,15 @@ naming the file, what is wrong and what to do.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
 
-SCHEMA_VERSION = 1
-"""Version of the file layout; readers refuse files with a newer one."""
+SCHEMA_VERSION = 2
+"""Version of the file layout; readers refuse files with a newer one. 2 added the optional
+``actuation`` dataset (schema 1 files, without it, are read with m = 0 actuation channels)."""
 
 TIME_CHUNK = 4096
 """Samples per HDF5 chunk along time (the simulator's chunk length; docs/dataset-format.md#size)."""
@@ -61,8 +67,20 @@ _DESCRIPTION = {
     "forces": "applied external forces, world frame",
     "torques": "applied external torques, world frame",
 }
+ACTUATION = "actuation"
+"""Name of the optional dataset of actuation inputs (T, m)."""
+
+ACTUATION_UNITS = ("1", "%", "N", "N m", "Pa", "kPa", "MPa", "bar", "mbar", "psi", "A", "mA", "V", "mV", "W",
+                   "T", "mT", "m", "mm", "rad", "deg", "m/s", "rad/s", "Hz")
+"""Units an actuation channel may have (case matters: ``mA`` is not ``MA``); ``1`` for a
+dimensionless signal (a duty cycle as a fraction), ``%`` for one in percent."""
+
+ACTUATION_NAME = re.compile(r"^[a-z][a-z0-9_]{0,63}$")
+"""An actuation channel's name: a lower-case letter, then letters, digits or ``_`` (at most 64),
+e.g. ``tendon_1``, ``p_chamber_2``, ``coil_3``."""
+
 RESERVED_ATTRS = ("schema_version", "softrnn_version", "units", "rod", "scenario_text", "seed", "dt",
-                  "n_nodes_total")
+                  "n_nodes_total", "actuation_units")
 SWEEP_PREFIX = "traj-"
 _REQUIRED_ATTRS = ("softrnn_schema", "softrnn_version", "dt", "rod", "scenario", "units", "n_nodes_total", "attrs")
 
@@ -70,6 +88,26 @@ _REQUIRED_ATTRS = ("softrnn_schema", "softrnn_version", "dt", "rod", "scenario",
 class DatasetError(SoftrnnInputError):
     """A dataset file (or data written to one) that cannot be used; the message is one line:
     ``<path>: what is wrong; what to do``."""
+
+
+def actuation_units(value, argument: str = "actuation_units") -> dict[str, str]:
+    """A checked copy of an actuation channel mapping {name: unit} (column order = key order);
+    None gives {} (no actuation). Names must match ``ACTUATION_NAME``, units be in
+    ``ACTUATION_UNITS``; a problem is a one-line ``SoftrnnInputError`` naming the channel."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise bad(argument, _short(value), "a dict {channel name: unit}, e.g. {'tendon_1': 'N'}, or None")
+    out = {}
+    for name, unit in value.items():
+        if not isinstance(name, str) or not ACTUATION_NAME.match(name):
+            raise bad(argument, _short(value), f"channel names of lower-case letters, digits and '_' starting "
+                                               f"with a letter (e.g. 'tendon_1'); {name!r} is not one")
+        if not isinstance(unit, str) or unit not in ACTUATION_UNITS:
+            raise bad(argument, _short(value), f"a known unit for channel {name!r} (got {unit!r}): one of "
+                                               f"{', '.join(ACTUATION_UNITS)}")
+        out[name] = unit
+    return out
 
 
 def _group_name(group: str) -> str:

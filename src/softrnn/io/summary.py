@@ -9,7 +9,7 @@ import numpy as np
 from ._checks import _check_values, _layout, _root_info, _select
 from ._h5files import _Reading
 from .reader import read_dataset
-from .schema import FIELDS, TIME_CHUNK, DatasetError
+from .schema import ACTUATION, FIELDS, TIME_CHUNK, DatasetError
 
 
 def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool = True) -> dict:
@@ -35,7 +35,8 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
         ``dt_uniform`` (every step within 1e-6 dt of dt), ``stored_values`` (all arrays of all groups),
         ``bytes_per_value`` (file size / stored values), ``storage`` (per array: dtype, chunks,
         compression, stored bytes), ``node_ranges`` (per summarised node: position min/max [m],
-        max |force| [N], max |torque| [N m]), ``verified`` and ``attrs``.
+        max |force| [N], max |torque| [N m]), ``actuation`` (per channel, in column order: name,
+        unit, min and max; [] without actuation), ``verified`` and ``attrs``.
     """
     path = Path(path)
     with _Reading(path) as f:
@@ -46,12 +47,15 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
             group = info["groups"][0]
         g, where = _select(f, path, group)
         T, N, attrs = _layout(g, path, where)
+        units = attrs.pop("actuation_units")
         stored = g["nodes"][...]
         time = g["time"][...]
         total_values = sum(_stored_values(f[gname]) for gname in info["groups"])
         if verify:
             _verify(g, path, where, time, stored)
-        storage = {name: _storage(g[name]) for name in ("time", "nodes") + FIELDS}
+        arrays = ("time", "nodes") + FIELDS + ((ACTUATION,) if units else ())
+        storage = {name: _storage(g[name]) for name in arrays}
+        channels = _channels(g, units)
     size = path.stat().st_size
     picks = sorted({0, N // 2, N - 1})[:max_nodes]
     ranges = _node_ranges(read_dataset(path, nodes=[int(stored[j]) for j in picks], group=where))
@@ -65,13 +69,28 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
         "duration_s": float(time[-1] - time[0]), "dt_s": dt,
         "dt_uniform": bool(steps.size == 0 or np.max(np.abs(steps - dt)) <= 1e-6 * dt),
         "stored_values": int(total_values), "bytes_per_value": size / max(total_values, 1),
-        "storage": storage, "node_ranges": ranges, "verified": bool(verify), "attrs": attrs,
+        "storage": storage, "node_ranges": ranges, "actuation": channels, "verified": bool(verify),
+        "attrs": attrs,
     }
+
+
+def _channels(g, units: dict) -> list[dict]:
+    """Per actuation channel of group ``g`` (``units``: {name: unit} in column order): {name,
+    unit, min, max} over the whole record, read block by block."""
+    if not units:
+        return []
+    ds = g[ACTUATION]
+    lo = np.full(len(units), np.inf)
+    hi = -lo
+    for a in range(0, ds.shape[0], TIME_CHUNK):
+        block = ds[a:a + TIME_CHUNK].astype(np.float64)
+        lo, hi = np.minimum(lo, block.min(axis=0)), np.maximum(hi, block.max(axis=0))
+    return [{"name": n, "unit": u, "min": float(lo[j]), "max": float(hi[j])} for j, (n, u) in enumerate(units.items())]
 
 
 def _stored_values(g) -> int:
     """Values stored in the arrays of trajectory group ``g``."""
-    return sum(int(g[n].size) for n in ("time", "nodes") + FIELDS if n in g)
+    return sum(int(g[n].size) for n in ("time", "nodes") + FIELDS + (ACTUATION,) if n in g)
 
 
 def _verify(g, path: Path, where: str, time, stored) -> None:
@@ -79,7 +98,7 @@ def _verify(g, path: Path, where: str, time, stored) -> None:
     check every value (``_check_values``)."""
     step = max(1, TIME_CHUNK)
     for a in range(0, time.shape[0], step):
-        block = {name: g[name][a:a + step] for name in FIELDS}
+        block = {name: g[name][a:a + step] for name in FIELDS + ((ACTUATION,) if ACTUATION in g else ())}
         _check_values(path, where, time[a:a + step], stored, block, a)
 
 

@@ -9,7 +9,7 @@ from .. import __version__
 from ..errors import bad
 from ._h5files import _h5open, _Reading, _temp_path
 from .reader import list_groups, read_dataset
-from .schema import FIELDS, SCHEMA_VERSION, SWEEP_PREFIX, DatasetError
+from .schema import ACTUATION, FIELDS, SCHEMA_VERSION, SWEEP_PREFIX, DatasetError
 
 
 def sweep_group_name(index: int) -> str:
@@ -70,7 +70,7 @@ def merge_files(paths, out_path) -> None:
                     for key, value in grp.attrs.items():
                         if key != "kind":
                             dst.attrs[key] = value
-                    for name in ("time", "nodes") + FIELDS:
+                    for name in ("time", "nodes") + FIELDS + ((ACTUATION,) if ACTUATION in grp else ()):
                         src.copy(grp[name], dst, name=name)
         os.replace(tmp, out_path)
     except BaseException:

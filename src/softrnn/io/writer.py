@@ -21,6 +21,7 @@ from .reader import Dataset
 from .schema import (
     _DESCRIPTION,
     _WIDTH,
+    ACTUATION,
     COMPRESSION,
     FIELDS,
     POSITION_LIMIT_M,
@@ -35,6 +36,7 @@ from .schema import (
     _short,
     _to_float32,
 )
+from .schema import actuation_units as _channels
 
 
 def _to_json(argument: str, value) -> str:
@@ -135,6 +137,11 @@ class DatasetWriter:
         trajectory becomes that group of the sweep file ``path``, which is created if missing; an
         existing sweep is copied to the temporary file first (cost O(file size): for large sweeps
         write a folder of files and ``merge_files`` it).
+    actuation_units : dict {str: str} or None
+        The actuation channels, name -> unit, in column order (e.g. ``{"tendon_1": "N",
+        "tendon_2": "N"}``; names ``softrnn.io.schema.ACTUATION_NAME``, units
+        ``ACTUATION_UNITS``). Every chunk then brings their values (k, m) (``append``), stored as
+        the ``actuation`` dataset. None or {}: no actuation (nothing is stored).
 
     Notes
     -----
@@ -143,9 +150,10 @@ class DatasetWriter:
 
     def __init__(self, path, *, nodes, n_samples: int, dt: float, rod=None, scenario_text: str = "",
                  seed: int | None = None, attrs: dict | None = None, group: str | None = None,
-                 _softrnn_version: str | None = None):
+                 actuation_units: dict | None = None, _softrnn_version: str | None = None):
         self.path = Path(path)
         node_arr = _node_array(nodes)
+        self.actuation_units = _channels(actuation_units)
         _check_arguments(n_samples=n_samples, dt=dt, scenario_text=scenario_text, seed=seed)
         user_json = _attrs_json(attrs)
         rod_d = _rod_dict(rod)
@@ -223,9 +231,16 @@ class DatasetWriter:
             ds.attrs["description"] = _DESCRIPTION[name]
             if name != "time":
                 ds.attrs["frame"] = "world"
+        m = len(self.actuation_units)
+        if m:
+            ds = g.create_dataset(ACTUATION, shape=(T, m), dtype="<f4", chunks=(c, m), **COMPRESSION)
+            ds.attrs["names"] = json.dumps(list(self.actuation_units))
+            ds.attrs["units"] = json.dumps(list(self.actuation_units.values()))
+            ds.attrs["description"] = "actuation inputs, one column per channel (names and units in order)"
+            self._ds[ACTUATION] = ds
 
     # ------------------------------------------------------------------ streaming
-    def append(self, chunk) -> None:
+    def append(self, chunk, actuation=None) -> None:
         """Add the next k samples.
 
         Parameters
@@ -234,6 +249,9 @@ class DatasetWriter:
             ``time`` (k,) [s], ``positions`` (k, N, 3) [m], ``quaternions`` (k, N, 4),
             ``forces`` (k, N, 3) [N] and ``torques`` (k, N, 3) [N m] (and optionally ``nodes`` (N,),
             which must equal the writer's). The arrays are copied, never modified.
+        actuation : ndarray (k, m) or None
+            The actuation channels' values in the writer's ``actuation_units`` (column order);
+            None: the chunk's own ``actuation`` attribute. Required when the writer has channels.
 
         Notes
         -----
@@ -244,7 +262,7 @@ class DatasetWriter:
         if self._state != "open":
             raise DatasetError(f"{self.path}: the writer is {self._state}; create a new DatasetWriter")
         try:
-            rows = self._validate_chunk(chunk)
+            rows = self._validate_chunk(chunk, actuation)
         except SoftrnnInputError:
             self.abort()
             raise
@@ -257,9 +275,10 @@ class DatasetWriter:
         if self._buffered >= self._chunk_len:
             self._flush(final=False)
 
-    def _validate_chunk(self, chunk) -> dict:
+    def _validate_chunk(self, chunk, actuation=None) -> dict:
         """The chunk's arrays, checked, as float64 times (k,) and float32 copies of the rest."""
         rows = self._chunk_rows(chunk)
+        self._actuation_rows(rows, chunk, actuation)
         if rows["time"].shape[0] == 0:
             return rows
         self._check_rows(rows)
@@ -297,6 +316,26 @@ class DatasetWriter:
             rows[name] = arr
         return rows
 
+    def _actuation_rows(self, rows: dict, chunk, actuation) -> None:
+        """Add the chunk's actuation values (k, m) to ``rows`` (``actuation``, else the chunk's
+        attribute) after checking their shape against the writer's channels."""
+        where = f"{self.path}: cannot write"
+        value = getattr(chunk, "actuation", None) if actuation is None else actuation
+        k, m = rows["time"].shape[0], len(self.actuation_units)
+        if value is None or (m and np.shape(value)[-1:] == (0,)):
+            if m:
+                raise DatasetError(f"{where}: the chunk has no actuation values but the writer has {m} channels "
+                                   f"({', '.join(self.actuation_units)}); pass append(chunk, actuation=(k, m) array)")
+            return
+        arr = np.asarray(value)
+        if arr.shape != (k, m) or not np.issubdtype(arr.dtype, np.number):
+            fix = ("pass actuation_units={name: unit, ...} to the writer" if not m else
+                   f"one column per channel {', '.join(self.actuation_units)}")
+            raise DatasetError(f"{where}: actuation has shape {arr.shape} ({arr.dtype}) but the chunk has k={k} "
+                               f"samples and the writer m={m} actuation channels; expected {(k, m)} numbers ({fix})")
+        if m:
+            rows[ACTUATION] = arr
+
     def _check_rows(self, rows: dict) -> None:
         """Check the values of a non-empty chunk: finite, times increasing after the last written
         one, positions within ``POSITION_LIMIT_M``, unit quaternions."""
@@ -306,7 +345,9 @@ class DatasetWriter:
             finite = np.isfinite(arr)
             if not finite.all():
                 idx = np.argwhere(~finite)[0]
-                at = f"sample {first + idx[0]}" + (f", node {self.nodes[idx[1]]}" if arr.ndim > 1 else "")
+                at = f"sample {first + idx[0]}" + (f", node {self.nodes[idx[1]]}" if arr.ndim > 2 else "")
+                if name == ACTUATION:
+                    at += f", channel {list(self.actuation_units)[idx[1]]}"
                 raise DatasetError(f"{where}: {name} has a non-finite value ({float(arr[tuple(idx)])}) at {at}; "
                                    f"every value must be finite")
         t_all = np.concatenate([[self._last_time], rows["time"]])
@@ -386,7 +427,7 @@ class DatasetWriter:
 def _float32_rows(rows: dict, where: str) -> dict:
     """``rows`` with float32 copies of the per-node arrays (time stays float64); values beyond the
     float32 range are an error."""
-    for name in FIELDS:
+    for name in FIELDS + ((ACTUATION,) if ACTUATION in rows else ()):
         if name == "quaternions":
             rows[name] = _to_float32(rows[name]).copy()
             continue
@@ -399,15 +440,21 @@ def _float32_rows(rows: dict, where: str) -> dict:
 
 
 def write_trajectory(path, traj, *, dt: float, rod=None, scenario_text: str = "", seed: int | None = None,
-                     attrs: dict | None = None, group: str | None = None) -> None:
+                     attrs: dict | None = None, group: str | None = None, actuation_units: dict | None = None,
+                     actuation=None) -> None:
     """Write a whole trajectory (``softrnn.rod.Trajectory`` or ``Dataset``) to ``path`` atomically.
 
-    Parameters are those of ``DatasetWriter``; the nodes are ``traj.nodes``.
+    Parameters are those of ``DatasetWriter``; the nodes are ``traj.nodes``. ``actuation_units``
+    None takes ``traj.actuation_units`` where the trajectory has them (a ``Dataset``), else none;
+    ``actuation`` (T, m) None takes ``traj.actuation``.
     """
     time = np.asarray(traj.time)
+    if actuation_units is None:
+        actuation_units = getattr(traj, "actuation_units", None)
     with DatasetWriter(path, nodes=np.asarray(traj.nodes), n_samples=int(time.shape[0]), dt=dt, rod=rod,
-                       scenario_text=scenario_text, seed=seed, attrs=attrs, group=group) as writer:
-        writer.append(traj)
+                       scenario_text=scenario_text, seed=seed, attrs=attrs, group=group,
+                       actuation_units=actuation_units) as writer:
+        writer.append(traj, actuation)
 
 
 def write_dataset(path, dataset: Dataset, *, group: str | None = None) -> None:
@@ -417,5 +464,6 @@ def write_dataset(path, dataset: Dataset, *, group: str | None = None) -> None:
     with DatasetWriter(path, nodes=dataset.nodes, n_samples=dataset.n_samples, dt=dataset.dt,
                        rod=dataset.attrs.get("rod"), scenario_text=dataset.attrs.get("scenario_text", ""),
                        seed=dataset.attrs.get("seed"), attrs=attrs, group=group,
+                       actuation_units=dataset.actuation_units,
                        _softrnn_version=dataset.attrs.get("softrnn_version")) as writer:
         writer.append(dataset)
