@@ -24,3 +24,5 @@ from .simulation import Trajectory as Trajectory
 from .simulation import simulate as simulate
 from .spec import NodeOverride as NodeOverride
 from .spec import RodSpec as RodSpec
+from .tendons import Scalar as Scalar
+from .tendons import Tendon as Tendon

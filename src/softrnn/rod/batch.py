@@ -4,7 +4,8 @@
 ``prange``, one rod per iteration; set the thread count with ``numba.set_num_threads``). The
 rods must share everything the kernel shares between them: rod spec, stress-free reference shape,
 boundary node kinds and the nodes with prescribed motion, the PD-tracked nodes and their gains,
-damping and gravity. Initial shapes, nodal loads, PD targets and prescribed motions may differ.
+the tendons' routing, damping and gravity. Initial shapes, nodal loads, PD targets, tendon tensions
+and prescribed motions may differ.
 Each rod gives the same trajectory as ``simulate`` would (up to rounding in the order of summing
 loads on one node).
 
@@ -70,6 +71,9 @@ def _check_compatible(setups: list[Setup], inputs: list[SetupInputs]) -> None:
                       f"the same PD-tracked nodes and gains as setups[0] {want} (targets may differ)")
         if s.damping != s0.damping:
             raise bad(f"{where}.damping", s.damping, f"the same damping as setups[0] ({s0.damping})")
+        if not (np.array_equal(inp.tendon_route, ref.tendon_route) and np.array_equal(inp.tendon_end, ref.tendon_end)):
+            raise bad(f"{where}.tendons", [td.name for td in s.tendons],
+                      "tendons routed as in setups[0] (same offsets, routing and terminations; tensions may differ)")
         if s.gravity != s0.gravity:
             raise bad(f"{where}.gravity", s.gravity, f"the same gravity as setups[0] ({s0.gravity})")
 
@@ -116,15 +120,18 @@ class _Batch:
         pd_target = np.zeros((B, K, self.pd_idx.size, 3))
         presc_r = np.zeros((B, K + 1, q, 3))
         presc_R = np.zeros((B, K + 1, q, 3, 3))
+        tension = np.zeros((B, K, self.inputs[0].tendon_end.size))
         for b, inputs in enumerate(self.inputs):
             one = inputs.at(t, self.h)
             ext_w[b][:, self.ext_cols[b]] = one.ext_w
             pd_target[b] = one.pd_target[:, self.pd_orders[b]]
             presc_r[b] = one.presc_r
             presc_R[b] = one.presc_R
+            tension[b] = one.tendon_tension
         return StepInputs(ext_idx=self.ext_idx, ext_w=ext_w, pd_idx=self.pd_idx, pd_target=pd_target,
                           pd_gain=self.pd_gain, presc_idx=self.inputs[0].presc_idx, presc_r=presc_r,
-                          presc_R=presc_R)
+                          presc_R=presc_R, tendon_route=self.inputs[0].tendon_route,
+                          tendon_end=self.inputs[0].tendon_end, tendon_tension=tension)
 
     def advance(self, state: StateArrays, k0: int, n_steps: int) -> None:
         """Steps k0 .. k0 + n_steps - 1 of every rod; SimulationError naming the first failed rod."""

@@ -30,10 +30,12 @@ def strain_energy(rotations, positions, seg_length, C1, C2, K0, G0) -> float:
     return float(0.5 * seg_length * np.sum(C1 * eg * eg + C2 * ek * ek))
 
 
-def internal_loads(rotations, positions, seg_length, C1, C2, K0, G0):
+def internal_loads(rotations, positions, seg_length, C1, C2, K0, G0, tendon_terms=None):
     """Closed-form internal loads of §2.4: f (n, 3) [N] world frame, t (n, 3) [N m] body frame.
 
-    f_a = -dU/dr_a and t_a = -(left-trivialised) dU/dLambda_a.
+    f_a = -dU/dr_a and t_a = -(left-trivialised) dU/dLambda_a. ``tendon_terms``: a function
+    (K, Gamma) -> (dN, dM) (n - 1, 3) added to the segments' resultants (the tendons' active stress,
+    ``rod.tendons.tendon_resultants``), or None.
     """
     R, r = np.asarray(rotations, float), np.asarray(positions, float)
     l = seg_length
@@ -43,6 +45,10 @@ def internal_loads(rotations, positions, seg_length, C1, C2, K0, G0):
     u = p - 0.5 * np.cross(x, p)
     N = C1 * (u / l - G0)
     M = C2 * (x / l - K0)
+    if tendon_terms is not None:
+        dN, dM = tendon_terms(x / l, u / l)
+        N = N + dN
+        M = M + dM
     c = N + 0.5 * np.cross(x, N)
     T = M + 0.5 * np.cross(x, M) + 0.25 * x * np.sum(x * M, axis=1, keepdims=True) + 0.5 * np.cross(u, c)
     nsp = np.einsum("aij,aj->ai", R[:-1], c)

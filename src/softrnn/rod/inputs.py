@@ -6,6 +6,7 @@ import numpy as np
 from .boundary import Clamp
 from .kernels import StepInputs
 from .loads import PDTracking
+from .tendons import routing_arrays, tension_matrix
 
 
 class SetupInputs:
@@ -17,6 +18,10 @@ class SetupInputs:
     pd_idx : (p,) int64        nodes of the ``PDTracking`` entries, in the setup's order
     pd_gain : (p, 2)           their stiffness [N/m] and damping [N s/m]
     presc_idx : (q,) int64     nodes whose Clamp/Pin carries a motion/path, in the setup's order
+    tendons : tuple            the setup's ``Tendon`` entries (m_t of them)
+    tendon_route : (m_t, n - 1, 6) body-frame routing offset [m] and its rate [-] per segment
+                               (``rod.tendons.routing_arrays``)
+    tendon_end : (m_t,) int64  termination nodes
     """
 
     def __init__(self, setup):
@@ -35,11 +40,14 @@ class SetupInputs:
         self.ext_idx = np.array(sorted(ext), dtype=np.int64)
         self.pd_idx = np.array([a for a, _ in pd], dtype=np.int64)
         self.pd_gain = np.array([[p.stiffness, p.damping] for _, p in pd], dtype=float).reshape(-1, 2)
+        self.tendons = tuple(setup.tendons)
+        self.tendon_route, self.tendon_end = routing_arrays(self.tendons, setup.rod.n_nodes,
+                                                             setup.rod.segment_length)
 
     def step_bytes(self) -> int:
         """Bytes of per-step inputs a chunk holds (times, loads, PD targets, prescribed poses and
         the load functions' temporaries)."""
-        return 8 * (4 + 15 * self.ext_idx.size + 6 * len(self._pd) + 12 * len(self._presc))
+        return 8 * (4 + 15 * self.ext_idx.size + 6 * len(self._pd) + 12 * len(self._presc) + 2 * len(self.tendons))
 
     def prescribed(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Prescribed positions (K, q, 3) [m] and rotations (K, q, 3, 3) at times t (K,) [s]
@@ -57,7 +65,8 @@ class SetupInputs:
         return pos, rot
 
     def at(self, t: np.ndarray, h: float) -> StepInputs:
-        """The inputs of the steps at times t (K,) [s]: loads at t, prescribed poses at t and t + h."""
+        """The inputs of the steps at times t (K,) [s]: loads and tendon tensions at t, prescribed
+        poses at t and t + h."""
         K = t.size
         ext_w = np.zeros((K, self.ext_idx.size, 12))
         for j, a in enumerate(self.ext_idx):
@@ -72,4 +81,6 @@ class SetupInputs:
             pd_target[:, j] = p.target(t)
         presc_r, presc_R = self.prescribed(np.concatenate([t, [t[-1] + h]]))
         return StepInputs(ext_idx=self.ext_idx, ext_w=ext_w, pd_idx=self.pd_idx, pd_target=pd_target,
-                          pd_gain=self.pd_gain, presc_idx=self.presc_idx, presc_r=presc_r, presc_R=presc_R)
+                          pd_gain=self.pd_gain, presc_idx=self.presc_idx, presc_r=presc_r, presc_R=presc_R,
+                          tendon_route=self.tendon_route, tendon_end=self.tendon_end,
+                          tendon_tension=tension_matrix(self.tendons, t))

@@ -129,6 +129,12 @@ class StepInputs(NamedTuple):
     presc_idx : (q,) int64            constrained nodes with prescribed motion
     presc_r : (K + 1, q, 3)           their positions at t and t + h [m]
     presc_R : (K + 1, q, 3, 3)        their rotations at t and t + h
+    tendon_route : (m_t, n - 1, 6)    per tendon and segment: the body-frame offset rho [m] and
+                                      its rate d rho / ds [-] at the segment's middle
+                                      (``rod.tendons.routing_arrays``; default: no tendons)
+    tendon_end : (m_t,) int64         their termination nodes (>= 1): segments a < end carry them
+    tendon_tension : (K, m_t)         their tensions [N], >= 0 (a leading batch axis in
+                                      ``advance_batch``)
     """
 
     ext_idx: np.ndarray
@@ -139,6 +145,9 @@ class StepInputs(NamedTuple):
     presc_idx: np.ndarray
     presc_r: np.ndarray
     presc_R: np.ndarray
+    tendon_route: np.ndarray = np.zeros((0, 0, 6))
+    tendon_end: np.ndarray = np.zeros(0, dtype=np.int64)
+    tendon_tension: np.ndarray = np.zeros((0, 0))
 
 
 class Samples(NamedTuple):
@@ -314,11 +323,12 @@ def _applied_loads(i, R, r, v, inputs, work_f):
 
 
 @njit(**_INLINE)
-def _segment(a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, rod, h, Kp, Gp, record):
-    """Stress resultants of segment a (nodes a, a + 1) in the old configuration, R_a = Ra..:
-    returns (n_a spatial force, T_a torque in frame a, T'_a = Q^T (T - p x c) torque carried to
-    node a + 1 in its frame, elastic energy of the segment when ``record``). Updates Kp, Gp when
-    ``rod.kv_on``."""
+def _segment(a, i, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, rod, inputs, h, Kp, Gp, record):
+    """Stress resultants of segment a (nodes a, a + 1) in the old configuration at step i, R_a =
+    Ra..: returns (n_a spatial force, T_a torque in frame a, T'_a = Q^T (T - p x c) torque carried
+    to node a + 1 in its frame, elastic energy of the segment when ``record``). Updates Kp, Gp when
+    ``rod.kv_on``. The tendons routed through the segment add tau t and tau rho x t to its
+    resultants (``rod.tendons``)."""
     l = rod.length
     C1 = rod.C1
     C2 = rod.C2
@@ -397,6 +407,28 @@ def _segment(a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, rod,
         Kp[a, 0] = ka0
         Kp[a, 1] = ka1
         Kp[a, 2] = ka2
+    # tendons: N += tau t, M += tau rho x t with t the unit tangent of Gamma + K x rho + rho'
+    tendon_end = inputs.tendon_end
+    for j in range(len(tendon_end)):
+        tau = inputs.tendon_tension[i, j]
+        if a < tendon_end[j] and tau > 0.0:
+            route = inputs.tendon_route
+            o0 = route[j, a, 0]
+            o1 = route[j, a, 1]
+            o2 = route[j, a, 2]
+            t0 = ga0 + ka1 * o2 - ka2 * o1 + route[j, a, 3]
+            t1 = ga1 + ka2 * o0 - ka0 * o2 + route[j, a, 4]
+            t2 = ga2 + ka0 * o1 - ka1 * o0 + route[j, a, 5]
+            s = tau / math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+            t0 *= s
+            t1 *= s
+            t2 *= s
+            N0 += t0
+            N1 += t1
+            N2 += t2
+            M0 += o1 * t2 - o2 * t1
+            M1 += o2 * t0 - o0 * t2
+            M2 += o0 * t1 - o1 * t0
     # c = N + x x N / 2
     c0 = N0 + 0.5 * (x1 * N2 - x2 * N1)
     c1 = N1 + 0.5 * (x2 * N0 - x0 * N2)
@@ -644,7 +676,7 @@ def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
             n0 = n1 = n2 = T0 = T1 = T2 = q0 = q1 = q2 = 0.0
             if a < n - 1:
                 n0, n1, n2, T0, T1, T2, q0, q1, q2, e = _segment(
-                    a, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, rod, h, Kp, Gp, record)
+                    a, i, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, rod, inputs, h, Kp, Gp, record)
                 e_el += e
             # ---- node a: internal force and torque from segments a - 1 and a, then the update ----
             fi0 = n0 - np0
@@ -712,7 +744,7 @@ def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
             StateArrays(st.rotations[b], st.positions[b], st.velocities[b], st.angular_velocities[b],
                         st.prev_curvature[b], st.prev_shear[b]),
             StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
-                       inp.presc_r[b], inp.presc_R[b]),
+                       inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b]),
             Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b],
                     out.angular_velocities[b], out.forces[b], out.torques[b], out.reaction_forces[b],
                     out.reaction_torques[b], out.energy[b]),

@@ -28,6 +28,7 @@ from .spec import RodSpec
 from .stability import DEFAULT_SAFETY, stable_step
 from .state import SAMPLE_FIELDS, RodState, empty_samples, half_kick, initial_state
 from .status import raise_for_status
+from .tendons import Tendon, check_offset
 
 _CHUNK_STEPS = 65536
 _CHUNK_SAMPLES = 4096
@@ -116,7 +117,8 @@ class Damping:
 @dataclass(frozen=True, kw_only=True, eq=False)
 class Setup:
     """The physical problem: rod, stress-free reference shape, initial shape (defaults to the
-    reference), boundary conditions, loads, damping and gravity [m/s^2] (3,)."""
+    reference), boundary conditions, loads, damping, gravity [m/s^2] (3,) and ``tendons``
+    (``softrnn.rod.tendons.Tendon`` entries with distinct names, routed from node 0)."""
 
     rod: RodSpec
     reference: RodShape
@@ -125,6 +127,7 @@ class Setup:
     loads: tuple = ()
     damping: Damping = field(default_factory=Damping)
     gravity: tuple = (0.0, 0.0, 0.0)
+    tendons: tuple = ()
 
     def __post_init__(self):
         n = self.rod.n_nodes
@@ -158,6 +161,21 @@ class Setup:
             if not isinstance(load, (NodalLoad, PDTracking)):
                 raise bad("loads", load, "NodalLoad or PDTracking entries")
             self.node_index(load.node, "load node")
+        self._check_tendons()
+
+    def _check_tendons(self) -> None:
+        """Tendons: ``Tendon`` entries, distinct names, terminations on the rod, offsets inside
+        the cross-sections they pass."""
+        object.__setattr__(self, "tendons", tuple(self.tendons))
+        names = set()
+        radii = self.rod.node_properties()["radius"]
+        for td in self.tendons:
+            if not isinstance(td, Tendon):
+                raise bad("tendons", td, "Tendon entries (softrnn.rod.tendons.Tendon)")
+            if td.name in names:
+                raise bad("tendon name", td.name, "a name not used by another tendon of the setup")
+            names.add(td.name)
+            check_offset(td, radii, td.end_index(self.rod.n_nodes, self.rod.segment_length))
 
     def node_index(self, node: int, what: str = "node") -> int:
         """Normalise a node index (negative counts from the end), raising a clear error."""

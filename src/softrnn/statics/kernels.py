@@ -49,6 +49,7 @@ INFO_JACOBIANS = 3
 _LAMBDA0 = 1e-6         # initial Marquardt damping, relative to max diag(J^T J)
 _LAMBDA_MAX = 1e16      # damping beyond which the LM step is deemed stalled
 _FD_STEP = 1.5e-8       # forward-difference step in scaled unknowns (~ sqrt(machine epsilon))
+_TENDON_MAX_ITER = 60   # fixed-point iterations of a section's strains with tendons
 
 # Compiled-only helpers (no Python entry points, never allocate). The rotation and the ODE
 # right-hand side are inlined by LLVM (``forceinline``: a call per derivative would double the
@@ -77,9 +78,61 @@ def _rotation(y, R):
 
 
 @njit(**_INLINE)
-def _derivative(y, kinv, k, fx, fy, fz, R, dy):
-    """dy[13] <- y'(s) for the state y[13] with the compliances kinv[k] and the distributed force
-    (fx, fy, fz) [N/m]; R[3, 3] is scratch."""
+def _tendon_strains(kinv, k, nb0, nb1, nb2, mb0, mb1, mb2, s, tendons, scale):
+    """The strains (u, v) of the section at arc length s on step k whose total body-frame wrench is
+    (nb, mb), with the active stress of the tendons routed through it: the fixed point of
+    v = Ks^-1 (nb - sum tau t) + e3, u = Kb^-1 (mb - sum tau rho x t), t the unit vector of
+    v + u x rho + rho' (a contraction with the ratio ~ tau |rho|^2 / EI, converged to round-off)."""
+    tension, geom, end = tendons
+    u0 = kinv[k, 0] * mb0
+    u1 = kinv[k, 1] * mb1
+    u2 = kinv[k, 2] * mb2
+    v0 = kinv[k, 3] * nb0
+    v1 = kinv[k, 4] * nb1
+    v2 = kinv[k, 5] * nb2 + 1.0
+    for _ in range(_TENDON_MAX_ITER):
+        n0, n1, n2, m0, m1, m2 = nb0, nb1, nb2, mb0, mb1, mb2
+        size = 0.0
+        for j in range(len(end)):
+            tau = scale * tension[j]
+            if k >= end[j] or not tau > 0.0:
+                continue
+            c = math.cos(geom[j, 2] * s)
+            sn = math.sin(geom[j, 2] * s)
+            o0 = c * geom[j, 0] - sn * geom[j, 1]
+            o1 = sn * geom[j, 0] + c * geom[j, 1]
+            size = max(size, abs(o0) + abs(o1))
+            # t ~ v + u x rho + rho', rho = (o0, o1, 0), rho' = rate e3 x rho
+            t0 = v0 - u2 * o1 - geom[j, 2] * o1
+            t1 = v1 + u2 * o0 + geom[j, 2] * o0
+            t2 = v2 + u0 * o1 - u1 * o0
+            f = tau / math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+            n0 -= f * t0
+            n1 -= f * t1
+            n2 -= f * t2
+            m0 -= f * o1 * t2
+            m1 += f * o0 * t2
+            m2 -= f * (o0 * t1 - o1 * t0)
+        w0 = kinv[k, 0] * m0
+        w1 = kinv[k, 1] * m1
+        w2 = kinv[k, 2] * m2
+        z0 = kinv[k, 3] * n0
+        z1 = kinv[k, 4] * n1
+        z2 = kinv[k, 5] * n2 + 1.0
+        change = (abs(z0 - v0) + abs(z1 - v1) + abs(z2 - v2)
+                  + size * (abs(w0 - u0) + abs(w1 - u1) + abs(w2 - u2)))
+        u0, u1, u2, v0, v1, v2 = w0, w1, w2, z0, z1, z2
+        if change <= 4e-15:
+            break
+    return u0, u1, u2, v0, v1, v2
+
+
+@njit(**_INLINE)
+def _derivative(y, kinv, k, fx, fy, fz, s, tendons, scale, R, dy):
+    """dy[13] <- y'(s) for the state y[13] with the compliances kinv[k], the distributed force
+    (fx, fy, fz) [N/m] and the tendons (tension (m,) [N] times ``scale``, geometry (m, 3):
+    offset [m] and twist rate [rad/m], termination step (m,)) at the arc length s [m]; R[3, 3] is
+    scratch."""
     _rotation(y, R)
     nx, ny, nz = y[7], y[8], y[9]
     mx, my, mz = y[10], y[11], y[12]
@@ -90,12 +143,16 @@ def _derivative(y, kinv, k, fx, fy, fz, R, dy):
     mb0 = R[0, 0] * mx + R[1, 0] * my + R[2, 0] * mz
     mb1 = R[0, 1] * mx + R[1, 1] * my + R[2, 1] * mz
     mb2 = R[0, 2] * mx + R[1, 2] * my + R[2, 2] * mz
-    u0 = kinv[k, 0] * mb0
-    u1 = kinv[k, 1] * mb1
-    u2 = kinv[k, 2] * mb2
-    v0 = kinv[k, 3] * nb0
-    v1 = kinv[k, 4] * nb1
-    v2 = kinv[k, 5] * nb2 + 1.0
+    _, _, tendon_end = tendons
+    if len(tendon_end) > 0:
+        u0, u1, u2, v0, v1, v2 = _tendon_strains(kinv, k, nb0, nb1, nb2, mb0, mb1, mb2, s, tendons, scale)
+    else:
+        u0 = kinv[k, 0] * mb0
+        u1 = kinv[k, 1] * mb1
+        u2 = kinv[k, 2] * mb2
+        v0 = kinv[k, 3] * nb0
+        v1 = kinv[k, 4] * nb1
+        v2 = kinv[k, 5] * nb2 + 1.0
     px = R[0, 0] * v0 + R[0, 1] * v1 + R[0, 2] * v2
     py = R[1, 0] * v0 + R[1, 1] * v1 + R[1, 2] * v2
     pz = R[2, 0] * v0 + R[2, 1] * v1 + R[2, 2] * v2
@@ -151,7 +208,7 @@ def _integrate(xi, base, grid, mags, loads, Y, work, R, r):
     point loads). ``work`` (5, 13) is scratch. Returns False when a value is not finite."""
     h, kinv, weight, jumps = grid
     mag_node, mu, B, G = mags
-    gravity, distributed, scale = loads
+    gravity, distributed, scale, tendons = loads
     y = work[0]
     yt = work[1]
     k1 = work[2]
@@ -164,6 +221,7 @@ def _integrate(xi, base, grid, mags, loads, Y, work, R, r):
     for i in range(6):
         y[7 + i] = xi[i]
     n_steps = len(h)
+    sk = 0.0
     for k in range(n_steps):
         for i in range(13):
             Y[k, i] = y[i]
@@ -172,19 +230,20 @@ def _integrate(xi, base, grid, mags, loads, Y, work, R, r):
         fx = scale * (weight[k] * gravity[0] + distributed[0])
         fy = scale * (weight[k] * gravity[1] + distributed[1])
         fz = scale * (weight[k] * gravity[2] + distributed[2])
-        _derivative(y, kinv, k, fx, fy, fz, R, k1)
+        _derivative(y, kinv, k, fx, fy, fz, sk, tendons, scale, R, k1)
         for i in range(13):
             yt[i] = y[i] + 0.5 * hk * k1[i]
-        _derivative(yt, kinv, k, fx, fy, fz, R, k2)
+        _derivative(yt, kinv, k, fx, fy, fz, sk + 0.5 * hk, tendons, scale, R, k2)
         for i in range(13):
             yt[i] = y[i] + 0.5 * hk * k2[i]
-        _derivative(yt, kinv, k, fx, fy, fz, R, k3)
+        _derivative(yt, kinv, k, fx, fy, fz, sk + 0.5 * hk, tendons, scale, R, k3)
         for i in range(13):
             yt[i] = y[i] + hk * k3[i]
             k1[i] += 2.0 * (k2[i] + k3[i])
-        _derivative(yt, kinv, k, fx, fy, fz, R, k2)
+        _derivative(yt, kinv, k, fx, fy, fz, sk + hk, tendons, scale, R, k2)
         for i in range(13):
             y[i] += hk / 6.0 * (k1[i] + k2[i])
+        sk += hk
         qn = 1.0 / math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
         for i in range(3, 7):
             y[i] *= qn

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import bad, is_finite_number, positive
 from ..rod.so3 import frame_from_tangent
+from ..rod.tendons import Tendon
 
 DEFAULT_BASE_ROTATION = frame_from_tangent(np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]))
 
@@ -129,6 +130,9 @@ class StaticRod:
     base_rotation : (3, 3)      body -> world rotation of the clamped base (columns d1, d2, d3)
     rigid_segments : tuple      RigidSegment entries (not overlapping)
     magnets : tuple             PointMagnet entries; a solve gives the field B and gradient G at each
+    tendons : tuple             ``softrnn.rod.Tendon`` entries routed from the base (terminated at
+                                ``end_s``, default the tip; ``end_node`` is for the dynamic rod); a
+                                solve gives their tensions (``StaticLoads.tendon_tensions``)
     """
 
     length: float
@@ -147,6 +151,7 @@ class StaticRod:
     base_rotation: np.ndarray = field(default_factory=lambda: DEFAULT_BASE_ROTATION.copy())
     rigid_segments: tuple = ()
     magnets: tuple = ()
+    tendons: tuple = ()
 
     def __post_init__(self):
         L = positive("length", self.length, "m")
@@ -171,6 +176,7 @@ class StaticRod:
         object.__setattr__(self, "base_rotation", R)
         self._check_segments(L)
         self._check_magnets(L)
+        self._check_tendons(L)
 
     def _check_segments(self, L: float) -> None:
         segments = tuple(self.rigid_segments)
@@ -193,6 +199,34 @@ class StaticRod:
                 raise bad(f"magnets[{i}]", mag, "a PointMagnet")
             _arc_length(f"magnets[{i}].s", mag.s, L, "a magnet")
         object.__setattr__(self, "magnets", magnets)
+
+    def _check_tendons(self, L: float) -> None:
+        tendons = tuple(self.tendons)
+        names = set()
+        for i, td in enumerate(tendons):
+            if not isinstance(td, Tendon):
+                raise bad(f"tendons[{i}]", td, "a Tendon (softrnn.rod.Tendon)")
+            if td.name in names:
+                raise bad(f"tendons[{i}].name", td.name, "a name not used by another tendon of the rod")
+            names.add(td.name)
+            if td.end_node is not None:
+                raise bad(f"tendon {td.name!r} end_node", td.end_node,
+                          "a termination given as end_s (an arc length in m) for the static rod")
+            end = self.tendon_end(td)
+            if end > L * (1 + 1e-12):
+                raise bad(f"tendon {td.name!r} end_s", td.end_s, f"an arc length in (0, {L:g}] m (the rod length)")
+            radii = [self.radius] + [seg.radius for seg in self.rigid_segments
+                                     if seg.radius is not None and seg.s0 < end]
+            size, limit = math.hypot(*td.offset), min(radii)
+            if size > limit * (1 + 1e-12):
+                raise bad(f"tendon {td.name!r} offset", td.offset,
+                          f"an offset of at most the section radius {limit:g} m from the centreline "
+                          f"(|offset| = {size:g} m lies outside the rod)")
+        object.__setattr__(self, "tendons", tendons)
+
+    def tendon_end(self, tendon: Tendon) -> float:
+        """The termination arc length [m] of one of the rod's tendons (``end_s``, or the tip)."""
+        return float(self.length if tendon.end_s is None else min(tendon.end_s, self.length))
 
     # ------------------------------------------------------------------ section properties
     @property
@@ -238,12 +272,16 @@ class StaticLoads:
                                ``StaticRod.magnets`` ((3,): the same field at all; None: zero)
     field_gradient : (M, 3, 3) or (3, 3) or None
                                G [T/m], G[i, j] = dB_i/dx_j, at each magnet (None: uniform field)
+    tendon_tensions : (m,) or None
+                               tension [N] >= 0 of each of the rod's m tendons, in the order of
+                               ``StaticRod.tendons`` (None: each tendon's own tension at t = 0)
     """
 
     point_loads: tuple = ()
     distributed_force: tuple = (0.0, 0.0, 0.0)
     magnetic_field: np.ndarray | None = None
     field_gradient: np.ndarray | None = None
+    tendon_tensions: tuple | None = None
 
     def __post_init__(self):
         loads = tuple(self.point_loads)
@@ -268,3 +306,12 @@ class StaticLoads:
                                                  f"{tail} in {unit}, one entry per magnet")
             a.setflags(write=False)
             object.__setattr__(self, name, a)
+        if self.tendon_tensions is not None:
+            try:
+                tau = np.array(self.tendon_tensions, dtype=float).reshape(-1)
+            except (TypeError, ValueError):
+                tau = np.array([np.nan])
+            if not np.isfinite(tau).all() or (tau < 0).any():
+                raise bad("tendon_tensions", shown(np.asarray(self.tendon_tensions, dtype=object)),
+                          "finite tensions >= 0 in N, one per tendon (a tendon cannot push)")
+            object.__setattr__(self, "tendon_tensions", tuple(float(x) for x in tau))

@@ -54,6 +54,7 @@ class Grid:
 def _breakpoints(rod: StaticRod, load_points) -> list[float]:
     L = rod.length
     points = [0.0, L] + [m.s for m in rod.magnets] + [p for seg in rod.rigid_segments for p in (seg.s0, seg.s1)]
+    points += [rod.tendon_end(td) for td in rod.tendons]
     points += list(load_points)
     merged = []
     for p in sorted(points):
@@ -90,7 +91,7 @@ def _allocate_steps(weights: list[float], n_steps: int) -> list[int]:
 
 def build_grid(rod: StaticRod, load_points, n_steps: int) -> Grid:
     """The RK4 grid of ``n_steps`` steps over [0, L] with the magnets, the ends of the rigid
-    segments and ``load_points`` (arc lengths [m]) on grid points."""
+    segments, the tendons' terminations and ``load_points`` (arc lengths [m]) on grid points."""
     points = _breakpoints(rod, load_points)
     n_int = len(points) - 1
     if n_steps < n_int:
@@ -222,6 +223,8 @@ class StaticSolver:
         self._B = np.zeros((len(rod.magnets), 3))
         self._G = np.zeros((len(rod.magnets), 3, 3))
         self._distributed = np.zeros(3)
+        self._tension = np.zeros(len(rod.tendons))
+        self._tendon_geom = np.array([[*td.offset, td.twist_rate] for td in rod.tendons], dtype=float).reshape(-1, 3)
         self._warm_xi: np.ndarray | None = None
         self._warm_jac: np.ndarray | None = None
 
@@ -238,15 +241,17 @@ class StaticSolver:
     def _grid(self, load_points: tuple) -> Grid:
         return self._layout(load_points)[0]
 
-    def _layout(self, load_points: tuple) -> tuple[Grid, np.ndarray, np.ndarray]:
-        """Grid, magnet grid points (M,) and a point-load buffer (N + 1, 6) for these load points."""
+    def _layout(self, load_points: tuple) -> tuple[Grid, np.ndarray, np.ndarray, np.ndarray]:
+        """Grid, magnet grid points (M,), a point-load buffer (N + 1, 6) and the tendons'
+        termination grid points (m,) for these load points."""
         layout = self._layouts.get(load_points)
         if layout is None:
             if len(self._layouts) > 64:
                 self._layouts.clear()
             grid = build_grid(self.rod, load_points, self.n_steps)
             mag_node = np.array([grid.index(m.s) for m in self.rod.magnets], dtype=np.int64)
-            layout = (grid, mag_node, np.zeros((grid.s.size, 6)))
+            tendon_end = np.array([grid.index(self.rod.tendon_end(td)) for td in self.rod.tendons], dtype=np.int64)
+            layout = (grid, mag_node, np.zeros((grid.s.size, 6)), tendon_end)
             self._layouts[load_points] = layout
         return layout
 
@@ -267,25 +272,43 @@ class StaticSolver:
             L = self.rod.length
             points = tuple(_arc_length(f"point_loads[{i}].s", p.s, L, "a point load")
                            for i, p in enumerate(loads.point_loads))
-            grid, mag_node, jumps = self._layout(points)
+            grid, mag_node, jumps, tendon_end = self._layout(points)
             jumps[:] = 0.0
             for p in loads.point_loads:
                 a = grid.index(p.s)
                 jumps[a, :3] += p.force
                 jumps[a, 3:] += p.torque
         else:
-            grid, mag_node, jumps = self._layout(())
+            grid, mag_node, jumps, tendon_end = self._layout(())
         self._fill("magnetic_field", loads.magnetic_field, self._B)
         self._fill("field_gradient", loads.field_gradient, self._G)
         self._distributed[:] = loads.distributed_force
+        self._fill_tensions(loads)
         return grid, (grid.h, grid.kinv, grid.weight, jumps), (mag_node, self._mu, self._B, self._G), \
-            (self._gravity, self._distributed, 1.0)
+            (self._gravity, self._distributed, 1.0, (self._tension, self._tendon_geom, tendon_end))
+
+    def _fill_tensions(self, loads: StaticLoads) -> None:
+        """The tendons' tensions [N] of a solve: ``loads.tendon_tensions`` or their own at t = 0."""
+        tendons = self.rod.tendons
+        if loads.tendon_tensions is None:
+            self._tension[:] = [td.tensions(np.zeros(1))[0] for td in tendons]
+        elif len(loads.tendon_tensions) == len(tendons):
+            self._tension[:] = loads.tendon_tensions
+        else:
+            m = len(tendons)
+            raise bad("tendon_tensions", loads.tendon_tensions,
+                      f"{m} tension{'s' if m != 1 else ''} in N, one per tendon of the rod")
+
+    def _tendon_bend(self) -> float:
+        """Bending measure sum tau |offset| L / EI of the tendons of the last ``_kernel_inputs``."""
+        return float(sum(tau * math.hypot(*td.offset) for tau, td in zip(self._tension, self.rod.tendons))
+                     * self.rod.length / self.rod.stiffness()["EI"])
 
     def _rigid_moments(self, grid: Grid, arrays) -> tuple[np.ndarray, np.ndarray]:
         """Total external force (3,) [N] and the internal moment (N + 1, 3) [N m] at the grid points
         (base side) of the undeformed straight rod under all loads: the exact statics of a rod
         that does not deform."""
-        (h, _, weight, jumps), (mag_node, mu, B, G), (gravity, distributed, _) = arrays
+        (h, _, weight, jumps), (mag_node, mu, B, G), (gravity, distributed, *_) = arrays
         R0 = self.rod.base_rotation
         arm = grid.s[:, None] * R0[:, 2]  # undeformed positions relative to the base (N + 1, 3)
         F = jumps[:, :3].copy()  # point forces, torques and their positions
@@ -336,6 +359,7 @@ class StaticSolver:
             with np.errstate(over="ignore", invalid="ignore"):  # absurd loads: the kernel reports NOT_FINITE
                 force, moments = self._rigid_moments(grid, arrays)
                 bend = float(np.linalg.norm(moments, axis=1).max()) * self.rod.length / self.rod.stiffness()["EI"]
+                bend += self._tendon_bend()
             direct = bend <= _DIRECT_BEND or not math.isfinite(bend)
             if not (direct and run.shoot(np.concatenate([force, moments[0]]), None, 1.0)) and math.isfinite(bend):
                 run.continuation(bend)
@@ -357,7 +381,7 @@ class _Run:
     def __init__(self, solver: StaticSolver, grid: Grid, arrays):
         self.solver = solver
         self.grid = grid
-        self.grid_arrays, self.mags, (self.gravity, self.distributed, _) = arrays
+        self.grid_arrays, self.mags, (self.gravity, self.distributed, _, self.tendons) = arrays
         self.Y = np.empty((grid.s.size, 13))
         self.status = Status.NOT_FINITE
         self.xi = np.zeros(6)
@@ -372,7 +396,7 @@ class _Run:
         jac = np.empty((6, 6)) if jacobian is None else jacobian.copy()
         info = np.zeros(4)
         code = kernels.shoot(xi, s._scale, jac, jacobian is not None, s.tol, s.max_iter, s._base, self.grid_arrays,
-                             self.mags, (self.gravity, self.distributed, scale), self.Y, info)
+                             self.mags, (self.gravity, self.distributed, scale, self.tendons), self.Y, info)
         self.status = Status(code)
         self.xi = xi
         self.iterations += int(info[kernels.INFO_ITERATIONS])
