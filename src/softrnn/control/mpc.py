@@ -39,22 +39,27 @@ A_RANGE = (-math.pi / 2, math.pi / 2)
 C_RANGE = (-math.pi / 6, math.pi / 6)
 
 
-class LearnedMPC:
-    """MPC on a trained ``NarxModel`` (see the module docstring)."""
+class BlockMPC:
+    """What the learned and the physics MPC share: the plan of field directions in blocks, the
+    cost, one Gauss-Newton step per frame on it, and the currents of the first block.
 
-    def __init__(self, model: NarxModel, spec: ManipulatorSpec | None = None, *, horizon: int = 15,
-                 blocks: tuple = (1, 2, 4, 8), iterations: int = 2, move_weight: float = 0.2,
-                 azimuth_weight: float = 10.0, observer_gain: float = 0.15, disturbance_gain: float = 0.1,
-                 diff_step: float = 1e-4):
-        self.model = model
+    A subclass gives ``_predict(plans (B, 2 blocks)) -> (B, N, 2)``: the distal magnet's orientation
+    [rad] over the horizon under each plan, from the current estimate of the state, offset by the
+    estimated disturbance.
+    """
+
+    def __init__(self, spec: ManipulatorSpec | None, *, horizon: int, blocks: tuple, iterations: int,
+                 move_weight: float, azimuth_weight: float, disturbance_gain: float, diff_step: float):
         self.spec = ManipulatorSpec() if spec is None else spec
         self.P = field_to_currents(self.spec)
         self.field = field_magnitude(self.P, self.spec.coils.current_limit)
         sizes = [int(b) for b in blocks]
         if any(b < 1 for b in sizes) or sum(sizes) != int(horizon):
             raise bad("blocks", blocks, f"block lengths >= 1 that add up to the horizon {horizon}")
+        if int(iterations) < 1:
+            raise bad("iterations", iterations, "at least 1 Gauss-Newton step per frame")
         self.horizon, self.blocks, self.iterations = int(horizon), len(sizes), int(iterations)
-        self.move_weight, self.observer_gain = float(move_weight), float(observer_gain)
+        self.move_weight = float(move_weight)
         self.move_scale = np.sqrt(self.move_weight * np.array([1.0, float(azimuth_weight)]))   # on (a, c) changes
         self.disturbance_gain, self.h = float(disturbance_gain), float(diff_step)
         self.lo = np.tile([A_RANGE[0], C_RANGE[0]], self.blocks)
@@ -64,6 +69,57 @@ class LearnedMPC:
 
     def _currents(self, angles) -> np.ndarray:
         return self.P @ (self.field * field_direction(angles[0], angles[1]))
+
+    def _start(self, applied) -> np.ndarray:
+        """Reset the plan to hold ``applied`` (a, c) [rad]; returns its currents."""
+        self.applied = np.asarray(applied, float)
+        self.plan = np.tile(self.applied, self.blocks)
+        self.currents = self._currents(self.applied)
+        self.held = 0
+        return self.currents
+
+    def _predict(self, plans: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def _residuals(self, plans: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        """(B, 2 N + 2 blocks) residuals of B plans (B, 2 blocks)."""
+        B = plans.shape[0]
+        track = (self._predict(plans) - targets[None]).reshape(B, -1)
+        steps = np.diff(np.concatenate([np.broadcast_to(self.applied, (B, 1, 2)),
+                                        plans.reshape(B, self.blocks, 2)], 1), axis=1) * self.move_scale
+        return np.concatenate([track, steps.reshape(B, -1)], 1)
+
+    def _linearise(self, x: np.ndarray, targets: np.ndarray) -> tuple:
+        """(r (R,), J (R, n)): the residuals at plan x and their Jacobian by forward differences, the
+        n + 1 rollouts in one batch."""
+        batch = np.concatenate([x[None], x[None] + self.h * np.eye(x.size)], 0)
+        r = self._residuals(batch, targets)
+        return r[0], (r[1:] - r[0]).T / self.h
+
+    def _solve(self, targets: np.ndarray) -> np.ndarray:
+        """The new plan (2 blocks,): ``iterations`` Gauss-Newton steps from the last plan shifted by a
+        frame, clipped to the angle ranges; kept as ``plan``, its first block as ``applied``."""
+        x = np.concatenate([self.plan[2:], self.plan[-2:]])                          # shifted warm start
+        for _ in range(self.iterations):
+            r, J = self._linearise(x, targets)
+            step = np.linalg.solve(J.T @ J + 1e-6 * np.eye(x.size), -J.T @ r)
+            x = np.clip(x + step, self.lo, self.hi)
+        self.plan = x
+        self.applied = x[:2].copy()
+        return x
+
+
+class LearnedMPC(BlockMPC):
+    """MPC on a trained ``NarxModel`` (see the module docstring)."""
+
+    def __init__(self, model: NarxModel, spec: ManipulatorSpec | None = None, *, horizon: int = 7,
+                 blocks: tuple = (1, 2, 4), iterations: int = 1, move_weight: float = 0.2,
+                 azimuth_weight: float = 10.0, observer_gain: float = 0.15, disturbance_gain: float = 0.1,
+                 diff_step: float = 1e-4):
+        super().__init__(spec, horizon=horizon, blocks=blocks, iterations=iterations, move_weight=move_weight,
+                         azimuth_weight=azimuth_weight, disturbance_gain=disturbance_gain, diff_step=diff_step)
+        self.model = model
+        self.observer_gain = float(observer_gain)
 
     def _settled_direction(self, target) -> np.ndarray:
         """The field angles (a, 0) whose steady state under the model (a 2 s rollout from the state
@@ -82,15 +138,12 @@ class LearnedMPC:
 
     def reset(self, reference) -> np.ndarray:
         """Start from the field direction whose settled pose under the model is nearest the first target."""
-        self.applied = self._settled_direction(reference.angles[0])
-        self.plan = np.tile(self.applied, self.blocks)
-        self.currents = self._currents(self.applied)
+        currents = self._start(self._settled_direction(reference.angles[0]))
         self.ys = None                              # (H, 4) estimated states
         self.us = np.tile(field_direction(*self.applied), (HISTORY, 1))
         self.predicted = None
         self.disturbance = np.zeros(4)
-        self.held = 0
-        return self.currents
+        return currents
 
     def _estimate(self, y_meas: np.ndarray) -> None:
         if self.ys is None:
@@ -102,18 +155,13 @@ class LearnedMPC:
         est = pred + self.observer_gain * innovation
         self.ys = np.concatenate([self.ys[1:], est[None]], 0)
 
-    def _residuals(self, plans: np.ndarray, targets: np.ndarray) -> np.ndarray:
-        """(B, 2 N + 2 blocks) residuals of B plans (B, 2 blocks)."""
+    def _predict(self, plans: np.ndarray) -> np.ndarray:
         B = plans.shape[0]
         ang = plans.reshape(B, self.blocks, 2)[:, self.block_of]                   # (B, N, 2)
         future = field_direction(ang[..., 0], ang[..., 1])                          # (B, N, 3)
         ys = np.broadcast_to(self.ys, (B,) + self.ys.shape)
         us = np.broadcast_to(self.us[1:], (B,) + self.us[1:].shape)
-        pred = self.model.rollout(ys, us, future)[..., 2:] + self.disturbance[2:]  # (B, N, 2) distal
-        track = (pred - targets[None]).reshape(B, -1)
-        steps = np.diff(np.concatenate([np.broadcast_to(self.applied, (B, 1, 2)),
-                                        plans.reshape(B, self.blocks, 2)], 1), axis=1) * self.move_scale
-        return np.concatenate([track, steps.reshape(B, -1)], 1)
+        return self.model.rollout(ys, us, future)[..., 2:] + self.disturbance[2:]  # (B, N, 2) distal
 
     def __call__(self, k: int, measured, reference) -> np.ndarray:
         """The currents (n_c,) [A] for frame k, from its measurement ``measured`` (M, 3) [rad]."""
@@ -122,20 +170,8 @@ class LearnedMPC:
             self.held += 1
             return self.currents
         self._estimate(y_meas)
-        targets = reference.window(k, self.horizon)                                 # (N, 2) (about x, about y)
-        x = np.concatenate([self.plan[2:], self.plan[-2:]])                          # shifted warm start
-        n = x.size
-        for _ in range(self.iterations):
-            batch = np.concatenate([x[None], x[None] + self.h * np.eye(n)], 0)
-            r = self._residuals(batch, targets)
-            J = (r[1:] - r[0]).T / self.h
-            step = np.linalg.solve(J.T @ J + 1e-6 * np.eye(n), -J.T @ r[0])
-            x = np.clip(x + step, self.lo, self.hi)
-        self.plan = x
-        self.applied = x[:2].copy()
-        u = field_direction(x[0], x[1])
-        self.us = np.concatenate([self.us[1:], u[None]], 0)
-        hist_u = self.us
-        self.predicted = self.model.step(self.ys[None], hist_u[None])[0]
+        x = self._solve(reference.window(k, self.horizon))                           # (N, 2) (about x, about y)
+        self.us = np.concatenate([self.us[1:], field_direction(x[0], x[1])[None]], 0)
+        self.predicted = self.model.step(self.ys[None], self.us[None])[0]
         self.currents = self._currents(x[:2])
         return self.currents

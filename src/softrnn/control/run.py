@@ -105,7 +105,7 @@ def control_run(reference: str, controller: str, out_dir, *, duration: float = 6
 
     config = LoopConfig() if config is None else config
     ref = make_reference(reference, duration=duration, rate=config.rate, seed=config.seed)
-    ctrl = make_controller(controller, model=model)
+    ctrl = make_controller(controller, model=model, config=config)
     result = run_loop(ctrl, ref, config, progress=progress)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -81,6 +81,16 @@ class ManipulatorStepper:
         self.frames += 1
         self.time = self.frames * self.dt
 
+    def snapshot(self) -> tuple:
+        """The state to come back to with ``restore`` (a deep copy): a planner's rollouts branch from it."""
+        return self._model.state.copy(), self.time, self.frames, self.currents.copy()
+
+    def restore(self, snapshot: tuple) -> None:
+        """Return to a ``snapshot`` (copied again, so one snapshot serves many rollouts)."""
+        state, self.time, self.frames, currents = snapshot
+        self._model.state = state.copy()
+        self.currents = currents.copy()
+
     @property
     def positions(self) -> np.ndarray:
         """Node positions (n, 3) [m] at ``time`` (a copy)."""

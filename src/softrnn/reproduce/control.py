@@ -1,6 +1,8 @@
 """Reproduce step: closed-loop control of the simulated magnetic rod (issue 14) under ``control/``:
-``static-inverse`` and ``mpc-learned`` on the step, sine and random references, and ``mpc-learned``
-on robots 10 % stiffer and stronger, and 10 % softer and weaker, than the one it was identified on."""
+``static-inverse`` and ``mpc-learned`` on the step, sine and random references, ``mpc-learned``
+on robots 10 % stiffer and stronger, and 10 % softer and weaker, than the one it was identified on,
+and ``mpc-physics`` (far from real time) on the first ``physics_duration`` seconds of each
+reference, compared with the other two over the same frames."""
 
 from __future__ import annotations
 
@@ -11,11 +13,12 @@ from .stepfiles import load_step, save_step
 
 REFERENCES = ("step", "sine", "random")
 CONTROLLERS = ("static-inverse", "mpc-learned")
+"""Run over the whole ``duration``; ``mpc-physics`` over ``physics_duration``."""
 PERTURBATIONS = {"+10%": 1.1, "-10%": 0.9}
 """Robustness: the plant's stiffness and remanence multiplied further by these factors."""
 
-FULL = {"duration": 30.0, "identify": 90.0, "train_steps": 2000}
-QUICK = {"duration": 4.0, "identify": 15.0, "train_steps": 300}
+FULL = {"duration": 30.0, "physics_duration": 10.0, "identify": 90.0, "train_steps": 2000}
+QUICK = {"duration": 4.0, "physics_duration": 1.0, "identify": 15.0, "train_steps": 300}
 KEYS = ("rms_deg", "max_deg", "limit_violations", "compute_ms_median", "compute_ms_p99", "stable")
 
 
@@ -30,6 +33,10 @@ def _tasks(folder: Path, settings: dict, model) -> list:
             path = folder / controller / ref
             tasks.append(((controller, ref), (run_one, (ref, controller, str(path), settings["duration"], base,
                                                         model if controller == "mpc-learned" else None))))
+    for ref in REFERENCES:
+        path = folder / "mpc-physics" / ref
+        tasks.insert(0, (("mpc-physics", ref), (run_one, (ref, "mpc-physics", str(path), settings["physics_duration"],
+                                                          base, None))))
     for name, f in PERTURBATIONS.items():
         plant = {**base, "stiffness": base["stiffness"] * f, "remanence": base["remanence"] * f}
         for ref in REFERENCES:
@@ -67,6 +74,9 @@ def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | Non
     result = {c: {r: {k: summaries[(c, r)][k] for k in KEYS} for r in REFERENCES} for c in CONTROLLERS}
     result["robustness"] = {p: {r: {k: summaries[(p, r)][k] for k in KEYS} for r in REFERENCES}
                             for p in PERTURBATIONS}
+    result["mpc-physics"] = {r: {**{k: summaries[("mpc-physics", r)][k] for k in KEYS},
+                                 "duration_s": summaries[("mpc-physics", r)]["duration_s"],
+                                 "same_frames_rms_deg": _same_frames(folder, r)} for r in REFERENCES}
     result["goals"] = _goals(result)
     result["settings"] = {**settings, "references": list(REFERENCES), "perturbations": PERTURBATIONS,
                           "plant": LoopConfig().to_dict()}
@@ -80,12 +90,27 @@ def _keyed(key: tuple, fn, args: tuple) -> tuple:
     return key, fn(*args)
 
 
+def _same_frames(folder: Path, ref: str) -> dict:
+    """RMS tracking error [deg] of each controller over the frames ``mpc-physics`` ran (the start of
+    the reference), from the runs' traces."""
+    import numpy as np
+
+    out = {}
+    with np.load(folder / "mpc-physics" / ref / "trace.npz") as t:
+        n = t["time"].size
+    for controller in ("mpc-physics",) + CONTROLLERS:
+        with np.load(folder / controller / ref / "trace.npz") as t:
+            e = np.degrees(t["true"][:n, 1, :2] - t["reference"][:n])
+        out[controller] = float(np.sqrt(np.mean(e ** 2)))
+    return out
+
+
 def _goals(result: dict) -> dict:
     """Issue 14's goals, measured: mpc-learned's RMS at most half static-inverse's on every reference,
     its p99 below 1 ms, robustness runs stable, no limit violation anywhere."""
     ratios = {r: result["mpc-learned"][r]["rms_deg"] / result["static-inverse"][r]["rms_deg"] for r in REFERENCES}
     p99 = max(result["mpc-learned"][r]["compute_ms_p99"] for r in REFERENCES)
-    runs = [result[c][r] for c in CONTROLLERS for r in REFERENCES] + \
+    runs = [result[c][r] for c in CONTROLLERS + ("mpc-physics",) for r in REFERENCES] + \
         [result["robustness"][p][r] for p in PERTURBATIONS for r in REFERENCES]
     return {
         "mpc_over_static_rms": {"value": ratios, "goal": "<= 0.5 on every reference",
@@ -102,14 +127,15 @@ def _goals(result: dict) -> dict:
 
 def _figure(out: Path, folder: Path) -> str:
     """``figures/control.png``: the step and random references, static-inverse and mpc-learned (true
-    distal orientation about y), and their errors."""
+    distal orientation about y), and their errors; mpc-physics over the start it ran."""
     from ..figures import plots as plotting  # noqa: I001  (selects the Agg backend first)
     import matplotlib.pyplot as plt
     import numpy as np
 
     fig, axes = plt.subplots(2, 2, figsize=(12, 6.5), sharex="col")
     for col, ref in enumerate(("step", "random")):
-        for controller, color in (("static-inverse", "tab:red"), ("mpc-learned", "tab:blue")):
+        for controller, color in (("static-inverse", "tab:red"), ("mpc-learned", "tab:blue"),
+                                  ("mpc-physics", "tab:green")):
             with np.load(folder / controller / ref / "trace.npz") as t:
                 if controller == "static-inverse":
                     axes[0, col].plot(t["time"], np.degrees(t["reference"][:, 1]), color="k", lw=1.2,
