@@ -7,15 +7,18 @@ Every frame, from the camera's measurement:
    a slow integral term (``disturbance_gain``) learns the model's remaining offset on the distal
    magnet, so a constant model error does not become a constant tracking error.
 2. **Plan.** The field direction (elevation a, azimuth c; fixed magnitude) over a horizon of
-   ``horizon`` frames is held in ``blocks`` (lengths 1, 2, 4, 8 frames by default: the rod answers
+   ``horizon`` frames (7) is held in ``blocks`` (lengths 1, 2, 4 frames by default: the rod answers
    a new field within a frame or two, so the first move must be free to change at the very frame a
-   step of the reference comes; 2 x 4 unknowns). Gauss-Newton steps
-   minimise sum over the horizon |distal orientation - reference|^2 + ``move_weight`` times the
-   squared changes of (a, c) from block to block (and from the last applied one), those of the
-   azimuth c ``azimuth_weight`` times more (the out-of-plane angle is read from the camera with its
-   largest noise, and a planar target needs c = 0); the Jacobian by
-   forward differences: the 2 x blocks + 1 rollouts run as one batch of the NumPy network. The plan
-   starts from the last one, shifted by a frame; the angles stay within the static controller's grid.
+   step of the reference comes; 2 x 3 unknowns). One Gauss-Newton step per frame (``iterations``;
+   the "real-time iteration" of nonlinear MPC: the plan is refined frame after frame, not solved
+   to the end every frame) minimises sum over the horizon |distal orientation - reference|^2 +
+   ``move_weight`` times the squared changes of (a, c) from block to block (and from the last
+   applied one), those of the azimuth c ``azimuth_weight`` times more (the out-of-plane angle is
+   read from the camera with its largest noise, and a planar target needs c = 0); the Jacobian by
+   forward differences: the 2 x blocks + 1 rollouts run as one batch of the NumPy network. The
+   plan starts from the last one, shifted by a frame; the angles stay within the static
+   controller's grid. (``BlockMPC`` holds this part; ``physics_mpc.PhysicsMPC`` plans the same
+   way on the simulator.)
 3. **Apply** the first block's direction: the minimum-norm currents for that field at the
    workspace centre, within the coil limit by construction (the magnitude is chosen so that every
    direction is).
