@@ -75,6 +75,8 @@ def test_csv_reference_is_interpolated_at_the_frames(tmp_path):
       "--duration", "0"], r"--duration=0.0 is invalid"),
     (["control", "magnetic", "--reference", "step", "--controller", "static-inverse", "-o", "{out}",
       "--stiffness", "0"], r"--stiffness=0.0 is invalid: a factor in \[0.2, 5\]"),
+    (["control", "magnetic", "--reference", "step", "--controller", "mpc-physics", "-o", "{out}",
+      "--plan-factors", "1,2"], r"--plan-factors='1,2' is invalid: three factors in \[0.2, 5\]"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, capsys, argv, match):
     assert main([a.format(out=tmp_path / "out") for a in argv]) == 2

@@ -33,6 +33,9 @@ def add_args(p):
                         "the robot open loop and train it now (about a minute), kept in DIR")
     m.add_argument("--identify-seconds", type=float, default=90.0,
                    help="mpc-learned: seconds of open-loop identification (default 90)")
+    m.add_argument("--plan-factors", default=None, metavar="S,R,D",
+                   help="mpc-physics: plan on the simulator with stiffness, remanence and damping times these "
+                        "factors (e.g. a calibration's: 1.04,0.97,2); default: the nominal model (1,1,1)")
     m.add_argument("--overwrite", action="store_true", help="replace the results in DIR")
     m.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -52,6 +55,7 @@ def run(args) -> int:
         if not 0.2 <= value <= 5.0:
             raise bad(flag, value, "a factor in [0.2, 5] on the nominal value (1.04 and 0.97: the experiment's robot)")
     config = LoopConfig(stiffness=args.stiffness, remanence=args.remanence, seed=args.seed)
+    spec = _plan_spec(args.plan_factors)
     prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite, holds=(RUN_FILE, FIGURE_FILE, SUMMARY_FILE),
                    fix="pass --overwrite to replace them, or choose another folder")
     model = None
@@ -65,7 +69,7 @@ def run(args) -> int:
                               config=LoopConfig(seed=args.seed), seed=args.seed)
     with Bar(f"control {args.controller}", unit="frame", enabled=not args.quiet) as bar:
         s = control_run(args.reference, args.controller, args.out, duration=args.duration, config=config,
-                        model=model, progress=bar)
+                        model=model, spec=spec, progress=bar)
     def deg(v):
         return "not finite" if v is None else f"{v:.2f}"
 
@@ -75,3 +79,20 @@ def run(args) -> int:
           f"{s['compute_ms_median']:.3f} ms per frame (p99 {s['compute_ms_p99']:.3f})")
     print(f"wrote {args.out}/{RUN_FILE}, {FIGURE_FILE}, {SUMMARY_FILE}")
     return 0
+
+
+def _plan_spec(text):
+    """The model mpc-physics plans on, from ``--plan-factors`` S,R,D (None: the nominal one)."""
+    from ..errors import bad
+    from ..magnetics.manipulator import ManipulatorSpec
+
+    if text is None:
+        return None
+    try:
+        factors = [float(v) for v in text.split(",")]
+    except ValueError:
+        factors = []
+    if len(factors) != 3 or not all(0.2 <= f <= 5.0 for f in factors):
+        raise bad("--plan-factors", text, "three factors in [0.2, 5] for stiffness, remanence and damping, "
+                                          "e.g. 1.04,0.97,2")
+    return ManipulatorSpec().scaled(stiffness=factors[0], remanence=factors[1], damping=factors[2])

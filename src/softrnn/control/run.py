@@ -96,16 +96,17 @@ def learned_model(out_dir, model_path=None, *, identify_seconds: float = 90.0, c
 
 
 def control_run(reference: str, controller: str, out_dir, *, duration: float = 60.0, config: LoopConfig | None = None,
-                model=None, progress: Progress | None = None) -> dict:
+                model=None, spec=None, progress: Progress | None = None) -> dict:
     """Run ``controller`` on ``reference`` for ``duration`` s and write ``RUN_FILE``, ``FIGURE_FILE``,
     ``SUMMARY_FILE`` and ``TRACE_FILE`` (time, reference, true and measured orientations, currents)
     into ``out_dir``; returns the summary (``LoopResult.summary`` with the
-    reference, controller, config and files). ``model``: the ``NarxModel`` of ``mpc-learned``."""
+    reference, controller, config and files). ``model``: the ``NarxModel`` of ``mpc-learned``; ``spec``:
+    the ``ManipulatorSpec`` the controller takes as its model (None: the nominal one)."""
     from ..figures import plots as plotting
 
     config = LoopConfig() if config is None else config
     ref = make_reference(reference, duration=duration, rate=config.rate, seed=config.seed)
-    ctrl = make_controller(controller, model=model, config=config)
+    ctrl = make_controller(controller, spec, model=model, config=config)
     result = run_loop(ctrl, ref, config, progress=progress)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
