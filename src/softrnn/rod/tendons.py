@@ -238,6 +238,20 @@ def tendon_actuation(tendons, times) -> tuple[np.ndarray, dict[str, str]]:
     return tension_matrix(tendons, times), {td.channel: "N" for td in tendons}
 
 
+def tendon_sink(append, tendons):
+    """A ``Simulator.run`` sink that passes every chunk on as ``append(chunk, actuation=values)``
+    with the tendons' tensions (k, m) [N] at the chunk's times (``tendon_actuation``): e.g. a
+    ``softrnn.io.DatasetWriter``'s append, made with ``actuation_units`` from ``tendon_actuation``.
+    Without tendons, ``append`` itself."""
+    tendons = tuple(tendons)
+    if not tendons:
+        return append
+
+    def sink(chunk):
+        append(chunk, actuation=tension_matrix(tendons, chunk.time))
+    return sink
+
+
 def _tangents(K, G, route, end):
     """Per tendon j: Gamma + K x rho + rho' (e_j, 3) over its routed segments."""
     return [G[:e] + np.cross(K[:e], route[j, :e, :3]) + route[j, :e, 3:] for j, e in enumerate(end)]

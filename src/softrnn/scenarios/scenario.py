@@ -25,13 +25,15 @@ import numpy as np
 from ..errors import SoftrnnInputError, bad
 from ..rod.simulation import Damping, RunConfig, Setup
 from ._sections import _DAMPING_KEYS, _boundary, _loads, _rod, _run, _shape
+from ._tendons import read_tendons
 from .calibrate import _check_calibrate, _flatten_calibrate
 from .randomize import _flatten_randomize, _sample, _set_path
 from .reading import ScenarioError as ScenarioError
 from .reading import _as_is, _Ctx, _show, _Table, integer, number, string, table_list, vec3
 
 SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "square-circle", "square-figure8",
-                                   "square-random", "semicircle", "semicircle-cosine")
+                                   "square-random", "semicircle", "semicircle-cosine", "tendon-planar",
+                                   "tendon-planar-sine", "tendon-spatial", "tendon-spatial-sine")
 FORMAT_VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 
@@ -48,6 +50,7 @@ _TOP_KEYS = {
     "initial": "the initial shape table (default: the reference)",
     "boundary": "[[boundary]] entries (kind = clamp or pin)",
     "loads": "[[loads]] entries (kind = force, torque or pd)",
+    "tendons": "[[tendons]] entries: name, offset, routing, end_node or end_s, tension",
     "damping": "the damping table: translational, rotational, kelvin_voigt",
     "run": "the run table: dt, duration or n_samples, substeps, nodes_of_interest, ...",
     "randomize": "a table of dotted keys -> distributions for sweeps",
@@ -153,7 +156,7 @@ def _header(ctx: _Ctx, top: _Table) -> tuple[str, str, int, tuple, dict, dict]:
 
 
 def _setup(ctx: _Ctx, top: _Table, doc: dict, gravity: tuple) -> Setup:
-    """The rod, its shapes, boundary conditions, loads and damping as a ``Setup``."""
+    """The rod, its shapes, boundary conditions, loads, tendons and damping as a ``Setup``."""
     rod = _rod(ctx, top.raw_value("rod"))
     reference = _shape(ctx, top.raw_value("reference"), "reference", rod)
     initial = _shape(ctx, doc["initial"], "initial", rod) if "initial" in doc else None
@@ -166,6 +169,7 @@ def _setup(ctx: _Ctx, top: _Table, doc: dict, gravity: tuple) -> Setup:
     start = initial if initial is not None else reference
     boundary = _boundary(ctx, top.get("boundary", table_list, []), start, rod.n_nodes)
     loads = _loads(ctx, top.get("loads", table_list, []), rod.n_nodes)
+    tendons = read_tendons(ctx, top.get("tendons", table_list, []), rod)
     dt_ = _Table(ctx, top.get("damping", _as_is, {}), "damping", _DAMPING_KEYS)
     try:
         damping = Damping(**{k: dt_.get(k, number(nonnegative=True)) for k in dt_.raw})
@@ -173,7 +177,7 @@ def _setup(ctx: _Ctx, top: _Table, doc: dict, gravity: tuple) -> Setup:
         raise ctx.wrap("damping", exc) from None
     try:
         return Setup(rod=rod, reference=reference, initial=initial, boundary=boundary, loads=loads,
-                     damping=damping, gravity=gravity)
+                     damping=damping, gravity=gravity, tendons=tendons)
     except SoftrnnInputError as exc:
         raise ctx.wrap("reference" if "reference" in str(exc) else "setup", exc) from None
 

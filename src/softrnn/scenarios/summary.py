@@ -8,6 +8,7 @@ import numpy as np
 
 from ..progress import Progress
 from ..rod import RunConfig, Setup, Simulator
+from ..rod.tendons import tendon_actuation, tendon_sink
 
 
 class _NodeCollector:
@@ -27,7 +28,8 @@ class _NodeCollector:
 def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, node: int,
                      out_path=None, scenario_text: str = "", seed: int | None = None, attrs: dict | None = None,
                      progress: Progress | None = None, series: dict | None = None) -> dict:
-    """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically).
+    """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically), with the
+    tensions of the setup's tendons as its actuation channels ``tendon_<name>`` [N].
 
     Returns a JSON-ready summary: timing, step, the node of interest's range, energy, orthogonality.
     If a dict is passed as ``series`` it receives the arrays time (T,), node_positions (T, 3) [m]
@@ -51,9 +53,11 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
     else:
         from ..io.dataset import DatasetWriter
 
+        # tendon tensions are stored as the actuation channels tendon_<name> [N]
+        _, units = tendon_actuation(setup.tendons, np.zeros(0))
         with DatasetWriter(out_path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=setup.rod,
-                           scenario_text=scenario_text, seed=seed, attrs=attrs) as writer:
-            sink = _NodeCollector(nodes.index(node), forward=writer.append)
+                           scenario_text=scenario_text, seed=seed, attrs=attrs, actuation_units=units) as writer:
+            sink = _NodeCollector(nodes.index(node), forward=tendon_sink(writer.append, setup.tendons))
             stats = sim.run(config, progress=progress, sink=sink)
     total = time.perf_counter() - start
     p = np.concatenate(sink.positions)

@@ -81,10 +81,12 @@ def _is_complete(path: Path) -> bool:
 def run_variant(text: str, source: str, index: int, path: str, n_samples: int | None = None,
                 dt: float | None = None) -> dict:
     """Simulate variant ``index`` of the scenario given by its TOML ``text`` and write it to
-    ``path`` (atomically), ``n_samples`` samples ``dt`` s apart (None: the scenario's). Runs on a
-    Dask worker; returns a small summary."""
+    ``path`` (atomically), ``n_samples`` samples ``dt`` s apart (None: the scenario's), with its
+    tendons' tensions as the actuation channels ``tendon_<name>`` [N]. Runs on a Dask worker;
+    returns a small summary."""
     from ..io.dataset import DatasetWriter
     from ..rod import Simulator
+    from ..rod.tendons import tendon_actuation, tendon_sink
     from ..scenarios.scenario import parse_scenario
 
     scenario = parse_scenario(text, source).variant(index)
@@ -93,9 +95,11 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
     nodes = list(range(scenario.setup.rod.n_nodes)) if config.save_nodes is None else list(config.save_nodes)
     attrs = {"variant_index": index, "sampled": json.dumps(scenario.sampled), "scenario_name": scenario.name}
     start = time.perf_counter()
+    tendons = scenario.setup.tendons
+    _, units = tendon_actuation(tendons, ())  # tendon tensions: actuation channels tendon_<name> [N]
     with DatasetWriter(path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=scenario.setup.rod,
-                       scenario_text=scenario.text, seed=scenario.seed, attrs=attrs) as writer:
-        stats = sim.run(config, sink=writer.append)
+                       scenario_text=scenario.text, seed=scenario.seed, attrs=attrs, actuation_units=units) as writer:
+        stats = sim.run(config, sink=tendon_sink(writer.append, tendons))
     return {"index": index, "wall_time": time.perf_counter() - start, "substeps": stats.substeps}
 
 
