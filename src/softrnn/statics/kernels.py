@@ -15,6 +15,15 @@ with Ks = diag(GA, GA, EA), Kb = diag(EI, EI, GJ) and f the distributed force pe
 n(s_k+) = n(s_k-) - F, m(s_k+) = m(s_k-) - T; a point magnet with body moment mu_b in the field B
 and gradient G applies T = (R mu_b) x B and F = G (R mu_b) with R at s_k.
 
+Tendons (``StaticRod.tendons``; Rucker & Webster 2011) are an active stress: n and m are then the
+total wrench of the section, rod plus tendons, which follows the ODEs above with the external
+loads alone (continuous at a termination); the rod's strains solve
+    v = Ks^-1 (R^T n - sum tau t) + e3,  u = Kb^-1 (R^T m - sum tau rho x t),
+t the unit vector of v + u x rho + rho', over the tendons routed through the step
+(``_tendon_strains``). Their arrays, in the ``loads`` tuple: tension (m,) [N], geometry (m, 3)
+(offset ox, oy [m] at the base and twist rate 2 pi / pitch [rad/m]; rho(s) = Rz(rate s) (ox, oy, 0))
+and end (m,) int64, the grid point of each termination.
+
 Grid arrays (N steps, N + 1 grid points; the solver places every load point and every stiffness
 change on a grid point, so each RK4 step has constant properties):
     h       (N,)       step lengths [m]

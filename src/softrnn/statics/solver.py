@@ -126,6 +126,7 @@ class StaticSolution:
     positions : (N + 1, 3)      centreline [m], world frame
     quaternions : (N + 1, 4)    unit, scalar first, body -> world
     n : (N + 1, 3)              internal force [N], world frame, on the base side of each grid point
+                                (with tendons: the section's total, rod plus tendons)
     m : (N + 1, 3)              internal moment [N m], world frame, likewise
     base_wrench : (6,)          [n(0), m(0)]: the load the rod puts on its base (the clamp's
                                 reaction on the rod is -base_wrench); a warm-start guess
