@@ -176,3 +176,120 @@ def test_bad_actuation_csv_is_one_line_exit_2_and_no_file(tmp_path, capsys, text
     for w in words:
         assert w in err, (w, err)
     assert not out.exists() and list(tmp_path.iterdir()) == [csv]     # no partial or temporary file
+
+
+# ------------------------------------------------------------------------------------------ models
+def _node_data(tmp_path, actuation=True):
+    path = tmp_path / ("act.h5" if actuation else "plain.h5")
+    ds = _dataset(T=160)
+    if not actuation:
+        ds = Dataset(time=ds.time, nodes=ds.nodes, positions=ds.positions, quaternions=ds.quaternions,
+                     forces=ds.forces, torques=ds.torques, attrs=ds.attrs)
+    write_trajectory(path, ds, dt=0.01)
+    return path
+
+
+SMALL_NODE = {"lstm_units": 8, "lstm_layers": 1, "dense_units": (8,), "wrench_dense": (4,)}
+
+
+def test_node_model_driven_by_actuation_trains_evaluates_and_reloads(tmp_path):
+    pytest.importorskip("torch")
+    from softrnn.surrogate.artifact import load_model
+    from softrnn.surrogate.data import SampleSpec
+    from softrnn.surrogate.evaluate import evaluate
+    from softrnn.surrogate.train import TrainConfig, train_node_model
+
+    path = _node_data(tmp_path)
+    train = TrainConfig(epochs=2, batch_size=32, rollout_steps=2)
+    model = train_node_model(path, SampleSpec(node=2, drive="actuation"), SMALL_NODE, train, tmp_path / "m")
+    assert model.spec.wrench == "none" and model.spec.channels == ("tendon_1", "p_chamber_2")
+    assert model.config.wrench_features == 2                                # input II: the two channels
+    again = load_model(tmp_path / "m")
+    assert again.spec == model.spec and again.meta["dataset"]["actuation_units"] == UNITS
+    report = evaluate(again, path).to_json()
+    assert report["drive"] == "actuation" and report["channels"] == ["tendon_1", "p_chamber_2"]
+    assert report["free_running"] is not None
+    base = report["baselines"]
+    assert set(base) == {"persistence", "constant_velocity", "linear"}
+    assert "rmse_mm" in base["linear"]["one_step"] and base["linear"]["fit"]["features"] > 0
+    assert "the actuation inputs tendon_1, p_chamber_2" in base["linear"]["inputs"]      # the same inputs
+    assert "force" not in base["linear"]["inputs"]
+    both = train_node_model(path, SampleSpec(node=2, drive="both", channels=("p_chamber_2",)), SMALL_NODE,
+                            TrainConfig(epochs=1, batch_size=32, rollout_steps=1), tmp_path / "m2")
+    assert both.config.wrench_features == 3 + 1 and both.spec.wrench == "force"
+
+
+def test_node_model_asking_for_missing_actuation_is_one_line(tmp_path, capsys):
+    pytest.importorskip("torch")
+    from softrnn.surrogate.data import SampleSpec
+    from softrnn.surrogate.train import TrainConfig, train_node_model
+
+    plain = _node_data(tmp_path, actuation=False)
+    with pytest.raises(SoftrnnInputError, match=r"^drive='actuation' is invalid: the data set has no actuation "
+                                                r"inputs; record them .* or use drive='wrench'$"):
+        train_node_model(plain, SampleSpec(node=2, drive="actuation"), SMALL_NODE, TrainConfig(epochs=1),
+                         tmp_path / "m")
+    assert not (tmp_path / "m").exists()
+    assert run_cli(["train", str(plain), "--node", "2", "--drive", "actuation", "-o", str(tmp_path / "m"),
+                    "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--drive='actuation' is invalid" in err and "drive='wrench'" in err
+    with pytest.raises(SoftrnnInputError, match="channels=.*no actuation channel 'coil_9'"):
+        train_node_model(_node_data(tmp_path), SampleSpec(node=2, drive="actuation", channels=("coil_9",)),
+                         SMALL_NODE, TrainConfig(epochs=1), tmp_path / "m")
+    with pytest.raises(SoftrnnInputError, match="drive='both'"):
+        SampleSpec(node=2, drive="both", wrench="none")
+    assert SampleSpec(node=2).to_dict() == {"node": 2, "neighbours": None, "history": 2, "inputs": "positions",
+                                            "wrench": "force", "train_fraction": 0.6}   # old model folders alike
+
+
+def _rod(T=121, n_nodes=7, dt=0.01, seed=0, actuation=True) -> Dataset:
+    """Every node of a planar rod bending with a tendon's tension (quaternions following the slope)."""
+    t = np.arange(T) * dt
+    tension = 0.5 + 0.5 * np.sin(2 * np.pi * 1.5 * t + seed)                         # (T,) [N]
+    s = np.linspace(0.0, 1.0, n_nodes)
+    bend = 0.05 * np.convolve(tension, np.ones(5) / 5, mode="same")                 # lagging response
+    y = bend[:, None] * s ** 2
+    slope = 2 * bend[:, None] * s / 0.4
+    half = 0.5 * np.arctan(slope)
+    q = np.stack([np.cos(half), 0 * half, 0 * half, np.sin(half)], axis=-1)
+    pos = np.stack([np.broadcast_to(s * 0.4, y.shape), y, np.zeros_like(y)], axis=-1)
+    zeros = np.zeros((T, n_nodes, 3))
+    extra = {"actuation": tension[:, None], "actuation_units": {"tendon_1": "N"}} if actuation else {}
+    return Dataset(time=t, nodes=np.arange(n_nodes), positions=pos, quaternions=q, forces=zeros, torques=zeros,
+                   attrs={"dt": dt, "rod": {"length": 0.4, "n_nodes": n_nodes}}, **extra)
+
+
+def test_whole_manipulator_model_driven_by_actuation(tmp_path, capsys):
+    pytest.importorskip("torch")
+    from softrnn.dynamic.artifact import load_dynamic
+    from softrnn.dynamic.evaluation import evaluate_dynamic
+
+    folder = tmp_path / "sweep"
+    folder.mkdir()
+    for i in range(3):
+        write_trajectory(folder / f"traj-{i:05d}.h5", _rod(seed=i), dt=0.01, rod={"length": 0.4, "n_nodes": 7})
+    model = tmp_path / "dyn"
+    argv = ["dynamic", "train", str(folder), "-o", str(model), "--heldout", "1", "--model-dt", "0.02",
+            "--node-stride", "2", "--width", "8", "--layers", "1", "--steps", "6", "--unroll", "2", "--quiet"]
+    assert run_cli(argv + ["--drive", "actuation"]) == 0
+    assert "driven by actuation tendon_1" in capsys.readouterr().out
+    loaded = load_dynamic(model)
+    assert loaded.config.drive == "actuation" and loaded.encoding.channels == ("tendon_1",)
+    assert loaded.encoding.load_width == 1 and loaded.engine.load_width == 1
+    report = evaluate_dynamic(loaded, heldout=[read_dataset(folder / "traj-00002.h5")], horizons=(2, 5))
+    assert report["heldout"]["per_variant"][0] is not None
+    assert set(report["heldout"]["baselines"]) == {"persistence", "constant_velocity", "linear"}
+    assert set(report["horizons"]["5"]) == {"model", "persistence", "constant_velocity", "linear"}
+    assert run_cli(["dynamic", "evaluate", str(model), "--heldout", str(folder / "traj-00002.h5")]) == 0
+    # the same data without actuation: one line naming the option and the fix, no model folder
+    plain = tmp_path / "plain"
+    plain.mkdir()
+    for i in range(2):
+        write_trajectory(plain / f"traj-{i:05d}.h5", _rod(seed=i, actuation=False), dt=0.01,
+                         rod={"length": 0.4, "n_nodes": 7})
+    capsys.readouterr()
+    assert run_cli(argv[:2] + [str(plain), "-o", str(tmp_path / "none")] + argv[5:] + ["--drive", "both"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--drive='both' is invalid" in err and "or use drive='wrench'" in err
+    assert not (tmp_path / "none").exists()

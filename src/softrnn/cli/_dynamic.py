@@ -23,7 +23,7 @@ SETTINGS = "checkpoint.json"
 _OPTIONS = {"model_dt": "--model-dt", "node_stride": "--node-stride", "history": "--history", "memory": "--memory",
             "width": "--width", "layers": "--layers", "steps": "--steps", "unroll": "--unroll", "noise": "--noise",
             "seed": "--seed", "heldout": "--heldout", "validation": "--validation",
-            "train_fraction": "--train-fraction", "data": "DATA"}
+            "train_fraction": "--train-fraction", "data": "DATA", "drive": "--drive"}
 """Library argument names -> the options that set them (for the one-line errors)."""
 
 
@@ -93,6 +93,9 @@ def _add_train(p):
     p.add_argument("--recorded-feedback", dest="feedback", action="store_false", default=None,
                    help="take the recorded forces of PD tracking loads as inputs instead of applying the law to "
                         "the model's own state (default: the law, where a data set's scenario has PD loads)")
+    p.add_argument("--drive", choices=("wrench", "actuation", "both"), default=None,
+                   help="the model's load input: the nodal wrenches (default), the data's actuation inputs (tendon "
+                        "tensions, pressures, currents: docs/dataset-format.md), or both")
     p.add_argument("--threads", type=int, default=None, metavar="T",
                    help="PyTorch threads while training (default: PyTorch's own choice)")
     again = p.add_mutually_exclusive_group()
@@ -117,7 +120,7 @@ def _config(args):
     from ..dynamic.config import DynamicConfig
 
     names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed",
-             "ema", "feedback")
+             "ema", "feedback", "drive")
     return DynamicConfig(**{k: getattr(args, k) for k in names if getattr(args, k) is not None})
 
 
@@ -221,8 +224,17 @@ def _train_summary(folder, config, encoding, info: dict, data: dict, head: str =
                                                   else "")
     return (f"{head} {config.steps} steps in {info.get('train_seconds', float('nan')):.1f} s, final loss "
             f"{'-' if loss is None else f'{loss:.4g}'}{selected}; model_dt {encoding.model_dt:g} s, "
-            f"{encoding.n_kept} of {encoding.n_nodes} nodes predicted; {n['train']} training trajectories, "
+            f"{encoding.n_kept} of {encoding.n_nodes} nodes predicted{_driven(encoding)}; "
+            f"{n['train']} training trajectories, "
             f"{n['validation']} for validation, {n['heldout']} held out (listed in {folder}/model.json)")
+
+
+def _driven(encoding) -> str:
+    """', driven by actuation a, b' (and the wrenches) for a model with actuation inputs, else ''."""
+    if not encoding.channels:
+        return ""
+    return f", driven by actuation {', '.join(encoding.channels)}" + (" and the wrenches" if encoding.drive == "both"
+                                                                      else "")
 
 
 def _train(args) -> int:

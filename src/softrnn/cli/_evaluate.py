@@ -68,6 +68,8 @@ def format_report(r: dict) -> str:
     """The text ``softrnn evaluate`` prints for an ``Evaluation.to_json()`` report."""
     neigh = ", ".join(map(str, r["neighbours"])) or "none"
     wrench = {"none": "", "force": " + force", "wrench": " + force, torque"}.get(r["wrench"], "")
+    if r.get("channels"):
+        wrench += " + actuation " + ", ".join(r["channels"])
     name = f" ({r['scenario_name']})" if r.get("scenario_name") else ""
     lines = [f"evaluate: node {r['node']} (neighbours {neigh}; history {r['history']}; {r['inputs']}{wrench}) "
              f"of {r['model'] or 'the model'} on {r['data'] or 'the data'}{name}"]

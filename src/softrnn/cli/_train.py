@@ -2,7 +2,7 @@
 
 import sys
 
-from ..errors import bad
+from ..errors import SoftrnnInputError, bad
 from ._progress import Bar
 
 NAME = "train"
@@ -24,6 +24,12 @@ def add_args(p):
     p.add_argument("--wrench", choices=("none", "force", "wrench"), default=None,
                    help="input II: the node's force, force and torque, or none (Fig. 2A) (default: force if any "
                         "force acts on the node in the training span, else none)")
+    p.add_argument("--drive", choices=("wrench", "actuation", "both"), default="wrench",
+                   help="what input II holds: the node's wrench (--wrench; default), the data set's actuation inputs "
+                        "(tendon tensions, pressures, currents: docs/dataset-format.md), or both")
+    p.add_argument("--channels", default=None, metavar="NAME,...",
+                   help="the actuation channels of input II with --drive actuation/both (default: all the data "
+                        "set's)")
     p.add_argument("--output", choices=("increment", "acceleration", "pose"), default=None,
                    help="what the network predicts: the next position minus the last (default), the change of "
                         "that increment, or the next position itself (as the paper)")
@@ -101,7 +107,6 @@ def run(args) -> int:
     from ..files import prepare_output
     from ..io.dataset import read_dataset
     from ..surrogate.artifact import CHECKPOINT, check_replaceable
-    from ..surrogate.data import SampleSpec
     from ..surrogate.train import TrainConfig, train_node_model
 
     prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite or args.resume,
@@ -118,11 +123,7 @@ def run(args) -> int:
         if node is None:
             raise bad("--node", None, f"a node to model: the file names no node of interest; choose one of "
                                       f"{describe_nodes(head.nodes)}")
-    wrench = args.wrench
-    if wrench is None:
-        wrench = _default_wrench(args.data, node)
-    neighbours = None if args.neighbours is None else _ints(args.neighbours, "--neighbours")
-    spec = SampleSpec(node=node, neighbours=neighbours, history=args.history, inputs=args.inputs, wrench=wrench)
+    spec = _spec(args, node)
     overrides = {k: v for k, v in (("lstm_units", args.units), ("lstm_layers", args.layers),
                                    ("output", args.output)) if v is not None}
     if args.dense is not None:
@@ -148,7 +149,7 @@ def run(args) -> int:
     spans = m["spans"]
     shared = f" (shared by {len(m['pool'])} pooled nodes)" if m.get("pool") else ""
     print(f"train: node {model.spec.node}{shared} <- {', '.join(map(str, model.spec.neighbours)) or 'no neighbours'}, "
-          f"history {model.spec.history}, {model.spec.inputs} + {model.spec.wrench}; "
+          f"history {model.spec.history}, {model.spec.inputs} + {_input_two(model.spec)}; "
           f"{m['train_windows']} training windows (stride {m['stride']}), validation samples "
           f"{spans['validation'][0]}..{spans['validation'][1] - 1}, test samples {spans['test'][0]}.."
           f"{spans['test'][1] - 1}")
@@ -156,6 +157,38 @@ def run(args) -> int:
           f"{m['epochs_run']}{' (early stop)' if m['early_stopped'] else ''}, {m['train_seconds']:.1f} s; "
           f"model written to {args.out}")
     return 0
+
+
+def _spec(args, node):
+    """The ``SampleSpec`` of the command line (the wrench chosen by ``_default_wrench`` unless given;
+    with ``--drive actuation`` none, with ``--drive both`` at least the force)."""
+    from ..io.dataset import read_dataset
+    from ..surrogate.data import SampleSpec
+
+    if args.channels is not None and args.drive == "wrench":
+        raise bad("--channels", args.channels, "no channels with --drive wrench (pass --drive actuation or both)")
+    wrench = args.wrench
+    if args.drive == "actuation":
+        wrench = "none"
+    elif wrench is None:
+        wrench = _default_wrench(args.data, node)
+        wrench = "force" if args.drive == "both" and wrench == "none" else wrench
+    channels = None
+    if args.channels is not None:
+        channels = tuple(a.strip() for a in args.channels.split(",") if a.strip())
+    neighbours = None if args.neighbours is None else _ints(args.neighbours, "--neighbours")
+    try:
+        spec = SampleSpec(node=node, neighbours=neighbours, history=args.history, inputs=args.inputs, wrench=wrench,
+                          drive=args.drive, channels=channels)
+        if args.drive != "wrench":           # checked here to name the options (training checks it again)
+            spec.resolve_channels(read_dataset(args.data, stop=1).actuation_names)
+        return spec
+    except SoftrnnInputError as err:     # name the command's option
+        text = str(err)
+        for name in ("drive", "channels"):
+            if text.startswith(f"{name}="):
+                text = f"--{text}"
+        raise SoftrnnInputError(text) from None
 
 
 def _default_wrench(path, node) -> str:
@@ -169,3 +202,11 @@ def _default_wrench(path, node) -> str:
     d = read_dataset(path, nodes=[node])
     cut = split(d.n_samples, SampleSpec(node=node, history=1))[0].stop if d.n_samples >= 4 else d.n_samples
     return "force" if np.any(d.forces[:cut] != 0) or np.any(d.torques[:cut] != 0) else "none"
+
+
+def _input_two(spec) -> str:
+    """Input II in words: the wrench kind, and the actuation channels where the model reads them."""
+    if spec.drive == "wrench":
+        return spec.wrench
+    act = "actuation " + ", ".join(spec.channels)
+    return act if spec.drive == "actuation" else f"{spec.wrench} + {act}"

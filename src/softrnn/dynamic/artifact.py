@@ -57,7 +57,8 @@ def encoding_to_dict(enc: Encoding) -> dict:
     return {"n_nodes": enc.n_nodes, "kept": enc.kept.tolist(), "model_dt": enc.model_dt, "data_dt": enc.data_dt,
             "length": enc.length, "ref_positions": enc.ref_positions.tolist(),
             "ref_quaternions": enc.ref_quaternions.tolist(), "fixed": enc.fixed.tolist(),
-            "feedback": bool(enc.feedback)}
+            "feedback": bool(enc.feedback),
+            **({"drive": enc.drive, "channels": list(enc.channels)} if enc.drive != "wrench" else {})}
 
 
 def encoding_from_dict(d: dict) -> Encoding:
@@ -65,7 +66,8 @@ def encoding_from_dict(d: dict) -> Encoding:
     return Encoding(n_nodes=int(d["n_nodes"]), kept=np.asarray(d["kept"]), model_dt=float(d["model_dt"]),
                     data_dt=float(d["data_dt"]), length=float(d["length"]),
                     ref_positions=np.asarray(d["ref_positions"]), ref_quaternions=np.asarray(d["ref_quaternions"]),
-                    fixed=np.asarray(d["fixed"], dtype=bool), feedback=bool(d.get("feedback", False)))
+                    fixed=np.asarray(d["fixed"], dtype=bool), feedback=bool(d.get("feedback", False)),
+                    drive=str(d.get("drive", "wrench")), channels=tuple(d.get("channels", ())))
 
 
 def save_dynamic(folder, trained, meta: dict | None = None) -> None:
@@ -138,8 +140,8 @@ def load_dynamic(folder) -> LoadedDynamic:
         raise DynamicFolderError(f"{folder}: the model files are corrupt or do not match "
                                  f"({one_line(err)[:160]}); train the model again") from None
     try:   # one step on a rest state: weights of another layout fail here, not in a user's loop
-        engine.step(np.zeros((engine.history, engine.n_kept, 6)), np.zeros((engine.n_kept, 6)))
-        linear.step(np.zeros((linear.history, linear.n_kept, 6)), np.zeros((linear.n_kept, 6)))
+        engine.step(np.zeros((engine.history, engine.n_kept, 6)), np.zeros((engine.n_kept, engine.load_width)))
+        linear.step(np.zeros((linear.history, linear.n_kept, 6)), np.zeros((linear.n_kept, linear.load_width)))
     except ValueError as err:
         why = one_line(err)[:100]
         raise DynamicFolderError(f"{folder}: the weights do not fit this softrnn's model layout ({why}); "

@@ -8,6 +8,8 @@ from ..errors import bad, integer, nonnegative, positive
 
 MEMORIES = ("window", "lstm")
 CONV_READS = ("all", "displacements")
+DRIVES = ("wrench", "actuation", "both")
+"""What a model's load input holds: the nodal wrenches, the data's actuation inputs, or both."""
 
 
 @dataclass(frozen=True)
@@ -59,7 +61,13 @@ class DynamicConfig:
     feedback : bool
         Where a data set's scenario has PD tracking loads, apply their law to the model's own state
         (the target and gains are the inputs; ``softrnn.dynamic.feedback``) instead of taking the
-        recorded forces, which the simulated rod's state produced, as inputs.
+        recorded forces, which the simulated rod's state produced, as inputs. Used with
+        ``drive = "wrench"`` only.
+    drive : {"wrench", "actuation", "both"}
+        The model's load input per kept node: the lumped mean force and torque (6 channels; the
+        default), the data's actuation inputs (``Dataset.actuation``, every channel, their mean over
+        the step: m channels, the same at every node), or both (6 + m). The training data must
+        record actuation inputs for the last two (one-line error otherwise).
     """
 
     model_dt: float = 0.02
@@ -83,6 +91,7 @@ class DynamicConfig:
     ema: float = 0.995
     conv_reads: str = "all"
     feedback: bool = True
+    drive: str = "wrench"
 
     def __post_init__(self):
         positive("model_dt", self.model_dt, "s")
@@ -114,10 +123,17 @@ class DynamicConfig:
             raise bad("conv_reads", self.conv_reads, f"one of {', '.join(CONV_READS)}")
         if not (0.0 <= float(self.ema) < 1.0):
             raise bad("ema", self.ema, "a decay in [0, 1) (0: no averaging)")
+        if self.drive not in DRIVES:
+            raise bad("drive", self.drive, "'wrench' (the nodal wrenches), 'actuation' (the data's actuation "
+                                           "inputs) or 'both'")
 
     def to_dict(self) -> dict:
-        """The fields as a dict (model.json's ``config``)."""
-        return asdict(self)
+        """The fields as a dict (model.json's ``config``); ``drive`` only when it is not the default
+        'wrench' (so models and checkpoints of wrench-driven models are recorded as before)."""
+        d = asdict(self)
+        if d["drive"] == "wrench":
+            del d["drive"]
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> DynamicConfig:
@@ -158,22 +174,24 @@ N_CONST = 3
 """Per-node constant features (``Encoding.node_features``)."""
 
 
-def n_channels(history: int) -> int:
-    """Features per node: state 6, velocities 6 (history - 1), load 6, constants 3."""
-    return 6 + 6 * (history - 1) + 6 + N_CONST
+def n_channels(history: int, loads: int = 6) -> int:
+    """Features per node: state 6, velocities 6 (history - 1), the ``loads`` load channels (6 for
+    the wrench; m or 6 + m with actuation inputs), constants 3."""
+    return 6 + 6 * (history - 1) + loads + N_CONST
 
 
-def conv_channels(history: int, reads: str = "all") -> list[int]:
-    """The feature columns the convolution (and the LSTM cell) read: every one but the load's, or
-    with ``reads = "displacements"`` also none of the rotation columns of the state and velocities."""
-    C = n_channels(history)
-    cut = load_channels(history)
+def conv_channels(history: int, reads: str = "all", loads: int = 6) -> list[int]:
+    """The feature columns the convolution (and the LSTM cell) read: every one but the ``loads``
+    load channels, or with ``reads = "displacements"`` also none of the rotation columns of the
+    state and velocities."""
+    C = n_channels(history, loads)
+    cut = load_channels(history, loads)
     cols = [c for c in range(C) if not cut.start <= c < cut.stop]
     if reads == "displacements":
         cols = [c for c in cols if c >= cut.stop or c % 6 < 3]
     return cols
 
 
-def load_channels(history: int) -> slice:
-    """Where the load's 6 channels sit among the features (the convolution skips them)."""
-    return slice(6 * history, 6 * history + 6)
+def load_channels(history: int, loads: int = 6) -> slice:
+    """Where the ``loads`` load channels sit among the features (the convolution skips them)."""
+    return slice(6 * history, 6 * history + loads)

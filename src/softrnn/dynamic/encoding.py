@@ -10,7 +10,10 @@ relative to a fixed reference pose of the rod (the first sample of the first tra
 so one state row is (M, 6). The applied loads reach the model as the mean force and torque over
 each model step (the loads are known inputs over time), lumped onto the kept nodes with the linear
 "hat" weights along the rod (the total force is kept; the small moment of moving a force along the
-rod to a kept node is not added). Decoding interpolates displacements and rotation vectors along
+rod to a kept node is not added). With actuation inputs (``Encoding.drive`` 'actuation' or 'both')
+the data's actuation channels (tendon tensions, pressures, currents: ``Dataset.actuation``) are also
+averaged over each model step and given to every kept node alike, after the wrench's 6 channels
+('both') or instead of them ('actuation'). Decoding interpolates displacements and rotation vectors along
 the node index with a cubic spline, so every node gets a pose and orientations stay unit
 quaternions by construction.
 """
@@ -72,10 +75,11 @@ def lumping_matrix(n_nodes: int, kept: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """One trajectory as a model sees it: ``states`` (S, M, 6) encoded poses at the model's step
-    times ``time`` (S,) [s] and ``loads`` (S, M, 6): the mean force [N] and torque [N m] over each
-    step (the last row: the last sample's loads). ``feedback``: the PD laws applied to the model's
-    own state (``softrnn.dynamic.feedback``; their nodes' recorded forces are not in ``loads``), or
-    None. ``name`` says where it came from."""
+    times ``time`` (S,) [s] and ``loads`` (S, M, L): the mean force [N] and torque [N m] over each
+    step (the last row: the last sample's loads), L = 6, or with actuation inputs the mean of each
+    channel over the step (in its unit), L = m ('actuation') or 6 + m ('both'). ``feedback``: the
+    PD laws applied to the model's own state (``softrnn.dynamic.feedback``; their nodes' recorded
+    forces are not in ``loads``), or None. ``name`` says where it came from."""
 
     time: np.ndarray
     states: np.ndarray
@@ -116,6 +120,9 @@ class Encoding:
     fixed : ndarray (M,) bool          kept nodes held at the reference (clamped boundaries)
     feedback : bool          apply the PD laws of a data set's scenario to the model's own state
                              (``softrnn.dynamic.feedback``) instead of taking their recorded forces
+    drive : str              the load input: 'wrench' (6 channels), 'actuation' (the m channels) or
+                             'both' (6 + m), as ``DynamicConfig.drive``
+    channels : tuple of str  the actuation channels read (``Dataset.actuation_names``), () for 'wrench'
     """
 
     n_nodes: int
@@ -127,8 +134,13 @@ class Encoding:
     ref_quaternions: np.ndarray
     fixed: np.ndarray
     feedback: bool = False
+    drive: str = "wrench"
+    channels: tuple = ()
 
     def __post_init__(self):
+        object.__setattr__(self, "channels", tuple(str(a) for a in self.channels))
+        if (self.drive == "wrench") != (not self.channels):
+            raise bad("channels", list(self.channels), "actuation channels exactly when drive is 'actuation' or 'both'")
         kept = np.asarray(self.kept, dtype=np.int64)
         ends = len(kept) >= 2 and kept[0] == 0 and kept[-1] == self.n_nodes - 1
         if kept.ndim != 1 or not ends or np.any(np.diff(kept) <= 0):
@@ -142,6 +154,11 @@ class Encoding:
     def stride(self, dt: float) -> int:
         """The model's step in samples of data saved every ``dt`` [s]."""
         return resolve_stride(self.model_dt, dt)
+
+    @property
+    def load_width(self) -> int:
+        """L, load channels per kept node: 6 (wrench), m (actuation) or 6 + m (both)."""
+        return (0 if self.drive == "actuation" else 6) + len(self.channels)
 
     @property
     def n_kept(self) -> int:
@@ -220,7 +237,20 @@ class Encoding:
                 forces = np.array(forces, dtype=np.float64)
                 forces[:, list(fb.nodes)] = 0.0
         loads = self.loads(forces, dataset.torques, n_steps, k)
+        if self.drive != "wrench":
+            act = self.actuation(dataset, n_steps, k)                         # (S, M, m)
+            loads = act if self.drive == "actuation" else np.concatenate([loads, act], axis=-1)
         return Trajectory(time=time, states=states, loads=loads, name=name, feedback=fb)
+
+    def actuation(self, dataset, n_steps: int, k: int) -> np.ndarray:
+        """The data set's ``channels`` (T, m) -> (n_steps, M, m): the mean over each model step of
+        ``k`` samples, the same at every kept node."""
+        names = tuple(dataset.actuation_names)
+        A = np.asarray(dataset.actuation, dtype=np.float64)[:, [names.index(a) for a in self.channels]]
+        out = np.empty((n_steps, len(self.channels)))
+        for j in range(n_steps):
+            out[j] = A[j * k:(j + 1) * k].mean(axis=0)
+        return np.broadcast_to(out[:, None], (n_steps, self.n_kept, out.shape[1])).copy()
 
 
 def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
@@ -233,6 +263,12 @@ def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
     if not dataset.has_orientations:
         raise bad(argument, "a data set without orientations",
                   "a data set with node orientations (the whole-manipulator model predicts full poses)")
+    have = tuple(getattr(dataset, "actuation_names", ()))
+    missing = [a for a in encoding.channels if a not in have]
+    if missing:
+        raise bad(argument, f"a data set without the actuation channel {missing[0]!r} (it has "
+                            f"{', '.join(have) or 'none'})", f"data recording the model's actuation inputs "
+                                                              f"{', '.join(encoding.channels)}")
     dt = float(dataset.dt)
     try:
         resolve_stride(encoding.model_dt, dt)
@@ -242,17 +278,23 @@ def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
 
 
 def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: float,
-                  feedback: bool = False) -> Encoding:
+                  feedback: bool = False, drive: str = "wrench") -> Encoding:
     """The encoding for training on ``datasets`` (each holding every node, the same saved step):
     the reference pose is the first sample of the first one; fixed nodes are those that never move;
-    ``feedback``: PD laws act on the model's state (``Encoding.feedback``)."""
+    ``feedback``: PD laws act on the model's state (``Encoding.feedback``; 'wrench' drive only);
+    ``drive``: the load input (``DynamicConfig.drive``; the channels are the first data set's)."""
     if not datasets:
         raise SoftrnnInputError("no training data: give at least one trajectory")
     first = datasets[0]
+    channels = () if drive == "wrench" else tuple(first.actuation_names)
+    if drive != "wrench" and not channels:
+        raise SoftrnnInputError(f"drive={drive!r} is invalid: the training data has no actuation inputs; record "
+                                f"them (CSV columns act_<name>[<unit>], DatasetWriter(actuation_units=...)) or use "
+                                f"drive='wrench'")
     n = int(first.n_nodes)
     probe = Encoding(n_nodes=n, kept=kept_nodes(n, node_stride), model_dt=model_dt, data_dt=float(first.dt),
                      length=length, ref_positions=first.positions[0], ref_quaternions=first.quaternions[0],
-                     fixed=np.zeros(len(kept_nodes(n, node_stride)), dtype=bool))
+                     fixed=np.zeros(len(kept_nodes(n, node_stride)), dtype=bool), drive=drive, channels=channels)
     moved = np.zeros(probe.n_kept)
     for d in datasets:
         check_compatible(probe, d, "training data")
@@ -264,5 +306,6 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
         moved = np.maximum(moved, np.where(turn.max(axis=0) > FIXED_TURN, np.inf, 0.0))
     return Encoding(n_nodes=n, kept=probe.kept, model_dt=model_dt, data_dt=probe.data_dt, length=length,
                     ref_positions=probe.ref_positions, ref_quaternions=probe.ref_quaternions,
-                    fixed=moved <= FIXED_TOLERANCE_M, feedback=bool(feedback))
+                    fixed=moved <= FIXED_TOLERANCE_M, feedback=bool(feedback) and drive == "wrench", drive=drive,
+                    channels=channels)
 

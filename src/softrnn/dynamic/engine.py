@@ -77,12 +77,13 @@ class DynamicEngine:
         if "cell.weight_ih" in w:
             self.cell = (w["cell.weight_ih"].T.astype(dt), w["cell.weight_hh"].T.astype(dt),
                          (w["cell.bias_ih"] + w["cell.bias_hh"]).astype(dt))
-        # features (M, C): state, H-1 velocities, load, constants; the convolution reads all but the load
-        C = 6 * H + 6 + self.node_features.shape[1]
+        # features (M, C): state, H-1 velocities, load (L channels), constants; the convolution reads all but the load
+        self.load_width = L = int(self.su.shape[0])
+        C = 6 * H + L + self.node_features.shape[1]
         self._f = np.zeros((M, C), dtype=dt)
-        self._f[:, 6 * H + 6:] = self.node_features
+        self._f[:, 6 * H + L:] = self.node_features
         self._scale = np.concatenate([1.0 / self.sx] + [1.0 / self.sv] * (H - 1) + [1.0 / self.su]).astype(dt)
-        self._keep = np.asarray(conv_channels(H, config.conv_reads))
+        self._keep = np.asarray(conv_channels(H, config.conv_reads, L))
         convs = sorted({int(k.split(".")[1]) for k in w if k.startswith("conv.")})
         self.convs = []
         for i in convs:
@@ -116,17 +117,17 @@ class DynamicEngine:
         return g
 
     def features(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:
-        """hist (H, M, 6), loads (M, 6) -> (M, C), as ``DynamicNet.features`` (a reused buffer)."""
-        f, H = self._f, self.history
+        """hist (H, M, 6), loads (M, L) -> (M, C), as ``DynamicNet.features`` (a reused buffer)."""
+        f, H, L = self._f, self.history, self.load_width
         f[:, :6] = hist[-1]
         for j in range(H - 1):
             np.subtract(hist[-1 - j], hist[-2 - j], out=f[:, 6 + 6 * j:12 + 6 * j])
-        f[:, 6 * H:6 * H + 6] = loads
-        f[:, :6 * H + 6] *= self._scale
+        f[:, 6 * H:6 * H + L] = loads
+        f[:, :6 * H + L] *= self._scale
         return f
 
     def step(self, hist: np.ndarray, loads: np.ndarray, memory=None):
-        """hist (H, M, 6) states, oldest first; loads (M, 6) -> (next state (M, 6), memory)."""
+        """hist (H, M, 6) states, oldest first; loads (M, L) -> (next state (M, 6), memory)."""
         f = self.features(hist, loads)
         a = np.zeros((self.n_kept, 6))
         if self.linear is not None:
@@ -154,14 +155,14 @@ class DynamicEngine:
         return a, memory
 
     def run(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:
-        """Free run: history (H, M, 6), loads (K, M, 6) of each step -> states (K, M, 6).
+        """Free run: history (H, M, 6), loads (K, M, L) of each step -> states (K, M, 6).
         Raises ``Diverged`` (with the states so far as ``.states``) if the run leaves the rod's range."""
         hist = np.array(hist, dtype=np.float64)
         loads = np.asarray(loads, dtype=np.float64)
         if hist.shape != (self.history, self.n_kept, 6):
             raise bad("history", f"array of shape {hist.shape}", f"shape ({self.history}, {self.n_kept}, 6)")
-        if loads.ndim != 3 or loads.shape[1:] != (self.n_kept, 6):
-            raise bad("loads", f"array of shape {loads.shape}", f"shape (K, {self.n_kept}, 6)")
+        if loads.ndim != 3 or loads.shape[1:] != (self.n_kept, self.load_width):
+            raise bad("loads", f"array of shape {loads.shape}", f"shape (K, {self.n_kept}, {self.load_width})")
         out = np.empty((loads.shape[0], self.n_kept, 6))
         memory = None
         for k in range(loads.shape[0]):

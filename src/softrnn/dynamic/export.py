@@ -128,7 +128,7 @@ def random_inputs(model: LoadedDynamic, seed: int = 0) -> dict[str, np.ndarray]:
     steps = rng.standard_normal((H, M, 6)) * np.asarray(w["sv"], dtype=np.float64)
     history = x0 + np.cumsum(steps, axis=0) - steps.sum(axis=0)               # (H, M, 6), last = x0
     history[:, e.fixed] = 0.0
-    loads = rng.standard_normal((M, 6)) * np.asarray(w["su"], dtype=np.float64)
+    loads = rng.standard_normal((M, e.load_width)) * np.asarray(w["su"], dtype=np.float64)
     out = {"history": history[None], "loads": loads[None]}
     if model.config.memory == "lstm":
         width = model.config.width
@@ -163,7 +163,8 @@ def describe(model: LoadedDynamic) -> dict:
     ``outputs`` (name -> shape), ``units`` and ``layout`` (how to encode and decode)."""
     c, enc = model.config, model.encoding
     H, M, W = c.history, enc.n_kept, c.width
-    inputs = {"history": [1, H, M, 6], "loads": [1, M, 6]}
+    L = enc.load_width
+    inputs = {"history": [1, H, M, 6], "loads": [1, M, L]}
     outputs = {"next_state": [1, M, 6]}
     if c.memory == "lstm":
         inputs.update(memory_h=[1, M, W], memory_c=[1, M, W])
@@ -173,10 +174,21 @@ def describe(model: LoadedDynamic) -> dict:
         "config": c.to_dict(), "encoding": encoding_to_dict(enc),
         "lumping": lumping_matrix(enc.n_nodes, enc.kept).tolist(),
         "inputs": inputs, "outputs": outputs,
-        "units": {"state": "m (columns 0-2), rad (columns 3-5)", "loads": "N (columns 0-2), N m (columns 3-5)",
+        "units": {"state": "m (columns 0-2), rad (columns 3-5)", "loads": _load_units(enc),
                   "model_dt": "s", "length": "m"},
         "layout": _LAYOUT,
     }
+
+
+def _load_units(enc) -> str:
+    """The loads' columns in words: the wrench's, then the actuation channels' (same at every node)."""
+    wrench = "N (columns 0-2), N m (columns 3-5)"
+    if enc.drive == "wrench":
+        return wrench
+    first = 0 if enc.drive == "actuation" else 6
+    act = ", ".join(f"{n} (column {first + j})" for j, n in enumerate(enc.channels))
+    act = f"the mean actuation input over the model step, the same at every kept node, in its unit: {act}"
+    return act if enc.drive == "actuation" else f"{wrench}, then {act}"
 
 
 _LAYOUT = {

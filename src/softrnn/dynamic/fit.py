@@ -22,7 +22,7 @@ def fit(split: Split, config: DynamicConfig, *, progress: Progress | None = None
     first = datasets[0]
     encoding = make_encoding(datasets, model_dt=config.model_dt,
                              node_stride=resolve_node_stride(config.node_stride, first.n_nodes),
-                             length=rod_length(first), feedback=config.feedback)
+                             length=rod_length(first), feedback=config.feedback, drive=config.drive)
     trajectories = [encoding.trajectory(d, name=f"{p.path}:{p.group}") for d, p in zip(datasets, split.train)]
     validation = [encoding.trajectory(p.read(), name=f"{p.path}:{p.group}") for p in split.validation]
     trained = train_dynamic_model(trajectories, encoding, config, validation=validation, progress=progress,

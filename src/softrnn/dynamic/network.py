@@ -39,7 +39,8 @@ def feedback_force(hist: torch.Tensor, feedback, k: int) -> torch.Tensor:
 
 class DynamicNet(nn.Module):
     """One model step. Buffers: ``node_features`` (M, 3), ``fixed`` (M,) bool and the scales
-    ``sx``, ``sv``, ``su``, ``sa`` (6,) of states, velocities, loads and velocity changes."""
+    ``sx``, ``sv``, ``sa`` (6,) of states, velocities and velocity changes and ``su`` (L,) of the
+    loads (L = 6, or m / 6 + m with actuation inputs: ``load_width``)."""
 
     def __init__(self, config: DynamicConfig, node_features, fixed, scales: dict):
         super().__init__()
@@ -49,10 +50,11 @@ class DynamicNet(nn.Module):
         for key in ("sx", "sv", "su", "sa"):
             self.register_buffer(key, torch.as_tensor(scales[key], dtype=torch.float32))
         M = int(self.node_features.shape[0])
-        C = n_channels(config.history)
-        self.n_kept, self.n_in = M, C
+        L = int(self.su.numel())                      # load channels: 6, or with actuation inputs m or 6 + m
+        C = n_channels(config.history, L)
+        self.n_kept, self.n_in, self.load_width = M, C, L
         self.linear = nn.Linear(M * C, M * 6) if config.linear else None
-        self.register_buffer("conv_cols", torch.as_tensor(conv_channels(config.history, config.conv_reads)),
+        self.register_buffer("conv_cols", torch.as_tensor(conv_channels(config.history, config.conv_reads, L)),
                              persistent=False)
         G = int(self.conv_cols.numel())
         self.cell = nn.LSTMCell(G, config.width) if config.memory == "lstm" else None
@@ -73,7 +75,7 @@ class DynamicNet(nn.Module):
             nn.init.zeros_(self.linear.bias)
 
     def features(self, hist: torch.Tensor, loads: torch.Tensor) -> torch.Tensor:
-        """hist (B, H, M, 6) states, oldest first; loads (B, M, 6) -> features (B, M, C)."""
+        """hist (B, H, M, 6) states, oldest first; loads (B, M, L) -> features (B, M, C)."""
         B = hist.shape[0]
         parts = [hist[:, -1] / self.sx]
         for j in range(self.config.history - 1):

@@ -31,5 +31,6 @@ def rollout_dataset(model, dataset, start: int, stop: int | None = None, attrs: 
     extra.update(dt=enc.model_dt, prediction=True, rollout="dynamic", model_dt_s=enc.model_dt,
                  start_time_s=float(traj.time[start]), **(attrs or {}))
     ds = Dataset(time=traj.time[start:start + n], nodes=np.arange(enc.n_nodes), positions=positions[:n],
-                 quaternions=quaternions[:n], forces=dataset.forces[rows], torques=dataset.torques[rows], attrs=extra)
+                 quaternions=quaternions[:n], forces=dataset.forces[rows], torques=dataset.torques[rows], attrs=extra,
+                 actuation=dataset.actuation[rows], actuation_units=dataset.actuation_units)
     return ds, diverged

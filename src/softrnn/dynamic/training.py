@@ -55,23 +55,25 @@ class TrainedDynamic:
     info: dict = field(default_factory=dict)
 
 
-def scales(trajectories: list[Trajectory]) -> dict:
-    """Per-channel standard deviations (6,) of states ``sx``, velocities ``sv``, loads ``su`` and
+def scales(trajectories: list[Trajectory], wrench: bool = True) -> dict:
+    """Per-channel standard deviations (6,) of states ``sx``, velocities ``sv``, loads ``su`` (L,) and
     velocity changes ``sa`` over ``trajectories``; the inputs' floored within each kind
     (``_group_floor``). An input channel that never varies gets 1; a
     state channel that never moves (planar data: the out-of-plane ones) gets ``sa = 0``, so the
-    model's output cannot move it either (a scale of 1 would turn a tiny output into metres)."""
+    model's output cannot move it either (a scale of 1 would turn a tiny output into metres).
+    ``wrench``: the loads begin with the 6 wrench channels (False: actuation inputs only, each
+    channel its own kind, not floored)."""
     X = [t.states for t in trajectories]
     out = {
         "sx": np.concatenate([x.reshape(-1, 6) for x in X]),
         "sv": np.concatenate([np.diff(x, axis=0).reshape(-1, 6) for x in X]),
-        "su": np.concatenate([t.forced_loads().reshape(-1, 6) for t in trajectories]),
+        "su": np.concatenate([t.forced_loads().reshape(-1, t.loads.shape[-1]) for t in trajectories]),
         "sa": np.concatenate([np.diff(x, 2, axis=0).reshape(-1, 6) for x in X]),
     }
     res = {}
     for key, rows in out.items():
         s = rows.std(axis=0)
-        if key != "sa":
+        if key != "sa" and (key != "su" or wrench):
             s = _group_floor(s)
         res[key] = np.where(s > _FLOOR, s, 1.0)
     moving = out["sv"].std(axis=0) > _FLOOR
@@ -85,7 +87,7 @@ def _group_floor(s: np.ndarray) -> np.ndarray:
     (the twist of a bending rod, about 1e-3 of the bending angles) would otherwise turn a physically
     negligible error of a free run into an input far outside the training range."""
     out = s.copy()
-    for g in (slice(0, 3), slice(3, 6)):
+    for g in (slice(0, 3), slice(3, 6)):    # the actuation channels after a wrench (6 + m loads) stay as they are
         moving = s[g] > _FLOOR
         if moving.any():
             out[g] = np.where(moving, np.maximum(s[g], SCALE_FLOOR * s[g][moving].max()), s[g])
@@ -167,7 +169,7 @@ def spectral_radius(net: DynamicNet) -> float:
         base = torch.zeros(1, H, M, 6)
         basis = torch.eye(n).reshape(n, H, M, 6) * 1e-3
         hist = torch.cat([base, basis])
-        loads = torch.zeros(n + 1, M, 6)
+        loads = torch.zeros(n + 1, M, net.load_width)
         nxt, _ = net.forward(hist, loads)
         J = ((nxt[1:] - nxt[:1]) / 1e-3).reshape(n, M * 6).double().numpy().T   # d next / d hist
     companion = np.zeros((n, n))
@@ -330,7 +332,7 @@ def train_dynamic_model(trajectories: list[Trajectory], encoding: Encoding, conf
         torch.set_num_threads(int(threads))
     torch.manual_seed(config.seed)
     windows = _windows(trajectories, config.history + config.unroll)
-    sc = scales(trajectories)
+    sc = scales(trajectories, wrench=encoding.drive != "actuation")
     net = DynamicNet(config, encoding.node_features(), encoding.fixed, sc)
     start = time.perf_counter()
     baseline, fit = _start(net, trajectories, encoding, config, sc, validation)

@@ -132,7 +132,7 @@ def _load_data(dataset_path, spec: SampleSpec, pool=None):
         path = Path(dataset_path)
         head = read_dataset(path, stop=1)                             # every stored node, one sample
     total = head.attrs.get("n_nodes_total")
-    resolved = spec.resolve(head.nodes, n_nodes_total=total)
+    resolved = spec.resolve(head.nodes, n_nodes_total=total).resolve_channels(head.actuation_names)
     pool = _resolve_pool(pool, resolved, head.nodes, total)
     if path is not None:
         need = sorted({a for sp in pooled_specs(resolved, pool) for a in sp.window_nodes})
@@ -184,7 +184,8 @@ def _scenario_name(attrs: dict, path) -> str | None:
 
 def dataset_meta(data, path) -> dict:
     """The training data set as the model's meta.json records it (``dataset``): file, scenario,
-    samples, dt [s], rod, units and the data set's other attributes."""
+    samples, dt [s], rod, units, the actuation channels {name: unit} (only where the data set has
+    any) and the data set's other attributes."""
     attrs = dict(data.attrs)
     rod = attrs.get("rod") if isinstance(attrs.get("rod"), dict) else None
     return {
@@ -199,6 +200,7 @@ def dataset_meta(data, path) -> dict:
         "n_nodes_total": attrs.get("n_nodes_total"),
         "seed": attrs.get("seed"),
         "softrnn_version": attrs.get("softrnn_version"),
+        **({"actuation_units": dict(data.actuation_units)} if getattr(data, "actuation_units", None) else {}),
         "extra": {k: v for k, v in attrs.items() if k not in (
             "schema_version", "softrnn_version", "units", "rod", "scenario_text", "seed", "dt", "n_nodes_total")},
     }

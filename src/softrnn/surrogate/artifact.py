@@ -96,7 +96,8 @@ class NodeModel:
         if wrenches is None:
             if c.wrench_features:
                 raise bad("wrenches", None, f"an array (B, {c.history}, {c.wrench_features}): this model takes "
-                                            f"the node's {self.spec.wrench}")
+                                            f"the node's {self.spec.wrench}"
+                                            + (" and actuation inputs" if self.spec.drive != "wrench" else ""))
             wrenches = np.zeros((B, c.history, 0), np.float32)
         wrenches = np.asarray(wrenches)
         if wrenches.shape != (B, c.history, c.wrench_features):

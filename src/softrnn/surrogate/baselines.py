@@ -69,13 +69,15 @@ def _shape_text(value) -> str:
     return f"array of shape {np.shape(value)}"
 
 
-def _array(name: str, value, ndims: tuple[int, ...], last: tuple[int, ...], expected: str) -> np.ndarray:
-    """``value`` as a finite float64 array with one of ``ndims`` and a last axis in ``last``."""
+def _array(name: str, value, ndims: tuple[int, ...], last: tuple[int, ...] | None, expected: str) -> np.ndarray:
+    """``value`` as a finite float64 array with one of ``ndims`` and a last axis in ``last`` (None:
+    any length >= 1)."""
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as err:
         raise bad(name, type(value).__name__, f"{expected} ({err})") from None
-    if arr.ndim not in ndims or arr.shape[-1] not in last or 0 in arr.shape[:-1]:
+    if arr.ndim not in ndims or (arr.shape[-1] not in last if last is not None else arr.shape[-1] < 1) \
+            or 0 in arr.shape[:-1]:
         raise bad(name, _shape_text(arr), expected)
     if not np.isfinite(arr).all():
         raise bad(name, "values with NaN or inf", f"finite values: {expected}")
@@ -87,12 +89,16 @@ def _positions(name: str, value) -> np.ndarray:
     return _array(name, value, (3,), (3,), "positions of shape (T, N, 3) in m, T >= 1, N >= 1")
 
 
-def _wrenches(name: str, value, lead: tuple[int, ...]) -> np.ndarray | None:
-    """None, or (T, N, W) float64 with W = 3 (force) or 6 (force, torque) and (T, N) = ``lead``."""
+def _wrenches(name: str, value, lead: tuple[int, ...], width: int | None = None) -> np.ndarray | None:
+    """None, or (T, N, W) float64 with (T, N) = ``lead``: W = 3 (force) or 6 (force, torque), or
+    with ``width`` (a learned model's input II with actuation inputs; 0: any) exactly that."""
     if value is None:
         return None
-    expected = f"None or forces (and torques) of shape {(*lead, 6)} (or {(*lead, 3)}) in N (and N m)"
-    arr = _array(name, value, (len(lead) + 1,), (3, 6), expected)
+    if width is None:
+        expected = f"None or forces (and torques) of shape {(*lead, 6)} (or {(*lead, 3)}) in N (and N m)"
+    else:
+        expected = f"None or loads of shape {(*lead, width or 'W')} (forces, torques, actuation inputs)"
+    arr = _array(name, value, (len(lead) + 1,), (3, 6) if width is None else ((width,) if width else None), expected)
     if arr.shape[:-1] != tuple(lead):
         raise bad(name, _shape_text(arr), expected)
     return arr
@@ -159,14 +165,14 @@ def _window(value, history: int, n_nodes: int | None) -> np.ndarray:
 def _window_loads(window_wrenches, next_wrench, shape: tuple[int, ...], width: int, need_next: bool):
     """(window wrenches (..., H', N, W), next wrench (..., N, W) or None) checked against the
     window's ``shape`` and the fitted width ``width``."""
-    wr = _wrenches("window_wrenches", window_wrenches, shape[:-1])
+    wr = _wrenches("window_wrenches", window_wrenches, shape[:-1], 0)
     if wr is None or wr.shape[-1] != width:
         got = None if wr is None else _shape_text(wr)
         raise bad("window_wrenches", got, f"wrenches of shape {(*shape[:-1], width)}, the width the model was "
                                           f"fitted with")
     if not need_next:
         return wr, None
-    nxt = _wrenches("next_wrench", next_wrench, shape[:-3] + shape[-2:-1])
+    nxt = _wrenches("next_wrench", next_wrench, shape[:-3] + shape[-2:-1], 0)
     if nxt is None or nxt.shape[-1] != width:
         got = None if nxt is None else _shape_text(nxt)
         raise bad("next_wrench", got, f"the wrench at the predicted sample, shape {(*shape[:-3], shape[-2], width)}"
@@ -232,6 +238,10 @@ class LinearARConfig:
     next_wrench : bool
         Also use the wrench at the predicted sample (a known input). False gives the learned models'
         inputs exactly.
+    wrench_width : int or None
+        None: the wrenches have 3 (force) or 6 (force, torque) columns. An int W: they are a node
+        model's input II of W columns (its force or wrench, then actuation inputs, the same in every
+        column; ``evaluate.node_arrays``).
     alpha : float or None
         Ridge penalty on standardised features, per sample (mean squared error + alpha |w|^2); None:
         the one of ``alphas`` with the smallest one-step error on the last ``validation_fraction``
@@ -250,9 +260,12 @@ class LinearARConfig:
     alpha: float | None = None
     alphas: tuple[float, ...] = ALPHAS
     validation_fraction: float = 0.2
+    wrench_width: int | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "history", _history(self.history))
+        if self.wrench_width is not None and not (is_int(self.wrench_width) and self.wrench_width >= 1):
+            raise bad("wrench_width", self.wrench_width, "None (3 or 6 wrench columns) or a width >= 1")
         if self.mode not in MODES:
             raise bad("mode", self.mode, "'node' (a model per node) or 'manipulator' (one model of every node)")
         object.__setattr__(self, "neighbours", _offsets(self.neighbours))
@@ -505,7 +518,7 @@ class LinearAR:
         if not isinstance(config, LinearARConfig):
             raise bad("config", type(config).__name__, "a LinearARConfig")
         P = _positions("positions", positions)
-        Wr = _wrenches("wrenches", wrenches, P.shape[:2])
+        Wr = _wrenches("wrenches", wrenches, P.shape[:2], config.wrench_width)
         T, N, H = P.shape[0], P.shape[1], config.history
         start, stop = _fit_span(T, H, start, T if stop is None else stop, 1 if config.alpha is not None else 2)
         cols = _columns("modelled", modelled, N)
@@ -586,8 +599,11 @@ class LinearAR:
                     names.append(f"position k-{H - j} {name}{minus}")
         lags = [f"k-{H - j}" for j in range(H)] + (["k"] if d.next_wrench else [])
         W = max(self.wrench_width, 1)
-        names += [f"{'force' if q % W < 3 else 'torque'} {lag} col {q // W} {'xyz'[q % W % 3]}"
-                  for lag in lags for q in d.wrench_slots[g]]
+        if W in (3, 6):
+            names += [f"{'force' if q % W < 3 else 'torque'} {lag} col {q // W} {'xyz'[q % W % 3]}"
+                      for lag in lags for q in d.wrench_slots[g]]
+        else:                  # input II with actuation channels: numbered
+            names += [f"input {q % W} {lag} col {q // W}" for lag in lags for q in d.wrench_slots[g]]
         return names
 
     def summary(self) -> dict:
@@ -604,7 +620,7 @@ def one_step(baseline: AbstractBaseline, positions, wrenches, start: int, stop: 
     the reference window before it (``positions`` (T, N, 3) [m], ``wrenches`` (T, N, W) or None;
     start >= history)."""
     P = _positions("positions", positions)
-    Wr = _wrenches("wrenches", wrenches, P.shape[:2])
+    Wr = _wrenches("wrenches", wrenches, P.shape[:2], 0)   # any width: the baseline checks its own
     H = _history(baseline.history)
     start, stop = _span(P.shape[0], H, start, stop)
     view = np.lib.stride_tricks.sliding_window_view
@@ -646,7 +662,7 @@ def free_run(baseline: AbstractBaseline, positions, wrenches, start: int, stop: 
         is NaN: the arrays carry no times).
     """
     P = _positions("positions", positions)
-    Wr = _wrenches("wrenches", wrenches, P.shape[:2])
+    Wr = _wrenches("wrenches", wrenches, P.shape[:2], 0)   # any width: the baseline checks its own
     H = _history(baseline.history)
     start, stop = _span(P.shape[0], H, start, stop)
     cols = _columns("modelled", modelled, P.shape[1])
@@ -709,7 +725,7 @@ def horizon_errors(pred_fn: Callable, positions, wrenches, starts, horizons=HORI
         diverged before h}}.
     """
     P = _positions("positions", positions)
-    Wr = _wrenches("wrenches", wrenches, P.shape[:2])
+    Wr = _wrenches("wrenches", wrenches, P.shape[:2], 0)   # any width: the baseline checks its own
     T = P.shape[0]
     stop = T if stop is None else stop
     if not is_int(stop) or not 1 <= stop <= T:

@@ -6,7 +6,8 @@ A sample of node n is a window of H = eta + 1 consecutive past time steps,
   the neighbours in ``spec.neighbours`` order (``spec.window_nodes``); per node 3 position values
   (``inputs="positions"``) or 3 + 4 (position, then quaternion w x y z; ``inputs="poses"``);
 * input II: the node's applied force (3) or force and torque (6) over the same steps (none for
-  Fig. 2A);
+  Fig. 2A), or the data set's actuation inputs (``Dataset.actuation``: tendon tensions, chamber
+  pressures, coil currents, ...) over the same steps, or both, force first (``spec.drive``);
 
 and the target is the node's position at the step after the window. The window of the target at
 sample index i covers samples i-H .. i-1, so with ``make_windows(dataset, spec, start, stop)`` every
@@ -20,7 +21,7 @@ test spans are disjoint and windows are built inside each span, so no window str
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -28,6 +29,8 @@ from ..errors import SoftrnnInputError, bad, is_int
 
 INPUTS = ("positions", "poses")
 WRENCHES = ("none", "force", "wrench")
+DRIVES = ("wrench", "actuation", "both")
+"""What input II holds: the node's wrench (``SampleSpec.wrench``), the actuation channels, or both."""
 _PER_NODE = {"positions": 3, "poses": 7}
 _WRENCH_WIDTH = {"none": 0, "force": 3, "wrench": 6}
 OUTPUTS = ("increment", "pose", "acceleration")
@@ -63,6 +66,14 @@ class SampleSpec:
         node (Fig. 2B).
     train_fraction : float
         Leading fraction of the samples used for training (the paper's 60 %); the rest is the test span.
+    drive : str
+        What input II holds: ``"wrench"`` (default, the paper's: the node's wrench as ``wrench``
+        says), ``"actuation"`` (the data set's actuation channels alone; ``wrench`` is set to
+        ``"none"``) or ``"both"`` (the node's force or wrench, then the channels; ``wrench`` must
+        not be ``"none"``).
+    channels : tuple of str or None
+        The actuation channels of input II, in this order (``Dataset.actuation_names``). None: every
+        channel of the data set, filled in by ``resolve``. Unused (None) with ``drive="wrench"``.
     """
 
     node: int
@@ -71,6 +82,8 @@ class SampleSpec:
     inputs: str = "positions"
     wrench: str = "force"
     train_fraction: float = 0.6
+    drive: str = "wrench"
+    channels: tuple[str, ...] | None = None
 
     def __post_init__(self):
         if not is_int(self.node):
@@ -94,6 +107,50 @@ class SampleSpec:
                 or not 0.0 < float(self.train_fraction) < 1.0:
             raise bad("train_fraction", self.train_fraction, "a fraction strictly between 0 and 1 (paper: 0.6)")
         object.__setattr__(self, "train_fraction", float(self.train_fraction))
+        self._check_drive()
+
+    def _check_drive(self) -> None:
+        """Validate ``drive`` and ``channels`` (and set ``wrench`` to 'none' for 'actuation')."""
+        if self.drive not in DRIVES:
+            raise bad("drive", self.drive, "'wrench' (the node's wrench), 'actuation' (the data set's actuation "
+                                           "channels) or 'both'")
+        if self.drive == "actuation":
+            object.__setattr__(self, "wrench", "none")
+        if self.drive == "both" and self.wrench == "none":
+            raise bad("wrench", self.wrench, "'force' or 'wrench' with drive='both' (or drive='actuation' for the "
+                                             "actuation channels alone)")
+        if self.channels is None or self.drive == "wrench":
+            if self.channels is not None:
+                raise bad("channels", self.channels, "None with drive='wrench' (channels are actuation inputs)")
+            return
+        if isinstance(self.channels, (str, bytes)) or not hasattr(self.channels, "__iter__"):
+            raise bad("channels", self.channels, "a sequence of actuation channel names, or None (all)")
+        names = tuple(self.channels)
+        if not names or not all(isinstance(a, str) for a in names) or len(set(names)) != len(names):
+            raise bad("channels", self.channels, "distinct actuation channel names, at least one, or None (all)")
+        object.__setattr__(self, "channels", names)
+
+    def resolve_channels(self, names) -> SampleSpec:
+        """This spec with ``channels`` taken from or checked against a data set's actuation channel
+        ``names`` (``Dataset.actuation_names``); unchanged for ``drive="wrench"``.
+
+        Raises
+        ------
+        SoftrnnInputError
+            One line: the data set has no actuation (naming ``drive`` and the fix), or lacks a channel.
+        """
+        if self.drive == "wrench":
+            return self
+        have = tuple(names)
+        if not have:
+            raise SoftrnnInputError(
+                f"drive={self.drive!r} is invalid: the data set has no actuation inputs; record them (CSV columns "
+                f"act_<name>[<unit>], DatasetWriter(actuation_units=...)) or use drive='wrench'")
+        missing = [a for a in (self.channels or ()) if a not in have]
+        if missing:
+            raise SoftrnnInputError(f"channels={list(self.channels)} is invalid: the data set has no actuation channel "
+                                    f"{missing[0]!r} (it has {', '.join(have)}); pass some of those")
+        return replace(self, channels=self.channels or have)
 
     # ------------------------------------------------------------------ resolution and layout
     def resolve(self, dataset_nodes, *, n_nodes_total: int | None = None) -> SampleSpec:
@@ -137,13 +194,13 @@ class SampleSpec:
                                         f"(stored nodes: {_node_text(stored)}); pass stored nodes as neighbours")
         if node in neighbours or len(set(neighbours)) != len(neighbours):
             raise bad("neighbours", list(neighbours), f"distinct nodes other than the node itself ({node})")
-        return SampleSpec(node=node, neighbours=neighbours, history=self.history, inputs=self.inputs,
-                          wrench=self.wrench, train_fraction=self.train_fraction)
+        return replace(self, node=node, neighbours=neighbours)
 
     @property
     def resolved(self) -> bool:
-        """True once ``neighbours`` is filled in (``resolve``)."""
-        return self.neighbours is not None
+        """True once ``neighbours`` is filled in (``resolve``) and, for an actuation input, the
+        ``channels`` (``resolve_channels``)."""
+        return self.neighbours is not None and (self.drive == "wrench" or self.channels is not None)
 
     def _need_resolved(self, what: str) -> tuple[int, ...]:
         if self.neighbours is None:
@@ -168,14 +225,23 @@ class SampleSpec:
 
     @property
     def wrench_features(self) -> int:
-        """W, values per step of input II: 0, 3 (force) or 6 (force, torque)."""
-        return _WRENCH_WIDTH[self.wrench]
+        """W, values per step of input II: 0, 3 (force) or 6 (force, torque), plus the m actuation
+        channels with ``drive`` 'actuation' or 'both'."""
+        if self.drive != "wrench" and self.channels is None:
+            raise SoftrnnInputError("SampleSpec.wrench_features needs the actuation channels: call "
+                                    "spec.resolve_channels(dataset.actuation_names) first")
+        return _WRENCH_WIDTH[self.wrench] + (len(self.channels) if self.drive != "wrench" else 0)
 
     def to_dict(self) -> dict:
-        """JSON-ready fields (``SampleSpec(**d)`` rebuilds it)."""
-        return {"node": self.node, "neighbours": None if self.neighbours is None else list(self.neighbours),
-                "history": self.history, "inputs": self.inputs, "wrench": self.wrench,
-                "train_fraction": self.train_fraction}
+        """JSON-ready fields (``SampleSpec(**d)`` rebuilds it); ``drive`` and ``channels`` only when
+        the drive is not the default 'wrench' (so older model folders and new ones of wrench models
+        read alike)."""
+        d = {"node": self.node, "neighbours": None if self.neighbours is None else list(self.neighbours),
+             "history": self.history, "inputs": self.inputs, "wrench": self.wrench,
+             "train_fraction": self.train_fraction}
+        if self.drive != "wrench":
+            d.update(drive=self.drive, channels=None if self.channels is None else list(self.channels))
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> SampleSpec:
@@ -184,8 +250,9 @@ class SampleSpec:
             raise bad("spec", type(d).__name__, "a dict of SampleSpec fields")
         try:
             values = dict(d)
-            if values.get("neighbours") is not None:
-                values["neighbours"] = tuple(values["neighbours"])
+            for key in ("neighbours", "channels"):
+                if values.get(key) is not None:
+                    values[key] = tuple(values[key])
             return cls(**values)
         except TypeError as err:
             raise bad("spec", sorted(d), f"the SampleSpec fields ({err})") from None
@@ -217,15 +284,31 @@ def pose_rows(dataset, spec: SampleSpec, start: int = 0, stop: int | None = None
 
 
 def wrench_rows(dataset, spec: SampleSpec, start: int = 0, stop: int | None = None) -> np.ndarray:
-    """Input II values per sample: (T', W) float32 (W = 0, 3 or 6) of the node, samples ``start:stop``."""
+    """Input II values per sample: (T', W) float32 of samples ``start:stop``: the node's force [N]
+    (3) and torque [N m] (3) as ``spec.wrench`` says, then the ``spec.channels`` actuation inputs
+    (m, in their units) with ``spec.drive`` 'actuation' or 'both'."""
     col = _columns(dataset, spec)[0]
     n = len(np.asarray(dataset.time)[start:stop])
-    if spec.wrench == "none":
-        return np.zeros((n, 0), dtype=np.float32)                      # (T', 0)
-    parts = [np.asarray(dataset.forces)[start:stop, col]]              # (T', 3)
+    parts = [np.zeros((n, 0), dtype=np.float32)]                       # (T', 0)
+    if spec.wrench != "none":
+        parts.append(np.asarray(dataset.forces)[start:stop, col])      # (T', 3)
     if spec.wrench == "wrench":
         parts.append(np.asarray(dataset.torques)[start:stop, col])     # (T', 3)
+    if spec.drive != "wrench":
+        parts.append(actuation_rows(dataset, spec)[start:stop])        # (T', m)
     return np.ascontiguousarray(np.concatenate(parts, axis=1), dtype=np.float32)  # (T', W)
+
+
+def actuation_rows(dataset, spec: SampleSpec) -> np.ndarray:
+    """(T, m) the data set's actuation inputs of ``spec.channels``, in that order (float32; m = 0
+    for ``drive='wrench'``); a channel the data set lacks is a one-line SoftrnnInputError."""
+    names = tuple(getattr(dataset, "actuation_names", ()))
+    T = len(np.asarray(dataset.time))
+    if spec.drive == "wrench":
+        return np.zeros((T, 0), dtype=np.float32)
+    spec.resolve_channels(names)                                       # the one-line errors
+    cols = [names.index(a) for a in spec.channels]
+    return np.asarray(dataset.actuation, dtype=np.float32)[:, cols]   # (T, m)
 
 
 def _columns(dataset, spec: SampleSpec) -> list[int]:
@@ -248,7 +331,8 @@ class Windows:
     poses : ndarray (M, H, P) float32
         Input I: poses of the window nodes over the H steps before the target [m, 1].
     wrenches : ndarray (M, H, W) float32
-        Input II: the node's force (and torque) over the same steps [N, N m]; W may be 0.
+        Input II: the node's force (and torque) [N, N m] and/or the actuation channels (in their
+        units) over the same steps (``wrench_rows``); W may be 0.
     targets : ndarray (M, 3) float32
         The node's position at the next step [m].
     index : ndarray (M,) int64
@@ -292,7 +376,10 @@ def make_windows(dataset, spec: SampleSpec, start: int, stop: int) -> Windows:
         M = max(0, stop - start - H) samples, in chronological order.
     """
     if not spec.resolved:
-        spec = spec.resolve(dataset.nodes, n_nodes_total=(getattr(dataset, "attrs", None) or {}).get("n_nodes_total"))
+        if spec.neighbours is None:
+            total = (getattr(dataset, "attrs", None) or {}).get("n_nodes_total")
+            spec = spec.resolve(dataset.nodes, n_nodes_total=total)
+        spec = spec.resolve_channels(getattr(dataset, "actuation_names", ()))
     T = int(np.asarray(dataset.time).shape[0])
     for name, value in (("start", start), ("stop", stop)):
         if not is_int(value) or not 0 <= value <= T:

@@ -400,13 +400,16 @@ class BoundGroup:
     target_cols: np.ndarray  # (B,) their data set columns
     input_cols: np.ndarray  # (B, K) window columns, node first
     wrench: str
+    drive: str = "wrench"
+    channel_cols: np.ndarray = None  # (m,) actuation columns of input II (drive != 'wrench')
 
 
 def group_by_architecture(groups) -> list[BoundGroup]:
     """Stack ``rollout._Group`` entries (one per distinct model) into engines, one per architecture."""
     by_arch: dict = {}
     for g in groups:
-        by_arch.setdefault(_arch_key(g.model), []).append(g)
+        key = (_arch_key(g.model), g.wrench, g.drive, tuple(np.asarray(g.channel_cols).tolist()))
+        by_arch.setdefault(key, []).append(g)
     out = []
     for gs in by_arch.values():
         engine = Engine([g.model for g in gs])
@@ -414,29 +417,35 @@ def group_by_architecture(groups) -> list[BoundGroup]:
         out.append(BoundGroup(engine=engine, which=which, nodes=np.concatenate([g.nodes for g in gs]),
                               target_cols=np.concatenate([g.target_cols for g in gs]),
                               input_cols=np.ascontiguousarray(np.concatenate([g.input_cols for g in gs])),
-                              wrench=gs[0].wrench))
+                              wrench=gs[0].wrench, drive=gs[0].drive, channel_cols=gs[0].channel_cols))
     return out
 
 
-def wrench_rows(forces, torques, cols, kind: str) -> np.ndarray:
-    """(T, B, W) float32 inputs II of the nodes in data set columns ``cols``."""
+def wrench_rows(forces, torques, cols, kind: str, actuation=None, channel_cols=None) -> np.ndarray:
+    """(T, B, W) float32 inputs II of the nodes in data set columns ``cols``: their force and
+    torque as ``kind`` says, then the ``channel_cols`` columns of ``actuation`` (T, m_all) (the
+    same for every node; none when ``channel_cols`` is None or empty)."""
     parts = []
     if kind in ("force", "wrench"):
         parts.append(np.asarray(forces[:, cols], np.float32))
     if kind == "wrench":
         parts.append(np.asarray(torques[:, cols], np.float32))
+    if channel_cols is not None and len(channel_cols):
+        a = np.asarray(actuation, np.float32)[:, channel_cols]                  # (T, m)
+        parts.append(np.broadcast_to(a[:, None], (a.shape[0], len(cols), a.shape[1])))
     if not parts:
         return np.zeros((forces.shape[0], len(cols), 0), np.float32)
     return np.ascontiguousarray(np.concatenate(parts, axis=-1))
 
 
 def engine_rollout(bound: list[BoundGroup], positions, quaternions, forces, torques, k0: int, k1: int,
-                   limit: float) -> tuple[int, int, int]:
+                   limit: float, actuation=None) -> tuple[int, int, int]:
     """Free-run rows ``k0 .. k1-1`` of ``positions`` (T, N, 3) float32 in place, every group's
-    nodes updated synchronously. Returns (status, node, k): 0 done, 1 the model of ``node``
+    nodes updated synchronously (``actuation`` (T, m_all): the data set's actuation inputs, for
+    models driven by them). Returns (status, node, k): 0 done, 1 the model of ``node``
     predicted a non-finite position or one beyond ``limit`` [m] at row k."""
     quats = np.ascontiguousarray(quaternions, dtype=np.float32)
-    wrenches = [wrench_rows(forces, torques, g.target_cols, g.wrench) for g in bound]
+    wrenches = [wrench_rows(forces, torques, g.target_cols, g.wrench, actuation, g.channel_cols) for g in bound]
     scratch = [(np.zeros((g.which.size, 3)),) + _scratch(g.engine.lay) for g in bound]
     if len(bound) == 1 and len(bound[0].engine) == 1 and bound[0].which.size > 1:   # one shared model
         g, wr = bound[0], wrenches[0]

@@ -266,6 +266,7 @@ def check_compatible(model, dataset, where: str = "the data set") -> None:
             if f in units and f in mine and units[f] != mine[f]:
                 raise SoftrnnInputError(f"{where} stores {f} in {mine[f]!r} but the model was trained on "
                                         f"{units[f]!r}; convert the data set to the model's units")
+    _check_channels(model, dataset, trained, where)
     total, theirs = _n_nodes_total(dataset.attrs), _n_nodes_total(trained)
     if total is not None and theirs is not None and total != theirs:
         raise SoftrnnInputError(f"{where} is a rod of {total} nodes but the model was trained on one of {theirs}: "
@@ -276,6 +277,24 @@ def check_compatible(model, dataset, where: str = "the data set") -> None:
             and abs(dt - their_dt) > DT_TOLERANCE * their_dt:
         raise SoftrnnInputError(f"{where} is sampled every {dt:g} s but the model predicts steps of {their_dt:g} s; "
                                 f"use data sampled like the training data")
+
+
+def _check_channels(model, dataset, trained: dict, where: str) -> None:
+    """A model driven by actuation inputs needs each of its channels in ``dataset``, in the unit
+    it was trained on (``trained['actuation_units']``, where recorded); one-line errors."""
+    spec = model.spec
+    if getattr(spec, "drive", "wrench") == "wrench":
+        return
+    have = dict(getattr(dataset, "actuation_units", None) or {})
+    units = trained.get("actuation_units") or {}
+    for name in spec.channels:
+        if name not in have:
+            raise SoftrnnInputError(f"{where} has no actuation channel {name!r}, which the model "
+                                    f"({describe_model(model)}) reads (channels: {', '.join(have) or 'none'}); use "
+                                    f"a data set that records the model's actuation inputs")
+        if name in units and units[name] != have[name]:
+            raise SoftrnnInputError(f"{where} records actuation {name!r} in {have[name]!r} but the model was trained "
+                                    f"on {units[name]!r}; convert the channel to the model's unit")
 
 
 def paper_reference(attrs: dict) -> dict | None:
@@ -398,20 +417,27 @@ def node_arrays(model, dataset) -> tuple[np.ndarray, np.ndarray | None]:
     positions : ndarray (T, K, 3)
         [m] of the model's node (column 0) and its K - 1 neighbours (columns 1.., the model's order).
     wrenches : ndarray (T, K, W) or None
-        The model's wrench input: forces [N] (W = 3, ``spec.wrench == 'force'``), forces then
-        torques [N m] (W = 6, ``'wrench'``), or None (``'none'``).
+        The model's input II: forces [N] (W = 3, ``spec.wrench == 'force'``), forces then
+        torques [N m] (W = 6, ``'wrench'``), then with ``spec.drive`` 'actuation' or 'both' the m
+        actuation channels (``spec.channels``, in their units; the same in every column, the linear
+        model reads column 0's), or None (no input II).
     """
+    from .data import actuation_rows
+
     node, neighbours = model_inputs(model)
     stored = np.asarray(dataset.nodes)
     cols = [int(np.flatnonzero(stored == a)[0]) for a in (node, *neighbours)]
     positions = np.asarray(dataset.positions)[:, cols].astype(np.float64)
     wrench = str(model.spec.wrench)
-    if wrench == "none":
-        return positions, None
-    loads = np.asarray(dataset.forces)[:, cols].astype(np.float64)
+    parts = []
+    if wrench != "none":
+        parts.append(np.asarray(dataset.forces)[:, cols].astype(np.float64))            # (T, K, 3)
     if wrench == "wrench":
-        loads = np.concatenate([loads, np.asarray(dataset.torques)[:, cols].astype(np.float64)], axis=-1)
-    return positions, loads
+        parts.append(np.asarray(dataset.torques)[:, cols].astype(np.float64))           # (T, K, 3)
+    act = actuation_rows(dataset, model.spec).astype(np.float64)                        # (T, m)
+    if act.shape[1]:
+        parts.append(np.broadcast_to(act[:, None], (act.shape[0], len(cols), act.shape[1])))
+    return positions, (np.concatenate(parts, axis=-1) if parts else None)
 
 
 def fit_linear(model, positions, wrenches, *, generalisation: bool = False) -> tuple:
@@ -452,7 +478,9 @@ def fit_linear(model, positions, wrenches, *, generalisation: bool = False) -> t
         cut = split(T, spec)[0].stop
         what = f"the model's training span of this data set (samples 0..{cut - 1})"
     details = {"fitted_on": {"samples": [0, cut], "what": what}, "inputs": _inputs_text(model)}
-    config = LinearARConfig(history=int(spec.history), mode="node", neighbours=tuple(range(1, positions.shape[1])))
+    width = None if getattr(spec, "drive", "wrench") == "wrench" or wrenches is None else int(wrenches.shape[-1])
+    config = LinearARConfig(history=int(spec.history), mode="node", neighbours=tuple(range(1, positions.shape[1])),
+                            wrench_width=width)
     try:
         linear = LinearAR.fit(config, positions, wrenches, 0, cut, modelled=[0])
     except SoftrnnInputError as err:
@@ -465,9 +493,12 @@ def _inputs_text(model) -> str:
     spec = model.spec
     node, neighbours = model_inputs(model)
     loads = {"none": "", "force": f" and node {node}'s force", "wrench": f" and node {node}'s force and torque"}
+    drive = getattr(spec, "drive", "wrench")
+    act = "" if drive == "wrench" else f" and the actuation inputs {', '.join(spec.channels)}"
     return (f"the last {int(spec.history)} positions of node {node}"
             + (f" and its neighbours {', '.join(map(str, neighbours))}" if neighbours else "")
-            + loads.get(str(spec.wrench), "") + (" (positions only, no quaternions)" if spec.inputs == "poses" else ""))
+            + loads.get(str(spec.wrench), "") + act
+            + (" (positions only, no quaternions)" if spec.inputs == "poses" else ""))
 
 
 def _baseline_evaluation(name: str, baseline, positions, wrenches, time, first: int, stop: int, *,
@@ -802,6 +833,14 @@ def evaluate(model, data, *, group: str | None = None, generalisation: bool = Fa
                       baselines=compared, horizons=table)
 
 
+def _drive(spec) -> dict:
+    """{drive, channels} of a model driven by actuation inputs; {} for the default wrench drive
+    (whose reports stay as they were)."""
+    if getattr(spec, "drive", "wrench") == "wrench":
+        return {}
+    return {"drive": spec.drive, "channels": list(spec.channels)}
+
+
 def _header(model, dataset, one: Prediction, generalisation: bool) -> dict:
     """The report's header: the model's inputs, the scenarios and the evaluated span."""
     node, neighbours = model_inputs(model)
@@ -812,7 +851,7 @@ def _header(model, dataset, one: Prediction, generalisation: bool) -> dict:
         "scenario_name": name if isinstance(name, str) and name else None,
         "trained_on": trained_on(model),
         "node": node, "neighbours": list(neighbours), "history": int(spec.history), "inputs": spec.inputs,
-        "wrench": spec.wrench, "length_m": None, "unit": UNIT,
+        "wrench": spec.wrench, **_drive(spec), "length_m": None, "unit": UNIT,
         "span": "whole record" if generalisation else "test",
         "span_samples": [int(one.index[0]), int(one.index[-1])],
         "span_s": [float(one.time[0]), float(one.time[-1])], "n_targets": int(one.index.size),

@@ -157,6 +157,11 @@ def describe(model: NodeModel) -> dict[str, str]:
                      "force": "wrenches[b, k, :] = the node's applied force fx, fy, fz [N] at step k",
                      "wrench": "wrenches[b, k, :] = the node's applied force fx, fy, fz [N], then torque tx, ty, "
                                "tz [N m] at step k"}[spec.wrench]
+    if getattr(spec, "drive", "wrench") != "wrench":
+        act_units = dataset.get("actuation_units") or {}
+        act = ", ".join(f"{n} [{act_units.get(n, '?')}]" for n in spec.channels)
+        wrench_layout = (f"wrenches[b, k, :] = the actuation inputs {act} at step k" if spec.wrench == "none" else
+                         wrench_layout + f", then the actuation inputs {act}")
     names = list(INPUT_NAMES[:2 if c.wrench_features else 1])
     d = {"format": FORMAT, "format_version": FORMAT_VERSION, "softrnn_version": __version__,
          "node": spec.node, "neighbours": list(spec.neighbours), "window_nodes": list(spec.window_nodes),

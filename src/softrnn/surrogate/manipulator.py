@@ -52,10 +52,13 @@ def model_inputs(model, node: int | None = None) -> tuple[int, tuple[int, ...]]:
 
 
 def describe_model(model) -> str:
-    """A short text such as ``node 50 <- 49, 51; history 2; positions + force``."""
+    """A short text such as ``node 50 <- 49, 51; history 2; positions + force`` (``+ actuation
+    tendon_1, tendon_2`` for a model driven by actuation inputs)."""
     spec = _spec_of(model)
     node, neigh = model_inputs(model)
     extra = {"none": "", "force": " + force", "wrench": " + force, torque"}.get(str(spec.wrench), "")
+    if getattr(spec, "drive", "wrench") != "wrench":
+        extra += " + actuation " + ", ".join(spec.channels or ("(all channels)",))
     return (f"node {node} <- {', '.join(map(str, neigh)) or 'no neighbours'}; history {int(spec.history)}; "
             f"{spec.inputs}{extra}")
 
@@ -141,10 +144,13 @@ class _Group:
     history: int
     inputs: str
     wrench: str
+    drive: str = "wrench"
+    channel_cols: np.ndarray = None   # (m,) columns of the data set's actuation in input II (drive != 'wrench')
 
-    def gather(self, positions, quaternions, forces, torques, k: int):
+    def gather(self, positions, quaternions, forces, torques, k: int, actuation=None):
         """Windows (poses (B,H,P) float32, wrenches (B,H,W) float32) for the targets at row k,
-        read from rows k-H .. k-1 of the (T, N, c) arrays."""
+        read from rows k-H .. k-1 of the (T, N, c) arrays and of ``actuation`` (T, m_all), the
+        data set's actuation inputs (needed when ``drive`` is not 'wrench')."""
         H = self.history
         rows = np.arange(k - H, k)
         B, n_in = self.input_cols.shape
@@ -158,6 +164,9 @@ class _Group:
             parts.append(forces[rows[:, None], self.target_cols[None]])         # (H, B, 3)
         if self.wrench == "wrench":
             parts.append(torques[rows[:, None], self.target_cols[None]])
+        if self.drive != "wrench":
+            a = np.asarray(actuation)[rows][:, self.channel_cols]                # (H, m)
+            parts.append(np.broadcast_to(a[:, None], (H, B, a.shape[1])))      # (H, B, m)
         if parts:
             w = np.concatenate(parts, axis=-1).transpose(1, 0, 2)
         else:
@@ -200,8 +209,29 @@ def bind(manipulator: Manipulator, dataset, where: str = "the data set") -> list
         groups.append(_Group(model=model, nodes=np.array(nodes, dtype=np.int64),
                              target_cols=np.array([r[0] for r in rows], dtype=np.int64),
                              input_cols=np.array(rows, dtype=np.int64).reshape(len(nodes), -1),
-                             history=int(spec.history), inputs=str(spec.inputs), wrench=str(spec.wrench)))
+                             history=int(spec.history), inputs=str(spec.inputs), wrench=str(spec.wrench),
+                             drive=str(getattr(spec, "drive", "wrench")),
+                             channel_cols=_channel_cols(spec, dataset, where)))
     return groups
+
+
+def _channel_cols(spec, dataset, where: str) -> np.ndarray:
+    """(m,) columns of ``dataset.actuation`` holding the model's actuation channels (none for a
+    wrench-driven model); a missing channel is a one-line ``SoftrnnInputError``."""
+    if getattr(spec, "drive", "wrench") == "wrench":
+        return np.zeros(0, dtype=np.int64)
+    have = tuple(getattr(dataset, "actuation_names", ()))
+    missing = [a for a in spec.channels if a not in have]
+    if missing:
+        raise SoftrnnInputError(f"{where} has no actuation channel {missing[0]!r}, which the model "
+                                f"({_driven(spec)}) reads (its channels: {', '.join(have) or 'none'}); "
+                                f"use a data set that records the model's actuation inputs")
+    return np.array([have.index(a) for a in spec.channels], dtype=np.int64)
+
+
+def _driven(spec) -> str:
+    """``node N driven by actuation a, b`` for error messages."""
+    return f"node {int(spec.node)} driven by actuation {', '.join(spec.channels)}"
 
 
 def _diverged(node: int, t: float, sample: int):

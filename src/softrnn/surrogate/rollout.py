@@ -190,9 +190,11 @@ def rollout(models, dataset, start: int | None = None, stop: int | None = None, 
     start, stop = check_span(dataset.n_samples, H, start, stop)
     first = start - H
     state, quats, forces, torques = _seeded_state(dataset, groups, H, first, stop, unmodelled)
+    act = getattr(dataset, "actuation", None)
+    act = None if act is None else act[first:stop]           # (T', m) the actuation inputs, as recorded
     step = _engine_steps if engine and all(_compiled(g.model) for g in groups) else _python_steps
     step(groups, state, quats, forces, torques, H=H, total=stop - start, time=dataset.time, first=first,
-         threads=threads, progress=progress)
+         threads=threads, progress=progress, actuation=act)
     return Rollout(time=np.asarray(dataset.time[first:stop], dtype=np.float64), nodes=np.asarray(dataset.nodes),
                    positions=state, first=first, seed=H, modelled=manip.nodes, unmodelled=unmodelled)
 
@@ -218,7 +220,7 @@ def _seeded_state(dataset, groups, H: int, first: int, stop: int, unmodelled: st
 
 
 def _engine_steps(groups, state, quats, forces, torques, *, H: int, total: int, time, first: int,
-                  threads, progress) -> None:
+                  threads, progress, actuation=None) -> None:
     """Rows ``H .. H+total-1`` of ``state`` predicted in place by the compiled engine, in chunks of
     4096 steps so progress is reported during long rollouts (``threads`` is not used)."""
     from .engine import engine_rollout, group_by_architecture
@@ -228,7 +230,7 @@ def _engine_steps(groups, state, quats, forces, torques, *, H: int, total: int, 
     while done < total:
         k0 = H + done
         k1 = min(H + total, k0 + 4096)
-        status, node, k = engine_rollout(bound, state, quats, forces, torques, k0, k1, DIVERGED_M)
+        status, node, k = engine_rollout(bound, state, quats, forces, torques, k0, k1, DIVERGED_M, actuation)
         if status:
             _diverged(node, float(time[first + k]), first + k)
         done = k1 - H
@@ -237,22 +239,22 @@ def _engine_steps(groups, state, quats, forces, torques, *, H: int, total: int, 
 
 
 def _python_steps(groups, state, quats, forces, torques, *, H: int, total: int, time, first: int,
-                  threads, progress) -> None:
+                  threads, progress, actuation=None) -> None:
     """Rows ``H .. H+total-1`` of ``state`` predicted in place by one batched ``predict`` per
     model and step, a synchronous update (every window is read before any row is written)."""
     with torch_threads(threads):
         for k in range(H, H + total):
-            outputs = [_predict_group(g, state, quats, forces, torques, k, time, first) for g in groups]
+            outputs = [_predict_group(g, state, quats, forces, torques, k, time, first, actuation) for g in groups]
             for g, pred in zip(groups, outputs):   # synchronous update: all windows were read first
                 state[k, g.target_cols] = pred
             if progress is not None and ((k - H + 1) % 256 == 0 or k == H + total - 1):
                 progress(k - H + 1, total)
 
 
-def _predict_group(g, state, quats, forces, torques, k: int, time, first: int) -> np.ndarray:
+def _predict_group(g, state, quats, forces, torques, k: int, time, first: int, actuation=None) -> np.ndarray:
     """The next positions (n, 3) float64 [m] of group ``g``'s n nodes at row ``k``, checked for
-    shape and divergence."""
-    poses, wrenches = g.gather(state, quats, forces, torques, k)
+    shape and divergence (``actuation`` (T', m): the span's actuation inputs)."""
+    poses, wrenches = g.gather(state, quats, forces, torques, k, actuation)
     pred = np.asarray(g.model.predict(poses, wrenches), dtype=np.float64)
     if pred.shape != (g.nodes.size, 3):
         raise SimulationError(f"model ({describe_model(g.model)}) returned shape {pred.shape} for "
@@ -266,7 +268,7 @@ def _predict_group(g, state, quats, forces, torques, k: int, time, first: int) -
 # --------------------------------------------------------------------------------------- output
 def rollout_dataset(result: Rollout, reference, *, models: list[str] | None = None, source: str = ""):
     """The rollout as a ``Dataset`` (same nodes and times as the reference's rows ``first .. stop-1``):
-    positions predicted, quaternions, forces and torques copied from the reference. Its attrs mark
+    positions predicted, quaternions, forces, torques and actuation copied from the reference. Its attrs mark
     it as a prediction (``prediction``, ``models``, ``modelled_nodes``, ``first_predicted_sample``,
     ``predicted_from_s``, ``unmodelled``, ``orientations``, ``reference``), keep the reference's
     extra metadata and append ' (predicted)' to its ``scenario_name``."""
@@ -287,6 +289,7 @@ def rollout_dataset(result: Rollout, reference, *, models: list[str] | None = No
         "orientations": "copied from the reference (the models predict positions only)",
         "reference": str(source),
     })
+    act = getattr(reference, "actuation", None)
     if "node_of_interest" not in keep or int(keep.get("node_of_interest", -1)) not in result.modelled:
         keep["node_of_interest"] = int(result.modelled[0])
     for key in ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version"):
@@ -294,7 +297,9 @@ def rollout_dataset(result: Rollout, reference, *, models: list[str] | None = No
             keep[key] = reference.attrs[key]
     return Dataset(time=result.time, nodes=result.nodes, positions=result.positions,
                    quaternions=reference.quaternions[sl], forces=reference.forces[sl],
-                   torques=reference.torques[sl], attrs=keep)
+                   torques=reference.torques[sl], attrs=keep,
+                   actuation=act if act is None else act[sl],
+                   actuation_units=getattr(reference, "actuation_units", None))
 
 
 def write_rollout(path, result: Rollout, reference, *, models: list[str] | None = None, source: str = "") -> Path:
