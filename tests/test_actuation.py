@@ -64,6 +64,18 @@ def test_actuation_round_trip_through_writer_and_reader(tmp_path):
     np.testing.assert_array_equal(read_dataset(tmp_path / "sweep.h5", group="traj-00001").actuation, back.actuation)
 
 
+def test_channels_that_share_a_unit_read_back(tmp_path):
+    """Three tendons, all in N (the shipped tendon arms): units repeat, names do not."""
+    ds = _dataset(m=3)
+    ds = Dataset(time=ds.time, nodes=ds.nodes, positions=ds.positions, quaternions=ds.quaternions, forces=ds.forces,
+                 torques=ds.torques, attrs=ds.attrs, actuation=ds.actuation,
+                 actuation_units={"tendon_a": "N", "tendon_b": "N", "tendon_c": "N"})
+    write_trajectory(tmp_path / "t.h5", ds, dt=0.01)
+    back = read_dataset(tmp_path / "t.h5")
+    assert back.actuation_units == {"tendon_a": "N", "tendon_b": "N", "tendon_c": "N"}
+    np.testing.assert_array_equal(back.actuation, ds.actuation)
+
+
 def test_streamed_writer_takes_actuation_per_chunk_and_checks_it(tmp_path):
     ds = _dataset(T=20)
     with DatasetWriter(tmp_path / "s.h5", nodes=ds.nodes, n_samples=20, dt=0.01, actuation_units=UNITS) as w:

@@ -172,9 +172,11 @@ def _actuation_layout(g: h5py.Group, path: Path, where: str, T: int) -> dict[str
         if key not in ds.attrs:
             raise DatasetError(f"{path}: attribute '{key}' of actuation of {where} is missing; re-create the file")
         value = _json_attr(ds.attrs, key, path, f"actuation of {where}")
-        if not isinstance(value, list) or len(value) != ds.shape[1] or len(set(map(str, value))) != len(value):
+        distinct = key == "units" or len(set(map(str, value))) == len(value)    # channels may share a unit
+        if not isinstance(value, list) or len(value) != ds.shape[1] or not distinct:
+            what = "distinct strings" if key == "names" else "strings"
             raise DatasetError(f"{path}: attribute '{key}' of actuation of {where} is not a list of {ds.shape[1]} "
-                               f"distinct strings (one per column); re-create the file")
+                               f"{what} (one per column); re-create the file")
         lists.append(value)
     try:
         return actuation_units(dict(zip(*lists)), "actuation")
