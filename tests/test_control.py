@@ -42,6 +42,7 @@ def test_shipped_references_start_at_rest_and_stay_in_their_span(name):
     assert np.all(np.abs(dev) <= np.array(SPAN_DEG) + 1e-9)
     assert np.allclose(dev[0], 0.0, atol=1e-9) or name == "sine"
     np.testing.assert_array_equal(ref.window(899, 3), ref.angles[[900, 900, 900]])   # held past the end
+    np.testing.assert_allclose(reference(name, duration=10.0).angles, ref.angles[:301], rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("text, match", [

@@ -86,18 +86,33 @@ def reference(name_or_path, *, duration: float = 60.0, rate: float = 30.0, seed:
         angles = np.stack([rest[0] + 0.5 * span[0] * np.sin(w * t - 0.5 * math.pi) + 0.5 * span[0],
                            rest[1] + span[1] * np.sin(w * t)], 1)
     elif name == "random":
-        rng = np.random.default_rng([seed, 0x726566])
-        cols = []
-        for c in range(2):
-            f = np.exp(rng.uniform(math.log(0.02), math.log(0.3), 5))
-            ph = rng.uniform(0, 2 * math.pi, 5)
-            s = np.sin(2 * math.pi * f[None] * t[:, None] + ph[None]).sum(1)
-            s = s - s[0]                                                         # start at rest
-            cols.append(rest[c] + span[c] * s / max(float(np.max(np.abs(s))), 1e-12))
-        angles = np.stack(cols, 1)
+        angles = _random(t, rate, seed, rest, span)
     else:
         return _csv_reference(Path(name), t)
     return Reference(name=name, times=t, angles=angles)
+
+
+RANDOM_SCALE_S = 600.0
+"""The random reference is scaled to its span over its first ``RANDOM_SCALE_S`` seconds (or its
+whole duration if longer), so a shorter run follows the start of a longer one exactly."""
+
+
+def _random(t: np.ndarray, rate: float, seed: int, rest: np.ndarray, span: np.ndarray) -> np.ndarray:
+    """(K, 2) [rad]: per angle, five sines of random frequency (0.02-0.3 Hz) and phase, from rest at t = 0."""
+    rng = np.random.default_rng([seed, 0x726566])
+    grid = np.arange(int(round(max(RANDOM_SCALE_S, t[-1]) * rate)) + 1) / rate
+    cols = []
+    for c in range(2):
+        f = np.exp(rng.uniform(math.log(0.02), math.log(0.3), 5))
+        ph = rng.uniform(0, 2 * math.pi, 5)
+        s, scale = (_waves(f, ph, times) for times in (t, grid))
+        cols.append(rest[c] + span[c] * s / max(float(np.max(np.abs(scale))), 1e-12))
+    return np.stack(cols, 1)
+
+
+def _waves(f: np.ndarray, ph: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """sum_i sin(2 pi f_i t + ph_i), minus its value at t = 0 (a start at rest)."""
+    return np.sin(2 * math.pi * f[None] * t[:, None] + ph[None]).sum(1) - np.sin(ph).sum()
 
 
 def _csv_reference(path: Path, t: np.ndarray) -> Reference:
