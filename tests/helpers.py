@@ -25,6 +25,28 @@ def run_cli(argv) -> int:
         return exc.code
 
 
+# --------------------------------------------------------------------------- finite differences
+def fd_loads_of(U, R, r, eps):
+    """-dU/dr_a (world) and -dU/d eps with Lambda_a -> Lambda_a cay(eps e_i) (body) of an energy
+    U(R (n, 3, 3), r (n, 3)), central differences: the loads (n, 3), (n, 3) it exerts on each node."""
+    n = r.shape[0]
+    f = np.zeros((n, 3))
+    t = np.zeros((n, 3))
+    for a in range(n):
+        for i in range(3):
+            e = np.zeros(3)
+            e[i] = eps
+            rp, rm = r.copy(), r.copy()
+            rp[a] += e
+            rm[a] -= e
+            f[a, i] = -(U(R, rp) - U(R, rm)) / (2 * eps)
+            Rp, Rm = R.copy(), R.copy()
+            Rp[a] = R[a] @ cay(e)
+            Rm[a] = R[a] @ cay(-e)
+            t[a, i] = -(U(Rp, r) - U(Rm, r)) / (2 * eps)
+    return f, t
+
+
 # --------------------------------------------------------------------------- kernel access
 def kernel_step(R, r, v, w, *, l, C1, C2, K0, G0, mass, inertia, h, n_steps=1, kind=None,
                 gravity=(0.0, 0.0, 0.0), ct=None, cr=None):

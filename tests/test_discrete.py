@@ -9,7 +9,7 @@ from softrnn.rod import NodeOverride, RodSpec, arc, straight
 from softrnn.rod.discrete import internal_loads, segment_strains, strain_energy
 from softrnn.rod.so3 import cay
 
-from helpers import kernel_internal_loads, kernel_step, planar_bent_shape, random_deformed_rod
+from helpers import fd_loads_of, kernel_internal_loads, kernel_step, planar_bent_shape, random_deformed_rod
 
 GRADIENT_RTOL = 1e-6      # central finite differences vs closed-form loads (relative to max |load|)
 KERNEL_RTOL = 1e-10       # numba kernel loads vs discrete.internal_loads (relative to max |load|)
@@ -18,25 +18,8 @@ FD_STEP = 1e-6
 
 
 def fd_loads(R, r, l, C1, C2, K0, G0, eps=FD_STEP):
-    """-dU/dr_a (world) and -dU/d eps with Lambda_a -> Lambda_a cay(eps e_i) (body), central
-    differences."""
-    n = r.shape[0]
-    f = np.zeros((n, 3))
-    t = np.zeros((n, 3))
-    U = lambda RR, rr: strain_energy(RR, rr, l, C1, C2, K0, G0)  # noqa: E731
-    for a in range(n):
-        for i in range(3):
-            e = np.zeros(3)
-            e[i] = eps
-            rp, rm = r.copy(), r.copy()
-            rp[a] += e
-            rm[a] -= e
-            f[a, i] = -(U(R, rp) - U(R, rm)) / (2 * eps)
-            Rp, Rm = R.copy(), R.copy()
-            Rp[a] = R[a] @ cay(e)
-            Rm[a] = R[a] @ cay(-e)
-            t[a, i] = -(U(Rp, r) - U(Rm, r)) / (2 * eps)
-    return f, t
+    """-dU/dr_a (world) and -dU/d eps (body) of the strain energy, central differences."""
+    return fd_loads_of(lambda RR, rr: strain_energy(RR, rr, l, C1, C2, K0, G0), R, r, eps)
 
 
 def rel_err(a, b):

@@ -29,14 +29,13 @@ from softrnn.rod import (
 )
 from softrnn.rod.discrete import internal_loads, segment_strains, strain_energy
 from softrnn.rod.lumped import frozen
-from softrnn.rod.so3 import cay
 from softrnn.rod.state import empty_samples
 from softrnn.rod.tendons import routing_arrays, tendon_actuation, tendon_potential, tendon_resultants
 from softrnn.scenarios.scenario import parse_scenario
 from softrnn.scenarios.summary import simulate_summary
 from softrnn.statics import StaticLoads, StaticRod, solve
 
-from helpers import random_deformed_rod, run_cli
+from helpers import fd_loads_of, random_deformed_rod, run_cli
 
 L, RADIUS, E, RHO, NU = 0.2, 0.01, 1e7, 1000.0, 0.5
 EI = E * np.pi * RADIUS**4 / 4
@@ -156,21 +155,7 @@ def test_tendon_loads_are_the_gradient_of_the_discrete_tendon_length():
     tau = np.array([2.0, 1.5])
     terms = lambda K, G: tendon_resultants(K, G, route, end, tau)  # noqa: E731
     f, t = internal_loads(R, r, l, C1, C2, K0, G0, terms)
-    V = lambda RR, rr: _potential(RR, rr, l, C1, C2, K0, G0, route, end, tau)  # noqa: E731
-    eps = 1e-6
-    f_fd, t_fd = np.zeros_like(f), np.zeros_like(t)
-    for a in range(n):
-        for i in range(3):
-            e = np.zeros(3)
-            e[i] = eps
-            rp, rm = r.copy(), r.copy()
-            rp[a] += e
-            rm[a] -= e
-            f_fd[a, i] = -(V(R, rp) - V(R, rm)) / (2 * eps)
-            Rp, Rm = R.copy(), R.copy()
-            Rp[a] = R[a] @ cay(e)
-            Rm[a] = R[a] @ cay(-e)
-            t_fd[a, i] = -(V(Rp, r) - V(Rm, r)) / (2 * eps)
+    f_fd, t_fd = fd_loads_of(lambda RR, rr: _potential(RR, rr, l, C1, C2, K0, G0, route, end, tau), R, r, 1e-6)
     scale = max(np.abs(f).max(), np.abs(t).max())
     assert np.abs(f - f_fd).max() < GRADIENT_RTOL * scale
     assert np.abs(t - t_fd).max() < GRADIENT_RTOL * scale
