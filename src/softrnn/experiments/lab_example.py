@@ -40,7 +40,7 @@ class LabExampleConfig:
     from the tip; default the tip)."""
 
     scenarios: tuple = DEFAULT_SCENARIOS
-    duration: float = 240.0
+    duration: float = 600.0
     rate: float = 20.0
     noise: float = 3e-4
     seed: int = 0
