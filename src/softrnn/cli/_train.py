@@ -12,7 +12,8 @@ HELP = "train a node's LSTM model (paper Fig. 2A/B) on a dataset and save it as 
 def add_args(p):
     p.add_argument("data", help="an HDF5 dataset written by softrnn (simulate, sweep, import-csv)")
     p.add_argument("--node", type=int, default=None,
-                   help="the node to model (default: the node of interest the file names, if any)")
+                   help="the node to model (default: the node of interest the file names, or the only node it "
+                        "stores)")
     p.add_argument("-o", "--out", required=True, metavar="FOLDER", help="the model folder to write")
     p.add_argument("--neighbours", default=None, metavar="A,B",
                    help="nodes whose poses join the node's, comma-separated ('none' for none; default: the "
@@ -120,6 +121,8 @@ def run(args) -> int:
 
         head = read_dataset(args.data, stop=1)
         node = node_of_interest(head)
+        if node is None and len(head.nodes) == 1:    # one marker (a lab CSV of the tip alone): that node
+            node = int(head.nodes[0])
         if node is None:
             raise bad("--node", None, f"a node to model: the file names no node of interest; choose one of "
                                       f"{describe_nodes(head.nodes)}")
@@ -177,6 +180,9 @@ def _spec(args, node):
     if args.channels is not None:
         channels = tuple(a.strip() for a in args.channels.split(",") if a.strip())
     neighbours = None if args.neighbours is None else _ints(args.neighbours, "--neighbours")
+    if args.inputs == "poses" and not read_dataset(args.data, stop=1).has_orientations:
+        raise bad("--inputs", "poses", "'positions' (the data set has no orientations: a CSV without "
+                                       "n{i}_qw..qz columns stores identity placeholders)")
     try:
         spec = SampleSpec(node=node, neighbours=neighbours, history=args.history, inputs=args.inputs, wrench=wrench,
                           drive=args.drive, channels=channels)

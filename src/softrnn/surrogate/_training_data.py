@@ -132,6 +132,9 @@ def _load_data(dataset_path, spec: SampleSpec, pool=None):
         path = Path(dataset_path)
         head = read_dataset(path, stop=1)                             # every stored node, one sample
     total = head.attrs.get("n_nodes_total")
+    if spec.inputs == "poses" and not head.has_orientations:   # identity placeholders are no orientations
+        raise SoftrnnInputError("inputs='poses' is invalid: the data set has no orientations (has_orientations = "
+                                "false, e.g. a CSV without n{i}_qw..qz columns); use inputs='positions'")
     resolved = spec.resolve(head.nodes, n_nodes_total=total).resolve_channels(head.actuation_names)
     pool = _resolve_pool(pool, resolved, head.nodes, total)
     if path is not None:
