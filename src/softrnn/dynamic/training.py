@@ -177,8 +177,9 @@ def spectral_radius(net: DynamicNet) -> float:
     companion[-M * 6:, :] = J
     from scipy.sparse.linalg import ArpackError, ArpackNoConvergence, eigs
 
+    v0 = np.random.default_rng(0).standard_normal(n)     # a fixed start: the same radius (and ridge) every run
     try:   # the largest eigenvalue only (ARPACK): a full eigvals of a few hundred rows is slow on a busy machine
-        return float(np.max(np.abs(eigs(companion, k=1, which="LM", return_eigenvectors=False, tol=1e-8))))
+        return float(np.max(np.abs(eigs(companion, k=1, which="LM", return_eigenvectors=False, tol=1e-8, v0=v0))))
     except (ArpackNoConvergence, ArpackError):
         return float(np.max(np.abs(np.linalg.eigvals(companion))))
 
