@@ -127,9 +127,11 @@ def training_split(out: Path, case: str, sweep_dir: Path, s: dict):
     return paper + split_inputs([sweep_dir], heldout=s["n_heldout"], validation=s["n_validation"])
 
 
-def train_case(case: str, folder: Path, split, config: DynamicConfig, progress_factory=None):
+def train_case(case: str, folder: Path, split, config: DynamicConfig, progress_factory=None,
+               threads: int | None = None):
     """The model in ``folder/model`` (trained, or read when finished earlier): (LoadedDynamic, the
-    training's seconds). Training checkpoints to ``folder/checkpoint.pt`` and resumes from it."""
+    training's seconds). Training checkpoints to ``folder/checkpoint.pt`` and resumes from it;
+    ``threads``: PyTorch's threads while training (None: as set)."""
     from ..dynamic.artifact import is_dynamic_folder, load_dynamic
 
     model_dir = folder / "model"
@@ -138,7 +140,7 @@ def train_case(case: str, folder: Path, split, config: DynamicConfig, progress_f
         from ..dynamic.fit import fit
 
         progress = progress_factory(f"train dynamic {case}") if progress_factory else None
-        trained, meta = fit(split, config, progress=progress, checkpoint=folder / "checkpoint.pt")
+        trained, meta = fit(split, config, progress=progress, checkpoint=folder / "checkpoint.pt", threads=threads)
         save_dynamic(model_dir, trained, meta)
         (folder / "checkpoint.pt").unlink(missing_ok=True)
     loaded = load_dynamic(model_dir)

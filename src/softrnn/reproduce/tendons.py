@@ -41,6 +41,9 @@ CONFIGS = {"tendon-planar": _BASE, "tendon-spatial": _BASE}
 """Each case's model (architecture and training), driven by the tensions alone; ``quick`` trains
 ``QUICK_STEPS`` steps."""
 QUICK_STEPS = 20
+THREADS = 1
+"""PyTorch's threads while training: a small model trains fastest on one (on a busy machine two
+threads can be several times slower)."""
 SWEEP = {"dt": 0.01, "n_train": 10, "n_validation": 2, "n_heldout": 8, "workers": 2, "duration_s": 21.0}
 """Each case's sweep: variants 0..n_train-1 are trained on, the next n_validation select the weights,
 the last n_heldout are held out; saved every dt [s] for duration_s [s]."""
@@ -116,7 +119,8 @@ def tendon_case(case: str, out: Path, quick: bool = False, progress_factory=None
     workers = (QUICK_SWEEP if quick else SWEEP)["workers"]
     sweep_dir = run_case_sweep(case, out, s["sweep"], workers, progress_factory)
     split = training_split(out, case, sweep_dir, s["sweep"])
-    loaded, train_s = train_case(case, folder, split, config_for(case, quick), progress_factory)
+    loaded, train_s = train_case(case, folder, split, config_for(case, quick), progress_factory,
+                                 threads=THREADS)
     t1 = time.perf_counter()
     entry = measure(case, out, loaded, split)
     training = {k: v for k, v in (loaded.meta.get("training") or {}).items() if k != "losses"}
