@@ -306,14 +306,23 @@ def _measure(case: str, out: Path, folder: Path, loaded, split, quick: bool) -> 
     return entry
 
 
+def finished_case(step_file: Path, folder: Path, settings_: dict, quick: bool) -> dict | None:
+    """The step file's result when it is finished with these settings and its model folder is there
+    (the case is then skipped), else None."""
+    done = load_step(step_file, quick)
+    if done is not None and done.get("settings") == settings_ and (folder / "model").is_dir():
+        return done
+    return None
+
+
 def dynamic_case(case: str, out: Path, quick: bool, progress_factory=None) -> dict:
     """One case, skipped when its step file ``out/dynamic/CASE.json`` holds a finished result of the
     same settings (``settings``: the sweep and ``CONFIGS[CASE]``)."""
     step_file = out / "dynamic" / f"{case}.json"
     folder = out / "dynamic" / case
     s = settings(case, quick)
-    done = load_step(step_file, quick)
-    if done is not None and done.get("settings") == s and (folder / "model").is_dir():
+    done = finished_case(step_file, folder, s, quick)
+    if done is not None:
         return done
     t0 = time.perf_counter()
     _fresh(folder, s)

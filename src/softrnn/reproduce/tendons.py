@@ -28,8 +28,17 @@ from pathlib import Path
 
 from .. import __version__
 from ..dynamic.config import DynamicConfig
-from .dynamic import TRAIN_FRACTION, _fresh, _usable, goals, run_case_sweep, train_case, training_split
-from .stepfiles import load_step, save_step
+from .dynamic import (
+    TRAIN_FRACTION,
+    _fresh,
+    _usable,
+    finished_case,
+    goals,
+    run_case_sweep,
+    train_case,
+    training_split,
+)
+from .stepfiles import save_step
 
 CASES = ("tendon-planar", "tendon-spatial")
 """The tendon arms (shipped scenarios with a ``[randomize]`` table)."""
@@ -110,8 +119,8 @@ def tendon_case(case: str, out: Path, quick: bool = False, progress_factory=None
     step_file = out / "tendons" / f"{case}.json"
     folder = out / "tendons" / case
     s = settings(case, quick)
-    done = load_step(step_file, quick)
-    if done is not None and done.get("settings") == s and (folder / "model").is_dir():
+    done = finished_case(step_file, folder, s, quick)
+    if done is not None:
         return done
     t0 = time.perf_counter()
     _fresh(folder, s)
