@@ -533,9 +533,27 @@ def _control_lines(c: dict | None) -> list[str]:
     for name, ref, r in rows:
         lines.append(f"| {name} | {ref} | {r['rms_deg']:.3f} | {r['max_deg']:.2f} | {r['limit_violations']} | "
                      f"{r['compute_ms_median']:.3f}, {r['compute_ms_p99']:.3f} | {r['stable']} |")
+    lines += _physics_lines(c.get("mpc-physics"), st)
     lines += ["", "Goals (reported, not asserted): " + "; ".join(
         f"{name.replace('_', ' ')}: {'met' if g['met'] else 'MISSED'} ({_shown(g['value'])}; goal {g['goal']})"
         for name, g in c["goals"].items()) + ".", "", f"![control]({c['figure']})"]
+    return lines
+
+
+def _physics_lines(p: dict | None, st: dict) -> list[str]:
+    """mpc-physics over the first seconds of each reference, beside the other two over those frames."""
+    if not p:
+        return []
+    lines = ["", f"mpc-physics (the same MPC on the nominal dynamic simulator; far from real time) over the first "
+                 f"{st.get('physics_duration', 0):g} s of each reference, RMS [deg] of the three controllers over "
+                 f"those frames:", "",
+             "| reference | static-inverse | mpc-learned | mpc-physics | mpc-physics ms per frame (median, p99) | "
+             "limit violations |", "|---|---|---|---|---|---|"]
+    for ref, r in p.items():
+        same = r["same_frames_rms_deg"]
+        rms = " | ".join(f"{same[k]:.3f}" for k in ("static-inverse", "mpc-learned", "mpc-physics"))
+        lines.append(f"| {ref} | {rms} | {r['compute_ms_median']:.0f}, {r['compute_ms_p99']:.0f} | "
+                     f"{r['limit_violations']} |")
     return lines
 
 
