@@ -34,8 +34,9 @@ def add_args(p):
     m.add_argument("--identify-seconds", type=float, default=90.0,
                    help="mpc-learned: seconds of open-loop identification (default 90)")
     m.add_argument("--plan-factors", default=None, metavar="S,R,D",
-                   help="mpc-physics: plan on the simulator with stiffness, remanence and damping times these "
-                        "factors (e.g. a calibration's: 1.04,0.97,2); default: the nominal model (1,1,1)")
+                   help="the controller's model with stiffness, remanence and damping times these factors (e.g. "
+                        "a calibration's: 1.04,0.97,2): what mpc-physics plans on and static-inverse inverts "
+                        "(mpc-learned learns the robot instead); default: the nominal model (1,1,1)")
     m.add_argument("--overwrite", action="store_true", help="replace the results in DIR")
     m.add_argument("--quiet", action="store_true", help="no progress bar")
 

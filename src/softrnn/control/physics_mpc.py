@@ -54,11 +54,12 @@ class PhysicsMPC(BlockMPC):
         self.camera_points, self.degree = int(camera_points), int(polynomial_degree)
         self.s_nodes = np.linspace(0.0, self.spec.length, self.spec.n_nodes)
         self.s_magnets = np.array([m.arc_length for m in self.spec.magnets])
+        self._rng = np.random.default_rng(0)             # the camera's, unused without noise
         self.rollouts = 0
 
     def _distal(self, positions: np.ndarray) -> np.ndarray:
         """The noise-free camera's distal orientation (about x, about y) [rad] of node positions (n, 3)."""
-        cam = camera_measure(positions[None], self.s_nodes, self.s_magnets, 0.0, np.random.default_rng(0),
+        cam = camera_measure(positions[None], self.s_nodes, self.s_magnets, 0.0, self._rng,
                              points=self.camera_points, degree=self.degree)
         return cam.orientations[0, DISTAL, :2]
 

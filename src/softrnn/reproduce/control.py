@@ -95,11 +95,10 @@ def _same_frames(folder: Path, ref: str) -> dict:
     the reference), from the runs' traces."""
     import numpy as np
 
-    out = {}
-    with np.load(folder / "mpc-physics" / ref / "trace.npz") as t:
-        n = t["time"].size
-    for controller in ("mpc-physics",) + CONTROLLERS:
+    out, n = {}, None
+    for controller in ("mpc-physics",) + CONTROLLERS:                   # mpc-physics first: its frames
         with np.load(folder / controller / ref / "trace.npz") as t:
+            n = t["time"].size if n is None else n
             e = np.degrees(t["true"][:n, 1, :2] - t["reference"][:n])
         out[controller] = float(np.sqrt(np.mean(e ** 2)))
     return out
