@@ -63,6 +63,17 @@ class DynamicConfig:
         (the target and gains are the inputs; ``softrnn.dynamic.feedback``) instead of taking the
         recorded forces, which the simulated rod's state produced, as inputs. Used with
         ``drive = "wrench"`` only.
+    envelope : float or None
+        Where the network's correction acts (``DynamicNet.envelope_gate``): fully on a node whose
+        features lie within the training data's range of each channel, fading linearly to zero at
+        this fraction of the range beyond it, where its inputs are clipped (None: everywhere,
+        unclipped). The correction is then bounded and vanishes far from the data: there the model
+        is its linear term and extrapolates like a damped linear system, not like a network.
+    prior_tau : float or None
+        The ridge fit of the linear term is shrunk toward a model in which every moving coordinate
+        relaxes to the reference pose, critically damped with this time constant [s]
+        (``training.damping_prior``), not toward zero, which would leave the directions the data
+        never excite ballistic (None: toward zero).
     drive : {"wrench", "actuation", "both"}
         The model's load input per kept node: the lumped mean force and torque (6 channels; the
         default), the data's actuation inputs (``Dataset.actuation``, every channel, their mean over
@@ -92,6 +103,8 @@ class DynamicConfig:
     conv_reads: str = "all"
     feedback: bool = True
     drive: str = "wrench"
+    envelope: float | None = 0.25
+    prior_tau: float | None = 1.0
 
     def __post_init__(self):
         positive("model_dt", self.model_dt, "s")
@@ -123,6 +136,10 @@ class DynamicConfig:
             raise bad("conv_reads", self.conv_reads, f"one of {', '.join(CONV_READS)}")
         if not (0.0 <= float(self.ema) < 1.0):
             raise bad("ema", self.ema, "a decay in [0, 1) (0: no averaging)")
+        if self.envelope is not None:
+            positive("envelope", self.envelope)
+        if self.prior_tau is not None:
+            positive("prior_tau", self.prior_tau, "s")
         if self.drive not in DRIVES:
             raise bad("drive", self.drive, "'wrench' (the nodal wrenches), 'actuation' (the data's actuation "
                                            "inputs) or 'both'")
@@ -167,7 +184,7 @@ def resolve_node_stride(node_stride: int | None, n_nodes: int) -> int:
 
 def linear_config(config: DynamicConfig) -> DynamicConfig:
     """The linear baseline's config: the linear term alone, same inputs, no training."""
-    return replace(config, linear=True, conv=False, memory="window", steps=0)
+    return replace(config, linear=True, conv=False, memory="window", steps=0, envelope=None)
 
 
 N_CONST = 3

@@ -84,6 +84,11 @@ class DynamicEngine:
         self._f[:, 6 * H + L:] = self.node_features
         self._scale = np.concatenate([1.0 / self.sx] + [1.0 / self.sv] * (H - 1) + [1.0 / self.su]).astype(dt)
         self._keep = np.asarray(conv_channels(H, config.conv_reads, L))
+        self.envelope = None            # the correction's input range (DynamicNet.set_envelope), if any
+        if "env_lo" in w:
+            lo, hi, inv = w["env_lo"], w["env_hi"], w["env_inv"]
+            margin = np.where(inv > 0, 1.0 / np.where(inv > 0, inv, 1.0), 0.0)
+            self.envelope = tuple(a.astype(dt) for a in (lo, hi, inv, lo - margin, hi + margin))
         convs = sorted({int(k.split(".")[1]) for k in w if k.startswith("conv.")})
         self.convs = []
         for i in convs:
@@ -116,6 +121,14 @@ class DynamicEngine:
             g = out
         return g
 
+    def _gate(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(clipped inputs (M, G), gate (M, 1)), as ``DynamicNet.envelope_gate``."""
+        lo, hi, inv, lo_m, hi_m = self.envelope
+        over = np.maximum(np.maximum(lo - g, g - hi), 0.0) * inv
+        gate = np.maximum(1.0 - over.max(axis=1, keepdims=True), 0.0)
+        np.clip(g, lo_m, hi_m, out=g)
+        return g, gate
+
     def features(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:
         """hist (H, M, 6), loads (M, L) -> (M, C), as ``DynamicNet.features`` (a reused buffer)."""
         f, H, L = self._f, self.history, self.load_width
@@ -133,7 +146,9 @@ class DynamicEngine:
         if self.linear is not None:
             a += (f.reshape(-1) @ self.linear[0] + self.linear[1]).reshape(self.n_kept, 6)
         if self.convs or self.cell is not None:
-            g = f[:, self._keep]
+            g, gate = f[:, self._keep], None
+            if self.envelope is not None:
+                g, gate = self._gate(g)
             if self.cell is not None:
                 Wi, Wh, b = self.cell
                 h, c = memory if memory is not None else (np.zeros((self.n_kept, Wh.shape[0]), dtype=self.dtype),) * 2
@@ -145,6 +160,8 @@ class DynamicEngine:
                 g = np.concatenate([g, h], axis=1)
             if self.convs:
                 c, b = self._conv(g), self.bound
+                if gate is not None:
+                    c = c * gate
                 a += b * np.tanh(c / b) if b > 0 else c
         x = hist[-1]
         a *= self.sa

@@ -91,6 +91,8 @@ def step_net(model: LoadedDynamic) -> DynamicNet:
     net = DynamicNet(model.config, np.asarray(w["node_features"]), np.asarray(w["fixed"], dtype=bool), scales)
     state = {k: torch.as_tensor(np.asarray(v)) for k, v in w.items()}
     state["fixed"] = state["fixed"].to(torch.bool)
+    for key, value in net.state_dict().items():     # a model saved before the envelope: not clipped
+        state.setdefault(key, value)
     net.load_state_dict(state)
     return net.eval()
 

@@ -18,6 +18,14 @@ training standard deviation. The output is the normalised change of velocity ove
 
 With ``memory = "lstm"`` a per-node LSTM cell (shared along the rod) also carries a hidden state
 from step to step and feeds the convolution. Fixed nodes keep their state.
+
+**The envelope** (``config.envelope`` = m > 0): the training data's range [lo, hi] of each feature
+the correction reads (buffers ``env_lo``, ``env_hi``, set by ``set_envelope``). A node whose
+features lie inside it gets the full correction; outside, the correction fades linearly to zero
+at m (hi - lo) beyond the range (``envelope_gate``), and the correction's inputs are clipped
+there. So the correction is bounded, and zero wherever a node is far from anything the network
+was trained on: there the model is its linear term, which extrapolates like a damped linear
+system instead of like a network.
 """
 
 from __future__ import annotations
@@ -57,6 +65,12 @@ class DynamicNet(nn.Module):
         self.register_buffer("conv_cols", torch.as_tensor(conv_channels(config.history, config.conv_reads, L)),
                              persistent=False)
         G = int(self.conv_cols.numel())
+        if config.envelope is not None:     # no clipping until set_envelope (training) or load_state_dict
+            self.register_buffer("env_lo", torch.full((G,), -torch.inf))
+            self.register_buffer("env_hi", torch.full((G,), torch.inf))
+            self.register_buffer("env_inv", torch.zeros(G))
+        else:
+            self.env_lo = self.env_hi = None
         self.cell = nn.LSTMCell(G, config.width) if config.memory == "lstm" else None
         if config.conv or self.cell is not None:
             width, pad = config.width, config.kernel // 2
@@ -73,6 +87,28 @@ class DynamicNet(nn.Module):
         if self.linear is not None:
             nn.init.zeros_(self.linear.weight)
             nn.init.zeros_(self.linear.bias)
+
+    def set_envelope(self, lo: torch.Tensor, hi: torch.Tensor) -> None:
+        """The data's range [lo, hi] of the ``conv_cols`` features ((G,) each, in scaled units):
+        buffers ``env_lo``, ``env_hi`` and ``env_inv`` = 1 / (m (hi - lo)), 0 for a channel that
+        never varies (a constant, or a coordinate the data never move)."""
+        if self.env_lo is None:
+            return
+        width = float(self.config.envelope) * (hi - lo)
+        with torch.no_grad():
+            self.env_lo.copy_(lo)
+            self.env_hi.copy_(hi)
+            self.env_inv.copy_(torch.where(width > 1e-9, 1.0 / torch.clamp(width, min=1e-9), 0.0))
+
+    def envelope_gate(self, g: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(clipped inputs (..., G), gate (..., 1)): the gate is 1 inside the data's range, falls
+        linearly to 0 at m (hi - lo) outside it (the farthest channel decides), where the inputs
+        are clipped."""
+        over = torch.clamp(torch.maximum(self.env_lo - g, g - self.env_hi), min=0.0) * self.env_inv
+        gate = torch.clamp(1.0 - over.amax(dim=-1, keepdim=True), min=0.0)
+        margin = torch.where(self.env_inv > 0, 1.0 / torch.clamp(self.env_inv, min=1e-30), 0.0)
+        g = torch.minimum(torch.maximum(g, self.env_lo - margin), self.env_hi + margin)
+        return g, gate
 
     def features(self, hist: torch.Tensor, loads: torch.Tensor) -> torch.Tensor:
         """hist (B, H, M, 6) states, oldest first; loads (B, M, L) -> features (B, M, C)."""
@@ -91,7 +127,9 @@ class DynamicNet(nn.Module):
         a = torch.zeros(B, M, 6, dtype=f.dtype)
         if self.linear is not None:
             a = a + self.linear(f.reshape(B, M * C)).reshape(B, M, 6)
-        g = f[..., self.conv_cols]
+        g, gate = f[..., self.conv_cols], None
+        if self.env_lo is not None:
+            g, gate = self.envelope_gate(g)
         if self.cell is not None:
             if memory is None:
                 z = torch.zeros(B * M, self.config.width, dtype=f.dtype)
@@ -101,6 +139,8 @@ class DynamicNet(nn.Module):
             g = torch.cat([g, h.reshape(B, M, -1)], dim=-1)
         if self.conv is not None:
             c = self.conv(g.transpose(1, 2)).transpose(1, 2)
+            if gate is not None:
+                c = c * gate
             b = self.config.bound
             a = a + (b * torch.tanh(c / b) if b > 0 else c)
         x, v = hist[:, -1], hist[:, -1] - hist[:, -2]

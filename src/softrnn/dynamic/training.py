@@ -130,9 +130,10 @@ def _first_loads(hist, loads, feedback) -> torch.Tensor:
     return loads[:, 0] if feedback is None else loads[:, 0] + feedback_force(hist, feedback, 0)
 
 
-def _normal_equations(net: DynamicNet, trajectories) -> tuple:
-    """(G, b, feature means, target means) of the one-step least squares for the linear term:
-    features (teacher-forced loads) against the scaled velocity changes, centred."""
+def _normal_equations(net: DynamicNet, trajectories) -> tuple[tuple, tuple]:
+    """((G, b, feature means, target means), (feature minima, maxima) (C,) each) of the one-step
+    least squares for the linear term: features (teacher-forced loads) against the scaled velocity
+    changes, centred; and the features' range over the data (the envelope, ``set_envelope``)."""
     H = net.config.history
     win = _windows(trajectories, H + 1)
     F, A = [], []
@@ -145,16 +146,39 @@ def _normal_equations(net: DynamicNet, trajectories) -> tuple:
             A.append(a.reshape(len(chunk), -1).double().numpy())
     F, A = np.concatenate(F), np.concatenate(A)
     fm, am = F.mean(axis=0), A.mean(axis=0)
+    per_node = F.reshape(len(F) * net.n_kept, net.n_in)
     Fc = F - fm
-    return Fc.T @ Fc, Fc.T @ (A - am), fm, am
+    return (Fc.T @ Fc, Fc.T @ (A - am), fm, am), (per_node.min(axis=0), per_node.max(axis=0))
+
+
+def damping_prior(net: DynamicNet) -> np.ndarray:
+    """The linear map (M C, M 6) the ridge fit is shrunk toward: every moving coordinate of a free
+    node relaxes to the reference pose as a critically damped oscillator with time constant
+    ``config.prior_tau`` = tau [s] (per step, with r = model_dt / tau: velocity change
+    -r^2 x - 2 r v), independently of the others. In a direction the data excite the data decide;
+    in one they never excite this prior does. Shrinking toward zero instead (no force) leaves such
+    a direction ballistic (a double eigenvalue 1), which a long free run turns into a drift."""
+    M, C = net.n_kept, net.n_in
+    W0 = np.zeros((M * C, M * 6))
+    tau = net.config.prior_tau
+    if tau is None:
+        return W0
+    r = net.config.model_dt / tau
+    sx, sv, sa = (getattr(net, k).double().numpy() for k in ("sx", "sv", "sa"))
+    for i in np.flatnonzero(~net.fixed.numpy()):
+        for c in np.flatnonzero(sa > 0):
+            W0[i * C + c, i * 6 + c] = -r * r * sx[c] / sa[c]
+            W0[i * C + 6 + c, i * 6 + c] = -2.0 * r * sv[c] / sa[c]
+    return W0
 
 
 def _ridge_fit(net: DynamicNet, normal: tuple, ridge: float) -> None:
     """Set the linear term to the ridge solution of the one-step velocity changes (``normal``:
-    ``_normal_equations``; the penalty is ``ridge`` times the mean feature variance)."""
+    ``_normal_equations``; the penalty is ``ridge`` times the mean feature variance), shrunk toward
+    ``damping_prior``."""
     G, b, fm, am = normal
     lam = ridge * max(float(np.trace(G)) / G.shape[0], _FLOOR)
-    W = np.linalg.solve(G + lam * np.eye(G.shape[0]), b)
+    W = np.linalg.solve(G + lam * np.eye(G.shape[0]), b + lam * damping_prior(net))
     with torch.no_grad():
         net.linear.weight.copy_(torch.as_tensor(W.T, dtype=torch.float32))
         net.linear.bias.copy_(torch.as_tensor(am - fm @ W, dtype=torch.float32))
@@ -162,7 +186,9 @@ def _ridge_fit(net: DynamicNet, normal: tuple, ridge: float) -> None:
 
 def spectral_radius(net: DynamicNet) -> float:
     """Largest |eigenvalue| of the model's state map with no load, linearised at the reference
-    (exact for the linear term alone). Fixed nodes contribute eigenvalues 1."""
+    (exact for the linear term alone), over the coordinates that move: a fixed node holds its state
+    and a channel that never moves in the data (``sa`` 0) keeps its velocity whatever the model,
+    so both only add eigenvalues 1 that nothing else feeds (the map is block triangular)."""
     H, M = net.config.history, net.n_kept
     n = H * M * 6
     with torch.no_grad():
@@ -175,16 +201,21 @@ def spectral_radius(net: DynamicNet) -> float:
     companion = np.zeros((n, n))
     companion[:-M * 6, M * 6:] = np.eye(n - M * 6)       # shift: old states move one slot back
     companion[-M * 6:, :] = J
+    moving = ((~net.fixed.numpy())[:, None] & (net.sa.numpy() > 0)[None, :]).reshape(-1)
+    keep = np.flatnonzero(np.tile(moving, H))
+    if keep.size == 0:
+        return 1.0
+    companion = companion[np.ix_(keep, keep)]
     from scipy.sparse.linalg import ArpackError, ArpackNoConvergence, eigs
 
-    v0 = np.random.default_rng(0).standard_normal(n)     # a fixed start: the same radius (and ridge) every run
+    v0 = np.random.default_rng(0).standard_normal(len(keep))   # a fixed start: the same radius (and ridge) every run
     try:   # the largest eigenvalue only (ARPACK): a full eigvals of a few hundred rows is slow on a busy machine
         return float(np.max(np.abs(eigs(companion, k=1, which="LM", return_eigenvectors=False, tol=1e-8, v0=v0))))
-    except (ArpackNoConvergence, ArpackError):
+    except (ArpackNoConvergence, ArpackError, ValueError):
         return float(np.max(np.abs(np.linalg.eigvals(companion))))
 
 
-def _fit_linear(net: DynamicNet, trajectories, ridge: float, validation=()) -> dict:
+def _fit_linear(net: DynamicNet, normal: tuple, ridge: float, validation=()) -> dict:
     """The ridge fit of the linear term; returns {ridge, linear_radius, ridge_validation}.
 
     Without ``validation`` the penalty is raised tenfold from ``ridge`` until the linear model is
@@ -192,8 +223,7 @@ def _fit_linear(net: DynamicNet, trajectories, ridge: float, validation=()) -> d
     trajectories, every penalty of that ladder is tried and the one whose free runs on them have
     the smallest error is kept (``validation_error``): a one-step fit says little about a long free
     run, and with feedback laws (``softrnn.dynamic.feedback``) the open-loop radius does not
-    describe the closed loop either."""
-    normal = _normal_equations(net, trajectories)
+    describe the closed loop either. ``normal``: ``_normal_equations``' first part."""
     lam, tried = ridge, []
     for _ in range(RIDGE_TRIES):
         _ridge_fit(net, normal, lam)
@@ -309,9 +339,13 @@ def _average(loop: _Loop, net, decay: float) -> None:
 
 def _start(net, trajectories, encoding, config, sc, validation=()):
     """The linear baseline fitted by ridge (its penalty chosen on ``validation`` free runs, if any),
-    copied into ``net``'s linear term: (baseline, fit info)."""
+    copied into ``net``'s linear term, and ``net``'s envelope set to the data's feature range:
+    (baseline, fit info)."""
     baseline = DynamicNet(linear_config(config), encoding.node_features(), encoding.fixed, sc)
-    fit = _fit_linear(baseline, trajectories, config.ridge, validation)
+    normal, (lo, hi) = _normal_equations(baseline, trajectories)
+    cols = net.conv_cols.numpy()
+    net.set_envelope(torch.as_tensor(lo[cols], dtype=torch.float32), torch.as_tensor(hi[cols], dtype=torch.float32))
+    fit = _fit_linear(baseline, normal, config.ridge, validation)
     baseline.eval()
     if net.linear is not None:
         net.linear.load_state_dict(baseline.linear.state_dict())
