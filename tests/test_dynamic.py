@@ -27,7 +27,7 @@ from softrnn.dynamic import fit as fit_mod  # noqa: E402  (needs torch)
 from softrnn.dynamic import training  # noqa: E402
 from softrnn.dynamic.artifact import DynamicFolderError, engine_of, load_dynamic, save_dynamic  # noqa: E402
 from softrnn.dynamic.data import split_inputs  # noqa: E402
-from softrnn.dynamic.engine import Diverged, DynamicEngine  # noqa: E402
+from softrnn.dynamic.engine import DynamicEngine  # noqa: E402
 from softrnn.dynamic.network import DynamicNet  # noqa: E402
 from softrnn.dynamic.training import train_dynamic_model  # noqa: E402
 
