@@ -88,7 +88,9 @@ class DynamicEngine:
         if "env_lo" in w:
             lo, hi, inv = w["env_lo"], w["env_hi"], w["env_inv"]
             margin = np.where(inv > 0, 1.0 / np.where(inv > 0, inv, 1.0), 0.0)
-            self.envelope = tuple(a.astype(dt) for a in (lo, hi, inv, lo - margin, hi + margin))
+            # |g - mid| - half > 0 outside [lo, hi]; (M, G) scratch reused every step
+            self.envelope = tuple(a.astype(dt) for a in ((lo + hi) / 2, (hi - lo) / 2, inv, lo - margin, hi + margin))
+            self._over = np.empty((M, lo.shape[0]), dtype=dt)
         convs = sorted({int(k.split(".")[1]) for k in w if k.startswith("conv.")})
         self.convs = []
         for i in convs:
@@ -123,11 +125,17 @@ class DynamicEngine:
 
     def _gate(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(clipped inputs (M, G), gate (M, 1)), as ``DynamicNet.envelope_gate``."""
-        lo, hi, inv, lo_m, hi_m = self.envelope
-        over = np.maximum(np.maximum(lo - g, g - hi), 0.0) * inv
-        gate = np.maximum(1.0 - over.max(axis=1, keepdims=True), 0.0)
+        mid, half, inv, lo_m, hi_m = self.envelope
+        over = self._over
+        np.subtract(g, mid, out=over)
+        np.abs(over, out=over)
+        over -= half
+        over *= inv                                   # > 0: how far outside, in margins
+        worst = over.max(axis=1, keepdims=True)
+        if worst.max() <= 0.0:                        # every node inside the data: nothing to do
+            return g, None
         np.clip(g, lo_m, hi_m, out=g)
-        return g, gate
+        return g, np.clip(1.0 - worst, 0.0, 1.0)
 
     def features(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:
         """hist (H, M, 6), loads (M, L) -> (M, C), as ``DynamicNet.features`` (a reused buffer)."""
