@@ -71,6 +71,20 @@ def _one_line_error(capsys, *words) -> str:
     return err
 
 
+def test_the_envelope_and_the_prior_can_be_switched_off(data, tmp_path):
+    from safetensors.numpy import load_file
+
+    code, text = _train(data, tmp_path / "m", "--envelope", "off", "--prior-tau", "OFF")
+    assert code == 0, text
+    config = json.loads((tmp_path / "m" / "model.json").read_text())["config"]
+    assert config["envelope"] is None and config["prior_tau"] is None
+    assert "env_lo" not in load_file(str(tmp_path / "m" / "weights.safetensors"))
+    code, text = _train(data, tmp_path / "n", "--envelope", "0.5", "--prior-tau", "2")
+    assert code == 0, text
+    config = json.loads((tmp_path / "n" / "model.json").read_text())["config"]
+    assert config["envelope"] == 0.5 and config["prior_tau"] == 2.0
+
+
 def test_train_writes_a_model_folder_that_records_the_heldout_variant(model, data):
     folder, text = model
     assert sorted(p.name for p in folder.iterdir()) == ["linear.safetensors", "model.json", "weights.safetensors"]
@@ -236,6 +250,8 @@ def test_an_interrupted_training_resumes_to_the_same_weights(model, data, tmp_pa
     (["train", "{sweep}/nothing.h5"], ["DATA=", "nothing.h5"]),
     (["train", "{sweep}", "--threads", "0"], ["--threads=0", ">= 1"]),
     (["train", "{sweep}", "--memory", "gru"], ["invalid choice", "softrnn dynamic train --help"]),
+    (["train", "{sweep}", "--envelope", "0"], ["--envelope=0", "positive"]),
+    (["train", "{sweep}", "--prior-tau", "soon"], ["--prior-tau", "'soon'"]),
     (["evaluate", "{model}"], ["at least one of --test"]),
     (["evaluate", "{model}", "--test", "{one}", "--test-start", "1.5"], ["--test-start=1.5", "(0, 1)"]),
     (["evaluate", "{sweep}", "--test", "{one}"], ["model.json is missing"]),

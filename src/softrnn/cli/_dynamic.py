@@ -23,7 +23,8 @@ SETTINGS = "checkpoint.json"
 _OPTIONS = {"model_dt": "--model-dt", "node_stride": "--node-stride", "history": "--history", "memory": "--memory",
             "width": "--width", "layers": "--layers", "steps": "--steps", "unroll": "--unroll", "noise": "--noise",
             "seed": "--seed", "heldout": "--heldout", "validation": "--validation",
-            "train_fraction": "--train-fraction", "data": "DATA", "drive": "--drive"}
+            "train_fraction": "--train-fraction", "data": "DATA", "drive": "--drive", "envelope": "--envelope",
+            "prior_tau": "--prior-tau", "ema": "--ema"}
 """Library argument names -> the options that set them (for the one-line errors)."""
 
 
@@ -86,10 +87,16 @@ def _add_train(p):
     p.add_argument("--steps", type=int, default=None, metavar="N", help="optimiser steps (default: 4000)")
     p.add_argument("--unroll", type=int, default=None, metavar="K", help="free steps in the loss (default: 20)")
     p.add_argument("--noise", type=float, default=None, metavar="X",
-                   help="input noise in units of the velocities' spread (default: 0.05)")
+                   help="input noise in units of the velocities' spread (default: 0.01)")
     p.add_argument("--seed", type=int, default=None, metavar="S", help="random seed (default: 0)")
     p.add_argument("--ema", type=float, default=None, metavar="D",
                    help="decay of the running average of the weights validated beside them (default: 0.995; 0: off)")
+    p.add_argument("--envelope", type=_float_or_off, default=None, metavar="M",
+                   help="the network's correction acts within the training data's range of its inputs and fades "
+                        "to zero M times that range beyond it; 'off': everywhere (default: 0.25)")
+    p.add_argument("--prior-tau", type=_float_or_off, default=None, metavar="S",
+                   help="the ridge fit of the linear term is shrunk toward a critically damped relaxation with "
+                        "this time constant [s]; 'off': toward zero (default: 1.0)")
     p.add_argument("--recorded-feedback", dest="feedback", action="store_false", default=None,
                    help="take the recorded forces of PD tracking loads as inputs instead of applying the law to "
                         "the model's own state (default: the law, where a data set's scenario has PD loads)")
@@ -116,12 +123,24 @@ class _StepBar(Bar):
                                      refresh=False)
 
 
+def _float_or_off(text: str):
+    """A number, or 'off' (the option switched off: None in the config)."""
+    if text.strip().lower() == "off":
+        return _OFF
+    return float(text)
+
+
+_float_or_off.__name__ = "number or 'off'"     # argparse names the type in its error
+_OFF = "off"
+
+
 def _config(args):
     from ..dynamic.config import DynamicConfig
 
     names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed",
-             "ema", "feedback", "drive")
-    return DynamicConfig(**{k: getattr(args, k) for k in names if getattr(args, k) is not None})
+             "ema", "feedback", "drive", "envelope", "prior_tau")
+    given = {k: getattr(args, k) for k in names if getattr(args, k) is not None}
+    return DynamicConfig(**{k: (None if v is _OFF else v) for k, v in given.items()})
 
 
 def _check_step(split, config) -> None:
