@@ -9,6 +9,7 @@ benchmark run, and what a control loop would call.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from numpy.lib.stride_tricks import as_strided
 
 from ..errors import SimulationError, bad
@@ -33,6 +34,34 @@ def _twice_gelu_(x: np.ndarray) -> None:
 
 def _sigmoid(x: np.ndarray) -> np.ndarray:
     return 0.5 * (1.0 + np.tanh(0.5 * x))
+
+
+@njit(cache=True, error_model="numpy")
+def envelope_gate_into(g, lo, hi, inv, gate):
+    """The envelope (``DynamicNet.envelope_gate``) in one pass: ``gate`` (M, 1) <- max(0, 1 - the
+    largest over channels of (distance outside [lo, hi]) inv) per node; ``g`` (M, G) clipped in
+    place at 1 / inv beyond the range (a channel with inv 0 to the range itself, and it never
+    gates). Returns whether any node is outside (gate below 1)."""
+    M, G = g.shape
+    outside = False
+    for i in range(M):
+        worst = 0.0
+        for c in range(G):
+            if inv[c] == 0.0:                       # a channel the data never vary: held in its range
+                g[i, c] = min(max(g[i, c], lo[c]), hi[c])
+            else:
+                x = g[i, c]
+                d = lo[c] - x if x < lo[c] else x - hi[c]
+                if d > 0.0:
+                    d *= inv[c]
+                    if d > worst:
+                        worst = d
+                    if d > 1.0:                     # clip at the margin (d = 1)
+                        g[i, c] = lo[c] - 1.0 / inv[c] if x < lo[c] else hi[c] + 1.0 / inv[c]
+        gate[i, 0] = max(0.0, 1.0 - worst)
+        if worst > 0.0:
+            outside = True
+    return outside
 
 
 class Diverged(SimulationError):
@@ -86,11 +115,8 @@ class DynamicEngine:
         self._keep = np.asarray(conv_channels(H, config.conv_reads, L))
         self.envelope = None            # the correction's input range (DynamicNet.set_envelope), if any
         if "env_lo" in w:
-            lo, hi, inv = w["env_lo"], w["env_hi"], w["env_inv"]
-            margin = np.where(inv > 0, 1.0 / np.where(inv > 0, inv, 1.0), 0.0)
-            # |g - mid| - half > 0 outside [lo, hi]; (M, G) scratch reused every step
-            self.envelope = tuple(a.astype(dt) for a in ((lo + hi) / 2, (hi - lo) / 2, inv, lo - margin, hi + margin))
-            self._over = np.empty((M, lo.shape[0]), dtype=dt)
+            self.envelope = tuple(w[k].astype(dt) for k in ("env_lo", "env_hi", "env_inv"))
+            self._gate_buf = np.empty((M, 1), dtype=dt)
         convs = sorted({int(k.split(".")[1]) for k in w if k.startswith("conv.")})
         self.convs = []
         for i in convs:
@@ -123,19 +149,11 @@ class DynamicEngine:
             g = out
         return g
 
-    def _gate(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(clipped inputs (M, G), gate (M, 1)), as ``DynamicNet.envelope_gate``."""
-        mid, half, inv, lo_m, hi_m = self.envelope
-        over = self._over
-        np.subtract(g, mid, out=over)
-        np.abs(over, out=over)
-        over -= half
-        over *= inv                                   # > 0: how far outside, in margins
-        worst = over.max(axis=1, keepdims=True)
-        if worst.max() <= 0.0:                        # every node inside the data: nothing to do
-            return g, None
-        np.clip(g, lo_m, hi_m, out=g)
-        return g, np.clip(1.0 - worst, 0.0, 1.0)
+    def _gate(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """(clipped inputs (M, G), gate (M, 1) or None where every node is inside the data), as
+        ``DynamicNet.envelope_gate`` (``envelope_gate_into``)."""
+        outside = envelope_gate_into(g, *self.envelope, self._gate_buf)
+        return g, (self._gate_buf if outside else None)
 
     def features(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:
         """hist (H, M, 6), loads (M, L) -> (M, C), as ``DynamicNet.features`` (a reused buffer)."""
@@ -169,7 +187,7 @@ class DynamicEngine:
             if self.convs:
                 c, b = self._conv(g), self.bound
                 if gate is not None:
-                    c = c * gate
+                    c *= gate
                 a += b * np.tanh(c / b) if b > 0 else c
         x = hist[-1]
         a *= self.sa
