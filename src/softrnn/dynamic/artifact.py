@@ -11,7 +11,7 @@ model.json          ``{"format": "softrnn-dynamic-model", "format_version": 1, "
                     (training data, held-out variants, training info)
 =================== ============================================================================
 
-Loading needs NumPy and safetensors only (no PyTorch): ``load_dynamic(folder).engine`` steps it.
+Loading needs NumPy, numba and safetensors only (no PyTorch): ``load_dynamic(folder).engine`` steps it.
 """
 
 from __future__ import annotations

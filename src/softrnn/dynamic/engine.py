@@ -1,6 +1,7 @@
 """``DynamicEngine``: a trained whole-manipulator model in NumPy, stepping free on one core.
 
-The same arithmetic as ``DynamicNet.forward`` (float64, no PyTorch): the global linear term is one
+The same arithmetic as ``DynamicNet.forward`` (NumPy, no PyTorch; the envelope gate is one small
+numba kernel, ``envelope_gate_into``): the global linear term is one
 matrix-vector product, each convolution along the rod one small matrix product over a sliding
 window of the padded node axis. It is what ``softrnn dynamic rollout``, the evaluation and the
 benchmark run, and what a control loop would call.
