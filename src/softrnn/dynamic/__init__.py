@@ -6,7 +6,8 @@ the rod, free running step after step at its own (coarser) time step on a subset
 * ``config``: ``DynamicConfig`` (frozen, validated);
 * ``network``: ``DynamicNet`` (PyTorch): a global linear term plus a 1-D convolution along the rod;
 * ``training``: ``train_dynamic_model`` (unrolled multi-step loss, noise injection, resumable);
-* ``engine``: ``DynamicEngine``: the trained model in NumPy (and one numba kernel), stepping free (one core, no PyTorch);
+* ``engine``: ``DynamicEngine``: the trained model in NumPy (and one numba kernel), stepping free
+  (one core, no PyTorch);
 * ``artifact``: ``save_dynamic``, ``load_dynamic``;
 * ``evaluation``: errors at every node beside persistence, constant velocity and a linear model;
 * ``data``: ``split_inputs`` (training parts and held-out variants of files and sweep folders);
