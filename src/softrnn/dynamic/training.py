@@ -172,13 +172,14 @@ def damping_prior(net: DynamicNet) -> np.ndarray:
     return W0
 
 
-def _ridge_fit(net: DynamicNet, normal: tuple, ridge: float) -> None:
+def _ridge_fit(net: DynamicNet, normal: tuple, ridge: float, prior: np.ndarray | None = None) -> None:
     """Set the linear term to the ridge solution of the one-step velocity changes (``normal``:
     ``_normal_equations``; the penalty is ``ridge`` times the mean feature variance), shrunk toward
-    ``damping_prior``."""
+    ``prior`` (default: ``damping_prior(net)``)."""
     G, b, fm, am = normal
     lam = ridge * max(float(np.trace(G)) / G.shape[0], _FLOOR)
-    W = np.linalg.solve(G + lam * np.eye(G.shape[0]), b + lam * damping_prior(net))
+    prior = damping_prior(net) if prior is None else prior
+    W = np.linalg.solve(G + lam * np.eye(G.shape[0]), b + lam * prior)
     with torch.no_grad():
         net.linear.weight.copy_(torch.as_tensor(W.T, dtype=torch.float32))
         net.linear.bias.copy_(torch.as_tensor(am - fm @ W, dtype=torch.float32))
@@ -224,9 +225,9 @@ def _fit_linear(net: DynamicNet, normal: tuple, ridge: float, validation=()) -> 
     the smallest error is kept (``validation_error``): a one-step fit says little about a long free
     run, and with feedback laws (``softrnn.dynamic.feedback``) the open-loop radius does not
     describe the closed loop either. ``normal``: ``_normal_equations``' first part."""
-    lam, tried = ridge, []
+    lam, tried, prior = ridge, [], damping_prior(net)       # the same prior on every rung
     for _ in range(RIDGE_TRIES):
-        _ridge_fit(net, normal, lam)
+        _ridge_fit(net, normal, lam, prior)
         rho = spectral_radius(net)
         if not validation:
             if rho <= STABLE_RADIUS:
@@ -237,7 +238,7 @@ def _fit_linear(net: DynamicNet, normal: tuple, ridge: float, validation=()) -> 
     if not validation:    # still above STABLE_RADIUS: TrainedDynamic.info["linear_stable"] says so
         return {"ridge": lam / 10.0, "linear_radius": rho, "ridge_validation": []}
     err, lam, rho = min(tried, key=lambda r: (r[0], r[1]))
-    _ridge_fit(net, normal, lam)
+    _ridge_fit(net, normal, lam, prior)
     return {"ridge": lam, "linear_radius": rho,
             "ridge_validation": [[p, None if not math.isfinite(e) else e] for e, p, _ in tried]}
 
