@@ -467,7 +467,8 @@ def test_the_damping_prior_makes_the_ridge_start_strictly_stable(chain_encoding)
         radius[tau] = training.spectral_radius(net)
     assert radius[1.0] < 0.999 and radius[None] > 0.9999, radius
     # with no data at all the fit is the prior: each coordinate a critically damped oscillator
-    W0 = training.damping_prior(net.__class__(config, enc.node_features(), enc.fixed, sc))
+    W0 = training.damping_prior(net.__class__(dataclasses.replace(config, prior_tau=1.0), enc.node_features(),
+                                              enc.fixed, sc))
     r, i, c, C = 0.01 / 1.0, 1, 1, net.n_in                    # node 1 (free), channel y (moving)
     assert W0[i * C + c, i * 6 + c] == pytest.approx(-r * r * sc["sx"][c] / sc["sa"][c])
     assert W0[i * C + 6 + c, i * 6 + c] == pytest.approx(-2 * r * sc["sv"][c] / sc["sa"][c])

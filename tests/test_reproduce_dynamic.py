@@ -111,3 +111,44 @@ def test_bench_times_a_trained_model_folder(monkeypatch, tmp_path, capsys):
     assert main(["bench", "--only", "dynamic", "--quick", "--dynamic-model", str(tmp_path / "none")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "no such model folder" in err
+
+
+def test_trainings_side_by_side_give_the_weights_of_one_after_the_other(tmp_path):
+    """``train_cases`` with two worker processes (one PyTorch thread each) writes the same models as
+    training in this process, with progress reported per case; a finished model is not trained again."""
+    import numpy as np
+    from safetensors.numpy import load_file
+
+    from softrnn.dynamic.data import split_inputs
+    from softrnn.io.dataset import write_dataset
+    from test_dynamic import _chain
+
+    data = tmp_path / "data"
+    data.mkdir()
+    for i in range(3):
+        write_dataset(data / f"traj-{i:05d}.h5", _chain(0.02 + 0.01 * i, 0.7 * i, n_nodes=5, n_samples=41, dt=0.01))
+    split = split_inputs([data], heldout=1)
+    config = DynamicConfig(model_dt=0.01, node_stride=2, width=8, layers=1, unroll=3, batch=8, steps=20, noise=0.05)
+    jobs = lambda root: [(case, root / case, split, replace(config, seed=k))  # noqa: E731
+                         for k, case in enumerate(("a", "b", "c"))]
+    seen = {}
+
+    def factory(desc):
+        return lambda done, total, info=None: seen.setdefault(desc, []).append((done, total))
+
+    rd.train_cases(jobs(tmp_path / "pool"), workers=2, threads=1, progress_factory=factory)
+    rd.train_cases(jobs(tmp_path / "here"), workers=1, threads=1)
+    for case in ("a", "b", "c"):
+        pool = load_file(tmp_path / "pool" / case / "model" / "weights.safetensors")
+        here = load_file(tmp_path / "here" / case / "model" / "weights.safetensors")
+        assert pool.keys() == here.keys()
+        for key in pool:
+            np.testing.assert_array_equal(pool[key], here[key])
+        assert not (tmp_path / "pool" / case / "checkpoint.pt").exists()
+        assert seen[f"train dynamic {case}"][-1] == (20, 20)
+    a = load_file(tmp_path / "pool" / "a" / "model" / "weights.safetensors")
+    b = load_file(tmp_path / "pool" / "b" / "model" / "weights.safetensors")
+    assert any(not np.array_equal(a[k], b[k]) for k in a)           # the seeds differ, so do the weights
+    seen.clear()
+    rd.train_cases(jobs(tmp_path / "pool"), workers=2, threads=1, progress_factory=factory)
+    assert seen == {}                                                 # nothing left to train

@@ -96,7 +96,7 @@ def _add_train(p):
                         "to zero M times that range beyond it; 'off': everywhere (default: 0.25)")
     p.add_argument("--prior-tau", type=_float_or_off, default=None, metavar="S",
                    help="the ridge fit of the linear term is shrunk toward a critically damped relaxation with "
-                        "this time constant [s]; 'off': toward zero (default: 1.0)")
+                        "this time constant [s]; 'off': toward zero (default: 0.5)")
     p.add_argument("--recorded-feedback", dest="feedback", action="store_false", default=None,
                    help="take the recorded forces of PD tracking loads as inputs instead of applying the law to "
                         "the model's own state (default: the law, where a data set's scenario has PD loads)")

@@ -8,7 +8,10 @@ Per case (``out/dynamic/CASE/``, step file ``out/dynamic/CASE.json``):
    ``n_heldout`` are held out (never trained on);
 2. training (``softrnn.dynamic.fit``, config ``CONFIGS[CASE]``) on the paper trajectory's first 60 %
    (``out/data/CASE.h5``; its first sample is the reference pose) and the training variants, with a
-   checkpoint in the case's folder (an interrupted run resumes); the model goes to ``model/``;
+   checkpoint in the case's folder (an interrupted run resumes); the model goes to ``model/``. The
+   cases train side by side, ``TRAIN_WORKERS`` processes of one PyTorch thread each
+   (``train_cases``): on small tensors two single-threaded trainings cover 1.6 times the steps of one
+   two-threaded training, and one thread makes the weights the same on any machine;
 3. ``evaluate_dynamic``: the paper trajectory's test span, the held-out variants (and the horizons),
    the generalisation data set (``cases.GENERALISATION``);
 4. speed: the simulator and the model on one core each, one after the other
@@ -42,11 +45,19 @@ from .stepfiles import load_step, save_step
 
 CASES = ("ellipse", "square", "semicircle")
 CONFIGS = {
-    "ellipse": DynamicConfig(),
-    "square": DynamicConfig(),
+    "ellipse": DynamicConfig(prior_tau=0.3),
+    "square": DynamicConfig(steps=2500),
     "semicircle": DynamicConfig(),
 }
-"""The model of each case (architecture and training); ``--quick`` trains ``QUICK_STEPS`` steps."""
+"""The model of each case (architecture and training); ``--quick`` trains ``QUICK_STEPS`` steps.
+The damping prior's time constant of each case is the one with the smallest validation error
+(mean largest error of 1,000-step free runs on the validation variants, never the held-out ones)
+among 0.3, 0.5 and 1 s (docs/guide/dynamic.md, fourth round); the square settles by step 2,200
+(validation error 5.8 mm at 2,500 steps, 10.9 mm with 1 s at 4,000)."""
+TRAIN_WORKERS = 2
+"""Trainings run side by side (processes of one PyTorch thread each); 1: one after the other, here."""
+TRAIN_THREADS = 1
+"""PyTorch threads per training: one, so the weights do not depend on the machine's core count."""
 QUICK_STEPS = 20
 SWEEP = {"dt": 0.01, "n_train": 12, "n_validation": 6, "n_heldout": 8, "workers": 2,
          "duration_s": {"ellipse": 30.0, "square": 21.0, "semicircle": 21.0}}
@@ -127,24 +138,89 @@ def training_split(out: Path, case: str, sweep_dir: Path, s: dict):
     return paper + split_inputs([sweep_dir], heldout=s["n_heldout"], validation=s["n_validation"])
 
 
+def _fit_into(folder: Path, split, config: DynamicConfig, progress=None, threads: int | None = None) -> None:
+    """Train and save the model to ``folder/model``, checkpointing to ``folder/checkpoint.pt`` (an
+    interrupted training resumes from it; removed once the model is saved)."""
+    from ..dynamic.artifact import save_dynamic
+    from ..dynamic.fit import fit
+
+    trained, meta = fit(split, config, progress=progress, checkpoint=folder / "checkpoint.pt", threads=threads)
+    save_dynamic(folder / "model", trained, meta)
+    (folder / "checkpoint.pt").unlink(missing_ok=True)
+
+
 def train_case(case: str, folder: Path, split, config: DynamicConfig, progress_factory=None,
                threads: int | None = None):
-    """The model in ``folder/model`` (trained, or read when finished earlier): (LoadedDynamic, the
-    training's seconds). Training checkpoints to ``folder/checkpoint.pt`` and resumes from it;
-    ``threads``: PyTorch's threads while training (None: as set)."""
+    """The model in ``folder/model`` (trained here, or read when finished earlier): (LoadedDynamic,
+    the training's seconds). ``threads``: PyTorch's threads while training (None: as set)."""
     from ..dynamic.artifact import is_dynamic_folder, load_dynamic
 
     model_dir = folder / "model"
     if not is_dynamic_folder(model_dir):
-        from ..dynamic.artifact import save_dynamic
-        from ..dynamic.fit import fit
-
         progress = progress_factory(f"train dynamic {case}") if progress_factory else None
-        trained, meta = fit(split, config, progress=progress, checkpoint=folder / "checkpoint.pt", threads=threads)
-        save_dynamic(model_dir, trained, meta)
-        (folder / "checkpoint.pt").unlink(missing_ok=True)
+        _fit_into(folder, split, config, progress, threads)
     loaded = load_dynamic(model_dir)
     return loaded, float((loaded.meta.get("training") or {}).get("train_seconds", 0.0))
+
+
+_QUEUE = None
+"""A training worker's progress queue (``_worker_init``)."""
+_PROGRESS_EVERY = 10
+
+
+def _worker_init(queue) -> None:
+    global _QUEUE
+    _QUEUE = queue
+
+
+def _train_job(case: str, folder: str, split, config: DynamicConfig, threads: int) -> str:
+    """One case's training in a worker process; progress goes to the parent through ``_QUEUE`` as
+    (case, done, total), every ``_PROGRESS_EVERY`` steps and at the end."""
+    def progress(done, total, info=None):
+        if done % _PROGRESS_EVERY == 0 or done == total:
+            _QUEUE.put((case, int(done), int(total)))
+
+    _fit_into(Path(folder), split, config, progress if _QUEUE is not None else None, threads)
+    return case
+
+
+def train_cases(jobs: list, workers: int = TRAIN_WORKERS, threads: int = TRAIN_THREADS,
+                progress_factory=None) -> None:
+    """Train every job (case, folder, split, config) whose ``folder/model`` is missing, ``workers``
+    at a time in processes of ``threads`` PyTorch threads (1 worker: one after the other in this
+    process, same arithmetic). Each training checkpoints and resumes as ``train_case``'s; an
+    interruption (Ctrl-C, SIGTERM) stops the workers and keeps every finished model."""
+    from ..dynamic.artifact import is_dynamic_folder
+
+    jobs = [j for j in jobs if not is_dynamic_folder(Path(j[1]) / "model")]
+    bars = {case: progress_factory(f"train dynamic {case}") if progress_factory else None for case, *_ in jobs}
+    if workers <= 1 or len(jobs) <= 1:
+        for case, folder, split, config in jobs:
+            _fit_into(Path(folder), split, config, bars[case], threads)
+        return
+    import multiprocessing
+    import queue as queues
+
+    ctx = multiprocessing.get_context("spawn")      # no fork of a process that holds PyTorch's and numba's threads
+    messages = ctx.Queue()
+    pool = ctx.Pool(min(workers, len(jobs)), initializer=_worker_init, initargs=(messages,))
+    try:
+        pending = [pool.apply_async(_train_job, (case, str(folder), split, config, threads))
+                   for case, folder, split, config in jobs]
+        while pending:
+            try:
+                case, done, total = messages.get(timeout=0.2)
+                if bars[case] is not None:
+                    bars[case](done, total)
+            except queues.Empty:
+                pass
+            for result in [r for r in pending if r.ready()]:
+                result.get()                          # a training's error is raised here
+                pending.remove(result)
+        pool.close()
+    finally:
+        pool.terminate()
+        pool.join()
 
 
 def _speed(case: str, loaded, trajectories: list, quick: bool) -> dict:
@@ -315,30 +391,49 @@ def finished_case(step_file: Path, folder: Path, settings_: dict, quick: bool) -
     return None
 
 
-def dynamic_case(case: str, out: Path, quick: bool, progress_factory=None) -> dict:
-    """One case, skipped when its step file ``out/dynamic/CASE.json`` holds a finished result of the
-    same settings (``settings``: the sweep and ``CONFIGS[CASE]``)."""
-    step_file = out / "dynamic" / f"{case}.json"
+def _prepare_case(case: str, out: Path, quick: bool, progress_factory=None) -> dict:
+    """A case's folder (kept only for the same settings), sweep and split: what training needs."""
     folder = out / "dynamic" / case
     s = settings(case, quick)
-    done = finished_case(step_file, folder, s, quick)
-    if done is not None:
-        return done
     t0 = time.perf_counter()
     _fresh(folder, s)
     workers = (QUICK_SWEEP if quick else SWEEP)["workers"]
     sweep_dir = run_case_sweep(case, out, s["sweep"], workers, progress_factory)
-    split = training_split(out, case, sweep_dir, s["sweep"])
-    loaded, train_s = train_case(case, folder, split, config_for(case, quick), progress_factory)
+    return {"case": case, "folder": folder, "settings": s, "workers": workers, "t0": t0,
+            "split": training_split(out, case, sweep_dir, s["sweep"]), "config": config_for(case, quick)}
+
+
+def _finish_case(job: dict, out: Path, quick: bool) -> dict:
+    """A trained case measured (``_measure``) and its step file written."""
+    case, folder, s, split = job["case"], job["folder"], job["settings"], job["split"]
+    loaded, train_s = train_case(case, folder, split, job["config"])
     entry = _measure(case, out, folder, loaded, split, quick)
     training = {k: v for k, v in (loaded.meta.get("training") or {}).items() if k != "losses"}
     entry.update(train_seconds=train_s, train_config=loaded.config.to_dict(), training=training,
                  model=str((folder / "model").relative_to(out)), data=split.describe(), settings=s,
-                 sweep={"folder": f"sweeps/{case}", **s["sweep"], "workers": workers},
-                 step_s=time.perf_counter() - t0)
-    return save_step(step_file, entry, quick)
+                 sweep={"folder": f"sweeps/{case}", **s["sweep"], "workers": job["workers"]},
+                 train_threads=TRAIN_THREADS, train_workers=TRAIN_WORKERS,
+                 step_s=time.perf_counter() - job["t0"])
+    return save_step(out / "dynamic" / f"{case}.json", entry, quick)
 
 
-def dynamic_step(out: Path, quick: bool, progress_factory=None) -> dict:
-    """Every case's whole-manipulator model ({case: entry}; docs/report-format.md)."""
-    return {case: dynamic_case(case, Path(out), quick, progress_factory) for case in CASES}
+def dynamic_case(case: str, out: Path, quick: bool, progress_factory=None) -> dict:
+    """One case, skipped when its step file ``out/dynamic/CASE.json`` holds a finished result of the
+    same settings (``settings``: the sweep and ``CONFIGS[CASE]``); trained in this process."""
+    return dynamic_step(out, quick, progress_factory, cases=(case,), workers=1)[case]
+
+
+def dynamic_step(out: Path, quick: bool, progress_factory=None, *, cases=CASES, workers: int | None = None) -> dict:
+    """Every case's whole-manipulator model ({case: entry}; docs/report-format.md): the unfinished
+    cases' sweeps, then their trainings side by side (``train_cases``, ``workers``: default
+    ``TRAIN_WORKERS``), then each one's measurements, alone on the machine (the speed runs time one
+    core each)."""
+    out = Path(out)
+    done = {case: finished_case(out / "dynamic" / f"{case}.json", out / "dynamic" / case, settings(case, quick),
+                                quick) for case in cases}
+    jobs = [_prepare_case(case, out, quick, progress_factory) for case in cases if done[case] is None]
+    train_cases([(j["case"], j["folder"], j["split"], j["config"]) for j in jobs],
+                TRAIN_WORKERS if workers is None else workers, TRAIN_THREADS, progress_factory)
+    for job in jobs:
+        done[job["case"]] = _finish_case(job, out, quick)
+    return done

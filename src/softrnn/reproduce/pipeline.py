@@ -20,6 +20,7 @@ here (a test's monkeypatch) replaces it in the pipeline; what a step uses inside
 """
 
 import json
+import time
 from pathlib import Path
 
 from .. import __version__
@@ -82,15 +83,24 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory: ProgressFactory
     (out / "cases").mkdir(parents=True, exist_ok=True)
     report = {"softrnn_version": __version__, "quick": quick, "machine": machine_info(),
               "assumptions": ASSUMPTIONS}
-    _case_reports(report, out, quick, progress_factory)
-    _model_reports(report, out, quick, progress_factory)
-    report["manipulator"] = manipulator_step(out, quick, progress_factory)
-    report["dynamic_model"] = dynamic_step(out, quick, progress_factory)
-    report["magnetic"] = magnetic_step(out, quick, progress_factory)
-    report["control"] = control_step(out, quick, progress_factory)
-    report["fig13"] = fig13_step(out, quick)
-    report["fig14"] = fig14_step(out, quick, progress_factory)
-    report["benchmark"] = benchmark_step(out, quick, progress_factory)
+    seconds = {}
+
+    def timed(name, step, *args):
+        t0 = time.perf_counter()
+        result = step(*args)
+        seconds[name] = round(time.perf_counter() - t0, 1)
+        return result
+
+    timed("cases", _case_reports, report, out, quick, progress_factory)
+    timed("node_models", _model_reports, report, out, quick, progress_factory)
+    report["manipulator"] = timed("manipulator", manipulator_step, out, quick, progress_factory)
+    report["dynamic_model"] = timed("dynamic_model", dynamic_step, out, quick, progress_factory)
+    report["magnetic"] = timed("magnetic", magnetic_step, out, quick, progress_factory)
+    report["control"] = timed("control", control_step, out, quick, progress_factory)
+    report["fig13"] = timed("fig13", fig13_step, out, quick)
+    report["fig14"] = timed("fig14", fig14_step, out, quick, progress_factory)
+    report["benchmark"] = timed("benchmark", benchmark_step, out, quick, progress_factory)
+    report["step_seconds"] = seconds
     atomic_write_text(out / "report.json", json.dumps(report, indent=2))
     atomic_write_text(out / "report.md", render_markdown(report))
     return report

@@ -21,6 +21,15 @@ def render_markdown(report: dict) -> str:
     return "\n".join(lines)
 
 
+def _step_time_lines(seconds: dict | None) -> list[str]:
+    """One line: this run's wall time per step (``report["step_seconds"]``), and their sum."""
+    if not seconds:
+        return []
+    parts = ", ".join(f"{name} {s / 60:.1f}" for name, s in seconds.items())
+    return [f"Wall time per step [min]: {parts}; total {sum(seconds.values()) / 60:.1f} (steps finished by an "
+            "earlier run count only their reading).", ""]
+
+
 def _dataset_lines(report: dict) -> list[str]:
     """The title, the machine, the simulated data sets beside the paper's speed, and each case's node
     of interest with its figures."""
@@ -28,6 +37,7 @@ def _dataset_lines(report: dict) -> list[str]:
              f"{', quick run' if report['quick'] else ''})", "",
              f"Machine: {report['machine']['cpu']}, {report['machine']['cores']} cores, "
              f"Python {report['machine']['python']}.", "",
+             *_step_time_lines(report.get("step_seconds")),
              "## Datasets of the simulated cases (paper section 4): analytical model", "",
              "Every node saved at every sample (`data/*.h5`, docs/dataset-format.md). Time = simulation "
              "and writing the file.", "",

@@ -45,7 +45,7 @@ CASES = ("tendon-planar", "tendon-spatial")
 GENERALISATION = {"tendon-planar": "tendon-planar-sine", "tendon-spatial": "tendon-spatial-sine"}
 """Each arm's generalisation scenario: the same arm driven by sinusoidal tensions."""
 _BASE = DynamicConfig(drive="actuation", width=16, layers=2, unroll=5, batch=16, steps=300, lr=1e-5,
-                      linear_lr=0.0, bound=0.5, noise=0.05)
+                      linear_lr=0.0, bound=0.5, noise=0.05, prior_tau=1.0)
 CONFIGS = {"tendon-planar": _BASE, "tendon-spatial": _BASE}
 """Each case's model (architecture and training), driven by the tensions alone; ``quick`` trains
 ``QUICK_STEPS`` steps."""
