@@ -8,6 +8,7 @@ from softrnn.dynamic.config import DynamicConfig
 from softrnn.reproduce import cases as reproduce_cases
 from softrnn.reproduce import dynamic as reproduce_dynamic
 from softrnn.reproduce import pipeline as reproduce_mod
+from softrnn.reproduce import tendons as reproduce_tendons
 
 from helpers import run_cli
 
@@ -90,6 +91,12 @@ def _tiny_dynamic(monkeypatch):
         cases, DynamicConfig(node_stride=10, width=8, layers=1, unroll=2, batch=4)))
     monkeypatch.setattr(reproduce_dynamic, "QUICK_STEPS", 3)
     monkeypatch.setattr(reproduce_dynamic, "QUICK_SPEED", {"duration_s": 0.3, "reps": 1, "steps": 50})
+    monkeypatch.setattr(reproduce_tendons, "QUICK_SWEEP", {"dt": 0.01, "n_train": 1, "n_validation": 0,
+                                                           "n_heldout": 1, "workers": 1, "duration_s": 1.0})
+    monkeypatch.setattr(reproduce_tendons, "CONFIGS", dict.fromkeys(
+        reproduce_tendons.CASES, DynamicConfig(drive="actuation", node_stride=10, width=8, layers=1, unroll=2,
+                                               batch=4)))
+    monkeypatch.setattr(reproduce_tendons, "QUICK_STEPS", 3)
 
 
 def _check_dynamic(out, report):
@@ -109,6 +116,12 @@ def _check_dynamic(out, report):
         assert (out / e["model"] / "model.json").is_file()
         assert (out / "figures" / e["figure"]).stat().st_size > 1000
     assert "## Whole-manipulator dynamic model" in (out / "report.md").read_text()
+    for arm in reproduce_tendons.CASES:
+        e = report["tendons"][arm]
+        assert e["drive"] == "actuation" and e["channels"] and set(e["horizons"]) == {"10", "100", "1000"}
+        assert all(isinstance(g["met"], bool) for g in e["goals"].values())
+        assert f"### {arm}" in (out / "report.md").read_text()
+    assert set(report["step_seconds"]) >= {"cases", "dynamic_model", "tendons", "benchmark"}
 
 
 def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):

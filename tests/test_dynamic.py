@@ -541,7 +541,13 @@ def _same_weights(a, b) -> bool:
 
 def test_the_same_seed_gives_the_same_weights(chain_encoding):
     enc, trajs, _ = chain_encoding
-    a = train_dynamic_model(trajs, enc, SMALL, threads=1)
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        a = train_dynamic_model(trajs, enc, SMALL, threads=1)
+        assert torch.get_num_threads() == 2          # the caller's thread count is given back
+    finally:
+        torch.set_num_threads(before)
     b = train_dynamic_model(trajs, enc, SMALL, threads=1)
     c = train_dynamic_model(trajs, enc, dataclasses.replace(SMALL, seed=1), threads=1)
     assert _same_weights(a.net, b.net) and _same_weights(a.linear, b.linear)

@@ -261,6 +261,36 @@ def test_bench_quick(work):
     assert {"model", "simulator", "statics"} <= set(result)
 
 
+@needs_learn
+@needs_dask
+def test_dynamic_train_evaluate_rollout(simulated, work):
+    """The whole-manipulator model: trained on the sweep's first variant and the data set's first
+    60 % (a 0.2 ms model step: the data are 20 ms long), then evaluated and run free, each cold."""
+    sweep = work / "sweep"
+    if not (sweep / "traj-00001.h5").is_file():
+        _softrnn(["sweep", SCENARIO, "--count", 2, "--samples", 50, "-o", sweep, "--quiet"], work, "sweep for dynamic")
+    model = work / "dyn"
+    _softrnn(["dynamic", "train", sweep, work / "data.h5", "--heldout", 1, "--model-dt", 0.0002, "--steps", 5,
+              "--width", 8, "--layers", 1, "--unroll", 2, "--quiet", "-o", model], work, "dynamic train")
+    _nonempty(model / "model.json")
+    _softrnn(["dynamic", "evaluate", model, "--test", work / "data.h5", "--heldout", sweep / "traj-00001.h5",
+              "-o", work / "dyn-eval.json"], work, "dynamic evaluate")
+    report = json.loads((work / "dyn-eval.json").read_text())
+    assert report["predicted_nodes"] > 0 and set(report["horizons"]["10"]) >= {"model", "linear"}
+    _softrnn(["dynamic", "rollout", model, work / "data.h5", "-o", work / "dyn-pred.h5"], work, "dynamic rollout")
+    assert read_dataset(work / "dyn-pred.h5").attrs.get("rollout") == "dynamic"
+
+
+def test_lab_example(work):
+    """The lab-like recording of the tendon arm (the simulator, the tendons' actuation channels, the
+    noisy marker), then its import."""
+    _softrnn(["lab-example", "-o", work / "lab-example", "--scenarios", "tendon-planar", "--duration", 5], work)
+    _softrnn(["import-csv", work / "lab-example" / "tendon-planar.csv", "-o", work / "lab-tendon.h5",
+              "--length", 0.4], work, "import lab example")
+    ds = read_dataset(work / "lab-tendon.h5")
+    assert ds.n_samples == 101 and ds.actuation.shape == (101, 2)
+
+
 # ------------------------------------------------------------------------------ Dask, then numba in one process
 _DASK_THEN_COMPILE = textwrap.dedent("""
     import json

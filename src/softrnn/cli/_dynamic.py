@@ -365,11 +365,13 @@ def _check_test(model, path, data, fraction: float) -> None:
         raise bad("--test", str(path), "a trajectory whose test span the model never saw, but it "
                                        f"{'trained on' if role == 'train' else 'validated on'} all of it; "
                                        "use --heldout or --generalisation data instead")
-    k = model.encoding.stride(float(data.dt))
+    # on the model's step grid (every k-th sample): the first predicted state, one model step after the
+    # start, must lie beyond the trained samples 0 .. stop - 1
+    k, stop = model.encoding.stride(float(data.dt)), int(entry["stop"])
     n_steps = (data.n_samples - 1) // k + 1
-    start = max(max(model.engine.history, 2) - 1, int(round(fraction * (n_steps - 1)))) * k
-    if start < int(entry["stop"]) - 1:
-        first = (int(entry["stop"]) - 1) / max(1, data.n_samples - 1)
+    start = max(max(model.engine.history, 2) - 1, int(round(fraction * (n_steps - 1))))
+    if (start + 1) * k < stop:
+        first = (-(-stop // k) - 1) / max(1, n_steps - 1)        # the first start step whose next state is unseen
         raise bad("--test-start", fraction, f"a start after the trained part of {path} (its first "
                                             f"{entry['stop']} samples): a fraction >= {first:.3g}")
 

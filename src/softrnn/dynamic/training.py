@@ -362,10 +362,18 @@ def train_dynamic_model(trajectories: list[Trajectory], encoding: Encoding, conf
     first) the model runs free on them and the weights with the smallest largest error are kept
     (model selection on long free runs; without validation the last weights are kept).
     ``checkpoint``: a file path to save to every ``CHECKPOINT_EVERY`` steps and resume from.
-    ``threads``: PyTorch's threads while training (None: as set).
+    ``threads``: PyTorch's threads while training (None: as set; the caller's count is restored after).
     ``progress(step, steps, {"loss", "unroll"})`` after every step."""
+    old_threads = torch.get_num_threads()
     if threads is not None:
         torch.set_num_threads(int(threads))
+    try:
+        return _train(trajectories, encoding, config, validation, progress, checkpoint)
+    finally:
+        torch.set_num_threads(old_threads)
+
+
+def _train(trajectories, encoding, config, validation, progress, checkpoint) -> TrainedDynamic:
     torch.manual_seed(config.seed)
     windows = _windows(trajectories, config.history + config.unroll)
     sc = scales(trajectories, wrench=encoding.drive != "actuation")

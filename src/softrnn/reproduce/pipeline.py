@@ -5,8 +5,9 @@ and of their generalisation variants (``data/*.h5``) with figures and animations
 node model of each case, trained, evaluated one step ahead and free running, generalised, checked
 against PyTorch (``node_models``); the whole semicircle with one shared model, Fig. 2C
 (``manipulator``); the learned whole-manipulator dynamic model of each case, on its own sweep,
-beside its baselines and timed against the simulator (``dynamic``, beyond the paper); the
-magnetic experiment simulated, section 5, Table 1, Fig. 12 (``magnetic``); closed-loop control
+beside its baselines and timed against the simulator (``dynamic``, beyond the paper); the same
+model on the two tendon-driven arms, driven by their tensions alone (``tendons``, beyond the
+paper); the magnetic experiment simulated, section 5, Table 1, Fig. 12 (``magnetic``); closed-loop control
 of the magnetic rod, static-inverse against MPC on a learned model (``control``, beyond the paper);
 the static solver's Fig. 13 study (``fig13``); the Fig. 14 hyper-parameter study (``fig14``);
 ``softrnn bench`` (``benchmark``); then ``report.json`` and ``report.md`` (``report``,
@@ -46,6 +47,7 @@ from .node_models import paper_errors as paper_errors
 from .report import render_markdown as render_markdown
 from .stepfiles import load_step as load_step
 from .stepfiles import save_step as save_step
+from .tendons import tendon_step as tendon_step
 
 _MODEL_KEYS = ("one_step", "rollout", "generalisation", "generalisation_rollout", "model", "test_span_s",
                "engine_vs_pytorch")
@@ -95,6 +97,7 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory: ProgressFactory
     timed("node_models", _model_reports, report, out, quick, progress_factory)
     report["manipulator"] = timed("manipulator", manipulator_step, out, quick, progress_factory)
     report["dynamic_model"] = timed("dynamic_model", dynamic_step, out, quick, progress_factory)
+    report["tendons"] = timed("tendons", tendon_step, out, quick, progress_factory)
     report["magnetic"] = timed("magnetic", magnetic_step, out, quick, progress_factory)
     report["control"] = timed("control", control_step, out, quick, progress_factory)
     report["fig13"] = timed("fig13", fig13_step, out, quick)

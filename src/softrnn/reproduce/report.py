@@ -14,7 +14,8 @@ def render_markdown(report: dict) -> str:
     study, the benchmark and the assumptions."""
     lines = _dataset_lines(report) + _model_lines(report)
     lines += (_engine_lines(report) + _manipulator_lines(report.get("manipulator"))
-              + _dynamic_lines(report.get("dynamic_model")) + _fig14_lines(report.get("fig14"))
+              + _dynamic_lines(report.get("dynamic_model")) + _tendon_lines(report.get("tendons"))
+              + _fig14_lines(report.get("fig14"))
               + _magnetic_lines(report.get("magnetic")) + _control_lines(report.get("control"))
               + _fig13_lines(report.get("fig13")))
     lines += _benchmark_lines(report["benchmark"]) + _assumption_lines(report["assumptions"])
@@ -334,6 +335,22 @@ def _dynamic_lines(d: dict | None) -> list[str]:
     return lines
 
 
+def _tendon_lines(d: dict | None) -> list[str]:
+    """The tendon arms' whole-manipulator models, driven by their tensions alone (as ``_dynamic_lines``)."""
+    if not d:
+        return []
+    lines = ["", "## Tendon-driven arms: the whole-manipulator model driven by tensions alone", "",
+             "The same model and measures as above, on the tendon-driven arms (`tendon-planar`: two tendons, "
+             "`tendon-spatial`: three; `softrnn.reproduce.tendons`). The model's only input is the tendons' "
+             "tensions (the data's actuation channels), never the forces and torques they put on the rod. Trained "
+             "on the nominal trajectory's first 60 % and sweep variants with other tension profiles; the "
+             "generalisation data set is the arm driven by sinusoidal tensions."]
+    for case, e in d.items():
+        if isinstance(e, dict) and "model_dt_s" in e:
+            lines += _dynamic_case_lines(case, e, trajectory="nominal")
+    return lines
+
+
 def _or_diverged(value):
     """A held-out figure, or 'diverged' (None: a run diverged, so the median or worst is infinite)."""
     return "diverged" if value is None else value
@@ -348,12 +365,13 @@ def _span_value(block: dict | None):
     return block.get("max_pct_of_length")
 
 
-def _dynamic_span_rows(e: dict) -> list[tuple[str, object, dict]]:
+def _dynamic_span_rows(e: dict, trajectory: str = "paper") -> list[tuple[str, object, dict]]:
     """(what, model, {baseline: value}) of the test span, the held-out variants and generalisation."""
     rows = []
     span = e.get("test_span")
     if span:
-        rows.append((f"paper test span {span['start_s']:.3g}-{span['end_s']:.3g} s", _span_value(span.get("model")),
+        rows.append((f"{trajectory} test span {span['start_s']:.3g}-{span['end_s']:.3g} s",
+                     _span_value(span.get("model")),
                      {k: _span_value(span.get(k)) for k in _DYNAMIC_BASELINES}))
     held = e.get("heldout")
     if held:
@@ -399,13 +417,14 @@ def _dynamic_inputs_text(e: dict) -> str:
     return text
 
 
-def _dynamic_case_lines(case: str, e: dict) -> list[str]:
-    """One case: settings, the horizons and spans beside the baselines, speed, goals, figure."""
+def _dynamic_case_lines(case: str, e: dict, trajectory: str = "paper") -> list[str]:
+    """One case: settings, the horizons and spans beside the baselines, speed, goals, figure;
+    ``trajectory``: what the case's long trajectory is called ("paper", "nominal")."""
     sweep, n = e.get("sweep") or {}, len(_DYNAMIC_BASELINES)
     lines = ["", f"### {case}", "",
              f"Model step {e['model_dt_s']:g} s, {e['predicted_nodes']} of {e.get('nodes', '?')} nodes predicted; "
              f"trained in {e.get('train_seconds', 0):.0f} s ({(e.get('train_config') or {}).get('steps', '?')} "
-             f"steps) on the paper trajectory's first 60 % and {sweep.get('n_train', '?')} sweep variants "
+             f"steps) on the {trajectory} trajectory's first 60 % and {sweep.get('n_train', '?')} sweep variants "
              f"({sweep.get('duration_s', '?')} s saved every {sweep.get('dt', '?')} s); "
              f"{sweep.get('n_heldout', '?')} held out." + _dynamic_inputs_text(e), "",
              "| what [% of L] | model | " + " | ".join(_DYNAMIC_LABELS[k] for k in _DYNAMIC_BASELINES)
@@ -414,7 +433,7 @@ def _dynamic_case_lines(case: str, e: dict) -> list[str]:
         row = (e.get("horizons") or {}).get(key) or {}
         lines.append(_table_row([f"at {key} model steps"], row.get("model"),
                                 {k: row.get(k) for k in _DYNAMIC_BASELINES}, n, _DYNAMIC_LABELS))
-    for what, model, values in _dynamic_span_rows(e):
+    for what, model, values in _dynamic_span_rows(e, trajectory):
         lines.append(_table_row([what], model, values, n, _DYNAMIC_LABELS))
     if _number(e.get("speed_ratio_vs_simulator")):
         lines += ["", f"Speed, one core each: the simulator {e['simulator_sim_s_per_wall_s']:.3g} simulated s per "

@@ -135,7 +135,8 @@ def tendon_case(case: str, out: Path, quick: bool = False, progress_factory=None
     training = {k: v for k, v in (loaded.meta.get("training") or {}).items() if k != "losses"}
     entry.update(train_seconds=train_s, evaluate_seconds=time.perf_counter() - t1, training=training,
                  train_config=loaded.config.to_dict(), model=str((folder / "model").relative_to(out)),
-                 data=split.describe(), settings=s, step_s=time.perf_counter() - t0)
+                 data=split.describe(), settings=s, step_s=time.perf_counter() - t0,
+                 sweep={"folder": f"sweeps/{case}", **s["sweep"], "workers": workers})
     return save_step(step_file, entry, quick)
 
 
