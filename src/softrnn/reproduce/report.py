@@ -315,40 +315,41 @@ _GOAL_TEXT = {
 }
 
 
-def _dynamic_lines(d: dict | None) -> list[str]:
-    """The learned whole-manipulator model of each case: horizons, spans, speed and goals."""
+_DYNAMIC_INTRO = (
+    "One learned model per case (`softrnn.dynamic`): a subset of the nodes stepped at the model's own, "
+    "coarser step, every node recovered by interpolation along the rod. Trained on the paper "
+    "trajectory's first 60 % and on sweep variants of the case's scenario; the last sweep variants "
+    "are held out (never trained on). Every predictor runs free (its own predictions fed back, the "
+    "loads from the data); errors are the largest distance over all nodes in % of the rod length L. "
+    "Baselines: persistence (the state stays), constant velocity (the last step repeats) and the "
+    "linear model (ridge, the whole state) on the same inputs. Horizons: the worst over the held-out "
+    "variants and a few starts in each, n model steps after the start; '-': diverged, or longer than "
+    "the runs. Ratio = model / best baseline: above 1 a baseline beats the model.")
+_TENDON_INTRO = (
+    "The same model and measures as above, on the tendon-driven arms (`tendon-planar`: two tendons, "
+    "`tendon-spatial`: three; `softrnn.reproduce.tendons`). The model's only input is the tendons' "
+    "tensions (the data's actuation channels), never the forces and torques they put on the rod. Trained "
+    "on the nominal trajectory's first 60 % and sweep variants with other tension profiles; the "
+    "generalisation data set is the arm driven by sinusoidal tensions.")
+
+
+def _dynamic_lines(d: dict | None, title: str = "Whole-manipulator dynamic model (beyond the paper)",
+                   intro: str = _DYNAMIC_INTRO, trajectory: str = "paper") -> list[str]:
+    """The learned whole-manipulator model of each case: horizons, spans, speed and goals; ``trajectory``:
+    what a case's long trajectory is called ("paper", "nominal")."""
     if not d:
         return []
-    lines = ["", "## Whole-manipulator dynamic model (beyond the paper)", "",
-             "One learned model per case (`softrnn.dynamic`): a subset of the nodes stepped at the model's own, "
-             "coarser step, every node recovered by interpolation along the rod. Trained on the paper "
-             "trajectory's first 60 % and on sweep variants of the case's scenario; the last sweep variants "
-             "are held out (never trained on). Every predictor runs free (its own predictions fed back, the "
-             "loads from the data); errors are the largest distance over all nodes in % of the rod length L. "
-             "Baselines: persistence (the state stays), constant velocity (the last step repeats) and the "
-             "linear model (ridge, the whole state) on the same inputs. Horizons: the worst over the held-out "
-             "variants and a few starts in each, n model steps after the start; '-': diverged, or longer than "
-             "the runs. Ratio = model / best baseline: above 1 a baseline beats the model."]
+    lines = ["", f"## {title}", "", intro]
     for case, e in d.items():
         if isinstance(e, dict) and "model_dt_s" in e:
-            lines += _dynamic_case_lines(case, e)
+            lines += _dynamic_case_lines(case, e, trajectory)
     return lines
 
 
 def _tendon_lines(d: dict | None) -> list[str]:
     """The tendon arms' whole-manipulator models, driven by their tensions alone (as ``_dynamic_lines``)."""
-    if not d:
-        return []
-    lines = ["", "## Tendon-driven arms: the whole-manipulator model driven by tensions alone", "",
-             "The same model and measures as above, on the tendon-driven arms (`tendon-planar`: two tendons, "
-             "`tendon-spatial`: three; `softrnn.reproduce.tendons`). The model's only input is the tendons' "
-             "tensions (the data's actuation channels), never the forces and torques they put on the rod. Trained "
-             "on the nominal trajectory's first 60 % and sweep variants with other tension profiles; the "
-             "generalisation data set is the arm driven by sinusoidal tensions."]
-    for case, e in d.items():
-        if isinstance(e, dict) and "model_dt_s" in e:
-            lines += _dynamic_case_lines(case, e, trajectory="nominal")
-    return lines
+    return _dynamic_lines(d, "Tendon-driven arms: the whole-manipulator model driven by tensions alone",
+                          _TENDON_INTRO, "nominal")
 
 
 def _or_diverged(value):
