@@ -204,19 +204,26 @@ def train_cases(jobs: list, workers: int = TRAIN_WORKERS, threads: int = TRAIN_T
     ctx = multiprocessing.get_context("spawn")      # no fork of a process that holds PyTorch's and numba's threads
     messages = ctx.Queue()
     pool = ctx.Pool(min(workers, len(jobs)), initializer=_worker_init, initargs=(messages,))
+    def relay(timeout):
+        """Pass one progress message (if any within ``timeout`` s) to its case's bar; False if none."""
+        try:
+            case, done, total = messages.get(timeout=timeout)
+        except queues.Empty:
+            return False
+        if bars[case] is not None:
+            bars[case](done, total)
+        return True
+
     try:
         pending = [pool.apply_async(_train_job, (case, str(folder), split, config, threads))
                    for case, folder, split, config in jobs]
         while pending:
-            try:
-                case, done, total = messages.get(timeout=0.2)
-                if bars[case] is not None:
-                    bars[case](done, total)
-            except queues.Empty:
-                pass
+            relay(0.2)
             for result in [r for r in pending if r.ready()]:
                 result.get()                          # a training's error is raised here
                 pending.remove(result)
+        while relay(0.05):                            # the last messages (each bar's end)
+            pass
         pool.close()
     finally:
         pool.terminate()
