@@ -475,6 +475,22 @@ def test_the_damping_prior_makes_the_ridge_start_strictly_stable(chain_encoding)
     assert np.count_nonzero(W0) == 2 * int((~enc.fixed).sum()) * int((sc["sa"] > 0).sum())
 
 
+def test_the_baseline_stays_the_best_linear_model_wherever_the_network_starts(chain_encoding):
+    """A network may start from a stiffer ridge fit (``ridge`` above 1e-6); the linear baseline keeps
+    its own ladder from 1e-6, so it is never weakened by that choice; at the default both are one fit."""
+    enc, trajs, val = chain_encoding
+    config = DynamicConfig(model_dt=0.01, node_stride=2, width=8, layers=1, unroll=3, batch=8, steps=0)
+    default = train_dynamic_model(trajs, enc, config, validation=val, threads=1)
+    assert default.info["baseline_ridge"] == default.info["ridge"]
+    assert _same_weights(default.net.linear, default.linear.linear)
+    stiff = train_dynamic_model(trajs, enc, dataclasses.replace(config, ridge=10.0), validation=val, threads=1)
+    assert stiff.info["ridge"] >= 10.0 > stiff.info["baseline_ridge"]
+    assert stiff.info["baseline_ridge"] == default.info["ridge"]          # the same ladder, the same choice
+    assert _same_weights(stiff.linear, default.linear)                    # the baseline is unchanged
+    start = training.validation_error(stiff.net, val)
+    assert training.validation_error(stiff.linear, val) <= start
+
+
 def test_the_envelope_gate_fades_the_correction_outside_the_data():
     net = DynamicNet(DynamicConfig(width=4, layers=1, envelope=0.5), np.zeros((3, 3)), np.zeros(3, bool),
                      {k: np.ones(6) for k in ("sx", "sv", "su", "sa")})

@@ -49,7 +49,9 @@ class DynamicConfig:
     linear_lr : float
         The linear term's learning rate as a fraction of ``lr`` (0 keeps the ridge fit as it is).
     ridge : float
-        Ridge penalty of the linear term's initial fit (relative to the mean feature variance).
+        Ridge penalty of the linear term's initial fit (relative to the mean feature variance): where
+        its ladder of penalties starts. The linear baseline's ladder starts at 1e-6 whatever this is
+        (``training.BASELINE_RIDGE``).
     seed : int
         Seeds weights, window draws and noise: the same seed and data give the same weights.
     ema : float

@@ -39,6 +39,8 @@ STABLE_RADIUS = 1.001
 RIDGE_TRIES = 10
 _FLOOR = 1e-12
 SCALE_FLOOR = 0.1
+BASELINE_RIDGE = 1e-6
+"""Where the linear baseline's penalty ladder starts (``DynamicConfig.ridge``'s default; ``_start``)."""
 
 
 @dataclass(eq=False)
@@ -339,17 +341,24 @@ def _average(loop: _Loop, net, decay: float) -> None:
 
 
 def _start(net, trajectories, encoding, config, sc, validation=()):
-    """The linear baseline fitted by ridge (its penalty chosen on ``validation`` free runs, if any),
-    copied into ``net``'s linear term, and ``net``'s envelope set to the data's feature range:
-    (baseline, fit info)."""
+    """``net``'s linear term fitted by ridge from ``config.ridge`` up (its penalty chosen on
+    ``validation`` free runs, if any), ``net``'s envelope set to the data's feature range, and the
+    linear baseline: (baseline, fit info). The baseline is that same fit unless ``config.ridge`` is
+    above ``BASELINE_RIDGE``; then it gets its own ladder from ``BASELINE_RIDGE`` up, so it stays the
+    best linear model on validation wherever the network starts (a network may start from a stiffer
+    fit without weakening the baseline it is measured against). Fit info: ``ridge``,
+    ``linear_radius`` and ``ridge_validation`` of the network's start; ``baseline_ridge``."""
     baseline = DynamicNet(linear_config(config), encoding.node_features(), encoding.fixed, sc)
     normal, (lo, hi) = _normal_equations(baseline, trajectories)
     cols = net.conv_cols.numpy()
     net.set_envelope(torch.as_tensor(lo[cols], dtype=torch.float32), torch.as_tensor(hi[cols], dtype=torch.float32))
     fit = _fit_linear(baseline, normal, config.ridge, validation)
-    baseline.eval()
     if net.linear is not None:
         net.linear.load_state_dict(baseline.linear.state_dict())
+    fit["baseline_ridge"] = fit["ridge"]
+    if config.ridge > BASELINE_RIDGE:
+        fit["baseline_ridge"] = _fit_linear(baseline, normal, BASELINE_RIDGE, validation)["ridge"]
+    baseline.eval()
     return baseline, fit
 
 
@@ -415,7 +424,8 @@ def _train(trajectories, encoding, config, validation, progress, checkpoint) -> 
     elif loop.ema:        # no validation: the averaged weights
         net.load_state_dict(loop.ema)
     net.eval()
-    info = {"ridge": loop.fit["ridge"], "linear_radius": loop.fit["linear_radius"],
+    info = {"ridge": loop.fit["ridge"], "baseline_ridge": loop.fit.get("baseline_ridge", loop.fit["ridge"]),
+            "linear_radius": loop.fit["linear_radius"],
             "ridge_validation": loop.fit.get("ridge_validation", []),
             "linear_stable": bool(loop.fit["linear_radius"] <= STABLE_RADIUS),
             "final_loss": loop.losses[-1] if loop.losses else None,
