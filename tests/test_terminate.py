@@ -40,3 +40,27 @@ def test_sigterm_while_writing_leaves_no_temporary_file(tmp_path):
     assert lines and lines[-1].startswith("softrnn: terminated;") and "Traceback" not in err, err
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == [], list(tmp_path.iterdir())
+
+
+def test_a_stop_inside_llvm_is_put_off(monkeypatch):
+    """A SIGTERM or Ctrl-C that arrives while numba compiles (llvmlite calling back into Python from
+    C) is delivered again a moment later instead of raised there, where the exception would be
+    "ignored" (the job running on, exit 0) or leave LLVM half-done (a crash at exit); elsewhere it
+    raises at once."""
+    import os
+    import types
+
+    from softrnn.cli import main as cli_main
+
+    sent = []
+    monkeypatch.setattr(cli_main.threading, "Timer",
+                        lambda delay, fn, args: types.SimpleNamespace(start=lambda: sent.append((delay, fn, args))))
+    space = {}
+    exec(compile("import sys\ndef callback(stop, signum):\n    return stop(signum, sys._getframe())\n",
+                 "/site-packages/llvmlite/binding/executionengine.py", "exec"), space)
+    assert space["callback"](cli_main._stop, signal.SIGTERM) is None
+    assert sent == [(cli_main._DEFER_S, os.kill, (os.getpid(), signal.SIGTERM))]
+    with pytest.raises(cli_main._Terminated):
+        cli_main._stop(signal.SIGTERM, sys._getframe())
+    with pytest.raises(KeyboardInterrupt):
+        cli_main._stop(signal.SIGINT, sys._getframe())

@@ -1,8 +1,10 @@
 """Entry point of the ``softrnn`` command."""
 
 import argparse
+import os
 import signal
 import sys
+import threading
 
 from ..errors import SimulationError, SoftrnnInputError, missing_extra
 from . import (
@@ -51,21 +53,45 @@ class _Terminated(KeyboardInterrupt):
     clean-up runs: temporary files removed, finished steps kept."""
 
 
-def _terminate(signum, frame):
-    raise _Terminated()
+_DEFER_S = 0.05
+"""How long a stop that arrives inside LLVM is put off (``_inside_llvm``)."""
+
+
+def _inside_llvm(frame) -> bool:
+    """Whether the stack holds llvmlite code: numba compiling, which calls back into Python from C
+    (its object cache). An exception raised there cannot pass through C: Python prints it as
+    "ignored", the job runs on as if never stopped, or LLVM is left half-done and the process
+    crashes at exit (exit code -11 instead of 143)."""
+    while frame is not None:
+        if "llvmlite" in frame.f_code.co_filename:
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _stop(signum, frame):
+    """SIGTERM raises ``_Terminated``, SIGINT (Ctrl-C) ``KeyboardInterrupt``: at once, or once a
+    compile in progress has returned to Python (``_inside_llvm``)."""
+    if _inside_llvm(frame):         # deliver the signal again in a moment
+        threading.Timer(_DEFER_S, os.kill, (os.getpid(), signum)).start()
+        return
+    raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
-    try:   # only the main thread may set a handler; a caller's own handler comes back afterwards
-        previous = signal.signal(signal.SIGTERM, _terminate)
-    except ValueError:
-        previous = None
+    previous = {}
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        try:   # only the main thread may set a handler; a caller's own handler comes back afterwards
+            previous[sig] = signal.signal(sig, _stop)
+        except ValueError:
+            pass
     try:
         return _main(args)
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            if handler is not None:    # None: a handler set outside Python, which cannot be put back
+                signal.signal(sig, handler)
 
 
 def _main(args) -> int:
