@@ -298,7 +298,7 @@ _DYNAMIC_BASELINES = ("persistence", "constant_velocity", "linear")
 _DYNAMIC_LABELS = {"persistence": "persistence", "constant_velocity": "constant velocity",
                    "linear": "linear"}
 _GOAL_TEXT = {
-    "test_span_max_pct_of_length": ("paper test span, largest error", "< {goal:g} % of L", "{value:.3g} %"),
+    "test_span_max_pct_of_length": ("{trajectory} test span, largest error", "< {goal:g} % of L", "{value:.3g} %"),
     "heldout_median_max_pct_of_length": ("held-out variants, median of the largest errors", "< {goal:g} % of L",
                                          "{value:.3g} %"),
     "heldout_worst_max_pct_of_length": ("held-out variants, worst largest error", "< {goal:g} % of L",
@@ -387,10 +387,10 @@ def _dynamic_span_rows(e: dict, trajectory: str = "paper") -> list[tuple[str, ob
     return rows
 
 
-def _goal_line(key: str, g: dict) -> str:
+def _goal_line(key: str, g: dict, trajectory: str = "paper") -> str:
     """'- what (goal): met/MISSED, measured ...'."""
     what, goal, value = _GOAL_TEXT.get(key, (key, "{goal}", "{value}"))
-    text = f"- {what} ({goal.format(goal=g.get('goal'))}): "
+    text = f"- {what.format(trajectory=trajectory)} ({goal.format(goal=g.get('goal'))}): "
     if g.get("value") is None:
         return text + f"**missed** ({g.get('note') or 'not measured'})"
     measured = value.format(value=g["value"])
@@ -439,7 +439,7 @@ def _dynamic_case_lines(case: str, e: dict, trajectory: str = "paper") -> list[s
     if _number(e.get("speed_ratio_vs_simulator")):
         lines += ["", f"Speed, one core each: the simulator {e['simulator_sim_s_per_wall_s']:.3g} simulated s per "
                       f"wall s, the model {e['model_sim_s_per_wall_s']:.3g}: {e['speed_ratio_vs_simulator']:.3g}x."]
-    lines += ["", "Goals:"] + [_goal_line(k, g) for k, g in (e.get("goals") or {}).items()]
+    lines += ["", "Goals:"] + [_goal_line(k, g, trajectory) for k, g in (e.get("goals") or {}).items()]
     if e.get("figure"):
         lines += ["", f"![dynamic {case}](figures/{e['figure']})"]
     if e.get("rollout"):
