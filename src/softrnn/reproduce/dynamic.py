@@ -419,20 +419,16 @@ def _finish_case(job: dict, out: Path, quick: bool) -> dict:
     entry.update(train_seconds=train_s, train_config=loaded.config.to_dict(), training=training,
                  model=str((folder / "model").relative_to(out)), data=split.describe(), settings=s,
                  sweep={"folder": f"sweeps/{case}", **s["sweep"], "workers": job["workers"]},
-                 train_threads=TRAIN_THREADS, train_workers=TRAIN_WORKERS,
+                 train_threads=TRAIN_THREADS,
                  step_s=time.perf_counter() - job["t0"])
     return save_step(out / "dynamic" / f"{case}.json", entry, quick)
 
 
-def dynamic_case(case: str, out: Path, quick: bool, progress_factory=None) -> dict:
-    """One case, skipped when its step file ``out/dynamic/CASE.json`` holds a finished result of the
-    same settings (``settings``: the sweep and ``CONFIGS[CASE]``); trained in this process."""
-    return dynamic_step(out, quick, progress_factory, cases=(case,), workers=1)[case]
-
-
 def dynamic_step(out: Path, quick: bool, progress_factory=None, *, cases=CASES, workers: int | None = None) -> dict:
-    """Every case's whole-manipulator model ({case: entry}; docs/report-format.md): the unfinished
-    cases' sweeps, then their trainings side by side (``train_cases``, ``workers``: default
+    """Every case's whole-manipulator model ({case: entry}; docs/report-format.md), a case skipped
+    when its step file ``out/dynamic/CASE.json`` holds a finished result of the same settings
+    (``settings``: the sweep and ``CONFIGS[CASE]``): the unfinished cases' sweeps, then their
+    trainings side by side (``train_cases``, ``workers``: default
     ``TRAIN_WORKERS``), then each one's measurements, alone on the machine (the speed runs time one
     core each)."""
     out = Path(out)
