@@ -266,6 +266,43 @@ def tendon_potential(rotations, positions, seg_length, route, end, tension) -> f
                      for j, t in enumerate(_tangents(K, G, route, end))))
 
 
+def tendon_lengths(rotations, positions, seg_length, route, end) -> np.ndarray:
+    """The discrete tendon lengths l_j = l sum_{a < e_j} |Gamma_a + K_a x rho_a + rho'_a| (m,) [m]
+    on one configuration (rotations (n, 3, 3), positions (n, 3) [m]; ``route``, ``end`` from
+    ``routing_arrays``): the tendon potential is sum_j tau_j l_j."""
+    K, G = segment_strains(rotations, positions, seg_length)
+    return np.array([seg_length * np.linalg.norm(t, axis=1).sum() for t in _tangents(K, G, route, end)])
+
+
+def tendon_energy(setup, trajectory) -> tuple[np.ndarray, np.ndarray]:
+    """The tendons' share of a run's energy balance: (potential (S,) [J], work (S,) [J]).
+
+    ``potential`` = sum_j tau_j(t) l_j(t), the tendons' work potential at each saved sample (tensions
+    clipped at 0, lengths ``tendon_lengths``): with constant tensions and no dissipation,
+    ``trajectory.energy.sum(axis=1) + potential`` is conserved. ``work`` = -int sum_j tau_j dl_j, the
+    work the tendons did on the rod since the first sample (trapezoidal rule over the samples, so
+    to the accuracy of the saved interval): with varying tensions and no dissipation,
+    ``trajectory.energy.sum(axis=1) - work`` is conserved. ``Trajectory.energy`` (kinetic, elastic,
+    gravitational) leaves both out. The trajectory must save every node (``RunConfig.save_nodes`` None)."""
+    n = setup.rod.n_nodes
+    if len(trajectory.nodes) != n or np.any(np.asarray(trajectory.nodes) != np.arange(n)):
+        raise bad("trajectory", f"{len(trajectory.nodes)} saved nodes",
+                  f"a run that saves all {n} nodes (RunConfig save_nodes = None)")
+    S = len(trajectory.time)
+    tendons = tuple(setup.tendons)
+    if not tendons:
+        return np.zeros(S), np.zeros(S)
+    l = setup.rod.segment_length
+    route, end = routing_arrays(tendons, n, l)
+    R = trajectory.rotations()
+    lengths = np.stack([tendon_lengths(R[k], trajectory.positions[k], l, route, end) for k in range(S)])
+    tau = tension_matrix(tendons, trajectory.time)
+    potential = (tau * lengths).sum(axis=1)
+    work = np.zeros(S)
+    work[1:] = -np.cumsum((0.5 * (tau[1:] + tau[:-1]) * np.diff(lengths, axis=0)).sum(axis=1))
+    return potential, work
+
+
 def tendon_resultants(K, G, route, end, tension) -> tuple[np.ndarray, np.ndarray]:
     """The tendons' terms of the segments' force and moment resultants (n - 1, 3) [N], [N m] (frame
     of each segment's first node) for strains K (n - 1, 3) [1/m], Gamma (n - 1, 3) [-]: tau t and
