@@ -229,6 +229,11 @@ def test_node_model_driven_by_actuation_trains_evaluates_and_reloads(tmp_path):
     both = train_node_model(path, SampleSpec(node=2, drive="both", channels=("p_chamber_2",)), SMALL_NODE,
                             TrainConfig(epochs=1, batch_size=32, rollout_steps=1), tmp_path / "m2")
     assert both.config.wrench_features == 3 + 1 and both.spec.wrench == "force"
+    # the pressure's spread is floored within the kPa channels only, not against the forces'
+    from softrnn.io.dataset import read_dataset
+    from softrnn.surrogate.data import wrench_units
+
+    assert wrench_units(read_dataset(path), both.spec) == ("N", "N", "N", "kPa")
 
 
 def test_node_model_asking_for_missing_actuation_is_one_line(tmp_path, capsys):

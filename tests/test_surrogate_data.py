@@ -8,7 +8,16 @@ import pytest
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.io.dataset import Dataset
-from softrnn.surrogate.data import NODE_POSITION, Normalizer, SampleSpec, make_windows, pose_rows, split, wrench_rows
+from softrnn.surrogate.data import (
+    NODE_POSITION,
+    Normalizer,
+    SampleSpec,
+    make_windows,
+    pose_rows,
+    split,
+    wrench_rows,
+    wrench_units,
+)
 from softrnn.surrogate.train import TrainConfig, spans, training_windows
 
 
@@ -221,3 +230,32 @@ def test_malformed_normalizer_dict_is_an_error():
     good = Normalizer.fit(make_windows(synthetic(100), SampleSpec(node=2).resolve(np.arange(5)), 0, 80)).to_dict()
     with pytest.raises(SoftrnnInputError, match="target_std"):
         Normalizer.from_dict(dict(good, target_std=[1.0, 0.0, 1.0]))
+
+
+def test_each_unit_of_input_two_gets_its_own_floor():
+    """A force of 1 mN spread beside a pressure of 100 kPa spread: fitted as one group, the force's
+    spread is floored at 1e-3 x 100 = 0.1 (its inputs squeezed a hundredfold); with the units, each
+    keeps its own spread. A constant channel of a unit still gets 1."""
+    rng = np.random.default_rng(0)
+    w = make_windows(synthetic(200), SampleSpec(node=2, wrench="force").resolve(np.arange(5)), 0, 150)
+    M, H, _ = w.wrenches.shape
+    force = rng.normal(0.0, 1e-3, (M, H, 1))
+    pressure = rng.normal(50.0, 100.0, (M, H, 1))
+    still = np.full((M, H, 1), 3.0)
+    mixed = type(w)(poses=w.poses, wrenches=np.concatenate([force, pressure, still], axis=2).astype(np.float32),
+                    targets=w.targets, index=w.index)
+    one = Normalizer.fit(mixed)
+    assert one.wrench_std[0] == pytest.approx(1e-3 * one.wrench_std[1])
+    units = Normalizer.fit(mixed, wrench_units=("N", "kPa", "A"))
+    assert units.wrench_std[0] == pytest.approx(force.std(), rel=1e-3)
+    assert units.wrench_std[1] == pytest.approx(pressure.std(), rel=1e-3)
+    assert units.wrench_std[2] == 1.0
+    with pytest.raises(SoftrnnInputError, match=r"wrench_units.*one unit per input II column \(3\)"):
+        Normalizer.fit(mixed, wrench_units=("N", "kPa"))
+
+
+def test_wrench_units_follow_the_columns_of_input_two():
+    data = synthetic(20)
+    spec = SampleSpec(node=2, wrench="wrench").resolve(data.nodes)
+    assert wrench_units(data, spec) == ("N",) * 3 + ("N m",) * 3
+    assert wrench_units(data, SampleSpec(node=2, wrench="none").resolve(data.nodes)) == ()

@@ -299,6 +299,17 @@ def wrench_rows(dataset, spec: SampleSpec, start: int = 0, stop: int | None = No
     return np.ascontiguousarray(np.concatenate(parts, axis=1), dtype=np.float32)  # (T', W)
 
 
+def wrench_units(dataset, spec: SampleSpec) -> tuple[str, ...]:
+    """The unit of every input II column (W,), in ``wrench_rows``' order: "N" for the forces, "N m"
+    for the torques, then each actuation channel's unit from the data set (``Dataset.actuation_units``).
+    ``Normalizer.fit`` floors the spread of each unit's columns separately."""
+    units = {"none": (), "force": ("N",) * 3, "wrench": ("N",) * 3 + ("N m",) * 3}[spec.wrench]
+    if spec.drive != "wrench":
+        have = dict(getattr(dataset, "actuation_units", {}) or {})
+        units += tuple(str(have.get(a, "")) for a in spec.channels)
+    return units
+
+
 def actuation_rows(dataset, spec: SampleSpec) -> np.ndarray:
     """(T, m) the data set's actuation inputs of ``spec.channels``, in that order (float32; m = 0
     for ``drive='wrench'``); a channel the data set lacks is a one-line SoftrnnInputError."""
@@ -430,13 +441,29 @@ def split(n_samples: int, spec: SampleSpec) -> tuple[range, range]:
 
 
 # ------------------------------------------------------------------------------------ Normalizer
-def _std(x: np.ndarray) -> np.ndarray:
-    """Per-column standard deviation with the relative floor (float64)."""
+def _std(x: np.ndarray, groups=None) -> np.ndarray:
+    """Per-column standard deviation with the relative floor (float64), within each group of
+    columns that share a label in ``groups`` (None: one group)."""
     with np.errstate(under="ignore"):
         s = x.std(axis=0) if x.shape[0] else np.ones(x.shape[1:])
-        top = float(s.max()) if s.size else 0.0
-        floor = max(top * STD_RELATIVE_FLOOR, 1e-12) if top > 0 else 1.0
-        return np.maximum(s, floor)
+        labels = np.zeros(s.shape[0], dtype=int) if groups is None else np.unique(list(groups), return_inverse=True)[1]
+        out = np.empty_like(s)
+        for g in np.unique(labels):
+            mine = labels == g
+            top = float(s[mine].max())
+            floor = max(top * STD_RELATIVE_FLOOR, 1e-12) if top > 0 else 1.0
+            out[mine] = np.maximum(s[mine], floor)
+        return out
+
+
+def _units(units, W: int):
+    """``wrench_units`` checked against input II's width W (None stays None)."""
+    if units is None:
+        return None
+    units = tuple(units)
+    if len(units) != W:
+        raise bad("wrench_units", list(units), f"one unit per input II column ({W})")
+    return units
 
 
 def _vec(name: str, value, n: int | None = None) -> np.ndarray:
@@ -536,11 +563,14 @@ class Normalizer:
 
     @classmethod
     def fit(cls, windows: Windows, *, output: str = "increment", relative: bool = False,
-            per_node: int = 3) -> Normalizer:
+            per_node: int = 3, wrench_units=None) -> Normalizer:
         """Statistics of ``windows`` (the training windows; never pass test windows).
 
         ``relative``: express every position of a window relative to the node's last position
-        (translation-invariant inputs); ``per_node``: pose values per node (3 or 7).
+        (translation-invariant inputs); ``per_node``: pose values per node (3 or 7);
+        ``wrench_units``: the unit of each input II column (W,) (``wrench_units``): the floor of
+        the spreads applies within each unit, so a channel in kPa does not squeeze one in N (None:
+        input II is one group).
         """
         if len(windows) == 0:
             raise bad("windows", "0 windows", "at least one training window to fit the normalisation on")
@@ -555,7 +585,7 @@ class Normalizer:
         target = cls._raw_target(windows.targets, windows.poses, output)      # (M, 3)
         with np.errstate(under="ignore"):
             return cls(pose_mean=flat.mean(0), pose_std=_std(flat),
-                       wrench_mean=wr.mean(0) if W else np.zeros(0), wrench_std=_std(wr) if W else np.zeros(0) + 1.0,
+                       wrench_mean=wr.mean(0) if W else np.zeros(0), wrench_std=_std(wr, _units(wrench_units, W)) if W else np.zeros(0) + 1.0,
                        target_mean=target.mean(0), target_std=_std(target),
                        delta_mean=delta.mean(0), delta_std=_std(delta), output=output, relative=relative,
                        per_node=per_node)

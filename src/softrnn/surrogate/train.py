@@ -42,7 +42,7 @@ from ._training_data import pooled_specs as pooled_specs
 from ._training_data import spans as spans
 from ._training_data import training_windows as training_windows
 from .artifact import NodeModel, check_replaceable, save_model
-from .data import Normalizer, SampleSpec
+from .data import Normalizer, SampleSpec, wrench_units
 from .model import ModelConfig
 
 __all__ = ["TrainConfig", "train_node_model", "Spans", "spans", "pooled_specs", "training_windows"]
@@ -166,7 +166,7 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
     prepared = load_training_data(dataset_path, spec, train, pool)
     config = _model_config(prepared.spec, overrides)
     normalizer = Normalizer.fit(prepared.fit, output=config.output, relative=config.relative,
-                                per_node=prepared.spec.per_node)
+                                per_node=prepared.spec.per_node, wrench_units=wrench_units(prepared.data, prepared.spec))
     data_fingerprint = fingerprint(prepared.fit, prepared.validation)
     settings = training_settings(prepared.spec, config, train, data_fingerprint, prepared.pool)
     checkpoint = Checkpoint(out_folder, settings)
