@@ -583,9 +583,10 @@ class Normalizer:
         else:
             delta = np.zeros((1, P))
         target = cls._raw_target(windows.targets, windows.poses, output)      # (M, 3)
+        wrench_std = _std(wr, _units(wrench_units, W)) if W else np.zeros(0) + 1.0
         with np.errstate(under="ignore"):
             return cls(pose_mean=flat.mean(0), pose_std=_std(flat),
-                       wrench_mean=wr.mean(0) if W else np.zeros(0), wrench_std=_std(wr, _units(wrench_units, W)) if W else np.zeros(0) + 1.0,
+                       wrench_mean=wr.mean(0) if W else np.zeros(0), wrench_std=wrench_std,
                        target_mean=target.mean(0), target_std=_std(target),
                        delta_mean=delta.mean(0), delta_std=_std(delta), output=output, relative=relative,
                        per_node=per_node)

@@ -166,7 +166,8 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
     prepared = load_training_data(dataset_path, spec, train, pool)
     config = _model_config(prepared.spec, overrides)
     normalizer = Normalizer.fit(prepared.fit, output=config.output, relative=config.relative,
-                                per_node=prepared.spec.per_node, wrench_units=wrench_units(prepared.data, prepared.spec))
+                                per_node=prepared.spec.per_node,
+                                wrench_units=wrench_units(prepared.data, prepared.spec))
     data_fingerprint = fingerprint(prepared.fit, prepared.validation)
     settings = training_settings(prepared.spec, config, train, data_fingerprint, prepared.pool)
     checkpoint = Checkpoint(out_folder, settings)
