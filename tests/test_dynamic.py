@@ -16,7 +16,7 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 from softrnn.dynamic import evaluation
-from softrnn.dynamic.config import DynamicConfig, resolve_stride
+from softrnn.dynamic.config import DynamicConfig, load_channels, resolve_stride
 from softrnn.dynamic.encoding import Encoding, Trajectory, kept_nodes, lumping_matrix, make_encoding
 from softrnn.errors import SoftrnnInputError
 from softrnn.io.dataset import Dataset, read_dataset, write_dataset
@@ -319,7 +319,8 @@ def test_free_run_reports_a_divergence():
 # ---------------------------------------------------------------------------- 4 torch vs NumPy
 @pytest.mark.parametrize("memory, bound, kernel, reads, envelope", [
     ("window", 0.0, 5, "all", None), ("lstm", 0.0, 3, "all", None), ("window", 0.5, 3, "all", 0.25),
-    ("lstm", 2.0, 5, "all", 0.25), ("window", 0.0, 5, "displacements", 0.5)])
+    ("lstm", 2.0, 5, "all", 0.25), ("window", 0.0, 5, "displacements", 0.5), ("window", 0.5, 3, "loads", 0.25),
+    ("lstm", 0.0, 3, "loads", None)])
 def test_torch_rollout_and_numpy_engine_agree(memory, bound, kernel, reads, envelope):
     config = DynamicConfig(history=3, memory=memory, width=8, layers=2, kernel=kernel, bound=bound, conv_reads=reads,
                            envelope=envelope)
@@ -491,6 +492,61 @@ def test_the_baseline_stays_the_best_linear_model_wherever_the_network_starts(ch
     assert training.validation_error(stiff.linear, val) <= start
 
 
+def test_a_load_penalty_of_its_own_frees_the_load_response_only():
+    """``load_ridge``: the ridge solution with that penalty on the load columns and ``ridge`` on the
+    rest (normal equations of random data solved directly); a lighter load penalty leaves larger
+    load coefficients; the baseline's config drops it."""
+    M, H = 4, 3
+    sc = {k: np.ones(6) for k in ("sx", "sv", "su", "sa")}
+    fixed = np.zeros(M, bool)
+    feats = np.stack([np.linspace(0, 1, M)] * 2 + [fixed.astype(float)], 1)
+    rng = np.random.default_rng(5)
+    nets = {lr: DynamicNet(DynamicConfig(history=H, load_ridge=lr), feats, fixed, sc) for lr in (None, 1e-6)}
+    n_in = nets[None].n_in
+    X = rng.normal(size=(400, M * n_in)) * rng.uniform(0.1, 2.0, M * n_in)
+    Y = X @ rng.normal(size=(M * n_in, M * 6)) + 0.1 * rng.normal(size=(400, M * 6))
+    normal = (X.T @ X, X.T @ Y, np.zeros(M * n_in), np.zeros(M * 6))
+    cut = load_channels(H, 6)
+    is_load = np.zeros((M, n_in), bool)
+    is_load[:, cut] = True
+    is_load = is_load.reshape(-1)
+    scale = np.trace(normal[0]) / len(normal[0])
+    coef = {}
+    for lr, net in nets.items():
+        training._ridge_fit(net, normal, 1.0)
+        pen = np.where(is_load, 1.0 if lr is None else lr, 1.0) * scale
+        prior = training.damping_prior(net)
+        W = np.linalg.solve(normal[0] + np.diag(pen), normal[1] + pen[:, None] * prior)
+        got = net.linear.weight.detach().double().numpy().T
+        np.testing.assert_allclose(got, W, rtol=1e-4, atol=1e-5 * np.abs(W).max())
+        coef[lr] = np.abs(got[is_load]).mean()
+    assert coef[1e-6] > 1.5 * coef[None]                         # less shrinking on the loads
+    from softrnn.dynamic.config import linear_config
+
+    assert linear_config(DynamicConfig(load_ridge=1e-6)).load_ridge is None
+
+
+def test_start_fraction_draws_windows_from_the_trajectories_first_steps(monkeypatch):
+    """A quarter of each batch begins within ``START_STEPS`` of a trajectory's start; without the
+    option the windows are uniform and drawn exactly as before (the same generator calls)."""
+    windows = np.stack([np.repeat([0, 1], 500), np.tile(np.arange(500), 2)], 1)
+    seen = []
+
+    def stop(trajectories, picks, H, K):
+        seen.append(picks.copy())
+        raise RuntimeError("picked")
+
+    monkeypatch.setattr(training, "_batch", stop)
+    for fraction in (0.0, 0.25):
+        config = DynamicConfig(batch=64, start_fraction=fraction)
+        with pytest.raises(RuntimeError, match="picked"):
+            training._loss(None, None, windows, config, torch.Generator().manual_seed(0), 0)
+    uniform, mixed = seen
+    assert np.all(mixed[:16, 1] < training.START_STEPS) and set(mixed[:16, 0]) == {0, 1}
+    np.testing.assert_array_equal(mixed[16:], uniform[16:])
+    assert np.mean(uniform[:, 1] < training.START_STEPS) < 0.1
+
+
 def test_the_envelope_gate_fades_the_correction_outside_the_data():
     net = DynamicNet(DynamicConfig(width=4, layers=1, envelope=0.5), np.zeros((3, 3)), np.zeros(3, bool),
                      {k: np.ones(6) for k in ("sx", "sv", "su", "sa")})
@@ -601,7 +657,8 @@ def test_an_interrupted_training_resumes_to_the_same_weights(chain_encoding, tmp
                                           ({"history": 1}, "history"), ({"node_stride": 0}, "node_stride"),
                                           ({"unroll": 0}, "unroll"), ({"noise": -1.0}, "noise"),
                                           ({"linear": 1}, "linear"), ({"envelope": 0.0}, "envelope"),
-                                          ({"prior_tau": -1.0}, "prior_tau"),
+                                          ({"prior_tau": -1.0}, "prior_tau"), ({"load_ridge": -1.0}, "load_ridge"),
+                                          ({"start_fraction": 1.0}, "start_fraction"),
                                           ({"linear": False, "conv": False}, "linear")])
 def test_bad_config_values_name_the_argument(kwargs, name):
     with pytest.raises(SoftrnnInputError) as info:

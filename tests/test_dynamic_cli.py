@@ -85,6 +85,17 @@ def test_the_envelope_and_the_prior_can_be_switched_off(data, tmp_path):
     assert config["envelope"] == 0.5 and config["prior_tau"] == 2.0
 
 
+def test_the_fit_and_training_options_reach_the_config(data, tmp_path):
+    code, text = _train(data, tmp_path / "m", "--ridge", "1e-2", "--load-ridge", "1e-4", "--linear-lr", "0.1",
+                        "--conv-reads", "loads", "--start-fraction", "0.25")
+    assert code == 0, text
+    doc = json.loads((tmp_path / "m" / "model.json").read_text())
+    config = doc["config"]
+    assert (config["ridge"], config["load_ridge"], config["linear_lr"]) == (1e-2, 1e-4, 0.1)
+    assert config["conv_reads"] == "loads" and config["start_fraction"] == 0.25
+    assert doc["meta"]["training"]["ridge"] >= 1e-2       # the network's ladder starts at --ridge
+
+
 def test_train_writes_a_model_folder_that_records_the_heldout_variant(model, data):
     folder, text = model
     assert sorted(p.name for p in folder.iterdir()) == ["linear.safetensors", "model.json", "weights.safetensors"]
@@ -252,6 +263,8 @@ def test_an_interrupted_training_resumes_to_the_same_weights(model, data, tmp_pa
     (["train", "{sweep}", "--memory", "gru"], ["invalid choice", "softrnn dynamic train --help"]),
     (["train", "{sweep}", "--envelope", "0"], ["--envelope=0", "positive"]),
     (["train", "{sweep}", "--prior-tau", "soon"], ["--prior-tau", "'soon'"]),
+    (["train", "{sweep}", "--start-fraction", "1"], ["--start-fraction=1.0", "[0, 1)"]),
+    (["train", "{sweep}", "--load-ridge", "-1"], ["--load-ridge=-1.0", ">= 0"]),
     (["evaluate", "{model}"], ["at least one of --test"]),
     (["evaluate", "{model}", "--test", "{one}", "--test-start", "1.5"], ["--test-start=1.5", "(0, 1)"]),
     (["evaluate", "{sweep}", "--test", "{one}"], ["model.json is missing"]),

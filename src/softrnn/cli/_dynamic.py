@@ -24,7 +24,8 @@ _OPTIONS = {"model_dt": "--model-dt", "node_stride": "--node-stride", "history":
             "width": "--width", "layers": "--layers", "steps": "--steps", "unroll": "--unroll", "noise": "--noise",
             "seed": "--seed", "heldout": "--heldout", "validation": "--validation",
             "train_fraction": "--train-fraction", "data": "DATA", "drive": "--drive", "envelope": "--envelope",
-            "prior_tau": "--prior-tau", "ema": "--ema"}
+            "prior_tau": "--prior-tau", "ema": "--ema", "ridge": "--ridge", "load_ridge": "--load-ridge",
+            "linear_lr": "--linear-lr", "conv_reads": "--conv-reads", "start_fraction": "--start-fraction"}
 """Library argument names -> the options that set them (for the one-line errors)."""
 
 
@@ -97,6 +98,20 @@ def _add_train(p):
     p.add_argument("--prior-tau", type=_float_or_off, default=None, metavar="S",
                    help="the ridge fit of the linear term is shrunk toward a critically damped relaxation with "
                         "this time constant [s]; 'off': toward zero (default: 0.5)")
+    p.add_argument("--ridge", type=float, default=None, metavar="R",
+                   help="where the ladder of ridge penalties for the linear term's fit starts (relative to the mean "
+                        "feature variance; default: 1e-6); the linear baseline's ladder starts at 1e-6 regardless")
+    p.add_argument("--load-ridge", type=float, default=None, metavar="R",
+                   help="a separate ridge penalty on the load coefficients of the network's linear term "
+                        "(default: the same as the rest)")
+    p.add_argument("--linear-lr", type=float, default=None, metavar="F",
+                   help="the linear term's learning rate as a fraction of the network's (default: 0.01; 0: frozen)")
+    p.add_argument("--conv-reads", choices=("all", "displacements", "loads"), default=None,
+                   help="what the convolution reads: the states and velocities (all, the default), their "
+                        "displacements only, or everything including the loads")
+    p.add_argument("--start-fraction", type=float, default=None, metavar="F",
+                   help="the fraction of each batch's windows drawn from the trajectories' first steps (runs from "
+                        "rest; default: 0)")
     p.add_argument("--recorded-feedback", dest="feedback", action="store_false", default=None,
                    help="take the recorded forces of PD tracking loads as inputs instead of applying the law to "
                         "the model's own state (default: the law, where a data set's scenario has PD loads)")
@@ -138,7 +153,8 @@ def _config(args):
     from ..dynamic.config import DynamicConfig
 
     names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed",
-             "ema", "feedback", "drive", "envelope", "prior_tau")
+             "ema", "feedback", "drive", "envelope", "prior_tau", "ridge", "load_ridge", "linear_lr", "conv_reads",
+             "start_fraction")
     given = {k: getattr(args, k) for k in names if getattr(args, k) is not None}
     return DynamicConfig(**{k: (None if v is _OFF else v) for k, v in given.items()})
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
 
-from ..errors import bad, integer, nonnegative, positive
+from ..errors import bad, integer, is_finite_number, nonnegative, positive
 
 MEMORIES = ("window", "lstm")
-CONV_READS = ("all", "displacements")
+CONV_READS = ("all", "displacements", "loads")
 DRIVES = ("wrench", "actuation", "both")
 """What a model's load input holds: the nodal wrenches, the data's actuation inputs, or both."""
 
@@ -44,6 +44,10 @@ class DynamicConfig:
         one-step loss. The unroll grows from 1 to this over the first half of training.
     steps, batch : int
         Optimiser steps and windows per step.
+    start_fraction : float
+        The fraction of each batch's windows drawn from a trajectory's first steps
+        (``training.START_STEPS``), the rest uniformly: a run from rest (a trajectory's start, where
+        the loads rise from zero) is otherwise a rare window, and its first steps go untrained.
     lr : float
         Adam's learning rate (cosine decay to 5 % of it).
     linear_lr : float
@@ -52,14 +56,21 @@ class DynamicConfig:
         Ridge penalty of the linear term's initial fit (relative to the mean feature variance): where
         its ladder of penalties starts. The linear baseline's ladder starts at 1e-6 whatever this is
         (``training.BASELINE_RIDGE``).
+    load_ridge : float or None
+        The ridge penalty on the load coefficients of the network's linear term (same units as
+        ``ridge``; None: the same penalty as the rest). A stiff penalty keeps a free run stable, but
+        on the loads it shrinks the response to a load change; the loads are known inputs and
+        need no shrinking to stay stable.
     seed : int
         Seeds weights, window draws and noise: the same seed and data give the same weights.
     ema : float
         Decay of a running average of the weights (Polyak averaging), validated beside the current
         weights at every checkpoint (and kept without validation); 0 switches it off.
-    conv_reads : {"all", "displacements"}
-        The state and velocity columns the convolution reads (never the loads): all of them, or the
-        displacements only (rotations then reach the next state through the linear term alone).
+    conv_reads : {"all", "displacements", "loads"}
+        What the convolution reads: every state and velocity column but not the loads ("all"), the
+        displacements only (rotations then reach the next state through the linear term alone), or
+        every feature, the loads included ("loads": where the loads' effect depends on the rod's
+        shape, as a tendon's does).
     feedback : bool
         Where a data set's scenario has PD tracking loads, apply their law to the model's own state
         (the target and gains are the inputs; ``softrnn.dynamic.feedback``) instead of taking the
@@ -98,9 +109,11 @@ class DynamicConfig:
     unroll: int = 20
     steps: int = 4000
     batch: int = 32
+    start_fraction: float = 0.0
     lr: float = 2e-3
     linear_lr: float = 0.01
     ridge: float = 1e-6
+    load_ridge: float | None = None
     seed: int = 0
     ema: float = 0.995
     conv_reads: str = "all"
@@ -131,9 +144,13 @@ class DynamicConfig:
         integer("unroll", self.unroll, 1)
         integer("steps", self.steps, 0)
         integer("batch", self.batch, 1)
+        if not (is_finite_number(self.start_fraction) and 0.0 <= float(self.start_fraction) < 1.0):
+            raise bad("start_fraction", self.start_fraction, "a fraction in [0, 1) of each batch")
         positive("lr", self.lr)
         nonnegative("linear_lr", self.linear_lr)
         nonnegative("ridge", self.ridge)
+        if self.load_ridge is not None:
+            nonnegative("load_ridge", self.load_ridge)
         integer("seed", self.seed, 0)
         if self.conv_reads not in CONV_READS:
             raise bad("conv_reads", self.conv_reads, f"one of {', '.join(CONV_READS)}")
@@ -187,7 +204,7 @@ def resolve_node_stride(node_stride: int | None, n_nodes: int) -> int:
 
 def linear_config(config: DynamicConfig) -> DynamicConfig:
     """The linear baseline's config: the linear term alone, same inputs, no training."""
-    return replace(config, linear=True, conv=False, memory="window", steps=0, envelope=None)
+    return replace(config, linear=True, conv=False, memory="window", steps=0, envelope=None, load_ridge=None)
 
 
 N_CONST = 3
@@ -202,10 +219,12 @@ def n_channels(history: int, loads: int = 6) -> int:
 
 def conv_channels(history: int, reads: str = "all", loads: int = 6) -> list[int]:
     """The feature columns the convolution (and the LSTM cell) read: every one but the ``loads``
-    load channels, or with ``reads = "displacements"`` also none of the rotation columns of the
-    state and velocities."""
+    load channels, with ``reads = "displacements"`` also none of the rotation columns of the state
+    and velocities, with ``reads = "loads"`` every one."""
     C = n_channels(history, loads)
     cut = load_channels(history, loads)
+    if reads == "loads":
+        return list(range(C))
     cols = [c for c in range(C) if not cut.start <= c < cut.stop]
     if reads == "displacements":
         cols = [c for c in cols if c >= cut.stop or c % 6 < 3]

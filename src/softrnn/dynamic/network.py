@@ -10,11 +10,13 @@ training standard deviation. The output is the normalised change of velocity ove
   before training: by itself, the one-step linear model (the "linear" baseline);
 * ``conv``: a 1-D convolution along the rod (one set of weights for every node; the chain graph's
   message passing) whose last layer starts at zero, so training starts from the linear model.
-  It reads the state, the velocities and the constants but **not the loads**: by Newton's second
-  law a node's acceleration is affine in the load applied to it at a given state (the internal
-  forces are the nonlinear part), so the loads enter through the linear term only. Measured: a
-  convolution that also read the loads learned load responses from the few load events of the
-  training data and drifted after them in free runs.
+  By default it reads the state, the velocities and the constants but **not the loads**: by
+  Newton's second law a node's acceleration is affine in a load applied to it at a given state (the
+  internal forces are the nonlinear part), so the loads enter through the linear term only.
+  Measured: a convolution that also read the loads learned load responses from the few load events
+  of the training data and drifted after them in free runs. A tendon's load is not applied at a
+  node: its force and moment follow the rod's shape, so for actuation inputs the convolution may
+  read the loads too (``conv_reads = "loads"``).
 
 With ``memory = "lstm"`` a per-node LSTM cell (shared along the rod) also carries a hidden state
 from step to step and feeds the convolution. Fixed nodes keep their state.

@@ -20,7 +20,7 @@ from __future__ import annotations
 import io
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +29,7 @@ import torch
 from ..errors import SoftrnnInputError
 from ..files import atomic_write_bytes
 from ..progress import Progress
-from .config import DynamicConfig, linear_config
+from .config import DynamicConfig, linear_config, load_channels
 from .encoding import Encoding, Trajectory
 from .network import DynamicNet, feedback_force
 
@@ -39,6 +39,9 @@ STABLE_RADIUS = 1.001
 RIDGE_TRIES = 10
 _FLOOR = 1e-12
 SCALE_FLOOR = 0.1
+START_STEPS = 10
+"""With ``config.start_fraction``: the windows whose history begins within this many model steps
+of a trajectory's first sample count as starts."""
 BASELINE_RIDGE = 1e-6
 """Where the linear baseline's penalty ladder starts (``DynamicConfig.ridge``'s default; ``_start``)."""
 
@@ -174,14 +177,25 @@ def damping_prior(net: DynamicNet) -> np.ndarray:
     return W0
 
 
+def _penalties(net: DynamicNet, ridge: float) -> np.ndarray:
+    """The ridge penalty of each linear input (M C,): ``ridge``, and ``config.load_ridge`` (when
+    set) on the load channels."""
+    pen = np.full(net.n_kept * net.n_in, float(ridge))
+    if net.config.load_ridge is not None:
+        cut = load_channels(net.config.history, net.load_width)
+        pen.reshape(net.n_kept, net.n_in)[:, cut] = float(net.config.load_ridge)
+    return pen
+
+
 def _ridge_fit(net: DynamicNet, normal: tuple, ridge: float, prior: np.ndarray | None = None) -> None:
     """Set the linear term to the ridge solution of the one-step velocity changes (``normal``:
-    ``_normal_equations``; the penalty is ``ridge`` times the mean feature variance), shrunk toward
-    ``prior`` (default: ``damping_prior(net)``)."""
+    ``_normal_equations``; the penalty is ``ridge`` times the mean feature variance, on the loads
+    ``config.load_ridge`` times it when set), shrunk toward ``prior`` (default:
+    ``damping_prior(net)``)."""
     G, b, fm, am = normal
-    lam = ridge * max(float(np.trace(G)) / G.shape[0], _FLOOR)
+    lam = _penalties(net, ridge) * max(float(np.trace(G)) / G.shape[0], _FLOOR)
     prior = damping_prior(net) if prior is None else prior
-    W = np.linalg.solve(G + lam * np.eye(G.shape[0]), b + lam * prior)
+    W = np.linalg.solve(G + np.diag(lam), b + lam[:, None] * prior)
     with torch.no_grad():
         net.linear.weight.copy_(torch.as_tensor(W.T, dtype=torch.float32))
         net.linear.bias.copy_(torch.as_tensor(am - fm @ W, dtype=torch.float32))
@@ -292,6 +306,10 @@ def _loss(net: DynamicNet, trajectories, windows, config: DynamicConfig, gen, st
     """One batch's unrolled loss: mean squared state error in units of ``sv`` over the free nodes."""
     H, K = config.history, _unroll_at(config, step)
     picks = windows[torch.randint(len(windows), (config.batch,), generator=gen).numpy()]
+    n_start = int(round(config.start_fraction * config.batch))
+    if n_start:                          # some windows begin where a trajectory begins (from rest)
+        starts = np.flatnonzero(windows[:, 1] < START_STEPS)
+        picks[:n_start] = windows[starts[torch.randint(len(starts), (n_start,), generator=gen).numpy()]]
     hist, loads, future, feedback = _batch(trajectories, picks, H, K)
     mask = (~net.fixed).float()[None, None, :, None]
     if config.noise > 0:
@@ -352,11 +370,15 @@ def _start(net, trajectories, encoding, config, sc, validation=()):
     normal, (lo, hi) = _normal_equations(baseline, trajectories)
     cols = net.conv_cols.numpy()
     net.set_envelope(torch.as_tensor(lo[cols], dtype=torch.float32), torch.as_tensor(hi[cols], dtype=torch.float32))
-    fit = _fit_linear(baseline, normal, config.ridge, validation)
+    start = baseline
+    if config.load_ridge is not None:       # the network's start has its own penalty on the loads
+        start = DynamicNet(replace(linear_config(config), load_ridge=config.load_ridge), encoding.node_features(),
+                           encoding.fixed, sc)
+    fit = _fit_linear(start, normal, config.ridge, validation)
     if net.linear is not None:
-        net.linear.load_state_dict(baseline.linear.state_dict())
+        net.linear.load_state_dict(start.linear.state_dict())
     fit["baseline_ridge"] = fit["ridge"]
-    if config.ridge > BASELINE_RIDGE:
+    if config.ridge > BASELINE_RIDGE or start is not baseline:
         fit["baseline_ridge"] = _fit_linear(baseline, normal, BASELINE_RIDGE, validation)["ridge"]
     baseline.eval()
     return baseline, fit
