@@ -2,8 +2,8 @@
 tendon tensions alone (``DynamicConfig.drive = "actuation"``), trained, run free beside its
 baselines and measured against the goals of the learned dynamic model (issue 15).
 
-Not a step of ``softrnn reproduce``: call ``tendon_step(out, quick)`` (one JSON-ready dict per
-case). Per case (``out/tendons/CASE/``, step file ``out/tendons/CASE.json``):
+A step of ``softrnn reproduce`` (``report.json["tendons"]``); alone: ``tendon_step(out, quick)``
+(one JSON-ready dict per case). Per case (``out/tendons/CASE/``, step file ``out/tendons/CASE.json``):
 
 1. the nominal scenario and its sinusoidal generalisation variant (``GENERALISATION``) simulated into
    ``out/data/CASE.h5`` (``reproduce.cases.case_step``, no figures);
@@ -44,11 +44,15 @@ CASES = ("tendon-planar", "tendon-spatial")
 """The tendon arms (shipped scenarios with a ``[randomize]`` table)."""
 GENERALISATION = {"tendon-planar": "tendon-planar-sine", "tendon-spatial": "tendon-spatial-sine"}
 """Each arm's generalisation scenario: the same arm driven by sinusoidal tensions."""
-_BASE = DynamicConfig(drive="actuation", width=16, layers=2, unroll=5, batch=16, steps=300, lr=1e-5,
-                      linear_lr=0.0, bound=0.5, noise=0.05, prior_tau=1.0)
+_BASE = DynamicConfig(drive="actuation", steps=1000, ridge=1e-2, load_ridge=1e-4, prior_tau=0.1, linear_lr=1.0,
+                      conv_reads="loads", start_fraction=0.3)
 CONFIGS = {"tendon-planar": _BASE, "tendon-spatial": _BASE}
-"""Each case's model (architecture and training), driven by the tensions alone; ``quick`` trains
-``QUICK_STEPS`` steps."""
+"""Each case's model, driven by the tensions alone: the default architecture and training (48
+channels, 3 layers, 20-step unroll, learning rate 2e-3) for 1,000 steps, from a stiff, stable
+linear start (penalties from 1e-2, 1e-4 on the tensions' coefficients, a 0.1 s damping prior), the
+linear term trained at the full rate, a convolution that reads the tensions too, and 30 % of each
+batch from the trajectories' first steps (docs/guide/dynamic.md, "Tendon-driven arms");
+``quick`` trains ``QUICK_STEPS`` steps."""
 QUICK_STEPS = 20
 THREADS = 1
 """PyTorch's threads while training: a small model trains fastest on one (on a busy machine two
