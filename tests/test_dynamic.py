@@ -670,6 +670,10 @@ def test_bad_config_values_name_the_argument(kwargs, name):
 def test_config_from_dict_round_trips_and_refuses_unknown_keys():
     config = DynamicConfig(model_dt=0.01, memory="lstm", node_stride=3)
     assert DynamicConfig.from_dict(config.to_dict()) == config
+    assert not {"drive", "start_fraction", "load_ridge"} & set(config.to_dict())     # as saved before them
+    later = DynamicConfig(drive="actuation", start_fraction=0.25, load_ridge=1e-4)
+    assert DynamicConfig.from_dict(later.to_dict()) == later
+    assert {"drive", "start_fraction", "load_ridge"} <= set(later.to_dict())
     with pytest.raises(SoftrnnInputError, match="widht"):
         DynamicConfig.from_dict({**config.to_dict(), "widht": 8})
     with pytest.raises(SoftrnnInputError):

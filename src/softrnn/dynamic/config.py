@@ -165,11 +165,13 @@ class DynamicConfig:
                                            "inputs) or 'both'")
 
     def to_dict(self) -> dict:
-        """The fields as a dict (model.json's ``config``); ``drive`` only when it is not the default
-        'wrench' (so models and checkpoints of wrench-driven models are recorded as before)."""
+        """The fields as a dict (model.json's ``config``); ``drive``, ``start_fraction`` and
+        ``load_ridge`` only when they are not their defaults (so models, checkpoints and reproduce
+        step files written before them are recorded, and resumed, as before)."""
         d = asdict(self)
-        if d["drive"] == "wrench":
-            del d["drive"]
+        for key, default in _LATER_DEFAULTS.items():
+            if d[key] == default:
+                del d[key]
         return d
 
     @classmethod
@@ -182,6 +184,10 @@ class DynamicConfig:
         if unknown:
             raise bad("config", unknown[0], f"one of {', '.join(sorted(names))}")
         return cls(**d)
+
+
+_LATER_DEFAULTS = {"drive": "wrench", "start_fraction": 0.0, "load_ridge": None}
+"""Fields added after models were first saved, left out of ``to_dict`` at their defaults."""
 
 
 def resolve_stride(model_dt: float, data_dt: float) -> int:
