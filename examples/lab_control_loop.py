@@ -6,7 +6,7 @@ runs free (its own predictions are fed back, as an internal model in a controlle
 over its horizon); the measured positions are only compared with. It steps the same model twice:
 
 * the ONNX file written by ``softrnn export --onnx`` in ONNX Runtime (no softrnn needed), and
-* softrnn's compiled engine (``softrnn.surrogate.engine.NodeStepper``) on the model folder,
+* softrnn's compiled engine (``softrnn.learned.node.engine.NodeStepper``) on the model folder,
 
 and prints the RMS error against the recording and the time per step (median and 99th percentile).
 
@@ -52,8 +52,8 @@ def onnx_stepper(path):
 
 def engine_stepper(folder):
     """The same with softrnn's compiled engine (``NodeStepper``) on the model folder."""
-    from softrnn.surrogate import load_model
-    from softrnn.surrogate.engine import NodeStepper
+    from softrnn.learned.node import load_model
+    from softrnn.learned.node.engine import NodeStepper
 
     stepper = NodeStepper(load_model(folder))
     H = stepper.history

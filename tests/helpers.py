@@ -6,6 +6,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+from softrnn.io.dataset import UNITS, Dataset, write_trajectory
+from softrnn.learned.node.data import Normalizer, SampleSpec, make_windows, split
 from softrnn.rod import kernels
 from softrnn.rod.lumped import frozen
 from softrnn.rod.shapes import RodShape
@@ -160,3 +162,141 @@ def reissner_cantilever_tip(P, L, EI, EA=np.inf, GAk=np.inf):
     m0 = brentq(lambda m: end_moment(m)[0], 0.0, P * L * 1.0001, xtol=1e-15 * P * L, rtol=1e-14)
     y = end_moment(m0)[1]
     return y[2], y[3]
+
+
+# --------------------------------------------------------------------------- learned node models
+def swinging_rod(n_samples: int = 400, n_nodes: int = 5, dt: float = 0.01, *, poison_from: int | None = None,
+              freqs=(1.0, 2.3, 1.7, 0.7)) -> Dataset:
+    """A smooth, deterministic 'rod': nodes along x swinging in y and z, a sinusoidal force on
+    every node (frequencies ``freqs`` in Hz). ``poison_from``: samples from that index on are NaN
+    (a test span that must never be read by training)."""
+    f1, f2, f3, f4 = freqs
+    t = np.arange(n_samples) * dt                                             # (T,)
+    k = np.arange(n_nodes)                                                    # (N,)
+    pos = np.zeros((n_samples, n_nodes, 3))                                   # (T, N, 3)
+    pos[:, :, 0] = 0.1 * k
+    pos[:, :, 1] = (0.01 * np.sin(2 * np.pi * f1 * t[:, None] + 0.3 * k)
+                    + 0.002 * k * np.sin(2 * np.pi * f2 * t[:, None]))
+    pos[:, :, 2] = 0.005 * np.cos(2 * np.pi * f3 * t[:, None] + 0.2 * k)
+    quat = np.zeros((n_samples, n_nodes, 4))                                  # (T, N, 4)
+    angle = 0.1 * np.sin(2 * np.pi * f1 * t[:, None] + 0.1 * k)
+    quat[..., 0], quat[..., 3] = np.cos(angle / 2), np.sin(angle / 2)
+    forces = np.zeros((n_samples, n_nodes, 3))                                # (T, N, 3)
+    forces[:, :, 1] = 0.1 * np.sin(2 * np.pi * f2 * t)[:, None]
+    torques = np.zeros((n_samples, n_nodes, 3))                               # (T, N, 3)
+    torques[:, :, 2] = 0.01 * np.cos(2 * np.pi * f4 * t)[:, None]
+    if poison_from is not None:
+        for arr in (pos, quat, forces, torques):
+            arr[poison_from:] = np.nan
+    return Dataset(time=t, nodes=k, positions=pos, quaternions=quat, forces=forces, torques=torques,
+                   attrs={"dt": dt, "n_nodes_total": n_nodes, "units": {"positions": "m"},
+                          "scenario_name": "synthetic"})
+
+
+N_NODES, DT, LENGTH = 6, 0.01, 0.5
+
+
+def node_dataset(T: int = 60, n: int = N_NODES, attrs: dict | None = None) -> Dataset:
+    """A clamped node 0 and n-1 moving nodes with distinct smooth motions, random wrenches."""
+    t = np.arange(T) * DT
+    rng = np.random.default_rng(7)
+    pos = np.zeros((T, n, 3))
+    for a in range(1, n):
+        pos[:, a, 0] = LENGTH * a / (n - 1) + 0.01 * np.sin(3.0 * t + a)
+        pos[:, a, 1] = 0.02 * a * np.cos(2.0 * t + 0.3 * a)
+        pos[:, a, 2] = 0.001 * a * t
+    quat = rng.normal(size=(T, n, 4))
+    quat /= np.linalg.norm(quat, axis=-1, keepdims=True)
+    meta = {"units": dict(UNITS), "rod": {"length": LENGTH, "n_nodes": n}, "n_nodes_total": n, "dt": DT}
+    meta.update(attrs or {})
+    return Dataset(time=t, nodes=np.arange(n), positions=pos, quaternions=quat,
+                   forces=rng.normal(size=(T, n, 3)), torques=rng.normal(size=(T, n, 3)), attrs=meta)
+
+
+def save_h5(path, ds: Dataset, *, scenario_text: str = "", **attrs):
+    write_trajectory(path, ds, dt=DT, rod={"length": LENGTH, "n_nodes": int(ds.attrs["n_nodes_total"])},
+                     scenario_text=scenario_text, attrs=attrs)
+    return path
+
+
+class Oracle:
+    """A perfect model: looks the next position up in the data from the node's own window."""
+
+    def __init__(self, ds: Dataset, spec: SampleSpec, nodes=None):
+        self.spec = spec.resolve(ds.nodes, n_nodes_total=ds.attrs["n_nodes_total"])
+        self.meta = {}
+        H = self.spec.history
+        self.table = {}
+        for a in (nodes if nodes is not None else [self.spec.node]):
+            col = int(np.flatnonzero(ds.nodes == a)[0])
+            for k in range(H, ds.n_samples):
+                key = ds.positions[k - H:k, col].tobytes()
+                assert self.table.setdefault(key, ds.positions[k, col].tobytes()) == ds.positions[k, col].tobytes()
+
+    def predict(self, poses, wrenches):
+        assert poses.dtype == np.float32 and wrenches.shape[:2] == poses.shape[:2]
+        return np.array([np.frombuffer(self.table[np.ascontiguousarray(p[:, 0:3]).tobytes()], np.float32)
+                         for p in poses], dtype=np.float64)
+
+
+class Offset:
+    """Next position = last position + a fixed step (a model that is always 1 mm off in x)."""
+
+    def __init__(self, spec: SampleSpec, step=(1e-3, 0.0, 0.0)):
+        self.spec, self.meta, self.step, self.calls = spec, {}, np.asarray(step), []
+
+    def predict(self, poses, wrenches):
+        self.calls.append(poses.shape[0])
+        return poses[:, -1, 0:3].astype(np.float64) + self.step
+
+
+def real_model(ds: Dataset, spec: SampleSpec, meta: dict | None = None) -> "NodeModel":  # noqa: F821
+    """An untrained NodeLSTM (fixed seed) with a normaliser fitted on the training span."""
+    import torch  # the learn extra: only the tests of learned models call this
+
+    from softrnn.learned.node.artifact import NodeModel
+    from softrnn.learned.node.model import ModelConfig, NodeLSTM
+
+    spec = spec.resolve(ds.nodes, n_nodes_total=ds.attrs["n_nodes_total"])
+    train = split(ds.n_samples, spec)[0]
+    norm = Normalizer.fit(make_windows(ds, spec, train.start, train.stop))
+    config = ModelConfig(pose_features=spec.pose_features, wrench_features=spec.wrench_features,
+                         history=spec.history, lstm_layers=1, lstm_units=8, dense_units=(8,), wrench_dense=(4,))
+    torch.manual_seed(0)
+    module = NodeLSTM(config)
+    module.set_normalizer(norm)
+    module.eval()
+    dataset_meta = {"units": dict(UNITS), "n_nodes_total": int(ds.attrs["n_nodes_total"]), "dt": DT,
+                    "rod": {"length": LENGTH}, "scenario_name": "synthetic"}
+    dataset_meta.update(meta or {})
+    return NodeModel(config=config, spec=spec, normalizer=norm, module=module, meta={"dataset": dataset_meta})
+
+
+# --------------------------------------------------------------------------- whole-manipulator models
+def quat_z(angle: np.ndarray) -> np.ndarray:
+    """Scalar-first quaternions of rotations by ``angle`` about z: (..., 4)."""
+    half = 0.5 * np.asarray(angle, dtype=np.float64)
+    return np.stack([np.cos(half), np.zeros_like(half), np.zeros_like(half), np.sin(half)], axis=-1)
+
+
+def chain_dataset(positions, quaternions, dt, forces=None, torques=None) -> Dataset:
+    T, N = positions.shape[:2]
+    zeros = np.zeros((T, N, 3))
+    return Dataset(time=np.arange(T) * dt, nodes=np.arange(N), positions=positions, quaternions=quaternions,
+                   forces=zeros if forces is None else forces, torques=zeros if torques is None else torques,
+                   attrs={"dt": dt, "rod": {"length": LENGTH, "n_nodes": N}})
+
+
+def bending_chain(amp: float, phase: float, *, n_nodes: int = 11, n_samples: int = 241, dt: float = 0.005) -> Dataset:
+    """A damped two-mode bending oscillation of a cantilever chain in the x-y plane (node 0 clamped),
+    orientations following the slope: what a linear second-order model fits and a long free run
+    with no load must not blow up from."""
+    t = np.arange(n_samples) * dt
+    s = np.linspace(0.0, 1.0, n_nodes)
+    w1, z1, w2, z2 = 2 * np.pi * 2.0, 0.08, 2 * np.pi * 5.0, 0.1
+    m1 = amp * np.exp(-z1 * w1 * t) * np.cos(w1 * np.sqrt(1 - z1 ** 2) * t + phase)
+    m2 = 0.3 * amp * np.exp(-z2 * w2 * t) * np.cos(w2 * np.sqrt(1 - z2 ** 2) * t + 2 * phase)
+    y = m1[:, None] * s ** 2 + m2[:, None] * s ** 2 * (s - 0.7)
+    slope = (m1[:, None] * 2 * s + m2[:, None] * (3 * s ** 2 - 1.4 * s)) / LENGTH
+    pos = np.stack([np.broadcast_to(s * LENGTH, y.shape), y, np.zeros_like(y)], axis=-1)
+    return chain_dataset(pos, quat_z(np.arctan(slope)), dt)

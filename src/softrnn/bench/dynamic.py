@@ -1,4 +1,4 @@
-"""Speed of the learned whole-manipulator model (``softrnn.dynamic``) beside the simulator it
+"""Speed of the learned whole-manipulator model (``softrnn.learned.whole``) beside the simulator it
 stands in for, per paper case, on one core each and in the same run.
 
 * **simulator**: ``Simulator(setup).run(config)`` of the case for ``duration_s`` simulated seconds
@@ -121,12 +121,12 @@ def stand_in_model(dataset, config):
     model's step, without the ridge fit's eigenvalue checks. Returns (``DynamicEngine``, ``Encoding``)."""
     import torch
 
-    from ..dynamic.artifact import engine_of
-    from ..dynamic.config import resolve_node_stride
-    from ..dynamic.data import rod_length
-    from ..dynamic.encoding import make_encoding
-    from ..dynamic.network import DynamicNet
-    from ..dynamic.training import scales
+    from ..learned.whole.artifact import engine_of
+    from ..learned.whole.config import resolve_node_stride
+    from ..learned.whole.data import rod_length
+    from ..learned.whole.encoding import make_encoding
+    from ..learned.whole.network import DynamicNet
+    from ..learned.whole.training import scales
 
     enc = make_encoding([dataset], model_dt=config.model_dt,
                         node_stride=resolve_node_stride(config.node_stride, dataset.n_nodes),
@@ -139,8 +139,8 @@ def stand_in_model(dataset, config):
 
 def _saved_dt(encoding) -> float:
     """``SAVED_DT`` if the model's step is a whole multiple of it, else its training data's interval."""
-    from ..dynamic.config import resolve_stride
     from ..errors import SoftrnnInputError
+    from ..learned.whole.config import resolve_stride
 
     try:
         resolve_stride(encoding.model_dt, SAVED_DT)
@@ -152,7 +152,7 @@ def _saved_dt(encoding) -> float:
 def _case_entry(name: str, config, loaded, quick: bool) -> dict:
     """One case: a short simulated trajectory, the model (``loaded`` or a stand-in of ``config``)
     and both speeds."""
-    from ..dynamic.config import DynamicConfig
+    from ..learned.whole.config import DynamicConfig
 
     duration, reps, steps = (1.0, 3, 500) if quick else (2.0, 5, 2000)
     config = loaded.config if loaded is not None else (config or DynamicConfig())
@@ -195,8 +195,8 @@ def find_models(folder) -> dict:
     its node count) or a folder of ``CASE/model`` folders (``softrnn reproduce``'s ``dynamic/``)."""
     from pathlib import Path
 
-    from ..dynamic.artifact import is_dynamic_folder, load_dynamic
     from ..errors import bad
+    from ..learned.whole.artifact import is_dynamic_folder, load_dynamic
 
     folder = Path(folder)
     found = {c: folder / c / "model" for c in CASES if is_dynamic_folder(folder / c / "model")}
@@ -212,7 +212,7 @@ def find_models(folder) -> dict:
 
 def format_dynamic_table(r: dict) -> str:
     """A short text table of ``run_dynamic_benchmark``'s result."""
-    rows = ["learned whole-manipulator model (softrnn.dynamic) vs the simulator, one core each, same run",
+    rows = ["learned whole-manipulator model (softrnn.learned.whole) vs the simulator, one core each, same run",
             f"  {'case':<11}{'simulator sim s/s':>18}{'model sim s/s':>15}{'model dt':>10}{'us/step':>9}"
             f"{'ratio':>8}{'goal':>7}  weights"]
     for name, e in r["cases"].items():

@@ -25,10 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..learned.node.artifact import NodeModel
+from ..learned.node.data import Normalizer, SampleSpec
+from ..learned.node.model import ModelConfig, NodeLSTM
 from ..progress import Progress
-from ..surrogate.artifact import NodeModel
-from ..surrogate.data import Normalizer, SampleSpec
-from ..surrogate.model import ModelConfig, NodeLSTM
 from ..timing import step_rate
 
 GOALS = {"node_step_hz_median": 200_000, "speedup_vs_eager_torch": 15, "manipulator_step_hz_median": 20_000}
@@ -76,7 +76,7 @@ def _stats(fn, n: int) -> dict:
 
 def time_node_step(model: NodeModel, n: int) -> dict:
     """The compiled batch-1 stepper on a window of plausible inputs."""
-    from ..surrogate.engine import NodeStepper
+    from ..learned.node.engine import NodeStepper
 
     H, P, W = model.config.history, model.config.pose_features, model.config.wrench_features
     rng = np.random.default_rng(0)
@@ -119,7 +119,7 @@ def time_runtimes(model: NodeModel, n: int) -> dict:
 
     import torch
 
-    from ..surrogate.export import export_onnx, export_torchscript
+    from ..learned.node.export import export_onnx, export_torchscript
 
     H, W = model.config.history, model.config.wrench_features
     poses = np.tile(np.asarray(model.normalizer.pose_mean, np.float32), (1, H, 1))
@@ -160,8 +160,8 @@ def time_manipulator(config: dict | None, threads: int, n: int, n_nodes: int = M
     its own model, or (``shared``) the interior nodes by one model and the two ends by their own."""
     import numba
 
-    from ..surrogate.engine import ManipulatorStepper
-    from ..surrogate.rollout import Manipulator
+    from ..learned.node.engine import ManipulatorStepper
+    from ..learned.node.rollout import Manipulator
 
     if shared:
         models = Manipulator.of([synthetic_model(0, n_nodes, config), synthetic_model(n_nodes - 1, n_nodes, config)],

@@ -40,7 +40,7 @@ def run(args) -> int:
         prepare_output(args.json, "--json", overwrite=args.overwrite)
     model = None
     if args.model is not None:
-        from ..surrogate.artifact import load_model
+        from ..learned.node.artifact import load_model
         model = load_model(args.model)
     dynamic = {}
     if "dynamic" in parts:

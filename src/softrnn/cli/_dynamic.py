@@ -1,5 +1,5 @@
 """softrnn dynamic train|evaluate|rollout|export: the learned whole-manipulator model (beyond the
-paper; ``softrnn.dynamic``): one set of weights along the rod, free running at its own step."""
+paper; ``softrnn.learned.whole``): one set of weights along the rod, free running at its own step."""
 
 import argparse
 import json
@@ -150,7 +150,7 @@ _OFF = "off"
 
 
 def _config(args):
-    from ..dynamic.config import DynamicConfig
+    from ..learned.whole.config import DynamicConfig
 
     names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed",
              "ema", "feedback", "drive", "envelope", "prior_tau", "ridge", "load_ridge", "linear_lr", "conv_reads",
@@ -161,8 +161,8 @@ def _config(args):
 
 def _check_step(split, config) -> None:
     """Every input's saved interval must divide the model's step (checked before anything is written)."""
-    from ..dynamic.config import resolve_stride
     from ..io.dataset import read_dataset
+    from ..learned.whole.config import resolve_stride
 
     for part in split.train + split.validation:
         head = read_dataset(part.path, group=None if part.group == "/" else part.group, stop=1)
@@ -171,7 +171,7 @@ def _check_step(split, config) -> None:
 
 def _model_folder(args) -> Path:
     """The checked -o folder: new, empty, or holding only a model or an unfinished training."""
-    from ..dynamic.artifact import FILES
+    from ..learned.whole.artifact import FILES
 
     folder = prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite or args.resume,
                             holds=("model.json", CHECKPOINT, SETTINGS),
@@ -226,7 +226,7 @@ def _discard(folder: Path, created: bool) -> None:
 
 def _interrupted(folder: Path, created: bool) -> None:
     """Say what an interrupted training kept (its last checkpoint, or nothing)."""
-    from ..dynamic import training
+    from ..learned.whole import training
 
     _discard(folder, created)
     if (folder / CHECKPOINT).is_file():
@@ -239,7 +239,7 @@ def _interrupted(folder: Path, created: bool) -> None:
 
 def _finished(folder: Path, settings: dict):
     """The finished model in ``folder`` (--resume after the end), if it was trained with ``settings``."""
-    from ..dynamic.artifact import load_dynamic
+    from ..learned.whole.artifact import load_dynamic
 
     model = load_dynamic(folder)
     why = _difference({"config": model.config.to_dict(), "data": model.meta.get("data")}, settings)
@@ -274,9 +274,9 @@ def _driven(encoding) -> str:
 
 def _train(args) -> int:
     require_extra("learn")
-    from ..dynamic.artifact import save_dynamic
-    from ..dynamic.data import split_inputs
-    from ..dynamic.fit import fit
+    from ..learned.whole.artifact import save_dynamic
+    from ..learned.whole.data import split_inputs
+    from ..learned.whole.fit import fit
 
     folder = _model_folder(args)
     if args.threads is not None and args.threads < 1:
@@ -343,8 +343,8 @@ def _trajectories(path: str) -> list[tuple[Path, str]]:
 
 def _read(model, argument: str, path, group: str = "/"):
     """The data set at ``path`` (``group``), checked against the model's encoding."""
-    from ..dynamic.encoding import check_compatible
     from ..io.dataset import read_dataset
+    from ..learned.whole.encoding import check_compatible
 
     data = read_dataset(path, group=None if group == "/" else group)
     check_compatible(model.encoding, data, argument)
@@ -393,8 +393,8 @@ def _check_test(model, path, data, fraction: float) -> None:
 
 
 def _evaluate(args) -> int:
-    from ..dynamic.artifact import load_dynamic
-    from ..dynamic.evaluation import evaluate_dynamic
+    from ..learned.whole.artifact import load_dynamic
+    from ..learned.whole.evaluation import evaluate_dynamic
 
     if args.test is None and not args.heldout and args.generalisation is None:
         raise bad("--test", None, "at least one of --test FILE, --heldout PATH ... and --generalisation FILE")
@@ -498,10 +498,10 @@ def _steps(traj, history: int, start_time, stop_time) -> tuple[int, int]:
 
 
 def _rollout(args) -> int:
-    from ..dynamic.artifact import load_dynamic
-    from ..dynamic.encoding import check_compatible
-    from ..dynamic.rollout import rollout_dataset
     from ..io.dataset import read_dataset, write_dataset
+    from ..learned.whole.artifact import load_dynamic
+    from ..learned.whole.encoding import check_compatible
+    from ..learned.whole.rollout import rollout_dataset
 
     if not str(args.output).endswith((".h5", ".hdf5")):
         raise bad("-o", args.output, "a file name ending in .h5 or .hdf5")
@@ -550,8 +550,8 @@ def _add_export(p):
 
 def _export(args) -> int:
     require_extra("learn")
-    from ..dynamic.artifact import load_dynamic
-    from ..dynamic.export import export_onnx, input_names, output_names, sidecar_path
+    from ..learned.whole.artifact import load_dynamic
+    from ..learned.whole.export import export_onnx, input_names, output_names, sidecar_path
 
     path = Path(args.onnx)
     if Path(args.model).resolve() in path.resolve().parents:

@@ -34,8 +34,8 @@ def add_args(p):
 
 
 def run(args) -> int:
-    from ..surrogate.artifact import load_model
-    from ..surrogate.evaluate import evaluate
+    from ..learned.node.artifact import load_model
+    from ..learned.node.evaluate import evaluate
 
     if args.json:
         prepare_output(args.json, "--json", overwrite=args.overwrite)
@@ -128,7 +128,7 @@ def _max_pct(block) -> float | str | None:
 def baseline_lines(r: dict) -> list[str]:
     """The table of the model beside the baselines (one step, free running, by horizon) and the
     plain statements of where a baseline beats the model, for an ``Evaluation.to_json()`` report."""
-    from ..surrogate.evaluate import horizon_keys
+    from ..learned.node.evaluate import horizon_keys
 
     base = r.get("baselines")
     if not base:

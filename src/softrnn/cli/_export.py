@@ -46,8 +46,8 @@ def _targets(args) -> dict:
 
 
 def run(args) -> int:
-    from ..surrogate.artifact import load_model
-    from ..surrogate.export import export_onnx, export_torchscript
+    from ..learned.node.artifact import load_model
+    from ..learned.node.export import export_onnx, export_torchscript
 
     targets = _targets(args)
     model = load_model(args.model)

@@ -63,9 +63,9 @@ def parse_nodes(text: str, argument: str = "--shared-nodes") -> list[int]:
 def run(args) -> int:
     from ..figures.pictures import FIGURE_SUFFIXES, check_suffix
     from ..io.dataset import read_dataset
-    from ..surrogate.artifact import load_model
-    from ..surrogate.evaluate import check_compatible
-    from ..surrogate.rollout import Manipulator, max_error_mm, model_inputs, rollout, write_rollout
+    from ..learned.node.artifact import load_model
+    from ..learned.node.evaluate import check_compatible
+    from ..learned.node.rollout import Manipulator, max_error_mm, model_inputs, rollout, write_rollout
 
     if len(args.paths) < 2 and args.shared is None:
         raise bad("MODEL", None, "at least one model folder before DATA.h5 (or --shared MODEL)")

@@ -97,8 +97,8 @@ def _print_regions(result: dict) -> None:
 
 
 def run(args) -> int:
+    from ..experiments.fig14 import MANIFEST, StudyConfig, run_study
     from ..files import atomic_write_text, prepare_output
-    from ..surrogate.study import MANIFEST, StudyConfig, run_study
     from ._train import _default_wrench
 
     if args.workers < 1:

@@ -107,8 +107,8 @@ class _LossBar(Bar):
 def run(args) -> int:
     from ..files import prepare_output
     from ..io.dataset import read_dataset
-    from ..surrogate.artifact import CHECKPOINT, check_replaceable
-    from ..surrogate.train import TrainConfig, train_node_model
+    from ..learned.node.artifact import CHECKPOINT, check_replaceable
+    from ..learned.node.train import TrainConfig, train_node_model
 
     prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite or args.resume,
                    holds=("config.json", CHECKPOINT),
@@ -166,7 +166,7 @@ def _spec(args, node):
     """The ``SampleSpec`` of the command line (the wrench chosen by ``_default_wrench`` unless given;
     with ``--drive actuation`` none, with ``--drive both`` at least the force)."""
     from ..io.dataset import read_dataset
-    from ..surrogate.data import SampleSpec
+    from ..learned.node.data import SampleSpec
 
     if args.channels is not None and args.drive == "wrench":
         raise bad("--channels", args.channels, "no channels with --drive wrench (pass --drive actuation or both)")
@@ -203,7 +203,7 @@ def _default_wrench(path, node) -> str:
     import numpy as np
 
     from ..io.dataset import read_dataset
-    from ..surrogate.data import SampleSpec, split
+    from ..learned.node.data import SampleSpec, split
 
     d = read_dataset(path, nodes=[node])
     cut = split(d.n_samples, SampleSpec(node=node, history=1))[0].stop if d.n_samples >= 4 else d.n_samples

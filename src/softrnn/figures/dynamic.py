@@ -1,4 +1,4 @@
-"""Figures of a learned whole-manipulator model (``softrnn.dynamic``): the largest error over the
+"""Figures of a learned whole-manipulator model (``softrnn.learned.whole``): the largest error over the
 rod's nodes against time, the model beside its baselines, as ``softrnn reproduce`` draws them."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Reproduce step: the learned whole-manipulator dynamic model (``softrnn.dynamic``, beyond the paper)
+"""Reproduce step: the learned whole-manipulator dynamic model (``softrnn.learned.whole``, beyond the paper)
 of each paper case, trained, run free beside its baselines, and timed against the simulator.
 
 Per case (``out/dynamic/CASE/``, step file ``out/dynamic/CASE.json``):
@@ -6,7 +6,7 @@ Per case (``out/dynamic/CASE/``, step file ``out/dynamic/CASE.json``):
 1. a sweep of the case's scenario (``softrnn.sweeps.run_sweep``, 2 local workers) into
    ``out/sweeps/CASE/``: ``n_train + n_heldout`` variants saved every ``dt`` (``SWEEP``); the last
    ``n_heldout`` are held out (never trained on);
-2. training (``softrnn.dynamic.fit``, config ``CONFIGS[CASE]``) on the paper trajectory's first 60 %
+2. training (``softrnn.learned.whole.fit``, config ``CONFIGS[CASE]``) on the paper trajectory's first 60 %
    (``out/data/CASE.h5``; its first sample is the reference pose) and the training variants, with a
    checkpoint in the case's folder (an interrupted run resumes); the model goes to ``model/``. The
    cases train side by side, ``TRAIN_WORKERS`` processes of one PyTorch thread each
@@ -38,8 +38,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..dynamic.config import DynamicConfig
 from ..files import atomic_write_text, json_default
+from ..learned.whole.config import DynamicConfig
 from .cases import GENERALISATION
 from .stepfiles import load_step, save_step
 
@@ -132,7 +132,7 @@ def training_split(out: Path, case: str, sweep_dir: Path, s: dict):
     """The paper trajectory's first 60 % first (its first sample: the reference pose), then the
     sweep's training variants; the sweep's last ``n_heldout`` variants held out, the
     ``n_validation`` before them for validation."""
-    from ..dynamic.data import split_inputs
+    from ..learned.whole.data import split_inputs
 
     paper = split_inputs([out / "data" / f"{case}.h5"], train_fraction=TRAIN_FRACTION)
     return paper + split_inputs([sweep_dir], heldout=s["n_heldout"], validation=s["n_validation"])
@@ -141,8 +141,8 @@ def training_split(out: Path, case: str, sweep_dir: Path, s: dict):
 def _fit_into(folder: Path, split, config: DynamicConfig, progress=None, threads: int | None = None) -> None:
     """Train and save the model to ``folder/model``, checkpointing to ``folder/checkpoint.pt`` (an
     interrupted training resumes from it; removed once the model is saved)."""
-    from ..dynamic.artifact import save_dynamic
-    from ..dynamic.fit import fit
+    from ..learned.whole.artifact import save_dynamic
+    from ..learned.whole.fit import fit
 
     trained, meta = fit(split, config, progress=progress, checkpoint=folder / "checkpoint.pt", threads=threads)
     save_dynamic(folder / "model", trained, meta)
@@ -153,7 +153,7 @@ def train_case(case: str, folder: Path, split, config: DynamicConfig, progress_f
                threads: int | None = None):
     """The model in ``folder/model`` (trained here, or read when finished earlier): (LoadedDynamic,
     the training's seconds). ``threads``: PyTorch's threads while training (None: as set)."""
-    from ..dynamic.artifact import is_dynamic_folder, load_dynamic
+    from ..learned.whole.artifact import is_dynamic_folder, load_dynamic
 
     model_dir = folder / "model"
     if not is_dynamic_folder(model_dir):
@@ -190,7 +190,7 @@ def train_cases(jobs: list, workers: int = TRAIN_WORKERS, threads: int = TRAIN_T
     at a time in processes of ``threads`` PyTorch threads (1 worker: one after the other in this
     process, same arithmetic). Each training checkpoints and resumes as ``train_case``'s; an
     interruption (Ctrl-C, SIGTERM) stops the workers and keeps every finished model."""
-    from ..dynamic.artifact import is_dynamic_folder
+    from ..learned.whole.artifact import is_dynamic_folder
 
     jobs = [j for j in jobs if not is_dynamic_folder(Path(j[1]) / "model")]
     bars = {case: progress_factory(f"train dynamic {case}") if progress_factory else None for case, *_ in jobs}
@@ -250,11 +250,11 @@ def span_start(loaded, traj) -> int:
 def write_rollout(loaded, dataset, path: Path) -> dict:
     """The model's free run over the test span of ``dataset``, every node decoded, as a data set
     (``softrnn animate``); up to where it diverged or left the data format's range."""
-    from ..dynamic.rollout import rollout_dataset
     from ..io.dataset import write_dataset
+    from ..learned.whole.rollout import rollout_dataset
 
     start = span_start(loaded, loaded.encoding.trajectory(dataset))
-    ds, diverged = rollout_dataset(loaded, dataset, start, attrs={"source": "softrnn.dynamic free run"})
+    ds, diverged = rollout_dataset(loaded, dataset, start, attrs={"source": "softrnn.learned.whole free run"})
     ds.attrs["diverged_at_step"] = diverged
     write_dataset(path, ds)
     return {"samples": ds.n_samples, "start_s": float(ds.time[0]), "diverged_at": diverged}
@@ -263,7 +263,7 @@ def write_rollout(loaded, dataset, path: Path) -> dict:
 def _errors(loaded, dataset, start: int | None) -> tuple[np.ndarray, dict]:
     """(times, {predictor: errors [% of L]}) of the model and the baselines run free from ``start``
     (None: the test span's start) to the end."""
-    from ..dynamic.evaluation import ConstantVelocity, Persistence, run_errors
+    from ..learned.whole.evaluation import ConstantVelocity, Persistence, run_errors
 
     enc = loaded.encoding
     traj = enc.trajectory(dataset)
@@ -359,8 +359,8 @@ def _usable(loaded, dataset, need: int, what: str, skipped: list):
 
 def _measure(case: str, out: Path, folder: Path, loaded, split, quick: bool) -> dict:
     """Evaluation, speed, rollout and figure of a trained model: the case's entry (less training)."""
-    from ..dynamic.evaluation import evaluate_dynamic
     from ..io.dataset import read_dataset
+    from ..learned.whole.evaluation import evaluate_dynamic
 
     paper = read_dataset(out / "data" / f"{case}.h5")
     held = [part.read() for part in split.heldout]

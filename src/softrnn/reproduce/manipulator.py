@@ -33,8 +33,8 @@ node sits; input noise (offsets of the node's own history) teaches it to pull a 
 def _train_shared(ds, out: Path, quick: bool, progress_factory):
     """The shared model trained (or resumed) on the pooled interior nodes of ``ds``: (model, pool,
     the reference node in the middle of the pool, training seconds)."""
-    from ..surrogate.data import SampleSpec
-    from ..surrogate.train import TrainConfig, train_node_model
+    from ..learned.node.data import SampleSpec
+    from ..learned.node.train import TrainConfig, train_node_model
 
     cfg = MANIPULATOR
     n = int(ds.nodes.size)
@@ -67,7 +67,7 @@ def _describe(model, ds, pool: tuple, ref_node: int, train_s: float, quick: bool
 def _horizon_errors(r, ds, pool: tuple, ref_node: int, start: int, stop: int) -> tuple[dict, list]:
     """Errors of the free run ``r`` by horizon (the reference node's and all modelled nodes' in mm),
     and the error of holding the reference node at its first test position (mm per axis)."""
-    from ..surrogate.evaluate import metrics
+    from ..learned.node.evaluate import metrics
 
     length = float(ds.attrs["rod"]["length"])
     pred = r.positions[r.seed:].astype(np.float64)                       # (T', N, 3)
@@ -93,7 +93,7 @@ def _fit_baselines(model, P, Wr, pool_cols: list, cut: int) -> tuple[dict, dict]
     one of every node), fitted on the training span [0, cut); ({name: baseline}, {name: {skipped:
     reason, ...} or the linear models' fit details})."""
     from ..errors import SoftrnnInputError
-    from ..surrogate.baselines import ConstantVelocity, LinearAR, LinearARConfig, Persistence
+    from ..learned.node.baselines import ConstantVelocity, LinearAR, LinearARConfig, Persistence
 
     ready = {"persistence": Persistence(), "constant_velocity": ConstantVelocity()}
     details = {}
@@ -121,7 +121,7 @@ def _span_errors(pred, ref, cols: list, length: float) -> dict:
 
 def _model_run(manip, ds, positions, wrenches, start: int, stop: int) -> np.ndarray:
     """The shared model's whole-manipulator free run as a ``horizon_table`` predictor: (T', N, 3) [m]."""
-    from ..surrogate.rollout import rollout
+    from ..learned.node.rollout import rollout
 
     r = rollout(manip, ds, start=start, stop=stop)
     return r.positions[r.seed:].astype(np.float64)
@@ -158,9 +158,9 @@ def compare_baselines(manip, model, ds, r, pool: tuple, start: int, stop: int, q
     """
     from functools import partial
 
-    from ..surrogate.baselines import free_run
-    from ..surrogate.evaluate import horizon_misses, horizon_table
-    from ..surrogate.rollout import RolloutDiverged
+    from ..learned.node.baselines import free_run
+    from ..learned.node.evaluate import horizon_misses, horizon_table
+    from ..learned.node.rollout import RolloutDiverged
 
     t0 = time.perf_counter()
     cfg, length = MANIPULATOR, float(ds.attrs["rod"]["length"])
@@ -192,8 +192,8 @@ def _stepper_speed(manip, ds, start: int) -> list[dict]:
     on numba's thread count."""
     import numba
 
-    from ..surrogate.engine import ManipulatorStepper
-    from ..surrogate.manipulator import RolloutDiverged
+    from ..learned.node.engine import ManipulatorStepper
+    from ..learned.node.manipulator import RolloutDiverged
     from ..timing import step_rate
 
     speeds = []
@@ -221,7 +221,7 @@ def manipulator_step(out: Path, quick: bool, progress_factory=None) -> dict:
     """Train the shared whole-manipulator model on the semicircle's training span and run every
     interior node free on the test span (paper Fig. 2C); errors by horizon, speed."""
     from ..io.dataset import read_dataset
-    from ..surrogate.rollout import Manipulator, RolloutDiverged, rollout
+    from ..learned.node.rollout import Manipulator, RolloutDiverged, rollout
 
     step_file = out / "models" / "manipulator.json"
     done = load_step(step_file, quick)

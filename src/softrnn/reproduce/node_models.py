@@ -1,6 +1,6 @@
 """Reproduce step: the node model of each case (paper Fig. 2A/2B), trained on the first 60 % of its
 data set, evaluated one step ahead and free running on the test span and on the generalisation data
-set, each beside the baselines (``softrnn.surrogate.evaluate.compare_baselines``), and the compiled
+set, each beside the baselines (``softrnn.learned.node.evaluate.compare_baselines``), and the compiled
 inference engine's agreement with PyTorch."""
 
 import json
@@ -51,7 +51,7 @@ def engine_agreement(model, data_path, start: int, stop: int) -> dict:
     """The free-running rollout of ``model`` over samples start..stop-1 by the compiled engine and by
     PyTorch (``predict`` per step): the largest position difference (m) and both wall times (s)."""
     from ..io.dataset import read_dataset
-    from ..surrogate.rollout import RolloutDiverged, rollout
+    from ..learned.node.rollout import RolloutDiverged, rollout
 
     ds = read_dataset(data_path, nodes=list(model.spec.window_nodes))
     out = {"steps": int(stop - start)}
@@ -70,8 +70,8 @@ def engine_agreement(model, data_path, start: int, stop: int) -> dict:
 
 def _train(name: str, out: Path, quick: bool, progress_factory):
     """The case's node model trained (or resumed) in ``out/models/<name>``."""
-    from ..surrogate.data import SampleSpec
-    from ..surrogate.train import TrainConfig, train_node_model
+    from ..learned.node.data import SampleSpec
+    from ..learned.node.train import TrainConfig, train_node_model
 
     case = build_case(name)
     folder = out / "models" / name
@@ -91,7 +91,7 @@ def model_step(name: str, out: Path, quick: bool, progress_factory) -> dict:
     free running on the test span, and on the generalisation data set, each beside the baselines
     (persistence, constant velocity, linear AR; by horizon too); skipped when done."""
     from ..figures.evaluation import write_figures
-    from ..surrogate.evaluate import evaluate
+    from ..learned.node.evaluate import evaluate
 
     step_file = out / "models" / f"{name}.json"
     done = load_step(step_file, quick)

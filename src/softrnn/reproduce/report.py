@@ -316,7 +316,7 @@ _GOAL_TEXT = {
 
 
 _DYNAMIC_INTRO = (
-    "One learned model per case (`softrnn.dynamic`): a subset of the nodes stepped at the model's own, "
+    "One learned model per case (`softrnn.learned.whole`): a subset of the nodes stepped at the model's own, "
     "coarser step, every node recovered by interpolation along the rod. Trained on the paper "
     "trajectory's first 60 % and on sweep variants of the case's scenario; the last sweep variants "
     "are held out (never trained on). Every predictor runs free (its own predictions fed back, the "

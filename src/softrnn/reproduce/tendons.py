@@ -1,4 +1,4 @@
-"""The learned whole-manipulator model (``softrnn.dynamic``) of the tendon-driven arms, driven by the
+"""The learned whole-manipulator model (``softrnn.learned.whole``) of the tendon-driven arms, driven by the
 tendon tensions alone (``DynamicConfig.drive = "actuation"``), trained, run free beside its
 baselines and measured against the goals of the learned dynamic model (issue 15).
 
@@ -27,7 +27,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from .. import __version__
-from ..dynamic.config import DynamicConfig
+from ..learned.whole.config import DynamicConfig
 from .dynamic import (
     TRAIN_FRACTION,
     _fresh,
@@ -92,8 +92,8 @@ def simulate_inputs(case: str, out: Path, quick: bool, progress_factory=None) ->
 
 def measure(case: str, out: Path, loaded, split) -> dict:
     """The free-running evaluation of a trained model beside its baselines, with the goals."""
-    from ..dynamic.evaluation import evaluate_dynamic
     from ..io.dataset import read_dataset
+    from ..learned.whole.evaluation import evaluate_dynamic
 
     nominal = read_dataset(out / "data" / f"{case}.h5")
     held = [part.read() for part in split.heldout]

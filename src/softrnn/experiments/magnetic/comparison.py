@@ -45,8 +45,8 @@ def _angle_errors(predicted, measured) -> dict:
 def _stepper_rate(model, dataset, steps: int = 2000) -> float:
     """Batch-1 steps per second of the compiled ``NodeStepper`` fed the data set's rows in turn
     (``softrnn.timing.step_rate``: the median over 5 runs of each run's mean rate)."""
-    from ...surrogate.data import pose_rows, wrench_rows
-    from ...surrogate.engine import NodeStepper
+    from ...learned.node.data import pose_rows, wrench_rows
+    from ...learned.node.engine import NodeStepper
 
     H = int(model.spec.history)
     rows = pose_rows(dataset, model.spec)
@@ -77,7 +77,7 @@ def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, 
     targets. Writes ``out_dir/models/{proximal,distal}``, ``table1.json`` and ``fig12.png``;
     returns the table dict (see ``run_experiment``)."""
     from ...files import atomic_write_text
-    from ...surrogate.train import TrainConfig
+    from ...learned.node.train import TrainConfig
 
     out = Path(out_dir)
     measured = np.asarray(dataset.positions, dtype=np.float64)                     # (T, 2, 3) rad
@@ -131,8 +131,8 @@ def _train_magnet(dataset, m: int, config: ExperimentConfig, train, model_dir: P
                   progress: Progress | None) -> tuple:
     """(model, seconds): magnet ``m``'s LSTM (input I both magnets' orientations, input II its wrench)
     trained with ``train`` (a ``TrainConfig``) and saved to ``model_dir``."""
-    from ...surrogate.data import SampleSpec
-    from ...surrogate.train import train_node_model
+    from ...learned.node.data import SampleSpec
+    from ...learned.node.train import train_node_model
 
     name = MAGNETS[m]
     spec = SampleSpec(node=m, neighbours=(1 - m,), history=config.history, inputs="positions", wrench="wrench",
@@ -151,8 +151,8 @@ def _score_magnet(model, dataset, measured, m: int, static, model_dir: Path, cal
     """(Table 1 entry, predictions) of magnet ``m``'s ``model`` on the test span: errors one step
     ahead and free running against ``measured`` (T, 2, 3) [rad], and the ``static`` and
     ``calibrated`` models' (T, 2, 3) [rad] (each None: absent) on the same targets."""
-    from ...surrogate.evaluate import free_running, one_step
-    from ...surrogate.rollout import RolloutDiverged
+    from ...learned.node.evaluate import free_running, one_step
+    from ...learned.node.rollout import RolloutDiverged
 
     one = one_step(model, dataset)
     try:

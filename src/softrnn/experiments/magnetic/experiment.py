@@ -17,7 +17,7 @@ Two models predict the measured orientations of the last 40 % of the samples:
 
 * the static Cosserat model (``softrnn.statics``) with the nominal parameters, from the coil currents
   alone (``static_predictions``: B and G at the magnets by fixed-point iteration on their positions);
-* one LSTM per magnet (paper Fig. 11; ``softrnn.surrogate``): input I the measured orientations of
+* one LSTM per magnet (paper Fig. 11; ``softrnn.learned.node``): input I the measured orientations of
   both magnets, input II the magnet's wrench [f, tau] computed, as the paper did, from the measured
   magnet pose, the nominal magnet moment and the currents; history 2; trained on the first 60 %;
   evaluated one step ahead (as Table 1) and free running.

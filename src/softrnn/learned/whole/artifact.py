@@ -1,0 +1,158 @@
+"""A whole-manipulator model as a folder, and loading it as a ``LoadedDynamic`` (engine + encoding).
+
+A model folder holds two files:
+
+=================== ============================================================================
+weights.safetensors ``DynamicNet.state_dict()`` (float32; the ``fixed`` mask as uint8)
+linear.safetensors  the linear baseline fitted on the same data (``TrainedDynamic.linear``)
+model.json          ``{"format": "softrnn-dynamic-model", "format_version": 1, "config":
+                    DynamicConfig, "encoding": {...}, "meta": {...}}``: the encoding's arrays
+                    (kept nodes, reference pose, fixed nodes, steps, length) and provenance
+                    (training data, held-out variants, training info)
+=================== ============================================================================
+
+Loading needs NumPy, numba and safetensors only (no PyTorch): ``load_dynamic(folder).engine`` steps it.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ... import __version__
+from ...errors import SoftrnnInputError, one_line
+from ...files import atomic_folder, json_default
+from .config import DynamicConfig, linear_config
+from .encoding import Encoding
+from .engine import DynamicEngine
+
+FORMAT = "softrnn-dynamic-model"
+FORMAT_VERSION = 1
+FILES = ("weights.safetensors", "linear.safetensors", "model.json")
+
+
+class DynamicFolderError(SoftrnnInputError):
+    """A model folder that cannot be used; one line naming the folder, the file and what to do."""
+
+
+@dataclass(eq=False)
+class LoadedDynamic:
+    """A saved model: ``config``, ``encoding``, ``engine`` (``DynamicEngine``), ``linear`` (the
+    linear baseline's engine), ``meta`` and the raw ``weights`` (NumPy arrays, for
+    ``DynamicNet.load_state_dict`` or export)."""
+
+    config: DynamicConfig
+    encoding: Encoding
+    engine: DynamicEngine
+    linear: DynamicEngine
+    weights: dict
+    meta: dict = field(default_factory=dict)
+
+
+def encoding_to_dict(enc: Encoding) -> dict:
+    """The ``Encoding`` as JSON-ready values (model.json's ``encoding``)."""
+    return {"n_nodes": enc.n_nodes, "kept": enc.kept.tolist(), "model_dt": enc.model_dt, "data_dt": enc.data_dt,
+            "length": enc.length, "ref_positions": enc.ref_positions.tolist(),
+            "ref_quaternions": enc.ref_quaternions.tolist(), "fixed": enc.fixed.tolist(),
+            "feedback": bool(enc.feedback),
+            **({"drive": enc.drive, "channels": list(enc.channels)} if enc.drive != "wrench" else {})}
+
+
+def encoding_from_dict(d: dict) -> Encoding:
+    """The ``Encoding`` from model.json's ``encoding``."""
+    return Encoding(n_nodes=int(d["n_nodes"]), kept=np.asarray(d["kept"]), model_dt=float(d["model_dt"]),
+                    data_dt=float(d["data_dt"]), length=float(d["length"]),
+                    ref_positions=np.asarray(d["ref_positions"]), ref_quaternions=np.asarray(d["ref_quaternions"]),
+                    fixed=np.asarray(d["fixed"], dtype=bool), feedback=bool(d.get("feedback", False)),
+                    drive=str(d.get("drive", "wrench")), channels=tuple(d.get("channels", ())))
+
+
+def save_dynamic(folder, trained, meta: dict | None = None) -> None:
+    """Write a ``TrainedDynamic`` to ``folder`` atomically (an existing folder is replaced)."""
+    import torch
+    from safetensors.torch import save_file
+
+    def tensors(net) -> dict:
+        out = {k: v.detach().contiguous().clone().float() for k, v in net.state_dict().items()}
+        out["fixed"] = net.fixed.detach().clone().to(dtype=torch.uint8)
+        return out
+
+    state, linear = tensors(trained.net), tensors(trained.linear)
+    doc = {"format": FORMAT, "format_version": FORMAT_VERSION, "softrnn_version": __version__,
+           "config": trained.config.to_dict(), "encoding": encoding_to_dict(trained.encoding),
+           "meta": {"training": trained.info, **(meta or {})}}
+    text = json.dumps(doc, indent=1, allow_nan=False, default=json_default) + "\n"
+
+    def write(tmp: Path) -> None:
+        save_file(state, str(tmp / "weights.safetensors"), metadata={"format": FORMAT})
+        save_file(linear, str(tmp / "linear.safetensors"), metadata={"format": FORMAT})
+        (tmp / "model.json").write_text(text)
+
+    atomic_folder(folder, write)
+
+
+def is_dynamic_folder(folder) -> bool:
+    """Whether ``folder`` holds a saved whole-manipulator model."""
+    folder = Path(folder)
+    return folder.is_dir() and (folder / "model.json").is_file()
+
+
+def load_dynamic(folder) -> LoadedDynamic:
+    """Read a model folder written by ``save_dynamic``; a missing, corrupt or foreign file is a
+    one-line ``DynamicFolderError``."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise DynamicFolderError(f"{folder}: no such model folder; give a folder written by "
+                                 "'softrnn dynamic train'")
+    path = folder / "model.json"
+    if not path.is_file():
+        raise DynamicFolderError(f"{folder}: model.json is missing; this is not a whole-manipulator model "
+                                 "folder (train one with 'softrnn dynamic train')")
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise DynamicFolderError(f"{folder}: model.json is unreadable ({one_line(err)[:120]}); "
+                                 "train the model again") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise DynamicFolderError(f"{folder}: model.json is not a {FORMAT} file; give a folder written by "
+                                 "'softrnn dynamic train'")
+    if int(doc.get("format_version", 0)) > FORMAT_VERSION:
+        raise DynamicFolderError(f"{folder}: format version {doc.get('format_version')} is newer than this "
+                                 f"softrnn reads ({FORMAT_VERSION}); upgrade softrnn")
+    from safetensors.numpy import load_file
+
+    for name in FILES[:2]:
+        if not (folder / name).is_file():
+            raise DynamicFolderError(f"{folder}: {name} is missing; the model folder is incomplete, train the "
+                                     "model again")
+    try:
+        weights = load_file(str(folder / "weights.safetensors"))
+        config = DynamicConfig.from_dict(doc["config"])
+        encoding = encoding_from_dict(doc["encoding"])
+        engine = DynamicEngine(weights, config)
+        linear = DynamicEngine(load_file(str(folder / "linear.safetensors")), linear_config(config))
+    except SoftrnnInputError:
+        raise
+    except Exception as err:  # noqa: BLE001 - safetensors and a damaged json raise several types
+        raise DynamicFolderError(f"{folder}: the model files are corrupt or do not match "
+                                 f"({one_line(err)[:160]}); train the model again") from None
+    try:   # one step on a rest state: weights of another layout fail here, not in a user's loop
+        engine.step(np.zeros((engine.history, engine.n_kept, 6)), np.zeros((engine.n_kept, engine.load_width)))
+        linear.step(np.zeros((linear.history, linear.n_kept, 6)), np.zeros((linear.n_kept, linear.load_width)))
+    except ValueError as err:
+        why = one_line(err)[:100]
+        raise DynamicFolderError(f"{folder}: the weights do not fit this softrnn's model layout ({why}); "
+                                 "train the model again") from None
+    if engine.n_kept != encoding.n_kept:
+        raise DynamicFolderError(f"{folder}: weights.safetensors and model.json disagree on the node count; "
+                                 "train the model again")
+    return LoadedDynamic(config=config, encoding=encoding, engine=engine, linear=linear, weights=weights,
+                         meta=doc.get("meta") or {})
+
+
+def engine_of(net) -> DynamicEngine:
+    """The NumPy engine of a ``DynamicNet`` still in memory (``TrainedDynamic.net`` or ``.linear``)."""
+    return DynamicEngine({k: v.detach().numpy() for k, v in net.state_dict().items()}, net.config)

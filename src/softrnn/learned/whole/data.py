@@ -1,0 +1,106 @@
+"""Which trajectories a whole-manipulator model trains on, and which it must never see.
+
+Inputs are data set files (one trajectory, or a sweep file with one group per variant) and sweep
+folders (``softrnn sweep ... -o DIR``: one ``traj-NNNNN.h5`` per variant). ``split_inputs`` turns
+them into training parts and held-out trajectories:
+
+* of every sweep folder or sweep file, the **last** ``heldout`` variants (highest indices) are
+  held out: they never reach training (``Split.heldout``); the ``validation`` variants before them
+  are only used to choose among the training's checkpoints (``Split.validation``: free runs, never
+  a gradient); the others are trained on whole;
+* of every single-trajectory file, the first ``train_fraction`` is trained on (the paper's 60/40
+  chronological split: the rest is the test span).
+
+``Split.describe()`` is what a model folder records (``meta["data"]``), so an evaluation can check
+that a "held-out" file really was held out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ...errors import bad, integer
+from ...io.dataset import list_groups, read_dataset, read_node
+
+
+@dataclass(frozen=True)
+class Part:
+    """One trajectory: ``path``, ``group`` ('/' for a single-trajectory file) and the samples
+    ``stop`` (None: all) that are used."""
+
+    path: str
+    group: str = "/"
+    stop: int | None = None
+
+    def read(self):
+        """The part's ``Dataset`` (its first ``stop`` samples)."""
+        return read_dataset(self.path, group=None if self.group == "/" else self.group, stop=self.stop)
+
+    def describe(self) -> dict:
+        """{path, group, stop}, as a model folder records it."""
+        return {"path": self.path, "group": self.group, "stop": self.stop}
+
+
+@dataclass(frozen=True)
+class Split:
+    """``train``, ``validation`` and ``heldout`` parts (lists of ``Part``)."""
+
+    train: list = field(default_factory=list)
+    heldout: list = field(default_factory=list)
+    validation: list = field(default_factory=list)
+
+    def describe(self) -> dict:
+        """{"train", "validation", "heldout"}: each a list of ``Part.describe()``."""
+        return {key: [p.describe() for p in getattr(self, key)] for key in ("train", "validation", "heldout")}
+
+    def __add__(self, other: Split) -> Split:
+        return Split(train=self.train + other.train, heldout=self.heldout + other.heldout,
+                     validation=self.validation + other.validation)
+
+
+def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction: float = 1.0) -> Split:
+    """Training, validation and held-out parts of ``paths`` (files or sweep folders)."""
+    heldout = integer("heldout", heldout, 0)
+    validation = integer("validation", validation, 0)
+    if not (0.0 < float(train_fraction) <= 1.0):
+        raise bad("train_fraction", train_fraction, "a fraction in (0, 1]")
+    if isinstance(paths, (str, Path)):
+        paths = [paths]
+    train, held, val = [], [], []
+    for raw in paths:
+        path = Path(raw)
+        if path.is_dir():
+            variants = [(f, "/") for f in sorted(path.glob("traj-*.h5"))]
+            if not variants:
+                raise bad("data", str(path), "a sweep folder holding traj-NNNNN.h5 files, or a data set file")
+        elif path.is_file():
+            groups = list_groups(path)
+            if groups == ["/"]:
+                stop = None
+                if train_fraction < 1.0:
+                    n = len(read_node(path, 0).time)      # one column: the sample count
+                    stop = int(train_fraction * (n - 1)) + 1
+                train.append(Part(str(path), "/", stop))
+                continue
+            variants = [(path, g) for g in groups]
+        else:
+            raise bad("data", str(path), "an existing data set file or sweep folder")
+        if heldout + validation >= len(variants):
+            raise bad("heldout", heldout, f"a count that leaves training variants of the {len(variants)} in {path} "
+                      f"(with {validation} for validation)")
+        cut = len(variants) - heldout
+        cut_val = cut - validation
+        train += [Part(str(f), g) for f, g in variants[:cut_val]]
+        val += [Part(str(f), g) for f, g in variants[cut_val:cut]]
+        held += [Part(str(f), g) for f, g in variants[cut:]]
+    return Split(train=train, heldout=held, validation=val)
+
+
+def rod_length(dataset) -> float:
+    """The rod's length [m] from a data set's ``attrs["rod"]``."""
+    rod = dataset.attrs.get("rod")
+    if isinstance(rod, dict) and isinstance(rod.get("length"), (int, float)) and rod["length"] > 0:
+        return float(rod["length"])
+    raise bad("data", "a data set without the rod's length",
+              "a data set written by softrnn simulate or sweep (attrs['rod'] holds the length)")

@@ -1,0 +1,276 @@
+"""Export one step of a whole-manipulator model to ONNX, with a JSON sidecar holding its encoding.
+
+The graph is ``DynamicNet.forward`` with the saved weights (float32, batch 1), so a control loop
+steps the model without softrnn:
+
+* input ``history`` (1, H, M, 6): the last H encoded states, oldest first (per kept node the
+  displacement from the reference position [m], then the rotation vector from the reference
+  orientation [rad], ``Encoding``);
+* input ``loads`` (1, M, 6): the mean force [N] and torque [N m] over the coming model step,
+  lumped onto the kept nodes (``Encoding.loads``);
+* for ``memory = "lstm"`` also ``memory_h``, ``memory_c`` (1, M, W): the LSTM cell's state (zeros
+  at the start of a run);
+* output ``next_state`` (1, M, 6), the state one model step later (and ``memory_h_out``,
+  ``memory_c_out`` for the next call with ``memory = "lstm"``).
+
+The sidecar (``sidecar_path``: ``OUT.onnx.json``) holds what a caller needs to encode poses and
+loads and to decode states to every node: the encoding's arrays (kept nodes, reference pose, fixed
+nodes, steps, length), the load lumping matrix and the layouts (``describe``). ``export_onnx``
+checks the graph with ONNX Runtime against the NumPy engine (``DynamicEngine``) on a random input
+before anything is written, and writes both files atomically.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from ... import __version__
+from ...errors import SimulationError, bad
+from ...files import atomic_write_bytes, atomic_write_text, json_default
+from .artifact import LoadedDynamic, encoding_to_dict
+from .encoding import lumping_matrix
+from .network import DynamicNet
+
+FORMAT = "softrnn-dynamic-model-export"
+"""Value of the ``format`` entry of the ONNX metadata and the sidecar."""
+
+FORMAT_VERSION = 1
+"""Layout version of the exported inputs, outputs and sidecar."""
+
+DEFAULT_OPSET = 17
+"""ONNX opset written (ONNX Runtime >= 1.14 reads it)."""
+
+TOLERANCE = 1e-5
+"""Largest difference [m or rad] between the ONNX graph (float32) and the NumPy engine (float64) on
+the check's random input; a larger one refuses the export."""
+
+SIDECAR_SUFFIX = ".json"
+
+
+@dataclass(frozen=True)
+class Exported:
+    """What ``export_onnx`` wrote: the ONNX file ``path``, the ``sidecar`` JSON and the largest
+    difference ``max_difference`` [m or rad] between ONNX Runtime and the NumPy engine on a random
+    input (next state, and the LSTM memory where there is one)."""
+
+    path: Path
+    sidecar: Path
+    max_difference: float
+
+
+def sidecar_path(path) -> Path:
+    """The sidecar of an ONNX file: ``model.onnx`` -> ``model.onnx.json``."""
+    path = Path(path)
+    return path.with_name(path.name + SIDECAR_SUFFIX)
+
+
+def input_names(model: LoadedDynamic) -> list[str]:
+    """``history``, ``loads`` (and ``memory_h``, ``memory_c`` for ``memory = "lstm"``)."""
+    return ["history", "loads"] + (["memory_h", "memory_c"] if model.config.memory == "lstm" else [])
+
+
+def output_names(model: LoadedDynamic) -> list[str]:
+    """``next_state`` (and ``memory_h_out``, ``memory_c_out`` for ``memory = "lstm"``)."""
+    return ["next_state"] + (["memory_h_out", "memory_c_out"] if model.config.memory == "lstm" else [])
+
+
+def step_net(model: LoadedDynamic) -> DynamicNet:
+    """The saved weights as a ``DynamicNet`` in eval mode (float32)."""
+    if not isinstance(model, LoadedDynamic):
+        raise bad("model", type(model).__name__, "a LoadedDynamic (softrnn.learned.whole.load_dynamic(folder))")
+    w = model.weights
+    scales = {k: np.asarray(w[k]) for k in ("sx", "sv", "su", "sa")}
+    net = DynamicNet(model.config, np.asarray(w["node_features"]), np.asarray(w["fixed"], dtype=bool), scales)
+    state = {k: torch.as_tensor(np.asarray(v)) for k, v in w.items()}
+    state["fixed"] = state["fixed"].to(torch.bool)
+    for key, value in net.state_dict().items():     # a model saved before the envelope: not clipped
+        state.setdefault(key, value)
+    net.load_state_dict(state)
+    return net.eval()
+
+
+class OnnxStep(nn.Module):
+    """One model step with the memory as explicit inputs and outputs (batch 1).
+
+    ``forward(history (1, H, M, 6), loads (1, M, 6)[, memory_h, memory_c (1, M, W)])`` returns
+    ``next_state`` (1, M, 6) (and the new memory, (1, M, W) each, for ``memory = "lstm"``).
+    """
+
+    def __init__(self, net: DynamicNet):
+        super().__init__()
+        self.net = net
+        self.lstm = net.cell is not None
+
+    def forward(self, history, loads, memory_h=None, memory_c=None):
+        """The step (see the class)."""
+        if not self.lstm:
+            nxt, _ = self.net(history, loads)                                  # (1, M, 6)
+            return nxt
+        M = history.shape[2]
+        memory = (memory_h.reshape(M, -1), memory_c.reshape(M, -1))           # (M, W) each
+        nxt, (h, c) = self.net(history, loads, memory)
+        return nxt, h.reshape(1, M, -1), c.reshape(1, M, -1)
+
+
+def random_inputs(model: LoadedDynamic, seed: int = 0) -> dict[str, np.ndarray]:
+    """A plausible random input of the graph (float32): a history whose states and velocities have
+    the training data's spread (``sx``, ``sv``), loads of the loads' spread, a memory in (-1, 1)."""
+    rng = np.random.default_rng(seed)
+    e, w = model.engine, model.weights
+    H, M = e.history, e.n_kept
+    x0 = rng.standard_normal((M, 6)) * np.asarray(w["sx"], dtype=np.float64)
+    steps = rng.standard_normal((H, M, 6)) * np.asarray(w["sv"], dtype=np.float64)
+    history = x0 + np.cumsum(steps, axis=0) - steps.sum(axis=0)               # (H, M, 6), last = x0
+    history[:, e.fixed] = 0.0
+    loads = rng.standard_normal((M, e.load_width)) * np.asarray(w["su"], dtype=np.float64)
+    out = {"history": history[None], "loads": loads[None]}
+    if model.config.memory == "lstm":
+        width = model.config.width
+        out["memory_h"] = np.tanh(rng.standard_normal((1, M, width)))
+        out["memory_c"] = rng.standard_normal((1, M, width))
+    return {k: v.astype(np.float32) for k, v in out.items()}
+
+
+def max_difference(model: LoadedDynamic, onnx_bytes: bytes, seed: int = 0) -> float:
+    """Largest |ONNX Runtime - ``DynamicEngine``| over every output on ``random_inputs`` [m or rad]
+    (the engine is fed the same float32 values, in float64)."""
+    import onnxruntime
+
+    feeds = random_inputs(model, seed)
+    options = onnxruntime.SessionOptions()
+    options.intra_op_num_threads = 1
+    session = onnxruntime.InferenceSession(onnx_bytes, options, providers=["CPUExecutionProvider"])
+    got = session.run(output_names(model), feeds)
+    memory = None
+    if model.config.memory == "lstm":
+        memory = (feeds["memory_h"][0].astype(np.float64), feeds["memory_c"][0].astype(np.float64))
+    nxt, memory = model.engine.step(feeds["history"][0].astype(np.float64), feeds["loads"][0].astype(np.float64),
+                                    memory)
+    want = [nxt] + ([] if memory is None else list(memory))
+    return float(max(np.max(np.abs(g[0].astype(np.float64) - w)) for g, w in zip(got, want)))
+
+
+def describe(model: LoadedDynamic) -> dict:
+    """The sidecar's content (JSON-ready): ``format``, ``format_version``, ``softrnn_version``,
+    ``config``, ``encoding`` (``n_nodes``, ``kept``, ``model_dt``, ``data_dt``, ``length``,
+    ``ref_positions``, ``ref_quaternions``, ``fixed``), ``lumping`` (M, N), ``inputs`` and
+    ``outputs`` (name -> shape), ``units`` and ``layout`` (how to encode and decode)."""
+    c, enc = model.config, model.encoding
+    H, M, W = c.history, enc.n_kept, c.width
+    L = enc.load_width
+    inputs = {"history": [1, H, M, 6], "loads": [1, M, L]}
+    outputs = {"next_state": [1, M, 6]}
+    if c.memory == "lstm":
+        inputs.update(memory_h=[1, M, W], memory_c=[1, M, W])
+        outputs.update(memory_h_out=[1, M, W], memory_c_out=[1, M, W])
+    return {
+        "format": FORMAT, "format_version": FORMAT_VERSION, "softrnn_version": __version__,
+        "config": c.to_dict(), "encoding": encoding_to_dict(enc),
+        "lumping": lumping_matrix(enc.n_nodes, enc.kept).tolist(),
+        "inputs": inputs, "outputs": outputs,
+        "units": {"state": "m (columns 0-2), rad (columns 3-5)", "loads": _load_units(enc),
+                  "model_dt": "s", "length": "m"},
+        "layout": _LAYOUT,
+    }
+
+
+def _load_units(enc) -> str:
+    """The loads' columns in words: the wrench's, then the actuation channels' (same at every node)."""
+    wrench = "N (columns 0-2), N m (columns 3-5)"
+    if enc.drive == "wrench":
+        return wrench
+    first = 0 if enc.drive == "actuation" else 6
+    act = ", ".join(f"{n} (column {first + j})" for j, n in enumerate(enc.channels))
+    act = f"the mean actuation input over the model step, the same at every kept node, in its unit: {act}"
+    return act if enc.drive == "actuation" else f"{wrench}, then {act}"
+
+
+_LAYOUT = {
+    "state": "state[m] of kept node encoding.kept[m]: r - r_ref (world frame, m), then the rotation vector "
+             "log(R_ref^T R) (rad; R, R_ref from the scalar-first quaternions, body to world)",
+    "history": "history[0, k] is the state k steps of model_dt apart, k = 0 the oldest, H - 1 the current one",
+    "loads": "loads[0] = lumping @ (the mean over the coming model step of every node's force, torque), "
+             "world frame; lumping (M, N) spreads node i's load over the kept nodes around it. With "
+             "encoding.feedback, a node driven by a PD tracking law (stiffness K, damping D, target(t)) is "
+             "not given its force: the caller adds K (mean target over the step - r_ref - x) - D (x - x_prev) "
+             "/ model_dt to its force columns, x and x_prev the displacements of the last two history states",
+    "next_state": "the state one model step (model_dt) after history[0, H - 1]; fixed nodes keep theirs",
+    "memory": "memory = 'lstm' only: feed zeros at the start, then the previous call's memory_*_out",
+    "decode": "every node's pose: a cubic spline (scipy CubicSpline, not-a-knot) of the states along the node "
+              "index through the kept nodes, then r = r_ref + displacement, R = R_ref exp(rotation vector)",
+}
+
+
+def _graph(model: LoadedDynamic, opset: int) -> bytes:
+    """The ONNX model of one step (bytes) with ``describe``'s scalars as metadata."""
+    import onnx
+
+    wrapped = OnnxStep(step_net(model))
+    example = tuple(torch.from_numpy(v) for v in random_inputs(model).values())
+    buffer = io.BytesIO()
+    with warnings.catch_warnings(), torch.no_grad():
+        # the TorchScript-based exporter is deprecated in favour of the dynamo one (needs onnxscript)
+        warnings.simplefilter("ignore")
+        torch.onnx.export(wrapped, example, buffer, dynamo=False, input_names=input_names(model),
+                          output_names=output_names(model), opset_version=int(opset), do_constant_folding=True)
+    proto = onnx.load_from_string(buffer.getvalue())
+    d = describe(model)
+    meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "softrnn_version": __version__,
+            "history": model.config.history, "kept": d["encoding"]["kept"], "n_nodes": model.encoding.n_nodes,
+            "model_dt": model.encoding.model_dt, "memory": model.config.memory, "inputs": d["inputs"],
+            "outputs": d["outputs"], "sidecar": "the file's name + '.json' holds the encoding and the layouts"}
+    for key, value in meta.items():
+        entry = proto.metadata_props.add()
+        entry.key, entry.value = key, value if isinstance(value, str) else json.dumps(value)
+    proto.doc_string = (f"softrnn whole-manipulator model: one step of {model.encoding.model_dt:g} s on "
+                        f"{model.encoding.n_kept} kept nodes (metadata_props and the .json sidecar describe it)")
+    onnx.checker.check_model(proto)
+    return proto.SerializeToString()
+
+
+def export_onnx(model: LoadedDynamic, path, *, opset: int = DEFAULT_OPSET, seed: int = 0) -> Exported:
+    """Write one step of ``model`` as an ONNX file and its sidecar (``sidecar_path``), atomically.
+
+    Parameters
+    ----------
+    model : LoadedDynamic
+        ``load_dynamic(folder)``.
+    path : str or Path
+        The ONNX file (its folder is created if needed; existing files are replaced).
+    opset : int
+        ONNX opset, 17 to 20.
+    seed : int
+        Seed of the check's random input (``random_inputs``).
+
+    Returns
+    -------
+    Exported
+        The paths and the check's largest difference. Raises ``SimulationError`` (nothing written)
+        when the difference exceeds ``TOLERANCE``.
+    """
+    if isinstance(opset, bool) or not isinstance(opset, (int, np.integer)) or not 17 <= int(opset) <= 20:
+        raise bad("opset", opset, f"an ONNX opset from 17 to 20 (default {DEFAULT_OPSET})")
+    path = Path(path)
+    if path.is_dir():
+        raise bad("path", str(path), "a file path, not a folder")
+    data = _graph(model, int(opset))
+    diff = max_difference(model, data, seed)
+    if not diff <= TOLERANCE:
+        raise SimulationError(f"the ONNX graph differs from the NumPy engine by {diff:.3g} (more than "
+                              f"{TOLERANCE:g}) on a random input; nothing was written; report this with the model")
+    sidecar = sidecar_path(path)
+    atomic_write_text(sidecar, json.dumps(describe(model), indent=1, allow_nan=False, default=json_default) + "\n")
+    try:
+        atomic_write_bytes(path, data)
+    except BaseException:
+        sidecar.unlink(missing_ok=True)
+        raise
+    return Exported(path=path, sidecar=sidecar, max_difference=diff)

@@ -1,0 +1,30 @@
+"""``fit``: train a whole-manipulator model on the training parts of a ``Split`` (files in, model out)."""
+
+from __future__ import annotations
+
+from ...progress import Progress
+from .config import DynamicConfig, resolve_node_stride
+from .data import Split, rod_length
+from .encoding import make_encoding
+from .training import TrainedDynamic, train_dynamic_model
+
+
+def fit(split: Split, config: DynamicConfig, *, progress: Progress | None = None, checkpoint=None,
+        threads: int | None = None) -> tuple[TrainedDynamic, dict]:
+    """Read ``split.train``, build the encoding (reference pose: the first part's first sample) and
+    train. Returns the trained model and the ``meta`` a model folder records (``{"data": ...}``)."""
+    datasets = [part.read() for part in split.train]
+    if not datasets:
+        from ...errors import SoftrnnInputError
+
+        raise SoftrnnInputError("data: nothing to train on (every input was held out); give more variants "
+                                "or a smaller --heldout")
+    first = datasets[0]
+    encoding = make_encoding(datasets, model_dt=config.model_dt,
+                             node_stride=resolve_node_stride(config.node_stride, first.n_nodes),
+                             length=rod_length(first), feedback=config.feedback, drive=config.drive)
+    trajectories = [encoding.trajectory(d, name=f"{p.path}:{p.group}") for d, p in zip(datasets, split.train)]
+    validation = [encoding.trajectory(p.read(), name=f"{p.path}:{p.group}") for p in split.validation]
+    trained = train_dynamic_model(trajectories, encoding, config, validation=validation, progress=progress,
+                                  checkpoint=checkpoint, threads=threads)
+    return trained, {"data": split.describe()}
