@@ -74,7 +74,7 @@ def free_run(fill, step, positions, tensions, start):
 
 
 def main():
-    from softrnn.io.dataset import read_dataset
+    from softrnn.io import read_dataset
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("onnx", help="the file written by softrnn export --onnx")

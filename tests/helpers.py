@@ -6,7 +6,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from softrnn.io.dataset import UNITS, Dataset, write_trajectory
+from softrnn.io import UNITS, Dataset, write_trajectory
 from softrnn.learned.node.data import Normalizer, SampleSpec, make_windows, split
 from softrnn.rod import kernels
 from softrnn.rod.lumped import frozen

@@ -2,6 +2,7 @@
 validators every part uses to build them (``is_int``, ``integer``, ``finite``, ``positive``,
 ``nonnegative``, ``vec3``, ``one_line``)."""
 
+import importlib.util
 import math
 
 import numpy as np
@@ -108,8 +109,6 @@ def missing_extra(err: ImportError) -> SoftrnnInputError | None:
 def require_extra(extra: str) -> None:
     """Raise the one-line ``missing_extra`` error now, before any output is written, when a package
     of the optional ``extra`` ('learn' or 'dask') is not installed."""
-    import importlib.util
-
     for name, owner in EXTRAS.items():
         if owner == extra and importlib.util.find_spec(name) is None:
             raise missing_extra(ModuleNotFoundError(f"No module named {name!r}", name=name))

@@ -4,6 +4,7 @@ any long work (``prepare_output``)."""
 
 import dataclasses
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -44,8 +45,6 @@ def atomic_write_text(path, text: str) -> None:
 def atomic_folder(folder, write) -> None:
     """Make ``folder`` appear whole: ``write(tmp)`` fills a temporary folder beside it, which is then
     renamed onto ``folder`` (an existing one is moved aside first and removed after)."""
-    import shutil
-
     folder = Path(folder)
     folder.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=folder.parent))

@@ -21,6 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 
+import numba
 import numpy as np
 
 from .errors import bad, integer
@@ -70,9 +71,6 @@ def machine_info() -> dict:
         PyTorch is not imported), ``numba_max_threads`` (numba's thread limit) and
         ``load_average`` (1, 5 and 15 min, or None) when this was called.
     """
-    import numba
-    import numpy as np
-
     usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     return {
         "cpu": cpu_model(),

@@ -12,7 +12,7 @@ import pytest
 
 from softrnn.calibration import scenario as calibration
 from softrnn.errors import SoftrnnInputError
-from softrnn.io.dataset import Dataset, read_dataset, write_dataset
+from softrnn.io import Dataset, read_dataset, write_dataset
 from softrnn.rod import Simulator
 from softrnn.scenarios import ScenarioError, load_scenario, parse_scenario
 

@@ -5,6 +5,7 @@ import json
 import pytest
 
 from softrnn.learned.whole.config import DynamicConfig
+from softrnn.reproduce import benchmark as reproduce_benchmark
 from softrnn.reproduce import cases as reproduce_cases
 from softrnn.reproduce import dynamic as reproduce_dynamic
 from softrnn.reproduce import pipeline as reproduce_mod
@@ -62,8 +63,6 @@ def test_bad_input_leaves_no_partial_file(tmp_path):
 def _light_steps(monkeypatch):
     """The slow steps that have their own tests (bench, the magnetic experiment, control, Fig. 13/14) replaced by
     fakes that record their calls; the data, node-model and manipulator steps run for real."""
-    import softrnn.bench as bench_pkg
-
     calls = []
 
     def fake(name, value):
@@ -72,7 +71,7 @@ def _light_steps(monkeypatch):
             return value
         return step
 
-    monkeypatch.setattr(bench_pkg, "run_all", fake("bench", {"machine": {"cpu": "x"}, "fake": True}))
+    monkeypatch.setattr(reproduce_benchmark, "run_all", fake("bench", {"machine": {"cpu": "x"}, "fake": True}))
     monkeypatch.setattr(reproduce_mod, "magnetic_step", fake("magnetic", None))
     monkeypatch.setattr(reproduce_mod, "control_step", fake("control", None))
     monkeypatch.setattr(reproduce_mod, "fig13_step", fake("fig13", None))

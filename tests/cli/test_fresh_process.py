@@ -26,7 +26,7 @@ from pathlib import Path
 
 import pytest
 
-from softrnn.io.dataset import read_dataset
+from softrnn.io import read_dataset
 
 TIMEOUT_S = 600
 ROOT = Path(__file__).resolve().parents[2]

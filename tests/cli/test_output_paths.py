@@ -12,7 +12,7 @@ import pytest
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.files import prepare_output
-from softrnn.io.dataset import write_trajectory
+from softrnn.io import write_trajectory
 from softrnn.rod.batch import simulate_batch
 from softrnn.rod.simulation import RunConfig, Simulator
 from softrnn.scenarios.scenario import load_scenario

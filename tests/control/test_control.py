@@ -100,7 +100,7 @@ def test_static_inverse_closes_the_loop_within_the_limits(short_loop):
     s = json.loads((out / "control.json").read_text())
     assert s["frames"] == 31 and s["limit_violations"] == 0 and s["stable"]
     assert 0 < s["rms_deg"] < 10 and s["compute_ms_p99"] > 0
-    from softrnn.io.dataset import read_dataset
+    from softrnn.io import read_dataset
 
     data = read_dataset(out / "run.h5")
     assert data.positions.shape == (31, 26, 3)
@@ -128,14 +128,16 @@ def _linear_narx(rate: float = 0.5, eps: float = 1e-4):
 
 def test_mpc_on_a_known_linear_model_finds_the_input_that_holds_the_target():
     """The plant is the MPC's own (linear) model: the answer is known, c = asin(x*), a = asin(y* / cos c)."""
-    from softrnn.control.model import field_direction
-    from softrnn.control.mpc import LearnedMPC
+    from softrnn.control.fields import field_direction
+    from softrnn.control.model import NarxPredictor
+    from softrnn.control.mpc import BlockMPC, MPCOptions
     from softrnn.control.references import Reference
 
     model = _linear_narx()
     target = np.array([0.1, 0.3])                                              # (about x, about y) [rad]
     ref = Reference(name="hold", times=np.arange(80) / 30, angles=np.tile(target, (80, 1)))
-    mpc = LearnedMPC(model, move_weight=1e-8, iterations=6, observer_gain=1.0, disturbance_gain=0.0)
+    mpc = BlockMPC(NarxPredictor(model, observer_gain=1.0, disturbance_gain=0.0),
+                   options=MPCOptions(move_weight=1e-8, iterations=6))
     mpc.reset(ref)
     y = np.zeros(4)
     us = np.tile(field_direction(*mpc.applied), (2, 1))
@@ -153,10 +155,11 @@ def test_mpc_on_a_known_linear_model_finds_the_input_that_holds_the_target():
 
 
 def test_controllers_hold_the_last_currents_on_a_lost_measurement_and_stay_within_the_limits():
-    from softrnn.control.mpc import LearnedMPC
+    from softrnn.control.model import NarxPredictor
+    from softrnn.control.mpc import BlockMPC
     from softrnn.control.references import Reference
 
-    mpc = LearnedMPC(_linear_narx())
+    mpc = BlockMPC(NarxPredictor(_linear_narx()))
     far = Reference(name="out of reach", times=np.arange(10) / 30, angles=np.tile([0.0, 3.0], (10, 1)))
     first = mpc.reset(far)
     ok = np.array([[0.0, 1.6, 0.0], [0.0, 1.7, 0.0]])
@@ -201,7 +204,162 @@ def test_physics_mpc_on_its_own_model_reaches_the_target_and_holds_on_a_lost_mea
     assert np.max(np.abs(err[-5:])) < 0.05, err[-5:]
     moved = np.degrees(result.true[-1, 1, 1] - result.true[0, 1, 1])
     assert moved > 4.0                                         # it followed the step (from the static start)
-    np.testing.assert_array_equal(mpc.disturbance, 0.0)       # its model is the plant: nothing to learn
-    frames, currents = mpc.sim.frames, mpc.currents.copy()
+    np.testing.assert_array_equal(mpc.predictor.disturbance, 0.0)   # its model is the plant: nothing to learn
+    frames, currents = mpc.predictor.sim.frames, mpc.currents.copy()
     np.testing.assert_array_equal(mpc(30, np.full((2, 3), np.nan), ref), currents)
-    assert mpc.held == 1 and mpc.sim.frames == frames + 1     # its model still follows the plant
+    assert mpc.held == 1 and mpc.predictor.sim.frames == frames + 1     # its model still follows the plant
+
+
+# --------------------------------------------------------------------------- the predictor protocol and options
+def test_both_predictors_satisfy_the_predictor_protocol():
+    from softrnn.control.controllers import controller
+    from softrnn.control.model import NarxPredictor
+    from softrnn.control.mpc import BlockMPC
+    from softrnn.control.physics_mpc import PhysicsPredictor
+    from softrnn.control.predictors import Predictor
+
+    assert isinstance(NarxPredictor(_linear_narx()), Predictor)
+    assert isinstance(PhysicsPredictor(), Predictor)
+    assert not isinstance(object(), Predictor)
+    for name, kind in (("mpc-learned", NarxPredictor), ("mpc-physics", PhysicsPredictor)):
+        mpc = controller(name, model=_linear_narx())
+        assert type(mpc) is BlockMPC and isinstance(mpc.predictor, kind)
+    with pytest.raises(SoftrnnInputError, match=r"^predictor='object' is invalid"):
+        BlockMPC(object())
+
+
+def test_mpc_options_are_frozen_with_one_set_of_defaults():
+    import dataclasses
+
+    from softrnn.control.mpc import BlockMPC, MPCOptions
+    from softrnn.control.physics_mpc import PHYSICS_OPTIONS
+
+    options = MPCOptions()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        options.horizon = 3
+    assert (options.horizon, options.blocks, options.iterations, options.refresh) == (7, (1, 2, 4), 1, 1)
+    assert dataclasses.replace(PHYSICS_OPTIONS, refresh=1) == options
+    assert BlockMPC(_NullPredictor()).options == options
+
+
+class _NullPredictor:
+    history = 1
+
+    def start(self, target):
+        return np.zeros(2)
+
+    def reset(self, applied, currents):
+        pass
+
+    def observe(self, measured):
+        return False
+
+    def predict(self, plans, block_of):
+        return np.zeros((plans.shape[0], block_of.size, 2))
+
+    def advance(self, applied, currents):
+        pass
+
+    def hold(self, currents):
+        pass
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"horizon": 0, "blocks": ()}, r"^horizon=0 is invalid: at least 1 frame$"),
+    ({"blocks": (1, 2)}, r"^blocks=\(1, 2\) is invalid: block lengths >= 1 that add up to the horizon 7$"),
+    ({"blocks": (0, 3, 4)}, r"^blocks=\(0, 3, 4\) is invalid"),
+    ({"iterations": 0}, r"^iterations=0 is invalid: at least 1 Gauss-Newton step per frame$"),
+    ({"iterations": 1.5}, r"^iterations=1.5 is invalid"),
+    ({"move_weight": -1.0}, r"^move_weight=-1.0 is invalid: a finite weight >= 0$"),
+    ({"azimuth_weight": float("nan")}, r"^azimuth_weight=nan is invalid"),
+    ({"diff_step": 0.0}, r"^diff_step=0.0 is invalid: a positive finite step in rad$"),
+    ({"refresh": 0}, r"^refresh=0 is invalid: at least 1 frame$"),
+])
+def test_mpc_options_refuse_a_bad_value_in_one_line_naming_it(kwargs, match):
+    from softrnn.control.mpc import MPCOptions
+
+    with pytest.raises(SoftrnnInputError, match=match) as err:
+        MPCOptions(**kwargs)
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("gain", ["observer_gain", "disturbance_gain"])
+def test_predictor_gains_are_validated(gain):
+    from softrnn.control.model import NarxPredictor
+
+    with pytest.raises(SoftrnnInputError, match=rf"^{gain}=1.5 is invalid: a gain in \[0, 1\]$"):
+        NarxPredictor(_linear_narx(), **{gain: 1.5})
+
+
+# --------------------------------------------------------------------------- the run's summary
+def _summary_dict(result, bound_deg: float = 45.0) -> dict:
+    """The summary's dict as the JSON file has always held it (keys in this order)."""
+    e = result.errors_deg("true")
+    m = result.errors_deg("measured")
+    finite = bool(np.all(np.isfinite(e)))
+    ms = 1e3 * result.compute_s
+    return {
+        "rms_deg": float(np.sqrt(np.mean(e ** 2))) if finite else None,
+        "max_deg": float(np.max(np.abs(e))) if finite else None,
+        "rms_deg_about": {axis: float(np.sqrt(np.mean(e[:, i] ** 2))) if finite else None
+                          for i, axis in enumerate("xy")},
+        "max_deg_about": {axis: float(np.max(np.abs(e[:, i]))) if finite else None for i, axis in enumerate("xy")},
+        "measured_rms_deg": float(np.sqrt(np.nanmean(m ** 2))),
+        "limit_violations": int(result.limit_violations), "held_frames": int(result.held),
+        "compute_ms_median": float(np.median(ms)), "compute_ms_p99": float(np.percentile(ms, 99)),
+        "wall_ms_median": float(np.median(1e3 * result.wall_s)),
+        "wall_ms_p99": float(np.percentile(1e3 * result.wall_s, 99)),
+        "stable": finite and float(np.max(np.abs(e))) < bound_deg,
+        "frames": int(result.time.size),
+    }
+
+
+@pytest.mark.parametrize("lost", [False, True])
+def test_loop_summary_to_dict_is_the_summary_dict_key_for_key(lost):
+    from softrnn.control.loop import LoopResult
+
+    rng = np.random.default_rng(3)
+    K = 12
+    measured, true = rng.normal(1.0, 0.1, (K + 1, 2, 3)), rng.normal(1.0, 0.1, (K + 1, 2, 3))
+    if lost:
+        measured[4] = np.nan
+        true[5, 1, 0] = np.inf
+    result = LoopResult(time=np.arange(K + 1) / 30, reference=rng.normal(1.0, 0.1, (K + 1, 2)), measured=measured,
+                        true=true, currents=np.zeros((K + 1, 6)), compute_s=rng.uniform(0, 1e-3, K),
+                        wall_s=rng.uniform(0, 1e-3, K), positions=np.zeros((K + 1, 26, 3)), limit_violations=2,
+                        held=int(lost))
+    summary = result.summary()
+    want = _summary_dict(result)
+    assert summary.to_dict() == want and list(summary.to_dict()) == list(want)
+    assert json.dumps(summary.to_dict()) == json.dumps(want)
+    assert summary.stable is not lost and summary.held_frames == int(lost)
+
+
+def test_control_summary_file_holds_to_dict_in_its_order(short_loop):
+    from softrnn.control.loop import LoopConfig
+
+    _, out = short_loop
+    s = json.loads((out / "control.json").read_text())
+    assert list(s) == ["reference", "controller", "duration_s", "rms_deg", "max_deg", "rms_deg_about",
+                       "max_deg_about", "measured_rms_deg", "limit_violations", "held_frames", "compute_ms_median",
+                       "compute_ms_p99", "wall_ms_median", "wall_ms_p99", "stable", "frames", "config", "files"]
+    assert s["config"] == LoopConfig().to_dict() and list(s["files"]) == ["run", "figure"]
+    assert (s["reference"], s["controller"], s["duration_s"]) == ("step", "static-inverse", 1.0)
+
+
+def test_control_imports_no_experiment():
+    """Control is a product part: neither it nor the static model it inverts reaches into a study."""
+    import ast
+    from pathlib import Path
+
+    import softrnn.control
+
+    folder = Path(softrnn.control.__file__).parent
+    reached = []
+    for path in [*folder.glob("*.py"), folder.parent / "magnetics" / "static.py"]:
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and "experiments" in (node.module or ""):
+                reached.append(f"{path.name}: {node.module}")
+            elif isinstance(node, ast.Import) and any("experiments" in a.name for a in node.names):
+                reached.append(path.name)
+    assert reached == []

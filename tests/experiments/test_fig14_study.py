@@ -20,7 +20,7 @@ from softrnn.experiments.fig14 import (
     run_study,
     summary,
 )
-from softrnn.io.dataset import write_trajectory
+from softrnn.io import write_trajectory
 from softrnn.learned.node.artifact import load_model
 from softrnn.learned.node.evaluate import evaluate
 from softrnn.learned.node.train import TrainConfig

@@ -17,7 +17,6 @@ from softrnn.experiments.magnetic.config import ExperimentConfig
 from softrnn.experiments.magnetic.dataset import measured_wrenches
 from softrnn.experiments.magnetic.lab import LabData, read_lab_csv, simulated_lab_data, write_lab_csv
 from softrnn.experiments.magnetic.run import run_experiment
-from softrnn.experiments.magnetic.static import static_predictions
 from softrnn.magnetics import ManipulatorRun, ManipulatorSpec, currents_for_field, simulate_manipulator
 from softrnn.magnetics.camera import (
     camera_measure,
@@ -25,6 +24,7 @@ from softrnn.magnetics.camera import (
     rotation_vectors,
     tangents_from_rotation_vectors,
 )
+from softrnn.magnetics.static import static_predictions
 from softrnn.paper import paper_case
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "magnetic_lab.csv"

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from softrnn.cli._plot import named_node
 from softrnn.errors import SoftrnnInputError
-from softrnn.figures import animation, pictures
+from softrnn.figures import animation, geometry, pictures
 from softrnn.figures import data as figure_data
 
 from helpers import run_cli
@@ -34,7 +35,7 @@ def rod_data(n_samples=41, n_nodes=11, planar=False, force=True):
 
 @pytest.fixture
 def h5(tmp_path):
-    from softrnn.io.dataset import write_trajectory
+    from softrnn.io import write_trajectory
 
     path = tmp_path / "rod.h5"
     write_trajectory(path, rod_data(), dt=0.01, attrs={"node_of_interest": 10})
@@ -50,7 +51,7 @@ def files_in(folder):
 
 def test_gif_has_the_requested_frames_and_size(tmp_path):
     out = tmp_path / "rod.gif"
-    assert pictures.animate(rod_data(), out, frames=7, size=(240, 200), node=10) == out
+    assert animation.animate(rod_data(), out, frames=7, size=(240, 200), node=10) == out
     with Image.open(out) as im:
         assert im.n_frames == 7
         assert im.size == (240, 200)
@@ -59,42 +60,52 @@ def test_gif_has_the_requested_frames_and_size(tmp_path):
 
 
 def test_frame_choice_covers_the_record():
-    idx = pictures.frame_indices(50001)
-    assert len(idx) == pictures.DEFAULT_MAX_FRAMES and idx[0] == 0 and idx[-1] == 50000
+    idx = figure_data.frame_indices(50001)
+    assert len(idx) == figure_data.DEFAULT_MAX_FRAMES and idx[0] == 0 and idx[-1] == 50000
     assert np.ptp(np.diff(idx)) <= 1  # evenly spaced
-    assert list(pictures.frame_indices(5)) == [0, 1, 2, 3, 4]  # never more frames than samples
-    assert len(pictures.frame_indices(1000, duration=2.0, fps=10)) == 20
-    assert list(pictures.frame_indices(11, frames=3, first=100)) == [100, 105, 110]
+    assert list(figure_data.frame_indices(5)) == [0, 1, 2, 3, 4]  # never more frames than samples
+    assert len(figure_data.frame_indices(1000, duration=2.0, fps=10)) == 20
+    assert list(figure_data.frame_indices(11, frames=3, first=100)) == [100, 105, 110]
     with pytest.raises(SoftrnnInputError, match="give one of them"):
-        pictures.frame_indices(10, frames=3, duration=1.0)
+        figure_data.frame_indices(10, frames=3, duration=1.0)
 
 
 def test_view_and_arrow_scale():
-    assert pictures.choose_view(rod_data(planar=True).positions) == "xy"
-    assert pictures.choose_view(rod_data().positions) == "3d"
+    assert geometry.choose_view(rod_data(planar=True).positions) == "xy"
+    assert geometry.choose_view(rod_data().positions) == "3d"
     yz = rod_data(planar=True).positions[..., [2, 0, 1]]  # (0, x, y): flat along x
-    assert pictures.choose_view(yz) == "yz"
-    k, ref, length = pictures.force_scale(1.0, 0.5)  # 1 N on a 0.5 m picture
+    assert geometry.choose_view(yz) == "yz"
+    k, ref, length = geometry.force_scale(1.0, 0.5)  # 1 N on a 0.5 m picture
     assert (k, ref, length) == (0.1, 1.0, 0.1)  # "1 N = 0.1 m": the largest arrow is 20 % of the extent
-    k, ref, length = pictures.force_scale(0.092, 0.5)
+    k, ref, length = geometry.force_scale(0.092, 0.5)
     assert ref == pytest.approx(0.05) and 0.1 * 0.5 <= k * 0.092 <= 0.2 * 0.5
 
 
 def test_node_of_interest_from_attrs_or_scenario():
     d = rod_data()
-    assert pictures.node_of_interest(d) is None
+    assert figure_data.node_of_interest(d) is None
     d.attrs = {"node_of_interest": 7}
-    assert pictures.node_of_interest(d) == 7
+    assert figure_data.node_of_interest(d) == 7
     d.attrs = {"scenario_text": "name = 'x'\n[run]\nnodes_of_interest = [-1]\n", "n_nodes_total": 11}
-    assert pictures.node_of_interest(d) == 10
+    assert figure_data.node_of_interest(d) == 10
     d.attrs = {"case": "semicircle"}
-    assert pictures.node_of_interest(d) == 50
+    assert named_node(d) == 50  # the paper case's node: the command line looks it up
+
+
+def test_the_caller_gives_the_node_the_data_does_not_hold():
+    d = rod_data()
+    d.attrs = {"case": "semicircle"}  # a paper case's name only: figures do not read scenarios
+    assert figure_data.node_of_interest(d) is None
+    assert figure_data.node_of_interest(d, default=50) == 50
+    assert figure_data.node_of_interest(d, default=-1) == 10  # counted from the rod's end
+    d.attrs = {"case": "semicircle", "node_of_interest": 7}
+    assert figure_data.node_of_interest(d, default=50) == named_node(d) == 7  # what the data names comes first
 
 
 def test_planar_3d_and_forceless_animations_render(tmp_path):
-    pictures.animate(rod_data(planar=True), tmp_path / "flat.gif", frames=3, size=(160, 140))
-    pictures.animate(rod_data(force=False), tmp_path / "free.gif", frames=3, size=(160, 140), trail=False)
-    pictures.animate(rod_data(), tmp_path / "span.gif", start=0.1, stop=0.3, size=(160, 140), max_frames=4)
+    animation.animate(rod_data(planar=True), tmp_path / "flat.gif", frames=3, size=(160, 140))
+    animation.animate(rod_data(force=False), tmp_path / "free.gif", frames=3, size=(160, 140), trail=False)
+    animation.animate(rod_data(), tmp_path / "span.gif", start=0.1, stop=0.3, size=(160, 140), max_frames=4)
     for name in ("flat", "free", "span"):
         with Image.open(tmp_path / f"{name}.gif") as im:
             assert im.n_frames in (3, 4)
@@ -110,12 +121,12 @@ def test_interrupted_animation_leaves_no_file(tmp_path, monkeypatch):
 
     monkeypatch.setattr(animation._Scene, "update", update)
     with pytest.raises(KeyboardInterrupt):
-        pictures.animate(rod_data(), tmp_path / "rod.gif", frames=10, size=(160, 140))
+        animation.animate(rod_data(), tmp_path / "rod.gif", frames=10, size=(160, 140))
     assert files_in(tmp_path) == []
     calls.clear()
     monkeypatch.setattr(animation._GifSink, "finish", lambda self: (_ for _ in ()).throw(OSError("disk full")))
     with pytest.raises(OSError):
-        pictures.animate(rod_data(), tmp_path / "rod.gif", frames=2, size=(160, 140))
+        animation.animate(rod_data(), tmp_path / "rod.gif", frames=2, size=(160, 140))
     assert files_in(tmp_path) == []
 
 
@@ -124,7 +135,7 @@ def test_existing_file_is_kept_when_a_new_write_fails(tmp_path, monkeypatch):
     out.write_bytes(b"old")
     monkeypatch.setattr(animation._Scene, "update", lambda self, i: (_ for _ in ()).throw(RuntimeError("boom")))
     with pytest.raises(RuntimeError):
-        pictures.animate(rod_data(), out, frames=3, size=(160, 140))
+        animation.animate(rod_data(), out, frames=3, size=(160, 140))
     assert out.read_bytes() == b"old" and files_in(tmp_path) == ["rod.gif"]
 
 
@@ -186,7 +197,7 @@ def test_cli_bad_input_is_one_line_exit_2_no_file(argv, words, h5, tmp_path, cap
 
 
 def test_cli_plot_needs_a_node_when_the_file_names_none(tmp_path, capsys):
-    from softrnn.io.dataset import write_trajectory
+    from softrnn.io import write_trajectory
 
     path = tmp_path / "plain.h5"
     write_trajectory(path, rod_data(), dt=0.01)
@@ -217,6 +228,6 @@ def test_cli_interrupted_animation_leaves_no_file(h5, tmp_path, monkeypatch, cap
 
 @pytest.mark.skipif(figure_data.shutil.which("ffmpeg") is None, reason="ffmpeg is not installed")
 def test_mp4_with_ffmpeg(tmp_path):
-    out = pictures.animate(rod_data(), tmp_path / "rod.mp4", frames=5, size=(161, 141))
+    out = animation.animate(rod_data(), tmp_path / "rod.mp4", frames=5, size=(161, 141))
     assert out.stat().st_size > 1000
     assert files_in(tmp_path) == ["rod.mp4"]

@@ -13,7 +13,7 @@ import pytest
 
 import softrnn
 import softrnn.io._h5files as h5files_mod
-import softrnn.io.dataset as dsmod
+import softrnn.io.schema as dsmod
 import softrnn.io.writer as writer_mod
 from softrnn.io import (
     SCHEMA_VERSION,

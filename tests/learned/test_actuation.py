@@ -230,7 +230,7 @@ def test_node_model_driven_by_actuation_trains_evaluates_and_reloads(tmp_path):
                             TrainConfig(epochs=1, batch_size=32, rollout_steps=1), tmp_path / "m2")
     assert both.config.wrench_features == 3 + 1 and both.spec.wrench == "force"
     # the pressure's spread is floored within the kPa channels only, not against the forces'
-    from softrnn.io.dataset import read_dataset
+    from softrnn.io import read_dataset
     from softrnn.learned.node.data import wrench_units
 
     assert wrench_units(read_dataset(path), both.spec) == ("N", "N", "N", "kPa")
@@ -294,7 +294,7 @@ def test_whole_manipulator_model_driven_by_actuation(tmp_path, capsys):
     loaded = load_dynamic(model)
     assert loaded.config.drive == "actuation" and loaded.encoding.channels == ("tendon_1",)
     assert loaded.encoding.load_width == 1 and loaded.engine.load_width == 1
-    report = evaluate_dynamic(loaded, heldout=[read_dataset(folder / "traj-00002.h5")], horizons=(2, 5))
+    report = evaluate_dynamic(loaded, heldout=[read_dataset(folder / "traj-00002.h5")], horizons=(2, 5)).to_dict()
     assert report["heldout"]["per_variant"][0] is not None
     assert set(report["heldout"]["baselines"]) == {"persistence", "constant_velocity", "linear"}
     assert set(report["horizons"]["5"]) == {"model", "persistence", "constant_velocity", "linear"}

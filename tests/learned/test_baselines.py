@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.learned.node.baselines import (
+from softrnn.learned.baselines import (
     MAX_MANIPULATOR_FEATURES,
     ConstantVelocity,
     LinearAR,
@@ -263,7 +263,7 @@ def test_bad_input_is_one_line_naming_the_argument(case):
 
 def test_the_baselines_do_not_import_torch(tmp_path):
     code = ("import sys\nsys.modules['torch'] = None\nimport numpy as np\n"
-            "from softrnn.learned.node.baselines import LinearAR, LinearARConfig, free_run\n"
+            "from softrnn.learned.baselines import LinearAR, LinearARConfig, free_run\n"
             "P = np.random.default_rng(0).normal(size=(20, 3, 3))\n"
             "free_run(LinearAR.fit(LinearARConfig(), P, None, 0, 12), P, None, 12, 20)\n"
             "print('torch' in sys.modules and sys.modules['torch'] is not None)\n")

@@ -150,7 +150,7 @@ def test_the_shared_weight_kernel_equals_the_one_node_kernel(kw):
                               np.float32)
     eb = _shared_scratch(e, len(w))[2]
     out = np.empty((len(w), 3))
-    K.forward_gemm(e.params[0], e.norm[0], e.lay, X, Wr, eb, out)
+    K.forward_gemm(e.params[0], e.norm[0], e.arch, e.layers, X, Wr, eb, out)
     scale = np.abs(ref - w.poses[:, -1, :3]).max()
     np.testing.assert_allclose(out, ref, rtol=0, atol=1e-6 * scale)   # BLAS sums in another order
 
@@ -168,3 +168,19 @@ def test_a_shared_model_manipulator_equals_pytorch_and_the_stepper():
         st.reset(DS.positions[48:50], f[48:50][:, cols])
         for k in range(50, 80):
             np.testing.assert_allclose(st.step(f[k][cols]), fast.positions[k - 48], rtol=0, atol=1e-7)
+
+
+def test_the_packed_layout_is_named_records():
+    from softrnn.learned.node import _engine_kernels as K
+    from softrnn.learned.node.engine import pack
+
+    m = model(**VARIANTS[3])                 # 2 x 32 LSTM, wrench branch (8, 4), head (16,), history 4
+    params, norm, arch, layers = pack([m])
+    assert arch.dtype == K.ARCHITECTURE and arch.shape == (1,) and layers.dtype == K.LAYER
+    a = arch[0]
+    assert (a["history"], a["lstm_layers"], a["lstm_units"], a["wrench_dense"], a["head_dense"]) == (4, 2, 32, 2, 1)
+    assert a["params_length"] == params.shape[1] and a["work_length"] == K.work_size(arch, layers)
+    assert list(layers["n_out"]) == [128, 128, 8, 4, 16] and list(layers["n_in"][1:]) == [32, 12, 8, 36]
+    assert (layers["off_u"][:2] > layers["off_w"][:2]).all() and (layers["off_u"][2:] == -1).all()
+    ends = layers["off_b"] + layers["n_out"]                      # each layer's bias ends where the next begins
+    assert list(layers["off_w"][1:]) == list(ends[:-1]) and ends[-1] == a["off_out"]

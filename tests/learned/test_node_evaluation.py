@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.io.dataset import UNITS, Dataset, read_dataset
+from softrnn.io import UNITS, Dataset, read_dataset
 from softrnn.learned.node.artifact import save_model
 from softrnn.learned.node.data import SampleSpec, make_windows, split
 from softrnn.learned.node.evaluate import evaluate, free_running, metrics, one_step, paper_reference

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from softrnn.cli._evaluate import format_report
-from softrnn.learned.node.baselines import ConstantVelocity, Persistence, free_run
+from softrnn.learned.baselines import ConstantVelocity, Persistence, free_run
 from softrnn.learned.node.data import SampleSpec, split
 from softrnn.learned.node.evaluate import evaluate, horizon_misses, horizon_table, misses
 from softrnn.learned.node.rollout import Manipulator, rollout
@@ -81,7 +81,7 @@ def test_horizon_table_by_hand_and_what_does_not_fit_is_left_out():
     pos = (np.arange(T)[:, None] * v)[:, None, :]                     # (T, 1, 3)
     runs = {"model": lambda p, w, s, e: free_run(ConstantVelocity(), p, w, s, e),
             "persistence": lambda p, w, s, e: free_run(Persistence(), p, w, s, e)}
-    h = horizon_table(runs, pos, None, 5, T, (1, 10, 50, 100), n_starts=3, length=LENGTH)
+    h = horizon_table(runs, pos, None, 5, T, (1, 10, 50, 100), n_starts=3, length=LENGTH).to_dict()
     assert h["100"] is None and h["starts"]["100"] is None            # 5 + 100 > 60
     assert h["starts"]["50"] == [5, 8, 10] and h["starts"]["10"] == [5, 28, 50]   # spread over [5, T - h]
     for key in ("1", "10", "50"):
@@ -93,7 +93,7 @@ def test_horizon_table_by_hand_and_what_does_not_fit_is_left_out():
     h["10"]["model"] = 50.0                                            # the model misses at 10 steps
     assert horizon_misses(h) == ["persistence beats the model at 10 steps (largest error 4 vs the model's 50 "
                                  "% of length)"]
-    with_mm = horizon_table(runs, pos, None, 5, T, (10,), n_starts=2)   # no length: in mm
+    with_mm = horizon_table(runs, pos, None, 5, T, (10,), n_starts=2).to_dict()   # no length: in mm
     assert with_mm["unit"] == "mm" and with_mm["10"]["persistence"] == pytest.approx(20.0)
 
 

@@ -3,13 +3,15 @@ out, model folders (and their corruption), and the ``softrnn train`` command."""
 
 import json
 import math
+from dataclasses import asdict
 
 import numpy as np
 import pytest
 import torch
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.io.dataset import write_trajectory
+from softrnn.io import write_trajectory
+from softrnn.learned.node._checkpoint import training_settings
 from softrnn.learned.node.artifact import CHECKPOINT, FILES, ModelFolderError, NodeModel, load_model, save_model
 from softrnn.learned.node.data import SampleSpec, make_windows, split
 from softrnn.learned.node.model import ModelConfig, NodeLSTM
@@ -147,6 +149,39 @@ def test_resume_with_other_settings_is_refused(data_file, tmp_path):
     with pytest.raises(ModelFolderError, match="history"):
         train_node_model(data_file, SampleSpec(node=2, wrench="force", history=3), SMALL, FAST, tmp_path / "m",
                          resume=True)
+
+
+def test_a_finished_model_is_not_given_more_epochs(trained, data_file, tmp_path, capsys):
+    folder = tmp_path / "m"
+    save_model(folder, trained[1])
+    spec = SampleSpec(node=2, wrench="force")
+    with pytest.raises(ModelFolderError, match=r"training of 3 epochs already ended \(train.epochs: 3 then, 5 now\)"):
+        train_node_model(data_file, spec, SMALL, TrainConfig(epochs=5, batch_size=32, patience=10), folder,
+                         resume=True)
+    out = tmp_path / "cli"
+    argv = ["train", str(data_file), "--node", "2", "-o", str(out), "--units", "8", "--dense", "8",
+            "--batch-size", "64", "--quiet"]
+    assert run_cli(argv + ["--epochs", "2"]) == 0
+    files = {p.name: p.read_bytes() for p in out.iterdir()}
+    capsys.readouterr()
+    assert run_cli(argv + ["--epochs", "4", "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("softrnn: error:") and "\n" not in err and "training of 2 epochs already ended" in err
+    assert run_cli(argv + ["--epochs", "2", "--threads", "2", "--resume"]) == 0       # the same: nothing to do
+    text = capsys.readouterr().out
+    assert "already finished" in text and "nothing written" in text and "model written" not in text
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == files                  # nothing written
+
+
+def test_the_checkpoint_settings_keep_the_layout_of_earlier_releases(data_file, tmp_path):
+    spec = SampleSpec(node=2, wrench="force").resolve(list(range(5)))
+    config = ModelConfig(pose_features=spec.pose_features, wrench_features=spec.wrench_features, history=2, **SMALL)
+    earlier = {"spec": spec.to_dict(), "model": config.to_dict(),                    # as the last release stored it
+               "train": {k: v for k, v in asdict(FAST).items() if k not in ("epochs", "patience", "threads")},
+               "data": "f00", "pool": None}
+    record = training_settings(spec, config, FAST, "f00", None)
+    assert record.to_json() == json.loads(json.dumps(earlier))
+    assert record.like(earlier) == record
 
 
 # ----------------------------------------------------------------------------------------- folders

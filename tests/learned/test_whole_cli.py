@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from softrnn.io.dataset import read_dataset, write_dataset
+from softrnn.io import read_dataset, write_dataset
 from softrnn.scenarios.scenario import load_scenario
 from softrnn.scenarios.summary import simulate_summary
 

@@ -5,12 +5,13 @@ states, the PyTorch law equal to the NumPy one, the ridge penalty chosen on vali
 and one-line errors."""
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.io.dataset import Dataset
+from softrnn.io import Dataset
 from softrnn.learned.whole import evaluation
 from softrnn.learned.whole.config import DynamicConfig
 from softrnn.learned.whole.encoding import make_encoding
@@ -26,7 +27,7 @@ DT = 0.01
 
 def _simulate(scenario, n_samples: int = 41) -> Dataset:
     """``scenario`` simulated for ``n_samples`` samples every ``DT``, every node, with the attrs a
-    sweep writes (its text, the variant index)."""
+    sweep writes (its text, the variant index and the values the variant drew)."""
     from softrnn.rod import Simulator
 
     config = dataclasses.replace(scenario.config, dt=DT, n_samples=n_samples, save_nodes=None)
@@ -34,6 +35,7 @@ def _simulate(scenario, n_samples: int = 41) -> Dataset:
     attrs = {"dt": DT, "rod": dataclasses.asdict(scenario.setup.rod), "scenario_text": scenario.text}
     if scenario.variant_index is not None:
         attrs["variant_index"] = scenario.variant_index
+        attrs["sampled"] = json.dumps(scenario.sampled)
     return Dataset(time=traj.time, nodes=traj.nodes, positions=traj.positions, quaternions=traj.quaternions,
                    forces=traj.forces, torques=traj.torques, attrs=attrs)
 

@@ -16,7 +16,8 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.io.dataset import Dataset, read_dataset, write_dataset
+from softrnn.io import Dataset, read_dataset, write_dataset
+from softrnn.learned.baselines import ConstantVelocity, Persistence, StateBaseline
 from softrnn.learned.whole import evaluation
 from softrnn.learned.whole.config import DynamicConfig, load_channels, resolve_stride
 from softrnn.learned.whole.encoding import Encoding, Trajectory, kept_nodes, lumping_matrix, make_encoding
@@ -32,6 +33,8 @@ from softrnn.learned.whole.network import DynamicNet  # noqa: E402
 from softrnn.learned.whole.training import train_dynamic_model  # noqa: E402
 
 from helpers import LENGTH, bending_chain, chain_dataset, quat_z  # noqa: E402
+
+PERSISTENCE, CONSTANT_VELOCITY = StateBaseline(Persistence()), StateBaseline(ConstantVelocity())
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -252,10 +255,10 @@ def test_constant_velocity_is_exact_and_persistence_lags_by_the_distance_travell
     enc, traj, ds, d = _moving(accel=False)
     start = 3
     k = np.arange(1, traj.n_steps - start)
-    err, diverged = evaluation.run_errors(evaluation.ConstantVelocity(), enc, traj, ds, start)
+    err, diverged = evaluation.run_errors(CONSTANT_VELOCITY, enc, traj, ds, start)
     assert diverged is None
     np.testing.assert_allclose(err, 0.0, rtol=0, atol=1e-12)
-    err, diverged = evaluation.run_errors(evaluation.Persistence(), enc, traj, ds, start)
+    err, diverged = evaluation.run_errors(PERSISTENCE, enc, traj, ds, start)
     assert diverged is None
     np.testing.assert_allclose(err, 100 * k * 2 * np.linalg.norm(d) / LENGTH, rtol=1e-12)   # 2 samples per step
 
@@ -265,9 +268,9 @@ def test_baselines_under_uniform_acceleration_match_hand_computation():
     start = 4                                        # model step s: position at sample 2s is d (2s)^2
     k = np.arange(1, traj.n_steps - start)
     unit = 100 * np.linalg.norm(d) * 4 / LENGTH      # (2 n)^2 = 4 n^2 in model steps n
-    err, _ = evaluation.run_errors(evaluation.ConstantVelocity(), enc, traj, ds, start)
+    err, _ = evaluation.run_errors(CONSTANT_VELOCITY, enc, traj, ds, start)
     np.testing.assert_allclose(err, unit * (k ** 2 + k), rtol=1e-12)        # (s+k)^2 - s^2 - k(s^2 - (s-1)^2)
-    err, _ = evaluation.run_errors(evaluation.Persistence(), enc, traj, ds, start)
+    err, _ = evaluation.run_errors(PERSISTENCE, enc, traj, ds, start)
     np.testing.assert_allclose(err, unit * ((start + k) ** 2 - start ** 2), rtol=1e-12)
 
 
@@ -347,6 +350,26 @@ def test_save_load_round_trip_gives_the_same_free_run(trained, chain_encoding, t
         b, db = evaluation.free_run(theirs, trajs[0], H - 1)
         assert da is None and db is None
         np.testing.assert_array_equal(a, b)
+
+
+def test_the_scale_buffers_keep_their_saved_keys(trained, tmp_path):
+    from safetensors.numpy import load_file
+
+    from softrnn.learned.whole.network import SCALE_KEYS
+
+    net = trained.net
+    state = net.state_dict()
+    assert set(SCALE_KEYS.values()) <= set(state) and not set(SCALE_KEYS) & set(state)
+    for name, key in SCALE_KEYS.items():
+        assert torch.equal(state[key], getattr(net, name))
+    save_dynamic(tmp_path / "model", trained)
+    saved = load_file(str(tmp_path / "model" / "weights.safetensors"))
+    assert set(saved) == set(state)                                   # the folder's keys, as in earlier releases
+    # a model folder's weights load into a fresh network under the new buffer names
+    fresh = DynamicNet(net.config, net.node_features.numpy(), net.fixed.numpy(),
+                       {key: np.ones(getattr(net, name).shape) for name, key in SCALE_KEYS.items()})
+    fresh.load_state_dict({k: torch.as_tensor(v) for k, v in saved.items()} | {"fixed": net.fixed})
+    assert _same_weights(fresh, net)
 
 
 def test_a_broken_model_folder_is_a_one_line_error(trained, tmp_path):

@@ -17,7 +17,7 @@ def _python(code: str, tmp_path) -> subprocess.CompletedProcess:
 
 
 def test_the_simulator_part_imports_no_optional_package(tmp_path):
-    code = ("import softrnn.rod, softrnn.scenarios, softrnn.io.dataset, softrnn.statics, softrnn.magnetics, "
+    code = ("import softrnn.rod, softrnn.scenarios, softrnn.io, softrnn.statics, softrnn.magnetics, "
             "softrnn.figures.pictures, softrnn.figures.plots, softrnn.bench, softrnn.learned.node.data, "
             "softrnn.cli.main\n"
             f"print(sorted(m for m in {OPTIONAL!r} if sys.modules.get(m) is not None))\n")

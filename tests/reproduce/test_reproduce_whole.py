@@ -121,7 +121,7 @@ def test_trainings_side_by_side_give_the_weights_of_one_after_the_other(tmp_path
     import numpy as np
     from safetensors.numpy import load_file
 
-    from softrnn.io.dataset import write_dataset
+    from softrnn.io import write_dataset
     from softrnn.learned.whole.data import split_inputs
 
     data = tmp_path / "data"

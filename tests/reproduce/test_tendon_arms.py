@@ -62,7 +62,7 @@ def test_a_rerun_reads_the_finished_case(run):
 
 def test_the_model_reads_only_the_tensions(run):
     """Recorded forces and torques replaced by noise (or zeros) change nothing; other tensions do."""
-    from softrnn.io.dataset import read_dataset
+    from softrnn.io import read_dataset
     from softrnn.learned.whole.artifact import load_dynamic
     from softrnn.learned.whole.evaluation import free_run
 

@@ -3,7 +3,7 @@
 import numpy as np
 
 from softrnn.cli.main import main
-from softrnn.io.dataset import read_dataset
+from softrnn.io import read_dataset
 from softrnn.scenarios.scenario import load_scenario, parse_scenario, scenario_text
 
 

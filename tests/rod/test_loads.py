@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.rod.loads import CirclePath, Constant, SquarePath
-from softrnn.scenarios.paths import Figure8Path
+from softrnn.rod.loads import CirclePath, Constant, Figure8Path, SquarePath
 
 
 @pytest.mark.parametrize("cls, kwargs, words", [

@@ -25,10 +25,10 @@ from softrnn.rod import (
     ellipse,
     straight,
 )
-from softrnn.rod.loads import CirclePath, Sinusoid
+from softrnn.rod.loads import CirclePath, Figure8Path, RandomSmoothPath, Sinusoid
 from softrnn.rod.shapes import ellipse_perimeter
 from softrnn.scenarios.cases import ASSUMPTIONS, CASE_NAMES, PAPER_CASES, build_case
-from softrnn.scenarios.paths import Figure8Path, PoseMotion, RandomSmoothPath, rotation_vector_to_matrix
+from softrnn.scenarios.paths import PoseMotion, rotation_vector_to_matrix
 from softrnn.scenarios.scenario import (
     SCENARIO_NAMES,
     Scenario,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.io.dataset import read_dataset
+from softrnn.io import read_dataset
 from softrnn.scenarios.scenario import load_scenario
 from softrnn.sweeps.sweep import run_sweep, trajectory_path
 
@@ -96,7 +96,7 @@ def test_bad_sweep_arguments(scenario, tmp_path):
 
 def test_cli_sweep_resumes_and_merges(full_sweep, tmp_path, capsys):
     from softrnn.cli.main import main
-    from softrnn.io.dataset import list_groups
+    from softrnn.io import list_groups
 
     out, _ = full_sweep
     merged = tmp_path / "all.h5"

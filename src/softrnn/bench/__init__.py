@@ -13,6 +13,10 @@ returns one JSON-ready dict::
 from __future__ import annotations
 
 from ..progress import Progress
+from ..timing import load_average, machine_info
+from .dynamic import format_dynamic_table, run_dynamic_benchmark
+from .simulator import PAPER, format_table, run_benchmark
+from .statics import format_static_table, run_static_benchmark
 
 
 def run_all(parts=("model", "simulator", "statics", "dynamic"), *, quick: bool = False, model=None,
@@ -22,21 +26,17 @@ def run_all(parts=("model", "simulator", "statics", "dynamic"), *, quick: bool =
     last, so none competes with another for a core). ``model``: the node model to time (default: a
     synthetic one); ``dynamic_configs`` ({case: DynamicConfig}) the whole-manipulator models' stand-in
     architecture, ``dynamic_models`` ({case: LoadedDynamic}) trained ones timed instead."""
-    from ..timing import load_average, machine_info
-    from .simulator import PAPER
-
     result: dict = {"machine": machine_info(), "settings": {"quick": bool(quick), "parts": list(parts),
                                                           "load_average_start": load_average()}}
     paper = {"source": PAPER["source"], "hardware": PAPER["hardware"]}
     goals_met: dict = {}
     if "model" in parts:
-        from .model import PAPER as MODEL_PAPER
-        from .model import run_model_benchmark
+        from .model import PAPER as MODEL_PAPER  # optional extra: learn (PyTorch)
+        from .model import run_model_benchmark  # optional extra: learn (PyTorch)
         result["model"] = run_model_benchmark(quick=quick, model=model, progress=progress)
         paper["rnn_bandwidth_hz"] = MODEL_PAPER["rnn_bandwidth_hz"]
         goals_met.update({f"model.{k}": v for k, v in result["model"]["goals_met"].items()})
     if "simulator" in parts:
-        from .simulator import run_benchmark
         sim = run_benchmark(quick=quick, progress=progress)
         result["simulator"] = sim["simulator"]
         result["simulator"]["goals"] = sim["goals"]
@@ -44,14 +44,12 @@ def run_all(parts=("model", "simulator", "statics", "dynamic"), *, quick: bool =
         paper["analytical_model_us_per_node_step"] = sim["paper"]["us_per_node_step"]
         goals_met.update({f"simulator.{k}": v for k, v in sim["goals_met"].items()})
     if "statics" in parts:
-        from .statics import run_static_benchmark
         result["statics"] = run_static_benchmark(quick=quick)
         paper["static_solver_hz"] = list(result["statics"]["paper"]["bandwidth_hz"])
         goals_met["statics.warm_solves_per_s"] = bool(result["statics"]["goal"]["met"])
         if progress is not None:
             progress(1, 1)
     if "dynamic" in parts:
-        from .dynamic import run_dynamic_benchmark
         result["dynamic"] = run_dynamic_benchmark(quick=quick, configs=dynamic_configs, models=dynamic_models,
                                                   progress=progress)
         goals_met.update({f"dynamic.{k}": v for k, v in result["dynamic"]["goals_met"].items()})
@@ -63,13 +61,11 @@ def run_all(parts=("model", "simulator", "statics", "dynamic"), *, quick: bool =
 
 def format_all(result: dict) -> str:
     """Text tables of ``run_all``'s result."""
-    from .simulator import format_table
-
     m = result["machine"]
     out = [f"machine: {m['cpu']}, {m['usable_cores']} usable cores, {m['platform']}; load average "
            f"{result['settings'].get('load_average_start')} -> {result['settings'].get('load_average_end')}"]
     if "model" in result:
-        from .model import format_model_table
+        from .model import format_model_table  # optional extra: learn (PyTorch)
         out += ["", format_model_table(result["model"])]
     if "simulator" in result:
         sim = {"machine": m, "simulator": result["simulator"], "goals": result["simulator"]["goals"],
@@ -80,9 +76,7 @@ def format_all(result: dict) -> str:
                "settings": result["simulator"].get("settings", {})}
         out += ["", format_table(sim)]
     if "statics" in result:
-        from .statics import format_static_table
         out += ["", format_static_table(result["statics"])]
     if "dynamic" in result:
-        from .dynamic import format_dynamic_table
         out += ["", format_dynamic_table(result["dynamic"])]
     return "\n".join(out)

@@ -25,11 +25,23 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from pathlib import Path
 
+import numba
 import numpy as np
 
+from ..errors import SoftrnnInputError, bad
+from ..io.reader import Dataset
+from ..learned.whole.artifact import engine_of, is_dynamic_folder, load_dynamic
+from ..learned.whole.config import DynamicConfig, resolve_node_stride, resolve_stride
+from ..learned.whole.data import rod_length
+from ..learned.whole.encoding import make_encoding
 from ..progress import Progress
+from ..rod import Simulator
+from ..scenarios.cases import build_case
+from ..sweeps.sweep import run_config
 from ..timing import step_rate
+from .simulator import time_single
 
 CASES = ("ellipse", "square", "semicircle")
 SAVED_DT = 0.01
@@ -39,9 +51,6 @@ GOAL_SPEED_RATIO = 10.0
 
 def case_run(name: str, dt: float = SAVED_DT):
     """(setup, RunConfig saved every ``dt`` [s] with every node, node of interest) of a paper case."""
-    from ..scenarios.cases import build_case
-    from ..sweeps.sweep import run_config
-
     case = build_case(name)
     config = dataclasses.replace(run_config(case.config, dt=dt), save_nodes=None)
     return case.setup, config, int(case.node_of_interest)
@@ -49,10 +58,7 @@ def case_run(name: str, dt: float = SAVED_DT):
 
 def simulated_dataset(setup, config, duration_s: float):
     """The first ``duration_s`` simulated seconds of ``setup`` saved every ``config.dt``, every node,
-    as an in-memory ``softrnn.io.dataset.Dataset`` (what the model encodes)."""
-    from ..io.dataset import Dataset
-    from ..rod import Simulator
-
+    as an in-memory ``softrnn.io.Dataset`` (what the model encodes)."""
     n = int(max(2, round(duration_s / config.dt) + 1))
     traj = Simulator(setup).run(dataclasses.replace(config, n_samples=n, save_nodes=None))
     return Dataset(time=traj.time, nodes=traj.nodes, positions=traj.positions, quaternions=traj.quaternions,
@@ -62,9 +68,6 @@ def simulated_dataset(setup, config, duration_s: float):
 
 def simulator_speed(setup, config, node: int, duration_s: float, reps: int) -> dict:
     """Simulated seconds per wall second of ``Simulator(setup).run`` on one thread (numba pinned to 1)."""
-    import numba
-
-    from .simulator import time_single
 
     previous = numba.get_num_threads()
     numba.set_num_threads(1)
@@ -83,8 +86,6 @@ def model_speed(engine, traj, model_dt: float, steps: int) -> dict:
     """Model steps per wall second of ``engine.step`` on the calling thread, each call from a recorded
     history of ``traj`` (``Trajectory``, in turn; its feedback laws computed in the call, as in a
     free run), and simulated seconds per wall second."""
-    from ..errors import bad
-
     H = int(engine.history)
     n = traj.n_steps - H
     if n < 1:
@@ -119,14 +120,10 @@ def stand_in_model(dataset, config):
     """The architecture ``config`` on ``dataset``'s rod, untrained (PyTorch's initial weights; the
     linear term and the convolution's output layer start at zero): the arithmetic of a trained
     model's step, without the ridge fit's eigenvalue checks. Returns (``DynamicEngine``, ``Encoding``)."""
-    import torch
+    import torch  # optional extra: learn (PyTorch)
 
-    from ..learned.whole.artifact import engine_of
-    from ..learned.whole.config import resolve_node_stride
-    from ..learned.whole.data import rod_length
-    from ..learned.whole.encoding import make_encoding
-    from ..learned.whole.network import DynamicNet
-    from ..learned.whole.training import scales
+    from ..learned.whole.network import DynamicNet  # optional extra: learn (PyTorch)
+    from ..learned.whole.training import scales  # optional extra: learn (PyTorch)
 
     enc = make_encoding([dataset], model_dt=config.model_dt,
                         node_stride=resolve_node_stride(config.node_stride, dataset.n_nodes),
@@ -139,9 +136,6 @@ def stand_in_model(dataset, config):
 
 def _saved_dt(encoding) -> float:
     """``SAVED_DT`` if the model's step is a whole multiple of it, else its training data's interval."""
-    from ..errors import SoftrnnInputError
-    from ..learned.whole.config import resolve_stride
-
     try:
         resolve_stride(encoding.model_dt, SAVED_DT)
         return SAVED_DT
@@ -152,8 +146,6 @@ def _saved_dt(encoding) -> float:
 def _case_entry(name: str, config, loaded, quick: bool) -> dict:
     """One case: a short simulated trajectory, the model (``loaded`` or a stand-in of ``config``)
     and both speeds."""
-    from ..learned.whole.config import DynamicConfig
-
     duration, reps, steps = (1.0, 3, 500) if quick else (2.0, 5, 2000)
     config = loaded.config if loaded is not None else (config or DynamicConfig())
     setup, run, node = case_run(name, SAVED_DT if loaded is None else _saved_dt(loaded.encoding))
@@ -193,10 +185,6 @@ def run_dynamic_benchmark(quick: bool = False, *, configs: dict | None = None, m
 def find_models(folder) -> dict:
     """{case: LoadedDynamic} from ``folder``: a model folder (its case: the paper case whose rod has
     its node count) or a folder of ``CASE/model`` folders (``softrnn reproduce``'s ``dynamic/``)."""
-    from pathlib import Path
-
-    from ..errors import bad
-    from ..learned.whole.artifact import is_dynamic_folder, load_dynamic
 
     folder = Path(folder)
     found = {c: folder / c / "model" for c in CASES if is_dynamic_folder(folder / c / "model")}

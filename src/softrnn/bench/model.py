@@ -23,11 +23,18 @@ where it starts (the arithmetic is unchanged). ``--model DIR`` times a trained m
 
 from __future__ import annotations
 
+import tempfile
+import warnings
+from pathlib import Path
+
+import numba
 import numpy as np
 
 from ..learned.node.artifact import NodeModel
 from ..learned.node.data import Normalizer, SampleSpec
+from ..learned.node.engine import ManipulatorStepper, NodeStepper
 from ..learned.node.model import ModelConfig, NodeLSTM
+from ..learned.node.rollout import Manipulator
 from ..progress import Progress
 from ..timing import step_rate
 
@@ -43,7 +50,7 @@ def synthetic_model(node: int = 1, n_nodes: int = 3, config: dict | None = None,
     """A model of the default (or ``config``-overridden) architecture with seeded random weights,
     a plausible normalisation (positions of a 0.5 m rod, mm-scale steps, 1 N forces) and a zeroed
     output layer (it predicts 'no motion'; the arithmetic is that of any trained model)."""
-    import torch
+    import torch  # optional extra: learn (PyTorch)
 
     lo, hi = max(0, node - 1), min(n_nodes - 1, node + 1)
     neighbours = tuple(a for a in (node - 1, node + 1) if lo <= a <= hi)
@@ -76,8 +83,6 @@ def _stats(fn, n: int) -> dict:
 
 def time_node_step(model: NodeModel, n: int) -> dict:
     """The compiled batch-1 stepper on a window of plausible inputs."""
-    from ..learned.node.engine import NodeStepper
-
     H, P, W = model.config.history, model.config.pose_features, model.config.wrench_features
     rng = np.random.default_rng(0)
     mean = np.asarray(model.normalizer.pose_mean, np.float32)
@@ -92,7 +97,7 @@ def time_node_step(model: NodeModel, n: int) -> dict:
 def time_eager_torch(model: NodeModel, n: int) -> dict:
     """The same model stepped naively in PyTorch at batch 1 (one thread): the module on ready
     tensors, and ``NodeModel.predict`` with numpy in and out."""
-    import torch
+    import torch  # optional extra: learn (PyTorch)
 
     H, P, W = model.config.history, model.config.pose_features, model.config.wrench_features
     old = torch.get_num_threads()
@@ -114,12 +119,9 @@ def time_runtimes(model: NodeModel, n: int) -> dict:
     (``session.run`` with numpy inputs) and as TorchScript (``torch.jit.load``, called on ready
     tensors): the alternatives the compiled engine was chosen against. Entries are None where a
     runtime is not installed."""
-    import tempfile
-    from pathlib import Path
+    import torch  # optional extra: learn (PyTorch)
 
-    import torch
-
-    from ..learned.node.export import export_onnx, export_torchscript
+    from ..learned.node.export import export_onnx, export_torchscript  # optional extra: learn (PyTorch)
 
     H, W = model.config.history, model.config.wrench_features
     poses = np.tile(np.asarray(model.normalizer.pose_mean, np.float32), (1, H, 1))
@@ -127,7 +129,7 @@ def time_runtimes(model: NodeModel, n: int) -> dict:
     out = {"onnxruntime": None, "torchscript": None}
     with tempfile.TemporaryDirectory() as tmp:
         try:
-            import onnxruntime as ort
+            import onnxruntime as ort  # optional extra: learn (ONNX Runtime)
         except ImportError:
             ort = None
         if ort is not None:
@@ -142,7 +144,6 @@ def time_runtimes(model: NodeModel, n: int) -> dict:
         torch.set_num_threads(1)
         try:
             path = export_torchscript(model, Path(tmp) / "m.pt")
-            import warnings
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 ts = torch.jit.load(str(path))
@@ -158,10 +159,6 @@ def time_manipulator(config: dict | None, threads: int, n: int, n_nodes: int = M
                      shared: bool = False) -> dict:
     """``ManipulatorStepper.step`` for a straight ``n_nodes`` rod, every node modelled: each node by
     its own model, or (``shared``) the interior nodes by one model and the two ends by their own."""
-    import numba
-
-    from ..learned.node.engine import ManipulatorStepper
-    from ..learned.node.rollout import Manipulator
 
     if shared:
         models = Manipulator.of([synthetic_model(0, n_nodes, config), synthetic_model(n_nodes - 1, n_nodes, config)],
@@ -193,13 +190,11 @@ def _arch(model: NodeModel) -> dict:
 
 
 def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, progress: Progress | None = None) -> dict:
-    """All model measurements as a JSON-ready dict (about 20 s; ``quick``: about 8 s).
+    """All model measurements as a JSON-ready dict (``quick``: shorter runs).
 
     ``model``: time this trained model for the node step (default: ``synthetic_model()``).
     ``progress(done, total)`` after each item.
     """
-    import numba
-
     n_node, n_torch, n_manip = (5000, 1000, 500) if quick else (30000, 3000, 2000)
     node_model = model if model is not None else synthetic_model()
     items = [("node", None), ("torch", None)]

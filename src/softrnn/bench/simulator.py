@@ -27,6 +27,7 @@ import numba
 
 from ..progress import Progress
 from ..rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, simulate_batch, straight
+from ..scenarios.cases import build_case
 from ..timing import load_average, machine_info
 
 PAPER_SOURCE = "Tariverdi et al. 2021, Front. Robot. AI 8:631303, sections 4.1-4.3"
@@ -78,8 +79,6 @@ def cantilever(n_nodes: int, tip_force=None) -> tuple[Setup, RunConfig]:
 def _paper_case(name: str):
     """(setup, config, save_nodes) of a paper case from softrnn.scenarios.cases; accepts build_case returning
     a (setup, config) pair or an object with .setup, .config and optionally .node_of_interest."""
-    from ..scenarios.cases import build_case
-
     built = build_case(name)
     if isinstance(built, tuple):
         setup, config = built[0], built[1]
@@ -222,8 +221,8 @@ def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, duration_s: f
 
 # ---------------------------------------------------------------------------------------------- report
 def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict:
-    """Run all measurements (about 1 min on 2 cores; ``quick``: about 15-20 s, less precise) and return the
-    results as a JSON-ready dict. ``progress(items_done, n_items)`` is called after every item."""
+    """Run all measurements (``quick``: shorter runs, less precise) and return the results as a
+    JSON-ready dict. ``progress(items_done, n_items)`` is called after every item."""
     # simulated seconds per timed run (fixed, so that every machine times the same work; the cost
     # per node-step depends on the motion, e.g. on the Newton iterations of fast rotations)
     reps, duration, case_duration = (5, 1.0, 1.5) if quick else (9, 2.0, 5.0)
@@ -255,22 +254,15 @@ def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict
         sim["cantilever_nodes"] = sizes_out
 
         cases: dict = {}
-        try:
-            import softrnn.scenarios.cases  # noqa: F401
-        except ImportError as exc:
-            sim["cases_note"] = f"softrnn.scenarios.cases is not available ({exc}); paper cases skipped"
-            for _ in PAPER_CASES:
-                tick()
-        else:
-            for name in PAPER_CASES:
-                try:
-                    setup, config, save = _paper_case(name)
-                    cases[name] = time_single(setup, config, save, reps, case_duration)
-                    cases[name]["paper_us_per_node_step"] = PAPER["us_per_node_step"][name]
-                    cases[name]["speedup_vs_paper"] = PAPER["us_per_node_step"][name] / cases[name]["us_per_node_step"]
-                except Exception as exc:  # a case under construction must not sink the benchmark
-                    cases[name] = {"error": f"{type(exc).__name__}: {exc}"}
-                tick()
+        for name in PAPER_CASES:
+            try:
+                setup, config, save = _paper_case(name)
+                cases[name] = time_single(setup, config, save, reps, case_duration)
+                cases[name]["paper_us_per_node_step"] = PAPER["us_per_node_step"][name]
+                cases[name]["speedup_vs_paper"] = PAPER["us_per_node_step"][name] / cases[name]["us_per_node_step"]
+            except Exception as exc:  # a case under construction must not sink the benchmark
+                cases[name] = {"error": f"{type(exc).__name__}: {exc}"}
+            tick()
         sim["cases"] = cases
     finally:
         numba.set_num_threads(previous)

@@ -30,15 +30,19 @@ minimises ``sum((w * (prediction - measured))**2)`` over the finite entries of `
 from __future__ import annotations
 
 import hashlib
+import io
 import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from ..errors import SimulationError, SoftrnnInputError, bad, is_finite_number
+from ..files import atomic_write_bytes, atomic_write_text
 from ..progress import Progress
+from .parallel import Evaluator
 
 PENALTY = 1e3
 """Residual of a failed trial, as a multiple of the start's root-mean-square residual."""
@@ -241,15 +245,12 @@ class _Trials:
     def _to_cache(self, key: bytes, pred, message: str) -> None:
         if self.cache_dir is None:
             return
-        from ..files import atomic_write_bytes, atomic_write_text
 
         self.cache_dir.mkdir(parents=True, exist_ok=True)
         path = self._file(key)
         if pred is None:
             atomic_write_text(path.with_suffix(".failed"), message)
         else:
-            import io
-
             buf = io.BytesIO()
             np.save(buf, pred)
             atomic_write_bytes(path, buf.getvalue())
@@ -405,9 +406,6 @@ def fit(model, measured, parameters, *, weights=None, evaluator=None, options: F
     progress : ``progress(trials, budget, info)`` after every batch of simulations
     cache_dir, fingerprint : keep every trial in ``cache_dir`` to resume (see the module docstring)
     """
-    from scipy.optimize import least_squares
-
-    from .parallel import Evaluator
 
     options = FitOptions() if options is None else options
     parameters, names, y, use, w = _checked(measured, parameters, weights)

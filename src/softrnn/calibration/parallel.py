@@ -6,6 +6,7 @@ from __future__ import annotations
 from contextlib import ExitStack
 
 from ..errors import bad
+from ..sweeps.dask import dask_client, require
 
 
 class Evaluator:
@@ -42,8 +43,6 @@ class Evaluator:
 
     def __enter__(self):
         if self.uses_dask:
-            from ..sweeps.dask import dask_client, require
-
             require()
             self._stack = ExitStack()
             self._client = self._stack.enter_context(dask_client(self.scheduler, self._workers))

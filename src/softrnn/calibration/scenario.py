@@ -26,13 +26,14 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+import tomlkit
 
 from .. import __version__
 from ..errors import SoftrnnInputError, bad, one_line
 from ..rod.simulation import RunConfig, Simulator
 from ..scenarios.calibrate import _lookup
-from ..scenarios.reading import _is_number, _show
-from ..scenarios.scenario import Scenario, ScenarioError, parse_scenario
+from ..scenarios.reading import ScenarioError, _is_number, _show
+from ..scenarios.scenario import Scenario, parse_scenario
 from .fit import FitOptions, FitResult, Parameter, fit
 
 TRAIN_FRACTION = 0.6
@@ -424,8 +425,6 @@ def fitted_text(text: str, values: dict, header: str) -> str:
     """The scenario ``text`` with each dotted key of ``values`` set to its value, comments and layout
     kept (tomlkit), below the comment line ``header`` (which starts with ``HEADER``; an earlier
     calibration's header line is replaced)."""
-    import tomlkit
-
     doc = tomlkit.parse(text)
     for key, value in values.items():
         _set_toml(doc, key, float(value))

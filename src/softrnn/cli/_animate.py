@@ -4,7 +4,11 @@ with ffmpeg)."""
 from pathlib import Path
 
 from ..errors import bad
+from ..figures.animation import animate
+from ..figures.data import _title, check_suffix, load
 from ..files import prepare_output
+from ..io.reader import read_dataset
+from ._plot import named_node
 from ._progress import Bar
 
 NAME = "animate"
@@ -47,8 +51,6 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def run(args) -> int:
-    from ..figures.pictures import animate, check_suffix, load
-
     out = Path(args.output) if args.output else Path(args.data).with_suffix(".gif")
     check_suffix(out, argument="--output")
     prepare_output(out, "--output", overwrite=args.overwrite)
@@ -61,10 +63,11 @@ def run(args) -> int:
         raise bad("--fps", args.fps, "a number of frames per second > 0")
     node = args.node
     if node is not None:  # check it first (cheap): the reader's error names the stored nodes
-        from ..io.dataset import read_dataset
-
         node = int(read_dataset(args.data, nodes=[node], group=args.group, stop=1).nodes[0])
     data = load(args.data, group=args.group, start=args.start, stop=args.stop)
+    if node is None:  # the node the file names, marked when it is stored
+        named = named_node(data)
+        node = named if named is not None and named in set(data.nodes.tolist()) else None
     with Bar(f"animate {Path(args.data).name}", unit="frame", enabled=not args.quiet) as bar:
         animate(data, out, fps=args.fps, frames=args.frames, duration=args.duration, node=node,
                 trail=not args.no_trail, view=args.view, elev=args.elev, azim=args.azim, size=size,
@@ -74,6 +77,4 @@ def run(args) -> int:
 
 
 def _named(data) -> bool:
-    from ..figures.pictures import _title
-
     return _title(dict(getattr(data, "attrs", None) or {}), fallback="") != ""

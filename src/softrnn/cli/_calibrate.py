@@ -1,7 +1,6 @@
 """softrnn calibrate DATA --scenario FILE.toml --fit KEY[,KEY...] -o FITTED.toml: fit chosen values of a
 scenario to a recorded dataset; writes the fitted scenario, a JSON report and a figure (resumable)."""
 
-import io
 import json
 import shutil
 from pathlib import Path
@@ -13,7 +12,7 @@ from ..calibration.scenario import run as run_calibration
 from ..errors import bad
 from ..figures.data import FIGURE_SUFFIXES, check_suffix
 from ..files import atomic_write_bytes, atomic_write_text, json_default, prepare_output
-from ..io.dataset import read_dataset
+from ..io.reader import read_dataset
 from ..scenarios.scenario import load_scenario, parse_scenario
 from ._progress import Bar
 
@@ -80,17 +79,12 @@ def _nodes(text):
 def _figure_bytes(cal, suffix: str, title: str) -> bytes:
     """The figure of the fit, rendered in memory (written with the other outputs at the end)."""
     from ..figures.calibration import calibration_fit, moving_node
-    from ..figures.plots import plt
+    from ..figures.saving import figure_bytes
 
     column = moving_node(cal.measured)
     fig = calibration_fit(cal.time, cal.measured, cal.start, cal.fitted, column, cal.nodes[column],
                           f"{title}: node {cal.nodes[column]}")
-    buf = io.BytesIO()
-    try:
-        fig.savefig(buf, format=suffix.lstrip("."), dpi=110)
-    finally:
-        plt.close(fig)
-    return buf.getvalue()
+    return figure_bytes(fig, suffix)
 
 
 def run(args) -> int:

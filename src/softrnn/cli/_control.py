@@ -2,7 +2,12 @@
 controller setting the coil currents each frame)."""
 
 from ..control.controllers import CONTROLLERS
-from ..control.references import REFERENCES
+from ..control.loop import LoopConfig
+from ..control.references import REFERENCES, reference
+from ..control.run import FIGURE_FILE, RUN_FILE, SUMMARY_FILE, control_run, learned_model
+from ..errors import bad
+from ..files import prepare_output
+from ..magnetics.manipulator import ManipulatorSpec
 from ._progress import Bar
 
 NAME = "control"
@@ -42,15 +47,8 @@ def add_args(p):
 
 
 def run(args) -> int:
-    from ..control.loop import LoopConfig
-    from ..control.run import FIGURE_FILE, RUN_FILE, SUMMARY_FILE, control_run
-    from ..errors import bad
-    from ..files import prepare_output
-
     if args.controller not in CONTROLLERS:
         raise bad("--controller", args.controller, f"one of {', '.join(CONTROLLERS)}")
-    from ..control.references import reference
-
     reference(args.reference, duration=args.duration, seed=args.seed)          # checks REF and --duration now
     for flag, value in (("--stiffness", args.stiffness), ("--remanence", args.remanence)):
         if not 0.2 <= value <= 5.0:
@@ -61,8 +59,6 @@ def run(args) -> int:
                    fix="pass --overwrite to replace them, or choose another folder")
     model = None
     if args.controller == "mpc-learned":
-        from ..control.run import learned_model
-
         if args.identify_seconds < 5:
             raise bad("--identify-seconds", args.identify_seconds, "at least 5 s of identification")
         # identified on the experiment's robot: --stiffness/--remanence perturb the plant after it
@@ -71,22 +67,21 @@ def run(args) -> int:
     with Bar(f"control {args.controller}", unit="frame", enabled=not args.quiet) as bar:
         s = control_run(args.reference, args.controller, args.out, duration=args.duration, config=config,
                         model=model, spec=spec, progress=bar)
+
     def deg(v):
         return "not finite" if v is None else f"{v:.2f}"
 
-    print(f"{s['controller']} on {s['reference']} ({s['duration_s']:g} s): tracking RMS {deg(s['rms_deg'])} deg "
-          f"(about y {deg(s['rms_deg_about']['y'])}, about x {deg(s['rms_deg_about']['x'])}), "
-          f"max {deg(s['max_deg'])} deg; limit violations {s['limit_violations']}; controller "
-          f"{s['compute_ms_median']:.3f} ms per frame (p99 {s['compute_ms_p99']:.3f})")
+    loop = s.loop
+    print(f"{s.controller} on {s.reference} ({s.duration_s:g} s): tracking RMS {deg(loop.rms_deg)} deg "
+          f"(about y {deg(loop.rms_deg_about['y'])}, about x {deg(loop.rms_deg_about['x'])}), "
+          f"max {deg(loop.max_deg)} deg; limit violations {loop.limit_violations}; controller "
+          f"{loop.compute_ms_median:.3f} ms per frame (p99 {loop.compute_ms_p99:.3f})")
     print(f"wrote {args.out}/{RUN_FILE}, {FIGURE_FILE}, {SUMMARY_FILE}")
     return 0
 
 
 def _plan_spec(text):
     """The model mpc-physics plans on, from ``--plan-factors`` S,R,D (None: the nominal one)."""
-    from ..errors import bad
-    from ..magnetics.manipulator import ManipulatorSpec
-
     if text is None:
         return None
     try:

@@ -12,6 +12,8 @@ import numpy as np
 
 from ..errors import SimulationError, SoftrnnInputError, bad, require_extra
 from ..files import atomic_write_text, json_default, prepare_output
+from ..learned.spans import check_beyond_trained, start_of_test_span
+from ..resume import REFUSE, Settings, check
 from ._progress import Bar
 
 NAME = "dynamic"
@@ -161,7 +163,7 @@ def _config(args):
 
 def _check_step(split, config) -> None:
     """Every input's saved interval must divide the model's step (checked before anything is written)."""
-    from ..io.dataset import read_dataset
+    from ..io.reader import read_dataset
     from ..learned.whole.config import resolve_stride
 
     for part in split.train + split.validation:
@@ -185,18 +187,13 @@ def _model_folder(args) -> Path:
     return folder
 
 
-def _difference(then: dict, now: dict) -> str:
-    """The first setting that differs ('config.steps: 5 then, 6 now'), or ''."""
-    for key in ("config", "data"):
-        a, b = then.get(key) or {}, now.get(key) or {}
-        for name in sorted(set(a) | set(b)):
-            if a.get(name) != b.get(name):
-                return f"{key}.{name}: {a.get(name)!r} then, {b.get(name)!r} now" if key == "config" else \
-                    f"the {name} data differ"
-    return ""
+def _settings(config, split) -> Settings:
+    """What a checkpoint or a finished model must match to be resumed: the config and the data."""
+    return Settings.of({"config": config.to_dict(), "data": split.describe()}, keys=("config", "data"),
+                       opaque={"data": "the {name} data differ"})
 
 
-def _start_checkpoint(folder: Path, settings: dict, resume: bool) -> None:
+def _start_checkpoint(folder: Path, settings: Settings, resume: bool) -> None:
     """Check a checkpoint to resume against ``settings``; or, starting afresh, remove an old one.
     Either way ``SETTINGS`` records the settings beside the checkpoint."""
     ckpt, saved = folder / CHECKPOINT, folder / SETTINGS
@@ -206,13 +203,12 @@ def _start_checkpoint(folder: Path, settings: dict, resume: bool) -> None:
         except (OSError, ValueError):
             raise bad("--resume", True, f"a checkpoint with its settings, but {saved} is missing or unreadable; "
                                         "train with --overwrite to start again") from None
-        why = _difference(then, settings)
-        if why:
-            raise bad("--resume", True, f"the settings of the checkpoint in {folder} ({why}); resume with the "
-                                        "same settings, or train with --overwrite to start again")
+        check(then, settings, otherwise=REFUSE, refuse=lambda why: bad(
+            "--resume", True, f"the settings of the checkpoint in {folder} ({why}); resume with the same settings, "
+                              "or train with --overwrite to start again"))
         return
     ckpt.unlink(missing_ok=True)
-    atomic_write_text(saved, json.dumps(settings, indent=1, default=json_default) + "\n")
+    atomic_write_text(saved, json.dumps(settings.to_json(), indent=1, default=json_default) + "\n")
 
 
 def _discard(folder: Path, created: bool) -> None:
@@ -237,15 +233,14 @@ def _interrupted(folder: Path, created: bool) -> None:
               "nothing was kept", file=sys.stderr)
 
 
-def _finished(folder: Path, settings: dict):
+def _finished(folder: Path, settings: Settings):
     """The finished model in ``folder`` (--resume after the end), if it was trained with ``settings``."""
     from ..learned.whole.artifact import load_dynamic
 
     model = load_dynamic(folder)
-    why = _difference({"config": model.config.to_dict(), "data": model.meta.get("data")}, settings)
-    if why:
-        raise bad("--resume", True, f"the settings of the finished model in {folder} ({why}); train with "
-                                    "--overwrite to replace it, or choose another folder")
+    check({"config": model.config.to_dict(), "data": model.meta.get("data")}, settings, otherwise=REFUSE,
+          refuse=lambda why: bad("--resume", True, f"the settings of the finished model in {folder} ({why}); train "
+                                                   "with --overwrite to replace it, or choose another folder"))
     return model
 
 
@@ -286,7 +281,7 @@ def _train(args) -> int:
         split = split_inputs([Path(p).absolute() for p in args.data], heldout=args.heldout,
                              validation=args.validation, train_fraction=args.train_fraction)
         _check_step(split, config)
-    settings = {"config": config.to_dict(), "data": split.describe()}
+    settings = _settings(config, split)
     if args.resume and (folder / "model.json").is_file() and not (folder / CHECKPOINT).is_file():
         model = _finished(folder, settings)
         print(_train_summary(folder, model.config, model.encoding, model.meta.get("training", {}),
@@ -328,7 +323,7 @@ def _add_evaluate(p):
 
 def _trajectories(path: str) -> list[tuple[Path, str]]:
     """(file, group) of every trajectory of a file or a sweep folder."""
-    from ..io.dataset import list_groups
+    from ..io.reader import list_groups
 
     p = Path(path)
     if p.is_dir():
@@ -343,7 +338,7 @@ def _trajectories(path: str) -> list[tuple[Path, str]]:
 
 def _read(model, argument: str, path, group: str = "/"):
     """The data set at ``path`` (``group``), checked against the model's encoding."""
-    from ..io.dataset import read_dataset
+    from ..io.reader import read_dataset
     from ..learned.whole.encoding import check_compatible
 
     data = read_dataset(path, group=None if group == "/" else group)
@@ -385,11 +380,8 @@ def _check_test(model, path, data, fraction: float) -> None:
     # start, must lie beyond the trained samples 0 .. stop - 1
     k, stop = model.encoding.stride(float(data.dt)), int(entry["stop"])
     n_steps = (data.n_samples - 1) // k + 1
-    start = max(max(model.engine.history, 2) - 1, int(round(fraction * (n_steps - 1))))
-    if (start + 1) * k < stop:
-        first = (-(-stop // k) - 1) / max(1, n_steps - 1)        # the first start step whose next state is unseen
-        raise bad("--test-start", fraction, f"a start after the trained part of {path} (its first "
-                                            f"{entry['stop']} samples): a fraction >= {first:.3g}")
+    start = start_of_test_span(max(model.engine.history, 2) - 1, n_steps, fraction)
+    check_beyond_trained(start, k, stop, n_steps, fraction=fraction, path=path)
 
 
 def _evaluate(args) -> int:
@@ -415,7 +407,7 @@ def _evaluate(args) -> int:
     report = evaluate_dynamic(model, test=test, heldout=[_read(model, "--heldout", p, g) for p, g in heldout],
                               generalisation=general, test_start_fraction=args.test_start)
     report = {"model": str(args.model), "test": args.test, "heldout_files": [f"{p}:{g}" for p, g in heldout],
-              "generalisation_file": args.generalisation, **report}
+              "generalisation_file": args.generalisation, **report.to_dict()}
     print(format_evaluation(report))
     if args.output:
         atomic_write_text(args.output, json.dumps(report, indent=2, allow_nan=False, default=json_default) + "\n")
@@ -498,7 +490,8 @@ def _steps(traj, history: int, start_time, stop_time) -> tuple[int, int]:
 
 
 def _rollout(args) -> int:
-    from ..io.dataset import read_dataset, write_dataset
+    from ..io.reader import read_dataset
+    from ..io.writer import write_dataset
     from ..learned.whole.artifact import load_dynamic
     from ..learned.whole.encoding import check_compatible
     from ..learned.whole.rollout import rollout_dataset

@@ -47,7 +47,7 @@ def run(args) -> int:
              enabled=not args.quiet and not args.no_free_running) as bar:
         ev = evaluate(model, args.data, group=args.group, generalisation=args.generalisation,
                       free=not args.no_free_running, progress=bar, model_name=str(args.model))
-    report = ev.to_json()
+    report = ev.to_dict()
     print(format_report(report))
     if args.json:
         atomic_write_text(args.json, json.dumps(report, indent=2) + "\n")
@@ -65,7 +65,7 @@ def _row(label: str, values, fmt: str = "{:9.3g}") -> str:
 
 
 def format_report(r: dict) -> str:
-    """The text ``softrnn evaluate`` prints for an ``Evaluation.to_json()`` report."""
+    """The text ``softrnn evaluate`` prints for an ``Evaluation.to_dict()`` report."""
     neigh = ", ".join(map(str, r["neighbours"])) or "none"
     wrench = {"none": "", "force": " + force", "wrench": " + force, torque"}.get(r["wrench"], "")
     if r.get("channels"):
@@ -127,7 +127,7 @@ def _max_pct(block) -> float | str | None:
 
 def baseline_lines(r: dict) -> list[str]:
     """The table of the model beside the baselines (one step, free running, by horizon) and the
-    plain statements of where a baseline beats the model, for an ``Evaluation.to_json()`` report."""
+    plain statements of where a baseline beats the model, for an ``Evaluation.to_dict()`` report."""
     from ..learned.node.evaluate import horizon_keys
 
     base = r.get("baselines")

@@ -111,7 +111,7 @@ class _Stages:
 
 
 def _print_result(result: dict) -> None:
-    from ..experiments.magnetic.experiment import format_table
+    from ..experiments.magnetic import format_table
 
     print("Table 1: max and mean absolute error (deg) of the magnets' orientations about x, y, z on the test span")
     for line in format_table(result):
@@ -161,7 +161,7 @@ def _print_result(result: dict) -> None:
 
 def run(args) -> int:
     from ..errors import bad, require_extra
-    from ..experiments.magnetic.experiment import FIGURE_FILE, TABLE_FILE, ExperimentConfig, run_experiment
+    from ..experiments.magnetic import FIGURE_FILE, TABLE_FILE, ExperimentConfig, run_experiment
     from ..files import atomic_write_text, prepare_output
 
     if args.magnetic == "example-csv":

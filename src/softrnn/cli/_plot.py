@@ -3,7 +3,11 @@
 from pathlib import Path
 
 from ..errors import bad
+from ..figures.data import FIGURE_SUFFIXES, _text, _title, check_suffix, describe_nodes, load, node_of_interest
+from ..figures.pictures import plot_node
 from ..files import prepare_output
+from ..io.reader import read_dataset
+from ..scenarios.cases import CASE_NAMES, build_case
 
 NAME = "plot"
 HELP = "plot one node's position per axis [mm] against time, with the forces on it, to .png/.pdf/.svg"
@@ -22,26 +26,24 @@ def add_args(p):
     p.add_argument("--overwrite", action="store_true", help="replace the output file if it exists (default: refuse)")
 
 
-def run(args) -> int:
-    from ..figures.pictures import (
-        FIGURE_SUFFIXES,
-        _title,
-        check_suffix,
-        describe_nodes,
-        load,
-        node_of_interest,
-        plot_node,
-    )
+def named_node(data) -> int | None:
+    """The node of interest that dataset-like ``data`` names (``figures.data.node_of_interest``: its
+    attrs or scenario text), else that of the paper case its ``attrs['case']`` names, else None."""
+    case = _text(dict(getattr(data, "attrs", None) or {}).get("case"))
+    node = node_of_interest(data)
+    if node is None and case in CASE_NAMES:
+        node = node_of_interest(data, default=build_case(case).node_of_interest)
+    return node
 
+
+def run(args) -> int:
     if args.output:
         check_suffix(args.output, FIGURE_SUFFIXES, argument="--output")
         prepare_output(args.output, "--output", overwrite=args.overwrite)
     node = args.node
     if node is None:
-        from ..io.dataset import read_dataset
-
         meta = read_dataset(args.data, nodes=[], group=args.group)  # attrs and time only
-        node = node_of_interest(meta)
+        node = named_node(meta)
         if node is None:
             stored = read_dataset(args.data, nodes=None, group=args.group, stop=1).nodes
             raise bad("--node", None, f"a node to plot: the file names no node of interest; choose one of "

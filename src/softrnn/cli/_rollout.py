@@ -61,8 +61,8 @@ def parse_nodes(text: str, argument: str = "--shared-nodes") -> list[int]:
 
 
 def run(args) -> int:
-    from ..figures.pictures import FIGURE_SUFFIXES, check_suffix
-    from ..io.dataset import read_dataset
+    from ..figures.data import FIGURE_SUFFIXES, check_suffix
+    from ..io.reader import read_dataset
     from ..learned.node.artifact import load_model
     from ..learned.node.evaluate import check_compatible
     from ..learned.node.rollout import Manipulator, max_error_mm, model_inputs, rollout, write_rollout
@@ -130,7 +130,7 @@ def run(args) -> int:
 
 def _span(time: np.ndarray, history: int, start, stop) -> tuple[int, int]:
     """Sample indices [start, stop) of the predicted samples for times --start/--stop [s]."""
-    from ..figures.pictures import time_span
+    from ..figures.data import time_span
 
     T = time.shape[0]
     if T <= history:
@@ -161,7 +161,7 @@ def _ranges(nodes) -> str:
 
 def _figure(result, data, path) -> None:
     from ..figures import plots as plotting
-    from ..figures.pictures import save_figure
+    from ..figures.saving import save_figure
 
     rows = np.unique(np.linspace(result.seed, result.positions.shape[0] - 1, 5).round().astype(int))
     ref = data.positions[result.first + rows]

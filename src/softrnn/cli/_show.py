@@ -2,7 +2,7 @@
 
 import json
 
-from ..io.dataset import describe
+from ..io.summary import describe
 
 NAME = "show"
 HELP = "print a summary of a softrnn dataset file (HDF5)"

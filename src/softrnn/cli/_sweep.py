@@ -36,7 +36,7 @@ def run(args) -> int:
     print(f"sweep {scenario.name}: {args.count} trajectories in {args.out} "
           f"({len(result.computed)} computed in {result.wall_time:.1f} s, {len(result.skipped)} already there)")
     if args.merge:
-        from ..io.dataset import merge_files
+        from ..io.sweepfiles import merge_files
 
         merge_files(result.files, args.merge)
         print(f"merged into {args.merge} (groups traj-00000 .. traj-{args.count - 1:05d})")

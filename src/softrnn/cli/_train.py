@@ -1,6 +1,7 @@
 """softrnn train DATA.h5 --node N -o FOLDER: train one node's LSTM model (paper Fig. 2A/B)."""
 
 import sys
+from pathlib import Path
 
 from ..errors import SoftrnnInputError, bad
 from ._progress import Bar
@@ -106,7 +107,7 @@ class _LossBar(Bar):
 
 def run(args) -> int:
     from ..files import prepare_output
-    from ..io.dataset import read_dataset
+    from ..io.reader import read_dataset
     from ..learned.node.artifact import CHECKPOINT, check_replaceable
     from ..learned.node.train import TrainConfig, train_node_model
 
@@ -117,10 +118,11 @@ def run(args) -> int:
     node = args.node
     head = None
     if node is None:
-        from ..figures.pictures import describe_nodes, node_of_interest
+        from ..figures.data import describe_nodes
+        from ._plot import named_node
 
         head = read_dataset(args.data, stop=1)
-        node = node_of_interest(head)
+        node = named_node(head)
         if node is None and len(head.nodes) == 1:    # one marker (a lab CSV of the tip alone): that node
             node = int(head.nodes[0])
         if node is None:
@@ -139,6 +141,7 @@ def run(args) -> int:
                                ("rollout_steps", args.rollout_steps))
              if v is not None}
     config = TrainConfig(**train)
+    finished = args.resume and (Path(args.out) / "config.json").is_file() and not (Path(args.out) / CHECKPOINT).exists()
     with _LossBar(f"train node {node}", unit="batch", enabled=not args.quiet) as bar:
         try:
             model = train_node_model(args.data, spec, overrides, config, args.out, resume=args.resume, progress=bar,
@@ -158,14 +161,15 @@ def run(args) -> int:
           f"{spans['test'][1] - 1}")
     print(f"train: best validation loss {m['best_validation_loss']:.4g} at epoch {m['best_epoch']} of "
           f"{m['epochs_run']}{' (early stop)' if m['early_stopped'] else ''}, {m['train_seconds']:.1f} s; "
-          f"model written to {args.out}")
+          + (f"already finished in {args.out} with these settings; nothing written" if finished
+             else f"model written to {args.out}"))
     return 0
 
 
 def _spec(args, node):
     """The ``SampleSpec`` of the command line (the wrench chosen by ``_default_wrench`` unless given;
     with ``--drive actuation`` none, with ``--drive both`` at least the force)."""
-    from ..io.dataset import read_dataset
+    from ..io.reader import read_dataset
     from ..learned.node.data import SampleSpec
 
     if args.channels is not None and args.drive == "wrench":
@@ -202,7 +206,7 @@ def _default_wrench(path, node) -> str:
     samples; the test span is not looked at), else 'none' (Fig. 2A)."""
     import numpy as np
 
-    from ..io.dataset import read_dataset
+    from ..io.reader import read_dataset
     from ..learned.node.data import SampleSpec, split
 
     d = read_dataset(path, nodes=[node])

@@ -7,14 +7,18 @@ camera's orientations (M, 3) [rad] of frame k (NaN where the camera lost the rod
 return currents beyond the coils' limit; on a measurement it cannot use it holds its last currents
 (``held`` counts those frames).
 
-The controllers: ``static_inverse.StaticInverse`` (``static-inverse``), ``mpc.LearnedMPC``
-(``mpc-learned``) and ``physics_mpc.PhysicsMPC`` (``mpc-physics``).
+The controllers: ``static_inverse.StaticInverse`` (``static-inverse``) and ``mpc.BlockMPC`` planning
+with ``model.NarxPredictor`` (``mpc-learned``) or with ``physics_mpc.PhysicsPredictor`` (``mpc-physics``).
 """
 
 from __future__ import annotations
 
 from ..errors import bad
 from ..magnetics.manipulator import ManipulatorSpec
+from .loop import LoopConfig
+from .model import NarxModel, NarxPredictor
+from .mpc import BlockMPC
+from .physics_mpc import PHYSICS_OPTIONS, PhysicsPredictor
 from .static_inverse import DISTAL, StaticInverse
 
 __all__ = ["CONTROLLERS", "DISTAL", "StaticInverse", "controller"]
@@ -23,23 +27,17 @@ CONTROLLERS = ("static-inverse", "mpc-learned", "mpc-physics")
 """Controllers ``controller(name)`` builds."""
 
 
-def controller(name: str, spec: ManipulatorSpec | None = None, *, model=None, config=None):
+def controller(name: str, spec: ManipulatorSpec | None = None, *, model: NarxModel | None = None,
+               config: LoopConfig | None = None):
     """A controller by name (``CONTROLLERS``); ``mpc-learned`` needs the trained ``model``
     (``softrnn.control.model.NarxModel``); ``mpc-physics`` plans on ``spec`` (None: the nominal
     model) with the rate and camera of ``config`` (a ``loop.LoopConfig``; None: the defaults)."""
     if name == "static-inverse":
         return StaticInverse(spec)
     if name == "mpc-learned":
-        from .mpc import LearnedMPC
-
         if model is None:
             raise bad("model", None, "a trained control model (softrnn.control.identify.identified_model)")
-        return LearnedMPC(model, spec)
+        return BlockMPC(NarxPredictor(model), spec)
     if name == "mpc-physics":
-        from .physics_mpc import PhysicsMPC
-
-        camera = {} if config is None else {"rate": config.rate, "camera_points": config.camera_points,
-                                            "polynomial_degree": config.polynomial_degree,
-                                            "settle": config.settle}
-        return PhysicsMPC(spec, **camera)
+        return BlockMPC(PhysicsPredictor(spec, config), spec, options=PHYSICS_OPTIONS)
     raise bad("--controller", name, f"one of {', '.join(CONTROLLERS)}")

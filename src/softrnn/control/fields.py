@@ -3,10 +3,18 @@ centre, made by the minimum-norm coil currents."""
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..magnetics.coils import unit_field_maps
 from ..magnetics.manipulator import ManipulatorSpec
+
+A_RANGE = (-math.pi / 2, math.pi / 2)
+"""The field's elevation a [rad] the controllers command: [-90, 90] deg."""
+C_RANGE = (-math.pi / 6, math.pi / 6)
+"""The field's azimuth c [rad] the controllers command: [-30, 30] deg."""
 
 
 def field_direction(a, c) -> np.ndarray:
@@ -31,3 +39,24 @@ def field_magnitude(P: np.ndarray, limit: float, cap: float = 0.02) -> float:
     unit = field_direction(a, c).reshape(-1, 3)
     peak = float(np.max(np.abs(unit @ P.T)))
     return min(cap, 0.95 * limit / peak)
+
+
+@dataclass(frozen=True, eq=False)
+class FieldCommand:
+    """The field a controller commands on a manipulator: ``magnitude`` B0 [T] (``field_magnitude``)
+    along the direction of elevation a and azimuth c, made by the minimum-norm currents ``P`` (n_c, 3)
+    [A/T] (``field_to_currents``)."""
+
+    P: np.ndarray
+    magnitude: float
+
+    @classmethod
+    def of(cls, spec: ManipulatorSpec) -> FieldCommand:
+        """The command of ``spec``'s coils: the largest magnitude that keeps every direction within
+        95 % of the coil limit (at most 20 mT)."""
+        P = field_to_currents(spec)
+        return cls(P=P, magnitude=field_magnitude(P, spec.coils.current_limit))
+
+    def currents(self, angles) -> np.ndarray:
+        """The currents (n_c,) [A] of the field along ``angles`` (a, c) [rad]."""
+        return self.P @ (self.magnitude * field_direction(angles[0], angles[1]))

@@ -4,7 +4,8 @@ frame rate, and a controller that sets the coil currents each frame (``controlle
 
 ``run_loop(controller, reference, config)`` returns a ``LoopResult``: the frames' times, the
 measured and the true (noise-free) orientations of both magnets, the currents, the controller's
-computation time per frame, and the tracking errors of the distal magnet against the reference.
+computation time per frame, and the tracking errors of the distal magnet against the reference;
+``LoopResult.summary()`` its figures (``LoopSummary``).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from ..magnetics.camera import camera_measure
 from ..magnetics.manipulator import ManipulatorSpec
 from ..magnetics.stepper import ManipulatorStepper
 from ..progress import Progress
-from .controllers import DISTAL
+from .static_inverse import DISTAL
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -62,6 +63,40 @@ class LoopConfig:
         return asdict(self)
 
 
+@dataclass(frozen=True)
+class LoopSummary:
+    """The figures of a closed-loop run (``LoopResult.summary``); the tracking errors are those of the
+    true (noise-free) distal orientation against the reference, None when not finite.
+
+    rms_deg, max_deg : over both angles [deg]
+    rms_deg_about, max_deg_about : {"x": ..., "y": ...} per angle [deg]
+    measured_rms_deg : the RMS error of the measured orientation [deg] (frames the camera lost left out)
+    limit_violations, held_frames : ``LoopResult``'s counts
+    compute_ms_median, compute_ms_p99 : the controller's CPU time per frame [ms]
+    wall_ms_median, wall_ms_p99 : its wall time per frame [ms]
+    stable : every true error finite and below the bound
+    frames : frames of the run (K + 1)
+    """
+
+    rms_deg: float | None
+    max_deg: float | None
+    rms_deg_about: dict
+    max_deg_about: dict
+    measured_rms_deg: float
+    limit_violations: int
+    held_frames: int
+    compute_ms_median: float
+    compute_ms_p99: float
+    wall_ms_median: float
+    wall_ms_p99: float
+    stable: bool
+    frames: int
+
+    def to_dict(self) -> dict:
+        """JSON-ready fields, in the order above."""
+        return asdict(self)
+
+
 @dataclass(frozen=True, eq=False)
 class LoopResult:
     """A closed-loop run of K + 1 frames (M magnets, n_c coils).
@@ -91,29 +126,27 @@ class LoopResult:
         got = (self.measured if which == "measured" else self.true)[:, DISTAL, :2]
         return np.degrees(got - self.reference)
 
-    def summary(self, bound_deg: float = 45.0) -> dict:
-        """{rms_deg, max_deg (over both angles, the true orientation), per-axis figures, the measured
-        ones, limit_violations, held, compute_ms_median and _p99 (CPU time), wall_ms_median and _p99,
-        stable (every true error below
-        ``bound_deg`` and finite)}."""
+    def summary(self, bound_deg: float = 45.0) -> LoopSummary:
+        """The run's figures (``LoopSummary``): stable when every true error is below ``bound_deg``
+        and finite."""
         e = self.errors_deg("true")
         m = self.errors_deg("measured")
         finite = bool(np.all(np.isfinite(e)))
         ms = 1e3 * self.compute_s
-        return {
-            "rms_deg": float(np.sqrt(np.mean(e ** 2))) if finite else None,
-            "max_deg": float(np.max(np.abs(e))) if finite else None,
-            "rms_deg_about": {axis: float(np.sqrt(np.mean(e[:, i] ** 2))) if finite else None
-                              for i, axis in enumerate("xy")},
-            "max_deg_about": {axis: float(np.max(np.abs(e[:, i]))) if finite else None for i, axis in enumerate("xy")},
-            "measured_rms_deg": float(np.sqrt(np.nanmean(m ** 2))),
-            "limit_violations": int(self.limit_violations), "held_frames": int(self.held),
-            "compute_ms_median": float(np.median(ms)), "compute_ms_p99": float(np.percentile(ms, 99)),
-            "wall_ms_median": float(np.median(1e3 * self.wall_s)),
-            "wall_ms_p99": float(np.percentile(1e3 * self.wall_s, 99)),
-            "stable": finite and float(np.max(np.abs(e))) < bound_deg,
-            "frames": int(self.time.size),
-        }
+        return LoopSummary(
+            rms_deg=float(np.sqrt(np.mean(e ** 2))) if finite else None,
+            max_deg=float(np.max(np.abs(e))) if finite else None,
+            rms_deg_about={axis: float(np.sqrt(np.mean(e[:, i] ** 2))) if finite else None
+                           for i, axis in enumerate("xy")},
+            max_deg_about={axis: float(np.max(np.abs(e[:, i]))) if finite else None for i, axis in enumerate("xy")},
+            measured_rms_deg=float(np.sqrt(np.nanmean(m ** 2))),
+            limit_violations=int(self.limit_violations), held_frames=int(self.held),
+            compute_ms_median=float(np.median(ms)), compute_ms_p99=float(np.percentile(ms, 99)),
+            wall_ms_median=float(np.median(1e3 * self.wall_s)),
+            wall_ms_p99=float(np.percentile(1e3 * self.wall_s, 99)),
+            stable=finite and float(np.max(np.abs(e))) < bound_deg,
+            frames=int(self.time.size),
+        )
 
 
 def run_loop(controller, reference, config: LoopConfig | None = None, *, nominal: ManipulatorSpec | None = None,

@@ -17,10 +17,16 @@ Why not the experiment's magnet LSTMs: their input II is the magnet wrench compu
 *measured* pose, not a command, so a planner would have to predict poses to form its own inputs;
 and a recurrent state is awkward to differentiate through a horizon. A NARX network on the
 commanded field is what MPC needs.
+
+``NarxPredictor`` is the network as the MPC's ``predictors.Predictor``: a fixed-gain observer blends
+its one-frame prediction with the measurement, and a slow integral term learns its remaining offset
+on the distal magnet.
 """
 
 from __future__ import annotations
 
+import io
+import json
 import math
 import time
 from dataclasses import dataclass
@@ -28,8 +34,10 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import bad
-from .fields import field_direction as field_direction
+from ..errors import bad, is_finite_number
+from ..files import atomic_write_bytes
+from .fields import A_RANGE, field_direction
+from .predictors import DISTURBANCE_GAIN
 
 HISTORY = 2
 """Frames of history the network reads."""
@@ -90,11 +98,6 @@ class NarxModel:
 
     def save(self, path) -> None:
         """Write the weights and ``meta`` to an ``.npz`` file (atomically)."""
-        import io
-        import json
-
-        from ..files import atomic_write_bytes
-
         buf = io.BytesIO()
         np.savez(buf, mean=self.mean, std=self.std, W1=self.W1, b1=self.b1, W2=self.W2, b2=self.b2,
                  meta=np.array(json.dumps(self.meta)))
@@ -103,8 +106,6 @@ class NarxModel:
     @classmethod
     def load(cls, path) -> NarxModel:
         """Read ``save``'s file; a missing or foreign file is a one-line error naming ``--model``."""
-        import json
-
         try:
             with np.load(path) as f:
                 return cls(mean=f["mean"], std=f["std"], W1=f["W1"], b1=f["b1"], W2=f["W2"], b2=f["b2"],
@@ -130,7 +131,7 @@ def train_narx(runs: list, *, hidden: int = 48, steps: int = 2000, unroll: int =
                lr: float = 1e-2) -> NarxModel:
     """Train the NARX network on identification runs [(y (K, 4) [rad], u (K, 3)), ...] with the
     ``unroll``-frame free-run loss (Adam, full batch of every window). Deterministic for a seed."""
-    import torch
+    import torch  # optional extra: learn (PyTorch)
 
     torch.manual_seed(seed)
     parts = [windows(y, u, unroll) for y, u in runs]
@@ -168,3 +169,88 @@ def train_narx(runs: list, *, hidden: int = 48, steps: int = 2000, unroll: int =
             "seconds": time.perf_counter() - t0}
     weights = {k: v.detach().numpy().astype(np.float64) for k, v in dict(W1=W1, b1=b1, W2=W2, b2=b2).items()}
     return NarxModel(mean=mean, std=std, meta=meta, **weights)
+
+
+def _gain(name: str, value) -> float:
+    """``value`` as a gain in [0, 1], or a one-line ``SoftrnnInputError`` naming ``name``."""
+    if not is_finite_number(value) or not 0.0 <= value <= 1.0:
+        raise bad(name, value, "a gain in [0, 1]")
+    return float(value)
+
+
+class NarxPredictor:
+    """A trained ``NarxModel`` as the MPC's ``predictors.Predictor``.
+
+    model : the network
+    observer_gain : weight of the measurement against the one-frame prediction in the state estimate
+        (the camera's noise is large at the distal magnet, about 1 deg)
+    disturbance_gain : gain of the integral term that learns the model's offset on the distal magnet,
+        so a constant model error does not become a constant tracking error
+    """
+
+    history = HISTORY
+
+    def __init__(self, model: NarxModel, *, observer_gain: float = 0.15, disturbance_gain: float = DISTURBANCE_GAIN):
+        self.model = model
+        self.observer_gain = _gain("observer_gain", observer_gain)
+        self.disturbance_gain = _gain("disturbance_gain", disturbance_gain)
+        self.ys = None                                  # (H, 4) estimated states; None before the first frame
+        self.us = np.zeros((HISTORY, INPUT))            # (H, 3) applied field directions
+        self.predicted = None                           # (4,) the model's prediction of the next frame
+        self.disturbance = np.zeros(STATE)
+
+    def start(self, target) -> np.ndarray:
+        """The field angles (a, 0) whose steady state under the model (a 2 s rollout from the state
+        the model settles to under that field) is closest to ``target`` (about x, about y) [rad]."""
+        a = np.linspace(A_RANGE[0], A_RANGE[1], 91)
+        u = field_direction(a, np.zeros_like(a))                                      # (B, 3)
+        B, H, N = a.size, HISTORY, int(2.0 * 30)
+        y = np.zeros((B, H, 4))
+        y[:] = np.array([0.0, target[1], 0.0, target[1]])                            # a rough start
+        us = np.repeat(u[:, None], N, 1)
+        for _ in range(2):                                                           # settle twice from the end
+            out = self.model.rollout(y, us[:, :H - 1], us)
+            y = out[:, -H:]
+        err = np.sum((out[:, -1, 2:] - np.asarray(target)) ** 2, axis=1)
+        return np.array([a[int(np.argmin(err))], 0.0])
+
+    def reset(self, applied, currents) -> None:
+        """Forget the run: the history holds ``applied``; the state is taken from the first measurement."""
+        self.ys = None
+        self.us = np.tile(field_direction(*applied), (HISTORY, 1))
+        self.predicted = None
+        self.disturbance = np.zeros(STATE)
+
+    def observe(self, measured) -> bool:
+        """Blend the measured state with the prediction (the first frame: the measurement held over
+        the history) and integrate the distal innovation; False for a measurement with a NaN."""
+        y_meas = state_of(measured)
+        if not np.all(np.isfinite(y_meas)):
+            return False
+        if self.ys is None:
+            self.ys = np.tile(y_meas, (HISTORY, 1))
+            return True
+        pred = self.predicted + self.disturbance
+        innovation = y_meas - pred
+        self.disturbance[2:] += self.disturbance_gain * innovation[2:]
+        est = pred + self.observer_gain * innovation
+        self.ys = np.concatenate([self.ys[1:], est[None]], 0)
+        return True
+
+    def predict(self, plans: np.ndarray, block_of: np.ndarray) -> np.ndarray:
+        """The distal orientations (B, N, 2) [rad]: one batch of rollouts of the network, plus the
+        learned offset."""
+        B = plans.shape[0]
+        ang = plans[:, block_of]                                                     # (B, N, 2)
+        future = field_direction(ang[..., 0], ang[..., 1])                          # (B, N, 3)
+        ys = np.broadcast_to(self.ys, (B,) + self.ys.shape)
+        us = np.broadcast_to(self.us[1:], (B,) + self.us[1:].shape)
+        return self.model.rollout(ys, us, future)[..., 2:] + self.disturbance[2:]  # (B, N, 2) distal
+
+    def advance(self, applied, currents) -> None:
+        """Append the applied direction to the history and predict the next frame."""
+        self.us = np.concatenate([self.us[1:], field_direction(applied[0], applied[1])[None]], 0)
+        self.predicted = self.model.step(self.ys[None], self.us[None])[0]
+
+    def hold(self, currents) -> None:
+        """Nothing to do: the estimate waits for the next usable measurement."""

@@ -1,6 +1,6 @@
 """Reference trajectories of the distal magnet's orientation for the closed loop: its bending angle
 (the orientation about y, the large one) and its out-of-plane angle (about x), both in the form the
-camera reports (rotation vector phi k components, ``softrnn.experiments.magnetic.config.ORIENTATION_NOTE``).
+camera reports (the components of the rotation vector phi k taking z to the magnet's tangent).
 
 A ``Reference`` holds target angles at the frame times; the shipped ones are centred on the rod's
 rest pose under no field and stay inside what the coils reach (``REST_DEG``, ``SPAN_DEG``):

@@ -1,18 +1,26 @@
 """A closed-loop run written out: the plant's record as a dataset (``run.h5``, for ``softrnn
 animate``), the figure (``control.png``: reference and measured angles, currents) and the summary
-(``control.json``)."""
+(``control.json``: ``ControlSummary``)."""
 
 from __future__ import annotations
 
+import io
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..files import atomic_write_text
+from ..figures.saving import save_figure, subplots
+from ..files import atomic_write_bytes, atomic_write_text
+from ..io.reader import Dataset
+from ..io.writer import write_dataset
+from ..magnetics.manipulator import ManipulatorSpec
 from ..progress import Progress
 from .controllers import controller as make_controller
-from .loop import LoopConfig, LoopResult, run_loop
+from .identify import identified_model
+from .loop import LoopConfig, LoopResult, LoopSummary, run_loop
+from .model import NarxModel
 from .references import reference as make_reference
 
 RUN_FILE = "run.h5"
@@ -22,13 +30,36 @@ SUMMARY_FILE = "control.json"
 TRACE_FILE = "trace.npz"
 
 
+@dataclass(frozen=True)
+class ControlSummary:
+    """The summary of a control run (``SUMMARY_FILE``): what ran, the loop's figures and where the
+    files are.
+
+    reference, controller : their names
+    duration_s : the reference's last time [s]
+    loop : the loop's figures (``LoopSummary``)
+    config : the plant and camera (``LoopConfig``)
+    run_file, figure_file : paths of ``RUN_FILE`` and ``FIGURE_FILE``
+    """
+
+    reference: str
+    controller: str
+    duration_s: float
+    loop: LoopSummary
+    config: LoopConfig
+    run_file: str
+    figure_file: str
+
+    def to_dict(self) -> dict:
+        """JSON-ready: reference, controller, duration_s, the loop's figures, config and files."""
+        return {"reference": self.reference, "controller": self.controller, "duration_s": self.duration_s,
+                **self.loop.to_dict(), "config": self.config.to_dict(),
+                "files": {"run": self.run_file, "figure": self.figure_file}}
+
+
 def write_run(path, result: LoopResult, config: LoopConfig, attrs: dict) -> None:
     """The plant's record as a softrnn dataset (every node; orientations are not kept: identity
     placeholders), the currents and the reference in its attrs."""
-    from ..io.dataset import Dataset
-    from ..io.writer import write_dataset
-    from ..magnetics.manipulator import ManipulatorSpec
-
     spec = config.plant_spec(ManipulatorSpec())
     T, n = result.positions.shape[:2]
     quats = np.zeros((T, n, 4), np.float32)
@@ -44,10 +75,7 @@ def write_run(path, result: LoopResult, config: LoopConfig, attrs: dict) -> None
 
 def plot_run(result: LoopResult, title: str):
     """Reference and measured distal angles about y and x, and the six currents, against time."""
-    from ..figures import plots as plotting  # noqa: F401, I001  (selects the Agg backend first)
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(3, 1, figsize=(10, 7.5), sharex=True)
+    fig, axes = subplots(3, 1, figsize=(10, 7.5), sharex=True)
     meas = np.degrees(result.measured[:, 1, :2])
     true = np.degrees(result.true[:, 1, :2])
     ref = np.degrees(result.reference)
@@ -72,9 +100,6 @@ def learned_model(out_dir, model_path=None, *, identify_seconds: float = 90.0, c
     """The MPC's NARX model: read from ``model_path``, or from ``out_dir/MODEL_FILE`` when an earlier
     run left it there with the same identification settings, or identified on the plant of
     ``config`` and trained now (then saved there)."""
-    from .identify import identified_model
-    from .model import NarxModel
-
     if model_path is not None:
         return NarxModel.load(model_path)
     config = LoopConfig() if config is None else config
@@ -96,38 +121,32 @@ def learned_model(out_dir, model_path=None, *, identify_seconds: float = 90.0, c
 
 
 def control_run(reference: str, controller: str, out_dir, *, duration: float = 60.0, config: LoopConfig | None = None,
-                model=None, spec=None, progress: Progress | None = None) -> dict:
+                model=None, spec=None, progress: Progress | None = None) -> ControlSummary:
     """Run ``controller`` on ``reference`` for ``duration`` s and write ``RUN_FILE``, ``FIGURE_FILE``,
     ``SUMMARY_FILE`` and ``TRACE_FILE`` (time, reference, true and measured orientations, currents)
-    into ``out_dir``; returns the summary (``LoopResult.summary`` with the
-    reference, controller, config and files). ``model``: the ``NarxModel`` of ``mpc-learned``; ``spec``:
+    into ``out_dir``; returns the summary. ``model``: the ``NarxModel`` of ``mpc-learned``; ``spec``:
     the ``ManipulatorSpec`` the controller takes as its model (None: the nominal one)."""
-    from ..figures import plots as plotting
-
     config = LoopConfig() if config is None else config
     ref = make_reference(reference, duration=duration, rate=config.rate, seed=config.seed)
     ctrl = make_controller(controller, spec, model=model, config=config)
     result = run_loop(ctrl, ref, config, progress=progress)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    summary = {"reference": ref.name, "controller": controller, "duration_s": float(ref.times[-1]),
-               **result.summary(), "config": config.to_dict(),
-               "files": {"run": str(out / RUN_FILE), "figure": str(out / FIGURE_FILE)}}
+    summary = ControlSummary(reference=ref.name, controller=controller, duration_s=float(ref.times[-1]),
+                             loop=result.summary(), config=config, run_file=str(out / RUN_FILE),
+                             figure_file=str(out / FIGURE_FILE))
     write_run(out / RUN_FILE, result, config, {"controller": controller, "reference": ref.name})
-    import io
-
-    from ..files import atomic_write_bytes
-
     buf = io.BytesIO()
     np.savez(buf, time=result.time, reference=result.reference, true=result.true, measured=result.measured,
              currents=result.currents)
     atomic_write_bytes(out / TRACE_FILE, buf.getvalue())
-    rms = "not finite" if summary["rms_deg"] is None else f"{summary['rms_deg']:.2f} deg"
-    plotting.save(plot_run(result, f"{controller} on the {ref.name} reference: RMS {rms}"), out / FIGURE_FILE)
-    atomic_write_text(out / SUMMARY_FILE, json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    rms = "not finite" if summary.loop.rms_deg is None else f"{summary.loop.rms_deg:.2f} deg"
+    save_figure(plot_run(result, f"{controller} on the {ref.name} reference: RMS {rms}"), out / FIGURE_FILE)
+    atomic_write_text(out / SUMMARY_FILE, json.dumps(summary.to_dict(), indent=2, allow_nan=False) + "\n")
     return summary
 
 
-def run_one(reference: str, controller: str, out_dir: str, duration: float, config: dict, model=None) -> dict:
+def run_one(reference: str, controller: str, out_dir: str, duration: float, config: dict,
+            model=None) -> ControlSummary:
     """``control_run`` with a plain-dict ``config`` (``LoopConfig`` fields), for a Dask worker."""
     return control_run(reference, controller, out_dir, duration=duration, config=LoopConfig(**config), model=model)

@@ -2,7 +2,7 @@
 field that holds the target. The currents are the minimum-norm ones for a field b of fixed
 magnitude at the workspace centre, b = B0 (cos a cos c, sin c, sin a cos c); the static model's
 distal orientation over a grid of the field's elevation a and azimuth c is computed once
-(``softrnn.experiments.magnetic.static``), and each frame a few Gauss-Newton steps on its cubic
+(``softrnn.magnetics.static``), and each frame a few Gauss-Newton steps on its cubic
 spline find the (a, c) whose predicted orientation is the target (warm-started from the last
 frame; clipped to the grid). It is feedforward: the measurement is not used, so the robot's
 perturbation and dynamics show up as tracking error.
@@ -11,9 +11,11 @@ perturbation and dynamics show up as tracking error.
 from __future__ import annotations
 
 import numpy as np
+from scipy.interpolate import RectBivariateSpline
 
 from ..errors import SimulationError, bad
 from ..magnetics.manipulator import ManipulatorSpec
+from ..magnetics.static import static_predictions
 from .fields import field_direction, field_magnitude, field_to_currents
 
 DISTAL = 1
@@ -31,10 +33,6 @@ class StaticInverse:
 
     def __init__(self, spec: ManipulatorSpec | None = None, *, field: float | None = None, elevations: int = 37,
                  azimuths: int = 7):
-        from scipy.interpolate import RectBivariateSpline
-
-        from ..experiments.magnetic.static import static_predictions
-
         self.spec = ManipulatorSpec() if spec is None else spec
         self.P = field_to_currents(self.spec)
         self.a = np.radians(np.linspace(-90.0, 90.0, int(elevations)))

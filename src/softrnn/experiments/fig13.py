@@ -10,12 +10,16 @@ and 1.35 T), in a 20 mT field along +z with a weak gradient (below). The field l
 against gravity to a tip angle of about 42 deg.
 """
 
+import json
 import math
 import statistics
 import time
 
 import numpy as np
+from matplotlib import colormaps
 
+from ..figures.saving import save_figure, subplots
+from ..files import atomic_write_text
 from ..statics.rod import PointMagnet, RigidSegment, StaticLoads, StaticRod
 from ..statics.solver import StaticSolver
 from ..timing import machine_info
@@ -140,13 +144,10 @@ def run_fig13_study(repetitions: int = REPETITIONS, tolerances=TOLERANCES, n_ste
 def plot_fig13(result: dict):
     """Two panels like the paper's Fig. 13: solve time [ms] (mean +- std) against E (A) and N
     (B), one line per guess error, with the paper's reported range shaded; returns the Figure."""
-    import matplotlib.pyplot as plt
 
-    from ..figures import plots as plotting  # noqa: F401  (selects the Agg backend)
-
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, axes = subplots(1, 2, figsize=(11, 4.2))
     errors = result["guess_errors"]
-    colors = plt.cm.viridis(np.linspace(0, 0.9, len(errors)))
+    colors = colormaps["viridis"](np.linspace(0, 0.9, len(errors)))
     lo, hi = result["paper"]["solve_time_ms"]
     for ax, key, xkey, xlabel, title in (
             (axes[0], "tolerance_sweep", "tolerances", "tolerance E [N, N m]",
@@ -179,10 +180,6 @@ def plot_fig13(result: dict):
 
 def write_fig13(result: dict, json_path, figure_path) -> None:
     """Write the study's JSON and figure atomically."""
-    import json
-
-    from ..figures import plots as plotting
-    from ..files import atomic_write_text
 
     atomic_write_text(json_path, json.dumps(result, indent=2))
-    plotting.save(plot_fig13(result), figure_path)
+    save_figure(plot_fig13(result), figure_path)

@@ -55,15 +55,26 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from matplotlib.colors import LogNorm
+from matplotlib.patches import Rectangle
 
 from .. import __version__
 from ..errors import SoftrnnInputError, bad, integer, is_int
+from ..figures.saving import save_figure, subplots
 from ..files import atomic_write_text
+from ..io.reader import read_dataset
+from ..learned.node.data import SampleSpec, pose_rows, wrench_rows
+from ..learned.node.engine import NodeStepper
+from ..learned.node.evaluate import evaluation_span, load_for_model, metrics, one_step, rod_length
 from ..learned.node.train import TrainConfig
 from ..progress import Progress
-from ..timing import step_rate
+from ..resume import REFUSE, Settings, check
+from ..sweeps.dask import completed, require
+from ..timing import machine_info, step_rate
 
 MANIFEST = "study.json"
+GRID = ("units", "history")
+"""The settings that may change between runs of a study in one folder (the grid grows or shrinks)."""
 FIGURE = "fig14.png"
 MODELS = "models"
 FORMAT = "softrnn-fig14-study"
@@ -174,8 +185,6 @@ class StudyConfig:
 
     def spec(self, history: int):
         """The ``SampleSpec`` of the grid points of history ``history``."""
-        from ..learned.node.data import SampleSpec
-
         return SampleSpec(node=self.node, neighbours=self.neighbours, history=history, inputs=self.inputs,
                           wrench=self.wrench)
 
@@ -191,9 +200,10 @@ class StudyConfig:
         d["neighbours"] = None if self.neighbours is None else list(self.neighbours)
         return d
 
-    def settings(self) -> dict:
-        """What every point's result depends on (everything but the grid): a rerun must match it."""
-        return {k: v for k, v in self.to_dict().items() if k not in ("units", "history")}
+    def settings(self) -> Settings:
+        """What every point's result depends on (everything but the grid, ``GRID``): a rerun must
+        match it."""
+        return Settings.of(self, may_differ=GRID)
 
 
 # ------------------------------------------------------------------------------------------ files
@@ -251,15 +261,12 @@ def _check_manifest(out_dir: Path, config: StudyConfig, data_path: Path) -> dict
         if have.get("format") != FORMAT:
             raise bad("-o", str(out_dir), f"a study folder; its {MANIFEST} is not a softrnn study's; use another "
                                           f"folder")
-        if old_sha != data["sha256"]:
-            raise bad("-o", str(out_dir), f"a folder for this study, but it holds a study of another data file "
-                                          f"({have['data'].get('path')}); use another folder")
-        mine = config.settings()
-        for key in sorted((set(mine) | set(old)) - {"units", "history"}):
-            if old.get(key) != mine.get(key):
-                raise bad("-o", str(out_dir), f"a folder for this study, but it holds a study with other settings "
-                                              f"({key}: {old.get(key)!r} then, {mine.get(key)!r} now); use another "
-                                              f"folder (only the units and history grids may change)")
+        check({"sha256": old_sha}, Settings.of({"sha256": data["sha256"]}), otherwise=REFUSE, refuse=lambda _: bad(
+            "-o", str(out_dir), f"a folder for this study, but it holds a study of another data file "
+                                f"({have['data'].get('path')}); use another folder"))
+        check(old, config.settings(), otherwise=REFUSE, refuse=lambda why: bad(
+            "-o", str(out_dir), f"a folder for this study, but it holds a study with other settings ({why}); use "
+                                f"another folder (only the units and history grids may change)"))
     out_dir.mkdir(parents=True, exist_ok=True)
     _write_json(path, want)
     return data
@@ -278,8 +285,7 @@ def train_point(data_path: str, config_dict: dict, units: int, history: int, out
     ``config_dict`` is ``StudyConfig.to_dict()`` (plain data, so the call pickles cheaply). An
     unfinished training in the point's model folder continues from its checkpoint.
     """
-    from ..learned.node.evaluate import load_for_model, metrics, one_step, rod_length
-    from ..learned.node.train import train_node_model
+    from ..learned.node.train import train_node_model  # optional extra: learn (PyTorch)
 
     config = _config_from_dict(config_dict)
     folder = model_folder(out_dir, units, history)
@@ -345,11 +351,8 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
         ``p90_us`` (90th percentile of the single call times), ``mean_hz`` (calls / total time),
         ``calls``.
     """
-    import torch
+    import torch  # optional extra: learn (PyTorch)
 
-    from ..learned.node.data import pose_rows, wrench_rows
-    from ..learned.node.engine import NodeStepper
-    from ..learned.node.evaluate import evaluation_span
 
     H = int(model.spec.history)
     s0, s1 = evaluation_span(model, dataset.n_samples)
@@ -389,8 +392,7 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
 def _measure_point(out_dir: Path, record: dict, dataset, config: StudyConfig) -> dict:
     """Measure a trained point's bandwidths and rewrite its point file (with the machine they were
     measured on, ``softrnn.timing.machine_info``)."""
-    from ..learned.node.artifact import load_model
-    from ..timing import machine_info
+    from ..learned.node.artifact import load_model  # optional extra: learn (PyTorch)
 
     model = load_model(out_dir / record["model"])
     record = dict(record, bandwidth=measure_bandwidth(model, dataset, steps=config.bandwidth_steps,
@@ -405,8 +407,7 @@ def _measure_point(out_dir: Path, record: dict, dataset, config: StudyConfig) ->
 def _check_data(data_path: Path, config: StudyConfig):
     """The resolved spec of the longest history, after checking that the node, its neighbours and
     that history fit the data file (one-line errors)."""
-    from ..io.dataset import read_dataset
-    from ..learned.node.train import spans
+    from ..learned.node.train import spans  # optional extra: learn (PyTorch)
 
     head = read_dataset(data_path, stop=1)
     spec = config.spec(max(config.history)).resolve(head.nodes, n_nodes_total=head.attrs.get("n_nodes_total"))
@@ -477,11 +478,9 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
     data_path = Path(data_path)
     if not data_path.is_file():
         raise bad("data", str(data_path), "an existing softrnn HDF5 data set (softrnn simulate ... -o FILE.h5)")
-    import torch  # noqa: F401  (the 'learn' extra: refused here, before any output is written)
+    import torch  # noqa: F401  (the 'learn' extra: refused here, before any output is written)  # optional extra: learn (PyTorch)
 
     if scheduler != SYNCHRONOUS:
-        from ..sweeps.dask import require
-
         require()
     t0 = time.perf_counter()
     spec = _check_data(data_path, config)
@@ -506,9 +505,8 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
     result = summary(config, [records[p] for p in config.points])
     result.update(data=data, out_dir=str(out), computed=[list(p) for p in sorted(computed)],
                   measured=[list(p) for p in sorted(measured)], found=[list(p) for p in sorted(found)])
-    from ..figures.plots import save
 
-    save(fig14_figure(result), out / FIGURE)
+    save_figure(fig14_figure(result), out / FIGURE)
     result["figure"] = str(out / FIGURE)
     result["wall_seconds"] = time.perf_counter() - t0
     return result
@@ -520,8 +518,6 @@ def _measure_missing(out: Path, records: dict, data_path: Path, spec, config: St
     ``records`` and returns the points measured, in grid order."""
     measured = [p for p in config.points if not records[p].get("bandwidth")]
     if measured:
-        from ..io.dataset import read_dataset
-
         dataset = read_dataset(data_path, nodes=list(spec.window_nodes))
         for p in measured:
             records[p] = _measure_point(out, records[p], dataset, config)
@@ -552,7 +548,6 @@ def _execute(data_path: str, config: StudyConfig, out_dir: str, todo: list, sche
         for u, h in todo:
             yield train_point(data_path, cd, u, h, out_dir)
         return
-    from ..sweeps.dask import completed
 
     tag = hashlib.sha256(json.dumps([data_path, out_dir, cd], sort_keys=True).encode()).hexdigest()[:16]
     tasks = [(train_point, (data_path, cd, u, h, out_dir), f"softrnn-study-{tag}-{point_name(u, h)}") for u, h in todo]
@@ -659,11 +654,6 @@ def fig14_figure(result: dict):
     history size (y). Solid outlines: the region found (within the tolerance of the best); dashed:
     the grid points inside the paper's region; the error's colour scale is logarithmic. Returns
     the matplotlib Figure."""
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import LogNorm
-    from matplotlib.patches import Rectangle
-
-    from ..figures import plots as plotting  # noqa: F401  (selects the Agg backend)
 
     units, hist = result["units"], result["history"]
     panels = [("A: bandwidth, compiled stepper [Hz]", result["bandwidth_hz"], "bandwidth", "viridis")]
@@ -671,7 +661,7 @@ def fig14_figure(result: dict):
         panels.append(("A': bandwidth, eager PyTorch [Hz]", result["torch_bandwidth_hz"], "torch_bandwidth",
                        "viridis"))
     panels.append(("B: one-step RMS error [mm]", result["rmse_mm"], "rms_error", "magma_r"))
-    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.2 + 0.35 * len(hist)), squeeze=False)
+    fig, axes = subplots(1, len(panels), figsize=(4.6 * len(panels), 3.2 + 0.35 * len(hist)), squeeze=False)
     for ax, (title, rows, key, cmap) in zip(axes[0], panels):
         t = np.array([[np.nan if v is None else v for v in row] for row in rows], dtype=float)
         finite = t[np.isfinite(t)]

@@ -24,6 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import bad, integer, is_finite_number, positive
+from ..files import atomic_write_text
+from ..rod import Simulator
+from ..rod.tendons import tension_matrix
+from ..scenarios import load_scenario
 
 #: The scenarios written by default: training data and a generalisation record.
 DEFAULT_SCENARIOS = ("tendon-spatial", "tendon-spatial-sine")
@@ -66,8 +70,6 @@ class LabExampleConfig:
 
 def _tendon_scenario(scenario):
     """The loaded scenario (name, path or ``Scenario``), checked to have tendons."""
-    from ..scenarios import load_scenario
-
     sc = load_scenario(scenario) if isinstance(scenario, (str, Path)) else scenario
     if not sc.setup.tendons:
         raise bad("scenarios", sc.name, "scenarios with [[tendons]] (e.g. tendon-spatial): the example records "
@@ -80,9 +82,6 @@ def record(scenario, config: LabExampleConfig, index: int = 0) -> dict:
     the lab: returns ``name``, ``node`` (absolute index), ``n_nodes``, ``time`` (T,) [s],
     ``positions`` (T, 3) [m] of the marker with noise, ``clean`` (T, 3) [m] without, ``tensions``
     (T, m) [N] and ``channels`` (the m tendon names)."""
-    from ..rod import Simulator
-    from ..rod.tendons import tension_matrix
-
     sc = _tendon_scenario(scenario)
     node = sc.setup.node_index(config.node, "node")
     dt = 1.0 / config.rate
@@ -121,8 +120,6 @@ def write_lab_example(out_dir, config: LabExampleConfig | None = None, *, comman
                       overwrite: bool = False) -> list[Path]:
     """Write one CSV per scenario of ``config`` into ``out_dir`` (created if needed), each
     atomically; returns their paths. An existing CSV is replaced only with ``overwrite``."""
-    from ..files import atomic_write_text
-
     config = config or LabExampleConfig()
     out = Path(out_dir)
     if out.exists() and not out.is_dir():

@@ -10,21 +10,18 @@ the motion is planar and a 3-D view otherwise.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.animation import FFMpegWriter
+from matplotlib.colors import to_rgb
+from matplotlib.lines import Line2D
+from mpl_toolkits.mplot3d.art3d import Line3DCollection
+from PIL import Image
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
-
-from ..errors import bad  # noqa: E402
+from ..errors import bad
 from ..progress import Progress
-from ._output import publish  # noqa: E402
-from .data import (  # noqa: E402
+from .data import (
     DEFAULT_MAX_FRAMES,
     _column,
     _fields,
@@ -35,7 +32,7 @@ from .data import (  # noqa: E402
     node_of_interest,
     time_span,
 )
-from .geometry import (  # noqa: E402
+from .geometry import (
     _PLANES,
     VIEWS,
     _arrow_segments,
@@ -46,6 +43,7 @@ from .geometry import (  # noqa: E402
     choose_view,
     force_scale,
 )
+from .saving import atomic_output, new_figure
 
 DEFAULT_SIZE = (640, 560)  # pixels
 _DPI = 100
@@ -93,12 +91,8 @@ class _Scene:
         dt_frame = (time[frames[-1]] - time[frames[0]]) / max(len(frames) - 1, 1)
         self.decimals = max(0, min(6, -math.floor(math.log10(dt_frame)) + 1)) if dt_frame > 0 else 3
 
-        self.fig = fig = plt.figure(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
-        try:
-            self._build(fig, positions[i0], forces, lo, hi)
-        except BaseException:
-            plt.close(fig)
-            raise
+        self.fig = fig = new_figure(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
+        self._build(fig, positions[i0], forces, lo, hi)
 
     def _build(self, fig, first, forces, lo, hi):
         """The axes, the static artists, the legend and the time stamp; lists the moving artists."""
@@ -200,7 +194,6 @@ class _Scene:
             (self.dot,) = ax.plot([], [], [], "o", color=_NODE, ms=6)
             handles.append(self._node_handle())
         if self.has_forces:
-            from mpl_toolkits.mplot3d.art3d import Line3DCollection
             self.arrows = Line3DCollection([], colors=_FORCE, linewidths=2.0)
             ax.add_collection3d(self.arrows, autolim=False)
 
@@ -249,15 +242,16 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
     fps: frames per second of playback. frames / duration [s of playback]: how many frames (give at
     most one; default ``min(samples, max_frames)``), spread evenly over the samples in
     [start, stop] \\[s] (default: the whole record). node: the node of interest to mark (default: the
-    data's ``attrs['node_of_interest']`` or its case's, if any; None marks none). trail: draw the
-    path of the node of interest so far. view: 'auto' (a flat view when the motion is planar, else
-    3-D), 'xy', 'xz', 'yz' or '3d'; elev, azim [deg]: the camera of the 3-D view. size: (width,
+    one the data's attrs name, as ``figures.data.node_of_interest`` reads them, when it is stored; else
+    none). trail: draw the path of the node of interest so far. view: 'auto' (a flat view when the
+    motion is planar, else 3-D), 'xy', 'xz', 'yz' or '3d'; elev, azim [deg]: the camera of the 3-D view. size: (width,
     height) in pixels (rounded up to even numbers for .mp4). max_frames: the default frame count's
     cap. progress: optional callable progress(done, total) per frame. Returns the path written.
 
     Rendering: the axes, ghost shape, clamps and legend are drawn once; each frame redraws only the
-    rod, trail, node, arrows and time stamp over them (about 5-10 ms a frame at 640x560). GIF frames
-    share one palette; all frames are held in memory (1 byte per pixel) until the file is written.
+    rod, trail, node, arrows and time stamp over them. GIF frames share one palette; all frames are
+    held in memory (1 byte per pixel) until the file is written, under a temporary name in the same
+    folder (``saving.atomic_output``), renamed onto ``out_path`` when complete.
     """
     out_path = Path(out_path)
     suffix = check_suffix(out_path)
@@ -280,10 +274,7 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
         node_col = _column(nodes, _resolve(node, nodes, attrs))
     scene = _Scene(time, nodes, positions, forces, i0, i1, idx, node_col=node_col, view=view, trail=trail,
                    title=title or _title(attrs), size=(width, height), elev=float(elev), azim=float(azim))
-    try:
-        _write_movie(scene, idx, out_path, suffix, fps, progress)
-    finally:
-        plt.close(scene.fig)
+    _write_movie(scene, idx, out_path, suffix, fps, progress)
     return out_path
 
 
@@ -304,9 +295,6 @@ class _GifSink:
 
     def _make_palette(self, first: np.ndarray) -> None:
         """The shared palette from the first frame and the moving artists' colour ramps."""
-        from matplotlib.colors import to_rgb
-        from PIL import Image
-
         h, w, _ = first.shape
         grounds = [np.array([255.0, 255.0, 255.0]), first[h // 2, w // 2], first[h // 3, w // 3]]
         ramp = np.linspace(0.0, 1.0, 32)[:, None]
@@ -350,8 +338,6 @@ class _GifSink:
 
     def add(self, rgba) -> None:
         """Append one RGBA frame, mapped onto the shared palette."""
-        from PIL import Image
-
         rgb = np.asarray(rgba)[..., :3]
         if self.table is None:
             self._make_palette(rgb)
@@ -380,8 +366,6 @@ class _FfmpegSink:
     """Pipes raw RGBA frames to ffmpeg (matplotlib's FFMpegWriter builds the command line)."""
 
     def __init__(self, tmp: str, fig, fps: float):
-        from matplotlib.animation import FFMpegWriter
-
         self.writer = FFMpegWriter(fps=fps, codec="libx264", extra_args=["-pix_fmt", "yuv420p"])
         self.writer.setup(fig, tmp, dpi=_DPI)
 
@@ -423,23 +407,17 @@ def _render(scene: _Scene, idx: np.ndarray, add, progress: Progress | None = Non
 
 
 def _write_movie(scene: _Scene, idx: np.ndarray, out_path: Path, suffix: str, fps: float, progress) -> None:
-    """Render the frames ``idx`` of ``scene`` into ``out_path`` (.gif or .mp4) atomically."""
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{out_path.stem}.", suffix=f".tmp{suffix}", dir=out_path.parent)
-    os.close(fd)
-    sink = None
-    try:
-        w, h = (int(round(v)) for v in scene.fig.bbox.size)
+    """Render the frames ``idx`` of ``scene`` into ``out_path`` (.gif or .mp4) atomically
+    (``saving.atomic_output``: nothing is left behind on error or Ctrl-C)."""
+    with atomic_output(out_path) as tmp:
         if suffix == ".mp4":
             sink = _FfmpegSink(tmp, scene.fig, fps)
         else:
+            w, h = (int(round(v)) for v in scene.fig.bbox.size)
             sink = _GifSink(tmp, (w, h), fps, colors=(_ROD, _NODE, _TRAIL, _FORCE, "k"))
-        _render(scene, idx, sink.add, progress)
-        sink.finish()
-        publish(tmp, out_path)
-    except BaseException:
-        if sink is not None:
+        try:
+            _render(scene, idx, sink.add, progress)
+            sink.finish()
+        except BaseException:
             sink.abort()
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+            raise

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .plots import plt
+from .saving import subplots
 
 
 def moving_node(measured: np.ndarray) -> int:
@@ -19,7 +19,7 @@ def calibration_fit(time: np.ndarray, measured: np.ndarray, start: np.ndarray, f
     """Positions (S, N, 3) [m] over ``time`` (S,) [s]: the data, the start's and the fit's; panels x,
     y, z [mm] of node ``node`` (column ``column``), and a fourth with the rms over the N nodes of the
     distance to the data [mm] per sample for both (log scale where the fit is far better)."""
-    fig, axes = plt.subplots(4, 1, figsize=(7.5, 8.0), sharex=True)
+    fig, axes = subplots(4, 1, figsize=(7.5, 8.0), sharex=True)
     series = (("data", measured, "k", "-", 1.3), ("start", start, "C1", "--", 1.1), ("fitted", fitted, "C0", ":", 1.6))
     for c in range(3):
         ax = axes[c]

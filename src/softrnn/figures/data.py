@@ -4,18 +4,21 @@ output suffixes.
 
 A *dataset-like* object is anything with the attributes ``time`` (T,) [s], ``nodes`` (N,) node
 indices, ``positions`` (T, N, 3) [m] and optionally ``forces`` (T, N, 3) [N] and ``attrs`` (dict);
-a ``softrnn.io.dataset.Dataset`` and a ``softrnn.rod.Trajectory`` both fit.
+a ``softrnn.io.Dataset`` and a ``softrnn.rod.Trajectory`` both fit.
 """
 
 from __future__ import annotations
 
 import math
 import shutil
+import tomllib
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
+from ..io.reader import read_dataset, read_node
 
 ANIMATION_SUFFIXES = (".gif", ".mp4")
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -137,21 +140,18 @@ def check_suffix(path, choices=ANIMATION_SUFFIXES, argument: str = "output") -> 
     return suffix
 
 
-def node_of_interest(data) -> int | None:
+def node_of_interest(data, default: int | None = None) -> int | None:
     """The data's node of interest, if it names one: ``attrs['node_of_interest']``, else the first of
-    ``nodes_of_interest`` in the scenario text (``attrs['scenario_text']``, TOML), else that of the
-    paper case ``attrs['case']``. Negative indices count from the rod's end."""
+    ``nodes_of_interest`` in the scenario text (``attrs['scenario_text']``, TOML); else ``default``,
+    the caller's choice (for example the node of interest of the paper case that ``attrs['case']``
+    names: the data does not hold it). Negative indices count from the rod's end."""
     attrs = dict(getattr(data, "attrs", None) or {})
     node = _first_int(attrs.get("node_of_interest"))
     if node is None:
         run = _scenario(attrs).get("run", {})
         node = _first_int(run.get("nodes_of_interest") if isinstance(run, dict) else None)
-    if node is None:
-        name = _text(attrs.get("case"))
-        if name:
-            from ..scenarios.cases import CASE_NAMES, build_case
-            if name in CASE_NAMES:
-                node = build_case(name).node_of_interest
+    if node is None and default is not None:
+        node = int(default)
     if node is not None and node < 0:
         total = _first_int(attrs.get("n_nodes_total"))
         if total is None:
@@ -187,7 +187,6 @@ def _scenario(attrs: dict) -> dict:
     text = _text(attrs.get("scenario_text"))
     if not text.strip():
         return {}
-    import tomllib
     try:
         return tomllib.loads(text)
     except (tomllib.TOMLDecodeError, ValueError):
@@ -208,8 +207,6 @@ def load(path, *, group: str | None = None, start: float | None = None, stop: fl
     """Read a softrnn HDF5 dataset for a picture: all stored nodes (or only ``node``), only the samples
     in [start, stop] \\[s]. Errors (missing or broken file, unknown group or node, times outside the
     record) are one-line ``SoftrnnInputError``s."""
-    from ..io.dataset import read_dataset, read_node
-
     if node is not None:
         data = read_node(path, int(node), group=group)
         if start is None and stop is None:
@@ -225,8 +222,6 @@ def load(path, *, group: str | None = None, start: float | None = None, stop: fl
 
 def _slice(data, i0: int, i1: int):
     """Samples i0..i1 (inclusive) of dataset-like ``data``."""
-    from types import SimpleNamespace
-
     sl = slice(i0, i1 + 1)
     return SimpleNamespace(time=data.time[sl], nodes=data.nodes, positions=data.positions[sl],
                            forces=data.forces[sl] if getattr(data, "forces", None) is not None else None,

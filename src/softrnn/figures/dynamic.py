@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import plots as _plots  # noqa: F401  (selects the Agg backend before pyplot is imported)
+from .saving import subplots
 
 _STYLE = {"model": ("k", "-", 1.4), "persistence": ("C0", ":", 1.0), "constant_velocity": ("C1", "--", 1.0),
           "linear": ("C2", "-.", 1.0)}
@@ -44,9 +44,7 @@ def error_over_time(panels: list, title: str):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(len(panels), 1, figsize=(7.5, 3.0 * len(panels) + 0.5), squeeze=False)
+    fig, axes = subplots(len(panels), 1, figsize=(7.5, 3.0 * len(panels) + 0.5), squeeze=False)
     for ax, (name, t, series, *goal) in zip(axes[:, 0], panels):
         for key, err in series.items():
             _curve(ax, np.asarray(t, dtype=float), err, key)

@@ -6,6 +6,8 @@ from pathlib import Path
 import numpy as np
 
 from ..files import atomic_write_text
+from . import plots
+from .saving import save_figure
 
 FIGURE_FILES = ("prediction.png", "rmse.png", "rmse_t.csv")   # what write_figures writes
 
@@ -13,9 +15,6 @@ FIGURE_FILES = ("prediction.png", "rmse.png", "rmse_t.csv")   # what write_figur
 def write_figures(ev, folder) -> list:
     """prediction.png (per axis, like Fig. 3D), rmse.png (RMSE(t), like Fig. 3E) and rmse_t.csv in
     ``folder``; returns the paths."""
-    from . import plots as plotting
-    from .pictures import save_figure
-
     folder = Path(folder)
     r = ev.info
     what = "whole record" if r["span"] == "whole record" else "test span"
@@ -29,10 +28,10 @@ def write_figures(ev, folder) -> list:
         if key.endswith("_free_running_mm") and key != "free_running_mm":
             rmse[key[: -len("_free_running_mm")].replace("_", " ") + " (free running)"] = series
     out = []
-    fig = plotting.prediction_vs_reference(ev.one_step.time, ev.one_step.reference, preds, title)
+    fig = plots.prediction_vs_reference(ev.one_step.time, ev.one_step.reference, preds, title)
     save_figure(fig, folder / "prediction.png")
     out.append(folder / "prediction.png")
-    fig = plotting.rmse_over_time(ev.one_step.time, rmse, f"{title}: RMSE(t), Eq. 2")
+    fig = plots.rmse_over_time(ev.one_step.time, rmse, f"{title}: RMSE(t), Eq. 2")
     save_figure(fig, folder / "rmse.png")
     out.append(folder / "rmse.png")
     series = ev.rmse_series()

@@ -1,15 +1,15 @@
-"""Figures (matplotlib, Agg): functions take data and return a Figure; callers save it."""
+"""Figures of rod runs, predictions and errors: functions take data and return a matplotlib
+``Figure`` (made by ``saving``, without pyplot); callers save it with ``saving.save_figure``."""
 
-import matplotlib
+import numpy as np
+from matplotlib import colormaps
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from .saving import new_figure, subplots
 
 
 def node_trajectory(time: np.ndarray, positions: np.ndarray, title: str):
     """Positions (T, 3) [m] of one node against time (T,) [s], one panel per axis, in mm."""
-    fig, axes = plt.subplots(3, 1, figsize=(7, 6), sharex=True)
+    fig, axes = subplots(3, 1, figsize=(7, 6), sharex=True)
     for c, ax in enumerate(axes):
         ax.plot(time, positions[:, c] * 1e3, lw=0.8)
         ax.set_ylabel(f"{'xyz'[c]} [mm]")
@@ -24,9 +24,9 @@ def rod_snapshots(times: np.ndarray, shapes: np.ndarray, title: str, node: int |
                   forces: np.ndarray | None = None):
     """Rod centrelines shapes (k, n, 3) [m] at times (k,) [s] in 3-D, the node of interest marked;
     optional applied forces (k, n, 3) [N] drawn as arrows (scaled to 10% of the rod's extent)."""
-    fig = plt.figure(figsize=(7, 6))
+    fig = new_figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")
-    colors = plt.cm.viridis(np.linspace(0, 1, len(times)))
+    colors = colormaps["viridis"](np.linspace(0, 1, len(times)))
     extent = float(np.ptp(shapes.reshape(-1, 3), axis=0).max()) or 1.0
     fmax = float(np.abs(forces).max()) if forces is not None else 0.0
     for k, (t, X) in enumerate(zip(times, shapes)):
@@ -56,7 +56,7 @@ def rod_snapshots(times: np.ndarray, shapes: np.ndarray, title: str, node: int |
 
 def energy(time: np.ndarray, energy: np.ndarray, title: str):
     """Kinetic, elastic, gravitational and total energy (T, 3) [J] against time."""
-    fig, ax = plt.subplots(figsize=(7, 3.5))
+    fig, ax = subplots(figsize=(7, 3.5))
     for c, name in enumerate(("kinetic", "elastic", "gravitational")):
         ax.plot(time, energy[:, c], lw=0.8, label=name)
     ax.plot(time, energy.sum(1), "k", lw=1.0, label="total")
@@ -69,25 +69,12 @@ def energy(time: np.ndarray, energy: np.ndarray, title: str):
     return fig
 
 
-def save(fig, path) -> None:
-    """Save atomically (temporary name, then rename) and close the figure."""
-    import os
-    from pathlib import Path
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, path)
-    plt.close(fig)
-
-
 def node_trajectory_with_forces(time: np.ndarray, positions: np.ndarray, forces: np.ndarray | None,
                                 title: str):
     """Positions (T, 3) [m] of one node against time (T,) [s], one panel per axis in mm, and, when
     ``forces`` (T, 3) [N] is given, a fourth panel with the force components and magnitude on it."""
     rows = 3 if forces is None else 4
-    fig, axes = plt.subplots(rows, 1, figsize=(7, 1.9 * rows + 0.6), sharex=True)
+    fig, axes = subplots(rows, 1, figsize=(7, 1.9 * rows + 0.6), sharex=True)
     for c in range(3):
         ax = axes[c]
         y = positions[:, c] * 1e3
@@ -116,7 +103,7 @@ def prediction_vs_reference(time: np.ndarray, reference: np.ndarray, predictions
     """A node's reference positions (T, 3) [m] and one or more predictions {label: (T, 3) [m]} of
     the same samples against time (T,) [s], one panel per axis in mm (like the paper's Fig. 3D, 5B,
     8B)."""
-    fig, axes = plt.subplots(3, 1, figsize=(7.5, 6.5), sharex=True)
+    fig, axes = subplots(3, 1, figsize=(7.5, 6.5), sharex=True)
     styles = [("C1", "--"), ("C3", ":"), ("C2", "-."), ("C4", "--")]
     for c, ax in enumerate(axes):
         ax.plot(time, np.asarray(reference)[:, c] * 1e3, color="k", lw=1.2, label="reference")
@@ -140,7 +127,7 @@ def prediction_vs_reference(time: np.ndarray, reference: np.ndarray, predictions
 def rmse_over_time(time: np.ndarray, series: dict, title: str, log: bool = False):
     """RMSE(t) of paper Eq. 2, {label: (T,) [mm]} against time (T,) [s] (like Fig. 3E, 5C);
     ``log``: logarithmic error axis (zeros are left out)."""
-    fig, ax = plt.subplots(figsize=(7.5, 3.2))
+    fig, ax = subplots(figsize=(7.5, 3.2))
     for k, (label, values) in enumerate(series.items()):
         v = np.asarray(values, dtype=float)
         if log:
@@ -168,8 +155,8 @@ def predicted_shapes(times: np.ndarray, reference: np.ndarray, predicted: np.nda
     a, b = sorted(int(i) for i in np.argsort(extent)[-2:])
     moving = int(np.argmax(np.ptp(ref, axis=0).max(axis=0)))         # largest motion of any node
     planes = [(a, b)] + ([(int(np.argmax(extent)), moving)] if moving not in (a, b) else [])
-    fig, axes = plt.subplots(len(planes), 1, figsize=(6.5, 4.2 * len(planes) + 0.6), squeeze=False)
-    colors = plt.cm.viridis(np.linspace(0, 0.9, len(times)))
+    fig, axes = subplots(len(planes), 1, figsize=(6.5, 4.2 * len(planes) + 0.6), squeeze=False)
+    colors = colormaps["viridis"](np.linspace(0, 0.9, len(times)))
     m = None if modelled is None else np.asarray(modelled, dtype=bool)
     for ax, (u, v) in zip(axes[:, 0], planes):
         for k, t in enumerate(times):

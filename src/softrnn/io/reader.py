@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
+from ..rod.spec import NodeOverride, RodSpec
 from ._checks import _check_values, _inspect, _layout, _select
 from ._h5files import _Reading
 from .schema import _WIDTH, ACTUATION, FIELDS, DatasetError, _node_list, _to_float32, actuation_units
@@ -128,8 +129,6 @@ class Dataset:
 
     def rod_spec(self):
         """The ``softrnn.rod.RodSpec`` in ``attrs['rod']``, or None if absent or partial (lab data)."""
-        from ..rod.spec import NodeOverride, RodSpec
-
         rod = self.attrs.get("rod")
         if not isinstance(rod, dict):
             return None

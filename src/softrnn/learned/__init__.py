@@ -4,4 +4,37 @@
   (Fig. 2C): samples, network, training, folders, evaluation, rollouts, the compiled engine, export;
 * ``whole``: one model of the whole manipulator (beyond the paper): a subset of the nodes stepped
   at the model's own time step by a global linear term plus a convolution along the rod.
+
+Shared by both kinds (NumPy only):
+
+* ``baselines``: ``Persistence``, ``ConstantVelocity``, ``LinearAR`` (per node or of the whole
+  manipulator), ``StateBaseline`` (the simple ones stepping the whole model's encoded state),
+  ``one_step``, ``free_run``, ``horizon_errors``, ``standard_baselines``;
+* ``horizons``: ``HORIZONS``, ``WHOLE_HORIZONS``, ``free_steps``, ``DIVERGED_M``,
+  ``RolloutDiverged``, ``spread_starts``, ``worst_by_horizon``, ``HorizonTable``;
+* ``spans``: ``check_span`` and the other checks of an evaluated span.
+
+Names are imported lazily.
 """
+
+from importlib import import_module
+
+_EXPORTS = {
+    "AbstractBaseline": "baselines", "Persistence": "baselines", "ConstantVelocity": "baselines",
+    "StateBaseline": "baselines", "LinearAR": "baselines", "LinearARConfig": "baselines",
+    "one_step": "baselines", "free_run": "baselines", "horizon_errors": "baselines",
+    "standard_baselines": "baselines", "dataset_wrenches": "baselines",
+    "HORIZONS": "horizons", "WHOLE_HORIZONS": "horizons", "free_steps": "horizons", "spread_starts": "horizons",
+    "worst_by_horizon": "horizons", "HorizonWorst": "horizons", "HorizonTable": "horizons",
+    "DIVERGED_M": "horizons", "RolloutDiverged": "horizons",
+    "SpanWording": "spans", "check_span": "spans", "check_length": "spans", "check_fit_span": "spans",
+    "check_step_start": "spans", "start_of_test_span": "spans", "check_beyond_trained": "spans",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        return getattr(import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.polynomial import legendre
 
 from ..errors import bad, is_int
 
@@ -93,8 +94,6 @@ def _sampled_points(X: np.ndarray, s: np.ndarray, sc: np.ndarray, noise: float, 
 def _fit_at(Y: np.ndarray, sc: np.ndarray, sm: np.ndarray, lo: float, hi: float, degree: int) -> tuple:
     """Least-squares Legendre fit P(s) of degree ``degree`` on [lo, hi] to the points Y (T, P, 3) [m]
     at sc (P,); returns P(sm) (T, M, 3) [m] and the unit tangents dP/ds(sm) (T, M, 3)."""
-    from numpy.polynomial import legendre
-
     def scaled(a):
         return 2.0 * (a - lo) / (hi - lo) - 1.0
 

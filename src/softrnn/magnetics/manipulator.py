@@ -7,12 +7,11 @@ wrenches from the magnets' current poses and the coil currents at every solver s
 Modelling choices (assumptions, with numbers for the defaults):
 
 * Magnet segments: the nodes covering a magnet (its ends snapped to the nearest nodes) form a stiff
-  segment. The true 41.4 GPa limits the explicit step to 2.5e-7 s (26 nodes), about 13 s of
-  computing per simulated second on one core; the default caps its Young's modulus at
-  ``magnet_stiffness_factor`` = 100 times the rod's (250 MPa): a magnet segment then bends 1% as
-  much as the same length of rod, the two 2 mm segments add 0.08% to the compliance of the 50 mm
-  rod, and the step is 3.2e-6 s (about 1.1-1.4 s per simulated second). Over 0.1 s of random
-  currents the capped and the true rod differ by 5 micrometres at most.
+  segment. The true 41.4 GPa limits the explicit step to 2.5e-7 s (26 nodes); the default caps its
+  Young's modulus at ``magnet_stiffness_factor`` = 100 times the rod's (250 MPa): a magnet segment
+  then bends 1% as much as the same length of rod, the two 2 mm segments add 0.08% to the
+  compliance of the 50 mm rod, and the step is 3.2e-6 s (about 13 times fewer steps). Over 0.1 s
+  of random currents the capped and the true rod differ by 5 micrometres at most.
 * Magnet mass: the covered nodes get the density that conserves the mass of rod material plus
   magnet over their lumped length (2698 kg/m^3 for the proximal, 3263 kg/m^3 for the distal
   magnet by default), so gravity and inertia see the magnets' 5.6e-5 kg each.

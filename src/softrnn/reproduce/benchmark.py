@@ -4,8 +4,10 @@ import json
 from pathlib import Path
 
 from .. import __version__
+from ..bench import run_all
 from ..files import atomic_write_text
 from ..progress import ProgressFactory
+from .dynamic import CONFIGS
 from .stepfiles import load_step
 
 
@@ -15,9 +17,6 @@ def benchmark_step(out: Path, quick: bool, progress_factory: ProgressFactory | N
     bench_file = out / "bench.json"
     bench = load_step(bench_file, quick)
     if bench is None or "model" not in bench:
-        from ..bench import run_all
-        from .dynamic import CONFIGS
-
         progress = progress_factory("benchmark") if progress_factory else None
         bench = {"quick": quick, "softrnn_version": __version__,
                  **run_all(quick=quick, progress=progress, dynamic_configs=CONFIGS)}

@@ -8,9 +8,12 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..figures import pictures
 from ..figures import plots as plotting
+from ..figures.animation import animate
+from ..figures.data import load
+from ..figures.saving import save_figure
 from ..files import atomic_write_text
+from ..io.reader import read_dataset
 from ..progress import Progress, ProgressFactory
 from ..scenarios.cases import Case
 from ..scenarios.summary import simulate_summary
@@ -43,22 +46,19 @@ def run_case(case: Case, quick: bool, data_path, progress: Progress | None = Non
 
 def _figures(case: Case, data_path: Path, series: dict, fig_dir: Path) -> list[str]:
     """Node trajectory, rod snapshots with forces, energy, and an animation of the dataset."""
-    from ..io.dataset import read_dataset
-
     t = series["time"]
     fig = plotting.node_trajectory(t, series["node_positions"],
                                    f"{case.name}: node {case.node_of_interest} (analytical model)")
-    plotting.save(fig, fig_dir / f"{case.name}_node.png")
+    save_figure(fig, fig_dir / f"{case.name}_node.png")
     rows = np.unique(np.linspace(0, t.size - 1, N_SNAPSHOTS).round().astype(int))
     snaps = [read_dataset(data_path, start=int(i), stop=int(i) + 1) for i in rows]
     fig = plotting.rod_snapshots(t[rows], np.concatenate([d.positions for d in snaps]).astype(float),
                                  f"{case.name}: configurations", node=case.node_of_interest,
                                  forces=np.concatenate([d.forces for d in snaps]).astype(float))
-    plotting.save(fig, fig_dir / f"{case.name}_rod.png")
+    save_figure(fig, fig_dir / f"{case.name}_rod.png")
     fig = plotting.energy(t, series["energy"], f"{case.name}: energy")
-    plotting.save(fig, fig_dir / f"{case.name}_energy.png")
-    pictures.animate(pictures.load(data_path), fig_dir / f"{case.name}.gif", node=case.node_of_interest,
-                     max_frames=120)
+    save_figure(fig, fig_dir / f"{case.name}_energy.png")
+    animate(load(data_path), fig_dir / f"{case.name}.gif", node=case.node_of_interest, max_frames=120)
     return [f"{case.name}_node.png", f"{case.name}_rod.png", f"{case.name}_energy.png", f"{case.name}.gif"]
 
 

@@ -8,7 +8,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
+from ..control.loop import LoopConfig
+from ..control.run import learned_model, run_one
+from ..figures.saving import save_figure, subplots
 from ..progress import ProgressFactory
+from ..sweeps.dask import completed
 from .stepfiles import load_step, save_step
 
 REFERENCES = ("step", "sine", "random")
@@ -23,9 +29,6 @@ KEYS = ("rms_deg", "max_deg", "limit_violations", "compute_ms_median", "compute_
 
 
 def _tasks(folder: Path, settings: dict, model) -> list:
-    from ..control.loop import LoopConfig
-    from ..control.run import run_one
-
     base = LoopConfig().to_dict()
     tasks = []
     for controller in CONTROLLERS:
@@ -49,10 +52,6 @@ def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | Non
     """The control table: ``report["control"][controller][reference]`` and
     ``report["control"]["robustness"][perturbation][reference]`` (``KEYS``), the goals, the model's
     training and ``figures/control.png``."""
-    from ..control.loop import LoopConfig
-    from ..control.run import learned_model
-    from ..sweeps.dask import completed
-
     folder = out / "control"
     step_file = folder / "step.json"
     done = load_step(step_file, quick)
@@ -68,7 +67,7 @@ def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | Non
         progress(0, len(jobs))
     summaries = {}
     for n, (key, summary) in enumerate(completed(jobs, None, workers), start=1):
-        summaries[key] = summary
+        summaries[key] = summary.to_dict()                      # a control.run.ControlSummary
         if progress is not None:
             progress(n, len(jobs))
     result = {c: {r: {k: summaries[(c, r)][k] for k in KEYS} for r in REFERENCES} for c in CONTROLLERS}
@@ -93,8 +92,6 @@ def _keyed(key: tuple, fn, args: tuple) -> tuple:
 def _same_frames(folder: Path, ref: str) -> dict:
     """RMS tracking error [deg] of each controller over the frames ``mpc-physics`` ran (the start of
     the reference), from the runs' traces."""
-    import numpy as np
-
     out, n = {}, None
     for controller in ("mpc-physics",) + CONTROLLERS:                   # mpc-physics first: its frames
         with np.load(folder / controller / ref / "trace.npz") as t:
@@ -127,11 +124,8 @@ def _goals(result: dict) -> dict:
 def _figure(out: Path, folder: Path) -> str:
     """``figures/control.png``: the step and random references, static-inverse and mpc-learned (true
     distal orientation about y), and their errors; mpc-physics over the start it ran."""
-    from ..figures import plots as plotting  # noqa: I001  (selects the Agg backend first)
-    import matplotlib.pyplot as plt
-    import numpy as np
 
-    fig, axes = plt.subplots(2, 2, figsize=(12, 6.5), sharex="col")
+    fig, axes = subplots(2, 2, figsize=(12, 6.5), sharex="col")
     for col, ref in enumerate(("step", "random")):
         for controller, color in (("static-inverse", "tab:red"), ("mpc-learned", "tab:blue"),
                                   ("mpc-physics", "tab:green")):
@@ -151,5 +145,5 @@ def _figure(out: Path, folder: Path) -> str:
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
     path = out / "figures" / "control.png"
-    plotting.save(fig, path)
+    save_figure(fig, path)
     return str(path.relative_to(out))

@@ -30,6 +30,8 @@ removed and made again, so changing ``CONFIGS`` retrains that case on the next r
 from __future__ import annotations
 
 import json
+import multiprocessing
+import queue as queues
 import shutil
 import time
 from dataclasses import replace
@@ -38,8 +40,21 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from ..bench.dynamic import case_run, compare_speed
+from ..figures.dynamic import error_over_time
+from ..figures.saving import save_figure
 from ..files import atomic_write_text, json_default
+from ..io.reader import read_dataset
+from ..io.writer import write_dataset
+from ..learned.spans import start_of_test_span
+from ..learned.whole.artifact import is_dynamic_folder, load_dynamic, save_dynamic
 from ..learned.whole.config import DynamicConfig
+from ..learned.whole.data import split_inputs
+from ..learned.whole.evaluation import evaluate_dynamic, run_errors, state_baselines
+from ..learned.whole.rollout import rollout_dataset
+from ..resume import RESUME, START_AGAIN, Settings, check
+from ..scenarios.scenario import load_scenario
+from ..sweeps.sweep import MANIFEST, run_sweep, trajectory_path
 from .cases import GENERALISATION
 from .stepfiles import load_step, save_step
 
@@ -92,11 +107,19 @@ def settings(case: str, quick: bool) -> dict:
             "softrnn_version": __version__}
 
 
+def _stored(path: Path):
+    """The JSON in ``path``, or None (absent or unreadable)."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+
+
 def _fresh(folder: Path, want: dict) -> None:
     """Keep ``folder`` only if it was made with the settings ``want`` (its ``settings.json``)."""
     path = folder / "settings.json"
     text = json.dumps(want, indent=1, sort_keys=True, default=json_default)
-    if folder.exists() and (not path.is_file() or path.read_text() != text):
+    if folder.exists() and check(_stored(path), Settings.of(want), otherwise=START_AGAIN) == START_AGAIN:
         shutil.rmtree(folder)
     folder.mkdir(parents=True, exist_ok=True)
     if not path.is_file():
@@ -106,21 +129,14 @@ def _fresh(folder: Path, want: dict) -> None:
 def run_case_sweep(case: str, out: Path, s: dict, workers: int, progress_factory=None) -> Path:
     """The case's sweep ``s`` (``settings(...)["sweep"]``) in ``out/sweeps/CASE`` on ``workers``
     local Dask workers (resumed; remade when it holds another sweep)."""
-    from ..scenarios.scenario import load_scenario
-    from ..sweeps.sweep import MANIFEST, run_sweep, trajectory_path
-
     folder = out / "sweeps" / case
     manifest = folder / MANIFEST
     if manifest.is_file():
-        try:
-            have = json.loads(manifest.read_text())
-        except (OSError, ValueError):
-            have = {}
         names = {trajectory_path(folder, i).name for i in range(s["count"])}
         extra = [p for p in folder.glob("traj-*.h5") if p.name not in names]
-        stale = [have.get(k) != v for k, v in (("n_samples", s["n_samples"]), ("dt", s["dt"]),
-                                                ("softrnn_version", __version__))]
-        if any(stale) or extra:
+        want = Settings.of({"n_samples": s["n_samples"], "dt": s["dt"], "softrnn_version": __version__},
+                           keys=("n_samples", "dt", "softrnn_version"))
+        if check(_stored(manifest), want, otherwise=START_AGAIN) == START_AGAIN or extra:
             shutil.rmtree(folder)
     progress = progress_factory(f"sweep {case}") if progress_factory else None
     run_sweep(load_scenario(case), s["count"], folder, n_workers=workers, n_samples=s["n_samples"],
@@ -132,8 +148,6 @@ def training_split(out: Path, case: str, sweep_dir: Path, s: dict):
     """The paper trajectory's first 60 % first (its first sample: the reference pose), then the
     sweep's training variants; the sweep's last ``n_heldout`` variants held out, the
     ``n_validation`` before them for validation."""
-    from ..learned.whole.data import split_inputs
-
     paper = split_inputs([out / "data" / f"{case}.h5"], train_fraction=TRAIN_FRACTION)
     return paper + split_inputs([sweep_dir], heldout=s["n_heldout"], validation=s["n_validation"])
 
@@ -141,8 +155,7 @@ def training_split(out: Path, case: str, sweep_dir: Path, s: dict):
 def _fit_into(folder: Path, split, config: DynamicConfig, progress=None, threads: int | None = None) -> None:
     """Train and save the model to ``folder/model``, checkpointing to ``folder/checkpoint.pt`` (an
     interrupted training resumes from it; removed once the model is saved)."""
-    from ..learned.whole.artifact import save_dynamic
-    from ..learned.whole.fit import fit
+    from ..learned.whole.fit import fit  # optional extra: learn (PyTorch)
 
     trained, meta = fit(split, config, progress=progress, checkpoint=folder / "checkpoint.pt", threads=threads)
     save_dynamic(folder / "model", trained, meta)
@@ -153,8 +166,6 @@ def train_case(case: str, folder: Path, split, config: DynamicConfig, progress_f
                threads: int | None = None):
     """The model in ``folder/model`` (trained here, or read when finished earlier): (LoadedDynamic,
     the training's seconds). ``threads``: PyTorch's threads while training (None: as set)."""
-    from ..learned.whole.artifact import is_dynamic_folder, load_dynamic
-
     model_dir = folder / "model"
     if not is_dynamic_folder(model_dir):
         progress = progress_factory(f"train dynamic {case}") if progress_factory else None
@@ -190,16 +201,12 @@ def train_cases(jobs: list, workers: int = TRAIN_WORKERS, threads: int = TRAIN_T
     at a time in processes of ``threads`` PyTorch threads (1 worker: one after the other in this
     process, same arithmetic). Each training checkpoints and resumes as ``train_case``'s; an
     interruption (Ctrl-C, SIGTERM) stops the workers and keeps every finished model."""
-    from ..learned.whole.artifact import is_dynamic_folder
-
     jobs = [j for j in jobs if not is_dynamic_folder(Path(j[1]) / "model")]
     bars = {case: progress_factory(f"train dynamic {case}") if progress_factory else None for case, *_ in jobs}
     if workers <= 1 or len(jobs) <= 1:
         for case, folder, split, config in jobs:
             _fit_into(Path(folder), split, config, bars[case], threads)
         return
-    import multiprocessing
-    import queue as queues
 
     ctx = multiprocessing.get_context("spawn")      # no fork of a process that holds PyTorch's and numba's threads
     messages = ctx.Queue()
@@ -233,8 +240,6 @@ def train_cases(jobs: list, workers: int = TRAIN_WORKERS, threads: int = TRAIN_T
 def _speed(case: str, loaded, trajectories: list, quick: bool) -> dict:
     """The simulator and the model, one core each (``bench.dynamic.compare_speed``), the model stepped
     over the longest of ``trajectories`` (encoded), the simulator saved at the sweep's interval."""
-    from ..bench.dynamic import case_run, compare_speed
-
     p = QUICK_SPEED if quick else SPEED
     setup, config, node = case_run(case, (QUICK_SWEEP if quick else SWEEP)["dt"])
     traj = max(trajectories, key=lambda t: t.n_steps)
@@ -244,15 +249,12 @@ def _speed(case: str, loaded, trajectories: list, quick: bool) -> dict:
 
 def span_start(loaded, traj) -> int:
     """The test span's first model step, as ``evaluate_dynamic`` starts it."""
-    return max(int(loaded.engine.history) - 1, 1, int(round(TRAIN_FRACTION * (traj.n_steps - 1))))
+    return start_of_test_span(max(int(loaded.engine.history), 2) - 1, traj.n_steps, TRAIN_FRACTION)
 
 
 def write_rollout(loaded, dataset, path: Path) -> dict:
     """The model's free run over the test span of ``dataset``, every node decoded, as a data set
     (``softrnn animate``); up to where it diverged or left the data format's range."""
-    from ..io.dataset import write_dataset
-    from ..learned.whole.rollout import rollout_dataset
-
     start = span_start(loaded, loaded.encoding.trajectory(dataset))
     ds, diverged = rollout_dataset(loaded, dataset, start, attrs={"source": "softrnn.learned.whole free run"})
     ds.attrs["diverged_at_step"] = diverged
@@ -263,13 +265,10 @@ def write_rollout(loaded, dataset, path: Path) -> dict:
 def _errors(loaded, dataset, start: int | None) -> tuple[np.ndarray, dict]:
     """(times, {predictor: errors [% of L]}) of the model and the baselines run free from ``start``
     (None: the test span's start) to the end."""
-    from ..learned.whole.evaluation import ConstantVelocity, Persistence, run_errors
-
     enc = loaded.encoding
     traj = enc.trajectory(dataset)
     start = span_start(loaded, traj) if start is None else start
-    preds = {"model": loaded.engine, "persistence": Persistence(), "constant_velocity": ConstantVelocity(),
-             "linear": loaded.linear}
+    preds = {"model": loaded.engine, **state_baselines(), "linear": loaded.linear}
     series = {name: run_errors(p, enc, traj, dataset, start)[0] for name, p in preds.items()}
     return traj.time[start + 1:start + 1 + len(series["model"])], series
 
@@ -277,9 +276,6 @@ def _errors(loaded, dataset, start: int | None) -> tuple[np.ndarray, dict]:
 def write_figure(case: str, loaded, test, held, path: Path) -> str | None:
     """``figures/dynamic_CASE.png``: the errors over time on the test span of ``test`` and on the
     held-out variant ``held`` (either may be None); returns its name, or None when neither is given."""
-    from ..figures.dynamic import error_over_time
-    from ..figures.plots import save
-
     panels = []
     if test is not None:
         panels.append((f"paper trajectory, test span (last {100 * (1 - TRAIN_FRACTION):.0f} %)",
@@ -290,7 +286,7 @@ def write_figure(case: str, loaded, test, held, path: Path) -> str | None:
                        GOALS["heldout_worst_max_pct_of_length"]))
     if not panels:
         return None
-    save(error_over_time(panels, f"{case}: whole-manipulator model, free running, every node"), path)
+    save_figure(error_over_time(panels, f"{case}: whole-manipulator model, free running, every node"), path)
     return path.name
 
 
@@ -359,16 +355,13 @@ def _usable(loaded, dataset, need: int, what: str, skipped: list):
 
 def _measure(case: str, out: Path, folder: Path, loaded, split, quick: bool) -> dict:
     """Evaluation, speed, rollout and figure of a trained model: the case's entry (less training)."""
-    from ..io.dataset import read_dataset
-    from ..learned.whole.evaluation import evaluate_dynamic
-
     paper = read_dataset(out / "data" / f"{case}.h5")
     held = [part.read() for part in split.heldout]
     skipped: list = []
     test = _usable(loaded, paper, 2, "paper trajectory", skipped)
     gen = _usable(loaded, read_dataset(out / "data" / f"{GENERALISATION[case]}.h5"), 1, "generalisation data set",
                   skipped)
-    entry = evaluate_dynamic(loaded, test=test, heldout=held, generalisation=gen)
+    entry = evaluate_dynamic(loaded, test=test, heldout=held, generalisation=gen).to_dict()
     for key in ("test_span_max_pct_of_length", "generalisation_max_pct_of_length", "heldout", "horizons"):
         entry.setdefault(key, None)                  # skipped: present all the same, as null
     entry["skipped"] = skipped
@@ -393,9 +386,9 @@ def finished_case(step_file: Path, folder: Path, settings_: dict, quick: bool) -
     """The step file's result when it is finished with these settings and its model folder is there
     (the case is then skipped), else None."""
     done = load_step(step_file, quick)
-    if done is not None and done.get("settings") == settings_ and (folder / "model").is_dir():
-        return done
-    return None
+    if done is None or not (folder / "model").is_dir():
+        return None
+    return done if check(done.get("settings"), Settings.of(settings_), otherwise=START_AGAIN) == RESUME else None
 
 
 def _prepare_case(case: str, out: Path, quick: bool, progress_factory=None) -> dict:

@@ -3,13 +3,12 @@ error (paper Fig. 13), under ``statics/``."""
 
 from pathlib import Path
 
+from ..experiments.fig13 import run_fig13_study, write_fig13
 from .stepfiles import load_step, save_step
 
 
 def fig13_step(out: Path, quick: bool) -> dict:
     """The static solver's solve time against tolerance, node count and guess error (Fig. 13)."""
-    from ..experiments.fig13 import run_fig13_study, write_fig13
-
     step_file = out / "statics" / "fig13-step.json"
     done = load_step(step_file, quick)
     if done is not None:

@@ -14,7 +14,7 @@ FIG14 = {"case": "semicircle", "units": (5, 10, 15, 20, 25), "history": (2, 5, 1
 def fig14_step(out: Path, quick: bool, progress_factory: ProgressFactory | None = None) -> dict:
     """The paper's Fig. 14 (LSTM units x history: bandwidth and RMS error) on the semicircle's node
     of interest, two Dask workers; a rerun completes only missing grid points."""
-    from ..experiments.fig14 import StudyConfig, run_study
+    from ..experiments.fig14 import StudyConfig, run_study  # optional extra: learn (PyTorch)
 
     step_file = out / "study" / "fig14-step.json"
     done = load_step(step_file, quick)

@@ -1,17 +1,16 @@
 """Reproduce step: the paper's magnetic experiment (section 5) simulated, Table 1 and Fig. 12
-(``softrnn.experiments.magnetic.experiment``), under ``magnetic/``."""
+(``softrnn.experiments.magnetic``), under ``magnetic/``."""
 
 from pathlib import Path
 
+from ..experiments.magnetic import ExperimentConfig, run_experiment
 from ..progress import ProgressFactory
 from .stepfiles import load_step, save_step
 
 
 def magnetic_step(out: Path, quick: bool, progress_factory: ProgressFactory | None = None) -> dict:
     """The paper's experiment (section 5) simulated: Table 1 and Fig. 12
-    (``softrnn.experiments.magnetic.experiment``)."""
-    from ..experiments.magnetic.experiment import ExperimentConfig, run_experiment
-
+    (``softrnn.experiments.magnetic``)."""
     step_file = out / "magnetic" / "step.json"
     done = load_step(step_file, quick)
     if done is not None:

@@ -5,10 +5,21 @@ horizon and the speed of one ``ManipulatorStepper`` step."""
 from __future__ import annotations
 
 import time
+from functools import partial
 from pathlib import Path
 
+import numba
 import numpy as np
 
+from ..errors import SoftrnnInputError
+from ..io.reader import read_dataset
+from ..learned.baselines import ConstantVelocity, LinearAR, LinearARConfig, Persistence, free_run
+from ..learned.horizons import WHOLE_HORIZONS
+from ..learned.node.data import SampleSpec
+from ..learned.node.engine import ManipulatorStepper
+from ..learned.node.evaluate import horizon_misses, horizon_table, metrics
+from ..learned.node.rollout import Manipulator, RolloutDiverged, rollout
+from ..timing import step_rate
 from .stepfiles import load_step, save_step
 
 MANIPULATOR = {
@@ -20,7 +31,7 @@ MANIPULATOR = {
     "train": {"epochs": 15, "rollout_steps": 1, "input_noise": 0.5},
     "quick_train": {"epochs": 3, "rollout_steps": 1, "input_noise": 0.5, "max_train_windows": 3000},
     "horizons_s": (0.001, 0.01, 0.1),
-    "baseline_horizons": (10, 100, 1000),     # samples
+    "baseline_horizons": WHOLE_HORIZONS,      # samples: 10, 100, 1000
     "horizon_starts": 5,
     "quick_horizon_starts": 2,
 }
@@ -33,8 +44,7 @@ node sits; input noise (offsets of the node's own history) teaches it to pull a 
 def _train_shared(ds, out: Path, quick: bool, progress_factory):
     """The shared model trained (or resumed) on the pooled interior nodes of ``ds``: (model, pool,
     the reference node in the middle of the pool, training seconds)."""
-    from ..learned.node.data import SampleSpec
-    from ..learned.node.train import TrainConfig, train_node_model
+    from ..learned.node.train import TrainConfig, train_node_model  # optional extra: learn (PyTorch)
 
     cfg = MANIPULATOR
     n = int(ds.nodes.size)
@@ -67,8 +77,6 @@ def _describe(model, ds, pool: tuple, ref_node: int, train_s: float, quick: bool
 def _horizon_errors(r, ds, pool: tuple, ref_node: int, start: int, stop: int) -> tuple[dict, list]:
     """Errors of the free run ``r`` by horizon (the reference node's and all modelled nodes' in mm),
     and the error of holding the reference node at its first test position (mm per axis)."""
-    from ..learned.node.evaluate import metrics
-
     length = float(ds.attrs["rod"]["length"])
     pred = r.positions[r.seed:].astype(np.float64)                       # (T', N, 3)
     ref = np.asarray(ds.positions[start:stop], np.float64)               # (T', N, 3)
@@ -92,9 +100,6 @@ def _fit_baselines(model, P, Wr, pool_cols: list, cut: int) -> tuple[dict, dict]
     models (``"node"``: one per modelled node with the shared model's neighbours; ``"manipulator"``:
     one of every node), fitted on the training span [0, cut); ({name: baseline}, {name: {skipped:
     reason, ...} or the linear models' fit details})."""
-    from ..errors import SoftrnnInputError
-    from ..learned.node.baselines import ConstantVelocity, LinearAR, LinearARConfig, Persistence
-
     ready = {"persistence": Persistence(), "constant_velocity": ConstantVelocity()}
     details = {}
     for name, mode in (("linear_node", "node"), ("linear_manipulator", "manipulator")):
@@ -121,8 +126,6 @@ def _span_errors(pred, ref, cols: list, length: float) -> dict:
 
 def _model_run(manip, ds, positions, wrenches, start: int, stop: int) -> np.ndarray:
     """The shared model's whole-manipulator free run as a ``horizon_table`` predictor: (T', N, 3) [m]."""
-    from ..learned.node.rollout import rollout
-
     r = rollout(manip, ds, start=start, stop=stop)
     return r.positions[r.seed:].astype(np.float64)
 
@@ -156,12 +159,6 @@ def compare_baselines(manip, model, ds, r, pool: tuple, start: int, stop: int, q
         model_test_span, horizons: ``evaluate.horizon_table`` at ``baseline_horizons`` plus
         ``test_span`` (% of length, the largest over the modelled nodes), misses, baselines_s}.
     """
-    from functools import partial
-
-    from ..learned.node.baselines import free_run
-    from ..learned.node.evaluate import horizon_misses, horizon_table
-    from ..learned.node.rollout import RolloutDiverged
-
     t0 = time.perf_counter()
     cfg, length = MANIPULATOR, float(ds.attrs["rod"]["length"])
     P = np.asarray(ds.positions, dtype=np.float64)                          # (T, N, 3)
@@ -180,7 +177,8 @@ def compare_baselines(manip, model, ds, r, pool: tuple, start: int, stop: int, q
     runs = {"model": partial(_model_run, manip, ds)}
     runs.update({k: partial(free_run, b, modelled=cols) for k, b in ready.items()})
     n = cfg["quick_horizon_starts"] if quick else cfg["horizon_starts"]
-    table = horizon_table(runs, P, Wr, start, stop, cfg["baseline_horizons"], n_starts=n, nodes=cols, length=length)
+    table = horizon_table(runs, P, Wr, start, stop, cfg["baseline_horizons"], n_starts=n, nodes=cols,
+                          length=length).to_dict()
     table["test_span"] = {k: v.get("max_pct_of_length", "diverged") for k, v in whole.items()}
     return {"baselines": out, "model_test_span": whole["model"], "horizons": table, "misses": horizon_misses(table),
             "baselines_s": time.perf_counter() - t0}
@@ -190,12 +188,6 @@ def _stepper_speed(manip, ds, start: int) -> list[dict]:
     """The speed of the trained manipulator in a control loop: one ``ManipulatorStepper.step`` per
     sample (the recorded forces in turn), timed by ``softrnn.timing.step_rate``, on one thread and
     on numba's thread count."""
-    import numba
-
-    from ..learned.node.engine import ManipulatorStepper
-    from ..learned.node.manipulator import RolloutDiverged
-    from ..timing import step_rate
-
     speeds = []
     for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
         st = ManipulatorStepper(manip, ds.nodes, threads=threads)
@@ -220,9 +212,6 @@ def _stepper_speed(manip, ds, start: int) -> list[dict]:
 def manipulator_step(out: Path, quick: bool, progress_factory=None) -> dict:
     """Train the shared whole-manipulator model on the semicircle's training span and run every
     interior node free on the test span (paper Fig. 2C); errors by horizon, speed."""
-    from ..io.dataset import read_dataset
-    from ..learned.node.rollout import Manipulator, RolloutDiverged, rollout
-
     step_file = out / "models" / "manipulator.json"
     done = load_step(step_file, quick)
     if done is not None:

@@ -11,7 +11,12 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from ..figures.evaluation import write_figures
 from ..files import atomic_write_text, json_default
+from ..io.reader import read_dataset
+from ..learned.node.data import SampleSpec
+from ..learned.node.evaluate import evaluate
+from ..learned.node.rollout import RolloutDiverged, rollout
 from ..scenarios.cases import build_case
 from .cases import GENERALISATION
 from .stepfiles import load_step
@@ -30,7 +35,7 @@ def _errors(block: dict | None) -> dict | None:
 
 
 def comparison(report: dict) -> dict:
-    """The model beside the baselines, from an ``Evaluation.to_json()`` report: ``one_step`` and
+    """The model beside the baselines, from an ``Evaluation.to_dict()`` report: ``one_step`` and
     ``free_running`` (the model's errors, RMSE included), ``baselines``, ``horizons`` and ``misses``
     as ``softrnn evaluate --json`` writes them."""
     return {key: report.get(key) for key in ("span", "span_samples", "one_step", "free_running", "baselines",
@@ -50,9 +55,6 @@ def paper_errors(paper: dict) -> dict:
 def engine_agreement(model, data_path, start: int, stop: int) -> dict:
     """The free-running rollout of ``model`` over samples start..stop-1 by the compiled engine and by
     PyTorch (``predict`` per step): the largest position difference (m) and both wall times (s)."""
-    from ..io.dataset import read_dataset
-    from ..learned.node.rollout import RolloutDiverged, rollout
-
     ds = read_dataset(data_path, nodes=list(model.spec.window_nodes))
     out = {"steps": int(stop - start)}
     try:
@@ -70,8 +72,7 @@ def engine_agreement(model, data_path, start: int, stop: int) -> dict:
 
 def _train(name: str, out: Path, quick: bool, progress_factory):
     """The case's node model trained (or resumed) in ``out/models/<name>``."""
-    from ..learned.node.data import SampleSpec
-    from ..learned.node.train import TrainConfig, train_node_model
+    from ..learned.node.train import TrainConfig, train_node_model  # optional extra: learn (PyTorch)
 
     case = build_case(name)
     folder = out / "models" / name
@@ -90,9 +91,6 @@ def model_step(name: str, out: Path, quick: bool, progress_factory) -> dict:
     """Train the case's node model on the first 60 % of its data set, evaluate it one step ahead and
     free running on the test span, and on the generalisation data set, each beside the baselines
     (persistence, constant velocity, linear AR; by horizon too); skipped when done."""
-    from ..figures.evaluation import write_figures
-    from ..learned.node.evaluate import evaluate
-
     step_file = out / "models" / f"{name}.json"
     done = load_step(step_file, quick)
     if done is not None:
@@ -107,7 +105,7 @@ def model_step(name: str, out: Path, quick: bool, progress_factory) -> dict:
     for tag, ev in (("test", test), ("generalisation", gen)):
         paths = write_figures(ev, out / "figures" / f"{name}_model_{tag}")
         figures += [str(p.relative_to(out / "figures")) for p in paths if p.suffix == ".png"]
-    tj, gj = test.to_json(), gen.to_json()
+    tj, gj = test.to_dict(), gen.to_dict()
     span = model.meta["test_span"]
     engine = engine_agreement(model, data, int(span[0]) + model.spec.history, int(span[1]))
     done = {"quick": quick, "softrnn_version": __version__, "engine_vs_pytorch": engine,

@@ -3,6 +3,7 @@ report dictionary that ``softrnn.reproduce.pipeline.reproduce`` returns and writ
 
 import json
 
+from ..bench import format_all
 from ..scenarios.cases import PAPER_CASES
 
 
@@ -201,8 +202,6 @@ def _benchmark_lines(bench: dict) -> list[str]:
     """The benchmark's table (``softrnn.bench.format_all``), or its JSON when it cannot be formatted."""
     lines = ["", "## Benchmark (`softrnn bench`)", "", "```"]
     try:
-        from ..bench import format_all
-
         lines.append(format_all(bench))
     except Exception:  # a bench result from another version: show the JSON instead
         lines.append(json.dumps(bench, indent=1)[:4000])

@@ -27,7 +27,11 @@ from dataclasses import replace
 from pathlib import Path
 
 from .. import __version__
+from ..io.reader import read_dataset
 from ..learned.whole.config import DynamicConfig
+from ..learned.whole.evaluation import evaluate_dynamic
+from ..scenarios.cases import build_case
+from .cases import case_step
 from .dynamic import (
     TRAIN_FRACTION,
     _fresh,
@@ -55,8 +59,8 @@ batch from the trajectories' first steps (docs/guide/dynamic.md, "Tendon-driven 
 ``quick`` trains ``QUICK_STEPS`` steps."""
 QUICK_STEPS = 20
 THREADS = 1
-"""PyTorch's threads while training: a small model trains fastest on one (on a busy machine two
-threads can be several times slower)."""
+"""PyTorch's threads while training: a small model trains fastest on one (a second thread mostly
+contends for a core, more so on a busy machine)."""
 SWEEP = {"dt": 0.01, "n_train": 10, "n_validation": 2, "n_heldout": 8, "workers": 2, "duration_s": 21.0}
 """Each case's sweep: variants 0..n_train-1 are trained on, the next n_validation select the weights,
 the last n_heldout are held out; saved every dt [s] for duration_s [s]."""
@@ -83,18 +87,12 @@ def settings(case: str, quick: bool) -> dict:
 
 def simulate_inputs(case: str, out: Path, quick: bool, progress_factory=None) -> None:
     """The nominal scenario and its generalisation variant in ``out/data/`` (kept when finished)."""
-    from ..scenarios.cases import build_case
-    from .cases import case_step
-
     for name in (case, GENERALISATION[case]):
         case_step(build_case(name), out, quick, progress_factory, figures=False)
 
 
 def measure(case: str, out: Path, loaded, split) -> dict:
     """The free-running evaluation of a trained model beside its baselines, with the goals."""
-    from ..io.dataset import read_dataset
-    from ..learned.whole.evaluation import evaluate_dynamic
-
     nominal = read_dataset(out / "data" / f"{case}.h5")
     held = [part.read() for part in split.heldout]
     skipped: list = []
@@ -102,7 +100,7 @@ def measure(case: str, out: Path, loaded, split) -> dict:
     gen = _usable(loaded, read_dataset(out / "data" / f"{GENERALISATION[case]}.h5"), 1,
                   "generalisation data set", skipped)
     entry = evaluate_dynamic(loaded, test=test, heldout=held, generalisation=gen,
-                             test_start_fraction=TRAIN_FRACTION)
+                             test_start_fraction=TRAIN_FRACTION).to_dict()
     for key in KEYS:
         entry.setdefault(key, None)
     entry["skipped"] = skipped

@@ -8,9 +8,9 @@ cases built from them, and the summary of a scenario's run.
 * ``summary``: ``simulate_summary``, the run behind ``softrnn simulate``.
 """
 
+from .reading import ScenarioError as ScenarioError
 from .scenario import SCENARIO_NAMES as SCENARIO_NAMES
 from .scenario import Scenario as Scenario
-from .scenario import ScenarioError as ScenarioError
 from .scenario import load_scenario as load_scenario
 from .scenario import parse_scenario as parse_scenario
 from .scenario import scenario_text as scenario_text

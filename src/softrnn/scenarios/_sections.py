@@ -10,11 +10,24 @@ import numpy as np
 
 from ..errors import SoftrnnInputError
 from ..rod.boundary import Clamp, Pin
-from ..rod.loads import CirclePath, Constant, NodalLoad, PDTracking, Sampled, Sinusoid, SquarePath, Window
+from ..rod.loads import (
+    CirclePath,
+    Constant,
+    Figure8Path,
+    NodalLoad,
+    PDTracking,
+    RandomSmoothPath,
+    Sampled,
+    Sinusoid,
+    SquarePath,
+    Sum,
+    Window,
+)
 from ..rod.shapes import RodShape, arc, ellipse, ellipse_perimeter, polyline, straight
 from ..rod.simulation import Damping, RunConfig
 from ..rod.spec import NodeOverride, RodSpec
-from .paths import Figure8Path, PoseMotion, PositionPath, RandomSmoothPath, Sum
+from ..rod.stability import DEFAULT_SAFETY, stable_step
+from .paths import PoseMotion, PositionPath
 from .reading import (
     ScenarioError,
     _as_is,
@@ -440,7 +453,6 @@ def _run(ctx: _Ctx, raw, rod: RodSpec, damping: Damping) -> tuple[RunConfig, tup
 def _check_stability(ctx: _Ctx, rod: RodSpec, damping: Damping, dt: float, substeps: int, safety) -> None:
     """An explicit sub-step count above the rod's stable step is refused here, with the key."""
     try:
-        from ..rod.stability import DEFAULT_SAFETY, stable_step
         limit = stable_step(rod.lumped(), rod.segment_length, damping.kelvin_voigt,
                             DEFAULT_SAFETY if safety is None else safety)
     except Exception:  # noqa: BLE001 - the simulator checks again when it runs

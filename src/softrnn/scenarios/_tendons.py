@@ -9,10 +9,9 @@ import math
 import numpy as np
 
 from ..errors import SoftrnnInputError
-from ..rod.loads import Constant, Sampled, Sinusoid
+from ..rod.loads import Constant, RandomSmoothPath, Sampled, Sinusoid
 from ..rod.spec import RodSpec
 from ..rod.tendons import ROUTINGS, Scalar, Tendon
-from .paths import RandomSmoothPath
 from .reading import ScenarioError, _Ctx, _Table, integer, number, numbers, string, table_list
 
 _TENDON_KEYS = {

@@ -28,8 +28,7 @@ from ._sections import _DAMPING_KEYS, _boundary, _loads, _rod, _run, _shape
 from ._tendons import read_tendons
 from .calibrate import _check_calibrate, _flatten_calibrate
 from .randomize import _flatten_randomize, _sample, _set_path
-from .reading import ScenarioError as ScenarioError
-from .reading import _as_is, _Ctx, _show, _Table, integer, number, string, table_list, vec3
+from .reading import ScenarioError, _as_is, _Ctx, _show, _Table, integer, number, string, table_list, vec3
 
 SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "square-circle", "square-figure8",
                                    "square-random", "semicircle", "semicircle-cosine", "tendon-planar",

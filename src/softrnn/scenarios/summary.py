@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..io.writer import DatasetWriter
 from ..progress import Progress
 from ..rod import RunConfig, Setup, Simulator
 from ..rod.tendons import tendon_actuation, tendon_sink
@@ -51,8 +52,6 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
         sink = _NodeCollector(nodes.index(node))
         stats = sim.run(config, progress=progress, sink=sink)
     else:
-        from ..io.dataset import DatasetWriter
-
         # tendon tensions are stored as the actuation channels tendon_<name> [N]
         _, units = tendon_actuation(setup.tendons, np.zeros(0))
         with DatasetWriter(out_path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=setup.rod,

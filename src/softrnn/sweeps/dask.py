@@ -31,7 +31,7 @@ def restored_environ():
 def require() -> None:
     """Raise ``ModuleNotFoundError`` (named ``distributed``) now, before any output is written,
     when the ``softrnn[dask]`` extra is not installed."""
-    import distributed  # noqa: F401
+    import distributed  # noqa: F401  # optional extra: dask
 
 
 @contextmanager
@@ -45,7 +45,7 @@ def dask_client(scheduler: str | None, n_workers: int, *, alternatives: str = ""
     message). ``local_guard``: a context manager entered while the local cluster starts (e.g. to
     make its workers ignore Ctrl-C).
     """
-    from distributed import Client, LocalCluster
+    from distributed import Client, LocalCluster  # optional extra: dask
 
     cluster = None
     try:
@@ -74,7 +74,7 @@ def completed(tasks, scheduler: str | None, n_workers: int, *, alternatives: str
     """Yield the results of ``tasks`` (a list of ``(function, args, key)``) as they finish, on the
     client of ``dask_client(scheduler, n_workers, alternatives=..., local_guard=...)``. Tasks not
     yet finished are cancelled when the generator is closed."""
-    from distributed import as_completed
+    from distributed import as_completed  # optional extra: dask
 
     with dask_client(scheduler, n_workers, alternatives=alternatives, local_guard=local_guard) as client:
         futures = [client.submit(fn, *args, key=key) for fn, args, key in tasks]

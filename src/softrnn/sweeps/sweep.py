@@ -14,15 +14,25 @@ import hashlib
 import json
 import time
 from contextlib import closing
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from .. import __version__
 from ..errors import bad, positive
 from ..files import atomic_write_text
+from ..io.reader import read_dataset
+from ..io.schema import DatasetError
+from ..io.writer import DatasetWriter
 from ..progress import Progress
+from ..resume import REFUSE, Settings, check
+from ..rod import Simulator
+from ..rod.tendons import tendon_actuation, tendon_sink
+from ..scenarios.scenario import parse_scenario
+from .dask import completed, require
 
 MANIFEST = "sweep.json"
+SETTINGS = ("dt", "n_samples", "scenario_sha256", "seed")
+"""The keys of ``sweep.json`` a resumed sweep must match (the others describe it)."""
 
 
 def trajectory_path(out_dir, index: int) -> Path:
@@ -56,11 +66,9 @@ def _check_manifest(out_dir: Path, scenario, n_samples, dt=None) -> None:
         except (OSError, ValueError) as err:
             raise bad("-o", str(out_dir), f"a sweep folder; its {MANIFEST} is unreadable ({err}); "
                                            f"remove it or use another folder") from err
-        for key in ("scenario_sha256", "seed", "n_samples", "dt"):
-            if have.get(key) != want[key]:
-                raise bad("-o", str(out_dir),
-                          f"a folder for this sweep, but it holds a sweep of another scenario/seed/length/dt "
-                          f"({key}: {have.get(key)!r} != {want[key]!r}); use another folder")
+        check(have, Settings.of(want, keys=SETTINGS), otherwise=REFUSE, refuse=lambda diff: bad(
+            "-o", str(out_dir), f"a folder for this sweep, but it holds a sweep of another scenario/seed/length/dt "
+                                f"({diff.key}: {diff.old!r} != {diff.new!r}); use another folder"))
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, json.dumps(want, indent=2))
 
@@ -69,8 +77,6 @@ def _is_complete(path: Path) -> bool:
     """A finished trajectory file: readable, of this format (writes are atomic, so present = whole)."""
     if not path.exists():
         return False
-    from ..io.dataset import DatasetError, read_dataset
-
     try:
         read_dataset(path, nodes=[], stop=1)
         return True
@@ -84,11 +90,6 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
     ``path`` (atomically), ``n_samples`` samples ``dt`` s apart (None: the scenario's), with its
     tendons' tensions as the actuation channels ``tendon_<name>`` [N]. Runs on a Dask worker;
     returns a small summary."""
-    from ..io.dataset import DatasetWriter
-    from ..rod import Simulator
-    from ..rod.tendons import tendon_actuation, tendon_sink
-    from ..scenarios.scenario import parse_scenario
-
     scenario = parse_scenario(text, source).variant(index)
     config = run_config(scenario.config, n_samples, dt)
     sim = Simulator(scenario.setup)
@@ -107,8 +108,6 @@ def run_config(config, n_samples: int | None = None, dt: float | None = None):
     """The scenario's ``RunConfig`` with ``n_samples`` and/or the saved interval ``dt`` [s] replaced
     (None: kept); the solver's substeps are chosen for the new interval when the scenario's are
     automatic."""
-    from dataclasses import replace
-
     changes = {k: v for k, v in (("n_samples", n_samples), ("dt", dt)) if v is not None}
     return replace(config, **changes) if changes else config
 
@@ -142,9 +141,6 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
         dt = positive("--dt", dt, "s")
     if not scenario.randomized:
         raise bad("scenario", scenario.name, "a scenario with a [randomize] table (nothing to vary in a sweep)")
-    from ..rod import Simulator
-    from .dask import require
-
     # a run too large for the machine is refused here, before any file or worker (as simulate does)
     Simulator(scenario.setup).check_size(run_config(scenario.config, n_samples, dt), streamed=True)
 
@@ -173,8 +169,6 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
 
 def _execute(scenario, todo, out: Path, scheduler, n_workers, n_samples, dt=None):
     """Yield the indices as their files are finished."""
-    from .dask import completed
-
     tag = _fingerprint(f"{scenario.text}\n{n_samples}\n{dt}")
     tasks = [(run_variant, (scenario.text, scenario.source, i, str(trajectory_path(out, i)), n_samples, dt),
               f"softrnn-variant-{tag}-{i}") for i in todo]

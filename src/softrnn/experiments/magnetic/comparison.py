@@ -11,7 +11,14 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import SoftrnnInputError
+from ...figures.saving import save_figure
+from ...files import atomic_write_text
+from ...learned.node.data import SampleSpec, pose_rows, wrench_rows
+from ...learned.node.engine import NodeStepper
+from ...learned.node.evaluate import free_running, one_step
+from ...learned.node.rollout import RolloutDiverged
 from ...magnetics.camera import tangents_from_rotation_vectors
+from ...paper import paper_case
 from ...progress import Progress
 from ...timing import step_rate
 from .config import AXES, FIGURE_FILE, MAGNETS, MODELS_DIR, ORIENTATION_NOTE, TABLE_FILE, ExperimentConfig
@@ -45,9 +52,6 @@ def _angle_errors(predicted, measured) -> dict:
 def _stepper_rate(model, dataset, steps: int = 2000) -> float:
     """Batch-1 steps per second of the compiled ``NodeStepper`` fed the data set's rows in turn
     (``softrnn.timing.step_rate``: the median over 5 runs of each run's mean rate)."""
-    from ...learned.node.data import pose_rows, wrench_rows
-    from ...learned.node.engine import NodeStepper
-
     H = int(model.spec.history)
     rows = pose_rows(dataset, model.spec)
     wr = wrench_rows(dataset, model.spec)
@@ -63,8 +67,6 @@ def _stepper_rate(model, dataset, steps: int = 2000) -> float:
 
 
 def _paper_table() -> dict:
-    from ...paper import paper_case
-
     return paper_case("magnetic_experiment")["test_max_mean_abs_deg"]
 
 
@@ -76,8 +78,7 @@ def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, 
     calibrated dynamic model's ``calibrated_orientations`` (T, 2, 3) [rad] (None: none) on the same
     targets. Writes ``out_dir/models/{proximal,distal}``, ``table1.json`` and ``fig12.png``;
     returns the table dict (see ``run_experiment``)."""
-    from ...files import atomic_write_text
-    from ...learned.node.train import TrainConfig
+    from ...learned.node.train import TrainConfig  # optional extra: learn (PyTorch)
 
     out = Path(out_dir)
     measured = np.asarray(dataset.positions, dtype=np.float64)                     # (T, 2, 3) rad
@@ -119,9 +120,8 @@ def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, 
         result["best_on_bending_axis"] = _best(result, AXES.index(bending))
     fig = plot_fig12(np.asarray(dataset.time), measured, predictions, static, title=figure_title,
                      calibrated=calibrated)
-    from ...figures import plots as plotting
 
-    plotting.save(fig, out / FIGURE_FILE)
+    save_figure(fig, out / FIGURE_FILE)
     result["figure"] = str(out / FIGURE_FILE)
     atomic_write_text(out / TABLE_FILE, json.dumps(result, indent=2, allow_nan=False) + "\n")
     return result
@@ -131,8 +131,7 @@ def _train_magnet(dataset, m: int, config: ExperimentConfig, train, model_dir: P
                   progress: Progress | None) -> tuple:
     """(model, seconds): magnet ``m``'s LSTM (input I both magnets' orientations, input II its wrench)
     trained with ``train`` (a ``TrainConfig``) and saved to ``model_dir``."""
-    from ...learned.node.data import SampleSpec
-    from ...learned.node.train import train_node_model
+    from ...learned.node.train import train_node_model  # optional extra: learn (PyTorch)
 
     name = MAGNETS[m]
     spec = SampleSpec(node=m, neighbours=(1 - m,), history=config.history, inputs="positions", wrench="wrench",
@@ -151,9 +150,6 @@ def _score_magnet(model, dataset, measured, m: int, static, model_dir: Path, cal
     """(Table 1 entry, predictions) of magnet ``m``'s ``model`` on the test span: errors one step
     ahead and free running against ``measured`` (T, 2, 3) [rad], and the ``static`` and
     ``calibrated`` models' (T, 2, 3) [rad] (each None: absent) on the same targets."""
-    from ...learned.node.evaluate import free_running, one_step
-    from ...learned.node.rollout import RolloutDiverged
-
     one = one_step(model, dataset)
     try:
         free_pred = free_running(model, dataset).predicted

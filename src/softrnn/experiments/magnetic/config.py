@@ -117,8 +117,8 @@ class ExperimentConfig:
         currents alone (the "calibrated dynamic Cosserat" row of Table 1).
     calibration_fraction : float
         Leading fraction of the training span the calibration fits to (0.5: the first 6.7 s of the
-        paper-length record; enough to fix stiffness and remanence to 0.1 % and damping to a few %,
-        and within the 2-minute budget on 2 cores: each trial simulates the span at a 3 us step).
+        paper-length record; enough to fix stiffness and remanence to 0.1 % and damping to a few %;
+        each trial simulates the span at a 3 us step).
     calibration_evaluations : int
         Largest number of points the calibration's optimiser evaluates (``FitOptions.max_evaluations``).
     quick : bool

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import bad
+from ...io.reader import Dataset
 from ...magnetics.coils import unit_field_maps
 from ...magnetics.magnets import wrench as magnet_wrench
 from ...magnetics.manipulator import ManipulatorSpec
@@ -49,8 +50,6 @@ def orientation_dataset(time_s, orientations, wrenches, *, name: str = "magnetic
     (0 proximal, 1 distal), whose positions hold their measured orientations (rotation vectors
     (T, 2, 3) [rad]) and whose forces and torques hold their wrenches (T, 2, 6) [N, N m]. The
     quaternions are identity placeholders (``has_orientations`` False)."""
-    from ...io.dataset import Dataset
-
     t = np.asarray(time_s, dtype=float)
     r = np.asarray(orientations, dtype=float)
     w = np.asarray(wrenches, dtype=float)

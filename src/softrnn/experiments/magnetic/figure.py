@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...figures.saving import subplots
 from .config import AXES, MAGNETS
 
 
@@ -32,10 +33,7 @@ def plot_fig12(time_s, measured, predictions: dict, static, title: str = "", cal
     -------
     matplotlib.figure.Figure
     """
-    from ...figures import plots as plotting  # noqa: F401, I001  (selects the Agg backend first)
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(3, 2, figsize=(11, 7.5), sharex=True)
+    fig, axes = subplots(3, 2, figsize=(11, 7.5), sharex=True)
     for col, name in enumerate(("distal", "proximal")):
         m = MAGNETS.index(name)
         p = predictions[name]

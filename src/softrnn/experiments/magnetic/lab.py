@@ -16,6 +16,7 @@ problem is a one-line ``SoftrnnInputError`` naming the file, the line and the co
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,14 +24,18 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import SoftrnnInputError, bad
+from ...files import atomic_write_text
+from ...io.csv_import import read_csv_lines
 from ...magnetics.camera import camera_measure, tangents_from_rotation_vectors
 from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, simulate_manipulator
+from ...magnetics.static import static_predictions
 from ...progress import Progress
 from .comparison import compare
 from .config import ExperimentConfig
 from .currents import experiment_currents
 from .dataset import measured_wrenches, orientation_dataset
-from .static import static_predictions, static_summary
+from .run import calibrate_and_predict
+from .static import static_summary
 
 N_COILS = 6
 N_MAGNETS = 2
@@ -77,8 +82,6 @@ class LabData:
 
 # ----------------------------------------------------------------------------------------- reading
 def _lines(path: Path) -> list[tuple[int, str]]:
-    from ...io.csv_import import read_csv_lines
-
     return read_csv_lines(path, f"the columns {LAYOUT}", SoftrnnInputError)
 
 
@@ -214,8 +217,6 @@ def write_lab_csv(path, data: LabData, *, comment: str = "") -> None:
     """Write ``data`` in the lab format (atomically): currents and wrenches and positions where
     present, orientations in degrees. Values are rounded (time 1e-6 s, currents 1e-4 A, orientations
     1e-4 deg, positions 1e-7 m, wrenches 6 significant digits)."""
-    from ...files import atomic_write_text
-
     names = ["time"]
     if data.currents is not None:
         names += CURRENTS
@@ -311,8 +312,6 @@ def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, pr
                                f"need at least history + 4 = {need} samples each; record more samples")
     calibration, calibrated = None, None
     if config.calibrate:
-        from .run import calibrate_and_predict
-
         dt = _constant_interval(Path(csv), data)
         calibration, calibrated = calibrate_and_predict(
             data.currents, data.orientations, data.positions, config, spec=spec, dt=dt, workers=workers,
@@ -347,9 +346,7 @@ def compare_lab(csv, config: ExperimentConfig | None = None, out_dir=None, *, pr
         "wrenches": f"input II from {source}",
         "orientation": "the CSV's rotation vectors phi k [deg] are the measurement the models are scored against",
     }
-    import json
 
-    from ...files import atomic_write_text
 
     atomic_write_text(out / "table1.json", json.dumps(result, indent=2, allow_nan=False) + "\n")
     return result

@@ -2,27 +2,36 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
+import shutil
 import time
+from dataclasses import replace as dc_replace
 from pathlib import Path
 
 import numpy as np
 
+from ...calibration.fit import FitOptions
+from ...calibration.parallel import Evaluator
 from ...errors import bad
+from ...files import atomic_write_text
+from ...io.reader import read_dataset
+from ...io.schema import DatasetError
+from ...io.writer import write_trajectory
 from ...magnetics.camera import camera_measure
 from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, check_manipulator_run, simulate_manipulator
+from ...magnetics.static import static_predictions
 from ...progress import Progress
+from .calibration import BOUNDS, FACTORS, calibrate_manipulator
 from .comparison import compare
 from .config import CALIBRATION_FILE, MAGNETS, ORIENTATION_NOTE, ROBOT_FILE, TABLE_FILE, ExperimentConfig
 from .currents import experiment_currents
 from .dataset import measured_wrenches, orientation_dataset
-from .static import static_predictions, static_summary
+from .static import static_summary
 
 
 def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path, progress: Progress | None) -> tuple:
     """(time (T,), node positions (T, n, 3) as stored (float32), currents (T, n_c), wall seconds, resumed)."""
-    from ...io.dataset import DatasetError, read_dataset, write_trajectory
-
     fingerprint = config.simulation_fingerprint()
     if path.exists():
         try:
@@ -56,8 +65,6 @@ def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path,
 
 
 def _calibration_fingerprint(config: ExperimentConfig) -> str:
-    import hashlib
-
     keys = ("camera_noise", "camera_points", "polynomial_degree", "train_fraction", "calibration_fraction",
             "calibration_evaluations")
     d = {k: config.to_dict()[k] for k in keys}
@@ -76,11 +83,6 @@ def calibrate_and_predict(currents, orientations, positions, config: ExperimentC
     model. Returns (the report's ``calibration`` dict, the predicted orientations (T, M, 3) [rad]).
     ``truth``: the real robot's factors, when known (the simulated experiment), reported beside
     the fitted ones."""
-    from dataclasses import replace as dc_replace
-
-    from ...calibration.fit import FitOptions
-    from ...calibration.parallel import Evaluator
-    from .calibration import BOUNDS, FACTORS, calibrate_manipulator
 
     T = int(np.asarray(currents).shape[0])
     n = config.calibration_samples(T)
@@ -142,8 +144,6 @@ def _calibrated(config: ExperimentConfig, spec: ManipulatorSpec, currents, cam, 
                 scheduler: str | None, progress: Progress | None) -> tuple:
     """(calibration dict, predicted orientations (T, M, 3) [rad]), reused from ``calibration.json``
     when it holds this record's calibration."""
-    from ...files import atomic_write_text
-
     path = out / CALIBRATION_FILE
     fingerprint = _calibration_fingerprint(config)
     if path.exists():
@@ -161,7 +161,6 @@ def _calibrated(config: ExperimentConfig, spec: ManipulatorSpec, currents, cam, 
                                             cache_dir=out / ".calibration-trials")
     atomic_write_text(path, json.dumps({"fingerprint": fingerprint, "calibration": info,
                                         "predicted_orientations": predicted.tolist()}) + "\n")
-    import shutil
 
     shutil.rmtree(out / ".calibration-trials", ignore_errors=True)
     return info, predicted
@@ -271,7 +270,6 @@ def run_experiment(config: ExperimentConfig, out_dir, progress: Progress | None 
     result["config"] = config.to_dict()
     result["files"] = {"robot": str(out / ROBOT_FILE), "table": str(out / TABLE_FILE), "figure": result["figure"],
                        "models": {name: result[name]["model"] for name in MAGNETS}}
-    from ...files import atomic_write_text
 
     atomic_write_text(out / TABLE_FILE, json.dumps(result, indent=2, allow_nan=False) + "\n")
     return result

@@ -9,14 +9,22 @@ The weights of M models of one architecture are packed by ``softrnn.learned.node
   are stored times 2, so every activation is one logistic: tanh(x) = 2 sigma(2x) - 1.
 * ``norm`` (M, Sn) float64: pose mean and std (P each), wrench mean and std (W each), target mean
   and std (3 each).
-* ``lay`` (int64): the architecture and the offsets into a params row (layout in ``engine.pack``).
+* ``arch`` (1,) ``ARCHITECTURE`` record: the architecture and the offsets of the output layer, the
+  skip and the difference scaling in a params row;
+* ``layers`` (NL + wrench dense + head dense,) ``LAYER`` records: per LSTM layer, then per dense
+  layer of the wrench branch and of the head, the offsets of its weights and bias in a params row
+  and its widths.
+
+The layouts are NumPy structured arrays rather than ``typing.NamedTuple`` records (as the rod
+kernels take): numba's dispatcher types an array argument with less work than a named tuple of many
+fields, and the batch-1 steppers make one kernel call per step.
 
 The logistic is computed in float32 with a range-reduced degree-7 exponential (max error 9e-8
 against the exact logistic), in two passes over a contiguous row so LLVM vectorises both (the
 exponent is built in an int32 scratch row and read through a float32 view). Its argument is
 clamped to +-30, where the float32 logistic is already 1 (or below 1e-13): with the clamp at the
-float range (+-87) a saturated gate made a subnormal intermediate, which cost the whole forward
-pass a factor 2.4 (measured).
+float range (+-87) a saturated gate makes a subnormal intermediate, which slows the whole forward
+pass severalfold.
 """
 
 import numpy as np
@@ -26,11 +34,41 @@ FM = {"contract", "nnan", "ninf", "nsz", "arcp", "afn"}
 _LOG2E = np.float32(1.4426950408889634)
 _LN2 = np.float32(0.6931471805599453)
 
-# header of ``lay``
-L_P, L_W, L_H, L_LAYERS, L_U, L_DIFF, L_NWD, L_NHD, L_SKIP, L_IN1, L_REL, L_PER, L_OUT, L_OFF_DS, L_OFF_DSH = range(15)
-L_OFF_OUT, L_OUT_IN, L_OFF_SKIP, L_SKIP_IN, L_FEAT = range(15, 20)
-L_HEADER = 20
-# then per LSTM layer: off_ih, off_hh, off_b, n_in ; per dense layer (wrench, then head): off_w, off_b, n_in, n_out
+ARCHITECTURE = np.dtype([
+    ("pose_features", np.int64),     # P: values of input I per window row
+    ("wrench_features", np.int64),   # W: values of input II per window row
+    ("history", np.int64),           # H: window rows
+    ("lstm_layers", np.int64),       # NL: the first NL rows of ``layers``
+    ("lstm_units", np.int64),        # U
+    ("lstm_inputs", np.int64),       # the first LSTM layer's inputs: P, or 2 P with differences
+    ("differences", np.int64),       # 1: input I's scaled differences follow it in the LSTM input
+    ("relative", np.int64),          # 1: positions relative to the node's last one
+    ("per_node", np.int64),          # values per node in a row of input I: 3 (positions) or 7 (poses)
+    ("wrench_dense", np.int64),      # dense layers of the wrench branch: the ``layers`` rows after the LSTM's
+    ("head_dense", np.int64),        # dense layers of the head: the rows after those
+    ("features", np.int64),          # the head's inputs: the U hidden values, then the wrench branch's
+    ("output", np.int64),            # OUT_INCREMENT, OUT_ACCELERATION or OUT_POSE
+    ("off_out", np.int64),           # the output layer: weights (out_inputs, 3), then bias (3)
+    ("out_inputs", np.int64),
+    ("skip", np.int64),              # 1: a linear skip from the normalised windows to the output
+    ("off_skip", np.int64),          # its weights (skip_inputs, 3)
+    ("skip_inputs", np.int64),
+    ("off_delta_scale", np.int64),   # the differences' scale (P)
+    ("off_delta_shift", np.int64),   # and shift (P)
+    ("params_length", np.int64),     # S: the length of a params row
+    ("work_length", np.int64),       # the length of one node's work row (``work_size``)
+])
+"""The architecture of stacked node models and offsets into their params rows (``engine.pack``)."""
+
+LAYER = np.dtype([
+    ("off_w", np.int64),             # input weights, transposed (n_in, n_out)
+    ("off_u", np.int64),             # an LSTM layer's recurrent weights, transposed (U, 4 U); -1 for a dense layer
+    ("off_b", np.int64),             # bias (n_out)
+    ("n_in", np.int64),
+    ("n_out", np.int64),             # 4 U for an LSTM layer
+])
+"""One layer's offsets into a params row and its widths (``engine.pack``)."""
+
 OUT_INCREMENT, OUT_ACCELERATION, OUT_POSE = 0, 1, 2
 
 # work row regions: see ``work_size``
@@ -113,28 +151,30 @@ def _hidden(wk, o_o, o_f, o_h, U):
         wk[h0 + u] = wk[a + u] * (np.float32(2.0) * wk[f0 + u] - np.float32(1.0))
 
 
-def work_size(lay) -> int:
+def work_size(arch, layers) -> int:
     """Length of one node's float32 work row (see ``forward``)."""
-    H, U, in1, feat = int(lay[L_H]), int(lay[L_U]), int(lay[L_IN1]), int(lay[L_FEAT])
-    widest = max(4 * U, feat, int(lay[L_SKIP_IN]), 8)
-    nl = int(lay[L_LAYERS])
-    for k in range(int(lay[L_NWD]) + int(lay[L_NHD])):
-        widest = max(widest, int(lay[L_HEADER + 4 * nl + 4 * k + 3]))
-    return H * in1 + 2 * H * U + U + 4 * widest + int(lay[L_W]) * H + 8
+    net = arch[0]
+    H, U, in1, feat = int(net["history"]), int(net["lstm_units"]), int(net["lstm_inputs"]), int(net["features"])
+    widest = max(4 * U, feat, int(net["skip_inputs"]), 8)
+    nl = int(net["lstm_layers"])
+    for k in range(int(net["wrench_dense"]) + int(net["head_dense"])):
+        widest = max(widest, int(layers[nl + k]["n_out"]))
+    return H * in1 + 2 * H * U + U + 4 * widest + int(net["wrench_features"]) * H + 8
 
 
 @njit(fastmath=FM, cache=True)
-def forward(p, nrm, lay, xw, ww, wk, eb, ebf, out):
+def forward(p, nrm, arch, layers, xw, ww, wk, eb, ebf, out):
     """One node's next position from its physical window.
 
-    p (S,) float32 params row; nrm (Sn,) float64 normalisation row; lay int64 layout;
+    p (S,) float32 params row; nrm (Sn,) float64 normalisation row; arch, layers the layout;
     xw (H, P) float32 physical input I [m, 1]; ww (H, W) float32 physical input II [N, N m];
     wk (work_size,) float32 work row; eb (>= widest,) int32 scratch and ebf its float32 view;
     out (3,) float64 <- the node's position at the next step [m].
     """
-    P, W, H, NL, U = lay[L_P], lay[L_W], lay[L_H], lay[L_LAYERS], lay[L_U]
-    diff, rel, per = lay[L_DIFF], lay[L_REL], lay[L_PER]
-    in1 = lay[L_IN1]
+    net = arch[0]
+    P, W, H, NL, U = net.pose_features, net.wrench_features, net.history, net.lstm_layers, net.lstm_units
+    diff, rel, per = net.differences, net.relative, net.per_node
+    in1 = net.lstm_inputs
     G = 4 * U
     # regions of the work row
     o_x = 0                         # (H, in1) LSTM input sequence, then the skip input
@@ -159,7 +199,7 @@ def forward(p, nrm, lay, xw, ww, wk, eb, ebf, out):
                     c = a + q
                     wk[o_x + j * in1 + c] = np.float32((np.float64(xw[j, c]) - last - nrm[c]) / nrm[P + c])
     if diff != 0:
-        ods, odsh = lay[L_OFF_DS], lay[L_OFF_DSH]
+        ods, odsh = net.off_delta_scale, net.off_delta_shift
         for c in range(P):
             wk[o_x + P + c] = np.float32(0.0)
         for j in range(1, H):
@@ -173,8 +213,8 @@ def forward(p, nrm, lay, xw, ww, wk, eb, ebf, out):
     # ---- LSTM layers over the window, zero initial state
     src, n_src = o_x, in1
     for layer in range(NL):
-        rec = L_HEADER + 4 * layer
-        off_ih, off_hh, off_b, n_in = lay[rec], lay[rec + 1], lay[rec + 2], lay[rec + 3]
+        rec = layers[layer]
+        off_ih, off_hh, off_b, n_in = rec.off_w, rec.off_u, rec.off_b, rec.n_in
         dst = o_h + (layer % 2) * H * U
         for u in range(U):
             wk[o_c + u] = np.float32(0.0)
@@ -191,35 +231,34 @@ def forward(p, nrm, lay, xw, ww, wk, eb, ebf, out):
     for u in range(U):
         wk[o_f + u] = wk[src + (H - 1) * U + u]
     n_feat = U
-    nwd, nhd = lay[L_NWD], lay[L_NHD]
-    base = L_HEADER + 4 * NL
+    nwd, nhd = net.wrench_dense, net.head_dense
     if W > 0:
         cur, n_cur = o_w, H * W
         for k in range(nwd):
-            r = base + 4 * k
-            _affine(p, lay[r], lay[r + 1], lay[r + 2], lay[r + 3], wk, cur, wk, o_d)
-            _logistic(wk, o_d, lay[r + 3], eb, ebf)
-            for q in range(lay[r + 3]):
+            r = layers[NL + k]
+            _affine(p, r.off_w, r.off_b, r.n_in, r.n_out, wk, cur, wk, o_d)
+            _logistic(wk, o_d, r.n_out, eb, ebf)
+            for q in range(r.n_out):
                 wk[o_g + q] = np.float32(2.0) * wk[o_d + q] - np.float32(1.0)
-            cur, n_cur = o_g, lay[r + 3]
+            cur, n_cur = o_g, r.n_out
         for q in range(n_cur):
             wk[o_f + n_feat + q] = wk[cur + q]
         n_feat += n_cur
     # ---- head dense layers
     cur = o_f
     for k in range(nhd):
-        r = base + 4 * (nwd + k)
-        _affine(p, lay[r], lay[r + 1], lay[r + 2], lay[r + 3], wk, cur, wk, o_d)
-        _logistic(wk, o_d, lay[r + 3], eb, ebf)
+        r = layers[NL + nwd + k]
+        _affine(p, r.off_w, r.off_b, r.n_in, r.n_out, wk, cur, wk, o_d)
+        _logistic(wk, o_d, r.n_out, eb, ebf)
         dst = o_g if cur != o_g else o_s
-        for q in range(lay[r + 3]):
+        for q in range(r.n_out):
             wk[dst + q] = np.float32(2.0) * wk[o_d + q] - np.float32(1.0)
         cur = dst
     # ---- output layer (+ linear skip of the LSTM input window and the wrench window)
-    _affine(p, lay[L_OFF_OUT], lay[L_OFF_OUT] + 3 * lay[L_OUT_IN], lay[L_OUT_IN], 3, wk, cur, wk, o_d)
-    if lay[L_SKIP] != 0:
+    _affine(p, net.off_out, net.off_out + 3 * net.out_inputs, net.out_inputs, 3, wk, cur, wk, o_d)
+    if net.skip != 0:
         n_x = H * in1
-        off = lay[L_OFF_SKIP]
+        off = net.off_skip
         for i in range(n_x):
             xi = wk[o_x + i]
             for q in range(3):
@@ -230,7 +269,7 @@ def forward(p, nrm, lay, xw, ww, wk, eb, ebf, out):
                 wk[o_d + q] += xi * p[off + (n_x + i) * 3 + q]
     # ---- denormalise (float64, like Normalizer.denormalise_outputs)
     tm = 2 * P + 2 * W
-    mode = lay[L_OUT]
+    mode = net.output
     for q in range(3):
         y = np.float64(wk[o_d + q]) * nrm[tm + 3 + q] + nrm[tm + q]
         if mode == OUT_INCREMENT:
@@ -241,7 +280,7 @@ def forward(p, nrm, lay, xw, ww, wk, eb, ebf, out):
 
 
 @njit(cache=True)
-def predict_windows(params, norm, lay, which, X, Wr, wk, eb, out):
+def predict_windows(params, norm, arch, layers, which, X, Wr, wk, eb, out):
     """Batched stateless prediction: window b uses model ``which[b]``.
 
     X (B, H, P) float32; Wr (B, H, W) float32; wk (work_size,) float32; eb int32 scratch;
@@ -250,7 +289,7 @@ def predict_windows(params, norm, lay, which, X, Wr, wk, eb, out):
     o3 = np.empty(3)
     for b in range(X.shape[0]):
         m = which[b]
-        forward(params[m], norm[m], lay, X[b], Wr[b], wk, eb, ebf, o3)
+        forward(params[m], norm[m], arch, layers, X[b], Wr[b], wk, eb, ebf, o3)
         for q in range(3):
             out[b, q] = o3[q]
 
@@ -271,7 +310,8 @@ def gather_window(pos, quat, rows, cols, per, xw):
 
 
 @njit(cache=True)
-def rollout_steps(params, norm, lay, which, in_cols, tgt_cols, pos, quat, wrench, k0, k1, limit, pred, wk, eb):
+def rollout_steps(params, norm, arch, layers, which, in_cols, tgt_cols, pos, quat, wrench, k0, k1, limit, pred, wk,
+                  eb):
     """Free-running steps k0 .. k1-1 of the rows of ``pos`` (T, N, 3) float32, in place.
 
     At step k every modelled node b (model ``which[b]``, window columns ``in_cols[b]``, own column
@@ -280,7 +320,7 @@ def rollout_steps(params, norm, lay, which, in_cols, tgt_cols, pos, quat, wrench
     any is written to row k (synchronous update). Returns (status, b, k): status 0 done, 1 a
     prediction was not finite or beyond ``limit`` [m] (node b, step k)."""
     for k in range(k0, k1):
-        status, b = predict_row(params, norm, lay, which, in_cols, pos, quat, wrench, k, limit, pred, wk, eb)
+        status, b = predict_row(params, norm, arch, layers, which, in_cols, pos, quat, wrench, k, limit, pred, wk, eb)
         if status != 0:
             return status, b, k
         for b in range(which.shape[0]):
@@ -290,20 +330,24 @@ def rollout_steps(params, norm, lay, which, in_cols, tgt_cols, pos, quat, wrench
 
 
 # ---------------------------------------------------------------------- one node, one call per step
-# A NodeStepper keeps everything in three arrays so a step costs one dispatch with few arguments:
-# f32 = [params row | window I (H*P) | window II (H*W) | work row | exponent scratch], f64 = [norm row | out (3)],
-# ints = [offsets (S_I), lay...]. The offsets header:
-S_P, S_NP, S_X, S_W, S_WK, S_NWK, S_EB, S_NEB, S_OUT, S_I = range(10)
+# A NodeStepper keeps its arrays in two buffers so a step costs one dispatch with few arguments:
+# f32 = [params row (S) | window I (H*P) | window II (H*W) | work row | exponent scratch (work row's length)],
+# f64 = [norm row | out (3)].
 
 
 @njit(cache=True)
-def node_step(f32, f64, ints, pose, wrench, push):
+def node_step(f32, f64, arch, layers, pose, wrench, push):
     """Append ``pose`` (P,) and ``wrench`` (W,) to the windows (if ``push``) and predict the next
-    position into f64[out:out+3]."""
-    lay = ints[S_I:]
-    H, P, W = lay[L_H], lay[L_P], lay[L_W]
-    x = f32[ints[S_X]:ints[S_X] + H * P].reshape(H, P)
-    w = f32[ints[S_W]:ints[S_W] + H * W].reshape(H, W)
+    position into the last 3 values of f64."""
+    net = arch[0]
+    H, P, W, S, n_work = net.history, net.pose_features, net.wrench_features, net.params_length, net.work_length
+    o_x = S
+    o_w = o_x + H * P
+    o_wk = o_w + H * W
+    o_eb = o_wk + n_work
+    o_out = f64.shape[0] - 3
+    x = f32[o_x:o_x + H * P].reshape(H, P)
+    w = f32[o_w:o_w + H * W].reshape(H, W)
     if push:
         for j in range(H - 1):
             for c in range(P):
@@ -314,17 +358,17 @@ def node_step(f32, f64, ints, pose, wrench, push):
             x[H - 1, c] = pose[c]
         for c in range(W):
             w[H - 1, c] = wrench[c]
-    eb = f32[ints[S_EB]:ints[S_EB] + ints[S_NEB]].view(np.int32)
-    forward(f32[ints[S_P]:ints[S_P] + ints[S_NP]], f64[:ints[S_OUT]], lay, x, w,
-            f32[ints[S_WK]:ints[S_WK] + ints[S_NWK]], eb, f32[ints[S_EB]:ints[S_EB] + ints[S_NEB]],
-            f64[ints[S_OUT]:ints[S_OUT] + 3])
+    scratch = f32[o_eb:o_eb + n_work]
+    forward(f32[:S], f64[:o_out], arch, layers, x, w, f32[o_wk:o_wk + n_work], scratch.view(np.int32), scratch,
+            f64[o_out:o_out + 3])
 
 
 @njit(cache=True)
-def predict_row(params, norm, lay, which, in_cols, pos, quat, wrench, k, limit, pred, wk, eb):
+def predict_row(params, norm, arch, layers, which, in_cols, pos, quat, wrench, k, limit, pred, wk, eb):
     """pred (B, 3) float64 <- every node's prediction of row k of ``pos`` from rows k-H .. k-1
     (nothing is written to pos). Returns (status, b) as ``rollout_steps``."""
-    H, P, W, per = lay[L_H], lay[L_P], lay[L_W], lay[L_PER]
+    net = arch[0]
+    H, P, W, per = net.history, net.pose_features, net.wrench_features, net.per_node
     ebf = eb.view(np.float32)
     xw = np.empty((H, P), np.float32)
     ww = np.empty((H, W), np.float32)
@@ -337,7 +381,7 @@ def predict_row(params, norm, lay, which, in_cols, pos, quat, wrench, k, limit, 
         for j in range(H):
             for c in range(W):
                 ww[j, c] = wrench[rows[j], b, c]
-        forward(params[which[b]], norm[which[b]], lay, xw, ww, wk, eb, ebf, o3)
+        forward(params[which[b]], norm[which[b]], arch, layers, xw, ww, wk, eb, ebf, o3)
         for q in range(3):
             if not (abs(o3[q]) <= limit):
                 return 1, b
@@ -346,10 +390,12 @@ def predict_row(params, norm, lay, which, in_cols, pos, quat, wrench, k, limit, 
 
 
 @njit(cache=True, parallel=True)
-def predict_row_parallel(params, norm, lay, which, in_cols, pos, quat, wrench, k, limit, pred, wk2, eb2, flags):
+def predict_row_parallel(params, norm, arch, layers, which, in_cols, pos, quat, wrench, k, limit, pred, wk2, eb2,
+                         flags):
     """``predict_row`` with the nodes split over numba's threads; wk2 (B, work) float32 and eb2
     (B, work) int32 give every node its own scratch row, flags (B,) int64 scratch."""
-    H, P, W, per = lay[L_H], lay[L_P], lay[L_W], lay[L_PER]
+    net = arch[0]
+    H, P, W, per = net.history, net.pose_features, net.wrench_features, net.per_node
     B = which.shape[0]
     for b in prange(B):
         xw = np.empty((H, P), np.float32)
@@ -363,7 +409,7 @@ def predict_row_parallel(params, norm, lay, which, in_cols, pos, quat, wrench, k
             for c in range(W):
                 ww[j, c] = wrench[rows[j], b, c]
         eb = eb2[b]
-        forward(params[which[b]], norm[which[b]], lay, xw, ww, wk2[b], eb, eb.view(np.float32), o3)
+        forward(params[which[b]], norm[which[b]], arch, layers, xw, ww, wk2[b], eb, eb.view(np.float32), o3)
         flags[b] = 0
         for q in range(3):
             if not (abs(o3[q]) <= limit):
@@ -439,14 +485,15 @@ def _sigma_block(y, eb):
 
 
 @njit(fastmath=FM, cache=True)
-def forward_gemm(p, nrm, lay, X, Wr, eb, out):
+def forward_gemm(p, nrm, arch, layers, X, Wr, eb, out):
     """``forward`` for B nodes sharing one model, every layer one BLAS product.
 
     X (B, H, P), Wr (B, H, W) float32 physical windows; eb (>= B * widest,) int32 scratch;
     out (B, 3) float64 [m]."""
-    P, W, H, NL, U = lay[L_P], lay[L_W], lay[L_H], lay[L_LAYERS], lay[L_U]
-    diff, rel, per = lay[L_DIFF], lay[L_REL], lay[L_PER]
-    in1 = lay[L_IN1]
+    net = arch[0]
+    P, W, H, NL, U = net.pose_features, net.wrench_features, net.history, net.lstm_layers, net.lstm_units
+    diff, rel, per = net.differences, net.relative, net.per_node
+    in1 = net.lstm_inputs
     G = 4 * U
     B = X.shape[0]
     zs = np.empty((H, B, in1), np.float32)                 # LSTM input sequence
@@ -468,7 +515,7 @@ def forward_gemm(p, nrm, lay, X, Wr, eb, out):
             for c in range(W):
                 wn[b, j * W + c] = np.float32((np.float64(Wr[b, j, c]) - nrm[2 * P + c]) / nrm[2 * P + W + c])
         if diff != 0:
-            ods, odsh = lay[L_OFF_DS], lay[L_OFF_DSH]
+            ods, odsh = net.off_delta_scale, net.off_delta_shift
             for c in range(P):
                 zs[0, b, P + c] = np.float32(0.0)
             for j in range(1, H):
@@ -482,8 +529,8 @@ def forward_gemm(p, nrm, lay, X, Wr, eb, out):
     seq = zs
     hs = np.empty((H, B, U), np.float32)
     for layer in range(NL):
-        rec = L_HEADER + 4 * layer
-        off_ih, off_hh, off_b, n_in = lay[rec], lay[rec + 1], lay[rec + 2], lay[rec + 3]
+        rec = layers[layer]
+        off_ih, off_hh, off_b, n_in = rec.off_w, rec.off_u, rec.off_b, rec.n_in
         hs = np.empty((H, B, U), np.float32)
         c = np.zeros((B, U), np.float32)
         for j in range(H):
@@ -502,16 +549,15 @@ def forward_gemm(p, nrm, lay, X, Wr, eb, out):
                 for u in range(U):
                     hs[j, b, u] = g[b, 3 * U + u] * (np.float32(2.0) * t[b, u] - np.float32(1.0))
         seq = hs
-    nwd, nhd = lay[L_NWD], lay[L_NHD]
-    base = L_HEADER + 4 * NL
+    nwd, nhd = net.wrench_dense, net.head_dense
     feat_w = wn
     if W > 0:
         for k in range(nwd):
-            r = base + 4 * k
-            y = _dense(feat_w, p, lay[r], lay[r + 1], lay[r + 2], lay[r + 3])
+            r = layers[NL + k]
+            y = _dense(feat_w, p, r.off_w, r.off_b, r.n_in, r.n_out)
             _sigma_block(y, eb)
             for b in range(B):
-                for q in range(lay[r + 3]):
+                for q in range(r.n_out):
                     y[b, q] = np.float32(2.0) * y[b, q] - np.float32(1.0)
             feat_w = y
     n_w = feat_w.shape[1] if W > 0 else 0
@@ -523,18 +569,18 @@ def forward_gemm(p, nrm, lay, X, Wr, eb, out):
             feat[b, U + q] = feat_w[b, q]
     cur = feat
     for k in range(nhd):
-        r = base + 4 * (nwd + k)
-        y = _dense(cur, p, lay[r], lay[r + 1], lay[r + 2], lay[r + 3])
+        r = layers[NL + nwd + k]
+        y = _dense(cur, p, r.off_w, r.off_b, r.n_in, r.n_out)
         _sigma_block(y, eb)
         for b in range(B):
-            for q in range(lay[r + 3]):
+            for q in range(r.n_out):
                 y[b, q] = np.float32(2.0) * y[b, q] - np.float32(1.0)
         cur = y
-    y = _dense(cur, p, lay[L_OFF_OUT], lay[L_OFF_OUT] + 3 * lay[L_OUT_IN], lay[L_OUT_IN], 3)
-    if lay[L_SKIP] != 0:
-        y += np.dot(sk, _mat(p, lay[L_OFF_SKIP], n_skip, 3))
+    y = _dense(cur, p, net.off_out, net.off_out + 3 * net.out_inputs, net.out_inputs, 3)
+    if net.skip != 0:
+        y += np.dot(sk, _mat(p, net.off_skip, n_skip, 3))
     tm = 2 * P + 2 * W
-    mode = lay[L_OUT]
+    mode = net.output
     for b in range(B):
         for q in range(3):
             v = np.float64(y[b, q]) * nrm[tm + 3 + q] + nrm[tm + q]
@@ -546,9 +592,10 @@ def forward_gemm(p, nrm, lay, X, Wr, eb, out):
 
 
 @njit(cache=True)
-def _gather_all(lay, in_cols, pos, quat, wrench, k, X, Wr):
+def _gather_all(arch, in_cols, pos, quat, wrench, k, X, Wr):
     """X (B, H, P) and Wr (B, H, W) <- every node's windows for row k (rows k-H .. k-1)."""
-    H, W, per = lay[L_H], lay[L_W], lay[L_PER]
+    net = arch[0]
+    H, W, per = net.history, net.wrench_features, net.per_node
     rows = np.empty(H, np.int64)
     for j in range(H):
         rows[j] = k - H + j
@@ -560,12 +607,12 @@ def _gather_all(lay, in_cols, pos, quat, wrench, k, X, Wr):
 
 
 @njit(cache=True)
-def predict_row_shared(params, norm, lay, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb):
+def predict_row_shared(params, norm, arch, layers, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb):
     """``predict_row`` for nodes that all use model 0 of ``params``, through ``forward_gemm``;
     X (B, H, P), Wr (B, H, W) float32 window scratch, eb int32 scratch."""
     B = in_cols.shape[0]
-    _gather_all(lay, in_cols, pos, quat, wrench, k, X, Wr)
-    forward_gemm(params[0], norm[0], lay, X, Wr, eb, pred)
+    _gather_all(arch, in_cols, pos, quat, wrench, k, X, Wr)
+    forward_gemm(params[0], norm[0], arch, layers, X, Wr, eb, pred)
     for b in range(B):
         for q in range(3):
             if not (abs(pred[b, q]) <= limit):
@@ -574,10 +621,12 @@ def predict_row_shared(params, norm, lay, in_cols, pos, quat, wrench, k, limit, 
 
 
 @njit(cache=True)
-def rollout_steps_shared(params, norm, lay, in_cols, tgt_cols, pos, quat, wrench, k0, k1, limit, pred, X, Wr, eb):
+def rollout_steps_shared(params, norm, arch, layers, in_cols, tgt_cols, pos, quat, wrench, k0, k1, limit, pred, X,
+                         Wr, eb):
     """``rollout_steps`` for nodes that all use model 0, through ``forward_gemm``."""
     for k in range(k0, k1):
-        status, b = predict_row_shared(params, norm, lay, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb)
+        status, b = predict_row_shared(params, norm, arch, layers, in_cols, pos, quat, wrench, k, limit, pred, X, Wr,
+                                       eb)
         if status != 0:
             return status, b, k
         for b in range(in_cols.shape[0]):
@@ -587,15 +636,16 @@ def rollout_steps_shared(params, norm, lay, in_cols, tgt_cols, pos, quat, wrench
 
 
 @njit(cache=True, parallel=True)
-def predict_row_shared_parallel(params, norm, lay, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb, chunks):
+def predict_row_shared_parallel(params, norm, arch, layers, in_cols, pos, quat, wrench, k, limit, pred, X, Wr, eb,
+                                chunks):
     """``predict_row_shared`` with the nodes cut into ``chunks`` (C+1,) boundaries, one BLAS pass per
     chunk on numba's threads; eb (C, n) int32 scratch, one row per chunk."""
     B = in_cols.shape[0]
-    _gather_all(lay, in_cols, pos, quat, wrench, k, X, Wr)
+    _gather_all(arch, in_cols, pos, quat, wrench, k, X, Wr)
     n_chunks = chunks.shape[0] - 1
     for i in prange(n_chunks):
         lo, hi = chunks[i], chunks[i + 1]
-        forward_gemm(params[0], norm[0], lay, X[lo:hi], Wr[lo:hi], eb[i], pred[lo:hi])
+        forward_gemm(params[0], norm[0], arch, layers, X[lo:hi], Wr[lo:hi], eb[i], pred[lo:hi])
     for b in range(B):
         for q in range(3):
             if not (abs(pred[b, q]) <= limit):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol
@@ -16,6 +17,7 @@ from typing import Protocol
 import numpy as np
 
 from ...errors import SoftrnnInputError, bad
+from ...io.reader import Dataset, read_dataset
 from ._losses import _MultiStep, _OneStep, _RelativeMultiStep
 from .data import Normalizer, SampleSpec, Windows, make_windows, split
 from .model import ModelConfig
@@ -123,8 +125,6 @@ def load_training_data(dataset_path, spec: SampleSpec, train: _WindowSettings, p
 def _load_data(dataset_path, spec: SampleSpec, pool=None):
     """(resolved spec, dataset of the window nodes (of every pooled node), source description,
     the pool as absolute node indices or None)."""
-    from ...io.dataset import Dataset, read_dataset
-
     if isinstance(dataset_path, Dataset):
         data, path = dataset_path, None
         head = data
@@ -174,8 +174,6 @@ def _scenario_name(attrs: dict, path) -> str | None:
             return attrs[key]
     text = attrs.get("scenario_text") or ""
     if text:
-        import tomllib
-
         try:
             name = tomllib.loads(text).get("name")
             if isinstance(name, str):

@@ -154,7 +154,7 @@ def save_model(folder, model: NodeModel) -> None:
 
     def write(tmp: Path) -> None:
         state = {k: v.detach().to(torch.float32).contiguous().clone() for k, v in model.module.state_dict().items()}
-        from safetensors.torch import save_file
+        from safetensors.torch import save_file  # optional extra: learn (safetensors)
 
         save_file(state, str(tmp / "weights.safetensors"), metadata={"format": FORMAT,
                                                                      "format_version": str(FORMAT_VERSION)})
@@ -258,7 +258,7 @@ def _read_weights(folder: Path, module: NodeLSTM) -> dict:
     if not path.is_file():
         raise ModelFolderError(f"{folder}: weights.safetensors is missing; the model folder is incomplete, "
                                f"train the model again")
-    from safetensors.torch import load_file
+    from safetensors.torch import load_file  # optional extra: learn (safetensors)
 
     try:
         state = load_file(str(path))

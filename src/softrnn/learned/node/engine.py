@@ -5,7 +5,7 @@ The PyTorch module is for training; for prediction its weights are packed into f
 buffer preallocated. Models of one architecture are stacked, so a whole manipulator advances in one
 call per architecture whatever mix of per-node and shared models it uses. A model shared by many
 nodes runs through ``_engine_kernels.forward_gemm`` instead: every layer is one BLAS product over
-all its nodes (split over numba's threads on request), which is 2-3x faster per node.
+all its nodes (split over numba's threads on request), cheaper per node than one kernel call each.
 
 * ``Engine``: the stacked models; ``predict(poses, wrenches, which)`` is the batched, stateless
   equivalent of ``NodeModel.predict`` (outputs equal within float32 rounding, about 1e-7 of the
@@ -17,10 +17,10 @@ all its nodes (split over numba's threads on request), which is 2-3x faster per 
 * ``engine_rollout``: the free-running rollout over a data set's span, every step inside numba
   (``softrnn.learned.node.rollout.rollout`` uses it).
 
-Choice of implementation (measured by ``softrnn bench`` on the 2-core development VM, see
-``benchmarks/README.md``): at batch 1 the numba kernel takes about 4 µs per step from Python,
-ONNX Runtime on one thread about 30 µs, TorchScript about 200 µs and eager PyTorch about 250 µs: one
-forward of a 2 x 32 LSTM is about 25 k multiply-adds, far less than a runtime's per-operator cost.
+Choice of implementation: one forward of a 2 x 32 LSTM is about 25 k multiply-adds, far less than
+the per-operator cost of ONNX Runtime, TorchScript or eager PyTorch, so a compiled kernel with
+preallocated buffers is the fastest at batch 1 (``softrnn bench`` times all four;
+``benchmarks/README.md``).
 """
 
 from __future__ import annotations
@@ -47,14 +47,15 @@ def _linears(seq) -> list:
     return [m for m in seq if hasattr(m, "weight")] if seq is not None else []
 
 
-def pack(models) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pack(models) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Flat weights of same-architecture models.
 
     Returns
     -------
     params : ndarray (M, S) float32
     norm : ndarray (M, Sn) float64
-    lay : ndarray int64 (architecture and offsets; see ``_engine_kernels``)
+    arch : ndarray (1,) of ``_engine_kernels.ARCHITECTURE`` (the architecture and offsets)
+    layers : ndarray of ``_engine_kernels.LAYER`` (per LSTM, then dense layer: offsets and widths)
     """
     models = list(models)
     if not models:
@@ -75,38 +76,37 @@ def pack(models) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     out_in = mod0.out.weight.shape[1]
     skip_in = mod0.skip.weight.shape[1] if mod0.skip is not None else 0
     feat = U + (wd[-1].weight.shape[0] if wd else H * W) * (W > 0)
-    lay = [0] * K.L_HEADER
     off = 0
-    layer_recs, dense_recs = [], []
+    layer_recs, dense_recs = [], []        # (off_w, off_u, off_b, n_in, n_out), as _engine_kernels.LAYER
     for layer in range(NL):
         n_in = in1 if layer == 0 else U
-        layer_recs.append([off, off + n_in * G, off + n_in * G + U * G, n_in])
+        layer_recs.append((off, off + n_in * G, off + n_in * G + U * G, n_in, G))
         off += n_in * G + U * G + G
     for lin in (wd if W else []) + hd:
         n_out, n_in = lin.weight.shape
-        dense_recs.append([off, off + n_in * n_out, n_in, n_out])
+        dense_recs.append((off, -1, off + n_in * n_out, n_in, n_out))
         off += n_in * n_out + n_out
-    off_out = off
-    off += out_in * 3 + 3
-    off_skip = off
-    off += skip_in * 3
-    off_ds = off
-    off += 2 * P
-    S = off
-    lay[K.L_P], lay[K.L_W], lay[K.L_H], lay[K.L_LAYERS], lay[K.L_U] = P, W, H, NL, U
-    lay[K.L_DIFF], lay[K.L_NWD], lay[K.L_NHD] = int(c.differences), len(wd) if W else 0, len(hd)
-    lay[K.L_SKIP], lay[K.L_IN1], lay[K.L_REL], lay[K.L_PER] = int(skip_in > 0), in1, int(n0.relative), n0.per_node
-    lay[K.L_OUT], lay[K.L_OFF_DS], lay[K.L_OFF_DSH] = _OUT_MODES[n0.output], off_ds, off_ds + P
-    lay[K.L_OFF_OUT], lay[K.L_OUT_IN], lay[K.L_OFF_SKIP], lay[K.L_SKIP_IN], lay[K.L_FEAT] = (
-        off_out, out_in, off_skip, skip_in, feat)
-    lay = np.array(lay + [v for rec in layer_recs + dense_recs for v in rec], dtype=np.int64)
+    off_out = off                           # then the output layer, the skip, the difference scale and shift
+    off_skip = off_out + out_in * 3 + 3
+    off_ds = off_skip + skip_in * 3
+    S = off_ds + 2 * P
+    arch = np.zeros(1, K.ARCHITECTURE)
+    for name, value in dict(
+            pose_features=P, wrench_features=W, history=H, lstm_layers=NL, lstm_units=U, lstm_inputs=in1,
+            differences=int(c.differences), relative=int(n0.relative), per_node=n0.per_node,
+            wrench_dense=len(wd) if W else 0, head_dense=len(hd), features=feat, output=_OUT_MODES[n0.output],
+            off_out=off_out, out_inputs=out_in, skip=int(skip_in > 0), off_skip=off_skip, skip_inputs=skip_in,
+            off_delta_scale=off_ds, off_delta_shift=off_ds + P, params_length=S).items():
+        arch[name] = value
+    layers = np.array(layer_recs + dense_recs, dtype=K.LAYER)
+    arch["work_length"] = K.work_size(arch, layers)
 
     params = np.zeros((len(models), S), np.float32)
     norm = np.zeros((len(models), 2 * P + 2 * W + 6), np.float64)
     for i, model in enumerate(models):
         sd = {k: v.detach().cpu().numpy() for k, v in model.module.state_dict().items()}
         row = params[i]
-        for layer, (o_ih, o_hh, o_b, n_in) in enumerate(layer_recs):
+        for layer, (o_ih, o_hh, o_b, n_in, _) in enumerate(layer_recs):
             w_ih = sd[f"lstm.weight_ih_l{layer}"] * gscale[:, None]          # (4U, in)
             w_hh = sd[f"lstm.weight_hh_l{layer}"] * gscale[:, None]          # (4U, U)
             b = (sd[f"lstm.bias_ih_l{layer}"] + sd[f"lstm.bias_hh_l{layer}"]) * gscale
@@ -114,7 +114,7 @@ def pack(models) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             row[o_hh:o_hh + U * G] = w_hh.T.ravel()
             row[o_b:o_b + G] = b
         lins = (_linears(model.module.wrench_branch) if W else []) + _linears(model.module.head)
-        for lin, (o_w, o_b, n_in, n_out) in zip(lins, dense_recs):
+        for lin, (o_w, _, o_b, n_in, n_out) in zip(lins, dense_recs):
             row[o_w:o_w + n_in * n_out] = 2.0 * lin.weight.detach().numpy().T.ravel()   # tanh = 2 sigma(2x) - 1
             row[o_b:o_b + n_out] = 2.0 * lin.bias.detach().numpy()
         row[off_out:off_out + out_in * 3] = model.module.out.weight.detach().numpy().T.ravel()
@@ -126,17 +126,18 @@ def pack(models) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         nm = model.normalizer
         norm[i] = np.concatenate([nm.pose_mean, nm.pose_std, nm.wrench_mean, nm.wrench_std, nm.target_mean,
                                   nm.target_std])
-    return params, norm, lay
+    return params, norm, arch, layers
 
 
-def _scratch(lay) -> tuple[np.ndarray, np.ndarray]:
-    n = K.work_size(lay)
+def _scratch(e) -> tuple[np.ndarray, np.ndarray]:
+    """The work row and exponent scratch of ``forward`` for an ``Engine``'s architecture."""
+    n = int(e.arch[0]["work_length"])
     return np.zeros(n, np.float32), np.zeros(n, np.int32)
 
 
 def _shared_scratch(e, B: int) -> tuple:
     """Window and scratch arrays of ``forward_gemm`` for B nodes: X, Wr, eb."""
-    widest = max(4 * e.lay[K.L_U], K.work_size(e.lay))
+    widest = max(4 * int(e.arch[0]["lstm_units"]), int(e.arch[0]["work_length"]))
     return (np.zeros((B, e.history, e.pose_features), np.float32),
             np.zeros((B, e.history, e.wrench_features), np.float32),
             np.zeros(B * widest, np.int32))
@@ -155,11 +156,11 @@ class Engine:
 
     def __init__(self, models):
         self.models = list(models)
-        self.params, self.norm, self.lay = pack(self.models)
-        self.history = int(self.lay[K.L_H])
-        self.pose_features = int(self.lay[K.L_P])
-        self.wrench_features = int(self.lay[K.L_W])
-        self._wk, self._eb = _scratch(self.lay)
+        self.params, self.norm, self.arch, self.layers = pack(self.models)
+        self.history = int(self.arch[0]["history"])
+        self.pose_features = int(self.arch[0]["pose_features"])
+        self.wrench_features = int(self.arch[0]["wrench_features"])
+        self._wk, self._eb = _scratch(self)
 
     def __len__(self) -> int:
         return len(self.models)
@@ -192,7 +193,7 @@ class Engine:
         if which.shape != (B,) or (B and (which.min() < 0 or which.max() >= len(self))):
             raise bad("which", which.tolist(), f"B = {B} model indices in [0, {len(self) - 1}]")
         out = np.empty((B, 3))
-        K.predict_windows(self.params, self.norm, self.lay, which, X, Wr, self._wk, self._eb, out)
+        K.predict_windows(self.params, self.norm, self.arch, self.layers, which, X, Wr, self._wk, self._eb, out)
         return out
 
 
@@ -212,22 +213,15 @@ class NodeStepper:
         self.history, self.pose_features, self.wrench_features = (engine.history, engine.pose_features,
                                                                   engine.wrench_features)
         H, P, W = self.history, self.pose_features, self.wrench_features
-        lay = engine.lay
-        n_wk = K.work_size(lay)
+        n_wk = int(engine.arch[0]["work_length"])
         S = engine.params.shape[1]
-        offs = np.zeros(K.S_I, np.int64)
-        offs[K.S_P], offs[K.S_NP] = 0, S
-        offs[K.S_X] = S
-        offs[K.S_W] = S + H * P
-        offs[K.S_WK], offs[K.S_NWK] = S + H * P + H * W, n_wk
-        offs[K.S_EB], offs[K.S_NEB] = S + H * P + H * W + n_wk, n_wk
+        n_norm = engine.norm.shape[1]
+        # the layout of _engine_kernels.node_step: f32 = [params | window I | window II | work | scratch]
         self._f32 = np.zeros(S + H * P + H * W + 2 * n_wk, np.float32)
         self._f32[:S] = engine.params[0]
-        n_norm = engine.norm.shape[1]
-        offs[K.S_OUT] = n_norm
         self._f64 = np.zeros(n_norm + 3)
         self._f64[:n_norm] = engine.norm[0]
-        self._ints = np.concatenate([offs, lay])
+        self._arch, self._layers = engine.arch, engine.layers
         self._x = self._f32[S:S + H * P].reshape(H, P)
         self._w = self._f32[S + H * P:S + H * P + H * W].reshape(H, W)
         self._out = self._f64[n_norm:]
@@ -245,7 +239,7 @@ class NodeStepper:
         self._x[:] = x
         self._w[:] = w
         self.ready = True
-        K.node_step(self._f32, self._f64, self._ints, self._no_wrench, self._no_wrench, False)
+        K.node_step(self._f32, self._f64, self._arch, self._layers, self._no_wrench, self._no_wrench, False)
         return self._out
 
     def step(self, pose, wrench=None) -> np.ndarray:
@@ -258,7 +252,7 @@ class NodeStepper:
         if len(pose) != self.pose_features or len(wrench) != self.wrench_features:
             raise bad("pose, wrench", f"rows of {len(pose)} and {len(wrench)} values",
                       f"{self.pose_features} pose and {self.wrench_features} wrench values (one row of inputs I, II)")
-        K.node_step(self._f32, self._f64, self._ints, pose, wrench, True)
+        K.node_step(self._f32, self._f64, self._arch, self._layers, pose, wrench, True)
         return self._out
 
 
@@ -323,22 +317,22 @@ class ManipulatorStepper:
         for g in bound:
             e, n = g.engine, g.which.size
             wr = self._wr[:, lo:lo + n] if len(bound) > 1 else self._wr
-            head = (e.params, e.norm, e.lay, g.which, g.input_cols, self._pos, self._quat, wr, H, _LIMIT,
+            head = (e.params, e.norm, e.arch, e.layers, g.which, g.input_cols, self._pos, self._quat, wr, H, _LIMIT,
                     self._pred[lo:lo + n])
             if len(e) == 1 and n > 1:   # one weight set: every layer one BLAS product over the nodes
                 X, Wr, eb = _shared_scratch(e, n)
                 if self.threads > 1 and n >= 2 * self.threads:
                     chunks = np.linspace(0, n, self.threads + 1).round().astype(np.int64)
                     eb = np.zeros((self.threads, eb.size), np.int32)
-                    self._calls.append((K.predict_row_shared_parallel, head[:3] + head[4:] + (X, Wr, eb, chunks), lo))
+                    self._calls.append((K.predict_row_shared_parallel, head[:4] + head[5:] + (X, Wr, eb, chunks), lo))
                 else:
-                    self._calls.append((K.predict_row_shared, head[:3] + head[4:] + (X, Wr, eb), lo))
+                    self._calls.append((K.predict_row_shared, head[:4] + head[5:] + (X, Wr, eb), lo))
             elif self.threads > 1:
-                n_wk = K.work_size(e.lay)
+                n_wk = int(e.arch[0]["work_length"])
                 tail = (np.zeros((n, n_wk), np.float32), np.zeros((n, n_wk), np.int32), np.zeros(n, np.int64))
                 self._calls.append((K.predict_row_parallel, head + tail, lo))
             else:
-                self._calls.append((K.predict_row, head + _scratch(e.lay), lo))
+                self._calls.append((K.predict_row, head + _scratch(e), lo))
             lo += n
         self._no_wrench = np.zeros((B, W), np.float32)
         self.ready = False
@@ -446,19 +440,19 @@ def engine_rollout(bound: list[BoundGroup], positions, quaternions, forces, torq
     predicted a non-finite position or one beyond ``limit`` [m] at row k."""
     quats = np.ascontiguousarray(quaternions, dtype=np.float32)
     wrenches = [wrench_rows(forces, torques, g.target_cols, g.wrench, actuation, g.channel_cols) for g in bound]
-    scratch = [(np.zeros((g.which.size, 3)),) + _scratch(g.engine.lay) for g in bound]
+    scratch = [(np.zeros((g.which.size, 3)),) + _scratch(g.engine) for g in bound]
     if len(bound) == 1 and len(bound[0].engine) == 1 and bound[0].which.size > 1:   # one shared model
         g, wr = bound[0], wrenches[0]
         e = g.engine
-        status, b, k = K.rollout_steps_shared(e.params, e.norm, e.lay, g.input_cols, g.target_cols, positions, quats,
-                                              wr, k0, k1, float(limit), scratch[0][0],
+        status, b, k = K.rollout_steps_shared(e.params, e.norm, e.arch, e.layers, g.input_cols, g.target_cols,
+                                              positions, quats, wr, k0, k1, float(limit), scratch[0][0],
                                               *_shared_scratch(e, g.which.size))
         return int(status), (int(g.nodes[b]) if status else -1), int(k)
     if len(bound) == 1:   # the common case: every step inside one kernel call
         g, (pred, wk, eb), wr = bound[0], scratch[0], wrenches[0]
         e = g.engine
-        status, b, k = K.rollout_steps(e.params, e.norm, e.lay, g.which, g.input_cols, g.target_cols, positions,
-                                       quats, wr, k0, k1, float(limit), pred, wk, eb)
+        status, b, k = K.rollout_steps(e.params, e.norm, e.arch, e.layers, g.which, g.input_cols, g.target_cols,
+                                       positions, quats, wr, k0, k1, float(limit), pred, wk, eb)
         return int(status), (int(g.nodes[b]) if status else -1), int(k)
     for k in range(k0, k1):   # several architectures: predict all, then write all (synchronous)
         preds = []
@@ -477,11 +471,11 @@ def _predict_row(e: Engine, g: BoundGroup, positions, quats, wr, k: int, limit: 
     H = e.history
     X = np.empty((g.which.size, H, e.pose_features), np.float32)
     rows = np.arange(k - H, k, dtype=np.int64)
-    per = int(e.lay[K.L_PER])
+    per = int(e.arch[0]["per_node"])
     for b in range(g.which.size):
         K.gather_window(positions, quats, rows, g.input_cols[b], per, X[b])
-    K.predict_windows(e.params, e.norm, e.lay, g.which, X, np.ascontiguousarray(wr[k - H:k].transpose(1, 0, 2)),
-                      wk, eb, pred)
+    K.predict_windows(e.params, e.norm, e.arch, e.layers, g.which, X,
+                      np.ascontiguousarray(wr[k - H:k].transpose(1, 0, 2)), wk, eb, pred)
     bad_rows = ~(np.abs(pred) <= limit).all(axis=1)
     if bad_rows.any():
         return 1, int(np.flatnonzero(bad_rows)[0]), k

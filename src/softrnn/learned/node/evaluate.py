@@ -22,7 +22,7 @@ error [mm], the largest as a percentage of the rod length, and RMSE(t) = sqrt(((
 so no orientation errors (degrees) are reported.
 
 Beside the model, as the house rule asks (a learned model is never reported alone, nor one step
-ahead alone), ``evaluate`` runs the baselines of ``softrnn.learned.node.baselines`` over the same
+ahead alone), ``evaluate`` runs the baselines of ``softrnn.learned.baselines`` over the same
 targets, one step ahead and free running: persistence, constant velocity, and a linear
 autoregressive model (``LinearAR``, mode "node") with the model's inputs (its history, its node's
 and neighbours' positions, its node's force or wrench; positions only for a model of poses), fitted
@@ -41,13 +41,21 @@ record is longer than the history; each problem is a one-line ``SoftrnnInputErro
 from __future__ import annotations
 
 import math
+import tomllib
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import final
 
 import numpy as np
 
 from ...errors import SoftrnnInputError, bad
+from ...io.reader import read_dataset
+from ...paper import paper_results
+from .. import baselines as bl
+from ..horizons import HORIZONS, HorizonTable, spread_starts, worst_by_horizon
+from ..spans import check_length
+from .data import actuation_rows, make_windows, split
 from .manipulator import RolloutDiverged, _stored, describe_model, model_inputs
 from .rollout import rollout
 
@@ -161,14 +169,9 @@ def evaluation_span(model, n_samples: int, *, generalisation: bool = False) -> t
     """Sample span [start, stop) whose windows are evaluated: the test span of the model's split
     (``data.split``), or with ``generalisation`` the whole record. Targets are ``start+H .. stop-1``.
     Too short a record is a one-line SoftrnnInputError."""
-    from .data import split
-
     H = int(model.spec.history)
     if generalisation:
-        if n_samples <= H:
-            raise SoftrnnInputError(
-                f"the data set has {n_samples} samples but the model's history is {H}: it needs at least "
-                f"{H + 1} (the history and one sample to predict); use a longer record")
+        check_length(n_samples, H, advice="use a longer record")
         return 0, int(n_samples)
     test = split(int(n_samples), model.spec)[1]
     return int(test.start), int(test.stop)
@@ -178,8 +181,6 @@ def one_step(model, dataset, start: int | None = None, stop: int | None = None, 
              batch_size: int = 4096) -> Prediction:
     """One-step-ahead predictions of every window inside samples [start, stop) (default: the test
     span), each from the reference history, ``batch_size`` windows per ``predict`` call."""
-    from .data import make_windows
-
     if start is None or stop is None:
         s0, s1 = evaluation_span(model, dataset.n_samples)
         start = s0 if start is None else start
@@ -303,8 +304,6 @@ def paper_reference(attrs: dict) -> dict | None:
     with the paper's test figures, a generalisation scenario with its generalisation figures.
     Returns {key, figures: 'test' | 'generalisation', section, predicted_node, max_abs_mm,
     mean_abs_mm, max_pct_of_length} or None."""
-    from ...paper import paper_results
-
     table = _scenario_toml(attrs).get("paper")
     key = role = None
     if isinstance(table, dict) and isinstance(table.get("key"), str):
@@ -326,8 +325,6 @@ def paper_reference(attrs: dict) -> dict | None:
 
 def _scenario_toml(attrs: dict) -> dict:
     """The data set's scenario text (TOML) as a dict ({} if absent or unreadable)."""
-    import tomllib
-
     text = attrs.get("scenario_text")
     if not isinstance(text, str) or not text.strip():
         return {}
@@ -391,7 +388,7 @@ class BaselineEvaluation:
     diverged: dict | None = None
     details: dict = field(default_factory=dict)
 
-    def to_json(self) -> dict:
+    def to_dict(self) -> dict:
         """{one_step: {...}, free_running: {..., diverged: false} or {diverged: true, node, sample,
         time_s} or None (not run), history, span_samples: [first, last target], ...details}."""
         if self.free_running_errors is not None:
@@ -401,9 +398,11 @@ class BaselineEvaluation:
         return {"one_step": self.one_step_errors.summary(), "free_running": free, "history": self.history,
                 "span_samples": [int(self.one_step.index[0]), int(self.one_step.index[-1])], **self.details}
 
+    to_json = to_dict
+
 
 def node_arrays(model, dataset) -> tuple[np.ndarray, np.ndarray | None]:
-    """A node model's inputs as baseline arrays (``softrnn.learned.node.baselines``), float64.
+    """A node model's inputs as baseline arrays (``softrnn.learned.baselines``), float64.
 
     Parameters
     ----------
@@ -422,8 +421,6 @@ def node_arrays(model, dataset) -> tuple[np.ndarray, np.ndarray | None]:
         actuation channels (``spec.channels``, in their units; the same in every column, the linear
         model reads column 0's), or None (no input II).
     """
-    from .data import actuation_rows
-
     node, neighbours = model_inputs(model)
     stored = np.asarray(dataset.nodes)
     cols = [int(np.flatnonzero(stored == a)[0]) for a in (node, *neighbours)]
@@ -465,9 +462,6 @@ def fit_linear(model, positions, wrenches, *, generalisation: bool = False) -> t
         The model (None: the span is too short to fit, ``skipped`` says why) and {fitted_on:
         {samples: [0, cut], what}, inputs, fit: ``LinearAR.summary()`` or skipped}.
     """
-    from .baselines import LinearAR, LinearARConfig
-    from .data import split
-
     spec = model.spec
     T = int(positions.shape[0])
     if generalisation:
@@ -479,10 +473,10 @@ def fit_linear(model, positions, wrenches, *, generalisation: bool = False) -> t
         what = f"the model's training span of this data set (samples 0..{cut - 1})"
     details = {"fitted_on": {"samples": [0, cut], "what": what}, "inputs": _inputs_text(model)}
     width = None if getattr(spec, "drive", "wrench") == "wrench" or wrenches is None else int(wrenches.shape[-1])
-    config = LinearARConfig(history=int(spec.history), mode="node", neighbours=tuple(range(1, positions.shape[1])),
+    config = bl.LinearARConfig(history=int(spec.history), mode="node", neighbours=tuple(range(1, positions.shape[1])),
                             wrench_width=width)
     try:
-        linear = LinearAR.fit(config, positions, wrenches, 0, cut, modelled=[0])
+        linear = bl.LinearAR.fit(config, positions, wrenches, 0, cut, modelled=[0])
     except SoftrnnInputError as err:
         return None, dict(details, skipped=str(err))
     return linear, dict(details, fit=linear.summary())
@@ -505,8 +499,6 @@ def _baseline_evaluation(name: str, baseline, positions, wrenches, time, first: 
                          node: int, length: float | None, free: bool, details: dict):
     """``BaselineEvaluation`` of the targets first..stop-1 (from the baseline's history on), or a
     {skipped: reason} dict when none of them is past its history."""
-    from . import baselines as bl
-
     s = max(first, int(baseline.history))
     if s >= stop:
         return dict(details, skipped=f"the span's targets {first}..{stop - 1} lie within its history "
@@ -538,9 +530,28 @@ def _model_free_run(model, dataset, positions, wrenches, start: int, stop: int) 
     return out
 
 
+@final
+@dataclass(frozen=True, eq=False)
+class BaselineComparison:
+    """The result of ``compare_baselines``."""
+
+    baselines: dict
+    """{name: ``BaselineEvaluation``, or {skipped: reason, ...} when it cannot be run}, in
+    ``BASELINES`` order."""
+    horizons: HorizonTable | None = None
+    """The ``horizon_table`` of the model and the baselines over the same targets (None: not run free)."""
+
+    def to_dict(self) -> dict:
+        """{'baselines': {name: ``BaselineEvaluation.to_dict()`` or {skipped, ...}}, 'horizons':
+        ``HorizonTable.to_dict()`` or None}: the blocks of ``Evaluation.to_dict``."""
+        return {"baselines": {k: v.to_dict() if isinstance(v, BaselineEvaluation) else dict(v)
+                              for k, v in self.baselines.items()},
+                "horizons": None if self.horizons is None else self.horizons.to_dict()}
+
+
 def compare_baselines(model, dataset, start: int, stop: int, *, generalisation: bool = False,
                       length: float | None = None, free: bool = True, horizons=None,
-                      n_starts: int = HORIZON_STARTS) -> tuple[dict, dict | None]:
+                      n_starts: int = HORIZON_STARTS) -> BaselineComparison:
     """The baselines over the model's targets start+H .. stop-1 (``evaluation_span``).
 
     Parameters
@@ -558,22 +569,16 @@ def compare_baselines(model, dataset, start: int, stop: int, *, generalisation: 
     free : bool
         Also run free (each baseline, and the horizons of the model and the baselines).
     horizons : sequence of int or None
-        [samples] (default ``baselines.HORIZONS``).
+        [samples] (default ``softrnn.learned.horizons.HORIZONS``).
     n_starts : int
         Starts per horizon.
 
     Returns
     -------
-    (dict, dict or None)
-        {name: BaselineEvaluation, or {skipped: reason, ...} when it cannot be run} in ``BASELINES``
-        order, and with ``free`` the ``horizon_table`` of the model and the baselines over the
-        same targets (None without ``free``).
+    BaselineComparison
+        Each baseline's evaluation (or why it was skipped) and, with ``free``, the horizon table.
     """
-    from functools import partial
-
-    from . import baselines as bl
-
-    horizons = bl.HORIZONS if horizons is None else horizons
+    horizons = HORIZONS if horizons is None else horizons
     positions, wrenches = node_arrays(model, dataset)
     time = np.asarray(dataset.time, dtype=np.float64)
     linear, details = fit_linear(model, positions, wrenches, generalisation=generalisation)
@@ -585,23 +590,25 @@ def compare_baselines(model, dataset, start: int, stop: int, *, generalisation: 
         out[name] = dict(info) if b is None else _baseline_evaluation(
             name, b, positions, wrenches, time, first, stop, node=node, length=length, free=free, details=info)
     if not free:
-        return out, None
+        return BaselineComparison(baselines=out)
     ready = {k: b for k, b in predictors.items() if isinstance(out[k], BaselineEvaluation)}
     runs = {"model": partial(_model_free_run, model, dataset)}
     runs.update({k: partial(bl.free_run, b, modelled=[0]) for k, b in ready.items()})
     h_first = max([first] + [int(b.history) for b in ready.values()])
     table = horizon_table(runs, positions, wrenches, h_first, stop, horizons, n_starts=n_starts, nodes=[0],
                           length=length)
-    return out, table
+    return BaselineComparison(baselines=out, horizons=table)
 
 
-def _spread(first: int, last: int, n: int) -> list[int]:
-    """Up to ``n`` distinct integers spread evenly over [first, last]."""
-    return sorted({int(round(v)) for v in np.linspace(first, last, max(1, int(n)))})
+def _error_at(fn, positions, wrenches, stop: int, nodes, span: int, start: int, h: int) -> float:
+    """``worst_by_horizon``'s error of a node predictor: the largest |predicted - reference| [m]
+    over ``nodes`` and axes at sample start + h - 1 (``baselines.horizon_errors``); inf: diverged."""
+    res = bl.horizon_errors(fn, positions, wrenches, [start], (h,), stop=stop, nodes=nodes)[h]
+    return np.inf if res["diverged"] else res["max_abs_m"]
 
 
 def horizon_table(runs: dict, positions, wrenches, first: int, stop: int, horizons=None, *,
-                  n_starts: int = HORIZON_STARTS, nodes=None, length: float | None = None) -> dict:
+                  n_starts: int = HORIZON_STARTS, nodes=None, length: float | None = None) -> HorizonTable:
     """Free-running errors by horizon of several predictors, from the same starts.
 
     Parameters
@@ -615,9 +622,10 @@ def horizon_table(runs: dict, positions, wrenches, first: int, stop: int, horizo
         Passed to the predictors.
     first, stop : int
         The span: for horizon h the starts (first predicted samples) are ``n_starts`` samples
-        spread over [first, stop - h]; ``first`` >= every predictor's history.
+        spread over [first, stop - h] (``horizons.spread_starts``); ``first`` >= every predictor's
+        history.
     horizons : sequence of int or None
-        [samples] (default ``baselines.HORIZONS``: 1, 10, 100, 1000); one that does not fit the
+        [samples] (default ``horizons.HORIZONS``: 1, 10, 100, 1000); one that does not fit the
         span (first + h > stop) is reported as None.
     n_starts : int
         Starts per horizon.
@@ -628,29 +636,26 @@ def horizon_table(runs: dict, positions, wrenches, first: int, stop: int, horizo
 
     Returns
     -------
-    dict
-        {'unit': '% of length' (or 'mm'), str(h): {name: the largest |predicted - reference| over
-        the nodes, axes and starts at sample start + h - 1, in unit, or 'diverged' (a run left
-        ``DIVERGED_M`` before h)} or None (does not fit), 'max_abs_mm': the same in mm, 'starts':
-        {str(h): [start samples] or None}, 'n_starts': n_starts}.
+    HorizonTable
+        Its ``to_dict()``: {'unit': '% of length' (or 'mm'), str(h): {name: the largest
+        |predicted - reference| over the nodes, axes and starts at sample start + h - 1, in unit,
+        or 'diverged' (a run left ``DIVERGED_M`` before h)} or None (does not fit), 'max_abs_mm':
+        the same in mm, 'starts': {str(h): [start samples] or None}, 'n_starts': n_starts}.
     """
-    from .baselines import HORIZONS, horizon_errors
-
-    table = {"unit": "% of length" if length else "mm", "n_starts": int(n_starts)}
-    mm_table, starts_table = {}, {}
+    rows, mm_table, starts_table = {}, {}, {}
     for h in sorted({int(h) for h in (HORIZONS if horizons is None else horizons)}):
-        key = str(h)
         if first + h > stop:
-            table[key] = mm_table[key] = starts_table[key] = None
+            rows[h] = mm_table[h] = starts_table[h] = None
             continue
-        starts = _spread(first, stop - h, n_starts)
         mm = {}
         for name, fn in runs.items():
-            res = horizon_errors(fn, positions, wrenches, starts, (h,), stop=stop, nodes=nodes)[h]
-            mm[name] = "diverged" if res["diverged"] else res["max_abs_m"] * 1e3
-        mm_table[key], starts_table[key] = mm, starts
-        table[key] = {k: _pct(v, length) for k, v in mm.items()}
-    return dict(table, max_abs_mm=mm_table, starts=starts_table)
+            worst = worst_by_horizon(partial(_error_at, fn, positions, wrenches, stop, nodes), [(first, stop)], (h,),
+                                     n_starts)[h]
+            mm[name] = "diverged" if np.isinf(worst.error) else worst.error * 1e3
+        mm_table[h], starts_table[h] = mm, spread_starts(first, stop - h, n_starts)
+        rows[h] = {k: _pct(v, length) for k, v in mm.items()}
+    return HorizonTable(rows=rows, unit="% of length" if length else "mm", n_starts=int(n_starts),
+                        max_abs_mm=mm_table, starts=starts_table)
 
 
 def _pct(mm, length: float | None):
@@ -663,7 +668,7 @@ def _number(value) -> bool:
 
 
 def horizon_keys(table: dict | None) -> list[str]:
-    """The horizon entries of a ``horizon_table`` (``'1'``, ``'10'``, ...; ``'test_span'`` where a
+    """The horizon entries of a ``horizon_table``'s ``to_dict()`` (``'1'``, ``'10'``, ...; ``'test_span'`` where a
     report adds the whole span), in order."""
     if not table:
         return []
@@ -687,8 +692,8 @@ def _beats(where: str, what: str, unit: str, model, others: dict) -> list[str]:
 
 
 def horizon_misses(table: dict | None) -> list[str]:
-    """Where a baseline beats the model in a ``horizon_table`` ('persistence beats the model at 10
-    steps (...)'), one sentence each."""
+    """Where a baseline beats the model in a ``horizon_table`` (its ``to_dict()``: 'persistence beats
+    the model at 10 steps (...)'), one sentence each."""
     out = []
     for key in horizon_keys(table):
         row = table[key]
@@ -701,7 +706,7 @@ def horizon_misses(table: dict | None) -> list[str]:
 
 
 def misses(report: dict) -> list[str]:
-    """Where a baseline beats the model, in plain sentences, from an ``Evaluation.to_json()``
+    """Where a baseline beats the model, in plain sentences, from an ``Evaluation.to_dict()``
     report: the RMSE one step ahead and free running [mm], and each horizon ([% of length])."""
     base = {k: v for k, v in (report.get("baselines") or {}).items() if "one_step" in v}
     out = _beats("one step ahead", "RMSE", "mm", report["one_step"]["rmse_mm"],
@@ -727,13 +732,13 @@ class Evaluation:
     paper: dict | None
     diverged: dict | None = None
     baselines: dict | None = None
-    horizons: dict | None = None
+    horizons: HorizonTable | None = None
 
-    def to_json(self) -> dict:
+    def to_dict(self) -> dict:
         """{...info, one_step: {...}, free_running: {...}, {diverged: true, node, sample, time_s} or
         None (not run), paper: {...} or None, baselines: {name: {one_step, free_running, ...}} or
         None (not run), horizons: ``horizon_table`` or None, misses: [sentences]}; RMSE(t) series
-        are not included (``rmse_series``)."""
+        are not included (``rmse_series``). The ``evaluate`` command's JSON."""
         out = dict(self.info)
         out["one_step"] = self.one_step_errors.summary()
         if self.free_running_errors is not None:
@@ -742,11 +747,13 @@ class Evaluation:
         else:
             out["free_running"] = None if self.diverged is None else dict(self.diverged, diverged=True)
         out["paper"] = self.paper
-        out["baselines"] = None if self.baselines is None else {
-            k: v.to_json() if isinstance(v, BaselineEvaluation) else dict(v) for k, v in self.baselines.items()}
-        out["horizons"] = self.horizons
+        compared = BaselineComparison(baselines=self.baselines or {}, horizons=self.horizons).to_dict()
+        out["baselines"] = None if self.baselines is None else compared["baselines"]
+        out["horizons"] = compared["horizons"]
         out["misses"] = misses(out)
         return out
+
+    to_json = to_dict
 
     def rmse_series(self) -> dict:
         """{'time_s': (T,), 'one_step_mm': (T,), 'free_running_mm': (T,) or absent, and
@@ -764,8 +771,6 @@ class Evaluation:
 def load_for_model(model, path, *, group: str | None = None):
     """Read from ``path`` only what ``model`` needs (its node and neighbours, every sample),
     after checking compatibility on the file's metadata. Errors are one line."""
-    from ...io.dataset import read_dataset
-
     head = read_dataset(path, group=group, stop=1)           # stored nodes and attrs
     check_compatible(model, head, where=str(path))
     node, neighbours = model_inputs(model)
@@ -800,7 +805,7 @@ def evaluate(model, data, *, group: str | None = None, generalisation: bool = Fa
         Also evaluate persistence, constant velocity and the linear model over the same targets
         (``compare_baselines``); False only to save time where they are reported elsewhere.
     horizons : sequence of int or None
-        Free-running horizons [samples] (default ``baselines.HORIZONS``: 1, 10, 100, 1000); those
+        Free-running horizons [samples] (default ``softrnn.learned.horizons.HORIZONS``: 1, 10, 100, 1000); those
         longer than the span are reported as None.
     horizon_starts : int
         Starts per horizon, spread over the span.
@@ -822,15 +827,16 @@ def evaluate(model, data, *, group: str | None = None, generalisation: bool = Fa
             err = run.metrics(length)
         except RolloutDiverged as exc:
             diverged = {"node": exc.node, "sample": exc.sample, "time_s": exc.time}
-    compared = table = None
+    compared = None
     if baselines:
-        compared, table = compare_baselines(model, dataset, start, stop, generalisation=generalisation,
-                                            length=length, free=free, horizons=horizons, n_starts=horizon_starts)
+        compared = compare_baselines(model, dataset, start, stop, generalisation=generalisation, length=length,
+                                     free=free, horizons=horizons, n_starts=horizon_starts)
     info = dict(_header(model, dataset, one, generalisation), model=model_name, data=source, group=group,
                 length_m=length)
     return Evaluation(info=info, one_step=one, one_step_errors=one.metrics(length), free_running=run,
                       free_running_errors=err, paper=paper_reference(dataset.attrs), diverged=diverged,
-                      baselines=compared, horizons=table)
+                      baselines=None if compared is None else compared.baselines,
+                      horizons=None if compared is None else compared.horizons)
 
 
 def _drive(spec) -> dict:

@@ -19,7 +19,7 @@ Precision: ``NodeModel.predict`` normalises in float64 and rounds to float32 bef
 the graph does the same arithmetic in float32 (means split into two float32 parts, ``_split``).
 The two differ by float32 roundings, amplified where the network differences near-equal
 z-scores: on windows of a 0.5 m rod, typically 1e-8 m and at most 1.4e-6 m (next-position output,
-random weights); tests/test_export.py requires 1e-5 m.
+random weights); tests/learned/test_export.py requires 1e-5 m.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from ... import __version__
 from ...errors import SoftrnnInputError, bad
 from ...files import atomic_write_bytes
 from .artifact import NodeModel
@@ -144,8 +145,6 @@ def describe(model: NodeModel) -> dict[str, str]:
     ``input_names``, ``output_name``, ``pose_layout``, ``wrench_layout``, ``output_layout``,
     ``precision``.
     """
-    from ... import __version__
-
     spec, c = model.spec, model.config
     dataset = model.meta.get("dataset") if isinstance(model.meta.get("dataset"), dict) else {}
     quat = ", qw, qx, qy, qz [1]" if spec.per_node == 7 else ""
@@ -217,7 +216,7 @@ def export_onnx(model: NodeModel, path, *, opset: int | None = None, dynamic_bat
         ``path``. The graph's inputs are ``poses`` (B, H, P) and, for W > 0, ``wrenches`` (B, H, W),
         its output ``next_position`` (B, 3), all float32; ``metadata_props`` holds ``describe(model)``.
     """
-    import onnx
+    import onnx  # optional extra: learn (ONNX)
 
     wrapped = PhysicalNodeModel(model)
     path = _check_target(path)
@@ -270,7 +269,7 @@ def export_torchscript(model: NodeModel, path) -> Path:
 
 def onnx_metadata(path) -> dict[str, str]:
     """The ``metadata_props`` of an ONNX file as a dict (strings; JSON values for lists and objects)."""
-    import onnx
+    import onnx  # optional extra: learn (ONNX)
 
     path = Path(path)
     if not path.is_file():

@@ -9,23 +9,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import SimulationError, SoftrnnInputError, bad
+from ...errors import SoftrnnInputError, bad
+from ..horizons import DIVERGED_M as DIVERGED_M
+from ..horizons import RolloutDiverged as RolloutDiverged
 
 UNMODELLED = ("reference", "hold")
-DIVERGED_M = 16.0
-"""A predicted coordinate beyond this [m] stops the rollout as diverged (``RolloutDiverged``); it is
-also the largest coordinate a data set file stores (``softrnn.io.dataset.POSITION_LIMIT_M``)."""
 _POSE_WIDTH = {"positions": 3, "poses": 7}
 _WRENCH_WIDTH = {"none": 0, "force": 3, "wrench": 6}
-
-
-class RolloutDiverged(SimulationError):
-    """A model predicted a non-finite position or one beyond ``DIVERGED_M``; ``node``, ``sample``
-    (reference sample index) and ``time`` [s] say where."""
-
-    def __init__(self, message: str, *, node: int, sample: int, time: float):
-        super().__init__(message)
-        self.node, self.sample, self.time = int(node), int(sample), float(time)
 
 
 # --------------------------------------------------------------------------------------- models
@@ -245,7 +235,7 @@ def _diverged(node: int, t: float, sample: int):
 def _compiled(model) -> bool:
     """True for a NodeModel the compiled engine can run (any object with a NodeLSTM ``module``,
     ``config`` and ``normalizer``); other model objects are called through ``predict``."""
-    from .model import NodeLSTM
+    from .model import NodeLSTM  # optional extra: learn (PyTorch)
 
     return isinstance(getattr(model, "module", None), NodeLSTM) and hasattr(model, "config") and hasattr(
         model, "normalizer")

@@ -42,8 +42,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import SimulationError, SoftrnnInputError, bad
+from ...errors import SimulationError, bad
+from ...io.reader import Dataset
+from ...io.schema import RESERVED_ATTRS
+from ...io.writer import write_trajectory
 from ...progress import Progress
+from .. import spans
+from .engine import engine_rollout, group_by_architecture
 from .manipulator import DIVERGED_M as DIVERGED_M
 from .manipulator import UNMODELLED as UNMODELLED
 from .manipulator import Manipulator as Manipulator
@@ -107,30 +112,18 @@ class Rollout:
 
 def check_span(n_samples: int, history: int, start, stop, where: str = "the data set") -> tuple[int, int]:
     """Validated (start, stop) of the predicted samples: start >= history (the seed lies before
-    it), stop <= n_samples, at least one sample; None: start = history, stop = n_samples."""
-    if n_samples <= history:
-        raise SoftrnnInputError(
-            f"{where} has {n_samples} samples but the model's history is {history}: it needs at least "
-            f"{history + 1} (the history and one sample to predict); use a longer record or a shorter history")
+    it), stop <= n_samples, at least one sample; None: start = history, stop = n_samples
+    (``softrnn.learned.spans``, in a rollout's words)."""
+    spans.check_length(n_samples, history, where)
     start = history if start is None else start
     stop = n_samples if stop is None else stop
-    for name, value in (("start", start), ("stop", stop)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-            raise bad(name, value, "a sample index (integer)")
-    start, stop = int(start), int(stop)
-    if not history <= start < n_samples:
-        raise bad("start", start, f"a sample index in [{history}, {n_samples - 1}]: the {history} samples "
-                                  f"before it seed the history")
-    if not start < stop <= n_samples:
-        raise bad("stop", stop, f"a sample index in [{start + 1}, {n_samples}] (after start={start})")
-    return start, stop
+    return spans.check_span(n_samples, history, start, stop, wording=spans.SEEDS)
 
 
 @contextmanager
 def torch_threads(threads: int | None):
     """Torch's intra-op thread count set to ``threads`` inside (None: unchanged), restored after.
-    The rollout's forwards are tiny (one window per node), where extra threads only add overhead
-    (measured: a 2-layer, 32-unit model takes 0.33 ms per one-window call on 1 thread, 1 ms on 2)."""
+    The rollout's forwards are tiny (one window per node), where extra threads only add overhead."""
     torch = sys.modules.get("torch")
     if threads is None or torch is None:
         yield
@@ -152,7 +145,7 @@ def rollout(models, dataset, start: int | None = None, stop: int | None = None, 
     ----------
     models : Manipulator, NodeModel, or sequence of NodeModel
         The node models (a bare model or list: each predicts its own ``spec.node``).
-    dataset : softrnn.io.dataset.Dataset
+    dataset : softrnn.io.Dataset
         Reference: the seed history (rows ``start-H .. start-1``), the wrenches, the quaternions,
         and the nodes without a model. It must store every modelled node and neighbour.
     start, stop : int or None
@@ -223,8 +216,6 @@ def _engine_steps(groups, state, quats, forces, torques, *, H: int, total: int, 
                   threads, progress, actuation=None) -> None:
     """Rows ``H .. H+total-1`` of ``state`` predicted in place by the compiled engine, in chunks of
     4096 steps so progress is reported during long rollouts (``threads`` is not used)."""
-    from .engine import engine_rollout, group_by_architecture
-
     bound = group_by_architecture(groups)
     done = 0
     while done < total:
@@ -272,8 +263,6 @@ def rollout_dataset(result: Rollout, reference, *, models: list[str] | None = No
     it as a prediction (``prediction``, ``models``, ``modelled_nodes``, ``first_predicted_sample``,
     ``predicted_from_s``, ``unmodelled``, ``orientations``, ``reference``), keep the reference's
     extra metadata and append ' (predicted)' to its ``scenario_name``."""
-    from ...io.dataset import RESERVED_ATTRS, Dataset
-
     sl = slice(result.first, result.stop)
     keep = {k: v for k, v in reference.attrs.items() if k not in RESERVED_ATTRS and k != "schema_version"}
     name = keep.get("scenario_name") or "data"
@@ -305,8 +294,6 @@ def rollout_dataset(result: Rollout, reference, *, models: list[str] | None = No
 def write_rollout(path, result: Rollout, reference, *, models: list[str] | None = None, source: str = "") -> Path:
     """Write the rollout to ``path`` in the data set format (atomically; see ``rollout_dataset``),
     so ``softrnn animate`` and ``softrnn plot`` show it like the reference."""
-    from ...io.dataset import write_trajectory
-
     ds = rollout_dataset(result, reference, models=models, source=source)
     extra = {k: v for k, v in ds.attrs.items()
              if k not in ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version")}

@@ -34,7 +34,7 @@ import numpy as np
 from ... import __version__
 from ...errors import bad, integer
 from ...progress import Progress
-from ._checkpoint import Checkpoint, load_finished, training_settings
+from ._checkpoint import FINISHED, Checkpoint, load_finished, training_settings
 from ._epochs import new_module, torch_settings, train_epochs
 from ._training_data import Spans as Spans
 from ._training_data import TrainingData, dataset_meta, fingerprint, load_training_data, training_tensors
@@ -59,8 +59,8 @@ class TrainConfig:
     epochs : int
         Most passes over the training windows (the paper trained 25 epochs).
     batch_size : int
-        Windows per Adam step. The paper used 1; 256 trains about 100x faster on a CPU and already
-        reaches one-step errors far below the paper's on this project's datasets.
+        Windows per Adam step. The paper used 1; 256 takes far fewer optimiser steps per epoch
+        and already reaches one-step errors far below the paper's on this project's datasets.
     learning_rate : float
         Adam's initial step size; it decays along a cosine to ``learning_rate * final_lr_fraction``
         over ``epochs``.
@@ -85,8 +85,8 @@ class TrainConfig:
         K, steps of the multi-step loss: the node's predictions are fed back into its next K-1
         windows (neighbours and wrenches recorded) and the loss averages the K one-step errors, each
         against the true next position; 1: plain one-step training. K = 4 kept the free-running
-        rollouts of all three paper cases within about 1 mm of the reference over 8,000 steps, at
-        about 3x the training time of K = 1 (the models of K = 1 drifted by up to 10 mm).
+        rollouts of all three paper cases within about 1 mm of the reference over 8,000 steps (the
+        models of K = 1 drifted by up to 10 mm); each window costs K forward passes.
     """
 
     epochs: int = 30
@@ -138,7 +138,8 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
         The model folder (new, empty, or an earlier model / unfinished training, which is replaced).
     resume : bool
         Continue from ``out_folder/checkpoint.pt`` if present (the settings must match, except
-        epochs and patience); a finished model there is loaded and returned as is.
+        epochs, patience and threads); a finished model there is loaded and returned as is (the
+        settings and epochs must match: a finished training is not continued).
     pool : sequence of int or None
         Beyond the paper: train one model shared by these nodes (their windows pooled, the spec's
         neighbours taken at the same offsets from each; ``Manipulator.of(shared=model,
@@ -172,7 +173,8 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
     settings = training_settings(prepared.spec, config, train, data_fingerprint, prepared.pool)
     checkpoint = Checkpoint(out_folder, settings)
     if resume and not checkpoint.path.exists() and (out_folder / "config.json").exists():
-        return load_finished(out_folder, settings)
+        return load_finished(out_folder, training_settings(prepared.spec, config, train, data_fingerprint,
+                                                           prepared.pool, may_differ=FINISHED))
     objective, fit, validation = training_tensors(prepared, normalizer, config, train)
     with torch_settings(train.threads):
         module = new_module(config, normalizer, train.seed)

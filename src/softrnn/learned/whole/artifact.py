@@ -72,8 +72,8 @@ def encoding_from_dict(d: dict) -> Encoding:
 
 def save_dynamic(folder, trained, meta: dict | None = None) -> None:
     """Write a ``TrainedDynamic`` to ``folder`` atomically (an existing folder is replaced)."""
-    import torch
-    from safetensors.torch import save_file
+    import torch  # optional extra: learn (PyTorch)
+    from safetensors.torch import save_file  # optional extra: learn (safetensors)
 
     def tensors(net) -> dict:
         out = {k: v.detach().contiguous().clone().float() for k, v in net.state_dict().items()}
@@ -122,7 +122,7 @@ def load_dynamic(folder) -> LoadedDynamic:
     if int(doc.get("format_version", 0)) > FORMAT_VERSION:
         raise DynamicFolderError(f"{folder}: format version {doc.get('format_version')} is newer than this "
                                  f"softrnn reads ({FORMAT_VERSION}); upgrade softrnn")
-    from safetensors.numpy import load_file
+    from safetensors.numpy import load_file  # optional extra: learn (safetensors)
 
     for name in FILES[:2]:
         if not (folder / name).is_file():

@@ -14,113 +14,89 @@ DRIVES = ("wrench", "actuation", "both")
 
 @dataclass(frozen=True)
 class DynamicConfig:
-    """How a whole-manipulator model is built and trained.
-
-    Parameters
-    ----------
-    model_dt : float
-        The model's step [s]; a whole multiple of the data's saved interval (default 20 ms).
-    node_stride : int or None
-        Predict every ``node_stride``-th node and both ends (None: about 20 segments along the rod).
-    history : int
-        States the model reads per step (>= 2): the current one and ``history - 1`` velocities.
-    memory : {"window", "lstm"}
-        Temporal memory: the ``history`` window alone, or also a per-node LSTM cell (shared along
-        the rod) carried from step to step.
-    width, layers, kernel : int
-        The 1-D convolution along the rod: channels, hidden layers, kernel size (odd).
-    linear : bool
-        Add a global linear map of the whole state (initialised by ridge regression).
-    conv : bool
-        Add the convolution (one set of weights shared along the rod).
-    bound : float
-        The convolution's output is limited to +-bound (in units of the velocity-change scale) by
-        a tanh: a correction cannot run away by itself; 0: no limit.
-    noise : float
-        Input noise during training, as a random walk on the history's velocities, in units of
-        their standard deviation (GNS-style); 0 switches it off.
-    unroll : int
-        Free steps in the training loss (the model feeds its own predictions back); 1 is a
-        one-step loss. The unroll grows from 1 to this over the first half of training.
-    steps, batch : int
-        Optimiser steps and windows per step.
-    start_fraction : float
-        The fraction of each batch's windows drawn from a trajectory's first steps
-        (``training.START_STEPS``), the rest uniformly: a run from rest (a trajectory's start, where
-        the loads rise from zero) is otherwise a rare window, and its first steps go untrained.
-    lr : float
-        Adam's learning rate (cosine decay to 5 % of it).
-    linear_lr : float
-        The linear term's learning rate as a fraction of ``lr`` (0 keeps the ridge fit as it is).
-    ridge : float
-        Ridge penalty of the linear term's initial fit (relative to the mean feature variance): where
-        its ladder of penalties starts. The linear baseline's ladder starts at 1e-6 whatever this is
-        (``training.BASELINE_RIDGE``).
-    load_ridge : float or None
-        The ridge penalty on the load coefficients of the network's linear term (same units as
-        ``ridge``; None: the same penalty as the rest). A stiff penalty keeps a free run stable, but
-        on the loads it shrinks the response to a load change; the loads are known inputs and
-        need no shrinking to stay stable.
-    seed : int
-        Seeds weights, window draws and noise: the same seed and data give the same weights.
-    ema : float
-        Decay of a running average of the weights (Polyak averaging), validated beside the current
-        weights at every checkpoint (and kept without validation); 0 switches it off.
-    conv_reads : {"all", "displacements", "loads"}
-        What the convolution reads: every state and velocity column but not the loads ("all"), the
-        displacements only (rotations then reach the next state through the linear term alone), or
-        every feature, the loads included ("loads": where the loads' effect depends on the rod's
-        shape, as a tendon's does).
-    feedback : bool
-        Where a data set's scenario has PD tracking loads, apply their law to the model's own state
-        (the target and gains are the inputs; ``softrnn.learned.whole.feedback``) instead of taking the
-        recorded forces, which the simulated rod's state produced, as inputs. Used with
-        ``drive = "wrench"`` only.
-    envelope : float or None
-        Where the network's correction acts (``DynamicNet.envelope_gate``): fully on a node whose
-        features lie within the training data's range of each channel, fading linearly to zero at
-        this fraction of the range beyond it, where its inputs are clipped (None: everywhere,
-        unclipped). The correction is then bounded and vanishes far from the data: there the model
-        is its linear term and extrapolates like a damped linear system, not like a network.
-    prior_tau : float or None
-        The ridge fit of the linear term is shrunk toward a model in which every moving coordinate
-        relaxes to the reference pose, critically damped with this time constant [s]
-        (``training.damping_prior``), not toward zero, which would leave the directions the data
-        never excite ballistic (None: toward zero). Default 0.5 s: on the paper's three cases it
-        gave smaller validation errors than 1 s (docs/guide/dynamic.md, fourth round).
-    drive : {"wrench", "actuation", "both"}
-        The model's load input per kept node: the lumped mean force and torque (6 channels; the
-        default), the data's actuation inputs (``Dataset.actuation``, every channel, their mean over
-        the step: m channels, the same at every node), or both (6 + m). The training data must
-        record actuation inputs for the last two (one-line error otherwise).
-    """
+    """How a whole-manipulator model is built and trained (each field is described beneath it)."""
 
     model_dt: float = 0.02
+    """The model's step [s]; a whole multiple of the data's saved interval (default 20 ms)."""
     node_stride: int | None = None
+    """Predict every ``node_stride``-th node and both ends (None: about 20 segments along the rod)."""
     history: int = 3
+    """States the model reads per step (>= 2): the current one and ``history - 1`` velocities."""
     memory: str = "window"
+    """Temporal memory: the ``history`` window alone, or also a per-node LSTM cell (shared along
+    the rod) carried from step to step."""
     width: int = 48
+    """The 1-D convolution along the rod: its channels."""
     layers: int = 3
+    """The convolution's hidden layers."""
     kernel: int = 5
+    """The convolution's kernel size (odd)."""
     linear: bool = True
+    """Add a global linear map of the whole state (initialised by ridge regression)."""
     conv: bool = True
+    """Add the convolution (one set of weights shared along the rod)."""
     bound: float = 0.0
+    """The convolution's output is limited to +-bound (in units of the velocity-change scale) by
+    a tanh: a correction cannot run away by itself; 0: no limit."""
     noise: float = 0.01
+    """Input noise during training, as a random walk on the history's velocities, in units of
+    their standard deviation (GNS-style); 0 switches it off."""
     unroll: int = 20
+    """Free steps in the training loss (the model feeds its own predictions back); 1 is a
+    one-step loss. The unroll grows from 1 to this over the first half of training."""
     steps: int = 4000
+    """Optimiser steps."""
     batch: int = 32
+    """Windows per optimiser step."""
     start_fraction: float = 0.0
+    """The fraction of each batch's windows drawn from a trajectory's first steps
+    (``training.START_STEPS``), the rest uniformly: a run from rest (a trajectory's start, where
+    the loads rise from zero) is otherwise a rare window, and its first steps go untrained."""
     lr: float = 2e-3
+    """Adam's learning rate (cosine decay to 5 % of it)."""
     linear_lr: float = 0.01
+    """The linear term's learning rate as a fraction of ``lr`` (0 keeps the ridge fit as it is)."""
     ridge: float = 1e-6
+    """Ridge penalty of the linear term's initial fit (relative to the mean feature variance): where
+    its ladder of penalties starts. The linear baseline's ladder starts at 1e-6 whatever this is
+    (``training.BASELINE_RIDGE``)."""
     load_ridge: float | None = None
+    """The ridge penalty on the load coefficients of the network's linear term (same units as
+    ``ridge``; None: the same penalty as the rest). A stiff penalty keeps a free run stable, but
+    on the loads it shrinks the response to a load change; the loads are known inputs and
+    need no shrinking to stay stable."""
     seed: int = 0
+    """Seeds weights, window draws and noise: the same seed and data give the same weights."""
     ema: float = 0.995
+    """Decay of a running average of the weights (Polyak averaging), validated beside the current
+    weights at every checkpoint (and kept without validation); 0 switches it off."""
     conv_reads: str = "all"
+    """What the convolution reads: every state and velocity column but not the loads ("all"), the
+    displacements only (rotations then reach the next state through the linear term alone), or
+    every feature, the loads included ("loads": where the loads' effect depends on the rod's
+    shape, as a tendon's does)."""
     feedback: bool = True
+    """Where a data set's scenario has PD tracking loads, apply their law to the model's own state
+    (the target and gains are the inputs; ``softrnn.learned.whole.feedback``) instead of taking the
+    recorded forces, which the simulated rod's state produced, as inputs. Used with
+    ``drive = "wrench"`` only."""
     drive: str = "wrench"
+    """The model's load input per kept node: the lumped mean force and torque (6 channels; the
+    default), the data's actuation inputs (``Dataset.actuation``, every channel, their mean over
+    the step: m channels, the same at every node), or both (6 + m). The training data must
+    record actuation inputs for the last two (one-line error otherwise)."""
     envelope: float | None = 0.25
+    """Where the network's correction acts (``DynamicNet.envelope_gate``): fully on a node whose
+    features lie within the training data's range of each channel, fading linearly to zero at
+    this fraction of the range beyond it, where its inputs are clipped (None: everywhere,
+    unclipped). The correction is then bounded and vanishes far from the data: there the model
+    is its linear term and extrapolates like a damped linear system, not like a network."""
     prior_tau: float | None = 0.5
+    """The ridge fit of the linear term is shrunk toward a model in which every moving coordinate
+    relaxes to the reference pose, critically damped with this time constant [s]
+    (``training.damping_prior``), not toward zero, which would leave the directions the data
+    never excite ballistic (None: toward zero). Default 0.5 s: on the paper's three cases it
+    gave smaller validation errors than 1 s (docs/guide/dynamic.md, fourth round)."""
 
     def __post_init__(self):
         positive("model_dt", self.model_dt, "s")

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...errors import bad, integer
-from ...io.dataset import list_groups, read_dataset, read_node
+from ...io.reader import list_groups, read_dataset, read_node
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,7 @@ from scipy.spatial.transform import Rotation
 
 from ...errors import SoftrnnInputError, bad
 from .config import resolve_stride
+from .feedback import feedback_of
 
 FIXED_TOLERANCE_M = 1e-9
 """A kept node whose position never moves by more than this [m], and whose orientation never turns
@@ -221,7 +222,7 @@ class Encoding:
         return np.einsum("mn,tnc->tmc", self._lump, out)
 
     def trajectory(self, dataset, name: str = "") -> Trajectory:
-        """A ``softrnn.io.dataset.Dataset`` holding every node, subsampled to the model's step."""
+        """A ``softrnn.io.Dataset`` holding every node, subsampled to the model's step."""
         check_compatible(self, dataset, "dataset")
         k = self.stride(float(dataset.dt))
         n_steps = (dataset.n_samples - 1) // k + 1
@@ -230,8 +231,6 @@ class Encoding:
         time = np.asarray(dataset.time[idx], dtype=np.float64)
         fb, forces = None, dataset.forces
         if self.feedback:
-            from .feedback import feedback_of
-
             fb = feedback_of(self, dataset, time)
             if fb is not None:       # the law's recorded force is replaced by the law itself
                 forces = np.array(forces, dtype=np.float64)

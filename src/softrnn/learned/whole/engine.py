@@ -14,10 +14,12 @@ from numba import njit
 from numpy.lib.stride_tricks import as_strided
 
 from ...errors import SimulationError, bad
+from .. import horizons
 from .config import conv_channels
 
-DIVERGED_M = 16.0
-"""A state component beyond this (m or rad) ends a free run as diverged."""
+DIVERGED_M = horizons.DIVERGED_M
+"""A state component beyond this (m or rad) ends a free run as diverged (the node models' limit,
+``softrnn.learned.horizons.DIVERGED_M``)."""
 _C = float(np.sqrt(2.0 / np.pi))
 
 
@@ -83,7 +85,7 @@ class DynamicEngine:
     config : DynamicConfig
     dtype : numpy dtype
         The network's arithmetic (features, linear term, convolution; float32 by default, as the
-        network was trained and as ONNX exports it: BLAS runs about 3x faster than in float64). The
+        network was trained and as ONNX exports it, and faster in BLAS than float64). The
         state update ``x + v + dv`` is always float64. ``np.float64`` reproduces a float64
         ``DynamicNet`` to rounding.
     """
@@ -97,7 +99,8 @@ class DynamicEngine:
         self.bound = float(config.bound)
         self.node_features = w["node_features"]
         self.fixed = np.asarray(weights["fixed"], dtype=bool)
-        self.sx, self.sv, self.su, self.sa = w["sx"], w["sv"], w["su"], w["sa"]
+        # the scales under their saved keys (network.SCALE_KEYS)
+        self.state_scale, self.velocity_scale, self.load_scale, self.dv_scale = w["sx"], w["sv"], w["su"], w["sa"]
         self.n_kept = M = int(self.node_features.shape[0])
         H = self.history
         self.linear = None
@@ -108,11 +111,12 @@ class DynamicEngine:
             self.cell = (w["cell.weight_ih"].T.astype(dt), w["cell.weight_hh"].T.astype(dt),
                          (w["cell.bias_ih"] + w["cell.bias_hh"]).astype(dt))
         # features (M, C): state, H-1 velocities, load (L channels), constants; the convolution reads all but the load
-        self.load_width = L = int(self.su.shape[0])
+        self.load_width = L = int(self.load_scale.shape[0])
         C = 6 * H + L + self.node_features.shape[1]
         self._f = np.zeros((M, C), dtype=dt)
         self._f[:, 6 * H + L:] = self.node_features
-        self._scale = np.concatenate([1.0 / self.sx] + [1.0 / self.sv] * (H - 1) + [1.0 / self.su]).astype(dt)
+        self._scale = np.concatenate([1.0 / self.state_scale] + [1.0 / self.velocity_scale] * (H - 1)
+                                     + [1.0 / self.load_scale]).astype(dt)
         self._keep = np.asarray(conv_channels(H, config.conv_reads, L))
         self.envelope = None            # the correction's input range (DynamicNet.set_envelope), if any
         if "env_lo" in w:
@@ -166,37 +170,48 @@ class DynamicEngine:
         f[:, :6 * H + L] *= self._scale
         return f
 
+    def _lstm_step(self, inputs: np.ndarray, memory) -> tuple[np.ndarray, tuple]:
+        """As ``DynamicNet.lstm_step``: (the inputs with the new hidden state appended (M, G + W),
+        the new memory (h, c))."""
+        Wi, Wh, b = self.cell
+        h, c = memory if memory is not None else (np.zeros((self.n_kept, Wh.shape[0]), dtype=self.dtype),) * 2
+        z = inputs @ Wi + h @ Wh + b
+        i, fg, gg, o = np.split(z, 4, axis=1)
+        c = _sigmoid(fg) * c + _sigmoid(i) * np.tanh(gg)
+        h = _sigmoid(o) * np.tanh(c)
+        return np.concatenate([inputs, h], axis=1), (h, c)
+
+    def _correction(self, f: np.ndarray, memory) -> tuple[np.ndarray, tuple | None]:
+        """As ``DynamicNet.correction``: (the convolution's correction (M, 6), times the envelope
+        gate and bounded, the memory for the next step)."""
+        inputs, gate = f[:, self._keep], None
+        if self.envelope is not None:
+            inputs, gate = self._gate(inputs)
+        if self.cell is not None:
+            inputs, memory = self._lstm_step(inputs, memory)
+        out, b = self._conv(inputs), self.bound
+        if gate is not None:
+            out *= gate
+        return (b * np.tanh(out / b) if b > 0 else out), memory
+
     def step(self, hist: np.ndarray, loads: np.ndarray, memory=None):
-        """hist (H, M, 6) states, oldest first; loads (M, L) -> (next state (M, 6), memory)."""
+        """hist (H, M, 6) states, oldest first; loads (M, L) -> (next state (M, 6), memory), as
+        ``DynamicNet.forward``: x + v + dv_scale (linear term + correction), fixed nodes held."""
         f = self.features(hist, loads)
-        a = np.zeros((self.n_kept, 6))
+        dv = np.zeros((self.n_kept, 6))
         if self.linear is not None:
-            a += (f.reshape(-1) @ self.linear[0] + self.linear[1]).reshape(self.n_kept, 6)
-        if self.convs or self.cell is not None:
-            g, gate = f[:, self._keep], None
-            if self.envelope is not None:
-                g, gate = self._gate(g)
-            if self.cell is not None:
-                Wi, Wh, b = self.cell
-                h, c = memory if memory is not None else (np.zeros((self.n_kept, Wh.shape[0]), dtype=self.dtype),) * 2
-                z = g @ Wi + h @ Wh + b
-                i, fg, gg, o = np.split(z, 4, axis=1)
-                c = _sigmoid(fg) * c + _sigmoid(i) * np.tanh(gg)
-                h = _sigmoid(o) * np.tanh(c)
-                memory = (h, c)
-                g = np.concatenate([g, h], axis=1)
-            if self.convs:
-                c, b = self._conv(g), self.bound
-                if gate is not None:
-                    c *= gate
-                a += b * np.tanh(c / b) if b > 0 else c
+            dv += (f.reshape(-1) @ self.linear[0] + self.linear[1]).reshape(self.n_kept, 6)
+        if self.convs:
+            correction, memory = self._correction(f, memory)
+            dv += correction
         x = hist[-1]
-        a *= self.sa
-        a += x
-        a += x
-        a -= hist[-2]
-        a[self.fixed] = x[self.fixed]          # fixed nodes keep their state
-        return a, memory
+        nxt = dv
+        nxt *= self.dv_scale                    # in place: x + x - x_prev + dv dv_scale
+        nxt += x
+        nxt += x
+        nxt -= hist[-2]
+        nxt[self.fixed] = x[self.fixed]          # fixed nodes keep their state
+        return nxt, memory
 
     def run(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:
         """Free run: history (H, M, 6), loads (K, M, L) of each step -> states (K, M, 6).

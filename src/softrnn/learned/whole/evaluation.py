@@ -1,47 +1,47 @@
 """Free-running errors of a whole-manipulator model beside persistence, constant velocity and the
 linear model on the same inputs, at every node (NumPy only).
 
-Every predictor steps the encoded state (``Encoding``) at the model's step: ``Persistence`` (the
-state stays), ``ConstantVelocity`` (the last step repeats), the linear model and the learned model
-(``DynamicEngine``). A free run starts from the data's history at a model step and feeds its own
-predictions back; the loads are the data's. Errors are measured at **every node** of the rod (the
-kept nodes' states decoded and interpolated along the rod, ``Encoding.positions``) against the
-data's positions at the model's step times, as the largest distance over the nodes, in % of the
-rod's length. A run that leaves the rod's range is *diverged*: its errors are infinite from there
-on (reported as ``null`` with ``diverged_at``).
+Every predictor steps the encoded state (``Encoding``) at the model's step: persistence (the state
+stays) and constant velocity (the last step repeats), the baselines of ``softrnn.learned.baselines``
+behind ``StateBaseline`` (``state_baselines``), the linear model and the learned model
+(``DynamicEngine``). The free-running loop (``horizons.free_steps``), the evaluation by horizon
+(``horizons.worst_by_horizon``) and the span checks (``softrnn.learned.spans``) are those of the
+node models; the error measure is this model's own. A free run starts from the data's history at a
+model step and feeds its own predictions back; the loads are the data's. Errors are measured at
+**every node** of the rod (the kept nodes' states decoded and interpolated along the rod,
+``Encoding.positions``) against the data's positions at the model's step times, as the largest
+distance over the nodes, in % of the rod's length. A run that leaves the rod's range is *diverged*:
+its errors are infinite from there on (reported as ``null`` with ``diverged_at``).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from functools import partial
+from typing import final
+
 import numpy as np
 
-from ...errors import bad
+from ..baselines import ConstantVelocity, Persistence, StateBaseline
+from ..horizons import WHOLE_HORIZONS, HorizonTable, free_steps, worst_by_horizon
+from ..spans import check_step_start, start_of_test_span
 from .encoding import Encoding, Trajectory
 from .engine import DIVERGED_M
 
-HORIZONS = (10, 100, 1000)
+HORIZONS = WHOLE_HORIZONS
+"""The horizons of ``evaluate_dynamic`` [model steps]: 10, 100, 1000 (``softrnn.learned.horizons``)."""
+
 BASELINES = ("persistence", "constant_velocity", "linear")
-_STARTS = 4
+"""The baselines reported beside the model, in report order: their JSON keys."""
+
+HORIZON_STARTS = 4
+"""Free-running starts per trajectory and horizon, spread evenly over each trajectory."""
 
 
-class Persistence:
-    """Next state = current state."""
-
-    history = 2
-
-    def step(self, hist, loads, memory=None):
-        """hist (H, M, 6) -> (its last state, None)."""
-        return hist[-1].copy(), None
-
-
-class ConstantVelocity:
-    """Next state = current state + the last step's change."""
-
-    history = 2
-
-    def step(self, hist, loads, memory=None):
-        """hist (H, M, 6) -> (2 x_t - x_(t-1), None)."""
-        return 2 * hist[-1] - hist[-2], None
+def state_baselines() -> dict[str, StateBaseline]:
+    """{'persistence', 'constant_velocity'}: the simple baselines of ``softrnn.learned.baselines``
+    stepping the encoded state (history 2)."""
+    return {"persistence": StateBaseline(Persistence()), "constant_velocity": StateBaseline(ConstantVelocity())}
 
 
 def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -> tuple[np.ndarray, int | None]:
@@ -52,19 +52,18 @@ def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -
     (``Trajectory.inputs``)."""
     H = int(predictor.history)
     stop = traj.n_steps if stop is None else int(stop)
-    if start < H - 1 or start >= stop - 1:
-        raise bad("start", start, f"a model step in [{H - 1}, {stop - 2}] (history {H}, {stop} steps)")
-    hist = np.array(traj.states[start - H + 1:start + 1], dtype=np.float64)
-    out = np.full((stop - start - 1,) + traj.states.shape[1:], np.nan)
+    check_step_start(start, H, stop)
+    state = np.full((H + stop - start - 1,) + traj.states.shape[1:], np.nan)
+    state[:H] = traj.states[start - H + 1:start + 1]
     memory = None
-    for k in range(stop - start - 1):
-        nxt, memory = predictor.step(hist, traj.inputs(hist, start + k), memory)
-        if not np.all(np.abs(nxt) < DIVERGED_M):
-            return out, k + 1
-        out[k] = nxt
-        hist[:-1] = hist[1:]
-        hist[-1] = nxt
-    return out, None
+
+    def step(k: int, hist: np.ndarray) -> np.ndarray | None:
+        nonlocal memory
+        nxt, memory = predictor.step(hist, traj.inputs(hist, start + k - H), memory)
+        return nxt if np.all(np.abs(nxt) < DIVERGED_M) else None
+
+    k = free_steps(step, state, H)
+    return state[H:], None if k is None else k - H + 1
 
 
 def node_errors(encoding: Encoding, states: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -108,25 +107,23 @@ def span_error(predictor, encoding, traj, dataset, start: int) -> dict:
     return {"max_pct_of_length": _pct(err.max()), "diverged_at": diverged, "steps": int(len(err))}
 
 
-def horizon_errors(predictor, encoding, runs: list, horizons=HORIZONS, n_starts: int = _STARTS) -> dict:
+def _run_worst(predictor, encoding, runs: list, span: int, start: int, n: int) -> float:
+    """``worst_by_horizon``'s error of a whole-model run: the largest error [% of L] over every node
+    within ``n`` free steps from ``start`` of ``runs[span]`` (inf: diverged)."""
+    traj, dataset = runs[span]
+    err, _ = run_errors(predictor, encoding, traj, dataset, int(start), int(start) + n + 1)
+    return float(err.max())
+
+
+def horizon_errors(predictor, encoding, runs: list, horizons=HORIZONS, n_starts: int = HORIZON_STARTS) -> dict:
     """Largest error [% of L] over all nodes within ``n`` free steps, the worst over ``runs`` (a list
-    of (Trajectory, Dataset)) and over up to ``n_starts`` evenly spaced starts in each; None where
-    no trajectory is long enough for ``n`` steps. {str(n): value}."""
-    H = int(predictor.history)
-    out = {}
-    for n in horizons:
-        worst, any_run = 0.0, False
-        for traj, dataset in runs:
-            last = traj.n_steps - 1 - n
-            first = max(H - 1, 2)      # every predictor (history 2 or more) can start here
-            if last < first:
-                continue
-            any_run = True
-            for s in np.unique(np.linspace(first, last, n_starts).round().astype(int)):
-                err, _ = run_errors(predictor, encoding, traj, dataset, int(s), int(s) + n + 1)
-                worst = max(worst, float(err.max()))
-        out[str(n)] = _pct(worst) if any_run else None
-    return out
+    of (Trajectory, Dataset)) and over up to ``n_starts`` evenly spaced starts in each
+    (``softrnn.learned.horizons.worst_by_horizon``); None where no trajectory is long enough for
+    ``n`` steps, or where a run diverged. {str(n): value}."""
+    first = max(int(predictor.history) - 1, 2)      # every predictor (history 2 or more) can start here
+    spans = [(first, traj.n_steps - 1) for traj, _ in runs]
+    worst = worst_by_horizon(partial(_run_worst, predictor, encoding, runs), spans, horizons, n_starts)
+    return {str(n): None if w is None else _pct(w.error) for n, w in worst.items()}
 
 
 def first_start(*predictors) -> int:
@@ -134,19 +131,59 @@ def first_start(*predictors) -> int:
     return max(int(p.history) for p in predictors) - 1
 
 
-def compare(engine, linear, encoding, runs: list, horizons=HORIZONS) -> dict:
-    """Horizon errors of the model and the three baselines on ``runs``:
-    {str(n): {"model", "persistence", "constant_velocity", "linear"}}."""
-    preds = {"model": engine, "persistence": Persistence(), "constant_velocity": ConstantVelocity(),
-             "linear": linear}
+def compare(engine, linear, encoding, runs: list, horizons=HORIZONS) -> HorizonTable:
+    """Horizon errors of the model and the three baselines on ``runs``: a ``HorizonTable`` whose
+    ``to_dict()`` is {str(n): {"model", "persistence", "constant_velocity", "linear"}}."""
+    preds = {"model": engine, **state_baselines(), "linear": linear}
     table = {name: horizon_errors(p, encoding, runs, horizons) for name, p in preds.items()}
-    return {str(n): {name: table[name][str(n)] for name in preds} for n in horizons}
+    return HorizonTable(rows={int(n): {name: table[name][str(n)] for name in preds} for n in horizons})
+
+
+@final
+@dataclass(frozen=True)
+class DynamicEvaluation:
+    """The result of ``evaluate_dynamic``; ``to_dict()`` is the JSON report."""
+
+    model_dt_s: float
+    """The model's step [s]."""
+    predicted_nodes: int
+    """The nodes the model steps."""
+    nodes: int
+    """The rod's nodes."""
+    length_m: float
+    """The rod's length [m]."""
+    history: int
+    """The model's history [model steps]."""
+    test_span: dict | None
+    """{start_s, end_s, name: span errors} on the test trajectory (None: no test trajectory)."""
+    heldout: dict | None
+    """{variants, median/worst_max_pct_of_length, per_variant, baselines} (None: no held-out data)."""
+    horizons: HorizonTable | None
+    """The model's and the baselines' errors by horizon on the held-out data."""
+    generalisation: dict | None
+    """{name: span errors} on the generalisation scenario (None: not given)."""
+
+    def to_dict(self) -> dict:
+        """``model_dt_s``, ``predicted_nodes``, ``nodes``, ``length_m``, ``history``, then where
+        evaluated ``test_span`` and ``test_span_max_pct_of_length``, ``heldout`` and ``horizons``,
+        ``generalisation`` and ``generalisation_max_pct_of_length``."""
+        out = {"model_dt_s": self.model_dt_s, "predicted_nodes": self.predicted_nodes, "nodes": self.nodes,
+               "length_m": self.length_m, "history": self.history}
+        if self.test_span is not None:
+            out["test_span"] = self.test_span
+            out["test_span_max_pct_of_length"] = self.test_span["model"]["max_pct_of_length"]
+        if self.heldout is not None:
+            out["heldout"] = self.heldout
+            out["horizons"] = self.horizons.to_dict()
+        if self.generalisation is not None:
+            out["generalisation"] = self.generalisation
+            out["generalisation_max_pct_of_length"] = self.generalisation["model"]["max_pct_of_length"]
+        return out
 
 
 def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_start_fraction: float = 0.6,
-                     horizons=HORIZONS) -> dict:
-    """The free-running evaluation of a loaded model (``load_dynamic``) beside its baselines; a
-    JSON-ready dict.
+                     horizons=HORIZONS) -> DynamicEvaluation:
+    """The free-running evaluation of a loaded model (``load_dynamic``) beside its baselines.
 
     Parameters
     ----------
@@ -160,33 +197,31 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
 
     Returns
     -------
-    dict
-        ``model_dt_s``, ``predicted_nodes``, ``nodes``, ``test_span`` and
+    DynamicEvaluation
+        Its ``to_dict()``: ``model_dt_s``, ``predicted_nodes``, ``nodes``, ``test_span`` and
         ``test_span_max_pct_of_length``, ``heldout`` {variants, per_variant, median/worst},
         ``generalisation`` and ``generalisation_max_pct_of_length``, ``horizons`` (model and
         baselines), with every baseline's span errors beside the model's.
     """
     enc, engine, linear = model.encoding, model.engine, model.linear
-    preds = {"model": engine, "persistence": Persistence(), "constant_velocity": ConstantVelocity(), "linear": linear}
+    preds = {"model": engine, **state_baselines(), "linear": linear}
     s0 = first_start(*preds.values())
-    out = {"model_dt_s": enc.model_dt, "predicted_nodes": enc.n_kept, "nodes": enc.n_nodes,
-           "length_m": enc.length, "history": int(engine.history)}
+    test_span = held = table = general = None
     if test is not None:
         traj = enc.trajectory(test)
-        start = max(s0, int(round(test_start_fraction * (traj.n_steps - 1))))
+        start = start_of_test_span(s0, traj.n_steps, test_start_fraction)
         spans = {name: span_error(p, enc, traj, test, start) for name, p in preds.items()}
-        out["test_span"] = {"start_s": float(traj.time[start]), "end_s": float(traj.time[-1]), **spans}
-        out["test_span_max_pct_of_length"] = spans["model"]["max_pct_of_length"]
+        test_span = {"start_s": float(traj.time[start]), "end_s": float(traj.time[-1]), **spans}
     runs = [(enc.trajectory(d), d) for d in heldout]
     if runs:
         per = {name: [span_error(p, enc, t, d, s0)["max_pct_of_length"] for t, d in runs]
                for name, p in preds.items()}
-        out["heldout"] = {"variants": len(runs), **_spread(per["model"]), "per_variant": per["model"],
-                          "baselines": {name: _spread(per[name]) for name in BASELINES}}
-        out["horizons"] = compare(engine, linear, enc, runs, horizons)
+        held = {"variants": len(runs), **_spread(per["model"]), "per_variant": per["model"],
+                "baselines": {name: _spread(per[name]) for name in BASELINES}}
+        table = compare(engine, linear, enc, runs, horizons)
     if generalisation is not None:
         traj = enc.trajectory(generalisation)
-        spans = {name: span_error(p, enc, traj, generalisation, s0) for name, p in preds.items()}
-        out["generalisation"] = spans
-        out["generalisation_max_pct_of_length"] = spans["model"]["max_pct_of_length"]
-    return out
+        general = {name: span_error(p, enc, traj, generalisation, s0) for name, p in preds.items()}
+    return DynamicEvaluation(model_dt_s=enc.model_dt, predicted_nodes=enc.n_kept, nodes=enc.n_nodes,
+                             length_m=enc.length, history=int(engine.history), test_span=test_span, heldout=held,
+                             horizons=table, generalisation=general)

@@ -37,7 +37,7 @@ from ...errors import SimulationError, bad
 from ...files import atomic_write_bytes, atomic_write_text, json_default
 from .artifact import LoadedDynamic, encoding_to_dict
 from .encoding import lumping_matrix
-from .network import DynamicNet
+from .network import SCALE_KEYS, DynamicNet
 
 FORMAT = "softrnn-dynamic-model-export"
 """Value of the ``format`` entry of the ONNX metadata and the sidecar."""
@@ -87,7 +87,7 @@ def step_net(model: LoadedDynamic) -> DynamicNet:
     if not isinstance(model, LoadedDynamic):
         raise bad("model", type(model).__name__, "a LoadedDynamic (softrnn.learned.whole.load_dynamic(folder))")
     w = model.weights
-    scales = {k: np.asarray(w[k]) for k in ("sx", "sv", "su", "sa")}
+    scales = {key: np.asarray(w[key]) for key in SCALE_KEYS.values()}
     net = DynamicNet(model.config, np.asarray(w["node_features"]), np.asarray(w["fixed"], dtype=bool), scales)
     state = {k: torch.as_tensor(np.asarray(v)) for k, v in w.items()}
     state["fixed"] = state["fixed"].to(torch.bool)
@@ -122,7 +122,8 @@ class OnnxStep(nn.Module):
 
 def random_inputs(model: LoadedDynamic, seed: int = 0) -> dict[str, np.ndarray]:
     """A plausible random input of the graph (float32): a history whose states and velocities have
-    the training data's spread (``sx``, ``sv``), loads of the loads' spread, a memory in (-1, 1)."""
+    the training data's spread (the saved scales ``sx``, ``sv``: ``network.SCALE_KEYS``), loads of the
+    loads' spread (``su``), a memory in (-1, 1)."""
     rng = np.random.default_rng(seed)
     e, w = model.engine, model.weights
     H, M = e.history, e.n_kept
@@ -142,7 +143,7 @@ def random_inputs(model: LoadedDynamic, seed: int = 0) -> dict[str, np.ndarray]:
 def max_difference(model: LoadedDynamic, onnx_bytes: bytes, seed: int = 0) -> float:
     """Largest |ONNX Runtime - ``DynamicEngine``| over every output on ``random_inputs`` [m or rad]
     (the engine is fed the same float32 values, in float64)."""
-    import onnxruntime
+    import onnxruntime  # optional extra: learn (ONNX Runtime)
 
     feeds = random_inputs(model, seed)
     options = onnxruntime.SessionOptions()
@@ -211,7 +212,7 @@ _LAYOUT = {
 
 def _graph(model: LoadedDynamic, opset: int) -> bytes:
     """The ONNX model of one step (bytes) with ``describe``'s scalars as metadata."""
-    import onnx
+    import onnx  # optional extra: learn (ONNX)
 
     wrapped = OnnxStep(step_net(model))
     example = tuple(torch.from_numpy(v) for v in random_inputs(model).values())

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ...errors import SoftrnnInputError
 from ...progress import Progress
 from .config import DynamicConfig, resolve_node_stride
 from .data import Split, rod_length
@@ -15,8 +16,6 @@ def fit(split: Split, config: DynamicConfig, *, progress: Progress | None = None
     train. Returns the trained model and the ``meta`` a model folder records (``{"data": ...}``)."""
     datasets = [part.read() for part in split.train]
     if not datasets:
-        from ...errors import SoftrnnInputError
-
         raise SoftrnnInputError("data: nothing to train on (every input was held out); give more variants "
                                 "or a smaller --heldout")
     first = datasets[0]

@@ -1,25 +1,28 @@
 """``DynamicNet``: one step of the whole-manipulator model in PyTorch (training and export).
 
-Per step, each kept node's features (channels) are its displacement and rotation vector from the
-reference, its last ``history - 1`` velocities (state differences per model step), the step's mean
-load and three constants (arc position, distance to a fixed node, fixed flag), each scaled by its
-training standard deviation. The output is the normalised change of velocity over the step
-(a second difference, as in GNS); the new state is ``x + v + dv``. Two terms are summed:
+Per step, each kept node's features (channels, ``DynamicNet.features``) are its displacement and
+rotation vector from the reference, its last ``history - 1`` velocities (state differences per
+model step), the step's mean load and three constants (arc position, distance to a fixed node,
+fixed flag), each scaled by its training standard deviation. The model predicts the scaled change
+of velocity over the step (a second difference, as in GNS)::
 
-* ``linear``: a global linear map of every node's features (M*C -> M*6), fitted by ridge regression
-  before training: by itself, the one-step linear model (the "linear" baseline);
-* ``conv``: a 1-D convolution along the rod (one set of weights for every node; the chain graph's
-  message passing) whose last layer starts at zero, so training starts from the linear model.
-  By default it reads the state, the velocities and the constants but **not the loads**: by
-  Newton's second law a node's acceleration is affine in a load applied to it at a given state (the
-  internal forces are the nonlinear part), so the loads enter through the linear term only.
-  Measured: a convolution that also read the loads learned load responses from the few load events
-  of the training data and drifted after them in free runs. A tendon's load is not applied at a
-  node: its force and moment follow the rod's shape, so for actuation inputs the convolution may
-  read the loads too (``conv_reads = "loads"``).
+    next = x + v + dv_scale (linear_term + correction)        (fixed nodes keep x)
 
-With ``memory = "lstm"`` a per-node LSTM cell (shared along the rod) also carries a hidden state
-from step to step and feeds the convolution. Fixed nodes keep their state.
+* ``linear_term``: a global linear map of every node's features (M*C -> M*6), fitted by ridge
+  regression before training: by itself, the one-step linear model (the "linear" baseline);
+* ``correction``: a 1-D convolution along the rod (one set of weights for every node; the chain
+  graph's message passing) whose last layer starts at zero, so training starts from the linear
+  model. By default it reads the state, the velocities and the constants but **not the loads**
+  (``correction_inputs``): by Newton's second law a node's acceleration is affine in a load applied
+  to it at a given state (the internal forces are the nonlinear part), so the loads enter through
+  the linear term only; a convolution that also reads the loads learns load responses from the few
+  load events of the training data and drifts after them in free runs. A tendon's load is not
+  applied at a node: its force and moment follow the rod's shape, so for actuation inputs the
+  convolution may read the loads too (``conv_reads = "loads"``). With ``bound`` > 0 the correction
+  is limited to +-bound by a tanh.
+
+With ``memory = "lstm"`` a per-node LSTM cell (shared along the rod, ``lstm_step``) also carries a
+hidden state from step to step and feeds the convolution.
 
 **The envelope** (``config.envelope`` = m > 0): the training data's range [lo, hi] of each feature
 the correction reads (buffers ``env_lo``, ``env_hi``, set by ``set_envelope``). A node whose
@@ -37,6 +40,11 @@ from torch import nn
 
 from .config import DynamicConfig, conv_channels, n_channels
 
+SCALE_KEYS = {"state_scale": "sx", "velocity_scale": "sv", "load_scale": "su", "dv_scale": "sa"}
+"""The scale buffers of ``DynamicNet`` and their keys in its ``state_dict``, in a model folder's
+weights.safetensors (docs/dynamic-model-format.md) and in ``training.scales``: the saved format keeps
+the short keys."""
+
 
 def feedback_force(hist: torch.Tensor, feedback, k: int) -> torch.Tensor:
     """The PD laws' loads (B, M, 6) at step ``k`` of a free run from ``hist`` (B, H, M, 6), as
@@ -47,20 +55,39 @@ def feedback_force(hist: torch.Tensor, feedback, k: int) -> torch.Tensor:
     return torch.cat([f, torch.zeros_like(f)], dim=-1)
 
 
+def _conv_stack(n_in: int, config: DynamicConfig) -> nn.Sequential:
+    """The convolution along the rod: ``layers`` convolutions of ``width`` channels and kernel
+    ``kernel``, each followed by a GELU, then a 1 x 1 convolution to the 6 outputs whose weights
+    start at zero (so training starts from the linear term)."""
+    width, pad = config.width, config.kernel // 2
+    layers = [nn.Conv1d(n_in, width, config.kernel, padding=pad), nn.GELU(approximate="tanh")]
+    for _ in range(config.layers - 1):
+        layers += [nn.Conv1d(width, width, config.kernel, padding=pad), nn.GELU(approximate="tanh")]
+    out = nn.Conv1d(width, 6, 1)
+    nn.init.zeros_(out.weight)
+    nn.init.zeros_(out.bias)
+    return nn.Sequential(*layers, out)
+
+
 class DynamicNet(nn.Module):
-    """One model step. Buffers: ``node_features`` (M, 3), ``fixed`` (M,) bool and the scales
-    ``sx``, ``sv``, ``sa`` (6,) of states, velocities and velocity changes and ``su`` (L,) of the
-    loads (L = 6, or m / 6 + m with actuation inputs: ``load_width``)."""
+    """One model step: next = x + v + dv_scale (linear term + correction), fixed nodes held.
+
+    Buffers: ``node_features`` (M, 3), ``fixed`` (M,) bool and the training data's standard
+    deviations (``SCALE_KEYS``): ``state_scale``, ``velocity_scale``, ``dv_scale`` (6,) of the
+    states, velocities and velocity changes, ``load_scale`` (L,) of the loads (L = 6, or m / 6 + m
+    with actuation inputs: ``load_width``); with an envelope also ``env_lo``, ``env_hi``, ``env_inv``.
+    ``scales`` holds the four standard deviations under their saved keys (``training.scales``).
+    """
 
     def __init__(self, config: DynamicConfig, node_features, fixed, scales: dict):
         super().__init__()
         self.config = config
         self.register_buffer("node_features", torch.as_tensor(node_features, dtype=torch.float32))
         self.register_buffer("fixed", torch.as_tensor(fixed, dtype=torch.bool))
-        for key in ("sx", "sv", "su", "sa"):
-            self.register_buffer(key, torch.as_tensor(scales[key], dtype=torch.float32))
+        for name, key in SCALE_KEYS.items():
+            self.register_buffer(name, torch.as_tensor(scales[key], dtype=torch.float32))
         M = int(self.node_features.shape[0])
-        L = int(self.su.numel())                      # load channels: 6, or with actuation inputs m or 6 + m
+        L = int(self.load_scale.numel())              # load channels: 6, or with actuation inputs m or 6 + m
         C = n_channels(config.history, L)
         self.n_kept, self.n_in, self.load_width = M, C, L
         self.linear = nn.Linear(M * C, M * 6) if config.linear else None
@@ -75,21 +102,30 @@ class DynamicNet(nn.Module):
             self.env_lo = self.env_hi = None
         self.cell = nn.LSTMCell(G, config.width) if config.memory == "lstm" else None
         if config.conv or self.cell is not None:
-            width, pad = config.width, config.kernel // 2
-            cin = G + (config.width if self.cell is not None else 0)
-            layers = [nn.Conv1d(cin, width, config.kernel, padding=pad), nn.GELU(approximate="tanh")]
-            for _ in range(config.layers - 1):
-                layers += [nn.Conv1d(width, width, config.kernel, padding=pad), nn.GELU(approximate="tanh")]
-            out = nn.Conv1d(width, 6, 1)
-            nn.init.zeros_(out.weight)
-            nn.init.zeros_(out.bias)
-            self.conv = nn.Sequential(*layers, out)
+            self.conv = _conv_stack(G + (config.width if self.cell is not None else 0), config)
         else:
             self.conv = None
         if self.linear is not None:
             nn.init.zeros_(self.linear.weight)
             nn.init.zeros_(self.linear.bias)
 
+    # ---------------------------------------------------------------- saved keys of the scales
+    def _save_to_state_dict(self, destination, prefix, keep_vars):
+        """As ``nn.Module``'s, with the scale buffers under their saved keys (``SCALE_KEYS``)."""
+        own = {}
+        super()._save_to_state_dict(own, prefix, keep_vars)
+        for key, value in own.items():
+            name = key[len(prefix):]
+            destination[prefix + SCALE_KEYS.get(name, name)] = value
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
+        """As ``nn.Module``'s, reading the scale buffers from their saved keys (``SCALE_KEYS``)."""
+        for name, key in SCALE_KEYS.items():
+            if prefix + key in state_dict:
+                state_dict[prefix + name] = state_dict.pop(prefix + key)
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
+
+    # ---------------------------------------------------------------------------- the envelope
     def set_envelope(self, lo: torch.Tensor, hi: torch.Tensor) -> None:
         """The data's range [lo, hi] of the ``conv_cols`` features ((G,) each, in scaled units):
         buffers ``env_lo``, ``env_hi`` and ``env_inv`` = 1 / (m (hi - lo)), 0 for a channel that
@@ -112,43 +148,72 @@ class DynamicNet(nn.Module):
         g = torch.minimum(torch.maximum(g, self.env_lo - margin), self.env_hi + margin)
         return g, gate
 
+    # -------------------------------------------------------------------------- one model step
     def features(self, hist: torch.Tensor, loads: torch.Tensor) -> torch.Tensor:
-        """hist (B, H, M, 6) states, oldest first; loads (B, M, L) -> features (B, M, C)."""
+        """hist (B, H, M, 6) states, oldest first; loads (B, M, L) -> features (B, M, C): the
+        state, the H - 1 velocities, the loads (each over its scale) and the node constants."""
         B = hist.shape[0]
-        parts = [hist[:, -1] / self.sx]
+        parts = [hist[:, -1] / self.state_scale]
         for j in range(self.config.history - 1):
-            parts.append((hist[:, -1 - j] - hist[:, -2 - j]) / self.sv)
-        parts.append(loads / self.su)
+            parts.append((hist[:, -1 - j] - hist[:, -2 - j]) / self.velocity_scale)
+        parts.append(loads / self.load_scale)
         parts.append(self.node_features.expand(B, -1, -1))
         return torch.cat(parts, dim=-1)
 
-    def forward(self, hist: torch.Tensor, loads: torch.Tensor, memory=None):
-        """hist (B, H, M, 6), loads (B, M, 6) -> (next state (B, M, 6), memory for the next step)."""
-        f = self.features(hist, loads)
-        B, M, C = f.shape
-        a = torch.zeros(B, M, 6, dtype=f.dtype)
+    def linear_term(self, features: torch.Tensor) -> torch.Tensor:
+        """The global linear map of every node's features (B, M, C) -> (B, M, 6) (zeros without it)."""
+        B, M, C = features.shape
+        dv = torch.zeros(B, M, 6, dtype=features.dtype)
         if self.linear is not None:
-            a = a + self.linear(f.reshape(B, M * C)).reshape(B, M, 6)
-        g, gate = f[..., self.conv_cols], None
-        if self.env_lo is not None:
-            g, gate = self.envelope_gate(g)
+            dv = dv + self.linear(features.reshape(B, M * C)).reshape(B, M, 6)
+        return dv
+
+    def correction_inputs(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """(the features the convolution reads (B, M, G), ``conv_cols``, clipped to the envelope;
+        the envelope gate (B, M, 1), or None without an envelope)."""
+        inputs = features[..., self.conv_cols]
+        if self.env_lo is None:
+            return inputs, None
+        return self.envelope_gate(inputs)
+
+    def lstm_step(self, inputs: torch.Tensor, memory) -> tuple[torch.Tensor, tuple]:
+        """One step of the per-node LSTM cell (shared along the rod) from ``memory`` (h, c)
+        (B M, W) each (None: zeros): (the inputs with the new hidden state appended (B, M, G + W),
+        the new memory)."""
+        B, M, G = inputs.shape
+        if memory is None:
+            z = torch.zeros(B * M, self.config.width, dtype=inputs.dtype)
+            memory = (z, z)
+        h, c = self.cell(inputs.reshape(B * M, G), memory)
+        return torch.cat([inputs, h.reshape(B, M, -1)], dim=-1), (h, c)
+
+    def correction(self, features: torch.Tensor, memory) -> tuple[torch.Tensor, tuple | None]:
+        """The convolution's correction (B, M, 6) to the scaled velocity change, times the envelope
+        gate and limited to +-bound by a tanh (bound > 0), and the LSTM memory for the next step."""
+        inputs, gate = self.correction_inputs(features)
         if self.cell is not None:
-            if memory is None:
-                z = torch.zeros(B * M, self.config.width, dtype=f.dtype)
-                memory = (z, z)
-            h, c = self.cell(g.reshape(B * M, g.shape[-1]), memory)
-            memory = (h, c)
-            g = torch.cat([g, h.reshape(B, M, -1)], dim=-1)
-        if self.conv is not None:
-            c = self.conv(g.transpose(1, 2)).transpose(1, 2)
-            if gate is not None:
-                c = c * gate
-            b = self.config.bound
-            a = a + (b * torch.tanh(c / b) if b > 0 else c)
+            inputs, memory = self.lstm_step(inputs, memory)
+        out = self.conv(inputs.transpose(1, 2)).transpose(1, 2)
+        if gate is not None:
+            out = out * gate
+        b = self.config.bound
+        return (b * torch.tanh(out / b) if b > 0 else out), memory
+
+    def next_state(self, hist: torch.Tensor, dv: torch.Tensor) -> torch.Tensor:
+        """x + v + dv ``dv_scale`` from the latest state x and velocity v of ``hist`` and the scaled
+        velocity change ``dv`` (B, M, 6); fixed nodes keep their state."""
         x, v = hist[:, -1], hist[:, -1] - hist[:, -2]
-        nxt = x + v + a * self.sa
-        nxt = torch.where(self.fixed[None, :, None], x, nxt)
-        return nxt, memory
+        nxt = x + v + dv * self.dv_scale
+        return torch.where(self.fixed[None, :, None], x, nxt)
+
+    def forward(self, hist: torch.Tensor, loads: torch.Tensor, memory=None):
+        """hist (B, H, M, 6), loads (B, M, L) -> (next state (B, M, 6), memory for the next step)."""
+        features = self.features(hist, loads)
+        dv = self.linear_term(features)
+        if self.conv is not None:
+            correction, memory = self.correction(features, memory)
+            dv = dv + correction
+        return self.next_state(hist, dv), memory
 
     def rollout(self, hist: torch.Tensor, loads: torch.Tensor, feedback=None) -> torch.Tensor:
         """Free run: hist (B, H, M, 6), loads (B, K, M, 6) for each step -> states (B, K, M, 6).

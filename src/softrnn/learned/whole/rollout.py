@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...io.reader import Dataset
+from ...io.schema import POSITION_LIMIT_M
 from .evaluation import free_run
 
 
@@ -16,8 +18,6 @@ def rollout_dataset(model, dataset, start: int, stop: int | None = None, attrs: 
     torques at those times. A run that diverges, or leaves the data format's position range, ends
     there. The data's metadata (rod, scenario, seed, its extra attrs) is kept, with ``dt`` the
     model's step, so ``write_dataset`` writes it as is; ``attrs`` are added."""
-    from ...io.dataset import POSITION_LIMIT_M, Dataset
-
     enc = model.encoding
     traj = enc.trajectory(dataset)
     states, diverged = free_run(model.engine, traj, start, stop)

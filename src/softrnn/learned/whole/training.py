@@ -25,12 +25,15 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from scipy.sparse.linalg import ArpackError, ArpackNoConvergence, eigs
 
 from ...errors import SoftrnnInputError
 from ...files import atomic_write_bytes
 from ...progress import Progress
+from .artifact import engine_of
 from .config import DynamicConfig, linear_config, load_channels
 from .encoding import Encoding, Trajectory
+from .evaluation import free_run
 from .network import DynamicNet, feedback_force
 
 CHECKPOINT_EVERY = 100
@@ -147,7 +150,7 @@ def _normal_equations(net: DynamicNet, trajectories) -> tuple[tuple, tuple]:
             hist, loads, future, fb = _batch(trajectories, chunk, H, 1)
             f = net.features(hist, _first_loads(hist, loads, fb))
             F.append(f.reshape(len(chunk), -1).double().numpy())
-            a = (future[:, 0] - 2 * hist[:, -1] + hist[:, -2]) / torch.where(net.sa > 0, net.sa, 1.0)
+            a = (future[:, 0] - 2 * hist[:, -1] + hist[:, -2]) / torch.where(net.dv_scale > 0, net.dv_scale, 1.0)
             A.append(a.reshape(len(chunk), -1).double().numpy())
     F, A = np.concatenate(F), np.concatenate(A)
     fm, am = F.mean(axis=0), A.mean(axis=0)
@@ -169,7 +172,7 @@ def damping_prior(net: DynamicNet) -> np.ndarray:
     if tau is None:
         return W0
     r = net.config.model_dt / tau
-    sx, sv, sa = (getattr(net, k).double().numpy() for k in ("sx", "sv", "sa"))
+    sx, sv, sa = (getattr(net, k).double().numpy() for k in ("state_scale", "velocity_scale", "dv_scale"))
     for i in np.flatnonzero(~net.fixed.numpy()):
         for c in np.flatnonzero(sa > 0):
             W0[i * C + c, i * 6 + c] = -r * r * sx[c] / sa[c]
@@ -218,12 +221,11 @@ def spectral_radius(net: DynamicNet) -> float:
     companion = np.zeros((n, n))
     companion[:-M * 6, M * 6:] = np.eye(n - M * 6)       # shift: old states move one slot back
     companion[-M * 6:, :] = J
-    moving = ((~net.fixed.numpy())[:, None] & (net.sa.numpy() > 0)[None, :]).reshape(-1)
+    moving = ((~net.fixed.numpy())[:, None] & (net.dv_scale.numpy() > 0)[None, :]).reshape(-1)
     keep = np.flatnonzero(np.tile(moving, H))
     if keep.size == 0:
         return 1.0
     companion = companion[np.ix_(keep, keep)]
-    from scipy.sparse.linalg import ArpackError, ArpackNoConvergence, eigs
 
     v0 = np.random.default_rng(0).standard_normal(len(keep))   # a fixed start: the same radius (and ridge) every run
     try:   # the largest eigenvalue only (ARPACK): a full eigvals of a few hundred rows is slow on a busy machine
@@ -278,9 +280,6 @@ def _save_checkpoint(path: Path, net, opt, gen, loop) -> None:
 def validation_error(net: DynamicNet, validation: list[Trajectory], max_steps: int = VALIDATION_STEPS) -> float:
     """The mean over ``validation`` of each free run's largest position error [m] over the kept
     nodes (from the first full history, up to ``max_steps``); inf where a run diverges."""
-    from .artifact import engine_of
-    from .evaluation import free_run
-
     engine, H, errors = engine_of(net), net.config.history, []
     for traj in validation:
         stop = min(traj.n_steps, H + max_steps)
@@ -313,9 +312,10 @@ def _loss(net: DynamicNet, trajectories, windows, config: DynamicConfig, gen, st
     hist, loads, future, feedback = _batch(trajectories, picks, H, K)
     mask = (~net.fixed).float()[None, None, :, None]
     if config.noise > 0:
-        eps = torch.randn(hist.shape, generator=gen) * (config.noise * net.sv * (net.sa > 0) / math.sqrt(H))
+        sigma = config.noise * net.velocity_scale * (net.dv_scale > 0) / math.sqrt(H)
+        eps = torch.randn(hist.shape, generator=gen) * sigma
         hist = hist + torch.cumsum(eps, dim=1) * mask
-    err = (net.rollout(hist, loads, feedback) - future) / net.sv * mask
+    err = (net.rollout(hist, loads, feedback) - future) / net.velocity_scale * mask
     return (err ** 2).sum() / (float(mask.sum()) * 6 * config.batch * K)
 
 

@@ -8,13 +8,15 @@ the learned node models (paper Fig. 2B: the last ``history`` samples of the node
 neighbours' positions and the node's wrenches) and predicts the increment, so it is exact for a
 linear system (a damped mass-spring chain) and strong for small motions of a rod.
 
-Arrays are time first, like the data sets (``softrnn.io.dataset``): positions ``(T, N, 3)`` [m] of
+Arrays are time first, like the data sets (``softrnn.io``): positions ``(T, N, 3)`` [m] of
 N stored nodes, called *columns* here (for a ``Dataset`` the order of ``dataset.nodes``); wrenches
 ``(T, N, W)`` with W = 6 (force [N], then torque [N m]; ``dataset_wrenches``) or W = 3 (force only),
 or None. A window ``(H, N, 3)`` holds the H samples before the predicted one, oldest first.
 
 Every baseline is a small final class behind ``AbstractBaseline`` (``history`` and ``step``), so
-``one_step``, ``free_run`` and ``horizon_errors`` treat them alike. NumPy only: no PyTorch, so the
+``one_step``, ``free_run`` and ``horizon_errors`` treat them alike. Both kinds of learned model
+use these baselines: the whole-manipulator model (``softrnn.learned.whole``) steps its encoded state
+with the same ``Persistence`` and ``ConstantVelocity`` behind ``StateBaseline``. NumPy only: no PyTorch, so the
 baselines work without the 'learn' extra. Float64 throughout; fits and predictions are
 deterministic (closed-form ridge by one SVD per fit, no random numbers).
 """
@@ -27,17 +29,15 @@ from typing import Protocol, final
 
 import numpy as np
 
-from ...errors import bad, is_finite_number, is_int
-from .manipulator import DIVERGED_M, RolloutDiverged
+from ..errors import bad, is_finite_number, is_int
+from .horizons import DIVERGED_M, HORIZONS, RolloutDiverged, free_steps
+from .spans import WINDOWS, check_fit_span, check_span
 
 MODES = ("node", "manipulator")
 """``LinearAR`` variants: one ridge model per node, or one for the whole manipulator."""
 
 ALPHAS = tuple(float(a) for a in np.logspace(-8, 2, 11))
 """Ridge penalties tried on the validation part of the training span (``LinearARConfig.alphas``)."""
-
-HORIZONS = (1, 10, 100, 1000)
-"""Default free-running horizons of ``horizon_errors`` [samples]."""
 
 MAX_MANIPULATOR_FEATURES = 4096
 """Most features of the whole-manipulator model (varying node coordinates x history, plus the varying
@@ -121,35 +121,6 @@ def _history(value) -> int:
     return int(value)
 
 
-def _span(n_samples: int, history: int, start, stop, *, targets: int = 1) -> tuple[int, int]:
-    """Validated (start, stop) of predicted samples: ``history`` rows before ``start`` exist and
-    ``[start, stop)`` holds at least ``targets`` samples."""
-    for name, value in (("start", start), ("stop", stop)):
-        if not is_int(value):
-            raise bad(name, value, "a sample index (integer)")
-    start, stop = int(start), int(stop)
-    if not history <= start < n_samples:
-        raise bad("start", start, f"a sample index in {history}..{n_samples - 1}: the history = {history} "
-                                  f"samples before it are the first window")
-    if not start + targets <= stop <= n_samples:
-        raise bad("stop", stop, f"a sample index in {start + targets}..{n_samples} (at least {targets} "
-                                f"predicted sample(s) after start={start})")
-    return start, stop
-
-
-def _fit_span(n_samples: int, history: int, start, stop, targets: int) -> tuple[int, int]:
-    """Validated training span [start, stop): ``history`` + ``targets`` samples at least."""
-    for name, value in (("start", start), ("stop", stop)):
-        if not is_int(value) or not 0 <= value <= n_samples:
-            raise bad(name, value, f"a sample index in 0..{n_samples}")
-    need = history + targets
-    if stop - start < need:
-        why = "a target to fit and one to choose alpha on" if targets > 1 else "one target"
-        raise bad("stop", stop, f"a training span [start, stop) = [{start}, {stop}) of at least history + "
-                                f"{targets} = {need} samples ({why}); use a longer span or a shorter history")
-    return int(start), int(stop)
-
-
 # ------------------------------------------------------------------------------------- windows
 def _window(value, history: int, n_nodes: int | None) -> np.ndarray:
     """Window positions (..., H', N, 3) float64 with H' >= history (and N = ``n_nodes``)."""
@@ -191,8 +162,13 @@ class Persistence:
     def step(self, window_positions, window_wrenches=None, next_wrench=None) -> np.ndarray:
         """Positions (N, 3) [m]: the window's last row (``window_positions`` (H, N, 3) [m], or
         (B, H, N, 3) -> (B, N, 3))."""
-        w = _window(window_positions, self.history, None)
-        return w[..., -1, :, :].copy()
+        return self.advance(_window(window_positions, self.history, None))
+
+    @staticmethod
+    def advance(window: np.ndarray) -> np.ndarray:
+        """The window's last row, a copy: ``window`` (..., H, N, C) -> (..., N, C), any C (positions,
+        or a whole-manipulator model's encoded states); not validated."""
+        return window[..., -1, :, :].copy()
 
 
 @final
@@ -205,8 +181,41 @@ class ConstantVelocity:
     def step(self, window_positions, window_wrenches=None, next_wrench=None) -> np.ndarray:
         """Positions (N, 3) [m]: 2 r[-1] - r[-2] of the window (``window_positions`` (H, N, 3) [m],
         H >= 2, or (B, H, N, 3) -> (B, N, 3))."""
-        w = _window(window_positions, self.history, None)
-        return 2.0 * w[..., -1, :, :] - w[..., -2, :, :]
+        return self.advance(_window(window_positions, self.history, None))
+
+    @staticmethod
+    def advance(window: np.ndarray) -> np.ndarray:
+        """2 r[-1] - r[-2] of ``window`` (..., H, N, C) -> (..., N, C), H >= 2, any C (positions, or a
+        whole-manipulator model's encoded states); not validated."""
+        return 2.0 * window[..., -1, :, :] - window[..., -2, :, :]
+
+
+@final
+@dataclass(frozen=True)
+class StateBaseline:
+    """``Persistence`` or ``ConstantVelocity`` stepping a whole-manipulator model's encoded state
+    (``softrnn.learned.whole``): the predictor interface of ``whole.evaluation.free_run``.
+
+    Attributes
+    ----------
+    baseline : Persistence or ConstantVelocity
+        Whose ``advance`` predicts the next state.
+    history : int
+        Seed states a free run starts from: 2 for both, so every whole-model predictor starts at
+        the same model step.
+    """
+
+    baseline: Persistence | ConstantVelocity
+    history: int = field(default=2, init=False)
+
+    def __post_init__(self):
+        if not isinstance(self.baseline, (Persistence, ConstantVelocity)):
+            raise bad("baseline", type(self.baseline).__name__, "Persistence() or ConstantVelocity()")
+
+    def step(self, hist, loads=None, memory=None) -> tuple[np.ndarray, None]:
+        """(next state (M, C), None): ``hist`` (H, M, C) float64 advanced by the baseline; the loads
+        and the memory are not used."""
+        return self.baseline.advance(hist), None
 
 
 # ------------------------------------------------------------------------------------- LinearAR config
@@ -520,7 +529,7 @@ class LinearAR:
         P = _positions("positions", positions)
         Wr = _wrenches("wrenches", wrenches, P.shape[:2], config.wrench_width)
         T, N, H = P.shape[0], P.shape[1], config.history
-        start, stop = _fit_span(T, H, start, T if stop is None else stop, 1 if config.alpha is not None else 2)
+        start, stop = check_fit_span(T, H, start, T if stop is None else stop, 1 if config.alpha is not None else 2)
         cols = _columns("modelled", modelled, N)
         width = 0 if Wr is None else Wr.shape[-1]
         design = (_node_design(config, cols, N, width) if config.mode == "node"
@@ -622,7 +631,7 @@ def one_step(baseline: AbstractBaseline, positions, wrenches, start: int, stop: 
     P = _positions("positions", positions)
     Wr = _wrenches("wrenches", wrenches, P.shape[:2], 0)   # any width: the baseline checks its own
     H = _history(baseline.history)
-    start, stop = _span(P.shape[0], H, start, stop)
+    start, stop = check_span(P.shape[0], H, start, stop, wording=WINDOWS)
     view = np.lib.stride_tricks.sliding_window_view
     win = view(P[start - H:stop - 1], H, axis=0).transpose(0, 3, 1, 2)           # (M, H, N, 3)
     wr = None if Wr is None else view(Wr[start - H:stop - 1], H, axis=0).transpose(0, 3, 1, 2)
@@ -664,19 +673,23 @@ def free_run(baseline: AbstractBaseline, positions, wrenches, start: int, stop: 
     P = _positions("positions", positions)
     Wr = _wrenches("wrenches", wrenches, P.shape[:2], 0)   # any width: the baseline checks its own
     H = _history(baseline.history)
-    start, stop = _span(P.shape[0], H, start, stop)
+    start, stop = check_span(P.shape[0], H, start, stop, wording=WINDOWS)
     cols = _columns("modelled", modelled, P.shape[1])
     state = P[start - H:stop].copy()                                            # (H + L, N, 3)
     loads = None if Wr is None else Wr[start - H:stop]
+
+    def step(k: int, window: np.ndarray) -> np.ndarray:
+        pred = baseline.step(window, None if loads is None else loads[k - H:k], None if loads is None else loads[k])
+        new = _checked(pred, P.shape[1:])[cols]
+        bad_rows = ~(np.isfinite(new).all(axis=1) & (np.abs(new) <= DIVERGED_M).all(axis=1))
+        if bad_rows.any():
+            _diverged(int(cols[np.flatnonzero(bad_rows)[0]]), start - H + k)
+        row = state[k].copy()                  # the reference, for the columns not modelled
+        row[cols] = new
+        return row
+
     with np.errstate(under="ignore"):
-        for k in range(H, state.shape[0]):
-            pred = baseline.step(state[k - H:k], None if loads is None else loads[k - H:k],
-                                 None if loads is None else loads[k])
-            new = _checked(pred, P.shape[1:])[cols]
-            bad_rows = ~(np.isfinite(new).all(axis=1) & (np.abs(new) <= DIVERGED_M).all(axis=1))
-            if bad_rows.any():
-                _diverged(int(cols[np.flatnonzero(bad_rows)[0]]), start - H + k)
-            state[k, cols] = new
+        free_steps(step, state, H)
     return state[H:]
 
 
@@ -795,6 +808,6 @@ def standard_baselines(positions, wrenches, start: int, stop: int, *, config: Li
     return {"persistence": Persistence(), "constant velocity": ConstantVelocity(), "linear": linear}
 
 
-__all__ = ["ALPHAS", "HORIZONS", "MAX_MANIPULATOR_FEATURES", "MODES", "AbstractBaseline", "ConstantVelocity",
-           "LinearAR", "LinearARConfig", "Persistence", "dataset_wrenches", "free_run", "horizon_errors",
+__all__ = ["ALPHAS", "MAX_MANIPULATOR_FEATURES", "MODES", "AbstractBaseline", "ConstantVelocity", "LinearAR",
+           "LinearARConfig", "Persistence", "StateBaseline", "dataset_wrenches", "free_run", "horizon_errors",
            "one_step", "standard_baselines"]

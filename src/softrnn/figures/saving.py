@@ -1,0 +1,83 @@
+"""The one way softrnn makes and saves pictures: figures made with matplotlib's object API on the Agg
+canvas (``new_figure``, ``subplots``; no pyplot, so no global figure list to close), saved atomically
+(``save_figure``) or rendered in memory (``figure_bytes``), and the temporary file every output goes
+through (``atomic_output``, which the animations write into as well).
+
+An output is written under a temporary name in its own folder (``.NAME.XXXX.tmp.SUFFIX``, hidden)
+and renamed onto its path only when complete: an error or Ctrl-C leaves the old file, if any,
+untouched and no partial file behind.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from ..files import umask_mode  # noqa: E402
+
+DPI = 110
+"""Resolution [dots per inch] of every saved figure unless a caller asks for another."""
+
+
+def new_figure(*, figsize: tuple[float, float] | None = None, dpi: float | None = None) -> Figure:
+    """A matplotlib ``Figure`` of ``figsize`` [in] (default: matplotlib's) on its own Agg canvas,
+    made without pyplot: nothing global holds it, so it needs no closing."""
+    fig = Figure(figsize=figsize, dpi=dpi)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float] | None = None, **kwargs):
+    """(figure, axes) like ``pyplot.subplots``: a ``new_figure`` of ``figsize`` with an
+    ``nrows`` x ``ncols`` grid of axes (``kwargs`` such as ``sharex`` and ``squeeze`` go to
+    ``Figure.subplots``)."""
+    fig = new_figure(figsize=figsize)
+    return fig, fig.subplots(nrows, ncols, **kwargs)
+
+
+@contextmanager
+def atomic_output(path) -> Iterator[str]:
+    """Yield a temporary file name beside ``path`` (same folder and suffix, created empty) to write
+    into; when the block ends normally the file gets the usual permissions and is renamed onto
+    ``path`` (``os.replace``), when it raises (Ctrl-C included) the temporary file is removed and
+    ``path`` is left as it was. The folder is created if missing."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
+    os.close(fd)
+    try:
+        yield tmp
+        os.chmod(tmp, umask_mode())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def save_figure(fig: Figure, path, *, dpi: float = DPI) -> Path:
+    """Save ``fig`` to ``path`` atomically (``atomic_output``) in the format its suffix names (.png,
+    .pdf, .svg, ...) at ``dpi``; returns the path. A suffix matplotlib cannot write raises its
+    ``ValueError`` and leaves no file."""
+    path = Path(path)
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=path.suffix[1:].lower() or None)
+    return path
+
+
+def figure_bytes(fig: Figure, fmt: str, *, dpi: float = DPI) -> bytes:
+    """``fig`` rendered in memory in the format ``fmt`` (``"png"``, ``"svg"``, ...; a leading dot
+    is ignored) at ``dpi``, for a caller that writes it together with other outputs."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt.lstrip("."), dpi=dpi)
+    return buf.getvalue()
