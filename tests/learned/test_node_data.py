@@ -17,7 +17,8 @@ from softrnn.learned.node.data import (
     wrench_rows,
     wrench_units,
 )
-from softrnn.learned.node.train import TrainConfig, spans, training_windows
+from softrnn.learned.node.train import TrainConfig
+from softrnn.learned.node.training_data import spans, training_windows
 
 from helpers import swinging_rod
 

@@ -9,8 +9,9 @@ from softrnn.errors import SoftrnnInputError
 from softrnn.learned.node.artifact import NodeModel
 from softrnn.learned.node.data import Normalizer, SampleSpec, make_windows, split
 from softrnn.learned.node.engine import Engine, ManipulatorStepper, NodeStepper
+from softrnn.learned.node.manipulator import Manipulator
 from softrnn.learned.node.model import ModelConfig, NodeLSTM
-from softrnn.learned.node.rollout import Manipulator, rollout
+from softrnn.learned.node.rollout import rollout
 
 from helpers import node_dataset as synthetic
 

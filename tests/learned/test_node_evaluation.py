@@ -9,10 +9,12 @@ import pytest
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.io import UNITS, Dataset, read_dataset
+from softrnn.learned.horizons import RolloutDiverged
 from softrnn.learned.node.artifact import save_model
 from softrnn.learned.node.data import SampleSpec, make_windows, split
 from softrnn.learned.node.evaluate import evaluate, free_running, metrics, one_step, paper_reference
-from softrnn.learned.node.rollout import Manipulator, RolloutDiverged, bind, rollout, rollout_dataset, write_rollout
+from softrnn.learned.node.manipulator import Manipulator, bind
+from softrnn.learned.node.rollout import rollout, rollout_dataset, write_rollout
 
 from helpers import LENGTH, N_NODES, Offset, Oracle, node_dataset, real_model, run_cli, save_h5
 

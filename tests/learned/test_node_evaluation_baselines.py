@@ -13,7 +13,8 @@ from softrnn.cli._evaluate import format_report
 from softrnn.learned.baselines import ConstantVelocity, Persistence, free_run
 from softrnn.learned.node.data import SampleSpec, split
 from softrnn.learned.node.evaluate import evaluate, horizon_misses, horizon_table, misses
-from softrnn.learned.node.rollout import Manipulator, rollout
+from softrnn.learned.node.manipulator import Manipulator
+from softrnn.learned.node.rollout import rollout
 from softrnn.reproduce.manipulator import compare_baselines as manipulator_baselines
 from softrnn.reproduce.report import render_markdown
 from softrnn.scenarios.cases import PAPER_CASES

@@ -323,8 +323,9 @@ def test_cli_corrupt_or_foreign_model_folder_exit_2(data_file, trained, tmp_path
 
 # ------------------------------------------------------------------------------ pooled (shared) model
 def test_a_pooled_model_learns_from_every_pooled_node(tmp_path):
-    from softrnn.learned.node.rollout import Manipulator, rollout
-    from softrnn.learned.node.train import pooled_specs, training_windows
+    from softrnn.learned.node.manipulator import Manipulator
+    from softrnn.learned.node.rollout import rollout
+    from softrnn.learned.node.training_data import pooled_specs, training_windows
 
     data = synthetic(200)
     spec = SampleSpec(node=2, wrench="force")

@@ -33,8 +33,8 @@ import numpy as np
 from ..learned.node.artifact import NodeModel
 from ..learned.node.data import Normalizer, SampleSpec
 from ..learned.node.engine import ManipulatorStepper, NodeStepper
+from ..learned.node.manipulator import Manipulator
 from ..learned.node.model import ModelConfig, NodeLSTM
-from ..learned.node.rollout import Manipulator
 from ..progress import Progress
 from ..timing import step_rate
 

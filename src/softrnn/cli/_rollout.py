@@ -65,7 +65,8 @@ def run(args) -> int:
     from ..io.reader import read_dataset
     from ..learned.node.artifact import load_model
     from ..learned.node.evaluate import check_compatible
-    from ..learned.node.rollout import Manipulator, max_error_mm, model_inputs, rollout, write_rollout
+    from ..learned.node.manipulator import Manipulator, model_inputs
+    from ..learned.node.rollout import max_error_mm, rollout, write_rollout
 
     if len(args.paths) < 2 and args.shared is None:
         raise bad("MODEL", None, "at least one model folder before DATA.h5 (or --shared MODEL)")

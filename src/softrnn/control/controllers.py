@@ -19,9 +19,9 @@ from .loop import LoopConfig
 from .model import NarxModel, NarxPredictor
 from .mpc import BlockMPC
 from .physics_mpc import PHYSICS_OPTIONS, PhysicsPredictor
-from .static_inverse import DISTAL, StaticInverse
+from .static_inverse import StaticInverse
 
-__all__ = ["CONTROLLERS", "DISTAL", "StaticInverse", "controller"]
+__all__ = ["CONTROLLERS", "controller"]
 
 CONTROLLERS = ("static-inverse", "mpc-learned", "mpc-physics")
 """Controllers ``controller(name)`` builds."""

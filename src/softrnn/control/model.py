@@ -2,7 +2,7 @@
 
 State y (4,) [rad]: the proximal and distal magnets' orientations about x and y (the camera's). Input
 u (3,): the unit direction of the commanded field (the currents are the minimum-norm ones for a
-field of fixed magnitude along u, as ``controllers.StaticInverse`` commands). The network predicts
+field of fixed magnitude along u, as ``static_inverse.StaticInverse`` commands). The network predicts
 the next frame's change from the last ``HISTORY`` frames:
 
     y[k+1] = y[k] + W2 tanh(W1 z[k] + b1) + b2,   z[k] = normalised (y[k-H+1..k], u[k-H+1..k])

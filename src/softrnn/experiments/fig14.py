@@ -63,10 +63,12 @@ from ..errors import SoftrnnInputError, bad, integer, is_int
 from ..figures.saving import save_figure, subplots
 from ..files import atomic_write_text
 from ..io.reader import read_dataset
+from ..learned.node.artifact import load_model
 from ..learned.node.data import SampleSpec, pose_rows, wrench_rows
 from ..learned.node.engine import NodeStepper
 from ..learned.node.evaluate import evaluation_span, load_for_model, metrics, one_step, rod_length
-from ..learned.node.train import TrainConfig
+from ..learned.node.train import TrainConfig, train_node_model
+from ..learned.node.training_data import spans
 from ..progress import Progress
 from ..resume import REFUSE, Settings, check
 from ..sweeps.dask import completed, require
@@ -285,7 +287,6 @@ def train_point(data_path: str, config_dict: dict, units: int, history: int, out
     ``config_dict`` is ``StudyConfig.to_dict()`` (plain data, so the call pickles cheaply). An
     unfinished training in the point's model folder continues from its checkpoint.
     """
-    from ..learned.node.train import train_node_model  # optional extra: learn (PyTorch)
 
     config = _config_from_dict(config_dict)
     folder = model_folder(out_dir, units, history)
@@ -392,7 +393,6 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
 def _measure_point(out_dir: Path, record: dict, dataset, config: StudyConfig) -> dict:
     """Measure a trained point's bandwidths and rewrite its point file (with the machine they were
     measured on, ``softrnn.timing.machine_info``)."""
-    from ..learned.node.artifact import load_model  # optional extra: learn (PyTorch)
 
     model = load_model(out_dir / record["model"])
     record = dict(record, bandwidth=measure_bandwidth(model, dataset, steps=config.bandwidth_steps,
@@ -407,7 +407,6 @@ def _measure_point(out_dir: Path, record: dict, dataset, config: StudyConfig) ->
 def _check_data(data_path: Path, config: StudyConfig):
     """The resolved spec of the longest history, after checking that the node, its neighbours and
     that history fit the data file (one-line errors)."""
-    from ..learned.node.train import spans  # optional extra: learn (PyTorch)
 
     head = read_dataset(data_path, stop=1)
     spec = config.spec(max(config.history)).resolve(head.nodes, n_nodes_total=head.attrs.get("n_nodes_total"))

@@ -14,11 +14,12 @@ import numpy as np
 from ..errors import SoftrnnInputError
 from ..io.reader import read_dataset
 from ..learned.baselines import ConstantVelocity, LinearAR, LinearARConfig, Persistence, free_run
-from ..learned.horizons import WHOLE_HORIZONS
+from ..learned.horizons import WHOLE_HORIZONS, RolloutDiverged
 from ..learned.node.data import SampleSpec
 from ..learned.node.engine import ManipulatorStepper
 from ..learned.node.evaluate import horizon_misses, horizon_table, metrics
-from ..learned.node.rollout import Manipulator, RolloutDiverged, rollout
+from ..learned.node.manipulator import Manipulator
+from ..learned.node.rollout import rollout
 from ..timing import step_rate
 from .stepfiles import load_step, save_step
 

@@ -14,9 +14,10 @@ from .. import __version__
 from ..figures.evaluation import write_figures
 from ..files import atomic_write_text, json_default
 from ..io.reader import read_dataset
+from ..learned.horizons import RolloutDiverged
 from ..learned.node.data import SampleSpec
 from ..learned.node.evaluate import evaluate
-from ..learned.node.rollout import RolloutDiverged, rollout
+from ..learned.node.rollout import rollout
 from ..scenarios.cases import build_case
 from .cases import GENERALISATION
 from .stepfiles import load_step

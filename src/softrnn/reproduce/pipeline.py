@@ -30,24 +30,17 @@ from ..paper import paper_case
 from ..progress import ProgressFactory
 from ..scenarios.cases import ASSUMPTIONS, PAPER_CASES, build_case
 from ..timing import machine_info
-from .benchmark import benchmark_step as benchmark_step
-from .cases import GENERALISATION as GENERALISATION
-from .cases import QUICK_FRACTION as QUICK_FRACTION
-from .cases import case_step as case_step
-from .cases import run_case as run_case
-from .control import control_step as control_step
-from .dynamic import dynamic_step as dynamic_step
-from .fig13 import fig13_step as fig13_step
-from .fig14 import fig14_step as fig14_step
-from .magnetic import magnetic_step as magnetic_step
-from .manipulator import manipulator_step as manipulator_step
-from .node_models import engine_agreement as engine_agreement
-from .node_models import model_step as model_step
-from .node_models import paper_errors as paper_errors
-from .report import render_markdown as render_markdown
-from .stepfiles import load_step as load_step
-from .stepfiles import save_step as save_step
-from .tendons import tendon_step as tendon_step
+from .benchmark import benchmark_step
+from .cases import GENERALISATION, case_step
+from .control import control_step
+from .dynamic import dynamic_step
+from .fig13 import fig13_step
+from .fig14 import fig14_step
+from .magnetic import magnetic_step
+from .manipulator import manipulator_step
+from .node_models import model_step, paper_errors
+from .report import render_markdown
+from .tendons import tendon_step
 
 _MODEL_KEYS = ("one_step", "rollout", "generalisation", "generalisation_rollout", "model", "test_span_s",
                "engine_vs_pytorch")

@@ -12,7 +12,7 @@ from .boundary import Clamp
 from .discrete import segment_strains
 from .kernels import LumpedRod
 
-__all__ = ["LumpedRod", "frozen", "lumped_rod", "node_kinds", "with_damping"]
+__all__ = ["frozen", "lumped_rod", "node_kinds", "with_damping"]
 
 
 def _frozen_array(a, dtype) -> np.ndarray:

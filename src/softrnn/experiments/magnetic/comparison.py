@@ -13,10 +13,10 @@ import numpy as np
 from ...errors import SoftrnnInputError
 from ...figures.saving import save_figure
 from ...files import atomic_write_text
+from ...learned.horizons import RolloutDiverged
 from ...learned.node.data import SampleSpec, pose_rows, wrench_rows
 from ...learned.node.engine import NodeStepper
 from ...learned.node.evaluate import free_running, one_step
-from ...learned.node.rollout import RolloutDiverged
 from ...magnetics.camera import tangents_from_rotation_vectors
 from ...paper import paper_case
 from ...progress import Progress

@@ -263,7 +263,7 @@ class ManipulatorStepper:
     Parameters
     ----------
     models : Manipulator, NodeModel or sequence of NodeModel
-        The node models (``softrnn.learned.node.rollout.Manipulator``; nodes may share a model). Models
+        The node models (``softrnn.learned.node.manipulator.Manipulator``; nodes may share a model). Models
         of one architecture (``ModelConfig`` and normalisation mode) are stacked; the architectures
         must agree on history and wrench width.
     nodes : sequence of int
@@ -380,7 +380,7 @@ class ManipulatorStepper:
         return self._pos[self.history - 1]
 
 
-_LIMIT = 16.0   # softrnn.learned.node.rollout.DIVERGED_M
+_LIMIT = 16.0   # softrnn.learned.horizons.DIVERGED_M
 
 
 # ------------------------------------------------------------------------------------------ rollout

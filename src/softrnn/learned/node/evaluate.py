@@ -793,7 +793,7 @@ def evaluate(model, data, *, group: str | None = None, generalisation: bool = Fa
         Evaluate on the whole record (a scenario the model never saw) instead of the test span.
     free : bool
         Also run the free-running prediction over the same targets (a run that diverges, see
-        ``rollout.RolloutDiverged``, is reported as such in ``Evaluation.diverged``), the
+        ``RolloutDiverged``, is reported as such in ``Evaluation.diverged``), the
         baselines' free runs and the errors by horizon.
     batch_size : int
         Windows per ``predict`` call of the one-step evaluation.

@@ -10,8 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import SoftrnnInputError, bad
-from ..horizons import DIVERGED_M as DIVERGED_M
-from ..horizons import RolloutDiverged as RolloutDiverged
+from ..horizons import DIVERGED_M, RolloutDiverged
 
 UNMODELLED = ("reference", "hold")
 _POSE_WIDTH = {"positions": 3, "poses": 7}

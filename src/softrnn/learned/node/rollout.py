@@ -48,14 +48,18 @@ from ...io.schema import RESERVED_ATTRS
 from ...io.writer import write_trajectory
 from ...progress import Progress
 from .. import spans
+from ..horizons import DIVERGED_M
 from .engine import engine_rollout, group_by_architecture
-from .manipulator import DIVERGED_M as DIVERGED_M
-from .manipulator import UNMODELLED as UNMODELLED
-from .manipulator import Manipulator as Manipulator
-from .manipulator import RolloutDiverged as RolloutDiverged
-from .manipulator import _as_manipulator, _column_lookup, _compiled, _diverged, _stored, bind
-from .manipulator import describe_model as describe_model
-from .manipulator import model_inputs as model_inputs
+from .manipulator import (
+    UNMODELLED,
+    _as_manipulator,
+    _column_lookup,
+    _compiled,
+    _diverged,
+    _stored,
+    bind,
+    describe_model,
+)
 
 
 # --------------------------------------------------------------------------------------- rollout

@@ -36,16 +36,10 @@ from ...errors import bad, integer
 from ...progress import Progress
 from ._checkpoint import FINISHED, Checkpoint, load_finished, training_settings
 from ._epochs import new_module, torch_settings, train_epochs
-from ._training_data import Spans as Spans
-from ._training_data import TrainingData, dataset_meta, fingerprint, load_training_data, training_tensors
-from ._training_data import pooled_specs as pooled_specs
-from ._training_data import spans as spans
-from ._training_data import training_windows as training_windows
 from .artifact import NodeModel, check_replaceable, save_model
 from .data import Normalizer, SampleSpec, wrench_units
 from .model import ModelConfig
-
-__all__ = ["TrainConfig", "train_node_model", "Spans", "spans", "pooled_specs", "training_windows"]
+from .training_data import TrainingData, dataset_meta, fingerprint, load_training_data, training_tensors
 
 _FIXED = ("pose_features", "wrench_features", "history")
 

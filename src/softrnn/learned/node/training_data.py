@@ -62,7 +62,7 @@ def spans(n_samples: int, spec: SampleSpec, validation_fraction: float) -> Spans
 
 def pooled_specs(spec: SampleSpec, pool) -> list[SampleSpec]:
     """The resolved ``spec`` moved to every node of ``pool`` (neighbours at the same offsets from
-    the node, as ``rollout.model_inputs`` applies a shared model); None: ``[spec]``."""
+    the node, as ``manipulator.model_inputs`` applies a shared model); None: ``[spec]``."""
     if pool is None:
         return [spec]
     offsets = [a - spec.node for a in spec.neighbours]
