@@ -2,7 +2,7 @@
 
 Every grid point (LSTM units U, history H) trains one node model on the same data set with the same
 settings (``train_node_model``), evaluates its one-step-ahead RMS error on the test span
-(``surrogate.evaluate.one_step`` and ``metrics``, in mm, per axis and overall) and measures its
+(``learned.node.evaluate.one_step`` and ``metrics``, in mm, per axis and overall) and measures its
 computation bandwidth: the rate [Hz] of ``NodeStepper.step(pose_row, wrench_row)`` calls (the
 compiled batch-1 engine a control loop would use), and for reference the rate of the eager PyTorch
 call ``NodeModel.predict`` at batch 1, both timed by ``softrnn.timing.step_rate`` (the median

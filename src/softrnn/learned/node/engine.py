@@ -171,7 +171,7 @@ class Engine:
         Parameters
         ----------
         poses : array (B, H, P)
-            Input I [m, 1] (``surrogate.data`` layout).
+            Input I [m, 1] (``learned.node.data`` layout).
         wrenches : array (B, H, W) or None
             Input II [N, N m]; None when the models take none.
         which : array (B,) of int or None
