@@ -5,6 +5,7 @@ modules; nothing outside ``softrnn.cli`` imports the command line; an import ins
 the same table."""
 
 import ast
+import difflib
 import re
 from pathlib import Path
 
@@ -267,3 +268,32 @@ that sweeps, trainings, studies and the reproduce steps resume by) and the versi
 
 def test_the_package_root_holds_only_what_every_part_uses():
     assert {p.name for p in ROOT.glob("*.py")} <= ROOT_MODULES
+
+
+# ------------------------------------------------------------------------------------------ the tests' own layout
+TESTS = Path(__file__).resolve().parents[1]
+
+
+def _test_modules() -> list[Path]:
+    return sorted(TESTS.rglob("test_*.py"))
+
+
+def test_no_test_module_imports_another():
+    offenders = []
+    for path in _test_modules():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            offenders += [f"{path.relative_to(TESTS)} imports {n}" for n in names
+                          if n.split(".")[-1].startswith("test_")]
+    assert offenders == []
+
+
+def test_test_modules_have_distinct_names():
+    """Unique file names (pytest's default import mode needs them) and none a near-copy of another's
+    (test_output / test_outputs, test_dynamic / test_dynamics): a plural or a slip of a letter or two."""
+    names = [p.stem.removeprefix("test_") for p in _test_modules()]
+    assert len(names) == len(set(names))
+    close = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]
+             if a.rstrip("s") == b.rstrip("s") or difflib.SequenceMatcher(None, a, b).ratio() > 0.9]
+    assert close == []
