@@ -4,8 +4,9 @@
 ``prange``, one rod per iteration; set the thread count with ``numba.set_num_threads``). The
 rods must share everything the kernel shares between them: rod spec, stress-free reference shape,
 boundary node kinds and the nodes with prescribed motion, the PD-tracked nodes and their gains,
-the tendons' routing, damping and gravity. Initial shapes, nodal loads, PD targets, tendon tensions
-and prescribed motions may differ.
+the tendons' routing and which are driven by a displacement (with their stiffness), damping and
+gravity. Initial shapes, nodal loads, PD targets, tendon tensions and displacements and prescribed
+motions may differ.
 Each rod gives the same trajectory as ``simulate`` would (up to rounding in the order of summing
 loads on one node).
 
@@ -74,6 +75,10 @@ def _check_compatible(setups: list[Setup], inputs: list[SetupInputs]) -> None:
         if not (np.array_equal(inp.tendon_route, ref.tendon_route) and np.array_equal(inp.tendon_end, ref.tendon_end)):
             raise bad(f"{where}.tendons", [td.name for td in s.tendons],
                       "tendons routed as in setups[0] (same offsets, routing and terminations; tensions may differ)")
+        if not np.array_equal(inp.tendon_stiffness, ref.tendon_stiffness):
+            raise bad(f"{where}.tendons", [td.name for td in s.tendons],
+                      "tendons driven as in setups[0] (the same tendons by a displacement, with the same stiffness; "
+                      "tensions and displacements may differ)")
         if s.gravity != s0.gravity:
             raise bad(f"{where}.gravity", s.gravity, f"the same gravity as setups[0] ({s0.gravity})")
 
@@ -112,6 +117,7 @@ class _Batch:
         B = len(setups)
         self.out = empty_samples(save_slots(rod.kind.size, nodes), n_samples, nodes.size, lead=(B,))
         self.status = np.zeros((B, 2), dtype=np.int64)
+        self.tensions = np.zeros((B, n_samples, len(setups[0].tendons))) if inputs[0].displaced else None
 
     def step_inputs(self, t: np.ndarray) -> StepInputs:
         """Every rod's inputs at times t (K,) [s] in the shared layout, stacked (B, ...)."""
@@ -121,6 +127,7 @@ class _Batch:
         presc_r = np.zeros((B, K + 1, q, 3))
         presc_R = np.zeros((B, K + 1, q, 3, 3))
         tension = np.zeros((B, K, self.inputs[0].tendon_end.size))
+        displacement = np.zeros((B, K, self.inputs[0].tendon_stiffness.size))
         for b, inputs in enumerate(self.inputs):
             one = inputs.at(t, self.h)
             ext_w[b][:, self.ext_cols[b]] = one.ext_w
@@ -128,24 +135,32 @@ class _Batch:
             presc_r[b] = one.presc_r
             presc_R[b] = one.presc_R
             tension[b] = one.tendon_tension
+            displacement[b] = one.tendon_displacement
         return StepInputs(ext_idx=self.ext_idx, ext_w=ext_w, pd_idx=self.pd_idx, pd_target=pd_target,
                           pd_gain=self.pd_gain, presc_idx=self.inputs[0].presc_idx, presc_r=presc_r,
                           presc_R=presc_R, tendon_route=self.inputs[0].tendon_route,
-                          tendon_end=self.inputs[0].tendon_end, tendon_tension=tension)
+                          tendon_end=self.inputs[0].tendon_end, tendon_tension=tension,
+                          tendon_stiffness=self.inputs[0].tendon_stiffness, tendon_rest=self.inputs[0].tendon_rest,
+                          tendon_displacement=displacement)
 
     def advance(self, state: StateArrays, k0: int, n_steps: int) -> None:
         """Steps k0 .. k0 + n_steps - 1 of every rod; SimulationError naming the first failed rod."""
         t = self.t0 + (k0 + np.arange(n_steps)) * self.h
         self.status[:] = 0
-        kernels.advance_batch(self.rod, state, self.step_inputs(t), self.out, self.h, k0, n_steps, self.substeps, 0,
-                              self.status)
+        inputs = self.step_inputs(t)
+        kernels.advance_batch(self.rod, state, inputs, self.out, self.h, k0, n_steps, self.substeps, 0, self.status)
         for b, (code, step) in enumerate(self.status):
             raise_for_status(int(code), step=int(step), t0=self.t0, h=self.h, where=f"setups[{b}]: ")
+        if self.tensions is not None:  # the tensions applied at the saved steps
+            k = k0 + np.arange(n_steps)
+            saved = k % self.substeps == 0
+            self.tensions[:, k[saved] // self.substeps] = inputs.tendon_tension[:, saved]
 
     def trajectories(self, times: np.ndarray, nodes: np.ndarray, wall: float) -> list[Trajectory]:
         """One ``Trajectory`` per rod (views of the batch's output buffers)."""
         return [Trajectory(time=times.copy(), nodes=nodes.copy(), step=self.h, substeps=self.substeps,
-                           wall_time=wall, **{name: getattr(self.out, name)[b] for name in SAMPLE_FIELDS})
+                           wall_time=wall, tendon_tensions=None if self.tensions is None else self.tensions[b],
+                           **{name: getattr(self.out, name)[b] for name in SAMPLE_FIELDS})
                 for b in range(len(self.inputs))]
 
 

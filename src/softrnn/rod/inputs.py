@@ -6,7 +6,7 @@ import numpy as np
 from .boundary import Clamp
 from .kernels import StepInputs
 from .loads import PDTracking
-from .tendons import routing_arrays, tension_matrix
+from .tendons import displacement_matrix, prescribed_tensions, routing_arrays, spring_arrays
 
 
 class SetupInputs:
@@ -22,6 +22,9 @@ class SetupInputs:
     tendon_route : (m_t, n - 1, 6) body-frame routing offset [m] and its rate [-] per segment
                                (``rod.tendons.routing_arrays``)
     tendon_end : (m_t,) int64  termination nodes
+    tendon_stiffness : (m_s,)  series stiffness [N/m] per tendon (0: pulled with a tension); m_s = m_t
+                               when a tendon is driven by a displacement, else 0 (no arrays)
+    tendon_rest : (m_s,)       the tendons' discrete lengths in the stress-free reference [m]
     """
 
     def __init__(self, setup):
@@ -43,11 +46,18 @@ class SetupInputs:
         self.tendons = tuple(setup.tendons)
         self.tendon_route, self.tendon_end = routing_arrays(self.tendons, setup.rod.n_nodes,
                                                              setup.rod.segment_length)
+        self.displaced = any(td.displacement_controlled for td in self.tendons)
+        if self.displaced:
+            self.tendon_stiffness, self.tendon_rest = spring_arrays(
+                self.tendons, setup.reference.rotations, setup.reference.positions, setup.rod.segment_length)
+        else:
+            self.tendon_stiffness, self.tendon_rest = np.zeros(0), np.zeros(0)
 
     def step_bytes(self) -> int:
         """Bytes of per-step inputs a chunk holds (times, loads, PD targets, prescribed poses and
         the load functions' temporaries)."""
-        return 8 * (4 + 15 * self.ext_idx.size + 6 * len(self._pd) + 12 * len(self._presc) + 2 * len(self.tendons))
+        return 8 * (4 + 15 * self.ext_idx.size + 6 * len(self._pd) + 12 * len(self._presc) + 2 * len(self.tendons)
+                    + 2 * self.tendon_stiffness.size)
 
     def prescribed(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Prescribed positions (K, q, 3) [m] and rotations (K, q, 3, 3) at times t (K,) [s]
@@ -65,8 +75,9 @@ class SetupInputs:
         return pos, rot
 
     def at(self, t: np.ndarray, h: float) -> StepInputs:
-        """The inputs of the steps at times t (K,) [s]: loads and tendon tensions at t, prescribed
-        poses at t and t + h."""
+        """The inputs of the steps at times t (K,) [s]: loads, tendon tensions and displacements at
+        t (the tensions of tendons driven by a displacement are 0 here: the kernel computes them),
+        prescribed poses at t and t + h."""
         K = t.size
         ext_w = np.zeros((K, self.ext_idx.size, 12))
         for j, a in enumerate(self.ext_idx):
@@ -83,4 +94,7 @@ class SetupInputs:
         return StepInputs(ext_idx=self.ext_idx, ext_w=ext_w, pd_idx=self.pd_idx, pd_target=pd_target,
                           pd_gain=self.pd_gain, presc_idx=self.presc_idx, presc_r=presc_r, presc_R=presc_R,
                           tendon_route=self.tendon_route, tendon_end=self.tendon_end,
-                          tendon_tension=tension_matrix(self.tendons, t))
+                          tendon_tension=prescribed_tensions(self.tendons, t),
+                          tendon_stiffness=self.tendon_stiffness, tendon_rest=self.tendon_rest,
+                          tendon_displacement=(displacement_matrix(self.tendons, t) if self.displaced
+                                               else np.zeros((K, 0))))

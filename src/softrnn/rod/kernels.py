@@ -134,7 +134,15 @@ class StepInputs(NamedTuple):
                                       (``rod.tendons.routing_arrays``; default: no tendons)
     tendon_end : (m_t,) int64         their termination nodes (>= 1): segments a < end carry them
     tendon_tension : (K, m_t)         their tensions [N], >= 0 (a leading batch axis in
-                                      ``advance_batch``)
+                                      ``advance_batch``); the kernel writes the tensions of the
+                                      tendons driven by a displacement into their columns
+    tendon_stiffness : (m_s,)         series stiffness k [N/m] per tendon, 0 for a tendon pulled
+                                      with a tension; m_s = m_t, or 0 when no tendon is driven by
+                                      a displacement (default)
+    tendon_rest : (m_s,)              the tendons' discrete lengths l_0 in the reference [m]
+    tendon_displacement : (K, m_s)    the displacements q [m] (a leading batch axis in
+                                      ``advance_batch``): tau = k max(0, q - (l_0 - l)) from the
+                                      tendon length l at the start of each step
     """
 
     ext_idx: np.ndarray
@@ -148,6 +156,9 @@ class StepInputs(NamedTuple):
     tendon_route: np.ndarray = np.zeros((0, 0, 6))
     tendon_end: np.ndarray = np.zeros(0, dtype=np.int64)
     tendon_tension: np.ndarray = np.zeros((0, 0))
+    tendon_stiffness: np.ndarray = np.zeros(0)
+    tendon_rest: np.ndarray = np.zeros(0)
+    tendon_displacement: np.ndarray = np.zeros((0, 0))
 
 
 class Samples(NamedTuple):
@@ -320,6 +331,64 @@ def _applied_loads(i, R, r, v, inputs, work_f):
         a = pd_idx[j]
         for c in range(3):
             work_f[a, c] += pd_gain[j, 0] * (pd_target[i, j, c] - r[a, c]) - pd_gain[j, 1] * v[a, c]
+
+
+@njit(**_INLINE)
+def _tendon_springs(i, R, r, rod, inputs):
+    """inputs.tendon_tension[i, j] <- k_j max(0, q_j - (l0_j - l_j)) for every tendon j driven by
+    a displacement (stiffness k_j > 0), l_j = l sum_{a < e_j} |Gamma_a + K_a x rho_a + rho'_a| its
+    discrete length in the configuration (R, r) at the start of step i (strains as in ``_segment``)."""
+    stiffness = inputs.tendon_stiffness
+    end = inputs.tendon_end
+    route = inputs.tendon_route
+    tension = inputs.tendon_tension
+    l = rod.length
+    il = 1.0 / l
+    last = 0
+    for j in range(len(stiffness)):
+        if stiffness[j] > 0.0:
+            tension[i, j] = 0.0  # the sum of |t| over the routed segments, first
+            if end[j] > last:
+                last = end[j]
+    for a in range(last):
+        Q00 = R[a, 0, 0] * R[a + 1, 0, 0] + R[a, 1, 0] * R[a + 1, 1, 0] + R[a, 2, 0] * R[a + 1, 2, 0]
+        Q01 = R[a, 0, 0] * R[a + 1, 0, 1] + R[a, 1, 0] * R[a + 1, 1, 1] + R[a, 2, 0] * R[a + 1, 2, 1]
+        Q02 = R[a, 0, 0] * R[a + 1, 0, 2] + R[a, 1, 0] * R[a + 1, 1, 2] + R[a, 2, 0] * R[a + 1, 2, 2]
+        Q10 = R[a, 0, 1] * R[a + 1, 0, 0] + R[a, 1, 1] * R[a + 1, 1, 0] + R[a, 2, 1] * R[a + 1, 2, 0]
+        Q11 = R[a, 0, 1] * R[a + 1, 0, 1] + R[a, 1, 1] * R[a + 1, 1, 1] + R[a, 2, 1] * R[a + 1, 2, 1]
+        Q12 = R[a, 0, 1] * R[a + 1, 0, 2] + R[a, 1, 1] * R[a + 1, 1, 2] + R[a, 2, 1] * R[a + 1, 2, 2]
+        Q20 = R[a, 0, 2] * R[a + 1, 0, 0] + R[a, 1, 2] * R[a + 1, 1, 0] + R[a, 2, 2] * R[a + 1, 2, 0]
+        Q21 = R[a, 0, 2] * R[a + 1, 0, 1] + R[a, 1, 2] * R[a + 1, 1, 1] + R[a, 2, 2] * R[a + 1, 2, 1]
+        Q22 = R[a, 0, 2] * R[a + 1, 0, 2] + R[a, 1, 2] * R[a + 1, 1, 2] + R[a, 2, 2] * R[a + 1, 2, 2]
+        d0 = r[a + 1, 0] - r[a, 0]
+        d1 = r[a + 1, 1] - r[a, 1]
+        d2 = r[a + 1, 2] - r[a, 2]
+        p0 = R[a, 0, 0] * d0 + R[a, 1, 0] * d1 + R[a, 2, 0] * d2
+        p1 = R[a, 0, 1] * d0 + R[a, 1, 1] * d1 + R[a, 2, 1] * d2
+        p2 = R[a, 0, 2] * d0 + R[a, 1, 2] * d1 + R[a, 2, 2] * d2
+        s = 2.0 / (1.0 + Q00 + Q11 + Q22)
+        x0 = s * (Q21 - Q12)
+        x1 = s * (Q02 - Q20)
+        x2 = s * (Q10 - Q01)
+        ga0 = (p0 - 0.5 * (x1 * p2 - x2 * p1)) * il
+        ga1 = (p1 - 0.5 * (x2 * p0 - x0 * p2)) * il
+        ga2 = (p2 - 0.5 * (x0 * p1 - x1 * p0)) * il
+        ka0 = x0 * il
+        ka1 = x1 * il
+        ka2 = x2 * il
+        for j in range(len(stiffness)):
+            if stiffness[j] > 0.0 and a < end[j]:
+                o0 = route[j, a, 0]
+                o1 = route[j, a, 1]
+                o2 = route[j, a, 2]
+                t0 = ga0 + ka1 * o2 - ka2 * o1 + route[j, a, 3]
+                t1 = ga1 + ka2 * o0 - ka0 * o2 + route[j, a, 4]
+                t2 = ga2 + ka0 * o1 - ka1 * o0 + route[j, a, 5]
+                tension[i, j] += math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+    for j in range(len(stiffness)):
+        if stiffness[j] > 0.0:
+            stretch = inputs.tendon_displacement[i, j] - (inputs.tendon_rest[j] - l * tension[i, j])
+            tension[i, j] = stiffness[j] * stretch if stretch > 0.0 else 0.0
 
 
 @njit(**_INLINE)
@@ -650,6 +719,9 @@ def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
         row = k // stride - s0
         # ---- applied loads at t_k into work_f (world force, world torque) ----
         _applied_loads(i, R, r, state.velocities, inputs, work_f)
+        # ---- tensions of the tendons driven by a displacement, from the configuration at t_k ----
+        if len(inputs.tendon_stiffness) > 0:
+            _tendon_springs(i, R, r, rod, inputs)
         e_kin = 0.0
         e_el = 0.0
         e_g = 0.0
@@ -744,7 +816,8 @@ def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
             StateArrays(st.rotations[b], st.positions[b], st.velocities[b], st.angular_velocities[b],
                         st.prev_curvature[b], st.prev_shear[b]),
             StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
-                       inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b]),
+                       inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b],
+                       inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b]),
             Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b],
                     out.angular_velocities[b], out.forces[b], out.torques[b], out.reaction_forces[b],
                     out.reaction_torques[b], out.energy[b]),

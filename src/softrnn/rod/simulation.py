@@ -175,6 +175,14 @@ class Setup:
             if td.name in names:
                 raise bad("tendon name", td.name, "a name not used by another tendon of the setup")
             names.add(td.name)
+        channels = set()
+        for td in self.tendons:
+            for channel in (td.channel, td.displacement_channel) if td.displacement_controlled else (td.channel,):
+                if channel in channels:
+                    raise bad("tendon name", td.name, f"a name whose actuation channel {channel!r} is not also "
+                                                      "another tendon's (rename one)")
+                channels.add(channel)
+        for td in self.tendons:
             check_offset(td, radii, td.end_index(self.rod.n_nodes, self.rod.segment_length))
 
     def node_index(self, node: int, what: str = "node") -> int:
@@ -222,7 +230,10 @@ class Trajectory:
     [N m]: applied external loads (including PD forces) in the world frame; reaction_forces,
     reaction_torques (S, s, 3): support reactions of constrained nodes (zero for free nodes);
     energy (S, 3) [J]: kinetic, elastic, gravitational. step [s] and substeps: the solver step;
-    wall_time [s] of the run.
+    wall_time [s] of the run. tendon_tensions (S, m) [N]: the tensions of the setup's m tendons the
+    run applied at each sample, in ``Setup.tendons`` order (those of tendons driven by a displacement
+    computed from the sample's configuration); None for a run without a tendon driven by a
+    displacement (the tensions are then the tendons' own profiles).
     """
 
     time: np.ndarray
@@ -239,6 +250,7 @@ class Trajectory:
     step: float
     substeps: int
     wall_time: float = 0.0
+    tendon_tensions: np.ndarray | None = None
 
     @property
     def n_steps(self) -> int:
@@ -271,14 +283,17 @@ class RunStats:
         return 1e6 * self.wall_time / max(self.n_steps * self.n_nodes, 1)
 
 
-def _to_trajectory(out: Samples, times: np.ndarray, nodes: np.ndarray, h: float, substeps: int) -> "Trajectory":
-    return Trajectory(time=times, nodes=nodes, step=h, substeps=substeps,
+def _to_trajectory(out: Samples, times: np.ndarray, nodes: np.ndarray, h: float, substeps: int,
+                   tensions: np.ndarray | None = None) -> "Trajectory":
+    return Trajectory(time=times, nodes=nodes, step=h, substeps=substeps, tendon_tensions=tensions,
                       **{name: getattr(out, name) for name in SAMPLE_FIELDS})
 
 
 def _concatenate(chunks: list, stats: "RunStats") -> "Trajectory":
     first = chunks[0]
     arrays = {name: np.concatenate([getattr(c, name) for c in chunks]) for name in ("time",) + SAMPLE_FIELDS}
+    if first.tendon_tensions is not None:
+        arrays["tendon_tensions"] = np.concatenate([c.tendon_tensions for c in chunks])
     return Trajectory(nodes=first.nodes, step=stats.step, substeps=stats.substeps, wall_time=stats.wall_time,
                       **arrays)
 
@@ -369,14 +384,15 @@ class Simulator:
         while j0 < S:
             j1 = min(j0 + per_chunk, S - 1) if j0 < S - 1 else S
             out = empty_samples(slot, j1 - j0, nodes.size)
+            tensions = np.zeros((j1 - j0, len(self.setup.tendons))) if self.inputs.displaced else None
             if j0 < S - 1:
-                self._advance(self.state, t0, h, j0 * substeps, (j1 - j0) * substeps, substeps, j0, out)
+                self._advance(self.state, t0, h, j0 * substeps, (j1 - j0) * substeps, substeps, j0, out, tensions)
                 self.steps_done = k_start + j1 * substeps
                 self.state.time = t0 + j1 * substeps * h
             else:
                 # the last sample's mid-step velocity needs one more step, taken on a copy
-                self._advance(self.state.copy(), t0, h, j0 * substeps, 1, substeps, j0, out)
-            chunk = _to_trajectory(out, t0 + config.dt * np.arange(j0, j1), nodes, h, substeps)
+                self._advance(self.state.copy(), t0, h, j0 * substeps, 1, substeps, j0, out, tensions)
+            chunk = _to_trajectory(out, t0 + config.dt * np.arange(j0, j1), nodes, h, substeps, tensions)
             if sink is None:
                 chunks.append(chunk)
             else:
@@ -389,10 +405,17 @@ class Simulator:
         return stats if sink is not None else _concatenate(chunks, stats)
 
     def _advance(self, st: RodState, t0: float, h: float, k0: int, n_steps: int, stride: int, s0: int,
-                 out: Samples) -> None:
+                 out: Samples, tensions: np.ndarray | None = None) -> None:
+        """Steps k0 .. k0 + n_steps - 1 into ``out``; ``tensions`` (rows of out, m) [N], if given,
+        receives the tendon tensions applied at the saved steps."""
         t = t0 + (k0 + np.arange(n_steps)) * h
-        code, step = kernels.advance(self.rod, st.arrays(), self.inputs.at(t, h), out, h, k0, n_steps, stride, s0)
+        inputs = self.inputs.at(t, h)
+        code, step = kernels.advance(self.rod, st.arrays(), inputs, out, h, k0, n_steps, stride, s0)
         raise_for_status(code, step=step, t0=t0, h=h)
+        if tensions is not None:
+            k = k0 + np.arange(n_steps)
+            saved = k % stride == 0
+            tensions[k[saved] // stride - s0] = inputs.tendon_tension[saved]
 
 
 def choose_substeps(config: RunConfig, limit: float) -> int:

@@ -8,7 +8,7 @@ import numpy as np
 from .discrete import internal_loads, segment_strains
 from .inputs import SetupInputs
 from .kernels import CLAMPED, FREE, LumpedRod, Samples, StateArrays, StepInputs
-from .tendons import tendon_resultants
+from .tendons import spring_tensions, tendon_lengths, tendon_resultants
 
 SAMPLE_FIELDS = Samples._fields[1:]
 """The output fields of ``Samples`` (all but save_slot), named as in ``Trajectory``."""
@@ -63,14 +63,22 @@ def half_kick(rod: LumpedRod, state: RodState, inputs: StepInputs, h: float) -> 
     at t0 is zero (plain v^-1 = 0 shifts the motion by h/2 in time, a global O(h) error).
 
     rod : the lumped rod; state : at rest, changed in place; inputs : ``StepInputs`` whose first
-    step (ext_w[0], pd_target[0], tendon_tension[0]) holds the loads at the state's time; h : solver
-    step [s].
+    step (ext_w[0], pd_target[0], tendon_tension[0], tendon_displacement[0]) holds the loads at the
+    state's time (the tensions of tendons driven by a displacement are computed here from the
+    state, as the kernel does); h : solver step [s].
     """
     R, r = state.rotations, state.positions
     terms = None
     if inputs.tendon_end.size:
+        tension = inputs.tendon_tension[0]
+        if inputs.tendon_stiffness.size:
+            moved = inputs.tendon_stiffness > 0
+            lengths = tendon_lengths(R, r, rod.length, inputs.tendon_route, inputs.tendon_end)
+            tension = np.where(moved, spring_tensions(lengths, inputs.tendon_rest, inputs.tendon_stiffness,
+                                                      inputs.tendon_displacement[0]), tension)
+
         def terms(K, G):
-            return tendon_resultants(K, G, inputs.tendon_route, inputs.tendon_end, inputs.tendon_tension[0])
+            return tendon_resultants(K, G, inputs.tendon_route, inputs.tendon_end, tension)
     f, t = internal_loads(R, r, rod.length, rod.C1, rod.C2, rod.K0, rod.G0, terms)
     f += rod.mass[:, None] * rod.gravity
     ext_w = inputs.ext_w

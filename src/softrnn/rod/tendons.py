@@ -34,6 +34,23 @@ the difference of their tendon terms (the distributed load), the termination nod
 to the base (a clamped base absorbs it). The tendon loads are internal to the rod, so a
 ``Trajectory``'s ``forces`` and ``torques`` (external loads) do not include them.
 
+Displacement control. A tendon driven by a position-controlled servo gives its pulled-in length
+q(t) [m] (``displacement``, positive: pulled in at the servo) instead of its tension, through the
+series stiffness k [N/m] of servo and cable (``stiffness``). With l_0 the tendon's path length in
+the stress-free reference configuration and l its length in the current one (the discrete length
+above in the dynamic rod, the integral of |v + u x rho + rho'| ds up to the termination in the
+static solver), the rod bending toward the tendon shortens its path by l_0 - l and the rest of the
+pull-in stretches the spring: tau = k max(0, q - (l_0 - l)) (a slack tendon cannot push). The
+dynamic kernel computes this tension from the configuration at the start of every step and then
+applies it exactly as a prescribed tension (the gradient of V with tau frozen, which is the
+gradient of the spring energy k max(0, q - l_0 + l)^2 / 2: undamped, rod energy plus spring energy
+is conserved at constant q). ``Trajectory.tendon_tensions`` holds the tensions applied at the saved
+samples; the static solver finds them with the equilibrium (``StaticSolution.tendon_tensions``).
+A straight tendon at the offset r on a straight, weightless, free rod, terminated at the arc
+length L_e, gives the constant curvature kappa = tau r / (E I) with
+tau = k q / (1 + k L_e (r^2 / (E I) + 1 / (E A))) in both models (the path shortens by
+L_e (r kappa + tau / (E A)); without extension, kappa -> q / (r L_e) as k -> infinity).
+
 The static solver (``softrnn.statics``) integrates the continuum model: see ``softrnn.statics.kernels``.
 """
 
@@ -53,7 +70,7 @@ _NAME = re.compile(r"^[a-z][a-z0-9_]{0,49}$")
 
 @dataclass(frozen=True)
 class Scalar:
-    """A scalar tension profile t (K,) [s] -> (K,) [N] from a vector time function of
+    """A scalar tension profile t (K,) [s] -> (K,) [N] (or displacement profile [m]) from a vector time function of
     ``softrnn.rod.loads`` (``Constant``, ``Sinusoid``, ``Sampled``, ``Window``, a path ...): its
     ``component`` (0, 1 or 2), times a smoothstep blend from 0 over ``ramp`` [s] (a gentle start
     from the unloaded rod; 0: none)."""
@@ -77,7 +94,8 @@ class Scalar:
 
 @dataclass(frozen=True, kw_only=True)
 class Tendon:
-    """A tendon routed along the rod and pulled with a tension.
+    """A tendon routed along the rod and pulled with a tension, or pulled in by a displacement
+    through a series stiffness (a position-controlled servo).
 
     Parameters
     ----------
@@ -88,7 +106,8 @@ class Tendon:
     tension : float or callable
                           a constant tension >= 0 [N], or a profile t (K,) [s] -> (K,) [N] (e.g.
                           ``Scalar(Sinusoid(...))``); values below zero are clipped to 0 when the
-                          profile is evaluated (a slack tendon cannot push)
+                          profile is evaluated (a slack tendon cannot push). Default 0 N; not with
+                          ``displacement``
     routing : str         "straight" (constant offset) or "helical" (the offset turns about d3)
     pitch : float         helical routing only: the signed arc length of one turn [m] (positive:
                           right-handed about d3)
@@ -96,15 +115,23 @@ class Tendon:
                           default: the last node)
     end_s : float         the termination as an arc length [m] instead (the nearest node of a
                           dynamic rod; exact in the static solver)
+    displacement : float or callable
+                          instead of ``tension``: the length pulled in at the servo [m] (positive:
+                          pulled in; negative: paid out), a constant or a profile t (K,) [s] -> (K,)
+                          [m]; the tension is then k max(0, q - (l_0 - l)) (module docstring)
+    stiffness : float     with ``displacement`` (required): the series stiffness k of servo and
+                          cable [N/m], finite and > 0
     """
 
     name: str
     offset: tuple
-    tension: object = 0.0
+    tension: object = None
     routing: str = "straight"
     pitch: float | None = None
     end_node: int | None = None
     end_s: float | None = None
+    displacement: object = None
+    stiffness: float | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -132,12 +159,45 @@ class Tendon:
             raise bad(f"tendon {self.name!r} end_node", self.end_node, "an integer node index")
         if self.end_s is not None and (not is_finite_number(self.end_s) or self.end_s <= 0):
             raise bad(f"tendon {self.name!r} end_s", self.end_s, "a positive arc length in m")
+        if self.displacement is not None:
+            self._check_displacement()
+            return
+        if self.stiffness is not None:
+            raise bad(f"tendon {self.name!r} stiffness", self.stiffness,
+                      "no stiffness for a tendon pulled with a tension (or give displacement instead of tension)")
+        if self.tension is None:
+            object.__setattr__(self, "tension", 0.0)
         if callable(self.tension):
             return
         if not is_finite_number(self.tension) or self.tension < 0:
             raise bad(f"tendon {self.name!r} tension", self.tension,
                       "a tension >= 0 in N (a tendon cannot push), or a tension profile t -> (K,)")
         object.__setattr__(self, "tension", float(self.tension))
+
+    def _check_displacement(self) -> None:
+        """A displacement-controlled tendon: no tension, a displacement in m, a stiffness > 0 in N/m."""
+        if self.tension is not None:
+            raise bad(f"tendon {self.name!r} tension", self.tension,
+                      "no tension for a tendon driven by a displacement (give tension or displacement, not both)")
+        if not callable(self.displacement):
+            if not is_finite_number(self.displacement):
+                raise bad(f"tendon {self.name!r} displacement", self.displacement,
+                          "a finite length pulled in at the servo in m, or a displacement profile t -> (K,)")
+            object.__setattr__(self, "displacement", float(self.displacement))
+        if not is_finite_number(self.stiffness) or self.stiffness <= 0:
+            raise bad(f"tendon {self.name!r} stiffness", self.stiffness,
+                      "a finite series stiffness > 0 in N/m (servo plus cable) for a tendon driven by a displacement")
+        object.__setattr__(self, "stiffness", float(self.stiffness))
+
+    @property
+    def displacement_controlled(self) -> bool:
+        """True when the tendon is driven by a ``displacement`` (its tension follows the rod)."""
+        return self.displacement is not None
+
+    @property
+    def displacement_channel(self) -> str:
+        """The actuation channel of its displacement, ``tendon_<name>_displacement`` [m]."""
+        return f"tendon_{self.name}_displacement"
 
     @property
     def twist_rate(self) -> float:
@@ -158,8 +218,13 @@ class Tendon:
 
     def tensions(self, t) -> np.ndarray:
         """Tension (K,) [N] at times t (K,) [s], clipped at 0 (a slack tendon); a profile that
-        returns another shape or a value that is not finite is an error."""
+        returns another shape or a value that is not finite is an error. A tendon driven by a
+        displacement has no tension of its own (it follows the rod's configuration): an error."""
         t = np.asarray(t, dtype=float)
+        if self.displacement is not None:
+            raise SoftrnnInputError(f"tendon {self.name!r} is driven by a displacement: its tension follows the "
+                                    "rod's configuration; read it from Trajectory.tendon_tensions or "
+                                    "StaticSolution.tendon_tensions")
         if not callable(self.tension):
             return np.full(t.shape, self.tension)
         value = np.asarray(self.tension(t), dtype=float)
@@ -171,6 +236,26 @@ class Tendon:
             raise SoftrnnInputError(f"tendon {self.name!r}: the tension profile is not finite at "
                                     f"t = {float(t[~np.isfinite(value)][0]):.6g} s; give finite tensions in N")
         return np.maximum(value, 0.0)
+
+    def displacements(self, t) -> np.ndarray:
+        """Displacement (K,) [m] at times t (K,) [s] of a tendon driven by one (not clipped: a
+        negative value pays the tendon out); a profile that returns another shape or a value that
+        is not finite is an error."""
+        t = np.asarray(t, dtype=float)
+        if self.displacement is None:
+            raise bad(f"tendon {self.name!r} displacement", None, "a tendon driven by a displacement (this one is "
+                                                                  "pulled with a tension)")
+        if not callable(self.displacement):
+            return np.full(t.shape, self.displacement)
+        value = np.asarray(self.displacement(t), dtype=float)
+        if value.shape != t.shape:
+            raise bad(f"tendon {self.name!r} displacement", f"a profile returning shape {value.shape}",
+                      f"a profile t (K,) -> (K,) in m (got {t.shape} times); wrap a vector time function "
+                      "in softrnn.rod.tendons.Scalar")
+        if not np.all(np.isfinite(value)):
+            raise SoftrnnInputError(f"tendon {self.name!r}: the displacement profile is not finite at "
+                                    f"t = {float(t[~np.isfinite(value)][0]):.6g} s; give finite displacements in m")
+        return value
 
     def end_index(self, n_nodes: int, seg_length: float) -> int:
         """The termination node (1 .. n - 1) of a rod of ``n_nodes`` nodes of spacing ``seg_length``
@@ -223,7 +308,8 @@ def routing_arrays(tendons, n_nodes: int, seg_length: float) -> tuple[np.ndarray
 
 
 def tension_matrix(tendons, t) -> np.ndarray:
-    """Tensions (K, m) [N] of the m ``tendons`` at times t (K,) [s] (clipped at 0)."""
+    """Tensions (K, m) [N] of the m ``tendons`` at times t (K,) [s] (clipped at 0); a tendon driven
+    by a displacement is an error (its tension follows the rod: ``Trajectory.tendon_tensions``)."""
     t = np.asarray(t, dtype=float)
     out = np.zeros((t.size, len(tendons)))
     for j, td in enumerate(tendons):
@@ -231,25 +317,88 @@ def tension_matrix(tendons, t) -> np.ndarray:
     return out
 
 
-def tendon_actuation(tendons, times) -> tuple[np.ndarray, dict[str, str]]:
-    """The tendon tensions as actuation inputs of a dataset: values (T, m) [N] at the sample times
-    (T,) [s] (what the simulator applied: clipped at 0) and the channels {``tendon_<name>``: "N"}
-    in column order."""
-    return tension_matrix(tendons, times), {td.channel: "N" for td in tendons}
+def prescribed_tensions(tendons, t) -> np.ndarray:
+    """Tensions (K, m) [N] of the tendons pulled with a tension at times t (K,) [s] (clipped at 0),
+    0 in the columns of the tendons driven by a displacement (the kernel computes theirs)."""
+    t = np.asarray(t, dtype=float)
+    out = np.zeros((t.size, len(tendons)))
+    for j, td in enumerate(tendons):
+        if not td.displacement_controlled:
+            out[:, j] = td.tensions(t)
+    return out
+
+
+def displacement_matrix(tendons, t) -> np.ndarray:
+    """Displacements (K, m) [m] of the tendons driven by one at times t (K,) [s]; 0 in the columns
+    of the tendons pulled with a tension."""
+    t = np.asarray(t, dtype=float)
+    out = np.zeros((t.size, len(tendons)))
+    for j, td in enumerate(tendons):
+        if td.displacement_controlled:
+            out[:, j] = td.displacements(t)
+    return out
+
+
+def spring_arrays(tendons, rotations, positions, seg_length) -> tuple[np.ndarray, np.ndarray]:
+    """The kernel's spring arrays of ``tendons`` on a rod whose stress-free reference has the
+    rotations (n, 3, 3) and positions (n, 3) [m]: stiffness (m,) [N/m] (0 for a tendon pulled with
+    a tension) and rest (m,) [m], the tendons' discrete lengths l_0 in the reference
+    (``tendon_lengths``)."""
+    stiffness = np.array([td.stiffness if td.displacement_controlled else 0.0 for td in tendons], dtype=float)
+    route, end = routing_arrays(tendons, len(positions), seg_length)
+    rest = tendon_lengths(rotations, positions, seg_length, route, end) if len(tendons) else np.zeros(0)
+    return stiffness, rest
+
+
+def spring_tensions(lengths, rest, stiffness, displacement) -> np.ndarray:
+    """tau = k max(0, q - (l_0 - l)) [N] from the tendon lengths l, rest lengths l_0 [m], series
+    stiffnesses k [N/m] and displacements q [m] (broadcast arrays); 0 where k is 0."""
+    stretch = np.asarray(displacement, dtype=float) - (np.asarray(rest, dtype=float) - np.asarray(lengths, dtype=float))
+    return np.asarray(stiffness, dtype=float) * np.maximum(stretch, 0.0)
+
+
+def actuation_units(tendons) -> dict[str, str]:
+    """The tendons' actuation channels in column order: {``tendon_<name>``: "N"} for every tendon,
+    then {``tendon_<name>_displacement``: "m"} for each tendon driven by a displacement."""
+    units = {td.channel: "N" for td in tendons}
+    units.update({td.displacement_channel: "m" for td in tendons if td.displacement_controlled})
+    return units
+
+
+def tendon_actuation(tendons, times, tensions=None) -> tuple[np.ndarray, dict[str, str]]:
+    """The tendons as actuation inputs of a dataset: values (T, c) at the sample times (T,) [s] and
+    the channels (``actuation_units``) in column order: the tensions [N] (what the simulator
+    applied: clipped at 0), then the displacements [m] of the tendons driven by one. The tensions
+    of such tendons follow the rod: give ``tensions`` (T, m) [N], a run's
+    ``Trajectory.tendon_tensions`` (without it only a tension-driven set, or no times, works)."""
+    tendons = tuple(tendons)
+    times = np.asarray(times, dtype=float)
+    if tensions is None:
+        tensions = tension_matrix(tendons, times) if times.size else np.zeros((0, len(tendons)))
+    moved = [td for td in tendons if td.displacement_controlled]
+    values = np.asarray(tensions, dtype=float).reshape(times.size, len(tendons))
+    if moved:
+        values = np.concatenate([values, displacement_matrix(moved, times)], axis=1)
+    return values, actuation_units(tendons)
 
 
 def tendon_sink(append, tendons):
     """A ``Simulator.run`` sink that passes every chunk on as ``append(chunk, actuation=values)``
-    with the tendons' tensions (k, m) [N] at the chunk's times (``tendon_actuation``): e.g. a
-    ``softrnn.io.DatasetWriter``'s append, made with ``actuation_units`` from ``tendon_actuation``.
-    Without tendons, ``append`` itself."""
+    with the tendons' actuation (k, c) at the chunk's times (``tendon_actuation``: tensions [N],
+    then the displacements [m] of the tendons driven by one, whose tensions come from the chunk's
+    ``tendon_tensions``): e.g. a ``softrnn.io.DatasetWriter``'s append, made with
+    ``actuation_units`` from ``tendon_actuation``. Without tendons, ``append`` itself."""
     tendons = tuple(tendons)
     if not tendons:
         return append
+    if not any(td.displacement_controlled for td in tendons):
+        def sink(chunk):
+            append(chunk, actuation=tension_matrix(tendons, chunk.time))
+        return sink
 
-    def sink(chunk):
-        append(chunk, actuation=tension_matrix(tendons, chunk.time))
-    return sink
+    def sink_moved(chunk):
+        append(chunk, actuation=tendon_actuation(tendons, chunk.time, chunk.tendon_tensions)[0])
+    return sink_moved
 
 
 def _tangents(K, G, route, end):
@@ -277,13 +426,16 @@ def tendon_lengths(rotations, positions, seg_length, route, end) -> np.ndarray:
 def tendon_energy(setup, trajectory) -> tuple[np.ndarray, np.ndarray]:
     """The tendons' share of a run's energy balance: (potential (S,) [J], work (S,) [J]).
 
-    ``potential`` = sum_j tau_j(t) l_j(t), the tendons' work potential at each saved sample (tensions
-    clipped at 0, lengths ``tendon_lengths``): with constant tensions and no dissipation,
-    ``trajectory.energy.sum(axis=1) + potential`` is conserved. ``work`` = -int sum_j tau_j dl_j, the
-    work the tendons did on the rod since the first sample (trapezoidal rule over the samples, so
-    to the accuracy of the saved interval): with varying tensions and no dissipation,
-    ``trajectory.energy.sum(axis=1) - work`` is conserved. ``Trajectory.energy`` (kinetic, elastic,
-    gravitational) leaves both out. The trajectory must save every node (``RunConfig.save_nodes`` None)."""
+    ``potential``: at each saved sample, sum_j tau_j(t) l_j(t) over the tendons pulled with a
+    tension (the work potential; tensions clipped at 0, lengths ``tendon_lengths``) plus
+    sum_j tau_j^2 / (2 k_j) over those driven by a displacement (the energy of their series spring,
+    tau_j from the sample's configuration): with constant tensions and displacements and no
+    dissipation, ``trajectory.energy.sum(axis=1) + potential`` is conserved. ``work`` =
+    -int sum_j tau_j dl_j, the work the tendons did on the rod since the first sample (trapezoidal
+    rule over the samples, so to the accuracy of the saved interval): with varying tensions or
+    displacements and no dissipation, ``trajectory.energy.sum(axis=1) - work`` is conserved.
+    ``Trajectory.energy`` (kinetic, elastic, gravitational) leaves both out. The trajectory must
+    save every node (``RunConfig.save_nodes`` None)."""
     n = setup.rod.n_nodes
     if len(trajectory.nodes) != n or np.any(np.asarray(trajectory.nodes) != np.arange(n)):
         raise bad("trajectory", f"{len(trajectory.nodes)} saved nodes",
@@ -296,8 +448,14 @@ def tendon_energy(setup, trajectory) -> tuple[np.ndarray, np.ndarray]:
     route, end = routing_arrays(tendons, n, l)
     R = trajectory.rotations()
     lengths = np.stack([tendon_lengths(R[k], trajectory.positions[k], l, route, end) for k in range(S)])
-    tau = tension_matrix(tendons, trajectory.time)
+    tau = prescribed_tensions(tendons, trajectory.time)
     potential = (tau * lengths).sum(axis=1)
+    moved = np.array([td.displacement_controlled for td in tendons])
+    if moved.any():
+        stiffness, rest = spring_arrays(tendons, setup.reference.rotations, setup.reference.positions, l)
+        spring = spring_tensions(lengths, rest, stiffness, displacement_matrix(tendons, trajectory.time))
+        tau[:, moved] = spring[:, moved]
+        potential = (tau * lengths)[:, ~moved].sum(axis=1) + (0.5 * tau[:, moved] ** 2 / stiffness[moved]).sum(axis=1)
     work = np.zeros(S)
     work[1:] = -np.cumsum((0.5 * (tau[1:] + tau[:-1]) * np.diff(lengths, axis=0)).sum(axis=1))
     return potential, work

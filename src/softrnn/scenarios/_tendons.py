@@ -1,6 +1,7 @@
-"""The ``[[tendons]]`` entries of a scenario: routing, termination and tension profile read into
-``softrnn.rod.Tendon`` entries, every value checked with its key (an offset outside the section,
-a termination off the rod, a tension profile that can fall below zero)."""
+"""The ``[[tendons]]`` entries of a scenario: routing, termination and tension profile (or
+displacement profile and series stiffness) read into ``softrnn.rod.Tendon`` entries, every value
+checked with its key (an offset outside the section, a termination off the rod, a tension profile
+that can fall below zero, a displacement without a stiffness)."""
 
 from __future__ import annotations
 
@@ -23,6 +24,9 @@ _TENDON_KEYS = {
     "end_node": "the node where the tendon terminates (default: the last node)",
     "end_s": "the termination as an arc length in m (the nearest node; instead of end_node)",
     "tension": "the tension profile table in N (kind = constant, sinusoid, random_smooth, sampled or piecewise)",
+    "displacement": "instead of tension: the length pulled in at the servo in m, a number or a profile table "
+                    "(kind = constant, sinusoid, random_smooth, sampled or piecewise)",
+    "stiffness": "with displacement: the series stiffness of servo and cable in N/m (> 0)",
 }
 _RAMP = {"ramp": "blend the tension in from 0 over this many seconds (smoothstep, default 0)"}
 _TENSION_KEYS = {
@@ -38,6 +42,18 @@ _TENSION_KEYS = {
     "piecewise": {"times": "strictly increasing times in s", "values": "one tension in N (>= 0) per time, held"},
 }
 _PUSH = "a tendon cannot push"
+_DISPLACEMENT_KEYS = {
+    "constant": {"value": "the displacement in m"},
+    "sinusoid": {"amplitude": "the amplitude in m", "frequency": "the frequency in Hz",
+                 "phase": "the phase in rad (default 0)", "offset": "the mean displacement in m (default 0)"},
+    "random_smooth": {"mean": "the mean displacement in m", "amplitude": "the largest departure from the mean in m",
+                      "cutoff": "the highest frequency in Hz", "seed": "an integer >= 0 fixing the profile",
+                      "n_modes": "sinusoids in the sum (default 6)"},
+    "sampled": {"times": "strictly increasing times in s", "values": "one displacement in m per time",
+                "interpolation": "'linear' (default) or 'hold'"},
+    "piecewise": {"times": "strictly increasing times in s", "values": "one displacement in m per time, held"},
+}
+_DISPLACEMENT_RAMP = {"ramp": "blend the displacement in from 0 over this many seconds (smoothstep, default 0)"}
 
 
 def _tension(ctx: _Ctx, raw, path: str) -> Scalar:
@@ -89,6 +105,73 @@ def _tension_function(ctx: _Ctx, t: _Table, kind: str):
         raise ctx.invalid(t.key("times"), times.tolist(), "strictly increasing times in s")
     interp = "hold" if kind == "piecewise" else t.get("interpolation", string(("linear", "hold")), "linear")
     return Sampled(times, values[:, None] * np.array([1.0, 0.0, 0.0]), interpolation=interp)
+
+
+def _displacement(ctx: _Ctx, raw, path: str):
+    """A displacement [m]: a number, or a profile t (K,) -> (K,) [m] (any sign: a negative
+    displacement pays the tendon out)."""
+    kinds = tuple(_DISPLACEMENT_KEYS)
+    if isinstance(raw, (int, float)) and not isinstance(raw, bool):
+        return number("m")(ctx, path, raw)
+    if not isinstance(raw, dict):
+        raise ctx.invalid(path, raw, "a displacement in m, or a displacement profile table with kind = "
+                                     + ", ".join(kinds))
+    kind = _Table(ctx, {"kind": raw["kind"]} if "kind" in raw else {}, path,
+                  {"kind": "the displacement profile kind: " + ", ".join(kinds)}).get("kind", string(kinds))
+    t = _Table(ctx, raw, path, {"kind": "the profile kind", **_DISPLACEMENT_KEYS[kind], **_DISPLACEMENT_RAMP})
+    ramp = t.get("ramp", number("s", nonnegative=True), 0.0)
+    try:
+        return Scalar(_displacement_function(t, kind), ramp=ramp)
+    except ScenarioError:
+        raise
+    except (SoftrnnInputError, ArithmeticError) as exc:
+        raise ctx.wrap(path, exc) from None
+
+
+def _displacement_function(t: _Table, kind: str):
+    """The vector time function whose first component is the displacement of the profile table ``t``."""
+    ctx = t.ctx
+    if kind == "constant":
+        return Constant((t.get("value", number("m")), 0.0, 0.0))
+    if kind == "sinusoid":
+        return Sinusoid((t.get("amplitude", number("m")), 0.0, 0.0), t.get("frequency", number("Hz")),
+                        phase=t.get("phase", number("rad"), 0.0),
+                        offset=(t.get("offset", number("m"), 0.0), 0.0, 0.0))
+    if kind == "random_smooth":
+        return RandomSmoothPath((t.get("mean", number("m")), 0.0, 0.0), t.get("amplitude", number("m", positive=True)),
+                                t.get("cutoff", number("Hz", positive=True)),
+                                t.get("seed", integer(0, "an integer >= 0")),
+                                n_modes=t.get("n_modes", integer(1, "an integer in [1, 64]"), 6),
+                                u=(1.0, 0.0, 0.0), v=(0.0, 1.0, 0.0), ramp=0.0)
+    times = t.get("times", numbers("s"))
+    values = t.get("values", numbers("m"))
+    if values.size != times.size:
+        raise ctx.invalid(t.key("values"), values.tolist(), f"{times.size} values, one per time")
+    if times.size > 1 and np.any(np.diff(times) <= 0):
+        raise ctx.invalid(t.key("times"), times.tolist(), "strictly increasing times in s")
+    interp = "hold" if kind == "piecewise" else t.get("interpolation", string(("linear", "hold")), "linear")
+    return Sampled(times, values[:, None] * np.array([1.0, 0.0, 0.0]), interpolation=interp)
+
+
+def _drive(ctx: _Ctx, t: _Table) -> dict:
+    """The tendon's drive: {tension: profile}, or {displacement: value or profile, stiffness: N/m}."""
+    if t.has("tension") and t.has("displacement"):
+        raise ctx.error(t.key("displacement"), f"{t.path}: give tension or displacement, not both (a tendon is "
+                                               "pulled with a tension or pulled in by a servo through a stiffness)")
+    if t.has("displacement"):
+        if not t.has("stiffness"):
+            raise ctx.error(t.key("stiffness"), f"missing key '{t.key('stiffness')}' (the series stiffness of servo "
+                                                "and cable in N/m, > 0: a tendon driven by a displacement needs it)")
+        return {"displacement": _displacement(ctx, t.raw_value("displacement"), t.key("displacement")),
+                "stiffness": t.get("stiffness", number("N/m", positive=True))}
+    if t.has("stiffness"):
+        raise ctx.error(t.key("stiffness"), f"{t.key('stiffness')}: only a tendon driven by a displacement has "
+                                            f"a stiffness (give {t.key('displacement')} instead of tension, or "
+                                            "remove it)")
+    if not t.has("tension"):
+        raise ctx.error(t.key("tension"), f"missing key '{t.key('tension')}' ({_TENDON_KEYS['tension']}; or give "
+                                          "displacement and stiffness)")
+    return {"tension": _tension(ctx, t.raw_value("tension"), t.key("tension"))}
 
 
 def _end(ctx: _Ctx, t: _Table, rod: RodSpec) -> int:
@@ -156,9 +239,9 @@ def read_tendons(ctx: _Ctx, entries, rod: RodSpec) -> tuple[Tendon, ...]:
         offset = _offset(ctx, t, rod, end)
         routing = t.get("routing", string(ROUTINGS), "straight")
         pitch = _pitch(ctx, t, routing, end * rod.segment_length)
-        tension = _tension(ctx, t.raw_value("tension"), t.key("tension"))
+        drive = _drive(ctx, t)
         try:
-            out.append(Tendon(name=name, offset=offset, tension=tension, routing=routing, pitch=pitch, end_node=end))
+            out.append(Tendon(name=name, offset=offset, routing=routing, pitch=pitch, end_node=end, **drive))
         except SoftrnnInputError as exc:
             raise ctx.wrap(path, exc) from None
     return tuple(out)

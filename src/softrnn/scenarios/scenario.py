@@ -32,7 +32,8 @@ from .reading import ScenarioError, _as_is, _Ctx, _show, _Table, integer, number
 
 SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "square-circle", "square-figure8",
                                    "square-random", "semicircle", "semicircle-cosine", "tendon-planar",
-                                   "tendon-planar-sine", "tendon-spatial", "tendon-spatial-sine")
+                                   "tendon-planar-sine", "tendon-spatial", "tendon-spatial-sine",
+                                   "tendon-displacement")
 FORMAT_VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 
@@ -49,7 +50,8 @@ _TOP_KEYS = {
     "initial": "the initial shape table (default: the reference)",
     "boundary": "[[boundary]] entries (kind = clamp or pin)",
     "loads": "[[loads]] entries (kind = force, torque or pd)",
-    "tendons": "[[tendons]] entries: name, offset, routing, end_node or end_s, tension",
+    "tendons": "[[tendons]] entries: name, offset, routing, end_node or end_s, tension (or displacement and "
+               "stiffness)",
     "damping": "the damping table: translational, rotational, kelvin_voigt",
     "run": "the run table: dt, duration or n_samples, substeps, nodes_of_interest, ...",
     "randomize": "a table of dotted keys -> distributions for sweeps",

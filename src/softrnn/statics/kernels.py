@@ -36,6 +36,10 @@ G (M, 3, 3) [T/m] with G[i, j] = dB_i/dx_j.
 
 The unknowns are the base wrench xi = [n(0), m(0)] (6,); the residual is the tip wrench
 [n(L+), m(L+)] after the tip's own point loads, which must vanish at a free tip.
+
+``tendon_lengths`` integrates as ``shoot`` does, with each tendon's path length (the integral of
+|v + u x rho + rho'| ds up to its termination) carried along as extra RK4 states: the solver's
+outer iteration on the tensions of tendons driven by a displacement (``solver``) uses it.
 """
 
 import math
@@ -458,3 +462,101 @@ def shoot(xi, sc, J, have_jacobian, tol, max_iter, base, grid, mags, loads, Y, i
     for i in range(6):
         xi[i] = x[i] * sc[i]
     return ITERATION_LIMIT
+
+
+@njit(**_INLINE)
+def _tendon_rates(y, kinv, k, s, tendons, scale, R, rates):
+    """rates[j] <- |v + u x rho_j + rho_j'| (the rate of tendon j's path length per arc length) at
+    the state y[13] on step k at arc length s, for the tendons routed through the step (0 for the
+    others); the strains as in ``_derivative``. R[3, 3] is scratch."""
+    tension, geom, end = tendons
+    _rotation(y, R)
+    nx, ny, nz = y[7], y[8], y[9]
+    mx, my, mz = y[10], y[11], y[12]
+    nb0 = R[0, 0] * nx + R[1, 0] * ny + R[2, 0] * nz
+    nb1 = R[0, 1] * nx + R[1, 1] * ny + R[2, 1] * nz
+    nb2 = R[0, 2] * nx + R[1, 2] * ny + R[2, 2] * nz
+    mb0 = R[0, 0] * mx + R[1, 0] * my + R[2, 0] * mz
+    mb1 = R[0, 1] * mx + R[1, 1] * my + R[2, 1] * mz
+    mb2 = R[0, 2] * mx + R[1, 2] * my + R[2, 2] * mz
+    u0, u1, u2, v0, v1, v2 = _tendon_strains(kinv, k, nb0, nb1, nb2, mb0, mb1, mb2, s, tendons, scale)
+    for j in range(len(end)):
+        rates[j] = 0.0
+        if k >= end[j]:
+            continue
+        c = math.cos(geom[j, 2] * s)
+        sn = math.sin(geom[j, 2] * s)
+        o0 = c * geom[j, 0] - sn * geom[j, 1]
+        o1 = sn * geom[j, 0] + c * geom[j, 1]
+        t0 = v0 - u2 * o1 - geom[j, 2] * o1
+        t1 = v1 + u2 * o0 + geom[j, 2] * o0
+        t2 = v2 + u0 * o1 - u1 * o0
+        rates[j] = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+
+
+@njit(cache=True, error_model="numpy", no_rewrites=True)
+def tendon_lengths(xi, base, grid, mags, loads, r, lengths):
+    """Integrate from the base wrench xi[6] as ``_integrate`` does, with the path length of every
+    tendon (the integral of |v + u x rho + rho'| ds up to its termination) as extra RK4 states:
+    r[6] <- the tip residual, lengths (m,) <- the tendons' lengths [m]. Returns False when a value
+    is not finite."""
+    h, kinv, weight, jumps = grid
+    mag_node, mu, B, G = mags
+    gravity, distributed, scale, tendons = loads
+    m = len(lengths)
+    work = np.empty((5, 13))
+    rates = np.empty((4, m))
+    R = np.empty((3, 3))
+    y = work[0]
+    yt = work[1]
+    k1 = work[2]
+    k2 = work[3]
+    k3 = work[4]
+    for i in range(3):
+        y[i] = base[i]
+    for i in range(4):
+        y[3 + i] = base[3 + i]
+    for i in range(6):
+        y[7 + i] = xi[i]
+    for j in range(m):
+        lengths[j] = 0.0
+    sk = 0.0
+    for k in range(len(h)):
+        _apply_jumps(y, k, jumps, scale, mag_node, mu, B, G, R)
+        hk = h[k]
+        fx = scale * (weight[k] * gravity[0] + distributed[0])
+        fy = scale * (weight[k] * gravity[1] + distributed[1])
+        fz = scale * (weight[k] * gravity[2] + distributed[2])
+        _tendon_rates(y, kinv, k, sk, tendons, scale, R, rates[0])
+        _derivative(y, kinv, k, fx, fy, fz, sk, tendons, scale, R, k1)
+        for i in range(13):
+            yt[i] = y[i] + 0.5 * hk * k1[i]
+        _tendon_rates(yt, kinv, k, sk + 0.5 * hk, tendons, scale, R, rates[1])
+        _derivative(yt, kinv, k, fx, fy, fz, sk + 0.5 * hk, tendons, scale, R, k2)
+        for i in range(13):
+            yt[i] = y[i] + 0.5 * hk * k2[i]
+        _tendon_rates(yt, kinv, k, sk + 0.5 * hk, tendons, scale, R, rates[2])
+        _derivative(yt, kinv, k, fx, fy, fz, sk + 0.5 * hk, tendons, scale, R, k3)
+        for i in range(13):
+            yt[i] = y[i] + hk * k3[i]
+            k1[i] += 2.0 * (k2[i] + k3[i])
+        _tendon_rates(yt, kinv, k, sk + hk, tendons, scale, R, rates[3])
+        _derivative(yt, kinv, k, fx, fy, fz, sk + hk, tendons, scale, R, k2)
+        for i in range(13):
+            y[i] += hk / 6.0 * (k1[i] + k2[i])
+        for j in range(m):
+            lengths[j] += hk / 6.0 * (rates[0, j] + 2.0 * (rates[1, j] + rates[2, j]) + rates[3, j])
+        sk += hk
+        qn = 1.0 / math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
+        for i in range(3, 7):
+            y[i] *= qn
+    _apply_jumps(y, len(h), jumps, scale, mag_node, mu, B, G, R)
+    finite = True
+    for i in range(6):
+        r[i] = y[7 + i]
+        if not math.isfinite(r[i]):
+            finite = False
+    for j in range(m):
+        if not math.isfinite(lengths[j]):
+            finite = False
+    return finite

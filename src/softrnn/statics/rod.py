@@ -132,7 +132,9 @@ class StaticRod:
     magnets : tuple             PointMagnet entries; a solve gives the field B and gradient G at each
     tendons : tuple             ``softrnn.rod.Tendon`` entries routed from the base (terminated at
                                 ``end_s``, default the tip; ``end_node`` is for the dynamic rod); a
-                                solve gives their tensions (``StaticLoads.tendon_tensions``)
+                                solve gives their tensions (``StaticLoads.tendon_tensions``), or the
+                                displacements of those driven by one
+                                (``StaticLoads.tendon_displacements``), whose tensions it solves for
     """
 
     length: float
@@ -274,7 +276,13 @@ class StaticLoads:
                                G [T/m], G[i, j] = dB_i/dx_j, at each magnet (None: uniform field)
     tendon_tensions : (m,) or None
                                tension [N] >= 0 of each of the rod's m tendons, in the order of
-                               ``StaticRod.tendons`` (None: each tendon's own tension at t = 0)
+                               ``StaticRod.tendons`` (None: each tendon's own tension at t = 0); the
+                               entries of tendons driven by a displacement are not used
+    tendon_displacements : (m,) or None
+                               displacement [m] (pulled in at the servo; negative: paid out) of each
+                               of the rod's m tendons, in the order of ``StaticRod.tendons``, for the
+                               tendons driven by one (None: each one's own displacement at t = 0);
+                               the entries of tendons pulled with a tension are not used
     """
 
     point_loads: tuple = ()
@@ -282,6 +290,7 @@ class StaticLoads:
     magnetic_field: np.ndarray | None = None
     field_gradient: np.ndarray | None = None
     tendon_tensions: tuple | None = None
+    tendon_displacements: tuple | None = None
 
     def __post_init__(self):
         loads = tuple(self.point_loads)
@@ -315,3 +324,12 @@ class StaticLoads:
                 raise bad("tendon_tensions", shown(np.asarray(self.tendon_tensions, dtype=object)),
                           "finite tensions >= 0 in N, one per tendon (a tendon cannot push)")
             object.__setattr__(self, "tendon_tensions", tuple(float(x) for x in tau))
+        if self.tendon_displacements is not None:
+            try:
+                q = np.array(self.tendon_displacements, dtype=float).reshape(-1)
+            except (TypeError, ValueError):
+                q = np.array([np.nan])
+            if not np.isfinite(q).all():
+                raise bad("tendon_displacements", shown(np.asarray(self.tendon_displacements, dtype=object)),
+                          "finite displacements in m, one per tendon (pulled in at the servo: positive)")
+            object.__setattr__(self, "tendon_displacements", tuple(float(x) for x in q))

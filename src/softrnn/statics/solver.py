@@ -5,12 +5,20 @@ wrench is below the tolerance E, i.e. |[n(L) - n_L^d, m(L) - m_L^d]|_2 <= E (pap
 ``solve(rod, loads)`` is one solve; ``StaticSolver(rod)`` keeps the last converged base wrench and
 the shooting Jacobian to warm-start the next solve (a control loop with slowly changing loads).
 Every result carries a ``Status``; only ``CONVERGED`` results meet the tolerance.
+
+Tendons driven by a displacement q (``Tendon.displacement``, series stiffness k) have unknown
+tensions: an outer semi-smooth Newton iteration on them, around the shooting, solves
+tau = k max(0, q - (l_0 - l(tau))) with l the tendon's path length in the solution
+(``kernels.tendon_lengths``) and l_0 = L_e sqrt(1 + (|rho| 2 pi / pitch)^2) its length on the
+straight, stress-free rod. Its Jacobian is that of the solved equilibrium (the implicit function
+theorem on the integration at the converged base wrench: 7 + m integrations, no shooting), and it
+stops when every tension matches its displacement to within what the shooting tolerance resolves.
 """
 
 import enum
 import heapq
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,6 +33,9 @@ DEFAULT_MAX_ITER = 100
 _SNAP = 1e-9  # load points closer than this fraction of L share one grid point
 
 _NO_LOADS = StaticLoads()
+_EMPTY = np.zeros(0)
+_EMPTY.setflags(write=False)
+_TENSION_MAX_ITER = 50  # Newton updates of the tensions of tendons driven by a displacement
 
 
 class Status(enum.Enum):
@@ -130,6 +141,10 @@ class StaticSolution:
     m : (N + 1, 3)              internal moment [N m], world frame, likewise
     base_wrench : (6,)          [n(0), m(0)]: the load the rod puts on its base (the clamp's
                                 reaction on the rod is -base_wrench); a warm-start guess
+    tendon_tensions : (m,)      the tensions [N] of the rod's m tendons in this solution (given, or
+                                solved for the tendons driven by a displacement)
+    tendon_shortening : (m,)    l_0 - l [m]: how much each tendon's path along the rod is shorter
+                                than on the stress-free rod (bending toward it, compression)
     """
 
     status: Status
@@ -144,6 +159,8 @@ class StaticSolution:
     n: np.ndarray
     m: np.ndarray
     base_wrench: np.ndarray
+    tendon_tensions: np.ndarray = field(default_factory=lambda: _EMPTY)
+    tendon_shortening: np.ndarray = field(default_factory=lambda: _EMPTY)
 
     @property
     def converged(self) -> bool:
@@ -226,13 +243,22 @@ class StaticSolver:
         self._distributed = np.zeros(3)
         self._tension = np.zeros(len(rod.tendons))
         self._tendon_geom = np.array([[*td.offset, td.twist_rate] for td in rod.tendons], dtype=float).reshape(-1, 3)
+        # tendons driven by a displacement: their indices, stiffness [N/m], displacements [m]
+        self._moved = np.array([j for j, td in enumerate(rod.tendons) if td.displacement_controlled], dtype=np.int64)
+        self._stiffness = np.array([rod.tendons[j].stiffness for j in self._moved], dtype=float)
+        self._displacement = np.zeros(self._moved.size)
+        # the tendons' lengths on the straight, stress-free rod: |e3 + rho'| = sqrt(1 + (rate |rho|)^2)
+        self._rest = np.array([rod.tendon_end(td) * math.sqrt(1.0 + (td.twist_rate * math.hypot(*td.offset)) ** 2)
+                               for td in rod.tendons], dtype=float)
         self._warm_xi: np.ndarray | None = None
         self._warm_jac: np.ndarray | None = None
+        self._warm_tau: np.ndarray | None = None
 
     def reset(self) -> None:
         """Forget the warm start: the next solve starts cold."""
         self._warm_xi = None
         self._warm_jac = None
+        self._warm_tau = None
 
     @property
     def warm(self) -> bool:
@@ -289,16 +315,26 @@ class StaticSolver:
             (self._gravity, self._distributed, 1.0, (self._tension, self._tendon_geom, tendon_end))
 
     def _fill_tensions(self, loads: StaticLoads) -> None:
-        """The tendons' tensions [N] of a solve: ``loads.tendon_tensions`` or their own at t = 0."""
+        """The tendons' tensions [N] of a solve: ``loads.tendon_tensions`` or their own at t = 0
+        (0 for the tendons driven by a displacement: the solve finds theirs), and the displacements
+        [m] of those: ``loads.tendon_displacements`` or their own at t = 0."""
         tendons = self.rod.tendons
+        m = len(tendons)
         if loads.tendon_tensions is None:
-            self._tension[:] = [td.tensions(np.zeros(1))[0] for td in tendons]
-        elif len(loads.tendon_tensions) == len(tendons):
+            self._tension[:] = [0.0 if td.displacement_controlled else td.tensions(np.zeros(1))[0] for td in tendons]
+        elif len(loads.tendon_tensions) == m:
             self._tension[:] = loads.tendon_tensions
+            self._tension[self._moved] = 0.0
         else:
-            m = len(tendons)
             raise bad("tendon_tensions", loads.tendon_tensions,
                       f"{m} tension{'s' if m != 1 else ''} in N, one per tendon of the rod")
+        if loads.tendon_displacements is None:
+            self._displacement[:] = [tendons[j].displacements(np.zeros(1))[0] for j in self._moved]
+        elif len(loads.tendon_displacements) == m:
+            self._displacement[:] = np.array(loads.tendon_displacements)[self._moved]
+        else:
+            raise bad("tendon_displacements", loads.tendon_displacements,
+                      f"{m} displacement{'s' if m != 1 else ''} in m, one per tendon of the rod")
 
     def _tendon_bend(self) -> float:
         """Bending measure sum tau |offset| L / EI of the tendons of the last ``_kernel_inputs``."""
@@ -346,14 +382,26 @@ class StaticSolver:
         when the loads bend the rod by at most ~2 rad, else (or if that fails) by continuation,
         applying the loads in steps from zero so that the stable branch of large deflections is
         followed.
+
+        With tendons driven by a displacement, their tensions are unknowns too: an outer Newton
+        iteration on them around these solves (module docstring), from the last solve's tensions
+        when warm; the solution reports them (``StaticSolution.tendon_tensions``).
         """
         loads = _NO_LOADS if loads is None else loads
         if not isinstance(loads, StaticLoads):
             raise bad("loads", type(loads).__name__, "a StaticLoads (softrnn.statics.StaticLoads) or None")
         grid, *arrays = self._kernel_inputs(loads)
+        xi = None if guess is None else _guess_array(guess)
+        if self._moved.size:
+            return self._solve_tensions(grid, arrays, xi).solution()
+        return self._shoot(grid, arrays, xi).solution()
+
+    def _shoot(self, grid: Grid, arrays, xi: np.ndarray | None) -> "_Run":
+        """One solve with the tensions in ``self._tension`` (see ``solve``): from the guess ``xi``
+        (6,) as given, else warm, else cold."""
         run = _Run(self, grid, arrays)
-        if guess is not None:
-            run.shoot(_guess_array(guess), None, 1.0)
+        if xi is not None:
+            run.shoot(xi.copy(), None, 1.0)
         elif self._warm_xi is not None and run.shoot(self._warm_xi.copy(), self._warm_jac, 1.0):
             pass
         else:
@@ -368,7 +416,143 @@ class StaticSolver:
             self._warm_xi = run.xi.copy()
             if run.jacobian is not None:
                 self._warm_jac = run.jacobian.copy()
-        return run.solution()
+        return run
+
+    # ------------------------------------------------------------------ tendons driven by a displacement
+    def _lengths(self, grid: Grid, arrays, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Tip residual (6,) and the tendons' path lengths (m,) [m] of one integration from the base
+        wrench xi (6,) with the tensions in ``self._tension``."""
+        grid_arrays, mags, loads = arrays
+        r = np.empty(6)
+        lengths = np.empty(len(self.rod.tendons))
+        kernels.tendon_lengths(xi, self._base, grid_arrays, mags, loads, r, lengths)
+        return r, lengths
+
+    def _compliance(self, grid: Grid, arrays) -> np.ndarray:
+        """The linear estimate (m_d, m_d) [m/N] of d(l_0 - l_i)/d tau_j between the tendons driven by a
+        displacement on the straight rod: the integral of rho_i . rho_j / EI + 1 / EA over both."""
+        end = arrays[2][3][2]
+        mid = 0.5 * (grid.s[1:] + grid.s[:-1])
+        rho = [self.rod.tendons[j].offsets_at(mid) for j in self._moved]
+        C = np.zeros((self._moved.size, self._moved.size))
+        for a, i in enumerate(self._moved):
+            for b, j in enumerate(self._moved):
+                steps = slice(0, min(end[i], end[j]))
+                bend = (rho[a][steps, 0] * rho[b][steps, 0] * grid.kinv[steps, 0]
+                        + rho[a][steps, 1] * rho[b][steps, 1] * grid.kinv[steps, 1])
+                C[a, b] = np.sum(grid.h[steps] * (bend + grid.kinv[steps, 5]))
+        return C
+
+    def _cold_tensions(self, grid: Grid, arrays) -> np.ndarray:
+        """The tensions (m_d,) [N] of the linear estimate tau = k max(0, q - C tau) (active set)."""
+        C = self._compliance(grid, arrays)
+        k, q = self._stiffness, self._displacement
+        active = q > 0
+        tau = np.zeros(k.size)
+        for _ in range(k.size + 1):
+            tau[:] = 0.0
+            if active.any():
+                A = np.diag(1.0 / k[active]) + C[np.ix_(active, active)]
+                tau[active] = np.linalg.solve(A, q[active])
+            pull = q - C @ tau
+            changed = (active & (tau < 0)) | (~active & (pull > 0))
+            if not changed.any():
+                break
+            active = (active & (tau >= 0)) | (~active & (pull > 0))
+        return np.maximum(tau, 0.0)
+
+    def _shortening_jacobian(self, grid: Grid, arrays, xi: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+        """d(l_0 - l)/d tau (m_d, m_d) [m/N] of the solved equilibrium at the converged base wrench xi:
+        forward differences of one integration each, the base wrench following the tensions
+        through the shooting's Jacobian (implicit function theorem)."""
+        moved = self._moved
+        r0, _ = self._lengths(grid, arrays, xi)
+        dr_dxi = np.empty((6, 6))
+        dl_dxi = np.empty((moved.size, 6))
+        for i in range(6):
+            step = 1e-7 * max(abs(xi[i]), self._scale[i])
+            xt = xi.copy()
+            xt[i] += step
+            r, lengths_t = self._lengths(grid, arrays, xt)
+            dr_dxi[:, i] = (r - r0) / step
+            dl_dxi[:, i] = (lengths_t[moved] - lengths[moved]) / step
+        dr_dtau = np.empty((6, moved.size))
+        dl_dtau = np.empty((moved.size, moved.size))
+        EI = self.rod.stiffness()["EI"]
+        for b, j in enumerate(moved):
+            tau = self._tension[j]
+            arm = max(math.hypot(*self.rod.tendons[j].offset), self.rod.radius)
+            step = 1e-7 * max(tau, EI / (self.rod.length * arm))
+            self._tension[j] = tau + step
+            r, lengths_t = self._lengths(grid, arrays, xi)
+            self._tension[j] = tau
+            dr_dtau[:, b] = (r - r0) / step
+            dl_dtau[:, b] = (lengths_t[moved] - lengths[moved]) / step
+        try:
+            dl = dl_dtau - dl_dxi @ np.linalg.solve(dr_dxi, dr_dtau)
+        except np.linalg.LinAlgError:
+            dl = dl_dtau
+        return -dl
+
+    def _solve_tensions(self, grid: Grid, arrays, xi: np.ndarray | None) -> "_Run":
+        """Solve with the tensions of the tendons driven by a displacement as unknowns: semi-smooth
+        Newton on phi(tau) = tau / k - max(0, q - (l_0 - l(tau))) [m], each evaluation a solve."""
+        moved, k, q = self._moved, self._stiffness, self._displacement
+        rest = self._rest[moved]
+        L = self.rod.length
+        stiffness = self.rod.stiffness()
+        offsets = np.array([math.hypot(*self.rod.tendons[j].offset) for j in moved])
+        # what the shooting tolerance resolves of a tendon's length, and of its tension
+        slack = self.tol * (1.0 / k + L * (offsets / stiffness["EI"] + 1.0 / stiffness["EA"])) + 1e-13 * L
+        if self._warm_tau is not None and xi is None:
+            tau = self._warm_tau.copy()
+        else:
+            tau = self._cold_tensions(grid, arrays)
+        iterations = integrations = 0
+        phi_norm = math.inf
+        step = None
+        run = None
+        for update in range(_TENSION_MAX_ITER + 1):
+            self._tension[moved] = tau
+            run = self._shoot(grid, arrays, xi if update == 0 else None)
+            iterations += run.iterations
+            integrations += run.integrations
+            if run.status is not Status.CONVERGED:
+                break
+            _, lengths = self._lengths(grid, arrays, run.xi)
+            shortening = rest - lengths[moved]
+            phi = tau / k - np.maximum(q - shortening, 0.0)
+            norm = float(np.max(np.abs(phi) / slack)) if phi.size else 0.0
+            if norm <= 1.0:
+                plural = "s" if update != 1 else ""
+                run.note += f" (tendon tensions matched to the displacements after {update} update{plural})"
+                self._warm_tau = tau.copy()
+                break
+            if step is not None and norm > phi_norm and update < _TENSION_MAX_ITER:
+                # the full Newton step made things worse: go back half-way
+                step *= 0.5
+                tau = np.maximum(tau - step, 0.0)
+                continue
+            if update == _TENSION_MAX_ITER:
+                run.status = Status.ITERATION_LIMIT
+                run.note += (f" (but the tendon tensions did not match the displacements in {_TENSION_MAX_ITER} "
+                             f"updates: largest mismatch {float(np.max(np.abs(phi) * k)):.3g} N; apply the "
+                             "displacements in smaller steps)")
+                break
+            phi_norm = norm
+            D = self._shortening_jacobian(grid, arrays, run.xi, lengths)
+            integrations += 7 + moved.size
+            active = (q - shortening) > 0
+            J = np.diag(1.0 / k) + active[:, None] * D
+            try:
+                delta = -np.linalg.solve(J, phi)
+            except np.linalg.LinAlgError:
+                delta = -k * phi
+            new = np.maximum(tau + delta, 0.0)
+            step = new - tau
+            tau = new
+        run.iterations, run.integrations = iterations, integrations
+        return run
 
 
 _DIRECT_BEND = 2.0      # rigid-rod bending measure max|m| L / EI up to which a cold solve starts directly
@@ -383,6 +567,7 @@ class _Run:
         self.solver = solver
         self.grid = grid
         self.grid_arrays, self.mags, (self.gravity, self.distributed, _, self.tendons) = arrays
+        self.loads = (self.gravity, self.distributed, 1.0, self.tendons)
         self.Y = np.empty((grid.s.size, 13))
         self.status = Status.NOT_FINITE
         self.xi = np.zeros(6)
@@ -427,10 +612,17 @@ class _Run:
         Y.setflags(write=False)
         xi.setflags(write=False)
         message = _message(self.status, self.residual, s.tol, self.iterations, s.max_iter) + self.note
+        tensions, shortening = _EMPTY, _EMPTY
+        if s.rod.tendons:
+            tensions = s._tension.copy()
+            with np.errstate(over="ignore", invalid="ignore"):
+                shortening = s._rest - s._lengths(self.grid, (self.grid_arrays, self.mags, self.loads), xi)[1]
+            tensions.setflags(write=False)
+            shortening.setflags(write=False)
         return StaticSolution(status=self.status, message=message, iterations=self.iterations,
                               residual=self.residual, tol=s.tol, integrations=self.integrations, s=self.grid.s,
                               positions=Y[:, 0:3], quaternions=Y[:, 3:7], n=Y[:, 7:10], m=Y[:, 10:13],
-                              base_wrench=xi)
+                              base_wrench=xi, tendon_tensions=tensions, tendon_shortening=shortening)
 
 
 def _guess_array(guess) -> np.ndarray:
@@ -452,7 +644,8 @@ def solve(rod: StaticRod, loads: StaticLoads | None = None, *, tol: float = DEFA
     Parameters
     ----------
     rod : StaticRod
-    loads : StaticLoads or None   point loads, distributed load, field B and gradient G at the magnets
+    loads : StaticLoads or None   point loads, distributed load, field B and gradient G at the magnets,
+                                  tendon tensions and displacements
     tol : float                   tolerance E on |[n(L+), m(L+)]|_2 [N, N m]
     n_steps : int                 RK4 steps N
     guess : None, (6,) or StaticSolution
