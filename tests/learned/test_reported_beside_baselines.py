@@ -22,7 +22,8 @@ from softrnn.scenarios.cases import PAPER_CASES
 from helpers import LENGTH, Offset, Oracle, real_model, run_cli, save_h5
 from helpers import node_dataset as synthetic
 
-ERROR_KEYS = {"max_abs_mm", "mean_abs_mm", "max_pct_of_length", "rmse_mm", "max_rmse_t_mm"}
+ERROR_KEYS = {"max_abs_mm", "mean_abs_mm", "max_pct_of_length", "rmse_mm", "max_rmse_t_mm", "rmse_euclidean_mm",
+              "mean_euclidean_mm", "rmse_euclidean_pct_of_length", "mean_euclidean_pct_of_length"}
 NAMES = {"persistence", "constant_velocity", "linear"}
 
 

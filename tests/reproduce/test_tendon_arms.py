@@ -40,7 +40,7 @@ def test_entry_has_the_dynamic_model_keys_baselines_and_goals(run):
     assert set(e["horizons"]["10"]) == {"model", "persistence", "constant_velocity", "linear"}
     assert e["horizons"]["10"]["persistence"] > 0
     assert set(e["test_span"]) >= {"model", "persistence", "constant_velocity", "linear"}
-    assert set(e["generalisation"]) == {"model", "persistence", "constant_velocity", "linear"}
+    assert set(e["generalisation"]) >= {"model", "persistence", "constant_velocity", "linear"}
     assert "speed_ratio_vs_simulator" not in e["goals"]
     for g in e["goals"].values():
         assert isinstance(g["met"], bool) and "goal" in g

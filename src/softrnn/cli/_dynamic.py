@@ -27,7 +27,8 @@ _OPTIONS = {"model_dt": "--model-dt", "node_stride": "--node-stride", "history":
             "seed": "--seed", "heldout": "--heldout", "validation": "--validation",
             "train_fraction": "--train-fraction", "data": "DATA", "drive": "--drive", "envelope": "--envelope",
             "prior_tau": "--prior-tau", "ema": "--ema", "ridge": "--ridge", "load_ridge": "--load-ridge",
-            "linear_lr": "--linear-lr", "conv_reads": "--conv-reads", "start_fraction": "--start-fraction"}
+            "linear_lr": "--linear-lr", "conv_reads": "--conv-reads", "start_fraction": "--start-fraction",
+            "validate_on": "--validate-on"}
 """Library argument names -> the options that set them (for the one-line errors)."""
 
 
@@ -74,9 +75,13 @@ def _add_train(p):
     p.add_argument("--validation", type=int, default=0, metavar="N",
                    help="of every sweep, N variants before the held-out ones choose among the training's "
                         "checkpoints by free runs (never trained on; recorded) (default: 0)")
-    p.add_argument("--train-fraction", type=float, default=0.6, metavar="F",
+    p.add_argument("--validate-on", nargs="+", action="extend", default=[], metavar="FILE",
+                   help="separate validation recordings (other sessions of the same robot: files or sweep folders, "
+                        "used whole) that choose among the training's checkpoints by free runs; every "
+                        "single-trajectory DATA file is then trained on whole (no test span)")
+    p.add_argument("--train-fraction", type=float, default=None, metavar="F",
                    help="train on the first F of every single-trajectory file (default: 0.6, the rest is the "
-                        "test span)")
+                        "test span; 1 with --validate-on)")
     p.add_argument("--model-dt", type=float, default=None, metavar="S",
                    help="the model's step [s], a whole multiple of the data's interval (default: 0.02)")
     p.add_argument("--node-stride", type=int, default=None, metavar="K",
@@ -255,8 +260,25 @@ def _train_summary(folder, config, encoding, info: dict, data: dict, head: str =
     return (f"{head} {config.steps} steps in {info.get('train_seconds', float('nan')):.1f} s, final loss "
             f"{'-' if loss is None else f'{loss:.4g}'}{selected}; model_dt {encoding.model_dt:g} s, "
             f"{encoding.n_kept} of {encoding.n_nodes} nodes predicted{_driven(encoding)}; "
-            f"{n['train']} training trajectories, "
-            f"{n['validation']} for validation, {n['heldout']} held out (listed in {folder}/model.json)")
+            f"{n['train']} training trajectories{_whole(data)}, "
+            f"{n['validation']} for validation{_separate(data)}, {n['heldout']} held out (listed in "
+            f"{folder}/model.json)")
+
+
+def _whole(data: dict) -> str:
+    """' (every sample trained on)' where separate validation recordings were given."""
+    return " (every sample trained on)" if data.get("validate_on") else ""
+
+
+def _separate(data: dict) -> str:
+    """' (N separate recordings: a.h5, ...)' for ``--validate-on``."""
+    given = data.get("validate_on") or []
+    if not given:
+        return ""
+    names = ", ".join(Path(p["path"]).name + ("" if p.get("group", "/") == "/" else f":{p['group']}")
+                      for p in given[:3])
+    more = ", ..." if len(given) > 3 else ""
+    return f" ({len(given)} separate recording{'s' if len(given) != 1 else ''}: {names}{more})"
 
 
 def _driven(encoding) -> str:
@@ -278,8 +300,12 @@ def _train(args) -> int:
         raise bad("--threads", args.threads, "an integer >= 1")
     with _as_options():
         config = _config(args)
+        fraction = args.train_fraction
+        if fraction is None:
+            fraction = 1.0 if args.validate_on else 0.6
         split = split_inputs([Path(p).absolute() for p in args.data], heldout=args.heldout,
-                             validation=args.validation, train_fraction=args.train_fraction)
+                             validation=args.validation, train_fraction=fraction,
+                             validate_on=[Path(p).absolute() for p in args.validate_on])
         _check_step(split, config)
     settings = _settings(config, split)
     if args.resume and (folder / "model.json").is_file() and not (folder / CHECKPOINT).is_file():
@@ -309,9 +335,11 @@ def _train(args) -> int:
 def _add_evaluate(p):
     p.add_argument("model", metavar="MODEL_DIR", help="a model folder written by 'softrnn dynamic train'")
     p.add_argument("--test", default=None, metavar="FILE",
-                   help="a trajectory the model trained the first part of: run free over the rest")
-    p.add_argument("--test-start", type=float, default=0.6, metavar="F",
-                   help="where the test span starts, as a fraction of --test (default: 0.6)")
+                   help="a trajectory the model trained the first part of: run free over the rest; or a separate "
+                        "test recording the model never saw: run free over the whole of it, from its start")
+    p.add_argument("--test-start", type=float, default=None, metavar="F",
+                   help="where the test span starts, as a fraction of --test (default: 0.6 for a trajectory the "
+                        "model trained the first part of; its start for a separate recording)")
     p.add_argument("--heldout", nargs="+", action="extend", default=[], metavar="PATH",
                    help="held-out trajectories: files (every group of a sweep file) or sweep folders (every "
                         "traj-*.h5); refused if the model trained on them")
@@ -390,7 +418,7 @@ def _evaluate(args) -> int:
 
     if args.test is None and not args.heldout and args.generalisation is None:
         raise bad("--test", None, "at least one of --test FILE, --heldout PATH ... and --generalisation FILE")
-    if not 0.0 < args.test_start < 1.0:
+    if args.test_start is not None and not 0.0 < args.test_start < 1.0:
         raise bad("--test-start", args.test_start, "a fraction in (0, 1), e.g. 0.6")
     if args.output:
         prepare_output(args.output, "-o", overwrite=args.overwrite)
@@ -401,13 +429,19 @@ def _evaluate(args) -> int:
     if args.generalisation is not None:
         _unseen(model, "--generalisation", args.generalisation)
     test = None if args.test is None else _read(model, "--test", args.test)
+    fraction, separate = (0.6 if args.test_start is None else args.test_start), False
     if test is not None:
-        _check_test(model, args.test, test, args.test_start)
+        separate = _seen(model, args.test) is None         # a separate test recording: from its start
+        if separate and args.test_start is None:
+            fraction = 0.0
+        _check_test(model, args.test, test, fraction)
     general = None if args.generalisation is None else _read(model, "--generalisation", args.generalisation)
     report = evaluate_dynamic(model, test=test, heldout=[_read(model, "--heldout", p, g) for p, g in heldout],
-                              generalisation=general, test_start_fraction=args.test_start)
+                              generalisation=general, test_start_fraction=fraction)
     report = {"model": str(args.model), "test": args.test, "heldout_files": [f"{p}:{g}" for p, g in heldout],
               "generalisation_file": args.generalisation, **report.to_dict()}
+    if test is not None:
+        report["test_span"]["span"] = "whole record" if separate and args.test_start is None else "test span"
     print(format_evaluation(report))
     if args.output:
         atomic_write_text(args.output, json.dumps(report, indent=2, allow_nan=False, default=json_default) + "\n")
@@ -427,11 +461,27 @@ def _span_cell(span: dict):
     return "diverged" if span.get("diverged_at") is not None else span.get("max_pct_of_length")
 
 
+def _tip_rows(block: dict) -> list[tuple[str, list]]:
+    """The tip's Euclidean RMSE [mm] rows of a test-span or generalisation block, where reported."""
+    if not isinstance(block.get("model"), dict) or "rmse_euclidean_mm" not in block["model"]:
+        return []
+
+    def cell(b, one_step):
+        b = (b or {}).get("one_step") if one_step else b
+        return "diverged" if not b or b.get("rmse_euclidean_mm") is None else b["rmse_euclidean_mm"]
+
+    tip = f"node {block['tip_node']}" if "tip_node" in block else "the tip"
+    return [(f"  tip ({tip}) Euclidean RMSE [mm]", [cell(block.get(n), False) for n in _NAMES]),
+            ("    one step ahead [mm]", [cell(block.get(n), True) for n in _NAMES])]
+
+
 def _rows(r: dict) -> list[tuple[str, list]]:
     rows = []
     if "test_span" in r:
         t = r["test_span"]
-        rows.append((f"test span {t['start_s']:g}..{t['end_s']:g} s", [_span_cell(t[n]) for n in _NAMES]))
+        label = "test file (whole)" if t.get("span") == "whole record" else "test span"
+        rows.append((f"{label} {t['start_s']:g}..{t['end_s']:g} s", [_span_cell(t[n]) for n in _NAMES]))
+        rows += _tip_rows(t)
     if "heldout" in r:
         h = r["heldout"]
         for stat in ("median", "worst"):
@@ -440,6 +490,7 @@ def _rows(r: dict) -> list[tuple[str, list]]:
             rows.append((f"held out ({h['variants']}): {stat}", values))
     if "generalisation" in r:
         rows.append(("generalisation", [_span_cell(r["generalisation"][n]) for n in _NAMES]))
+        rows += _tip_rows(r["generalisation"])
     for n, row in (r.get("horizons") or {}).items():
         rows.append((f"at {n} steps ({int(n) * r['model_dt_s']:g} s)", [row.get(k) for k in _NAMES]))
     return rows

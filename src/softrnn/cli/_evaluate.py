@@ -21,7 +21,8 @@ def add_args(p):
     p.add_argument("--group", default=None, help="the trajectory's group inside a sweep file")
     p.add_argument("--generalisation", action="store_true",
                    help="evaluate on the whole record (data of another scenario the model never saw) "
-                        "instead of the test span")
+                        "instead of the test span (a model trained with --validate-on is always evaluated on "
+                        "the whole record)")
     p.add_argument("--json", default=None, metavar="PATH", help="also write the report as JSON")
     p.add_argument("--figures", default=None, metavar="DIR",
                    help="write predicted vs reference per axis (prediction.png), RMSE(t) (rmse.png) and "
@@ -46,7 +47,8 @@ def run(args) -> int:
     with Bar(f"free-running {Path(args.data).name}", unit="step",
              enabled=not args.quiet and not args.no_free_running) as bar:
         ev = evaluate(model, args.data, group=args.group, generalisation=args.generalisation,
-                      free=not args.no_free_running, progress=bar, model_name=str(args.model))
+                      free=not args.no_free_running, progress=bar, model_name=str(args.model),
+                      linear_fit="training data")
     report = ev.to_dict()
     print(format_report(report))
     if args.json:
@@ -80,6 +82,12 @@ def format_report(r: dict) -> str:
             and r["span"] == "test":
         lines.append(f"  note: the model was trained on {r['trained_on']!r}; for another scenario's data, "
                      f"--generalisation evaluates the whole record")
+    if r["span"] == "training data":
+        lines.append("  note: this is the model's TRAINING data (it trained on every sample of it): these are "
+                     "training errors; evaluate on a separate test session for test errors")
+    elif r["span"] == "whole record":
+        lines.append(f"  free running from the record's start: its first {r['history']} samples are the initial "
+                     f"condition")
     lines.append(f"  {'':<36}{'x':>9}{'y':>9}{'z':>9}")
     blocks = [("one step", r["one_step"])]
     fr = r.get("free_running")
@@ -97,12 +105,26 @@ def format_report(r: dict) -> str:
         rmse.append(f"free running {fr['rmse_mm']:.3g} mm (max {fr['max_rmse_t_mm']:.3g}; neighbours from the "
                     f"reference)")
     lines.append("  RMSE over the span: " + ", ".join(rmse))
+    euclid = [f"one step {_euclid(r['one_step'])}"]
+    if fr and not fr["diverged"]:
+        euclid.append(f"free running {_euclid(fr)}")
+    lines.append("  Euclidean error over the span (RMSE, mean): " + "; ".join(euclid))
     if fr and fr["diverged"]:
         lines.append(f"  free running: diverged at t = {fr['time_s']:g} s (sample {fr['sample']}): the model's "
                      f"prediction left the +-16 m range when fed its own outputs")
     if paper and paper.get("predicted_node") is not None:
         lines.append(f"  (the paper's figures are for its node {paper['predicted_node']}, as the paper numbers it)")
     return "\n".join(lines + baseline_lines(r))
+
+
+def _euclid(m: dict) -> str:
+    """'RMSE x mm, mean y mm (a, b % of length)' of a block's Euclidean errors."""
+    if m.get("rmse_euclidean_mm") is None:
+        return "-"
+    text = f"{m['rmse_euclidean_mm']:.3g} mm, {m['mean_euclidean_mm']:.3g} mm"
+    if m.get("rmse_euclidean_pct_of_length") is not None:
+        text += f" ({m['rmse_euclidean_pct_of_length']:.3g}, {m['mean_euclidean_pct_of_length']:.3g} % of length)"
+    return text
 
 
 _COLUMNS = {"model": "model", "persistence": "persistence", "constant_velocity": "const. vel.", "linear": "linear AR"}
@@ -135,8 +157,9 @@ def baseline_lines(r: dict) -> list[str]:
         return []
     lin = base.get("linear", {})
     fitted = lin.get("fitted_on", {}).get("what", "?")
+    where = f" [{lin['linear_fitted_on']}]" if lin.get("linear_fitted_on") else ""
     lines = [f"  beside baselines over the same targets; linear AR (ridge, per node) on {lin.get('inputs', '?')}, "
-             f"fitted on {fitted}" + (f"; not fitted: {lin['skipped']}" if "skipped" in lin else ""),
+             f"fitted on {fitted}{where}" + (f"; not fitted: {lin['skipped']}" if "skipped" in lin else ""),
              f"  {'':<36}" + "".join(f"{v:>12}" for v in _COLUMNS.values())]
     blocks = {"model": r}
     blocks.update({k: base.get(k) or {} for k in _COLUMNS if k != "model"})
@@ -145,8 +168,14 @@ def baseline_lines(r: dict) -> list[str]:
         fr = b.get("free_running")
         return None if not fr else "diverged" if fr.get("diverged") else fr["rmse_mm"]
 
+    def free_euclid(b):
+        fr = b.get("free_running")
+        return None if not fr else "diverged" if fr.get("diverged") else fr.get("rmse_euclidean_mm")
+
     rows = [("one step RMSE [mm]", [b.get("one_step", {}).get("rmse_mm") for b in blocks.values()]),
             ("free running RMSE [mm]", [free(b) for b in blocks.values()]),
+            ("one step Euclidean RMSE [mm]", [b.get("one_step", {}).get("rmse_euclidean_mm") for b in blocks.values()]),
+            ("free running Euclidean RMSE [mm]", [free_euclid(b) for b in blocks.values()]),
             ("free running max [% of length]", [_max_pct(b.get("free_running")) for b in blocks.values()])]
     h = r.get("horizons")
     unit = (h or {}).get("unit", "% of length")

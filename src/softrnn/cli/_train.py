@@ -35,6 +35,12 @@ def add_args(p):
     p.add_argument("--output", choices=("increment", "acceleration", "pose"), default=None,
                    help="what the network predicts: the next position minus the last (default), the change of "
                         "that increment, or the next position itself (as the paper)")
+    p.add_argument("--validate-on", default=None, metavar="VAL.h5",
+                   help="a separate validation recording (another session with the same node(s), neighbours and "
+                        "actuation channels): train on the whole of DATA and stop early on this file instead of "
+                        "on the last part of DATA's first 60 %%")
+    p.add_argument("--validate-group", default=None, metavar="G",
+                   help="the trajectory's group inside a sweep file given as --validate-on")
     p.add_argument("--epochs", type=int, default=None, help="most epochs (default: 30)")
     p.add_argument("--batch-size", type=int, default=None,
                    help="windows per step (default: 256; the paper used 1, about 100x slower on a CPU)")
@@ -128,6 +134,8 @@ def run(args) -> int:
         if node is None:
             raise bad("--node", None, f"a node to model: the file names no node of interest; choose one of "
                                       f"{describe_nodes(head.nodes)}")
+    if args.validate_group is not None and args.validate_on is None:
+        raise bad("--validate-group", args.validate_group, "no group without --validate-on VAL.h5")
     spec = _spec(args, node)
     overrides = {k: v for k, v in (("lstm_units", args.units), ("lstm_layers", args.layers),
                                    ("output", args.output)) if v is not None}
@@ -145,7 +153,12 @@ def run(args) -> int:
     with _LossBar(f"train node {node}", unit="batch", enabled=not args.quiet) as bar:
         try:
             model = train_node_model(args.data, spec, overrides, config, args.out, resume=args.resume, progress=bar,
-                                     pool=pool)
+                                     pool=pool, validation=args.validate_on, validation_group=args.validate_group)
+        except SoftrnnInputError as err:     # name the command's option
+            text = str(err)
+            if text.startswith("validate_on="):
+                raise SoftrnnInputError("--validate-on=" + text[len("validate_on="):]) from None
+            raise
         except KeyboardInterrupt:
             bar.close()
             print(f"softrnn: interrupted; the finished epochs are kept in {args.out}/checkpoint.pt; run the same "
@@ -154,11 +167,17 @@ def run(args) -> int:
     m = model.meta
     spans = m["spans"]
     shared = f" (shared by {len(m['pool'])} pooled nodes)" if m.get("pool") else ""
+    if m.get("training_data"):
+        val = m["training_data"]["validation"]
+        where = f"all of {val['file'] or 'the validation data'}" + (f":{val['group']}" if val.get("group") else "")
+        span_text = (f"every sample of {Path(args.data).name} trained on, validation samples {where} "
+                     f"(0..{val['n_samples'] - 1}), no test span")
+    else:
+        span_text = (f"validation samples {spans['validation'][0]}..{spans['validation'][1] - 1}, test samples "
+                     f"{spans['test'][0]}..{spans['test'][1] - 1}")
     print(f"train: node {model.spec.node}{shared} <- {', '.join(map(str, model.spec.neighbours)) or 'no neighbours'}, "
           f"history {model.spec.history}, {model.spec.inputs} + {_input_two(model.spec)}; "
-          f"{m['train_windows']} training windows (stride {m['stride']}), validation samples "
-          f"{spans['validation'][0]}..{spans['validation'][1] - 1}, test samples {spans['test'][0]}.."
-          f"{spans['test'][1] - 1}")
+          f"{m['train_windows']} training windows (stride {m['stride']}), {span_text}")
     print(f"train: best validation loss {m['best_validation_loss']:.4g} at epoch {m['best_epoch']} of "
           f"{m['epochs_run']}{' (early stop)' if m['early_stopped'] else ''}, {m['train_seconds']:.1f} s; "
           + (f"already finished in {args.out} with these settings; nothing written" if finished
@@ -178,7 +197,7 @@ def _spec(args, node):
     if args.drive == "actuation":
         wrench = "none"
     elif wrench is None:
-        wrench = _default_wrench(args.data, node)
+        wrench = _default_wrench(args.data, node, whole=args.validate_on is not None)
         wrench = "force" if args.drive == "both" and wrench == "none" else wrench
     channels = None
     if args.channels is not None:
@@ -201,16 +220,19 @@ def _spec(args, node):
         raise SoftrnnInputError(text) from None
 
 
-def _default_wrench(path, node) -> str:
+def _default_wrench(path, node, whole: bool = False) -> str:
     """'force' if any force or torque acts on ``node`` in the training span (the first 60 % of the
-    samples; the test span is not looked at), else 'none' (Fig. 2A)."""
+    samples, the test span is not looked at; ``whole``: every sample, all trained on), else 'none'
+    (Fig. 2A)."""
     import numpy as np
 
     from ..io.reader import read_dataset
     from ..learned.node.data import SampleSpec, split
 
     d = read_dataset(path, nodes=[node])
-    cut = split(d.n_samples, SampleSpec(node=node, history=1))[0].stop if d.n_samples >= 4 else d.n_samples
+    cut = d.n_samples
+    if not whole and d.n_samples >= 4:
+        cut = split(d.n_samples, SampleSpec(node=node, history=1))[0].stop
     return "force" if np.any(d.forces[:cut] != 0) or np.any(d.torques[:cut] != 0) else "none"
 
 

@@ -17,7 +17,7 @@ def write_figures(ev, folder) -> list:
     ``folder``; returns the paths."""
     folder = Path(folder)
     r = ev.info
-    what = "whole record" if r["span"] == "whole record" else "test span"
+    what = r["span"] if r["span"] in ("whole record", "training data") else "test span"
     title = f"{r.get('scenario_name') or 'data'}: node {r['node']}, {what}"
     preds = {"one step": ev.one_step.predicted}
     rmse = {"one step": ev.one_step_errors.rmse_t_mm}

@@ -14,12 +14,16 @@ The span: the test span of the model's chronological split (``data.split``: the 
 first ``train_fraction``, windows inside it, so targets start ``history`` samples after the cut),
 or with ``generalisation=True`` the whole record (a data set from another scenario that the model
 never saw: the horizontal ellipse, new force profiles, the cosine push), targets from sample
-``history`` on.
+``history`` on. A model trained on the whole of a record (validated on another session,
+``whole_record``) is always evaluated on the whole record, free running from its start; on its
+own training record the report's span says 'training data'.
 
 Per axis (x, y, z) the errors are reported as the paper does: the largest and the mean absolute
 error [mm], the largest as a percentage of the rod length, and RMSE(t) = sqrt(((x_p - x_m)^2 +
-(y_p - y_m)^2 + (z_p - z_m)^2) / 3) (Eq. 2) per target [mm]. The models predict positions only,
-so no orientation errors (degrees) are reported.
+(y_p - y_m)^2 + (z_p - z_m)^2) / 3) (Eq. 2) per target [mm]. Beside them the Euclidean error of
+the position, as robotics papers report a tip error: its RMSE sqrt(mean_t |p - p_ref|^2) (=
+sqrt(3) times the RMSE over the axes) and its mean [mm], and as % of the rod length. The models
+predict positions only, so no orientation errors (degrees) are reported.
 
 Beside the model, as the house rule asks (a learned model is never reported alone, nor one step
 ahead alone), ``evaluate`` runs the baselines of ``softrnn.learned.baselines`` over the same
@@ -28,10 +32,12 @@ autoregressive model (``LinearAR``, mode "node") with the model's inputs (its hi
 and neighbours' positions, its node's force or wrench; positions only for a model of poses), fitted
 on the model's training span of the same data (``data.split``), or for a whole-record
 (generalisation) evaluation on the leading ``train_fraction`` of that record, which the model never
-saw (the report says so: ``fitted_on``). Then the free-running errors at horizons of 1, 10, 100 and
-1000 samples (``horizon_table``: the largest error at that horizon from a handful of starts spread
-over the span) for the model and each baseline, and the plain statements of where a baseline beats
-the model (``misses``).
+saw (the report says so: ``fitted_on``); with ``linear_fit='training data'`` (the command line's
+choice, and the default for a model trained on a whole record) on the model's training data,
+where its file still exists (``linear_fitted_on`` says which). Then the free-running errors at
+horizons of 1, 10, 100 and 1000 samples (``horizon_table``: the largest error at that horizon from
+a handful of starts spread over the span) for the model and each baseline, and the plain
+statements of where a baseline beats the model (``misses``).
 
 Applying a model to a data set checks that it stores the model's node and neighbours, that the
 units, the rod's node count and the sample interval match the model's training data, and that the
@@ -90,6 +96,13 @@ class ErrorMetrics:
         Root mean square error over every target and axis [mm] (= sqrt(mean_t RMSE(t)^2)).
     rmse_t_mm : ndarray (T,) float64
         RMSE(t) of paper Eq. 2 per target [mm].
+    rmse_euclidean_mm : float
+        The Euclidean RMSE of the position, sqrt(mean_t |p - p_ref|^2) [mm], as robotics papers
+        report a tip error (= sqrt(3) ``rmse_mm``).
+    mean_euclidean_mm : float
+        The mean Euclidean distance mean_t |p - p_ref| [mm].
+    rod_length_m : float or None
+        The rod length [m] of the percentages (None: unknown).
     """
 
     max_abs_mm: np.ndarray
@@ -97,14 +110,38 @@ class ErrorMetrics:
     max_pct_of_length: np.ndarray | None
     rmse_mm: float
     rmse_t_mm: np.ndarray
+    rmse_euclidean_mm: float = math.nan
+    mean_euclidean_mm: float = math.nan
+    rod_length_m: float | None = None
 
     def summary(self) -> dict:
-        """JSON-ready figures (lists [x, y, z]; RMSE(t) summarised by its largest value)."""
+        """JSON-ready figures (lists [x, y, z]; RMSE(t) summarised by its largest value; then the
+        Euclidean RMSE and mean error [mm] and, where the rod length is known, as % of it)."""
         pct = None if self.max_pct_of_length is None else [float(v) for v in self.max_pct_of_length]
         return {"max_abs_mm": [float(v) for v in self.max_abs_mm],
                 "mean_abs_mm": [float(v) for v in self.mean_abs_mm],
                 "max_pct_of_length": pct, "rmse_mm": float(self.rmse_mm),
-                "max_rmse_t_mm": float(self.rmse_t_mm.max()) if self.rmse_t_mm.size else 0.0}
+                "max_rmse_t_mm": float(self.rmse_t_mm.max()) if self.rmse_t_mm.size else 0.0,
+                **euclidean_summary(self.rmse_euclidean_mm, self.mean_euclidean_mm, self.rod_length_m)}
+
+
+def euclidean_summary(rmse_mm: float, mean_mm: float, length_m: float | None) -> dict:
+    """{rmse_euclidean_mm, mean_euclidean_mm, rmse_euclidean_pct_of_length,
+    mean_euclidean_pct_of_length} (the percentages None without a rod length ``length_m`` [m])."""
+    def pct(mm):
+        return None if not length_m else float(mm) / (float(length_m) * 1e3) * 100.0
+
+    return {"rmse_euclidean_mm": float(rmse_mm), "mean_euclidean_mm": float(mean_mm),
+            "rmse_euclidean_pct_of_length": pct(rmse_mm), "mean_euclidean_pct_of_length": pct(mean_mm)}
+
+
+def euclidean_errors(predicted, reference) -> tuple[float, float]:
+    """(Euclidean RMSE sqrt(mean_t |p - p_ref|^2), mean Euclidean error mean_t |p - p_ref|) [mm] of
+    ``predicted`` against ``reference`` (..., 3) [m], over every row, in float64."""
+    err_mm = (np.asarray(predicted, dtype=np.float64) - np.asarray(reference, dtype=np.float64)) * 1e3
+    with np.errstate(under="ignore"):
+        sq = (err_mm ** 2).sum(axis=-1)
+        return float(np.sqrt(sq.mean())), float(np.sqrt(sq).mean())
 
 
 def metrics(predicted, reference, rod_length: float | None) -> ErrorMetrics:
@@ -129,8 +166,10 @@ def metrics(predicted, reference, rod_length: float | None) -> ErrorMetrics:
         rmse_t = np.sqrt(sq.mean(axis=1))                                    # (T,) Eq. 2
         rmse = float(np.sqrt(sq.mean()))
     pct = None if rod_length is None else max_abs / (float(rod_length) * 1e3) * 100.0
+    e_rmse, e_mean = euclidean_errors(p, r)
     return ErrorMetrics(max_abs_mm=max_abs, mean_abs_mm=abs_mm.mean(axis=0), max_pct_of_length=pct,
-                        rmse_mm=rmse, rmse_t_mm=rmse_t)
+                        rmse_mm=rmse, rmse_t_mm=rmse_t, rmse_euclidean_mm=e_rmse, mean_euclidean_mm=e_mean,
+                        rod_length_m=None if rod_length is None else float(rod_length))
 
 
 # --------------------------------------------------------------------------------------- predictions
@@ -165,12 +204,20 @@ class Prediction:
         return metrics(self.predicted, self.reference, rod_length)
 
 
+def whole_record(model) -> bool:
+    """True for a model trained on the whole of its training record, validated on another
+    (``train_node_model(..., validation=...)``): its training record holds no test span."""
+    sessions = (getattr(model, "meta", None) or {}).get("training_data")
+    return isinstance(sessions, dict) and sessions.get("span") == "whole record"
+
+
 def evaluation_span(model, n_samples: int, *, generalisation: bool = False) -> tuple[int, int]:
     """Sample span [start, stop) whose windows are evaluated: the test span of the model's split
-    (``data.split``), or with ``generalisation`` the whole record. Targets are ``start+H .. stop-1``.
-    Too short a record is a one-line SoftrnnInputError."""
+    (``data.split``), or with ``generalisation`` (and always for a model trained on a whole record,
+    ``whole_record``) the whole record. Targets are ``start+H .. stop-1``. Too short a record is a
+    one-line SoftrnnInputError."""
     H = int(model.spec.history)
-    if generalisation:
+    if generalisation or whole_record(model):
         check_length(n_samples, H, advice="use a longer record")
         return 0, int(n_samples)
     test = split(int(n_samples), model.spec)[1]
@@ -437,7 +484,82 @@ def node_arrays(model, dataset) -> tuple[np.ndarray, np.ndarray | None]:
     return positions, (np.concatenate(parts, axis=-1) if parts else None)
 
 
-def fit_linear(model, positions, wrenches, *, generalisation: bool = False) -> tuple:
+@final
+@dataclass(frozen=True, eq=False)
+class LinearTraining:
+    """The record the linear baseline is fitted on, where it is not the evaluated one: the model's
+    training data (``training_record``)."""
+
+    positions: np.ndarray
+    """(T, K, 3) [m], ``node_arrays`` of the training record."""
+    wrenches: np.ndarray | None
+    """(T, K, W) or None, ``node_arrays`` of the training record."""
+    stop: int
+    """The fit span is samples 0 .. stop - 1 (the model's training span of that record)."""
+    what: str
+    """The span in words, for the report."""
+
+
+def training_record(model, dataset, source=None) -> tuple[LinearTraining | None, str]:
+    """The model's training data, to fit the linear baseline on, for an evaluation of ``dataset``
+    (read from ``source``, a path, or None): (None, 'same') where ``dataset`` is that record itself;
+    (``LinearTraining``, '') where the file the model's meta.json names still exists, is
+    compatible and holds what was trained on (its sample count, and for a model trained on a
+    whole record the node's positions, ``node_positions_sha256``); (None, why not) otherwise."""
+    from .training_data import node_positions_sha256
+
+    if same_record(model, dataset, source):
+        return None, "same"
+    sessions = (getattr(model, "meta", None) or {}).get("training_data") or {}
+    train = sessions.get("train") or {}
+    known = model_dataset_meta(model)
+    candidates = [c for c in (train.get("path"), known.get("path")) if isinstance(c, str) and c]
+    path = next((Path(c) for c in candidates if Path(c).is_file()), None)
+    if path is None:
+        return None, ("the model records no training file" if not candidates
+                      else f"the training file {candidates[0]} no longer exists")
+    try:
+        data = load_for_model(model, path)
+    except (SoftrnnInputError, OSError) as err:
+        return None, f"the training file {path} cannot be read ({' '.join(str(err).split())[:120]})"
+    n = int(data.n_samples)
+    if isinstance(known.get("n_samples"), int) and known["n_samples"] != n:
+        return None, f"the training file {path} has changed ({n} samples, the model trained on {known['n_samples']})"
+    digest = train.get("node_positions_sha256")
+    if digest and node_positions_sha256(data, model.spec.node) != digest:
+        return None, f"the training file {path} has changed since training"
+    positions, wrenches = node_arrays(model, data)
+    if whole_record(model):
+        stop, what = n, f"the model's training data, all of {path.name} (samples 0..{n - 1})"
+    else:
+        stop = split(n, model.spec)[0].stop
+        what = f"the model's training span of its training data {path.name} (samples 0..{stop - 1})"
+    return LinearTraining(positions=positions, wrenches=wrenches, stop=stop, what=what), ""
+
+
+def same_record(model, dataset, source=None) -> bool:
+    """Whether ``dataset`` (read from ``source``, or None) is the model's training record: for a
+    model trained on a whole record, by its node's positions (``node_positions_sha256``); else by
+    the file's path, or its name and sample count."""
+    from .training_data import node_positions_sha256
+
+    sessions = (getattr(model, "meta", None) or {}).get("training_data") or {}
+    digest = (sessions.get("train") or {}).get("node_positions_sha256")
+    if digest:
+        return node_positions_sha256(dataset, model.spec.node) == digest
+    known = model_dataset_meta(model)
+    if source is None or not isinstance(known.get("path"), str):
+        return False
+    try:
+        if Path(source).resolve() == Path(known["path"]).resolve():
+            return True
+    except OSError:
+        return False
+    return Path(source).name == known.get("file") and known.get("n_samples") == int(dataset.n_samples)
+
+
+def fit_linear(model, positions, wrenches, *, generalisation: bool = False,
+               training: LinearTraining | None = None, same: bool = False, fallback: str | None = None) -> tuple:
     """The linear baseline of a node model (``LinearAR``, mode "node", the model's history and
     inputs: ``node_arrays``) and its JSON description.
 
@@ -455,23 +577,39 @@ def fit_linear(model, positions, wrenches, *, generalisation: bool = False) -> t
         [N, N m], from ``node_arrays``.
     generalisation : bool
         Fit on the leading ``train_fraction`` of the record instead of the model's training span.
+    training : LinearTraining or None
+        Fit on the model's training data instead (``training_record``): ``linear_fitted_on`` is
+        then 'training data'.
+    same : bool
+        The evaluated record is the model's training record (``same_record``).
+    fallback : str or None
+        Why the training data could not be used (the report says so beside ``fitted_on``).
 
     Returns
     -------
     (LinearAR or None, dict)
         The model (None: the span is too short to fit, ``skipped`` says why) and {fitted_on:
-        {samples: [0, cut], what}, inputs, fit: ``LinearAR.summary()`` or skipped}.
+        {samples: [0, cut], what}, linear_fitted_on: 'training data' | 'evaluated record', inputs,
+        fit: ``LinearAR.summary()`` or skipped}.
     """
     spec = model.spec
     T = int(positions.shape[0])
-    if generalisation:
+    on = "training data" if same else "evaluated record"
+    if training is not None:
+        positions, wrenches, cut, what, on = (training.positions, training.wrenches, training.stop, training.what,
+                                              "training data")
+    elif whole_record(model) and same:          # its own training record: every sample was trained on
+        cut, what = T, f"the model's training data, this whole record (samples 0..{T - 1})"
+    elif generalisation or whole_record(model):
         cut = int(math.floor(spec.train_fraction * T))
         what = (f"the leading {100 * spec.train_fraction:g} % of this record (samples 0..{cut - 1}), which the "
                 f"evaluated span includes; the model never saw this record")
     else:
         cut = split(T, spec)[0].stop
         what = f"the model's training span of this data set (samples 0..{cut - 1})"
-    details = {"fitted_on": {"samples": [0, cut], "what": what}, "inputs": _inputs_text(model)}
+    if fallback and on == "evaluated record":
+        what += f"; not on the model's training data: {fallback}"
+    details = {"fitted_on": {"samples": [0, cut], "what": what}, "linear_fitted_on": on, "inputs": _inputs_text(model)}
     width = None if getattr(spec, "drive", "wrench") == "wrench" or wrenches is None else int(wrenches.shape[-1])
     config = bl.LinearARConfig(history=int(spec.history), mode="node", neighbours=tuple(range(1, positions.shape[1])),
                             wrench_width=width)
@@ -549,9 +687,14 @@ class BaselineComparison:
                 "horizons": None if self.horizons is None else self.horizons.to_dict()}
 
 
+LINEAR_FITS = ("training data", "evaluated record")
+"""Where ``evaluate`` may fit the linear baseline (``linear_fit``)."""
+
+
 def compare_baselines(model, dataset, start: int, stop: int, *, generalisation: bool = False,
                       length: float | None = None, free: bool = True, horizons=None,
-                      n_starts: int = HORIZON_STARTS) -> BaselineComparison:
+                      n_starts: int = HORIZON_STARTS, linear_fit: str | None = None,
+                      source=None) -> BaselineComparison:
     """The baselines over the model's targets start+H .. stop-1 (``evaluation_span``).
 
     Parameters
@@ -572,6 +715,14 @@ def compare_baselines(model, dataset, start: int, stop: int, *, generalisation: 
         [samples] (default ``softrnn.learned.horizons.HORIZONS``).
     n_starts : int
         Starts per horizon.
+    linear_fit : str or None
+        'training data': fit the linear model on the model's training data (``training_record``:
+        the file its meta.json names, if it still exists and is unchanged; otherwise on this record
+        as below, and the report says why); 'evaluated record': on this record (its training span,
+        or for a whole-record evaluation its leading ``train_fraction``); None: 'training data' for
+        a model trained on a whole record (``whole_record``), else 'evaluated record'.
+    source : str, Path or None
+        Where ``dataset`` was read from (tells the model's training record apart, ``same_record``).
 
     Returns
     -------
@@ -579,9 +730,18 @@ def compare_baselines(model, dataset, start: int, stop: int, *, generalisation: 
         Each baseline's evaluation (or why it was skipped) and, with ``free``, the horizon table.
     """
     horizons = HORIZONS if horizons is None else horizons
+    if linear_fit is None:
+        linear_fit = "training data" if whole_record(model) else "evaluated record"
+    if linear_fit not in LINEAR_FITS:
+        raise bad("linear_fit", linear_fit, f"one of {', '.join(map(repr, LINEAR_FITS))} or None")
     positions, wrenches = node_arrays(model, dataset)
     time = np.asarray(dataset.time, dtype=np.float64)
-    linear, details = fit_linear(model, positions, wrenches, generalisation=generalisation)
+    same = same_record(model, dataset, source)
+    training = fallback = None
+    if linear_fit == "training data" and not same:
+        training, fallback = training_record(model, dataset, source)
+    linear, details = fit_linear(model, positions, wrenches, generalisation=generalisation, training=training,
+                                 same=same, fallback=fallback or None)
     predictors = {"persistence": bl.Persistence(), "constant_velocity": bl.ConstantVelocity(), "linear": linear}
     first, node = start + int(model.spec.history), int(model.spec.node)
     out = {}
@@ -779,7 +939,7 @@ def load_for_model(model, path, *, group: str | None = None):
 
 def evaluate(model, data, *, group: str | None = None, generalisation: bool = False, free: bool = True,
              batch_size: int = 4096, progress=None, model_name: str | None = None, baselines: bool = True,
-             horizons=None, horizon_starts: int = HORIZON_STARTS) -> Evaluation:
+             horizons=None, horizon_starts: int = HORIZON_STARTS, linear_fit: str | None = None) -> Evaluation:
     """Evaluate ``model`` on ``data`` (a path or a ``Dataset``), beside the baselines.
 
     Parameters
@@ -809,6 +969,17 @@ def evaluate(model, data, *, group: str | None = None, generalisation: bool = Fa
         longer than the span are reported as None.
     horizon_starts : int
         Starts per horizon, spread over the span.
+    linear_fit : str or None
+        Where the linear baseline is fitted (``compare_baselines``): 'training data' (the model's
+        training file, where it still exists), 'evaluated record', or None (the training data for a
+        model trained on a whole record, else the evaluated record). The report's
+        ``linear_fitted_on`` says where it was.
+
+    Notes
+    -----
+    A model trained on a whole record (``whole_record``) is always evaluated on the whole record,
+    free running from its start; on its own training record the report's ``span`` says
+    "training data".
     """
     if isinstance(data, (str, Path)):
         dataset = load_for_model(model, data, group=group)
@@ -830,9 +1001,14 @@ def evaluate(model, data, *, group: str | None = None, generalisation: bool = Fa
     compared = None
     if baselines:
         compared = compare_baselines(model, dataset, start, stop, generalisation=generalisation, length=length,
-                                     free=free, horizons=horizons, n_starts=horizon_starts)
-    info = dict(_header(model, dataset, one, generalisation), model=model_name, data=source, group=group,
+                                     free=free, horizons=horizons, n_starts=horizon_starts, linear_fit=linear_fit,
+                                     source=source)
+    info = dict(_header(model, dataset, one, generalisation, source), model=model_name, data=source, group=group,
                 length_m=length)
+    if compared is not None:
+        linear = compared.baselines.get("linear")
+        details = linear.details if isinstance(linear, BaselineEvaluation) else (linear or {})
+        info["linear_fitted_on"] = details.get("linear_fitted_on")
     return Evaluation(info=info, one_step=one, one_step_errors=one.metrics(length), free_running=run,
                       free_running_errors=err, paper=paper_reference(dataset.attrs), diverged=diverged,
                       baselines=None if compared is None else compared.baselines,
@@ -847,7 +1023,15 @@ def _drive(spec) -> dict:
     return {"drive": spec.drive, "channels": list(spec.channels)}
 
 
-def _header(model, dataset, one: Prediction, generalisation: bool) -> dict:
+def _span_name(model, dataset, generalisation: bool, source) -> str:
+    """'test' (the test span of the model's training record), 'whole record', or 'training data'
+    (a model trained on a whole record, evaluated on that record)."""
+    if whole_record(model):
+        return "training data" if same_record(model, dataset, source) else "whole record"
+    return "whole record" if generalisation else "test"
+
+
+def _header(model, dataset, one: Prediction, generalisation: bool, source=None) -> dict:
     """The report's header: the model's inputs, the scenarios and the evaluated span."""
     node, neighbours = model_inputs(model)
     spec = model.spec
@@ -858,7 +1042,7 @@ def _header(model, dataset, one: Prediction, generalisation: bool) -> dict:
         "trained_on": trained_on(model),
         "node": node, "neighbours": list(neighbours), "history": int(spec.history), "inputs": spec.inputs,
         "wrench": spec.wrench, **_drive(spec), "length_m": None, "unit": UNIT,
-        "span": "whole record" if generalisation else "test",
+        "span": _span_name(model, dataset, generalisation, source),
         "span_samples": [int(one.index[0]), int(one.index[-1])],
         "span_s": [float(one.time[0]), float(one.time[-1])], "n_targets": int(one.index.size),
     }

@@ -6,6 +6,11 @@ chronologically: its last ``validation_fraction`` is the validation span used fo
 (the weights of the best validation epoch are kept). Windows never straddle either cut, and the
 ``Normalizer`` is fitted on the fit span (the training span before the validation cut) alone.
 
+With a separate validation recording (``validation``: another session of the same robot), every
+sample of the training record is a training sample (the fit span is the whole record, there is no
+test span) and the whole validation recording is the validation span; meta.json records both
+files (``training_data``), so ``evaluate`` knows the model saw all of its training record.
+
 The loss (``rollout_steps`` = K, default 4) runs the model K steps ahead on each training window,
 feeding its own predicted node positions back (neighbours and wrenches stay the recorded ones),
 and averages the K one-step errors, each measured against the true next position; the validation
@@ -39,7 +44,14 @@ from ._epochs import new_module, torch_settings, train_epochs
 from .artifact import NodeModel, check_replaceable, save_model
 from .data import Normalizer, SampleSpec, wrench_units
 from .model import ModelConfig
-from .training_data import TrainingData, dataset_meta, fingerprint, load_training_data, training_tensors
+from .training_data import (
+    TrainingData,
+    dataset_meta,
+    fingerprint,
+    load_training_data,
+    node_positions_sha256,
+    training_tensors,
+)
 
 _FIXED = ("pose_features", "wrench_features", "history")
 
@@ -115,7 +127,8 @@ class TrainConfig:
 
 # ------------------------------------------------------------------------------------------ train
 def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dict | None, train: TrainConfig,
-                     out_folder, *, resume: bool = False, progress: Progress | None = None, pool=None) -> NodeModel:
+                     out_folder, *, resume: bool = False, progress: Progress | None = None, pool=None,
+                     validation=None, validation_group: str | None = None) -> NodeModel:
     """Train one node's model and save it to ``out_folder``.
 
     Parameters
@@ -144,6 +157,15 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
         ``progress(done, total, info)`` after every batch: done/total count batches over all epochs,
         ``info`` holds ``epoch``, ``epochs``, ``loss`` (running mean of this epoch), and, from the
         end of the first epoch, ``validation_loss`` and ``best_validation_loss``.
+    validation : str, Path, softrnn.io.Dataset or None
+        A separate validation recording (another session of the same robot: the same nodes,
+        units, sample interval and actuation channels; a one-line ``validate_on=...`` error
+        otherwise). Every sample of ``dataset_path`` is then a training sample (no test span, the
+        spec's ``train_fraction`` and the config's ``validation_fraction`` are not used) and the
+        whole of ``validation`` is the validation span of early stopping. The model's meta.json
+        records both files (``training_data``). None: the chronological split of one record.
+    validation_group : str or None
+        The trajectory's group in a sweep file given as ``validation``.
 
     Returns
     -------
@@ -158,7 +180,8 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
     out_folder = Path(out_folder)
     check_replaceable(out_folder)
     t0 = time.perf_counter()
-    prepared = load_training_data(dataset_path, spec, train, pool)
+    prepared = load_training_data(dataset_path, spec, train, pool, validation=validation,
+                                  validation_group=validation_group)
     config = _model_config(prepared.spec, overrides)
     normalizer = Normalizer.fit(prepared.fit, output=config.output, relative=config.relative,
                                 per_node=prepared.spec.per_node,
@@ -200,7 +223,7 @@ def _meta(prepared: TrainingData, train: TrainConfig, state: dict, *, n_windows:
     validation tensors), the settings, the history of the epoch loop's ``state`` and the wall time
     [s]."""
     sp, spec = prepared.spans, prepared.spec
-    return {
+    meta = {
         "softrnn_version": __version__,
         "dataset": dataset_meta(prepared.data, prepared.path),
         "node": spec.node,
@@ -222,3 +245,22 @@ def _meta(prepared: TrainingData, train: TrainConfig, state: dict, *, n_windows:
         "wall_seconds": seconds,
         "data_fingerprint": data_fingerprint,
     }
+    if prepared.whole_record:
+        meta["training_data"] = separate_sessions(prepared)
+    return meta
+
+
+def separate_sessions(prepared: TrainingData) -> dict:
+    """What meta.json records of training on a whole record validated on another
+    (``training_data``): {span: 'whole record', train: {path (absolute), file, group, n_samples,
+    node_positions_sha256}, validation: {path, file, group, n_samples}}; paths None for data passed
+    in memory. ``evaluate`` finds the training data by it (``node_positions_sha256``)."""
+    def entry(path, group, data) -> dict:
+        return {"path": None if path is None else str(Path(path).absolute()),
+                "file": None if path is None else Path(path).name, "group": group,
+                "n_samples": int(np.asarray(data.time).shape[0])}
+
+    train = entry(prepared.path, None, prepared.data)
+    train["node_positions_sha256"] = node_positions_sha256(prepared.data, prepared.spec.node)
+    return {"span": "whole record", "train": train,
+            "validation": entry(prepared.validation_path, prepared.validation_group, prepared.validation_data)}

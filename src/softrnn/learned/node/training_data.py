@@ -76,20 +76,42 @@ def _concat(parts: list[Windows]) -> Windows:
                    targets=np.concatenate([w.targets for w in parts]), index=np.concatenate([w.index for w in parts]))
 
 
+def whole_spans(n_samples: int, n_validation: int, spec: SampleSpec) -> Spans:
+    """The spans of training on a whole record with a separate validation recording: fit = every
+    sample of the training record, validation = every sample of the validation recording (its own
+    indices), test = empty (``range(n_samples, n_samples)``: the training record holds none)."""
+    need = spec.history + 1
+    if n_samples < need:
+        raise bad("history", spec.history, f"a history that fits the data: the training record has {n_samples} "
+                                           f"samples and a window needs history + 1 = {need}; use a shorter "
+                                           f"history or a longer record")
+    if n_validation < need:
+        raise bad("validate_on", f"a recording of {n_validation} samples",
+                  f"a validation recording of at least history + 1 = {need} samples; record a longer "
+                  f"validation session or use a shorter history")
+    return Spans(fit=range(0, n_samples), validation=range(0, n_validation), test=range(n_samples, n_samples))
+
+
 def training_windows(dataset, spec: SampleSpec, train: _WindowSettings,
-                     pool=None) -> tuple[Windows, Windows, Spans, int]:
+                     pool=None, validation=None) -> tuple[Windows, Windows, Spans, int]:
     """The (subsampled) fit and validation windows of ``dataset`` and the spans and stride used.
 
     Only samples of the training span are touched: every returned window and target has a sample
     index below ``spans.test.start``. ``train`` is the ``TrainConfig`` (its ``validation_fraction``
     and ``max_train_windows`` are used). ``pool``: the windows of every node of ``pool`` (the spec
     moved there, ``pooled_specs``) are concatenated, for one model shared by those nodes; the
-    stride then applies to the pooled count.
+    stride then applies to the pooled count. ``validation``: a separate validation recording (a
+    ``Dataset`` of the same nodes): every sample of ``dataset`` is then a training sample and the
+    validation windows are those of the whole ``validation`` record (``whole_spans``).
     """
-    s = spans(int(np.asarray(dataset.time).shape[0]), spec, train.validation_fraction)
     specs = pooled_specs(spec, pool)
+    if validation is None:
+        s = spans(int(np.asarray(dataset.time).shape[0]), spec, train.validation_fraction)
+        val = _concat([make_windows(dataset, sp, s.validation.start, s.validation.stop) for sp in specs])
+    else:
+        s = whole_spans(int(np.asarray(dataset.time).shape[0]), int(np.asarray(validation.time).shape[0]), spec)
+        val = _concat([make_windows(validation, sp, s.validation.start, s.validation.stop) for sp in specs])
     fit = _concat([make_windows(dataset, sp, s.fit.start, s.fit.stop) for sp in specs])
-    val = _concat([make_windows(dataset, sp, s.validation.start, s.validation.stop) for sp in specs])
     stride = max(1, math.ceil(len(fit) / train.max_train_windows))
     if stride > 1:
         fit, val = fit.take(slice(None, None, stride)), val.take(slice(None, None, stride))
@@ -101,7 +123,9 @@ def training_windows(dataset, spec: SampleSpec, train: _WindowSettings,
 class TrainingData:
     """What training reads: the resolved spec, the data set of the window nodes, where it came
     from (None: passed in memory), the pool as absolute node indices (None: one node), and the
-    fit and validation windows with the spans and stride of ``training_windows``."""
+    fit and validation windows with the spans and stride of ``training_windows``; with a separate
+    validation recording, its data set (``validation_data``), where it came from
+    (``validation_path``, None: passed in memory) and its group (``validation_group``)."""
 
     spec: SampleSpec
     data: object
@@ -111,15 +135,94 @@ class TrainingData:
     validation: Windows
     spans: Spans
     stride: int
+    validation_data: object = None
+    validation_path: Path | None = None
+    validation_group: str | None = None
+
+    @property
+    def whole_record(self) -> bool:
+        """True when every sample of the training record is a training sample (a separate
+        validation recording)."""
+        return self.validation_data is not None
 
 
-def load_training_data(dataset_path, spec: SampleSpec, train: _WindowSettings, pool=None) -> TrainingData:
+def load_training_data(dataset_path, spec: SampleSpec, train: _WindowSettings, pool=None, *,
+                       validation=None, validation_group: str | None = None) -> TrainingData:
     """Read the window nodes' columns of ``dataset_path`` (a path or a ``Dataset``), resolve the
-    spec and the pool against its nodes and cut the training windows (``training_windows``)."""
+    spec and the pool against its nodes and cut the training windows (``training_windows``).
+
+    ``validation``: a separate validation recording (a path, read from ``validation_group`` of a
+    sweep file, or a ``Dataset``) with the same nodes, units, sample interval and actuation channels
+    (``check_validation_data``): the whole of ``dataset_path`` is then trained on and the whole of
+    ``validation`` validates (early stopping)."""
     resolved, data, path, pool = _load_data(dataset_path, spec, pool)
-    fit, val, sp, stride = training_windows(data, resolved, train, pool)
+    val_data = val_path = None
+    if validation is not None:
+        need = sorted({a for sp in pooled_specs(resolved, pool) for a in sp.window_nodes})
+        if isinstance(validation, Dataset):
+            val_data = validation
+            check_validation_data(data, val_data, resolved, need, "the validation data")
+        else:
+            val_path = Path(validation)
+            if not val_path.is_file():
+                raise bad("validate_on", str(val_path), "an existing data set file (the validation session's "
+                                                        "recording)")
+            head = read_dataset(val_path, group=validation_group, stop=1)
+            check_validation_data(data, head, resolved, need, str(val_path))
+            val_data = read_dataset(val_path, nodes=need, group=validation_group)
+    fit, val, sp, stride = training_windows(data, resolved, train, pool, validation=val_data)
     return TrainingData(spec=resolved, data=data, path=path, pool=pool, fit=fit, validation=val, spans=sp,
-                        stride=stride)
+                        stride=stride, validation_data=val_data, validation_path=val_path,
+                        validation_group=validation_group if val_path is not None else None)
+
+
+DT_TOLERANCE = 1e-3
+"""Largest relative difference between the training and validation recordings' sample intervals."""
+
+
+def check_validation_data(train_data, validation, spec: SampleSpec, nodes, where: str) -> None:
+    """A one-line ``SoftrnnInputError`` (``validate_on=WHERE is invalid: ...``) unless the
+    validation recording ``validation`` (its first sample is enough) can validate a model of the
+    resolved ``spec`` trained on ``train_data``: it stores the window ``nodes``, the model's
+    actuation channels in the training data's units, orientations for inputs 'poses', and the
+    units, rod node count and sample interval of the training data."""
+    stored = {int(a) for a in np.asarray(validation.nodes).reshape(-1)}
+    missing = [a for a in nodes if int(a) not in stored]
+    if missing:
+        raise bad("validate_on", where, f"a recording storing the nodes the model reads ({', '.join(map(str, nodes))}),"
+                                        f" but it has no node {missing[0]} (it stores "
+                                        f"{', '.join(map(str, sorted(stored)[:12]))}); record the validation "
+                                        f"session with the training session's markers")
+    have = dict(getattr(validation, "actuation_units", None) or {})
+    trained = dict(getattr(train_data, "actuation_units", None) or {})
+    channels = tuple(spec.channels) if getattr(spec, "drive", "wrench") != "wrench" else ()
+    for name in channels:
+        if name not in have:
+            raise bad("validate_on", where, f"a recording of the model's actuation channels "
+                                            f"({', '.join(channels)}), but it has no channel {name!r} (it has "
+                                            f"{', '.join(have) or 'none'}); validate on a session recorded "
+                                            f"with the same actuation inputs")
+        if name in trained and trained[name] != have[name]:
+            raise bad("validate_on", where, f"actuation {name!r} in the training data's unit {trained[name]!r}, "
+                                            f"but it records {have[name]!r}; convert the channel")
+    if spec.inputs == "poses" and not validation.has_orientations:
+        raise bad("validate_on", where, "a recording with orientations (the model reads poses); validate on a "
+                                        "session that records orientations, or train with inputs 'positions'")
+    units, mine = train_data.attrs.get("units"), validation.attrs.get("units")
+    if isinstance(units, dict) and isinstance(mine, dict):
+        for f in ("positions", "forces", "torques"):
+            if f in units and f in mine and units[f] != mine[f]:
+                raise bad("validate_on", where, f"{f} in the training data's unit {units[f]!r}, but it stores "
+                                                f"{mine[f]!r}; convert the recording")
+    total, theirs = validation.attrs.get("n_nodes_total"), train_data.attrs.get("n_nodes_total")
+    if total is not None and theirs is not None and int(total) != int(theirs):
+        raise bad("validate_on", where, f"a rod of {theirs} nodes like the training data, but it has {total}; "
+                                        f"validate on a recording of the same rod")
+    dt, their_dt = validation.attrs.get("dt"), train_data.attrs.get("dt")
+    if isinstance(dt, (int, float)) and isinstance(their_dt, (int, float)) and their_dt > 0 \
+            and abs(dt - their_dt) > DT_TOLERANCE * their_dt:
+        raise bad("validate_on", where, f"a recording sampled every {their_dt:g} s like the training data, but it "
+                                        f"is sampled every {dt:g} s; resample it")
 
 
 def _load_data(dataset_path, spec: SampleSpec, pool=None):
@@ -215,6 +318,14 @@ def fingerprint(fit: Windows, val: Windows) -> str:
     return h.hexdigest()
 
 
+def node_positions_sha256(data, node: int) -> str:
+    """SHA-256 (hex) of ``node``'s positions in ``data`` (as float32, the files' precision): tells
+    a model's training record apart from another file, wherever it was moved or renamed."""
+    col = int(np.flatnonzero(np.asarray(data.nodes) == int(node))[0])
+    column = np.ascontiguousarray(np.asarray(data.positions)[:, col], dtype=np.float32)
+    return hashlib.sha256(column.tobytes()).hexdigest()
+
+
 # ------------------------------------------------------------------------------------------ tensors
 def training_tensors(prepared: TrainingData, normalizer: Normalizer, config: ModelConfig, train) -> tuple:
     """The loss of ``train.rollout_steps`` = K steps and its fit and validation tensors.
@@ -233,7 +344,8 @@ def training_tensors(prepared: TrainingData, normalizer: Normalizer, config: Mod
                                       "itself (output='pose'); or use output='increment'")
     long_spec = replace(prepared.spec, history=prepared.spec.history + K - 1)
     try:
-        fit_l, val_l = training_windows(prepared.data, long_spec, train, prepared.pool)[:2]
+        fit_l, val_l = training_windows(prepared.data, long_spec, train, prepared.pool,
+                                        validation=prepared.validation_data)[:2]
     except SoftrnnInputError:
         raise bad("rollout_steps", K, f"fewer steps: history + rollout_steps = {long_spec.history + 1} samples "
                                       f"do not fit the fit and validation spans; use rollout_steps=1 or longer "

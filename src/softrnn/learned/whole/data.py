@@ -9,7 +9,10 @@ them into training parts and held-out trajectories:
   are only used to choose among the training's checkpoints (``Split.validation``: free runs, never
   a gradient); the others are trained on whole;
 * of every single-trajectory file, the first ``train_fraction`` is trained on (the paper's 60/40
-  chronological split: the rest is the test span).
+  chronological split: the rest is the test span);
+* ``validate_on``: separate validation recordings (other sessions of the same robot: files, every
+  group of a sweep file, or sweep folders), used whole like the ``validation`` variants; the
+  training files are then trained on whole (``train_fraction`` 1).
 
 ``Split.describe()`` is what a model folder records (``meta["data"]``), so an evaluation can check
 that a "held-out" file really was held out.
@@ -44,27 +47,65 @@ class Part:
 
 @dataclass(frozen=True)
 class Split:
-    """``train``, ``validation`` and ``heldout`` parts (lists of ``Part``)."""
+    """``train``, ``validation`` and ``heldout`` parts (lists of ``Part``); ``validate_on``: those
+    of the validation parts that are separate recordings (``split_inputs(validate_on=...)``)."""
 
     train: list = field(default_factory=list)
     heldout: list = field(default_factory=list)
     validation: list = field(default_factory=list)
+    validate_on: list = field(default_factory=list)
 
     def describe(self) -> dict:
-        """{"train", "validation", "heldout"}: each a list of ``Part.describe()``."""
-        return {key: [p.describe() for p in getattr(self, key)] for key in ("train", "validation", "heldout")}
+        """{"train", "validation", "heldout"}: each a list of ``Part.describe()``; with separate
+        validation recordings also "validate_on" (their ``Part.describe()``, also listed in
+        "validation")."""
+        out = {key: [p.describe() for p in getattr(self, key)] for key in ("train", "validation", "heldout")}
+        if self.validate_on:
+            out["validate_on"] = [p.describe() for p in self.validate_on]
+        return out
 
     def __add__(self, other: Split) -> Split:
         return Split(train=self.train + other.train, heldout=self.heldout + other.heldout,
-                     validation=self.validation + other.validation)
+                     validation=self.validation + other.validation, validate_on=self.validate_on + other.validate_on)
 
 
-def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction: float = 1.0) -> Split:
-    """Training, validation and held-out parts of ``paths`` (files or sweep folders)."""
+def validation_parts(paths) -> list:
+    """The ``Part`` of every trajectory of ``paths`` (files: every group of a sweep file; sweep
+    folders: every traj-*.h5), each used whole; a one-line ``validate_on=...`` error for a path
+    that is neither."""
+    if isinstance(paths, (str, Path)):
+        paths = [paths]
+    out = []
+    for raw in paths:
+        path = Path(raw)
+        if path.is_dir():
+            files = sorted(path.glob("traj-*.h5"))
+            if not files:
+                raise bad("validate_on", str(path), "a data set file or a sweep folder holding traj-NNNNN.h5 files")
+            out += [Part(str(f), "/") for f in files]
+        elif path.is_file():
+            out += [Part(str(path), g) for g in list_groups(path)]
+        else:
+            raise bad("validate_on", str(path), "an existing data set file (the validation session's recording) "
+                                                "or sweep folder")
+    return out
+
+
+def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction: float = 1.0,
+                 validate_on=()) -> Split:
+    """Training, validation and held-out parts of ``paths`` (files or sweep folders).
+
+    ``validate_on``: separate validation recordings (``validation_parts``), used whole to choose
+    among the training's checkpoints; the single-trajectory files of ``paths`` are then trained on
+    whole (``train_fraction`` must be 1)."""
     heldout = integer("heldout", heldout, 0)
     validation = integer("validation", validation, 0)
     if not (0.0 < float(train_fraction) <= 1.0):
         raise bad("train_fraction", train_fraction, "a fraction in (0, 1]")
+    given = validation_parts(validate_on) if validate_on else []
+    if given and float(train_fraction) != 1.0:
+        raise bad("train_fraction", train_fraction, "1 (or no train fraction) with separate validation recordings "
+                                                    "(validate_on): the training files are trained on whole")
     if isinstance(paths, (str, Path)):
         paths = [paths]
     train, held, val = [], [], []
@@ -94,7 +135,12 @@ def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction
         train += [Part(str(f), g) for f, g in variants[:cut_val]]
         val += [Part(str(f), g) for f, g in variants[cut_val:cut]]
         held += [Part(str(f), g) for f, g in variants[cut:]]
-    return Split(train=train, heldout=held, validation=val)
+    where = {(Path(p.path).resolve(), p.group) for p in train + held + val}
+    for part in given:
+        if (Path(part.path).resolve(), part.group) in where:
+            raise bad("validate_on", part.path, "a recording that is not also training, validation or held-out "
+                                                "data (DATA); validate on a separate session")
+    return Split(train=train, heldout=held, validation=val + given, validate_on=given)
 
 
 def rod_length(dataset) -> float:

@@ -11,7 +11,10 @@ model step and feeds its own predictions back; the loads are the data's. Errors 
 **every node** of the rod (the kept nodes' states decoded and interpolated along the rod,
 ``Encoding.positions``) against the data's positions at the model's step times, as the largest
 distance over the nodes, in % of the rod's length. A run that leaves the rod's range is *diverged*:
-its errors are infinite from there on (reported as ``null`` with ``diverged_at``).
+its errors are infinite from there on (reported as ``null`` with ``diverged_at``). On the test span
+and the generalisation data the tip's (last node's) Euclidean error is reported too, as robotics
+papers do: its RMSE sqrt(mean |p - p_ref|^2) and mean [mm] and % of the length, free running and one
+step ahead (each step from the data's history, ``one_step``).
 """
 
 from __future__ import annotations
@@ -101,10 +104,50 @@ def _spread(values: list) -> dict:
     return {"median_max_pct_of_length": _pct(float(np.median(v))), "worst_max_pct_of_length": _pct(float(np.max(v)))}
 
 
-def span_error(predictor, encoding, traj, dataset, start: int) -> dict:
-    """The largest error over all nodes from ``start`` to the end: {max_pct_of_length, diverged_at}."""
-    err, diverged = run_errors(predictor, encoding, traj, dataset, start)
-    return {"max_pct_of_length": _pct(err.max()), "diverged_at": diverged, "steps": int(len(err))}
+def span_error(predictor, encoding, traj, dataset, start: int, *, tip: bool = False) -> dict:
+    """The largest error over all nodes from ``start`` to the end: {max_pct_of_length, diverged_at,
+    steps}; with ``tip`` also the tip's Euclidean errors free running (``tip_errors``: None where the
+    run diverged) and one step ahead (``one_step``: each step from the data's history)."""
+    states, diverged = free_run(predictor, traj, start)
+    steps = np.arange(start + 1, start + 1 + len(states))
+    truth = truth_positions(dataset, encoding, steps)
+    err = 100.0 * node_errors(encoding, states, truth) / encoding.length
+    out = {"max_pct_of_length": _pct(err.max()), "diverged_at": diverged, "steps": int(len(err))}
+    if tip:
+        out.update(tip_errors(encoding, states, truth))
+        out["one_step"] = tip_errors(encoding, one_step(predictor, traj, start), truth)
+    return out
+
+
+def one_step(predictor, traj: Trajectory, start: int, stop: int | None = None) -> np.ndarray:
+    """One-step-ahead states (stop - start - 1, M, 6) of steps start+1 .. stop-1 (default: to the
+    end), each from the data's ``history`` states before it (a memory, if the predictor keeps one,
+    carried along); rows of a step that leaves the rod's range are NaN."""
+    H = int(predictor.history)
+    stop = traj.n_steps if stop is None else int(stop)
+    check_step_start(start, H, stop)
+    out = np.full((stop - start - 1,) + traj.states.shape[1:], np.nan)
+    memory = None
+    for i, j in enumerate(range(start, stop - 1)):
+        hist = traj.states[j - H + 1:j + 1]
+        nxt, memory = predictor.step(hist, traj.inputs(hist, j), memory)
+        if np.all(np.abs(nxt) < DIVERGED_M):
+            out[i] = nxt
+    return out
+
+
+def tip_errors(encoding: Encoding, states: np.ndarray, truth: np.ndarray) -> dict:
+    """The tip's (the rod's last node's) Euclidean position errors of ``states`` (K, M, 6) against
+    ``truth`` (K, N, 3) [m]: {rmse_euclidean_mm: sqrt(mean_k |p - p_ref|^2), mean_euclidean_mm, and
+    both as % of the rod length (``*_pct_of_length``)}; every value None where a state is NaN
+    (diverged)."""
+    keys = ("rmse_euclidean_mm", "mean_euclidean_mm", "rmse_euclidean_pct_of_length", "mean_euclidean_pct_of_length")
+    if len(states) == 0 or not np.all(np.isfinite(states)):
+        return dict.fromkeys(keys)
+    d_mm = np.linalg.norm(encoding.positions(states)[:, -1] - truth[:, -1], axis=-1) * 1e3
+    rmse, mean = float(np.sqrt(np.mean(d_mm ** 2))), float(np.mean(d_mm))
+    pct = 100.0 / (encoding.length * 1e3)
+    return dict(zip(keys, (rmse, mean, rmse * pct, mean * pct)))
 
 
 def _run_worst(predictor, encoding, runs: list, span: int, start: int, n: int) -> float:
@@ -189,7 +232,9 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
     ----------
     test : Dataset or None
         The paper trajectory: the model runs free from ``test_start_fraction`` of it to the end
-        (its test span; the first part is where it was trained).
+        (its test span; the first part is where it was trained). A separate test recording the
+        model never saw: ``test_start_fraction`` 0 runs it free from its start (the first
+        ``history`` states are the initial condition).
     heldout : sequence of Dataset
         Sweep variants the model never saw: each run free from its start, and the horizons.
     generalisation : Dataset or None
@@ -201,7 +246,9 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
         Its ``to_dict()``: ``model_dt_s``, ``predicted_nodes``, ``nodes``, ``test_span`` and
         ``test_span_max_pct_of_length``, ``heldout`` {variants, per_variant, median/worst},
         ``generalisation`` and ``generalisation_max_pct_of_length``, ``horizons`` (model and
-        baselines), with every baseline's span errors beside the model's.
+        baselines), with every baseline's span errors beside the model's; on the test span and the
+        generalisation data also the tip's Euclidean errors (``tip_errors``) free running and one
+        step ahead (``one_step``), the tip being node ``tip_node``.
     """
     enc, engine, linear = model.encoding, model.engine, model.linear
     preds = {"model": engine, **state_baselines(), "linear": linear}
@@ -210,8 +257,9 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
     if test is not None:
         traj = enc.trajectory(test)
         start = start_of_test_span(s0, traj.n_steps, test_start_fraction)
-        spans = {name: span_error(p, enc, traj, test, start) for name, p in preds.items()}
-        test_span = {"start_s": float(traj.time[start]), "end_s": float(traj.time[-1]), **spans}
+        spans = {name: span_error(p, enc, traj, test, start, tip=True) for name, p in preds.items()}
+        test_span = {"start_s": float(traj.time[start]), "end_s": float(traj.time[-1]), "tip_node": enc.n_nodes - 1,
+                     **spans}
     runs = [(enc.trajectory(d), d) for d in heldout]
     if runs:
         per = {name: [span_error(p, enc, t, d, s0)["max_pct_of_length"] for t, d in runs]
@@ -221,7 +269,8 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
         table = compare(engine, linear, enc, runs, horizons)
     if generalisation is not None:
         traj = enc.trajectory(generalisation)
-        general = {name: span_error(p, enc, traj, generalisation, s0) for name, p in preds.items()}
+        general = {"tip_node": enc.n_nodes - 1,
+                   **{name: span_error(p, enc, traj, generalisation, s0, tip=True) for name, p in preds.items()}}
     return DynamicEvaluation(model_dt_s=enc.model_dt, predicted_nodes=enc.n_kept, nodes=enc.n_nodes,
                              length_m=enc.length, history=int(engine.history), test_span=test_span, heldout=held,
                              horizons=table, generalisation=general)
