@@ -300,3 +300,48 @@ def bending_chain(amp: float, phase: float, *, n_nodes: int = 11, n_samples: int
     slope = (m1[:, None] * 2 * s + m2[:, None] * (3 * s ** 2 - 1.4 * s)) / LENGTH
     pos = np.stack([np.broadcast_to(s * LENGTH, y.shape), y, np.zeros_like(y)], axis=-1)
     return chain_dataset(pos, quat_z(np.arctan(slope)), dt)
+
+
+# --------------------------------------------------------------------------- robot recordings
+def tendon_robot_truth(n_segments: int = 1):
+    """A known displacement-driven tendon robot (``softrnn.lab.tendon_robot``): segments of 0.08 m,
+    three tendons each at 4 mm, the segments' tendons turned by 40 deg from each other, pointing
+    up from (0, 0, 0.01) m with a 5 mm marker offset."""
+    from softrnn.lab.tendon_robot import TendonParameters, TendonRobot
+
+    robot = TendonRobot(tuple([0.08] * n_segments), 3, 4e-3)
+    angles = np.radians(np.tile([0.0, 120.0, 240.0], n_segments) + np.repeat(np.arange(n_segments) * 40.0, 3))
+    params = TendonParameters(angles=angles, offsets=np.full(3 * n_segments, -0.5e-3), routing_radius=4e-3,
+                              compliance=np.full(n_segments, 1.0 / (4e-3 ** 2 * 0.08)), marker=5e-3,
+                              rotation=np.zeros(3), base=np.array([0.0, 0.0, 0.01]))
+    return robot, params
+
+
+def tendon_recording(path, rows: int = 120, *, seed: int = 0, n_segments: int = 1, noise_mm: float = 0.1,
+                     lag: int = 0, scale_mm: float = 3.0, header=None):
+    """Write a synthetic stand-in of a real robot's recording (the layout of a motion-capture
+    session: ``timestamp`` in Unix time with irregular steps and one long pause, ``pattern_label``,
+    ``servo_<id>_mm`` commands, ``tip_x, tip_y, tip_z`` in mm) from ``tendon_robot_truth``, the tip
+    lagging the command by ``lag`` rows; returns (time (T,), commands (T, m) [mm], tip (T, 3) [mm])."""
+    from softrnn.lab.tendon_robot import tip_positions
+
+    robot, params = tendon_robot_truth(n_segments)
+    rng = np.random.default_rng(seed)
+    m = robot.n_tendons
+    # smooth random pulls in turn, some tendons released (negative)
+    phase = rng.uniform(0, 2 * np.pi, m)
+    k = np.arange(rows)
+    u = scale_mm * np.sin(0.07 * k[:, None] * (1 + 0.3 * np.arange(m)) + phase) - 0.5
+    tip = tip_positions(robot, params, u * 1e-3)[0] * 1e3
+    tip = np.vstack([np.repeat(tip[:1], lag, axis=0), tip[:rows - lag]]) + rng.normal(0, noise_mm, (rows, 3))
+    steps = rng.uniform(0.52, 0.69, rows - 1)
+    steps[rows // 2] = 20.0
+    time = 1775513850.298145 + np.concatenate([[0.0], np.cumsum(steps)])
+    ids = [1, 20, 23, 9, 6, 11, 24, 2, 3][:m] if m <= 9 else list(range(m))
+    names = header or (["timestamp", "pattern_label"] + [f"servo_{i}_mm" for i in ids] + ["tip_x", "tip_y", "tip_z"])
+    lines = [",".join(names)]
+    for r in range(rows):
+        lines.append(",".join([f"{time[r]:.6f}", f"pattern_{r // 20}"] + [f"{x:.6f}" for x in u[r]]
+                              + [f"{x:.6f}" for x in tip[r]]))
+    path.write_text("\n".join(lines) + "\n")
+    return time, u, tip

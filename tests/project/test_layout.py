@@ -37,13 +37,14 @@ ALLOWED = {
     "softrnn.bench": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.statics", "softrnn.scenarios",
                       "softrnn.sweeps", "softrnn.learned.node", "softrnn.learned.whole", "softrnn.experiments"},
     "softrnn.control": {"softrnn", "softrnn.io", "softrnn.magnetics", "softrnn.figures"},
+    "softrnn.lab": {"softrnn"},
     "softrnn.reproduce": {"softrnn", "softrnn.io", "softrnn.scenarios", "softrnn.figures", "softrnn.sweeps",
                           "softrnn.learned", "softrnn.learned.node", "softrnn.learned.whole", "softrnn.experiments",
-                          "softrnn.bench", "softrnn.control"},
+                          "softrnn.bench", "softrnn.control", "softrnn.lab"},
     "softrnn.cli": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.statics", "softrnn.magnetics",
                     "softrnn.scenarios", "softrnn.figures", "softrnn.sweeps", "softrnn.calibration",
                     "softrnn.learned", "softrnn.learned.node", "softrnn.learned.whole", "softrnn.experiments",
-                    "softrnn.bench", "softrnn.control", "softrnn.reproduce"},
+                    "softrnn.bench", "softrnn.control", "softrnn.lab", "softrnn.reproduce"},
 }
 """Part -> the parts its modules may import (besides its own). A part is a package, except that the
 learned family ``softrnn.learned`` splits into ``node`` (the per-node LSTMs), ``whole`` (the

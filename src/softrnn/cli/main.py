@@ -16,6 +16,7 @@ from . import (
     _evaluate,
     _export,
     _import_csv,
+    _lab,
     _lab_example,
     _magnetic,
     _plot,
@@ -41,7 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
     sub = parser.add_subparsers(title="commands", dest="command", required=True, parser_class=_Parser)
     for module in (_simulate, _sweep, _reproduce, _bench, _show, _import_csv, _animate, _plot, _train, _evaluate,
-                   _rollout, _export, _study, _magnetic, _dynamic, _calibrate, _control, _lab_example):
+                   _rollout, _export, _study, _magnetic, _dynamic, _calibrate, _control, _lab, _lab_example):
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_args(p)
         p.set_defaults(func=module.run)

@@ -1,0 +1,210 @@
+"""softrnn lab benchmark | calibrate: a real robot's recordings (docs/guide/real-robots.md)."""
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SoftrnnInputError, bad
+from ..figures.lab import benchmark_figure
+from ..figures.saving import save_figure
+from ..files import atomic_write_text, prepare_output
+from ..lab.benchmark import FAMILIES, BenchmarkOptions, run_benchmark
+from ..lab.families import displacements, tip_errors
+from ..lab.recording import Layout, check_sessions, estimate_lag, read_recording, shift_inputs
+from ..lab.tendon_robot import TendonRobot, calibrate
+from ._progress import Bar
+
+NAME = "lab"
+HELP = "a real robot's recordings: benchmark every model family against baselines, calibrate the tendon physics"
+
+
+def _recording_args(q):
+    q.add_argument("--length", type=float, required=True, metavar="L_M", help="the robot's length in m")
+    q.add_argument("--inputs", default=None, metavar="PATTERN[,PATTERN]",
+                   help="the input columns, shell patterns in order (default: act_*, else servo_*)")
+    q.add_argument("--tip", default=None, metavar="X,Y,Z", help="the tip columns (default: tip_x,tip_y,tip_z)")
+    q.add_argument("--position-unit", default=None, choices=("m", "mm", "cm"),
+                   help="the tip columns' unit (default: mm for tip_*, m for n<i>_*)")
+    q.add_argument("--lag", default="auto", metavar="N|auto",
+                   help="rows the tip lags its command (default: auto, estimated on the training sessions)")
+    q.add_argument("--segments", default=None, metavar="L1,L2,...",
+                   help="segment lengths in m, base to tip (default: the inputs split in segments of "
+                        "--tendons-per-segment, of equal length)")
+    q.add_argument("--tendons-per-segment", type=int, default=3, metavar="N",
+                   help="tendons per segment; the inputs are in segment order (default: 3)")
+    q.add_argument("--routing-radius", type=float, default=4.5e-3, metavar="M",
+                   help="the tendons' distance from the backbone in m, a start value the calibration fits "
+                        "(default: 0.0045)")
+    q.add_argument("--overwrite", action="store_true", help="replace the output files if they exist (default: refuse)")
+    q.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def add_args(p):
+    sub = p.add_subparsers(title="subcommands", dest="lab_command", required=True, parser_class=type(p))
+    b = sub.add_parser("benchmark", help="fit every model family and baseline on training sessions and run them "
+                                         "free over a validation session",
+                       description="fit every model family and baseline on the training sessions only and run "
+                                   "each free over the validation session from its start on the commands alone; "
+                                   "report the Euclidean tip RMSE and mean error in mm and % of the length")
+    b.add_argument("--train", nargs="+", required=True, metavar="TRAIN.csv", help="training sessions (CSV)")
+    b.add_argument("--validate", required=True, metavar="VAL.csv", help="the validation session (CSV)")
+    b.add_argument("-o", "--json", "--output", dest="json", required=True, metavar="OUT.json",
+                   help="the benchmark's JSON")
+    b.add_argument("--figure", default=None, metavar="PATH.png",
+                   help="also draw the validation session's tip beside the best model and baseline")
+    b.add_argument("--families", default=",".join(FAMILIES), metavar="NAME,...",
+                   help=f"softrnn's model families to run (default: {','.join(FAMILIES)})")
+    _recording_args(b)
+    b.set_defaults(lab_run=_benchmark)
+    c = sub.add_parser("calibrate", help="fit the tendon robot's physics to recordings' quasi-static poses",
+                       description="fit the displacement-driven tendon robot (piecewise constant curvature, "
+                                   "series stiffness, slack) to the recorded tip; write its parameters as JSON")
+    c.add_argument("recordings", nargs="+", metavar="TRAIN.csv", help="the sessions to fit on (CSV)")
+    c.add_argument("-o", "--output", required=True, metavar="ROBOT.json", help="the calibrated robot (JSON)")
+    c.add_argument("--validate", default=None, metavar="VAL.csv", help="also report the tip error on this session")
+    _recording_args(c)
+    c.set_defaults(lab_run=_calibrate)
+
+
+def _lag(text):
+    if text == "auto":
+        return "auto"
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise bad("--lag", text, "a whole number of rows >= 0, or auto")
+    return value
+
+
+def _segments(text):
+    if text is None:
+        return None
+    try:
+        values = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        values = ()
+    if not values or not all(v > 0 for v in values):
+        raise bad("--segments", text, "positive segment lengths in m, base to tip, e.g. 0.1,0.1,0.022")
+    return values
+
+
+def _as_option(err: SoftrnnInputError) -> SoftrnnInputError:
+    """The library's ``name=value is invalid`` as the command's ``--name=value is invalid``."""
+    text = str(err)
+    m = re.match(r"^([a-z_]+)=", text)
+    return SoftrnnInputError("--" + m.group(1).replace("_", "-") + text[m.end(1):] if m else text)
+
+
+def _layout(args) -> Layout:
+    try:
+        return Layout(inputs=args.inputs or (), tip=args.tip, position_unit=args.position_unit)
+    except SoftrnnInputError as err:
+        raise _as_option(err) from None
+
+
+def _read(paths, layout):
+    recordings = [read_recording(p, layout) for p in paths]
+    check_sessions(recordings)
+    return recordings
+
+
+def _benchmark(args) -> int:
+    prepare_output(args.json, "--json", overwrite=args.overwrite)
+    if args.figure:
+        prepare_output(args.figure, "--figure", overwrite=args.overwrite)
+    families = tuple(f.strip() for f in args.families.split(",") if f.strip())
+    try:
+        options = BenchmarkOptions(length=args.length, lag=_lag(args.lag), segments=_segments(args.segments),
+                                   tendons_per_segment=args.tendons_per_segment, routing_radius=args.routing_radius,
+                                   families=families)
+    except SoftrnnInputError as err:
+        raise _as_option(err) from None
+    layout = _layout(args)
+    train = _read(args.train, layout)
+    validation = read_recording(args.validate, layout)
+    with Bar("lab benchmark", unit="stage", enabled=not args.quiet) as bar:
+        try:
+            result = run_benchmark(train, validation, options, progress=bar)
+        except SoftrnnInputError as err:
+            raise (_as_option(err) if str(err).startswith("lag=") else err) from None
+    report = result.to_dict()
+    atomic_write_text(args.json, json.dumps(report, indent=2) + "\n")
+    print(format_benchmark(report))
+    print(f"lab benchmark: wrote {args.json}")
+    if args.figure:
+        shown = {f"{k} (model)": result.predictions[k] for k in [report["best_model"]] if k}
+        shown.update({f"{k} (baseline)": result.predictions[k] for k in [report["best_baseline"]] if k})
+        fig = benchmark_figure(result.validation.tip, shown,
+                               title=f"{Path(args.validate).name}: free run on the commands alone")
+        save_figure(fig, args.figure)
+        print(f"lab benchmark: wrote {args.figure}")
+    return 0
+
+
+def format_benchmark(r: dict) -> str:
+    """The text ``softrnn lab benchmark`` prints for its JSON report."""
+    robot = r["robot"]
+    lag = f"{robot['lag_rows']} rows" + (" (estimated)" if robot.get("estimated") else "")
+    lines = [f"lab benchmark: {len(robot['training_sessions'])} training session(s), validation "
+             f"{robot['validation_session']['rows']} rows; robot length {robot['length_m']:g} m; lag {lag}",
+             f"  {'':<22}{'tip RMSE [mm]':>14}{'mean [mm]':>11}{'RMSE [% L]':>12}"]
+    for title, table in (("models", r["models"]), ("baselines", r["baselines"])):
+        lines.append(f"  {title}:")
+        for name, e in table.items():
+            lines.append(f"    {name:<20}{e['tip_rmse_mm']:>14.2f}{e['tip_mean_mm']:>11.2f}"
+                         f"{e['tip_rmse_pct_of_length']:>12.2f}")
+    for name, why in r["skipped"].items():
+        lines.append(f"  {name} not run: {why}")
+    if r["ratio_best_model_to_best_baseline"] is not None:
+        lines.append(f"  best model {r['best_model']}, best baseline {r['best_baseline']}: ratio "
+                     f"{r['ratio_best_model_to_best_baseline']:.2f}")
+    if r["chosen_on_training"]:
+        lines.append(f"  chosen on the training sessions' hold-out part: {r['chosen_on_training']['family']}")
+    lines.append(f"  {r['seconds']:.0f} s")
+    return "\n".join(lines)
+
+
+def _calibrate(args) -> int:
+    prepare_output(args.output, "-o", overwrite=args.overwrite)
+    layout = _layout(args)
+    lag = _lag(args.lag)
+    recordings = _read(args.recordings + ([args.validate] if args.validate else []), layout)
+    train = recordings[:len(args.recordings)]
+    if lag == "auto":
+        lag, _ = estimate_lag(train)
+    recordings = [shift_inputs(r, lag) for r in recordings]
+    train = recordings[:len(args.recordings)]
+    segments = _segments(args.segments)
+    n = train[0].n_inputs
+    if segments is None:
+        if n % args.tendons_per_segment:
+            raise bad("--tendons-per-segment", args.tendons_per_segment,
+                      f"a divisor of the {n} inputs, or give --segments")
+        segments = tuple([args.length / (n // args.tendons_per_segment)] * (n // args.tendons_per_segment))
+    try:
+        robot = TendonRobot(segments, args.tendons_per_segment, args.routing_radius)
+    except SoftrnnInputError as err:
+        raise _as_option(err) from None
+    with Bar("lab calibrate", unit="start", enabled=not args.quiet) as bar:
+        cal = calibrate(robot, np.vstack([displacements(r) for r in train]), np.vstack([r.tip for r in train]),
+                        progress=bar)
+    report = {**cal.to_dict(), "lag_rows": lag, "sessions": [r.path for r in train]}
+    if args.validate:
+        v = recordings[-1]
+        err = tip_errors(cal.predict(displacements(v)), v.tip)
+        report["validation"] = {"path": v.path, **{k: round(x, 4) for k, x in err.items()},
+                                "tip_rmse_pct_of_length": round(err["tip_rmse_mm"] / (args.length * 1e3) * 100, 4)}
+    atomic_write_text(args.output, json.dumps(report, indent=2) + "\n")
+    print(f"lab calibrate: tip RMSE on the fitted rows {cal.rmse_m * 1e3:.2f} mm ({cal.seconds:.0f} s)")
+    if args.validate:
+        print(f"lab calibrate: tip RMSE on {Path(args.validate).name} {report['validation']['tip_rmse_mm']:.2f} mm")
+    print(f"lab calibrate: wrote {args.output}")
+    return 0
+
+
+def run(args) -> int:
+    return args.lab_run(args)

@@ -1,0 +1,249 @@
+"""The real-robot benchmark: every model family and every baseline, fitted on the training
+sessions only, free running over a validation session from its start on the commands alone.
+
+``run_benchmark`` returns a ``BenchmarkResult``; its ``to_dict()`` is the JSON of
+``softrnn lab benchmark`` (docs/guide/real-robots.md): the robot, per model and per baseline the
+Euclidean tip RMSE and mean error [mm] and the RMSE as % of the robot's length, the best of each
+and their ratio, the family chosen on the training sessions' hold-out part, and the time taken.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SoftrnnInputError, bad, positive
+from .families import (
+    Hybrid,
+    LearnedMap,
+    LinearARX,
+    NetOptions,
+    Persistence,
+    Physics,
+    Sequence,
+    SequenceOptions,
+    StaticPolynomial,
+    choose,
+    displacements,
+    holdout_split,
+    tip_errors,
+)
+from .recording import Recording, check_sessions, estimate_lag, shift_inputs
+from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
+
+FAMILIES = ("physics", "learned_map", "hybrid", "sequence")
+"""softrnn's model families, in the order they are fitted."""
+BASELINES = ("persistence", "linear_arx", "static_map")
+ARX_ORDERS = ((1, 1), (2, 1), (1, 2), (2, 2))
+POLY_CANDIDATES = tuple((d, r) for d in (1, 2, 3) for r in (1e-6, 1e-3, 1e-1))
+
+
+@dataclass(frozen=True)
+class BenchmarkOptions:
+    """What the benchmark runs.
+
+    Parameters
+    ----------
+    length : float               the robot's length [m] (for errors as % of length; and the
+                                 segments' default)
+    lag : int or "auto"          rows the response lags the command (``auto``: estimated on the
+                                 training sessions, ``recording.estimate_lag``)
+    segments : tuple or None     segment lengths [m] for the physics (default: the inputs split into
+                                 segments of ``tendons_per_segment``, of equal length)
+    tendons_per_segment : int
+    routing_radius : float       the tendons' start distance from the backbone [m]
+    families : tuple             which of ``FAMILIES`` to run
+    nets, sequence, calibration  the learned models' and the calibration's options
+    """
+
+    length: float
+    lag: object = "auto"
+    segments: tuple | None = None
+    tendons_per_segment: int = 3
+    routing_radius: float = 4.5e-3
+    families: tuple = FAMILIES
+    nets: NetOptions = NetOptions()
+    sequence: SequenceOptions = SequenceOptions()
+    calibration: CalibrationOptions = CalibrationOptions()
+
+    def __post_init__(self):
+        positive("length", self.length, "m")
+        if self.lag != "auto" and (not isinstance(self.lag, int) or isinstance(self.lag, bool) or self.lag < 0):
+            raise bad("lag", self.lag, "a whole number of rows >= 0, or 'auto'")
+        unknown = [f for f in self.families if f not in FAMILIES]
+        if unknown or not self.families:
+            raise bad("families", ",".join(self.families), f"one or more of {', '.join(FAMILIES)}")
+
+
+@dataclass
+class BenchmarkResult:
+    """What ``run_benchmark`` found (``to_dict()`` for the JSON)."""
+
+    robot: dict
+    models: dict
+    baselines: dict
+    chosen_on_training: dict
+    details: dict
+    skipped: dict
+    seconds: float
+    predictions: dict = field(default_factory=dict, repr=False)
+    validation: Recording | None = field(default=None, repr=False)
+
+    def _best(self, table: dict) -> str | None:
+        return min(table, key=lambda k: table[k]["tip_rmse_mm"]) if table else None
+
+    def to_dict(self) -> dict:
+        best_model, best_baseline = self._best(self.models), self._best(self.baselines)
+        ratio = (self.models[best_model]["tip_rmse_mm"] / self.baselines[best_baseline]["tip_rmse_mm"]
+                 if best_model and best_baseline else None)
+        return {"robot": self.robot, "models": self.models, "baselines": self.baselines,
+                "best_model": best_model, "best_baseline": best_baseline,
+                "ratio_best_model_to_best_baseline": ratio, "chosen_on_training": self.chosen_on_training,
+                "skipped": self.skipped, "details": self.details, "seconds": round(self.seconds, 1)}
+
+
+def _physics_reason(sessions, robot_inputs: int) -> str | None:
+    s = sessions[0]
+    if any(u not in LENGTH_UNITS for u in s.units):
+        return (f"the inputs' units ({', '.join(sorted(set(s.units)) or ['none'])}) are not tendon displacements "
+                "in m or mm")
+    if s.n_inputs != robot_inputs:
+        return (f"{s.n_inputs} inputs do not match the robot's {robot_inputs} tendons "
+                "(--segments, --tendons-per-segment)")
+    return None
+
+
+def _robot(options: BenchmarkOptions, n_inputs: int) -> TendonRobot | None:
+    if options.segments is not None:
+        return TendonRobot(options.segments, options.tendons_per_segment, options.routing_radius)
+    if n_inputs % options.tendons_per_segment:
+        return None
+    S = n_inputs // options.tendons_per_segment
+    return TendonRobot(tuple([options.length / S] * S), options.tendons_per_segment, options.routing_radius)
+
+
+def _check_pulls(robot: TendonRobot, sessions) -> None:
+    """Refuse a pull the routing cannot take: more than pi r per segment the tendon runs through
+    (a pull beyond bending every segment it spans by half a turn)."""
+    for s in sessions:
+        q = displacements(s)
+        limit = np.pi * robot.routing_radius * (robot.segment_of + 1)
+        over = q > limit
+        if np.any(over):
+            k, i = np.argwhere(over)[0]
+            raise SoftrnnInputError(
+                f"{s.path}: row {k + 1}, input {s.columns[i] if s.columns else s.names[i]!r}: a pull of "
+                f"{q[k, i] * 1e3:.4g} mm is beyond what the routing allows (pi x routing radius "
+                f"{robot.routing_radius * 1e3:g} mm per segment it runs through = {limit[i] * 1e3:.4g} mm); "
+                "check the units and the column order, or give the robot's --routing-radius")
+
+
+def run_benchmark(train: list[Recording], validation: Recording, options: BenchmarkOptions,
+                  progress=None) -> BenchmarkResult:
+    """Fit every baseline and model family on ``train`` (sessions of one robot) and run each free
+    over ``validation`` from its start. ``progress(done, total, {"stage": text})`` after each stage."""
+    t0 = time.perf_counter()
+    sessions = list(train) + [validation]
+    check_sessions(sessions)
+    if options.lag == "auto":
+        lag, lag_scores = estimate_lag(train)
+        lag_info = {"lag_rows": lag, "estimated": True,
+                    "linear_fit_rmse_mm_by_lag": {str(k): round(v * 1e3, 3) for k, v in lag_scores.items()}}
+    else:
+        lag = options.lag
+        lag_info = {"lag_rows": lag, "estimated": False}
+    train = [shift_inputs(s, lag) for s in train]
+    validation = shift_inputs(validation, lag)
+    robot = _robot(options, validation.n_inputs)
+    skipped = {}
+    families = list(options.families)
+    reason = "the inputs do not split into segments of --tendons-per-segment" if robot is None else \
+        _physics_reason(sessions, robot.n_tendons)
+    if reason:
+        for f in ("physics", "hybrid"):
+            if f in families:
+                families.remove(f)
+                skipped[f] = reason
+    elif "physics" in families or "hybrid" in families:
+        _check_pulls(robot, train + [validation])
+    stages = ["baselines"] + families
+    done = 0
+
+    def step(stage):
+        nonlocal done
+        done += 1
+        if progress is not None:
+            progress(done, len(stages), {"stage": stage})
+
+    L = options.length
+    predictions, baselines, models, chosen, details = {}, {}, {}, {}, {}
+
+    def record(table, name, model):
+        pred = model.predict(validation)
+        predictions[name] = pred
+        err = tip_errors(pred, validation.tip)
+        err["tip_rmse_pct_of_length"] = err["tip_rmse_mm"] / (L * 1e3) * 100.0
+        table[name] = {k: round(v, 4) for k, v in err.items()}
+        details[name] = model.describe()
+
+    # baselines: options chosen on the hold-out part of the training sessions
+    record(baselines, "persistence", Persistence().fit(train))
+    c = choose({f"na={a},nb={b}": (lambda a=a, b=b: LinearARX(a, b)) for a, b in ARX_ORDERS}, train)
+    a, b = (int(x.split("=")[1]) for x in c.chosen.split(","))
+    record(baselines, "linear_arx", LinearARX(a, b).fit(train))
+    details["linear_arx"]["holdout_rmse_mm"] = c.scores
+    c = choose({f"degree={d},ridge={r:g}": (lambda d=d, r=r: StaticPolynomial(d, r)) for d, r in POLY_CANDIDATES},
+               train)
+    d, r = c.chosen.split(",")
+    record(baselines, "static_map", StaticPolynomial(int(d.split("=")[1]), float(r.split("=")[1])).fit(train))
+    details["static_map"]["holdout_rmse_mm"] = c.scores
+    step("baselines")
+
+    fit_part, held = holdout_split(train)
+    held_ref = np.vstack([s.tip for s in held])
+    holdout = {}
+
+    def held_score(model):
+        return round(tip_errors(np.vstack([model.predict(s) for s in held]), held_ref)["tip_rmse_mm"], 4)
+
+    physics = held_physics = None
+    if "physics" in families or "hybrid" in families:
+        held_physics = Physics(robot, options.calibration).fit(fit_part)
+        # on every training row, refined from the hold-out part's calibration
+        physics = Physics(robot, options.calibration, start=held_physics.calibration.params).fit(train)
+    if "physics" in families:
+        holdout["physics"] = held_score(held_physics)
+        record(models, "physics", physics)
+        step("physics")
+    if "learned_map" in families:
+        c = choose({f"hysteresis={h}": (lambda h=h: LearnedMap(h, options.nets)) for h in (False, True)}, train)
+        holdout["learned_map"] = c.scores[c.chosen]
+        record(models, "learned_map", LearnedMap(c.chosen.endswith("True"), options.nets).fit(train))
+        details["learned_map"]["holdout_rmse_mm"] = c.scores
+        step("learned_map")
+    if "hybrid" in families:
+        scores = {}
+        for h in (False, True):
+            scores[f"hysteresis={h}"] = held_score(Hybrid(held_physics, h, options.nets).fit(fit_part))
+        best = min(scores, key=scores.get)
+        holdout["hybrid"] = scores[best]
+        record(models, "hybrid", Hybrid(physics, best.endswith("True"), options.nets).fit(train))
+        details["hybrid"]["holdout_rmse_mm"] = scores
+        step("hybrid")
+    if "sequence" in families:
+        holdout["sequence"] = held_score(Sequence(options.sequence).fit(fit_part))
+        record(models, "sequence", Sequence(options.sequence).fit(train))
+        step("sequence")
+    if holdout:
+        chosen = {"family": min(holdout, key=holdout.get), "holdout_rmse_mm": holdout,
+                  "holdout": "the last training session" if len(train) >= 2 else
+                             "the last quarter of the training session"}
+    robot_info = {"length_m": L, **lag_info,
+                  "training_sessions": [s.describe() for s in train], "validation_session": validation.describe()}
+    if robot is not None:
+        robot_info.update(segments_m=list(robot.segment_lengths), tendons_per_segment=robot.tendons_per_segment)
+    return BenchmarkResult(robot=robot_info, models=models, baselines=baselines, chosen_on_training=chosen,
+                           details=details, skipped=skipped, seconds=time.perf_counter() - t0,
+                           predictions=predictions, validation=validation)

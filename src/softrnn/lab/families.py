@@ -1,0 +1,451 @@
+"""The models a robot's recordings are fitted with, and the baselines they are compared with.
+
+Every model is fitted on training sessions (``fit(sessions)``) and predicts the tip of a whole
+session free running from its start on the commands alone (``predict(session)`` -> (T, 3) [m]):
+the recorded tip is read only where a model needs an initial condition (the first row for
+persistence, the first ``na`` rows for the linear ARX model), never afterwards.
+
+Baselines:
+
+* ``Persistence``: the tip stays where the session starts.
+* ``LinearARX``: y_k = sum_i A_i y_{k-i} + sum_j B_j u_{k-j} + c, least squares, iterated on its
+  own output.
+* ``StaticPolynomial``: the tip as a polynomial of the current inputs (ridge least squares).
+
+softrnn's models:
+
+* ``Physics``: the calibrated tendon robot (``softrnn.lab.tendon_robot``).
+* ``LearnedMap``: a small network (an ensemble of MLPs) of the current and previous inputs, and
+  optionally a hysteresis state (play operators of each input), to the tip: a static map with
+  the path dependence that friction gives.
+* ``Hybrid``: the calibrated physics plus a network of the same inputs and the physics' tip that
+  predicts only what the physics misses.
+* ``Sequence``: a recurrent network (GRU) reading the commands and the interval since the previous
+  row, so it can represent lag, creep and hysteresis; it runs free from a zero state.
+
+Options with more than one sensible value (the ARX orders, the polynomial's degree and ridge,
+the hysteresis state) are chosen on a hold-out part of the training sessions (``choose``), never
+on the session a model is reported on.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import SoftrnnInputError
+from .recording import Recording
+from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate
+
+PLAY_WIDTHS = (0.05, 0.15)
+"""Widths of the play operators of the hysteresis state, as fractions of each input's range in
+the training sessions."""
+
+
+def tip_errors(predicted: np.ndarray, recorded: np.ndarray) -> dict:
+    """Euclidean tip errors over every row [mm]: ``tip_rmse_mm`` = sqrt(mean |p - p_ref|^2) and
+    ``tip_mean_mm`` = mean |p - p_ref|; ``tip_max_mm`` the largest."""
+    e = np.linalg.norm(np.asarray(predicted) - np.asarray(recorded), axis=1)
+    return {"tip_rmse_mm": float(np.sqrt(np.mean(e ** 2)) * 1e3), "tip_mean_mm": float(np.mean(e) * 1e3),
+            "tip_max_mm": float(np.max(e) * 1e3)}
+
+
+def _previous(u: np.ndarray) -> np.ndarray:
+    return np.vstack([u[:1], u[:-1]])
+
+
+def play(u: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """The play (backlash) operator of each input column: p_k = min(max(p_{k-1}, u_k - w), u_k + w),
+    p_0 = u_0; u (T, m), width (m,) -> (T, m). Its output lags a reversal by the width: the
+    simplest path-dependent state (Preisach / Prandtl-Ishlinskii hysteresis models sum these)."""
+    out = np.empty_like(u)
+    state = u[0].copy()
+    for k in range(len(u)):
+        state = np.minimum(np.maximum(state, u[k] - width), u[k] + width)
+        out[k] = state
+    return out
+
+
+# -------------------------------------------------------------------------------------------- baselines
+@dataclass
+class Persistence:
+    """The tip stays at the session's first recorded position."""
+
+    name: str = "persistence"
+
+    def fit(self, sessions) -> Persistence:
+        return self
+
+    def predict(self, session: Recording) -> np.ndarray:
+        return np.repeat(session.tip[:1], session.n_rows, axis=0)
+
+    def describe(self) -> dict:
+        return {"kind": "the first row's tip held"}
+
+
+@dataclass
+class LinearARX:
+    """y_k = sum_{i=1..na} A_i y_{k-i} + sum_{j=0..nb-1} B_j u_{k-j} + c, free running."""
+
+    na: int = 1
+    nb: int = 1
+    name: str = "linear_arx"
+    W: np.ndarray | None = None
+
+    def _rows(self, y, u, k):
+        return np.concatenate([*(y[k - i] for i in range(1, self.na + 1)), *(u[k - j] for j in range(self.nb)), [1.0]])
+
+    def fit(self, sessions) -> LinearARX:
+        m = max(self.na, self.nb - 1)
+        X, Y = [], []
+        for s in sessions:
+            for k in range(m, s.n_rows):
+                X.append(self._rows(s.tip, s.inputs, k))
+                Y.append(s.tip[k])
+        self.W = np.linalg.lstsq(np.array(X), np.array(Y), rcond=None)[0]
+        return self
+
+    def predict(self, session: Recording) -> np.ndarray:
+        m = max(self.na, self.nb - 1)
+        y = np.empty_like(session.tip)
+        y[:m] = session.tip[:m]
+        for k in range(m, session.n_rows):
+            y[k] = self._rows(y, session.inputs, k) @ self.W
+        return y
+
+    def describe(self) -> dict:
+        return {"kind": "linear ARX, least squares, free running", "na": self.na, "nb": self.nb}
+
+
+def _monomials(u: np.ndarray, degree: int) -> np.ndarray:
+    cols = [np.ones(len(u))]
+    m = u.shape[1]
+
+    def grow(start, depth, prod):
+        for i in range(start, m):
+            p = prod * u[:, i]
+            cols.append(p)
+            if depth < degree:
+                grow(i, depth + 1, p)
+
+    grow(0, 1, np.ones(len(u)))
+    return np.column_stack(cols)
+
+
+@dataclass
+class StaticPolynomial:
+    """The tip as a polynomial of the current inputs (ridge least squares on standardised inputs;
+    ``ridge`` relative to the features' mean square)."""
+
+    degree: int = 1
+    ridge: float = 1e-6
+    name: str = "static_map"
+    W: np.ndarray | None = None
+    mu: np.ndarray | None = None
+    sd: np.ndarray | None = None
+
+    def _features(self, u):
+        return _monomials((u - self.mu) / self.sd, self.degree)
+
+    def fit(self, sessions) -> StaticPolynomial:
+        u = np.vstack([s.inputs for s in sessions])
+        y = np.vstack([s.tip for s in sessions])
+        self.mu, self.sd = u.mean(axis=0), u.std(axis=0) + 1e-12
+        X = self._features(u)
+        G = X.T @ X
+        lam = self.ridge * np.trace(G) / G.shape[0]
+        self.W = np.linalg.solve(G + lam * np.eye(G.shape[0]), X.T @ y)
+        return self
+
+    def predict(self, session: Recording) -> np.ndarray:
+        return self._features(session.inputs) @ self.W
+
+    def describe(self) -> dict:
+        return {"kind": "polynomial of the current inputs, ridge least squares", "degree": self.degree,
+                "ridge": self.ridge}
+
+
+# -------------------------------------------------------------------------------------- softrnn models
+def displacements(session: Recording) -> np.ndarray:
+    """The inputs as tendon displacements [m] (their units must be lengths)."""
+    factors = []
+    for name, unit in zip(session.names, session.units):
+        if unit not in LENGTH_UNITS:
+            raise SoftrnnInputError(f"{session.path}: input {name!r} has the unit {unit or 'none'!r}; the tendon "
+                                    "physics needs tendon displacements in m or mm (name the column e.g. "
+                                    "servo_1_mm or act_servo_1[mm]), or leave the physics out with --families")
+        factors.append(LENGTH_UNITS[unit])
+    return session.inputs * np.asarray(factors)
+
+
+@dataclass
+class Physics:
+    """The calibrated tendon robot (``softrnn.lab.tendon_robot``); ``start``: parameters to refine
+    from instead of the multi-start search."""
+
+    robot: TendonRobot
+    options: CalibrationOptions = CalibrationOptions()
+    name: str = "physics"
+    calibration: Calibration | None = None
+    progress: object = None
+    start: object = None
+
+    def fit(self, sessions) -> Physics:
+        q = np.vstack([displacements(s) for s in sessions])
+        tip = np.vstack([s.tip for s in sessions])
+        self.calibration = calibrate(self.robot, q, tip, self.options, progress=self.progress, start=self.start)
+        return self
+
+    def predict(self, session: Recording) -> np.ndarray:
+        return self.calibration.predict(displacements(session))
+
+    def describe(self) -> dict:
+        return {"kind": "calibrated tendon robot physics", **self.calibration.to_dict()}
+
+
+@dataclass(frozen=True)
+class NetOptions:
+    """The networks' size and training: ``hidden`` units in each of two tanh layers, ``members``
+    of the ensemble (averaged), full-batch AdamW for ``steps`` with ``weight_decay``, ``seed``."""
+
+    hidden: int = 64
+    members: int = 3
+    steps: int = 1500
+    lr: float = 3e-3
+    weight_decay: float = 0.1
+    seed: int = 0
+
+
+def _features(session: Recording, widths: np.ndarray | None) -> np.ndarray:
+    u = session.inputs
+    parts = [u, _previous(u)]
+    if widths is not None:
+        parts += [play(u, w) - u for w in widths]
+    return np.hstack(parts)
+
+
+class _Ensemble:
+    """An ensemble of two-layer tanh MLPs, inputs standardised, targets scaled by their RMS."""
+
+    def __init__(self, options: NetOptions):
+        self.options = options
+        self.members = []
+
+    def fit(self, X: np.ndarray, Y: np.ndarray) -> _Ensemble:
+        import torch  # optional extra: learn (PyTorch)
+
+        o = self.options
+        self.mu, self.sd = X.mean(axis=0), X.std(axis=0) + 1e-9
+        self.scale = float(np.sqrt(np.mean(Y ** 2))) or 1.0
+        x = torch.tensor((X - self.mu) / self.sd, dtype=torch.float32)
+        y = torch.tensor(Y / self.scale, dtype=torch.float32)
+        for m in range(o.members):
+            torch.manual_seed(o.seed * 1000 + m)
+            net = torch.nn.Sequential(torch.nn.Linear(X.shape[1], o.hidden), torch.nn.Tanh(),
+                                      torch.nn.Linear(o.hidden, o.hidden), torch.nn.Tanh(),
+                                      torch.nn.Linear(o.hidden, Y.shape[1]))
+            opt = torch.optim.AdamW(net.parameters(), lr=o.lr, weight_decay=o.weight_decay)
+            for _ in range(o.steps):
+                opt.zero_grad()
+                loss = torch.mean((net(x) - y) ** 2)
+                loss.backward()
+                opt.step()
+            self.members.append(net)
+        return self
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        import torch  # optional extra: learn (PyTorch)
+
+        with torch.no_grad():
+            x = torch.tensor((X - self.mu) / self.sd, dtype=torch.float32)
+            return np.mean([net(x).numpy() for net in self.members], axis=0).astype(float) * self.scale
+
+
+def _widths(sessions, hysteresis: bool):
+    if not hysteresis:
+        return None
+    u = np.vstack([s.inputs for s in sessions])
+    return [f * np.ptp(u, axis=0) for f in PLAY_WIDTHS]
+
+
+@dataclass
+class LearnedMap:
+    """A learned static map with input history: an MLP ensemble of (u_k, u_{k-1}[, hysteresis
+    state]) to the tip."""
+
+    hysteresis: bool = False
+    options: NetOptions = NetOptions()
+    name: str = "learned_map"
+    net: object = None
+    widths: object = None
+
+    def fit(self, sessions) -> LearnedMap:
+        self.widths = _widths(sessions, self.hysteresis)
+        X = np.vstack([_features(s, self.widths) for s in sessions])
+        self.offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
+        Y = np.vstack([s.tip for s in sessions]) - self.offset
+        self.net = _Ensemble(self.options).fit(X, Y)
+        return self
+
+    def predict(self, session: Recording) -> np.ndarray:
+        return self.net(_features(session, self.widths)) + self.offset
+
+    def describe(self) -> dict:
+        return {"kind": "MLP ensemble of the current and previous inputs" +
+                        (" and a hysteresis state (play operators)" if self.hysteresis else ""),
+                **{k: v for k, v in vars(self.options).items()}}
+
+
+@dataclass
+class Hybrid:
+    """Calibrated physics plus a learned residual: tip = physics(u_k) + MLP(u_k, u_{k-1}[,
+    hysteresis state], physics(u_k))."""
+
+    physics: Physics
+    hysteresis: bool = False
+    options: NetOptions = NetOptions()
+    name: str = "hybrid"
+    net: object = None
+    widths: object = None
+
+    def _X(self, s, base):
+        return np.hstack([_features(s, self.widths), base])
+
+    def fit(self, sessions) -> Hybrid:
+        if self.physics.calibration is None:
+            self.physics.fit(sessions)
+        self.widths = _widths(sessions, self.hysteresis)
+        bases = [self.physics.predict(s) for s in sessions]
+        X = np.vstack([self._X(s, b) for s, b in zip(sessions, bases)])
+        Y = np.vstack([s.tip - b for s, b in zip(sessions, bases)])
+        self.net = _Ensemble(self.options).fit(X, Y)
+        return self
+
+    def predict(self, session: Recording) -> np.ndarray:
+        base = self.physics.predict(session)
+        return base + self.net(self._X(session, base))
+
+    def describe(self) -> dict:
+        return {"kind": "calibrated physics + MLP residual" +
+                        (" with a hysteresis state (play operators)" if self.hysteresis else ""),
+                **{k: v for k, v in vars(self.options).items()}}
+
+
+@dataclass(frozen=True)
+class SequenceOptions:
+    """The recurrent model: ``hidden`` GRU units, trained on windows of ``window`` rows (the state
+    carried from the session's start through the windows before) for ``epochs`` passes."""
+
+    hidden: int = 32
+    window: int = 64
+    epochs: int = 300
+    lr: float = 3e-3
+    weight_decay: float = 1e-3
+    seed: int = 0
+
+
+@dataclass
+class Sequence:
+    """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s]) and
+    writing the tip: a dynamic model of the commands alone, run free from a zero state."""
+
+    options: SequenceOptions = SequenceOptions()
+    physics: Physics | None = None
+    name: str = "sequence"
+    net: object = None
+
+    def _inputs(self, s: Recording) -> np.ndarray:
+        u = s.inputs
+        dt = np.concatenate([[np.median(np.diff(s.time))], np.diff(s.time)])
+        parts = [u, u - _previous(u), np.log(dt)[:, None]]
+        if self.physics is not None:
+            parts.append(self.physics.predict(s))
+        return np.hstack(parts)
+
+    def _target(self, s: Recording) -> np.ndarray:
+        return s.tip - (self.physics.predict(s) if self.physics is not None else self.offset)
+
+    def fit(self, sessions) -> Sequence:
+        import torch  # optional extra: learn (PyTorch)
+
+        o = self.options
+        torch.manual_seed(o.seed)
+        self.offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
+        X = [self._inputs(s) for s in sessions]
+        Y = [self._target(s) for s in sessions]
+        allX = np.vstack(X)
+        self.mu, self.sd = allX.mean(axis=0), allX.std(axis=0) + 1e-9
+        self.scale = float(np.sqrt(np.mean(np.vstack(Y) ** 2))) or 1.0
+        gru = torch.nn.GRU(allX.shape[1], o.hidden, batch_first=True)
+        head = torch.nn.Linear(o.hidden, 3)
+        params = list(gru.parameters()) + list(head.parameters())
+        opt = torch.optim.AdamW(params, lr=o.lr, weight_decay=o.weight_decay)
+        xs = [torch.tensor((x - self.mu) / self.sd, dtype=torch.float32)[None] for x in X]
+        ys = [torch.tensor(y / self.scale, dtype=torch.float32)[None] for y in Y]
+        for _ in range(o.epochs):
+            for x, y in zip(xs, ys):
+                h = None
+                for a in range(0, x.shape[1], o.window):
+                    out, h = gru(x[:, a:a + o.window], h)
+                    loss = torch.mean((head(out) - y[:, a:a + o.window]) ** 2)
+                    opt.zero_grad()
+                    loss.backward()
+                    opt.step()
+                    h = h.detach()
+        self.net = (gru, head)
+        return self
+
+    def predict(self, session: Recording) -> np.ndarray:
+        import torch  # optional extra: learn (PyTorch)
+
+        gru, head = self.net
+        with torch.no_grad():
+            out, _ = gru(torch.tensor((self._inputs(session) - self.mu) / self.sd, dtype=torch.float32)[None])
+            y = head(out)[0].numpy().astype(float) * self.scale
+        return y + (self.physics.predict(session) if self.physics is not None else self.offset)
+
+    def describe(self) -> dict:
+        return {"kind": "GRU of the commands and intervals" + (" on top of the calibrated physics"
+                                                              if self.physics is not None else ""),
+                **{k: v for k, v in vars(self.options).items()}}
+
+
+# ------------------------------------------------------------------------------------------- choice
+def holdout_split(sessions) -> tuple[list, list]:
+    """Training sessions split for choosing options: with two or more sessions, the last one is
+    held out; with one, its last quarter (the rows in order, so the hold-out part is a later,
+    unseen stretch of the session)."""
+    sessions = list(sessions)
+    if len(sessions) >= 2:
+        return sessions[:-1], sessions[-1:]
+    s = sessions[0]
+    cut = int(round(0.75 * s.n_rows))
+
+    def part(a, b):
+        return replace(s, time=s.time[a:b], inputs=s.inputs[a:b], tip=s.tip[a:b],
+                       labels=s.labels[a:b] if s.labels else ())
+    return [part(0, cut)], [part(cut, s.n_rows)]
+
+
+@dataclass
+class Choice:
+    """The option chosen for a family and the hold-out scores of each candidate [mm]."""
+
+    chosen: object
+    scores: dict = field(default_factory=dict)
+
+
+def choose(candidates: dict, sessions) -> Choice:
+    """Fit each candidate (``{label: factory() -> model}``) on the fitting part of ``sessions``
+    and score its free run on the hold-out part (Euclidean tip RMSE [mm]); the best label wins."""
+    fit_part, held = holdout_split(sessions)
+    scores = {}
+    for label, factory in candidates.items():
+        model = factory().fit(fit_part)
+        pred = np.vstack([model.predict(s) for s in held])
+        ref = np.vstack([s.tip for s in held])
+        score = tip_errors(pred, ref)["tip_rmse_mm"]
+        scores[label] = score if math.isfinite(score) else math.inf
+    return Choice(chosen=min(scores, key=scores.get), scores=scores)

@@ -1,0 +1,345 @@
+"""A tendon-driven continuum robot driven by tendon displacements (position-controlled servos):
+its quasi-static physics, and the calibration of that physics to a recording.
+
+Model. The backbone has S segments of lengths L_s, each bent with constant curvature (the
+piecewise-constant-curvature model, exact for a weightless rod loaded only by its tendons at
+the segment ends). Segment s carries ``tendons_per_segment`` tendons, terminated at its end, at
+the routing radius r and body-frame angles theta_i (offset rho_i = r (cos theta_i, sin theta_i)).
+A tendon of segment e runs through segments 1..e. Its tension tau_i >= 0 bends every segment it
+runs through: the bending vector of segment s (curvature times the unit direction toward which it
+bends, in the segment's frame) is
+
+    b_s = (1 / EI_s) sum_{i runs through s} tau_i rho_i
+
+and the tendon's path shortens by delta_i = sum_{s <= e(i)} L_s b_s . rho_i. A servo pulls the
+tendon in by q_i (the recorded displacement, positive = pulled) through a series spring of
+stiffness k (servo, cable, spool) and with a slack c_i to take up first (the tendon's offset):
+
+    tau_i = k max(0, q_i - c_i - delta_i)
+
+A slack tendon carries nothing (the max), which is what lets one servo release while another
+pulls. With tau' = tau / k [m], these conditions are the linear complementarity problem
+tau' >= 0, w = (I + A) tau' - (q - c) >= 0, tau' . w = 0, with A_ij = sum_{s <= min(e_i, e_j)}
+(k L_s / EI_s) rho_i . rho_j symmetric positive semi-definite, so I + A is positive definite and
+the solution is unique; it is solved by projected Gauss-Seidel (``_tensions``). The tip is then
+the end of the chain of constant-curvature arcs (no twist between segments), plus a marker offset
+d along the last tangent, seen from the motion-capture frame through a rigid base pose.
+
+What poses alone can identify: only the ratio EI_s / k (bending stiffness over the series
+stiffness), never EI or k by itself (no force is recorded). Gravity and friction along the
+routing are left out: the calibration report says how far the recorded poses are from this
+model, and a learned residual (``softrnn.lab.families``) takes what it misses.
+
+Calibration (``calibrate``): nonlinear least squares (``scipy.optimize.least_squares``, a soft-L1
+loss against outlying rows) of the tip over every row of the training sessions, from several
+starts (the tendons' angular order and the angle between segments are not known in advance), the
+best refined. Parameters: the tendon angles and offsets, the routing radius, EI_s / k per segment,
+the marker offset and the base pose.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from ..errors import SoftrnnInputError, bad, integer, is_finite_number, positive
+
+_PGS_ITERATIONS = 200
+_PGS_TOL = 1e-10
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
+"""Input units read as tendon displacements, with their factor to m."""
+
+
+@dataclass(frozen=True)
+class TendonRobot:
+    """The robot's known geometry.
+
+    Parameters
+    ----------
+    segment_lengths : tuple of float   L_s [m] of each segment, base to tip
+    tendons_per_segment : int          tendons of each segment (>= 2); the inputs are the tendon
+                                       displacements in segment order
+    routing_radius : float             the tendons' distance from the backbone [m] (a start value:
+                                       the calibration fits it)
+    """
+
+    segment_lengths: tuple
+    tendons_per_segment: int = 3
+    routing_radius: float = 4.5e-3
+
+    def __post_init__(self):
+        lengths = tuple(self.segment_lengths) if hasattr(self.segment_lengths, "__iter__") else ()
+        if not lengths or not all(is_finite_number(x) and x > 0 for x in lengths):
+            raise bad("segment_lengths", self.segment_lengths, "one or more positive lengths in m, base to tip")
+        object.__setattr__(self, "segment_lengths", tuple(float(x) for x in lengths))
+        integer("tendons_per_segment", self.tendons_per_segment, low=2)
+        positive("routing_radius", self.routing_radius, "m")
+
+    @property
+    def n_segments(self) -> int:
+        return len(self.segment_lengths)
+
+    @property
+    def n_tendons(self) -> int:
+        return self.n_segments * self.tendons_per_segment
+
+    @property
+    def length(self) -> float:
+        return float(sum(self.segment_lengths))
+
+    @property
+    def segment_of(self) -> np.ndarray:
+        """(n_tendons,) the segment (0-based) each tendon terminates at."""
+        return np.repeat(np.arange(self.n_segments), self.tendons_per_segment)
+
+
+@dataclass(frozen=True)
+class TendonParameters:
+    """Calibrated parameters (SI units).
+
+    Attributes
+    ----------
+    angles : (n,) [rad]            tendon angles in the base frame
+    offsets : (n,) [m]             slack to take up before a tendon pulls (c_i)
+    routing_radius : float [m]
+    compliance : (S,) [m^-3]       k / EI_s per segment (series stiffness over bending stiffness)
+    marker : float [m]             marker offset beyond the last segment, along its tangent
+    rotation : (3,) [rad]          base orientation in the motion-capture frame (rotation vector)
+    base : (3,) [m]                base position in the motion-capture frame
+    """
+
+    angles: np.ndarray
+    offsets: np.ndarray
+    routing_radius: float
+    compliance: np.ndarray
+    marker: float
+    rotation: np.ndarray
+    base: np.ndarray
+
+    def to_dict(self, robot: TendonRobot) -> dict:
+        ratio = [float(self.compliance[s] * self.routing_radius ** 2 * L)
+                 for s, L in enumerate(robot.segment_lengths)]
+        return {"tendon_angles_deg": np.degrees(self.angles).round(3).tolist(),
+                "tendon_offsets_mm": (self.offsets * 1e3).round(4).tolist(),
+                "routing_radius_mm": round(self.routing_radius * 1e3, 4),
+                "bending_over_series_stiffness_m3": [float(f"{1.0 / c:.6g}") for c in self.compliance],
+                "stiffness_ratio_k_r2_L_over_EI": [float(f"{x:.6g}") for x in ratio],
+                "marker_offset_mm": round(self.marker * 1e3, 4),
+                "base_rotation_deg": np.degrees(self.rotation).round(4).tolist(),
+                "base_position_mm": (self.base * 1e3).round(4).tolist()}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> TendonParameters:
+        return cls(angles=np.radians(d["tendon_angles_deg"]), offsets=np.asarray(d["tendon_offsets_mm"]) * 1e-3,
+                   routing_radius=d["routing_radius_mm"] * 1e-3,
+                   compliance=1.0 / np.asarray(d["bending_over_series_stiffness_m3"], dtype=float),
+                   marker=d["marker_offset_mm"] * 1e-3, rotation=np.radians(d["base_rotation_deg"]),
+                   base=np.asarray(d["base_position_mm"]) * 1e-3)
+
+
+# ------------------------------------------------------------------------------------------ physics
+@njit(cache=True)
+def _tensions(M, b, out):
+    """Projected Gauss-Seidel for tau >= 0, M tau - b >= 0, tau (M tau - b) = 0, row by row:
+    M (n, n) positive definite, b (K, n), out (K, n) the solutions (tau / k [m])."""
+    K, n = b.shape
+    for k in range(K):
+        for i in range(n):
+            out[k, i] = 0.0
+        for _ in range(_PGS_ITERATIONS):
+            change = 0.0
+            for i in range(n):
+                r = b[k, i]
+                for j in range(n):
+                    if j != i:
+                        r -= M[i, j] * out[k, j]
+                v = r / M[i, i]
+                if v < 0.0:
+                    v = 0.0
+                change = max(change, abs(v - out[k, i]))
+                out[k, i] = v
+            if change < _PGS_TOL:
+                break
+
+
+def _rotations(axis_angle: np.ndarray) -> np.ndarray:
+    return Rotation.from_rotvec(axis_angle).as_matrix()
+
+
+def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The tip (K, 3) [m] in the motion-capture frame and the tensions over the series
+    stiffness tau / k (K, n) [m] for tendon displacements q (K, n) [m]."""
+    q = np.asarray(q, dtype=float)
+    seg = robot.segment_of
+    L = np.asarray(robot.segment_lengths)
+    rho = params.routing_radius * np.stack([np.cos(params.angles), np.sin(params.angles)], axis=1)   # (n, 2)
+    cum = np.cumsum(L * params.compliance)
+    A = cum[np.minimum(seg[:, None], seg[None, :])] * (rho @ rho.T)
+    M = np.eye(robot.n_tendons) + A
+    tau = np.empty_like(q)
+    _tensions(M, np.ascontiguousarray(q - params.offsets), tau)
+    K = q.shape[0]
+    R = np.broadcast_to(np.eye(3), (K, 3, 3)).copy()
+    x = np.zeros((K, 3))
+    for s in range(robot.n_segments):
+        on = seg >= s
+        bend = params.compliance[s] * (tau[:, on] @ rho[on])           # (K, 2) [1/m]
+        kappa = np.hypot(bend[:, 0], bend[:, 1])
+        small = kappa < 1e-9
+        safe = np.where(small, 1.0, kappa)
+        direction = np.where(small[:, None], np.array([1.0, 0.0]), bend / safe[:, None])
+        angle = kappa * L[s]
+        lateral = np.where(small, 0.5 * kappa * L[s] ** 2, (1.0 - np.cos(angle)) / safe)
+        axial = np.where(small, L[s], np.sin(angle) / safe)
+        local = np.column_stack([direction * lateral[:, None], axial])
+        x += np.einsum("kij,kj->ki", R, local)
+        axis = np.column_stack([-direction[:, 1], direction[:, 0], np.zeros(K)])
+        R = R @ _rotations(axis * angle[:, None])
+    x += R[:, :, 2] * params.marker
+    return x @ _rotations(params.rotation).T + params.base, tau
+
+
+# -------------------------------------------------------------------------------------- calibration
+@dataclass(frozen=True)
+class CalibrationOptions:
+    """How ``calibrate`` searches. ``starts``: the angular layouts tried (the tendons' order and the
+    angle between segments); ``quick_evaluations`` per start, ``evaluations`` for the refinement
+    of the best ``refine`` starts; ``loss_scale`` [m], where the soft-L1 loss turns from quadratic
+    to linear (rows farther off than this count less)."""
+
+    quick_evaluations: int = 60
+    evaluations: int = 400
+    refine: int = 2
+    loss_scale: float = 10e-3
+
+    def __post_init__(self):
+        integer("quick_evaluations", self.quick_evaluations)
+        integer("evaluations", self.evaluations)
+        integer("refine", self.refine)
+        positive("loss_scale", self.loss_scale, "m")
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A calibrated tendon robot: ``robot``, ``params``, the tip RMSE on the fitted rows [m]
+    (Euclidean) and what the search tried (``starts``: one dict per start)."""
+
+    robot: TendonRobot
+    params: TendonParameters
+    rmse_m: float
+    starts: tuple
+    seconds: float
+
+    def predict(self, q: np.ndarray) -> np.ndarray:
+        """The tip (K, 3) [m] for tendon displacements q (K, n) [m]."""
+        return tip_positions(self.robot, self.params, q)[0]
+
+    def to_dict(self) -> dict:
+        return {"model": "piecewise-constant-curvature tendon robot, displacement-driven with series stiffness "
+                         "and slack (softrnn.lab.tendon_robot)",
+                "segment_lengths_m": list(self.robot.segment_lengths),
+                "tendons_per_segment": self.robot.tendons_per_segment,
+                "parameters": self.params.to_dict(self.robot),
+                "fit_tip_rmse_mm": round(self.rmse_m * 1e3, 4), "starts": list(self.starts),
+                "seconds": round(self.seconds, 2)}
+
+
+def _pack(p: TendonParameters) -> np.ndarray:
+    # internal units: mm and rad, log compliance (well scaled for least squares)
+    return np.concatenate([p.angles, p.offsets * 1e3, [p.routing_radius * 1e3], np.log(p.compliance * 1e-9),
+                           [p.marker * 1e3], p.rotation, p.base * 1e3])
+
+
+def _unpack(x: np.ndarray, robot: TendonRobot) -> TendonParameters:
+    n, S = robot.n_tendons, robot.n_segments
+    return TendonParameters(angles=x[:n], offsets=x[n:2 * n] * 1e-3, routing_radius=x[2 * n] * 1e-3,
+                            compliance=np.exp(x[2 * n + 1:2 * n + 1 + S]) * 1e9, marker=x[2 * n + 1 + S] * 1e-3,
+                            rotation=x[2 * n + 2 + S:2 * n + 5 + S], base=x[2 * n + 5 + S:2 * n + 8 + S] * 1e-3)
+
+
+def _base_guess(robot: TendonRobot, q: np.ndarray, tip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start values of the base pose: the backbone axis is the coordinate whose spread is most
+    one-sided (bending only ever shortens the tip's reach along it), pointing to its long end;
+    the base lies one robot length behind the tip of the least-actuated row."""
+    centred = tip - np.median(tip, axis=0)
+    skew = np.mean(centred ** 3, axis=0) / np.maximum(np.mean(centred ** 2, axis=0), 1e-30) ** 1.5
+    axis = int(np.argmax(np.abs(skew)))
+    direction = np.zeros(3)
+    direction[axis] = -np.sign(skew[axis]) or 1.0
+    rest = tip[int(np.argmin(np.sum(np.maximum(q, 0.0) ** 2, axis=1)))]
+    z = np.array([0.0, 0.0, 1.0])
+    cross = np.cross(z, direction)
+    if np.linalg.norm(cross) < 1e-12:
+        rotation = np.zeros(3) if direction[2] > 0 else np.array([math.pi, 0.0, 0.0])
+    else:
+        rotation = cross / np.linalg.norm(cross) * math.acos(np.clip(direction @ z, -1, 1))
+    return rotation, rest - direction * robot.length
+
+
+def _starts(robot: TendonRobot) -> list[tuple[int, float]]:
+    spacing = 360.0 / robot.tendons_per_segment
+    return [(sign, twist) for twist in (0.0, spacing / 3, -spacing / 3, spacing / 2, -spacing / 2) for sign in (1, -1)]
+
+
+def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: CalibrationOptions = CalibrationOptions(),
+              progress=None, start: TendonParameters | None = None) -> Calibration:
+    """Fit the robot's parameters to tendon displacements q (K, n) [m] and tips (K, 3) [m]
+    (every row of the training sessions). ``progress(done, total)`` after each start. With
+    ``start`` (e.g. a calibration on part of the rows), only the refinement runs, from there."""
+    q = np.asarray(q, dtype=float)
+    tip = np.asarray(tip, dtype=float)
+    if q.ndim != 2 or q.shape[1] != robot.n_tendons:
+        raise SoftrnnInputError(f"the recording has {q.shape[-1]} inputs but the robot {robot.n_segments} segments "
+                                f"x {robot.tendons_per_segment} tendons = {robot.n_tendons}; give --segments and "
+                                "--tendons-per-segment that match the input columns (segment order)")
+    t0 = time.perf_counter()
+    rotation, base = _base_guess(robot, q, tip)
+    n, S = robot.n_tendons, robot.n_segments
+    lower = np.concatenate([np.full(n, -np.inf), np.full(n, -np.inf), [0.2 * robot.routing_radius * 1e3],
+                            np.full(S, -np.inf), [0.0], np.full(3, -np.inf), np.full(3, -np.inf)])
+    upper = np.concatenate([np.full(n, np.inf), np.full(n, np.inf), [5.0 * robot.routing_radius * 1e3],
+                            np.full(S, np.inf), [0.5 * robot.length * 1e3], np.full(3, np.inf), np.full(3, np.inf)])
+    scale = options.loss_scale * 1e3
+
+    def residual(x):
+        return ((tip_positions(robot, _unpack(x, robot), q)[0] - tip) * 1e3).ravel()
+
+    tried = []
+    starts = _starts(robot) if start is None else []
+    total = len(starts) + (options.refine if start is None else 1)
+    if start is not None:
+        tried.append({"tendon_order": "given", "segment_twist_deg": None, "x": _pack(start), "rmse_mm": math.nan})
+    for k, (sign, twist) in enumerate(starts):
+        angles = np.radians(sign * np.tile(np.arange(robot.tendons_per_segment) * 360.0 / robot.tendons_per_segment,
+                                           S) + np.repeat(np.arange(S) * twist, robot.tendons_per_segment))
+        # compliance start: the tendons as stiff as the backbone's bending over one segment
+        guess = TendonParameters(angles=angles, offsets=np.zeros(n), routing_radius=robot.routing_radius,
+                                 compliance=np.full(S, 1.0 / (robot.routing_radius ** 2 * robot.length / S)),
+                                 marker=0.0, rotation=rotation, base=base)
+        sol = least_squares(residual, _pack(guess), bounds=(lower, upper), loss="soft_l1", f_scale=scale,
+                            max_nfev=options.quick_evaluations, x_scale="jac")
+        tried.append({"tendon_order": "counter-clockwise" if sign > 0 else "clockwise",
+                      "segment_twist_deg": twist, "x": sol.x,
+                      "rmse_mm": float(np.sqrt(np.mean(np.sum(sol.fun.reshape(-1, 3) ** 2, axis=1))))})
+        if progress is not None:
+            progress(k + 1, total)
+    best = None
+    for k, entry in enumerate(sorted(tried, key=lambda e: e["rmse_mm"])[:options.refine if start is None else 1]):
+        sol = least_squares(residual, entry["x"], bounds=(lower, upper), loss="soft_l1", f_scale=scale,
+                            max_nfev=options.evaluations, x_scale="jac")
+        rmse = float(np.sqrt(np.mean(np.sum(sol.fun.reshape(-1, 3) ** 2, axis=1)))) * 1e-3
+        entry["refined_rmse_mm"] = rmse * 1e3
+        if best is None or rmse < best[0]:
+            best = (rmse, sol.x)
+        if progress is not None:
+            progress(len(starts) + k + 1, total)
+    starts_out = tuple({key: (round(v, 4) if isinstance(v, float) else v) for key, v in e.items() if key != "x"}
+                       for e in tried)
+    return Calibration(robot=robot, params=_unpack(best[1], robot), rmse_m=best[0], starts=starts_out,
+                       seconds=time.perf_counter() - t0)

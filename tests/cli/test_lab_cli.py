@@ -1,0 +1,79 @@
+"""``softrnn lab benchmark`` and ``softrnn lab calibrate`` on synthetic stand-ins of a robot's
+recordings: the JSON and figure written; bad input one line, exit 2, nothing written."""
+
+import json
+
+import pytest
+
+from helpers import run_cli, tendon_recording
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    d = tmp_path_factory.mktemp("lab")
+    tendon_recording(d / "train.csv", rows=120, seed=0)
+    tendon_recording(d / "train2.csv", rows=60, seed=2)
+    tendon_recording(d / "val.csv", rows=50, seed=1)
+    return d
+
+
+def test_benchmark_writes_its_json_and_figure(folder, tmp_path, capsys):
+    out = tmp_path / "b.json"
+    code = run_cli(["lab", "benchmark", "--train", str(folder / "train.csv"), str(folder / "train2.csv"),
+                    "--validate", str(folder / "val.csv"), "--length", "0.08", "--families", "physics",
+                    "-o", str(out), "--figure", str(tmp_path / "b.png"), "--quiet"])
+    assert code == 0
+    report = json.loads(out.read_text())
+    assert set(report["models"]) == {"physics"} and report["best_model"] == "physics"
+    assert len(report["robot"]["training_sessions"]) == 2
+    assert report["chosen_on_training"]["holdout"] == "the last training session"
+    assert (tmp_path / "b.png").stat().st_size > 10_000
+    text = capsys.readouterr().out
+    assert "tip RMSE [mm]" in text and "linear_arx" in text and "wrote" in text
+
+
+def test_calibrate_writes_the_robot(folder, tmp_path, capsys):
+    out = tmp_path / "robot.json"
+    assert run_cli(["lab", "calibrate", str(folder / "train.csv"), "--validate", str(folder / "val.csv"),
+                    "--length", "0.08", "--lag", "0", "-o", str(out), "--quiet"]) == 0
+    robot = json.loads(out.read_text())
+    assert robot["validation"]["tip_rmse_mm"] < 0.5 and robot["lag_rows"] == 0
+    assert len(robot["parameters"]["tendon_angles_deg"]) == 3
+
+
+def _bad(args, capsys):
+    code = run_cli(args)
+    err = capsys.readouterr().err.strip()
+    return code, err
+
+
+@pytest.mark.parametrize("change, words", [
+    (["--lag", "500"], "--lag=500 is invalid: fewer rows than the recording"),
+    (["--lag", "soon"], "--lag='soon' is invalid"),
+    (["--segments", "0.1,-2"], "--segments='0.1,-2' is invalid"),
+    (["--families", "physics,oracle"], "--families='physics,oracle' is invalid"),
+    (["--position-unit", "inch"], "invalid choice"),
+    (["--length", "-1"], "--length=-1.0 is invalid"),
+])
+def test_bad_options_one_line_exit_2_nothing_written(folder, tmp_path, capsys, change, words):
+    out = tmp_path / "b.json"
+    code, err = _bad(["lab", "benchmark", "--train", str(folder / "train.csv"), "--validate", str(folder / "val.csv"),
+                      "--length", "0.08", "--families", "physics", "-o", str(out), "--quiet", *change], capsys)
+    assert code == 2 and words in err and "\n" not in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_recordings_one_line_exit_2_nothing_written(folder, tmp_path, capsys):
+    lines = (folder / "train.csv").read_text().splitlines()
+    lines[3], lines[4] = lines[4], lines[3]
+    (tmp_path / "unsorted.csv").write_text("\n".join(lines) + "\n")
+    tendon_recording(tmp_path / "other.csv", rows=30, header=["timestamp", "pattern_label", "servo_1_mm",
+                                                             "servo_20_mm", "servo_99_mm", "tip_x", "tip_y", "tip_z"])
+    out = tmp_path / "out" / "b.json"
+    out.parent.mkdir()
+    for train, words in [(tmp_path / "unsorted.csv", "sort the rows by time"),
+                         (tmp_path / "other.csv", "every session of a robot needs the same input columns")]:
+        code, err = _bad(["lab", "benchmark", "--train", str(train), "--validate", str(folder / "val.csv"),
+                          "--length", "0.08", "-o", str(out), "--quiet"], capsys)
+        assert code == 2 and words in err and "\n" not in err
+        assert list(out.parent.iterdir()) == []

@@ -1,0 +1,111 @@
+"""The displacement-driven tendon robot: closed forms of one segment (the kinematic limit, the
+series spring, slack), the complementarity of opposing tendons, a segment's tendon bending only
+its own and the segments below, and the calibration recovering a known robot."""
+
+import numpy as np
+import pytest
+
+from softrnn.errors import SoftrnnInputError
+from softrnn.lab.recording import read_recording
+from softrnn.lab.tendon_robot import (
+    CalibrationOptions,
+    TendonParameters,
+    TendonRobot,
+    calibrate,
+    tip_positions,
+)
+
+from helpers import tendon_recording, tendon_robot_truth
+
+L, R = 0.1, 5e-3
+
+
+def _one_segment(compliance, offsets=(0.0, 0.0, 0.0)):
+    robot = TendonRobot((L,), 3, R)
+    params = TendonParameters(angles=np.radians([0.0, 120.0, 240.0]), offsets=np.asarray(offsets), routing_radius=R,
+                              compliance=np.array([compliance]), marker=0.0, rotation=np.zeros(3), base=np.zeros(3))
+    return robot, params
+
+
+def _arc_tip(kappa):
+    """The tip of a constant-curvature arc of length L bending toward +x."""
+    return np.array([(1 - np.cos(kappa * L)) / kappa, 0.0, np.sin(kappa * L) / kappa])
+
+
+@pytest.mark.parametrize("q", [1e-3, 3e-3, 6e-3])
+def test_series_spring_closed_form(q):
+    """One tendon pulled by q through a spring k on a backbone EI: kappa = beta r q / (1 + beta r^2 L)
+    with beta = k / EI; the other two tendons slack (released)."""
+    beta = 2.0 / (R ** 2 * L)
+    robot, params = _one_segment(beta)
+    tip, tau = tip_positions(robot, params, np.array([[q, -5e-3, -5e-3]]))
+    kappa = beta * R * q / (1 + beta * R ** 2 * L)
+    np.testing.assert_allclose(tip[0], _arc_tip(kappa), atol=1e-9)
+    np.testing.assert_allclose(tau[0], [q / (1 + beta * R ** 2 * L), 0.0, 0.0], atol=1e-12)
+
+
+def test_stiff_tendons_reach_the_kinematic_limit():
+    """k >> EI / (r^2 L): the tendon shortens by what the servo pulls, kappa -> q / (r L)."""
+    q = 4e-3
+    robot, params = _one_segment(1e6 / (R ** 2 * L))
+    tip, _ = tip_positions(robot, params, np.array([[q, -5e-3, -5e-3]]))
+    np.testing.assert_allclose(tip[0], _arc_tip(q / (R * L)), rtol=1e-5)
+
+
+def test_slack_tendons_leave_the_backbone_straight():
+    robot, params = _one_segment(1.0 / (R ** 2 * L), offsets=(1e-3, 1e-3, 1e-3))
+    q = np.array([[-2e-3, 0.5e-3, 1e-3], [0.0, 0.0, 0.0]])   # every pull within its slack
+    tip, tau = tip_positions(robot, params, q)
+    np.testing.assert_allclose(tip, [[0, 0, L], [0, 0, L]], atol=1e-15)
+    assert np.all(tau == 0.0)
+
+
+def test_equal_pulls_cancel_and_share_the_tension():
+    """All three tendons pulled alike: the moments cancel (no bending), every tendon carries
+    tau / k = q (nothing shortens); the complementarity holds on every row."""
+    beta = 1.0 / (R ** 2 * L)
+    robot, params = _one_segment(beta)
+    tip, tau = tip_positions(robot, params, np.array([[2e-3, 2e-3, 2e-3]]))
+    np.testing.assert_allclose(tip[0], [0, 0, L], atol=1e-10)
+    np.testing.assert_allclose(tau[0], [2e-3] * 3, rtol=1e-6)
+    rng = np.random.default_rng(1)
+    q = rng.uniform(-3e-3, 5e-3, (50, 3))
+    _, tau = tip_positions(robot, params, q)
+    rho = R * np.stack([np.cos(params.angles), np.sin(params.angles)], 1)
+    M = np.eye(3) + beta * L * rho @ rho.T
+    w = tau @ M.T - q
+    assert np.all(tau >= 0) and np.all(w >= -1e-9) and np.all(np.abs(tau * w) < 1e-12)
+
+
+def test_a_segments_tendon_bends_only_up_to_its_end():
+    """Segment 1's tendon pulled on a two-segment robot: segment 2 stays straight, along the
+    tangent at segment 1's end."""
+    robot = TendonRobot((L, L), 3, R)
+    params = TendonParameters(angles=np.radians([0, 120, 240, 60, 180, 300]), offsets=np.zeros(6), routing_radius=R,
+                              compliance=np.full(2, 1.0 / (R ** 2 * L)), marker=0.0, rotation=np.zeros(3),
+                              base=np.zeros(3))
+    q = np.array([[2e-3, -5e-3, -5e-3, -5e-3, -5e-3, -5e-3]])
+    tip, tau = tip_positions(robot, params, q)
+    kappa = tau[0, 0] * params.compliance[0] * R
+    end, angle = _arc_tip(kappa), kappa * L
+    np.testing.assert_allclose(tip[0], end + L * np.array([np.sin(angle), 0.0, np.cos(angle)]), atol=1e-12)
+
+
+def test_calibration_recovers_a_known_robot(tmp_path):
+    """Noise-free synthetic poses of a known robot: the fit reproduces them and predicts other
+    commands to a fraction of a millimetre."""
+    truth_robot, truth = tendon_robot_truth(1)
+    _, u, tip = tendon_recording(tmp_path / "a.csv", rows=160, noise_mm=0.0)
+    cal = calibrate(TendonRobot((0.08,), 3, 4.5e-3), u * 1e-3, tip * 1e-3,
+                    CalibrationOptions(quick_evaluations=40, evaluations=300))
+    assert cal.rmse_m < 0.05e-3
+    rng = np.random.default_rng(5)
+    q = rng.uniform(-2e-3, 3e-3, (40, 3))
+    np.testing.assert_allclose(cal.predict(q), tip_positions(truth_robot, truth, q)[0], atol=0.3e-3)
+
+
+def test_calibration_refuses_inputs_that_do_not_match_the_robot(tmp_path):
+    tendon_recording(tmp_path / "a.csv", rows=30)
+    rec = read_recording(tmp_path / "a.csv")
+    with pytest.raises(SoftrnnInputError, match="--segments and --tendons-per-segment"):
+        calibrate(TendonRobot((0.04, 0.04), 3), rec.inputs * 1e-3, rec.tip)
