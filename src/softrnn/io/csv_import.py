@@ -13,10 +13,16 @@ wrench in the world frame; zero where absent) and, anywhere after ``time``, actu
 ``act_<name>[<unit>]`` (e.g. ``act_tendon_1[N]``, ``act_p_chamber_2[kPa]``; the unit one of
 ``softrnn.io.schema.ACTUATION_UNITS``). Import validates everything before anything is written and
 writes atomically, so a bad CSV leaves no output file.
+
+A robot recording as it comes from the lab (a ``timestamp``, inputs such as ``servo_1_mm``, the tip
+as ``tip_x, tip_y, tip_z``; read by ``softrnn.lab.recording.read_recording``) is written by
+``recording_trajectory`` (checks, no writing) and ``write_recording`` (the tip as one stored node,
+the inputs as actuation channels, time from 0); ``csv_layout`` tells the two layouts apart.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -357,3 +363,160 @@ def export_csv(dataset, csv_path) -> None:
         if tmp.exists():
             tmp.unlink()
         raise
+
+
+# ------------------------------------------------------------------------------------------ robot recordings
+RECORDING_SIGNS = ("timestamp", "tip_x", "tip_y", "tip_z", "servo_")
+"""Header names (or, for ``servo_``, a prefix) that mark a robot recording as it comes from the lab
+(docs/csv-format.md, "Robot recordings"), read by ``softrnn.lab.recording.read_recording``."""
+LABELS_LIMIT = 16384
+"""Most characters of the row labels' runs (as JSON) stored in a recording's attrs; longer are left out."""
+_NODE_COLUMN = re.compile(r"^n[0-9]+_[a-z]+$")
+
+
+def csv_layout(csv_path, *, recording: bool = False) -> str:
+    """Which layout a CSV is in, from its header: ``"nodes"`` (softrnn's layout: any ``n{i}_...``
+    column, read by ``read_csv``/``import_csv``) or ``"recording"`` (a robot recording: no node
+    columns, and a ``timestamp``, ``tip_x``/``tip_y``/``tip_z`` or ``servo_*`` column, or
+    ``recording=True`` when the caller was told how to read one). A file that cannot be read is
+    ``"nodes"`` (``"recording"`` with ``recording=True``), so that its reader reports it."""
+    try:
+        lines = _read_lines(Path(csv_path))
+    except DatasetError:
+        return "recording" if recording else "nodes"
+    names = [c.strip().lower() for c in lines[0][1].split(",")]
+    if any(_NODE_COLUMN.match(n) for n in names):
+        return "nodes"
+    signs = any(n in RECORDING_SIGNS or n.startswith("servo_") for n in names)
+    return "recording" if signs or recording else "nodes"
+
+
+def _recording_unit(source, column: str, unit: str) -> str:
+    """The ``ACTUATION_UNITS`` entry of an input column's unit ('' -> '1'); the ``<name>_<unit>``
+    suffix style is matched ignoring case (``servo_1_N`` -> ``N``), ``act_<name>[<unit>]`` exactly."""
+    unit = unit or "1"
+    if unit in ACTUATION_UNITS:
+        return unit
+    close = [u for u in ACTUATION_UNITS if u.lower() == unit.lower()]
+    if len(close) == 1 and not column.lower().startswith(ACTUATION_PREFIX):
+        return close[0]
+    hint = f" (units are case-sensitive: did you mean {close[0]!r}?)" if close else ""
+    raise _fail(source, f"input column {column!r}: the unit {unit!r} is not recognised{hint}; use one of: "
+                        f"{', '.join(ACTUATION_UNITS)}")
+
+
+def _label_runs(labels) -> list:
+    """Row labels as runs ``[label, first row, rows]`` (consecutive equal labels together)."""
+    runs: list = []
+    for i, label in enumerate(labels):
+        if runs and runs[-1][0] == label:
+            runs[-1][2] += 1
+        else:
+            runs.append([label, i, 1])
+    return runs
+
+
+def recording_trajectory(time, tip, inputs, names, units, *, columns=(), labels=(), source="") -> dict:
+    """Check a robot recording's arrays and turn them into a dataset's content, writing nothing.
+
+    Parameters
+    ----------
+    time : (T,) times [s] as recorded (any origin, e.g. Unix time), strictly increasing, any spacing
+    tip : (T, 3) the tracked tip [m]
+    inputs : (T, m) the commanded inputs, in their channels' units
+    names, units : m channel names and units (``""`` means dimensionless, stored as ``1``); the
+        units must be ``ACTUATION_UNITS`` (a ``<name>_<unit>`` column's unit matched ignoring case)
+    columns : m column names, for the messages (default: the names)
+    labels : T row labels, or ()
+    source : the file the arrays came from, named in the messages
+
+    Returns
+    -------
+    dict with ``time`` (T,) [s] from 0, ``time_origin_s`` (the recorded time of the first row),
+    ``tip`` (T, 3), ``actuation`` (T, m), ``actuation_units`` ({name: unit}) and ``labels`` (runs
+    ``[label, first row, rows]``, or None when there are no labels or their JSON exceeds
+    ``LABELS_LIMIT`` characters; ``label_runs`` counts them either way).
+
+    Raises
+    ------
+    DatasetError
+        One line naming the source, the column or row and the fix.
+    """
+    source = source or "recording"
+    time = np.asarray(time, dtype=np.float64)
+    tip = np.asarray(tip, dtype=np.float64)
+    inputs = np.asarray(inputs, dtype=np.float64)
+    T = time.shape[0] if time.ndim == 1 else -1
+    if T < 2 or tip.shape != (T, 3) or inputs.ndim != 2 or inputs.shape[0] != T:
+        raise _fail(source, f"time {time.shape}, tip {tip.shape} and inputs {inputs.shape} do not fit; expected "
+                            "(T,), (T, 3) and (T, m) with T >= 2")
+    if len(names) != inputs.shape[1] or len(units) != inputs.shape[1]:
+        raise _fail(source, f"{inputs.shape[1]} input columns but {len(names)} names and {len(units)} units; "
+                            "give one name and unit per column")
+    columns = tuple(columns) or tuple(names)
+    for what, arr in (("time", time), ("tip", tip), ("inputs", inputs)):
+        if not np.isfinite(arr).all():
+            raise _fail(source, f"{what} has a non-finite value at row {int(np.argwhere(~np.isfinite(arr))[0][0])}; "
+                                "every value must be finite")
+    steps = np.diff(time)
+    if np.any(steps <= 0):
+        i = int(np.argmax(steps <= 0))
+        raise _fail(source, f"row {i + 1}: time {float(time[i + 1])!r} is not after {float(time[i])!r}; rows must "
+                            "be in strictly increasing time order, without duplicates")
+    reach = np.abs(tip)
+    if reach.max() > POSITION_LIMIT_M:
+        i, k = (int(v) for v in np.argwhere(reach > POSITION_LIMIT_M)[0])
+        raise _fail(source, f"row {i}: the tip's {'xyz'[k]} is {tip[i, k]:g} m, beyond {POSITION_LIMIT_M:g} m; "
+                            "check the position unit (mm, cm or m)")
+    channels: dict[str, str] = {}
+    for name, unit, column in zip(names, units, columns):
+        key = str(name).lower()
+        if not ACTUATION_NAME.match(key):
+            raise _fail(source, f"input column {column!r}: the channel name {key!r} is invalid; name input columns "
+                                "with a letter, then letters, digits or '_' (e.g. servo_1_mm)")
+        if key in channels:
+            raise _fail(source, f"input column {column!r}: the channel {key!r} appears twice; name every input "
+                                "channel once")
+        channels[key] = _recording_unit(source, column, str(unit))
+    if len(labels) and len(labels) != T:
+        raise _fail(source, f"{len(labels)} labels for {T} rows; give one label per row, or none")
+    runs = _label_runs(labels) if len(labels) else []
+    stored = runs if runs and len(json.dumps(runs)) <= LABELS_LIMIT else None
+    return {"time": time - time[0], "time_origin_s": float(time[0]), "tip": tip, "actuation": inputs,
+            "actuation_units": channels, "labels": stored, "label_runs": len(runs)}
+
+
+def write_recording(out_path, recording: dict, *, tip_node: int = 1, rod_length: float | None = None,
+                    seed: int | None = None, scenario_text: str = "", attrs: dict | None = None) -> Dataset:
+    """Write a robot recording (``recording_trajectory``'s dict) as a dataset, atomically.
+
+    The tip is the one stored node, ``tip_node`` (``n_nodes_total`` = ``tip_node`` + 1), positions
+    in m, no orientations (identity placeholders), zero forces and torques; the inputs are the
+    ``actuation`` channels. ``time`` starts at 0 and ``dt`` is the median step. ``attrs``:
+    ``source='recording'``, ``time_origin_s``, ``has_orientations=False``, empty ``force_nodes`` and
+    ``torque_nodes``, ``labels`` (when stored) and the caller's ``attrs`` (e.g. ``source_file``,
+    ``lag_rows``). Returns the file as read back.
+    """
+    if isinstance(tip_node, bool) or not isinstance(tip_node, (int, np.integer)) or tip_node < 0:
+        raise bad("tip_node", tip_node, "a node index >= 0")
+    if rod_length is not None and (isinstance(rod_length, bool) or not isinstance(rod_length, (int, float))
+                                   or not math.isfinite(rod_length) or rod_length <= 0):
+        raise bad("rod_length", rod_length, "a positive rod length in m")
+    time, tip = recording["time"], recording["tip"]
+    T = time.size
+    meta = {"source": "recording", "time_origin_s": recording["time_origin_s"], "has_orientations": False,
+            "force_nodes": [], "torque_nodes": []}
+    if recording.get("labels") is not None:
+        meta["labels"] = recording["labels"]
+    meta.update(attrs or {})
+    quaternions = np.zeros((T, 1, 4))
+    quaternions[..., 0] = 1.0
+    data = {"time": time, "actuation": recording["actuation"], "positions": tip[:, None, :],
+            "quaternions": quaternions, "forces": np.zeros((T, 1, 3)), "torques": np.zeros((T, 1, 3))}
+    out_path = Path(out_path)
+    with DatasetWriter(out_path, nodes=[int(tip_node)], n_samples=T, dt=float(np.median(np.diff(time))),
+                       rod=None if rod_length is None else {"length": float(rod_length)},
+                       scenario_text=scenario_text, seed=seed, attrs=meta,
+                       actuation_units=recording["actuation_units"]) as writer:
+        writer.append(_Chunk(data))
+    return read_dataset(out_path)

@@ -140,25 +140,18 @@ def _check_pulls(robot: TendonRobot, sessions) -> None:
                 "check the units and the column order, or give the robot's --routing-radius")
 
 
-def run_benchmark(train: list[Recording], validation: Recording, options: BenchmarkOptions,
-                  progress=None) -> BenchmarkResult:
-    """Fit every baseline and model family on ``train`` (sessions of one robot) and run each free
-    over ``validation`` from its start. ``progress(done, total, {"stage": text})`` after each stage."""
-    t0 = time.perf_counter()
-    sessions = list(train) + [validation]
-    check_sessions(sessions)
-    if options.lag == "auto":
-        lag, lag_scores = estimate_lag(train)
-        lag_info = {"lag_rows": lag, "estimated": True,
-                    "linear_fit_rmse_mm_by_lag": {str(k): round(v * 1e3, 3) for k, v in lag_scores.items()}}
-    else:
-        lag = options.lag
-        lag_info = {"lag_rows": lag, "estimated": False}
-    train = [shift_inputs(s, lag) for s in train]
-    validation = shift_inputs(validation, lag)
-    robot = _robot(options, validation.n_inputs)
-    skipped = {}
-    families = list(options.families)
+def _lag(train: list[Recording], options: BenchmarkOptions) -> tuple[int, dict]:
+    if options.lag != "auto":
+        return options.lag, {"lag_rows": options.lag, "estimated": False}
+    lag, scores = estimate_lag(train)
+    return lag, {"lag_rows": lag, "estimated": True,
+                 "linear_fit_rmse_mm_by_lag": {str(k): round(v * 1e3, 3) for k, v in scores.items()}}
+
+
+def _families(options: BenchmarkOptions, robot, sessions) -> tuple[list, dict]:
+    """The families to run and those skipped {name: why}: the physics and the hybrid need tendon
+    displacements that match the robot."""
+    families, skipped = list(options.families), {}
     reason = "the inputs do not split into segments of --tendons-per-segment" if robot is None else \
         _physics_reason(sessions, robot.n_tendons)
     if reason:
@@ -167,7 +160,91 @@ def run_benchmark(train: list[Recording], validation: Recording, options: Benchm
                 families.remove(f)
                 skipped[f] = reason
     elif "physics" in families or "hybrid" in families:
-        _check_pulls(robot, train + [validation])
+        _check_pulls(robot, sessions)
+    return families, skipped
+
+
+class _Table:
+    """The validation session's errors, predictions and model descriptions, filled as models are run."""
+
+    def __init__(self, validation: Recording, length: float):
+        self.validation, self.length = validation, length
+        self.predictions, self.details, self.models, self.baselines = {}, {}, {}, {}
+
+    def record(self, table: dict, name: str, model, holdout_scores=None) -> None:
+        pred = model.predict(self.validation)
+        self.predictions[name] = pred
+        err = tip_errors(pred, self.validation.tip)
+        err["tip_rmse_pct_of_length"] = err["tip_rmse_mm"] / (self.length * 1e3) * 100.0
+        table[name] = {k: round(v, 4) for k, v in err.items()}
+        self.details[name] = model.describe()
+        if holdout_scores is not None:
+            self.details[name]["holdout_rmse_mm"] = holdout_scores
+
+
+def _baselines(train: list[Recording], out: _Table) -> None:
+    """Persistence, the linear ARX model and the static polynomial map, their options chosen on the
+    training sessions' hold-out part."""
+    out.record(out.baselines, "persistence", Persistence().fit(train))
+    c = choose({f"na={a},nb={b}": (lambda a=a, b=b: LinearARX(a, b)) for a, b in ARX_ORDERS}, train)
+    a, b = (int(x.split("=")[1]) for x in c.chosen.split(","))
+    out.record(out.baselines, "linear_arx", LinearARX(a, b).fit(train), c.scores)
+    c = choose({f"degree={d},ridge={r:g}": (lambda d=d, r=r: StaticPolynomial(d, r)) for d, r in POLY_CANDIDATES},
+               train)
+    d, r = (x.split("=")[1] for x in c.chosen.split(","))
+    out.record(out.baselines, "static_map", StaticPolynomial(int(d), float(r)).fit(train), c.scores)
+
+
+def _models(train: list[Recording], families: list, robot, options: BenchmarkOptions, out: _Table, step) -> dict:
+    """Fit each family (its options chosen on the hold-out part) and run it; returns each family's
+    hold-out score [mm]."""
+    fit_part, held = holdout_split(train)
+    held_ref = np.vstack([s.tip for s in held])
+
+    def held_score(model):
+        return round(tip_errors(np.vstack([model.predict(s) for s in held]), held_ref)["tip_rmse_mm"], 4)
+
+    holdout = {}
+    physics = held_physics = None
+    if "physics" in families or "hybrid" in families:
+        held_physics = Physics(robot, options.calibration).fit(fit_part)
+        # on every training row, refined from the hold-out part's calibration
+        physics = Physics(robot, options.calibration, start=held_physics.calibration.params).fit(train)
+    if "physics" in families:
+        holdout["physics"] = held_score(held_physics)
+        out.record(out.models, "physics", physics)
+        step("physics")
+    if "learned_map" in families:
+        c = choose({f"hysteresis={h}": (lambda h=h: LearnedMap(h, options.nets)) for h in (False, True)}, train)
+        holdout["learned_map"] = c.scores[c.chosen]
+        out.record(out.models, "learned_map", LearnedMap(c.chosen.endswith("True"), options.nets).fit(train),
+                   c.scores)
+        step("learned_map")
+    if "hybrid" in families:
+        scores = {f"hysteresis={h}": held_score(Hybrid(held_physics, h, options.nets).fit(fit_part))
+                  for h in (False, True)}
+        best = min(scores, key=scores.get)
+        holdout["hybrid"] = scores[best]
+        out.record(out.models, "hybrid", Hybrid(physics, best.endswith("True"), options.nets).fit(train), scores)
+        step("hybrid")
+    if "sequence" in families:
+        holdout["sequence"] = held_score(Sequence(options.sequence).fit(fit_part))
+        out.record(out.models, "sequence", Sequence(options.sequence).fit(train))
+        step("sequence")
+    return holdout
+
+
+def run_benchmark(train: list[Recording], validation: Recording, options: BenchmarkOptions,
+                  progress=None) -> BenchmarkResult:
+    """Fit every baseline and model family on ``train`` (sessions of one robot) and run each free
+    over ``validation`` from its start. ``progress(done, total, {"stage": text})`` after each stage."""
+    t0 = time.perf_counter()
+    check_sessions(list(train) + [validation])
+    lag, lag_info = _lag(train, options)
+    train = [shift_inputs(s, lag) for s in train]
+    validation = shift_inputs(validation, lag)
+    robot = _robot(options, validation.n_inputs)
+    families, skipped = _families(options, robot, train + [validation])
     stages = ["baselines"] + families
     done = 0
 
@@ -177,73 +254,17 @@ def run_benchmark(train: list[Recording], validation: Recording, options: Benchm
         if progress is not None:
             progress(done, len(stages), {"stage": stage})
 
-    L = options.length
-    predictions, baselines, models, chosen, details = {}, {}, {}, {}, {}
-
-    def record(table, name, model):
-        pred = model.predict(validation)
-        predictions[name] = pred
-        err = tip_errors(pred, validation.tip)
-        err["tip_rmse_pct_of_length"] = err["tip_rmse_mm"] / (L * 1e3) * 100.0
-        table[name] = {k: round(v, 4) for k, v in err.items()}
-        details[name] = model.describe()
-
-    # baselines: options chosen on the hold-out part of the training sessions
-    record(baselines, "persistence", Persistence().fit(train))
-    c = choose({f"na={a},nb={b}": (lambda a=a, b=b: LinearARX(a, b)) for a, b in ARX_ORDERS}, train)
-    a, b = (int(x.split("=")[1]) for x in c.chosen.split(","))
-    record(baselines, "linear_arx", LinearARX(a, b).fit(train))
-    details["linear_arx"]["holdout_rmse_mm"] = c.scores
-    c = choose({f"degree={d},ridge={r:g}": (lambda d=d, r=r: StaticPolynomial(d, r)) for d, r in POLY_CANDIDATES},
-               train)
-    d, r = c.chosen.split(",")
-    record(baselines, "static_map", StaticPolynomial(int(d.split("=")[1]), float(r.split("=")[1])).fit(train))
-    details["static_map"]["holdout_rmse_mm"] = c.scores
+    out = _Table(validation, options.length)
+    _baselines(train, out)
     step("baselines")
-
-    fit_part, held = holdout_split(train)
-    held_ref = np.vstack([s.tip for s in held])
-    holdout = {}
-
-    def held_score(model):
-        return round(tip_errors(np.vstack([model.predict(s) for s in held]), held_ref)["tip_rmse_mm"], 4)
-
-    physics = held_physics = None
-    if "physics" in families or "hybrid" in families:
-        held_physics = Physics(robot, options.calibration).fit(fit_part)
-        # on every training row, refined from the hold-out part's calibration
-        physics = Physics(robot, options.calibration, start=held_physics.calibration.params).fit(train)
-    if "physics" in families:
-        holdout["physics"] = held_score(held_physics)
-        record(models, "physics", physics)
-        step("physics")
-    if "learned_map" in families:
-        c = choose({f"hysteresis={h}": (lambda h=h: LearnedMap(h, options.nets)) for h in (False, True)}, train)
-        holdout["learned_map"] = c.scores[c.chosen]
-        record(models, "learned_map", LearnedMap(c.chosen.endswith("True"), options.nets).fit(train))
-        details["learned_map"]["holdout_rmse_mm"] = c.scores
-        step("learned_map")
-    if "hybrid" in families:
-        scores = {}
-        for h in (False, True):
-            scores[f"hysteresis={h}"] = held_score(Hybrid(held_physics, h, options.nets).fit(fit_part))
-        best = min(scores, key=scores.get)
-        holdout["hybrid"] = scores[best]
-        record(models, "hybrid", Hybrid(physics, best.endswith("True"), options.nets).fit(train))
-        details["hybrid"]["holdout_rmse_mm"] = scores
-        step("hybrid")
-    if "sequence" in families:
-        holdout["sequence"] = held_score(Sequence(options.sequence).fit(fit_part))
-        record(models, "sequence", Sequence(options.sequence).fit(train))
-        step("sequence")
-    if holdout:
-        chosen = {"family": min(holdout, key=holdout.get), "holdout_rmse_mm": holdout,
-                  "holdout": "the last training session" if len(train) >= 2 else
-                             "the last quarter of the training session"}
-    robot_info = {"length_m": L, **lag_info,
+    holdout = _models(train, families, robot, options, out, step)
+    chosen = {"family": min(holdout, key=holdout.get), "holdout_rmse_mm": holdout,
+              "holdout": "the last training session" if len(train) >= 2 else
+                         "the last quarter of the training session"} if holdout else {}
+    robot_info = {"length_m": options.length, **lag_info,
                   "training_sessions": [s.describe() for s in train], "validation_session": validation.describe()}
     if robot is not None:
         robot_info.update(segments_m=list(robot.segment_lengths), tendons_per_segment=robot.tendons_per_segment)
-    return BenchmarkResult(robot=robot_info, models=models, baselines=baselines, chosen_on_training=chosen,
-                           details=details, skipped=skipped, seconds=time.perf_counter() - t0,
-                           predictions=predictions, validation=validation)
+    return BenchmarkResult(robot=robot_info, models=out.models, baselines=out.baselines, chosen_on_training=chosen,
+                           details=out.details, skipped=skipped, seconds=time.perf_counter() - t0,
+                           predictions=out.predictions, validation=validation)

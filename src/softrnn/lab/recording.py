@@ -221,8 +221,8 @@ def read_recording(path, layout: Layout = Layout()) -> Recording:
     if np.any(steps <= 0):
         r = int(np.argmax(steps <= 0)) + 1
         what = "repeats" if steps[r - 1] == 0 else "goes back from"
-        raise _fail(path, f"line {lines[r + 1][0]}: the time {time[r]!r} {what} the previous row's "
-                          f"{time[r - 1]!r}; sort the rows by time and drop duplicated rows")
+        raise _fail(path, f"line {lines[r + 1][0]}: the time {float(time[r])!r} {what} the previous row's "
+                          f"{float(time[r - 1])!r}; sort the rows by time and drop duplicated rows")
     split = [_split_unit(header[j]) for j in icols]
     return Recording(path=str(path), time=time, inputs=values[:, 1:1 + len(icols)].copy(),
                      names=tuple(n for n, _ in split), units=tuple(u for _, u in split),

@@ -125,7 +125,8 @@ class TendonParameters:
     def to_dict(self, robot: TendonRobot) -> dict:
         ratio = [float(self.compliance[s] * self.routing_radius ** 2 * L)
                  for s, L in enumerate(robot.segment_lengths)]
-        return {"tendon_angles_deg": np.degrees(self.angles).round(3).tolist(),
+        wrapped = np.angle(np.exp(1j * self.angles))          # in (-pi, pi]
+        return {"tendon_angles_deg": np.degrees(wrapped).round(3).tolist(),
                 "tendon_offsets_mm": (self.offsets * 1e3).round(4).tolist(),
                 "routing_radius_mm": round(self.routing_radius * 1e3, 4),
                 "bending_over_series_stiffness_m3": [float(f"{1.0 / c:.6g}") for c in self.compliance],

@@ -20,6 +20,7 @@ test spans are disjoint and windows are built inside each span, so no window str
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass, field, replace
 
@@ -656,3 +657,11 @@ class Normalizer:
             return cls(**d)
         except TypeError as err:
             raise bad("normalizer", sorted(d), f"the Normalizer fields ({err})") from None
+
+
+def node_positions_sha256(data, node: int) -> str:
+    """SHA-256 (hex) of ``node``'s positions in ``data`` (as float32, the files' precision): tells
+    a model's training record apart from another file, wherever it was moved or renamed."""
+    col = int(np.flatnonzero(np.asarray(data.nodes) == int(node))[0])
+    column = np.ascontiguousarray(np.asarray(data.positions)[:, col], dtype=np.float32)
+    return hashlib.sha256(column.tobytes()).hexdigest()

@@ -61,7 +61,7 @@ from ...paper import paper_results
 from .. import baselines as bl
 from ..horizons import HORIZONS, HorizonTable, spread_starts, worst_by_horizon
 from ..spans import check_length
-from .data import actuation_rows, make_windows, split
+from .data import actuation_rows, make_windows, node_positions_sha256, split
 from .manipulator import RolloutDiverged, _stored, describe_model, model_inputs
 from .rollout import rollout
 
@@ -506,8 +506,6 @@ def training_record(model, dataset, source=None) -> tuple[LinearTraining | None,
     (``LinearTraining``, '') where the file the model's meta.json names still exists, is
     compatible and holds what was trained on (its sample count, and for a model trained on a
     whole record the node's positions, ``node_positions_sha256``); (None, why not) otherwise."""
-    from .training_data import node_positions_sha256
-
     if same_record(model, dataset, source):
         return None, "same"
     sessions = (getattr(model, "meta", None) or {}).get("training_data") or {}
@@ -541,8 +539,6 @@ def same_record(model, dataset, source=None) -> bool:
     """Whether ``dataset`` (read from ``source``, or None) is the model's training record: for a
     model trained on a whole record, by its node's positions (``node_positions_sha256``); else by
     the file's path, or its name and sample count."""
-    from .training_data import node_positions_sha256
-
     sessions = (getattr(model, "meta", None) or {}).get("training_data") or {}
     digest = (sessions.get("train") or {}).get("node_positions_sha256")
     if digest:

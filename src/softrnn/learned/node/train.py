@@ -42,14 +42,13 @@ from ...progress import Progress
 from ._checkpoint import FINISHED, Checkpoint, load_finished, training_settings
 from ._epochs import new_module, torch_settings, train_epochs
 from .artifact import NodeModel, check_replaceable, save_model
-from .data import Normalizer, SampleSpec, wrench_units
+from .data import Normalizer, SampleSpec, node_positions_sha256, wrench_units
 from .model import ModelConfig
 from .training_data import (
     TrainingData,
     dataset_meta,
     fingerprint,
     load_training_data,
-    node_positions_sha256,
     training_tensors,
 )
 

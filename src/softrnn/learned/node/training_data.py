@@ -178,6 +178,9 @@ def load_training_data(dataset_path, spec: SampleSpec, train: _WindowSettings, p
 
 DT_TOLERANCE = 1e-3
 """Largest relative difference between the training and validation recordings' sample intervals."""
+IRREGULAR_DT_TOLERANCE = 0.1
+"""The same where either recording's rows come at irregular intervals (its ``dt`` is the median
+step): sessions of one lab loop differ a little in their median."""
 
 
 def check_validation_data(train_data, validation, spec: SampleSpec, nodes, where: str) -> None:
@@ -219,10 +222,17 @@ def check_validation_data(train_data, validation, spec: SampleSpec, nodes, where
         raise bad("validate_on", where, f"a rod of {theirs} nodes like the training data, but it has {total}; "
                                         f"validate on a recording of the same rod")
     dt, their_dt = validation.attrs.get("dt"), train_data.attrs.get("dt")
+    regular = _regular(validation) and _regular(train_data)
     if isinstance(dt, (int, float)) and isinstance(their_dt, (int, float)) and their_dt > 0 \
-            and abs(dt - their_dt) > DT_TOLERANCE * their_dt:
+            and abs(dt - their_dt) > (DT_TOLERANCE if regular else IRREGULAR_DT_TOLERANCE) * their_dt:
         raise bad("validate_on", where, f"a recording sampled every {their_dt:g} s like the training data, but it "
                                         f"is sampled every {dt:g} s; resample it")
+
+
+def _regular(data) -> bool:
+    """Whether every step of ``data.time`` is its nominal ``dt`` (to 1e-6 of it)."""
+    steps, dt = np.diff(np.asarray(data.time, dtype=float)), data.attrs.get("dt")
+    return steps.size == 0 or not isinstance(dt, (int, float)) or bool(np.max(np.abs(steps - dt)) <= 1e-6 * dt)
 
 
 def _load_data(dataset_path, spec: SampleSpec, pool=None):
@@ -316,14 +326,6 @@ def fingerprint(fit: Windows, val: Windows) -> str:
     for arr in (fit.poses, fit.wrenches, fit.targets, fit.index, val.poses, val.targets, val.index):
         h.update(np.ascontiguousarray(arr).tobytes())
     return h.hexdigest()
-
-
-def node_positions_sha256(data, node: int) -> str:
-    """SHA-256 (hex) of ``node``'s positions in ``data`` (as float32, the files' precision): tells
-    a model's training record apart from another file, wherever it was moved or renamed."""
-    col = int(np.flatnonzero(np.asarray(data.nodes) == int(node))[0])
-    column = np.ascontiguousarray(np.asarray(data.positions)[:, col], dtype=np.float32)
-    return hashlib.sha256(column.tobytes()).hexdigest()
 
 
 # ------------------------------------------------------------------------------------------ tensors
