@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install reproduce reproduce-quick test test-all lint docs bench clean
+.PHONY: install reproduce reproduce-quick real-robot test test-all lint docs bench clean
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -19,6 +19,14 @@ reproduce: $(STAMP)
 
 reproduce-quick: $(STAMP)
 	$(BIN)/softrnn reproduce --quick --out out/reproduce-quick
+
+# The real-robot benchmark on recordings in the layout of docs/guide/real-robots.md:
+#   make real-robot DATA=path/to/opencr-tdcr-v6
+DATA ?= data/opencr-tdcr-v6
+real-robot: $(STAMP)
+	mkdir -p out/real-robot
+	$(BIN)/softrnn lab benchmark --train $(DATA)/train.csv --validate $(DATA)/val.csv --length 0.222 \
+		--segments 0.1,0.1,0.022 --json out/real-robot/benchmark.json --figure out/real-robot/benchmark.png --overwrite
 
 test: $(STAMP)
 	NUMBA_NUM_THREADS=1 $(BIN)/python -m pytest -q

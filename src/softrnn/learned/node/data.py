@@ -665,3 +665,15 @@ def node_positions_sha256(data, node: int) -> str:
     col = int(np.flatnonzero(np.asarray(data.nodes) == int(node))[0])
     column = np.ascontiguousarray(np.asarray(data.positions)[:, col], dtype=np.float32)
     return hashlib.sha256(column.tobytes()).hexdigest()
+
+
+IRREGULAR_DT_TOLERANCE = 0.1
+"""Largest relative difference between a model's and a recording's sample intervals where the rows
+come at irregular intervals (``dt`` is then the median
+step): sessions of one lab loop differ a little in their median."""
+
+
+def regular_times(data) -> bool:
+    """Whether every step of ``data.time`` is its nominal ``dt`` (to 1e-6 of it)."""
+    steps, dt = np.diff(np.asarray(data.time, dtype=float)), data.attrs.get("dt")
+    return steps.size == 0 or not isinstance(dt, (int, float)) or bool(np.max(np.abs(steps - dt)) <= 1e-6 * dt)

@@ -61,7 +61,7 @@ from ...paper import paper_results
 from .. import baselines as bl
 from ..horizons import HORIZONS, HorizonTable, spread_starts, worst_by_horizon
 from ..spans import check_length
-from .data import actuation_rows, make_windows, node_positions_sha256, split
+from .data import IRREGULAR_DT_TOLERANCE, actuation_rows, make_windows, node_positions_sha256, regular_times, split
 from .manipulator import RolloutDiverged, _stored, describe_model, model_inputs
 from .rollout import rollout
 
@@ -294,10 +294,11 @@ def rod_length(model, dataset) -> float | None:
             or _rod_length({"length": trained.get("rod_length_m")}))
 
 
-def check_compatible(model, dataset, where: str = "the data set") -> None:
+def check_compatible(model, dataset, where: str = "the data set", *, sampling: bool = True) -> None:
     """Raise a one-line SoftrnnInputError unless ``model`` can be applied to ``dataset``: it stores
     the model's node and neighbours, has the units, rod node count and sample interval of the
-    model's training data (where the model records them)."""
+    model's training data (where the model records them; ``sampling=False`` leaves the interval
+    out, for a first look at a file's first sample)."""
     node, neighbours = model_inputs(model)
     stored = set(int(a) for a in np.asarray(dataset.nodes))
     for b in (node, *neighbours):
@@ -320,9 +321,17 @@ def check_compatible(model, dataset, where: str = "the data set") -> None:
         raise SoftrnnInputError(f"{where} is a rod of {total} nodes but the model was trained on one of {theirs}: "
                                 f"node {node} is another point of the rod; use data of a rod discretised "
                                 f"like the training data")
+    if sampling:
+        _check_sampling(dataset, trained, where)
+
+
+def _check_sampling(dataset, trained: dict, where: str) -> None:
+    """The recording's sample interval is the model's (within ``DT_TOLERANCE``, or within
+    ``IRREGULAR_DT_TOLERANCE`` of the median step where the rows come at irregular intervals)."""
     dt, their_dt = dataset.attrs.get("dt"), trained.get("dt")
+    tolerance = DT_TOLERANCE if regular_times(dataset) else IRREGULAR_DT_TOLERANCE
     if isinstance(dt, (int, float)) and isinstance(their_dt, (int, float)) and their_dt > 0 \
-            and abs(dt - their_dt) > DT_TOLERANCE * their_dt:
+            and abs(dt - their_dt) > tolerance * their_dt:
         raise SoftrnnInputError(f"{where} is sampled every {dt:g} s but the model predicts steps of {their_dt:g} s; "
                                 f"use data sampled like the training data")
 
@@ -928,9 +937,11 @@ def load_for_model(model, path, *, group: str | None = None):
     """Read from ``path`` only what ``model`` needs (its node and neighbours, every sample),
     after checking compatibility on the file's metadata. Errors are one line."""
     head = read_dataset(path, group=group, stop=1)           # stored nodes and attrs
-    check_compatible(model, head, where=str(path))
+    check_compatible(model, head, where=str(path), sampling=False)
     node, neighbours = model_inputs(model)
-    return read_dataset(path, nodes=[node, *neighbours], group=group)
+    data = read_dataset(path, nodes=[node, *neighbours], group=group)
+    check_compatible(model, data, where=str(path))
+    return data
 
 
 def evaluate(model, data, *, group: str | None = None, generalisation: bool = False, free: bool = True,

@@ -19,7 +19,7 @@ import numpy as np
 from ...errors import SoftrnnInputError, bad
 from ...io.reader import Dataset, read_dataset
 from ._losses import _MultiStep, _OneStep, _RelativeMultiStep
-from .data import Normalizer, SampleSpec, Windows, make_windows, split
+from .data import IRREGULAR_DT_TOLERANCE, Normalizer, SampleSpec, Windows, make_windows, regular_times, split
 from .model import ModelConfig
 
 
@@ -178,9 +178,6 @@ def load_training_data(dataset_path, spec: SampleSpec, train: _WindowSettings, p
 
 DT_TOLERANCE = 1e-3
 """Largest relative difference between the training and validation recordings' sample intervals."""
-IRREGULAR_DT_TOLERANCE = 0.1
-"""The same where either recording's rows come at irregular intervals (its ``dt`` is the median
-step): sessions of one lab loop differ a little in their median."""
 
 
 def check_validation_data(train_data, validation, spec: SampleSpec, nodes, where: str) -> None:
@@ -222,17 +219,11 @@ def check_validation_data(train_data, validation, spec: SampleSpec, nodes, where
         raise bad("validate_on", where, f"a rod of {theirs} nodes like the training data, but it has {total}; "
                                         f"validate on a recording of the same rod")
     dt, their_dt = validation.attrs.get("dt"), train_data.attrs.get("dt")
-    regular = _regular(validation) and _regular(train_data)
+    regular = regular_times(validation) and regular_times(train_data)
     if isinstance(dt, (int, float)) and isinstance(their_dt, (int, float)) and their_dt > 0 \
             and abs(dt - their_dt) > (DT_TOLERANCE if regular else IRREGULAR_DT_TOLERANCE) * their_dt:
         raise bad("validate_on", where, f"a recording sampled every {their_dt:g} s like the training data, but it "
                                         f"is sampled every {dt:g} s; resample it")
-
-
-def _regular(data) -> bool:
-    """Whether every step of ``data.time`` is its nominal ``dt`` (to 1e-6 of it)."""
-    steps, dt = np.diff(np.asarray(data.time, dtype=float)), data.attrs.get("dt")
-    return steps.size == 0 or not isinstance(dt, (int, float)) or bool(np.max(np.abs(steps - dt)) <= 1e-6 * dt)
 
 
 def _load_data(dataset_path, spec: SampleSpec, pool=None):
