@@ -95,6 +95,7 @@ class BenchmarkResult:
         return min(table, key=lambda k: table[k]["tip_rmse_mm"]) if table else None
 
     def to_dict(self) -> dict:
+        """The benchmark's JSON (docs/guide/real-robots.md)."""
         best_model, best_baseline = self._best(self.models), self._best(self.baselines)
         ratio = (self.models[best_model]["tip_rmse_mm"] / self.baselines[best_baseline]["tip_rmse_mm"]
                  if best_model and best_baseline else None)

@@ -76,12 +76,15 @@ class Persistence:
     name: str = "persistence"
 
     def fit(self, sessions) -> Persistence:
+        """Fit on training sessions (a list of ``Recording``); returns the model."""
         return self
 
     def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         return np.repeat(session.tip[:1], session.n_rows, axis=0)
 
     def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
         return {"kind": "the first row's tip held"}
 
 
@@ -98,6 +101,7 @@ class LinearARX:
         return np.concatenate([*(y[k - i] for i in range(1, self.na + 1)), *(u[k - j] for j in range(self.nb)), [1.0]])
 
     def fit(self, sessions) -> LinearARX:
+        """Fit on training sessions (a list of ``Recording``); returns the model."""
         m = max(self.na, self.nb - 1)
         X, Y = [], []
         for s in sessions:
@@ -108,6 +112,7 @@ class LinearARX:
         return self
 
     def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         m = max(self.na, self.nb - 1)
         y = np.empty_like(session.tip)
         y[:m] = session.tip[:m]
@@ -116,6 +121,7 @@ class LinearARX:
         return y
 
     def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
         return {"kind": "linear ARX, least squares, free running", "na": self.na, "nb": self.nb}
 
 
@@ -150,6 +156,7 @@ class StaticPolynomial:
         return _monomials((u - self.mu) / self.sd, self.degree)
 
     def fit(self, sessions) -> StaticPolynomial:
+        """Fit on training sessions (a list of ``Recording``); returns the model."""
         u = np.vstack([s.inputs for s in sessions])
         y = np.vstack([s.tip for s in sessions])
         self.mu, self.sd = u.mean(axis=0), u.std(axis=0) + 1e-12
@@ -160,9 +167,11 @@ class StaticPolynomial:
         return self
 
     def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         return self._features(session.inputs) @ self.W
 
     def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
         return {"kind": "polynomial of the current inputs, ridge least squares", "degree": self.degree,
                 "ridge": self.ridge}
 
@@ -193,15 +202,18 @@ class Physics:
     start: object = None
 
     def fit(self, sessions) -> Physics:
+        """Fit on training sessions (a list of ``Recording``); returns the model."""
         q = np.vstack([displacements(s) for s in sessions])
         tip = np.vstack([s.tip for s in sessions])
         self.calibration = calibrate(self.robot, q, tip, self.options, progress=self.progress, start=self.start)
         return self
 
     def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         return self.calibration.predict(displacements(session))
 
     def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
         return {"kind": "calibrated tendon robot physics", **self.calibration.to_dict()}
 
 
@@ -234,6 +246,7 @@ class _Ensemble:
         self.members = []
 
     def fit(self, X: np.ndarray, Y: np.ndarray) -> _Ensemble:
+        """Fit on training sessions (a list of ``Recording``); returns the model."""
         import torch  # optional extra: learn (PyTorch)
 
         o = self.options
@@ -282,6 +295,7 @@ class LearnedMap:
     widths: object = None
 
     def fit(self, sessions) -> LearnedMap:
+        """Fit on training sessions (a list of ``Recording``); returns the model."""
         self.widths = _widths(sessions, self.hysteresis)
         X = np.vstack([_features(s, self.widths) for s in sessions])
         self.offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
@@ -290,9 +304,11 @@ class LearnedMap:
         return self
 
     def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         return self.net(_features(session, self.widths)) + self.offset
 
     def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
         return {"kind": "MLP ensemble of the current and previous inputs" +
                         (" and a hysteresis state (play operators)" if self.hysteresis else ""),
                 **{k: v for k, v in vars(self.options).items()}}
@@ -314,6 +330,7 @@ class Hybrid:
         return np.hstack([_features(s, self.widths), base])
 
     def fit(self, sessions) -> Hybrid:
+        """Fit on training sessions (a list of ``Recording``); returns the model."""
         if self.physics.calibration is None:
             self.physics.fit(sessions)
         self.widths = _widths(sessions, self.hysteresis)
@@ -324,10 +341,12 @@ class Hybrid:
         return self
 
     def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         base = self.physics.predict(session)
         return base + self.net(self._X(session, base))
 
     def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
         return {"kind": "calibrated physics + MLP residual" +
                         (" with a hysteresis state (play operators)" if self.hysteresis else ""),
                 **{k: v for k, v in vars(self.options).items()}}
@@ -368,6 +387,7 @@ class Sequence:
         return s.tip - (self.physics.predict(s) if self.physics is not None else self.offset)
 
     def fit(self, sessions) -> Sequence:
+        """Fit on training sessions (a list of ``Recording``); returns the model."""
         import torch  # optional extra: learn (PyTorch)
 
         o = self.options
@@ -398,6 +418,7 @@ class Sequence:
         return self
 
     def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         import torch  # optional extra: learn (PyTorch)
 
         gru, head = self.net
@@ -407,6 +428,7 @@ class Sequence:
         return y + (self.physics.predict(session) if self.physics is not None else self.offset)
 
     def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
         return {"kind": "GRU of the commands and intervals" + (" on top of the calibrated physics"
                                                               if self.physics is not None else ""),
                 **{k: v for k, v in vars(self.options).items()}}

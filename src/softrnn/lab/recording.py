@@ -102,10 +102,12 @@ class Recording:
 
     @property
     def n_rows(self) -> int:
+        """T, the rows."""
         return int(self.time.size)
 
     @property
     def n_inputs(self) -> int:
+        """m, the input channels."""
         return int(self.inputs.shape[1])
 
     @property

@@ -83,14 +83,17 @@ class TendonRobot:
 
     @property
     def n_segments(self) -> int:
+        """S, the segments."""
         return len(self.segment_lengths)
 
     @property
     def n_tendons(self) -> int:
+        """The tendons (and inputs): S times the tendons per segment."""
         return self.n_segments * self.tendons_per_segment
 
     @property
     def length(self) -> float:
+        """The backbone's length [m]."""
         return float(sum(self.segment_lengths))
 
     @property
@@ -123,6 +126,7 @@ class TendonParameters:
     base: np.ndarray
 
     def to_dict(self, robot: TendonRobot) -> dict:
+        """JSON-ready, in mm and degrees, with the stiffness ratio k r^2 L_s / EI_s per segment."""
         ratio = [float(self.compliance[s] * self.routing_radius ** 2 * L)
                  for s, L in enumerate(robot.segment_lengths)]
         wrapped = np.angle(np.exp(1j * self.angles))          # in (-pi, pi]
@@ -137,6 +141,7 @@ class TendonParameters:
 
     @classmethod
     def from_dict(cls, d: dict) -> TendonParameters:
+        """The parameters from ``to_dict``'s output."""
         return cls(angles=np.radians(d["tendon_angles_deg"]), offsets=np.asarray(d["tendon_offsets_mm"]) * 1e-3,
                    routing_radius=d["routing_radius_mm"] * 1e-3,
                    compliance=1.0 / np.asarray(d["bending_over_series_stiffness_m3"], dtype=float),
@@ -242,6 +247,7 @@ class Calibration:
         return tip_positions(self.robot, self.params, q)[0]
 
     def to_dict(self) -> dict:
+        """JSON-ready: the model, the segments, the parameters, the fit and the starts tried."""
         return {"model": "piecewise-constant-curvature tendon robot, displacement-driven with series stiffness "
                          "and slack (softrnn.lab.tendon_robot)",
                 "segment_lengths_m": list(self.robot.segment_lengths),
