@@ -109,3 +109,31 @@ def test_calibration_refuses_inputs_that_do_not_match_the_robot(tmp_path):
     rec = read_recording(tmp_path / "a.csv")
     with pytest.raises(SoftrnnInputError, match="--segments and --tendons-per-segment"):
         calibrate(TendonRobot((0.04, 0.04), 3), rec.inputs * 1e-3, rec.tip)
+
+
+def test_agrees_with_the_cosserat_statics_of_displacement_tendons():
+    """The same two-segment robot in the Cosserat static solver (weightless Kirchhoff rod, tendons
+    driven by displacements through a series spring, an independent implementation: shooting with
+    the tensions as unknowns): constant curvature per segment is its exact solution, so the tips
+    and the tensions agree to the solvers' tolerance."""
+    from softrnn.rod import Tendon
+    from softrnn.statics import StaticRod, solve
+
+    L2, r, E, radius, k = 0.2, 0.006, 2e6, 0.008, 3000.0
+    EI = E * np.pi * radius ** 4 / 4
+    angles = np.radians([0.0, 120.0, 240.0, 60.0, 180.0, 300.0])
+    q = np.array([3e-3, -2e-3, -2e-3, -2e-3, 2e-3, 1.2e-3])
+    tendons = [Tendon(name=f"t{i}", offset=(r * np.cos(a), r * np.sin(a)), displacement=float(q[i]), stiffness=k,
+                      end_s=0.1 if i < 3 else 0.2) for i, a in enumerate(angles)]
+    sol = solve(StaticRod(length=L2, radius=radius, youngs_modulus=E, density=1000.0, poisson_ratio=0.5,
+                          gravity=(0.0, 0.0, 0.0), tendons=tuple(tendons), extensible_shearable=False), tol=1e-12)
+    sol.raise_for_status()
+    robot = TendonRobot((0.1, 0.1), 3, r)
+    params = TendonParameters(angles=angles, offsets=np.zeros(6), routing_radius=r, compliance=np.full(2, k / EI),
+                              marker=0.0, rotation=np.zeros(3), base=np.zeros(3))
+    tip, tau = tip_positions(robot, params, q[None])
+    # the static rod lies along d3 = +x with d1 = +z, d2 = -y; the model along +z with d1 = +x
+    cosserat = np.array([sol.positions[-1, 2], -sol.positions[-1, 1], sol.positions[-1, 0]])
+    assert np.linalg.norm(tip[0]) > 0 and np.linalg.norm(tip[0, :2]) > 0.05 * L2      # well bent
+    np.testing.assert_allclose(tip[0], cosserat, atol=1e-7 * L2)
+    np.testing.assert_allclose(tau[0] * k, sol.tendon_tensions, rtol=1e-6, atol=1e-9)
