@@ -355,11 +355,14 @@ class Hybrid:
 @dataclass(frozen=True)
 class SequenceOptions:
     """The recurrent model: ``hidden`` GRU units, trained on windows of ``window`` rows (the state
-    carried from the session's start through the windows before) for ``epochs`` passes."""
+    carried from the session's start through the windows before) for ``epochs`` passes over the
+    sessions, or fewer where that would take more than ``max_steps`` optimiser steps (long
+    recordings)."""
 
     hidden: int = 32
     window: int = 64
     epochs: int = 300
+    max_steps: int = 6000
     lr: float = 3e-3
     weight_decay: float = 1e-3
     seed: int = 0
@@ -404,7 +407,8 @@ class Sequence:
         opt = torch.optim.AdamW(params, lr=o.lr, weight_decay=o.weight_decay)
         xs = [torch.tensor((x - self.mu) / self.sd, dtype=torch.float32)[None] for x in X]
         ys = [torch.tensor(y / self.scale, dtype=torch.float32)[None] for y in Y]
-        for _ in range(o.epochs):
+        per_epoch = sum(-(-x.shape[1] // o.window) for x in xs)
+        for _ in range(max(1, min(o.epochs, o.max_steps // per_epoch))):
             for x, y in zip(xs, ys):
                 h = None
                 for a in range(0, x.shape[1], o.window):
