@@ -12,6 +12,7 @@ from softrnn.lab.benchmark import BASELINES, FAMILIES, BenchmarkOptions, run_ben
 from softrnn.lab.families import (
     LinearARX,
     NetOptions,
+    NodeOptions,
     Persistence,
     SequenceOptions,
     StaticPolynomial,
@@ -25,6 +26,7 @@ from softrnn.lab.tendon_robot import CalibrationOptions
 from helpers import tendon_recording
 
 FAST = dict(nets=NetOptions(members=1, steps=150, hidden=16), sequence=SequenceOptions(epochs=3, hidden=8),
+            node=NodeOptions(epochs=2, units=8, rollout_steps=2),
             calibration=CalibrationOptions(quick_evaluations=25, evaluations=150))
 
 

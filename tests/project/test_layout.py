@@ -37,7 +37,7 @@ ALLOWED = {
     "softrnn.bench": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.statics", "softrnn.scenarios",
                       "softrnn.sweeps", "softrnn.learned.node", "softrnn.learned.whole", "softrnn.experiments"},
     "softrnn.control": {"softrnn", "softrnn.io", "softrnn.magnetics", "softrnn.figures"},
-    "softrnn.lab": {"softrnn"},
+    "softrnn.lab": {"softrnn", "softrnn.io", "softrnn.learned.node"},
     "softrnn.reproduce": {"softrnn", "softrnn.io", "softrnn.scenarios", "softrnn.figures", "softrnn.sweeps",
                           "softrnn.learned", "softrnn.learned.node", "softrnn.learned.whole", "softrnn.experiments",
                           "softrnn.bench", "softrnn.control", "softrnn.lab"},

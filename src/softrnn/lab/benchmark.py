@@ -20,6 +20,8 @@ from .families import (
     LearnedMap,
     LinearARX,
     NetOptions,
+    NodeLSTM,
+    NodeOptions,
     Persistence,
     Physics,
     Sequence,
@@ -33,7 +35,7 @@ from .families import (
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
 
-FAMILIES = ("physics", "learned_map", "hybrid", "sequence")
+FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
 """softrnn's model families, in the order they are fitted."""
 BASELINES = ("persistence", "linear_arx", "static_map")
 ARX_ORDERS = ((1, 1), (2, 1), (1, 2), (2, 2))
@@ -55,7 +57,8 @@ class BenchmarkOptions:
     tendons_per_segment : int
     routing_radius : float       the tendons' start distance from the backbone [m]
     families : tuple             which of ``FAMILIES`` to run
-    nets, sequence, calibration  the learned models' and the calibration's options
+    nets, sequence, node,        the learned models' and the calibration's options
+    calibration
     """
 
     length: float
@@ -66,6 +69,7 @@ class BenchmarkOptions:
     families: tuple = FAMILIES
     nets: NetOptions = NetOptions()
     sequence: SequenceOptions = SequenceOptions()
+    node: NodeOptions = NodeOptions()
     calibration: CalibrationOptions = CalibrationOptions()
 
     def __post_init__(self):
@@ -232,6 +236,10 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
         holdout["sequence"] = held_score(Sequence(options.sequence).fit(fit_part))
         out.record(out.models, "sequence", Sequence(options.sequence).fit(train))
         step("sequence")
+    if "node_lstm" in families:
+        holdout["node_lstm"] = held_score(NodeLSTM(options.length, options.node).fit(fit_part))
+        out.record(out.models, "node_lstm", NodeLSTM(options.length, options.node).fit(train))
+        step("node_lstm")
     return holdout
 
 

@@ -475,3 +475,90 @@ def choose(candidates: dict, sessions) -> Choice:
         score = tip_errors(pred, ref)["tip_rmse_mm"]
         scores[label] = score if math.isfinite(score) else math.inf
     return Choice(chosen=min(scores, key=scores.get), scores=scores)
+
+
+# ------------------------------------------------------------------------------------ the node LSTM
+def as_dataset(sessions, length: float):
+    """The sessions as one ``softrnn.io.Dataset`` of the tip (node 1 of a 2-node rod of ``length``
+    [m]) and the inputs as actuation channels: the rows in order, each later session's times
+    shifted to follow the previous one's last row by the median interval. The node model reads the
+    rows as steps of the median interval (``dt``)."""
+    from ..io.reader import Dataset
+
+    times, offset = [], 0.0
+    for s in sessions:
+        t = s.time - s.time[0] + offset
+        times.append(t)
+        offset = t[-1] + float(np.median(np.diff(s.time)))
+    time = np.concatenate(times)
+    tip = np.vstack([s.tip for s in sessions])
+    T = time.size
+    quats = np.zeros((T, 1, 4), dtype=np.float32)
+    quats[..., 0] = 1.0
+    units = {"time": "s", "positions": "m", "quaternions": "1 (unit, scalar first w x y z, body to world)",
+             "forces": "N", "torques": "N m"}
+    first = sessions[0]
+    return Dataset(time=time, nodes=np.array([1]), positions=tip[:, None, :].astype(np.float32), quaternions=quats,
+                   forces=np.zeros((T, 1, 3), np.float32), torques=np.zeros((T, 1, 3), np.float32),
+                   attrs={"units": units, "rod": {"length": length}, "n_nodes_total": 2,
+                          "dt": float(np.median(np.diff(time))), "has_orientations": False},
+                   actuation=np.vstack([s.inputs for s in sessions]).astype(np.float32),
+                   actuation_units={n: (u or "1") for n, u in zip(first.names, first.units)})
+
+
+@dataclass(frozen=True)
+class NodeOptions:
+    """The node LSTM's settings (those of the lab workflow guide): ``history`` steps, ``units`` LSTM
+    units, ``rollout_steps`` of the multi-step loss, at most ``epochs`` with early-stopping
+    ``patience``, ``seed``."""
+
+    history: int = 4
+    units: int = 64
+    rollout_steps: int = 8
+    epochs: int = 60
+    patience: int = 20
+    seed: int = 0
+
+
+@dataclass
+class NodeLSTM:
+    """softrnn's per-node LSTM (``softrnn train --drive actuation``, the paper's model driven by the
+    inputs alone): trained on the first part of the training sessions and stopped early on the
+    hold-out part (``holdout_split``), run free over a session from its first ``history`` rows
+    (the recorded tips there are its initial condition)."""
+
+    length: float
+    options: NodeOptions = NodeOptions()
+    name: str = "node_lstm"
+    model: object = None
+
+    def fit(self, sessions) -> NodeLSTM:
+        """Fit on training sessions (a list of ``Recording``); returns the model."""
+        import tempfile
+
+        from ..learned.node.data import SampleSpec  # optional extra: learn (PyTorch)
+        from ..learned.node.train import TrainConfig, train_node_model  # optional extra: learn (PyTorch)
+
+        o = self.options
+        fit_part, held = holdout_split(sessions)
+        spec = SampleSpec(node=1, neighbours=(), history=o.history, inputs="positions", wrench="none",
+                          drive="actuation")
+        config = TrainConfig(epochs=o.epochs, patience=o.patience, seed=o.seed, rollout_steps=o.rollout_steps)
+        with tempfile.TemporaryDirectory() as folder:
+            self.model = train_node_model(as_dataset(fit_part, self.length), spec, {"lstm_units": o.units}, config,
+                                          folder, validation=as_dataset(held, self.length))
+        return self
+
+    def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
+        from ..learned.node.rollout import rollout  # optional extra: learn (PyTorch)
+
+        H = self.options.history
+        data = as_dataset([session], self.length)
+        result = rollout(self.model, data, H, session.n_rows)
+        return np.vstack([session.tip[:H], result.node_positions(1)])
+
+    def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
+        return {"kind": "per-node LSTM driven by the inputs alone (softrnn train --drive actuation)",
+                **{k: v for k, v in vars(self.options).items()}}
