@@ -31,11 +31,13 @@ on the session a model is reported on.
 from __future__ import annotations
 
 import math
+import tempfile
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..errors import SoftrnnInputError
+from ..io.reader import Dataset
 from .recording import Recording
 from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate
 
@@ -483,8 +485,6 @@ def as_dataset(sessions, length: float):
     [m]) and the inputs as actuation channels: the rows in order, each later session's times
     shifted to follow the previous one's last row by the median interval. The node model reads the
     rows as steps of the median interval (``dt``)."""
-    from ..io.reader import Dataset
-
     times, offset = [], 0.0
     for s in sessions:
         t = s.time - s.time[0] + offset
@@ -534,8 +534,6 @@ class NodeLSTM:
 
     def fit(self, sessions) -> NodeLSTM:
         """Fit on training sessions (a list of ``Recording``); returns the model."""
-        import tempfile
-
         from ..learned.node.data import SampleSpec  # optional extra: learn (PyTorch)
         from ..learned.node.train import TrainConfig, train_node_model  # optional extra: learn (PyTorch)
 
