@@ -186,3 +186,10 @@ def test_bench_refuses_unknown_parts(capsys):
     assert main(["bench", "--only", "model,gpu"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("softrnn: error: --only") and "\n" not in err
+
+
+def test_version_names_the_installed_package(capsys):
+    import softrnn
+
+    assert run_cli(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"softrnn {softrnn.__version__}"

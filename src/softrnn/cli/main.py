@@ -6,6 +6,7 @@ import signal
 import sys
 import threading
 
+from .. import __version__
 from ..errors import SimulationError, SoftrnnInputError, missing_extra
 from . import (
     _animate,
@@ -40,6 +41,7 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
+    parser.add_argument("--version", action="version", version=f"softrnn {__version__}")
     sub = parser.add_subparsers(title="commands", dest="command", required=True, parser_class=_Parser)
     for module in (_simulate, _sweep, _reproduce, _bench, _show, _import_csv, _animate, _plot, _train, _evaluate,
                    _rollout, _export, _study, _magnetic, _dynamic, _calibrate, _control, _lab, _lab_example):
