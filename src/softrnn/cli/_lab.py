@@ -10,10 +10,10 @@ from ..errors import SoftrnnInputError, bad
 from ..figures.lab import benchmark_figure
 from ..figures.saving import save_figure
 from ..files import atomic_write_text, prepare_output
-from ..lab.benchmark import FAMILIES, BenchmarkOptions, run_benchmark
+from ..lab.benchmark import FAMILIES, BenchmarkOptions, check_pulls, robot_for, run_benchmark, settle_lag
 from ..lab.families import displacements, tip_errors
-from ..lab.recording import Layout, check_sessions, estimate_lag, read_recording, shift_inputs
-from ..lab.tendon_robot import TendonRobot, calibrate
+from ..lab.recording import Layout, check_sessions, read_recording, shift_inputs
+from ..lab.tendon_robot import calibrate
 from ._progress import Bar
 
 NAME = "lab"
@@ -112,17 +112,20 @@ def _read(paths, layout):
     return recordings
 
 
+def _options(args, families) -> BenchmarkOptions:
+    try:
+        return BenchmarkOptions(length=args.length, lag=_lag(args.lag), segments=_segments(args.segments),
+                                tendons_per_segment=args.tendons_per_segment, routing_radius=args.routing_radius,
+                                families=families)
+    except SoftrnnInputError as err:
+        raise _as_option(err) from None
+
+
 def _benchmark(args) -> int:
     prepare_output(args.json, "--json", overwrite=args.overwrite)
     if args.figure:
         prepare_output(args.figure, "--figure", overwrite=args.overwrite)
-    families = tuple(f.strip() for f in args.families.split(",") if f.strip())
-    try:
-        options = BenchmarkOptions(length=args.length, lag=_lag(args.lag), segments=_segments(args.segments),
-                                   tendons_per_segment=args.tendons_per_segment, routing_radius=args.routing_radius,
-                                   families=families)
-    except SoftrnnInputError as err:
-        raise _as_option(err) from None
+    options = _options(args, tuple(f.strip() for f in args.families.split(",") if f.strip()))
     layout = _layout(args)
     train = _read(args.train, layout)
     validation = read_recording(args.validate, layout)
@@ -132,15 +135,16 @@ def _benchmark(args) -> int:
         except SoftrnnInputError as err:
             raise (_as_option(err) if str(err).startswith("lag=") else err) from None
     report = result.to_dict()
-    atomic_write_text(args.json, json.dumps(report, indent=2) + "\n")
-    print(format_benchmark(report))
-    print(f"lab benchmark: wrote {args.json}")
-    if args.figure:
+    if args.figure:      # the figure first: a failure leaves neither file
         shown = {f"{k} (model)": result.predictions[k] for k in [report["best_model"]] if k}
         shown.update({f"{k} (baseline)": result.predictions[k] for k in [report["best_baseline"]] if k})
         fig = benchmark_figure(result.validation.tip, shown,
                                title=f"{Path(args.validate).name}: free run on the commands alone")
         save_figure(fig, args.figure)
+    atomic_write_text(args.json, json.dumps(report, indent=2) + "\n")
+    print(format_benchmark(report))
+    print(f"lab benchmark: wrote {args.json}")
+    if args.figure:
         print(f"lab benchmark: wrote {args.figure}")
     return 0
 
@@ -170,25 +174,22 @@ def format_benchmark(r: dict) -> str:
 
 def _calibrate(args) -> int:
     prepare_output(args.output, "-o", overwrite=args.overwrite)
-    layout = _layout(args)
-    lag = _lag(args.lag)
-    recordings = _read(args.recordings + ([args.validate] if args.validate else []), layout)
-    train = recordings[:len(args.recordings)]
-    if lag == "auto":
-        lag, _ = estimate_lag(train)
-    recordings = [shift_inputs(r, lag) for r in recordings]
-    train = recordings[:len(args.recordings)]
-    segments = _segments(args.segments)
-    n = train[0].n_inputs
-    if segments is None:
-        if n % args.tendons_per_segment:
-            raise bad("--tendons-per-segment", args.tendons_per_segment,
-                      f"a divisor of the {n} inputs, or give --segments")
-        segments = tuple([args.length / (n // args.tendons_per_segment)] * (n // args.tendons_per_segment))
+    options = _options(args, ("physics",))
+    recordings = _read(args.recordings + ([args.validate] if args.validate else []), _layout(args))
+    lag, _ = settle_lag(recordings[:len(args.recordings)], options)
     try:
-        robot = TendonRobot(segments, args.tendons_per_segment, args.routing_radius)
+        recordings = [shift_inputs(r, lag) for r in recordings]
     except SoftrnnInputError as err:
         raise _as_option(err) from None
+    train = recordings[:len(args.recordings)]
+    robot = robot_for(options, train[0].n_inputs)
+    if robot is None:
+        raise bad("--tendons-per-segment", args.tendons_per_segment,
+                  f"a divisor of the {train[0].n_inputs} inputs, or give --segments")
+    if robot.n_tendons != train[0].n_inputs:
+        raise bad("--segments", args.segments, f"segments whose tendons ({robot.n_tendons}) match the "
+                                               f"{train[0].n_inputs} input columns")
+    check_pulls(robot, recordings)
     with Bar("lab calibrate", unit="start", enabled=not args.quiet) as bar:
         cal = calibrate(robot, np.vstack([displacements(r) for r in train]), np.vstack([r.tip for r in train]),
                         progress=bar)

@@ -120,7 +120,9 @@ def _physics_reason(sessions, robot_inputs: int) -> str | None:
     return None
 
 
-def _robot(options: BenchmarkOptions, n_inputs: int) -> TendonRobot | None:
+def robot_for(options: BenchmarkOptions, n_inputs: int) -> TendonRobot | None:
+    """The tendon robot of ``options`` for ``n_inputs`` tendon inputs (equal segments unless
+    ``options.segments``); None where the inputs do not split into segments."""
     if options.segments is not None:
         return TendonRobot(options.segments, options.tendons_per_segment, options.routing_radius)
     if n_inputs % options.tendons_per_segment:
@@ -129,7 +131,7 @@ def _robot(options: BenchmarkOptions, n_inputs: int) -> TendonRobot | None:
     return TendonRobot(tuple([options.length / S] * S), options.tendons_per_segment, options.routing_radius)
 
 
-def _check_pulls(robot: TendonRobot, sessions) -> None:
+def check_pulls(robot: TendonRobot, sessions) -> None:
     """Refuse a pull the routing cannot take: more than pi r per segment the tendon runs through
     (a pull beyond bending every segment it spans by half a turn)."""
     for s in sessions:
@@ -145,7 +147,8 @@ def _check_pulls(robot: TendonRobot, sessions) -> None:
                 "check the units and the column order, or give the robot's --routing-radius")
 
 
-def _lag(train: list[Recording], options: BenchmarkOptions) -> tuple[int, dict]:
+def settle_lag(train: list[Recording], options: BenchmarkOptions) -> tuple[int, dict]:
+    """The lag in rows (``options.lag``, or estimated on ``train``) and what to report of it."""
     if options.lag != "auto":
         return options.lag, {"lag_rows": options.lag, "estimated": False}
     lag, scores = estimate_lag(train)
@@ -165,7 +168,7 @@ def _families(options: BenchmarkOptions, robot, sessions) -> tuple[list, dict]:
                 families.remove(f)
                 skipped[f] = reason
     elif "physics" in families or "hybrid" in families:
-        _check_pulls(robot, sessions)
+        check_pulls(robot, sessions)
     return families, skipped
 
 
@@ -249,10 +252,10 @@ def run_benchmark(train: list[Recording], validation: Recording, options: Benchm
     over ``validation`` from its start. ``progress(done, total, {"stage": text})`` after each stage."""
     t0 = time.perf_counter()
     check_sessions(list(train) + [validation])
-    lag, lag_info = _lag(train, options)
+    lag, lag_info = settle_lag(train, options)
     train = [shift_inputs(s, lag) for s in train]
     validation = shift_inputs(validation, lag)
-    robot = _robot(options, validation.n_inputs)
+    robot = robot_for(options, validation.n_inputs)
     families, skipped = _families(options, robot, train + [validation])
     stages = ["baselines"] + families
     done = 0

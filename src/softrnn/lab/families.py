@@ -38,6 +38,7 @@ import numpy as np
 
 from ..errors import SoftrnnInputError
 from ..io.reader import Dataset
+from ..learned.metrics import euclidean_errors
 from .recording import Recording
 from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate
 
@@ -49,9 +50,9 @@ the training sessions."""
 def tip_errors(predicted: np.ndarray, recorded: np.ndarray) -> dict:
     """Euclidean tip errors over every row [mm]: ``tip_rmse_mm`` = sqrt(mean |p - p_ref|^2) and
     ``tip_mean_mm`` = mean |p - p_ref|; ``tip_max_mm`` the largest."""
-    e = np.linalg.norm(np.asarray(predicted) - np.asarray(recorded), axis=1)
-    return {"tip_rmse_mm": float(np.sqrt(np.mean(e ** 2)) * 1e3), "tip_mean_mm": float(np.mean(e) * 1e3),
-            "tip_max_mm": float(np.max(e) * 1e3)}
+    rmse, mean = euclidean_errors(predicted, recorded)
+    largest = float(np.max(np.linalg.norm(np.asarray(predicted) - np.asarray(recorded), axis=1)) * 1e3)
+    return {"tip_rmse_mm": rmse, "tip_mean_mm": mean, "tip_max_mm": largest}
 
 
 def _previous(u: np.ndarray) -> np.ndarray:
@@ -376,20 +377,13 @@ class Sequence:
     writing the tip: a dynamic model of the commands alone, run free from a zero state."""
 
     options: SequenceOptions = SequenceOptions()
-    physics: Physics | None = None
     name: str = "sequence"
     net: object = None
 
     def _inputs(self, s: Recording) -> np.ndarray:
         u = s.inputs
         dt = np.concatenate([[np.median(np.diff(s.time))], np.diff(s.time)])
-        parts = [u, u - _previous(u), np.log(dt)[:, None]]
-        if self.physics is not None:
-            parts.append(self.physics.predict(s))
-        return np.hstack(parts)
-
-    def _target(self, s: Recording) -> np.ndarray:
-        return s.tip - (self.physics.predict(s) if self.physics is not None else self.offset)
+        return np.hstack([u, u - _previous(u), np.log(dt)[:, None]])
 
     def fit(self, sessions) -> Sequence:
         """Fit on training sessions (a list of ``Recording``); returns the model."""
@@ -399,7 +393,7 @@ class Sequence:
         torch.manual_seed(o.seed)
         self.offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
         X = [self._inputs(s) for s in sessions]
-        Y = [self._target(s) for s in sessions]
+        Y = [s.tip - self.offset for s in sessions]
         allX = np.vstack(X)
         self.mu, self.sd = allX.mean(axis=0), allX.std(axis=0) + 1e-9
         self.scale = float(np.sqrt(np.mean(np.vstack(Y) ** 2))) or 1.0
@@ -431,13 +425,11 @@ class Sequence:
         with torch.no_grad():
             out, _ = gru(torch.tensor((self._inputs(session) - self.mu) / self.sd, dtype=torch.float32)[None])
             y = head(out)[0].numpy().astype(float) * self.scale
-        return y + (self.physics.predict(session) if self.physics is not None else self.offset)
+        return y + self.offset
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
-        return {"kind": "GRU of the commands and intervals" + (" on top of the calibrated physics"
-                                                              if self.physics is not None else ""),
-                **{k: v for k, v in vars(self.options).items()}}
+        return {"kind": "GRU of the commands and intervals", **{k: v for k, v in vars(self.options).items()}}
 
 
 # ------------------------------------------------------------------------------------------- choice

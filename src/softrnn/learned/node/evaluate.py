@@ -60,6 +60,7 @@ from ...io.reader import read_dataset
 from ...paper import paper_results
 from .. import baselines as bl
 from ..horizons import HORIZONS, HorizonTable, spread_starts, worst_by_horizon
+from ..metrics import euclidean_errors, euclidean_summary
 from ..spans import check_length
 from .data import IRREGULAR_DT_TOLERANCE, actuation_rows, make_windows, node_positions_sha256, regular_times, split
 from .manipulator import RolloutDiverged, _stored, describe_model, model_inputs
@@ -123,25 +124,6 @@ class ErrorMetrics:
                 "max_pct_of_length": pct, "rmse_mm": float(self.rmse_mm),
                 "max_rmse_t_mm": float(self.rmse_t_mm.max()) if self.rmse_t_mm.size else 0.0,
                 **euclidean_summary(self.rmse_euclidean_mm, self.mean_euclidean_mm, self.rod_length_m)}
-
-
-def euclidean_summary(rmse_mm: float, mean_mm: float, length_m: float | None) -> dict:
-    """{rmse_euclidean_mm, mean_euclidean_mm, rmse_euclidean_pct_of_length,
-    mean_euclidean_pct_of_length} (the percentages None without a rod length ``length_m`` [m])."""
-    def pct(mm):
-        return None if not length_m else float(mm) / (float(length_m) * 1e3) * 100.0
-
-    return {"rmse_euclidean_mm": float(rmse_mm), "mean_euclidean_mm": float(mean_mm),
-            "rmse_euclidean_pct_of_length": pct(rmse_mm), "mean_euclidean_pct_of_length": pct(mean_mm)}
-
-
-def euclidean_errors(predicted, reference) -> tuple[float, float]:
-    """(Euclidean RMSE sqrt(mean_t |p - p_ref|^2), mean Euclidean error mean_t |p - p_ref|) [mm] of
-    ``predicted`` against ``reference`` (..., 3) [m], over every row, in float64."""
-    err_mm = (np.asarray(predicted, dtype=np.float64) - np.asarray(reference, dtype=np.float64)) * 1e3
-    with np.errstate(under="ignore"):
-        sq = (err_mm ** 2).sum(axis=-1)
-        return float(np.sqrt(sq.mean())), float(np.sqrt(sq).mean())
 
 
 def metrics(predicted, reference, rod_length: float | None) -> ErrorMetrics:

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..baselines import ConstantVelocity, Persistence, StateBaseline
 from ..horizons import WHOLE_HORIZONS, HorizonTable, free_steps, worst_by_horizon
+from ..metrics import euclidean_errors, euclidean_summary
 from ..spans import check_step_start, start_of_test_span
 from .encoding import Encoding, Trajectory
 from .engine import DIVERGED_M
@@ -141,13 +142,10 @@ def tip_errors(encoding: Encoding, states: np.ndarray, truth: np.ndarray) -> dic
     ``truth`` (K, N, 3) [m]: {rmse_euclidean_mm: sqrt(mean_k |p - p_ref|^2), mean_euclidean_mm, and
     both as % of the rod length (``*_pct_of_length``)}; every value None where a state is NaN
     (diverged)."""
-    keys = ("rmse_euclidean_mm", "mean_euclidean_mm", "rmse_euclidean_pct_of_length", "mean_euclidean_pct_of_length")
     if len(states) == 0 or not np.all(np.isfinite(states)):
-        return dict.fromkeys(keys)
-    d_mm = np.linalg.norm(encoding.positions(states)[:, -1] - truth[:, -1], axis=-1) * 1e3
-    rmse, mean = float(np.sqrt(np.mean(d_mm ** 2))), float(np.mean(d_mm))
-    pct = 100.0 / (encoding.length * 1e3)
-    return dict(zip(keys, (rmse, mean, rmse * pct, mean * pct)))
+        return dict.fromkeys(euclidean_summary(0.0, 0.0, None))
+    rmse, mean = euclidean_errors(encoding.positions(states)[:, -1], truth[:, -1])
+    return euclidean_summary(rmse, mean, encoding.length)
 
 
 def _run_worst(predictor, encoding, runs: list, span: int, start: int, n: int) -> float:
