@@ -1,5 +1,6 @@
 """Helpers shared by the tests: the command line run in-process (``run_cli``), and for the physics
-tests direct kernel calls, exact reference solutions and shear-free bent rod shapes. Imported as
+tests direct kernel calls, exact reference solutions, shear-free bent rod shapes and the dynamics
+checks shared by the two integrators (convergence order, energy error, zero-crossing period). Imported as
 ``helpers`` (pytest puts tests/ on sys.path)."""
 
 import numpy as np
@@ -8,7 +9,7 @@ from scipy.optimize import brentq
 
 from softrnn.io import UNITS, Dataset, write_trajectory
 from softrnn.learned.node.data import Normalizer, SampleSpec, make_windows, split
-from softrnn.rod import kernels
+from softrnn.rod import Clamp, RodSpec, RunConfig, Setup, Simulator, Sinusoid, kernels, straight
 from softrnn.rod.lumped import frozen
 from softrnn.rod.shapes import RodShape
 from softrnn.rod.so3 import axis_rotation, cay, frame_from_tangent
@@ -345,3 +346,46 @@ def tendon_recording(path, rows: int = 120, *, seed: int = 0, n_segments: int = 
                               + [f"{x:.6f}" for x in tip[r]]))
     path.write_text("\n".join(lines) + "\n")
     return time, u, tip
+
+
+# --------------------------------------------------------------------------- dynamics checks
+ORDER_RANGE = (1.8, 2.2)         # measured convergence order in h
+
+
+def zero_crossing_period(t, z):
+    """Period from linearly interpolated zero crossings (least-squares slope of crossing times)."""
+    s = np.sign(z)
+    idx = np.nonzero(s[:-1] * s[1:] < 0)[0]
+    tc = t[idx] - z[idx] * (t[idx + 1] - t[idx]) / (z[idx + 1] - z[idx])
+    return 2.0 * np.polyfit(np.arange(tc.size), tc, 1)[0], tc.size
+
+
+def gravity_release(n=15, L=0.2, r=0.005, E=1e6):
+    """Horizontal cantilever released in gravity: swings down to ~0.9 L below the clamp."""
+    rod = RodSpec(length=L, radius=r, youngs_modulus=E, density=1000, n_nodes=n)
+    return Setup(rod=rod, reference=straight(n, L, direction=(1, 0, 0), normal=(0, 0, 1)), boundary=(Clamp(0),),
+                 gravity=(0, 0, -9.81))
+
+
+def energy_error(sim, steps, h, integrator="explicit"):
+    traj = sim.run(RunConfig(dt=100 * h, n_samples=steps // 100 + 1, substeps=100, integrator=integrator))
+    assert traj.n_steps == steps
+    total = traj.energy.sum(axis=1)
+    exchanged = np.ptp(traj.energy[:, 2])
+    return (total - total[0]) / exchanged, traj
+
+
+def smooth_ramp(value, frequency):
+    """value * (1 - cos(2 pi f t)) / 2: zero value and zero slope at t = 0."""
+    v = np.asarray(value, float)
+    return Sinusoid(tuple(v / 2), frequency, -np.pi / 2, tuple(v / 2))
+
+
+def convergence_order(setup, dt=0.025, n_samples=21, levels=(1, 2, 4, 8), ref=64, integrator="explicit", base=None):
+    base = base or int(np.ceil(dt / Simulator(setup).stable_step()))
+    runs = {m: Simulator(setup).run(RunConfig(dt=dt, n_samples=n_samples, substeps=base * m,
+                                              integrator=integrator)).positions
+            for m in (*levels, ref)}
+    h = np.array([dt / (base * m) for m in levels])
+    err = np.array([np.abs(runs[m] - runs[ref]).max() for m in levels])
+    return np.polyfit(np.log(h), np.log(err), 1)[0], err

@@ -18,7 +18,6 @@ from softrnn.rod import (
     RunConfig,
     Setup,
     Simulator,
-    Sinusoid,
     Window,
     arc,
     kernels,
@@ -29,27 +28,28 @@ from softrnn.rod.discrete import internal_loads
 from softrnn.rod.shapes import RodShape
 from softrnn.rod.so3 import cay
 
-from helpers import kernel_step, planar_bent_shape
+from helpers import (
+    ORDER_RANGE,
+    convergence_order,
+    energy_error,
+    gravity_release,
+    kernel_step,
+    planar_bent_shape,
+    smooth_ramp,
+    zero_crossing_period,
+)
 
 FREQUENCY_RTOL = 0.02            # first bending frequency vs Euler-Bernoulli
 ENERGY_BOUND = 1e-5              # max |E - E0| / energy exchanged, undamped, 1e5 steps
 ENERGY_DRIFT = 1e-6              # |mean error of last tenth - first tenth| / energy exchanged
 MOMENTUM_RTOL = 1e-12            # discrete Noether momenta, relative to their natural scale
-ORDER_RANGE = (1.8, 2.2)         # measured convergence order in h
 SYMMETRY_TOL = 1e-10             # mirror asymmetry / displacement
 LIMIT_RTOL = 1e-9                # stable_step(safety=1) <= 2/omega_max(exact) within round-off
 
 
 # --------------------------------------------------------------------------- frequency
-def zero_crossing_period(t, z):
-    """Period from linearly interpolated zero crossings (least-squares slope of crossing times)."""
-    s = np.sign(z)
-    idx = np.nonzero(s[:-1] * s[1:] < 0)[0]
-    tc = t[idx] - z[idx] * (t[idx + 1] - t[idx]) / (z[idx + 1] - z[idx])
-    return 2.0 * np.polyfit(np.arange(tc.size), tc, 1)[0], tc.size
-
-
-def test_cantilever_first_bending_frequency():
+@pytest.mark.parametrize("integrator", ["explicit", "implicit"])
+def test_cantilever_first_bending_frequency(integrator):
     """Slender (L/r = 50) undamped cantilever released from its small static tip-load shape; the
     tip oscillates at omega_1 = 1.8751^2 sqrt(EI/(rho A L^4)) (rotary inertia and shear lower it by
     ~0.1 % at this slenderness)."""
@@ -63,7 +63,8 @@ def test_cantilever_first_bending_frequency():
     rod = RodSpec(length=L, radius=r, youngs_modulus=E, density=rho, n_nodes=n)
     setup = Setup(rod=rod, reference=straight(n, L, direction=(1, 0, 0), normal=(0, 0, 1)),
                   initial=planar_bent_shape(angles, L / (n - 1)), boundary=(Clamp(0),))
-    traj = Simulator(setup).run(RunConfig(dt=T1 / 200, n_samples=8 * 200 + 1, save_nodes=(-1,)))
+    traj = Simulator(setup).run(RunConfig(dt=T1 / 200, n_samples=8 * 200 + 1, save_nodes=(-1,),
+                                          integrator=integrator))
     z = traj.positions[:, 0, 2]
     assert np.abs(z).max() == pytest.approx(tip, rel=0.05)  # small amplitude, no damping
     period, crossings = zero_crossing_period(traj.time, z)
@@ -73,41 +74,27 @@ def test_cantilever_first_bending_frequency():
 
 
 # --------------------------------------------------------------------------- energy
-def _gravity_release(n=15, L=0.2, r=0.005, E=1e6):
-    """Horizontal cantilever released in gravity: swings down to ~0.9 L below the clamp."""
-    rod = RodSpec(length=L, radius=r, youngs_modulus=E, density=1000, n_nodes=n)
-    return Setup(rod=rod, reference=straight(n, L, direction=(1, 0, 0), normal=(0, 0, 1)), boundary=(Clamp(0),),
-                 gravity=(0, 0, -9.81))
-
-
-def _energy_error(sim, steps, h):
-    traj = sim.run(RunConfig(dt=100 * h, n_samples=steps // 100 + 1, substeps=100))
-    assert traj.n_steps == steps
-    total = traj.energy.sum(axis=1)
-    exchanged = np.ptp(traj.energy[:, 2])
-    return (total - total[0]) / exchanged, traj
-
-
 def test_undamped_energy_is_bounded_without_drift():
-    sim = Simulator(_gravity_release())
+    sim = Simulator(gravity_release())
     h = sim.stable_step()
-    err, traj = _energy_error(sim, 100_000, h)
+    err, traj = energy_error(sim, 100_000, h)
     assert traj.positions[:, -1, 2].min() < -0.5 * 0.2  # a large motion, many swings
     assert np.abs(err).max() < ENERGY_BOUND
     tenth = err.size // 10
     assert abs(err[-tenth:].mean() - err[:tenth].mean()) < ENERGY_DRIFT
     # the error is the O(h^2) energy oscillation of a symplectic scheme: halving h quarters it
-    sim2 = Simulator(_gravity_release())
-    err2, _ = _energy_error(sim2, 40_000, h / 2)
+    sim2 = Simulator(gravity_release())
+    err2, _ = energy_error(sim2, 40_000, h / 2)
     ratio = np.abs(err[: err.size * 2 // 10]).max() / np.abs(err2).max()
     assert 3.0 < ratio < 5.5, ratio
 
 
-def test_damping_dissipates_energy():
-    setup = _gravity_release()
+@pytest.mark.parametrize("integrator", ["explicit", "implicit"])
+def test_damping_dissipates_energy(integrator):
+    setup = gravity_release()
     setup = Setup(rod=setup.rod, reference=setup.reference, boundary=setup.boundary, gravity=setup.gravity,
                   damping=Damping(translational=0.5, rotational=1e-5))
-    traj = Simulator(setup).run(RunConfig(dt=0.01, n_samples=301))
+    traj = Simulator(setup).run(RunConfig(dt=0.01, n_samples=301, integrator=integrator))
     total = traj.energy.sum(axis=1)
     exchanged = np.ptp(traj.energy[:, 2])
     # non-increasing up to the O(h^2) energy oscillation of the undamped scheme
@@ -138,7 +125,8 @@ def _momenta(sim, h):
     return P, Lm, scale_P, scale_L, wrong
 
 
-def test_free_rod_conserves_linear_and_angular_momentum():
+@pytest.mark.parametrize("integrator", ["explicit", "implicit"])
+def test_free_rod_conserves_linear_and_angular_momentum(integrator):
     n, L = 10, 0.2
     rod = RodSpec(length=L, radius=0.01, youngs_modulus=1e6, density=1000, n_nodes=n)
     s = np.linspace(0, 1, n)
@@ -149,7 +137,7 @@ def test_free_rod_conserves_linear_and_angular_momentum():
                          NodalLoad(7, torque=Window(Constant((1e-2, 2e-2, -1e-2)), 0.0, kick), frame="body")))
     sim = Simulator(setup)
     chunk = 300
-    traj = sim.run(RunConfig(dt=chunk * sim.stable_step(), n_samples=2, substeps=chunk))
+    traj = sim.run(RunConfig(dt=chunk * sim.stable_step(), n_samples=2, substeps=chunk, integrator=integrator))
     h = traj.step
     assert chunk * h > 2 * kick
     P0, L0, sP, sL, wrong0 = _momenta(sim, h)
@@ -160,7 +148,7 @@ def test_free_rod_conserves_linear_and_angular_momentum():
     assert np.linalg.norm(P0) > 0.02 * sP and np.linalg.norm(L0) > 0.02 * sL  # both clearly nonzero
     wrong_drift = 0.0
     for _ in range(10):
-        sim.run(RunConfig(dt=chunk * h, n_samples=2, substeps=chunk))
+        sim.run(RunConfig(dt=chunk * h, n_samples=2, substeps=chunk, integrator=integrator))
         P, Lm, sP, sL, wrong = _momenta(sim, h)
         assert np.abs(P - P0).max() < MOMENTUM_RTOL * sP
         assert np.abs(Lm - L0).max() < MOMENTUM_RTOL * sL
@@ -172,30 +160,15 @@ def test_free_rod_conserves_linear_and_angular_momentum():
 
 
 # --------------------------------------------------------------------------- convergence in h
-def _smooth(value, frequency):
-    """value * (1 - cos(2 pi f t)) / 2: zero value and zero slope at t = 0."""
-    v = np.asarray(value, float)
-    return Sinusoid(tuple(v / 2), frequency, -np.pi / 2, tuple(v / 2))
-
-
-def _convergence(setup, dt=0.025, n_samples=21, levels=(1, 2, 4, 8), ref=64):
-    base = int(np.ceil(dt / Simulator(setup).stable_step()))
-    runs = {m: Simulator(setup).run(RunConfig(dt=dt, n_samples=n_samples, substeps=base * m)).positions
-            for m in (*levels, ref)}
-    h = np.array([dt / (base * m) for m in levels])
-    err = np.array([np.abs(runs[m] - runs[ref]).max() for m in levels])
-    return np.polyfit(np.log(h), np.log(err), 1)[0], err
-
-
 def test_second_order_convergence_in_time():
     """3-D large-deflection cantilever under a smoothly ramped tip force and body torque, starting
     at rest in equilibrium; positions at the same saved times vs a 64x finer reference."""
     n, L = 10, 0.2
     rod = RodSpec(length=L, radius=0.01, youngs_modulus=1e6, density=1000, n_nodes=n)
     setup = Setup(rod=rod, reference=straight(n, L, direction=(1, 0, 0), normal=(0, 0, 1)), boundary=(Clamp(0),),
-                  loads=(NodalLoad(-1, force=_smooth((0.05, 0.1, -0.3), 2.0)),
-                         NodalLoad(-1, torque=_smooth((0.0, 0.0, 0.01), 2.0), frame="body")))
-    order, err = _convergence(setup)
+                  loads=(NodalLoad(-1, force=smooth_ramp((0.05, 0.1, -0.3), 2.0)),
+                         NodalLoad(-1, torque=smooth_ramp((0.0, 0.0, 0.01), 2.0), frame="body")))
+    order, err = convergence_order(setup)
     assert err[0] > 100 * np.finfo(float).eps * L  # far above round-off
     assert ORDER_RANGE[0] < order < ORDER_RANGE[1], (order, err)
 
@@ -215,7 +188,7 @@ def test_second_order_convergence_when_released_from_a_static_shape():
     assert np.abs(pre.state.velocities).max() < 1e-9 and np.abs(pre.state.angular_velocities).max() < 1e-9
     setup = Setup(rod=rod, reference=ref, initial=RodShape(pre.state.positions, pre.state.rotations),
                   boundary=(Clamp(0),))
-    order, err = _convergence(setup, dt=0.0125, levels=(4, 8, 16, 32), ref=256)
+    order, err = convergence_order(setup, dt=0.0125, levels=(4, 8, 16, 32), ref=256)
     assert ORDER_RANGE[0] < order < ORDER_RANGE[1], (order, err)
 
 

@@ -135,7 +135,7 @@ def fixed_substeps(scenario: Scenario, parameters: list[Parameter], dt: float) -
         step = scenario.config.dt / scenario.config.substeps
         return max(1, math.ceil(dt / step * (1 - 1e-9)))
     names = [p.name for p in parameters]
-    config = RunConfig(dt=dt, n_samples=2, safety=scenario.config.safety)
+    config = RunConfig(dt=dt, n_samples=2, safety=scenario.config.safety, integrator=scenario.config.integrator)
     most = 1
     for point in _corners(parameters):
         values = dict(zip(names, point))
@@ -274,7 +274,7 @@ class ScenarioModel:
         base = _base(self.text, self.source)
         trial = base.with_values(dict(zip(self.keys, (float(v) for v in values))))
         config = RunConfig(dt=self.dt, n_samples=self.stop, substeps=self.substeps, save_nodes=self.nodes,
-                           safety=base.config.safety)
+                           safety=base.config.safety, integrator=base.config.integrator)
         traj = Simulator(trial.setup).run(config)
         return np.asarray(traj.positions[self.first:], dtype=np.float64)
 

@@ -5,6 +5,7 @@ from dataclasses import replace
 
 from ..errors import bad
 from ..files import atomic_write_text, prepare_output
+from ..rod.simulation import INTEGRATORS
 from ..scenarios.scenario import SCENARIO_NAMES, load_scenario
 from ..scenarios.summary import simulate_summary
 from ._progress import Bar
@@ -19,6 +20,8 @@ def add_args(p):
     p.add_argument("--samples", type=int, default=None, help="saved samples (default: the scenario's)")
     p.add_argument("--substeps", type=int, default=None, help="solver steps per saved dt (default: the scenario's)")
     p.add_argument("--dt", type=float, default=None, help="saved interval in s (default: the scenario's)")
+    p.add_argument("--integrator", choices=INTEGRATORS, default=None,
+                   help="the solver (default: the scenario's): explicit, or implicit for stiff rods")
     p.add_argument("--radius", type=float, default=None, help="override the rod radius [m]")
     p.add_argument("--youngs-modulus", type=float, default=None, help="override Young's modulus [Pa]")
     p.add_argument("--density", type=float, default=None, help="override the density [kg/m^3]")
@@ -43,8 +46,8 @@ def run(args) -> int:
            if getattr(args, k) is not None}
     if rod:
         setup = replace(setup, rod=replace(setup.rod, **rod))
-    changes = {k: v for k, v in (("dt", args.dt), ("n_samples", args.samples), ("substeps", args.substeps))
-               if v is not None}
+    changes = {k: v for k, v in (("dt", args.dt), ("n_samples", args.samples), ("substeps", args.substeps),
+                                 ("integrator", args.integrator)) if v is not None}
     if changes:
         config = replace(config, **changes)
     with Bar(f"simulate {scenario.name}", enabled=not args.quiet) as bar:
@@ -64,7 +67,8 @@ def format_summary(s: dict) -> str:
         f"  rod: L = {s['length_m']:.4g} m, {s['n_nodes']} nodes, r = {s['radius_m'] * 1e3:.3g} mm, "
         f"E = {s['youngs_modulus_pa'] / 1e6:.3g} MPa",
         f"  samples: {s['n_samples']} at dt = {s['dt_s']:g} s ({s['duration_s']:g} s simulated); "
-        f"solver step h = {s['step_s']:.3g} s ({s['substeps']} substeps, stable limit {s['stable_step_s']:.3g} s)",
+        f"{s['integrator']} solver step h = {s['step_s']:.3g} s ({s['substeps']} substeps, explicit stable limit "
+        f"{s['stable_step_s']:.3g} s)",
         f"  time: {s['total_time_s']:.2f} s in all ({s['wall_time_s']:.2f} s stepping and saving, "
         f"{s['us_per_node_step']:.3f} us per node-step, real-time factor {s['realtime_factor']:.1f})",
         f"  node {s['node']}: start {_fmt(s['node_start_m'])} m, min {_fmt(s['node_min_m'])}, "

@@ -5,8 +5,8 @@
 rods must share everything the kernel shares between them: rod spec, stress-free reference shape,
 boundary node kinds and the nodes with prescribed motion, the PD-tracked nodes and their gains,
 the tendons' routing and which are driven by a displacement (with their stiffness), damping and
-gravity. Initial shapes, nodal loads, PD targets, tendon tensions and displacements and prescribed
-motions may differ.
+a constant gravity. Initial shapes, nodal loads, PD targets, tendon tensions and displacements,
+prescribed motions and gravities given as time functions (in every setup) may differ.
 Each rod gives the same trajectory as ``simulate`` would (up to rounding in the order of summing
 loads on one node).
 
@@ -79,8 +79,10 @@ def _check_compatible(setups: list[Setup], inputs: list[SetupInputs]) -> None:
             raise bad(f"{where}.tendons", [td.name for td in s.tendons],
                       "tendons driven as in setups[0] (the same tendons by a displacement, with the same stiffness; "
                       "tensions and displacements may differ)")
-        if s.gravity != s0.gravity:
-            raise bad(f"{where}.gravity", s.gravity, f"the same gravity as setups[0] ({s0.gravity})")
+        varying = callable(s.gravity)
+        if varying != callable(s0.gravity) or (not varying and s.gravity != s0.gravity):
+            raise bad(f"{where}.gravity", s.gravity, f"the same constant gravity as setups[0] ({s0.gravity}), "
+                                                     "or a time function in every setup (they may differ)")
 
 
 def _checked(setups: Sequence[Setup], config: RunConfig) -> list[Setup]:
@@ -93,6 +95,9 @@ def _checked(setups: Sequence[Setup], config: RunConfig) -> list[Setup]:
             raise bad(f"setups[{b}]", type(s).__name__, "a softrnn.rod.Setup")
     if not isinstance(config, RunConfig):
         raise bad("config", type(config).__name__, "a softrnn.rod.RunConfig")
+    if config.integrator != "explicit":
+        raise bad("config.integrator", config.integrator,
+                  "'explicit': a batch runs the explicit integrator (run stiff rods one by one with Simulator)")
     return setups
 
 

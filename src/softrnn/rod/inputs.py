@@ -1,8 +1,10 @@
-"""The time-dependent inputs of a setup (nodal loads, PD targets, prescribed boundary motions)
-evaluated chunk by chunk into the kernels' ``StepInputs`` record."""
+"""The time-dependent inputs of a setup (nodal loads, PD targets, prescribed boundary motions,
+tendon tensions and displacements, a time-varying gravity) evaluated chunk by chunk into the
+kernels' ``StepInputs`` record."""
 
 import numpy as np
 
+from ..errors import bad
 from .boundary import Clamp
 from .kernels import StepInputs
 from .loads import PDTracking
@@ -14,7 +16,10 @@ class SetupInputs:
 
     Attributes
     ----------
-    ext_idx : (m,) int64       nodes with ``NodalLoad`` entries, increasing
+    ext_idx : (m,) int64       nodes with ``NodalLoad`` entries, increasing (every node when the
+                               setup's gravity is a time function: its weight m_a g(t) [N] is a
+                               world force added to the node's nodal loads, and the lumped rod
+                               carries no constant gravity, ``rod.lumped.constant_gravity``)
     pd_idx : (p,) int64        nodes of the ``PDTracking`` entries, in the setup's order
     pd_gain : (p, 2)           their stiffness [N/m] and damping [N s/m]
     presc_idx : (q,) int64     nodes whose Clamp/Pin carries a motion/path, in the setup's order
@@ -39,8 +44,13 @@ class SetupInputs:
             else:
                 ext.setdefault(a, []).append(load)
         self._presc, self._ext, self._pd = presc, ext, pd
+        self._gravity = setup.gravity if callable(setup.gravity) else None
+        self._constant = None if self._gravity is not None else setup.gravity
+        weighed = range(setup.rod.n_nodes) if self._gravity is not None else ()
         self.presc_idx = np.array([a for a, _ in presc], dtype=np.int64)
-        self.ext_idx = np.array(sorted(ext), dtype=np.int64)
+        self.ext_idx = np.array(sorted(set(ext).union(weighed)), dtype=np.int64)
+        # node masses (n,) [kg], as in the lumped rod: the weights of a time-varying gravity
+        self._mass = setup.rod.lumped()["mass"] if self._gravity is not None else None
         self.pd_idx = np.array([a for a, _ in pd], dtype=np.int64)
         self.pd_gain = np.array([[p.stiffness, p.damping] for _, p in pd], dtype=float).reshape(-1, 2)
         self.tendons = tuple(setup.tendons)
@@ -74,6 +84,17 @@ class SetupInputs:
                 pos[:, j] = bc.path(t)
         return pos, rot
 
+    def gravity(self, t: np.ndarray) -> np.ndarray:
+        """The setup's gravity (K, 3) [m/s^2] at times t (K,) [s] (a constant broadcast)."""
+        if self._gravity is None:
+            return np.broadcast_to(np.asarray(self._constant, dtype=float), (t.size, 3)).copy()
+        g = np.asarray(self._gravity(t), dtype=float)
+        if g.shape != (t.size, 3) or not np.all(np.isfinite(g)):
+            got = f"shape {g.shape}" if g.shape != (t.size, 3) else "a value that is not finite"
+            raise bad("gravity", self._gravity, f"a time function t (K,) [s] -> (K, 3) of finite values in m/s^2 "
+                                                f"(for {t.size} times it gave {got})")
+        return g
+
     def at(self, t: np.ndarray, h: float) -> StepInputs:
         """The inputs of the steps at times t (K,) [s]: loads, tendon tensions and displacements at
         t (the tensions of tendons driven by a displacement are 0 here: the kernel computes them),
@@ -81,12 +102,14 @@ class SetupInputs:
         K = t.size
         ext_w = np.zeros((K, self.ext_idx.size, 12))
         for j, a in enumerate(self.ext_idx):
-            for load in self._ext[a]:
+            for load in self._ext.get(a, ()):
                 off = 0 if load.frame == "world" else 6
                 if load.force is not None:
                     ext_w[:, j, off:off + 3] += load.force(t)
                 if load.torque is not None:
                     ext_w[:, j, off + 3:off + 6] += load.torque(t)
+        if self._gravity is not None:
+            ext_w[:, :, 0:3] += self.gravity(t)[:, None, :] * self._mass[None, :, None]
         pd_target = np.zeros((K, len(self._pd), 3))
         for j, (_, p) in enumerate(self._pd):
             pd_target[:, j] = p.target(t)

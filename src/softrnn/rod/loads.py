@@ -1,7 +1,9 @@
 """External loads: time functions, nodal forces and torques, and state-feedback (PD) forces.
 
-A time function maps times t (K,) [s] to values (K, 3) (forces [N], torques [N m] or target
-positions [m]); all are vectorised and evaluated chunk by chunk ahead of the numba kernel.
+A time function maps times t (K,) [s] to values (K, 3) (forces [N], torques [N m], target
+positions [m] or a gravity [m/s^2]); all are vectorised and evaluated chunk by chunk ahead of the
+numba kernel. ``Scheduled`` ramps any of them (and the scalar tendon profiles) in from a start time
+and removes it at a release time.
 """
 
 from dataclasses import dataclass, field
@@ -131,6 +133,71 @@ def smoothstep(x: np.ndarray) -> np.ndarray:
     """C2 ramp 0 -> 1 on [0, 1]: 6x^5 - 15x^4 + 10x^3."""
     x = np.clip(x, 0.0, 1.0)
     return x * x * x * (x * (6 * x - 15) + 10)
+
+
+SCHEDULE_SHAPES = ("smooth", "linear")
+
+
+@dataclass(frozen=True)
+class Scheduled:
+    """``function`` times a schedule factor w(t): 0 before ``start`` [s], rising to 1 over ``ramp``
+    [s] (``shape`` "smooth": the C2 smoothstep; "linear": a straight ramp; ramp 0: a step at
+    ``start``), 1 after, and 0 again from ``release`` [s] on (a sudden removal; None: never).
+
+    One implementation for every profile whose values have the time axis first: vector time
+    functions (K,) -> (K, 3) (forces, torques, targets, boundary motions, gravity) and scalar tendon
+    tension or displacement profiles (K,) -> (K,). A target position or a boundary displacement is
+    scaled as a whole (toward the origin, or toward the node's initial pose). ``function`` is
+    evaluated at t itself, not at t - start."""
+
+    function: object
+    start: float = 0.0
+    ramp: float = 0.0
+    release: float | None = None
+    shape: str = "smooth"
+
+    def __post_init__(self):
+        if not callable(self.function):
+            raise bad("Scheduled.function", self.function, "a time function of t (K,) [s]")
+        object.__setattr__(self, "start", finite("Scheduled.start", self.start, "s"))
+        object.__setattr__(self, "ramp", nonnegative("Scheduled.ramp", self.ramp, "s"))
+        if self.release is not None:
+            release = finite("Scheduled.release", self.release, "s")
+            if release <= self.start:
+                raise bad("Scheduled.release", self.release, f"a time after start = {self.start:g} s, or None")
+            object.__setattr__(self, "release", release)
+        if self.shape not in SCHEDULE_SHAPES:
+            raise bad("Scheduled.shape", self.shape, "'smooth' or 'linear'")
+
+    def factor(self, t) -> np.ndarray:
+        """The schedule factor w (K,) in [0, 1] at times t (K,) [s]."""
+        t = np.asarray(t, dtype=float)
+        if self.ramp > 0:
+            x = (t - self.start) / self.ramp
+            w = smoothstep(x) if self.shape == "smooth" else np.clip(x, 0.0, 1.0)
+        else:
+            w = (t >= self.start).astype(float)
+        if self.release is not None:
+            w = np.where(t < self.release, w, 0.0)
+        return w
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        value = np.asarray(self.function(t), dtype=float)
+        w = self.factor(t)
+        return value * w.reshape(w.shape + (1,) * (value.ndim - w.ndim))
+
+
+def gravity_at(gravity, t: float) -> tuple:
+    """A ``Setup.gravity`` at the time t [s] as a 3-vector (gx, gy, gz) [m/s^2]: a constant as it
+    is, a time function evaluated at t (for a consumer that needs one gravity vector, such as a
+    static solution at the start of a run)."""
+    if not callable(gravity):
+        return tuple(float(g) for g in gravity)
+    g = np.asarray(gravity(np.array([float(t)])), dtype=float)
+    if g.shape != (1, 3) or not np.all(np.isfinite(g)):
+        raise bad("gravity", gravity, f"a time function t (K,) [s] -> (K, 3) finite m/s^2 (got shape {g.shape})")
+    return tuple(float(c) for c in g[0])
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from .boundary import Clamp
 from .discrete import segment_strains
 from .kernels import LumpedRod
 
-__all__ = ["frozen", "lumped_rod", "node_kinds", "with_damping"]
+__all__ = ["constant_gravity", "frozen", "lumped_rod", "node_kinds", "with_damping"]
 
 
 def _frozen_array(a, dtype) -> np.ndarray:
@@ -64,16 +64,24 @@ def node_kinds(setup) -> np.ndarray:
     return kind
 
 
+def constant_gravity(setup) -> tuple:
+    """The constant gravity (3,) [m/s^2] the lumped rod of a ``Setup`` carries: ``setup.gravity``
+    when it is a constant, (0, 0, 0) when it is a time function (``rod.inputs.SetupInputs`` then
+    applies m_a g(t) to every node as a tabulated nodal force)."""
+    return (0.0, 0.0, 0.0) if callable(setup.gravity) else setup.gravity
+
+
 def lumped_rod(setup) -> LumpedRod:
     """The lumped rod of a ``softrnn.rod.Setup``: masses, inertias, stiffnesses, stress-free strains
-    of its reference shape, damping coefficients, gravity and node kinds (see ``LumpedRod``)."""
+    of its reference shape, damping coefficients, constant gravity (``constant_gravity``) and node
+    kinds (see ``LumpedRod``)."""
     rod = setup.rod
     l = rod.segment_length
     lump = rod.lumped()
     K0, G0 = segment_strains(setup.reference.rotations, setup.reference.positions, l)
     base = frozen(length=l, weight=lump["weight"], mass=lump["mass"], inertia=lump["inertia"], C1=lump["C1"],
                   C2=lump["C2"], D1=np.zeros_like(K0), D2=np.zeros_like(K0), K0=K0, G0=G0,
-                  ct=np.zeros(rod.n_nodes), cr=np.zeros(rod.n_nodes), gravity=setup.gravity,
+                  ct=np.zeros(rod.n_nodes), cr=np.zeros(rod.n_nodes), gravity=constant_gravity(setup),
                   kind=node_kinds(setup), kv_on=False)
     return with_damping(base, setup.damping)
 

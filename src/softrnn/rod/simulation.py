@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import SoftrnnInputError, bad, nonnegative
 from ..progress import Progress
-from . import kernels
+from . import implicit, kernels
 from .boundary import Clamp, Pin
 from .inputs import SetupInputs
 from .kernels import Samples
@@ -29,6 +29,9 @@ from .stability import DEFAULT_SAFETY, stable_step
 from .state import SAMPLE_FIELDS, RodState, empty_samples, half_kick, initial_state
 from .status import raise_for_status
 from .tendons import Tendon, check_offset
+
+INTEGRATORS = ("explicit", "implicit")
+"""The solver integrators a ``RunConfig`` may name."""
 
 _CHUNK_STEPS = 65536
 _CHUNK_SAMPLES = 4096
@@ -117,8 +120,13 @@ class Damping:
 @dataclass(frozen=True, kw_only=True, eq=False)
 class Setup:
     """The physical problem: rod, stress-free reference shape, initial shape (defaults to the
-    reference), boundary conditions, loads, damping, gravity [m/s^2] (3,) and ``tendons``
-    (``softrnn.rod.tendons.Tendon`` entries with distinct names, routed from node 0)."""
+    reference), boundary conditions, loads, damping, gravity and ``tendons``
+    (``softrnn.rod.tendons.Tendon`` entries with distinct names, routed from node 0).
+
+    ``gravity`` is a constant (3,) [m/s^2], or a time function t (K,) [s] -> (K, 3) [m/s^2] (e.g.
+    ``Scheduled(Constant((0, 0, -9.81)), ramp=0.5)``), applied as the world force m_a g(t) on every
+    node with the nodal loads: ``Trajectory.forces`` then include it, and the gravitational term
+    of ``Trajectory.energy`` (which counts a constant gravity only) is 0."""
 
     rod: RodSpec
     reference: RodShape
@@ -126,7 +134,7 @@ class Setup:
     boundary: tuple = ()
     loads: tuple = ()
     damping: Damping = field(default_factory=Damping)
-    gravity: tuple = (0.0, 0.0, 0.0)
+    gravity: tuple | object = (0.0, 0.0, 0.0)
     tendons: tuple = ()
 
     def __post_init__(self):
@@ -143,10 +151,17 @@ class Setup:
         if np.max(np.abs(seg / l - 1.0)) > 0.05:
             raise bad("reference", f"segment lengths {seg.min():.4g}..{seg.max():.4g} m",
                       f"node spacing within 5% of length/(n_nodes-1) = {l:.4g} m (resample the shape)")
-        g = np.asarray(self.gravity, dtype=float)
-        if g.shape != (3,) or not np.all(np.isfinite(g)):
-            raise bad("gravity", self.gravity, "a finite 3-vector in m/s^2, e.g. (0, 0, -9.81)")
-        object.__setattr__(self, "gravity", tuple(g))
+        if callable(self.gravity):
+            g = np.asarray(self.gravity(np.zeros(1)), dtype=float)
+            if g.shape != (1, 3) or not np.all(np.isfinite(g)):
+                raise bad("gravity", self.gravity, "a time function t (K,) [s] -> (K, 3) of finite values in "
+                                                   f"m/s^2 (at t = 0 it gave shape {g.shape})")
+        else:
+            g = np.asarray(self.gravity, dtype=float)
+            if g.shape != (3,) or not np.all(np.isfinite(g)):
+                raise bad("gravity", self.gravity, "a finite 3-vector in m/s^2, e.g. (0, 0, -9.81), or a time "
+                                                   "function t (K,) -> (K, 3) in m/s^2")
+            object.__setattr__(self, "gravity", tuple(g))
         object.__setattr__(self, "boundary", tuple(self.boundary))
         object.__setattr__(self, "loads", tuple(self.loads))
         seen = set()
@@ -196,14 +211,22 @@ class Setup:
 @dataclass(frozen=True, kw_only=True)
 class RunConfig:
     """How to run: saved interval ``dt`` [s], ``n_samples`` saved states (the first at the start),
-    solver ``substeps`` per saved interval (None: the fewest that are stable), the nodes to save
-    (None: all) and the stability ``safety`` factor."""
+    solver ``substeps`` per saved interval (None: chosen automatically), the nodes to save
+    (None: all), the stability ``safety`` factor and the ``integrator``:
+
+    * ``"explicit"`` (default): the LGVI step of ``rod.kernels``; substeps None gives the fewest
+      stable ones, and an unstable choice is refused;
+    * ``"implicit"``: the stiff-stable step of ``rod.implicit`` (elastic and Kelvin-Voigt forces
+      implicit): any step is stable for the rod's own stiffness, and substeps None resolves its
+      fourth bending mode (``rod.implicit.accuracy_step``).
+    """
 
     dt: float
     n_samples: int
     substeps: int | None = None
     save_nodes: tuple | None = None
     safety: float = DEFAULT_SAFETY
+    integrator: str = "explicit"
 
     def __post_init__(self):
         if not isinstance(self.dt, (int, float)) or not np.isfinite(self.dt) or self.dt <= 0:
@@ -218,6 +241,8 @@ class RunConfig:
             raise bad("safety", self.safety, "a factor in (0, 1] applied to 2/omega_max")
         if self.save_nodes is not None:
             object.__setattr__(self, "save_nodes", tuple(int(a) for a in self.save_nodes))
+        if self.integrator not in INTEGRATORS:
+            raise bad("integrator", self.integrator, " or ".join(repr(i) for i in INTEGRATORS))
 
 
 @dataclass(frozen=True, eq=False)
@@ -322,6 +347,8 @@ class Simulator:
         self.inputs = SetupInputs(setup)
         self.state = initial_state(setup, self.rod, self.inputs)
         self.steps_done = 0
+        self._integrator = "explicit"
+        self._work = None
 
     seg_length = _from_rod("length", "Segment length l [m].")
     C1 = _from_rod("C1", "Shear and stretch stiffness (n - 1, 3) [N].")
@@ -354,7 +381,14 @@ class Simulator:
         return substeps
 
     def resolve_substeps(self, config: RunConfig) -> int:
-        """Solver steps per saved interval; refuses an unstable explicit choice."""
+        """Solver steps per saved interval; refuses an unstable explicit choice. The implicit
+        integrator takes ``config.substeps`` as given, or resolves the rod's bending modes
+        (``rod.implicit.accuracy_step``)."""
+        if config.integrator == "implicit":
+            if config.substeps is not None:
+                return int(config.substeps)
+            limit = implicit.accuracy_step(self.rod, self.inputs.pd_gain, config.safety)
+            return max(1, math.ceil(config.dt / limit * (1 - 1e-12)))
         return choose_substeps(config, self.stable_step(config.safety))
 
     # ------------------------------------------------------------------ run
@@ -368,8 +402,9 @@ class Simulator:
         machine is refused first (``check_run_size``)."""
         substeps = self.check_size(config, streamed=sink is not None)
         h = config.dt / substeps
+        self._integrator = config.integrator
         if self.steps_done == 0:
-            half_kick(self.rod, self.state, self.inputs.at(np.array([self.state.time]), h), h)
+            self._half_kick(h)
         nodes = save_nodes(self.setup, config)
         slot = save_slots(self.setup.rod.n_nodes, nodes)
         S = config.n_samples
@@ -404,13 +439,35 @@ class Simulator:
                          n_nodes=self.setup.rod.n_nodes)
         return stats if sink is not None else _concatenate(chunks, stats)
 
+    def _implicit_work(self) -> "implicit.ImplicitWork":
+        if self._work is None:
+            self._work = implicit.work_arrays(self.setup.rod.n_nodes)
+        return self._work
+
+    def _half_kick(self, h: float) -> None:
+        """Start the staggered velocities of a state at rest (``rod.state.half_kick``)."""
+        inputs = self.inputs.at(np.array([self.state.time]), h)
+        if self._integrator != "implicit":
+            half_kick(self.rod, self.state, inputs, h)
+            return
+        rod, tau = implicit.elastic_rod(self.rod)
+        out = empty_samples(save_slots(self.setup.rod.n_nodes, np.zeros(0, dtype=np.int64)), 1, 0)
+        if not implicit.implicit_half_kick(rod, self.state.arrays(), inputs, out, h, self._implicit_work(),
+                                           implicit.IMPLICIT_BETA, implicit.IMPLICIT_THETA, tau):
+            raise_for_status(implicit.SINGULAR, step=0, t0=self.state.time, h=h)
+
     def _advance(self, st: RodState, t0: float, h: float, k0: int, n_steps: int, stride: int, s0: int,
                  out: Samples, tensions: np.ndarray | None = None) -> None:
         """Steps k0 .. k0 + n_steps - 1 into ``out``; ``tensions`` (rows of out, m) [N], if given,
         receives the tendon tensions applied at the saved steps."""
         t = t0 + (k0 + np.arange(n_steps)) * h
         inputs = self.inputs.at(t, h)
-        code, step = kernels.advance(self.rod, st.arrays(), inputs, out, h, k0, n_steps, stride, s0)
+        if self._integrator == "implicit":
+            rod, tau = implicit.elastic_rod(self.rod)
+            code, step = implicit.advance(rod, tau, st.arrays(), inputs, out, h, k0, n_steps, stride, s0,
+                                          self._implicit_work())
+        else:
+            code, step = kernels.advance(self.rod, st.arrays(), inputs, out, h, k0, n_steps, stride, s0)
         raise_for_status(code, step=step, t0=t0, h=h)
         if tensions is not None:
             k = k0 + np.arange(n_steps)

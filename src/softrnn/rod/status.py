@@ -5,7 +5,7 @@ means and how to fix it; ``raise_for_status`` turns a failed kernel call into a 
 from enum import IntEnum
 
 from ..errors import SimulationError
-from . import kernels
+from . import implicit, kernels
 
 
 class KernelStatus(IntEnum):
@@ -14,6 +14,7 @@ class KernelStatus(IntEnum):
     OK = kernels.OK
     DIVERGED = kernels.DIVERGED
     NEWTON_FAILED = kernels.NEWTON_FAILED
+    SINGULAR = implicit.SINGULAR
     MAGNET_TOO_CLOSE = kernels.MAGNET_TOO_CLOSE
 
     @property
@@ -26,6 +27,7 @@ _FIXES = {
     KernelStatus.OK: (),
     KernelStatus.DIVERGED: ("use more substeps (a smaller safety factor)", "add damping"),
     KernelStatus.NEWTON_FAILED: ("use more substeps",),
+    KernelStatus.SINGULAR: ("give every node a mass (density > 0) and the rod a stiffness",),
     KernelStatus.MAGNET_TOO_CLOSE: ("lower the currents", "move the coils out"),
 }
 
@@ -67,6 +69,8 @@ def status_message(code: int, *, step: int, t0: float, h: float, magnet: int = -
                 f"~28 deg in one step")
     elif status is KernelStatus.NEWTON_FAILED:
         what = f"the rotation Newton solve failed {when}"
+    elif status is KernelStatus.SINGULAR:
+        what = f"the implicit step's linear system was singular {when}"
     elif status is KernelStatus.MAGNET_TOO_CLOSE:
         what = f"magnet {magnet} came within {min_distance} m of a coil at t = {t:.6g} s"
     else:

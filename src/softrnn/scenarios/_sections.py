@@ -11,6 +11,7 @@ import numpy as np
 from ..errors import SoftrnnInputError
 from ..rod.boundary import Clamp, Pin
 from ..rod.loads import (
+    SCHEDULE_SHAPES,
     CirclePath,
     Constant,
     Figure8Path,
@@ -18,13 +19,14 @@ from ..rod.loads import (
     PDTracking,
     RandomSmoothPath,
     Sampled,
+    Scheduled,
     Sinusoid,
     SquarePath,
     Sum,
     Window,
 )
 from ..rod.shapes import RodShape, arc, ellipse, ellipse_perimeter, polyline, straight
-from ..rod.simulation import Damping, RunConfig
+from ..rod.simulation import INTEGRATORS, Damping, RunConfig
 from ..rod.spec import NodeOverride, RodSpec
 from ..rod.stability import DEFAULT_SAFETY, stable_step
 from .paths import PoseMotion, PositionPath
@@ -223,13 +225,57 @@ _PROFILE_KEYS = {
 }
 
 
+_SCHEDULE_KEY = {"schedule": "a table {start, ramp, release, shape}: ramp the profile in from start, "
+                            "remove it at release"}
+_SCHEDULE_KEYS = {
+    "start": "the time in s before which the profile is 0 (default 0)",
+    "ramp": "the seconds over which it rises from 0 to full strength after start (default 0: a step)",
+    "release": "the time in s from which it is 0 again, a sudden removal (default: never)",
+    "shape": "the ramp's shape: 'smooth' (smoothstep, default) or 'linear'",
+}
+
+
+def _scheduled(ctx: _Ctx, t: _Table, function):
+    """``function`` wrapped in ``Scheduled`` by the ``schedule`` sub-table of the profile table
+    ``t`` (``function`` itself without one): the one reader of schedules, for vector profiles,
+    gravity and the tendons' scalar profiles."""
+    if not t.has("schedule"):
+        return function
+    st = _Table(ctx, t.raw_value("schedule"), t.key("schedule"), _SCHEDULE_KEYS)
+    start = st.get("start", number("s"), 0.0)
+    release = st.get("release", number("s"), None)
+    if release is not None and release <= start:
+        raise ctx.invalid(st.key("release"), release, f"a time after {st.key('start')} = {start:g} s "
+                                                      "(the profile is removed after it starts)")
+    try:
+        return Scheduled(function, start=start, ramp=st.get("ramp", number("s", nonnegative=True), 0.0),
+                         release=release, shape=st.get("shape", string(SCHEDULE_SHAPES), "smooth"))
+    except SoftrnnInputError as exc:
+        raise ctx.wrap(st.path, exc) from None
+
+
+def _gravity(ctx: _Ctx, key: str, x):
+    """The converter of the top-level ``gravity``: a constant [gx, gy, gz] (m/s^2), or a profile
+    table giving gravity over time (a time function t (K,) -> (K, 3))."""
+    if isinstance(x, dict):
+        return _profile(ctx, x, key)
+    if not isinstance(x, list):
+        raise ctx.invalid(key, x, "[gx, gy, gz] in m/s^2, or a profile table (kind = constant, ...) in m/s^2")
+    return vec3("m/s^2")(ctx, key, x)
+
+
 def _profile(ctx: _Ctx, raw, path: str):
-    """A time function t (K,) -> (K, 3) from a profile table."""
+    """A time function t (K,) -> (K, 3) from a profile table, with its ``schedule``."""
     kinds = tuple(_PROFILE_KEYS)
     if not isinstance(raw, dict):
         raise ctx.invalid(path, raw, "a profile table with kind = " + ", ".join(kinds))
     kind = _kind(ctx, raw, path, kinds, "the profile kind: " + ", ".join(kinds))
-    t = _Table(ctx, raw, path, {"kind": "the profile kind", **_PROFILE_KEYS[kind]})
+    t = _Table(ctx, raw, path, {"kind": "the profile kind", **_PROFILE_KEYS[kind], **_SCHEDULE_KEY})
+    return _scheduled(ctx, t, _profile_function(ctx, t, path, kind))
+
+
+def _profile_function(ctx: _Ctx, t: _Table, path: str, kind: str):
+    """The time function of the profile table ``t`` of ``kind`` (without its schedule)."""
     try:
         if kind == "constant":
             return Constant(t.get("value", vec3()))
@@ -407,6 +453,7 @@ _RUN_KEYS = {
     "save_nodes": "the nodes to save (default: all)",
     "nodes_of_interest": "the nodes reports and figures follow, a list of node indices",
     "safety": "the stability safety factor in (0, 1]",
+    "integrator": "the solver: \"explicit\" (default) or \"implicit\" (stiff rods)",
 }
 
 
@@ -441,9 +488,12 @@ def _run(ctx: _Ctx, raw, rod: RodSpec, damping: Damping) -> tuple[RunConfig, tup
         for i, a in enumerate(interest):
             if a not in save:
                 raise ctx.invalid(f"run.nodes_of_interest.{i}", a, "a node listed in run.save_nodes")
-    if substeps is not None:
+    integrator = t.get("integrator", string(INTEGRATORS), "explicit")
+    if substeps is not None and integrator == "explicit":
         _check_stability(ctx, rod, damping, dt, substeps, safety)
     kw = {} if safety is None else {"safety": safety}
+    if integrator != "explicit":
+        kw["integrator"] = integrator
     try:
         return RunConfig(dt=dt, n_samples=n_samples, substeps=substeps, save_nodes=save, **kw), interest
     except SoftrnnInputError as exc:

@@ -13,6 +13,7 @@ from ..errors import SoftrnnInputError
 from ..rod.loads import Constant, RandomSmoothPath, Sampled, Sinusoid
 from ..rod.spec import RodSpec
 from ..rod.tendons import ROUTINGS, Scalar, Tendon
+from ._sections import _SCHEDULE_KEY, _scheduled
 from .reading import ScenarioError, _Ctx, _Table, integer, number, numbers, string, table_list
 
 _TENDON_KEYS = {
@@ -56,17 +57,26 @@ _DISPLACEMENT_KEYS = {
 _DISPLACEMENT_RAMP = {"ramp": "blend the displacement in from 0 over this many seconds (smoothstep, default 0)"}
 
 
-def _tension(ctx: _Ctx, raw, path: str) -> Scalar:
+def _ramp(ctx: _Ctx, t: _Table) -> float:
+    """The ``ramp`` [s] of a tendon profile table (0 without one); not with a ``schedule``, whose
+    ``ramp`` replaces it."""
+    if t.has("ramp") and t.has("schedule"):
+        raise ctx.error(t.key("ramp"), f"{t.path}: give ramp or schedule, not both (put the ramp in the "
+                                       f"schedule: {t.key('schedule')} = {{ramp = ...}})")
+    return t.get("ramp", number("s", nonnegative=True), 0.0)
+
+
+def _tension(ctx: _Ctx, raw, path: str):
     """A tension profile t (K,) -> (K,) [N] whose values can never fall below 0."""
     kinds = tuple(_TENSION_KEYS)
     if not isinstance(raw, dict):
         raise ctx.invalid(path, raw, "a tension profile table with kind = " + ", ".join(kinds))
     kind = _Table(ctx, {"kind": raw["kind"]} if "kind" in raw else {}, path,
                   {"kind": "the tension profile kind: " + ", ".join(kinds)}).get("kind", string(kinds))
-    t = _Table(ctx, raw, path, {"kind": "the profile kind", **_TENSION_KEYS[kind], **_RAMP})
-    ramp = t.get("ramp", number("s", nonnegative=True), 0.0)
+    t = _Table(ctx, raw, path, {"kind": "the profile kind", **_TENSION_KEYS[kind], **_RAMP, **_SCHEDULE_KEY})
+    ramp = _ramp(ctx, t)
     try:
-        return Scalar(_tension_function(ctx, t, kind), ramp=ramp)
+        return _scheduled(ctx, t, Scalar(_tension_function(ctx, t, kind), ramp=ramp))
     except ScenarioError:
         raise
     except (SoftrnnInputError, ArithmeticError) as exc:
@@ -118,10 +128,11 @@ def _displacement(ctx: _Ctx, raw, path: str):
                                      + ", ".join(kinds))
     kind = _Table(ctx, {"kind": raw["kind"]} if "kind" in raw else {}, path,
                   {"kind": "the displacement profile kind: " + ", ".join(kinds)}).get("kind", string(kinds))
-    t = _Table(ctx, raw, path, {"kind": "the profile kind", **_DISPLACEMENT_KEYS[kind], **_DISPLACEMENT_RAMP})
-    ramp = t.get("ramp", number("s", nonnegative=True), 0.0)
+    t = _Table(ctx, raw, path, {"kind": "the profile kind", **_DISPLACEMENT_KEYS[kind], **_DISPLACEMENT_RAMP,
+                                **_SCHEDULE_KEY})
+    ramp = _ramp(ctx, t)
     try:
-        return Scalar(_displacement_function(t, kind), ramp=ramp)
+        return _scheduled(ctx, t, Scalar(_displacement_function(t, kind), ramp=ramp))
     except ScenarioError:
         raise
     except (SoftrnnInputError, ArithmeticError) as exc:

@@ -24,16 +24,17 @@ import numpy as np
 
 from ..errors import SoftrnnInputError, bad
 from ..rod.simulation import Damping, RunConfig, Setup
-from ._sections import _DAMPING_KEYS, _boundary, _loads, _rod, _run, _shape
+from ._initial import initial_shape, with_static_start
+from ._sections import _DAMPING_KEYS, _boundary, _gravity, _loads, _rod, _run, _shape
 from ._tendons import read_tendons
 from .calibrate import _check_calibrate, _flatten_calibrate
 from .randomize import _flatten_randomize, _sample, _set_path
-from .reading import ScenarioError, _as_is, _Ctx, _show, _Table, integer, number, string, table_list, vec3
+from .reading import ScenarioError, _as_is, _Ctx, _show, _Table, integer, number, string, table_list
 
 SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "square-circle", "square-figure8",
                                    "square-random", "semicircle", "semicircle-cosine", "tendon-planar",
                                    "tendon-planar-sine", "tendon-spatial", "tendon-spatial-sine",
-                                   "tendon-displacement")
+                                   "tendon-displacement", "steel-wire", "nitinol-guidewire")
 FORMAT_VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 
@@ -42,12 +43,14 @@ _TOP_KEYS = {
     "name": "the scenario name",
     "title": "a one-line description",
     "seed": "an integer >= 0 for everything random in the scenario",
-    "gravity": "gravity [gx, gy, gz] in m/s^2",
+    "gravity": "gravity [gx, gy, gz] in m/s^2, or a profile table of it over time (kind = constant, ...; "
+               "with a schedule)",
     "paper": "a table: section, key, dataset, role, note",
     "assumptions": "a table of named assumption texts",
     "rod": "the rod table: length, radius, youngs_modulus, density, n_nodes, ...",
     "reference": "the stress-free shape table (kind = straight, arc, ellipse or polyline)",
-    "initial": "the initial shape table (default: the reference)",
+    "initial": "the initial shape table (default: the reference; kind = straight, arc, ellipse, polyline or "
+               "poses, or from = static or dataset)",
     "boundary": "[[boundary]] entries (kind = clamp or pin)",
     "loads": "[[loads]] entries (kind = force, torque or pd)",
     "tendons": "[[tendons]] entries: name, offset, routing, end_node or end_s, tension (or displacement and "
@@ -130,7 +133,8 @@ def _parse_toml(ctx: _Ctx, text: str) -> dict:
 
 
 def _header(ctx: _Ctx, top: _Table) -> tuple[str, str, int, tuple, dict, dict]:
-    """The top-level values: (name, title, seed, gravity in m/s^2, paper table, assumptions table)."""
+    """The top-level values: (name, title, seed, gravity in m/s^2 (a 3-vector or a time function),
+    paper table, assumptions table)."""
     fmt = top.get("format", integer(), FORMAT_VERSION)
     if fmt != FORMAT_VERSION:
         raise ctx.invalid("format", fmt, f"{FORMAT_VERSION} (the format this softrnn reads)")
@@ -140,7 +144,7 @@ def _header(ctx: _Ctx, top: _Table) -> tuple[str, str, int, tuple, dict, dict]:
         raise ctx.invalid("name", name, "a non-empty name")
     title = top.get("title", string(), name)
     seed = top.get("seed", integer(0, "an integer >= 0"), 0)
-    gravity = top.get("gravity", vec3("m/s^2"), (0.0, 0.0, 0.0))
+    gravity = top.get("gravity", _gravity, (0.0, 0.0, 0.0))
     paper = top.get("paper", _as_is, {})
     pt = _Table(ctx, paper, "paper", {"section": "the paper's section, e.g. \"4.2\"",
                                       "key": "the key of the paper's results (softrnn/data/paper_results.json)",
@@ -160,7 +164,7 @@ def _setup(ctx: _Ctx, top: _Table, doc: dict, gravity: tuple) -> Setup:
     """The rod, its shapes, boundary conditions, loads, tendons and damping as a ``Setup``."""
     rod = _rod(ctx, top.raw_value("rod"))
     reference = _shape(ctx, top.raw_value("reference"), "reference", rod)
-    initial = _shape(ctx, doc["initial"], "initial", rod) if "initial" in doc else None
+    initial = initial_shape(ctx, doc["initial"], rod) if "initial" in doc else None
     if initial is not None:
         arc_len = initial.arc_length()
         if abs(arc_len / rod.length - 1.0) > 0.05:
@@ -177,10 +181,11 @@ def _setup(ctx: _Ctx, top: _Table, doc: dict, gravity: tuple) -> Setup:
     except SoftrnnInputError as exc:
         raise ctx.wrap("damping", exc) from None
     try:
-        return Setup(rod=rod, reference=reference, initial=initial, boundary=boundary, loads=loads,
-                     damping=damping, gravity=gravity, tendons=tendons)
+        setup = Setup(rod=rod, reference=reference, initial=initial, boundary=boundary, loads=loads,
+                      damping=damping, gravity=gravity, tendons=tendons)
     except SoftrnnInputError as exc:
         raise ctx.wrap("reference" if "reference" in str(exc) else "setup", exc) from None
+    return with_static_start(ctx, doc, setup)
 
 
 def _build(ctx: _Ctx, text: str, doc: dict, variant_index: int | None = None, sampled: dict | None = None) -> Scenario:

@@ -12,3 +12,6 @@ from .solver import StaticSolver as StaticSolver
 from .solver import Status as Status
 from .solver import build_grid as build_grid
 from .solver import solve as solve
+from .start import static_problem as static_problem
+from .start import static_solution as static_solution
+from .start import static_start as static_start

@@ -1,0 +1,145 @@
+"""The stiff-stable (implicit) integrator: stiff wires at large steps, order of convergence in time,
+energy behaviour undamped, the Kelvin-Voigt modal decay rate, a release from a static solution
+against a converged reference, and its parity with the explicit integrator on soft rods."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from softrnn.rod import Clamp, Constant, Damping, NodalLoad, RodSpec, RunConfig, Setup, Simulator, straight
+from softrnn.rod.implicit import accuracy_step, bending_frequency
+from softrnn.rod.loads import Scheduled
+from softrnn.rod.shapes import RodShape
+from softrnn.scenarios import load_scenario
+from softrnn.statics import static_start
+
+from helpers import (
+    ORDER_RANGE,
+    convergence_order,
+    energy_error,
+    gravity_release,
+    planar_bent_shape,
+    smooth_ramp,
+    zero_crossing_period,
+)
+
+RELEASE_TOL = 0.005        # tip error / L against a converged reference (the goal for stiff wires)
+KV_DECAY_RTOL = 0.03       # measured first-mode decay rate vs tau omega_1^2 / 2
+ENERGY_BOUND = 1e-4        # max |E - E0| / energy exchanged, undamped whip at the automatic step
+
+
+def _tip_error(setup, config, refine=8):
+    """Max Euclidean tip distance / L between a run and the same run with ``refine`` x more substeps."""
+    sim = Simulator(setup)
+    run = sim.run(replace(config, save_nodes=(-1,)))
+    ref = Simulator(setup).run(replace(config, save_nodes=(-1,), substeps=run.substeps * refine))
+    return np.linalg.norm(run.positions - ref.positions, axis=-1).max() / setup.rod.length, run, ref
+
+
+def test_steel_wire_takes_steps_ten_thousand_times_the_explicit_limit():
+    sc = load_scenario("steel-wire")
+    explicit_limit = Simulator(sc.setup).stable_step()
+    assert explicit_limit < 1e-9  # shear and Kelvin-Voigt: the explicit solver is out of reach
+    config = replace(sc.config, n_samples=301)
+    err, run, ref = _tip_error(sc.setup, config)
+    assert run.step > 1e4 * explicit_limit
+    assert run.step == pytest.approx(accuracy_step(Simulator(sc.setup).rod), rel=0.1)
+    assert err < RELEASE_TOL / 10
+    assert np.ptp(ref.positions[:, 0, 2]) > 0.01  # it did swing
+
+
+def test_release_from_a_static_solution_matches_a_converged_reference():
+    """A steel wire bent to equilibrium by a tip force (statics, frames included), the force
+    released at t = 0: free vibration with material damping, 1 s, against an 8x finer run."""
+    sc = load_scenario("steel-wire")
+    setup = sc.setup
+    # the force acts at the static start (t = 0) and is released right after it
+    pull = NodalLoad(-1, force=Scheduled(Constant((0.0, 0.3, -0.5)), release=1e-9))
+    loaded = Setup(rod=setup.rod, reference=setup.reference, boundary=setup.boundary, loads=(pull,),
+                   damping=setup.damping, gravity=setup.gravity)
+    start = static_start(loaded)
+    released = Setup(rod=setup.rod, reference=setup.reference, initial=start, boundary=setup.boundary,
+                     loads=(pull,), damping=setup.damping, gravity=setup.gravity)
+    err, run, ref = _tip_error(released, replace(sc.config, n_samples=1001))
+    assert err < RELEASE_TOL
+    swing = np.linalg.norm(ref.positions[:, 0] - ref.positions[0, 0], axis=-1).max()
+    assert swing > 0.05 * setup.rod.length
+
+
+def test_second_order_convergence_in_time():
+    """The large-deflection 3-D cantilever of the explicit test, at steps 3-24x the explicit limit."""
+    n, L = 10, 0.2
+    rod = RodSpec(length=L, radius=0.01, youngs_modulus=1e6, density=1000, n_nodes=n)
+    setup = Setup(rod=rod, reference=straight(n, L, direction=(1, 0, 0), normal=(0, 0, 1)), boundary=(Clamp(0),),
+                  loads=(NodalLoad(-1, force=smooth_ramp((0.05, 0.1, -0.3), 2.0)),
+                         NodalLoad(-1, torque=smooth_ramp((0.0, 0.0, 0.01), 2.0), frame="body")))
+    base = max(1, int(np.ceil(0.025 / (24 * Simulator(setup).stable_step()))))
+    order, err = convergence_order(setup, integrator="implicit", base=base)
+    assert err[0] > 1e-7 * L
+    assert ORDER_RANGE[0] < order < ORDER_RANGE[1], (order, err)
+
+
+def test_undamped_energy_is_bounded_at_the_automatic_step():
+    """The horizontal cantilever whipping down in gravity (large motion) at the automatic step
+    (3.3x the explicit one here): the total energy oscillates within a bound and does not drift."""
+    sim = Simulator(gravity_release())
+    h = accuracy_step(sim.rod)
+    assert h > 3 * sim.stable_step()
+    err, traj = energy_error(sim, 20_000, h, integrator="implicit")
+    assert traj.positions[:, -1, 2].min() < -0.5 * 0.2
+    assert np.abs(err).max() < ENERGY_BOUND
+    tenth = err.size // 10
+    assert abs(err[-tenth:].mean() - err[:tenth].mean()) < ENERGY_BOUND / 2
+
+
+def test_kelvin_voigt_decay_rate_matches_the_modal_formula():
+    """Kelvin-Voigt damping D = tau C damps mode k at the rate tau omega_k^2 / 2: a slender
+    cantilever released from its first-mode-like static shape decays at tau omega_1^2 / 2. (The
+    explicit integrator needs 6e-7 s steps for this rod and damping: 30 s of test.)"""
+    n, L, r, E, rho, tau = 20, 0.2, 0.002, 1e7, 1000.0, 1e-3
+    rod = RodSpec(length=L, radius=r, youngs_modulus=E, density=rho, n_nodes=n)
+    s = np.linspace(0, L, n)
+    tip = 1e-3 * L
+    angles = 3 * tip / L**3 * (L * s - s**2 / 2)
+    setup = Setup(rod=rod, reference=straight(n, L, direction=(1, 0, 0), normal=(0, 0, 1)),
+                  initial=planar_bent_shape(angles, L / (n - 1)), boundary=(Clamp(0),),
+                  damping=Damping(kelvin_voigt=tau))
+    omega1 = 1.8751**2 * np.sqrt(E * np.pi * r**4 / 4 / (rho * np.pi * r**2 * L**4))
+    T1 = 2 * np.pi / omega1
+    traj = Simulator(setup).run(RunConfig(dt=T1 / 100, n_samples=10 * 100 + 1, save_nodes=(-1,),
+                                          integrator="implicit"))
+    z = traj.positions[:, 0, 2]
+    # from the fourth period on: the second mode (39x faster decay) is gone
+    peaks = [np.abs(z[i * 100:(i + 1) * 100]).max() for i in range(4, 10)]
+    rate = -np.polyfit(np.arange(4, 10) * T1, np.log(peaks), 1)[0]
+    omega_measured = 2 * np.pi / zero_crossing_period(traj.time, z)[0]
+    assert rate == pytest.approx(tau * omega_measured**2 / 2, rel=KV_DECAY_RTOL)
+    assert rate > 0.1 / (10 * T1)  # a clearly damped signal
+
+
+def test_soft_rod_agrees_with_the_explicit_integrator():
+    """A soft paper-like rod under a ramped tip load: both integrators at their automatic steps give
+    the same motion to a small fraction of the deflection."""
+    n, L = 21, 0.5
+    rod = RodSpec(length=L, radius=0.01, youngs_modulus=2.5e6, density=1000, n_nodes=n)
+    setup = Setup(rod=rod, reference=straight(n, L, direction=(1, 0, 0), normal=(0, 0, 1)), boundary=(Clamp(0),),
+                  gravity=(0, 0, -9.81), damping=Damping(translational=0.01, rotational=1e-6),
+                  loads=(NodalLoad(-1, force=smooth_ramp((0.0, 0.05, 0.0), 1.0)),))
+    config = RunConfig(dt=0.01, n_samples=101, save_nodes=(-1,))
+    explicit = Simulator(setup).run(config)
+    implicit = Simulator(setup).run(replace(config, integrator="implicit"))
+    assert implicit.step > 3 * explicit.step
+    deflection = np.abs(explicit.positions[:, 0] - explicit.positions[0, 0]).max()
+    assert np.abs(implicit.positions - explicit.positions).max() < 0.01 * deflection
+
+
+def test_bending_frequency_estimate_and_unknown_integrator():
+    sc = load_scenario("steel-wire")
+    rod = Simulator(sc.setup).rod
+    L, r, E, rho = 0.6, 0.0008, 200e9, 7850.0
+    omega1 = 1.8751**2 * np.sqrt(E * r**2 / 4 / (rho * L**4))
+    assert bending_frequency(rod, 1) == pytest.approx(omega1 * (0.5 * np.pi) ** 2 / 1.8751**2, rel=0.01)
+    with pytest.raises(ValueError, match="integrator"):
+        RunConfig(dt=0.01, n_samples=2, integrator="rk4")
+    assert isinstance(sc.setup.initial, RodShape)
