@@ -332,7 +332,8 @@ def test_bad_run_config_and_setup():
 
 # --------------------------------------------------------------------------- symmetry
 @pytest.mark.parametrize("push", [(0.0, -0.5, 0.0), (0.0, 0.0, 0.3), (0.0, -0.4, 0.3)])
-def test_semicircle_clamped_at_both_ends_responds_symmetrically(push):
+@pytest.mark.parametrize("integrator", ["explicit", "implicit"])
+def test_semicircle_clamped_at_both_ends_responds_symmetrically(push, integrator):
     """Semicircle from the origin along +y bending toward +x, ends clamped at (0,0,0) and (2 rho,0,0),
     pushed at its middle node: the motion is mirror symmetric about the plane x = rho (node a <->
     node n-1-a, x -> 2 rho - x), including out-of-plane pushes that bend and twist it."""
@@ -343,7 +344,7 @@ def test_semicircle_clamped_at_both_ends_responds_symmetrically(push):
     mid = (n - 1) // 2
     setup = Setup(rod=rod, reference=shape, boundary=(Clamp(0), Clamp(-1)), damping=Damping(translational=0.5),
                   gravity=(0, 0, -9.81), loads=(NodalLoad(mid, force=Window(Constant(push), 0.0, 0.1)),))
-    traj = Simulator(setup).run(RunConfig(dt=1e-3, n_samples=301))
+    traj = Simulator(setup).run(RunConfig(dt=1e-3, n_samples=301, integrator=integrator))
     p, v, rf = traj.positions, traj.velocities, traj.reaction_forces
     disp = np.abs(p - shape.positions).max()
     assert disp > 0.1 * rho

@@ -61,9 +61,9 @@ def setup(tendons, gravity=(0.0, 0.0, 0.0), damping=None, n=N_NODES):
                  boundary=(Clamp(0),), damping=damping, gravity=gravity, tendons=tuple(tendons))
 
 
-def settle(s, seconds=0.6):
+def settle(s, seconds=0.6, integrator="explicit"):
     sim = Simulator(s)
-    traj = sim.run(RunConfig(dt=0.05, n_samples=int(round(seconds / 0.05)) + 1))
+    traj = sim.run(RunConfig(dt=0.05, n_samples=int(round(seconds / 0.05)) + 1, integrator=integrator))
     assert np.abs(traj.positions[-1] - traj.positions[-2]).max() < REST_TOL * L  # at rest
     return sim, traj
 
@@ -74,11 +74,12 @@ def closed_form_tension(k, q, r, length):
 
 # --------------------------------------------------------------------------- closed form
 @pytest.mark.parametrize("k, end_node", [(K_SPRING, None), (2e5, None), (K_SPRING, 6)])
-def test_a_displaced_tendon_rests_at_the_closed_form(k, end_node):
+@pytest.mark.parametrize("integrator", ["explicit", "implicit"])
+def test_a_displaced_tendon_rests_at_the_closed_form(k, end_node, integrator):
     """Every routed segment's curvature is tau r / (E I) with tau = k q / (1 + k L_e (r^2/(EI) +
     1/(EA))), the segments beyond the termination stay straight, and the recorded tension is tau."""
     s = setup([Tendon(name="t", offset=(OFFSET, 0.0), displacement=Q, stiffness=k, end_node=end_node)])
-    sim, traj = settle(s)
+    sim, traj = settle(s, integrator=integrator)
     e = N_NODES - 1 if end_node is None else end_node
     tau = closed_form_tension(k, Q, OFFSET, e * s.rod.segment_length)
     K, G = segment_strains(sim.state.rotations, sim.state.positions, s.rod.segment_length)
@@ -203,13 +204,14 @@ def test_a_segment_tendon_bends_only_its_segment():
     np.testing.assert_allclose(traj.tendon_tensions[-1], [tau, 0, 0, 0, 0, 0], rtol=CLOSED_RTOL, atol=1e-12)
 
 
-def test_a_two_segment_robot_rests_on_the_static_solution():
+@pytest.mark.parametrize("integrator", ["explicit", "implicit"])
+def test_a_two_segment_robot_rests_on_the_static_solution(integrator):
     """Six tendons with gravity, all pulled in by different amounts: every node within 0.1 % of L
     of the static solution and the tensions within 1 %."""
     n = 21
     qs = [0.003, 0.0, 0.001, 0.0015, 0.0005, 0.0]
     g = (0.0, 0.0, -9.81)
-    sim, traj = settle(setup(_robot(qs, n), g, n=n), seconds=1.0)
+    sim, traj = settle(setup(_robot(qs, n), g, n=n), seconds=1.0, integrator=integrator)
     static = [dataclasses.replace(td, end_node=None, end_s=td.end_node * L / (n - 1)) for td in _robot(qs, n)]
     sol = solve(StaticRod(length=L, radius=RADIUS, youngs_modulus=E, density=RHO, poisson_ratio=NU, gravity=g,
                           tendons=tuple(static)), n_steps=n - 1, tol=1e-10).raise_for_status()

@@ -61,8 +61,8 @@ def setup(tendons, gravity=(0.0, 0.0, 0.0), n=N_NODES):
                  damping=Damping(translational=30.0, rotational=1e-3), gravity=gravity, tendons=tuple(tendons))
 
 
-def settle(s):
-    traj = Simulator(s).run(RunConfig(dt=0.05, n_samples=11))
+def settle(s, integrator="explicit"):
+    traj = Simulator(s).run(RunConfig(dt=0.05, n_samples=11, integrator=integrator))
     assert np.abs(traj.positions[-1] - traj.positions[-2]).max() < REST_TOL * L  # at rest
     return traj
 
@@ -82,13 +82,14 @@ TAU = KAPPA * EI / OFFSET   # N
 
 # --------------------------------------------------------------------------- constant curvature
 @pytest.mark.parametrize("offset", [(OFFSET, 0.0), (0.0, -OFFSET)])
-def test_a_straight_tendon_bends_a_free_rod_to_constant_curvature(offset):
+@pytest.mark.parametrize("integrator", ["explicit", "implicit"])
+def test_a_straight_tendon_bends_a_free_rod_to_constant_curvature(offset, integrator):
     """No gravity: every segment's curvature is tau r / (E I) (the discrete strain K exactly, the
     tip angle / L within the discrete rod's O((l kappa)^2)), bending toward the tendon."""
     td = Tendon(name="t", offset=offset, tension=TAU)
     s = setup([td])
     sim = Simulator(s)
-    traj = sim.run(RunConfig(dt=0.05, n_samples=11))
+    traj = sim.run(RunConfig(dt=0.05, n_samples=11, integrator=integrator))
     assert np.abs(traj.positions[-1] - traj.positions[-2]).max() < REST_TOL * L
     kappa = TAU * OFFSET / EI
     K, _ = segment_strains(sim.state.rotations, sim.state.positions, s.rod.segment_length)
@@ -115,10 +116,11 @@ def test_static_solver_gives_the_constant_curvature():
     (Tendon(name="h", offset=(OFFSET, 0.0), tension=TAU / 3, routing="helical", pitch=0.4), (0.0, 0.0, -9.81)),
     (Tendon(name="s", offset=(0.0, -OFFSET), tension=TAU / 2, end_node=10), (0.0, 0.0, 0.0)),
 ])
-def test_the_damped_dynamic_rod_rests_on_the_static_solution(tendon, gravity):
+@pytest.mark.parametrize("integrator", ["explicit", "implicit"])
+def test_the_damped_dynamic_rod_rests_on_the_static_solution(tendon, gravity, integrator):
     """A tendon with gravity, a helical tendon with gravity, a tendon terminated mid-rod: every node
     within 0.1 % of L of the static solution (RK4 steps on the nodes)."""
-    traj = settle(setup([tendon], gravity))
+    traj = settle(setup([tendon], gravity), integrator)
     static_tendon = tendon if tendon.end_node is None else dataclasses.replace(
         tendon, end_node=None, end_s=tendon.end_node * L / (N_NODES - 1))
     sol = solve(static_rod([static_tendon], gravity), n_steps=N_NODES - 1, tol=1e-12).raise_for_status()

@@ -77,6 +77,7 @@ class ImplicitWork(NamedTuple):
     known : (n, 6)         prescribed velocities of constrained degrees of freedom
     fixed : (n, 6) int64   1 where the degree of freedom is prescribed
     pivot : (6, 7)         scratch of the 6 x 6 solves
+    weighted : (6, 12)     scratch: a segment's strain map scaled by its stiffness
     """
 
     applied: np.ndarray
@@ -89,13 +90,15 @@ class ImplicitWork(NamedTuple):
     known: np.ndarray
     fixed: np.ndarray
     pivot: np.ndarray
+    weighted: np.ndarray
 
 
 def work_arrays(n: int) -> ImplicitWork:
     """Zeroed ``ImplicitWork`` for a rod of n nodes."""
     return ImplicitWork(np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((max(n - 1, 0), 6, 12)),
                         np.zeros((n, 6, 6)), np.zeros((max(n - 1, 0), 6, 6)), np.zeros((n, 6)),
-                        np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 6), dtype=np.int64), np.zeros((6, 7)))
+                        np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 6), dtype=np.int64), np.zeros((6, 7)),
+                        np.zeros((6, 12)))
 
 
 def _dependency_stamp() -> str:
@@ -291,36 +294,37 @@ def _assemble(h, beta, theta, tau, rod, state, work):
             rhs[a, 3 + c] = rod.inertia[a, c] * w[a, c] + h * work.force[a, 3 + c]
     for a in range(n - 1):
         Ba = B[a]
-        for i in range(6):
-            for j in range(6):
-                U[a, i, j] = 0.0
         for k in range(6):
+            # beta h^2 K u^k on the right-hand side: B^T (cu C / l) (B u^k)
             ck_k = (rod.C1[a, k] if k < 3 else rod.C2[a, k - 3]) / l
-            # strain rate of the old velocities, for beta h^2 K u^k
             e = 0.0
-            for j in range(6):
-                e += Ba[k, j] * (v[a, j] if j < 3 else w[a, j - 3])
-                e += Ba[k, 6 + j] * (v[a + 1, j] if j < 3 else w[a + 1, j - 3])
+            for j in range(3):
+                e += (Ba[k, j] * v[a, j] + Ba[k, 3 + j] * w[a, j] + Ba[k, 6 + j] * v[a + 1, j]
+                      + Ba[k, 9 + j] * w[a + 1, j])
             e *= cu * ck_k
-            for i in range(12):
-                bi = Ba[k, i]
-                if bi == 0.0:
-                    continue
-                if i < 6:
-                    rhs[a, i] += bi * e
+            for j in range(6):
+                rhs[a, j] += Ba[k, j] * e
+                rhs[a + 1, j] += Ba[k, 6 + j] * e
+        # (beta h^2 + h tau) B^T C B / l, upper triangle of the 12 x 12 block, mirrored
+        W = work.weighted
+        for k in range(6):
+            ck_k = ck * (rod.C1[a, k] if k < 3 else rod.C2[a, k - 3]) / l
+            for j in range(12):
+                W[k, j] = ck_k * Ba[k, j]
+        for i in range(12):
+            for j in range(i, 12):
+                t = (Ba[0, i] * W[0, j] + Ba[1, i] * W[1, j] + Ba[2, i] * W[2, j] + Ba[3, i] * W[3, j]
+                     + Ba[4, i] * W[4, j] + Ba[5, i] * W[5, j])
+                if j < 6:
+                    D[a, i, j] += t
+                    if j != i:
+                        D[a, j, i] += t
+                elif i >= 6:
+                    D[a + 1, i - 6, j - 6] += t
+                    if j != i:
+                        D[a + 1, j - 6, i - 6] += t
                 else:
-                    rhs[a + 1, i - 6] += bi * e
-                s = ck * ck_k * bi
-                for j in range(12):
-                    bj = Ba[k, j]
-                    if bj == 0.0:
-                        continue
-                    if i < 6 and j < 6:
-                        D[a, i, j] += s * bj
-                    elif i >= 6 and j >= 6:
-                        D[a + 1, i - 6, j - 6] += s * bj
-                    elif i < 6:
-                        U[a, i, j - 6] += s * bj
+                    U[a, i, j - 6] = t
     _fix_known(n, work)
 
 
