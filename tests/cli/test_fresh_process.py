@@ -16,6 +16,7 @@ used by the later tests. ``softrnn reproduce --quick`` is not here: CI runs it w
 
 import importlib.util
 import json
+import math
 import os
 import signal
 import subprocess
@@ -259,6 +260,16 @@ def test_bench_quick(work):
     _softrnn(["bench", "--quick", "--json", work / "bench.json"], work)
     result = json.loads((work / "bench.json").read_text())
     assert {"model", "simulator", "statics"} <= set(result)
+    integrators = result["simulator"]["integrators"]
+    assert isinstance(integrators["how"], str)
+    for integrator in ("explicit", "implicit"):
+        for case in ("ellipse", "square", "semicircle", "steel-wire", "nitinol-guidewire"):
+            entry = integrators[integrator][case]
+            for key in ("us_per_node_step", "dt_s", "real_time_factor"):
+                assert math.isfinite(entry[key]) and entry[key] > 0, (integrator, case, key, entry)
+            error = entry["tip_error_pct_of_length"]
+            assert (math.isfinite(error) and error >= 0) if error is not None else entry["tip_error_reason"]
+    assert integrators["implicit"]["steel-wire"]["tip_error_pct_of_length"] is not None
 
 
 @needs_learn

@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from softrnn.errors import SoftrnnInputError
 from softrnn.rod import Clamp, Constant, Damping, NodalLoad, RodSpec, RunConfig, Setup, Simulator, straight
 from softrnn.rod.implicit import accuracy_step, bending_frequency
 from softrnn.rod.loads import Scheduled
@@ -179,3 +180,9 @@ def test_a_moving_clamp_drives_the_rod_like_the_explicit_integrator():
     # the clamp's reaction carries the rod along: on average, its weight and its momentum change
     np.testing.assert_allclose(implicit.reaction_forces[:, 0].mean(0), explicit.reaction_forces[:, 0].mean(0),
                                atol=0.02 * np.abs(explicit.reaction_forces[:, 0]).max())
+
+
+def test_an_explicit_stiff_wire_run_is_refused_with_the_implicit_integrator_as_the_fix():
+    sc = load_scenario("steel-wire")
+    with pytest.raises(SoftrnnInputError, match=r"solver steps .* the implicit integrator"):
+        Simulator(sc.setup).run(replace(sc.config, integrator="explicit"))

@@ -4,7 +4,8 @@
 static-solver (``bench.statics``) and whole-manipulator-model (``bench.dynamic``) measurements and
 returns one JSON-ready dict::
 
-    {"machine": {...}, "model": {...}, "simulator": {"cases": {...}, ...}, "statics": {...},
+    {"machine": {...}, "model": {...}, "simulator": {"cases": {...}, "integrators": {...}, ...},
+     "statics": {...},
      "dynamic": {"cases": {...}, ...}, "paper": {...}, "goals_met": {...}, "settings": {...}}
 
 ``format_all`` renders it as text. Neither prints.

@@ -9,7 +9,11 @@ Measures (see benchmarks/README.md):
 * start-up: the first tiny ``simulate`` in a fresh interpreter with an empty numba cache (cold
   compile) and again with the filled cache (cached start), import time included;
 * a batch of 16 rods (59-node cantilevers, different tip loads) through ``simulate_batch`` on
-  2 threads (and, for reference, on 1 thread).
+  2 threads (and, for reference, on 1 thread);
+* the two integrators (``RunConfig(integrator="explicit" | "implicit")``) on the paper's cases and
+  the stiff wires ``steel-wire`` and ``nitinol-guidewire``, each at its automatic step: cost, real-time
+  factor and the tracked node's error against the same integrator at an 8x smaller step
+  (``time_integrators``; ``INTEGRATOR_HOW`` says exactly how).
 
 ``run_benchmark`` returns a JSON-ready dict, ``format_table`` renders it; neither prints.
 """
@@ -24,9 +28,12 @@ import time
 from collections.abc import Callable
 
 import numba
+import numpy as np
 
 from ..progress import Progress
 from ..rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, simulate_batch, straight
+from ..scenarios import load_scenario
+from ..scenarios.cases import PAPER_CASES as SCENARIO_PAPER_CASES
 from ..scenarios.cases import build_case
 from ..timing import load_average, machine_info
 
@@ -46,6 +53,26 @@ GOALS = {
 }
 PAPER_CASES = ("ellipse", "square", "semicircle")
 GOAL_NODES = (59, 101)
+
+INTEGRATORS = ("explicit", "implicit")
+INTEGRATOR_CASES = tuple(SCENARIO_PAPER_CASES) + ("steel-wire", "nitinol-guidewire")
+KEYS = ("us_per_node_step", "dt_s", "real_time_factor", "tip_error_pct_of_length")
+"""The figures of every ``simulator.integrators[INTEGRATOR][CASE]`` entry (the error may be None)."""
+REFERENCE_REFINE = 8          # the reference takes REFERENCE_REFINE x the substeps (a step 8x smaller)
+REFERENCE_MAX_STEPS = 2_000_000  # solver steps a reference run may take; beyond: timed over fixed steps
+INTEGRATOR_HOW = (
+    "per scenario (softrnn.scenarios.load_scenario; the paper's cases and the stiff wires), its own saved interval "
+    "dt and setup, the integrator switched, substeps=None (automatic), only the tracked node saved (the scenario's "
+    "last node of interest: the free tip of square and the wires, the node of interest of ellipse and semicircle, "
+    "which are clamped at both ends). dt_s = dt / substeps, the solver step the integrator chooses for that dt "
+    "(explicit: the largest stable step, Simulator.stable_step; implicit: rod.implicit.accuracy_step, at most dt). "
+    "Timed: the first span_s simulated seconds from rest, one warm-up run, then the median wall of reps runs of "
+    "Simulator(setup).run(config), numba 1 thread; us_per_node_step = wall / (steps * nodes), real_time_factor = "
+    "simulated s / wall s. tip_error_pct_of_length = 100 * max over the saved samples of |r - r_ref| / L, r the "
+    "tracked node's position, r_ref that of one run of the same integrator with 8x the substeps (a step 8x "
+    "smaller), same samples. Where that reference would take more than 2,000,000 solver steps (the explicit step "
+    "of a stiff wire, about 1e-10 s), fixed_steps solver steps from rest are timed instead (the real-time factor "
+    "from them) and the error is null with tip_error_reason.")
 
 # cantilever of the task: L = 1 m, r = 1 cm, E = 1 MPa, rho = 1000 kg/m^3, nu = 0.5, gravity,
 # clamped at node 0, horizontal along +x (it falls and swings under its own weight)
@@ -219,7 +246,115 @@ def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, duration_s: f
     }
 
 
+# ---------------------------------------------------------------------------------------------- integrators
+def _tracked_node(scenario) -> int:
+    """The node an integrator entry follows: the scenario's last node of interest (0-based)."""
+    nodes = tuple(scenario.nodes_of_interest) or (-1,)
+    return scenario.setup.node_index(int(nodes[-1]))
+
+
+def integrator_configs(setup: Setup, config: RunConfig, node: int, integrator: str, span_s: float,
+                       fixed_steps: int) -> tuple[float, RunConfig, RunConfig | None, str | None]:
+    """(solver step h [s], timed config, reference config or None, why no reference) of one
+    integrator entry: the scenario's config with the integrator, automatic substeps and only
+    ``node`` saved, over its first ``span_s``; if the reference (``REFERENCE_REFINE`` x the substeps)
+    would exceed ``REFERENCE_MAX_STEPS``, ``fixed_steps`` solver steps of h instead, no reference."""
+    cfg = dataclasses.replace(config, integrator=integrator, substeps=None, save_nodes=(node,))
+    substeps = Simulator(setup).resolve_substeps(cfg)
+    h = cfg.dt / substeps
+    samples = _samples(cfg, span_s)
+    ref_steps = (samples - 1) * substeps * REFERENCE_REFINE
+    if ref_steps <= REFERENCE_MAX_STEPS:
+        timed = dataclasses.replace(cfg, n_samples=samples)
+        return h, timed, dataclasses.replace(timed, substeps=substeps * REFERENCE_REFINE), None
+    # h * (1 - 1e-9): fixed substeps must not exceed the stable step by a rounding error
+    timed = dataclasses.replace(cfg, dt=fixed_steps * h * (1 - 1e-9), n_samples=2, substeps=fixed_steps)
+    reason = (f"the reference over {span_s:g} s would take {ref_steps:.2g} solver steps of "
+              f"{h / REFERENCE_REFINE:.3g} s (limit {REFERENCE_MAX_STEPS:,}); over the {fixed_steps} timed steps "
+              f"({fixed_steps * h:.2g} s) the node barely moves")
+    return h, timed, None, reason
+
+
+def time_integrator(setup: Setup, config: RunConfig, node: int, integrator: str, reps: int, span_s: float,
+                    fixed_steps: int) -> dict:
+    """One ``simulator.integrators[integrator][case]`` entry (``INTEGRATOR_HOW``)."""
+    h, timed, reference, reason = integrator_configs(setup, config, node, integrator, span_s, fixed_steps)
+    Simulator(setup).run(dataclasses.replace(timed, n_samples=2))  # warm-up: compiles or loads the kernel
+    runs = []
+    for _ in range(reps):
+        c, t = time.process_time(), time.perf_counter()
+        trajectory = Simulator(setup).run(timed)
+        runs.append((time.perf_counter() - t, time.process_time() - c))
+    wall = statistics.median(w for w, _ in runs)
+    steps = trajectory.n_steps
+    simulated = steps * trajectory.step
+    n = setup.rod.n_nodes
+    entry = {"us_per_node_step": 1e6 * wall / (steps * n), "dt_s": h, "real_time_factor": simulated / wall,
+             "tip_error_pct_of_length": None, "tip_node": node, "nodes": n, "substeps": trajectory.substeps,
+             "steps": steps, "simulated_s": simulated, "wall_s": wall, "reps": reps,
+             "cpu_fraction": statistics.median(c / w for w, c in runs), "reference_dt_s": None}
+    if reference is None:
+        entry["tip_error_reason"] = reason
+        return entry
+    ref = Simulator(setup).run(reference)
+    error = np.linalg.norm(trajectory.positions[:, 0] - ref.positions[:, 0], axis=1)
+    entry["tip_error_pct_of_length"] = float(100.0 * np.max(error) / setup.rod.length)
+    entry["reference_dt_s"] = ref.step
+    return entry
+
+
+def time_integrators(reps: int, span_s: float, fixed_steps: int, cases=INTEGRATOR_CASES,
+                     tick: Callable[[], None] | None = None) -> dict:
+    """``simulator.integrators``: {integrator: {case: entry}} for ``INTEGRATORS`` and ``cases``, plus
+    "how" (``INTEGRATOR_HOW``). A case that fails is recorded as {"error": ...}. Run it with numba on
+    one thread."""
+    out: dict = {name: {} for name in INTEGRATORS}
+    for case in cases:
+        try:
+            scenario = load_scenario(case)
+            node = _tracked_node(scenario)
+        except Exception as exc:  # a scenario under construction must not sink the benchmark
+            scenario, error = None, {"error": f"{type(exc).__name__}: {exc}"}
+        for integrator in INTEGRATORS:
+            if scenario is None:
+                out[integrator][case] = dict(error)
+                continue
+            try:
+                out[integrator][case] = time_integrator(scenario.setup, scenario.config, node, integrator, reps,
+                                                        span_s, fixed_steps)
+            except Exception as exc:
+                out[integrator][case] = {"error": f"{type(exc).__name__}: {exc}"}
+        if tick is not None:
+            tick()
+    out["how"] = INTEGRATOR_HOW
+    return out
+
+
 # ---------------------------------------------------------------------------------------------- report
+def _single_rods(sizes, reps: int, duration: float, case_duration: float, tick: Callable[[], None]) -> dict:
+    """The single-rod entries (``cantilever50``, ``cantilever_nodes``, ``cases``); numba on 1 thread."""
+    sim: dict = {}
+    sizes_out = {}
+    for n in sizes:
+        setup, config = cantilever(n)
+        sizes_out[str(n)] = time_single(setup, config, config.save_nodes, reps, duration)
+        tick()
+    sim["cantilever50"] = sizes_out.pop("50")
+    sim["cantilever_nodes"] = sizes_out
+    cases: dict = {}
+    for name in PAPER_CASES:
+        try:
+            setup, config, save = _paper_case(name)
+            cases[name] = time_single(setup, config, save, reps, case_duration)
+            cases[name]["paper_us_per_node_step"] = PAPER["us_per_node_step"][name]
+            cases[name]["speedup_vs_paper"] = PAPER["us_per_node_step"][name] / cases[name]["us_per_node_step"]
+        except Exception as exc:  # a case under construction must not sink the benchmark
+            cases[name] = {"error": f"{type(exc).__name__}: {exc}"}
+        tick()
+    sim["cases"] = cases
+    return sim
+
+
 def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict:
     """Run all measurements (``quick``: shorter runs, less precise) and return the results as a
     JSON-ready dict. ``progress(items_done, n_items)`` is called after every item."""
@@ -227,8 +362,10 @@ def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict
     # per node-step depends on the motion, e.g. on the Newton iterations of fast rotations)
     reps, duration, case_duration = (5, 1.0, 1.5) if quick else (9, 2.0, 5.0)
     batch_reps = 3 if quick else 5
+    # integrators: reps, simulated span [s], fixed solver steps where no reference is within reach
+    integrator_settings = (3, 0.1, 10_000) if quick else (5, 0.3, 20_000)
     sizes = (50, 59, 101)
-    n_items = len(sizes) + len(PAPER_CASES) + 2
+    n_items = len(sizes) + len(PAPER_CASES) + len(INTEGRATOR_CASES) + 2
     done = 0
 
     def tick():
@@ -241,29 +378,11 @@ def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict
         progress(0, n_items)
     started = time.perf_counter()
     load_start = load_average()
-    sim: dict = {}
     previous = numba.get_num_threads()
-    numba.set_num_threads(1)  # the single-rod kernel is serial anyway; this pins numba's pool
+    numba.set_num_threads(1)  # the single-rod kernels are serial anyway; this pins numba's pool
     try:
-        sizes_out = {}
-        for n in sizes:
-            setup, config = cantilever(n)
-            sizes_out[str(n)] = time_single(setup, config, config.save_nodes, reps, duration)
-            tick()
-        sim["cantilever50"] = sizes_out.pop("50")
-        sim["cantilever_nodes"] = sizes_out
-
-        cases: dict = {}
-        for name in PAPER_CASES:
-            try:
-                setup, config, save = _paper_case(name)
-                cases[name] = time_single(setup, config, save, reps, case_duration)
-                cases[name]["paper_us_per_node_step"] = PAPER["us_per_node_step"][name]
-                cases[name]["speedup_vs_paper"] = PAPER["us_per_node_step"][name] / cases[name]["us_per_node_step"]
-            except Exception as exc:  # a case under construction must not sink the benchmark
-                cases[name] = {"error": f"{type(exc).__name__}: {exc}"}
-            tick()
-        sim["cases"] = cases
+        sim = _single_rods(sizes, reps, duration, case_duration, tick)
+        sim["integrators"] = time_integrators(*integrator_settings, tick=tick)
     finally:
         numba.set_num_threads(previous)
 
@@ -285,6 +404,7 @@ def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict
         "paper": PAPER,
         "settings": {"quick": quick, "reps": reps, "cantilever_and_batch_simulated_s": duration,
                      "case_simulated_s_max": case_duration,
+                     "integrators": dict(zip(("reps", "span_s", "fixed_steps"), integrator_settings)),
                      "elapsed_s": time.perf_counter() - started,
                      "load_average_start": load_start, "load_average_end": load_average(),
                      "date": time.strftime("%Y-%m-%d %H:%M:%S %z")},
@@ -319,6 +439,35 @@ def _ok(flag) -> str:
     return "-" if flag is None else ("ok" if flag else "MISS")
 
 
+def format_integrators(integrators: dict, settings: dict | None = None) -> list[str]:
+    """Text lines of ``simulator.integrators`` (one row per case and integrator)."""
+    s = (settings or {}).get("integrators", {})
+    span = f"the first {s['span_s']:g} s" if "span_s" in s else "a short span"
+    lines = [f"integrators, 1 thread: each scenario at its own saved interval, automatic step, {span} "
+             f"(stiff explicit: {s.get('fixed_steps', 'fixed')} steps); error: tracked node vs the same "
+             f"integrator at a step {REFERENCE_REFINE}x smaller, % of L"]
+    head = (f"  {'case':<19}{'integrator':<11}{'node':>5}{'step [s]':>11}{'us/node-step':>14}{'real-time x':>13}"
+            f"{'error [% L]':>13}{'cpu':>6}")
+    lines += [head, "  " + "-" * (len(head) - 2)]
+    cases = list(dict.fromkeys(c for name in INTEGRATORS for c in integrators.get(name, {})))
+    for case in cases:
+        for name in INTEGRATORS:
+            e = integrators.get(name, {}).get(case)
+            if e is None:
+                continue
+            if "error" in e:
+                lines.append(f"  {case:<19}{name:<11}  error: {e['error']}")
+                continue
+            err = e["tip_error_pct_of_length"]
+            lines.append(f"  {case:<19}{name:<11}{e['tip_node']:>5}{e['dt_s']:>11.3g}{e['us_per_node_step']:>14.4f}"
+                         f"{e['real_time_factor']:>13.3g}{'n/a' if err is None else f'{err:.2g}':>13}"
+                         f"{100 * e.get('cpu_fraction', float('nan')):>5.0f}%")
+    reasons = sorted({f"{case} ({name}): {e['tip_error_reason']}" for name in INTEGRATORS
+                      for case, e in integrators.get(name, {}).items() if e.get("tip_error_reason")})
+    lines += [f"  n/a: {r}" for r in reasons]
+    return lines
+
+
 def format_table(result: dict) -> str:
     """Plain-text table of a ``run_benchmark`` result, goals beside the measured figures."""
     m, sim, goals = result["machine"], result["simulator"], result["goals"]
@@ -349,6 +498,8 @@ def format_table(result: dict) -> str:
         lines.append(f"  note: {sim['cases_note']}")
     lines.append("  (all saved: every node saved at every sample; cpu: process CPU / wall, below ~95% means "
                  "the benchmark was waiting for a core)")
+    if "integrators" in sim:
+        lines += [""] + format_integrators(sim["integrators"], result.get("settings"))
     c = sim["compile"]
     b = sim["batch16_2threads"]
     met = result.get("goals_met") or goals_met(result)
@@ -374,6 +525,8 @@ def format_table(result: dict) -> str:
         lines.append(f"load average (1, 5, 15 min) at start {settings['load_average_start']}, "
                      f"at end {settings.get('load_average_end')}; elapsed {settings.get('elapsed_s', 0):.0f} s")
     contended = [name for name, e in _single_rows(sim) if e.get("cpu_fraction", 1.0) < 0.9]
+    contended += [f"{case} ({name})" for name in INTEGRATORS
+                  for case, e in sim.get("integrators", {}).get(name, {}).items() if e.get("cpu_fraction", 1.0) < 0.9]
     if b.get("cpu_fraction", b["threads"]) < 0.9 * b["threads"]:
         contended.append("batch")
     if contended:
