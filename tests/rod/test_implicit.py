@@ -38,16 +38,20 @@ def _tip_error(setup, config, refine=8):
     return np.linalg.norm(run.positions - ref.positions, axis=-1).max() / setup.rod.length, run, ref
 
 
-def test_steel_wire_takes_steps_ten_thousand_times_the_explicit_limit():
-    sc = load_scenario("steel-wire")
+@pytest.mark.parametrize("name", ["steel-wire", "nitinol-guidewire"])
+def test_stiff_wires_released_for_two_seconds_match_a_converged_reference(name):
+    """The shipped wires (material damping), released from a bent shape: steps 1e4-1e8 x the
+    explicit limit, the tip within 0.5 % of L of an 8x finer run over the whole 2 s (measured:
+    0.006 % and 0.003 %)."""
+    sc = load_scenario(name)
     explicit_limit = Simulator(sc.setup).stable_step()
     assert explicit_limit < 1e-9  # shear and Kelvin-Voigt: the explicit solver is out of reach
-    config = replace(sc.config, n_samples=301)
-    err, run, ref = _tip_error(sc.setup, config)
+    assert sc.config.dt * (sc.config.n_samples - 1) == pytest.approx(2.0)
+    err, run, ref = _tip_error(sc.setup, sc.config)
     assert run.step > 1e4 * explicit_limit
-    assert run.step == pytest.approx(accuracy_step(Simulator(sc.setup).rod), rel=0.1)
-    assert err < RELEASE_TOL / 10
-    assert np.ptp(ref.positions[:, 0, 2]) > 0.01  # it did swing
+    assert run.step == pytest.approx(min(sc.config.dt, accuracy_step(Simulator(sc.setup).rod)), rel=0.15)
+    assert err < RELEASE_TOL
+    assert np.linalg.norm(np.ptp(ref.positions[:, 0], axis=0)) > 0.03 * sc.setup.rod.length  # it did swing
 
 
 def test_release_from_a_static_solution_matches_a_converged_reference():
