@@ -207,7 +207,8 @@ def test_train_refuses_a_finished_model_without_resume_or_overwrite(data, model,
     assert run_cli(argv) == 2
     one_line_error(capsys, "-o=", "config.json", "pass --overwrite to replace it or --resume to continue it")
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == files
-    assert run_cli(argv + ["--resume"]) == 0                                  # finished: loaded as it is
+    assert run_cli(argv + ["--resume"]) == 2                                  # finished: nothing left to train
+    one_line_error(capsys, "already ran 1 epoch,", "pass --epochs above 1")
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == files
     assert run_cli(argv + ["--overwrite"]) == 0
     assert run_cli(argv + ["--overwrite", "--resume"]) == 2                   # one or the other

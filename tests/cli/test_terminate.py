@@ -60,7 +60,7 @@ def test_a_stop_inside_llvm_is_put_off(monkeypatch):
                  "/site-packages/llvmlite/binding/executionengine.py", "exec"), space)
     assert space["callback"](cli_main._stop, signal.SIGTERM) is None
     assert sent == [(cli_main._DEFER_S, os.kill, (os.getpid(), signal.SIGTERM))]
-    with pytest.raises(cli_main._Terminated):
+    with pytest.raises(cli_main.Terminated):
         cli_main._stop(signal.SIGTERM, sys._getframe())
     with pytest.raises(KeyboardInterrupt):
         cli_main._stop(signal.SIGINT, sys._getframe())

@@ -151,25 +151,28 @@ def test_resume_with_other_settings_is_refused(data_file, tmp_path):
                          resume=True)
 
 
-def test_a_finished_model_is_not_given_more_epochs(trained, data_file, tmp_path, capsys):
+def test_a_finished_model_trains_on_with_more_epochs_and_refuses_fewer(trained, data_file, tmp_path, capsys):
     folder = tmp_path / "m"
     save_model(folder, trained[1])
     spec = SampleSpec(node=2, wrench="force")
-    with pytest.raises(ModelFolderError, match=r"training of 3 epochs already ended \(train.epochs: 3 then, 5 now\)"):
-        train_node_model(data_file, spec, SMALL, TrainConfig(epochs=5, batch_size=32, patience=10), folder,
+    with pytest.raises(ModelFolderError, match=r"already ran 3 epochs, and --epochs 2 leaves nothing to train"):
+        train_node_model(data_file, spec, SMALL, TrainConfig(epochs=2, batch_size=32, patience=10), folder,
                          resume=True)
+    same = train_node_model(data_file, spec, SMALL, FAST, folder, resume=True)         # the same: loaded as is
+    assert _same(_state(same), _state(trained[1]))
+    more = train_node_model(data_file, spec, SMALL, TrainConfig(epochs=5, batch_size=32, patience=10), folder,
+                            resume=True)
+    assert more.meta["epochs_run"] == 5 and more.meta["continued_after_epoch"] == 3
+    assert more.meta["history"][:3] == trained[1].meta["history"]
     out = tmp_path / "cli"
     argv = ["train", str(data_file), "--node", "2", "-o", str(out), "--units", "8", "--dense", "8",
             "--batch-size", "64", "--quiet"]
     assert run_cli(argv + ["--epochs", "2"]) == 0
     files = {p.name: p.read_bytes() for p in out.iterdir()}
     capsys.readouterr()
-    assert run_cli(argv + ["--epochs", "4", "--resume"]) == 2
+    assert run_cli(argv + ["--epochs", "2", "--threads", "2", "--resume"]) == 2       # the same: nothing to do
     err = capsys.readouterr().err.strip()
-    assert err.startswith("softrnn: error:") and "\n" not in err and "training of 2 epochs already ended" in err
-    assert run_cli(argv + ["--epochs", "2", "--threads", "2", "--resume"]) == 0       # the same: nothing to do
-    text = capsys.readouterr().out
-    assert "already finished" in text and "nothing written" in text and "model written" not in text
+    assert err.startswith("softrnn: error:") and "\n" not in err and "already ran 2 epochs" in err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == files                  # nothing written
 
 
@@ -281,7 +284,7 @@ def test_cli_trains_and_reports(data_file, tmp_path, capsys):
     assert "best validation loss" in text and str(out) in text and "node 2 <- 1, 3" in text
     model = load_model(out)
     assert model.spec.wrench == "force" and model.config.lstm_units == 8 and model.config.dense_units == (8,)
-    assert run_cli(argv + ["--resume"]) == 0                                  # finished: nothing to redo
+    assert run_cli(argv + ["--resume"]) == 2                                  # finished: nothing left to train
 
 
 @pytest.mark.parametrize("extra, words", [

@@ -250,8 +250,10 @@ def test_an_interrupted_training_resumes_to_the_same_weights(model, data, tmp_pa
     assert not (folder / "checkpoint.pt").exists()
     a, b = load_file(str(model[0] / "weights.safetensors")), load_file(str(folder / "weights.safetensors"))
     assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
-    code, text = _train(data, folder, "--resume")
-    assert code == 0 and "already finished" in text
+    files = {p.name: p.read_bytes() for p in folder.iterdir()}
+    assert _train(data, folder, "--resume")[0] == 2                          # finished: nothing left to train
+    _one_line_error(capsys, "--resume=True", "already ran its", "--overwrite")
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == files
 
 
 @pytest.mark.parametrize("argv, words", [

@@ -129,6 +129,24 @@ class FitOptions:
                 raise bad(name, v, "a number in (0, 1)")
 
 
+def stop_reason(status: int, evaluations: int, options: FitOptions) -> str:
+    """Why ``least_squares`` stopped, in plain words, from its ``status`` code (-1 to 4), the number
+    of ``evaluations`` and the ``options`` whose tolerance or budget ended the fit; this replaces
+    SciPy's own termination message."""
+    after = f"after {evaluations} evaluation{'' if evaluations == 1 else 's'}"
+    reasons = {
+        -1: f"the optimiser rejected its inputs {after}",
+        0: f"the evaluation budget (max_evaluations = {options.max_evaluations}) ran out {after} "
+           "before any tolerance was met",
+        1: f"the gradient fell below gtol = {options.gtol:g} {after}",
+        2: f"the cost decreased by less than ftol = {options.ftol:g} (relative) {after}",
+        3: f"the step became smaller than xtol = {options.xtol:g} (relative) {after}",
+        4: f"the cost's decrease and the step fell below ftol = {options.ftol:g} and xtol = {options.xtol:g} "
+           f"{after}",
+    }
+    return reasons.get(status, f"the optimiser stopped with status {status} {after}")
+
+
 @dataclass(frozen=True, eq=False)
 class FitResult:
     """A finished fit (n parameters, m measured values used).
@@ -139,7 +157,7 @@ class FitResult:
     prediction_start, prediction_fitted : (m_all,) the model's predictions (the full vector)
     trials : simulations run (cached ones included); failed_trials : those the simulator could not run
     cached_trials : those read from ``cache_dir``; evaluations : points the optimiser evaluated
-    seconds : wall time; success, message : ``least_squares``' verdict
+    seconds : wall time; success, message : ``least_squares``' verdict, in words (``stop_reason``)
     """
 
     names: tuple
@@ -430,7 +448,8 @@ def fit(model, measured, parameters, *, weights=None, evaluator=None, options: F
         res = least_squares(problem.fun, x0, jac=problem.jac, bounds=(lower, upper), method="trf", x_scale=1.0,
                             max_nfev=options.max_evaluations, xtol=options.xtol, ftol=options.ftol,
                             gtol=options.gtol)
-        xf, success, message = np.asarray(res.x, np.float64), bool(res.success), str(res.message)
+        xf, success = np.asarray(res.x, np.float64), bool(res.success)
+        message = stop_reason(int(res.status), problem.evaluations, options)
     except _Converged:
         xf, success = problem.best_x, True
         message = f"the cost changed by less than ftol = {options.ftol:g} (relative) from the best point"

@@ -14,7 +14,7 @@ from ..errors import SimulationError, SoftrnnInputError, bad, require_extra
 from ..files import atomic_write_text, json_default, prepare_output
 from ..learned.spans import check_beyond_trained, start_of_test_span
 from ..resume import REFUSE, Settings, check
-from ._progress import Bar
+from ._progress import Bar, stop_code
 
 NAME = "dynamic"
 HELP = ("the learned whole-manipulator model (beyond the paper): train it on data sets and sweeps, evaluate it "
@@ -239,7 +239,8 @@ def _interrupted(folder: Path, created: bool) -> None:
 
 
 def _finished(folder: Path, settings: Settings):
-    """The finished model in ``folder`` (--resume after the end), if it was trained with ``settings``."""
+    """The finished model in ``folder`` (--resume after the end), if it was trained with ``settings``
+    (a one-line refusal otherwise)."""
     from ..learned.whole.artifact import load_dynamic
 
     model = load_dynamic(folder)
@@ -309,19 +310,19 @@ def _train(args) -> int:
         _check_step(split, config)
     settings = _settings(config, split)
     if args.resume and (folder / "model.json").is_file() and not (folder / CHECKPOINT).is_file():
-        model = _finished(folder, settings)
-        print(_train_summary(folder, model.config, model.encoding, model.meta.get("training", {}),
-                             model.meta.get("data", {}), head="dynamic train: already finished,"))
-        return 0
+        model = _finished(folder, settings)         # refuses other settings, --steps included
+        raise bad("--resume", True, f"a training with steps left, but {folder} holds a finished model that already "
+                                    f"ran its {model.config.steps} steps (a finished training is not continued); "
+                                    "train with --overwrite to start again, or choose another folder")
     created = not folder.exists()
     _start_checkpoint(folder, settings, args.resume)
     with _StepBar("dynamic train", unit="step", enabled=not args.quiet) as bar, _as_options():
         try:
             trained, meta = fit(split, config, progress=bar, checkpoint=folder / CHECKPOINT, threads=args.threads)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as err:
             bar.close()
             _interrupted(folder, created)
-            return 130
+            return stop_code(err)
         except BaseException:
             _discard(folder, created)
             raise

@@ -10,8 +10,8 @@ from ..files import atomic_write_text, prepare_output
 from ._progress import Bar
 
 NAME = "evaluate"
-HELP = ("evaluate a trained node model on a data set: max/mean errors per axis [mm], %% of the rod length "
-        "and RMSE(t), one step ahead and free running, beside the paper's figures and beside baselines "
+HELP = ("evaluate a trained node model on a data set: max/mean errors per axis [mm] and in percent of the rod "
+        "length, and RMSE(t), one step ahead and free running, beside the paper's figures and beside baselines "
         "(persistence, constant velocity, linear AR), also by horizon (1, 10, 100, 1000 steps)")
 
 

@@ -1,6 +1,8 @@
 """Progress bars for the CLI (tqdm on stderr): the command line's ``softrnn.progress.Progress``; the
-library only calls progress(done, total[, info])."""
+library only calls progress(done, total[, info]). Also the exit code of a command stopped by a signal
+(``stop_code``), which every long command returns after saying what it kept."""
 
+import signal
 import sys
 
 from tqdm import tqdm
@@ -33,3 +35,14 @@ class Bar:
 
     def __exit__(self, *exc):
         self.close()
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a scheduler or ``kill`` stopping the job), raised like Ctrl-C by ``main``'s signal
+    handler so that every command's clean-up runs: temporary files removed, finished steps kept."""
+
+
+def stop_code(err: KeyboardInterrupt) -> int:
+    """The exit code of a command stopped by a signal, 128 + the signal's number: 143 for SIGTERM
+    (a scheduler's time limit, ``kill``; raised as ``Terminated``) and 130 for SIGINT (Ctrl-C)."""
+    return 128 + int(signal.SIGTERM if isinstance(err, Terminated) else signal.SIGINT)

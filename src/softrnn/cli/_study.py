@@ -4,7 +4,7 @@ import json
 import sys
 
 from ..errors import bad
-from ._progress import Bar
+from ._progress import Bar, stop_code
 
 NAME = "study"
 HELP = "hyper-parameter studies of the node models (hparams: the paper's Fig. 14, resumable, on Dask)"
@@ -114,11 +114,11 @@ def run(args) -> int:
         try:
             result = run_study(args.data, config, args.out, scheduler=args.scheduler, workers=args.workers,
                                progress=bar)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as err:
             bar.close()
             print(f"softrnn: interrupted; the finished grid points are kept in {args.out}; run the same command "
                   f"again to compute only the missing ones", file=sys.stderr)
-            return 130
+            return stop_code(err)
     n = len(result["points"])
     print(f"study hparams: {n} grid points in {args.out} ({len(result['computed'])} trained, "
           f"{len(result['measured'])} timed now, {len(result['found'])} already there) in "

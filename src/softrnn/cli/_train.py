@@ -4,7 +4,7 @@ import sys
 from pathlib import Path
 
 from ..errors import SoftrnnInputError, bad
-from ._progress import Bar
+from ._progress import Bar, stop_code
 
 NAME = "train"
 HELP = "train a node's LSTM model (paper Fig. 2A/B) on a dataset and save it as a model folder"
@@ -12,6 +12,9 @@ HELP = "train a node's LSTM model (paper Fig. 2A/B) on a dataset and save it as 
 
 def add_args(p):
     p.add_argument("data", help="an HDF5 dataset written by softrnn (simulate, sweep, import-csv)")
+    p.add_argument("--group", default=None, metavar="NAME",
+                   help="the trajectory's group inside a merged sweep file (required where it holds several; "
+                        "'softrnn show' lists them)")
     p.add_argument("--node", type=int, default=None,
                    help="the node to model (default: the node of interest the file names, or the only node it "
                         "stores)")
@@ -61,7 +64,8 @@ def add_args(p):
     p.add_argument("--threads", type=int, default=None, help="CPU threads (default: 1)")
     again = p.add_mutually_exclusive_group()
     again.add_argument("--resume", action="store_true",
-                       help="continue an interrupted training from FOLDER/checkpoint.pt (no finished epoch is lost)")
+                       help="continue an interrupted training from FOLDER/checkpoint.pt (no finished epoch is lost), "
+                            "or train a finished model on up to a larger --epochs")
     again.add_argument("--overwrite", action="store_true",
                        help="replace the model or unfinished training in FOLDER (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -121,13 +125,16 @@ def run(args) -> int:
                    holds=("config.json", CHECKPOINT),
                    fix="pass --overwrite to replace it or --resume to continue it")
     check_replaceable(args.out)   # a folder of other files is never replaced
+    args.group = one_group(args.data, args.group, "--group")
+    if args.validate_on is not None:
+        args.validate_group = one_group(args.validate_on, args.validate_group, "--validate-group")
     node = args.node
     head = None
     if node is None:
         from ..figures.data import describe_nodes
         from ._plot import named_node
 
-        head = read_dataset(args.data, stop=1)
+        head = read_dataset(args.data, group=args.group, stop=1)
         node = named_node(head)
         if node is None and len(head.nodes) == 1:    # one marker (a lab CSV of the tip alone): that node
             node = int(head.nodes[0])
@@ -149,28 +156,28 @@ def run(args) -> int:
                                ("rollout_steps", args.rollout_steps))
              if v is not None}
     config = TrainConfig(**train)
-    finished = args.resume and (Path(args.out) / "config.json").is_file() and not (Path(args.out) / CHECKPOINT).exists()
     with _LossBar(f"train node {node}", unit="batch", enabled=not args.quiet) as bar:
         try:
             model = train_node_model(args.data, spec, overrides, config, args.out, resume=args.resume, progress=bar,
-                                     pool=pool, validation=args.validate_on, validation_group=args.validate_group)
+                                     pool=pool, validation=args.validate_on, validation_group=args.validate_group,
+                                     group=args.group, refuse_done=True)
         except SoftrnnInputError as err:     # name the command's option
             text = str(err)
             if text.startswith("validate_on="):
                 raise SoftrnnInputError("--validate-on=" + text[len("validate_on="):]) from None
             raise
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as err:
             bar.close()
-            print(f"softrnn: interrupted; the finished epochs are kept in {args.out}/checkpoint.pt; run the same "
+            print(f"softrnn: interrupted; the finished epochs are kept in {args.out}/{CHECKPOINT}; run the same "
                   f"command with --resume to continue", file=sys.stderr)
-            return 130
+            return stop_code(err)
     m = model.meta
     spans = m["spans"]
     shared = f" (shared by {len(m['pool'])} pooled nodes)" if m.get("pool") else ""
     if m.get("training_data"):
         val = m["training_data"]["validation"]
         where = f"all of {val['file'] or 'the validation data'}" + (f":{val['group']}" if val.get("group") else "")
-        span_text = (f"every sample of {Path(args.data).name} trained on, validation samples {where} "
+        span_text = (f"every sample of {_named(args.data, args.group)} trained on, validation samples {where} "
                      f"(0..{val['n_samples'] - 1}), no test span")
     else:
         span_text = (f"validation samples {spans['validation'][0]}..{spans['validation'][1] - 1}, test samples "
@@ -180,8 +187,8 @@ def run(args) -> int:
           f"{m['train_windows']} training windows (stride {m['stride']}), {span_text}")
     print(f"train: best validation loss {m['best_validation_loss']:.4g} at epoch {m['best_epoch']} of "
           f"{m['epochs_run']}{' (early stop)' if m['early_stopped'] else ''}, {m['train_seconds']:.1f} s; "
-          + (f"already finished in {args.out} with these settings; nothing written" if finished
-             else f"model written to {args.out}"))
+          + (f"trained on from epoch {m['continued_after_epoch']}, " if "continued_after_epoch" in m else "")
+          + f"model written to {args.out}")
     return 0
 
 
@@ -197,20 +204,20 @@ def _spec(args, node):
     if args.drive == "actuation":
         wrench = "none"
     elif wrench is None:
-        wrench = _default_wrench(args.data, node, whole=args.validate_on is not None)
+        wrench = _default_wrench(args.data, node, whole=args.validate_on is not None, group=args.group)
         wrench = "force" if args.drive == "both" and wrench == "none" else wrench
     channels = None
     if args.channels is not None:
         channels = tuple(a.strip() for a in args.channels.split(",") if a.strip())
     neighbours = None if args.neighbours is None else _ints(args.neighbours, "--neighbours")
-    if args.inputs == "poses" and not read_dataset(args.data, stop=1).has_orientations:
+    if args.inputs == "poses" and not read_dataset(args.data, group=args.group, stop=1).has_orientations:
         raise bad("--inputs", "poses", "'positions' (the data set has no orientations: a CSV without "
                                        "n{i}_qw..qz columns stores identity placeholders)")
     try:
         spec = SampleSpec(node=node, neighbours=neighbours, history=args.history, inputs=args.inputs, wrench=wrench,
                           drive=args.drive, channels=channels)
         if args.drive != "wrench":           # checked here to name the options (training checks it again)
-            spec.resolve_channels(read_dataset(args.data, stop=1).actuation_names)
+            spec.resolve_channels(read_dataset(args.data, group=args.group, stop=1).actuation_names)
         return spec
     except SoftrnnInputError as err:     # name the command's option
         text = str(err)
@@ -220,20 +227,43 @@ def _spec(args, node):
         raise SoftrnnInputError(text) from None
 
 
-def _default_wrench(path, node, whole: bool = False) -> str:
+def _default_wrench(path, node, whole: bool = False, group: str | None = None) -> str:
     """'force' if any force or torque acts on ``node`` in the training span (the first 60 % of the
-    samples, the test span is not looked at; ``whole``: every sample, all trained on), else 'none'
-    (Fig. 2A)."""
+    samples, the test span is not looked at; ``whole``: every sample, all trained on) of the
+    trajectory (``group`` of a sweep file), else 'none' (Fig. 2A)."""
     import numpy as np
 
     from ..io.reader import read_dataset
     from ..learned.node.data import SampleSpec, split
 
-    d = read_dataset(path, nodes=[node])
+    d = read_dataset(path, nodes=[node], group=group)
     cut = d.n_samples
     if not whole and d.n_samples >= 4:
         cut = split(d.n_samples, SampleSpec(node=node, history=1))[0].stop
     return "force" if np.any(d.forces[:cut] != 0) or np.any(d.torques[:cut] != 0) else "none"
+
+
+def one_group(path, group: str | None, option: str) -> str | None:
+    """The trajectory to read of ``path``: ``group`` where given (``read_dataset`` checks it), the
+    only group of a sweep file holding one, None for a single-trajectory file; a one-line error
+    naming the groups and ``option`` for a sweep file of several without ``group``."""
+    from ..io.reader import list_groups
+
+    if group is not None or not Path(path).is_file():   # a missing file: read_dataset says so
+        return group
+    groups = list_groups(path)
+    if groups == ["/"]:
+        return None
+    if len(groups) == 1:
+        return groups[0]
+    names = ", ".join(g.lstrip("/") for g in groups[:8]) + (", ..." if len(groups) > 8 else "")
+    raise bad(option, None, f"a trajectory of {path}, a sweep file of {len(groups)} ({names}); pass {option} NAME "
+                            f"for one of them")
+
+
+def _named(path, group: str | None) -> str:
+    """'file.h5' or 'file.h5:group'."""
+    return Path(path).name + (f":{group.lstrip('/')}" if group not in (None, "/") else "")
 
 
 def _input_two(spec) -> str:

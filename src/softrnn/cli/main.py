@@ -23,12 +23,14 @@ from . import (
     _plot,
     _reproduce,
     _rollout,
+    _scenario,
     _show,
     _simulate,
     _study,
     _sweep,
     _train,
 )
+from ._progress import Terminated, stop_code
 
 
 class _Parser(argparse.ArgumentParser):
@@ -43,17 +45,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
     parser.add_argument("--version", action="version", version=f"softrnn {__version__}")
     sub = parser.add_subparsers(title="commands", dest="command", required=True, parser_class=_Parser)
-    for module in (_simulate, _sweep, _reproduce, _bench, _show, _import_csv, _animate, _plot, _train, _evaluate,
-                   _rollout, _export, _study, _magnetic, _dynamic, _calibrate, _control, _lab, _lab_example):
+    for module in (_scenario, _simulate, _sweep, _reproduce, _bench, _show, _import_csv, _animate, _plot, _train,
+                   _evaluate, _rollout, _export, _study, _magnetic, _dynamic, _calibrate, _control, _lab, _lab_example):
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_args(p)
         p.set_defaults(func=module.run)
     return parser
-
-
-class _Terminated(KeyboardInterrupt):
-    """SIGTERM (a scheduler or ``kill`` stopping the job), raised like Ctrl-C so that every command's
-    clean-up runs: temporary files removed, finished steps kept."""
 
 
 _DEFER_S = 0.05
@@ -73,12 +70,12 @@ def _inside_llvm(frame) -> bool:
 
 
 def _stop(signum, frame):
-    """SIGTERM raises ``_Terminated``, SIGINT (Ctrl-C) ``KeyboardInterrupt``: at once, or once a
+    """SIGTERM raises ``Terminated``, SIGINT (Ctrl-C) ``KeyboardInterrupt``: at once, or once a
     compile in progress has returned to Python (``_inside_llvm``)."""
     if _inside_llvm(frame):         # deliver the signal again in a moment
         threading.Timer(_DEFER_S, os.kill, (os.getpid(), signum)).start()
         return
-    raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
 def main(argv=None) -> int:
@@ -119,7 +116,8 @@ def _main(args) -> int:
               f"writable and that the disk has room, or choose another path", file=sys.stderr)
         return 2
     except KeyboardInterrupt as err:
-        what, code = ("terminated", 143) if isinstance(err, _Terminated) else ("interrupted", 130)
+        code = stop_code(err)
+        what = "terminated" if isinstance(err, Terminated) else "interrupted"
         print(f"softrnn: {what}; no partial file was left; reproduce, sweep, study and calibrate keep their "
               "finished steps and resume when run again", file=sys.stderr)
         return code

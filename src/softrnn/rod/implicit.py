@@ -6,10 +6,10 @@ sqrt(4 G / (rho r^2))), extension and the rotary-inertia bending and twist modes
 c = sqrt(E / rho)), and by Kelvin-Voigt damping (2 / (omega_max^2 tau)). None of them shrinks with
 fewer nodes, so a steel wire needs picosecond steps. Here the step is a choice of accuracy.
 
-The step (docs/guide/integrators.md). The state, the staggered velocities and the per-node update
-are those of ``advance_into``: per node an explicit translation and a 3-unknown Newton solve of the
-Cayley rotation, with the force F and body torque t of the configuration q^k. Two terms are added to
-(F, t) before the node update:
+The step (docs/guide/simulator.md, "Stiff rods"; docs/lgvi.md §8). The state, the staggered
+velocities and the per-node update are those of ``advance_into``: per node an explicit translation
+and a 3-unknown Newton solve of the Cayley rotation, with the force F and body torque t of the
+configuration q^k. Two terms are added to (F, t) before the node update:
 
     F_imp = -beta h K (u^{k+1} - u^k) - tau_d K u^{k+1}
 
@@ -31,12 +31,13 @@ tension N: h < 2 sqrt(m l / N)), never by E or G. Tendon springs, PD gains and a
 explicit.
 
 The linearised strain map of segment a (nodes a, a + 1; frame of node a; body rotation
-increments eps_a, eps_{a+1}; p = R_a^T (r_{a+1} - r_a), Q = R_a^T R_{a+1}):
+increments eps_a, eps_{a+1}; p = R_a^T (r_{a+1} - r_a), Q = R_a^T R_{a+1}, x = cay^-1(Q),
+D = dcay^-1(x) = I - x^/2 + x x^T / 4, X = I - x^/2):
 
-    l d gamma = R_a^T (dr_{a+1} - dr_a) + p x (eps_a + Q eps_{a+1}) / 2
-    l d kappa = Q eps_{a+1} - eps_a
+    l d kappa = D (Q eps_{a+1} - eps_a)
+    l d gamma = X (R_a^T (dr_{a+1} - dr_a) + p x eps_a) + p x (l d kappa) / 2
 
-which is the derivative of the SE(3)-Cayley strains of ``_segment`` at small relative rotation.
+the exact derivative of the SE(3)-Cayley strains of ``_segment`` (kappa l = x, gamma l = p - x x p / 2).
 
 Caching: numba checks a cached function against its own source file only; the functions here
 compile ``rod.kernels``' helpers into themselves, so they are built as closures over a hash of that

@@ -59,17 +59,21 @@ def _clone_state(module: torch.nn.Module) -> dict:
 
 
 def train_epochs(module: NodeLSTM, objective, fit: tuple, validation: tuple, train, checkpoint: Checkpoint, *,
-                 resume: bool, progress: Progress | None = None) -> dict:
+                 resume: bool, progress: Progress | None = None, start: dict | None = None) -> dict:
     """Train ``module`` on the ``fit`` tensors (poses, wrenches, targets) with the loss ``objective``
     (``_losses``) until ``train.epochs`` (a ``TrainConfig``) or early stopping, continuing from
     ``checkpoint`` when ``resume`` and it exists. Leaves the best validation epoch's weights in
     ``module``, in eval mode, and returns the loop's state: ``epoch`` (epochs run),
     ``best_validation_loss``, ``best_epoch``, ``bad_epochs`` and ``history`` (per epoch: ``epoch``,
     ``loss``, ``validation_loss``, ``learning_rate``, ``seconds``). ``progress`` is that of
-    ``train_node_model``."""
+    ``train_node_model``. ``start``: the state to go on from (``_checkpoint.finished_state`` of a
+    finished model whose weights ``module`` holds), with a new optimiser and the shuffling seeded
+    by ``train.seed`` plus the epochs already run."""
     optimizer = torch.optim.Adam(module.parameters(), lr=train.learning_rate)
-    generator = torch.Generator().manual_seed(train.seed)
+    generator = torch.Generator().manual_seed(train.seed + (start["epoch"] if start else 0))
     state = {"epoch": 0, "best_validation_loss": math.inf, "best_epoch": 0, "bad_epochs": 0, "history": []}
+    if start:
+        state.update(start, history=list(start["history"]))
     best = _clone_state(module)
     if resume and checkpoint.path.exists():
         best = checkpoint.restore(module, optimizer, generator, state)

@@ -508,7 +508,7 @@ def training_record(model, dataset, source=None) -> tuple[LinearTraining | None,
         return None, ("the model records no training file" if not candidates
                       else f"the training file {candidates[0]} no longer exists")
     try:
-        data = load_for_model(model, path)
+        data = load_for_model(model, path, group=known.get("group"))
     except (SoftrnnInputError, OSError) as err:
         return None, f"the training file {path} cannot be read ({' '.join(str(err).split())[:120]})"
     n = int(data.n_samples)

@@ -24,7 +24,10 @@ recorded in the model's meta.json.
 Every finished epoch is checkpointed to ``<out_folder>/checkpoint.pt`` (module, optimiser, the
 shuffling generator's state, the best weights so far, history); ``resume=True`` continues from it
 exactly, so an interrupted run followed by a resumed one gives the same weights as one
-uninterrupted run. The finished model replaces the checkpoint (``save_model``).
+uninterrupted run. The finished model replaces the checkpoint (``save_model``). ``resume=True``
+with a larger budget (more epochs, or more patience after an early stop) on a finished model
+trains on from its kept weights with a new optimiser (not the same as one longer run: the
+optimiser's state and the last epoch's weights were not kept).
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ import numpy as np
 from ... import __version__
 from ...errors import bad, integer
 from ...progress import Progress
-from ._checkpoint import FINISHED, Checkpoint, load_finished, training_settings
+from ._checkpoint import Checkpoint, epochs_left, finished_state, load_finished, nothing_left, training_settings
 from ._epochs import new_module, torch_settings, train_epochs
 from .artifact import NodeModel, check_replaceable, save_model
 from .data import Normalizer, SampleSpec, node_positions_sha256, wrench_units
@@ -127,13 +130,14 @@ class TrainConfig:
 # ------------------------------------------------------------------------------------------ train
 def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dict | None, train: TrainConfig,
                      out_folder, *, resume: bool = False, progress: Progress | None = None, pool=None,
-                     validation=None, validation_group: str | None = None) -> NodeModel:
+                     validation=None, validation_group: str | None = None, group: str | None = None,
+                     refuse_done: bool = False) -> NodeModel:
     """Train one node's model and save it to ``out_folder``.
 
     Parameters
     ----------
     dataset_path : str, Path or softrnn.io.Dataset
-        The trajectory (only the window nodes' columns are read).
+        The trajectory (only the window nodes' columns are read); of a sweep file, its ``group``.
     spec : SampleSpec
         The node, neighbours, history, inputs, wrench and train fraction (resolved here).
     model_config_overrides : dict or None
@@ -144,8 +148,9 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
         The model folder (new, empty, or an earlier model / unfinished training, which is replaced).
     resume : bool
         Continue from ``out_folder/checkpoint.pt`` if present (the settings must match, except
-        epochs, patience and threads); a finished model there is loaded and returned as is (the
-        settings and epochs must match: a finished training is not continued).
+        epochs, patience and threads); a finished model there is trained on (``_finished``).
+    refuse_done : bool
+        With ``resume``, refuse a finished model with nothing left to train instead of returning it.
     pool : sequence of int or None
         Beyond the paper: train one model shared by these nodes (their windows pooled, the spec's
         neighbours taken at the same offsets from each; ``Manipulator.of(shared=model,
@@ -163,8 +168,8 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
         spec's ``train_fraction`` and the config's ``validation_fraction`` are not used) and the
         whole of ``validation`` is the validation span of early stopping. The model's meta.json
         records both files (``training_data``). None: the chronological split of one record.
-    validation_group : str or None
-        The trajectory's group in a sweep file given as ``validation``.
+    validation_group, group : str or None
+        The trajectory's group in a sweep file given as ``validation`` / ``dataset_path``.
 
     Returns
     -------
@@ -180,7 +185,7 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
     check_replaceable(out_folder)
     t0 = time.perf_counter()
     prepared = load_training_data(dataset_path, spec, train, pool, validation=validation,
-                                  validation_group=validation_group)
+                                  validation_group=validation_group, group=group)
     config = _model_config(prepared.spec, overrides)
     normalizer = Normalizer.fit(prepared.fit, output=config.output, relative=config.relative,
                                 per_node=prepared.spec.per_node,
@@ -188,18 +193,38 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
     data_fingerprint = fingerprint(prepared.fit, prepared.validation)
     settings = training_settings(prepared.spec, config, train, data_fingerprint, prepared.pool)
     checkpoint = Checkpoint(out_folder, settings)
-    if resume and not checkpoint.path.exists() and (out_folder / "config.json").exists():
-        return load_finished(out_folder, training_settings(prepared.spec, config, train, data_fingerprint,
-                                                           prepared.pool, may_differ=FINISHED))
+    finished, start = _finished(checkpoint, train, refuse_done) if resume else (None, None)
+    if finished is not None and start is None:
+        return finished
     objective, fit, validation = training_tensors(prepared, normalizer, config, train)
     with torch_settings(train.threads):
         module = new_module(config, normalizer, train.seed)
-        state = train_epochs(module, objective, fit, validation, train, checkpoint, resume=resume, progress=progress)
+        if finished is not None:
+            module.load_state_dict(finished.module.state_dict())
+        state = train_epochs(module, objective, fit, validation, train, checkpoint, resume=resume, progress=progress,
+                             start=start)
     meta = _meta(prepared, train, state, n_windows=(int(fit[0].shape[0]), int(validation[0].shape[0])),
-                 data_fingerprint=data_fingerprint, seconds=time.perf_counter() - t0)
+                 data_fingerprint=data_fingerprint, seconds=time.perf_counter() - t0, start=start)
     model = NodeModel(config=config, spec=prepared.spec, normalizer=normalizer, module=module, meta=meta)
     save_model(out_folder, model)
     return model
+
+
+def _finished(checkpoint: Checkpoint, train: TrainConfig, refuse_done: bool) -> tuple:
+    """For a resume: (None, None) where the folder holds no finished model (or an unfinished
+    training's checkpoint); (the finished model, the loop state to train on from) where ``train``
+    leaves epochs to run; (the finished model, None) to return it as is (nothing left, the same
+    epochs, not ``refuse_done``); else the ``nothing_left`` refusal."""
+    folder = checkpoint.folder
+    if checkpoint.path.exists() or not (folder / "config.json").exists():
+        return None, None
+    finished = load_finished(folder, checkpoint.settings)
+    start = finished_state(finished.meta)
+    if epochs_left(start, train):
+        return finished, start
+    if refuse_done or finished.meta.get("train_config", {}).get("epochs") != train.epochs:
+        raise nothing_left(folder, start, train)
+    return finished, None
 
 
 def _model_config(spec: SampleSpec, overrides: dict) -> ModelConfig:
@@ -217,14 +242,15 @@ def _model_config(spec: SampleSpec, overrides: dict) -> ModelConfig:
 
 
 def _meta(prepared: TrainingData, train: TrainConfig, state: dict, *, n_windows: tuple[int, int],
-          data_fingerprint: str, seconds: float) -> dict:
+          data_fingerprint: str, seconds: float, start: dict | None = None) -> dict:
     """The model's meta.json: the data, spans and windows trained on (``n_windows``: training and
     validation tensors), the settings, the history of the epoch loop's ``state`` and the wall time
-    [s]."""
+    [s]; for a finished model trained on (``start``, its loop state), the epochs it had run
+    (``continued_after_epoch``)."""
     sp, spec = prepared.spans, prepared.spec
     meta = {
         "softrnn_version": __version__,
-        "dataset": dataset_meta(prepared.data, prepared.path),
+        "dataset": dataset_meta(prepared.data, prepared.path, prepared.group),
         "node": spec.node,
         "window_nodes": list(spec.window_nodes),
         "pool": list(prepared.pool) if prepared.pool is not None else None,
@@ -246,6 +272,8 @@ def _meta(prepared: TrainingData, train: TrainConfig, state: dict, *, n_windows:
     }
     if prepared.whole_record:
         meta["training_data"] = separate_sessions(prepared)
+    if start is not None:
+        meta["continued_after_epoch"] = start["epoch"]
     return meta
 
 
@@ -259,7 +287,7 @@ def separate_sessions(prepared: TrainingData) -> dict:
                 "file": None if path is None else Path(path).name, "group": group,
                 "n_samples": int(np.asarray(data.time).shape[0])}
 
-    train = entry(prepared.path, None, prepared.data)
+    train = entry(prepared.path, prepared.group, prepared.data)
     train["node_positions_sha256"] = node_positions_sha256(prepared.data, prepared.spec.node)
     return {"span": "whole record", "train": train,
             "validation": entry(prepared.validation_path, prepared.validation_group, prepared.validation_data)}

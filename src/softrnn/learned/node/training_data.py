@@ -122,7 +122,8 @@ def training_windows(dataset, spec: SampleSpec, train: _WindowSettings,
 @dataclass(frozen=True, eq=False)
 class TrainingData:
     """What training reads: the resolved spec, the data set of the window nodes, where it came
-    from (None: passed in memory), the pool as absolute node indices (None: one node), and the
+    from (None: passed in memory) and its group in a sweep file (``group``, None: a single
+    trajectory), the pool as absolute node indices (None: one node), and the
     fit and validation windows with the spans and stride of ``training_windows``; with a separate
     validation recording, its data set (``validation_data``), where it came from
     (``validation_path``, None: passed in memory) and its group (``validation_group``)."""
@@ -138,6 +139,7 @@ class TrainingData:
     validation_data: object = None
     validation_path: Path | None = None
     validation_group: str | None = None
+    group: str | None = None
 
     @property
     def whole_record(self) -> bool:
@@ -147,15 +149,17 @@ class TrainingData:
 
 
 def load_training_data(dataset_path, spec: SampleSpec, train: _WindowSettings, pool=None, *,
-                       validation=None, validation_group: str | None = None) -> TrainingData:
-    """Read the window nodes' columns of ``dataset_path`` (a path or a ``Dataset``), resolve the
-    spec and the pool against its nodes and cut the training windows (``training_windows``).
+                       validation=None, validation_group: str | None = None,
+                       group: str | None = None) -> TrainingData:
+    """Read the window nodes' columns of ``dataset_path`` (a path, read from ``group`` of a sweep
+    file, or a ``Dataset``), resolve the spec and the pool against its nodes and cut the training
+    windows (``training_windows``).
 
     ``validation``: a separate validation recording (a path, read from ``validation_group`` of a
     sweep file, or a ``Dataset``) with the same nodes, units, sample interval and actuation channels
     (``check_validation_data``): the whole of ``dataset_path`` is then trained on and the whole of
     ``validation`` validates (early stopping)."""
-    resolved, data, path, pool = _load_data(dataset_path, spec, pool)
+    resolved, data, path, pool = _load_data(dataset_path, spec, pool, group)
     val_data = val_path = None
     if validation is not None:
         need = sorted({a for sp in pooled_specs(resolved, pool) for a in sp.window_nodes})
@@ -173,7 +177,8 @@ def load_training_data(dataset_path, spec: SampleSpec, train: _WindowSettings, p
     fit, val, sp, stride = training_windows(data, resolved, train, pool, validation=val_data)
     return TrainingData(spec=resolved, data=data, path=path, pool=pool, fit=fit, validation=val, spans=sp,
                         stride=stride, validation_data=val_data, validation_path=val_path,
-                        validation_group=validation_group if val_path is not None else None)
+                        validation_group=validation_group if val_path is not None else None,
+                        group=group if path is not None else None)
 
 
 DT_TOLERANCE = 1e-3
@@ -226,15 +231,15 @@ def check_validation_data(train_data, validation, spec: SampleSpec, nodes, where
                                         f"is sampled every {dt:g} s; resample it")
 
 
-def _load_data(dataset_path, spec: SampleSpec, pool=None):
+def _load_data(dataset_path, spec: SampleSpec, pool=None, group: str | None = None):
     """(resolved spec, dataset of the window nodes (of every pooled node), source description,
-    the pool as absolute node indices or None)."""
+    the pool as absolute node indices or None); a path is read from ``group`` of a sweep file."""
     if isinstance(dataset_path, Dataset):
         data, path = dataset_path, None
         head = data
     else:
         path = Path(dataset_path)
-        head = read_dataset(path, stop=1)                             # every stored node, one sample
+        head = read_dataset(path, group=group, stop=1)                # every stored node, one sample
     total = head.attrs.get("n_nodes_total")
     if spec.inputs == "poses" and not head.has_orientations:   # identity placeholders are no orientations
         raise SoftrnnInputError("inputs='poses' is invalid: the data set has no orientations (has_orientations = "
@@ -243,7 +248,7 @@ def _load_data(dataset_path, spec: SampleSpec, pool=None):
     pool = _resolve_pool(pool, resolved, head.nodes, total)
     if path is not None:
         need = sorted({a for sp in pooled_specs(resolved, pool) for a in sp.window_nodes})
-        data = read_dataset(path, nodes=need)                         # only the windows' columns
+        data = read_dataset(path, nodes=need, group=group)            # only the windows' columns
     return resolved, data, path, pool
 
 
@@ -287,15 +292,16 @@ def _scenario_name(attrs: dict, path) -> str | None:
     return Path(path).stem if path is not None else None
 
 
-def dataset_meta(data, path) -> dict:
-    """The training data set as the model's meta.json records it (``dataset``): file, scenario,
-    samples, dt [s], rod, units, the actuation channels {name: unit} (only where the data set has
-    any) and the data set's other attributes."""
+def dataset_meta(data, path, group: str | None = None) -> dict:
+    """The training data set as the model's meta.json records it (``dataset``): file, its group
+    in a sweep file (only where one was read), scenario, samples, dt [s], rod, units, the actuation
+    channels {name: unit} (only where the data set has any) and the data set's other attributes."""
     attrs = dict(data.attrs)
     rod = attrs.get("rod") if isinstance(attrs.get("rod"), dict) else None
     return {
         "path": str(path) if path is not None else None,
         "file": Path(path).name if path is not None else None,
+        **({"group": group} if group not in (None, "/", "") else {}),
         "scenario_name": _scenario_name(attrs, path),
         "n_samples": int(np.asarray(data.time).shape[0]),
         "dt": float(data.dt),
