@@ -15,10 +15,10 @@ $(STAMP): pyproject.toml constraints.txt
 install: $(STAMP)
 
 reproduce: $(STAMP)
-	$(BIN)/softrnn reproduce --out out/reproduce
+	$(BIN)/softrnn reproduce -o out/reproduce
 
 reproduce-quick: $(STAMP)
-	$(BIN)/softrnn reproduce --quick --out out/reproduce-quick
+	$(BIN)/softrnn reproduce --quick -o out/reproduce-quick
 
 # The real-robot benchmark on recordings in the layout of docs/guide/real-robots.md:
 #   make real-robot DATA=path/to/opencr-tdcr-v6

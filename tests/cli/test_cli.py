@@ -128,7 +128,7 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     steps = _light_steps(monkeypatch)
     _tiny_dynamic(monkeypatch)
     out = tmp_path / "rep"
-    assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
+    assert run_cli(["reproduce", "--quick", "-o", str(out)]) == 0
     assert sorted(steps) == ["bench", "control", "fig13", "fig14", "magnetic"]
     report = json.loads((out / "report.json").read_text())
     assert report["manipulator"]["modelled_nodes"] > 0 and "errors" in report["manipulator"]
@@ -164,7 +164,7 @@ def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(train_mod, "train_node_model", boom)   # no model is trained again
     monkeypatch.setattr(dynamic_fit, "fit", boom)
     monkeypatch.setattr(sweep_mod, "run_sweep", boom)          # nor a sweep run
-    assert run_cli(["reproduce", "--quick", "--out", str(out)]) == 0
+    assert run_cli(["reproduce", "--quick", "-o", str(out)]) == 0
     assert calls == ["square"]
 
 

@@ -285,7 +285,7 @@ def test_dynamic_train_evaluate_rollout(simulated, work):
               "--width", 8, "--layers", 1, "--unroll", 2, "--quiet", "-o", model], work, "dynamic train")
     _nonempty(model / "model.json")
     _softrnn(["dynamic", "evaluate", model, "--test", work / "data.h5", "--heldout", sweep / "traj-00001.h5",
-              "-o", work / "dyn-eval.json"], work, "dynamic evaluate")
+              "--json", work / "dyn-eval.json"], work, "dynamic evaluate")
     report = json.loads((work / "dyn-eval.json").read_text())
     assert report["predicted_nodes"] > 0 and set(report["horizons"]["10"]) >= {"model", "linear"}
     _softrnn(["dynamic", "rollout", model, work / "data.h5", "-o", work / "dyn-pred.h5"], work, "dynamic rollout")

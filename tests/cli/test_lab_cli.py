@@ -21,7 +21,7 @@ def test_benchmark_writes_its_json_and_figure(folder, tmp_path, capsys):
     out = tmp_path / "b.json"
     code = run_cli(["lab", "benchmark", "--train", str(folder / "train.csv"), str(folder / "train2.csv"),
                     "--validate", str(folder / "val.csv"), "--length", "0.08", "--families", "physics",
-                    "-o", str(out), "--figure", str(tmp_path / "b.png"), "--quiet"])
+                    "--json", str(out), "--figure", str(tmp_path / "b.png"), "--quiet"])
     assert code == 0
     report = json.loads(out.read_text())
     assert set(report["models"]) == {"physics"} and report["best_model"] == "physics"
@@ -58,7 +58,7 @@ def _bad(args, capsys):
 def test_bad_options_one_line_exit_2_nothing_written(folder, tmp_path, capsys, change, words):
     out = tmp_path / "b.json"
     code, err = _bad(["lab", "benchmark", "--train", str(folder / "train.csv"), "--validate", str(folder / "val.csv"),
-                      "--length", "0.08", "--families", "physics", "-o", str(out), "--quiet", *change], capsys)
+                      "--length", "0.08", "--families", "physics", "--json", str(out), "--quiet", *change], capsys)
     assert code == 2 and words in err and "\n" not in err and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
 
@@ -74,6 +74,6 @@ def test_bad_recordings_one_line_exit_2_nothing_written(folder, tmp_path, capsys
     for train, words in [(tmp_path / "unsorted.csv", "sort the rows by time"),
                          (tmp_path / "other.csv", "every session of a robot needs the same input columns")]:
         code, err = _bad(["lab", "benchmark", "--train", str(train), "--validate", str(folder / "val.csv"),
-                          "--length", "0.08", "-o", str(out), "--quiet"], capsys)
+                          "--length", "0.08", "--json", str(out), "--quiet"], capsys)
         assert code == 2 and words in err and "\n" not in err
         assert list(out.parent.iterdir()) == []

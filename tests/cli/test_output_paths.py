@@ -81,7 +81,7 @@ FOLDER_COMMANDS = {
     "evaluate --figures": ("--figures", ["evaluate", "{model}", "{data}", "--figures", "{out}", "--quiet"]),
     "magnetic experiment": ("-o", ["magnetic", "experiment", "-o", "{out}", "--quiet"]),
     "magnetic compare": ("-o", ["magnetic", "compare", str(MAGNETIC_CSV), "-o", "{out}", "--quiet"]),
-    "reproduce": ("--out", ["reproduce", "--quick", "--out", "{out}"]),
+    "reproduce": ("-o", ["reproduce", "--quick", "-o", "{out}"]),
     "sweep": ("-o", ["sweep", "semicircle", "--count", "2", "-o", "{out}", "--quiet"]),
     "study": ("-o", ["study", "hparams", "{data}", "--node", "2", "-o", "{out}", "--quiet"]),
 }

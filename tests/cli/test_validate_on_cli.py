@@ -175,7 +175,7 @@ def test_dynamic_train_validates_on_the_separate_recording(dyn_model, runs):
 
 def test_dynamic_evaluate_runs_a_separate_test_file_from_its_start(dyn_model, runs, tmp_path, capsys):
     out = tmp_path / "e.json"
-    code, text = _run(["dynamic", "evaluate", str(dyn_model), "--test", str(runs / "test.h5"), "-o", str(out)])
+    code, text = _run(["dynamic", "evaluate", str(dyn_model), "--test", str(runs / "test.h5"), "--json", str(out)])
     assert code == 0, text
     r = json.loads(out.read_text())
     t = r["test_span"]

@@ -134,7 +134,7 @@ def test_evaluate_prints_the_table_and_writes_json(model, data, tmp_path, capsys
 def test_evaluate_refuses_data_the_model_saw(model, data, tmp_path, capsys, args, words):
     out = tmp_path / "eval.json"
     args = [a.format(sweep=data / "sweep", one=data / "one.h5") for a in args]
-    assert run_cli(["dynamic", "evaluate", str(model[0]), *args, "-o", str(out)]) == 2
+    assert run_cli(["dynamic", "evaluate", str(model[0]), *args, "--json", str(out)]) == 2
     _one_line_error(capsys, *words)
     assert not out.exists()
 
@@ -166,7 +166,7 @@ def test_a_diverging_rollout_is_one_line_naming_the_time(model, data, tmp_path, 
     monkeypatch.setattr(rollout, "free_run", diverging)
     out = tmp_path / "pred.h5"
     assert run_cli(["dynamic", "rollout", str(model[0]), str(data / "one.h5"), "-o", str(out),
-                    "--start-time", "0.2"]) == 2
+                    "--start", "0.2"]) == 2
     _one_line_error(capsys, "diverged at t = 0.26 s", "nothing was written")
     assert list(tmp_path.iterdir()) == []
 
@@ -272,8 +272,8 @@ def test_an_interrupted_training_resumes_to_the_same_weights(model, data, tmp_pa
     (["evaluate", "{sweep}", "--test", "{one}"], ["model.json is missing"]),
     (["evaluate", "{model}", "--generalisation", "{sub}"], ["--generalisation=", "every node 0..50"]),
     (["rollout", "{model}", "{sub}"], ["DATA=", "every node 0..50"]),
-    (["rollout", "{model}", "{one}", "--start-time", "0.0"], ["--start-time=0.0", "states"]),
-    (["rollout", "{model}", "{one}", "--stop-time", "9"], ["--stop-time=9.0", "data's end"]),
+    (["rollout", "{model}", "{one}", "--start", "0.0"], ["--start=0.0", "states"]),
+    (["rollout", "{model}", "{one}", "--stop", "9"], ["--stop=9.0", "data's end"]),
     (["rollout", "{model}", "{one}", "--format-txt"], ["unrecognized arguments"]),
     (["export", "{model}", "--onnx", "{model}/step.onnx"], ["--onnx=", "outside the model folder"]),
     ([], ["dynamic", "required"]),
@@ -282,7 +282,7 @@ def test_bad_input_is_one_line_exit_2_and_leaves_nothing(model, data, tmp_path, 
     names = {"sweep": data / "sweep", "one": data / "one.h5", "sub": data / "some-nodes.h5", "model": model[0]}
     argv = [a.format(**names) for a in argv]
     out = tmp_path / "out"
-    outputs = {"train": ["-o", str(out)], "evaluate": ["-o", str(out) + ".json"],
+    outputs = {"train": ["-o", str(out)], "evaluate": ["--json", str(out) + ".json"],
                "rollout": ["-o", str(out) + ".h5"]}
     before = sorted(p.name for p in model[0].iterdir())
     assert run_cli(["dynamic", *argv, *outputs.get(argv[0] if argv else "", [])]) == 2

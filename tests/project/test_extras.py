@@ -38,7 +38,7 @@ def test_simulate_runs_without_the_optional_packages(tmp_path):
     (["train", "d.h5", "--node", "3", "--quiet", "-o", "m"], "learn"),
     (["sweep", "semicircle", "--count", "2", "--quiet", "-o", "s"], "dask"),
     (["magnetic", "experiment", "--quick", "--quiet", "-o", "mx"], "learn"),
-    (["reproduce", "--quick", "--out", "rq"], "learn"),
+    (["reproduce", "--quick", "-o", "rq"], "learn"),
     (["bench", "--quick", "--json", "b.json"], "learn"),
 ])
 def test_a_command_needing_a_missing_extra_names_it_in_one_line(tmp_path, argv, extra):

@@ -101,6 +101,8 @@ class Parameter:
 class FitOptions:
     """How to fit.
 
+    Attributes
+    ----------
     max_evaluations : int
         Largest number of points the optimiser evaluates (``least_squares``' ``max_nfev``; each
         costs one simulation, and a Jacobian n more).
@@ -151,13 +153,36 @@ def stop_reason(status: int, evaluations: int, options: FitOptions) -> str:
 class FitResult:
     """A finished fit (n parameters, m measured values used).
 
-    names : parameter names; start, fitted, std_error : (n,) values in the parameters' units
-    correlation : (n, n) correlation of the estimates; not_identifiable : lines saying which are not
-    rms_start, rms_fitted : root-mean-square weighted residual at the start and at the optimum
-    prediction_start, prediction_fitted : (m_all,) the model's predictions (the full vector)
-    trials : simulations run (cached ones included); failed_trials : those the simulator could not run
-    cached_trials : those read from ``cache_dir``; evaluations : points the optimiser evaluated
-    seconds : wall time; success, message : ``least_squares``' verdict, in words (``stop_reason``)
+    Attributes
+    ----------
+    names : tuple of str
+        parameter names
+    start, fitted, std_error : (n,)
+        values in the parameters' units
+    correlation : (n, n)
+        correlation of the estimates
+    not_identifiable : list of str
+        lines saying which are not identifiable
+    rms_start, rms_fitted : float
+        root-mean-square weighted residual at the start and at the optimum
+    prediction_start, prediction_fitted : (m_all,)
+        the model's predictions (the full vector)
+    trials : int
+        simulations run (cached ones included)
+    failed_trials : int
+        those the simulator could not run
+    cached_trials : int
+        those read from ``cache_dir``
+    evaluations : int
+        points the optimiser evaluated
+    seconds : float
+        wall time [s]
+    success, message : bool, str
+        ``least_squares``' verdict, in words (``stop_reason``)
+    measurements : int
+        m, the measured values used (the residual's length)
+    history : list
+        (trials so far, RMS residual, {name: value}) of every point the optimiser evaluated
     """
 
     names: tuple
@@ -418,11 +443,30 @@ def fit(model, measured, parameters, *, weights=None, evaluator=None, options: F
         progress: Progress | None = None, cache_dir=None, fingerprint: str = "") -> FitResult:
     """Fit ``parameters`` (``Parameter`` list) so that ``model(values)`` matches ``measured``.
 
-    measured : (m,) measurements, NaN where there is none (left out)
-    weights : (m,) or scalar or None (1): multiplies each residual (e.g. 1 / its noise level)
-    evaluator : ``Evaluator`` (None: this process)
-    progress : ``progress(trials, budget, info)`` after every batch of simulations
-    cache_dir, fingerprint : keep every trial in ``cache_dir`` to resume (see the module docstring)
+    Parameters
+    ----------
+    model : callable
+        picklable ``model(values)`` -> (m_all,) prediction for a tuple of the parameters' values in
+        ``parameters`` order (see the module docstring)
+    measured : (m,)
+        measurements, NaN where there is none (left out)
+    parameters : list of Parameter
+        the fitted parameters, their start values and bounds
+    weights : (m,) or scalar or None
+        multiplies each residual (e.g. 1 / its noise level); None: 1
+    evaluator : Evaluator or None
+        runs the simulations (None: this process)
+    options : FitOptions or None
+        how to fit (None: ``FitOptions()``)
+    progress : Progress or None
+        ``progress(trials, budget, info)`` after every batch of simulations
+    cache_dir, fingerprint : path, str
+        keep every trial in ``cache_dir`` to resume (see the module docstring)
+
+    Returns
+    -------
+    FitResult
+        the finished fit
     """
 
     options = FitOptions() if options is None else options

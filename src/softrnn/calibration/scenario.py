@@ -296,9 +296,22 @@ def position_errors(predicted: np.ndarray, measured: np.ndarray, length: float) 
 class ScenarioCalibration:
     """A finished calibration of a scenario to a dataset.
 
-    result : the ``FitResult``; parameters : the ``Parameter`` list; model : the ``ScenarioModel``
-    span : the ``Span``; time (S,) [s] of its samples; nodes : the recorded nodes fitted
-    measured, start, fitted : positions (S, N, 3) [m] of those nodes: data, the start's and the fit's
+    Attributes
+    ----------
+    result : FitResult
+        the fit
+    parameters : list of Parameter
+        the fitted parameters
+    model : ScenarioModel
+        the simulator that was fitted
+    span : Span
+        the span of the data fitted
+    time : (S,) [s]
+        times of the span's samples
+    nodes : tuple of int
+        the recorded nodes fitted
+    measured, start, fitted : (S, N, 3) [m]
+        positions of those nodes: data, the start's and the fit's
     """
 
     result: FitResult

@@ -15,6 +15,7 @@ def add_args(p):
     p.add_argument("--json", default=None, metavar="PATH", help="write the results as JSON")
     p.add_argument("--overwrite", action="store_true", help="replace the --json file if it exists (default: refuse)")
     p.add_argument("--quick", action="store_true", help="shorter runs (less precise)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--only", default=None, metavar="PART[,PART]",
                    help=f"run only some parts: {', '.join(PARTS)} (default: all)")
     p.add_argument("--model", default=None, metavar="DIR",
@@ -49,7 +50,7 @@ def run(args) -> int:
 
         dynamic = {"dynamic_configs": CONFIGS,
                    "dynamic_models": find_models(args.dynamic_model) if args.dynamic_model else None}
-    with Bar("bench", unit="item") as bar:
+    with Bar("bench", unit="item", enabled=not args.quiet) as bar:
         result = run_all(parts, quick=args.quick, model=model, progress=bar, **dynamic)
     print(format_all(result))
     if args.json:

@@ -15,6 +15,7 @@ from ..files import atomic_write_bytes, atomic_write_text, json_default, prepare
 from ..io.reader import read_dataset
 from ..scenarios.scenario import load_scenario, parse_scenario
 from ._progress import Bar
+from ._vocabulary import deprecate, output
 
 NAME = "calibrate"
 HELP = ("fit chosen values of a scenario (dotted keys, e.g. rod.youngs_modulus) to a recorded dataset: the "
@@ -30,7 +31,7 @@ def add_args(p):
                         "fitted values from its [calibrate] table (or their [randomize] ranges)")
     p.add_argument("--fit", required=True, metavar="KEY[,KEY...]",
                    help="dotted keys of the values to fit, e.g. rod.youngs_modulus,damping.translational")
-    p.add_argument("-o", "--out", required=True, metavar="FITTED.toml", help="the scenario with the fitted values")
+    output(p, dest="out", required=True, metavar="FITTED.toml", help="the scenario with the fitted values")
     p.add_argument("--span", default="train", metavar="SPAN",
                    help="the samples fitted: train (default: the first 60 %%), all, or T0:T1 in seconds")
     p.add_argument("--nodes", default=None, metavar="A,B,...", help="the recorded nodes to fit (default: all)")
@@ -41,23 +42,24 @@ def add_args(p):
     p.add_argument("--max-evaluations", type=int, default=FitOptions().max_evaluations, metavar="N",
                    help=f"most points the optimiser evaluates, each 1 simulation plus 1 per key for its "
                         f"derivatives (default {FitOptions().max_evaluations})")
-    p.add_argument("--report", default=None, metavar="PATH.json", help="the JSON report (default: FITTED.json)")
+    deprecate(p, p.add_argument("--json", dest="report", default=None, metavar="PATH",
+                                help="the JSON report (default: FITTED.json)"), "--report")
     p.add_argument("--figure", default=None, metavar="PATH.png", help="the figure of the fit (default: FITTED.png)")
     p.add_argument("--overwrite", action="store_true", help="replace the output files if they exist (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def _outputs(args) -> tuple[Path, Path, Path]:
-    """(-o, --report, --figure) checked before any work: suffixes, distinct, writable."""
+    """(-o, --json, --figure) checked before any work: suffixes, distinct, writable."""
     out = Path(args.out)
     if out.suffix.lower() != ".toml":
         raise bad("-o", args.out, "a scenario file name ending in .toml")
     report = Path(args.report) if args.report is not None else out.with_suffix(".json")
     figure = Path(args.figure) if args.figure is not None else out.with_suffix(".png")
     if report.suffix.lower() != ".json":
-        raise bad("--report", str(report), "a file name ending in .json")
+        raise bad("--json", str(report), "a file name ending in .json")
     check_suffix(figure, FIGURE_SUFFIXES, "--figure")
-    paths = [("-o", out), ("--report", report), ("--figure", figure)]
+    paths = [("-o", out), ("--json", report), ("--figure", figure)]
     for i, (argument, path) in enumerate(paths):
         for other, earlier in paths[:i]:
             if path.absolute() == earlier.absolute():

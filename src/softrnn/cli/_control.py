@@ -9,13 +9,14 @@ from ..errors import bad
 from ..files import prepare_output
 from ..magnetics.manipulator import ManipulatorSpec
 from ._progress import Bar
+from ._vocabulary import output
 
 NAME = "control"
 HELP = "closed-loop control of the simulated magnetic rod: a controller tracks a reference of the distal magnet"
 
 
 def add_args(p):
-    sub = p.add_subparsers(title="plants", dest="plant", required=True, parser_class=type(p))
+    sub = p.add_subparsers(title="plants", dest="plant", required=True)
     m = sub.add_parser("magnetic", help="the magnetic experiment's perturbed robot, measured by the camera model",
                        description="Run a controller in closed loop on the simulated magnetic robot (the "
                                    "experiment's perturbed dynamic model, the camera with its noise at 30 Hz) and "
@@ -24,7 +25,7 @@ def add_args(p):
     m.add_argument("--reference", required=True, metavar="REF",
                    help=f"one of {', '.join(REFERENCES)}, or a CSV of time,about_y_deg,about_x_deg")
     m.add_argument("--controller", required=True, metavar="CTRL", help=f"one of {', '.join(CONTROLLERS)}")
-    m.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder (created)")
+    output(m, dest="out", required=True, metavar="DIR", help="output folder (created)")
     m.add_argument("--duration", type=float, default=60.0, help="seconds of closed loop (default 60)")
     m.add_argument("--seed", type=int, default=0, help="seeds the camera noise and the random reference")
     m.add_argument("--stiffness", type=float, default=1.04, help="the robot's Young's modulus over the nominal "

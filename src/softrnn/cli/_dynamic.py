@@ -1,7 +1,6 @@
 """softrnn dynamic train|evaluate|rollout|export: the learned whole-manipulator model (beyond the
 paper; ``softrnn.learned.whole``): one set of weights along the rod, free running at its own step."""
 
-import argparse
 import json
 import sys
 import time as _time
@@ -15,6 +14,7 @@ from ..files import atomic_write_text, json_default, prepare_output
 from ..learned.spans import check_beyond_trained, start_of_test_span
 from ..resume import REFUSE, Settings, check
 from ._progress import Bar, stop_code
+from ._vocabulary import deprecate, output
 
 NAME = "dynamic"
 HELP = ("the learned whole-manipulator model (beyond the paper): train it on data sets and sweeps, evaluate it "
@@ -32,15 +32,8 @@ _OPTIONS = {"model_dt": "--model-dt", "node_stride": "--node-stride", "history":
 """Library argument names -> the options that set them (for the one-line errors)."""
 
 
-class _SubParser(argparse.ArgumentParser):
-    """argparse with one-line errors (exit code 2) pointing at the subcommand's own help."""
-
-    def error(self, message):
-        self.exit(2, f"softrnn: error: {message} (see '{self.prog} --help')\n")
-
-
 def add_args(p):
-    sub = p.add_subparsers(title="subcommands", dest="dynamic_command", required=True, parser_class=_SubParser,
+    sub = p.add_subparsers(title="subcommands", dest="dynamic_command", required=True,
                            metavar="{" + ",".join(c[0] for c in _COMMANDS) + "}")
     for name, help_, adder, runner in _COMMANDS:
         q = sub.add_parser(name, help=help_, description=help_)
@@ -69,7 +62,7 @@ def _as_options():
 def _add_train(p):
     p.add_argument("data", nargs="+", metavar="DATA",
                    help="data set files (every node stored) or sweep folders (traj-NNNNN.h5 files)")
-    p.add_argument("-o", "--out", required=True, metavar="MODEL_DIR", help="the model folder to write")
+    output(p, dest="out", required=True, metavar="MODEL_DIR", help="the model folder to write")
     p.add_argument("--heldout", type=int, default=0, metavar="N",
                    help="hold out the last N variants of every sweep (never trained on; recorded) (default: 0)")
     p.add_argument("--validation", type=int, default=0, metavar="N",
@@ -346,8 +339,9 @@ def _add_evaluate(p):
                         "traj-*.h5); refused if the model trained on them")
     p.add_argument("--generalisation", default=None, metavar="FILE",
                    help="a trajectory of another scenario, run free from its start")
-    p.add_argument("-o", "--output", default=None, metavar="EVAL.json", help="also write the report as JSON")
-    p.add_argument("--overwrite", action="store_true", help="replace the -o file if it exists (default: refuse)")
+    deprecate(p, p.add_argument("--json", dest="output", default=None, metavar="PATH",
+                                help="also write the report as JSON"), "-o", "--output")
+    p.add_argument("--overwrite", action="store_true", help="replace the --json file if it exists (default: refuse)")
 
 
 def _trajectories(path: str) -> list[tuple[Path, str]]:
@@ -422,7 +416,7 @@ def _evaluate(args) -> int:
     if args.test_start is not None and not 0.0 < args.test_start < 1.0:
         raise bad("--test-start", args.test_start, "a fraction in (0, 1), e.g. 0.6")
     if args.output:
-        prepare_output(args.output, "-o", overwrite=args.overwrite)
+        prepare_output(args.output, "--json", overwrite=args.overwrite)
     model = load_dynamic(args.model)
     heldout = [t for path in args.heldout for t in _trajectories(path)]
     for path, group in heldout:
@@ -514,12 +508,14 @@ def _add_rollout(p):
     p.add_argument("model", metavar="MODEL_DIR", help="a model folder written by 'softrnn dynamic train'")
     p.add_argument("data", metavar="DATA", help="a data set storing every node (the history and the loads)")
     p.add_argument("--group", default=None, help="the trajectory's group inside a sweep file")
-    p.add_argument("--start-time", type=float, default=None, metavar="T",
-                   help="the last state taken from the data [s]; the model runs free after it (default: at 60 %% "
-                        "of the data)")
-    p.add_argument("--stop-time", type=float, default=None, metavar="T", help="the last predicted time [s] "
-                                                                              "(default: the end)")
-    p.add_argument("-o", "--output", required=True, metavar="OUT.h5", help="the predicted trajectory (.h5)")
+    start = p.add_argument("--start", dest="start_time", type=float, default=None, metavar="S",
+                           help="the last state taken from the data [s]; the model runs free after it (default: at "
+                                "60 %% of the data)")
+    stop = p.add_argument("--stop", dest="stop_time", type=float, default=None, metavar="S",
+                          help="the last predicted time [s] (default: the end)")
+    deprecate(p, start, "--start-time")
+    deprecate(p, stop, "--stop-time")
+    output(p, old=(), required=True, metavar="OUT.h5", help="the predicted trajectory (.h5)")
     p.add_argument("--overwrite", action="store_true", help="replace the -o file if it exists (default: refuse)")
 
 
@@ -528,15 +524,15 @@ def _steps(traj, history: int, start_time, stop_time) -> tuple[int, int]:
     t, eps = traj.time, 1e-9 * max(1.0, abs(float(traj.time[-1])))
     stop = traj.n_steps if stop_time is None else int(np.searchsorted(t, stop_time + eps, side="right"))
     if stop_time is not None and not stop_time <= t[-1] + eps:
-        raise bad("--stop-time", stop_time, f"a time up to the data's end ({t[-1]:g} s)")
+        raise bad("--stop", stop_time, f"a time up to the data's end ({t[-1]:g} s)")
     start = int(round(0.6 * (traj.n_steps - 1))) if start_time is None else \
         int(np.searchsorted(t, start_time + eps, side="right")) - 1
     first = history - 1
     if start < first or start > traj.n_steps - 2:
-        raise bad("--start-time", start_time, f"a time from {t[first]:g} s (the model reads {history} states) to "
+        raise bad("--start", start_time, f"a time from {t[first]:g} s (the model reads {history} states) to "
                                               f"{t[-2]:g} s (one model step before the end)")
     if stop < start + 2:
-        raise bad("--stop-time", stop_time, f"a time after the start ({t[start]:g} s) by a model step "
+        raise bad("--stop", stop_time, f"a time after the start ({t[start]:g} s) by a model step "
                                             f"({t[start + 1] - t[start]:g} s) or more")
     return start, stop
 
@@ -565,7 +561,7 @@ def _rollout(args) -> int:
     if diverged is not None:
         raise SimulationError(f"the free run diverged at t = {traj.time[start + diverged]:g} s ({diverged} model "
                               f"steps after the start at {traj.time[start]:g} s); nothing was written; start later "
-                              "or stop earlier (--start-time, --stop-time), or train the model on more data")
+                              "or stop earlier (--start, --stop), or train the model on more data")
     write_dataset(args.output, ds)
     _rollout_summary(model, data, ds, seconds, args.output)
     return 0

@@ -15,6 +15,7 @@ from ..lab.families import displacements, tip_errors
 from ..lab.recording import Layout, check_sessions, read_recording, shift_inputs
 from ..lab.tendon_robot import calibrate
 from ._progress import Bar
+from ._vocabulary import deprecate, output
 
 NAME = "lab"
 HELP = "a real robot's recordings: benchmark every model family against baselines, calibrate the tendon physics"
@@ -42,7 +43,7 @@ def _recording_args(q):
 
 
 def add_args(p):
-    sub = p.add_subparsers(title="subcommands", dest="lab_command", required=True, parser_class=type(p))
+    sub = p.add_subparsers(title="subcommands", dest="lab_command", required=True)
     b = sub.add_parser("benchmark", help="fit every model family and baseline on training sessions and run them "
                                          "free over a validation session",
                        description="fit every model family and baseline on the training sessions only and run "
@@ -50,8 +51,7 @@ def add_args(p):
                                    "report the Euclidean tip RMSE and mean error in mm and % of the length")
     b.add_argument("--train", nargs="+", required=True, metavar="TRAIN.csv", help="training sessions (CSV)")
     b.add_argument("--validate", required=True, metavar="VAL.csv", help="the validation session (CSV)")
-    b.add_argument("-o", "--json", "--output", dest="json", required=True, metavar="OUT.json",
-                   help="the benchmark's JSON")
+    deprecate(b, b.add_argument("--json", required=True, metavar="PATH", help="the benchmark's JSON"), "-o", "--output")
     b.add_argument("--figure", default=None, metavar="PATH.png",
                    help="also draw the validation session's tip beside the best model and baseline")
     b.add_argument("--families", default=",".join(FAMILIES), metavar="NAME,...",
@@ -62,7 +62,7 @@ def add_args(p):
                        description="fit the displacement-driven tendon robot (piecewise constant curvature, "
                                    "series stiffness, slack) to the recorded tip; write its parameters as JSON")
     c.add_argument("recordings", nargs="+", metavar="TRAIN.csv", help="the sessions to fit on (CSV)")
-    c.add_argument("-o", "--output", required=True, metavar="ROBOT.json", help="the calibrated robot (JSON)")
+    output(c, old=(), required=True, metavar="ROBOT.json", help="the calibrated robot (JSON)")
     c.add_argument("--validate", default=None, metavar="VAL.csv", help="also report the tip error on this session")
     _recording_args(c)
     c.set_defaults(lab_run=_calibrate)

@@ -3,26 +3,19 @@
 import json
 
 from ._progress import Bar
+from ._vocabulary import output
 
 NAME = "magnetic"
+PREDICTS = ("increment", "pose")
+"""What the experiment's LSTMs can predict (--predict)."""
 HELP = "the paper's magnetic experiment (Table 1): simulated, or on lab data (a CSV of currents and orientations)"
-
-
-def _sub_parser_class(parent_class):
-    """The parent's one-line-error parser, naming the whole command in its hint."""
-
-    class _Sub(parent_class):
-        def error(self, message):
-            self.exit(2, f"softrnn: error: {message} (see '{self.prog} --help')\n")
-
-    return _Sub
 
 
 def _training_args(p, epochs_help: str):
     p.add_argument("--epochs", type=int, default=None, help=epochs_help)
     p.add_argument("--seed", type=int, default=0, help="random seed of the currents, camera noise and training "
                                                        "(default: 0)")
-    p.add_argument("--output", choices=("increment", "pose"), default="increment",
+    p.add_argument("--predict", dest="output", choices=PREDICTS, default="increment",
                    help="what the LSTMs predict: the next orientation minus the last (default, most accurate one "
                         "step ahead) or the next orientation (as the paper; stable when free running)")
     p.add_argument("--json", default=None, metavar="PATH", help="also write the table as JSON to PATH")
@@ -48,15 +41,15 @@ def _calibration_args(p, default: bool):
 
 
 def add_args(p):
-    sub = p.add_subparsers(title="subcommands", dest="magnetic", required=True,
-                           parser_class=_sub_parser_class(type(p)))
+    sub = p.add_subparsers(title="subcommands", dest="magnetic", required=True)
     e = sub.add_parser("experiment", help="simulate the experiment and reproduce Table 1 and Fig. 12",
                        description="The dynamic model plays the real robot (parameters a few percent off the "
                                    "nominal ones), a camera model measures the magnets' orientations, the static "
                                    "Cosserat model and one LSTM per magnet predict them; prints Table 1 beside the "
                                    "paper's and writes DIR/table1.json, DIR/fig12.png, DIR/robot.h5 (reused when "
                                    "run again with the same settings) and DIR/models.")
-    e.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder (created)")
+    output(e, dest="out", required=True, metavar="DIR", help="output folder (created)", legacy=PREDICTS,
+           legacy_dest="output", legacy_flag="--predict")
     e.add_argument("--quick", action="store_true", help="240 samples and 8 epochs (under a minute) instead of the "
                                                         "paper's 669 samples and 25 epochs")
     e.add_argument("--samples", type=int, default=None, help="measured samples (default: 669, quick: 240)")
@@ -68,7 +61,8 @@ def add_args(p):
                                    "currents and with one LSTM per magnet trained on the first 60 per cent, and "
                                    "print the table; writes DIR/table1.json, DIR/fig12.png and DIR/models.")
     c.add_argument("csv", help="the lab CSV (layout in docs/magnetic-format.md, e.g. examples/magnetic_lab.csv)")
-    c.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder (created)")
+    output(c, dest="out", required=True, metavar="DIR", help="output folder (created)", legacy=PREDICTS,
+           legacy_dest="output", legacy_flag="--predict")
     _training_args(c, "training epochs (default: 25)")
     _calibration_args(c, False)
     x = sub.add_parser("example-csv", help="write a simulated example lab CSV",

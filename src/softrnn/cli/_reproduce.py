@@ -1,29 +1,31 @@
-"""softrnn reproduce: run the paper's pipeline end to end into --out DIR (resumable)."""
+"""softrnn reproduce: run the paper's pipeline end to end into -o DIR (resumable)."""
 
 from ..errors import require_extra
 from ..files import prepare_output
 from ..reproduce.pipeline import reproduce
 from ._progress import Bar
+from ._vocabulary import output
 
 NAME = "reproduce"
 HELP = ("reproduce the paper: simulated cases, node models, the whole manipulator, the magnetic experiment "
-        "(Table 1), Fig. 13/14, benchmark; report.md/report.json and figures in --out")
+        "(Table 1), Fig. 13/14, benchmark; report.md/report.json and figures in -o DIR")
 
 
 def add_args(p):
-    p.add_argument("--out", default="out/reproduce", help="output folder (default: out/reproduce)")
+    output(p, dest="out", default="out/reproduce", metavar="DIR", help="output folder (default: out/reproduce)")
     p.add_argument("--quick", action="store_true", help="shorter runs (10%% of each case), for a smoke test")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
 def run(args) -> int:
     # resumable by design: its own folder is continued, anything else is refused
     for extra in ("learn", "dask"):     # every step is needed: refuse before the first one runs
         require_extra(extra)
-    prepare_output(args.out, "--out", kind="folder", overwrite=True, mine=("cases", "report.json"))
+    prepare_output(args.out, "-o", kind="folder", overwrite=True, mine=("cases", "report.json"))
     bars = []
 
     def factory(desc):
-        bar = Bar(desc, unit="step")
+        bar = Bar(desc, unit="step", enabled=not args.quiet)
         bars.append(bar)
         return bar
 

@@ -1,7 +1,6 @@
 """softrnn scenario list | show NAME | copy NAME -o FILE: the shipped scenarios, their TOML text, a
 short description, and an editable copy to simulate or calibrate."""
 
-import argparse
 import json
 import os
 import sys
@@ -10,21 +9,15 @@ from pathlib import Path
 from ..errors import SoftrnnInputError, bad
 from ..files import atomic_write_text, prepare_output
 from ..scenarios.scenario import SCENARIO_NAMES, Scenario, load_scenario, scenario_text
+from ._vocabulary import output
 
 NAME = "scenario"
 HELP = ("the shipped scenarios: list them, show one's TOML text or a summary, copy one to a file to edit, "
         "simulate or calibrate")
 
 
-class _SubParser(argparse.ArgumentParser):
-    """argparse with one-line errors (exit code 2) pointing at the subcommand's own help."""
-
-    def error(self, message):
-        self.exit(2, f"softrnn: error: {message} (see '{self.prog} --help')\n")
-
-
 def add_args(p):
-    sub = p.add_subparsers(title="subcommands", dest="scenario_command", required=True, parser_class=_SubParser,
+    sub = p.add_subparsers(title="subcommands", dest="scenario_command", required=True,
                            metavar="{list,show,copy}")
     ls = sub.add_parser("list", help="one line per shipped scenario: name, nodes, duration, integrator, title",
                         description="One line per shipped scenario: its name, nodes, simulated duration, "
@@ -44,7 +37,7 @@ def add_args(p):
                                     "only with --overwrite), then edit it and run softrnn simulate FILE or "
                                     "softrnn calibrate DATA --scenario FILE.")
     cp.add_argument("name", metavar="NAME", help="a shipped scenario's name (softrnn scenario list)")
-    cp.add_argument("-o", "--out", default=None, metavar="FILE.toml", help="the file to write (required)")
+    output(cp, dest="out", default=None, metavar="FILE.toml", help="the file to write (required)")
     cp.add_argument("--overwrite", action="store_true", help="replace FILE if it exists (default: refuse)")
     cp.set_defaults(scenario_run=_copy)
 

@@ -2,23 +2,44 @@
 
 import json
 
+from ..errors import SoftrnnInputError
+from ..files import atomic_write_text, prepare_output
 from ..io.summary import describe
+from ._vocabulary import STDOUT, JsonOrSwitch, note
 
 NAME = "show"
 HELP = "print a summary of a softrnn dataset file (HDF5)"
 
 
 def add_args(p):
-    p.add_argument("path", help="dataset file (.h5) written by softrnn")
+    p.add_argument("path", nargs="?", default=None, help="dataset file (.h5) written by softrnn")
     p.add_argument("--group", default=None, help="trajectory of a sweep file (default: the first)")
-    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--json", action=JsonOrSwitch, nargs="?", default=None, metavar="PATH",
+                   help="also write the summary as JSON to PATH; '-': print it as JSON instead of the text")
+    p.add_argument("--overwrite", action="store_true", help="replace the --json file if it exists (default: refuse)")
     p.add_argument("--quick", action="store_true",
                    help="do not read and check every value (only the time axis and three nodes)")
 
 
+def _path(args) -> str:
+    """The dataset's path; ``show --json DATA.h5`` (the old switch before the path) still reads DATA.h5."""
+    if args.path is not None:
+        return args.path
+    if args.json not in (None, STDOUT):
+        note(f"--json before the dataset's path is read as the old switch; use 'softrnn show {args.json} --json -'")
+        args.json, path = STDOUT, args.json
+        return path
+    raise SoftrnnInputError("softrnn show: the following arguments are required: path (see 'softrnn show --help')")
+
+
 def run(args) -> int:
-    summary = describe(args.path, group=args.group, verify=not args.quick)
-    print(json.dumps(summary, indent=2) if args.json else format_summary(summary))
+    path = _path(args)
+    if args.json not in (None, STDOUT):
+        prepare_output(args.json, "--json", overwrite=args.overwrite)
+    summary = describe(path, group=args.group, verify=not args.quick)
+    print(json.dumps(summary, indent=2) if args.json == STDOUT else format_summary(summary))
+    if args.json not in (None, STDOUT):
+        atomic_write_text(args.json, json.dumps(summary, indent=2))
     return 0
 
 

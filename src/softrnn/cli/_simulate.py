@@ -9,6 +9,7 @@ from ..rod.simulation import INTEGRATORS
 from ..scenarios.scenario import SCENARIO_NAMES, load_scenario
 from ..scenarios.summary import simulate_summary
 from ._progress import Bar
+from ._vocabulary import output
 
 NAME = "simulate"
 HELP = "run a scenario (" + ", ".join(SCENARIO_NAMES) + ", or a .toml file) and print a summary"
@@ -16,7 +17,7 @@ HELP = "run a scenario (" + ", ".join(SCENARIO_NAMES) + ", or a .toml file) and 
 
 def add_args(p):
     p.add_argument("scenario", help="a shipped scenario name or a path to a .toml file")
-    p.add_argument("-o", "--out", default=None, metavar="PATH.h5", help="save every node to this HDF5 dataset")
+    output(p, dest="out", default=None, metavar="PATH.h5", help="save every node to this HDF5 dataset")
     p.add_argument("--samples", type=int, default=None, help="saved samples (default: the scenario's)")
     p.add_argument("--substeps", type=int, default=None, help="solver steps per saved dt (default: the scenario's)")
     p.add_argument("--dt", type=float, default=None, help="saved interval in s (default: the scenario's)")

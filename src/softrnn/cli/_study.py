@@ -5,23 +5,14 @@ import sys
 
 from ..errors import bad
 from ._progress import Bar, stop_code
+from ._vocabulary import output
 
 NAME = "study"
 HELP = "hyper-parameter studies of the node models (hparams: the paper's Fig. 14, resumable, on Dask)"
 
 
-def _sub_parser_class(parent_class):
-    """The parent's one-line-error parser, naming the whole command in its hint."""
-
-    class _Sub(parent_class):
-        def error(self, message):
-            self.exit(2, f"softrnn: error: {message} (see '{self.prog} --help')\n")
-
-    return _Sub
-
-
 def add_args(p):
-    sub = p.add_subparsers(title="studies", dest="study", required=True, parser_class=_sub_parser_class(type(p)))
+    sub = p.add_subparsers(title="studies", dest="study", required=True)
     h = sub.add_parser("hparams", help="Fig. 14: bandwidth and RMS error over LSTM units x history size",
                        description="Train one node model per grid point (LSTM units x history size) in parallel on "
                                    "Dask, evaluate its one-step RMS error on the test span, measure its bandwidth, "
@@ -29,7 +20,7 @@ def add_args(p):
                                    "study resumes when run again with the same settings.")
     h.add_argument("data", help="an HDF5 dataset written by softrnn (simulate, sweep, import-csv)")
     h.add_argument("--node", type=int, required=True, help="the node to model (e.g. 50 for the semicircle)")
-    h.add_argument("-o", "--out", required=True, metavar="DIR", help="the study folder (created; resumed if present)")
+    output(h, dest="out", required=True, metavar="DIR", help="the study folder (created; resumed if present)")
     h.add_argument("--units", default="5,10,15,20,25", metavar="U,...",
                    help="LSTM units per layer of the grid (default: 5,10,15,20,25)")
     h.add_argument("--history", default="2,5,10,20", metavar="H,...",

@@ -4,6 +4,7 @@ from ..files import prepare_output
 from ..scenarios.scenario import load_scenario
 from ..sweeps.sweep import MANIFEST, run_sweep
 from ._progress import Bar
+from ._vocabulary import output
 
 NAME = "sweep"
 HELP = "simulate N randomised variants of a scenario in parallel on Dask into a folder (resumable)"
@@ -12,7 +13,7 @@ HELP = "simulate N randomised variants of a scenario in parallel on Dask into a 
 def add_args(p):
     p.add_argument("scenario", help="a shipped scenario name or a path to a .toml file")
     p.add_argument("--count", type=int, required=True, help="number of variants (indices 0..N-1)")
-    p.add_argument("-o", "--out", required=True, help="output folder: one traj-NNNNN.h5 per variant")
+    output(p, dest="out", required=True, metavar="DIR", help="output folder: one traj-NNNNN.h5 per variant")
     p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="use an existing Dask cluster (default: a local cluster)")
     p.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")

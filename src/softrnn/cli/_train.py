@@ -5,8 +5,12 @@ from pathlib import Path
 
 from ..errors import SoftrnnInputError, bad
 from ._progress import Bar, stop_code
+from ._vocabulary import output
 
 NAME = "train"
+PREDICTS = ("increment", "acceleration", "pose")
+"""What a node model can predict (--predict)."""
+
 HELP = "train a node's LSTM model (paper Fig. 2A/B) on a dataset and save it as a model folder"
 
 
@@ -18,7 +22,8 @@ def add_args(p):
     p.add_argument("--node", type=int, default=None,
                    help="the node to model (default: the node of interest the file names, or the only node it "
                         "stores)")
-    p.add_argument("-o", "--out", required=True, metavar="FOLDER", help="the model folder to write")
+    output(p, dest="out", required=True, metavar="FOLDER", help="the model folder to write", legacy=PREDICTS,
+           legacy_dest="output", legacy_flag="--predict")
     p.add_argument("--neighbours", default=None, metavar="A,B",
                    help="nodes whose poses join the node's, comma-separated ('none' for none; default: the "
                         "adjacent nodes n-1, n+1, one at an end of the rod)")
@@ -35,7 +40,7 @@ def add_args(p):
     p.add_argument("--channels", default=None, metavar="NAME,...",
                    help="the actuation channels of input II with --drive actuation/both (default: all the data "
                         "set's)")
-    p.add_argument("--output", choices=("increment", "acceleration", "pose"), default=None,
+    p.add_argument("--predict", dest="output", choices=PREDICTS, default=None,
                    help="what the network predicts: the next position minus the last (default), the change of "
                         "that increment, or the next position itself (as the paper)")
     p.add_argument("--validate-on", default=None, metavar="VAL.h5",

@@ -31,20 +31,16 @@ from . import (
     _train,
 )
 from ._progress import Terminated, stop_code
+from ._vocabulary import Parser
 
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (exit code 2, no usage dump)."""
-
-    def error(self, message):
-        self.exit(2, f"softrnn: error: {message} (see 'softrnn {self.prog.split()[-1]} --help')\n"
-                  if " " in self.prog else f"softrnn: error: {message} (see 'softrnn --help')\n")
+_Parser = Parser
+"""The one-line-error parser of every command (``_vocabulary.Parser``; the old name)."""
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
+    parser = Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
     parser.add_argument("--version", action="version", version=f"softrnn {__version__}")
-    sub = parser.add_subparsers(title="commands", dest="command", required=True, parser_class=_Parser)
+    sub = parser.add_subparsers(title="commands", dest="command", required=True, parser_class=Parser)
     for module in (_scenario, _simulate, _sweep, _reproduce, _bench, _show, _import_csv, _animate, _plot, _train,
                    _evaluate, _rollout, _export, _study, _magnetic, _dynamic, _calibrate, _control, _lab, _lab_example):
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)

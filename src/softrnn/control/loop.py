@@ -27,12 +27,20 @@ from .static_inverse import DISTAL
 class LoopConfig:
     """The plant and camera of the closed loop (defaults: the magnetic experiment's).
 
-    rate : camera frame rate and control rate [Hz]
-    stiffness, remanence, damping : the plant's factors over the nominal values (the experiment's
+    Attributes
+    ----------
+    rate : float
+        camera frame rate and control rate [Hz]
+    stiffness, remanence, damping : float
+        the plant's factors over the nominal values (the experiment's
         'real robot': 1.04, 0.97, 2.0); ``robustness`` runs multiply stiffness and remanence further
-    camera_noise, camera_points, polynomial_degree : the camera model (``ExperimentConfig``)
-    settle : settling time [s] under the first currents before t = 0
-    seed : seeds the camera noise
+    camera_noise, camera_points, polynomial_degree : float, int, int
+        the camera model (``ExperimentConfig``): noise standard deviation [m], centreline points,
+        degree of the fitted polynomial
+    settle : float
+        settling time [s] under the first currents before t = 0
+    seed : int
+        seeds the camera noise
     """
 
     rate: float = 30.0
@@ -68,14 +76,24 @@ class LoopSummary:
     """The figures of a closed-loop run (``LoopResult.summary``); the tracking errors are those of the
     true (noise-free) distal orientation against the reference, None when not finite.
 
-    rms_deg, max_deg : over both angles [deg]
-    rms_deg_about, max_deg_about : {"x": ..., "y": ...} per angle [deg]
-    measured_rms_deg : the RMS error of the measured orientation [deg] (frames the camera lost left out)
-    limit_violations, held_frames : ``LoopResult``'s counts
-    compute_ms_median, compute_ms_p99 : the controller's CPU time per frame [ms]
-    wall_ms_median, wall_ms_p99 : its wall time per frame [ms]
-    stable : every true error finite and below the bound
-    frames : frames of the run (K + 1)
+    Attributes
+    ----------
+    rms_deg, max_deg : float or None
+        over both angles [deg]
+    rms_deg_about, max_deg_about : dict
+        {"x": ..., "y": ...} per angle [deg]
+    measured_rms_deg : float
+        the RMS error of the measured orientation [deg] (frames the camera lost left out)
+    limit_violations, held_frames : int
+        ``LoopResult``'s counts
+    compute_ms_median, compute_ms_p99 : float
+        the controller's CPU time per frame [ms]
+    wall_ms_median, wall_ms_p99 : float
+        its wall time per frame [ms]
+    stable : bool
+        every true error finite and below the bound
+    frames : int
+        frames of the run (K + 1)
     """
 
     rms_deg: float | None

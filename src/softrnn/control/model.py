@@ -181,10 +181,15 @@ def _gain(name: str, value) -> float:
 class NarxPredictor:
     """A trained ``NarxModel`` as the MPC's ``predictors.Predictor``.
 
-    model : the network
-    observer_gain : weight of the measurement against the one-frame prediction in the state estimate
+    Parameters
+    ----------
+    model : NarxModel
+        the network
+    observer_gain : float
+        weight of the measurement against the one-frame prediction in the state estimate
         (the camera's noise is large at the distal magnet, about 1 deg)
-    disturbance_gain : gain of the integral term that learns the model's offset on the distal magnet,
+    disturbance_gain : float
+        gain of the integral term that learns the model's offset on the distal magnet,
         so a constant model error does not become a constant tracking error
     """
 

@@ -45,13 +45,22 @@ from .predictors import Predictor
 class MPCOptions:
     """The planner's options (see the module docstring).
 
-    horizon : frames planned ahead
-    blocks : lengths [frames] of the blocks the field direction is held over; they add up to ``horizon``
-    iterations : Gauss-Newton steps per frame
-    move_weight : weight of the squared changes of (a, c) between blocks against the tracking error
-    azimuth_weight : how many times more the changes of the azimuth c weigh
-    diff_step : forward-difference step [rad] of the Jacobian
-    refresh : frames between two Jacobian refreshes (1: a fresh Jacobian at every Gauss-Newton step)
+    Attributes
+    ----------
+    horizon : int
+        frames planned ahead
+    blocks : tuple of int
+        lengths [frames] of the blocks the field direction is held over; they add up to ``horizon``
+    iterations : int
+        Gauss-Newton steps per frame
+    move_weight : float
+        weight of the squared changes of (a, c) between blocks against the tracking error
+    azimuth_weight : float
+        how many times more the changes of the azimuth c weigh
+    diff_step : float
+        forward-difference step [rad] of the Jacobian
+    refresh : int
+        frames between two Jacobian refreshes (1: a fresh Jacobian at every Gauss-Newton step)
     """
 
     horizon: int = 7
@@ -91,9 +100,14 @@ class BlockMPC:
     """The model-predictive controller: plans the field direction in blocks with ``predictor`` and
     applies the first block's currents (see the module docstring).
 
-    predictor : what it plans with (a ``predictors.Predictor``)
-    spec : the manipulator whose coils make the field (None: ``ManipulatorSpec()``)
-    options : the planner's ``MPCOptions``
+    Parameters
+    ----------
+    predictor : Predictor
+        what it plans with (a ``predictors.Predictor``)
+    spec : ManipulatorSpec or None
+        the manipulator whose coils make the field (None: ``ManipulatorSpec()``)
+    options : MPCOptions or None
+        the planner's options (None: ``MPCOptions()``)
     """
 
     def __init__(self, predictor: Predictor, spec: ManipulatorSpec | None = None, *,

@@ -45,9 +45,14 @@ PHYSICS_OPTIONS = MPCOptions(refresh=10)
 class PhysicsPredictor:
     """The nominal dynamic simulator as the MPC's ``predictors.Predictor`` (see the module docstring).
 
-    spec : the model the controller plans with (None: the nominal ``ManipulatorSpec()``)
-    config : the loop's frame rate, camera model (noise-free here) and settling time (None: ``LoopConfig()``)
-    disturbance_gain : gain of the integral term that learns the offset of the measured distal
+    Parameters
+    ----------
+    spec : ManipulatorSpec or None
+        the model the controller plans with (None: the nominal ``ManipulatorSpec()``)
+    config : LoopConfig or None
+        the loop's frame rate, camera model (noise-free here) and settling time (None: ``LoopConfig()``)
+    disturbance_gain : float
+        gain of the integral term that learns the offset of the measured distal
         orientation from the simulator's
     """
 

@@ -42,9 +42,14 @@ CSV_COLUMNS = ("time", "about_y_deg", "about_x_deg")
 class Reference:
     """Target orientation of the distal magnet at the frame times.
 
+    Attributes
+    ----------
     name : str
-    times : (K,) [s], the frame times from 0
-    angles : (K, 2) [rad], columns (about x, about y) as the camera reports them
+        the reference's name
+    times : (K,) [s]
+        the frame times from 0
+    angles : (K, 2) [rad]
+        columns (about x, about y) as the camera reports them
     """
 
     name: str

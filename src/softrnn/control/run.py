@@ -35,11 +35,18 @@ class ControlSummary:
     """The summary of a control run (``SUMMARY_FILE``): what ran, the loop's figures and where the
     files are.
 
-    reference, controller : their names
-    duration_s : the reference's last time [s]
-    loop : the loop's figures (``LoopSummary``)
-    config : the plant and camera (``LoopConfig``)
-    run_file, figure_file : paths of ``RUN_FILE`` and ``FIGURE_FILE``
+    Attributes
+    ----------
+    reference, controller : str
+        their names
+    duration_s : float
+        the reference's last time [s]
+    loop : LoopSummary
+        the loop's figures
+    config : LoopConfig
+        the plant and camera
+    run_file, figure_file : str
+        paths of ``RUN_FILE`` and ``FIGURE_FILE``
     """
 
     reference: str

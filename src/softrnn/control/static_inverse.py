@@ -25,10 +25,15 @@ DISTAL = 1
 class StaticInverse:
     """The nominal static model inverted (see the module docstring).
 
-    spec : the nominal manipulator (None: ``ManipulatorSpec()``)
-    field : field magnitude B0 [T] (None: the largest that keeps every direction of the grid within
-            95 % of the coil limit, at most 20 mT)
-    elevations, azimuths : grid sizes over a in [-90, 90] deg and c in [-30, 30] deg
+    Parameters
+    ----------
+    spec : ManipulatorSpec or None
+        the nominal manipulator (None: ``ManipulatorSpec()``)
+    field : float or None
+        field magnitude B0 [T] (None: the largest that keeps every direction of the grid within
+        95 % of the coil limit, at most 20 mT)
+    elevations, azimuths : int
+        grid sizes over a in [-90, 90] deg and c in [-30, 30] deg
     """
 
     def __init__(self, spec: ManipulatorSpec | None = None, *, field: float | None = None, elevations: int = 37,

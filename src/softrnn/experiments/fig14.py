@@ -337,6 +337,7 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
     Parameters
     ----------
     model : NodeModel
+        The node model to time.
     dataset : softrnn.io.Dataset
         Storing the model's window nodes; its test-span rows are fed in order (cycling).
     steps : int
@@ -446,6 +447,7 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
     data_path : str or Path
         A softrnn HDF5 data set (one trajectory).
     config : StudyConfig
+        The study's grid and training settings.
     out_dir : str or Path
         The study folder (created; see the module docstring). Finished points found there are kept.
     scheduler : str or None

@@ -238,16 +238,46 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
             progress: Progress | None = None) -> Path:
     """Write an animation of the rod to ``out_path`` (``.gif``, or ``.mp4`` with ffmpeg installed).
 
-    data: dataset-like (time, nodes, positions, optional forces and attrs; see the module docstring).
-    fps: frames per second of playback. frames / duration [s of playback]: how many frames (give at
-    most one; default ``min(samples, max_frames)``), spread evenly over the samples in
-    [start, stop] \\[s] (default: the whole record). node: the node of interest to mark (default: the
-    one the data's attrs name, as ``figures.data.node_of_interest`` reads them, when it is stored; else
-    none). trail: draw the path of the node of interest so far. view: 'auto' (a flat view when the
-    motion is planar, else 3-D), 'xy', 'xz', 'yz' or '3d'; elev, azim [deg]: the camera of the 3-D view. size: (width,
-    height) in pixels (rounded up to even numbers for .mp4). max_frames: the default frame count's
-    cap. progress: optional callable progress(done, total) per frame. Returns the path written.
+    Parameters
+    ----------
+    data : dataset-like
+        time, nodes, positions, optional forces and attrs (see the module docstring)
+    out_path : path
+        the ``.gif`` or ``.mp4`` file to write
+    fps : float
+        frames per second of playback
+    frames : int or None
+        how many frames, spread evenly over the samples in [start, stop] (give at most one of
+        ``frames`` and ``duration``; default ``min(samples, max_frames)``)
+    duration : float or None
+        seconds of playback instead (``duration * fps`` frames)
+    start, stop : float or None
+        the time span [s] to animate (default: the whole record)
+    node : int or None
+        the node of interest to mark (default: the one the data's attrs name, as
+        ``figures.data.node_of_interest`` reads them, when it is stored; else none)
+    trail : bool
+        draw the path of the node of interest so far
+    view : str
+        'auto' (a flat view when the motion is planar, else 3-D), 'xy', 'xz', 'yz' or '3d'
+    elev, azim : float
+        the camera of the 3-D view [deg]
+    title : str or None
+        the name in the time stamp (default: a short name from the data's attrs)
+    size : tuple of int
+        (width, height) in pixels (rounded up to even numbers for .mp4)
+    max_frames : int
+        the default frame count's cap
+    progress : Progress or None
+        optional callable progress(done, total) per frame
 
+    Returns
+    -------
+    Path
+        the path written
+
+    Notes
+    -----
     Rendering: the axes, ghost shape, clamps and legend are drawn once; each frame redraws only the
     rod, trail, node, arrows and time stamp over them. GIF frames share one palette; all frames are
     held in memory (1 byte per pixel) until the file is written, under a temporary name in the same

@@ -33,9 +33,10 @@ def error_over_time(panels: list, title: str):
 
     Parameters
     ----------
-    panels : list of (str, ndarray (K,), dict) or (str, ndarray (K,), dict, float)
-        (panel title, times [s], {predictor: errors (K,) [% of L]}, optionally a goal [% of L]
-        drawn as a horizontal line); predictors ``model``, ``persistence``, ``constant_velocity``
+    panels : list of tuple
+        (title, times, errors) or (title, times, errors, goal): the panel's title (str), times
+        (K,) [s], {predictor: errors (K,) [% of L]} and optionally a goal [% of L] drawn as a
+        horizontal line; predictors ``model``, ``persistence``, ``constant_velocity``
         and ``linear`` get fixed styles; ``inf`` marks a run that diverged (its curve stops there).
     title : str
         The figure's title.
@@ -43,6 +44,7 @@ def error_over_time(panels: list, title: str):
     Returns
     -------
     matplotlib.figure.Figure
+        The figure, one panel per run.
     """
     fig, axes = subplots(len(panels), 1, figsize=(7.5, 3.0 * len(panels) + 0.5), squeeze=False)
     for ax, (name, t, series, *goal) in zip(axes[:, 0], panels):

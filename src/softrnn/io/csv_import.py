@@ -208,11 +208,12 @@ def read_csv(csv_path) -> dict:
 
     Returns
     -------
-    dict with ``time`` (T,) float64 [s], ``nodes`` (N,) int64 (ascending), ``positions`` (T, N, 3),
-    ``quaternions`` (T, N, 4) (identity where absent), ``forces``, ``torques`` (T, N, 3), all float64,
-    ``has_orientations`` (bool), ``force_nodes``, ``torque_nodes`` (nodes with wrench columns),
-    ``actuation`` (T, m) float64 (the ``act_<name>[<unit>]`` columns in header order; m = 0 without
-    any) and ``actuation_units`` ({name: unit}, in that order).
+    dict
+        ``time`` (T,) float64 [s], ``nodes`` (N,) int64 (ascending), ``positions`` (T, N, 3),
+        ``quaternions`` (T, N, 4) (identity where absent), ``forces``, ``torques`` (T, N, 3), all
+        float64, ``has_orientations`` (bool), ``force_nodes``, ``torque_nodes`` (nodes with wrench
+        columns), ``actuation`` (T, m) float64 (the ``act_<name>[<unit>]`` columns in header order;
+        m = 0 without any) and ``actuation_units`` ({name: unit}, in that order).
 
     Raises
     ------
@@ -321,8 +322,10 @@ def export_csv(dataset, csv_path) -> None:
 
     Parameters
     ----------
-    dataset : Dataset, or the path of a dataset file (single trajectory)
+    dataset : Dataset or str or Path
+        The dataset, or the path of a dataset file (single trajectory).
     csv_path : str or Path
+        The CSV file to write.
 
     Notes
     -----
@@ -421,21 +424,29 @@ def recording_trajectory(time, tip, inputs, names, units, *, columns=(), labels=
 
     Parameters
     ----------
-    time : (T,) times [s] as recorded (any origin, e.g. Unix time), strictly increasing, any spacing
-    tip : (T, 3) the tracked tip [m]
-    inputs : (T, m) the commanded inputs, in their channels' units
-    names, units : m channel names and units (``""`` means dimensionless, stored as ``1``); the
-        units must be ``ACTUATION_UNITS`` (a ``<name>_<unit>`` column's unit matched ignoring case)
-    columns : m column names, for the messages (default: the names)
-    labels : T row labels, or ()
-    source : the file the arrays came from, named in the messages
+    time : (T,) [s]
+        Times as recorded (any origin, e.g. Unix time), strictly increasing, any spacing.
+    tip : (T, 3) [m]
+        The tracked tip.
+    inputs : (T, m)
+        The commanded inputs, in their channels' units.
+    names, units : m str
+        Channel names and units (``""`` means dimensionless, stored as ``1``); the units must be
+        ``ACTUATION_UNITS`` (a ``<name>_<unit>`` column's unit matched ignoring case).
+    columns : m str
+        Column names, for the messages (default: the names).
+    labels : T str
+        Row labels, or ().
+    source : str
+        The file the arrays came from, named in the messages.
 
     Returns
     -------
-    dict with ``time`` (T,) [s] from 0, ``time_origin_s`` (the recorded time of the first row),
-    ``tip`` (T, 3), ``actuation`` (T, m), ``actuation_units`` ({name: unit}) and ``labels`` (runs
-    ``[label, first row, rows]``, or None when there are no labels or their JSON exceeds
-    ``LABELS_LIMIT`` characters; ``label_runs`` counts them either way).
+    dict
+        ``time`` (T,) [s] from 0, ``time_origin_s`` (the recorded time of the first row), ``tip``
+        (T, 3), ``actuation`` (T, m), ``actuation_units`` ({name: unit}) and ``labels`` (runs
+        ``[label, first row, rows]``, or None when there are no labels or their JSON exceeds
+        ``LABELS_LIMIT`` characters; ``label_runs`` counts them either way).
 
     Raises
     ------

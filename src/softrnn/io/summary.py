@@ -18,6 +18,7 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
     Parameters
     ----------
     path : str or Path
+        The dataset file.
     group : str or None
         Trajectory to summarise in a sweep file (default: its first).
     max_nodes : int

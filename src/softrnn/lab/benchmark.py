@@ -48,17 +48,28 @@ class BenchmarkOptions:
 
     Parameters
     ----------
-    length : float               the robot's length [m] (for errors as % of length; and the
-                                 segments' default)
-    lag : int or "auto"          rows the response lags the command (``auto``: estimated on the
-                                 training sessions, ``recording.estimate_lag``)
-    segments : tuple or None     segment lengths [m] for the physics (default: the inputs split into
-                                 segments of ``tendons_per_segment``, of equal length)
+    length : float
+        the robot's length [m] (for errors as % of length; and the segments' default)
+    lag : int or "auto"
+        rows the response lags the command (``auto``: estimated on the training sessions,
+        ``recording.estimate_lag``)
+    segments : tuple or None
+        segment lengths [m] for the physics (default: the inputs split into segments of
+        ``tendons_per_segment``, of equal length)
     tendons_per_segment : int
-    routing_radius : float       the tendons' start distance from the backbone [m]
-    families : tuple             which of ``FAMILIES`` to run
-    nets, sequence, node,        the learned models' and the calibration's options
-    calibration
+        tendons of each segment
+    routing_radius : float
+        the tendons' start distance from the backbone [m]
+    families : tuple
+        which of ``FAMILIES`` to run
+    nets : NetOptions
+        the options of the learned maps' networks (``learned_map``, ``hybrid``)
+    sequence : SequenceOptions
+        the options of the ``sequence`` model
+    node : NodeOptions
+        the options of the ``node_lstm`` model
+    calibration : CalibrationOptions
+        the options of the physics' calibration
     """
 
     length: float

@@ -49,12 +49,15 @@ class Layout:
 
     Parameters
     ----------
-    inputs : tuple of str       shell-style patterns of the input columns, in the order wanted
-                                (default: ``DEFAULT_INPUTS``, the first that matches)
-    tip : tuple of 3 str        the tip's x, y, z columns (default: ``tip_x, tip_y, tip_z``, else the
-                                largest node's ``n<i>_x, n<i>_y, n<i>_z``)
-    position_unit : str         the tip's unit, a key of ``POSITION_UNITS`` (default: ``mm`` for
-                                ``tip_*`` columns, ``m`` for the softrnn layout's node columns)
+    inputs : tuple of str
+        shell-style patterns of the input columns, in the order wanted (default: ``DEFAULT_INPUTS``,
+        the first that matches)
+    tip : tuple of 3 str
+        the tip's x, y, z columns (default: ``tip_x, tip_y, tip_z``, else the largest node's
+        ``n<i>_x, n<i>_y, n<i>_z``)
+    position_unit : str
+        the tip's unit, a key of ``POSITION_UNITS`` (default: ``mm`` for ``tip_*`` columns, ``m``
+        for the softrnn layout's node columns)
     """
 
     inputs: tuple = ()
@@ -80,14 +83,22 @@ class Recording:
 
     Attributes
     ----------
-    path : str                   the file it was read from ("" when built in memory)
-    time : (T,) float64          row times [s] from the file (strictly increasing, any spacing)
-    inputs : (T, m) float64      the commanded inputs, in the channels' units
-    names : tuple of m str       the input channels' names (the column names without unit suffix)
-    units : tuple of m str       their units ("" when the column names none)
-    tip : (T, 3) float64         the tracked tip [m]
-    labels : tuple of T str      the row labels (``pattern_label`` column), or () when there are none
-    lag : int                    rows the inputs were shifted by (``shift_inputs``), 0 as read
+    path : str
+        the file it was read from ("" when built in memory)
+    time : (T,) float64
+        row times [s] from the file (strictly increasing, any spacing)
+    inputs : (T, m) float64
+        the commanded inputs, in the channels' units
+    names : tuple of m str
+        the input channels' names (the column names without unit suffix)
+    units : tuple of m str
+        their units ("" when the column names none)
+    tip : (T, 3) float64
+        the tracked tip [m]
+    labels : tuple of T str
+        the row labels (``pattern_label`` column), or () when there are none
+    lag : int
+        rows the inputs were shifted by (``shift_inputs``), 0 as read
     """
 
     path: str

@@ -62,11 +62,12 @@ class TendonRobot:
 
     Parameters
     ----------
-    segment_lengths : tuple of float   L_s [m] of each segment, base to tip
-    tendons_per_segment : int          tendons of each segment (>= 2); the inputs are the tendon
-                                       displacements in segment order
-    routing_radius : float             the tendons' distance from the backbone [m] (a start value:
-                                       the calibration fits it)
+    segment_lengths : tuple of float
+        L_s [m] of each segment, base to tip
+    tendons_per_segment : int
+        tendons of each segment (>= 2); the inputs are the tendon displacements in segment order
+    routing_radius : float
+        the tendons' distance from the backbone [m] (a start value: the calibration fits it)
     """
 
     segment_lengths: tuple
@@ -108,13 +109,20 @@ class TendonParameters:
 
     Attributes
     ----------
-    angles : (n,) [rad]            tendon angles in the base frame
-    offsets : (n,) [m]             slack to take up before a tendon pulls (c_i)
+    angles : (n,) [rad]
+        tendon angles in the base frame
+    offsets : (n,) [m]
+        slack to take up before a tendon pulls (c_i)
     routing_radius : float [m]
-    compliance : (S,) [m^-3]       k / EI_s per segment (series stiffness over bending stiffness)
-    marker : float [m]             marker offset beyond the last segment, along its tangent
-    rotation : (3,) [rad]          base orientation in the motion-capture frame (rotation vector)
-    base : (3,) [m]                base position in the motion-capture frame
+        the tendons' distance from the backbone
+    compliance : (S,) [m^-3]
+        k / EI_s per segment (series stiffness over bending stiffness)
+    marker : float [m]
+        marker offset beyond the last segment, along its tangent
+    rotation : (3,) [rad]
+        base orientation in the motion-capture frame (rotation vector)
+    base : (3,) [m]
+        base position in the motion-capture frame
     """
 
     angles: np.ndarray

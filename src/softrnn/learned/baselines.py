@@ -470,6 +470,7 @@ class LinearAR:
     Attributes
     ----------
     config : LinearARConfig
+        The configuration it was fitted with.
     n_nodes : int
         N, columns of the arrays it was fitted on.
     wrench_width : int
@@ -508,6 +509,7 @@ class LinearAR:
         Parameters
         ----------
         config : LinearARConfig
+            How it is built and fitted.
         positions : array-like (T, N, 3)
             Reference positions [m].
         wrenches : array-like (T, N, 6), (T, N, 3) or None
@@ -655,6 +657,7 @@ def free_run(baseline: AbstractBaseline, positions, wrenches, start: int, stop: 
     Parameters
     ----------
     baseline : AbstractBaseline
+        The fitted baseline.
     positions : array-like (T, N, 3)
         Reference positions [m].
     wrenches : array-like (T, N, W) or None
@@ -712,8 +715,9 @@ def horizon_errors(pred_fn: Callable, positions, wrenches, starts, horizons=HORI
 
     Parameters
     ----------
-    pred_fn : callable(positions, wrenches, start, stop) -> (stop - start, N, 3)
-        A causal free-running predictor [m] seeded from the reference before ``start``, e.g.
+    pred_fn : callable
+        ``pred_fn(positions, wrenches, start, stop) -> (stop - start, N, 3)``: a causal free-running
+        predictor [m] seeded from the reference before ``start``, e.g.
         ``functools.partial(free_run, baseline, modelled=...)``; it may raise ``RolloutDiverged``.
     positions : array-like (T, N, 3)
         Reference [m].

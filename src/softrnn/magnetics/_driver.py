@@ -53,12 +53,18 @@ class MagnetModel(NamedTuple):
 
     Attributes
     ----------
-    coil_pos : (n_c, 3)          coil dipole centres [m]
-    coil_moment : (n_c, 3)       coil moments per ampere [A m^2/A]
-    mag_node : (M,) int64        magnet j lies between nodes mag_node[j] and mag_node[j] + 1 ...
-    mag_frac : (M,)              ... at the fraction mag_frac[j] of that segment
-    mag_mu_body : (M, 3)         magnet moments in the body frame [A m^2]
-    ext_slot : (n,) int64        column of each node in the loads ext_w (StepInputs), -1: none
+    coil_pos : (n_c, 3)
+        coil dipole centres [m]
+    coil_moment : (n_c, 3)
+        coil moments per ampere [A m^2/A]
+    mag_node : (M,) int64
+        magnet j lies between nodes mag_node[j] and mag_node[j] + 1 ...
+    mag_frac : (M,)
+        ... at the fraction mag_frac[j] of that segment
+    mag_mu_body : (M, 3)
+        magnet moments in the body frame [A m^2]
+    ext_slot : (n,) int64
+        column of each node in the loads ext_w (StepInputs), -1: none
     """
 
     coil_pos: np.ndarray
@@ -75,12 +81,18 @@ class MagnetSamples(NamedTuple):
 
     Attributes
     ----------
-    currents : (S, n_c)          coil currents [A]
-    positions : (S, M, 3)        magnet centres [m]
-    rotations : (S, M, 3, 3)     magnet rotations, body -> world
-    fields : (S, M, 3)           field at the magnets [T]
-    gradients : (S, M, 3, 3)     field gradient at the magnets [T/m]
-    wrenches : (S, M, 6)         force G mu [N] and torque mu x B [N m] on each magnet
+    currents : (S, n_c)
+        coil currents [A]
+    positions : (S, M, 3)
+        magnet centres [m]
+    rotations : (S, M, 3, 3)
+        magnet rotations, body -> world
+    fields : (S, M, 3)
+        field at the magnets [T]
+    gradients : (S, M, 3, 3)
+        field gradient at the magnets [T/m]
+    wrenches : (S, M, 6)
+        force G mu [N] and torque mu x B [N m] on each magnet
     """
 
     currents: np.ndarray

@@ -23,9 +23,14 @@ from ..errors import bad, is_int
 class CameraMeasurement:
     """What the camera model reads at M magnets over T samples.
 
-    positions : (T, M, 3) [m] P(s_m) of the fitted polynomial
-    tangents : (T, M, 3) unit dP/ds(s_m)
-    orientations : (T, M, 3) [rad] rotation vectors phi_m k_m (``rotation_vectors``)
+    Attributes
+    ----------
+    positions : (T, M, 3) [m]
+        P(s_m) of the fitted polynomial
+    tangents : (T, M, 3)
+        unit dP/ds(s_m)
+    orientations : (T, M, 3) [rad]
+        rotation vectors phi_m k_m (``rotation_vectors``)
     """
 
     positions: np.ndarray
@@ -123,6 +128,7 @@ def camera_measure(positions, s_nodes, s_magnets, noise: float, rng, *, points: 
     noise : float
         Standard deviation [m] of the Gaussian noise added to every coordinate of every sampled point.
     rng : numpy.random.Generator
+        Source of the noise.
     points : int
         Sampled centreline points, evenly spaced over [s_nodes[0], s_nodes[-1]] (linear
         interpolation between the nodes).
@@ -133,6 +139,7 @@ def camera_measure(positions, s_nodes, s_magnets, noise: float, rng, *, points: 
     Returns
     -------
     CameraMeasurement
+        The fitted positions, tangents and orientations at the magnets.
     """
     X, s, sm, noise = _checked(positions, s_nodes, s_magnets, noise, points, degree)
     sc = np.linspace(s[0], s[-1], int(points))                                     # (P,)

@@ -42,12 +42,18 @@ def centre_field_factor(position: np.ndarray, axis: np.ndarray) -> float:
 class Coil:
     """One electromagnet as a point dipole.
 
-    position : (3,) dipole centre [m] (origin = workspace centre)
-    axis     : (3,) dipole direction (normalised here); positive current gives a moment along it
-    kappa    : dipole moment per ampere [A m^2 / A]; or give
-    b0       : field magnitude at the origin per ampere [T/A] instead (kappa then follows from the
-               dipole law: kappa = 4 pi |c|^3 b0 / (mu0 sqrt(1 + 3 cos^2 theta)); on the axis
-               kappa = 2 pi |c|^3 b0 / mu0, magnetic.md §1.2)
+    Attributes
+    ----------
+    position : (3,) [m]
+        dipole centre (origin = workspace centre)
+    axis : (3,)
+        dipole direction (normalised here); positive current gives a moment along it
+    kappa : float or None
+        dipole moment per ampere [A m^2 / A]; or give
+    b0 : float or None
+        field magnitude at the origin per ampere [T/A] instead (kappa then follows from the
+        dipole law: kappa = 4 pi |c|^3 b0 / (mu0 sqrt(1 + 3 cos^2 theta)); on the axis
+        kappa = 2 pi |c|^3 b0 / mu0, magnetic.md §1.2)
     """
 
     position: tuple
@@ -83,10 +89,15 @@ class Coil:
 class CoilLayout:
     """A set of stationary electromagnets around a spherical workspace.
 
-    coils            : tuple of ``Coil``
-    current_limit    : largest |I_k| [A] of every coil
-    workspace_radius : radius [m] of the workspace around the origin; every coil must lie outside
-                       it by at least ``MIN_DISTANCE`` (the point-dipole model is singular at the coil)
+    Attributes
+    ----------
+    coils : tuple of Coil
+        the electromagnets
+    current_limit : float
+        largest |I_k| [A] of every coil
+    workspace_radius : float
+        radius [m] of the workspace around the origin; every coil must lie outside
+        it by at least ``MIN_DISTANCE`` (the point-dipole model is singular at the coil)
     """
 
     coils: tuple

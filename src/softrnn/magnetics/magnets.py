@@ -30,13 +30,21 @@ MAGNET_POISSON_RATIO = 0.3
 class Magnet:
     """A rigid block magnet embedded in the rod.
 
-    arc_length : s [m] of the block's centre along the undeformed rod, from the clamped base
-    grade      : a key of ``GRADES`` ('N42', 'N45'); ignored when ``remanence`` is given
-    remanence  : Br [T], overrides the grade's nominal value (e.g. a perturbed "real" magnet)
-    size       : block edges (a, b, c) [m]; c lies along the rod (d3), a along d1, b along d2
-    direction  : magnetisation unit vector in the rod's body frame (d1, d2, d3 components);
-                 (0, 0, 1) is axial along the tangent, (0, 0, -1) antiparallel
-    density, youngs_modulus, poisson_ratio : block material [kg/m^3], [Pa], [-] (paper values)
+    Attributes
+    ----------
+    arc_length : float
+        s [m] of the block's centre along the undeformed rod, from the clamped base
+    grade : str
+        a key of ``GRADES`` ('N42', 'N45'); ignored when ``remanence`` is given
+    remanence : float or None
+        Br [T], overrides the grade's nominal value (e.g. a perturbed "real" magnet)
+    size : tuple
+        block edges (a, b, c) [m]; c lies along the rod (d3), a along d1, b along d2
+    direction : tuple
+        magnetisation unit vector in the rod's body frame (d1, d2, d3 components);
+        (0, 0, 1) is axial along the tangent, (0, 0, -1) antiparallel
+    density, youngs_modulus, poisson_ratio : float
+        block material [kg/m^3], [Pa], [-] (paper values)
     """
 
     arc_length: float

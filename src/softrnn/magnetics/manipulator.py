@@ -60,17 +60,28 @@ _NORMAL = (0.0, 0.0, 1.0)
 class ManipulatorSpec:
     """The physical magnetic manipulator (magnetic.md §1.3; rod material of Tariverdi et al. 2021).
 
-    length, diameter  : free length L and circular section diameter D of the rod [m]
-    youngs_modulus, poisson_ratio, density : PMC-770 urethane rubber [Pa], [-], [kg/m^3]
-    magnets           : ``Magnet`` entries (None: N42 at L/2 and N45 at L - 1 mm, 2 mm cubes, axial;
-                        resolved here, so ``replace(spec, length=...)`` keeps them: pass magnets=None)
-    coils             : the electromagnets (``bigmag_like()`` by default)
-    n_nodes           : rod nodes (26: 2 mm segments, one per default magnet)
-    base              : clamped base position [m] (None: (-L/2, 0, 0)); the rod points along +x
-    gravity           : [m/s^2]
-    damping           : rod damping (``DEFAULT_DAMPING``)
-    magnet_stiffness_factor : cap on the magnet segments' Young's modulus as a multiple of the rod's
-                        (None: the magnets' own modulus, e.g. 41.4 GPa; see the module docstring)
+    Attributes
+    ----------
+    length, diameter : float
+        free length L and circular section diameter D of the rod [m]
+    youngs_modulus, poisson_ratio, density : float
+        PMC-770 urethane rubber [Pa], [-], [kg/m^3]
+    magnets : tuple of Magnet or None
+        ``Magnet`` entries (None: N42 at L/2 and N45 at L - 1 mm, 2 mm cubes, axial;
+        resolved here, so ``replace(spec, length=...)`` keeps them: pass magnets=None)
+    coils : CoilLayout
+        the electromagnets (``bigmag_like()`` by default)
+    n_nodes : int
+        rod nodes (26: 2 mm segments, one per default magnet)
+    base : tuple or None
+        clamped base position [m] (None: (-L/2, 0, 0)); the rod points along +x
+    gravity : tuple
+        gravitational acceleration (3,) [m/s^2]
+    damping : Damping
+        rod damping (``DEFAULT_DAMPING``)
+    magnet_stiffness_factor : float or None
+        cap on the magnet segments' Young's modulus as a multiple of the rod's
+        (None: the magnets' own modulus, e.g. 41.4 GPa; see the module docstring)
     """
 
     length: float = 0.05
@@ -347,13 +358,31 @@ class ManipulatorRun:
 class ManipulatorTrajectory:
     """A run of the magnetic manipulator. S samples, n nodes, M magnets, n_c coils; world frame.
 
-    rod        : the rod's ``Trajectory`` (time (S,), positions (S, n, 3), quaternions (S, n, 4),
-                 velocities, applied forces/torques including the magnetic ones, reactions, energy)
-    currents   : (S, n_c) [A]
-    magnet_positions (S, M, 3) [m] centres; magnet_rotations (S, M, 3, 3) body -> world;
-    magnet_moments (S, M, 3) [A m^2]; fields (S, M, 3) [T] and gradients (S, M, 3, 3) [T/m] at the
-    magnets; wrenches (S, M, 6) [N, N m]: force G mu and torque mu x B on each magnet.
-    step [s], substeps, wall_time [s] (of the recorded part, settling excluded).
+    Attributes
+    ----------
+    rod : Trajectory
+        the rod's ``Trajectory`` (time (S,), positions (S, n, 3), quaternions (S, n, 4),
+        velocities, applied forces/torques including the magnetic ones, reactions, energy)
+    currents : (S, n_c) [A]
+        the coil currents
+    magnet_positions : (S, M, 3) [m]
+        magnet centres
+    magnet_rotations : (S, M, 3, 3)
+        magnet rotations, body -> world
+    magnet_moments : (S, M, 3) [A m^2]
+        magnet moments
+    fields : (S, M, 3) [T]
+        field at the magnets
+    gradients : (S, M, 3, 3) [T/m]
+        field gradient at the magnets
+    wrenches : (S, M, 6) [N, N m]
+        force G mu and torque mu x B on each magnet
+    step : float
+        sample interval [s]
+    substeps : int
+        solver substeps per sample
+    wall_time : float
+        wall time [s] of the recorded part, settling excluded
     """
 
     rod: Trajectory

@@ -24,12 +24,20 @@ from .manipulator import ManipulatorSpec
 class StaticPrediction:
     """The static Cosserat model's predictions for T samples and M magnets.
 
-    orientations : (T, M, 3) [rad] rotation vectors of the magnets' tangents (NaN where the solve failed)
-    positions : (T, M, 3) [m] magnet centres (NaN where failed)
+    Attributes
+    ----------
+    orientations : (T, M, 3) [rad]
+        rotation vectors of the magnets' tangents (NaN where the solve failed)
+    positions : (T, M, 3) [m]
+        magnet centres (NaN where failed)
     converged : (T,) bool
-    solves : (T,) int, static solves per sample (the fixed-point iterations)
-    failures : tuple of (sample, message) for every failed sample
-    seconds : float, wall time of all solves (Python calls included)
+        whether each sample's solve converged
+    solves : (T,) int
+        static solves per sample (the fixed-point iterations)
+    failures : tuple
+        (sample, message) for every failed sample
+    seconds : float
+        wall time of all solves (Python calls included)
     """
 
     orientations: np.ndarray
@@ -112,6 +120,7 @@ def static_predictions(currents, *, spec: ManipulatorSpec | None = None, n_steps
     max_failures : float
         Largest tolerated fraction of failed samples.
     progress : softrnn.progress.Progress or None
+        Called as ``progress(done, total, info)`` every 10 samples (None: no reports).
     """
     spec = ManipulatorSpec() if spec is None else spec
     I = spec.coils.check_currents(currents)

@@ -32,6 +32,7 @@ class ManipulatorStepper:
     Parameters
     ----------
     spec : ManipulatorSpec
+        The manipulator.
     dt : float
         Frame length [s] (e.g. 1/30 for a 30 Hz camera).
     currents0 : (n_c,) [A]
@@ -43,9 +44,12 @@ class ManipulatorStepper:
 
     Attributes
     ----------
-    time : float   time of the state [s] (0 after settling)
-    frames : int   frames stepped
-    currents : (n_c,) [A] the currents of the last frame
+    time : float
+        time of the state [s] (0 after settling)
+    frames : int
+        frames stepped
+    currents : (n_c,) [A]
+        the currents of the last frame
     """
 
     def __init__(self, spec: ManipulatorSpec, dt: float, currents0, *, substeps: int | None = None,

@@ -68,17 +68,28 @@ class ImplicitWork(NamedTuple):
 
     Attributes
     ----------
-    applied : (n, 6)       applied world force [N] and world torque [N m] per node
-    force : (n, 6)         total explicit force (world) [N] and body torque [N m] per node
-    strain_map : (n-1, 6, 12)  the linearised strain map B of each segment [-], [m]
-    diag : (n, 6, 6)       diagonal blocks of the system, then of its factorisation
-    upper : (n-1, 6, 6)    blocks coupling node a (rows) to node a + 1 (columns); then X_a
-    rhs : (n, 6)           right-hand side, then the forward-eliminated one
-    u : (n, 6)             the new velocities u^{k+1} (v world [m/s], omega body [rad/s])
-    known : (n, 6)         prescribed velocities of constrained degrees of freedom
-    fixed : (n, 6) int64   1 where the degree of freedom is prescribed
-    pivot : (6, 7)         scratch of the 6 x 6 solves
-    weighted : (6, 12)     scratch: a segment's strain map scaled by its stiffness
+    applied : (n, 6)
+        applied world force [N] and world torque [N m] per node
+    force : (n, 6)
+        total explicit force (world) [N] and body torque [N m] per node
+    strain_map : (n-1, 6, 12)
+        the linearised strain map B of each segment [-], [m]
+    diag : (n, 6, 6)
+        diagonal blocks of the system, then of its factorisation
+    upper : (n-1, 6, 6)
+        blocks coupling node a (rows) to node a + 1 (columns); then X_a
+    rhs : (n, 6)
+        right-hand side, then the forward-eliminated one
+    u : (n, 6)
+        the new velocities u^{k+1} (v world [m/s], omega body [rad/s])
+    known : (n, 6)
+        prescribed velocities of constrained degrees of freedom
+    fixed : (n, 6) int64
+        1 where the degree of freedom is prescribed
+    pivot : (6, 7)
+        scratch of the 6 x 6 solves
+    weighted : (6, 12)
+        scratch: a segment's strain map scaled by its stiffness
     """
 
     applied: np.ndarray

@@ -16,20 +16,28 @@ class SetupInputs:
 
     Attributes
     ----------
-    ext_idx : (m,) int64       nodes with ``NodalLoad`` entries, increasing (every node when the
-                               setup's gravity is a time function: its weight m_a g(t) [N] is a
-                               world force added to the node's nodal loads, and the lumped rod
-                               carries no constant gravity, ``rod.lumped.constant_gravity``)
-    pd_idx : (p,) int64        nodes of the ``PDTracking`` entries, in the setup's order
-    pd_gain : (p, 2)           their stiffness [N/m] and damping [N s/m]
-    presc_idx : (q,) int64     nodes whose Clamp/Pin carries a motion/path, in the setup's order
-    tendons : tuple            the setup's ``Tendon`` entries (m_t of them)
-    tendon_route : (m_t, n - 1, 6) body-frame routing offset [m] and its rate [-] per segment
-                               (``rod.tendons.routing_arrays``)
-    tendon_end : (m_t,) int64  termination nodes
-    tendon_stiffness : (m_s,)  series stiffness [N/m] per tendon (0: pulled with a tension); m_s = m_t
-                               when a tendon is driven by a displacement, else 0 (no arrays)
-    tendon_rest : (m_s,)       the tendons' discrete lengths in the stress-free reference [m]
+    ext_idx : (m,) int64
+        nodes with ``NodalLoad`` entries, increasing (every node when the setup's gravity is a time
+        function: its weight m_a g(t) [N] is a world force added to the node's nodal loads, and the
+        lumped rod carries no constant gravity, ``rod.lumped.constant_gravity``)
+    pd_idx : (p,) int64
+        nodes of the ``PDTracking`` entries, in the setup's order
+    pd_gain : (p, 2)
+        their stiffness [N/m] and damping [N s/m]
+    presc_idx : (q,) int64
+        nodes whose Clamp/Pin carries a motion/path, in the setup's order
+    tendons : tuple
+        the setup's ``Tendon`` entries (m_t of them)
+    tendon_route : (m_t, n - 1, 6)
+        body-frame routing offset [m] and its rate [-] per segment
+        (``rod.tendons.routing_arrays``)
+    tendon_end : (m_t,) int64
+        termination nodes
+    tendon_stiffness : (m_s,)
+        series stiffness [N/m] per tendon (0: pulled with a tension); m_s = m_t when a tendon is
+        driven by a displacement, else 0 (no arrays)
+    tendon_rest : (m_s,)
+        the tendons' discrete lengths in the stress-free reference [m]
     """
 
     def __init__(self, setup):

@@ -60,20 +60,34 @@ class LumpedRod(NamedTuple):
 
     Attributes
     ----------
-    length : float            segment length l [m]
-    weight : (n,)             trapezoid weights w_a, 1/2 at the ends [-]
-    mass : (n,)               node masses m_a [kg]
-    inertia : (n, 3)          node inertias J_a, body frame [kg m^2]
-    C1 : (n - 1, 3)           diag(kappa G A, kappa G A, E A) per segment [N]
-    C2 : (n - 1, 3)           diag(E I, E I, G J) per segment [N m^2]
-    D1, D2 : (n - 1, 3)       Kelvin-Voigt coefficients tau_d C1 [N s], tau_d C2 [N m^2 s]
-    K0 : (n - 1, 3)           stress-free curvature and twist [1/m]
-    G0 : (n - 1, 3)           stress-free shear and stretch [-]
-    ct : (n,)                 translational drag per node [N s/m]
-    cr : (n,)                 rotational drag per node [N m s]
-    gravity : (3,)            [m/s^2]
-    kind : (n,) int64         FREE, CLAMPED or PINNED
-    kv_on : bool              Kelvin-Voigt damping on (tau_d > 0)
+    length : float
+        segment length l [m]
+    weight : (n,)
+        trapezoid weights w_a, 1/2 at the ends [-]
+    mass : (n,)
+        node masses m_a [kg]
+    inertia : (n, 3)
+        node inertias J_a, body frame [kg m^2]
+    C1 : (n - 1, 3)
+        diag(kappa G A, kappa G A, E A) per segment [N]
+    C2 : (n - 1, 3)
+        diag(E I, E I, G J) per segment [N m^2]
+    D1, D2 : (n - 1, 3)
+        Kelvin-Voigt coefficients tau_d C1 [N s], tau_d C2 [N m^2 s]
+    K0 : (n - 1, 3)
+        stress-free curvature and twist [1/m]
+    G0 : (n - 1, 3)
+        stress-free shear and stretch [-]
+    ct : (n,)
+        translational drag per node [N s/m]
+    cr : (n,)
+        rotational drag per node [N m s]
+    gravity : (3,)
+        gravitational acceleration [m/s^2], world frame
+    kind : (n,) int64
+        FREE, CLAMPED or PINNED
+    kv_on : bool
+        Kelvin-Voigt damping on (tau_d > 0)
     """
 
     length: float
@@ -98,12 +112,18 @@ class StateArrays(NamedTuple):
 
     Attributes
     ----------
-    rotations : (n, 3, 3)          node rotations Lambda (columns d1, d2, d3), world <- body
-    positions : (n, 3)             node positions [m]
-    velocities : (n, 3)            staggered linear velocities v^{k-1} [m/s], world frame
-    angular_velocities : (n, 3)    staggered angular velocities omega^{k-1} [rad/s], body frame
-    prev_curvature : (n - 1, 3)    previous segment curvature (Kelvin-Voigt memory) [1/m]
-    prev_shear : (n - 1, 3)        previous segment shear and stretch [-]
+    rotations : (n, 3, 3)
+        node rotations Lambda (columns d1, d2, d3), world <- body
+    positions : (n, 3)
+        node positions [m]
+    velocities : (n, 3)
+        staggered linear velocities v^{k-1} [m/s], world frame
+    angular_velocities : (n, 3)
+        staggered angular velocities omega^{k-1} [rad/s], body frame
+    prev_curvature : (n - 1, 3)
+        previous segment curvature (Kelvin-Voigt memory) [1/m]
+    prev_shear : (n - 1, 3)
+        previous segment shear and stretch [-]
     """
 
     rotations: np.ndarray
@@ -121,28 +141,38 @@ class StepInputs(NamedTuple):
 
     Attributes
     ----------
-    ext_idx : (m,) int64              nodes with tabulated loads
-    ext_w : (K, m, 12)                force world, torque world, force body, torque body [N], [N m]
-    pd_idx : (p,) int64               nodes with PD tracking forces f = kp (target - r) - kd v
-    pd_target : (K, p, 3)             target positions [m]
-    pd_gain : (p, 2)                  kp [N/m] and kd [N s/m]
-    presc_idx : (q,) int64            constrained nodes with prescribed motion
-    presc_r : (K + 1, q, 3)           their positions at t and t + h [m]
-    presc_R : (K + 1, q, 3, 3)        their rotations at t and t + h
-    tendon_route : (m_t, n - 1, 6)    per tendon and segment: the body-frame offset rho [m] and
-                                      its rate d rho / ds [-] at the segment's middle
-                                      (``rod.tendons.routing_arrays``; default: no tendons)
-    tendon_end : (m_t,) int64         their termination nodes (>= 1): segments a < end carry them
-    tendon_tension : (K, m_t)         their tensions [N], >= 0 (a leading batch axis in
-                                      ``advance_batch``); the kernel writes the tensions of the
-                                      tendons driven by a displacement into their columns
-    tendon_stiffness : (m_s,)         series stiffness k [N/m] per tendon, 0 for a tendon pulled
-                                      with a tension; m_s = m_t, or 0 when no tendon is driven by
-                                      a displacement (default)
-    tendon_rest : (m_s,)              the tendons' discrete lengths l_0 in the reference [m]
-    tendon_displacement : (K, m_s)    the displacements q [m] (a leading batch axis in
-                                      ``advance_batch``): tau = k max(0, q - (l_0 - l)) from the
-                                      tendon length l at the start of each step
+    ext_idx : (m,) int64
+        nodes with tabulated loads
+    ext_w : (K, m, 12)
+        force world, torque world, force body, torque body [N], [N m]
+    pd_idx : (p,) int64
+        nodes with PD tracking forces f = kp (target - r) - kd v
+    pd_target : (K, p, 3)
+        target positions [m]
+    pd_gain : (p, 2)
+        kp [N/m] and kd [N s/m]
+    presc_idx : (q,) int64
+        constrained nodes with prescribed motion
+    presc_r : (K + 1, q, 3)
+        their positions at t and t + h [m]
+    presc_R : (K + 1, q, 3, 3)
+        their rotations at t and t + h
+    tendon_route : (m_t, n - 1, 6)
+        per tendon and segment: the body-frame offset rho [m] and its rate d rho / ds [-] at the
+        segment's middle (``rod.tendons.routing_arrays``; default: no tendons)
+    tendon_end : (m_t,) int64
+        their termination nodes (>= 1): segments a < end carry them
+    tendon_tension : (K, m_t)
+        their tensions [N], >= 0 (a leading batch axis in ``advance_batch``); the kernel writes the
+        tensions of the tendons driven by a displacement into their columns
+    tendon_stiffness : (m_s,)
+        series stiffness k [N/m] per tendon, 0 for a tendon pulled with a tension; m_s = m_t, or 0
+        when no tendon is driven by a displacement (default)
+    tendon_rest : (m_s,)
+        the tendons' discrete lengths l_0 in the reference [m]
+    tendon_displacement : (K, m_s)
+        the displacements q [m] (a leading batch axis in ``advance_batch``):
+        tau = k max(0, q - (l_0 - l)) from the tendon length l at the start of each step
     """
 
     ext_idx: np.ndarray
@@ -167,15 +197,24 @@ class Samples(NamedTuple):
 
     Attributes
     ----------
-    save_slot : (n,) int64            column of each node in the outputs, -1: not saved
-    positions : (S, s, 3)             [m]
-    quaternions : (S, s, 4)           unit, scalar first (w, x, y, z), body -> world
-    velocities : (S, s, 3)            mid-step velocities [m/s], world frame
-    angular_velocities : (S, s, 3)    mid-step angular velocities [rad/s], world frame
-    forces, torques : (S, s, 3)       applied force [N] and torque [N m], world frame
-    reaction_forces : (S, s, 3)       support reaction force of constrained nodes [N], world frame
-    reaction_torques : (S, s, 3)      support reaction torque of clamped nodes [N m], world frame
-    energy : (S, 3)                   kinetic, elastic and gravitational energy [J]
+    save_slot : (n,) int64
+        column of each node in the outputs, -1: not saved
+    positions : (S, s, 3)
+        node positions [m], world frame
+    quaternions : (S, s, 4)
+        unit, scalar first (w, x, y, z), body -> world
+    velocities : (S, s, 3)
+        mid-step velocities [m/s], world frame
+    angular_velocities : (S, s, 3)
+        mid-step angular velocities [rad/s], world frame
+    forces, torques : (S, s, 3)
+        applied force [N] and torque [N m], world frame
+    reaction_forces : (S, s, 3)
+        support reaction force of constrained nodes [N], world frame
+    reaction_torques : (S, s, 3)
+        support reaction torque of clamped nodes [N m], world frame
+    energy : (S, 3)
+        kinetic, elastic and gravitational energy [J]
     """
 
     save_slot: np.ndarray

@@ -37,7 +37,7 @@ def frozen(*, length: float, weight, mass, inertia, C1, C2, D1, D2, K0, G0, ct, 
         Stiffnesses [N], [N m^2], Kelvin-Voigt coefficients [N s], [N m^2 s], stress-free strains
         [1/m], [-] per segment.
     gravity : array_like, (3,)
-        [m/s^2].
+        Gravitational acceleration [m/s^2], world frame.
     kind : array_like of int, (n,)
         ``kernels.FREE``, ``CLAMPED`` or ``PINNED`` per node.
     kv_on : bool
@@ -46,6 +46,7 @@ def frozen(*, length: float, weight, mass, inertia, C1, C2, D1, D2, K0, G0, ct, 
     Returns
     -------
     LumpedRod
+        The read-only copies.
     """
     f = np.float64
     return LumpedRod(

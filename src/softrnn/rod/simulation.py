@@ -107,9 +107,14 @@ def check_run_size(*, n_samples: int, dt: float, substeps: int, n_saved: int, he
 class Damping:
     """Dissipation (docs/lgvi.md §2.6).
 
-    translational : viscous drag per length c_t [N s/m^2] (force per node = -c_t w_a l v)
-    rotational    : viscous drag per length c_r [N m s/m] (torque per node = -c_r w_a l omega)
-    kelvin_voigt  : internal strain-rate damping, retardation time tau_d [s] (D = tau_d C)
+    Attributes
+    ----------
+    translational : float
+        viscous drag per length c_t [N s/m^2] (force per node = -c_t w_a l v)
+    rotational : float
+        viscous drag per length c_r [N m s/m] (torque per node = -c_r w_a l omega)
+    kelvin_voigt : float
+        internal strain-rate damping, retardation time tau_d [s] (D = tau_d C)
     """
 
     translational: float = 0.0
@@ -339,10 +344,15 @@ class Simulator:
     Attributes
     ----------
     setup : Setup
-    rod : LumpedRod            the lumped arrays (``rod.lumped.lumped_rod``), shared with the kernels
-    inputs : SetupInputs       the loads and prescribed motions, evaluated chunk by chunk
-    state : RodState           the current state
-    steps_done : int           solver steps taken so far
+        the setup it steps
+    rod : LumpedRod
+        the lumped arrays (``rod.lumped.lumped_rod``), shared with the kernels
+    inputs : SetupInputs
+        the loads and prescribed motions, evaluated chunk by chunk
+    state : RodState
+        the current state
+    steps_done : int
+        solver steps taken so far
     """
 
     def __init__(self, setup: Setup):

@@ -44,15 +44,24 @@ class RodSpec:
 
     Parameters
     ----------
-    length : float            undeformed length L [m]
-    radius : float            section radius r [m]
-    youngs_modulus : float    E [Pa]
-    density : float           rho [kg/m^3]
-    n_nodes : int             number of nodes n >= 2 (n - 1 segments)
-    poisson_ratio : float     nu, gives G = E / (2 (1 + nu)) unless ``shear_modulus`` is set
-    shear_modulus : float     G [Pa], overrides ``poisson_ratio``
-    shear_coefficient : float Timoshenko shear coefficient kappa (1 as in the LGVI references)
-    overrides : tuple         NodeOverride entries (embedded magnets, rigid segments)
+    length : float
+        undeformed length L [m]
+    radius : float
+        section radius r [m]
+    youngs_modulus : float
+        E [Pa]
+    density : float
+        rho [kg/m^3]
+    n_nodes : int
+        number of nodes n >= 2 (n - 1 segments)
+    poisson_ratio : float
+        nu, gives G = E / (2 (1 + nu)) unless ``shear_modulus`` is set
+    shear_modulus : float
+        G [Pa], overrides ``poisson_ratio``
+    shear_coefficient : float
+        Timoshenko shear coefficient kappa (1 as in the LGVI references)
+    overrides : tuple
+        NodeOverride entries (embedded magnets, rigid segments)
     """
 
     length: float
@@ -124,11 +133,12 @@ class RodSpec:
 
         Returns
         -------
-        weight (n,)      trapezoid weights w_a (1/2 at the ends)
-        mass (n,)        m_a = w_a rho A l [kg]
-        inertia (n, 3)   J_a = w_a l rho diag(I, I, 2I) [kg m^2]
-        C1 (n-1, 3)      diag(kappa G A, kappa G A, E A) per segment [N]
-        C2 (n-1, 3)      diag(E I, E I, G J) per segment [N m^2]
+        dict of str -> ndarray
+            ``weight`` (n,): trapezoid weights w_a (1/2 at the ends);
+            ``mass`` (n,): m_a = w_a rho A l [kg];
+            ``inertia`` (n, 3): J_a = w_a l rho diag(I, I, 2I) [kg m^2];
+            ``C1`` (n-1, 3): diag(kappa G A, kappa G A, E A) per segment [N];
+            ``C2`` (n-1, 3): diag(E I, E I, G J) per segment [N m^2].
         """
         n, l = self.n_nodes, self.segment_length
         p = self.node_properties()

@@ -60,6 +60,7 @@ def status_message(code: int, *, step: int, t0: float, h: float, magnet: int = -
     Returns
     -------
     str
+        The one-line message.
     """
     status = KernelStatus(code)
     t = t0 + step * h

@@ -99,28 +99,33 @@ class Tendon:
 
     Parameters
     ----------
-    name : str            lower-case letters, digits and ``_``, starting with a letter (the
-                          actuation channel ``tendon_<name>`` of a dataset)
-    offset : (2,)         (ox, oy): offset from the centreline at the base along d1, d2 [m]; at most
-                          the section radius from it
+    name : str
+        lower-case letters, digits and ``_``, starting with a letter (the actuation channel
+        ``tendon_<name>`` of a dataset)
+    offset : (2,)
+        (ox, oy): offset from the centreline at the base along d1, d2 [m]; at most the section
+        radius from it
     tension : float or callable
-                          a constant tension >= 0 [N], or a profile t (K,) [s] -> (K,) [N] (e.g.
-                          ``Scalar(Sinusoid(...))``); values below zero are clipped to 0 when the
-                          profile is evaluated (a slack tendon cannot push). Default 0 N; not with
-                          ``displacement``
-    routing : str         "straight" (constant offset) or "helical" (the offset turns about d3)
-    pitch : float         helical routing only: the signed arc length of one turn [m] (positive:
-                          right-handed about d3)
-    end_node : int        the node where the tendon terminates (negative counts from the end;
-                          default: the last node)
-    end_s : float         the termination as an arc length [m] instead (the nearest node of a
-                          dynamic rod; exact in the static solver)
+        a constant tension >= 0 [N], or a profile t (K,) [s] -> (K,) [N] (e.g.
+        ``Scalar(Sinusoid(...))``); values below zero are clipped to 0 when the profile is evaluated
+        (a slack tendon cannot push). Default 0 N; not with ``displacement``
+    routing : str
+        "straight" (constant offset) or "helical" (the offset turns about d3)
+    pitch : float
+        helical routing only: the signed arc length of one turn [m] (positive: right-handed about
+        d3)
+    end_node : int
+        the node where the tendon terminates (negative counts from the end; default: the last node)
+    end_s : float
+        the termination as an arc length [m] instead (the nearest node of a dynamic rod; exact in
+        the static solver)
     displacement : float or callable
-                          instead of ``tension``: the length pulled in at the servo [m] (positive:
-                          pulled in; negative: paid out), a constant or a profile t (K,) [s] -> (K,)
-                          [m]; the tension is then k max(0, q - (l_0 - l)) (module docstring)
-    stiffness : float     with ``displacement`` (required): the series stiffness k of servo and
-                          cable [N/m], finite and > 0
+        instead of ``tension``: the length pulled in at the servo [m] (positive: pulled in;
+        negative: paid out), a constant or a profile t (K,) [s] -> (K,) [m]; the tension is then k
+        max(0, q - (l_0 - l)) (module docstring)
+    stiffness : float
+        with ``displacement`` (required): the series stiffness k of servo and cable [N/m], finite
+        and > 0
     """
 
     name: str

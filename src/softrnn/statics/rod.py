@@ -115,26 +115,38 @@ class StaticRod:
 
     Parameters
     ----------
-    length : float              L [m]
-    radius : float              section radius r [m] (area and second moments unless overridden)
-    youngs_modulus : float      E [Pa]
-    density : float             rho [kg/m^3] (weight rho A g per length)
-    poisson_ratio : float       nu, G = E / (2 (1 + nu))
-    shear_coefficient : float   kappa in the shear stiffness kappa G A (1, as the dynamic model)
+    length : float
+        L [m]
+    radius : float
+        section radius r [m] (area and second moments unless overridden)
+    youngs_modulus : float
+        E [Pa]
+    density : float
+        rho [kg/m^3] (weight rho A g per length)
+    poisson_ratio : float
+        nu, G = E / (2 (1 + nu))
+    shear_coefficient : float
+        kappa in the shear stiffness kappa G A (1, as the dynamic model)
     bending_stiffness, torsional_stiffness, axial_stiffness, shear_stiffness : float or None
-                                overrides of EI [N m^2], GJ [N m^2], EA [N], kappa G A [N]
-    extensible_shearable : bool True: the paper's model, v = Ks^-1 R^T n + e3 (stretch and shear);
-                                False: Kirchhoff rod, v = e3 (inextensible, unshearable)
-    gravity : (3,)              [m/s^2], world frame
-    base_position : (3,)        [m]
-    base_rotation : (3, 3)      body -> world rotation of the clamped base (columns d1, d2, d3)
-    rigid_segments : tuple      RigidSegment entries (not overlapping)
-    magnets : tuple             PointMagnet entries; a solve gives the field B and gradient G at each
-    tendons : tuple             ``softrnn.rod.Tendon`` entries routed from the base (terminated at
-                                ``end_s``, default the tip; ``end_node`` is for the dynamic rod); a
-                                solve gives their tensions (``StaticLoads.tendon_tensions``), or the
-                                displacements of those driven by one
-                                (``StaticLoads.tendon_displacements``), whose tensions it solves for
+        overrides of EI [N m^2], GJ [N m^2], EA [N], kappa G A [N]
+    extensible_shearable : bool
+        True: the paper's model, v = Ks^-1 R^T n + e3 (stretch and shear);
+        False: Kirchhoff rod, v = e3 (inextensible, unshearable)
+    gravity : (3,)
+        gravitational acceleration [m/s^2], world frame
+    base_position : (3,)
+        position of the clamped base [m], world frame
+    base_rotation : (3, 3)
+        body -> world rotation of the clamped base (columns d1, d2, d3)
+    rigid_segments : tuple
+        RigidSegment entries (not overlapping)
+    magnets : tuple
+        PointMagnet entries; a solve gives the field B and gradient G at each
+    tendons : tuple
+        ``softrnn.rod.Tendon`` entries routed from the base (terminated at ``end_s``, default the
+        tip; ``end_node`` is for the dynamic rod); a solve gives their tensions
+        (``StaticLoads.tendon_tensions``), or the displacements of those driven by one
+        (``StaticLoads.tendon_displacements``), whose tensions it solves for
     """
 
     length: float
@@ -267,22 +279,23 @@ class StaticLoads:
 
     Parameters
     ----------
-    point_loads : tuple        PointLoad entries (world-frame dead forces and torques)
-    distributed_force : (3,)   uniform force per length [N/m], world frame
+    point_loads : tuple
+        PointLoad entries (world-frame dead forces and torques)
+    distributed_force : (3,)
+        uniform force per length [N/m], world frame
     magnetic_field : (M, 3) or (3,) or None
-                               B [T] at each of the rod's M magnets, in the order of
-                               ``StaticRod.magnets`` ((3,): the same field at all; None: zero)
+        B [T] at each of the rod's M magnets, in the order of ``StaticRod.magnets`` ((3,): the same
+        field at all; None: zero)
     field_gradient : (M, 3, 3) or (3, 3) or None
-                               G [T/m], G[i, j] = dB_i/dx_j, at each magnet (None: uniform field)
+        G [T/m], G[i, j] = dB_i/dx_j, at each magnet (None: uniform field)
     tendon_tensions : (m,) or None
-                               tension [N] >= 0 of each of the rod's m tendons, in the order of
-                               ``StaticRod.tendons`` (None: each tendon's own tension at t = 0); the
-                               entries of tendons driven by a displacement are not used
+        tension [N] >= 0 of each of the rod's m tendons, in the order of ``StaticRod.tendons``
+        (None: each tendon's own tension at t = 0); the entries of tendons driven by a displacement
+        are not used
     tendon_displacements : (m,) or None
-                               displacement [m] (pulled in at the servo; negative: paid out) of each
-                               of the rod's m tendons, in the order of ``StaticRod.tendons``, for the
-                               tendons driven by one (None: each one's own displacement at t = 0);
-                               the entries of tendons pulled with a tension are not used
+        displacement [m] (pulled in at the servo; negative: paid out) of each of the rod's m
+        tendons, in the order of ``StaticRod.tendons``, for the tendons driven by one (None: each
+        one's own displacement at t = 0); the entries of tendons pulled with a tension are not used
     """
 
     point_loads: tuple = ()

@@ -127,24 +127,40 @@ def build_grid(rod: StaticRod, load_points, n_steps: int) -> Grid:
 class StaticSolution:
     """Result of a static solve.
 
-    status : Status             CONVERGED only when residual <= tol
-    message : str               one line: what happened and how to fix it
-    iterations : int            Levenberg-Marquardt iterations
-    residual : float            |[n(L+), m(L+)]|_2 of the tip wrench [N, N m mixed, as the paper]
-    tol : float                 the tolerance E it was solved to
-    integrations : int          RK4 integrations of the rod (Jacobians included)
-    s : (N + 1,)                grid arc lengths [m]
-    positions : (N + 1, 3)      centreline [m], world frame
-    quaternions : (N + 1, 4)    unit, scalar first, body -> world
-    n : (N + 1, 3)              internal force [N], world frame, on the base side of each grid point
-                                (with tendons: the section's total, rod plus tendons)
-    m : (N + 1, 3)              internal moment [N m], world frame, likewise
-    base_wrench : (6,)          [n(0), m(0)]: the load the rod puts on its base (the clamp's
-                                reaction on the rod is -base_wrench); a warm-start guess
-    tendon_tensions : (m,)      the tensions [N] of the rod's m tendons in this solution (given, or
-                                solved for the tendons driven by a displacement)
-    tendon_shortening : (m,)    l_0 - l [m]: how much each tendon's path along the rod is shorter
-                                than on the stress-free rod (bending toward it, compression)
+    Attributes
+    ----------
+    status : Status
+        CONVERGED only when residual <= tol
+    message : str
+        one line: what happened and how to fix it
+    iterations : int
+        Levenberg-Marquardt iterations
+    residual : float
+        |[n(L+), m(L+)]|_2 of the tip wrench [N, N m mixed, as the paper]
+    tol : float
+        the tolerance E it was solved to
+    integrations : int
+        RK4 integrations of the rod (Jacobians included)
+    s : (N + 1,)
+        grid arc lengths [m]
+    positions : (N + 1, 3)
+        centreline [m], world frame
+    quaternions : (N + 1, 4)
+        unit, scalar first, body -> world
+    n : (N + 1, 3)
+        internal force [N], world frame, on the base side of each grid point (with tendons: the
+        section's total, rod plus tendons)
+    m : (N + 1, 3)
+        internal moment [N m], world frame, likewise
+    base_wrench : (6,)
+        [n(0), m(0)]: the load the rod puts on its base (the clamp's reaction on the rod is
+        -base_wrench); a warm-start guess
+    tendon_tensions : (m,)
+        the tensions [N] of the rod's m tendons in this solution (given, or solved for the tendons
+        driven by a displacement)
+    tendon_shortening : (m,)
+        l_0 - l [m]: how much each tendon's path along the rod is shorter than on the stress-free
+        rod (bending toward it, compression)
     """
 
     status: Status
@@ -216,10 +232,14 @@ class StaticSolver:
     Parameters
     ----------
     rod : StaticRod
-    n_steps : int      RK4 steps N along the rod (at least one per interval between load points)
-    tol : float        tolerance E on the tip wrench residual norm [N, N m] (see ``solve``)
-    max_iter : int     Levenberg-Marquardt iterations per shooting (per load step when a cold solve
-                       applies the loads in steps)
+        the rod whose BVP it solves
+    n_steps : int
+        RK4 steps N along the rod (at least one per interval between load points)
+    tol : float
+        tolerance E on the tip wrench residual norm [N, N m] (see ``solve``)
+    max_iter : int
+        Levenberg-Marquardt iterations per shooting (per load step when a cold solve applies the
+        loads in steps)
     """
 
     def __init__(self, rod: StaticRod, *, n_steps: int = DEFAULT_N_STEPS, tol: float = DEFAULT_TOL,
@@ -644,17 +664,23 @@ def solve(rod: StaticRod, loads: StaticLoads | None = None, *, tol: float = DEFA
     Parameters
     ----------
     rod : StaticRod
-    loads : StaticLoads or None   point loads, distributed load, field B and gradient G at the magnets,
-                                  tendon tensions and displacements
-    tol : float                   tolerance E on |[n(L+), m(L+)]|_2 [N, N m]
-    n_steps : int                 RK4 steps N
+        the rod
+    loads : StaticLoads or None
+        point loads, distributed load, field B and gradient G at the magnets, tendon tensions and
+        displacements
+    tol : float
+        tolerance E on |[n(L+), m(L+)]|_2 [N, N m]
+    n_steps : int
+        RK4 steps N
     guess : None, (6,) or StaticSolution
-                                  base wrench [n(0), m(0)] to start from (None: rigid-rod balance)
-    max_iter : int                Levenberg-Marquardt iterations
+        base wrench [n(0), m(0)] to start from (None: rigid-rod balance)
+    max_iter : int
+        Levenberg-Marquardt iterations
 
     Returns
     -------
-    StaticSolution with a ``status``; call ``raise_for_status()`` to turn a failure into an error.
+    StaticSolution
+        the solution with a ``status``; call ``raise_for_status()`` to turn a failure into an error.
 
     Notes
     -----

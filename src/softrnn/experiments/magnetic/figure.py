@@ -32,6 +32,7 @@ def plot_fig12(time_s, measured, predictions: dict, static, title: str = "", cal
     Returns
     -------
     matplotlib.figure.Figure
+        The figure (Fig. 12).
     """
     fig, axes = subplots(3, 2, figsize=(11, 7.5), sharex=True)
     for col, name in enumerate(("distal", "proximal")):

@@ -59,12 +59,20 @@ def _fail(path: Path, message: str) -> SoftrnnInputError:
 class LabData:
     """A magnetic lab record of T samples (magnet 0 proximal, 1 distal; world frame of the coils).
 
+    Attributes
+    ----------
     time : (T,) [s]
+        the sample times
     currents : (T, 6) [A] or None
-    orientations : (T, 2, 3) [rad] rotation vectors phi k (stored in the CSV in degrees)
+        the coil currents
+    orientations : (T, 2, 3) [rad]
+        rotation vectors phi k (stored in the CSV in degrees)
     positions : (T, 2, 3) [m] or None
-    wrenches : (T, 2, 6) [N, N m] as [force, torque] or None
-    path : the file read
+        the magnet centres
+    wrenches : (T, 2, 6) [N, N m] or None
+        [force, torque] on each magnet
+    path : str
+        the file read
     """
 
     time: np.ndarray
@@ -145,6 +153,7 @@ def read_lab_csv(path, *, spec: ManipulatorSpec | None = None) -> LabData:
     Parameters
     ----------
     path : str or Path
+        The CSV file.
     spec : ManipulatorSpec or None
         The manipulator whose coil limit the currents must respect (default ``ManipulatorSpec()``,
         +/-8 A).

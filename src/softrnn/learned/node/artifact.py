@@ -54,9 +54,11 @@ class NodeModel:
     Attributes
     ----------
     config : ModelConfig
+        The network's architecture.
     spec : SampleSpec
         Resolved (absolute node indices, neighbours filled in).
     normalizer : Normalizer
+        The z-score statistics of the inputs and targets.
     module : NodeLSTM
         In eval mode.
     meta : dict

@@ -510,6 +510,8 @@ class Normalizer:
     per_node : int
         Pose values per node in input I (3 or 7), to find the position columns.
 
+    Notes
+    -----
     Standard deviations are floored at ``STD_RELATIVE_FLOOR`` times the largest of their group
     (1 for an all-constant group), so constant features stay finite.
     """

@@ -52,10 +52,10 @@ def pack(models) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 
     Returns
     -------
-    params : ndarray (M, S) float32
-    norm : ndarray (M, Sn) float64
-    arch : ndarray (1,) of ``_engine_kernels.ARCHITECTURE`` (the architecture and offsets)
-    layers : ndarray of ``_engine_kernels.LAYER`` (per LSTM, then dense layer: offsets and widths)
+    tuple of ndarray
+        params (M, S) float32, every model's weights; norm (M, Sn) float64, their normalisation
+        statistics (one row per model); arch (1,) of ``_engine_kernels.ARCHITECTURE``, the
+        architecture and offsets; layers of ``_engine_kernels.LAYER``, per LSTM then dense layer.
     """
     models = list(models)
     if not models:
@@ -180,6 +180,7 @@ class Engine:
         Returns
         -------
         ndarray (B, 3) float64 [m]
+            The predicted position of each window's node.
         """
         H, P, W = self.history, self.pose_features, self.wrench_features
         X = np.ascontiguousarray(poses, dtype=np.float32)

@@ -164,6 +164,7 @@ class Prediction:
     kind : str
         ``"one step"`` or ``"free running"``.
     node : int
+        The predicted node.
     index : ndarray (T,) int64
         Sample index of each target in the data set.
     time : ndarray (T,) float64
@@ -407,10 +408,12 @@ class BaselineEvaluation:
     one_step : Prediction
         Each target from the reference window before it.
     one_step_errors : ErrorMetrics
+        The errors of ``one_step``.
     free_running : Prediction or None
         The node's own predictions fed back, its neighbours and wrenches from the reference (None:
         not run, or diverged).
     free_running_errors : ErrorMetrics or None
+        The errors of ``free_running`` (None when it is None).
     diverged : dict or None
         {node, sample, time_s} where a free run left ``DIVERGED_M``.
     details : dict
@@ -558,6 +561,7 @@ def fit_linear(model, positions, wrenches, *, generalisation: bool = False,
     Parameters
     ----------
     model : NodeModel
+        The node model whose history and inputs the baseline takes.
     positions : ndarray (T, K, 3)
         [m], from ``node_arrays``.
     wrenches : ndarray (T, K, W) or None
@@ -687,6 +691,7 @@ def compare_baselines(model, dataset, start: int, stop: int, *, generalisation: 
     Parameters
     ----------
     model : NodeModel
+        The node model.
     dataset : Dataset
         Storing the model's node and neighbours (T samples).
     start, stop : int
@@ -760,8 +765,9 @@ def horizon_table(runs: dict, positions, wrenches, first: int, stop: int, horizo
 
     Parameters
     ----------
-    runs : dict of str -> callable(positions, wrenches, start, stop) -> ndarray (stop - start, N, 3)
-        Free-running predictors [m] seeded from the reference before ``start`` (``pred_fn`` of
+    runs : dict of str -> callable
+        Free-running predictors ``pred_fn(positions, wrenches, start, stop) -> (stop - start, N, 3)``
+        [m] seeded from the reference before ``start`` (``pred_fn`` of
         ``baselines.horizon_errors``), by report name; each may raise ``RolloutDiverged``.
     positions : ndarray (T, N, 3)
         Reference [m].
@@ -934,6 +940,7 @@ def evaluate(model, data, *, group: str | None = None, generalisation: bool = Fa
     Parameters
     ----------
     model : NodeModel
+        The node model.
     data : str, Path or Dataset
         The reference (read with only the model's nodes when a path).
     group : str or None

@@ -203,6 +203,7 @@ def export_onnx(model: NodeModel, path, *, opset: int | None = None, dynamic_bat
     Parameters
     ----------
     model : NodeModel
+        The node model to export.
     path : str or Path
         The ONNX file; its folder is created if needed; an existing file is replaced.
     opset : int or None

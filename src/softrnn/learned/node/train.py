@@ -141,9 +141,9 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
     spec : SampleSpec
         The node, neighbours, history, inputs, wrench and train fraction (resolved here).
     model_config_overrides : dict or None
-        ``ModelConfig`` fields other than pose_features, wrench_features and history (which come
-        from the spec), e.g. ``{"lstm_units": 64}``.
+        ``ModelConfig`` fields other than those the spec sets, e.g. ``{"lstm_units": 64}``.
     train : TrainConfig
+        The training settings.
     out_folder : str or Path
         The model folder (new, empty, or an earlier model / unfinished training, which is replaced).
     resume : bool
@@ -158,9 +158,9 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
         so the model does not depend on where a node is; the normaliser is fitted on the pooled
         windows. The model's ``spec.node`` stays the spec's node (it is evaluated there).
     progress : callable or None
-        ``progress(done, total, info)`` after every batch: done/total count batches over all epochs,
-        ``info`` holds ``epoch``, ``epochs``, ``loss`` (running mean of this epoch), and, from the
-        end of the first epoch, ``validation_loss`` and ``best_validation_loss``.
+        ``progress(done, total, info)`` after every batch (batches over all epochs); ``info`` holds
+        ``epoch``, ``epochs``, ``loss`` (this epoch's running mean) and, after the first epoch,
+        ``validation_loss`` and ``best_validation_loss``.
     validation : str, Path, softrnn.io.Dataset or None
         A separate validation recording (another session of the same robot: the same nodes,
         units, sample interval and actuation channels; a one-line ``validate_on=...`` error

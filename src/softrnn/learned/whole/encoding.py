@@ -111,19 +111,30 @@ class Encoding:
 
     Parameters
     ----------
-    n_nodes : int            N, the rod's nodes (all of them must be in the data)
-    kept : ndarray (M,)      the predicted nodes (0-based), increasing, both ends included
-    model_dt : float         the model's step [s]; a data set is read every model_dt / its dt samples
-    data_dt : float          the training data's saved interval [s] (for the record)
-    length : float           rod length L [m] (errors are reported in % of it)
-    ref_positions : ndarray (N, 3)    reference positions [m]
-    ref_quaternions : ndarray (N, 4)  reference orientations, scalar-first unit quaternions
-    fixed : ndarray (M,) bool          kept nodes held at the reference (clamped boundaries)
-    feedback : bool          apply the PD laws of a data set's scenario to the model's own state
-                             (``softrnn.learned.whole.feedback``) instead of taking their recorded forces
-    drive : str              the load input: 'wrench' (6 channels), 'actuation' (the m channels) or
-                             'both' (6 + m), as ``DynamicConfig.drive``
-    channels : tuple of str  the actuation channels read (``Dataset.actuation_names``), () for 'wrench'
+    n_nodes : int
+        N, the rod's nodes (all of them must be in the data)
+    kept : ndarray (M,)
+        the predicted nodes (0-based), increasing, both ends included
+    model_dt : float
+        the model's step [s]; a data set is read every model_dt / its dt samples
+    data_dt : float
+        the training data's saved interval [s] (for the record)
+    length : float
+        rod length L [m] (errors are reported in % of it)
+    ref_positions : ndarray (N, 3)
+        reference positions [m]
+    ref_quaternions : ndarray (N, 4)
+        reference orientations, scalar-first unit quaternions
+    fixed : ndarray (M,) bool
+        kept nodes held at the reference (clamped boundaries)
+    feedback : bool
+        apply the PD laws of a data set's scenario to the model's own state
+        (``softrnn.learned.whole.feedback``) instead of taking their recorded forces
+    drive : str
+        the load input: 'wrench' (6 channels), 'actuation' (the m channels) or 'both' (6 + m), as
+        ``DynamicConfig.drive``
+    channels : tuple of str
+        the actuation channels read (``Dataset.actuation_names``), () for 'wrench'
     """
 
     n_nodes: int

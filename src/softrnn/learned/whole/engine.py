@@ -83,6 +83,7 @@ class DynamicEngine:
     weights : dict of ndarray
         ``DynamicNet.state_dict()`` as NumPy arrays (``load_dynamic`` reads them from a folder).
     config : DynamicConfig
+        The network's configuration (saved with the weights).
     dtype : numpy dtype
         The network's arithmetic (features, linear term, convolution; float32 by default, as the
         network was trained and as ONNX exports it, and faster in BLAS than float64). The

@@ -52,11 +52,15 @@ class Feedback:
 
     Parameters
     ----------
-    gains : ndarray (M, 2)     stiffness [N/m] and damping [N s/m] of each kept node's law
-    targets : ndarray (S, M, 3) mean target over each model step, as a displacement from the kept
-                                node's reference position [m] (the state's coordinates)
-    model_dt : float            the model's step [s]
-    nodes : tuple of int        the rod nodes (0-based) that carry a law, for the record
+    gains : ndarray (M, 2)
+        stiffness [N/m] and damping [N s/m] of each kept node's law
+    targets : ndarray (S, M, 3)
+        mean target over each model step, as a displacement from the kept
+        node's reference position [m] (the state's coordinates)
+    model_dt : float
+        the model's step [s]
+    nodes : tuple of int
+        the rod nodes (0-based) that carry a law, for the record
     """
 
     gains: np.ndarray
