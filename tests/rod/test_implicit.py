@@ -9,6 +9,7 @@ import pytest
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.rod import Clamp, Constant, Damping, NodalLoad, RodSpec, RunConfig, Setup, Simulator, straight
+from softrnn.rod.discrete import segment_strains
 from softrnn.rod.implicit import accuracy_step, bending_frequency
 from softrnn.rod.loads import Scheduled
 from softrnn.rod.shapes import RodShape
@@ -190,3 +191,26 @@ def test_an_explicit_stiff_wire_run_is_refused_with_the_implicit_integrator_as_t
     sc = load_scenario("steel-wire")
     with pytest.raises(SoftrnnInputError, match=r"solver steps .* the implicit integrator"):
         Simulator(sc.setup).run(replace(sc.config, integrator="explicit"))
+
+
+def test_a_simulator_switches_between_the_integrators():
+    """Runs of one simulator may alternate integrators (a control loop choosing per phase): after an
+    implicit run the explicit step's Kelvin-Voigt memory holds the current strains, and the explicit
+    run that follows tracks an all-explicit one."""
+    n, L = 11, 0.2
+    rod = RodSpec(length=L, radius=0.004, youngs_modulus=1e6, density=1000, n_nodes=n)
+    setup = Setup(rod=rod, reference=straight(n, L, direction=(1, 0, 0), normal=(0, 0, 1)), boundary=(Clamp(0),),
+                  gravity=(0, 0, -9.81), damping=Damping(kelvin_voigt=1e-4))
+    config = RunConfig(dt=0.002, n_samples=11)
+    both = Simulator(setup)
+    both.run(replace(config, integrator="implicit", substeps=40))
+    K, G = segment_strains(both.state.rotations, both.state.positions, both.seg_length)
+    np.testing.assert_array_equal(both.state.prev_curvature, K)
+    np.testing.assert_array_equal(both.state.prev_shear, G)
+    assert np.abs(K).max() > 0.1  # the rod has bent since the start
+    mixed = both.run(config)
+    explicit = Simulator(setup)
+    explicit.run(config)
+    ref = explicit.run(config)
+    sag = np.abs(ref.positions[:, -1, 2]).max()
+    assert np.abs(mixed.positions[:, -1] - ref.positions[:, -1]).max() < 0.02 * sag

@@ -26,6 +26,7 @@ from .shapes import RodShape
 from .so3 import quaternion_to_matrix
 from .spec import RodSpec
 from .stability import DEFAULT_SAFETY, stable_step
+from .discrete import segment_strains
 from .state import SAMPLE_FIELDS, RodState, empty_samples, half_kick, initial_state
 from .status import raise_for_status
 from .tendons import Tendon, check_offset
@@ -480,6 +481,9 @@ class Simulator:
             rod, tau = implicit.elastic_rod(self.rod)
             code, step = implicit.advance(rod, tau, st.arrays(), inputs, out, h, k0, n_steps, stride, s0,
                                           self._implicit_work())
+            if self.rod.kv_on:
+                # the explicit step's Kelvin-Voigt memory, for a later explicit run of this simulator
+                st.prev_curvature[:], st.prev_shear[:] = segment_strains(st.rotations, st.positions, self.rod.length)
         else:
             code, step = kernels.advance(self.rod, st.arrays(), inputs, out, h, k0, n_steps, stride, s0)
         raise_for_status(code, step=step, t0=t0, h=h)
