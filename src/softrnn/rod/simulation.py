@@ -18,6 +18,7 @@ from ..errors import SoftrnnInputError, bad, nonnegative
 from ..progress import Progress
 from . import implicit, kernels
 from .boundary import Clamp, Pin
+from .discrete import segment_strains
 from .inputs import SetupInputs
 from .kernels import Samples
 from .loads import NodalLoad, PDTracking
@@ -26,7 +27,6 @@ from .shapes import RodShape
 from .so3 import quaternion_to_matrix
 from .spec import RodSpec
 from .stability import DEFAULT_SAFETY, stable_step
-from .discrete import segment_strains
 from .state import SAMPLE_FIELDS, RodState, empty_samples, half_kick, initial_state
 from .status import raise_for_status
 from .tendons import Tendon, check_offset
