@@ -63,8 +63,9 @@ def run(args) -> int:
         if args.identify_seconds < 5:
             raise bad("--identify-seconds", args.identify_seconds, "at least 5 s of identification")
         # identified on the experiment's robot: --stiffness/--remanence perturb the plant after it
-        model = learned_model(args.out, args.model, identify_seconds=args.identify_seconds,
-                              config=LoopConfig(seed=args.seed), seed=args.seed)
+        with Bar("identify and train mpc-learned", unit="step", enabled=not args.quiet) as bar:
+            model = learned_model(args.out, args.model, identify_seconds=args.identify_seconds,
+                                  config=LoopConfig(seed=args.seed), seed=args.seed, progress=bar)
     with Bar(f"control {args.controller}", unit="frame", enabled=not args.quiet) as bar:
         s = control_run(args.reference, args.controller, args.out, duration=args.duration, config=config,
                         model=model, spec=spec, progress=bar)

@@ -2,6 +2,7 @@
 marker with noise, the tendon tensions, 20 Hz) for the lab workflow (docs/guide/lab-workflow.md)."""
 
 from ..errors import bad
+from ._progress import Bar
 
 _OPTIONS = {"scenarios": "--scenarios", "scenario": "--scenarios", "duration": "--duration", "rate": "--rate",
             "noise": "--noise", "seed": "--seed", "out_dir": "-o"}
@@ -26,6 +27,7 @@ def add_args(p):
                    help=f"marker noise, standard deviation per axis in m (default: {d.noise:g})")
     p.add_argument("--seed", type=int, default=d.seed, help=f"seed of the marker noise (default: {d.seed})")
     p.add_argument("--overwrite", action="store_true", help="replace existing CSVs in DIR (default: refuse)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def run(args) -> int:
@@ -40,7 +42,8 @@ def run(args) -> int:
     try:
         config = LabExampleConfig(scenarios=names, duration=args.duration, rate=args.rate, noise=args.noise,
                                   seed=args.seed)
-        paths = write_lab_example(args.output, config, command=command, overwrite=args.overwrite)
+        with Bar("lab-example", unit="sample", enabled=not args.quiet) as bar:
+            paths = write_lab_example(args.output, config, command=command, overwrite=args.overwrite, progress=bar)
     except SoftrnnInputError as err:     # name the command's option
         text = str(err)
         for name, option in _OPTIONS.items():

@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from ..magnetics.manipulator import ManipulatorSpec
+from ..progress import Progress
 from .fields import field_direction, field_magnitude, field_to_currents
 from .loop import LoopConfig, run_loop
 from .model import NarxModel, state_of, train_narx
@@ -49,23 +50,42 @@ class Excitation:
         return self.P @ (self.field * self.directions[k])
 
 
-def identification_run(seconds: float, *, config: LoopConfig | None = None, seed: int = 0) -> tuple:
+def identification_run(seconds: float, *, config: LoopConfig | None = None, seed: int = 0,
+                       progress: Progress | None = None) -> tuple:
     """(y (K, 4) [rad] measured states, u (K, 3) field directions, u[k] applied over frame k) of an
-    open-loop excitation of the plant of ``config`` lasting ``seconds``."""
+    open-loop excitation of the plant of ``config`` lasting ``seconds``; ``progress``: the loop's
+    (frames done of ``identification_frames(seconds, config)``)."""
     config = LoopConfig() if config is None else config
     K = int(round(seconds * config.rate)) + 1
     excitation = Excitation(K, config.rate, seed)
     times = np.arange(K) / config.rate
     dummy = Reference(name="identification", times=times, angles=np.zeros((K, 2)))
-    result = run_loop(excitation, dummy, LoopConfig(**{**config.to_dict(), "seed": seed}))
+    result = run_loop(excitation, dummy, LoopConfig(**{**config.to_dict(), "seed": seed}), progress=progress)
     return state_of(result.measured), excitation.directions
 
 
+def identification_frames(seconds: float, config: LoopConfig | None = None) -> int:
+    """The closed-loop frames (controller calls) of an ``identification_run`` lasting ``seconds``."""
+    config = LoopConfig() if config is None else config
+    return int(round(seconds * config.rate))
+
+
 def identified_model(*, seconds: float = 90.0, segments: int = 3, config: LoopConfig | None = None, seed: int = 0,
-                     steps: int = 2000) -> NarxModel:
+                     steps: int = 2000, progress: Progress | None = None) -> NarxModel:
     """Identify the plant of ``config`` (``segments`` runs of ``seconds / segments`` each, seeds
-    derived from ``seed``) and train the NARX model on them."""
-    runs = [identification_run(seconds / segments, config=config, seed=seed * 1000 + i) for i in range(segments)]
-    model = train_narx(runs, steps=steps, seed=seed)
+    derived from ``seed``) and train the NARX model on them. ``progress(done, total, {"stage": ...})``
+    counts the identification frames of every run, then the training steps, as one total (stage
+    ``"identify"``, then ``"train"``)."""
+    frames = identification_frames(seconds / segments, config)
+    total = segments * frames + steps
+
+    def part(offset: int, stage: str):
+        if progress is None:
+            return None
+        return lambda done, _total, info=None: progress(offset + done, total, {"stage": stage})
+
+    runs = [identification_run(seconds / segments, config=config, seed=seed * 1000 + i,
+                               progress=part(i * frames, "identify")) for i in range(segments)]
+    model = train_narx(runs, steps=steps, seed=seed, progress=part(segments * frames, "train"))
     model.meta.update({"identification_seconds": float(seconds), "segments": int(segments)})
     return model

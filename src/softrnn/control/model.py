@@ -28,7 +28,9 @@ from __future__ import annotations
 import io
 import json
 import math
+import pickle
 import time
+import zipfile
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -36,6 +38,7 @@ import numpy as np
 
 from ..errors import bad, is_finite_number
 from ..files import atomic_write_bytes
+from ..progress import Progress
 from .fields import A_RANGE, field_direction
 from .predictors import DISTURBANCE_GAIN
 
@@ -110,7 +113,7 @@ class NarxModel:
             with np.load(path) as f:
                 return cls(mean=f["mean"], std=f["std"], W1=f["W1"], b1=f["b1"], W2=f["W2"], b2=f["b2"],
                            meta=json.loads(str(f["meta"])))
-        except (OSError, KeyError, ValueError) as err:
+        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile, pickle.UnpicklingError) as err:
             raise bad("--model", str(path), f"a control model file written by softrnn control ({err})") from None
 
 
@@ -128,9 +131,10 @@ def windows(y: np.ndarray, u: np.ndarray, length: int) -> tuple:
 
 
 def train_narx(runs: list, *, hidden: int = 48, steps: int = 2000, unroll: int = UNROLL, seed: int = 0,
-               lr: float = 1e-2) -> NarxModel:
+               lr: float = 1e-2, progress: Progress | None = None) -> NarxModel:
     """Train the NARX network on identification runs [(y (K, 4) [rad], u (K, 3)), ...] with the
-    ``unroll``-frame free-run loss (Adam, full batch of every window). Deterministic for a seed."""
+    ``unroll``-frame free-run loss (Adam, full batch of every window). Deterministic for a seed.
+    ``progress(done, steps, {"stage": "train"})`` is called every 1 % of the steps and after the last."""
     import torch  # optional extra: learn (PyTorch)
 
     torch.manual_seed(seed)
@@ -149,7 +153,8 @@ def train_narx(runs: list, *, hidden: int = 48, steps: int = 2000, unroll: int =
     opt = torch.optim.Adam([W1, b1, W2, b2], lr=lr)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, steps)
     t0 = time.perf_counter()
-    for _ in range(steps):
+    every = max(1, steps // 100)
+    for step in range(steps):
         ys, us = T["hy"], T["hu"]
         loss = 0.0
         for i in range(unroll):
@@ -163,6 +168,8 @@ def train_narx(runs: list, *, hidden: int = 48, steps: int = 2000, unroll: int =
         (loss / unroll).backward()
         opt.step()
         sched.step()
+        if progress is not None and ((step + 1) % every == 0 or step + 1 == steps):
+            progress(step + 1, steps, {"stage": "train"})
     meta = {"history": H, "hidden": hidden, "steps": steps, "unroll": unroll, "seed": seed, "lr": lr,
             "windows": int(len(hy)), "frames": int(sum(len(y) for y, _ in runs)),
             "final_loss": float(loss.detach()) / unroll,

@@ -103,10 +103,11 @@ def plot_run(result: LoopResult, title: str):
 
 
 def learned_model(out_dir, model_path=None, *, identify_seconds: float = 90.0, config: LoopConfig | None = None,
-                  seed: int = 0, steps: int = 2000):
+                  seed: int = 0, steps: int = 2000, progress: Progress | None = None):
     """The MPC's NARX model: read from ``model_path``, or from ``out_dir/MODEL_FILE`` when an earlier
     run left it there with the same identification settings, or identified on the plant of
-    ``config`` and trained now (then saved there)."""
+    ``config`` and trained now (then saved there). ``progress``: the identification's and the
+    training's (``identified_model``); not called when the model is read."""
     if model_path is not None:
         return NarxModel.load(model_path)
     config = LoopConfig() if config is None else config
@@ -120,7 +121,7 @@ def learned_model(out_dir, model_path=None, *, identify_seconds: float = 90.0, c
                 return model
         except Exception:                                                         # noqa: BLE001 - remade below
             pass
-    model = identified_model(seconds=identify_seconds, config=config, seed=seed, steps=steps)
+    model = identified_model(seconds=identify_seconds, config=config, seed=seed, steps=steps, progress=progress)
     model.meta["settings"] = want
     Path(out_dir).mkdir(parents=True, exist_ok=True)
     model.save(path)

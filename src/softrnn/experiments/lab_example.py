@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import bad, integer, is_finite_number, positive
 from ..files import atomic_write_text
+from ..progress import Progress
 from ..rod import Simulator
 from ..rod.tendons import tension_matrix
 from ..scenarios import load_scenario
@@ -77,18 +78,23 @@ def _tendon_scenario(scenario):
     return sc
 
 
-def record(scenario, config: LabExampleConfig, index: int = 0) -> dict:
+def samples(config: LabExampleConfig) -> int:
+    """The samples of each recording of ``config`` (t = 0 .. ``duration`` at ``rate``)."""
+    return int(round(config.duration * config.rate)) + 1
+
+
+def record(scenario, config: LabExampleConfig, index: int = 0, progress: Progress | None = None) -> dict:
     """Simulate ``scenario`` (a name, path or loaded ``Scenario`` with tendons) and sample it like
     the lab: returns ``name``, ``node`` (absolute index), ``n_nodes``, ``time`` (T,) [s],
     ``positions`` (T, 3) [m] of the marker with noise, ``clean`` (T, 3) [m] without, ``tensions``
-    (T, m) [N] and ``channels`` (the m tendon names)."""
+    (T, m) [N] and ``channels`` (the m tendon names). ``progress``: the simulator's
+    (``progress(samples_done, samples(config))`` after every chunk of samples)."""
     sc = _tendon_scenario(scenario)
     node = sc.setup.node_index(config.node, "node")
     dt = 1.0 / config.rate
-    n = int(round(config.duration * config.rate)) + 1
-    run = replace(sc.config, dt=dt, n_samples=n, save_nodes=(node,))
+    run = replace(sc.config, dt=dt, n_samples=samples(config), save_nodes=(node,))
     chunks = []
-    Simulator(sc.setup).run(run, sink=chunks.append)
+    Simulator(sc.setup).run(run, progress=progress, sink=chunks.append)
     clean = np.concatenate([c.positions[:, 0] for c in chunks])
     time = dt * np.arange(clean.shape[0])
     rng = np.random.default_rng([config.seed, index])
@@ -117,9 +123,11 @@ def csv_text(rec: dict, config: LabExampleConfig, command: str = "") -> str:
 
 
 def write_lab_example(out_dir, config: LabExampleConfig | None = None, *, command: str = "",
-                      overwrite: bool = False) -> list[Path]:
+                      overwrite: bool = False, progress: Progress | None = None) -> list[Path]:
     """Write one CSV per scenario of ``config`` into ``out_dir`` (created if needed), each
-    atomically; returns their paths. An existing CSV is replaced only with ``overwrite``."""
+    atomically; returns their paths. An existing CSV is replaced only with ``overwrite``.
+    ``progress(done, total, {"scenario": name})`` counts the simulated samples of every scenario
+    as one total (``samples(config)`` per scenario), reported after every chunk of each run."""
     config = config or LabExampleConfig()
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
@@ -133,6 +141,13 @@ def write_lab_example(out_dir, config: LabExampleConfig | None = None, *, comman
             if p.exists():
                 raise bad("out_dir", str(out), f"a folder without {p.name} (it exists; pass overwrite=True to "
                                                "replace it)")
+    n, total = samples(config), samples(config) * len(scenarios)
+
+    def part(k: int, name: str):
+        if progress is None:
+            return None
+        return lambda done, _total, info=None: progress(k * n + done, total, {"scenario": name})
+
     for k, (sc, p) in enumerate(zip(scenarios, paths)):
-        atomic_write_text(p, csv_text(record(sc, config, k), config, command))
+        atomic_write_text(p, csv_text(record(sc, config, k, part(k, sc.name)), config, command))
     return paths

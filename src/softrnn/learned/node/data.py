@@ -468,7 +468,10 @@ def _units(units, W: int):
 
 
 def _vec(name: str, value, n: int | None = None) -> np.ndarray:
-    arr = np.asarray(value, dtype=np.float64)
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):       # strings, ragged lists, objects (a damaged normalizer.json)
+        arr = np.full((0, 0), np.nan)
     if arr.ndim != 1 or (n is not None and arr.shape[0] != n) or not np.all(np.isfinite(arr)):
         raise bad(name, value if arr.size <= 8 else f"array of shape {arr.shape}",
                   f"a finite 1-D array{f' of length {n}' if n is not None else ''}")

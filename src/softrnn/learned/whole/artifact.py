@@ -104,6 +104,9 @@ def load_dynamic(folder) -> LoadedDynamic:
     """Read a model folder written by ``save_dynamic``; a missing, corrupt or foreign file is a
     one-line ``DynamicFolderError``."""
     folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise DynamicFolderError(f"{folder}: is a file, not a model folder; give a folder written by "
+                                 "'softrnn dynamic train'")
     if not folder.is_dir():
         raise DynamicFolderError(f"{folder}: no such model folder; give a folder written by "
                                  "'softrnn dynamic train'")
@@ -119,7 +122,11 @@ def load_dynamic(folder) -> LoadedDynamic:
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise DynamicFolderError(f"{folder}: model.json is not a {FORMAT} file; give a folder written by "
                                  "'softrnn dynamic train'")
-    if int(doc.get("format_version", 0)) > FORMAT_VERSION:
+    version = doc.get("format_version", 0)
+    if not isinstance(version, int) or isinstance(version, bool):
+        raise DynamicFolderError(f"{folder}: model.json has format_version={version!r}; expected an integer, "
+                                 "train the model again")
+    if version > FORMAT_VERSION:
         raise DynamicFolderError(f"{folder}: format version {doc.get('format_version')} is newer than this "
                                  f"softrnn reads ({FORMAT_VERSION}); upgrade softrnn")
     from safetensors.numpy import load_file  # optional extra: learn (safetensors)
@@ -134,8 +141,10 @@ def load_dynamic(folder) -> LoadedDynamic:
         encoding = encoding_from_dict(doc["encoding"])
         engine = DynamicEngine(weights, config)
         linear = DynamicEngine(load_file(str(folder / "linear.safetensors")), linear_config(config))
-    except SoftrnnInputError:
+    except DynamicFolderError:
         raise
+    except SoftrnnInputError as err:
+        raise DynamicFolderError(f"{folder}: model.json is invalid ({err}); train the model again") from None
     except Exception as err:  # noqa: BLE001 - safetensors and a damaged json raise several types
         raise DynamicFolderError(f"{folder}: the model files are corrupt or do not match "
                                  f"({one_line(err)[:160]}); train the model again") from None
@@ -149,8 +158,38 @@ def load_dynamic(folder) -> LoadedDynamic:
     if engine.n_kept != encoding.n_kept:
         raise DynamicFolderError(f"{folder}: weights.safetensors and model.json disagree on the node count; "
                                  "train the model again")
+    _check_encoding(folder, encoding)
+    meta = doc.get("meta") or {}
+    if not isinstance(meta, dict):
+        raise DynamicFolderError(f"{folder}: model.json's meta is a {type(meta).__name__}, expected an object; "
+                                 "train the model again")
     return LoadedDynamic(config=config, encoding=encoding, engine=engine, linear=linear, weights=weights,
-                         meta=doc.get("meta") or {})
+                         meta=meta)
+
+
+def _check_encoding(folder: Path, enc: Encoding) -> None:
+    """Raise ``DynamicFolderError`` unless model.json's encoding is consistent: kept node indices
+    increasing in [0, n_nodes), a fixed flag per kept node, a finite reference pose per node.
+
+    Parameters
+    ----------
+    folder : Path
+        The model folder (named in the error).
+    enc : Encoding
+        The encoding read from model.json.
+    """
+    n, kept = enc.n_nodes, enc.kept
+    shapes = {"kept": (kept.shape, (enc.n_kept,)), "fixed": (enc.fixed.shape, (enc.n_kept,)),
+              "ref_positions": (enc.ref_positions.shape, (n, 3)),
+              "ref_quaternions": (enc.ref_quaternions.shape, (n, 4))}
+    wrong = [f"{name} has shape {have}, expected {want}" for name, (have, want) in shapes.items() if have != want]
+    if not wrong and (kept.dtype.kind not in "iu" or kept.size == 0 or np.any(np.diff(kept) <= 0)
+                      or kept.min() < 0 or kept.max() >= n):
+        wrong = [f"kept is not increasing node indices in 0..{n - 1}"]
+    if not wrong and not (np.isfinite(enc.ref_positions).all() and np.isfinite(enc.ref_quaternions).all()):
+        wrong = ["the reference pose is not finite"]
+    if wrong:
+        raise DynamicFolderError(f"{folder}: model.json's encoding is invalid ({wrong[0]}); train the model again")
 
 
 def engine_of(net) -> DynamicEngine:

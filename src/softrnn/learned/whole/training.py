@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import io
 import math
+import pickle
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -271,6 +272,37 @@ def _lr_at(config: DynamicConfig, step: int) -> float:
     return config.lr * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * frac)))
 
 
+def _restore_checkpoint(path: Path, net, opt, gen) -> _Loop:
+    """Load the checkpoint at ``path`` into ``net``, ``opt`` and ``gen`` and return its loop state; a
+    damaged or foreign file is a one-line ``SoftrnnInputError`` naming it.
+
+    Parameters
+    ----------
+    path : Path
+        The checkpoint written by ``_save_checkpoint``.
+    net : DynamicNet
+        The network whose weights are restored.
+    opt : torch.optim.Optimizer
+        The optimiser whose state is restored.
+    gen : torch.Generator
+        The generator whose state is restored.
+    """
+    try:
+        state = torch.load(path, weights_only=False)
+        net.load_state_dict(state["net"])
+        opt.load_state_dict(state["opt"])
+        gen.set_state(state["gen"])
+        loop = state["loop"]
+    except (OSError, EOFError, RuntimeError, ValueError, TypeError, KeyError, AttributeError,
+            pickle.UnpicklingError) as err:
+        raise SoftrnnInputError(f"{path}: the training checkpoint is corrupt ({' '.join(str(err).split())[:120]}); "
+                                "delete it and train without --resume") from None
+    if not isinstance(loop, _Loop):
+        raise SoftrnnInputError(f"{path}: is not a softrnn whole-model training checkpoint; delete it and train "
+                                "without --resume")
+    return loop
+
+
 def _save_checkpoint(path: Path, net, opt, gen, loop) -> None:
     buf = io.BytesIO()
     torch.save({"net": net.state_dict(), "opt": opt.state_dict(), "gen": gen.get_state(), "loop": loop}, buf)
@@ -415,11 +447,7 @@ def _train(trajectories, encoding, config, validation, progress, checkpoint) -> 
     loop = _Loop(fit=fit)
     path = Path(checkpoint) if checkpoint is not None else None
     if path is not None and path.is_file():
-        state = torch.load(path, weights_only=False)
-        net.load_state_dict(state["net"])
-        opt.load_state_dict(state["opt"])
-        gen.set_state(state["gen"])
-        loop = state["loop"]
+        loop = _restore_checkpoint(path, net, opt, gen)
     shadow = DynamicNet(config, encoding.node_features(), encoding.fixed, sc) if config.ema > 0 else None
     if loop.step == 0:
         _validate(net, loop, validation)
