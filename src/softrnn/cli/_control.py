@@ -50,6 +50,7 @@ def add_args(p):
 def run(args) -> int:
     if args.controller not in CONTROLLERS:
         raise bad("--controller", args.controller, f"one of {', '.join(CONTROLLERS)}")
+    _check_size(args.duration, LoopConfig(seed=args.seed))
     reference(args.reference, duration=args.duration, seed=args.seed)          # checks REF and --duration now
     for flag, value in (("--stiffness", args.stiffness), ("--remanence", args.remanence)):
         if not 0.2 <= value <= 5.0:
@@ -80,6 +81,40 @@ def run(args) -> int:
           f"{loop.compute_ms_median:.3f} ms per frame (p99 {loop.compute_ms_p99:.3f})")
     print(f"wrote {args.out}/{RUN_FILE}, {FIGURE_FILE}, {SUMMARY_FILE}")
     return 0
+
+
+def _check_size(duration, config: LoopConfig) -> None:
+    """Refuse a ``--duration`` too long for this machine before anything is allocated.
+
+    Parameters
+    ----------
+    duration : float
+        the closed loop's seconds (``--duration``); one that is not a positive finite number is left
+        to ``reference`` to refuse
+    config : LoopConfig
+        the loop's settings: its frame rate and settling time size the plant's run
+
+    Raises
+    ------
+    SoftrnnInputError
+        ``--duration=...`` with the run's size against ``array_limit()`` and ``MAX_SOLVER_STEPS``
+        (``check_manipulator_run``, the size model of every simulation) when it is too large.
+    """
+    import math
+
+    from ..errors import SoftrnnInputError
+    from ..magnetics.manipulator import ManipulatorRun, check_manipulator_run
+
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        return
+    frames = duration * config.rate + 1
+    if frames > 2**62:
+        raise bad("--duration", duration, f"a shorter closed loop ({frames:.3g} frames at {config.rate:g} Hz)")
+    try:
+        check_manipulator_run(config.plant_spec(ManipulatorSpec()),
+                              ManipulatorRun(dt=1.0 / config.rate, n_samples=int(round(frames)), settle=config.settle))
+    except SoftrnnInputError as err:
+        raise bad("--duration", duration, f"a shorter closed loop: {err}") from None
 
 
 def _plan_spec(text):

@@ -46,6 +46,8 @@ def run(args) -> int:
             paths = write_lab_example(args.output, config, command=command, overwrite=args.overwrite, progress=bar)
     except SoftrnnInputError as err:     # name the command's option
         text = str(err)
+        if text.startswith("the run "):     # check_run_size: too large for this machine
+            text = str(bad("--duration", args.duration, f"a shorter recording or a lower --rate: {text}"))
         for name, option in _OPTIONS.items():
             if text.startswith(f"{name}="):
                 text = option + text[len(name):]

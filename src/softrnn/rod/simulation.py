@@ -63,7 +63,7 @@ def _size(n: float) -> str:
 def check_run_size(*, n_samples: int, dt: float, substeps: int, n_saved: int, held_samples: int,
                    chunk_steps: int = 0, step_bytes: int = 0, batch: int = 1, extra_bytes: int = 0,
                    extra_steps: int = 0, streamed: bool = False, streamable: bool = True,
-                   auto_substeps: bool = True, integrator: str = "explicit") -> None:
+                   auto_substeps: bool = True, integrator: str | None = None) -> None:
     """Refuse, before anything is allocated or stepped, a run too large for this machine.
 
     Every simulation path calls it (``Simulator.run``, ``simulate_batch``, the magnetic
@@ -71,8 +71,9 @@ def check_run_size(*, n_samples: int, dt: float, substeps: int, n_saved: int, he
     of ``n_saved`` nodes per rod (all of them without a sink, a chunk when streamed), the inputs of
     one chunk of ``chunk_steps`` solver steps at ``step_bytes`` each (per rod of a ``batch``), and
     ``extra_bytes`` (in all). ``streamable``: the caller could stream the samples (a sink) instead;
-    ``auto_substeps``: the substeps were chosen automatically; ``integrator``: the run's (an explicit
-    run with too many steps is pointed to the implicit one). Raises SoftrnnInputError saying how
+    ``auto_substeps``: the substeps were chosen automatically; ``integrator``: the run's, where the
+    caller can switch it (an explicit run with too many steps is pointed to the implicit one), or None
+    (batches, the magnetic manipulator). Raises SoftrnnInputError saying how
     large the run would be and what to change when the arrays exceed ``array_limit()`` or the
     solver steps ``MAX_SOLVER_STEPS``.
     """
@@ -93,7 +94,7 @@ def check_run_size(*, n_samples: int, dt: float, substeps: int, n_saved: int, he
         fixes.append("save fewer nodes (save_nodes)")
     if held > limit and samples_heavy and streamable and not streamed:
         fixes.append("write to a file, which streams the samples (softrnn simulate -o FILE.h5, or a sink)")
-    if steps > MAX_SOLVER_STEPS and integrator == "explicit" and batch == 1:
+    if steps > MAX_SOLVER_STEPS and integrator == "explicit":
         fixes.append("the implicit integrator, whose step does not shrink with the rod's stiffness "
                      "(RunConfig(integrator=\"implicit\"), a scenario's run.integrator, --integrator implicit)")
     if batch > 1:
