@@ -560,16 +560,6 @@ def _build(stamp):
 advance_implicit_into, implicit_half_kick = _build(_dependency_stamp())
 
 
-def elastic_rod(rod):
-    """``rod`` with its explicit Kelvin-Voigt term off (the implicit step takes it; see the module
-    docstring) and the retardation time tau_d [s] it had: (rod, tau_d)."""
-    tau = 0.0
-    if rod.kv_on:
-        ratio = np.asarray(rod.D1) / np.where(np.asarray(rod.C1) > 0, rod.C1, 1.0)
-        tau = float(np.max(ratio))
-    return rod._replace(kv_on=False), tau
-
-
 def advance(rod, tau, state, inputs, out, h, k0, n_steps, stride, s0, work):
     """``advance_implicit_into`` with ``IMPLICIT_BETA``; returns (status, step index)."""
     return advance_implicit_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work, IMPLICIT_BETA,

@@ -365,6 +365,7 @@ class Simulator:
         self.steps_done = 0
         self._integrator = "explicit"
         self._work = None
+        self._elastic = None
 
     seg_length = _from_rod("length", "Segment length l [m].")
     C1 = _from_rod("C1", "Shear and stretch stiffness (n - 1, 3) [N].")
@@ -456,8 +457,12 @@ class Simulator:
         return stats if sink is not None else _concatenate(chunks, stats)
 
     def _implicit_work(self) -> "implicit.ImplicitWork":
+        """The implicit step's scratch arrays and its rod: the lumped rod with the explicit
+        Kelvin-Voigt term off (the implicit step takes it, with the retardation time of
+        ``setup.damping``); built on first use."""
         if self._work is None:
             self._work = implicit.work_arrays(self.setup.rod.n_nodes)
+            self._elastic = self.rod._replace(kv_on=False)
         return self._work
 
     def _half_kick(self, h: float) -> None:
@@ -466,9 +471,9 @@ class Simulator:
         if self._integrator != "implicit":
             half_kick(self.rod, self.state, inputs, h)
             return
-        rod, tau = implicit.elastic_rod(self.rod)
+        work, tau = self._implicit_work(), self.setup.damping.kelvin_voigt
         out = empty_samples(save_slots(self.setup.rod.n_nodes, np.zeros(0, dtype=np.int64)), 1, 0)
-        if not implicit.implicit_half_kick(rod, self.state.arrays(), inputs, out, h, self._implicit_work(),
+        if not implicit.implicit_half_kick(self._elastic, self.state.arrays(), inputs, out, h, work,
                                            implicit.IMPLICIT_BETA, implicit.IMPLICIT_THETA, tau):
             raise_for_status(implicit.SINGULAR, step=0, t0=self.state.time, h=h)
 
@@ -479,9 +484,9 @@ class Simulator:
         t = t0 + (k0 + np.arange(n_steps)) * h
         inputs = self.inputs.at(t, h)
         if self._integrator == "implicit":
-            rod, tau = implicit.elastic_rod(self.rod)
-            code, step = implicit.advance(rod, tau, st.arrays(), inputs, out, h, k0, n_steps, stride, s0,
-                                          self._implicit_work())
+            work = self._implicit_work()
+            code, step = implicit.advance(self._elastic, self.setup.damping.kelvin_voigt, st.arrays(), inputs,
+                                          out, h, k0, n_steps, stride, s0, work)
             if self.rod.kv_on:
                 # the explicit step's Kelvin-Voigt memory, for a later explicit run of this simulator
                 st.prev_curvature[:], st.prev_shear[:] = segment_strains(st.rotations, st.positions, self.rod.length)

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import SimulationError, SoftrnnInputError, bad, finite, integer
 from ..rod.boundary import Clamp
-from ..rod.loads import NodalLoad
+from ..rod.loads import NodalLoad, gravity_at
 from ..rod.shapes import RodShape
 from ..rod.simulation import Setup
 from .rod import PointLoad, StaticLoads, StaticRod
@@ -152,7 +152,7 @@ def static_problem(setup: Setup, time: float = 0.0) -> tuple[StaticRod, StaticLo
     l = spec.segment_length
     world, body = _nodal_loads(setup, time)
     position, rotation = _clamp_pose(setup, clamp, time)
-    gravity = _at(setup.gravity, time, "gravity") if callable(setup.gravity) else setup.gravity
+    gravity = gravity_at(setup.gravity, time)
     tendons = tuple(dataclasses.replace(td, end_node=None, end_s=spec.length * td.end_index(n, l) / (n - 1))
                     for td in setup.tendons)
     overrides = {}
