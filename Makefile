@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install reproduce reproduce-quick real-robot test test-all lint docs bench clean
+.PHONY: install reproduce reproduce-quick real-robot results test test-all lint docs bench clean
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,13 @@ real-robot: $(STAMP)
 	mkdir -p out/real-robot
 	$(BIN)/softrnn lab benchmark --train $(DATA)/train.csv --validate $(DATA)/val.csv --length 0.222 \
 		--segments 0.1,0.1,0.022 --json out/real-robot/benchmark.json --figure out/real-robot/benchmark.png --overwrite
+
+# The README's table of results and docs/results/index.md, rendered from the committed reference
+# run in docs/results/reference (its report.json and run.json); tests/project/test_results.py
+# checks that the committed files equal this rendering.
+results: $(STAMP)
+	$(BIN)/python -c "from softrnn.reproduce.results import update_documents as u; \
+		u('docs/results/reference', 'README.md', 'docs/results/index.md')"
 
 test: $(STAMP)
 	NUMBA_NUM_THREADS=1 $(BIN)/python -m pytest -q

@@ -30,7 +30,7 @@ LEAVES = {name: p for name, p in COMMANDS.items()
 
 def _options(parser):
     """The options ``--help`` shows (deprecated aliases left out)."""
-    return [a for a in parser._actions if a.option_strings and not isinstance(a, vocabulary.DeprecatedAlias)]
+    return [a for a in parser._actions if a.option_strings and not isinstance(a, vocabulary.Deprecated)]
 
 
 def _value(action) -> list:
@@ -45,7 +45,7 @@ def _base(parser, leave_out=None) -> list:
     """Arguments that satisfy ``parser``'s required options and positionals (``leave_out`` aside)."""
     argv = []
     for action in parser._actions:
-        if action is leave_out or isinstance(action, vocabulary.DeprecatedAlias):
+        if action is leave_out or isinstance(action, vocabulary.Deprecated):
             continue
         if action.option_strings and action.required:
             argv += [action.option_strings[0], *_value(action)]
@@ -111,10 +111,33 @@ def test_deprecated_aliases_parse_to_the_same_value_with_one_note(capsys):
 
 def test_deprecated_aliases_are_documented():
     text = (ROOT / "docs" / "guide" / "cli.md").read_text()
+    found = 0
     for name, parser in LEAVES.items():
-        for alias in vocabulary.aliases(parser):
+        for alias in vocabulary.deprecated(parser):
             for old in alias.option_strings:
                 assert f"`{old}`" in text, f"docs/guide/cli.md: softrnn {name} {old}"
+                found += 1
+    assert found >= 16
+
+
+def test_nothing_is_left_to_rename():
+    assert vocabulary.TO_RENAME == {}
+    options = {s for a in _options(LEAVES["dynamic evaluate"]) for s in a.option_strings}
+    assert "--start" in options and "--test-start" not in options
+
+
+def test_test_start_is_a_deprecated_fraction_beside_start(capsys):
+    parser = build_parser()
+    base = ["dynamic", "evaluate", "m", "--test", "t.h5"]
+    args = parser.parse_args([*base, "--start", "0.3"])
+    assert (args.start_time, args.test_start) == (0.3, None) and capsys.readouterr().err == ""
+    args = parser.parse_args([*base, "--test-start", "0.6"])
+    assert (args.start_time, args.test_start) == (None, 0.6)            # a fraction, converted by the command
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("softrnn: note: --test-start is deprecated; use --start S in seconds")
+    assert parser.parse_args([*base, "--test-start=0.5"]).test_start == 0.5
+    help_text = LEAVES["dynamic evaluate"].format_help()
+    assert "--start S" in help_text and "--test-start" not in help_text
 
 
 def test_old_output_value_still_chooses_what_a_model_predicts(capsys):

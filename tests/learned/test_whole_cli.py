@@ -128,7 +128,7 @@ def test_evaluate_prints_the_table_and_writes_json(model, data, tmp_path, capsys
 @pytest.mark.parametrize("args, words", [
     (["--heldout", "{sweep}"], ["--heldout=", "traj-00000.h5", "trained on it"]),
     (["--generalisation", "{sweep}/traj-00001.h5"], ["--generalisation=", "trained on it"]),
-    (["--test", "{one}", "--test-start", "0.3"], ["--test-start=0.3", "trained part", ">= 0.6"]),
+    (["--test", "{one}", "--start", "0.3"], ["--start=0.3", "trained part", ">= 0.36 s"]),
     (["--heldout", "{one}"], ["--heldout=", "one.h5", "trained on it"]),
 ])
 def test_evaluate_refuses_data_the_model_saw(model, data, tmp_path, capsys, args, words):
@@ -268,7 +268,7 @@ def test_an_interrupted_training_resumes_to_the_same_weights(model, data, tmp_pa
     (["train", "{sweep}", "--start-fraction", "1"], ["--start-fraction=1.0", "[0, 1)"]),
     (["train", "{sweep}", "--load-ridge", "-1"], ["--load-ridge=-1.0", ">= 0"]),
     (["evaluate", "{model}"], ["at least one of --test"]),
-    (["evaluate", "{model}", "--test", "{one}", "--test-start", "1.5"], ["--test-start=1.5", "(0, 1)"]),
+    (["evaluate", "{model}", "--test", "{one}", "--start", "1.5"], ["--start=1.5", "a time in [0, 0.58] s"]),
     (["evaluate", "{sweep}", "--test", "{one}"], ["model.json is missing"]),
     (["evaluate", "{model}", "--generalisation", "{sub}"], ["--generalisation=", "every node 0..50"]),
     (["rollout", "{model}", "{sub}"], ["DATA=", "every node 0..50"]),

@@ -635,7 +635,7 @@ def test_an_interrupted_training_resumes_to_the_same_weights(chain_encoding, tmp
     ckpt = tmp_path / "train.ckpt"
     with pytest.raises(KeyboardInterrupt):
         train_dynamic_model(trajs, enc, config, validation=val, checkpoint=ckpt, progress=stop_at_100, threads=1)
-    assert torch.load(ckpt, weights_only=False)["loop"].step == 50          # the last checkpoint written
+    assert torch.load(ckpt, weights_only=True)["loop"]["step"] == 50          # the last checkpoint written
     done = []
     resumed = train_dynamic_model(trajs, enc, config, validation=val, checkpoint=ckpt, threads=1,
                                   progress=lambda step, steps, info: done.append(step))

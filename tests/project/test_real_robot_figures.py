@@ -1,4 +1,4 @@
-"""The real-robot figures the README and the guide quote are those of the committed benchmark
+"""The real-robot figures the guide quotes are those of the committed benchmark
 report (docs/results/real-robot/benchmark.json, written by ``make real-robot``)."""
 
 import json
@@ -16,7 +16,7 @@ def _tables(text: str) -> list[tuple]:
     return [(m.group(1), float(m.group(3)), float(m.group(4)), float(m.group(5))) for m in ROW.finditer(text)]
 
 
-@pytest.mark.parametrize("page", ["README.md", "docs/guide/real-robots.md"])
+@pytest.mark.parametrize("page", ["docs/guide/real-robots.md"])
 def test_quoted_figures_equal_the_committed_report(page):
     report = json.loads(REPORT.read_text())
     entries = {**report["models"], **report["baselines"]}

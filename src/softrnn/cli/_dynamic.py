@@ -11,10 +11,10 @@ import numpy as np
 
 from ..errors import SimulationError, SoftrnnInputError, bad, require_extra
 from ..files import atomic_write_text, json_default, prepare_output
-from ..learned.spans import check_beyond_trained, start_of_test_span
+from ..learned.spans import check_beyond_trained
 from ..resume import REFUSE, Settings, check
 from ._progress import Bar, stop_code
-from ._vocabulary import deprecate, output
+from ._vocabulary import deprecate, deprecate_converted, output
 
 NAME = "dynamic"
 HELP = ("the learned whole-manipulator model (beyond the paper): train it on data sets and sweeps, evaluate it "
@@ -192,8 +192,11 @@ def _settings(config, split) -> Settings:
 
 
 def _start_checkpoint(folder: Path, settings: Settings, resume: bool) -> None:
-    """Check a checkpoint to resume against ``settings``; or, starting afresh, remove an old one.
-    Either way ``SETTINGS`` records the settings beside the checkpoint."""
+    """Check a checkpoint to resume against ``settings`` and read it (a damaged or foreign file is
+    refused here, before any work); or, starting afresh, remove an old one. Either way ``SETTINGS``
+    records the settings beside the checkpoint."""
+    from ..learned.whole.training import read_checkpoint
+
     ckpt, saved = folder / CHECKPOINT, folder / SETTINGS
     if resume and ckpt.is_file():
         try:
@@ -204,6 +207,7 @@ def _start_checkpoint(folder: Path, settings: Settings, resume: bool) -> None:
         check(then, settings, otherwise=REFUSE, refuse=lambda why: bad(
             "--resume", True, f"the settings of the checkpoint in {folder} ({why}); resume with the same settings, "
                               "or train with --overwrite to start again"))
+        read_checkpoint(ckpt)
         return
     ckpt.unlink(missing_ok=True)
     atomic_write_text(saved, json.dumps(settings.to_json(), indent=1, default=json_default) + "\n")
@@ -331,9 +335,13 @@ def _add_evaluate(p):
     p.add_argument("--test", default=None, metavar="FILE",
                    help="a trajectory the model trained the first part of: run free over the rest; or a separate "
                         "test recording the model never saw: run free over the whole of it, from its start")
-    p.add_argument("--test-start", type=float, default=None, metavar="F",
-                   help="where the test span starts, as a fraction of --test (default: 0.6 for a trajectory the "
-                        "model trained the first part of; its start for a separate recording)")
+    start = p.add_argument("--start", dest="start_time", type=float, default=None, metavar="S",
+                           help="where the test span of --test starts [s, on its time axis]: at the last model step "
+                                "at or before S (default: the step at 0.6 of a trajectory the model trained the "
+                                "first part of; the start of a separate recording)")
+    deprecate_converted(p, start, "--test-start", dest="test_start", type=float, default=None, metavar="F",
+                        why=" S in seconds (--test-start F, a fraction of --test, is taken as the time of the "
+                            "model step at F of it)")
     p.add_argument("--heldout", nargs="+", action="extend", default=[], metavar="PATH",
                    help="held-out trajectories: files (every group of a sweep file) or sweep folders (every "
                         "traj-*.h5); refused if the model trained on them")
@@ -389,22 +397,57 @@ def _unseen(model, argument: str, path, group: str = "/") -> None:
                                   "give a held-out variant (train with --heldout N to keep some back)")
 
 
-def _check_test(model, path, data, fraction: float) -> None:
-    """The test span must start after the part of --test the model trained on."""
-    seen = _seen(model, path)
+def _step_times(model, data) -> tuple[np.ndarray, int]:
+    """The model's step times [s] on the data set's time axis (``Encoding.trajectory``'s), and the
+    model's step in data samples."""
+    k = model.encoding.stride(float(data.dt))
+    return np.asarray(data.time[np.arange((data.n_samples - 1) // k + 1) * k], dtype=np.float64), k
+
+
+def _test_start(args, times: np.ndarray, separate: bool) -> float:
+    """Where the test span starts [s]: ``--start``; the time of the model step at ``--test-start F``
+    (deprecated) or, by default, at 0.6 of a trajectory the model trained the first part of
+    (``start_of_test_span``'s rounding, so the span is the same); a separate recording's start."""
+    if args.start_time is not None:
+        last = times[max(len(times) - 2, 0)]
+        eps = 1e-9 * max(1.0, abs(float(times[-1])))
+        if not (np.isfinite(args.start_time) and times[0] - eps <= args.start_time <= last + eps):
+            raise bad("--start", args.start_time, f"a time in [{times[0]:g}, {last:g}] s of {args.test} (a model "
+                                                  "step before its end)")
+        return float(args.start_time)
+    if args.test_start is None and separate:
+        return float(times[0])
+    fraction = 0.6 if args.test_start is None else args.test_start
+    return float(times[int(round(fraction * (len(times) - 1)))])
+
+
+def _check_test(model, args, times: np.ndarray, k: int, seconds: float) -> None:
+    """The test span from ``seconds`` must start after the part of --test the model trained on."""
+    seen = _seen(model, args.test)
     if seen is None:
         return
     role, entry = seen
     if role == "validation" or entry.get("stop") is None:
-        raise bad("--test", str(path), "a trajectory whose test span the model never saw, but it "
-                                       f"{'trained on' if role == 'train' else 'validated on'} all of it; "
-                                       "use --heldout or --generalisation data instead")
+        raise bad("--test", str(args.test), "a trajectory whose test span the model never saw, but it "
+                                            f"{'trained on' if role == 'train' else 'validated on'} all of it; "
+                                            "use --heldout or --generalisation data instead")
+    from ..learned.whole.evaluation import step_at
+
     # on the model's step grid (every k-th sample): the first predicted state, one model step after the
     # start, must lie beyond the trained samples 0 .. stop - 1
-    k, stop = model.encoding.stride(float(data.dt)), int(entry["stop"])
-    n_steps = (data.n_samples - 1) // k + 1
-    start = start_of_test_span(max(model.engine.history, 2) - 1, n_steps, fraction)
-    check_beyond_trained(start, k, stop, n_steps, fraction=fraction, path=path)
+    stop, n_steps = int(entry["stop"]), len(times)
+    start = max(max(model.engine.history, 2) - 1, step_at(times, seconds))
+    if args.test_start is not None:        # the deprecated fraction: refused in its own words
+        check_beyond_trained(start, k, stop, n_steps, fraction=args.test_start, path=args.test)
+        return
+    try:
+        check_beyond_trained(start, k, stop, n_steps, fraction=0.6, path=args.test)
+    except SoftrnnInputError:
+        first = -(-stop // k) - 1                   # the first start whose next state is unseen
+        later = f"a time >= {times[first]:g} s" if first <= n_steps - 2 else \
+            "nothing: it trained on all but its last model step; use --heldout or --generalisation data instead"
+        raise bad("--start", seconds, f"a start after the trained part of {args.test} (its first {stop} samples): "
+                                      f"{later}") from None
 
 
 def _evaluate(args) -> int:
@@ -415,6 +458,10 @@ def _evaluate(args) -> int:
         raise bad("--test", None, "at least one of --test FILE, --heldout PATH ... and --generalisation FILE")
     if args.test_start is not None and not 0.0 < args.test_start < 1.0:
         raise bad("--test-start", args.test_start, "a fraction in (0, 1), e.g. 0.6")
+    if args.test_start is not None and args.start_time is not None:
+        raise bad("--test-start", args.test_start, "one of --start S and the deprecated --test-start F, not both")
+    if args.test is None and args.start_time is not None:
+        raise bad("--start", args.start_time, "--test FILE as well (--start is where its test span starts)")
     if args.output:
         prepare_output(args.output, "--json", overwrite=args.overwrite)
     model = load_dynamic(args.model)
@@ -424,19 +471,20 @@ def _evaluate(args) -> int:
     if args.generalisation is not None:
         _unseen(model, "--generalisation", args.generalisation)
     test = None if args.test is None else _read(model, "--test", args.test)
-    fraction, separate = (0.6 if args.test_start is None else args.test_start), False
+    seconds, separate = None, False
     if test is not None:
         separate = _seen(model, args.test) is None         # a separate test recording: from its start
-        if separate and args.test_start is None:
-            fraction = 0.0
-        _check_test(model, args.test, test, fraction)
+        times, k = _step_times(model, test)
+        seconds = _test_start(args, times, separate)
+        _check_test(model, args, times, k, seconds)
     general = None if args.generalisation is None else _read(model, "--generalisation", args.generalisation)
     report = evaluate_dynamic(model, test=test, heldout=[_read(model, "--heldout", p, g) for p, g in heldout],
-                              generalisation=general, test_start_fraction=fraction)
+                              generalisation=general, test_start_time=seconds)
     report = {"model": str(args.model), "test": args.test, "heldout_files": [f"{p}:{g}" for p, g in heldout],
               "generalisation_file": args.generalisation, **report.to_dict()}
     if test is not None:
-        report["test_span"]["span"] = "whole record" if separate and args.test_start is None else "test span"
+        given = args.start_time is not None or args.test_start is not None
+        report["test_span"]["span"] = "whole record" if separate and not given else "test span"
     print(format_evaluation(report))
     if args.output:
         atomic_write_text(args.output, json.dumps(report, indent=2, allow_nan=False, default=json_default) + "\n")
@@ -510,7 +558,7 @@ def _add_rollout(p):
     p.add_argument("--group", default=None, help="the trajectory's group inside a sweep file")
     start = p.add_argument("--start", dest="start_time", type=float, default=None, metavar="S",
                            help="the last state taken from the data [s]; the model runs free after it (default: at "
-                                "60 %% of the data)")
+                                "0.6 of the data's span)")
     stop = p.add_argument("--stop", dest="stop_time", type=float, default=None, metavar="S",
                           help="the last predicted time [s] (default: the end)")
     deprecate(p, start, "--start-time")
@@ -519,22 +567,54 @@ def _add_rollout(p):
     p.add_argument("--overwrite", action="store_true", help="replace the -o file if it exists (default: refuse)")
 
 
-def _steps(traj, history: int, start_time, stop_time) -> tuple[int, int]:
-    """Model steps: ``start`` (the last data state) and ``stop`` (exclusive) for the given times [s]."""
-    t, eps = traj.time, 1e-9 * max(1.0, abs(float(traj.time[-1])))
-    stop = traj.n_steps if stop_time is None else int(np.searchsorted(t, stop_time + eps, side="right"))
+def _window(time: np.ndarray, start_time, stop_time) -> None:
+    """Refuse, from DATA's time axis alone (before the model or the node arrays are read), a
+    ``--start`` or ``--stop`` that is not a time inside the data: a free run needs the data's loads."""
+    eps = 1e-9 * max(1.0, abs(float(time[-1])))
+    for option, value in (("--start", start_time), ("--stop", stop_time)):
+        if value is not None and not (np.isfinite(value) and time[0] - eps <= value <= time[-1] + eps):
+            raise bad(option, value, f"a time from the data's start ({time[0]:g} s) up to the data's end "
+                                     f"({time[-1]:g} s): the model runs free on the data's loads, not past them")
+
+
+def _steps(time: np.ndarray, history: int, start_time, stop_time) -> tuple[int, int]:
+    """Model steps: ``start`` (the last data state) and ``stop`` (exclusive) for the given times [s]
+    on the model's step times ``time``."""
+    n_steps, eps = len(time), 1e-9 * max(1.0, abs(float(time[-1])))
+    t = time
+    stop = n_steps if stop_time is None else int(np.searchsorted(t, stop_time + eps, side="right"))
     if stop_time is not None and not stop_time <= t[-1] + eps:
         raise bad("--stop", stop_time, f"a time up to the data's end ({t[-1]:g} s)")
-    start = int(round(0.6 * (traj.n_steps - 1))) if start_time is None else \
+    start = int(round(0.6 * (n_steps - 1))) if start_time is None else \
         int(np.searchsorted(t, start_time + eps, side="right")) - 1
     first = history - 1
-    if start < first or start > traj.n_steps - 2:
+    if start < first or start > n_steps - 2:
         raise bad("--start", start_time, f"a time from {t[first]:g} s (the model reads {history} states) to "
                                               f"{t[-2]:g} s (one model step before the end)")
     if stop < start + 2:
         raise bad("--stop", stop_time, f"a time after the start ({t[start]:g} s) by a model step "
                                             f"({t[start + 1] - t[start]:g} s) or more")
     return start, stop
+
+
+def _check_rollout_size(model, axis, k: int, start: int, stop: int, stop_time) -> None:
+    """Refuse, before DATA's node arrays are read, a rollout whose arrays would not fit this machine
+    (``rod.simulation.array_limit``): DATA read whole, its encoded trajectory, the free run from model
+    step ``start`` to ``stop`` and the data set written; ``axis``: DATA's time axis (``nodes=[]``)."""
+    from ..rod import simulation
+
+    enc, T = model.encoding, axis.n_samples
+    N, M, span = enc.n_nodes, enc.n_kept, stop - start
+    data = T * (8 + 4 * (13 * N + axis.n_actuation) + 8 * 3 * N)      # float32 arrays, float64 forces copy
+    encoded = ((T - 1) // k + 1) * M * (6 + enc.load_width) * 8
+    run = (model.engine.history + span) * M * 6 * 8 + span * N * (7 * 8 + 13 * 4)
+    held, limit = data + encoded + run, simulation.array_limit()
+    if held > limit:
+        raise bad("--stop", stop_time, f"a shorter rollout: this one is too large for this machine, from "
+                                       f"{axis.time[start * k]:g} to {axis.time[(stop - 1) * k]:g} s ({span} model "
+                                       f"steps, {N} nodes) it would hold {held / 2**30:.3g} GiB of arrays in memory "
+                                       f"(limit {limit / 2**30:.3g} GiB, DATA itself {data / 2**30:.3g} GiB); stop "
+                                       "earlier, or give a shorter DATA file")
 
 
 def _rollout(args) -> int:
@@ -549,11 +629,15 @@ def _rollout(args) -> int:
     if Path(args.output).resolve() == Path(args.data).resolve():
         raise bad("-o", args.output, "another file than DATA")
     prepare_output(args.output, "-o", overwrite=args.overwrite)
+    axis = read_dataset(args.data, group=args.group, nodes=[])       # the time axis, no node arrays
+    _window(axis.time, args.start_time, args.stop_time)
     model = load_dynamic(args.model)
+    check_compatible(model.encoding, read_dataset(args.data, group=args.group, stop=1), "DATA")
+    times, k = _step_times(model, axis)
+    start, stop = _steps(times, model.engine.history, args.start_time, args.stop_time)
+    _check_rollout_size(model, axis, k, start, stop, args.stop_time)
     data = read_dataset(args.data, group=args.group)
-    check_compatible(model.encoding, data, "DATA")
     traj = model.encoding.trajectory(data)
-    start, stop = _steps(traj, model.engine.history, args.start_time, args.stop_time)
     t0 = _time.perf_counter()
     source = {"model": str(args.model), "reference": str(args.data)}
     ds, diverged = rollout_dataset(model, data, start, stop, attrs=source)

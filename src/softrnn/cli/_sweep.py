@@ -2,7 +2,7 @@
 
 from ..files import prepare_output
 from ..scenarios.scenario import load_scenario
-from ..sweeps.sweep import MANIFEST, run_sweep
+from ..sweeps.sweep import MANIFEST, check_sweep, run_sweep
 from ._progress import Bar
 from ._vocabulary import output
 
@@ -12,7 +12,8 @@ HELP = "simulate N randomised variants of a scenario in parallel on Dask into a 
 
 def add_args(p):
     p.add_argument("scenario", help="a shipped scenario name or a path to a .toml file")
-    p.add_argument("--count", type=int, required=True, help="number of variants (indices 0..N-1)")
+    p.add_argument("--count", type=int, required=True, metavar="N",
+                   help="number of variants (indices 0..N-1, at most 100000)")
     output(p, dest="out", required=True, metavar="DIR", help="output folder: one traj-NNNNN.h5 per variant")
     p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="use an existing Dask cluster (default: a local cluster)")
@@ -27,6 +28,8 @@ def add_args(p):
 
 def run(args) -> int:
     scenario = load_scenario(args.scenario)
+    # bad values and a sweep too large for this machine: refused before any folder, worker or step
+    check_sweep(scenario, args.count, n_workers=args.workers, n_samples=args.samples, dt=args.dt)
     # resumable by design: its own folder is continued, anything else is refused
     prepare_output(args.out, "-o", kind="folder", overwrite=True, mine=(MANIFEST,))
     if args.merge:

@@ -26,13 +26,9 @@ NOT_A_CONCEPT = {
 }
 """Domain options that contain a concept word but name something else (option -> why)."""
 
-TO_RENAME = {
-    "dynamic evaluate": {
-        "--test-start": "a fraction of --test where the test span starts; becomes --start S (seconds) once "
-                        "the library's test span takes a start time (softrnn.learned.spans)",
-    },
-}
-"""Options outside the vocabulary that are still to be renamed (command -> option -> what remains)."""
+TO_RENAME: dict = {}
+"""Options outside the vocabulary that are still to be renamed (command -> option -> what remains);
+none in this release (``dynamic evaluate --test-start F`` became ``--start S``)."""
 
 DOMAIN = {
     "": (),
@@ -155,7 +151,12 @@ def spelled(action) -> str:
     return "/".join(action.option_strings)
 
 
-class DeprecatedAlias(argparse.Action):
+class Deprecated(argparse.Action):
+    """An option kept for one release, hidden from ``--help``: ``DeprecatedAlias`` (an old spelling)
+    or ``DeprecatedConverted`` (an old option whose value the command converts)."""
+
+
+class DeprecatedAlias(Deprecated):
     """An old spelling of ``target`` (hidden from ``--help``): notes once that it is deprecated, then
     stores exactly as ``target`` does."""
 
@@ -173,6 +174,33 @@ def deprecate(parser, target, *old: str, why: str = "") -> None:
     """Keep the spellings ``old`` of the option ``target`` (the action ``add_argument`` returned)
     working for one release, hidden from ``--help``; ``why``: more words after the note's ``use ...``."""
     parser.add_argument(*old, dest=target.dest, action=DeprecatedAlias, target=target, why=why)
+
+
+class DeprecatedConverted(Deprecated):
+    """An old option replaced by ``target`` whose value means something else (a fraction of a record
+    where ``target`` takes seconds): hidden from ``--help``, it notes once that it is deprecated and
+    stores its own value into its own ``dest``, for the command to convert into ``target``'s."""
+
+    def __init__(self, option_strings, dest, target=None, why="", **kwargs):
+        super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
+        self.target, self.why = target, why
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        note(f"{option_string} is deprecated; use {spelled(self.target)}{self.why}")
+        setattr(namespace, self.dest, values)
+
+
+def deprecate_converted(parser, target, *old: str, dest: str, why: str = "", **kwargs):
+    """Keep the old option ``old`` (stored into ``dest``; ``kwargs`` as for ``add_argument``: its
+    ``type``, ``default``, ``metavar``) working for one release beside ``target``, the option that
+    replaces it, hidden from ``--help``; the command converts its value. ``why``: more words after
+    the note's ``use ...``."""
+    return parser.add_argument(*old, dest=dest, action=DeprecatedConverted, target=target, why=why, **kwargs)
+
+
+def deprecated(parser) -> list:
+    """Every ``Deprecated`` action of ``parser`` (aliases and converted options)."""
+    return [a for a in parser._actions if isinstance(a, Deprecated)]
 
 
 def aliases(parser) -> list:

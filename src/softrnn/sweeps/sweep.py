@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from .. import __version__
-from ..errors import bad, positive
+from ..errors import SoftrnnInputError, bad, positive
 from ..files import atomic_write_text
 from ..io.reader import read_dataset
 from ..io.schema import DatasetError
@@ -31,6 +31,9 @@ from ..scenarios.scenario import parse_scenario
 from .dask import completed, require
 
 MANIFEST = "sweep.json"
+MAX_COUNT = 100_000
+"""Most variants of one sweep: its files ``traj-00000.h5`` .. ``traj-99999.h5`` (five digits) keep
+their order by name, which the readers of a sweep folder use (``--heldout N``: the last N)."""
 SETTINGS = ("dt", "n_samples", "scenario_sha256", "seed")
 """The keys of ``sweep.json`` a resumed sweep must match (the others describe it)."""
 
@@ -119,6 +122,81 @@ def _remove_stale_temporaries(out_dir: Path) -> None:
         p.unlink(missing_ok=True)
 
 
+def check_sweep(scenario, count, *, n_workers=2, n_samples=None, dt=None) -> float | None:
+    """Refuse, before any file, worker or step, a sweep that cannot run or is too large.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario whose variants are simulated (it needs a [randomize] table).
+    count : int
+        Variants 0..count-1 (``--count``): at most ``MAX_COUNT``.
+    n_workers : int
+        Local worker processes (``--workers``).
+    n_samples : int or None
+        Samples per trajectory (``--samples``; None: the scenario's).
+    dt : float or None
+        The saved interval [s] (``--dt``; None: the scenario's).
+
+    Returns
+    -------
+    float or None
+        ``dt`` as a float.
+
+    Raises
+    ------
+    SoftrnnInputError
+        One line naming the option: a bad value, too many variants, or one variant's run too large
+        for this machine (``rod.simulation.check_run_size``, as ``softrnn simulate`` refuses it).
+    """
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise bad("--count", count, "an integer >= 1")
+    if count > MAX_COUNT:
+        raise bad("--count", count, f"at most {MAX_COUNT} variants: a larger sweep is too large for one folder "
+                                    f"(its files traj-00000 .. traj-{MAX_COUNT - 1:05d} keep their order by name, "
+                                    "which the readers of a sweep folder use); split it into scenarios with other "
+                                    "seeds")
+    if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
+        raise bad("--workers", n_workers, "an integer >= 1")
+    if n_samples is not None and (isinstance(n_samples, bool) or not isinstance(n_samples, int) or n_samples < 1):
+        raise bad("--samples", n_samples, "an integer >= 1")
+    if dt is not None:
+        dt = positive("--dt", dt, "s")
+    if not scenario.randomized:
+        raise bad("scenario", scenario.name, "a scenario with a [randomize] table (nothing to vary in a sweep)")
+    _check_run_size(scenario, n_samples, dt)
+    return dt
+
+
+def _too_large(sim, scenario, n_samples, dt) -> str | None:
+    """``check_run_size``'s refusal of one variant's run with these settings, or None where it fits
+    (other errors of the run's settings are raised)."""
+    try:
+        sim.check_size(run_config(scenario.config, n_samples, dt), streamed=True)
+    except SoftrnnInputError as err:
+        if not str(err).startswith("the run "):
+            raise
+        return str(err)
+    return None
+
+
+def _check_run_size(scenario, n_samples, dt) -> None:
+    """Refuse one variant's run too large for this machine, naming what makes it so: ``--samples``
+    or ``--dt`` (the one too large with the scenario's other setting), both, or the scenario."""
+    sim = Simulator(scenario.setup)
+    why = _too_large(sim, scenario, n_samples, dt)
+    if why is None:
+        return
+    for flag, value, alone in (("--samples", n_samples, (n_samples, None)), ("--dt", dt, (None, dt))):
+        if value is not None and _too_large(sim, scenario, *alone) is not None:
+            raise bad(flag, value, f"a shorter run per variant: {why}")
+    if n_samples is not None and dt is not None:
+        raise SoftrnnInputError(f"--samples={n_samples!r} with --dt={dt!r} is invalid: a shorter run per variant: "
+                                f"{why}")
+    raise bad("scenario", scenario.name, f"a scenario whose run fits this machine (or a smaller --samples or "
+                                         f"--dt): {why}")
+
+
 def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_workers: int = 2,
               n_samples: int | None = None, dt: float | None = None,
               progress: Progress | None = None) -> SweepResult:
@@ -131,19 +209,7 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
     ``sweep.json``: resuming with others is refused. ``progress(done, count)`` counts finished
     trajectories, found or computed.
     """
-    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-        raise bad("--count", count, "an integer >= 1")
-    if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
-        raise bad("--workers", n_workers, "an integer >= 1")
-    if n_samples is not None and (not isinstance(n_samples, int) or n_samples < 1):
-        raise bad("--samples", n_samples, "an integer >= 1")
-    if dt is not None:
-        dt = positive("--dt", dt, "s")
-    if not scenario.randomized:
-        raise bad("scenario", scenario.name, "a scenario with a [randomize] table (nothing to vary in a sweep)")
-    # a run too large for the machine is refused here, before any file or worker (as simulate does)
-    Simulator(scenario.setup).check_size(run_config(scenario.config, n_samples, dt), streamed=True)
-
+    dt = check_sweep(scenario, count, n_workers=n_workers, n_samples=n_samples, dt=dt)
     require()
     out = Path(out_dir)
     _check_manifest(out, scenario, n_samples, dt)

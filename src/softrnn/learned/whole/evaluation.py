@@ -172,6 +172,21 @@ def first_start(*predictors) -> int:
     return max(int(p.history) for p in predictors) - 1
 
 
+def step_at(time: np.ndarray, seconds: float) -> int:
+    """The last model step of ``time`` (a trajectory's step times [s]) at or before ``seconds``, to
+    within 1e-9 of the time scale (-1 before the first step).
+
+    Parameters
+    ----------
+    time : numpy.ndarray
+        The step times (n_steps,), increasing (``Trajectory.time``).
+    seconds : float
+        A time on the same axis [s].
+    """
+    eps = 1e-9 * max(1.0, abs(float(time[-1])))
+    return int(np.searchsorted(time, float(seconds) + eps, side="right")) - 1
+
+
 def compare(engine, linear, encoding, runs: list, horizons=HORIZONS) -> HorizonTable:
     """Horizon errors of the model and the three baselines on ``runs``: a ``HorizonTable`` whose
     ``to_dict()`` is {str(n): {"model", "persistence", "constant_velocity", "linear"}}."""
@@ -223,7 +238,7 @@ class DynamicEvaluation:
 
 
 def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_start_fraction: float = 0.6,
-                     horizons=HORIZONS) -> DynamicEvaluation:
+                     horizons=HORIZONS, test_start_time: float | None = None) -> DynamicEvaluation:
     """The free-running evaluation of a loaded model (``load_dynamic``) beside its baselines.
 
     Parameters
@@ -237,6 +252,10 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
         Sweep variants the model never saw: each run free from its start, and the horizons.
     generalisation : Dataset or None
         The paper's generalisation scenario, run free from its start.
+    test_start_time : float or None
+        Where the test span starts instead [s, on ``test``'s time axis]: at the last model step at
+        or before it (``step_at``), and never before the first step every predictor can start from.
+        The time of the model step at ``test_start_fraction`` gives the same span.
 
     Returns
     -------
@@ -254,7 +273,8 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
     test_span = held = table = general = None
     if test is not None:
         traj = enc.trajectory(test)
-        start = start_of_test_span(s0, traj.n_steps, test_start_fraction)
+        start = start_of_test_span(s0, traj.n_steps, test_start_fraction) if test_start_time is None else \
+            max(s0, step_at(traj.time, test_start_time))
         spans = {name: span_error(p, enc, traj, test, start, tip=True) for name, p in preds.items()}
         test_span = {"start_s": float(traj.time[start]), "end_s": float(traj.time[-1]), "tip_node": enc.n_nodes - 1,
                      **spans}

@@ -20,8 +20,9 @@ from __future__ import annotations
 import io
 import math
 import pickle
+import re
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -272,6 +273,61 @@ def _lr_at(config: DynamicConfig, step: int) -> float:
     return config.lr * (0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * frac)))
 
 
+CHECKPOINT_FORMAT = "softrnn-whole-training-checkpoint"
+"""The ``format`` entry of a training checkpoint (``_save_checkpoint``)."""
+
+_FIX = "train with --overwrite to start again"
+"""What to do about a training checkpoint that cannot be resumed."""
+
+
+def _why(err) -> str:
+    """The gist of a failed ``torch.load`` on one line: what a weights-only load refused (not
+    PyTorch's advice to load the file unsafely), or the error's first 120 characters."""
+    text = " ".join(str(err).split())
+    if text.startswith("Weights only load failed"):
+        found = re.search(r"((?:Unsupported|Trying to load unsupported) .*?)\.?(?: Check the documentation|$)", text)
+        return "it holds more than tensors and plain values" + (f": {found.group(1)[:100]}" if found else "")
+    return text[:120] or f"{type(err).__name__}: it ends early"
+
+
+def read_checkpoint(path) -> dict:
+    """The training checkpoint at ``path`` as plain values, read without running any code of the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A checkpoint written by ``_save_checkpoint``: a ``torch.save`` file of tensors, dicts,
+        lists and numbers, loaded with ``weights_only=True``. One of earlier releases, whose
+        ``loop`` entry is a pickled ``_Loop``, is read too (``_Loop`` alone allowed besides).
+
+    Returns
+    -------
+    dict
+        ``net``, ``opt`` (state dicts), ``gen`` (the generator's state) and ``loop`` (``_Loop``).
+
+    Raises
+    ------
+    SoftrnnInputError
+        One line naming ``path`` and the fix where the file is damaged or not such a checkpoint.
+    """
+    path = Path(path)
+    try:
+        with torch.serialization.safe_globals([_Loop]):
+            state = torch.load(path, weights_only=True, map_location="cpu")
+    except (OSError, EOFError, RuntimeError, ValueError, TypeError, KeyError, AttributeError, ImportError,
+            IndexError, pickle.UnpicklingError) as err:
+        raise SoftrnnInputError(f"{path}: the training checkpoint is damaged or not one written by softrnn "
+                                f"({_why(err)}); {_FIX}") from None
+    loop = state.get("loop") if isinstance(state, dict) else None
+    if isinstance(loop, dict) and set(loop) == {f.name for f in fields(_Loop)}:
+        loop = _Loop(**loop)
+    known = isinstance(state, dict) and state.get("format", CHECKPOINT_FORMAT) == CHECKPOINT_FORMAT
+    if not (known and isinstance(loop, _Loop) and all(isinstance(state.get(k), dict) for k in ("net", "opt"))
+            and isinstance(state.get("gen"), torch.Tensor)):
+        raise SoftrnnInputError(f"{path}: is not a softrnn whole-model training checkpoint; {_FIX}")
+    return {"net": state["net"], "opt": state["opt"], "gen": state["gen"], "loop": loop}
+
+
 def _restore_checkpoint(path: Path, net, opt, gen) -> _Loop:
     """Load the checkpoint at ``path`` into ``net``, ``opt`` and ``gen`` and return its loop state; a
     damaged or foreign file is a one-line ``SoftrnnInputError`` naming it.
@@ -279,7 +335,7 @@ def _restore_checkpoint(path: Path, net, opt, gen) -> _Loop:
     Parameters
     ----------
     path : Path
-        The checkpoint written by ``_save_checkpoint``.
+        The checkpoint written by ``_save_checkpoint`` (read by ``read_checkpoint``).
     net : DynamicNet
         The network whose weights are restored.
     opt : torch.optim.Optimizer
@@ -287,25 +343,23 @@ def _restore_checkpoint(path: Path, net, opt, gen) -> _Loop:
     gen : torch.Generator
         The generator whose state is restored.
     """
+    state = read_checkpoint(path)
     try:
-        state = torch.load(path, weights_only=False)
         net.load_state_dict(state["net"])
         opt.load_state_dict(state["opt"])
         gen.set_state(state["gen"])
-        loop = state["loop"]
-    except (OSError, EOFError, RuntimeError, ValueError, TypeError, KeyError, AttributeError,
-            pickle.UnpicklingError) as err:
-        raise SoftrnnInputError(f"{path}: the training checkpoint is corrupt ({' '.join(str(err).split())[:120]}); "
-                                "delete it and train without --resume") from None
-    if not isinstance(loop, _Loop):
-        raise SoftrnnInputError(f"{path}: is not a softrnn whole-model training checkpoint; delete it and train "
-                                "without --resume")
-    return loop
+    except (RuntimeError, ValueError, TypeError, KeyError, IndexError) as err:
+        raise SoftrnnInputError(f"{path}: the training checkpoint does not fit this model "
+                                f"({' '.join(str(err).split())[:120]}); {_FIX}") from None
+    return state["loop"]
 
 
 def _save_checkpoint(path: Path, net, opt, gen, loop) -> None:
+    """Write the training's state to ``path`` atomically as plain tensors, dicts, lists and numbers
+    (``read_checkpoint`` loads it with ``weights_only=True``)."""
     buf = io.BytesIO()
-    torch.save({"net": net.state_dict(), "opt": opt.state_dict(), "gen": gen.get_state(), "loop": loop}, buf)
+    torch.save({"format": CHECKPOINT_FORMAT, "net": net.state_dict(), "opt": opt.state_dict(),
+                "gen": gen.get_state(), "loop": {f.name: getattr(loop, f.name) for f in fields(_Loop)}}, buf)
     atomic_write_bytes(path, buf.getvalue())
 
 
