@@ -3,6 +3,11 @@
 from .batch import simulate_batch as simulate_batch
 from .boundary import Clamp as Clamp
 from .boundary import Pin as Pin
+from .contact import Contact as Contact
+from .contact import Cylinder as Cylinder
+from .contact import Plane as Plane
+from .contact import Sphere as Sphere
+from .contact import Vessel as Vessel
 from .loads import Constant as Constant
 from .loads import NodalLoad as NodalLoad
 from .loads import PDTracking as PDTracking

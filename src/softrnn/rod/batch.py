@@ -6,7 +6,8 @@ rods must share everything the kernel shares between them: rod spec, stress-free
 boundary node kinds and the nodes with prescribed motion, the PD-tracked nodes and their gains,
 the tendons' routing and which are driven by a displacement (with their stiffness), damping and
 a constant gravity. Initial shapes, nodal loads, PD targets, tendon tensions and displacements,
-prescribed motions and gravities given as time functions (in every setup) may differ.
+prescribed motions and gravities given as time functions (in every setup) may differ. Setups with
+obstacles (``Setup.contact``) are refused.
 Each rod gives the same trajectory as ``simulate`` would (up to rounding in the order of summing
 loads on one node).
 
@@ -93,6 +94,9 @@ def _checked(setups: Sequence[Setup], config: RunConfig) -> list[Setup]:
     for b, s in enumerate(setups):
         if not isinstance(s, Setup):
             raise bad(f"setups[{b}]", type(s).__name__, "a softrnn.rod.Setup")
+        if s.contact is not None:
+            raise bad(f"setups[{b}].contact", "obstacles", "None: a batch has no contact (run setups with "
+                                                           "obstacles one by one with Simulator)")
     if not isinstance(config, RunConfig):
         raise bad("config", type(config).__name__, "a softrnn.rod.RunConfig")
     if config.integrator != "explicit":

@@ -27,8 +27,8 @@ in central-difference form: no numerical dissipation, second order, stable at an
 beta >= 1/4. beta = 1/2 leaves a margin of 2 on the stiffness: the parts of the true tangent that K
 leaves out (the geometric stiffness of the stress, the curvature terms of the strain map) need only
 stay below 4 M / h^2 + K, so the step is bounded by the loads' geometric stiffness (a string of
-tension N: h < 2 sqrt(m l / N)), never by E or G. Tendon springs, PD gains and applied loads stay
-explicit.
+tension N: h < 2 sqrt(m l / N)), never by E or G. Tendon springs, PD gains, applied loads and
+contact loads (``rod.contact``) stay explicit.
 
 The linearised strain map of segment a (nodes a, a + 1; frame of node a; body rotation
 increments eps_a, eps_{a+1}; p = R_a^T (r_{a+1} - r_a), Q = R_a^T R_{a+1}, x = cay^-1(Q),
@@ -53,7 +53,18 @@ import numpy as np
 from numba import njit
 
 from . import kernels as _kernels
-from .kernels import CLAMPED, FREE, OK, _applied_loads, _node, _quaternion_into, _segment, _tendon_springs
+from .kernels import (
+    CLAMPED,
+    FREE,
+    OK,
+    _applied_loads,
+    _applied_outputs,
+    _contact_loads,
+    _node,
+    _quaternion_into,
+    _segment,
+    _tendon_springs,
+)
 
 IMPLICIT_BETA = 0.5
 """Weight of the implicit stiffness (Newmark beta, >= 1/4; see the module docstring)."""
@@ -422,6 +433,10 @@ def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
     _applied_loads(i, R, r, state.velocities, inputs, work_f)
     if len(inputs.tendon_stiffness) > 0:
         _tendon_springs(i, R, r, rod, inputs)
+    contact = len(inputs.contact_kind) > 0
+    if contact:  # explicit, with the applied loads (docs/lgvi.md §2.11)
+        _contact_loads(row, record, h, R, r, state.velocities, state.angular_velocities, rod, inputs, out.save_slot,
+                       work_f)
     n = len(r)
     g0 = rod.gravity[0]
     g1 = rod.gravity[1]
@@ -461,6 +476,8 @@ def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
                     out.forces[row, slot, c] = work_f[a, c]
                     out.torques[row, slot, c] = work_f[a, 3 + c]
                 _quaternion_into(R[a], out.quaternions[row, slot])
+    if record and contact:
+        _applied_outputs(row, inputs, out)
     return e_el, e_g
 
 

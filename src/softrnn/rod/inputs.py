@@ -1,11 +1,12 @@
 """The time-dependent inputs of a setup (nodal loads, PD targets, prescribed boundary motions,
 tendon tensions and displacements, a time-varying gravity) evaluated chunk by chunk into the
-kernels' ``StepInputs`` record."""
+kernels' ``StepInputs`` record, with the setup's obstacles (``rod.contact``)."""
 
 import numpy as np
 
 from ..errors import bad
 from .boundary import Clamp
+from .contact import kernel_arrays
 from .kernels import StepInputs
 from .loads import PDTracking
 from .tendons import displacement_matrix, prescribed_tensions, routing_arrays, spring_arrays
@@ -38,6 +39,9 @@ class SetupInputs:
         driven by a displacement, else 0 (no arrays)
     tendon_rest : (m_s,)
         the tendons' discrete lengths in the stress-free reference [m]
+    contact : dict or None
+        the static contact fields of ``StepInputs`` (``rod.contact.kernel_arrays``); None without
+        ``Setup.contact``
     """
 
     def __init__(self, setup):
@@ -70,6 +74,8 @@ class SetupInputs:
                 self.tendons, setup.reference.rotations, setup.reference.positions, setup.rod.segment_length)
         else:
             self.tendon_stiffness, self.tendon_rest = np.zeros(0), np.zeros(0)
+        self.contact = None if setup.contact is None else kernel_arrays(setup.contact, setup.rod, setup.gravity)
+        self._applied = np.zeros((setup.rod.n_nodes, 6))  # the kernels' scratch of contact_applied
 
     def step_bytes(self) -> int:
         """Bytes of per-step inputs a chunk holds (times, loads, PD targets, prescribed poses and
@@ -128,4 +134,11 @@ class SetupInputs:
                           tendon_tension=prescribed_tensions(self.tendons, t),
                           tendon_stiffness=self.tendon_stiffness, tendon_rest=self.tendon_rest,
                           tendon_displacement=(displacement_matrix(self.tendons, t) if self.displaced
-                                               else np.zeros((K, 0))))
+                                               else np.zeros((K, 0))),
+                          **({} if self.contact is None else self.contact))
+
+    def with_contact(self, inputs: StepInputs, segment: np.ndarray, samples: np.ndarray) -> StepInputs:
+        """``inputs`` of a setup with contact given the state's tracked vessel segments (n, o) int64
+        (updated in place by the kernels) and the buffer (S, s, 6) of the contact force [N] and
+        torque [N m] of the saved nodes at the saved steps (``kernels.StepInputs``)."""
+        return inputs._replace(contact_segment=segment, contact_samples=samples, contact_applied=self._applied)

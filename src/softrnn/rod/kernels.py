@@ -35,6 +35,10 @@ costs far more than LLVM and grows faster than linearly with the size of a funct
   numba overload).
 * loop-carried variables get their final type before the loop (``jq``, ``f0``), so that type
   inference needs no extra pass over the function.
+
+Contact (docs/lgvi.md §2.11): ``_contact_loads`` adds the contact loads of the obstacles in
+``StepInputs`` to the applied loads once per step, before the node loop, and only when there are
+obstacles (``contact_kind`` not empty): without them a step does no contact work.
 """
 
 import math
@@ -53,6 +57,12 @@ OK = 0
 DIVERGED = 1
 NEWTON_FAILED = 2
 MAGNET_TOO_CLOSE = 10  # returned by ``magnetics._driver.drive``
+
+# Obstacle kinds of ``StepInputs.contact_kind`` (``rod.contact``; frozen into the compiled code).
+PLANE = 0
+SPHERE = 1
+CYLINDER = 2
+VESSEL = 3
 
 
 class LumpedRod(NamedTuple):
@@ -173,6 +183,30 @@ class StepInputs(NamedTuple):
     tendon_displacement : (K, m_s)
         the displacements q [m] (a leading batch axis in ``advance_batch``):
         tau = k max(0, q - (l_0 - l)) from the tendon length l at the start of each step
+    contact_kind : (o,) int64
+        obstacle kinds PLANE, SPHERE, CYLINDER or VESSEL (``rod.contact``); o = 0 (default): no
+        contact, and the kernels do no contact work
+    contact_geom : (o, 7)
+        plane: point [m], unit normal; sphere: centre [m], -, -, -, radius [m]; cylinder: point [m],
+        unit axis, radius [m]; vessel: unused
+    contact_range : (o, 2) int64
+        vessel: first row and number of rows of its centreline in contact_points
+    contact_friction : (o, 2)
+        friction coefficient mu [-] and slip velocity v_s [m/s] per obstacle
+    contact_points : (P, 3)
+        the vessels' centreline polylines [m], one after another
+    contact_radii : (P,)
+        the vessels' radii at those points [m]
+    contact_node : (n, 3)
+        per node: rod radius r_a [m], contact stiffness k_a [N/m], contact damping c_a [N s/m]
+    contact_segment : (n, o) int64
+        per node and vessel: the closest polyline segment, the warm start of the local search,
+        updated in place (the array of ``RodState.contact_segment``)
+    contact_samples : (S, s, 6)
+        output: the contact force [N] and torque [N m] (world frame) of the saved nodes at the
+        saved steps, rows as in ``Samples``
+    contact_applied : (n, 6)
+        scratch: the applied loads of a saved step before the contact loads join them
     """
 
     ext_idx: np.ndarray
@@ -189,6 +223,16 @@ class StepInputs(NamedTuple):
     tendon_stiffness: np.ndarray = np.zeros(0)
     tendon_rest: np.ndarray = np.zeros(0)
     tendon_displacement: np.ndarray = np.zeros((0, 0))
+    contact_kind: np.ndarray = np.zeros(0, dtype=np.int64)
+    contact_geom: np.ndarray = np.zeros((0, 7))
+    contact_range: np.ndarray = np.zeros((0, 2), dtype=np.int64)
+    contact_friction: np.ndarray = np.zeros((0, 2))
+    contact_points: np.ndarray = np.zeros((0, 3))
+    contact_radii: np.ndarray = np.zeros(0)
+    contact_node: np.ndarray = np.zeros((0, 3))
+    contact_segment: np.ndarray = np.zeros((0, 0), dtype=np.int64)
+    contact_samples: np.ndarray = np.zeros((0, 0, 6))
+    contact_applied: np.ndarray = np.zeros((0, 6))
 
 
 class Samples(NamedTuple):
@@ -428,6 +472,218 @@ def _tendon_springs(i, R, r, rod, inputs):
         if stiffness[j] > 0.0:
             stretch = inputs.tendon_displacement[i, j] - (inputs.tendon_rest[j] - l * tension[i, j])
             tension[i, j] = stiffness[j] * stretch if stretch > 0.0 else 0.0
+
+
+_VESSEL_WINDOW = 3
+"""Segments searched either way of a node's tracked vessel segment before walking further."""
+
+
+@njit(**_INLINE)
+def _segment_projection(P, k, x0, x1, x2):
+    """Squared distance [m^2] from x to the segment P[k] -> P[k + 1] and the parameter t of the
+    projection of x on its line (not clipped: t < 0 or t > 1 lies beyond the segment's ends)."""
+    e0 = P[k + 1, 0] - P[k, 0]
+    e1 = P[k + 1, 1] - P[k, 1]
+    e2 = P[k + 1, 2] - P[k, 2]
+    q0 = x0 - P[k, 0]
+    q1 = x1 - P[k, 1]
+    q2 = x2 - P[k, 2]
+    t = (q0 * e0 + q1 * e1 + q2 * e2) / (e0 * e0 + e1 * e1 + e2 * e2)
+    tc = min(max(t, 0.0), 1.0)
+    d0 = q0 - tc * e0
+    d1 = q1 - tc * e1
+    d2 = q2 - tc * e2
+    return d0 * d0 + d1 * d1 + d2 * d2, t
+
+
+@njit(**_INLINE)
+def _vessel_gap(a, o, x0, x1, x2, ra, inputs):
+    """Gap [m] and inward unit normal of node a (centreline point x, rod radius ra) inside vessel o.
+    The tracked segment inputs.contact_segment[a, o] is the warm start of a local search (a window
+    of _VESSEL_WINDOW segments either way, then a walk while the distance decreases) and is
+    updated. Beyond the vessel's open ends, and on its centreline, the gap is 1 (no contact)."""
+    P = inputs.contact_points
+    rad = inputs.contact_radii
+    p0 = inputs.contact_range[o, 0]
+    last = inputs.contact_range[o, 1] - 2
+    j = inputs.contact_segment[a, o]
+    lo = max(j - _VESSEL_WINDOW, 0)
+    hi = min(j + _VESSEL_WINDOW, last)
+    best = lo
+    bd = math.inf
+    for jj in range(lo, hi + 1):
+        d2, t = _segment_projection(P, p0 + jj, x0, x1, x2)
+        if d2 < bd:
+            bd = d2
+            best = jj
+    while best == lo and lo > 0:
+        lo -= 1
+        d2, t = _segment_projection(P, p0 + lo, x0, x1, x2)
+        if d2 <= bd:  # ties to the lower index, as a search from the start would find
+            bd = d2
+            best = lo
+    while best == hi and hi < last:
+        hi += 1
+        d2, t = _segment_projection(P, p0 + hi, x0, x1, x2)
+        if d2 < bd:
+            bd = d2
+            best = hi
+    inputs.contact_segment[a, o] = best
+    d2, t = _segment_projection(P, p0 + best, x0, x1, x2)
+    if (best == 0 and t < 0.0) or (best == last and t > 1.0):
+        return 1.0, 0.0, 0.0, 0.0
+    tc = min(max(t, 0.0), 1.0)
+    k = p0 + best
+    c0 = P[k, 0] + tc * (P[k + 1, 0] - P[k, 0]) - x0
+    c1 = P[k, 1] + tc * (P[k + 1, 1] - P[k, 1]) - x1
+    c2 = P[k, 2] + tc * (P[k + 1, 2] - P[k, 2]) - x2
+    d = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    if not d > 0.0:
+        return 1.0, 0.0, 0.0, 0.0
+    radius = rad[k] + tc * (rad[k + 1] - rad[k])
+    return radius - ra - d, c0 / d, c1 / d, c2 / d
+
+
+@njit(**_INLINE)
+def _friction(a, h, mu, vs, fn, ra, n0, n1, n2, R, v, w, rod):
+    """Regularised Coulomb friction f_t = -mu fn v_t / max(|v_t|, v_s') at the contact point -ra n
+    of node a (docs/lgvi.md §2.11): v_t the tangential velocity of that point from the staggered
+    v (world) and w (body), v_s' = max(v_s, h mu fn / m_eff) with 1/m_eff the node's inverse mass
+    along v_t, rotation included. Returns the force and its moment (-ra n) x f_t, world frame."""
+    W0 = R[a, 0, 0] * w[a, 0] + R[a, 0, 1] * w[a, 1] + R[a, 0, 2] * w[a, 2]
+    W1 = R[a, 1, 0] * w[a, 0] + R[a, 1, 1] * w[a, 1] + R[a, 1, 2] * w[a, 2]
+    W2 = R[a, 2, 0] * w[a, 0] + R[a, 2, 1] * w[a, 1] + R[a, 2, 2] * w[a, 2]
+    # velocity of the contact point: v + W x (-ra n), then its tangential part
+    c0 = v[a, 0] - ra * (W1 * n2 - W2 * n1)
+    c1 = v[a, 1] - ra * (W2 * n0 - W0 * n2)
+    c2 = v[a, 2] - ra * (W0 * n1 - W1 * n0)
+    vn = c0 * n0 + c1 * n1 + c2 * n2
+    c0 -= vn * n0
+    c1 -= vn * n1
+    c2 -= vn * n2
+    speed = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    if not speed > 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    # moment axis k = n x v_t/|v_t| in the body frame: 1/m_eff = 1/m + ra^2 k . J^-1 k
+    k0 = (n1 * c2 - n2 * c1) / speed
+    k1 = (n2 * c0 - n0 * c2) / speed
+    k2 = (n0 * c1 - n1 * c0) / speed
+    kb0 = R[a, 0, 0] * k0 + R[a, 1, 0] * k1 + R[a, 2, 0] * k2
+    kb1 = R[a, 0, 1] * k0 + R[a, 1, 1] * k1 + R[a, 2, 1] * k2
+    kb2 = R[a, 0, 2] * k0 + R[a, 1, 2] * k1 + R[a, 2, 2] * k2
+    inertia = rod.inertia
+    im = 1.0 / rod.mass[a] + ra * ra * (kb0 * kb0 / inertia[a, 0] + kb1 * kb1 / inertia[a, 1]
+                                        + kb2 * kb2 / inertia[a, 2])
+    s = -mu * fn / max(speed, vs, h * mu * fn * im)
+    f0 = s * c0
+    f1 = s * c1
+    f2 = s * c2
+    return f0, f1, f2, -ra * (n1 * f2 - n2 * f1), -ra * (n2 * f0 - n0 * f2), -ra * (n0 * f1 - n1 * f0)
+
+
+@njit(**_INLINE)
+def _obstacle_gap(a, o, x0, x1, x2, ra, inputs):
+    """Gap [m] between the surface of node a (centreline point x, rod radius ra) and obstacle o,
+    and the obstacle's unit normal at the node, pointing to the rod's side; gap 1 where the normal
+    is undefined (a node on a sphere's centre or a cylinder's axis, a vessel's open ends)."""
+    geom = inputs.contact_geom
+    kd = inputs.contact_kind[o]
+    if kd == PLANE:
+        n0 = geom[o, 3]
+        n1 = geom[o, 4]
+        n2 = geom[o, 5]
+        return (x0 - geom[o, 0]) * n0 + (x1 - geom[o, 1]) * n1 + (x2 - geom[o, 2]) * n2 - ra, n0, n1, n2
+    if kd == VESSEL:
+        return _vessel_gap(a, o, x0, x1, x2, ra, inputs)
+    q0 = x0 - geom[o, 0]
+    q1 = x1 - geom[o, 1]
+    q2 = x2 - geom[o, 2]
+    if kd == CYLINDER:
+        qa = q0 * geom[o, 3] + q1 * geom[o, 4] + q2 * geom[o, 5]
+        q0 -= qa * geom[o, 3]
+        q1 -= qa * geom[o, 4]
+        q2 -= qa * geom[o, 5]
+    d = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+    if not d > 0.0:
+        return 1.0, 0.0, 0.0, 0.0
+    return d - geom[o, 6] - ra, q0 / d, q1 / d, q2 / d
+
+
+@njit(**_INLINE)
+def _contact_loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
+    """work_f += the contact force and torque (world) of every node (docs/lgvi.md §2.11): penalty
+    normal force fn = max(0, -k_a gap - c_a v_n) along the obstacle normal at the node, and
+    friction (``_friction``), from the configuration (R, r) and the staggered velocities v (world)
+    and w (body). At a saved step (``record``), the saved nodes' applied loads before the contact
+    (inputs.contact_applied) and their contact loads (inputs.contact_samples[row]) are kept."""
+    node = inputs.contact_node
+    fric = inputs.contact_friction
+    for a in range(len(r)):
+        x0 = r[a, 0]
+        x1 = r[a, 1]
+        x2 = r[a, 2]
+        ra = node[a, 0]
+        touched = False
+        f0 = f1 = f2 = t0 = t1 = t2 = 0.0
+        for o in range(len(inputs.contact_kind)):
+            gap, n0, n1, n2 = _obstacle_gap(a, o, x0, x1, x2, ra, inputs)
+            if gap < 0.0:
+                fn = -node[a, 1] * gap - node[a, 2] * (n0 * v[a, 0] + n1 * v[a, 1] + n2 * v[a, 2])
+                if fn > 0.0:
+                    touched = True
+                    f0 += fn * n0
+                    f1 += fn * n1
+                    f2 += fn * n2
+                    if fric[o, 0] > 0.0:
+                        ft0, ft1, ft2, m0, m1, m2 = _friction(a, h, fric[o, 0], fric[o, 1], fn, ra, n0, n1, n2,
+                                                              R, v, w, rod)
+                        f0 += ft0
+                        f1 += ft1
+                        f2 += ft2
+                        t0 += m0
+                        t1 += m1
+                        t2 += m2
+        if record:
+            slot = save_slot[a]
+            if slot >= 0:
+                for c in range(6):
+                    inputs.contact_applied[a, c] = work_f[a, c]
+                smp = inputs.contact_samples
+                smp[row, slot, 0] = f0
+                smp[row, slot, 1] = f1
+                smp[row, slot, 2] = f2
+                smp[row, slot, 3] = t0
+                smp[row, slot, 4] = t1
+                smp[row, slot, 5] = t2
+        if touched:
+            work_f[a, 0] += f0
+            work_f[a, 1] += f1
+            work_f[a, 2] += f2
+            work_f[a, 3] += t0
+            work_f[a, 4] += t1
+            work_f[a, 5] += t2
+
+
+@njit(**_INLINE)
+def _applied_outputs(row, inputs, out):
+    """out.forces[row], out.torques[row] <- the saved nodes' applied loads without the contact
+    loads (kept by ``_contact_loads`` at this saved step)."""
+    save_slot = out.save_slot
+    for a in range(len(save_slot)):
+        slot = save_slot[a]
+        if slot >= 0:
+            for c in range(3):
+                out.forces[row, slot, c] = inputs.contact_applied[a, c]
+                out.torques[row, slot, c] = inputs.contact_applied[a, 3 + c]
+
+
+@njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
+def contact_wrench_into(h, R, r, v, w, rod, inputs, work_f):
+    """work_f (n, 6) += the contact force [N] and torque [N m] (world frame) of every node in the
+    configuration R (n, 3, 3), r (n, 3) [m] with the staggered velocities v (n, 3) [m/s] (world)
+    and w (n, 3) [rad/s] (body), step h [s], as ``advance_into`` applies them (``inputs`` a
+    ``StepInputs`` with contact; its tracked vessel segments are updated). For the start at rest."""
+    _contact_loads(0, False, h, R, r, v, w, rod, inputs, inputs.contact_kind, work_f)
 
 
 @njit(**_INLINE)
@@ -733,8 +989,9 @@ def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
     rod : LumpedRod; state : StateArrays, advanced in place; inputs : StepInputs of the steps of
     this call (step i at t = (k0 + i) h); out : Samples. A sample is written when
     (k0 + i) % stride == 0, at row (k0 + i) // stride - s0, for the nodes with
-    out.save_slot >= 0, and the energies of the whole rod. work_f (n, 6): scratch for the applied
-    world force and torque of each node. status is OK, DIVERGED or NEWTON_FAILED; the step index
+    out.save_slot >= 0, and the energies of the whole rod (with obstacles, the contact loads into
+    inputs.contact_samples). work_f (n, 6): scratch for the applied world force and torque of each
+    node. status is OK, DIVERGED or NEWTON_FAILED; the step index
     is k0 + n_steps, or that of the failed step.
     """
     R = state.rotations
@@ -761,6 +1018,11 @@ def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
         # ---- tensions of the tendons driven by a displacement, from the configuration at t_k ----
         if len(inputs.tendon_stiffness) > 0:
             _tendon_springs(i, R, r, rod, inputs)
+        # ---- contact loads from the configuration at t_k (none without obstacles) ----
+        contact = len(inputs.contact_kind) > 0
+        if contact:
+            _contact_loads(row, record, h, R, r, state.velocities, state.angular_velocities, rod, inputs,
+                           save_slot, work_f)
         e_kin = 0.0
         e_el = 0.0
         e_g = 0.0
@@ -831,6 +1093,8 @@ def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
             out_e[row, 0] = e_kin
             out_e[row, 1] = e_el
             out_e[row, 2] = e_g
+            if contact:
+                _applied_outputs(row, inputs, out)
     return OK, k0 + n_steps
 
 
@@ -843,7 +1107,8 @@ def advance(rod, state, inputs, out, h, k0, n_steps, stride, s0):
 @njit(parallel=True, cache=True)
 def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
     """Advance B independent rods of one ``rod`` (see ``advance_into``): state, inputs (except
-    the node indices and gains) and out (except save_slot) carry a leading batch axis (B, ...).
+    the node indices and gains, and the contact arrays: a batch has no obstacles) and out (except
+    save_slot) carry a leading batch axis (B, ...).
     status (B, 2) int64 receives (code, step) per rod."""
     st = state
     inp = inputs
@@ -856,7 +1121,10 @@ def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
                         st.prev_curvature[b], st.prev_shear[b]),
             StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
                        inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b],
-                       inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b]),
+                       inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b], inp.contact_kind,
+                       inp.contact_geom, inp.contact_range, inp.contact_friction, inp.contact_points,
+                       inp.contact_radii, inp.contact_node, inp.contact_segment, inp.contact_samples,
+                       inp.contact_applied),
             Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b],
                     out.angular_velocities[b], out.forces[b], out.torques[b], out.reaction_forces[b],
                     out.reaction_torques[b], out.energy[b]),

@@ -18,6 +18,7 @@ from ..errors import SoftrnnInputError, bad, nonnegative
 from ..progress import Progress
 from . import implicit, kernels
 from .boundary import Clamp, Pin
+from .contact import Contact, check_initial, step_limit
 from .discrete import segment_strains
 from .inputs import SetupInputs
 from .kernels import Samples
@@ -26,7 +27,7 @@ from .lumped import lumped_rod
 from .shapes import RodShape
 from .so3 import quaternion_to_matrix
 from .spec import RodSpec
-from .stability import DEFAULT_SAFETY, stable_step
+from .stability import DEFAULT_SAFETY, omega_max, stable_step
 from .state import SAMPLE_FIELDS, RodState, empty_samples, half_kick, initial_state
 from .status import raise_for_status
 from .tendons import Tendon, check_offset
@@ -137,7 +138,11 @@ class Setup:
     ``gravity`` is a constant (3,) [m/s^2], or a time function t (K,) [s] -> (K, 3) [m/s^2] (e.g.
     ``Scheduled(Constant((0, 0, -9.81)), ramp=0.5)``), applied as the world force m_a g(t) on every
     node with the nodal loads: ``Trajectory.forces`` then include it, and the gravitational term
-    of ``Trajectory.energy`` (which counts a constant gravity only) is 0."""
+    of ``Trajectory.energy`` (which counts a constant gravity only) is 0.
+
+    ``contact`` (a ``softrnn.rod.contact.Contact``, default None: no obstacles) adds rigid obstacles
+    with friction (docs/lgvi.md §2.11); the initial shape must not start deeper in one than the rod's
+    radius."""
 
     rod: RodSpec
     reference: RodShape
@@ -147,6 +152,7 @@ class Setup:
     damping: Damping = field(default_factory=Damping)
     gravity: tuple | object = (0.0, 0.0, 0.0)
     tendons: tuple = ()
+    contact: Contact | None = None
 
     def __post_init__(self):
         n = self.rod.n_nodes
@@ -188,6 +194,10 @@ class Setup:
                 raise bad("loads", load, "NodalLoad or PDTracking entries")
             self.node_index(load.node, "load node")
         self._check_tendons()
+        if self.contact is not None:
+            if not isinstance(self.contact, Contact):
+                raise bad("contact", self.contact, "a softrnn.rod.contact.Contact, or None for no obstacles")
+            check_initial(self.contact, self.initial.positions, self.rod.node_properties()["radius"])
 
     def _check_tendons(self) -> None:
         """Tendons: ``Tendon`` entries, distinct names, terminations on the rod, offsets inside
@@ -269,7 +279,10 @@ class Trajectory:
     wall_time [s] of the run. tendon_tensions (S, m) [N]: the tensions of the setup's m tendons the
     run applied at each sample, in ``Setup.tendons`` order (those of tendons driven by a displacement
     computed from the sample's configuration); None for a run without a tendon driven by a
-    displacement (the tensions are then the tendons' own profiles).
+    displacement (the tensions are then the tendons' own profiles). contact_forces, contact_torques
+    (S, s, 3) [N], [N m]: the contact loads of ``Setup.contact`` on the saved nodes (normal force and
+    friction, and the friction's moment about the node), world frame, applied at each sample's step
+    (not part of ``forces``); None without contact.
     """
 
     time: np.ndarray
@@ -287,6 +300,8 @@ class Trajectory:
     substeps: int
     wall_time: float = 0.0
     tendon_tensions: np.ndarray | None = None
+    contact_forces: np.ndarray | None = None
+    contact_torques: np.ndarray | None = None
 
     @property
     def n_steps(self) -> int:
@@ -320,16 +335,18 @@ class RunStats:
 
 
 def _to_trajectory(out: Samples, times: np.ndarray, nodes: np.ndarray, h: float, substeps: int,
-                   tensions: np.ndarray | None = None) -> "Trajectory":
+                   tensions: np.ndarray | None = None, contact: np.ndarray | None = None) -> "Trajectory":
+    loads = {} if contact is None else {"contact_forces": contact[..., :3], "contact_torques": contact[..., 3:]}
     return Trajectory(time=times, nodes=nodes, step=h, substeps=substeps, tendon_tensions=tensions,
-                      **{name: getattr(out, name) for name in SAMPLE_FIELDS})
+                      **{name: getattr(out, name) for name in SAMPLE_FIELDS}, **loads)
 
 
 def _concatenate(chunks: list, stats: "RunStats") -> "Trajectory":
     first = chunks[0]
     arrays = {name: np.concatenate([getattr(c, name) for c in chunks]) for name in ("time",) + SAMPLE_FIELDS}
-    if first.tendon_tensions is not None:
-        arrays["tendon_tensions"] = np.concatenate([c.tendon_tensions for c in chunks])
+    for name in ("tendon_tensions", "contact_forces", "contact_torques"):
+        if getattr(first, name) is not None:
+            arrays[name] = np.concatenate([getattr(c, name) for c in chunks])
     return Trajectory(nodes=first.nodes, step=stats.step, substeps=stats.substeps, wall_time=stats.wall_time,
                       **arrays)
 
@@ -377,8 +394,13 @@ class Simulator:
     kind = _from_rod("kind", "Node kinds (n,) int64: kernels.FREE, CLAMPED or PINNED.")
 
     def stable_step(self, safety: float = DEFAULT_SAFETY) -> float:
-        """Largest accepted solver step h [s] for this setup."""
-        return stable_step(self.rod._asdict(), self.rod.length, self.setup.damping.kelvin_voigt, safety)
+        """Largest accepted solver step h [s] for this setup; with contact, the contact springs and
+        dampers add to the fastest node's frequency (``rod.contact.step_limit``)."""
+        h = stable_step(self.rod._asdict(), self.rod.length, self.setup.damping.kelvin_voigt, safety)
+        if self.inputs.contact is None:
+            return h
+        omega = omega_max(self.rod._asdict(), self.rod.length)
+        return min(h, safety * step_limit(self.inputs.contact["contact_node"], self.rod.mass, omega))
 
     def step_input_bytes(self) -> int:
         """Bytes of per-step inputs a chunk holds (``SetupInputs.step_bytes``)."""
@@ -391,6 +413,8 @@ class Simulator:
         S = config.n_samples
         per_chunk = max(1, min(_CHUNK_SAMPLES, _CHUNK_STEPS // substeps))
         n_saved = self.setup.rod.n_nodes if config.save_nodes is None else len(config.save_nodes)
+        if self.inputs.contact is not None and not streamed:  # contact_forces and contact_torques
+            extra_bytes_per_sample += 6 * 8 * n_saved
         check_run_size(n_samples=S, dt=config.dt, substeps=substeps, n_saved=n_saved,
                        held_samples=min(S, per_chunk) if streamed else S, chunk_steps=per_chunk * substeps,
                        step_bytes=self.inputs.step_bytes(), extra_bytes=S * extra_bytes_per_sample,
@@ -405,6 +429,8 @@ class Simulator:
             if config.substeps is not None:
                 return int(config.substeps)
             limit = implicit.accuracy_step(self.rod, self.inputs.pd_gain, config.safety)
+            if self.inputs.contact is not None:  # the contact loads stay explicit
+                limit = min(limit, config.safety * step_limit(self.inputs.contact["contact_node"], self.rod.mass))
             return max(1, math.ceil(config.dt / limit * (1 - 1e-12)))
         return choose_substeps(config, self.stable_step(config.safety))
 
@@ -437,14 +463,16 @@ class Simulator:
             j1 = min(j0 + per_chunk, S - 1) if j0 < S - 1 else S
             out = empty_samples(slot, j1 - j0, nodes.size)
             tensions = np.zeros((j1 - j0, len(self.setup.tendons))) if self.inputs.displaced else None
+            contact = np.zeros((j1 - j0, nodes.size, 6)) if self.inputs.contact is not None else None
             if j0 < S - 1:
-                self._advance(self.state, t0, h, j0 * substeps, (j1 - j0) * substeps, substeps, j0, out, tensions)
+                self._advance(self.state, t0, h, j0 * substeps, (j1 - j0) * substeps, substeps, j0, out, tensions,
+                              contact)
                 self.steps_done = k_start + j1 * substeps
                 self.state.time = t0 + j1 * substeps * h
             else:
                 # the last sample's mid-step velocity needs one more step, taken on a copy
-                self._advance(self.state.copy(), t0, h, j0 * substeps, 1, substeps, j0, out, tensions)
-            chunk = _to_trajectory(out, t0 + config.dt * np.arange(j0, j1), nodes, h, substeps, tensions)
+                self._advance(self.state.copy(), t0, h, j0 * substeps, 1, substeps, j0, out, tensions, contact)
+            chunk = _to_trajectory(out, t0 + config.dt * np.arange(j0, j1), nodes, h, substeps, tensions, contact)
             if sink is None:
                 chunks.append(chunk)
             else:
@@ -468,6 +496,8 @@ class Simulator:
     def _half_kick(self, h: float) -> None:
         """Start the staggered velocities of a state at rest (``rod.state.half_kick``)."""
         inputs = self.inputs.at(np.array([self.state.time]), h)
+        if self.inputs.contact is not None:
+            inputs = self.inputs.with_contact(inputs, self.state.contact_segment, np.zeros((0, 0, 6)))
         if self._integrator != "implicit":
             half_kick(self.rod, self.state, inputs, h)
             return
@@ -478,11 +508,16 @@ class Simulator:
             raise_for_status(implicit.SINGULAR, step=0, t0=self.state.time, h=h)
 
     def _advance(self, st: RodState, t0: float, h: float, k0: int, n_steps: int, stride: int, s0: int,
-                 out: Samples, tensions: np.ndarray | None = None) -> None:
+                 out: Samples, tensions: np.ndarray | None = None, contact: np.ndarray | None = None) -> None:
         """Steps k0 .. k0 + n_steps - 1 into ``out``; ``tensions`` (rows of out, m) [N], if given,
-        receives the tendon tensions applied at the saved steps."""
+        receives the tendon tensions applied at the saved steps, and ``contact`` (rows of out, saved
+        nodes, 6), with contact, the contact force [N] and torque [N m] (a scratch one if None)."""
         t = t0 + (k0 + np.arange(n_steps)) * h
         inputs = self.inputs.at(t, h)
+        if self.inputs.contact is not None:
+            if contact is None:
+                contact = np.zeros(out.positions.shape[:2] + (6,))
+            inputs = self.inputs.with_contact(inputs, st.contact_segment, contact)
         if self._integrator == "implicit":
             work = self._implicit_work()
             code, step = implicit.advance(self._elastic, self.setup.damping.kelvin_voigt, st.arrays(), inputs,

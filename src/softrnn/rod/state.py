@@ -1,13 +1,14 @@
 """The integrator's state and output buffers: ``RodState``, the start from the initial shape at
 rest (with a half kick) and the kernels' ``Samples`` buffers."""
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from .contact import initial_segments
 from .discrete import internal_loads, segment_strains
 from .inputs import SetupInputs
-from .kernels import CLAMPED, FREE, LumpedRod, Samples, StateArrays, StepInputs
+from .kernels import CLAMPED, FREE, LumpedRod, Samples, StateArrays, StepInputs, contact_wrench_into
 from .tendons import spring_tensions, tendon_lengths, tendon_resultants
 
 SAMPLE_FIELDS = Samples._fields[1:]
@@ -18,7 +19,9 @@ SAMPLE_FIELDS = Samples._fields[1:]
 class RodState:
     """Mutable integrator state (n nodes): rotations (n, 3, 3), positions (n, 3) [m], staggered
     velocities (n, 3) [m/s] (world) and angular_velocities (n, 3) [rad/s] (body), the previous
-    strains prev_curvature, prev_shear (n - 1, 3) [1/m], [-] and the time [s]."""
+    strains prev_curvature, prev_shear (n - 1, 3) [1/m], [-], the time [s] and, with contact
+    (``rod.contact``), contact_segment (n, o) int64: per node and obstacle the tracked closest
+    segment of a vessel's polyline (0 for other obstacles; (0, 0) without contact)."""
 
     rotations: np.ndarray
     positions: np.ndarray
@@ -27,12 +30,13 @@ class RodState:
     prev_curvature: np.ndarray
     prev_shear: np.ndarray
     time: float = 0.0
+    contact_segment: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.int64))
 
     def copy(self) -> "RodState":
         """A deep copy."""
         return RodState(self.rotations.copy(), self.positions.copy(), self.velocities.copy(),
                         self.angular_velocities.copy(), self.prev_curvature.copy(), self.prev_shear.copy(),
-                        self.time)
+                        self.time, self.contact_segment.copy())
 
     def arrays(self) -> StateArrays:
         """The arrays as the kernels' record (the same arrays: the kernels step them in place)."""
@@ -54,7 +58,10 @@ def initial_state(setup, rod: LumpedRod, inputs: SetupInputs) -> RodState:
                 R[a] = rot[0, j]
     K, G = segment_strains(R, r, rod.length)
     n = r.shape[0]
-    return RodState(R, r, np.zeros((n, 3)), np.zeros((n, 3)), K, G, 0.0)
+    state = RodState(R, r, np.zeros((n, 3)), np.zeros((n, 3)), K, G, 0.0)
+    if setup.contact is not None:
+        state.contact_segment = initial_segments(setup.contact, r)
+    return state
 
 
 def half_kick(rod: LumpedRod, state: RodState, inputs: StepInputs, h: float) -> None:
@@ -65,7 +72,8 @@ def half_kick(rod: LumpedRod, state: RodState, inputs: StepInputs, h: float) -> 
     rod : the lumped rod; state : at rest, changed in place; inputs : ``StepInputs`` whose first
     step (ext_w[0], pd_target[0], tendon_tension[0], tendon_displacement[0]) holds the loads at the
     state's time (the tensions of tendons driven by a displacement are computed here from the
-    state, as the kernel does); h : solver step [s].
+    state, as the kernel does; the contact loads too, ``kernels.contact_wrench_into``); h : solver
+    step [s].
     """
     R, r = state.rotations, state.positions
     terms = None
@@ -87,6 +95,11 @@ def half_kick(rod: LumpedRod, state: RodState, inputs: StepInputs, h: float) -> 
         t[a] += R[a].T @ ext_w[0, j, 3:6] + ext_w[0, j, 9:12]
     for j, a in enumerate(inputs.pd_idx):
         f[a] += inputs.pd_gain[j, 0] * (inputs.pd_target[0, j] - r[a])
+    if inputs.contact_kind.size:  # the contact loads at rest (inputs as ``SetupInputs.with_contact`` gives)
+        wrench = np.zeros((len(r), 6))
+        contact_wrench_into(h, R, r, state.velocities, state.angular_velocities, rod, inputs, wrench)
+        f += wrench[:, :3]
+        t += np.einsum("aji,aj->ai", R, wrench[:, 3:])
     free = rod.kind == FREE
     state.velocities[free] = -0.5 * h * f[free] / rod.mass[free, None]
     rot = rod.kind != CLAMPED
