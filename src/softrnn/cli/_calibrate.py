@@ -9,7 +9,7 @@ from ..calibration.fit import FitOptions
 from ..calibration.parallel import Evaluator
 from ..calibration.scenario import HEADER, fitted_text, prepare
 from ..calibration.scenario import run as run_calibration
-from ..errors import bad
+from ..errors import SoftrnnInputError, bad
 from ..figures.data import FIGURE_SUFFIXES, check_suffix
 from ..files import atomic_write_bytes, atomic_write_text, json_default, prepare_output
 from ..io.reader import read_dataset
@@ -94,7 +94,12 @@ def run(args) -> int:
     if isinstance(args.max_evaluations, bool) or args.max_evaluations < 2:
         raise bad("--max-evaluations", args.max_evaluations, "an integer >= 2")
     nodes = _nodes(args.nodes)
-    scenario = load_scenario(args.scenario)
+    try:
+        scenario = load_scenario(args.scenario)
+    except SoftrnnInputError as err:    # the library's scenario=... is this command's --scenario=...
+        if str(err).startswith("scenario="):
+            raise SoftrnnInputError(f"--{err}") from None
+        raise
     dataset = read_dataset(args.data, group=args.group)
     cache = out.parent / f".{out.name}.trials"
     options = FitOptions(max_evaluations=args.max_evaluations)

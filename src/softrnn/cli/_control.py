@@ -1,10 +1,13 @@
 """softrnn control magnetic: close the loop on the simulated magnetic rod (camera at 30 Hz, a
 controller setting the coil currents each frame)."""
 
+import zipfile
+from pathlib import Path
+
 from ..control.controllers import CONTROLLERS
 from ..control.loop import LoopConfig
 from ..control.references import REFERENCES, reference
-from ..control.run import FIGURE_FILE, RUN_FILE, SUMMARY_FILE, control_run, learned_model
+from ..control.run import FIGURE_FILE, MODEL_FILE, RUN_FILE, SUMMARY_FILE, control_run, learned_model
 from ..errors import bad
 from ..files import prepare_output
 from ..magnetics.manipulator import ManipulatorSpec
@@ -63,6 +66,7 @@ def run(args) -> int:
     if args.controller == "mpc-learned":
         if args.identify_seconds < 5:
             raise bad("--identify-seconds", args.identify_seconds, "at least 5 s of identification")
+        _check_model_file(args.model)
         # identified on the experiment's robot: --stiffness/--remanence perturb the plant after it
         with Bar("identify and train mpc-learned", unit="step", enabled=not args.quiet) as bar:
             model = learned_model(args.out, args.model, identify_seconds=args.identify_seconds,
@@ -115,6 +119,26 @@ def _check_size(duration, config: LoopConfig) -> None:
                               ManipulatorRun(dt=1.0 / config.rate, n_samples=int(round(frames)), settle=config.settle))
     except SoftrnnInputError as err:
         raise bad("--duration", duration, f"a shorter closed loop: {err}") from None
+
+
+def _check_model_file(path) -> None:
+    """Refuse a ``--model`` that cannot be a control model (missing, a folder, not an ``.npz`` archive)
+    with one line naming it, before numpy reads it (whose message for a foreign file suggests
+    ``allow_pickle``)."""
+    if path is None:
+        return
+    what = f"a control model file written by softrnn control (DIR/{MODEL_FILE})"
+    p = Path(path)
+    if not p.exists():
+        raise bad("--model", path, f"{what}, but there is no such file")
+    if p.is_dir():
+        raise bad("--model", path, f"{what}, but it is a folder")
+    try:
+        archive = zipfile.is_zipfile(p)
+    except OSError as err:
+        raise bad("--model", path, f"{what}, but it cannot be read ({err.strerror or type(err).__name__})") from None
+    if not archive:
+        raise bad("--model", path, f"{what}, but it is not one (not an .npz archive)")
 
 
 def _plan_spec(text):

@@ -72,6 +72,12 @@ def add_args(p):
     x.add_argument("--samples", type=int, default=300, help="rows (default: 300)")
     x.add_argument("--seed", type=int, default=1, help="random seed (default: 1)")
     x.add_argument("--overwrite", action="store_true", help="replace PATH if it exists (default: refuse)")
+    x.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+UNITS = {"simulate": "sample", "predict": "sample", "static": "sample", "calibrate": "simulation",
+         "evaluate": "magnet"}
+"""The unit each stage counts in (others: ``step``)."""
 
 
 class _Stages:
@@ -89,7 +95,7 @@ class _Stages:
         if stage != self.stage:
             self.close()
             self.stage = stage
-            self.bar = Bar(stage, unit="step")
+            self.bar = Bar(stage, unit=UNITS.get(stage, "step"))
         self.bar(done, total)
 
     def close(self) -> None:
@@ -153,42 +159,87 @@ def _print_result(result: dict) -> None:
     print(f"figure: {result['figure']}")
 
 
+_FLAGS = {"samples": "--samples", "epochs": "--epochs", "seed": "--seed"}
+"""``ExperimentConfig`` fields set from a flag, named by the flag in an error."""
+
+
+def _config(make=None, **fields):
+    """``make(**fields)`` (None: ``ExperimentConfig``), its one-line error naming the flag that set the field."""
+    from ..errors import SoftrnnInputError
+    from ..experiments.magnetic import ExperimentConfig
+
+    try:
+        return (ExperimentConfig if make is None else make)(**fields)
+    except SoftrnnInputError as err:
+        text = str(err)
+        for name, flag in _FLAGS.items():
+            if text.startswith(f"{name}=") and name in fields:
+                raise SoftrnnInputError(flag + text[len(name):]) from None
+        raise
+
+
+def _check_size(config) -> None:
+    """Refuse ``--samples`` too many for this machine before anything is made or written
+    (``check_experiment_size``: the simulated robot's arrays and solver steps)."""
+    from ..errors import SoftrnnInputError, bad
+    from ..experiments.magnetic import check_experiment_size
+
+    try:
+        check_experiment_size(config)
+    except SoftrnnInputError as err:
+        raise bad("--samples", config.samples, f"fewer samples: {err}") from None
+
+
+def _example_csv(args) -> int:
+    """softrnn magnetic example-csv PATH: a short simulated run in the lab format."""
+    from ..errors import bad
+    from ..experiments.magnetic.lab import example_config, write_example_csv
+    from ..files import prepare_output
+
+    if args.samples < 20:
+        raise bad("--samples", args.samples, "at least 20 rows")
+    _check_size(_config(example_config, samples=args.samples, seed=args.seed))
+    prepare_output(args.path, "PATH", overwrite=args.overwrite)
+    with Bar("example-csv", unit="sample", enabled=not args.quiet) as bar:
+        data = write_example_csv(args.path, args.samples, seed=args.seed, progress=bar)
+    print(f"wrote {args.path}: {data.n_samples} rows, t = 0 .. {data.time[-1]:g} s")
+    return 0
+
+
 def run(args) -> int:
-    from ..errors import bad, require_extra
-    from ..experiments.magnetic import FIGURE_FILE, TABLE_FILE, ExperimentConfig, run_experiment
+    from ..errors import require_extra
+    from ..experiments.magnetic import FIGURE_FILE, TABLE_FILE, run_experiment
     from ..files import atomic_write_text, prepare_output
 
     if args.magnetic == "example-csv":
-        from ..experiments.magnetic.lab import write_example_csv
-
-        if args.samples < 20:
-            raise bad("--samples", args.samples, "at least 20 rows")
-        prepare_output(args.path, "PATH", overwrite=args.overwrite)
-        data = write_example_csv(args.path, args.samples, seed=args.seed)
-        print(f"wrote {args.path}: {data.n_samples} rows, t = 0 .. {data.time[-1]:g} s")
-        return 0
+        return _example_csv(args)
+    fields = {"seed": args.seed, "output": args.output, "calibrate": bool(args.calibrate)}
+    if args.epochs is not None:
+        fields["epochs"] = args.epochs
+    if args.magnetic == "experiment":
+        if args.samples is not None:
+            fields["samples"] = args.samples
+        config = _config(quick=args.quick, **fields)
+        _check_size(config)   # an absurd --samples is refused before anything else
+    else:
+        config = _config(**fields)
     require_extra("learn")    # the LSTMs: refused before the robot is simulated
     prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite, holds=(TABLE_FILE, FIGURE_FILE),
                    fix="pass --overwrite to replace them, or choose another folder")
     if args.json:
         prepare_output(args.json, "--json", overwrite=args.overwrite)
-    fields = {"seed": args.seed, "output": args.output, "calibrate": bool(args.calibrate)}
     from ..calibration.parallel import Evaluator
 
     Evaluator(workers=args.workers, scheduler=args.scheduler)          # checks --workers, --scheduler now
-    if args.epochs is not None:
-        fields["epochs"] = args.epochs
     with _Stages(not args.quiet) as progress:
         if args.magnetic == "experiment":
-            if args.samples is not None:
-                fields["samples"] = args.samples
-            result = run_experiment(ExperimentConfig(quick=args.quick, **fields), args.out, progress=progress,
-                                    workers=args.workers, scheduler=args.scheduler)
+            result = run_experiment(config, args.out, progress=progress, workers=args.workers,
+                                    scheduler=args.scheduler)
         else:
             from ..experiments.magnetic.lab import compare_lab
 
-            result = compare_lab(args.csv, ExperimentConfig(**fields), args.out, progress=progress,
-                                 workers=args.workers, scheduler=args.scheduler)
+            result = compare_lab(args.csv, config, args.out, progress=progress, workers=args.workers,
+                                 scheduler=args.scheduler)
     _print_result(result)
     if args.json:
         atomic_write_text(args.json, json.dumps(result, indent=2, allow_nan=False) + "\n")

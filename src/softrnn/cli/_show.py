@@ -1,10 +1,12 @@
 """softrnn show DATA.h5: print a summary of a dataset file (text or JSON)."""
 
 import json
+import time
 
 from ..errors import SoftrnnInputError
 from ..files import atomic_write_text, prepare_output
 from ..io.summary import describe
+from ._progress import Bar
 from ._vocabulary import STDOUT, JsonOrSwitch, note
 
 NAME = "show"
@@ -19,6 +21,32 @@ def add_args(p):
     p.add_argument("--overwrite", action="store_true", help="replace the --json file if it exists (default: refuse)")
     p.add_argument("--quick", action="store_true",
                    help="do not read and check every value (only the time axis and three nodes)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar while every value is checked")
+
+
+SHOW_AFTER = 1.0
+"""Seconds the check of every value runs before its progress bar appears."""
+
+
+class _Checking:
+    """The ``Progress`` of the check of every value: a ``Bar`` that appears once the check has run
+    ``SHOW_AFTER`` s, so that a small file is summarised without one and an error in it stays one line."""
+
+    def __init__(self, enabled: bool):
+        self.bar = Bar("show: checking every value", unit="sample", enabled=enabled)
+        self.start = None
+
+    def __call__(self, done: int, total: int, info: dict | None = None) -> None:
+        now = time.perf_counter()
+        self.start = now if self.start is None else self.start
+        if now - self.start >= SHOW_AFTER:
+            self.bar(done, total)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.bar.close()
 
 
 def _path(args) -> str:
@@ -36,7 +64,8 @@ def run(args) -> int:
     path = _path(args)
     if args.json not in (None, STDOUT):
         prepare_output(args.json, "--json", overwrite=args.overwrite)
-    summary = describe(path, group=args.group, verify=not args.quick)
+    with _Checking(enabled=not (args.quiet or args.quick)) as progress:
+        summary = describe(path, group=args.group, verify=not args.quick, progress=progress)
     print(json.dumps(summary, indent=2) if args.json == STDOUT else format_summary(summary))
     if args.json not in (None, STDOUT):
         atomic_write_text(args.json, json.dumps(summary, indent=2))

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
+from ..io.csv_import import read_csv_lines, shown
 
 REFERENCES = ("step", "sine", "random")
 """The shipped references (``reference(name, ...)``); a path to a CSV is the user's own."""
@@ -120,31 +121,50 @@ def _waves(f: np.ndarray, ph: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.sin(2 * math.pi * f[None] * t[:, None] + ph[None]).sum(1) - np.sin(ph).sum()
 
 
+def _csv_rows(path: Path) -> tuple[list[int], np.ndarray]:
+    """The line numbers and values (K, 3) of a reference CSV's rows, after its header; a one-line
+    ``SoftrnnInputError`` naming the file for an unreadable, binary, empty or ragged file, a header
+    other than ``CSV_COLUMNS`` or a cell that is not a finite number."""
+    header = ",".join(CSV_COLUMNS)
+    lines = read_csv_lines(path, f"the header {header} (time [s], target angles about y and about x [deg])",
+                           SoftrnnInputError, what="the reference")
+    number, first = lines[0]
+    if tuple(c.strip().lower() for c in first.split(",")) != CSV_COLUMNS:
+        raise SoftrnnInputError(f"{path}: the header must be {header} (time [s], target angles about y and about "
+                                f"x [deg]); line {number} is {shown(first, 60)}")
+    rows = []
+    for number, line in lines[1:]:
+        try:
+            values = [float(p) for p in line.split(",")]
+        except ValueError:
+            values = []
+        if len(values) != 3 or not all(math.isfinite(v) for v in values):
+            raise SoftrnnInputError(f"{path}: line {number}: expected 3 finite numbers ({header}), got "
+                                    f"{shown(line, 60)}")
+        rows.append(values)
+    return [n for n, _ in lines[1:]], np.array(rows, dtype=np.float64).reshape(-1, 3)
+
+
 def _csv_reference(path: Path, t: np.ndarray) -> Reference:
     if path.suffix.lower() != ".csv":
         raise bad("--reference", str(path), f"one of {', '.join(REFERENCES)}, or a .csv file "
                                             f"({','.join(CSV_COLUMNS)})")
-    if not path.is_file():
+    if not path.exists():
         raise bad("--reference", str(path), "an existing .csv file (no such file)")
-    lines = [ln.strip() for ln in path.read_text(encoding="utf-8", errors="replace").splitlines()]
-    lines = [(i + 1, ln) for i, ln in enumerate(lines) if ln and not ln.startswith("#")]
-    if not lines or tuple(c.strip() for c in lines[0][1].split(",")) != CSV_COLUMNS:
-        raise SoftrnnInputError(f"{path}: the header must be {','.join(CSV_COLUMNS)} (time [s], target angles "
-                                f"about y and about x [deg])")
-    rows = []
-    for number, line in lines[1:]:
-        parts = line.split(",")
-        try:
-            values = [float(p) for p in parts]
-        except ValueError:
-            values = []
-        if len(values) != 3 or not all(math.isfinite(v) for v in values):
-            raise SoftrnnInputError(f"{path}: line {number}: expected 3 finite numbers ({','.join(CSV_COLUMNS)}), "
-                                    f"got {line!r}")
-        rows.append(values)
-    data = np.array(rows, dtype=np.float64).reshape(-1, 3)
-    if data.shape[0] < 2 or data[0, 0] != 0.0 or np.any(np.diff(data[:, 0]) <= 0):
-        raise SoftrnnInputError(f"{path}: the times must start at 0 and increase strictly (at least 2 rows)")
+    if path.is_dir():
+        raise bad("--reference", str(path), "a .csv file, but it is a folder")
+    numbers, data = _csv_rows(path)
+    rule = "the times must start at 0 and increase strictly (at least 2 rows)"
+    if data.shape[0] < 2:
+        raise SoftrnnInputError(f"{path}: has {data.shape[0]} data row{'s' if data.shape[0] != 1 else ''}; {rule}")
+    if data[0, 0] != 0.0:
+        raise SoftrnnInputError(f"{path}: line {numbers[0]}: the first time is {float(data[0, 0])!r}; {rule}")
+    steps = np.diff(data[:, 0])
+    if np.any(steps <= 0):
+        i = int(np.argmax(steps <= 0))
+        raise SoftrnnInputError(f"{path}: line {numbers[i + 1]}: time {float(data[i + 1, 0])!r} is not after "
+                                f"{float(data[i, 0])!r} (line {numbers[i]}); {rule}: sort the rows and drop "
+                                "duplicated ones")
     angles = np.stack([np.interp(t, data[:, 0], np.radians(data[:, 2])),
                        np.interp(t, data[:, 0], np.radians(data[:, 1]))], 1)
     return Reference(name=path.stem, times=t, angles=angles)

@@ -61,10 +61,25 @@ def _fail(path: Path, message: str) -> DatasetError:
 
 
 # ----------------------------------------------------------------------------------------- parsing
-def read_csv_lines(path: Path, expected: str, error=None) -> list[tuple[int, str]]:
-    """The non-empty, non-comment lines of a UTF-8 CSV file as (line number, stripped text);
-    a missing, folder, non-UTF-8 or empty file raises ``error`` (default ``DatasetError``) with a
-    one-line message naming the file (``expected``: what the header should hold)."""
+def shown(text, limit: int = 40) -> str:
+    """``repr`` of a piece of a user's file for a message: at most ``limit`` characters (then ``...``),
+    so that a header or cell of binary garbage stays short and on one line."""
+    text = str(text)
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + "..."
+
+
+_SIGNATURES = ((b"\x89HDF\r\n\x1a\n", "an HDF5 file (a softrnn dataset?)"),
+               (b"PK\x03\x04", "a ZIP archive (an Excel .xlsx workbook or a NumPy .npz?)"),
+               (b"\xd0\xcf\x11\xe0", "an old Excel .xls workbook"))
+"""Leading bytes of files that are often given where a CSV is expected, and what they are."""
+
+
+def read_text_file(path: Path, what: str, error=None) -> str:
+    """The text of a UTF-8 file (a byte-order mark is dropped); a missing, folder, unreadable,
+    UTF-16, non-UTF-8 or binary file (one holding NUL bytes; an HDF5 file or a workbook, named as
+    such by its first bytes, ``_SIGNATURES``) raises ``error`` (default
+    ``DatasetError``) with a one-line message naming the file and the fix (``what``: what the file
+    should be, e.g. ``"the lab data"``)."""
     def fail(message):
         return (error or DatasetError)(f"{path}: {message}")
 
@@ -73,13 +88,41 @@ def read_csv_lines(path: Path, expected: str, error=None) -> list[tuple[int, str
     if path.is_dir():
         raise fail("is a folder; pass a CSV file")
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        data = path.read_bytes()
+    except OSError as err:
+        raise fail(f"cannot be read ({err.strerror or type(err).__name__}); check the file and its "
+                   "permissions") from None
+    kind = next((name for magic, name in _SIGNATURES if data.startswith(magic)), None)
+    if kind:
+        raise fail(f"is {kind}, not a UTF-8 text file; export {what} as CSV (comma-separated text)")
+    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        raise fail(f"is a UTF-16 text file, not a UTF-8 text file; save {what} as UTF-8 CSV (comma-separated text)")
+    try:
+        text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
-        raise fail("is not a UTF-8 text file; export the lab data as CSV (comma-separated text)") from None
+        raise fail(f"is not a UTF-8 text file; export {what} as CSV (comma-separated text)") from None
+    if "\x00" in text:
+        raise fail(f"holds NUL bytes, so it is not a text file (binary data, or UTF-16 text without a byte-order "
+                   f"mark); export {what} as UTF-8 CSV (comma-separated text)")
+    return text
+
+
+def read_csv_lines(path: Path, expected: str, error=None, what: str = "the lab data") -> list[tuple[int, str]]:
+    """The non-empty, non-comment lines of a UTF-8 CSV file as (line number, stripped text);
+    a missing, folder, unreadable, non-UTF-8, binary or empty file, or one whose header is separated
+    by semicolons or tabs, raises ``error`` (default ``DatasetError``) with a one-line message naming
+    the file (``expected``: what the header should hold; ``what``: what the file should be,
+    ``read_text_file``)."""
+    text = read_text_file(Path(path), what, error)
     lines = [(n, line.strip()) for n, line in enumerate(text.splitlines(), start=1)
              if line.strip() and not line.strip().startswith("#")]
     if not lines:
-        raise fail(f"is empty (no header line); expected {expected}")
+        raise (error or DatasetError)(f"{path}: is empty (no header line); expected {expected}")
+    number, header = lines[0]
+    separator = next((name for sep, name in ((";", "semicolons"), ("\t", "tabs")) if sep in header), None)
+    if "," not in header and separator:
+        raise (error or DatasetError)(f"{path}: line {number} (header): the columns are separated by {separator}; "
+                                      "save the file comma-separated, with a decimal point '.'")
     return lines
 
 
@@ -119,7 +162,7 @@ def _parse_header(path: Path, number: int, line: str) -> tuple[list[str], dict, 
             raise _fail(path, f"line {number} (header): column {j + 1} has no name (a stray or trailing comma?); "
                               f"expected {PATTERN}")
     if names[0] != "time":
-        raise _fail(path, f"line {number} (header): the first column is {names[0]!r}; expected 'time' [s], "
+        raise _fail(path, f"line {number} (header): the first column is {shown(names[0])}; expected 'time' [s], "
                           f"then {PATTERN.split(', then ')[1]}")
     seen = {}
     layout: dict = {}
@@ -141,8 +184,8 @@ def _parse_header(path: Path, number: int, line: str) -> tuple[list[str], dict, 
         if not m or m.group(2) not in _COMPONENT:
             hint = (f"; actuation columns are named {_ACT_EXAMPLE}" if "[" in name or "]" in name
                     else f"; expected {PATTERN}")
-            shown = raw[j] if "[" in name or "]" in name else name
-            raise _fail(path, f"line {number} (header): column {shown!r} is not recognised{hint}")
+            given = raw[j] if "[" in name or "]" in name else name
+            raise _fail(path, f"line {number} (header): column {shown(given)} is not recognised{hint}")
         node, (field, k) = int(m.group(1)), _COMPONENT[m.group(2)]
         layout.setdefault(node, {}).setdefault(field, [None] * len(_GROUPS[field]))[k] = j
     if not layout:
@@ -190,8 +233,7 @@ def _parse_values(path: Path, names: list[str], rows: list[tuple[int, str]]) -> 
                 try:
                     float(cell)
                 except ValueError:
-                    shown = cell.strip()
-                    what = "is empty" if not shown else f"{shown!r} is not a number"
+                    what = "is empty" if not cell.strip() else f"{shown(cell.strip())} is not a number"
                     raise _fail(path, f"line {number}, column {names[j]!r} (column {j + 1}): the cell {what}; "
                                       f"every cell must be a number (decimal point '.', no units)") from None
         raise  # pragma: no cover - numpy and float() accept the same strings
@@ -199,7 +241,8 @@ def _parse_values(path: Path, names: list[str], rows: list[tuple[int, str]]) -> 
     if not finite.all():
         i, j = (int(v) for v in np.argwhere(~finite)[0])
         raise _fail(path, f"line {rows[i][0]}, column {names[j]!r} (column {j + 1}): the cell "
-                          f"{rows[i][1].split(',')[j].strip()!r} is not a finite number; every value must be finite")
+                          f"{shown(rows[i][1].split(',')[j].strip())} is not a finite number; every value must be "
+                          "finite")
     return values
 
 
@@ -229,11 +272,16 @@ def read_csv(csv_path) -> dict:
                           f"samples are needed")
     values = _parse_values(path, names, rows)
     time = values[:, 0].copy()
-    steps = np.diff(time)
+    with np.errstate(over="ignore"):   # times near +-1.8e308: refused below
+        steps = np.diff(time)
     if np.any(steps <= 0):
         i = int(np.argmax(steps <= 0))
         raise _fail(path, f"line {rows[i + 1][0]}: time {float(time[i + 1])!r} is not after {float(time[i])!r} "
                           f"(line {rows[i][0]}); rows must be in strictly increasing time order, without duplicates")
+    if not np.isfinite(steps).all():
+        i = int(np.argmax(~np.isfinite(steps)))
+        raise _fail(path, f"line {rows[i + 1][0]}: the step from time {float(time[i])!r} to {float(time[i + 1])!r} "
+                          "is not a finite number of seconds; times must be in s")
     nodes = np.array(sorted(layout), dtype=np.int64)
     T, N = len(rows), nodes.size
     arrays = {field: np.zeros((T, N, len(comps))) for field, comps in _GROUPS.items()}

@@ -6,13 +6,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ..progress import Progress
 from ._checks import _check_values, _layout, _root_info, _select
 from ._h5files import _Reading
 from .reader import read_dataset
 from .schema import ACTUATION, FIELDS, TIME_CHUNK, DatasetError
 
 
-def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool = True) -> dict:
+def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool = True,
+             progress: Progress | None = None) -> dict:
     """Summary of a dataset file for ``softrnn show``.
 
     Parameters
@@ -27,6 +29,9 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
         Also read the whole trajectory, block by block (bounded memory), and check every value
         (finite, unit quaternions, readable chunks). False: read only the time axis and the
         summarised nodes.
+    progress : softrnn.progress.Progress or None
+        With ``verify``: called as ``progress(done, n_samples)`` with the samples checked so far, 0
+        at the start and after each block (a 100 MB file takes seconds).
 
     Returns
     -------
@@ -53,7 +58,7 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
         time = g["time"][...]
         total_values = sum(_stored_values(f[gname]) for gname in info["groups"])
         if verify:
-            _verify(g, path, where, time, stored)
+            _verify(g, path, where, time, stored, progress)
         arrays = ("time", "nodes") + FIELDS + ((ACTUATION,) if units else ())
         storage = {name: _storage(g[name]) for name in arrays}
         channels = _channels(g, units)
@@ -94,13 +99,18 @@ def _stored_values(g) -> int:
     return sum(int(g[n].size) for n in ("time", "nodes") + FIELDS + (ACTUATION,) if n in g)
 
 
-def _verify(g, path: Path, where: str, time, stored) -> None:
+def _verify(g, path: Path, where: str, time, stored, progress: Progress | None = None) -> None:
     """Read every array of group ``g`` block by block (``TIME_CHUNK`` samples: bounded memory) and
-    check every value (``_check_values``)."""
+    check every value (``_check_values``); ``progress(done, T)`` at the start and after each block."""
     step = max(1, TIME_CHUNK)
-    for a in range(0, time.shape[0], step):
+    T = time.shape[0]
+    if progress is not None:
+        progress(0, T)
+    for a in range(0, T, step):
         block = {name: g[name][a:a + step] for name in FIELDS + ((ACTUATION,) if ACTUATION in g else ())}
         _check_values(path, where, time[a:a + step], stored, block, a)
+        if progress is not None:
+            progress(min(a + step, T), T)
 
 
 def _storage(ds) -> dict:

@@ -40,6 +40,10 @@ FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
 BASELINES = ("persistence", "linear_arx", "static_map")
 ARX_ORDERS = ((1, 1), (2, 1), (1, 2), (2, 2))
 POLY_CANDIDATES = tuple((d, r) for d in (1, 2, 3) for r in (1e-6, 1e-3, 1e-1))
+MIN_ROWS = 10
+"""Fewest rows of every session (after the lag) the benchmark runs on: the baselines, the families and
+their hold-out split (the last quarter of a sole training session) need that many; a 3-row session
+would end in a least-squares error, a few more in fits on empty windows."""
 
 
 @dataclass(frozen=True)
@@ -158,6 +162,15 @@ def check_pulls(robot: TendonRobot, sessions) -> None:
                 "check the units and the column order, or give the robot's --routing-radius")
 
 
+def check_rows(sessions) -> None:
+    """Refuse a session with fewer than ``MIN_ROWS`` rows (after the lag): one line naming its file."""
+    for s in sessions:
+        if s.n_rows < MIN_ROWS:
+            after = f" after the lag of {s.lag} row{'s' if s.lag != 1 else ''}" if s.lag else ""
+            raise SoftrnnInputError(f"{s.path}: has {s.n_rows} rows{after}; the benchmark needs at least {MIN_ROWS} "
+                                    "rows in every session: give a longer recording")
+
+
 def settle_lag(train: list[Recording], options: BenchmarkOptions) -> tuple[int, dict]:
     """The lag in rows (``options.lag``, or estimated on ``train``) and what to report of it."""
     if options.lag != "auto":
@@ -266,6 +279,7 @@ def run_benchmark(train: list[Recording], validation: Recording, options: Benchm
     lag, lag_info = settle_lag(train, options)
     train = [shift_inputs(s, lag) for s in train]
     validation = shift_inputs(validation, lag)
+    check_rows(train + [validation])
     robot = robot_for(options, validation.n_inputs)
     families, skipped = _families(options, robot, train + [validation])
     stages = ["baselines"] + families

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad, is_int
+from ..io.csv_import import read_csv_lines, shown
 
 TIME_COLUMNS = ("time", "timestamp")
 """Accepted names of the time column [s], first match wins."""
@@ -139,6 +140,12 @@ def _fail(path, message: str) -> SoftrnnInputError:
     return SoftrnnInputError(f"{path}: {message}")
 
 
+def _columns(header: list[str], most: int = 12) -> str:
+    """The header's columns for a message: the first ``most``, each shortened (``shown``)."""
+    listed = ", ".join(shown(c, 30) for c in header[:most])
+    return listed + (f", ... ({len(header)} columns)" if len(header) > most else "")
+
+
 def _split_unit(column: str) -> tuple[str, str]:
     m = _ACT.match(column)
     if m:
@@ -156,8 +163,7 @@ def _pick_inputs(path, header: list[str], patterns: tuple) -> list[int]:
         for p in pattern:
             hits = [j for j, c in enumerate(header) if fnmatch.fnmatchcase(c, p) and j not in picked]
             if patterns and not hits:
-                raise _fail(path, f"no column matches the input pattern {p!r}; the columns are "
-                                  f"{', '.join(header)}")
+                raise _fail(path, f"no column matches the input pattern {p!r}; the columns are {_columns(header)}")
             picked += hits
         if picked:
             return picked
@@ -169,7 +175,7 @@ def _pick_tip(path, header: list[str], layout: Layout) -> tuple[list[int], float
     if layout.tip is not None:
         missing = [c for c in layout.tip if c not in header]
         if missing:
-            raise _fail(path, f"no tip column {missing[0]!r}; the columns are {', '.join(header)}")
+            raise _fail(path, f"no tip column {missing[0]!r}; the columns are {_columns(header)}")
         cols = [header.index(c) for c in layout.tip]
         unit = layout.position_unit or ("m" if _NODE.match(layout.tip[0]) else "mm")
         return cols, POSITION_UNITS[unit]
@@ -186,27 +192,25 @@ def _pick_tip(path, header: list[str], layout: Layout) -> tuple[list[int], float
 
 def read_recording(path, layout: Layout = Layout()) -> Recording:
     """Read one session (layout in the module docstring). Every problem is a one-line
-    ``SoftrnnInputError`` naming the file, the line or column and the fix: a missing or empty
-    file, a row with another number of cells, a value that is not a finite number, a time that
-    does not increase (unsorted or duplicated rows)."""
+    ``SoftrnnInputError`` naming the file, the line or column and the fix: a missing, folder,
+    binary, UTF-16, semicolon-separated or empty file (``read_csv_lines``), too few rows, a header
+    without a time, input or tip column, a row with another number of cells, a value that is not a
+    finite number, a time that does not increase (unsorted or duplicated rows) or whose step
+    overflows."""
     path = Path(path)
-    if not path.is_file():
-        raise _fail(path, "no such file; check the path" if not path.exists() else "is not a file; pass a CSV file")
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        raise _fail(path, "is not a UTF-8 text file; export the recording as CSV") from None
-    lines = [(n, s.strip()) for n, s in enumerate(text.splitlines(), start=1) if s.strip() and not s.startswith("#")]
+    lines = read_csv_lines(path, "a header (a time or timestamp column, the inputs, the tip) and at least 3 rows",
+                           SoftrnnInputError, what="the recording")
     if len(lines) < 4:
         raise _fail(path, f"has {max(len(lines) - 1, 0)} data rows; a recording needs a header and at least 3 rows")
     header = [c.strip() for c in lines[0][1].split(",")]
     if len(set(header)) != len(header):
         dup = next(c for c in header if header.count(c) > 1)
-        raise _fail(path, f"line {lines[0][0]} (header): the column {dup!r} appears twice; name every column once")
+        raise _fail(path, f"line {lines[0][0]} (header): the column {shown(dup)} appears twice; name every column "
+                          "once")
     tcol = next((header.index(c) for c in TIME_COLUMNS if c in header), None)
     if tcol is None:
-        raise _fail(path, f"no time column; name the first column 'time' or 'timestamp' (s); the columns are "
-                          f"{', '.join(header)}")
+        raise _fail(path, f"line {lines[0][0]} (header): no time column; name the first column 'time' or "
+                          f"'timestamp' (s); the columns are {_columns(header)}")
     icols = _pick_inputs(path, header, layout.inputs)
     pcols, scale = _pick_tip(path, header, layout)
     lcol = next((header.index(c) for c in LABEL_COLUMNS if c in header), None)
@@ -224,18 +228,24 @@ def read_recording(path, layout: Layout = Layout()) -> Recording:
             except ValueError:
                 v = math.nan
             if not math.isfinite(v):
-                raise _fail(path, f"line {number}, column {header[j]!r}: {cells[j].strip()!r} is not a finite "
-                                  "number; fix or remove the row")
+                text = cells[j].strip()
+                what = f"{shown(text)} is not a finite number" if text else "the cell is empty"
+                raise _fail(path, f"line {number}, column {header[j]!r}: {what}; fix or remove the row")
             values[r, k] = v
         if lcol is not None:
             labels.append(cells[lcol].strip())
     time = values[:, 0]
-    steps = np.diff(time)
+    with np.errstate(over="ignore"):   # times near +-1.8e308: refused below
+        steps = np.diff(time)
     if np.any(steps <= 0):
         r = int(np.argmax(steps <= 0)) + 1
         what = "repeats" if steps[r - 1] == 0 else "goes back from"
         raise _fail(path, f"line {lines[r + 1][0]}: the time {float(time[r])!r} {what} the previous row's "
                           f"{float(time[r - 1])!r}; sort the rows by time and drop duplicated rows")
+    if not np.isfinite(steps).all():
+        r = int(np.argmax(~np.isfinite(steps))) + 1
+        raise _fail(path, f"line {lines[r + 1][0]}: the step from the time {float(time[r - 1])!r} to "
+                          f"{float(time[r])!r} is not a finite number of seconds; times must be in s")
     split = [_split_unit(header[j]) for j in icols]
     return Recording(path=str(path), time=time, inputs=values[:, 1:1 + len(icols)].copy(),
                      names=tuple(n for n, _ in split), units=tuple(u for _, u in split),

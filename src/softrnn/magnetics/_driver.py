@@ -241,8 +241,14 @@ def _record_row(row, out, k):
 
 def _build_drive(stamp):
     @njit(cache=True, no_rewrites=True)
-    def drive(rod, state, inputs, out, mag_out, magnets, times, values, h, t0, n_steps, stride, work_f, row):
-        """Advance ``n_steps`` steps of size h [s] from time t0 [s]; returns (status, step, magnet index).
+    def drive(rod, state, inputs, out, mag_out, magnets, times, values, h, t0, k_begin, k_end, stride, work_f, row):
+        """Advance steps k_begin .. k_end - 1 of size h [s], step k at t0 + k h [s]; returns (status,
+        step, magnet index).
+
+        A run may be driven in one call (k_begin 0, k_end its number of steps) or in consecutive
+        blocks of steps on the same state, out and mag_out: every step computes the same numbers
+        either way (its time from its own index k, the currents' search restarting from the first
+        sample), so the samples are identical bit for bit.
 
         rod, state, inputs, out, work_f as for ``rod.kernels.advance_into``, with inputs for one step
         (ext_w (1, m, 12), overwritten at every step with the magnet loads; no PD tracking and no
@@ -257,7 +263,7 @@ def _build_drive(stamp):
         s0 = n_mag - n_mag
         one = s0 + 1
         j = s0
-        for k in range(n_steps):
+        for k in range(k_begin, k_end):
             t = t0 + k * h
             j = currents_at(t, times, values, j, row.currents)
             bad_magnet = magnet_loads_into(state.rotations, state.positions, row, magnets, inputs.ext_w)
@@ -268,7 +274,7 @@ def _build_drive(stamp):
             status, step = advance_into(rod, state, inputs, out, h, k, one, stride, s0, work_f)
             if status != OK:
                 return status, step, -1
-        return OK, n_steps, -1
+        return OK, k_end, -1
     return drive
 
 

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import SimulationError, bad, vec3
+from ..progress import Progress
 from ..rod.boundary import Clamp
 from ..rod.inputs import SetupInputs
 from ..rod.kernels import Samples, StepInputs
@@ -46,6 +47,11 @@ from .magnets import Magnet, default_magnets
 DEFAULT_DAMPING = Damping(translational=0.05, rotational=0.0)
 """Light viscous drag [N s/m^2] of the default manipulator: about 5% of critical on the first bending
 mode (6.9 Hz; measured 2.1% at 0.02 N s/m^2); higher modes get less (the ratio falls as 1/omega)."""
+
+DRIVE_BLOCK_STEPS = 65536
+"""Solver steps per call of the numba driver in ``simulate_manipulator`` (rounded down to whole
+samples, at least one): a fraction of a second of stepping (6 samples of the magnetic experiment),
+so that progress reports and Ctrl-C come between blocks. The results do not depend on it."""
 
 SETTLE_DAMPING = Damping(translational=1.0, rotational=0.0)
 """Heavy drag [N s/m^2] used only while settling before a run: about critical on the first mode, so
@@ -463,17 +469,32 @@ class _Model:
         half_kick(self.rod, self.state, self.loads(currents), h)
 
     def drive(self, damping: Damping, h: float, t0: float, n_steps: int, stride: int, schedule,
-              n_rows: int) -> tuple[Samples, "_driver.MagnetSamples"]:
-        """Run the numba driver with ``damping``; returns the rod's and the magnets' outputs (n_rows samples)."""
+              n_rows: int, *, block: int | None = None,
+              progress: Progress | None = None) -> tuple[Samples, "_driver.MagnetSamples"]:
+        """Run the numba driver with ``damping``; returns the rod's and the magnets' outputs (n_rows samples).
+
+        ``block``: solver steps per driver call (None: all in one call); the results are the same
+        bit for bit whatever the blocks (``_driver.drive``). ``progress(done, n_rows)`` after each
+        block that completes samples (``done``: the samples recorded so far).
+        """
         n = self.spec.n_nodes
         out = empty_samples(np.arange(n, dtype=np.int64), n_rows, n)
         mag = _driver.empty_magnet_samples(self.spec.coils.n_coils, self.magnets.mag_node.size, lead=(n_rows,))
-        status, step, magnet = _driver.drive(
-            with_damping(self.rod, damping), self.state.arrays(), self.step_inputs(), out, mag, self.magnets,
-            schedule.times, schedule.values, float(h), float(t0), int(n_steps), int(stride), np.zeros((n, 6)),
-            self._row())
-        raise_for_status(int(status), step=int(step), t0=t0, h=h, magnet=int(magnet), min_distance=MIN_DISTANCE,
-                         more_fixes=("lower the currents",))
+        rod, state, inputs = with_damping(self.rod, damping), self.state.arrays(), self.step_inputs()
+        work, row = np.zeros((n, 6)), self._row()
+        size = n_steps if block is None else max(1, int(block))
+        recorded = 0
+        for k0 in range(0, n_steps, size):
+            k1 = min(k0 + size, n_steps)
+            status, step, magnet = _driver.drive(
+                rod, state, inputs, out, mag, self.magnets, schedule.times, schedule.values, float(h), float(t0),
+                int(k0), int(k1), int(stride), work, row)
+            raise_for_status(int(status), step=int(step), t0=t0, h=h, magnet=int(magnet), min_distance=MIN_DISTANCE,
+                             more_fixes=("lower the currents",))
+            done = min((k1 - 1) // stride + 1, n_rows)
+            if progress is not None and done > recorded:
+                progress(done, n_rows)
+            recorded = done
         return out, mag
 
 
@@ -527,11 +548,29 @@ def check_manipulator_run(spec: ManipulatorSpec, run: ManipulatorRun, extra_byte
     return substeps
 
 
-def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun) -> ManipulatorTrajectory:
+def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun,
+                         progress: Progress | None = None) -> ManipulatorTrajectory:
     """Simulate the manipulator from the straight rod at rest, driven by ``currents``.
 
-    currents : a ``CurrentSchedule`` covering [0, run.duration], or sampled currents
-               (run.n_samples, n_coils) [A] at the save times (linear in between)
+    Parameters
+    ----------
+    spec : ManipulatorSpec
+        The manipulator.
+    currents : CurrentSchedule or (run.n_samples, n_coils) array
+        A schedule covering [0, run.duration], or sampled currents [A] at the save times (linear in
+        between).
+    run : ManipulatorRun
+        How to run.
+    progress : softrnn.progress.Progress or None
+        Called as ``progress(done, run.n_samples)`` with the samples recorded so far: 0 at the
+        start, then after each block of about ``DRIVE_BLOCK_STEPS`` solver steps (whole samples).
+        The run is stepped in these blocks with or without it, and the results do not depend on
+        them.
+
+    Returns
+    -------
+    ManipulatorTrajectory
+        The recorded samples: node poses, magnet orientations and the currents applied.
     """
     if not isinstance(spec, ManipulatorSpec):
         raise bad("spec", type(spec).__name__, "a ManipulatorSpec")
@@ -542,12 +581,16 @@ def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun) -
     h = run.dt / substeps
     model = _Model(spec)
     model.half_kick(h, schedule.values[0])
+    if progress is not None:
+        progress(0, run.n_samples)
     if run.settle > 0:
         n_settle = int(math.ceil(run.settle / h))
-        model.drive(run.settle_damping, h, -n_settle * h, n_settle, n_settle + 1, schedule, 1)
+        model.drive(run.settle_damping, h, -n_settle * h, n_settle, n_settle + 1, schedule, 1,
+                    block=DRIVE_BLOCK_STEPS)
     n_steps = (run.n_samples - 1) * substeps + 1
     start = time.perf_counter()
-    out, mag = model.drive(spec.damping, h, 0.0, n_steps, substeps, schedule, run.n_samples)
+    out, mag = model.drive(spec.damping, h, 0.0, n_steps, substeps, schedule, run.n_samples,
+                           block=max(1, DRIVE_BLOCK_STEPS // substeps) * substeps, progress=progress)
     wall = time.perf_counter() - start
     traj = Trajectory(time=run.dt * np.arange(run.n_samples), nodes=np.arange(spec.n_nodes), step=h,
                       substeps=substeps, wall_time=wall, **{name: getattr(out, name) for name in SAMPLE_FIELDS})

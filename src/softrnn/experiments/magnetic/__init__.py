@@ -28,7 +28,10 @@ in degrees beside the paper's). ``compare`` is the comparison alone, shared with
 (``softrnn.experiments.magnetic.lab``).
 
 Progress: ``progress(done, total, {"stage": stage})`` (``softrnn.progress.Progress``) with stage one of
-``STAGES``; the training stages pass the training's details too.
+``STAGES``; the training stages pass the training's details too. The simulations (``simulate``, the
+real robot; ``predict``, the calibrated model over the record) count samples, reported every block
+of a fraction of a second of stepping; ``calibrate`` counts the fit's simulations, ``static`` the static
+model's samples. ``check_experiment_size`` refuses a run too large for this machine up front.
 
 Modules: ``config`` (``ExperimentConfig``, the file names), ``currents`` (``experiment_currents``),
 ``dataset`` (``measured_wrenches``, ``orientation_dataset``), ``static`` (the report's entry on the
@@ -59,4 +62,5 @@ from .dataset import measured_wrenches as measured_wrenches
 from .dataset import orientation_dataset as orientation_dataset
 from .figure import plot_fig12 as plot_fig12
 from .run import assumptions as assumptions
+from .run import check_experiment_size as check_experiment_size
 from .run import run_experiment as run_experiment

@@ -78,17 +78,19 @@ class MagneticModel:
     degree: int
     with_positions: bool = True
 
-    def trajectory(self, factors, n_samples: int | None = None):
-        """The scaled manipulator's run (``ManipulatorTrajectory``) over ``n_samples`` (None: all)."""
+    def trajectory(self, factors, n_samples: int | None = None, progress=None):
+        """The scaled manipulator's run (``ManipulatorTrajectory``) over ``n_samples`` (None: all);
+        ``progress`` as for ``simulate_manipulator`` (samples simulated)."""
         stiffness, remanence, damping = (float(f) for f in factors)
         robot = self.spec.scaled(stiffness=stiffness, remanence=remanence, damping=damping)
         S = self.currents.shape[0] if n_samples is None else int(n_samples)
         run = ManipulatorRun(dt=self.dt, n_samples=S, substeps=self.substeps, settle=self.settle)
-        return simulate_manipulator(robot, self.currents[:S], run)
+        return simulate_manipulator(robot, self.currents[:S], run, progress=progress)
 
-    def camera(self, factors, n_samples: int | None = None):
-        """(orientations (S, M, 3) [rad], positions (S, M, 3) [m]) the noise-free camera reads."""
-        traj = self.trajectory(factors, n_samples)
+    def camera(self, factors, n_samples: int | None = None, progress=None):
+        """(orientations (S, M, 3) [rad], positions (S, M, 3) [m]) the noise-free camera reads;
+        ``progress`` as for ``simulate_manipulator`` (samples simulated)."""
+        traj = self.trajectory(factors, n_samples, progress)
         s_nodes = np.linspace(0.0, self.spec.length, self.spec.n_nodes)
         s_magnets = np.array([m.arc_length for m in self.spec.magnets])
         cam = camera_measure(np.asarray(traj.positions, np.float64), s_nodes, s_magnets, 0.0, None,

@@ -92,6 +92,8 @@ def compare(dataset, static_orientations, config: ExperimentConfig, out_dir, *, 
     for m, name in enumerate(MAGNETS):
         model, seconds = _train_magnet(dataset, m, config, train, out / MODELS_DIR / name, progress)
         train_seconds += seconds
+        if progress is not None:
+            progress(m, len(MAGNETS), {"stage": "evaluate"})                   # the scoring starts
         result[name], predictions[name] = _score_magnet(model, dataset, measured, m, static, out / MODELS_DIR / name,
                                                         calibrated)
         rates[name] = _stepper_rate(model, dataset)

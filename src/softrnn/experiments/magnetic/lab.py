@@ -25,7 +25,7 @@ import numpy as np
 
 from ...errors import SoftrnnInputError, bad
 from ...files import atomic_write_text
-from ...io.csv_import import read_csv_lines
+from ...io.csv_import import read_csv_lines, shown
 from ...magnetics.camera import camera_measure, tangents_from_rotation_vectors
 from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, simulate_manipulator
 from ...magnetics.static import static_predictions
@@ -34,7 +34,7 @@ from .comparison import compare
 from .config import ExperimentConfig
 from .currents import experiment_currents
 from .dataset import measured_wrenches, orientation_dataset
-from .run import calibrate_and_predict
+from .run import calibrate_and_predict, check_experiment_size
 from .static import static_summary
 
 N_COILS = 6
@@ -102,12 +102,12 @@ def _header(path: Path, number: int, line: str) -> list[str]:
             raise _fail(path, f"line {number} (header): column {j + 1} has no name (a stray or trailing comma?)")
         key = lower.get(name.lower())
         if key is None:
-            raise _fail(path, f"line {number} (header): column {name!r} is not recognised; expected {LAYOUT}")
+            raise _fail(path, f"line {number} (header): column {shown(name)} is not recognised; expected {LAYOUT}")
         if key in out:
             raise _fail(path, f"line {number} (header): column {key!r} appears twice")
         out.append(key)
     if out[0] != "time":
-        raise _fail(path, f"line {number} (header): the first column is {names[0]!r}; expected 'time' [s]")
+        raise _fail(path, f"line {number} (header): the first column is {shown(names[0])}; expected 'time' [s]")
     missing = [c for c in ORIENTATION if c not in out]
     if missing:
         raise _fail(path, f"line {number} (header): missing column{'s' if len(missing) > 1 else ''} "
@@ -138,11 +138,12 @@ def _values(path: Path, names: list[str], rows: list[tuple[int, str]]) -> np.nda
             try:
                 v = float(text)
             except ValueError:
-                what = "is empty" if not text else f"{text!r} is not a number"
+                what = "is empty" if not text else f"{shown(text)} is not a number"
                 raise _fail(path, f"line {number}, column {names[j]!r}: the cell {what}; every cell must be a number "
                                   f"(decimal point '.', no units)") from None
             if not math.isfinite(v):
-                raise _fail(path, f"line {number}, column {names[j]!r}: {text!r} is not a finite number")
+                raise _fail(path, f"line {number}, column {names[j]!r}: {shown(text)} is not a finite number; every "
+                                  "value must be finite")
             values[i, j] = v
     return values
 
@@ -161,7 +162,8 @@ def read_lab_csv(path, *, spec: ManipulatorSpec | None = None) -> LabData:
     Raises
     ------
     SoftrnnInputError
-        One line naming the file (and the line and column): missing file or columns, unknown or
+        One line naming the file (and the line and column): a missing, folder, binary, UTF-16 or
+        semicolon-separated file (``read_csv_lines``), missing columns, unknown or
         duplicate columns, a non-numeric or non-finite cell, a current beyond the coil limit, times
         that do not increase or are not evenly spaced, orientations beyond 180 deg, too few rows.
     """
@@ -175,11 +177,16 @@ def read_lab_csv(path, *, spec: ManipulatorSpec | None = None) -> LabData:
     V = _values(path, names, rows)
     col = {name: j for j, name in enumerate(names)}
     t = V[:, 0]
-    step = np.diff(t)
+    with np.errstate(over="ignore"):   # times near +-1.8e308: refused below
+        step = np.diff(t)
     if np.any(step <= 0):
         i = int(np.argmax(step <= 0))
-        raise _fail(path, f"line {rows[i + 1][0]}: time {float(t[i + 1])!r} is not after {float(t[i])!r}; times "
-                          f"must increase")
+        raise _fail(path, f"line {rows[i + 1][0]}: time {float(t[i + 1])!r} is not after {float(t[i])!r} (line "
+                          f"{rows[i][0]}); times must increase strictly: sort the rows and drop duplicated ones")
+    if not np.isfinite(step).all():
+        i = int(np.argmax(~np.isfinite(step)))
+        raise _fail(path, f"line {rows[i + 1][0]}: the step from time {float(t[i])!r} to {float(t[i + 1])!r} is "
+                          "not a finite number of seconds; times must be in s")
     median = float(np.median(step))
     off = np.abs(step - median) / median
     if np.any(off > DT_SPREAD):
@@ -250,14 +257,26 @@ def write_lab_csv(path, data: LabData, *, comment: str = "") -> None:
     atomic_write_text(path, "\n".join(lines) + "\n")
 
 
-def simulated_lab_data(samples: int = 300, *, seed: int = 1, config: ExperimentConfig | None = None) -> LabData:
+def example_config(samples: int = 300, *, seed: int = 1) -> ExperimentConfig:
+    """The experiment's settings of ``simulated_lab_data``: ``samples`` and ``seed``, the rest the
+    defaults, but for the LSTMs' history and rollout steps at 1: only the simulation and the camera
+    are used, so a short example (from 20 rows) is not refused for training spans it has no use for."""
+    return ExperimentConfig(samples=samples, seed=seed, history=1, rollout_steps=1)
+
+
+def simulated_lab_data(samples: int = 300, *, seed: int = 1, config: ExperimentConfig | None = None,
+                       progress: Progress | None = None) -> LabData:
     """A short run of the simulated experiment as lab data: the perturbed real robot driven by the
-    experiment's currents, read by the camera model (orientations and magnet positions)."""
-    config = ExperimentConfig(samples=samples, seed=seed) if config is None else config
+    experiment's currents, read by the camera model (orientations and magnet positions). ``config``
+    (None: ``example_config(samples, seed=seed)``) gives the settings. A run too large for this
+    machine is refused first (``run.check_experiment_size``); ``progress`` as for
+    ``simulate_manipulator`` (samples simulated)."""
+    config = example_config(samples, seed=seed) if config is None else config
+    check_experiment_size(config)
     spec = ManipulatorSpec()
     schedule = experiment_currents(spec, config)
     run = ManipulatorRun(dt=config.dt, n_samples=config.samples, settle=config.settle)
-    traj = simulate_manipulator(config.robot_spec(spec), schedule, run)
+    traj = simulate_manipulator(config.robot_spec(spec), schedule, run, progress=progress)
     s_nodes = np.linspace(0.0, spec.length, spec.n_nodes)
     s_magnets = np.array([m.arc_length for m in spec.magnets])
     rng = np.random.default_rng([config.seed, 0x63616D])
@@ -267,11 +286,12 @@ def simulated_lab_data(samples: int = 300, *, seed: int = 1, config: ExperimentC
                    orientations=cam.orientations, positions=cam.positions, wrenches=None)
 
 
-def write_example_csv(path, samples: int = 300, *, seed: int = 1) -> LabData:
+def write_example_csv(path, samples: int = 300, *, seed: int = 1, progress: Progress | None = None) -> LabData:
     """Write the example lab file (examples/magnetic_lab.csv): ``simulated_lab_data(samples, seed)``
-    with currents, orientations and magnet positions; returns the data written."""
-    data = simulated_lab_data(samples, seed=seed)
-    config = ExperimentConfig(samples=samples, seed=seed)
+    with currents, orientations and magnet positions; returns the data written. ``progress`` as
+    for ``simulate_manipulator`` (samples simulated)."""
+    data = simulated_lab_data(samples, seed=seed, progress=progress)
+    config = example_config(samples, seed=seed)
     write_lab_csv(path, data, comment=(
         "softrnn magnetic lab data (docs/magnetic-format.md): a simulated example, not a measurement.\n"
         f"softrnn.experiments.magnetic.lab.write_example_csv(path, samples={samples}, seed={seed}): "

@@ -30,6 +30,31 @@ from .dataset import measured_wrenches, orientation_dataset
 from .static import static_summary
 
 
+def _staged(progress: Progress | None, stage: str) -> Progress | None:
+    """``progress`` with ``{"stage": stage}`` added to every report (None: None)."""
+    if progress is None:
+        return None
+
+    def report(done: int, total: int, info: dict | None = None) -> None:
+        progress(done, total, {**(info or {}), "stage": stage})
+    return report
+
+
+def check_experiment_size(config: ExperimentConfig) -> None:
+    """Refuse, before the currents are made or anything is written, a simulated robot run of
+    ``config.samples`` too large for this machine (``check_manipulator_run``: the run's arrays and
+    the currents ``experiment_currents`` makes, 10 per sample; the solver steps).
+
+    Raises
+    ------
+    SoftrnnInputError
+        The ``check_run_size`` line (``the run n_samples=... is too large for this machine ...``).
+    """
+    check_manipulator_run(config.robot_spec(ManipulatorSpec()),
+                          ManipulatorRun(dt=config.dt, n_samples=config.samples, settle=config.settle),
+                          extra_bytes=(config.samples - 1) * 10 * 17 * 8)   # experiment_currents' arrays
+
+
 def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path, progress: Progress | None) -> tuple:
     """(time (T,), node positions (T, n, 3) as stored (float32), currents (T, n_c), wall seconds, resumed)."""
     fingerprint = config.simulation_fingerprint()
@@ -43,13 +68,11 @@ def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path,
                         float(data.attrs.get("simulation_seconds", 0.0)), True)
         except (DatasetError, KeyError, TypeError, ValueError):
             pass                                                                   # re-simulate and replace it
-    if progress is not None:
-        progress(0, 1, {"stage": "simulate"})
     robot = config.robot_spec(spec)
     schedule = experiment_currents(spec, config)
     run = ManipulatorRun(dt=config.dt, n_samples=config.samples, settle=config.settle)
     t0 = time.perf_counter()
-    traj = simulate_manipulator(robot, schedule, run)
+    traj = simulate_manipulator(robot, schedule, run, progress=_staged(progress, "simulate"))
     seconds = time.perf_counter() - t0
     attrs = {"experiment_fingerprint": fingerprint, "experiment": config.to_dict(),
              "currents": traj.currents.tolist(), "currents_units": "A, one row per sample, coils 0..5",
@@ -58,8 +81,6 @@ def _simulate_robot(config: ExperimentConfig, spec: ManipulatorSpec, path: Path,
                             "(softrnn.experiments.magnetic.experiment)"}
     write_trajectory(path, traj.rod, dt=config.dt, rod=robot.rod_spec(), seed=config.seed, attrs=attrs,
                      scenario_text=json.dumps(config.to_dict()))
-    if progress is not None:
-        progress(1, 1, {"stage": "simulate"})
     stored = read_dataset(path)
     return stored.time, np.asarray(stored.positions, np.float64), traj.currents, seconds, False
 
@@ -87,27 +108,24 @@ def calibrate_and_predict(currents, orientations, positions, config: ExperimentC
     T = int(np.asarray(currents).shape[0])
     n = config.calibration_samples(T)
     dt = config.dt if dt is None else float(dt)
-
-    def report(done: int, total: int, info: dict | None = None) -> None:
-        progress(done, total, {**(info or {}), "stage": "calibrate"})
-
+    budget = config.calibration_evaluations * (len(FACTORS) + 1)     # the fit's most simulations (calibration.fit)
+    if progress is not None:   # the bar from the start (the fit reports after each batch of simulations)
+        progress(0, budget, {"stage": "calibrate"})
     t0 = time.perf_counter()
     with Evaluator(workers=workers, scheduler=scheduler) as evaluator:
         fitted, model = calibrate_manipulator(
             currents[:n], orientations[:n], None if positions is None else positions[:n], dt=dt,
             settle=config.settle, points=config.camera_points, degree=config.polynomial_degree, spec=spec,
             evaluator=evaluator, options=FitOptions(max_evaluations=config.calibration_evaluations),
-            progress=None if progress is None else report, cache_dir=cache_dir)
+            progress=_staged(progress, "calibrate"), cache_dir=cache_dir)
         n_workers = evaluator.workers
+    if progress is not None:   # done, also when the fit converged before its budget
+        progress(budget, budget, {"stage": "calibrate"})
     seconds = time.perf_counter() - t0
-    if progress is not None:
-        progress(0, 1, {"stage": "predict"})
     t1 = time.perf_counter()
     full = dc_replace(model, currents=np.asarray(currents, dtype=np.float64))
-    predicted, _ = full.camera(fitted.fitted)
+    predicted, _ = full.camera(fitted.fitted, progress=_staged(progress, "predict"))   # samples simulated
     predict_seconds = time.perf_counter() - t1
-    if progress is not None:
-        progress(1, 1, {"stage": "predict"})
     d = spec.damping
     nominal = {"stiffness": f"Young's modulus {spec.youngs_modulus:g} Pa",
                "remanence": "remanence " + ", ".join(f"{m.br:g} T" for m in spec.magnets),
@@ -233,10 +251,7 @@ def run_experiment(config: ExperimentConfig, out_dir, progress: Progress | None 
     if out.exists() and not out.is_dir():
         raise bad("out_dir", str(out), "a folder (it exists and is a file)")
     spec = ManipulatorSpec()
-    # refuse an absurd run before the currents are made and the folder is created
-    check_manipulator_run(config.robot_spec(spec), ManipulatorRun(dt=config.dt, n_samples=config.samples,
-                                                                  settle=config.settle),
-                          extra_bytes=(config.samples - 1) * 10 * 17 * 8)   # experiment_currents' arrays
+    check_experiment_size(config)     # an absurd run is refused before the currents are made and the folder created
     out.mkdir(parents=True, exist_ok=True)
     time_s, X, currents, sim_seconds, resumed = _simulate_robot(config, spec, out / ROBOT_FILE, progress)
     s_nodes = np.linspace(0.0, spec.length, spec.n_nodes)
