@@ -1,5 +1,5 @@
-"""softrnn animate DATA.h5 -o rod.gif: the rod over time, applied forces as arrows (.gif, or .mp4
-with ffmpeg)."""
+"""softrnn animate DATA.h5 -o rod.gif: the rod over time, applied and contact forces as arrows, the
+file's obstacles drawn (.gif, or .mp4 with ffmpeg)."""
 
 from pathlib import Path
 
@@ -12,7 +12,8 @@ from ._plot import named_node
 from ._progress import Bar
 
 NAME = "animate"
-HELP = "animate a dataset's rod over time with its applied forces as arrows (.gif, or .mp4 with ffmpeg)"
+HELP = ("animate a dataset's rod over time with its applied (and contact) forces as arrows and its obstacles "
+        "(.gif, or .mp4 with ffmpeg)")
 
 
 def add_args(p):
@@ -35,6 +36,10 @@ def add_args(p):
                    help="'auto' (default): a flat view when the motion is planar, else 3-D")
     p.add_argument("--elev", type=float, default=22.0, help="3-D camera elevation in degrees (default 22)")
     p.add_argument("--azim", type=float, default=-50.0, help="3-D camera azimuth in degrees (default -50)")
+    p.add_argument("--no-obstacles", action="store_true",
+                   help="do not draw the obstacles the file records (contact with planes, spheres, cylinders, vessels)")
+    p.add_argument("--no-contact-forces", action="store_true",
+                   help="do not draw the file's contact forces as arrows")
     p.add_argument("--size", default="640x560", metavar="WxH", help="frame size in pixels (default 640x560)")
     p.add_argument("--overwrite", action="store_true", help="replace the output file if it exists (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -71,7 +76,8 @@ def run(args) -> int:
     with Bar(f"animate {Path(args.data).name}", unit="frame", enabled=not args.quiet) as bar:
         animate(data, out, fps=args.fps, frames=args.frames, duration=args.duration, node=node,
                 trail=not args.no_trail, view=args.view, elev=args.elev, azim=args.azim, size=size,
-                title=None if _named(data) else Path(args.data).stem, progress=bar)
+                title=None if _named(data) else Path(args.data).stem, obstacles=not args.no_obstacles,
+                contact_forces=not args.no_contact_forces, progress=bar)
     print(f"animate: wrote {out}")
     return 0
 

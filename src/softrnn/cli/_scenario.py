@@ -9,6 +9,7 @@ from pathlib import Path
 from ..errors import SoftrnnInputError, bad
 from ..files import atomic_write_text, prepare_output
 from ..scenarios.scenario import SCENARIO_NAMES, Scenario, load_scenario, scenario_text
+from ..scenarios.summary import contact_lines
 from ._vocabulary import output
 
 NAME = "scenario"
@@ -214,6 +215,7 @@ def summary(sc: Scenario) -> str:
     lines.append(_shapes(data))
     lines += _boundary_and_loads(data, rod.n_nodes)
     lines.append(_environment(data))
+    lines += contact_lines(sc.setup)
     lines.append(_run(sc))
     lines.append(f"  seed: {sc.seed}")
     lines += _tables(sc)

@@ -114,8 +114,13 @@ def format_summary(s: dict) -> str:
         lines.append(f"  actuation: {len(channels)} channel{'s' if len(channels) > 1 else ''}: {shown}")
     else:
         lines.append("  actuation: none")
+    c = s.get("contact")
+    if c:
+        lines.append(f"  contact: {', '.join(c['fields'])}; max |f_c| = {c['max_force_n']:.4g} N, "
+                     f"max |tau_c| = {c['max_torque_nm']:.4g} N m; obstacles: "
+                     f"{', '.join(c['obstacles']) or 'not recorded'}")
     extra = {k: v for k, v in a.items() if k not in ("schema_version", "softrnn_version", "units", "rod",
-                                                      "scenario_text", "seed", "dt", "n_nodes_total")}
+                                                      "scenario_text", "seed", "dt", "n_nodes_total", "contact")}
     if extra:
         shown = ", ".join(f"{k}={json.dumps(v)}" for k, v in extra.items())
         lines.append(f"  attrs: {shown if len(shown) <= 200 else shown[:197] + '...'}")

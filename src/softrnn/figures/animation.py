@@ -5,6 +5,13 @@ The rod is drawn at evenly spaced times (by default at most 200 frames covering 
 with the applied forces as arrows (scale chosen automatically and given in the legend), the node of
 interest and its trail marked, fixed equal-aspect axes that cover the whole motion, a flat view when
 the motion is planar and a 3-D view otherwise.
+
+With contact (``softrnn.rod.contact``; a dataset's ``contact`` attribute, docs/dataset-format.md)
+the obstacles are drawn too (``draw_obstacles``): a plane as a translucent rectangle around the
+rod's extent, a sphere as a translucent surface (a disc in a flat view), a cylinder as a surface
+segment over the rod's extent (its shadow in a flat view), a vessel as its centreline and a
+translucent tube (two wall lines in a flat view); the contact forces are arrows of their own colour
+on the applied forces' scale.
 """
 
 from __future__ import annotations
@@ -16,10 +23,13 @@ import numpy as np
 from matplotlib.animation import FFMpegWriter
 from matplotlib.colors import to_rgb
 from matplotlib.lines import Line2D
-from mpl_toolkits.mplot3d.art3d import Line3DCollection
+from matplotlib.patches import Circle, Patch, Polygon
+from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 from PIL import Image
+from scipy.spatial import ConvexHull, QhullError
 
-from ..errors import bad
+from ..errors import SoftrnnInputError, bad
+from ..io.schema import contact_from_record, contact_record
 from ..progress import Progress
 from .data import (
     DEFAULT_MAX_FRAMES,
@@ -41,22 +51,28 @@ from .geometry import (
     _fmt,
     _max_norm,
     choose_view,
+    cylinder_mesh,
     force_scale,
+    plane_patch,
+    sphere_mesh,
+    tube_mesh,
+    tube_walls_2d,
 )
 from .saving import atomic_output, new_figure
 
 DEFAULT_SIZE = (640, 560)  # pixels
 _DPI = 100
 _ROD, _NODE, _TRAIL, _FORCE, _GHOST = "#1f5fa8", "#d62728", "#ff9f1c", "#2ca02c", "0.72"
+_CONTACT, _OBSTACLE, _ALPHA = "#9467bd", "#8c564b", 0.22
 
 
 class _Scene:
     """The figure and its reusable artists; ``update(i)`` moves them to sample ``i``."""
 
     def __init__(self, time, nodes, positions, forces, i0, i1, frames, *, node_col, view, trail, title,
-                 size, elev=22.0, azim=-50.0, arrows_min=1e-6):
-        self.time, self.positions, self.forces = time, positions, forces
-        self.node_col, self.title = node_col, title
+                 size, elev=22.0, azim=-50.0, arrows_min=1e-6, contact_forces=None, obstacles=()):
+        self.time, self.positions, self.forces, self.cforces = time, positions, forces, contact_forces
+        self.node_col, self.title, self.obstacles = node_col, title, tuple(obstacles)
         self.node_label = None if node_col is None else int(nodes[node_col])
         self.elev, self.azim = elev, azim
         span = positions[i0:i1 + 1]
@@ -65,20 +81,21 @@ class _Scene:
                                  np.asarray(positions[frames], dtype=float)])
         lo, hi = sample.reshape(-1, 3).min(0), sample.reshape(-1, 3).max(0)
         self.extent = extent = max(float((hi - lo).max()), 1e-3)
+        self.rod_box = _bounds(sample.reshape(-1, 3))
         self.view = choose_view(sample) if view == "auto" else view
-        # forces: the scale from the largest force in the span; arrows where |F| > arrows_min * fmax
-        self.fmax = 0.0
-        if forces is not None:
-            self.fmax = _max_norm(forces[i0:i1 + 1])
-        self.has_forces = self.fmax > 0
-        if self.has_forces:
-            self.k, self.fref, self.lref = force_scale(self.fmax, extent)
-            self.fthreshold = arrows_min * self.fmax
+        # forces: the scale from the largest (applied or contact) force in the span; arrows where
+        # |F| > arrows_min * fmax
+        self.fmax = 0.0 if forces is None else _max_norm(forces[i0:i1 + 1])
+        self.cmax = 0.0 if contact_forces is None else _max_norm(contact_forces[i0:i1 + 1])
+        self.has_forces, self.has_contact = self.fmax > 0, self.cmax > 0
+        box = sample.reshape(-1, 3)
+        if self.has_forces or self.has_contact:
+            self.k, self.fref, self.lref = force_scale(max(self.fmax, self.cmax), extent)
+            self.fthreshold = arrows_min * max(self.fmax, self.cmax)
             at = np.concatenate([np.arange(i0, i1 + 1, every), frames])
-            tips = np.asarray(positions[at], dtype=float) + self.k * np.asarray(forces[at], dtype=float)
-            box = np.concatenate([sample.reshape(-1, 3), tips.reshape(-1, 3)])
-        else:
-            box = sample.reshape(-1, 3)
+            for F in (f for f in (forces, contact_forces) if f is not None):
+                tips = np.asarray(positions[at], dtype=float) + self.k * np.asarray(F[at], dtype=float)
+                box = np.concatenate([box, tips.reshape(-1, 3)])
         lo, hi = _bounds(box)
         self.fixed = _fixed_nodes(sample, extent)
         # trail of the node of interest at up to ~4000 points
@@ -102,10 +119,18 @@ class _Scene:
             self._init_3d(fig, lo, hi, first, handles)
         else:
             self._init_2d(fig, lo, hi, first, handles)
+        self._init_arrows()
+        if self.obstacles:
+            draw_obstacles(self.ax, self.obstacles, self.view, *self.rod_box)
+            handles.append(Patch(facecolor=_OBSTACLE, alpha=0.4, edgecolor=_OBSTACLE,
+                                 label=f"obstacle{'s' if len(self.obstacles) > 1 else ''}"))
+        scale = f"{_fmt(self.fref)} N = {_fmt(self.lref)} m" if self.has_forces or self.has_contact else ""
         if self.has_forces:
-            handles.append(Line2D([], [], color=_FORCE, lw=2,
-                                  label=f"force: {_fmt(self.fref)} N = {_fmt(self.lref)} m"))
-        elif forces is not None:
+            handles.append(Line2D([], [], color=_FORCE, lw=2, label=f"force: {scale}"))
+        if self.has_contact:
+            handles.append(Line2D([], [], color=_CONTACT, lw=2,
+                                  label="contact force" + ("" if self.has_forces else f": {scale}")))
+        if not self.has_forces and forces is not None:
             handles.append(Line2D([], [], color="none", label="no applied forces"))
         # the legend stays clear of the moving rod: the top-left corner of a 3-D picture, below a flat one
         if self.view == "3d":
@@ -116,8 +141,24 @@ class _Scene:
                        bbox_to_anchor=(0.5, 0.0))
         self.stamp = fig.suptitle(" ", fontsize=11)
         self.dynamic = [a for a in (getattr(self, "trail", None), self.rod, getattr(self, "quiver", None),
-                                    getattr(self, "arrows", None), getattr(self, "dot", None), self.stamp)
+                                    getattr(self, "arrows", None), getattr(self, "cquiver", None),
+                                    getattr(self, "carrows", None), getattr(self, "dot", None), self.stamp)
                         if a is not None]
+
+    def _init_arrows(self):
+        """The arrows of the applied and contact forces (a quiver in 2-D, line strokes in 3-D)."""
+        n = self.positions.shape[1]
+        for on, color, name in ((self.has_forces, _FORCE, ""), (self.has_contact, _CONTACT, "c")):
+            if not on:
+                continue
+            if self.view == "3d":
+                artist = Line3DCollection([], colors=color, linewidths=2.0)
+                self.ax.add_collection3d(artist, autolim=False)
+                setattr(self, f"{name}arrows", artist)
+            else:
+                setattr(self, f"{name}quiver", self.ax.quiver(
+                    np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), angles="xy", scale_units="xy",
+                    scale=1.0 / self.k, color=color, width=0.006, minlength=0, zorder=7))
 
     def _node_handle(self):
         """The legend entry of the node of interest."""
@@ -159,11 +200,6 @@ class _Scene:
         if self.node_col is not None:
             (self.dot,) = ax.plot([], [], "o", color=_NODE, ms=6, zorder=6)
             handles.append(self._node_handle())
-        if self.has_forces:
-            n = self.positions.shape[1]
-            self.quiver = ax.quiver(np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), angles="xy",
-                                    scale_units="xy", scale=1.0 / self.k, color=_FORCE, width=0.006,
-                                    minlength=0, zorder=7)
 
     # -- 3-D
     def _init_3d(self, fig, lo, hi, first, handles):
@@ -193,9 +229,20 @@ class _Scene:
         if self.node_col is not None:
             (self.dot,) = ax.plot([], [], [], "o", color=_NODE, ms=6)
             handles.append(self._node_handle())
-        if self.has_forces:
-            self.arrows = Line3DCollection([], colors=_FORCE, linewidths=2.0)
-            ax.add_collection3d(self.arrows, autolim=False)
+
+    def _move_arrows(self, name: str, X: np.ndarray, forces) -> None:
+        """Set the arrows ``name`` ('': applied, 'c': contact) to the forces (N, 3) [N] at X (N, 3) [m]."""
+        F = np.asarray(forces, dtype=float)
+        on = np.sqrt((F ** 2).sum(-1)) > self.fthreshold
+        if self.view == "3d":
+            getattr(self, f"{name}arrows").set_segments(
+                _arrow_segments(X[on], self.k * F[on], self.view_dir, self.extent))
+        else:
+            a, b = self.axes
+            F = np.where(on[:, None], F, 0.0)
+            quiver = getattr(self, f"{name}quiver")
+            quiver.set_offsets(np.column_stack([X[:, a], X[:, b]]))
+            quiver.set_UVC(F[:, a], F[:, b])
 
     def update(self, i: int) -> None:
         """Move the rod, trail, node, arrows and time stamp to sample ``i``."""
@@ -219,29 +266,133 @@ class _Scene:
             else:
                 self.dot.set_data([p[a]], [p[b]])
         if self.has_forces:
-            F = np.asarray(self.forces[i], dtype=float)
-            on = np.sqrt((F ** 2).sum(-1)) > self.fthreshold
-            if self.view == "3d":
-                self.arrows.set_segments(_arrow_segments(X[on], self.k * F[on], self.view_dir, self.extent))
-            else:
-                F = np.where(on[:, None], F, 0.0)
-                self.quiver.set_offsets(np.column_stack([X[:, a], X[:, b]]))
-                self.quiver.set_UVC(F[:, a], F[:, b])
+            self._move_arrows("", X, self.forces[i])
+        if self.has_contact:
+            self._move_arrows("c", X, self.cforces[i])
         self.stamp.set_text(f"{self.title}:  t = {self.time[i]:.{self.decimals}f} s")
+
+
+def obstacles_of(contact) -> list[dict]:
+    """The obstacles to draw of a contact: a ``softrnn.rod.Contact``, a stored record (a dataset's
+    ``attrs['contact']``, ``softrnn.io.schema.contact_record``) or None (none). One dict per
+    obstacle as in the record (``kind`` and geometry [m]); a vessel's also has ``points`` (P, 3)
+    and ``radii`` (P,) [m], its dense centreline (``softrnn.rod.Vessel.points``)."""
+    if contact is None:
+        return []
+    built = contact_from_record(contact) if isinstance(contact, dict) else contact
+    record = contact_record(built)
+    out = []
+    for entry, ob in zip(record["obstacles"], built.obstacles):
+        if entry["kind"] == "vessel":
+            entry = dict(entry, points=np.asarray(ob.points), radii=np.asarray(ob.radii))
+        out.append(entry)
+    return out
+
+
+def draw_obstacles(ax, obstacles, view: str, lo, hi) -> list:
+    """Draw ``obstacles`` (``obstacles_of``) on the axes ``ax`` of the view ``view`` ('xy', 'xz',
+    'yz' or '3d') around the rod's extent, the box [lo, hi] (3,) [m]; returns the artists made.
+
+    Planes are rectangles over the box, cylinders segments over its span on their axis, spheres
+    whole, vessels their centreline and wall; all translucent, under the rod. In 3-D they are
+    clipped to the axes' limits."""
+    artists = []
+    for ob in obstacles:
+        kind = ob["kind"]
+        if view == "3d":
+            artists += _draw_3d(ax, ob, kind, lo, hi)
+            continue
+        a, b = _PLANES[view]
+        if kind == "vessel":
+            c, left, right = tube_walls_2d(ob["points"], ob["radii"], view)
+            artists += ax.plot(c[:, 0], c[:, 1], color=_OBSTACLE, lw=0.8, ls="-.", zorder=0.5)
+            artists += ax.plot(left[:, 0], left[:, 1], right[:, 0], right[:, 1], color=_OBSTACLE, lw=1.2, zorder=0.5)
+            continue
+        if kind == "sphere":
+            patch = Circle((ob["center"][a], ob["center"][b]), ob["radius"])
+        else:
+            if kind == "plane":
+                pts = plane_patch(ob["point"], ob["normal"], lo, hi)
+            else:
+                pts = cylinder_mesh(ob["point"], ob["axis"], ob["radius"], lo, hi).reshape(-1, 3)
+            patch = Polygon(_outline(pts[:, [a, b]]), closed=True)
+        patch.set(facecolor=_OBSTACLE, alpha=_ALPHA, edgecolor=_OBSTACLE, lw=1.0, zorder=0.5)
+        artists.append(ax.add_patch(patch))
+    return artists
+
+
+def _outline(points: np.ndarray) -> np.ndarray:
+    """The convex outline (k, 2) of projected points (m, 2) (a flat one: its two ends)."""
+    try:
+        return points[ConvexHull(points).vertices]
+    except (QhullError, ValueError):  # collinear: a plane seen edge-on
+        d = points - points.mean(0)
+        _, _, vt = np.linalg.svd(d, full_matrices=False)
+        t = d @ vt[0]
+        return points[[int(np.argmin(t)), int(np.argmax(t))]]
+
+
+def _draw_3d(ax, ob: dict, kind: str, lo, hi) -> list:
+    """One obstacle on 3-D axes (see ``draw_obstacles``)."""
+    style = dict(color=_OBSTACLE, alpha=_ALPHA, linewidth=0, shade=False, axlim_clip=True)
+    if kind == "plane":
+        poly = Poly3DCollection([plane_patch(ob["point"], ob["normal"], lo, hi)], facecolor=_OBSTACLE,
+                                alpha=_ALPHA, edgecolor=_OBSTACLE)
+        ax.add_collection3d(poly, autolim=False, axlim_clip=True)
+        return [poly]
+    if kind == "sphere":
+        mesh = sphere_mesh(ob["center"], ob["radius"])
+    elif kind == "cylinder":
+        mesh = cylinder_mesh(ob["point"], ob["axis"], ob["radius"], lo, hi)
+    else:
+        mesh = tube_mesh(ob["points"], ob["radii"])
+    out = [ax.plot_surface(mesh[..., 0], mesh[..., 1], mesh[..., 2], **style)]
+    if kind == "vessel":
+        c = ob["points"]
+        out += ax.plot(c[:, 0], c[:, 1], c[:, 2], color=_OBSTACLE, lw=0.8, ls="-.", axlim_clip=True)
+    return out
+
+
+def _obstacles_to_draw(data, obstacles) -> list[dict]:
+    """``animate``'s obstacles: True the data's own (``attrs['contact']``), False none, else those given."""
+    if obstacles is False:
+        return []
+    source = dict(getattr(data, "attrs", None) or {}).get("contact") if obstacles is True else obstacles
+    try:
+        return obstacles_of(source)
+    except SoftrnnInputError as err:
+        raise bad("obstacles", "the data's contact record" if obstacles is True else "the given obstacles",
+                  f"a softrnn.rod.Contact or a stored contact record ({err})") from None
+
+
+def _check_options(out_path: Path, fps, view, size) -> tuple[str, int, int]:
+    """``animate``'s suffix, width and height [pixels], after checking its options."""
+    suffix = check_suffix(out_path)
+    if not (fps > 0 and math.isfinite(fps)):
+        raise bad("fps", fps, "a number of frames per second > 0")
+    if view not in VIEWS:
+        raise bad("view", view, "one of " + ", ".join(VIEWS))
+    width, height = (int(v) for v in size)
+    if width < 64 or height < 64 or width > 4096 or height > 4096:
+        raise bad("size", tuple(size), "(width, height) in pixels, each between 64 and 4096")
+    if suffix == ".mp4":  # H.264 wants even sizes
+        width, height = width + width % 2, height + height % 2
+    return suffix, width, height
 
 
 def animate(data, out_path, *, fps: float = 20, frames: int | None = None, duration: float | None = None,
             start: float | None = None, stop: float | None = None, node: int | None = None,
             trail: bool = True, view: str = "auto", elev: float = 22.0, azim: float = -50.0,
-            title: str | None = None,
-            size: tuple[int, int] = DEFAULT_SIZE, max_frames: int = DEFAULT_MAX_FRAMES,
+            title: str | None = None, size: tuple[int, int] = DEFAULT_SIZE,
+            max_frames: int = DEFAULT_MAX_FRAMES, obstacles=True, contact_forces: bool = True,
             progress: Progress | None = None) -> Path:
     """Write an animation of the rod to ``out_path`` (``.gif``, or ``.mp4`` with ffmpeg installed).
 
     Parameters
     ----------
     data : dataset-like
-        time, nodes, positions, optional forces and attrs (see the module docstring)
+        time, nodes, positions, optional forces, contact_forces and attrs (with ``contact``, the
+        obstacles' record) (see ``figures.data``)
     out_path : path
         the ``.gif`` or ``.mp4`` file to write
     fps : float
@@ -268,6 +419,12 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
         (width, height) in pixels (rounded up to even numbers for .mp4)
     max_frames : int
         the default frame count's cap
+    obstacles : bool, Contact or dict
+        True: draw the data's obstacles (``attrs['contact']``, stored by the dataset writer), if
+        any; False: none; a ``softrnn.rod.Contact`` or contact record: those (``draw_obstacles``)
+    contact_forces : bool
+        draw the data's contact forces (``contact_forces`` (T, N, 3) [N]) as arrows, on the scale
+        of the applied forces
     progress : Progress or None
         optional callable progress(done, total) per frame
 
@@ -278,23 +435,16 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
 
     Notes
     -----
-    Rendering: the axes, ghost shape, clamps and legend are drawn once; each frame redraws only the
-    rod, trail, node, arrows and time stamp over them. GIF frames share one palette; all frames are
+    Rendering: the axes, ghost shape, clamps, obstacles and legend are drawn once; each frame redraws
+    only the rod, trail, node, arrows and time stamp over them. GIF frames share one palette; all frames are
     held in memory (1 byte per pixel) until the file is written, under a temporary name in the same
     folder (``saving.atomic_output``), renamed onto ``out_path`` when complete.
     """
     out_path = Path(out_path)
-    suffix = check_suffix(out_path)
-    if not (fps > 0 and math.isfinite(fps)):
-        raise bad("fps", fps, "a number of frames per second > 0")
-    if view not in VIEWS:
-        raise bad("view", view, "one of " + ", ".join(VIEWS))
-    width, height = (int(v) for v in size)
-    if width < 64 or height < 64 or width > 4096 or height > 4096:
-        raise bad("size", tuple(size), "(width, height) in pixels, each between 64 and 4096")
-    if suffix == ".mp4":  # H.264 wants even sizes
-        width, height = width + width % 2, height + height % 2
+    suffix, width, height = _check_options(out_path, fps, view, size)
     time, nodes, positions, forces, attrs = _fields(data)
+    cforces = _contact_forces(data, positions.shape) if contact_forces else None
+    drawn = _obstacles_to_draw(data, obstacles)
     i0, i1 = time_span(time, start, stop)
     idx = frame_indices(i1 - i0 + 1, frames=frames, duration=duration, fps=fps, max_frames=max_frames, first=i0)
     if node is None:
@@ -303,9 +453,21 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
     else:
         node_col = _column(nodes, _resolve(node, nodes, attrs))
     scene = _Scene(time, nodes, positions, forces, i0, i1, idx, node_col=node_col, view=view, trail=trail,
-                   title=title or _title(attrs), size=(width, height), elev=float(elev), azim=float(azim))
+                   title=title or _title(attrs), size=(width, height), elev=float(elev), azim=float(azim),
+                   contact_forces=cforces, obstacles=drawn)
     _write_movie(scene, idx, out_path, suffix, fps, progress)
     return out_path
+
+
+def _contact_forces(data, shape: tuple) -> np.ndarray | None:
+    """The data's contact forces (T, N, 3) [N] (``contact_forces``), or None without them."""
+    value = getattr(data, "contact_forces", None)
+    if value is None:
+        return None
+    arr = np.asarray(value)
+    if arr.shape != shape or not np.issubdtype(arr.dtype, np.number):
+        raise bad("contact_forces", f"shape {arr.shape}", f"numbers of shape {shape} matching positions")
+    return arr
 
 
 class _GifSink:
@@ -444,7 +606,7 @@ def _write_movie(scene: _Scene, idx: np.ndarray, out_path: Path, suffix: str, fp
             sink = _FfmpegSink(tmp, scene.fig, fps)
         else:
             w, h = (int(round(v)) for v in scene.fig.bbox.size)
-            sink = _GifSink(tmp, (w, h), fps, colors=(_ROD, _NODE, _TRAIL, _FORCE, "k"))
+            sink = _GifSink(tmp, (w, h), fps, colors=(_ROD, _NODE, _TRAIL, _FORCE, _CONTACT, "k"))
         try:
             _render(scene, idx, sink.add, progress)
             sink.finish()

@@ -1,5 +1,6 @@
 """The geometry of a rod picture: the view (a flat plane or 3-D), the bounds of the fixed axes, the
-force arrows' scale and their 3-D strokes, and the nodes that never move."""
+force arrows' scale and their 3-D strokes, the nodes that never move, and the obstacles' meshes and
+outlines (a plane's patch, a sphere, a cylinder's segment, a vessel's wall)."""
 
 from __future__ import annotations
 
@@ -101,3 +102,84 @@ def _arrow_segments(tails: np.ndarray, vectors: np.ndarray, view_dir: np.ndarray
         back = tip - head * 0.9 * u
         segs += [(p, tip), (tip, back + 0.45 * head * w), (tip, back - 0.45 * head * w)]
     return segs
+
+
+# -- obstacles (``softrnn.rod.contact``): meshes and outlines in the rod's world [m]
+def _frame(direction) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A right-handed orthonormal frame (e, u, v) whose first vector is ``direction`` (3,) normalised."""
+    e = np.asarray(direction, dtype=float)
+    e = e / np.linalg.norm(e)
+    u = np.cross(e, [1.0, 0.0, 0.0] if abs(e[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    return e, u, np.cross(e, u)
+
+
+def _box_corners(lo, hi) -> np.ndarray:
+    """The 8 corners (8, 3) of the axis-aligned box [lo, hi]."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    pick = np.array([[i >> k & 1 for k in range(3)] for i in range(8)], dtype=bool)
+    return np.where(pick, hi, lo)
+
+
+def plane_patch(point, normal, lo, hi) -> np.ndarray:
+    """The rectangle (4, 3) [m] of the plane through ``point`` with ``normal`` that covers the
+    projection of the box [lo, hi] (the rod's extent) onto the plane, corners in order."""
+    n, u, v = _frame(normal)
+    p = np.asarray(point, dtype=float)
+    q = _box_corners(lo, hi) - p
+    a, b = q @ u, q @ v
+    corners = np.array([[a.min(), b.min()], [a.max(), b.min()], [a.max(), b.max()], [a.min(), b.max()]])
+    return p + corners @ np.stack([u, v])
+
+
+def sphere_mesh(center, radius: float, count: int = 24) -> np.ndarray:
+    """Points (count, count, 3) [m] of a sphere's surface on a latitude-longitude grid."""
+    theta = np.linspace(0.0, np.pi, count)[:, None]
+    phi = np.linspace(0.0, 2 * np.pi, count)[None, :]
+    unit = np.stack(np.broadcast_arrays(np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)), -1)
+    return np.asarray(center, dtype=float) + radius * unit
+
+
+def cylinder_mesh(point, axis, radius: float, lo, hi, count: int = 24) -> np.ndarray:
+    """Points (2, count, 3) [m] of the segment of an infinite cylinder (axis through ``point``
+    along ``axis``) whose axial span is that of the box [lo, hi] (the rod's extent) on the axis."""
+    e, u, v = _frame(axis)
+    p = np.asarray(point, dtype=float)
+    t = (_box_corners(lo, hi) - p) @ e
+    phi = np.linspace(0.0, 2 * np.pi, count)
+    ring = radius * (np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * v)
+    return p + np.array([t.min(), t.max()])[:, None, None] * e + ring[None]
+
+
+def tube_mesh(points, radii, count: int = 16, max_rings: int = 120) -> np.ndarray:
+    """Points (k, count, 3) [m] of a vessel's wall: rings of radius ``radii`` (P,) [m] about the
+    centreline ``points`` (P, 3) [m] in the planes normal to it, at most ``max_rings`` of them
+    (evenly picked, both ends kept), framed by parallel transport so the rings do not twist."""
+    points, radii = np.asarray(points, dtype=float), np.asarray(radii, dtype=float)
+    keep = np.unique(np.round(np.linspace(0, len(points) - 1, min(len(points), max_rings))).astype(int))
+    c, r = points[keep], radii[keep]
+    tangent = np.gradient(c, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    _, u, _ = _frame(tangent[0])
+    phi = np.linspace(0.0, 2 * np.pi, count)
+    rings = []
+    for k in range(len(c)):
+        u = u - (u @ tangent[k]) * tangent[k]
+        u /= np.linalg.norm(u)
+        v = np.cross(tangent[k], u)
+        rings.append(c[k] + r[k] * (np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * v))
+    return np.array(rings)
+
+
+def tube_walls_2d(points, radii, plane: str, max_points: int = 400) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A vessel in the flat view ``plane`` ('xy', 'xz', 'yz'): its centreline (k, 2) and the two
+    wall lines (k, 2) at ``radii`` [m] on either side, normal to the projected centreline."""
+    a, b = _PLANES[plane]
+    points, radii = np.asarray(points, dtype=float), np.asarray(radii, dtype=float)
+    keep = np.unique(np.round(np.linspace(0, len(points) - 1, min(len(points), max_points))).astype(int))
+    c, r = points[keep][:, [a, b]], radii[keep]
+    t = np.gradient(c, axis=0)
+    length = np.linalg.norm(t, axis=1, keepdims=True)
+    t = np.where(length > 1e-12 * max(float(np.ptp(c)), 1e-12), t / np.maximum(length, 1e-300), 0.0)
+    n = np.stack([-t[:, 1], t[:, 0]], axis=1)
+    return c, c + r[:, None] * n, c - r[:, None] * n

@@ -15,12 +15,15 @@ from .schema import (
     _REQUIRED_ATTRS,
     _WIDTH,
     ACTUATION,
+    CONTACT,
+    CONTACT_FIELDS,
+    CONTACT_SCHEMA,
     FIELDS,
     QUATERNION_TOLERANCE,
-    SCHEMA_VERSION,
     DatasetError,
     _group_name,
     actuation_units,
+    contact_from_record,
 )
 
 
@@ -30,11 +33,11 @@ def _root_info(f: h5py.File, path: Path) -> dict:
         raise DatasetError(f"{path}: not a softrnn dataset (no 'softrnn_schema' attribute); softrnn reads the "
                            f"HDF5 files it writes (DatasetWriter, 'softrnn import-csv'), see docs/dataset-format.md")
     schema = _int_attr(attrs, "softrnn_schema", path, "/")
-    if schema > SCHEMA_VERSION:
+    if schema > CONTACT_SCHEMA:
         raise DatasetError(f"{path}: written with dataset schema {schema}, newer than this softrnn "
-                           f"({__version__}, schema {SCHEMA_VERSION}); upgrade softrnn")
+                           f"({__version__}, schema {CONTACT_SCHEMA}); upgrade softrnn")
     if schema < 1:
-        raise DatasetError(f"{path}: softrnn_schema={schema} is invalid; expected 1..{SCHEMA_VERSION}")
+        raise DatasetError(f"{path}: softrnn_schema={schema} is invalid; expected 1..{CONTACT_SCHEMA}")
     kind = _str_attr(attrs, "kind", path, "/") if "kind" in attrs else "trajectory"
     if kind not in ("trajectory", "sweep"):
         raise DatasetError(f"{path}: kind={kind!r} is invalid; expected 'trajectory' or 'sweep'")
@@ -153,7 +156,33 @@ def _layout(g: h5py.Group, path: Path, where: str) -> tuple[int, int, dict]:
         raise DatasetError(f"{path}: attribute 'attrs' of {where} is not a JSON object; re-create the file")
     attrs.update(extra)
     attrs["actuation_units"] = _actuation_layout(g, path, where, T)
+    if any(name in g for name in CONTACT_FIELDS) or CONTACT in g.attrs:
+        attrs[CONTACT] = _contact_layout(g, path, where, (T, N, 3))
     return T, N, attrs
+
+
+def _contact_layout(g: h5py.Group, path: Path, where: str, shape: tuple) -> dict | None:
+    """The group's stored obstacles (the ``contact`` attribute: a record of
+    ``schema.contact_record``, or None where the writer was not given them) after checking that
+    the contact datasets ``contact_forces`` and ``contact_torques`` are both there, float32 of
+    ``shape`` (T, N, 3), with the attribute."""
+    for name in CONTACT_FIELDS:
+        ds = g.get(name)
+        if not isinstance(ds, h5py.Dataset) or ds.shape != shape or ds.dtype != np.float32:
+            found = "missing" if ds is None else f"shape {getattr(ds, 'shape', None)}, {getattr(ds, 'dtype', None)}"
+            raise DatasetError(f"{path}: {name} of {where} is {found}; a trajectory with contact has "
+                               f"contact_forces and contact_torques, float32 {shape}, re-create the file")
+    if CONTACT not in g.attrs:
+        raise DatasetError(f"{path}: attribute 'contact' of {where} is missing beside its contact datasets; "
+                           f"re-create the file")
+    record = _json_attr(g.attrs, CONTACT, path, where)
+    if record is not None:
+        try:
+            contact_from_record(record)
+        except SoftrnnInputError as err:
+            raise DatasetError(f"{path}: the contact obstacles of {where} are invalid ({err}); re-create the "
+                               f"file") from None
+    return record
 
 
 def _actuation_layout(g: h5py.Group, path: Path, where: str, T: int) -> dict[str, str]:

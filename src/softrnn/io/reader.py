@@ -11,7 +11,17 @@ from ..errors import SoftrnnInputError, bad
 from ..rod.spec import NodeOverride, RodSpec
 from ._checks import _check_values, _inspect, _layout, _select
 from ._h5files import _Reading
-from .schema import _WIDTH, ACTUATION, FIELDS, DatasetError, _node_list, _to_float32, actuation_units
+from .schema import (
+    _WIDTH,
+    ACTUATION,
+    CONTACT,
+    CONTACT_FIELDS,
+    FIELDS,
+    DatasetError,
+    _node_list,
+    _to_float32,
+    actuation_units,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -35,8 +45,9 @@ class Dataset:
         Applied external torques [N m], world frame.
     attrs : dict
         ``schema_version``, ``softrnn_version``, ``units`` (dict), ``rod`` (dict or None),
-        ``scenario_text``, ``seed`` (int or None), ``dt`` [s], ``n_nodes_total`` and every key the
-        writer was given in ``attrs=``.
+        ``scenario_text``, ``seed`` (int or None), ``dt`` [s], ``n_nodes_total``, every key the
+        writer was given in ``attrs=``, and with contact fields ``contact``: the obstacles as
+        ``softrnn.io.schema.contact_record`` gives them (None where they were not recorded).
     actuation : ndarray (T, m) float32 or None
         Named actuation inputs (tendon tensions, chamber pressures, coil currents, ...), one column
         per channel of ``actuation_units``, in those units. None (the default) means no channels:
@@ -45,6 +56,13 @@ class Dataset:
     actuation_units : dict {str: str} or None
         The channels in column order, name -> unit (``softrnn.io.schema.ACTUATION_UNITS``), e.g.
         ``{"tendon_1": "N", "p_chamber_2": "kPa"}``; None or {}: none.
+    contact_forces : ndarray (T, N, 3) float32 or None
+        Contact forces of the obstacles on the nodes [N] (normal force and friction), world frame,
+        not part of ``forces``; None (the default) for a trajectory without contact, as
+        ``softrnn.rod.Trajectory.contact_forces``.
+    contact_torques : ndarray (T, N, 3) float32 or None
+        Their torques about the nodes [N m] (the friction's moment), world frame; given exactly
+        when ``contact_forces`` is.
 
     Notes
     -----
@@ -61,6 +79,8 @@ class Dataset:
     attrs: dict = field(default_factory=dict)
     actuation: np.ndarray | None = None
     actuation_units: dict | None = None
+    contact_forces: np.ndarray | None = None
+    contact_torques: np.ndarray | None = None
 
     def __post_init__(self):
         time = np.asarray(self.time, dtype=np.float64)
@@ -90,6 +110,19 @@ class Dataset:
                       f"shape (T, m) = {(T, len(units))}: one column per channel of actuation_units "
                       f"({', '.join(units) or 'none'})")
         object.__setattr__(self, "actuation", _to_float32(act))
+        self._set_contact(T, N)
+
+    def _set_contact(self, T: int, N: int) -> None:
+        """Check the contact fields: both None, or both (T, N, 3) (converted to float32)."""
+        given = [getattr(self, name) is not None for name in CONTACT_FIELDS]
+        if any(given) and not all(given):
+            raise bad("contact_torques" if given[0] else "contact_forces", None,
+                      "an array (T, N, 3) as well: contact_forces and contact_torques come together")
+        for name in CONTACT_FIELDS if all(given) else ():
+            arr = np.asarray(getattr(self, name))
+            if arr.shape != (T, N, 3) or not np.issubdtype(arr.dtype, np.number):
+                raise bad(name, f"{arr.dtype} array of shape {arr.shape}", f"numbers of shape (T, N, 3) = {(T, N, 3)}")
+            object.__setattr__(self, name, _to_float32(arr))
 
     @property
     def n_samples(self) -> int:
@@ -117,6 +150,16 @@ class Dataset:
     def actuation_names(self) -> tuple[str, ...]:
         """The actuation channels' names, in column order (() without actuation)."""
         return tuple(self.actuation_units)
+
+    @property
+    def has_contact(self) -> bool:
+        """True when the trajectory has contact loads (``contact_forces`` is not None)."""
+        return self.contact_forces is not None
+
+    @property
+    def contact(self) -> dict | None:
+        """The obstacles (``attrs['contact']``, a ``softrnn.io.schema.contact_record``), or None."""
+        return self.attrs.get(CONTACT)
 
     @property
     def has_orientations(self) -> bool:
@@ -179,7 +222,9 @@ def read_dataset(path, *, nodes=None, group: str | None = None, start: int | Non
     Dataset
         Arrays in the stored dtypes (time float64, nodes int64, the rest float32) and the attrs;
         ``actuation`` (T', m) holds every actuation channel of samples ``start:stop`` (whatever
-        ``nodes`` is), (T', 0) for a file without actuation (schema 1, or none recorded).
+        ``nodes`` is), (T', 0) for a file without actuation (schema 1, or none recorded);
+        ``contact_forces`` and ``contact_torques`` (T', N', 3) where the file has them (schema 3),
+        else None.
 
     Raises
     ------
@@ -200,13 +245,14 @@ def read_dataset(path, *, nodes=None, group: str | None = None, start: int | Non
         a, b, _ = slice(start, stop).indices(T)
         b = max(a, b)
         time = g["time"][a:b]
+        names = FIELDS + (CONTACT_FIELDS if CONTACT in attrs else ())
         if nodes is None:
             cols = None
-            arrays = {name: g[name][a:b] for name in FIELDS}
+            arrays = {name: g[name][a:b] for name in names}
         else:
             cols = _columns(stored, list(nodes), attrs["n_nodes_total"], str(path))
             arrays = {}
-            for name in FIELDS:
+            for name in names:
                 out = np.empty((b - a, len(cols), _WIDTH[name]), dtype=np.float32)
                 for j, c in enumerate(cols):
                     out[:, j] = g[name][a:b, c, :]

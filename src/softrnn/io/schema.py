@@ -1,4 +1,4 @@
-"""The HDF5 file format of a trajectory, schema 2: constants, units, the error type and shared helpers.
+"""The HDF5 file format of a trajectory, schemas 2 and 3: constants, units, the error type and shared helpers.
 
 The format is documented in docs/dataset-format.md.
 
@@ -16,11 +16,14 @@ torques    (T, N, 3)    float32 applied external torques [N m], world frame
 actuation  (T, m)       float32 optional: named actuation inputs (tendon tensions, chamber
                                 pressures, coil currents, ...), one column per channel, with the
                                 attributes ``names`` and ``units`` (JSON lists of m strings)
+contact_forces (T, N, 3) float32 optional (schema 3): contact forces of the obstacles [N], world
+contact_torques (T, N, 3) float32 optional (schema 3): their torques about the nodes [N m], world
 ========== ============ ======= =====================================================
 
 and the attributes ``softrnn_schema``, ``softrnn_version``, ``dt``, ``seed`` (absent when there is
 none), ``rod`` (JSON), ``scenario`` (text), ``units`` (JSON), ``n_nodes_total`` and ``attrs`` (JSON,
-the caller's own metadata). The per-node arrays are chunked ``(TIME_CHUNK, 1, c)`` and compressed
+the caller's own metadata), and with the contact datasets ``contact`` (JSON: the obstacles, see
+``contact_record``). The per-node arrays are chunked ``(TIME_CHUNK, 1, c)`` and compressed
 (gzip level 4 with byte shuffle, Fletcher-32 checksums), so one node's series is read without
 touching the other nodes' chunks.
 
@@ -36,11 +39,18 @@ import re
 
 import numpy as np
 
-from ..errors import SoftrnnInputError, bad
+from ..errors import SoftrnnInputError, bad, is_finite_number
+from ..rod.contact import Contact, Cylinder, Plane, Sphere, Vessel
 
 SCHEMA_VERSION = 2
-"""Version of the file layout; readers refuse files with a newer one. 2 added the optional
-``actuation`` dataset (schema 1 files, without it, are read with m = 0 actuation channels)."""
+"""Version of the file layout of a trajectory without contact (and of a sweep's root without contact
+groups). 2 added the optional ``actuation`` dataset (schema 1 files, without it, are read with m = 0
+actuation channels)."""
+
+CONTACT_SCHEMA = 3
+"""Version of a trajectory with the contact datasets ``contact_forces``, ``contact_torques`` and the
+``contact`` attribute (older readers refuse it instead of dropping the contact loads); the newest
+schema this softrnn reads."""
 
 TIME_CHUNK = 4096
 """Samples per HDF5 chunk along time (the simulator's chunk length; docs/dataset-format.md#size)."""
@@ -56,7 +66,7 @@ QUATERNION_TOLERANCE = 1e-5
 """Largest accepted | |q| - 1 | of a stored quaternion (float32 rounding itself gives < 2.4e-7)."""
 
 FIELDS = ("positions", "quaternions", "forces", "torques")
-_WIDTH = {"positions": 3, "quaternions": 4, "forces": 3, "torques": 3}
+_WIDTH = {"positions": 3, "quaternions": 4, "forces": 3, "torques": 3, "contact_forces": 3, "contact_torques": 3}
 UNITS = {"time": "s", "positions": "m", "quaternions": "1 (unit, scalar first w x y z, body to world)",
          "forces": "N", "torques": "N m"}
 _DESCRIPTION = {
@@ -67,6 +77,18 @@ _DESCRIPTION = {
     "forces": "applied external forces, world frame",
     "torques": "applied external torques, world frame",
 }
+CONTACT_FIELDS = ("contact_forces", "contact_torques")
+"""The optional per-node datasets (T, N, 3) of the contact loads (schema 3), world frame."""
+CONTACT_UNITS = {"contact_forces": "N", "contact_torques": "N m"}
+CONTACT_DESCRIPTION = {
+    "contact_forces": "contact forces of the obstacles on the nodes (normal and friction), world frame, "
+                      "not part of forces",
+    "contact_torques": "contact torques on the nodes (the friction's moment about the node), world frame, "
+                       "not part of torques",
+}
+CONTACT = "contact"
+"""Name of the group attribute (JSON) describing the obstacles of a trajectory with contact."""
+
 ACTUATION = "actuation"
 """Name of the optional dataset of actuation inputs (T, m)."""
 
@@ -80,7 +102,7 @@ ACTUATION_NAME = re.compile(r"^[a-z][a-z0-9_]{0,63}$")
 e.g. ``tendon_1``, ``p_chamber_2``, ``coil_3``."""
 
 RESERVED_ATTRS = ("schema_version", "softrnn_version", "units", "rod", "scenario_text", "seed", "dt",
-                  "n_nodes_total", "actuation_units")
+                  "n_nodes_total", "actuation_units", "contact")
 SWEEP_PREFIX = "traj-"
 _REQUIRED_ATTRS = ("softrnn_schema", "softrnn_version", "dt", "rod", "scenario", "units", "n_nodes_total", "attrs")
 
@@ -108,6 +130,81 @@ def actuation_units(value, argument: str = "actuation_units") -> dict[str, str]:
                                                f"{', '.join(ACTUATION_UNITS)}")
         out[name] = unit
     return out
+
+
+_KINDS = {"plane": (Plane, ("point", "normal")), "sphere": (Sphere, ("center", "radius")),
+          "cylinder": (Cylinder, ("point", "axis", "radius")), "vessel": (Vessel, ("centreline", "radius"))}
+_CONTACT_KEYS = ("friction", "slip_velocity", "stiffness", "damping", "penetration", "reference_acceleration")
+
+
+def _plain_value(value):
+    """A geometry value as JSON: a number, or nested lists of numbers."""
+    if is_finite_number(value):
+        return float(value)
+    return np.asarray(value, dtype=float).tolist()
+
+
+def contact_record(contact) -> dict | None:
+    """The ``contact`` attribute (a JSON-ready dict) of a ``softrnn.rod.Contact``.
+
+    Parameters
+    ----------
+    contact : Contact, dict or None
+        the setup's contact (``Setup.contact``), or a record of this form (e.g. read from a file:
+        checked by rebuilding the Contact); None gives None
+
+    Returns
+    -------
+    dict or None
+        ``friction`` (the default mu [-]), ``slip_velocity`` [m/s], ``stiffness`` [N/m^2] or None,
+        ``damping`` [N s/m^2] or None, ``penetration`` [-], ``reference_acceleration`` [m/s^2] or
+        None, and ``obstacles``: one dict per obstacle with ``kind`` ('plane', 'sphere', 'cylinder',
+        'vessel'), its geometry in m (plane: ``point`` (3,), ``normal`` (3,) unit; sphere:
+        ``center`` (3,), ``radius``; cylinder: ``point`` (3,), ``axis`` (3,) unit, ``radius``;
+        vessel: ``centreline`` (m, 3), ``radius`` (a number or (m,))) and ``friction``, the mu [-]
+        that applies to it (its own, else the default).
+    """
+    if contact is None:
+        return None
+    if isinstance(contact, dict):
+        contact = contact_from_record(contact)
+    if not isinstance(contact, Contact):
+        raise bad("contact", _short(contact), "a softrnn.rod.Contact (Setup.contact), a stored contact record, "
+                                              "or None")
+    obstacles = []
+    for ob in contact.obstacles:
+        kind = next(k for k, (cls, _) in _KINDS.items() if isinstance(ob, cls))
+        entry = {"kind": kind}
+        entry.update({key: _plain_value(getattr(ob, key)) for key in _KINDS[kind][1]})
+        entry["friction"] = float(contact.friction_of(ob))
+        obstacles.append(entry)
+    record = {key: getattr(contact, key) for key in _CONTACT_KEYS}
+    record = {k: None if v is None else float(v) for k, v in record.items()}
+    record["obstacles"] = obstacles
+    return record
+
+
+def contact_from_record(record) -> Contact:
+    """The ``softrnn.rod.Contact`` of a stored ``contact`` record (see ``contact_record``); a
+    malformed one is a one-line ``SoftrnnInputError``."""
+    if not isinstance(record, dict) or not isinstance(record.get("obstacles"), list):
+        raise bad("contact", _short(record), "a dict with 'obstacles' (a list) and the contact parameters "
+                                             "(see softrnn.io.schema.contact_record)")
+    obstacles = []
+    for j, entry in enumerate(record["obstacles"]):
+        kind = entry.get("kind") if isinstance(entry, dict) else None
+        if kind not in _KINDS:
+            raise bad(f"contact.obstacles[{j}]", _short(entry), f"a dict with kind one of {', '.join(_KINDS)}")
+        cls, keys = _KINDS[kind]
+        missing = [k for k in keys if k not in entry]
+        if missing:
+            raise bad(f"contact.obstacles[{j}]", _short(entry), f"the {kind}'s {', '.join(keys)}")
+        obstacles.append(cls(*(entry[k] for k in keys), friction=entry.get("friction")))
+    options = {k: record[k] for k in _CONTACT_KEYS if record.get(k) is not None}
+    try:
+        return Contact(obstacles=tuple(obstacles), **options)
+    except TypeError as err:
+        raise bad("contact", _short(record), f"a valid contact record ({err})") from None
 
 
 def _group_name(group: str) -> str:

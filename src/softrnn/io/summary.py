@@ -10,7 +10,7 @@ from ..progress import Progress
 from ._checks import _check_values, _layout, _root_info, _select
 from ._h5files import _Reading
 from .reader import read_dataset
-from .schema import ACTUATION, FIELDS, TIME_CHUNK, DatasetError
+from .schema import ACTUATION, CONTACT, CONTACT_FIELDS, FIELDS, TIME_CHUNK, DatasetError
 
 
 def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool = True,
@@ -41,8 +41,12 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
         ``dt_uniform`` (every step within 1e-6 dt of dt), ``stored_values`` (all arrays of all groups),
         ``bytes_per_value`` (file size / stored values), ``storage`` (per array: dtype, chunks,
         compression, stored bytes), ``node_ranges`` (per summarised node: position min/max [m],
-        max |force| [N], max |torque| [N m]), ``actuation`` (per channel, in column order: name,
-        unit, min and max; [] without actuation), ``verified`` and ``attrs``.
+        max |force| [N], max |torque| [N m], and with contact max |contact force| [N]),
+        ``actuation`` (per channel, in column order: name, unit, min and max; [] without
+        actuation), ``contact`` (None without contact loads, else ``fields`` (the contact
+        datasets), ``obstacles`` (their kinds, [] where not recorded), ``recorded`` (whether the
+        obstacles are stored), ``max_force_n`` and ``max_torque_nm`` over every sample and node),
+        ``verified`` and ``attrs`` (with the obstacles' record as ``contact`` where stored).
     """
     path = Path(path)
     with _Reading(path) as f:
@@ -59,9 +63,11 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
         total_values = sum(_stored_values(f[gname]) for gname in info["groups"])
         if verify:
             _verify(g, path, where, time, stored, progress)
-        arrays = ("time", "nodes") + FIELDS + ((ACTUATION,) if units else ())
+        contact = CONTACT in attrs
+        arrays = ("time", "nodes") + FIELDS + ((ACTUATION,) if units else ()) + (CONTACT_FIELDS if contact else ())
         storage = {name: _storage(g[name]) for name in arrays}
         channels = _channels(g, units)
+        contact = _contact(g, attrs[CONTACT]) if contact else None
     size = path.stat().st_size
     picks = sorted({0, N // 2, N - 1})[:max_nodes]
     ranges = _node_ranges(read_dataset(path, nodes=[int(stored[j]) for j in picks], group=where))
@@ -75,7 +81,8 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
         "duration_s": float(time[-1] - time[0]), "dt_s": dt,
         "dt_uniform": bool(steps.size == 0 or np.max(np.abs(steps - dt)) <= 1e-6 * dt),
         "stored_values": int(total_values), "bytes_per_value": size / max(total_values, 1),
-        "storage": storage, "node_ranges": ranges, "actuation": channels, "verified": bool(verify),
+        "storage": storage, "node_ranges": ranges, "actuation": channels, "contact": contact,
+        "verified": bool(verify),
         "attrs": attrs,
     }
 
@@ -94,9 +101,25 @@ def _channels(g, units: dict) -> list[dict]:
     return [{"name": n, "unit": u, "min": float(lo[j]), "max": float(hi[j])} for j, (n, u) in enumerate(units.items())]
 
 
+def _contact(g, record: dict | None) -> dict:
+    """The contact loads of group ``g`` (``record``: its stored obstacles, or None): the datasets,
+    the obstacles' kinds, and the largest |contact force| [N] and |contact torque| [N m], read
+    block by block."""
+    largest = []
+    for name in CONTACT_FIELDS:
+        ds, top = g[name], 0.0
+        for a in range(0, ds.shape[0], TIME_CHUNK):
+            block = ds[a:a + TIME_CHUNK].astype(np.float64)
+            top = max(top, float(np.sqrt((block ** 2).sum(-1)).max()))
+        largest.append(top)
+    kinds = [o["kind"] for o in record["obstacles"]] if record is not None else []
+    return {"fields": list(CONTACT_FIELDS), "obstacles": kinds, "recorded": record is not None,
+            "max_force_n": largest[0], "max_torque_nm": largest[1]}
+
+
 def _stored_values(g) -> int:
     """Values stored in the arrays of trajectory group ``g``."""
-    return sum(int(g[n].size) for n in ("time", "nodes") + FIELDS + (ACTUATION,) if n in g)
+    return sum(int(g[n].size) for n in ("time", "nodes") + FIELDS + (ACTUATION,) + CONTACT_FIELDS if n in g)
 
 
 def _verify(g, path: Path, where: str, time, stored, progress: Progress | None = None) -> None:
@@ -107,7 +130,8 @@ def _verify(g, path: Path, where: str, time, stored, progress: Progress | None =
     if progress is not None:
         progress(0, T)
     for a in range(0, T, step):
-        block = {name: g[name][a:a + step] for name in FIELDS + ((ACTUATION,) if ACTUATION in g else ())}
+        block = {name: g[name][a:a + step] for name in FIELDS + tuple(n for n in (ACTUATION,) + CONTACT_FIELDS
+                                                                      if n in g)}
         _check_values(path, where, time[a:a + step], stored, block, a)
         if progress is not None:
             progress(min(a + step, T), T)
@@ -132,4 +156,7 @@ def _node_ranges(part) -> list[dict]:
             "max_force_n": float(np.linalg.norm(part.forces[:, j].astype(np.float64), axis=1).max()),
             "max_torque_nm": float(np.linalg.norm(part.torques[:, j].astype(np.float64), axis=1).max()),
         })
+        if part.has_contact:
+            f = part.contact_forces[:, j].astype(np.float64)
+            ranges[-1]["max_contact_force_n"] = float(np.linalg.norm(f, axis=1).max())
     return ranges

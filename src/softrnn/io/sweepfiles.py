@@ -9,7 +9,7 @@ from .. import __version__
 from ..errors import bad
 from ._h5files import _h5open, _Reading, _temp_path
 from .reader import list_groups, read_dataset
-from .schema import ACTUATION, FIELDS, SCHEMA_VERSION, SWEEP_PREFIX, DatasetError
+from .schema import ACTUATION, CONTACT_FIELDS, FIELDS, SCHEMA_VERSION, SWEEP_PREFIX, DatasetError
 
 
 def sweep_group_name(index: int) -> str:
@@ -37,7 +37,9 @@ def merge_files(paths, out_path) -> None:
 
     Notes
     -----
-    Every input is read and validated first; the chunks are then copied without recompression.
+    Every input is read and validated first; the chunks are then copied without recompression,
+    the optional datasets (``actuation``, the contact loads) included. The root's schema is the
+    newest of its groups' (at least ``SCHEMA_VERSION``).
     """
     out_path = Path(out_path)
     if isinstance(paths, (str, os.PathLike)) and Path(paths).is_dir():
@@ -52,15 +54,16 @@ def merge_files(paths, out_path) -> None:
         raise bad("paths", paths, "a folder of .h5 files or a non-empty list of files")
     if any(f.resolve() == out_path.resolve() for f in files):
         raise bad("out_path", str(out_path), "a file that is not one of the inputs")
-    sources = []
+    sources, schema = [], SCHEMA_VERSION
     for f in files:
         for g in list_groups(f):
-            read_dataset(f, group=g)  # full validation before anything is written
+            # full validation before anything is written
+            schema = max(schema, read_dataset(f, group=g).attrs["schema_version"])
             sources.append((f, g))
     tmp = _temp_path(out_path)
     try:
         with _h5open(tmp, "w") as out:
-            out.attrs["softrnn_schema"] = SCHEMA_VERSION
+            out.attrs["softrnn_schema"] = schema
             out.attrs["softrnn_version"] = __version__
             out.attrs["kind"] = "sweep"
             for i, (f, g) in enumerate(sources):
@@ -70,7 +73,8 @@ def merge_files(paths, out_path) -> None:
                     for key, value in grp.attrs.items():
                         if key != "kind":
                             dst.attrs[key] = value
-                    for name in ("time", "nodes") + FIELDS + ((ACTUATION,) if ACTUATION in grp else ()):
+                    for name in ("time", "nodes") + FIELDS + tuple(n for n in (ACTUATION,) + CONTACT_FIELDS
+                                                                   if n in grp):
                         src.copy(grp[name], dst, name=name)
         os.replace(tmp, out_path)
     except BaseException:

@@ -23,6 +23,11 @@ from .schema import (
     _WIDTH,
     ACTUATION,
     COMPRESSION,
+    CONTACT,
+    CONTACT_DESCRIPTION,
+    CONTACT_FIELDS,
+    CONTACT_SCHEMA,
+    CONTACT_UNITS,
     FIELDS,
     POSITION_LIMIT_M,
     QUATERNION_TOLERANCE,
@@ -35,6 +40,7 @@ from .schema import (
     _node_list,
     _short,
     _to_float32,
+    contact_record,
 )
 from .schema import actuation_units as _channels
 
@@ -142,17 +148,28 @@ class DatasetWriter:
         "tendon_2": "N"}``; names ``softrnn.io.schema.ACTUATION_NAME``, units
         ``ACTUATION_UNITS``). Every chunk then brings their values (k, m) (``append``), stored as
         the ``actuation`` dataset. None or {}: no actuation (nothing is stored).
+    contact : softrnn.rod.Contact, dict or None
+        The obstacles of the run (``Setup.contact``, or a stored record such as ``Dataset.contact``),
+        stored as the JSON attribute ``contact`` (``schema.contact_record``); every chunk must then
+        bring its contact loads (``contact_forces``, ``contact_torques`` (k, N, 3)). None: the
+        chunks decide; if the first brings contact loads they are stored, with the attribute
+        ``contact`` = null (obstacles not recorded); else none is stored and the file is exactly
+        that of a run without contact.
 
     Notes
     -----
     Use as ``Simulator.run(config, sink=writer.append)`` inside ``with DatasetWriter(...) as writer``.
+    A trajectory with contact loads is written as schema ``CONTACT_SCHEMA`` (3), one without as
+    ``SCHEMA_VERSION`` (2).
     """
 
     def __init__(self, path, *, nodes, n_samples: int, dt: float, rod=None, scenario_text: str = "",
                  seed: int | None = None, attrs: dict | None = None, group: str | None = None,
-                 actuation_units: dict | None = None, _softrnn_version: str | None = None):
+                 actuation_units: dict | None = None, contact=None, _softrnn_version: str | None = None):
         self.path = Path(path)
         node_arr = _node_array(nodes)
+        self._contact_record = contact_record(contact)
+        self.has_contact = False
         self.actuation_units = _channels(actuation_units)
         _check_arguments(n_samples=n_samples, dt=dt, scenario_text=scenario_text, seed=seed)
         user_json = _attrs_json(attrs)
@@ -184,6 +201,8 @@ class DatasetWriter:
         self._h5 = None
         self._tmp = None
         self._open()
+        if self._contact_record is not None:
+            self._start_contact(self._contact_record)
 
     # ------------------------------------------------------------------ file set-up
     def _open(self) -> None:
@@ -208,7 +227,7 @@ class DatasetWriter:
                     self._h5.attrs["kind"] = "sweep"
             self._finalizer.detach()
             self._finalizer = weakref.finalize(self, _discard, self._h5, str(self._tmp))
-            g = self._h5 if self.group is None else self._h5.create_group(self.group)
+            g = self._group = self._h5 if self.group is None else self._h5.create_group(self.group)
             if self.group is None:
                 g.attrs["kind"] = "trajectory"
             for key, value in self._meta.items():
@@ -239,6 +258,27 @@ class DatasetWriter:
             ds.attrs["description"] = "actuation inputs, one column per channel (names and units in order)"
             self._ds[ACTUATION] = ds
 
+    def _start_contact(self, record: dict | None) -> None:
+        """Make this a trajectory with contact (schema ``CONTACT_SCHEMA``): the ``contact`` attribute
+        (``record``, None: null), the contact units and datasets (T, N, 3), a sweep root's schema."""
+        try:
+            g, (T, N, c) = self._group, (self.n_samples, self.nodes.size, self._chunk_len)
+            g.attrs["softrnn_schema"] = CONTACT_SCHEMA
+            g.attrs["units"] = json.dumps(dict(UNITS, **CONTACT_UNITS))
+            g.attrs[CONTACT] = json.dumps(record)
+            if self.group is not None and int(self._h5.attrs["softrnn_schema"]) < CONTACT_SCHEMA:
+                self._h5.attrs["softrnn_schema"] = CONTACT_SCHEMA
+            for name in CONTACT_FIELDS:
+                ds = g.create_dataset(name, shape=(T, N, 3), dtype="<f4", chunks=(c, 1, 3), **COMPRESSION)
+                ds.attrs["units"] = CONTACT_UNITS[name]
+                ds.attrs["description"] = CONTACT_DESCRIPTION[name]
+                ds.attrs["frame"] = "world"
+                self._ds[name] = ds
+        except BaseException:
+            self.abort()
+            raise
+        self.has_contact = True
+
     # ------------------------------------------------------------------ streaming
     def append(self, chunk, actuation=None) -> None:
         """Add the next k samples.
@@ -248,7 +288,9 @@ class DatasetWriter:
         chunk : Trajectory, Dataset or any object with
             ``time`` (k,) [s], ``positions`` (k, N, 3) [m], ``quaternions`` (k, N, 4),
             ``forces`` (k, N, 3) [N] and ``torques`` (k, N, 3) [N m] (and optionally ``nodes`` (N,),
-            which must equal the writer's). The arrays are copied, never modified.
+            which must equal the writer's, and ``contact_forces`` (k, N, 3) [N] and
+            ``contact_torques`` (k, N, 3) [N m], None without contact). The arrays are copied,
+            never modified.
         actuation : ndarray (k, m) or None
             The actuation channels' values in the writer's ``actuation_units`` (column order);
             None: the chunk's own ``actuation`` attribute. Required when the writer has channels.
@@ -279,6 +321,7 @@ class DatasetWriter:
         """The chunk's arrays, checked, as float64 times (k,) and float32 copies of the rest."""
         rows = self._chunk_rows(chunk)
         self._actuation_rows(rows, chunk, actuation)
+        self._contact_rows(rows, chunk)
         if rows["time"].shape[0] == 0:
             return rows
         self._check_rows(rows)
@@ -335,6 +378,31 @@ class DatasetWriter:
                                f"samples and the writer m={m} actuation channels; expected {(k, m)} numbers ({fix})")
         if m:
             rows[ACTUATION] = arr
+
+    def _contact_rows(self, rows: dict, chunk) -> None:
+        """Add the chunk's contact loads (k, N, 3) to ``rows`` after checking them against the
+        writer's; the first chunk of a writer without ``contact`` that brings them starts the
+        contact datasets (``_start_contact``)."""
+        where = f"{self.path}: cannot write"
+        values = [getattr(chunk, name, None) for name in CONTACT_FIELDS]
+        if values[0] is None and values[1] is None:
+            if self.has_contact:
+                raise DatasetError(f"{where}: the chunk has no contact_forces/contact_torques but the writer stores "
+                                   f"contact loads; pass chunks of a run with contact (or contact=None)")
+            return
+        k, N = rows["time"].shape[0], self.nodes.size
+        for name, value in zip(CONTACT_FIELDS, values):
+            arr = None if value is None else np.asarray(value)
+            if arr is None or arr.shape != (k, N, 3) or not np.issubdtype(arr.dtype, np.number):
+                found = "missing" if arr is None else f"shape {arr.shape} ({arr.dtype})"
+                raise DatasetError(f"{where}: {name} is {found} but the chunk has k={k} samples and the writer "
+                                   f"N={N} nodes; expected {(k, N, 3)} numbers (both contact fields, or neither)")
+            rows[name] = arr
+        if not self.has_contact:
+            if self._written + self._buffered:
+                raise DatasetError(f"{where}: the chunk has contact loads but earlier chunks had none; every "
+                                   f"chunk of a trajectory with contact brings them")
+            self._start_contact(None)
 
     def _check_rows(self, rows: dict) -> None:
         """Check the values of a non-empty chunk: finite, times increasing after the last written
@@ -427,7 +495,7 @@ class DatasetWriter:
 def _float32_rows(rows: dict, where: str) -> dict:
     """``rows`` with float32 copies of the per-node arrays (time stays float64); values beyond the
     float32 range are an error."""
-    for name in FIELDS + ((ACTUATION,) if ACTUATION in rows else ()):
+    for name in FIELDS + tuple(n for n in (ACTUATION,) + CONTACT_FIELDS if n in rows):
         if name == "quaternions":
             rows[name] = _to_float32(rows[name]).copy()
             continue
@@ -441,19 +509,23 @@ def _float32_rows(rows: dict, where: str) -> dict:
 
 def write_trajectory(path, traj, *, dt: float, rod=None, scenario_text: str = "", seed: int | None = None,
                      attrs: dict | None = None, group: str | None = None, actuation_units: dict | None = None,
-                     actuation=None) -> None:
+                     actuation=None, contact=None) -> None:
     """Write a whole trajectory (``softrnn.rod.Trajectory`` or ``Dataset``) to ``path`` atomically.
 
     Parameters are those of ``DatasetWriter``; the nodes are ``traj.nodes``. ``actuation_units``
     None takes ``traj.actuation_units`` where the trajectory has them (a ``Dataset``), else none;
-    ``actuation`` (T, m) None takes ``traj.actuation``.
+    ``actuation`` (T, m) None takes ``traj.actuation``. The contact loads are the trajectory's own
+    (``traj.contact_forces``, ``traj.contact_torques``; None: none); ``contact`` (the run's
+    ``Setup.contact``) None takes ``traj.contact`` where the trajectory has it (a ``Dataset``).
     """
     time = np.asarray(traj.time)
     if actuation_units is None:
         actuation_units = getattr(traj, "actuation_units", None)
+    if contact is None and getattr(traj, "contact_forces", None) is not None:
+        contact = getattr(traj, "contact", None)
     with DatasetWriter(path, nodes=np.asarray(traj.nodes), n_samples=int(time.shape[0]), dt=dt, rod=rod,
                        scenario_text=scenario_text, seed=seed, attrs=attrs, group=group,
-                       actuation_units=actuation_units) as writer:
+                       actuation_units=actuation_units, contact=contact) as writer:
         writer.append(traj, actuation)
 
 
@@ -465,5 +537,6 @@ def write_dataset(path, dataset: Dataset, *, group: str | None = None) -> None:
                        rod=dataset.attrs.get("rod"), scenario_text=dataset.attrs.get("scenario_text", ""),
                        seed=dataset.attrs.get("seed"), attrs=attrs, group=group,
                        actuation_units=dataset.actuation_units,
+                       contact=dataset.contact if dataset.has_contact else None,
                        _softrnn_version=dataset.attrs.get("softrnn_version")) as writer:
         writer.append(dataset)

@@ -5,7 +5,8 @@ cases built from them, and the summary of a scenario's run.
 * ``scenario``: ``load_scenario``, ``parse_scenario``, ``Scenario`` (and its ``variant`` for sweeps);
 * ``paths``: target and motion paths (figure-8, random smooth, pose motions);
 * ``cases``: the paper's Data-sets I-III as ``Case`` records and their ``ASSUMPTIONS``;
-* ``summary``: ``simulate_summary``, the run behind ``softrnn simulate``.
+* ``summary``: ``simulate_summary``, the run behind ``softrnn simulate``, and ``contact_lines``, the
+  obstacles in a scenario's summary.
 """
 
 from .reading import ScenarioError as ScenarioError

@@ -3,7 +3,8 @@ Python API (``RodSpec``, shapes, ``Clamp``/``Pin``, loads, ``Damping``, ``Setup`
 
 A scenario names the rod, its reference (stress-free) and initial shapes, the boundary conditions,
 the loads, damping and gravity, the saved interval and duration (or sample count), the solver
-sub-steps, the nodes of interest and a seed; an optional ``[randomize]`` table declares which values
+sub-steps, the nodes of interest and a seed, and optionally the rigid obstacles it touches
+(``[contact]``); an optional ``[randomize]`` table declares which values
 a sweep varies and how (``Scenario.variant(i)``), and an optional ``[calibrate]`` table the bounds of
 the values ``softrnn calibrate`` may fit (``Scenario.with_values`` builds a trial). The format is
 documented in docs/scenario-format.md. The paper's cases and their generalisation variants ship inside the
@@ -24,6 +25,7 @@ import numpy as np
 
 from ..errors import SoftrnnInputError, bad
 from ..rod.simulation import Damping, RunConfig, Setup
+from ._contact import read_contact
 from ._initial import initial_shape, with_static_start
 from ._sections import _DAMPING_KEYS, _boundary, _gravity, _loads, _rod, _run, _shape
 from ._tendons import read_tendons
@@ -34,7 +36,8 @@ from .reading import ScenarioError, _as_is, _Ctx, _show, _Table, integer, number
 SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "square-circle", "square-figure8",
                                    "square-random", "semicircle", "semicircle-cosine", "tendon-planar",
                                    "tendon-planar-sine", "tendon-spatial", "tendon-spatial-sine",
-                                   "tendon-displacement", "steel-wire", "nitinol-guidewire")
+                                   "tendon-displacement", "steel-wire", "nitinol-guidewire", "contact-plane",
+                                   "vessel-guidewire")
 FORMAT_VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 
@@ -56,6 +59,8 @@ _TOP_KEYS = {
     "tendons": "[[tendons]] entries: name, offset, routing, end_node or end_s, tension (or displacement and "
                "stiffness)",
     "damping": "the damping table: translational, rotational, kelvin_voigt",
+    "contact": "the contact table: friction, ..., and [[contact.obstacles]] (kind = plane, sphere, cylinder or "
+               "vessel)",
     "run": "the run table: dt, duration or n_samples, substeps, nodes_of_interest, ...",
     "randomize": "a table of dotted keys -> distributions for sweeps",
     "calibrate": "a table of dotted keys -> {bounds = [lo, hi], start = value} for softrnn calibrate",
@@ -180,12 +185,20 @@ def _setup(ctx: _Ctx, top: _Table, doc: dict, gravity: tuple) -> Setup:
         damping = Damping(**{k: dt_.get(k, number(nonnegative=True)) for k in dt_.raw})
     except SoftrnnInputError as exc:
         raise ctx.wrap("damping", exc) from None
+    contact = read_contact(ctx, doc["contact"]) if "contact" in doc else None
     try:
         setup = Setup(rod=rod, reference=reference, initial=initial, boundary=boundary, loads=loads,
-                      damping=damping, gravity=gravity, tendons=tendons)
+                      damping=damping, gravity=gravity, tendons=tendons, contact=contact)
     except SoftrnnInputError as exc:
-        raise ctx.wrap("reference" if "reference" in str(exc) else "setup", exc) from None
+        raise ctx.wrap(_setup_key(str(exc)), exc) from None
     return with_static_start(ctx, doc, setup)
+
+
+def _setup_key(message: str) -> str:
+    """The key a ``Setup`` validation error points to: contact, reference or setup."""
+    if "contact" in message or "obstacle" in message:
+        return "contact"
+    return "reference" if "reference" in message else "setup"
 
 
 def _build(ctx: _Ctx, text: str, doc: dict, variant_index: int | None = None, sampled: dict | None = None) -> Scenario:

@@ -10,6 +10,7 @@ from ..io.writer import DatasetWriter
 from ..progress import Progress
 from ..rod import RunConfig, Setup, Simulator
 from ..rod.tendons import tendon_actuation, tendon_sink
+from ._contact import describe
 
 
 class _NodeCollector:
@@ -30,7 +31,8 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
                      out_path=None, scenario_text: str = "", seed: int | None = None, attrs: dict | None = None,
                      progress: Progress | None = None, series: dict | None = None) -> dict:
     """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically), with the
-    tensions of the setup's tendons as its actuation channels ``tendon_<name>`` [N].
+    tensions of the setup's tendons as its actuation channels ``tendon_<name>`` [N] and, with
+    contact, the obstacles and the contact loads on the saved nodes.
 
     Returns a JSON-ready summary: timing, step, the node of interest's range, energy, orthogonality.
     If a dict is passed as ``series`` it receives the arrays time (T,), node_positions (T, 3) [m]
@@ -55,7 +57,8 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
         # tendon tensions are stored as the actuation channels tendon_<name> [N]
         _, units = tendon_actuation(setup.tendons, np.zeros(0))
         with DatasetWriter(out_path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=setup.rod,
-                           scenario_text=scenario_text, seed=seed, attrs=attrs, actuation_units=units) as writer:
+                           scenario_text=scenario_text, seed=seed, attrs=attrs, actuation_units=units,
+                           contact=setup.contact) as writer:
             sink = _NodeCollector(nodes.index(node), forward=tendon_sink(writer.append, setup.tendons))
             stats = sim.run(config, progress=progress, sink=sink)
     total = time.perf_counter() - start
@@ -85,3 +88,9 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
 def sim_time(config: RunConfig, n: int) -> np.ndarray:
     """Saved times (n,) [s] of a run started at t = 0."""
     return config.dt * np.arange(n)
+
+
+def contact_lines(setup: Setup) -> list[str]:
+    """Lines of ``softrnn scenario show --summary`` on the setup's contact: the law's parameters and
+    one line per obstacle (none without contact)."""
+    return [] if setup.contact is None else describe(setup.contact)

@@ -102,7 +102,8 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
     tendons = scenario.setup.tendons
     _, units = tendon_actuation(tendons, ())  # tendon tensions: actuation channels tendon_<name> [N]
     with DatasetWriter(path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=scenario.setup.rod,
-                       scenario_text=scenario.text, seed=scenario.seed, attrs=attrs, actuation_units=units) as writer:
+                       scenario_text=scenario.text, seed=scenario.seed, attrs=attrs, actuation_units=units,
+                       contact=scenario.setup.contact) as writer:
         stats = sim.run(config, sink=tendon_sink(writer.append, tendons))
     return {"index": index, "wall_time": time.perf_counter() - start, "substeps": stats.substeps}
 

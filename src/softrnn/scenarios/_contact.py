@@ -1,0 +1,138 @@
+"""The ``[contact]`` table of a scenario: the contact law's parameters and its ``[[contact.obstacles]]``
+entries (plane, sphere, cylinder, vessel) read into a ``softrnn.rod.contact.Contact``."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SoftrnnInputError
+from ..rod.contact import Contact, Cylinder, Plane, Sphere, Vessel
+from .reading import ScenarioError, _Ctx, _is_number, _read_csv, _Table, number, rows3, string, table_list, vec3
+
+_CONTACT_KEYS = {
+    "obstacles": "[[contact.obstacles]] entries (kind = plane, sphere, cylinder or vessel)",
+    "friction": "the Coulomb friction coefficient of the obstacles that set none (>= 0, default 0)",
+    "slip_velocity": "the slip velocity of the regularised friction in m/s (> 0, default 1e-4)",
+    "stiffness": "the penalty stiffness per length of rod in N/m^2 (default: from penetration)",
+    "damping": "the normal damping per length of rod in N s/m^2 (default: critical)",
+    "penetration": "the default stiffness' penetration under the reference load, a fraction of the rod radius "
+                   "in (0, 1) (default 0.005)",
+    "reference_acceleration": "the reference acceleration of the default stiffness in m/s^2 (default: |gravity|)",
+}
+_FRICTION = {"friction": "this obstacle's friction coefficient (>= 0; default: contact.friction)"}
+_OBSTACLE_KEYS = {
+    "plane": {"point": "a point of the plane [x, y, z] in m",
+              "normal": "the normal [x, y, z], toward the rod's side"},
+    "sphere": {"center": "the centre [x, y, z] in m", "radius": "the radius in m"},
+    "cylinder": {"point": "a point of the axis [x, y, z] in m", "axis": "the axis direction [x, y, z]",
+                 "radius": "the radius in m"},
+    "vessel": {"centreline": "the centreline points [[x, y, z], ...] in m (at least 2)",
+               "file": "a CSV file of x, y, z rows: the centreline (instead of centreline)",
+               "radius": "the inner radius in m, or a list of radii, one per centreline point"},
+}
+KINDS = tuple(_OBSTACLE_KEYS)
+
+
+def read_contact(ctx: _Ctx, raw) -> Contact:
+    """The ``[contact]`` table as a ``Contact`` (every key checked; API errors name the table)."""
+    t = _Table(ctx, raw, "contact", _CONTACT_KEYS)
+    entries = t.get("obstacles", table_list)
+    if not entries:
+        raise ctx.invalid("contact.obstacles", entries, "at least one [[contact.obstacles]] entry")
+    obstacles = tuple(_obstacle(ctx, o, f"contact.obstacles.{i}") for i, o in enumerate(entries))
+    kw = {"friction": t.get("friction", number(nonnegative=True), 0.0)}
+    for name, conv in (("slip_velocity", number("m/s", positive=True)),
+                       ("stiffness", number("N/m^2", positive=True)),
+                       ("damping", number("N s/m^2", nonnegative=True)),
+                       ("reference_acceleration", number("m/s^2", positive=True))):
+        if t.has(name):
+            kw[name] = t.get(name, conv)
+    if t.has("penetration"):
+        p = t.get("penetration", number())
+        if not 0 < p < 1:
+            raise ctx.invalid("contact.penetration", p, "a fraction of the rod radius in (0, 1), e.g. 0.005")
+        kw["penetration"] = p
+    try:
+        return Contact(obstacles=obstacles, **kw)
+    except SoftrnnInputError as exc:
+        raise ctx.wrap("contact", exc) from None
+
+
+def _obstacle(ctx: _Ctx, raw, path: str):
+    """One ``[[contact.obstacles]]`` entry as a ``Plane``, ``Sphere``, ``Cylinder`` or ``Vessel``."""
+    if not isinstance(raw, dict):
+        raise ctx.invalid(path, raw, "a table with kind = " + ", ".join(KINDS))
+    kind = _Table(ctx, {"kind": raw["kind"]} if "kind" in raw else {}, path,
+                  {"kind": "the obstacle kind: " + ", ".join(KINDS)}).get("kind", string(KINDS))
+    t = _Table(ctx, raw, path, {"kind": "the obstacle kind", **_OBSTACLE_KEYS[kind], **_FRICTION})
+    friction = t.get("friction", number(nonnegative=True), None)
+    try:
+        if kind == "plane":
+            return Plane(t.get("point", vec3("m")), t.get("normal", vec3(nonzero=True)), friction=friction)
+        if kind == "sphere":
+            return Sphere(t.get("center", vec3("m")), t.get("radius", number("m", positive=True)), friction=friction)
+        if kind == "cylinder":
+            return Cylinder(t.get("point", vec3("m")), t.get("axis", vec3(nonzero=True)),
+                            t.get("radius", number("m", positive=True)), friction=friction)
+        points, radius = _vessel(ctx, t)
+        return Vessel(points, radius, friction=friction)
+    except ScenarioError:
+        raise
+    except (SoftrnnInputError, ArithmeticError) as exc:
+        raise ctx.wrap(path, exc) from None
+
+
+def _vessel(ctx: _Ctx, t: _Table) -> tuple[np.ndarray, float | np.ndarray]:
+    """A vessel's centreline points (m, 3) [m] (inline or from a CSV file) and its radius [m] (a
+    number or (m,) radii)."""
+    if t.has("centreline") == t.has("file"):
+        raise ctx.error(t.key("centreline"), f"{t.path}: give exactly one of centreline (inline points) or file "
+                                             "(a CSV file of x, y, z rows) for a vessel")
+    key = t.key("centreline") if t.has("centreline") else t.key("file")
+    points = t.get("centreline", rows3("m")) if t.has("centreline") else _read_csv(ctx, key, t.raw["file"], 3)
+    m = len(points)
+    if m < 2:
+        raise ctx.invalid(key, f"{m} point", "at least 2 centreline points [[x, y, z], ...] in m")
+    steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    if np.any(steps <= 0):
+        i = int(np.argmin(steps))
+        raise ctx.invalid(key, f"points {i} and {i + 1} at the same place", "distinct consecutive points")
+    raw = t.get("radius", lambda c, k, x: x)
+    if _is_number(raw):
+        return points, number("m", positive=True)(ctx, t.key("radius"), raw)
+    what = f"a radius in m (> 0), or a list of {m} radii in m (> 0), one per centreline point"
+    if not isinstance(raw, list) or len(raw) != m or not all(_is_number(x) and np.isfinite(x) and x > 0 for x in raw):
+        raise ctx.invalid(t.key("radius"), raw, what)
+    return points, np.array(raw, dtype=float)
+
+
+def describe(contact: Contact) -> list[str]:
+    """Lines for a scenario summary: the law's parameters and one line per obstacle."""
+    law = f"friction {contact.friction:g}, slip velocity {contact.slip_velocity:g} m/s"
+    law += (f", stiffness {contact.stiffness:g} N/m^2" if contact.stiffness is not None
+            else f", stiffness from penetration {contact.penetration:g} r")
+    if contact.damping is not None:
+        law += f", damping {contact.damping:g} N s/m^2"
+    if contact.reference_acceleration is not None:
+        law += f" at {contact.reference_acceleration:g} m/s^2"
+    lines = [f"  contact: {len(contact.obstacles)} obstacle{'s' if len(contact.obstacles) > 1 else ''}; {law}"]
+    for i, ob in enumerate(contact.obstacles):
+        lines.append(f"    {i}: {_obstacle_text(ob)}" + ("" if ob.friction is None else f", friction {ob.friction:g}"))
+    return lines
+
+
+def _obstacle_text(ob) -> str:
+    """One obstacle in words, with its geometry."""
+    def v(x):
+        return "[" + ", ".join(f"{c:.4g}" for c in x) + "]"
+    if isinstance(ob, Plane):
+        return f"plane through {v(ob.point)} m, normal {v(ob.normal)}"
+    if isinstance(ob, Sphere):
+        return f"sphere at {v(ob.center)} m, radius {ob.radius:.4g} m"
+    if isinstance(ob, Cylinder):
+        return f"cylinder through {v(ob.point)} m, axis {v(ob.axis)}, radius {ob.radius:.4g} m"
+    length = float(np.sum(np.linalg.norm(np.diff(ob.points, axis=0), axis=1)))
+    rad = np.unique(ob.radii)
+    size = f"{rad[0]:.4g} m" if rad.size == 1 else f"{rad.min():.4g}-{rad.max():.4g} m"
+    return (f"vessel of {len(ob.centreline)} centreline points from {v(ob.centreline[0])} to "
+            f"{v(ob.centreline[-1])} m, length {length:.4g} m, radius {size}")
