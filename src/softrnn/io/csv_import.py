@@ -60,6 +60,45 @@ def _fail(path: Path, message: str) -> DatasetError:
     return DatasetError(f"{path}: {message}")
 
 
+def time_steps(path: Path, rows: list, time: np.ndarray,
+               fix: str = "rows must be in strictly increasing time order, without duplicates") -> np.ndarray:
+    """The steps between a CSV file's samples, checked.
+
+    Parameters
+    ----------
+    path : Path
+        The file, for the message.
+    rows : list of (int, list of str)
+        The data rows with their line numbers, as ``read_csv_lines`` gives them.
+    time : (T,) array
+        The time column [s].
+    fix : str
+        What the message tells the user to do about a time that does not increase.
+
+    Returns
+    -------
+    (T - 1,) array
+        The steps [s], every one positive and finite.
+
+    Raises
+    ------
+    DatasetError
+        One line naming the two lines of the first step that is not positive, or not finite (times
+        near the largest float).
+    """
+    with np.errstate(over="ignore"):   # times near +-1.8e308: refused below
+        steps = np.diff(time)
+    if np.any(steps <= 0):
+        i = int(np.argmax(steps <= 0))
+        raise _fail(path, f"line {rows[i + 1][0]}: time {float(time[i + 1])!r} is not after {float(time[i])!r} "
+                          f"(line {rows[i][0]}); {fix}")
+    if not np.isfinite(steps).all():
+        i = int(np.argmax(~np.isfinite(steps)))
+        raise _fail(path, f"line {rows[i + 1][0]}: the step from time {float(time[i])!r} to {float(time[i + 1])!r} "
+                          "is not a finite number of seconds; times must be in s")
+    return steps
+
+
 # ----------------------------------------------------------------------------------------- parsing
 def shown(text, limit: int = 40) -> str:
     """``repr`` of a piece of a user's file for a message: at most ``limit`` characters (then ``...``),
@@ -272,16 +311,7 @@ def read_csv(csv_path) -> dict:
                           f"samples are needed")
     values = _parse_values(path, names, rows)
     time = values[:, 0].copy()
-    with np.errstate(over="ignore"):   # times near +-1.8e308: refused below
-        steps = np.diff(time)
-    if np.any(steps <= 0):
-        i = int(np.argmax(steps <= 0))
-        raise _fail(path, f"line {rows[i + 1][0]}: time {float(time[i + 1])!r} is not after {float(time[i])!r} "
-                          f"(line {rows[i][0]}); rows must be in strictly increasing time order, without duplicates")
-    if not np.isfinite(steps).all():
-        i = int(np.argmax(~np.isfinite(steps)))
-        raise _fail(path, f"line {rows[i + 1][0]}: the step from time {float(time[i])!r} to {float(time[i + 1])!r} "
-                          "is not a finite number of seconds; times must be in s")
+    time_steps(path, rows, time)   # checked: every step positive and finite
     nodes = np.array(sorted(layout), dtype=np.int64)
     T, N = len(rows), nodes.size
     arrays = {field: np.zeros((T, N, len(comps))) for field, comps in _GROUPS.items()}

@@ -25,7 +25,7 @@ import numpy as np
 
 from ...errors import SoftrnnInputError, bad
 from ...files import atomic_write_text
-from ...io.csv_import import read_csv_lines, shown
+from ...io.csv_import import read_csv_lines, shown, time_steps
 from ...magnetics.camera import camera_measure, tangents_from_rotation_vectors
 from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, simulate_manipulator
 from ...magnetics.static import static_predictions
@@ -177,16 +177,7 @@ def read_lab_csv(path, *, spec: ManipulatorSpec | None = None) -> LabData:
     V = _values(path, names, rows)
     col = {name: j for j, name in enumerate(names)}
     t = V[:, 0]
-    with np.errstate(over="ignore"):   # times near +-1.8e308: refused below
-        step = np.diff(t)
-    if np.any(step <= 0):
-        i = int(np.argmax(step <= 0))
-        raise _fail(path, f"line {rows[i + 1][0]}: time {float(t[i + 1])!r} is not after {float(t[i])!r} (line "
-                          f"{rows[i][0]}); times must increase strictly: sort the rows and drop duplicated ones")
-    if not np.isfinite(step).all():
-        i = int(np.argmax(~np.isfinite(step)))
-        raise _fail(path, f"line {rows[i + 1][0]}: the step from time {float(t[i])!r} to {float(t[i + 1])!r} is "
-                          "not a finite number of seconds; times must be in s")
+    step = time_steps(path, rows, t, "times must increase strictly: sort the rows and drop duplicated ones")
     median = float(np.median(step))
     off = np.abs(step - median) / median
     if np.any(off > DT_SPREAD):
