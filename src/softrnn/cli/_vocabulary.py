@@ -23,6 +23,7 @@ NOT_A_CONCEPT = {
     "--start-fraction": "dynamic train: the share of each batch's windows drawn from a run's first steps",
     "--validate-group": "train: the --group of the --validate-on file",
     "--no-forces": "plot: leave out the force panel",
+    "--no-contact-forces": "animate: leave out the arrows of the contact forces",
 }
 """Domain options that contain a concept word but name something else (option -> why)."""
 
@@ -43,7 +44,8 @@ DOMAIN = {
     "bench": ("--quick", "--only", "--model", "--dynamic-model"),
     "show": ("--quick",),
     "import-csv": ("--length", "--scenario", "--inputs", "--tip", "--position-unit", "--tip-node", "--lag"),
-    "animate": ("--fps", "--frames", "--duration", "--node", "--no-trail", "--view", "--elev", "--azim", "--size"),
+    "animate": ("--fps", "--frames", "--duration", "--node", "--no-trail", "--view", "--elev", "--azim", "--size",
+                "--no-obstacles", "--no-contact-forces"),
     "plot": ("--node", "--no-forces"),
     "train": ("--node", "--neighbours", "--history", "--inputs", "--wrench", "--drive", "--channels", "--predict",
               "--validate-on", "--validate-group", "--epochs", "--batch-size", "--lr", "--patience", "--units",
