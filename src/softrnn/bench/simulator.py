@@ -13,12 +13,16 @@ Measures (see benchmarks/README.md):
 * the two integrators (``RunConfig(integrator="explicit" | "implicit")``) on the paper's cases and
   the stiff wires ``steel-wire`` and ``nitinol-guidewire``, each at its automatic step: cost, real-time
   factor and the tracked node's error against the same integrator at an 8x smaller step
-  (``time_integrators``; ``INTEGRATOR_HOW`` says exactly how).
+  (``time_integrators``; ``INTEGRATOR_HOW`` says exactly how);
+* the cost of contact: the shipped contact scenarios (``contact-plane``, ``vessel-guidewire``) as
+  shipped and the same setup with ``contact=None`` at the contact run's solver step, and the overhead
+  with/without - 1 (``time_contact_cases``; ``CONTACT_HOW`` says exactly how).
 
 ``run_benchmark`` returns a JSON-ready dict, ``format_table`` renders it; neither prints.
 """
 
 import dataclasses
+import math
 import os
 import statistics
 import subprocess
@@ -30,6 +34,7 @@ from collections.abc import Callable
 import numba
 import numpy as np
 
+from ..errors import bad
 from ..progress import Progress
 from ..rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, simulate_batch, straight
 from ..scenarios import load_scenario
@@ -50,6 +55,7 @@ GOALS = {
     "cold_compile_s": 3.0,
     "cached_start_s": 0.5,
     "batch16_2threads_us_per_node_step": 0.07,
+    "contact_overhead": 0.30,
 }
 PAPER_CASES = ("ellipse", "square", "semicircle")
 GOAL_NODES = (59, 101)
@@ -73,6 +79,23 @@ INTEGRATOR_HOW = (
     "smaller), same samples. Where that reference would take more than 2,000,000 solver steps (the explicit step "
     "of a stiff wire, about 1e-10 s), fixed_steps solver steps from rest are timed instead (the real-time factor "
     "from them) and the error is null with tip_error_reason.")
+
+CONTACT_CASES = ("contact-plane", "vessel-guidewire")
+"""The shipped contact scenarios whose cost of contact ``simulator.contact`` records."""
+CONTACT_KEYS = ("us_per_node_step", "us_per_node_step_without_contact", "overhead")
+"""The figures of every ``simulator.contact[CASE]`` entry."""
+CONTACT_HOW = (
+    "per scenario (softrnn.scenarios.load_scenario), its setup, saved interval dt and integrator as shipped, only "
+    "the tracked node saved (its last node of interest); the solver step is the contact run's automatic one "
+    "(substeps fixed to it), and the same setup with contact=None is run at that same step, so that only the "
+    "contact work differs (without the obstacles the rod moves differently: it falls through the table or the "
+    "vessel's floor). Timed: the first saved intervals from rest that make node_steps node-steps (solver steps * "
+    "nodes), at most the first max_span_s simulated seconds (the cost per step depends a little on the motion, "
+    "and the motions with and without contact drift apart: the rod of contact-plane, free of its table, swings "
+    "from the clamp, and over the whole scenario its steps cost about 15 % more than over the first second), one "
+    "warm-up run of each, then reps runs of Simulator(setup).run(config) alternating with and without contact, "
+    "numba 1 thread, the median wall of each; us_per_node_step = wall / (steps * nodes), overhead = "
+    "us_per_node_step / us_per_node_step_without_contact - 1 (goal: at most 0.30).")
 
 # cantilever of the task: L = 1 m, r = 1 cm, E = 1 MPa, rho = 1000 kg/m^3, nu = 0.5, gravity,
 # clamped at node 0, horizontal along +x (it falls and swings under its own weight)
@@ -330,6 +353,78 @@ def time_integrators(reps: int, span_s: float, fixed_steps: int, cases=INTEGRATO
     return out
 
 
+# ---------------------------------------------------------------------------------------------- contact
+def contact_configs(setup: Setup, config: RunConfig, node: int, node_steps: int,
+                    max_span_s: float) -> tuple[Setup, RunConfig]:
+    """(the setup without contact, the timed config) of one ``simulator.contact`` entry: the
+    scenario's config saving only ``node``, its substeps fixed to the automatic ones of the run with
+    contact (the run without contact takes the same solver step), over the first saved intervals
+    that make ``node_steps`` node-steps (solver steps * nodes), at most ``max_span_s`` simulated
+    seconds (and at least one interval)."""
+    cfg = dataclasses.replace(config, save_nodes=(node,), substeps=None)
+    substeps = Simulator(setup).resolve_substeps(cfg)
+    enough = 1 + math.ceil(node_steps / (substeps * setup.rod.n_nodes))
+    samples = min(_samples(cfg, max_span_s), max(2, enough))
+    timed = dataclasses.replace(cfg, substeps=substeps, n_samples=samples)
+    return dataclasses.replace(setup, contact=None), timed
+
+
+def time_contact(setup: Setup, config: RunConfig, node: int, reps: int, node_steps: int,
+                 max_span_s: float) -> dict:
+    """One ``simulator.contact`` entry (``CONTACT_HOW``): the setup (with contact) against itself
+    without contact at the same solver step, ``reps`` runs of each, alternating, over the span of
+    ``contact_configs``."""
+    if setup.contact is None:
+        raise bad("setup.contact", None, "a Contact: the setup's contact is what is timed")
+    bare, timed = contact_configs(setup, config, node, node_steps, max_span_s)
+    pair = (setup, bare)
+    for s in pair:  # warm-up: compiles the kernel or loads it from the cache
+        Simulator(s).run(dataclasses.replace(timed, n_samples=2))
+    runs: tuple[list, list] = ([], [])
+    for _ in range(reps):
+        for s, out in zip(pair, runs):
+            c, t = time.process_time(), time.perf_counter()
+            trajectory = Simulator(s).run(timed)
+            out.append((time.perf_counter() - t, time.process_time() - c))
+    with_contact, without = (statistics.median(w for w, _ in out) for out in runs)
+    steps = trajectory.n_steps
+    n = setup.rod.n_nodes
+    per_node_step = 1e6 / (steps * n)
+    return {"us_per_node_step": with_contact * per_node_step,
+            "us_per_node_step_without_contact": without * per_node_step,
+            "overhead": with_contact / without - 1.0,
+            "integrator": timed.integrator, "dt_s": trajectory.step, "substeps": trajectory.substeps,
+            "obstacles": [type(o).__name__ for o in setup.contact.obstacles], "tip_node": node, "nodes": n,
+            "steps": steps, "simulated_s": steps * trajectory.step, "wall_s": with_contact,
+            "wall_without_contact_s": without, "reps": reps,
+            "cpu_fraction": min(statistics.median(c / w for w, c in out) for out in runs)}
+
+
+def time_contact_cases(reps: int, node_steps: int, max_span_s: float, cases=CONTACT_CASES,
+                       tick: Callable[[], None] | None = None) -> dict:
+    """``simulator.contact``: {case: entry} for ``cases`` (``time_contact``), plus "how"
+    (``CONTACT_HOW``). A case that fails is recorded as {"error": ...}. Run it with numba on one
+    thread."""
+    out: dict = {}
+    for case in cases:
+        try:
+            scenario = load_scenario(case)
+            out[case] = time_contact(scenario.setup, scenario.config, _tracked_node(scenario), reps, node_steps,
+                                     max_span_s)
+        except Exception as exc:  # a scenario under construction must not sink the benchmark
+            out[case] = {"error": f"{type(exc).__name__}: {exc}"}
+        if tick is not None:
+            tick()
+    out["how"] = CONTACT_HOW
+    return out
+
+
+def contact_overheads(sim: dict) -> list[float]:
+    """The measured overheads of ``simulator.contact`` (the entries without an error)."""
+    entries = sim.get("contact", {})
+    return [e["overhead"] for case, e in entries.items() if case != "how" and "overhead" in e]
+
+
 # ---------------------------------------------------------------------------------------------- report
 def _single_rods(sizes, reps: int, duration: float, case_duration: float, tick: Callable[[], None]) -> dict:
     """The single-rod entries (``cantilever50``, ``cantilever_nodes``, ``cases``); numba on 1 thread."""
@@ -364,8 +459,10 @@ def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict
     batch_reps = 3 if quick else 5
     # integrators: reps, simulated span [s], fixed solver steps where no reference is within reach
     integrator_settings = (3, 0.1, 10_000) if quick else (5, 0.3, 20_000)
+    # contact: reps, node-steps timed per run, at most the first max_span_s simulated [s] (CONTACT_HOW)
+    contact_settings = (3, 500_000, 1.0) if quick else (5, 2_000_000, 1.0)
     sizes = (50, 59, 101)
-    n_items = len(sizes) + len(PAPER_CASES) + len(INTEGRATOR_CASES) + 2
+    n_items = len(sizes) + len(PAPER_CASES) + len(INTEGRATOR_CASES) + len(CONTACT_CASES) + 2
     done = 0
 
     def tick():
@@ -383,6 +480,7 @@ def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict
     try:
         sim = _single_rods(sizes, reps, duration, case_duration, tick)
         sim["integrators"] = time_integrators(*integrator_settings, tick=tick)
+        sim["contact"] = time_contact_cases(*contact_settings, tick=tick)
     finally:
         numba.set_num_threads(previous)
 
@@ -405,6 +503,7 @@ def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict
         "settings": {"quick": quick, "reps": reps, "cantilever_and_batch_simulated_s": duration,
                      "case_simulated_s_max": case_duration,
                      "integrators": dict(zip(("reps", "span_s", "fixed_steps"), integrator_settings)),
+                     "contact": dict(zip(("reps", "node_steps", "max_span_s"), contact_settings)),
                      "elapsed_s": time.perf_counter() - started,
                      "load_average_start": load_start, "load_average_end": load_average(),
                      "date": time.strftime("%Y-%m-%d %H:%M:%S %z")},
@@ -418,7 +517,8 @@ def goals_met(result: dict) -> dict:
     sim, goals = result["simulator"], result["goals"]
     at_nodes = [e["us_per_node_step"] for _, e in _single_rows(sim)
                 if e.get("nodes") in GOAL_NODES and "us_per_node_step" in e]
-    return {
+    overheads = contact_overheads(sim)
+    met = {
         "us_per_node_step_at_59_and_101_nodes":
             (max(at_nodes) <= goals["us_per_node_step_at_59_and_101_nodes"]) if at_nodes else None,
         "cold_compile_s": sim["compile"]["cold_s"] < goals["cold_compile_s"],
@@ -426,6 +526,9 @@ def goals_met(result: dict) -> dict:
         "batch16_2threads_us_per_node_step":
             sim["batch16_2threads"]["us_per_node_step"] <= goals["batch16_2threads_us_per_node_step"],
     }
+    if "contact_overhead" in goals:  # results from before the contact entries have no such goal
+        met["contact_overhead"] = (max(overheads) <= goals["contact_overhead"]) if overheads else None
+    return met
 
 
 def _single_rows(sim: dict) -> list[tuple[str, dict]]:
@@ -468,6 +571,31 @@ def format_integrators(integrators: dict, settings: dict | None = None) -> list[
     return lines
 
 
+def format_contact(contact: dict, goal: float | None, met, settings: dict | None = None) -> list[str]:
+    """Text lines of ``simulator.contact`` (one row per case), the overhead beside its ``goal``
+    (None: not recorded) and whether the largest met it (``met``: True, False or None)."""
+    s = (settings or {}).get("contact", {})
+    span = (f"{s['node_steps']:,} node-steps, at most the first {s['max_span_s']:g} s" if "node_steps" in s
+            else "a short span")
+    goal_text = "" if goal is None else f"; goal: overhead <= {goal:.2f}   {_ok(met)}"
+    lines = [f"contact, 1 thread: each contact scenario as shipped vs contact=None at the same step ({span})"
+             f"{goal_text}"]
+    head = (f"  {'case':<19}{'integrator':<11}{'nodes':>6}{'step [s]':>11}{'span [s]':>10}{'with':>10}{'without':>10}"
+            f"{'overhead':>10}{'cpu':>6}")
+    lines += [head + "   (us/node-step)", "  " + "-" * (len(head) - 2)]
+    for case, e in contact.items():
+        if case == "how":
+            continue
+        if "error" in e:
+            lines.append(f"  {case:<19}  error: {e['error']}")
+            continue
+        lines.append(f"  {case:<19}{e['integrator']:<11}{e['nodes']:>6}{e['dt_s']:>11.3g}"
+                     f"{e.get('simulated_s', float('nan')):>10.3g}{e['us_per_node_step']:>10.4f}"
+                     f"{e['us_per_node_step_without_contact']:>10.4f}{100 * e['overhead']:>9.0f}%"
+                     f"{100 * e.get('cpu_fraction', float('nan')):>5.0f}%")
+    return lines
+
+
 def format_table(result: dict) -> str:
     """Plain-text table of a ``run_benchmark`` result, goals beside the measured figures."""
     m, sim, goals = result["machine"], result["simulator"], result["goals"]
@@ -500,9 +628,12 @@ def format_table(result: dict) -> str:
                  "the benchmark was waiting for a core)")
     if "integrators" in sim:
         lines += [""] + format_integrators(sim["integrators"], result.get("settings"))
+    met = result.get("goals_met") or goals_met(result)
+    if "contact" in sim:
+        lines += [""] + format_contact(sim["contact"], goals.get("contact_overhead"), met.get("contact_overhead"),
+                                       result.get("settings"))
     c = sim["compile"]
     b = sim["batch16_2threads"]
-    met = result.get("goals_met") or goals_met(result)
     lines += [
         "",
         "start-up (fresh interpreter, import + first 5-node simulate)",
@@ -527,6 +658,8 @@ def format_table(result: dict) -> str:
     contended = [name for name, e in _single_rows(sim) if e.get("cpu_fraction", 1.0) < 0.9]
     contended += [f"{case} ({name})" for name in INTEGRATORS
                   for case, e in sim.get("integrators", {}).get(name, {}).items() if e.get("cpu_fraction", 1.0) < 0.9]
+    contended += [f"{case} (contact)" for case, e in sim.get("contact", {}).items()
+                  if case != "how" and e.get("cpu_fraction", 1.0) < 0.9]
     if b.get("cpu_fraction", b["threads"]) < 0.9 * b["threads"]:
         contended.append("batch")
     if contended:
