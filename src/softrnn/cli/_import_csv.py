@@ -16,6 +16,7 @@ from ..lab.recording import (
     read_recording,
     shift_inputs,
 )
+from ._progress import DelayedBar
 
 NAME = "import-csv"
 HELP = ("convert a lab CSV (time, node positions, optional orientations, wrenches and actuation inputs) or a "
@@ -35,6 +36,7 @@ def add_args(p):
     p.add_argument("--seed", type=int, default=None, help="seed to record with the data")
     p.add_argument("--scenario", default="", metavar="TEXT", help="free text describing the experiment")
     p.add_argument("--overwrite", action="store_true", help="replace the -o file(s) if they exist (default: refuse)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar while a large CSV is read")
     g = p.add_argument_group("robot recordings (timestamp, inputs, tip_x/y/z; docs/csv-format.md)")
     g.add_argument("--inputs", default=None, metavar="PATTERN[,PATTERN]",
                    help="the input columns, shell-style patterns (default: act_*, else servo_*)")
@@ -173,7 +175,9 @@ def run(args) -> int:
                   "leave it out for that file")
     outputs = _outputs(args)
     if len(csvs) == 1 and layouts[0] == "nodes":  # softrnn's layout, exactly as before
-        ds = import_csv(csvs[0], outputs[0], rod_length=args.length, seed=args.seed, scenario_text=args.scenario)
+        with DelayedBar(f"import-csv {csvs[0].name}", unit="row", enabled=not args.quiet) as bar:
+            ds = import_csv(csvs[0], outputs[0], rod_length=args.length, seed=args.seed, scenario_text=args.scenario,
+                            progress=bar)
         print(_describe_nodes(args.output, ds))
         return 0
     # every file is read and checked before anything is written
@@ -182,7 +186,8 @@ def run(args) -> int:
         if layout == "recording":
             recordings[c] = read_recording(c, _layout(args))
         else:
-            read_csv(c)
+            with DelayedBar(f"import-csv {c.name}", unit="row", enabled=not args.quiet) as bar:
+                read_csv(c, progress=bar)
     if len(recordings) > 1:
         check_sessions(list(recordings.values()))
     rows, scores = _lag(list(recordings.values()), lag) if recordings else (0, None)

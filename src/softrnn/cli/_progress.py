@@ -4,12 +4,14 @@ library only calls progress(done, total[, info]). Also the exit code of a comman
 
 import signal
 import sys
+import time
 
 from tqdm import tqdm
 
 
 class Bar:
-    """A ``Progress`` backed by tqdm (``info`` is not shown); use as a context manager."""
+    """A ``Progress`` backed by tqdm (``info`` is not shown); use as a context manager. A call with
+    another total than the bar's (the next stage of a run that reports several) starts a new bar."""
 
     def __init__(self, desc: str, unit: str = "sample", enabled: bool = True):
         self.desc, self.unit, self.enabled = desc, unit, enabled
@@ -18,6 +20,8 @@ class Bar:
     def __call__(self, done: int, total: int, info: dict | None = None) -> None:
         if not self.enabled:
             return
+        if self.bar is not None and self.bar.total != total:
+            self.close()
         if self.bar is None:
             self.bar = tqdm(total=total, desc=self.desc, unit=self.unit, file=sys.stderr, leave=False,
                             dynamic_ncols=True, unit_scale=True)
@@ -35,6 +39,21 @@ class Bar:
 
     def __exit__(self, *exc):
         self.close()
+
+
+class DelayedBar(Bar):
+    """A ``Bar`` that appears only once its work has run ``after`` seconds, so that a small input is
+    handled without one (and an error in it stays one line on the terminal)."""
+
+    def __init__(self, desc: str, unit: str = "sample", enabled: bool = True, after: float = 1.0):
+        super().__init__(desc, unit, enabled)
+        self.after, self.start = after, None
+
+    def __call__(self, done: int, total: int, info: dict | None = None) -> None:
+        now = time.perf_counter()
+        self.start = now if self.start is None else self.start
+        if now - self.start >= self.after:
+            super().__call__(done, total, info)
 
 
 class Terminated(KeyboardInterrupt):

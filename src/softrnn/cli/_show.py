@@ -1,12 +1,11 @@
 """softrnn show DATA.h5: print a summary of a dataset file (text or JSON)."""
 
 import json
-import time
 
 from ..errors import SoftrnnInputError
 from ..files import atomic_write_text, prepare_output
 from ..io.summary import describe
-from ._progress import Bar
+from ._progress import DelayedBar
 from ._vocabulary import STDOUT, JsonOrSwitch, note
 
 NAME = "show"
@@ -28,27 +27,6 @@ SHOW_AFTER = 1.0
 """Seconds the check of every value runs before its progress bar appears."""
 
 
-class _Checking:
-    """The ``Progress`` of the check of every value: a ``Bar`` that appears once the check has run
-    ``SHOW_AFTER`` s, so that a small file is summarised without one and an error in it stays one line."""
-
-    def __init__(self, enabled: bool):
-        self.bar = Bar("show: checking every value", unit="sample", enabled=enabled)
-        self.start = None
-
-    def __call__(self, done: int, total: int, info: dict | None = None) -> None:
-        now = time.perf_counter()
-        self.start = now if self.start is None else self.start
-        if now - self.start >= SHOW_AFTER:
-            self.bar(done, total)
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.bar.close()
-
-
 def _path(args) -> str:
     """The dataset's path; ``show --json DATA.h5`` (the old switch before the path) still reads DATA.h5."""
     if args.path is not None:
@@ -64,7 +42,8 @@ def run(args) -> int:
     path = _path(args)
     if args.json not in (None, STDOUT):
         prepare_output(args.json, "--json", overwrite=args.overwrite)
-    with _Checking(enabled=not (args.quiet or args.quick)) as progress:
+    with DelayedBar("show: checking every value", enabled=not (args.quiet or args.quick),
+                    after=SHOW_AFTER) as progress:
         summary = describe(path, group=args.group, verify=not args.quick, progress=progress)
     print(json.dumps(summary, indent=2) if args.json == STDOUT else format_summary(summary))
     if args.json not in (None, STDOUT):

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import bad
+from ..progress import Progress
 from ._h5files import _temp_path
 from .reader import Dataset, read_dataset
 from .schema import ACTUATION_NAME, ACTUATION_UNITS, POSITION_LIMIT_M, DatasetError
@@ -256,7 +257,15 @@ def _check_node_groups(path: Path, number: int, layout: dict) -> None:
                               f"node {with_q[0]}, so every node needs n{{i}}_qw..n{{i}}_qz (or no node has them)")
 
 
-def _parse_values(path: Path, names: list[str], rows: list[tuple[int, str]]) -> np.ndarray:
+PARSE_BLOCK_ROWS = 65536
+"""Rows of a CSV file converted to numbers at a time (``read_csv``'s progress is reported per block)."""
+
+
+def _parse_values(path: Path, names: list[str], rows: list[tuple[int, str]],
+                  progress: Progress | None = None) -> np.ndarray:
+    """The (T, columns) float64 values of a CSV file's data ``rows``, checked: one value per column,
+    every cell a finite number. Converted ``PARSE_BLOCK_ROWS`` rows at a time, ``progress(done, T)``
+    after each block."""
     width = len(names)
     cells = [line.split(",") for _, line in rows]
     for (number, _), row in zip(rows, cells):
@@ -264,8 +273,26 @@ def _parse_values(path: Path, names: list[str], rows: list[tuple[int, str]]) -> 
             more = "more" if len(row) > width else "fewer"
             raise _fail(path, f"line {number} has {len(row)} cells but the header has {width} columns "
                               f"({more} cells than column names); every row needs one value per column")
+    values = np.empty((len(rows), width))
+    for a in range(0, len(rows), PARSE_BLOCK_ROWS):
+        b = min(a + PARSE_BLOCK_ROWS, len(rows))
+        values[a:b] = _numbers(path, names, rows[a:b], cells[a:b])
+        if progress is not None:
+            progress(b, len(rows))
+    finite = np.isfinite(values)
+    if not finite.all():
+        i, j = (int(v) for v in np.argwhere(~finite)[0])
+        raise _fail(path, f"line {rows[i][0]}, column {names[j]!r} (column {j + 1}): the cell "
+                          f"{shown(rows[i][1].split(',')[j].strip())} is not a finite number; every value must be "
+                          "finite")
+    return values
+
+
+def _numbers(path: Path, names: list[str], rows: list, cells: list) -> np.ndarray:
+    """``cells`` (rows of strings) as a float64 array; a cell that is not a number is named with its
+    line and column."""
     try:
-        values = np.array(cells, dtype=np.float64).reshape(len(rows), width)
+        return np.array(cells, dtype=np.float64).reshape(len(rows), len(names))
     except ValueError:
         for (number, _), row in zip(rows, cells):
             for j, cell in enumerate(row):
@@ -276,17 +303,11 @@ def _parse_values(path: Path, names: list[str], rows: list[tuple[int, str]]) -> 
                     raise _fail(path, f"line {number}, column {names[j]!r} (column {j + 1}): the cell {what}; "
                                       f"every cell must be a number (decimal point '.', no units)") from None
         raise  # pragma: no cover - numpy and float() accept the same strings
-    finite = np.isfinite(values)
-    if not finite.all():
-        i, j = (int(v) for v in np.argwhere(~finite)[0])
-        raise _fail(path, f"line {rows[i][0]}, column {names[j]!r} (column {j + 1}): the cell "
-                          f"{shown(rows[i][1].split(',')[j].strip())} is not a finite number; every value must be "
-                          "finite")
-    return values
 
 
-def read_csv(csv_path) -> dict:
-    """Parse and validate a lab CSV without writing anything.
+def read_csv(csv_path, progress: Progress | None = None) -> dict:
+    """Parse and validate a lab CSV without writing anything; ``progress(rows done, rows)`` while
+    its values are converted (``PARSE_BLOCK_ROWS`` at a time).
 
     Returns
     -------
@@ -309,7 +330,7 @@ def read_csv(csv_path) -> dict:
     if len(rows) < 2:
         raise _fail(path, f"has {len(rows)} data row{'s' if len(rows) != 1 else ''} after the header; at least 2 "
                           f"samples are needed")
-    values = _parse_values(path, names, rows)
+    values = _parse_values(path, names, rows, progress)
     time = values[:, 0].copy()
     time_steps(path, rows, time)   # checked: every step positive and finite
     nodes = np.array(sorted(layout), dtype=np.int64)
@@ -353,7 +374,7 @@ class _Chunk:
 
 
 def import_csv(csv_path, out_path, *, rod_length: float | None = None, seed: int | None = None,
-               scenario_text: str = "") -> Dataset:
+               scenario_text: str = "", progress: Progress | None = None) -> Dataset:
     """Convert a lab CSV (docs/csv-format.md) into a softrnn HDF5 dataset, atomically.
 
     Parameters
@@ -368,6 +389,8 @@ def import_csv(csv_path, out_path, *, rod_length: float | None = None, seed: int
         Stored as the dataset's seed.
     scenario_text : str
         Free text describing the experiment.
+    progress : softrnn.progress.Progress or None
+        Called as ``progress(rows done, rows)`` while the CSV's values are converted.
 
     Returns
     -------
@@ -383,7 +406,7 @@ def import_csv(csv_path, out_path, *, rod_length: float | None = None, seed: int
         raise bad("rod_length", rod_length, "a positive rod length in m")
     if out_path.exists() and csv_path.exists() and out_path.resolve() == csv_path.resolve():
         raise bad("out_path", str(out_path), "an output file other than the CSV itself")
-    data = read_csv(csv_path)
+    data = read_csv(csv_path, progress)
     steps = np.diff(data["time"])
     attrs = {"source": "csv", "source_file": csv_path.name, "has_orientations": data["has_orientations"],
              "force_nodes": data["force_nodes"], "torque_nodes": data["torque_nodes"]}
