@@ -205,7 +205,8 @@ def results_page(report: dict, run: dict, figures: Callable[[str], bool]) -> str
             f"the figures): {run_sentence(run)}. {run.get('notes', '')}".rstrip(), "",
             "Run `make reproduce` for your own machine's figures. Speeds depend on the machine; the accuracy "
             "figures are reproduced exactly on the same machine and software, and may differ in their last digits "
-            "on another CPU, whose floating-point rounding changes the trained weights slightly.", "", "## Headline results", "",
+            "on another CPU, whose floating-point rounding changes the trained weights slightly.", "",
+            "## Headline results", "",
             headline_table(report), "", "## The whole report", ""]
     return "\n".join(head) + "\n" + body.split("\n", 1)[1].lstrip("\n") + "\n"
 
