@@ -185,7 +185,9 @@ def test_describe_and_show_mention_the_contact(run, tmp_path, capsys):
     top = float(np.linalg.norm(traj.contact_forces.astype(np.float32).astype(float), axis=-1).max())
     assert math.isclose(s["contact"]["max_force_n"], top, rel_tol=1e-6)
     assert "contact_forces" in s["storage"] and "max_contact_force_n" in s["node_ranges"][-1]
-    assert describe(tmp_path / "a.h5", verify=False)["contact"]["fields"] == ["contact_forces", "contact_torques"]
+    quick = describe(tmp_path / "a.h5", verify=False)["contact"]
+    assert quick["fields"] == ["contact_forces", "contact_torques"]
+    assert quick["max_force_n"] is None and quick["max_torque_nm"] is None   # --quick reads no contact values
     assert run_cli(["show", str(tmp_path / "a.h5")]) == 0
     out = capsys.readouterr().out
     assert "contact" in out and "plane" in out

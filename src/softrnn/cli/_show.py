@@ -95,8 +95,9 @@ def format_summary(s: dict) -> str:
         lines.append("  actuation: none")
     c = s.get("contact")
     if c:
-        lines.append(f"  contact: {', '.join(c['fields'])}; max |f_c| = {c['max_force_n']:.4g} N, "
-                     f"max |tau_c| = {c['max_torque_nm']:.4g} N m; obstacles: "
+        largest = ("largest not read (--quick)" if c["max_force_n"] is None else
+                   f"max |f_c| = {c['max_force_n']:.4g} N, max |tau_c| = {c['max_torque_nm']:.4g} N m")
+        lines.append(f"  contact: {', '.join(c['fields'])}; {largest}; obstacles: "
                      f"{', '.join(c['obstacles']) or 'not recorded'}")
     extra = {k: v for k, v in a.items() if k not in ("schema_version", "softrnn_version", "units", "rod",
                                                       "scenario_text", "seed", "dt", "n_nodes_total", "contact")}

@@ -61,13 +61,12 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
         stored = g["nodes"][...]
         time = g["time"][...]
         total_values = sum(_stored_values(f[gname]) for gname in info["groups"])
-        if verify:
-            _verify(g, path, where, time, stored, progress)
+        largest = _verify(g, path, where, time, stored, progress) if verify else {}
         contact = CONTACT in attrs
         arrays = ("time", "nodes") + FIELDS + ((ACTUATION,) if units else ()) + (CONTACT_FIELDS if contact else ())
         storage = {name: _storage(g[name]) for name in arrays}
         channels = _channels(g, units)
-        contact = _contact(g, attrs[CONTACT]) if contact else None
+        contact = _contact(attrs[CONTACT], largest) if contact else None
     size = path.stat().st_size
     picks = sorted({0, N // 2, N - 1})[:max_nodes]
     ranges = _node_ranges(read_dataset(path, nodes=[int(stored[j]) for j in picks], group=where))
@@ -101,20 +100,14 @@ def _channels(g, units: dict) -> list[dict]:
     return [{"name": n, "unit": u, "min": float(lo[j]), "max": float(hi[j])} for j, (n, u) in enumerate(units.items())]
 
 
-def _contact(g, record: dict | None) -> dict:
-    """The contact loads of group ``g`` (``record``: its stored obstacles, or None): the datasets,
-    the obstacles' kinds, and the largest |contact force| [N] and |contact torque| [N m], read
-    block by block."""
-    largest = []
-    for name in CONTACT_FIELDS:
-        ds, top = g[name], 0.0
-        for a in range(0, ds.shape[0], TIME_CHUNK):
-            block = ds[a:a + TIME_CHUNK].astype(np.float64)
-            top = max(top, float(np.sqrt((block ** 2).sum(-1)).max()))
-        largest.append(top)
+def _contact(record: dict | None, largest: dict) -> dict:
+    """The contact loads of a group (``record``: its stored obstacles, or None): the datasets, the
+    obstacles' kinds, and the largest |contact force| [N] and |contact torque| [N m] that the check
+    of every value found (``largest``; None where the values were not read)."""
     kinds = [o["kind"] for o in record["obstacles"]] if record is not None else []
+    force, torque = CONTACT_FIELDS
     return {"fields": list(CONTACT_FIELDS), "obstacles": kinds, "recorded": record is not None,
-            "max_force_n": largest[0], "max_torque_nm": largest[1]}
+            "max_force_n": largest.get(force), "max_torque_nm": largest.get(torque)}
 
 
 def _stored_values(g) -> int:
@@ -122,19 +115,25 @@ def _stored_values(g) -> int:
     return sum(int(g[n].size) for n in ("time", "nodes") + FIELDS + (ACTUATION,) + CONTACT_FIELDS if n in g)
 
 
-def _verify(g, path: Path, where: str, time, stored, progress: Progress | None = None) -> None:
+def _verify(g, path: Path, where: str, time, stored, progress: Progress | None = None) -> dict:
     """Read every array of group ``g`` block by block (``TIME_CHUNK`` samples: bounded memory) and
-    check every value (``_check_values``); ``progress(done, T)`` at the start and after each block."""
+    check every value (``_check_values``); ``progress(done, T)`` at the start and after each block.
+    Returns {contact field: largest norm of its vectors} for the contact fields the group holds."""
     step = max(1, TIME_CHUNK)
     T = time.shape[0]
+    contact = tuple(n for n in CONTACT_FIELDS if n in g)
+    largest = dict.fromkeys(contact, 0.0)
     if progress is not None:
         progress(0, T)
     for a in range(0, T, step):
-        block = {name: g[name][a:a + step] for name in FIELDS + tuple(n for n in (ACTUATION,) + CONTACT_FIELDS
-                                                                      if n in g)}
+        block = {name: g[name][a:a + step] for name in FIELDS + tuple(n for n in (ACTUATION,) if n in g) + contact}
         _check_values(path, where, time[a:a + step], stored, block, a)
+        for name in contact:
+            norms = np.sqrt((block[name].astype(np.float64) ** 2).sum(-1))
+            largest[name] = max(largest[name], float(norms.max()) if norms.size else 0.0)
         if progress is not None:
             progress(min(a + step, T), T)
+    return largest
 
 
 def _storage(ds) -> dict:
