@@ -118,6 +118,9 @@ def _add_train(p):
     p.add_argument("--drive", choices=("wrench", "actuation", "both"), default=None,
                    help="the model's load input: the nodal wrenches (default), the data's actuation inputs (tendon "
                         "tensions, pressures, currents: docs/dataset-format.md), or both")
+    p.add_argument("--predict-clamps", dest="prescribed", action="store_false", default=None,
+                   help="predict a clamp that the data's scenario moves along a path like any other node, from "
+                        "its own history (default: its recorded path is an input, and the model follows it)")
     p.add_argument("--threads", type=int, default=None, metavar="T",
                    help="PyTorch threads while training (default: PyTorch's own choice)")
     again = p.add_mutually_exclusive_group()
@@ -154,7 +157,7 @@ def _config(args):
 
     names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed",
              "ema", "feedback", "drive", "envelope", "prior_tau", "ridge", "load_ridge", "linear_lr", "conv_reads",
-             "start_fraction")
+             "start_fraction", "prescribed")
     given = {k: getattr(args, k) for k in names if getattr(args, k) is not None}
     return DynamicConfig(**{k: (None if v is _OFF else v) for k, v in given.items()})
 
@@ -257,7 +260,8 @@ def _train_summary(folder, config, encoding, info: dict, data: dict, head: str =
                                                   else "")
     return (f"{head} {config.steps} steps in {info.get('train_seconds', float('nan')):.1f} s, final loss "
             f"{'-' if loss is None else f'{loss:.4g}'}{selected}; model_dt {encoding.model_dt:g} s, "
-            f"{encoding.n_kept} of {encoding.n_nodes} nodes predicted{_driven(encoding)}; "
+            f"{encoding.n_kept - int(encoding.prescribed.sum())} of {encoding.n_nodes} nodes predicted"
+            f"{_on_path(encoding)}{_driven(encoding)}; "
             f"{n['train']} training trajectories{_whole(data)}, "
             f"{n['validation']} for validation{_separate(data)}, {n['heldout']} held out (listed in "
             f"{folder}/model.json)")
@@ -277,6 +281,15 @@ def _separate(data: dict) -> str:
                       for p in given[:3])
     more = ", ..." if len(given) > 3 else ""
     return f" ({len(given)} separate recording{'s' if len(given) != 1 else ''}: {names}{more})"
+
+
+def _on_path(encoding) -> str:
+    """', node 0 on its recorded path' for a model with prescribed nodes, else ''."""
+    nodes = encoding.kept[encoding.prescribed].tolist()
+    if not nodes:
+        return ""
+    many = len(nodes) > 1
+    return f", node{'s' if many else ''} {', '.join(map(str, nodes))} on {'their' if many else 'its'} recorded path"
 
 
 def _driven(encoding) -> str:

@@ -58,7 +58,8 @@ def encoding_to_dict(enc: Encoding) -> dict:
             "length": enc.length, "ref_positions": enc.ref_positions.tolist(),
             "ref_quaternions": enc.ref_quaternions.tolist(), "fixed": enc.fixed.tolist(),
             "feedback": bool(enc.feedback),
-            **({"drive": enc.drive, "channels": list(enc.channels)} if enc.drive != "wrench" else {})}
+            **({"drive": enc.drive, "channels": list(enc.channels)} if enc.drive != "wrench" else {}),
+            **({"prescribed": enc.prescribed.tolist()} if enc.prescribed.any() else {})}
 
 
 def encoding_from_dict(d: dict) -> Encoding:
@@ -67,7 +68,8 @@ def encoding_from_dict(d: dict) -> Encoding:
                     data_dt=float(d["data_dt"]), length=float(d["length"]),
                     ref_positions=np.asarray(d["ref_positions"]), ref_quaternions=np.asarray(d["ref_quaternions"]),
                     fixed=np.asarray(d["fixed"], dtype=bool), feedback=bool(d.get("feedback", False)),
-                    drive=str(d.get("drive", "wrench")), channels=tuple(d.get("channels", ())))
+                    drive=str(d.get("drive", "wrench")), channels=tuple(d.get("channels", ())),
+                    prescribed=None if "prescribed" not in d else np.asarray(d["prescribed"], dtype=bool))
 
 
 def save_dynamic(folder, trained, meta: dict | None = None) -> None:
@@ -78,6 +80,8 @@ def save_dynamic(folder, trained, meta: dict | None = None) -> None:
     def tensors(net) -> dict:
         out = {k: v.detach().contiguous().clone().float() for k, v in net.state_dict().items()}
         out["fixed"] = net.fixed.detach().clone().to(dtype=torch.uint8)
+        if "prescribed" in out:
+            out["prescribed"] = net.prescribed.detach().clone().to(dtype=torch.uint8)
         return out
 
     state, linear = tensors(trained.net), tensors(trained.linear)

@@ -85,6 +85,12 @@ class DynamicConfig:
     default), the data's actuation inputs (``Dataset.actuation``, every channel, their mean over
     the step: m channels, the same at every node), or both (6 + m). The training data must
     record actuation inputs for the last two (one-line error otherwise)."""
+    prescribed: bool = True
+    """Where a data set's scenario moves a clamp along a prescribed path (a clamp with a
+    displacement or rotation profile), take the clamp's recorded path as an input: the node is
+    not predicted, it follows the data, and its change over each step reaches every node as 6
+    load channels (``Encoding.prescribed``). False: the clamp is predicted like any other node,
+    from its own history."""
     envelope: float | None = 0.25
     """Where the network's correction acts (``DynamicNet.envelope_gate``): fully on a node whose
     features lie within the training data's range of each channel, fading linearly to zero at
@@ -110,7 +116,7 @@ class DynamicConfig:
         integer("kernel", self.kernel, 1)
         if self.kernel % 2 == 0:
             raise bad("kernel", self.kernel, "an odd kernel size (1, 3, 5, ...)")
-        for name in ("linear", "conv", "feedback"):
+        for name in ("linear", "conv", "feedback", "prescribed"):
             if not isinstance(getattr(self, name), bool):
                 raise bad(name, getattr(self, name), "true or false")
         if not (self.linear or self.conv or self.memory == "lstm"):
@@ -141,8 +147,8 @@ class DynamicConfig:
                                            "inputs) or 'both'")
 
     def to_dict(self) -> dict:
-        """The fields as a dict (model.json's ``config``); ``drive``, ``start_fraction`` and
-        ``load_ridge`` only when they are not their defaults (so models, checkpoints and reproduce
+        """The fields as a dict (model.json's ``config``); ``drive``, ``start_fraction``,
+        ``load_ridge`` and ``prescribed`` only when they are not their defaults (so models, checkpoints and reproduce
         step files written before them are recorded, and resumed, as before)."""
         d = asdict(self)
         for key, default in _LATER_DEFAULTS.items():
@@ -162,7 +168,7 @@ class DynamicConfig:
         return cls(**d)
 
 
-_LATER_DEFAULTS = {"drive": "wrench", "start_fraction": 0.0, "load_ridge": None}
+_LATER_DEFAULTS = {"drive": "wrench", "start_fraction": 0.0, "load_ridge": None, "prescribed": True}
 """Fields added after models were first saved, left out of ``to_dict`` at their defaults."""
 
 

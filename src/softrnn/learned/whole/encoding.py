@@ -13,9 +13,16 @@ each model step (the loads are known inputs over time), lumped onto the kept nod
 rod to a kept node is not added). With actuation inputs (``Encoding.drive`` 'actuation' or 'both')
 the data's actuation channels (tendon tensions, pressures, currents: ``Dataset.actuation``) are also
 averaged over each model step and given to every kept node alike, after the wrench's 6 channels
-('both') or instead of them ('actuation'). Decoding interpolates displacements and rotation vectors along
-the node index with a cubic spline, so every node gets a pose and orientations stay unit
-quaternions by construction.
+('both') or instead of them ('actuation').
+
+**Prescribed nodes** (``Encoding.prescribed``): a clamp that the scenario moves along a prescribed
+path (``[[boundary]]`` of kind clamp with a displacement or rotation) is not predicted. Its pose is
+known: its change of state over each model step (6 numbers per prescribed node) is appended to every
+kept node's load channels, and a model step sets the node to its last state plus that change, so in
+a free run it follows its recorded path exactly and the other nodes are driven by it.
+
+Decoding interpolates displacements and rotation vectors along the node index with a cubic spline,
+so every node gets a pose and orientations stay unit quaternions by construction.
 """
 
 from __future__ import annotations
@@ -28,7 +35,7 @@ from scipy.spatial.transform import Rotation
 
 from ...errors import SoftrnnInputError, bad
 from .config import resolve_stride
-from .feedback import feedback_of
+from .feedback import feedback_of, moving_clamps
 
 FIXED_TOLERANCE_M = 1e-9
 """A kept node whose position never moves by more than this [m], and whose orientation never turns
@@ -87,17 +94,32 @@ class Trajectory:
     loads: np.ndarray
     name: str = ""
     feedback: object = None
+    prescribed: tuple = ()
 
     def inputs(self, hist: np.ndarray, k: int) -> np.ndarray:
-        """The loads (M, 6) of model step ``k`` given the history ``hist`` (H, M, 6) ending at state
+        """The loads (M, L) of model step ``k`` given the history ``hist`` (H, M, 6) ending at state
         k: the recorded loads plus the feedback laws' forces from ``hist``'s last two states."""
         if self.feedback is None:
             return self.loads[k]
-        return self.loads[k] + self.feedback.force(hist[-1], hist[-2], k)
+        out = np.array(self.loads[k], dtype=np.float64)
+        out[:, :6] += self.feedback.force(hist[-1], hist[-2], k)
+        return out
 
     def forced_loads(self) -> np.ndarray:
-        """The loads (S, M, 6) with the feedback laws applied to the recorded states (teacher forcing)."""
-        return self.loads if self.feedback is None else self.loads + self.feedback.forced(self.states)
+        """The loads (S, M, L) with the feedback laws applied to the recorded states (teacher forcing)."""
+        if self.feedback is None:
+            return self.loads
+        out = np.array(self.loads, dtype=np.float64)
+        out[..., :6] += self.feedback.forced(self.states)
+        return out
+
+    def follow(self, nxt: np.ndarray, x: np.ndarray, loads: np.ndarray) -> np.ndarray:
+        """``nxt`` (M, 6) with each prescribed node set to its state ``x`` (M, 6) plus its change over
+        the step, read from the step's ``loads`` (M, L) (``Encoding.prescribed_columns``), in place;
+        a baseline that knows nothing of the prescribed path follows it this way."""
+        for m, c in self.prescribed:
+            nxt[m] = x[m] + loads[m, c:c + 6]
+        return nxt
 
     @property
     def n_steps(self) -> int:
@@ -127,6 +149,9 @@ class Encoding:
         reference orientations, scalar-first unit quaternions
     fixed : ndarray (M,) bool
         kept nodes held at the reference (clamped boundaries)
+    prescribed : ndarray (M,) bool or None
+        kept nodes moved along a prescribed path (a moving clamp): inputs, not predicted (None:
+        none)
     feedback : bool
         apply the PD laws of a data set's scenario to the model's own state
         (``softrnn.learned.whole.feedback``) instead of taking their recorded forces
@@ -148,6 +173,7 @@ class Encoding:
     feedback: bool = False
     drive: str = "wrench"
     channels: tuple = ()
+    prescribed: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "channels", tuple(str(a) for a in self.channels))
@@ -161,6 +187,10 @@ class Encoding:
         object.__setattr__(self, "ref_positions", np.asarray(self.ref_positions, dtype=np.float64))
         object.__setattr__(self, "ref_quaternions", np.asarray(self.ref_quaternions, dtype=np.float64))
         object.__setattr__(self, "fixed", np.asarray(self.fixed, dtype=bool))
+        presc = np.zeros(len(kept), dtype=bool) if self.prescribed is None else np.asarray(self.prescribed, dtype=bool)
+        if presc.shape != (len(kept),) or np.any(presc & self.fixed):
+            raise bad("prescribed", presc.tolist(), f"{len(kept)} flags, one per kept node, none on a fixed node")
+        object.__setattr__(self, "prescribed", presc)
         object.__setattr__(self, "_lump", lumping_matrix(self.n_nodes, kept))
 
     def stride(self, dt: float) -> int:
@@ -169,8 +199,16 @@ class Encoding:
 
     @property
     def load_width(self) -> int:
-        """L, load channels per kept node: 6 (wrench), m (actuation) or 6 + m (both)."""
-        return (0 if self.drive == "actuation" else 6) + len(self.channels)
+        """L, load channels per kept node: 6 (wrench), m (actuation) or 6 + m (both), and 6 more per
+        prescribed node."""
+        return (0 if self.drive == "actuation" else 6) + len(self.channels) + 6 * int(self.prescribed.sum())
+
+    @property
+    def prescribed_columns(self) -> tuple:
+        """((kept index m, first load column c), ...) of the prescribed nodes: the node's change of
+        state over a step sits in load channels c .. c + 5 (the last 6 P channels, in node order)."""
+        first = self.load_width - 6 * int(self.prescribed.sum())
+        return tuple((int(m), first + 6 * j) for j, m in enumerate(np.flatnonzero(self.prescribed)))
 
     @property
     def n_kept(self) -> int:
@@ -250,7 +288,18 @@ class Encoding:
         if self.drive != "wrench":
             act = self.actuation(dataset, n_steps, k)                         # (S, M, m)
             loads = act if self.drive == "actuation" else np.concatenate([loads, act], axis=-1)
-        return Trajectory(time=time, states=states, loads=loads, name=name, feedback=fb)
+        if self.prescribed.any():
+            loads = np.concatenate([loads, self.path_inputs(states)], axis=-1)
+        return Trajectory(time=time, states=states, loads=loads, name=name, feedback=fb,
+                          prescribed=self.prescribed_columns)
+
+    def path_inputs(self, states: np.ndarray) -> np.ndarray:
+        """The prescribed nodes' change of state over each model step, states (S, M, 6) ->
+        (S, M, 6 P), the same at every kept node (the last step's: zero)."""
+        P = int(self.prescribed.sum())
+        change = np.zeros((len(states), 6 * P))
+        change[:-1] = np.diff(states[:, self.prescribed], axis=0).reshape(len(states) - 1, 6 * P)
+        return np.broadcast_to(change[:, None], (len(states), self.n_kept, 6 * P)).copy()
 
     def actuation(self, dataset, n_steps: int, k: int) -> np.ndarray:
         """The data set's ``channels`` (T, m) -> (n_steps, M, m): the mean over each model step of
@@ -288,11 +337,13 @@ def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
 
 
 def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: float,
-                  feedback: bool = False, drive: str = "wrench") -> Encoding:
+                  feedback: bool = False, drive: str = "wrench", prescribed: bool = False) -> Encoding:
     """The encoding for training on ``datasets`` (each holding every node, the same saved step):
     the reference pose is the first sample of the first one; fixed nodes are those that never move;
     ``feedback``: PD laws act on the model's state (``Encoding.feedback``; 'wrench' drive only);
-    ``drive``: the load input (``DynamicConfig.drive``; the channels are the first data set's)."""
+    ``drive``: the load input (``DynamicConfig.drive``; the channels are the first data set's);
+    ``prescribed``: the clamps the data's scenario moves along a path (``moving_clamps``, the same
+    in every data set) are inputs, not predicted, and always kept (``Encoding.prescribed``)."""
     if not datasets:
         raise SoftrnnInputError("no training data: give at least one trajectory")
     first = datasets[0]
@@ -302,9 +353,11 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
                                 f"them (CSV columns act_<name>[<unit>], DatasetWriter(actuation_units=...)) or use "
                                 f"drive='wrench'")
     n = int(first.n_nodes)
-    probe = Encoding(n_nodes=n, kept=kept_nodes(n, node_stride), model_dt=model_dt, data_dt=float(first.dt),
+    paths = _moving_clamps(datasets) if prescribed else ()
+    kept = np.union1d(kept_nodes(n, node_stride), np.asarray(paths, dtype=np.int64))
+    probe = Encoding(n_nodes=n, kept=kept, model_dt=model_dt, data_dt=float(first.dt),
                      length=length, ref_positions=first.positions[0], ref_quaternions=first.quaternions[0],
-                     fixed=np.zeros(len(kept_nodes(n, node_stride)), dtype=bool), drive=drive, channels=channels)
+                     fixed=np.zeros(len(kept), dtype=bool), drive=drive, channels=channels)
     moved = np.zeros(probe.n_kept)
     for d in datasets:
         check_compatible(probe, d, "training data")
@@ -314,8 +367,22 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
         q = np.asarray(d.quaternions[:, probe.kept], dtype=np.float64)
         turn = 1.0 - np.abs(np.sum(q * probe.ref_quaternions[probe.kept], axis=-1))
         moved = np.maximum(moved, np.where(turn.max(axis=0) > FIXED_TURN, np.inf, 0.0))
+    fixed = moved <= FIXED_TOLERANCE_M
     return Encoding(n_nodes=n, kept=probe.kept, model_dt=model_dt, data_dt=probe.data_dt, length=length,
                     ref_positions=probe.ref_positions, ref_quaternions=probe.ref_quaternions,
-                    fixed=moved <= FIXED_TOLERANCE_M, feedback=bool(feedback) and drive == "wrench", drive=drive,
-                    channels=channels)
+                    fixed=fixed, feedback=bool(feedback) and drive == "wrench", drive=drive,
+                    channels=channels, prescribed=np.isin(probe.kept, paths) & ~fixed)
+
+
+def _moving_clamps(datasets: list) -> tuple:
+    """The moving clamps (``moving_clamps``) of the training data, the same in every data set (a
+    one-line error otherwise)."""
+    nodes = moving_clamps(datasets[0])
+    for d in datasets[1:]:
+        other = moving_clamps(d)
+        if other != nodes:
+            raise bad("training data", f"data sets whose scenarios move different clamps ({list(nodes)} and "
+                                       f"{list(other)})", "data of one scenario, or prescribed = false (every "
+                                                          "node predicted)")
+    return nodes
 

@@ -100,6 +100,7 @@ class DynamicEngine:
         self.bound = float(config.bound)
         self.node_features = w["node_features"]
         self.fixed = np.asarray(weights["fixed"], dtype=bool)
+        self.prescribed = np.asarray(weights.get("prescribed", np.zeros_like(self.fixed)), dtype=bool)
         # the scales under their saved keys (network.SCALE_KEYS)
         self.state_scale, self.velocity_scale, self.load_scale, self.dv_scale = w["sx"], w["sv"], w["su"], w["sa"]
         self.n_kept = M = int(self.node_features.shape[0])
@@ -113,6 +114,10 @@ class DynamicEngine:
                          (w["cell.bias_ih"] + w["cell.bias_hh"]).astype(dt))
         # features (M, C): state, H-1 velocities, load (L channels), constants; the convolution reads all but the load
         self.load_width = L = int(self.load_scale.shape[0])
+        P = int(self.prescribed.sum())
+        # (kept index, first load column) of each prescribed node's change over a step (Encoding.prescribed)
+        self.prescribed_columns = tuple((int(m), L - 6 * P + 6 * j)
+                                        for j, m in enumerate(np.flatnonzero(self.prescribed)))
         C = 6 * H + L + self.node_features.shape[1]
         self._f = np.zeros((M, C), dtype=dt)
         self._f[:, 6 * H + L:] = self.node_features
@@ -197,7 +202,8 @@ class DynamicEngine:
 
     def step(self, hist: np.ndarray, loads: np.ndarray, memory=None):
         """hist (H, M, 6) states, oldest first; loads (M, L) -> (next state (M, 6), memory), as
-        ``DynamicNet.forward``: x + v + dv_scale (linear term + correction), fixed nodes held."""
+        ``DynamicNet.forward``: x + v + dv_scale (linear term + correction), fixed nodes held,
+        prescribed nodes moved by their load channels."""
         f = self.features(hist, loads)
         dv = np.zeros((self.n_kept, 6))
         if self.linear is not None:
@@ -212,6 +218,8 @@ class DynamicEngine:
         nxt += x
         nxt -= hist[-2]
         nxt[self.fixed] = x[self.fixed]          # fixed nodes keep their state
+        for m, c in self.prescribed_columns:     # prescribed nodes follow their path
+            nxt[m] = x[m] + loads[m, c:c + 6]
         return nxt, memory
 
     def run(self, hist: np.ndarray, loads: np.ndarray) -> np.ndarray:

@@ -53,7 +53,8 @@ def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -
     (exclusive; default: the end): states (stop - start - 1, M, 6) of steps start+1 .. stop-1 and
     the step (1-based) where it diverged, or None. Rows from a divergence on are NaN. The loads are
     the data's, with the trajectory's feedback laws applied to the run's own states
-    (``Trajectory.inputs``)."""
+    (``Trajectory.inputs``); prescribed nodes follow their recorded path whatever the predictor
+    (``Trajectory.follow``)."""
     H = int(predictor.history)
     stop = traj.n_steps if stop is None else int(stop)
     check_step_start(start, H, stop)
@@ -63,7 +64,9 @@ def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -
 
     def step(k: int, hist: np.ndarray) -> np.ndarray | None:
         nonlocal memory
-        nxt, memory = predictor.step(hist, traj.inputs(hist, start + k - H), memory)
+        u = traj.inputs(hist, start + k - H)
+        nxt, memory = predictor.step(hist, u, memory)
+        traj.follow(nxt, hist[-1], u)        # prescribed nodes on their path, for a baseline too
         return nxt if np.all(np.abs(nxt) < DIVERGED_M) else None
 
     k = free_steps(step, state, H)
@@ -131,7 +134,9 @@ def one_step(predictor, traj: Trajectory, start: int, stop: int | None = None) -
     memory = None
     for i, j in enumerate(range(start, stop - 1)):
         hist = traj.states[j - H + 1:j + 1]
-        nxt, memory = predictor.step(hist, traj.inputs(hist, j), memory)
+        u = traj.inputs(hist, j)
+        nxt, memory = predictor.step(hist, u, memory)
+        traj.follow(nxt, hist[-1], u)
         if np.all(np.abs(nxt) < DIVERGED_M):
             out[i] = nxt
     return out
@@ -289,6 +294,7 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
         traj = enc.trajectory(generalisation)
         general = {"tip_node": enc.n_nodes - 1,
                    **{name: span_error(p, enc, traj, generalisation, s0, tip=True) for name, p in preds.items()}}
-    return DynamicEvaluation(model_dt_s=enc.model_dt, predicted_nodes=enc.n_kept, nodes=enc.n_nodes,
+    return DynamicEvaluation(model_dt_s=enc.model_dt, predicted_nodes=enc.n_kept - int(enc.prescribed.sum()),
+                             nodes=enc.n_nodes,
                              length_m=enc.length, history=int(engine.history), test_span=test_span, heldout=held,
                              horizons=table, generalisation=general)

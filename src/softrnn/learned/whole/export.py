@@ -88,7 +88,9 @@ def step_net(model: LoadedDynamic) -> DynamicNet:
         raise bad("model", type(model).__name__, "a LoadedDynamic (softrnn.learned.whole.load_dynamic(folder))")
     w = model.weights
     scales = {key: np.asarray(w[key]) for key in SCALE_KEYS.values()}
-    net = DynamicNet(model.config, np.asarray(w["node_features"]), np.asarray(w["fixed"], dtype=bool), scales)
+    prescribed = np.asarray(w["prescribed"], dtype=bool) if "prescribed" in w else None
+    net = DynamicNet(model.config, np.asarray(w["node_features"]), np.asarray(w["fixed"], dtype=bool), scales,
+                     prescribed)
     state = {k: torch.as_tensor(np.asarray(v)) for k, v in w.items()}
     state["fixed"] = state["fixed"].to(torch.bool)
     for key, value in net.state_dict().items():     # a model saved before the envelope: not clipped
@@ -184,14 +186,18 @@ def describe(model: LoadedDynamic) -> dict:
 
 
 def _load_units(enc) -> str:
-    """The loads' columns in words: the wrench's, then the actuation channels' (same at every node)."""
+    """The loads' columns in words: the wrench's, then the actuation channels' (same at every node),
+    then the prescribed nodes' path channels."""
     wrench = "N (columns 0-2), N m (columns 3-5)"
-    if enc.drive == "wrench":
-        return wrench
     first = 0 if enc.drive == "actuation" else 6
     act = ", ".join(f"{n} (column {first + j})" for j, n in enumerate(enc.channels))
     act = f"the mean actuation input over the model step, the same at every kept node, in its unit: {act}"
-    return act if enc.drive == "actuation" else f"{wrench}, then {act}"
+    text = wrench if enc.drive == "wrench" else act if enc.drive == "actuation" else f"{wrench}, then {act}"
+    paths = [f"node {int(enc.kept[m])} (columns {c}-{c + 5})" for m, c in enc.prescribed_columns]
+    if paths:
+        text += (", then the change of each prescribed node's state over the coming model step (m, then rad; "
+                 f"the same at every kept node): {', '.join(paths)}")
+    return text
 
 
 _LAYOUT = {
@@ -203,7 +209,8 @@ _LAYOUT = {
              "encoding.feedback, a node driven by a PD tracking law (stiffness K, damping D, target(t)) is "
              "not given its force: the caller adds K (mean target over the step - r_ref - x) - D (x - x_prev) "
              "/ model_dt to its force columns, x and x_prev the displacements of the last two history states",
-    "next_state": "the state one model step (model_dt) after history[0, H - 1]; fixed nodes keep theirs",
+    "next_state": "the state one model step (model_dt) after history[0, H - 1]; fixed nodes keep theirs, "
+                  "prescribed nodes (encoding.prescribed) move by their path columns of loads",
     "memory": "memory = 'lstm' only: feed zeros at the start, then the previous call's memory_*_out",
     "decode": "every node's pose: a cubic spline (scipy CubicSpline, not-a-knot) of the states along the node "
               "index through the kept nodes, then r = r_ref + displacement, R = R_ref exp(rotation vector)",

@@ -108,6 +108,23 @@ def pd_laws(dataset) -> list:
                   "as inputs)") from None
 
 
+def moving_clamps(dataset) -> tuple:
+    """The nodes (0-based, increasing) that the scenario a data set was simulated from moves along a
+    prescribed path: ``[[boundary]]`` entries of kind clamp with a displacement or rotation in its
+    ``attrs["scenario_text"]``. () for data without a scenario (lab data) or without such a clamp."""
+    text = dataset.attrs.get("scenario_text")
+    if not isinstance(text, str) or "boundary" not in text:
+        return ()
+    try:
+        entries = tomllib.loads(text).get("boundary", [])
+    except tomllib.TOMLDecodeError:
+        return ()
+    n = len(dataset.nodes)
+    nodes = {int(e["node"]) % n for e in entries if isinstance(e, dict) and e.get("kind") == "clamp"
+             and isinstance(e.get("node"), int) and ("displacement" in e or "rotation" in e)}
+    return tuple(sorted(nodes))
+
+
 def _put_sampled(doc: dict, attrs) -> None:
     """A sweep variant's drawn values (``attrs["sampled"]``, JSON) set into the scenario document;
     a variant whose draws of its PD loads were not recorded is a ``ValueError``."""

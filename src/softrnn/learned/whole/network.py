@@ -8,6 +8,9 @@ of velocity over the step (a second difference, as in GNS)::
 
     next = x + v + dv_scale (linear_term + correction)        (fixed nodes keep x)
 
+A prescribed node (a clamp moved along a known path, ``Encoding.prescribed``) is not predicted:
+its next state is x plus its change over the step, read from its load channels.
+
 * ``linear_term``: a global linear map of every node's features (M*C -> M*6), fitted by ridge
   regression before training: by itself, the one-step linear model (the "linear" baseline);
 * ``correction``: a 1-D convolution along the rod (one set of weights for every node; the chain
@@ -46,13 +49,14 @@ weights.safetensors (docs/dynamic-model-format.md) and in ``training.scales``: t
 the short keys."""
 
 
-def feedback_force(hist: torch.Tensor, feedback, k: int) -> torch.Tensor:
-    """The PD laws' loads (B, M, 6) at step ``k`` of a free run from ``hist`` (B, H, M, 6), as
-    ``Feedback.force``: stiffness (target - x) - damping (x - x_prev) / model_dt, zero torques."""
+def feedback_force(hist: torch.Tensor, feedback, k: int, width: int = 6) -> torch.Tensor:
+    """The PD laws' loads (B, M, ``width``) at step ``k`` of a free run from ``hist`` (B, H, M, 6),
+    as ``Feedback.force``: stiffness (target - x) - damping (x - x_prev) / model_dt in the force
+    channels, zero in the torques and in any channel after them."""
     gains, targets, dt = feedback
     x, prev = hist[:, -1, :, :3], hist[:, -2, :, :3]
     f = gains[..., :1] * (targets[:, k] - x) - gains[..., 1:] * (x - prev) / dt
-    return torch.cat([f, torch.zeros_like(f)], dim=-1)
+    return torch.cat([f, torch.zeros(f.shape[:-1] + (width - 3,), dtype=f.dtype)], dim=-1)
 
 
 def _conv_stack(n_in: int, config: DynamicConfig) -> nn.Sequential:
@@ -70,26 +74,32 @@ def _conv_stack(n_in: int, config: DynamicConfig) -> nn.Sequential:
 
 
 class DynamicNet(nn.Module):
-    """One model step: next = x + v + dv_scale (linear term + correction), fixed nodes held.
+    """One model step: next = x + v + dv_scale (linear term + correction), fixed nodes held,
+    prescribed nodes on their path.
 
-    Buffers: ``node_features`` (M, 3), ``fixed`` (M,) bool and the training data's standard
+    Buffers: ``node_features`` (M, 3), ``fixed`` (M,) bool, ``prescribed`` (M,) bool (in the
+    ``state_dict`` only when a node is prescribed) and the training data's standard
     deviations (``SCALE_KEYS``): ``state_scale``, ``velocity_scale``, ``dv_scale`` (6,) of the
     states, velocities and velocity changes, ``load_scale`` (L,) of the loads (L = 6, or m / 6 + m
     with actuation inputs: ``load_width``); with an envelope also ``env_lo``, ``env_hi``, ``env_inv``.
     ``scales`` holds the four standard deviations under their saved keys (``training.scales``).
     """
 
-    def __init__(self, config: DynamicConfig, node_features, fixed, scales: dict):
+    def __init__(self, config: DynamicConfig, node_features, fixed, scales: dict, prescribed=None):
         super().__init__()
         self.config = config
         self.register_buffer("node_features", torch.as_tensor(node_features, dtype=torch.float32))
         self.register_buffer("fixed", torch.as_tensor(fixed, dtype=torch.bool))
+        presc = torch.zeros_like(self.fixed) if prescribed is None else torch.as_tensor(prescribed, dtype=torch.bool)
+        self.register_buffer("prescribed", presc, persistent=False)
         for name, key in SCALE_KEYS.items():
             self.register_buffer(name, torch.as_tensor(scales[key], dtype=torch.float32))
         M = int(self.node_features.shape[0])
         L = int(self.load_scale.numel())              # load channels: 6, or with actuation inputs m or 6 + m
         C = n_channels(config.history, L)
         self.n_kept, self.n_in, self.load_width = M, C, L
+        P = int(presc.sum())
+        self.prescribed_columns = [(int(m), L - 6 * P + 6 * j) for j, m in enumerate(torch.nonzero(presc)[:, 0])]
         self.linear = nn.Linear(M * C, M * 6) if config.linear else None
         self.register_buffer("conv_cols", torch.as_tensor(conv_channels(config.history, config.conv_reads, L)),
                              persistent=False)
@@ -111,18 +121,25 @@ class DynamicNet(nn.Module):
 
     # ---------------------------------------------------------------- saved keys of the scales
     def _save_to_state_dict(self, destination, prefix, keep_vars):
-        """As ``nn.Module``'s, with the scale buffers under their saved keys (``SCALE_KEYS``)."""
+        """As ``nn.Module``'s, with the scale buffers under their saved keys (``SCALE_KEYS``) and
+        ``prescribed`` where a node is prescribed."""
         own = {}
         super()._save_to_state_dict(own, prefix, keep_vars)
         for key, value in own.items():
             name = key[len(prefix):]
             destination[prefix + SCALE_KEYS.get(name, name)] = value
+        if self.prescribed_columns:
+            destination[prefix + "prescribed"] = self.prescribed if keep_vars else self.prescribed.detach()
 
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
-        """As ``nn.Module``'s, reading the scale buffers from their saved keys (``SCALE_KEYS``)."""
+        """As ``nn.Module``'s, reading the scale buffers from their saved keys (``SCALE_KEYS``); a
+        saved ``prescribed`` mask must be the net's own."""
         for name, key in SCALE_KEYS.items():
             if prefix + key in state_dict:
                 state_dict[prefix + name] = state_dict.pop(prefix + key)
+        saved = state_dict.pop(prefix + "prescribed", None)
+        if saved is not None and not torch.equal(saved.to(torch.bool), self.prescribed):
+            raise ValueError("the saved prescribed nodes differ from the network's")
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
     # ---------------------------------------------------------------------------- the envelope
@@ -199,12 +216,23 @@ class DynamicNet(nn.Module):
         b = self.config.bound
         return (b * torch.tanh(out / b) if b > 0 else out), memory
 
-    def next_state(self, hist: torch.Tensor, dv: torch.Tensor) -> torch.Tensor:
+    @property
+    def held(self) -> torch.Tensor:
+        """(M,) bool: the nodes the model does not predict (fixed or prescribed)."""
+        return self.fixed | self.prescribed
+
+    def next_state(self, hist: torch.Tensor, dv: torch.Tensor, loads: torch.Tensor | None = None) -> torch.Tensor:
         """x + v + dv ``dv_scale`` from the latest state x and velocity v of ``hist`` and the scaled
-        velocity change ``dv`` (B, M, 6); fixed nodes keep their state."""
+        velocity change ``dv`` (B, M, 6); fixed nodes keep their state, prescribed ones move by the
+        change their ``loads`` (B, M, L) channels give."""
         x, v = hist[:, -1], hist[:, -1] - hist[:, -2]
-        nxt = x + v + dv * self.dv_scale
-        return torch.where(self.fixed[None, :, None], x, nxt)
+        nxt = torch.where(self.fixed[None, :, None], x, x + v + dv * self.dv_scale)
+        if not self.prescribed_columns:
+            return nxt
+        rows = [nxt[:, m] for m in range(self.n_kept)]
+        for m, c in self.prescribed_columns:
+            rows[m] = x[:, m] + loads[:, m, c:c + 6]
+        return torch.stack(rows, dim=1)
 
     def forward(self, hist: torch.Tensor, loads: torch.Tensor, memory=None):
         """hist (B, H, M, 6), loads (B, M, L) -> (next state (B, M, 6), memory for the next step)."""
@@ -213,7 +241,7 @@ class DynamicNet(nn.Module):
         if self.conv is not None:
             correction, memory = self.correction(features, memory)
             dv = dv + correction
-        return self.next_state(hist, dv), memory
+        return self.next_state(hist, dv, loads), memory
 
     def rollout(self, hist: torch.Tensor, loads: torch.Tensor, feedback=None) -> torch.Tensor:
         """Free run: hist (B, H, M, 6), loads (B, K, M, 6) for each step -> states (B, K, M, 6).
@@ -221,7 +249,7 @@ class DynamicNet(nn.Module):
         run's own states at every step (``softrnn.learned.whole.feedback``), or None."""
         out, memory = [], None
         for k in range(loads.shape[1]):
-            u = loads[:, k] if feedback is None else loads[:, k] + feedback_force(hist, feedback, k)
+            u = loads[:, k] if feedback is None else loads[:, k] + feedback_force(hist, feedback, k, loads.shape[-1])
             nxt, memory = self.forward(hist, u, memory)
             out.append(nxt)
             hist = torch.cat([hist[:, 1:], nxt[:, None]], dim=1)

@@ -137,7 +137,7 @@ def _batch(trajectories, picks: np.ndarray, H: int, K: int):
 
 def _first_loads(hist, loads, feedback) -> torch.Tensor:
     """The first step's loads (B, M, 6) with the feedback laws applied to ``hist`` (teacher forcing)."""
-    return loads[:, 0] if feedback is None else loads[:, 0] + feedback_force(hist, feedback, 0)
+    return loads[:, 0] if feedback is None else loads[:, 0] + feedback_force(hist, feedback, 0, loads.shape[-1])
 
 
 def _normal_equations(net: DynamicNet, trajectories) -> tuple[tuple, tuple]:
@@ -175,7 +175,7 @@ def damping_prior(net: DynamicNet) -> np.ndarray:
         return W0
     r = net.config.model_dt / tau
     sx, sv, sa = (getattr(net, k).double().numpy() for k in ("state_scale", "velocity_scale", "dv_scale"))
-    for i in np.flatnonzero(~net.fixed.numpy()):
+    for i in np.flatnonzero(~net.held.numpy()):
         for c in np.flatnonzero(sa > 0):
             W0[i * C + c, i * 6 + c] = -r * r * sx[c] / sa[c]
             W0[i * C + 6 + c, i * 6 + c] = -2.0 * r * sv[c] / sa[c]
@@ -223,7 +223,7 @@ def spectral_radius(net: DynamicNet) -> float:
     companion = np.zeros((n, n))
     companion[:-M * 6, M * 6:] = np.eye(n - M * 6)       # shift: old states move one slot back
     companion[-M * 6:, :] = J
-    moving = ((~net.fixed.numpy())[:, None] & (net.dv_scale.numpy() > 0)[None, :]).reshape(-1)
+    moving = ((~net.held.numpy())[:, None] & (net.dv_scale.numpy() > 0)[None, :]).reshape(-1)
     keep = np.flatnonzero(np.tile(moving, H))
     if keep.size == 0:
         return 1.0
@@ -396,7 +396,7 @@ def _loss(net: DynamicNet, trajectories, windows, config: DynamicConfig, gen, st
         starts = np.flatnonzero(windows[:, 1] < START_STEPS)
         picks[:n_start] = windows[starts[torch.randint(len(starts), (n_start,), generator=gen).numpy()]]
     hist, loads, future, feedback = _batch(trajectories, picks, H, K)
-    mask = (~net.fixed).float()[None, None, :, None]
+    mask = (~net.held).float()[None, None, :, None]
     if config.noise > 0:
         sigma = config.noise * net.velocity_scale * (net.dv_scale > 0) / math.sqrt(H)
         eps = torch.randn(hist.shape, generator=gen) * sigma
@@ -452,14 +452,14 @@ def _start(net, trajectories, encoding, config, sc, validation=()):
     best linear model on validation wherever the network starts (a network may start from a stiffer
     fit without weakening the baseline it is measured against). Fit info: ``ridge``,
     ``linear_radius`` and ``ridge_validation`` of the network's start; ``baseline_ridge``."""
-    baseline = DynamicNet(linear_config(config), encoding.node_features(), encoding.fixed, sc)
+    baseline = DynamicNet(linear_config(config), encoding.node_features(), encoding.fixed, sc, encoding.prescribed)
     normal, (lo, hi) = _normal_equations(baseline, trajectories)
     cols = net.conv_cols.numpy()
     net.set_envelope(torch.as_tensor(lo[cols], dtype=torch.float32), torch.as_tensor(hi[cols], dtype=torch.float32))
     start = baseline
     if config.load_ridge is not None:       # the network's start has its own penalty on the loads
         start = DynamicNet(replace(linear_config(config), load_ridge=config.load_ridge), encoding.node_features(),
-                           encoding.fixed, sc)
+                           encoding.fixed, sc, encoding.prescribed)
     fit = _fit_linear(start, normal, config.ridge, validation)
     if net.linear is not None:
         net.linear.load_state_dict(start.linear.state_dict())
@@ -494,7 +494,7 @@ def _train(trajectories, encoding, config, validation, progress, checkpoint) -> 
     torch.manual_seed(config.seed)
     windows = _windows(trajectories, config.history + config.unroll)
     sc = scales(trajectories, wrench=encoding.drive != "actuation")
-    net = DynamicNet(config, encoding.node_features(), encoding.fixed, sc)
+    net = DynamicNet(config, encoding.node_features(), encoding.fixed, sc, encoding.prescribed)
     start = time.perf_counter()
     baseline, fit = _start(net, trajectories, encoding, config, sc, validation)
     opt, gen = _optimizer(net, config), torch.Generator().manual_seed(config.seed)
@@ -502,7 +502,9 @@ def _train(trajectories, encoding, config, validation, progress, checkpoint) -> 
     path = Path(checkpoint) if checkpoint is not None else None
     if path is not None and path.is_file():
         loop = _restore_checkpoint(path, net, opt, gen)
-    shadow = DynamicNet(config, encoding.node_features(), encoding.fixed, sc) if config.ema > 0 else None
+    shadow = None
+    if config.ema > 0:
+        shadow = DynamicNet(config, encoding.node_features(), encoding.fixed, sc, encoding.prescribed)
     if loop.step == 0:
         _validate(net, loop, validation)
     while loop.step < config.steps:
