@@ -1,25 +1,46 @@
 """softrnn animate DATA.h5 -o rod.gif: the rod over time, applied and contact forces as arrows, the
-file's obstacles drawn (.gif, or .mp4 with ffmpeg)."""
+file's obstacles drawn (.gif, or .mp4 with ffmpeg). ``softrnn animate SCENARIO``: simulate the
+scenario first (into a temporary dataset, or the --save-data file) and animate that."""
 
+import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 from ..errors import bad
-from ..figures.animation import animate
+from ..figures.animation import STYLES, animate
 from ..figures.data import _title, check_suffix, load
 from ..files import prepare_output
 from ..io.reader import read_dataset
+from ..scenarios.scenario import SCENARIO_NAMES, load_scenario
+from ..scenarios.summary import simulate_summary
 from ._plot import named_node
 from ._progress import Bar
 
 NAME = "animate"
-HELP = ("animate a dataset's rod over time with its applied (and contact) forces as arrows and its obstacles "
-        "(.gif, or .mp4 with ffmpeg)")
+HELP = ("animate a dataset's rod over time with its applied (and contact) forces as arrows and its obstacles, "
+        "or simulate a scenario and animate it (.gif, or .mp4 with ffmpeg)")
+_DATA = (".h5", ".hdf5")
 
 
 def add_args(p):
-    p.add_argument("data", help="an HDF5 dataset written by softrnn (e.g. by 'softrnn sweep')")
+    p.add_argument("data", metavar="DATA|SCENARIO",
+                   help="an HDF5 dataset written by softrnn (e.g. by 'softrnn simulate -o'), or a scenario to "
+                        "simulate first: a shipped name (" + ", ".join(SCENARIO_NAMES) + ") or a .toml file")
     p.add_argument("-o", "--output", default=None, metavar="PATH",
-                   help="output .gif or .mp4 (default: DATA with the suffix .gif)")
+                   help="output .gif or .mp4 (default: DATA with the suffix .gif; for a scenario: its name "
+                        "with .gif, in the current folder)")
+    p.add_argument("--style", default="auto", choices=STYLES,
+                   help="'fluoroscopy': an X-ray screen's picture of the rod as a guidewire in its contrast-filled "
+                        "vessels (flat views only; no forces or legend); 'plain': the rod, forces and obstacles on "
+                        "axes in metres; 'auto' (default): fluoroscopy when the data's obstacles include a vessel "
+                        "and the view is flat, else plain")
+    p.add_argument("--save-data", default=None, metavar="PATH.h5",
+                   help="with a scenario: keep the simulated dataset in this file (default: a temporary file, "
+                        "removed afterwards)")
+    p.add_argument("--samples", type=int, default=None,
+                   help="with a scenario: saved samples (default: the scenario's)")
+    p.add_argument("--dt", type=float, default=None,
+                   help="with a scenario: saved interval in s (default: the scenario's)")
     p.add_argument("--group", default=None, help="the trajectory's group inside the file (default: the only one)")
     p.add_argument("--fps", type=float, default=20.0, help="frames per second of playback (default 20)")
     count = p.add_mutually_exclusive_group()
@@ -41,7 +62,8 @@ def add_args(p):
     p.add_argument("--no-contact-forces", action="store_true",
                    help="do not draw the file's contact forces as arrows")
     p.add_argument("--size", default="640x560", metavar="WxH", help="frame size in pixels (default 640x560)")
-    p.add_argument("--overwrite", action="store_true", help="replace the output file if it exists (default: refuse)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the output (and --save-data) file if it exists (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -56,7 +78,10 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def run(args) -> int:
-    out = Path(args.output) if args.output else Path(args.data).with_suffix(".gif")
+    scenario = _scenario(args)
+    stem = Path(args.data).stem
+    out = Path(args.output) if args.output else (Path(args.data).with_suffix(".gif") if scenario is None
+                                                 else Path(stem + ".gif"))
     check_suffix(out, argument="--output")
     prepare_output(out, "--output", overwrite=args.overwrite)
     size = parse_size(args.size)
@@ -66,18 +91,68 @@ def run(args) -> int:
         raise bad("--duration", args.duration, "a playback length > 0 s")
     if not args.fps > 0:
         raise bad("--fps", args.fps, "a number of frames per second > 0")
+    if scenario is None:
+        return _animate(args, args.data, out, size, Path(args.data).name)
+    with tempfile.TemporaryDirectory(prefix="softrnn-animate-") as folder:
+        path = args.save_data or str(Path(folder) / "run.h5")
+        _simulate(args, scenario, path)
+        return _animate(args, path, out, size, scenario.name)
+
+
+def _scenario(args):
+    """The scenario to simulate first, or None when ``args.data`` names a dataset (a .h5 or .hdf5
+    name, or an existing file that is not .toml); checks the scenario-only options."""
+    text = str(args.data)
+    path = Path(text)
+    if path.suffix.lower() in _DATA or (path.is_file() and path.suffix.lower() != ".toml"):
+        for flag, value in (("--save-data", args.save_data), ("--samples", args.samples), ("--dt", args.dt)):
+            if value is not None:
+                raise bad(flag, value, f"only with a scenario to simulate; {text} is a dataset (leave {flag} out)")
+        return None
+    if not path.is_file() and text not in SCENARIO_NAMES:
+        raise bad("data or scenario", text, "an existing .h5 dataset, a shipped scenario ("
+                  + ", ".join(SCENARIO_NAMES) + ") or an existing scenario .toml file")
+    scenario = load_scenario(text)
+    if args.samples is not None and args.samples < 1:
+        raise bad("--samples", args.samples, "an integer >= 1")
+    if args.dt is not None and not args.dt > 0:
+        raise bad("--dt", args.dt, "a saved interval > 0 s")
+    if args.save_data is not None:
+        if not str(args.save_data).endswith(_DATA):
+            raise bad("--save-data", args.save_data, "a file name ending in .h5 or .hdf5")
+        prepare_output(args.save_data, "--save-data", overwrite=args.overwrite)
+    return scenario
+
+
+def _simulate(args, scenario, path: str) -> None:
+    """Run ``scenario`` (with the --samples and --dt given) into the dataset ``path``, with progress."""
+    changes = {k: v for k, v in (("dt", args.dt), ("n_samples", args.samples)) if v is not None}
+    config = replace(scenario.config, **changes) if changes else scenario.config
+    with Bar(f"simulate {scenario.name}", enabled=not args.quiet) as bar:
+        summary = simulate_summary(name=scenario.name, title=scenario.title, setup=scenario.setup, config=config,
+                                   node=scenario.nodes_of_interest[0], out_path=path,
+                                   scenario_text=scenario.text, seed=scenario.seed,
+                                   attrs={"scenario_name": scenario.name}, progress=bar)
+    kept = f", saved in {args.save_data}" if args.save_data else ""
+    print(f"animate: simulated {scenario.name} ({summary['duration_s']:g} s of motion) in "
+          f"{summary['total_time_s']:.1f} s{kept}")
+
+
+def _animate(args, data_path: str, out: Path, size: tuple[int, int], label: str) -> int:
+    """Animate the dataset ``data_path`` (named ``label`` on the progress bar and, when its
+    attributes name nothing, in the picture) into ``out`` with the options ``args``."""
     node = args.node
     if node is not None:  # check it first (cheap): the reader's error names the stored nodes
-        node = int(read_dataset(args.data, nodes=[node], group=args.group, stop=1).nodes[0])
-    data = load(args.data, group=args.group, start=args.start, stop=args.stop)
+        node = int(read_dataset(data_path, nodes=[node], group=args.group, stop=1).nodes[0])
+    data = load(data_path, group=args.group, start=args.start, stop=args.stop)
     if node is None:  # the node the file names, marked when it is stored
         named = named_node(data)
         node = named if named is not None and named in set(data.nodes.tolist()) else None
-    with Bar(f"animate {Path(args.data).name}", unit="frame", enabled=not args.quiet) as bar:
+    with Bar(f"animate {label}", unit="frame", enabled=not args.quiet) as bar:
         animate(data, out, fps=args.fps, frames=args.frames, duration=args.duration, node=node,
                 trail=not args.no_trail, view=args.view, elev=args.elev, azim=args.azim, size=size,
-                title=None if _named(data) else Path(args.data).stem, obstacles=not args.no_obstacles,
-                contact_forces=not args.no_contact_forces, progress=bar)
+                title=None if _named(data) else Path(label).stem, obstacles=not args.no_obstacles,
+                contact_forces=not args.no_contact_forces, style=args.style, progress=bar)
     print(f"animate: wrote {out}")
     return 0
 

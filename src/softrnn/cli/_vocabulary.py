@@ -45,7 +45,7 @@ DOMAIN = {
     "show": ("--quick",),
     "import-csv": ("--length", "--scenario", "--inputs", "--tip", "--position-unit", "--tip-node", "--lag"),
     "animate": ("--fps", "--frames", "--duration", "--node", "--no-trail", "--view", "--elev", "--azim", "--size",
-                "--no-obstacles", "--no-contact-forces"),
+                "--no-obstacles", "--no-contact-forces", "--style", "--save-data", "--samples", "--dt"),
     "plot": ("--node", "--no-forces"),
     "train": ("--node", "--neighbours", "--history", "--inputs", "--wrench", "--drive", "--channels", "--predict",
               "--validate-on", "--validate-group", "--epochs", "--batch-size", "--lr", "--patience", "--units",

@@ -11,7 +11,12 @@ the obstacles are drawn too (``draw_obstacles``): a plane as a translucent recta
 rod's extent, a sphere as a translucent surface (a disc in a flat view), a cylinder as a surface
 segment over the rod's extent (its shadow in a flat view), a vessel as its centreline and a
 translucent tube (two wall lines in a flat view); the contact forces are arrows of their own colour
-on the applied forces' scale.
+on the applied forces' scale. An obstacle with ``vessels`` (a tuple of vessels) is drawn as each
+of them.
+
+``style='fluoroscopy'`` draws instead the picture of an X-ray screen: the rod as a radiopaque
+guidewire in its contrast-filled vessels (``figures.fluoroscopy``); ``style='auto'`` picks it for a
+flat view of data with a vessel.
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ from PIL import Image
 from scipy.spatial import ConvexHull, QhullError
 
 from ..errors import SoftrnnInputError, bad
-from ..io.schema import contact_from_record, contact_record
+from ..io.schema import contact_from_record
 from ..progress import Progress
 from .data import (
     DEFAULT_MAX_FRAMES,
@@ -42,6 +47,7 @@ from .data import (
     node_of_interest,
     time_span,
 )
+from .fluoroscopy import FluoroScene
 from .geometry import (
     _PLANES,
     VIEWS,
@@ -273,20 +279,51 @@ class _Scene:
 
 
 def obstacles_of(contact) -> list[dict]:
-    """The obstacles to draw of a contact: a ``softrnn.rod.Contact``, a stored record (a dataset's
-    ``attrs['contact']``, ``softrnn.io.schema.contact_record``) or None (none). One dict per
-    obstacle as in the record (``kind`` and geometry [m]); a vessel's also has ``points`` (P, 3)
-    and ``radii`` (P,) [m], its dense centreline (``softrnn.rod.Vessel.points``)."""
+    """The obstacles to draw of a contact: a ``softrnn.rod.Contact`` (or an object with its
+    ``obstacles`` and ``friction``), a stored record (a dataset's ``attrs['contact']``,
+    ``softrnn.io.schema.contact_record``) or None (none). One dict per obstacle as in the record
+    (``kind``, geometry [m] and ``friction``); a vessel's also has ``points`` (P, 3) and ``radii``
+    (P,) [m], its dense centreline (``softrnn.rod.Vessel.points``). An obstacle with ``vessels`` (a
+    tuple of ``Vessel``, e.g. a branching vessel) is drawn as each of its vessels."""
     if contact is None:
         return []
     built = contact_from_record(contact) if isinstance(contact, dict) else contact
-    record = contact_record(built)
-    out = []
-    for entry, ob in zip(record["obstacles"], built.obstacles):
-        if entry["kind"] == "vessel":
-            entry = dict(entry, points=np.asarray(ob.points), radii=np.asarray(ob.radii))
-        out.append(entry)
-    return out
+    obstacles = getattr(built, "obstacles", None)
+    if obstacles is None:
+        raise bad("contact", type(built).__name__, "a softrnn.rod.Contact, a stored contact record, or None")
+    default = float(getattr(built, "friction", 0.0) or 0.0)
+    return [entry for ob in obstacles for entry in _obstacle_entries(ob, default)]
+
+
+_GEOMETRY = (("vessel", ("centreline", "radius")), ("cylinder", ("point", "axis", "radius")),
+             ("sphere", ("center", "radius")), ("plane", ("point", "normal")))
+"""The obstacles' kinds (``softrnn.rod.contact``), told apart by the attributes of their geometry."""
+
+
+def _obstacle_entries(ob, friction: float) -> list[dict]:
+    """The drawn entries of one obstacle (see ``obstacles_of``): its vessels' for one with ``vessels``."""
+    vessels = getattr(ob, "vessels", None)
+    if vessels is not None:
+        own = getattr(ob, "friction", None)
+        return [e for v in vessels for e in _obstacle_entries(v, friction if own is None else float(own))]
+    for kind, keys in _GEOMETRY:
+        if all(hasattr(ob, k) for k in keys):
+            entry = {"kind": kind}
+            entry.update({k: _plain(getattr(ob, k)) for k in keys})
+            own = getattr(ob, "friction", None)
+            entry["friction"] = friction if own is None else float(own)
+            if kind == "vessel":
+                entry.update(points=np.asarray(ob.points), radii=np.asarray(ob.radii))
+            return [entry]
+    raise bad("contact.obstacles", type(ob).__name__, "Plane, Sphere, Cylinder or Vessel obstacles, or ones with "
+                                                      "vessels (a tuple of Vessel)")
+
+
+def _plain(value):
+    """A geometry value as in a contact record: a float, or nested lists of floats."""
+    if np.ndim(value) == 0:
+        return float(value)
+    return np.asarray(value, dtype=float).tolist()
 
 
 def draw_obstacles(ax, obstacles, view: str, lo, hi) -> list:
@@ -385,7 +422,7 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
             trail: bool = True, view: str = "auto", elev: float = 22.0, azim: float = -50.0,
             title: str | None = None, size: tuple[int, int] = DEFAULT_SIZE,
             max_frames: int = DEFAULT_MAX_FRAMES, obstacles=True, contact_forces: bool = True,
-            progress: Progress | None = None) -> Path:
+            style: str = "plain", progress: Progress | None = None) -> Path:
     """Write an animation of the rod to ``out_path`` (``.gif``, or ``.mp4`` with ffmpeg installed).
 
     Parameters
@@ -425,6 +462,9 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
     contact_forces : bool
         draw the data's contact forces (``contact_forces`` (T, N, 3) [N]) as arrows, on the scale
         of the applied forces
+    style : str
+        'plain': the rod, forces and obstacles on axes in metres; 'fluoroscopy': an X-ray picture of
+        the rod in its vessels (``figures.fluoroscopy``); 'auto': ``pick_style``
     progress : Progress or None
         optional callable progress(done, total) per frame
 
@@ -443,20 +483,68 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
     out_path = Path(out_path)
     suffix, width, height = _check_options(out_path, fps, view, size)
     time, nodes, positions, forces, attrs = _fields(data)
-    cforces = _contact_forces(data, positions.shape) if contact_forces else None
     drawn = _obstacles_to_draw(data, obstacles)
     i0, i1 = time_span(time, start, stop)
     idx = frame_indices(i1 - i0 + 1, frames=frames, duration=duration, fps=fps, max_frames=max_frames, first=i0)
-    if node is None:
-        node = node_of_interest(data)
-        node_col = None if node is None or node not in set(nodes.tolist()) else _column(nodes, node)
+    if pick_style(style, drawn, view, positions[i0:i1 + 1]) == "fluoroscopy":
+        scene = FluoroScene(time, positions, i0, i1, idx, view=view, title=title or _title(attrs),
+                            size=(width, height), obstacles=drawn, rod_radius=_rod_radius(attrs))
     else:
-        node_col = _column(nodes, _resolve(node, nodes, attrs))
-    scene = _Scene(time, nodes, positions, forces, i0, i1, idx, node_col=node_col, view=view, trail=trail,
-                   title=title or _title(attrs), size=(width, height), elev=float(elev), azim=float(azim),
-                   contact_forces=cforces, obstacles=drawn)
+        cforces = _contact_forces(data, positions.shape) if contact_forces else None
+        scene = _Scene(time, nodes, positions, forces, i0, i1, idx, node_col=_node_column(data, node, nodes, attrs),
+                       view=view, trail=trail, title=title or _title(attrs), size=(width, height),
+                       elev=float(elev), azim=float(azim), contact_forces=cforces, obstacles=drawn)
     _write_movie(scene, idx, out_path, suffix, fps, progress)
     return out_path
+
+
+def _node_column(data, node: int | None, nodes: np.ndarray, attrs: dict) -> int | None:
+    """The column in ``nodes`` of the node of interest: ``node``'s, or else the one the data names
+    if stored."""
+    if node is not None:
+        return _column(nodes, _resolve(node, nodes, attrs))
+    node = node_of_interest(data)
+    return None if node is None or node not in set(nodes.tolist()) else _column(nodes, node)
+
+
+STYLES = ("auto", "plain", "fluoroscopy")
+"""The looks of ``animate``."""
+
+
+def pick_style(style: str, obstacles: list, view: str, positions: np.ndarray) -> str:
+    """The look of an animation.
+
+    Parameters
+    ----------
+    style : str
+        one of ``STYLES``
+    obstacles : list of dict
+        the obstacles drawn (``obstacles_of``)
+    view : str
+        the view asked for ('auto', 'xy', 'xz', 'yz' or '3d')
+    positions : (T, N, 3)
+        the rod's positions [m] over the span shown (for the 'auto' view)
+
+    Returns
+    -------
+    str
+        'plain' or 'fluoroscopy': ``style`` itself, or for 'auto' 'fluoroscopy' when a vessel is
+        drawn and the view is a flat one ('auto': a planar motion), else 'plain'
+    """
+    if style not in STYLES:
+        raise bad("style", style, "one of " + ", ".join(STYLES))
+    if style != "auto":
+        return style
+    vessel = any(o["kind"] == "vessel" for o in obstacles)
+    flat = view in _PLANES or (view == "auto" and choose_view(np.asarray(positions, dtype=float)) != "3d")
+    return "fluoroscopy" if vessel and flat else "plain"
+
+
+def _rod_radius(attrs: dict) -> float | None:
+    """The rod's radius [m] that the data's ``attrs['rod']`` records, or None."""
+    rod = attrs.get("rod")
+    value = rod.get("radius") if isinstance(rod, dict) else None
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) and value > 0 else None
 
 
 def _contact_forces(data, shape: tuple) -> np.ndarray | None:
@@ -598,7 +686,7 @@ def _render(scene: _Scene, idx: np.ndarray, add, progress: Progress | None = Non
             progress(n + 1, len(idx))
 
 
-def _write_movie(scene: _Scene, idx: np.ndarray, out_path: Path, suffix: str, fps: float, progress) -> None:
+def _write_movie(scene, idx: np.ndarray, out_path: Path, suffix: str, fps: float, progress) -> None:
     """Render the frames ``idx`` of ``scene`` into ``out_path`` (.gif or .mp4) atomically
     (``saving.atomic_output``: nothing is left behind on error or Ctrl-C)."""
     with atomic_output(out_path) as tmp:
@@ -606,7 +694,8 @@ def _write_movie(scene: _Scene, idx: np.ndarray, out_path: Path, suffix: str, fp
             sink = _FfmpegSink(tmp, scene.fig, fps)
         else:
             w, h = (int(round(v)) for v in scene.fig.bbox.size)
-            sink = _GifSink(tmp, (w, h), fps, colors=(_ROD, _NODE, _TRAIL, _FORCE, _CONTACT, "k"))
+            colors = getattr(scene, "colors", (_ROD, _NODE, _TRAIL, _FORCE, _CONTACT, "k"))
+            sink = _GifSink(tmp, (w, h), fps, colors=colors)
         try:
             _render(scene, idx, sink.add, progress)
             sink.finish()
