@@ -121,6 +121,9 @@ def _add_train(p):
     p.add_argument("--predict-clamps", dest="prescribed", action="store_false", default=None,
                    help="predict a clamp that the data's scenario moves along a path like any other node, from "
                         "its own history (default: its recorded path is an input, and the model follows it)")
+    p.add_argument("--ignore-obstacles", dest="obstacles", action="store_false", default=None,
+                   help="let the model's free runs pass through the obstacles the data were simulated with "
+                        "(default: a predicted node inside one is moved back to its surface after each step)")
     p.add_argument("--threads", type=int, default=None, metavar="T",
                    help="PyTorch threads while training (default: PyTorch's own choice)")
     again = p.add_mutually_exclusive_group()
@@ -157,7 +160,7 @@ def _config(args):
 
     names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed",
              "ema", "feedback", "drive", "envelope", "prior_tau", "ridge", "load_ridge", "linear_lr", "conv_reads",
-             "start_fraction", "prescribed")
+             "start_fraction", "prescribed", "obstacles")
     given = {k: getattr(args, k) for k in names if getattr(args, k) is not None}
     return DynamicConfig(**{k: (None if v is _OFF else v) for k, v in given.items()})
 

@@ -40,7 +40,7 @@ import re
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad, is_finite_number
-from ..rod.contact import Contact, Cylinder, Plane, Sphere, Vessel
+from ..rod.contact import Bifurcation, Contact, Cylinder, Plane, Sphere, Vessel
 
 SCHEMA_VERSION = 2
 """Version of the file layout of a trajectory without contact (and of a sweep's root without contact
@@ -133,7 +133,8 @@ def actuation_units(value, argument: str = "actuation_units") -> dict[str, str]:
 
 
 _KINDS = {"plane": (Plane, ("point", "normal")), "sphere": (Sphere, ("center", "radius")),
-          "cylinder": (Cylinder, ("point", "axis", "radius")), "vessel": (Vessel, ("centreline", "radius"))}
+          "cylinder": (Cylinder, ("point", "axis", "radius")), "vessel": (Vessel, ("centreline", "radius")),
+          "bifurcation": (Bifurcation, ("trunk", "left", "right", "radius", "left_radius", "right_radius"))}
 _CONTACT_KEYS = ("friction", "slip_velocity", "stiffness", "damping", "penetration", "reference_acceleration")
 
 
@@ -159,10 +160,12 @@ def contact_record(contact) -> dict | None:
         ``friction`` (the default mu [-]), ``slip_velocity`` [m/s], ``stiffness`` [N/m^2] or None,
         ``damping`` [N s/m^2] or None, ``penetration`` [-], ``reference_acceleration`` [m/s^2] or
         None, and ``obstacles``: one dict per obstacle with ``kind`` ('plane', 'sphere', 'cylinder',
-        'vessel'), its geometry in m (plane: ``point`` (3,), ``normal`` (3,) unit; sphere:
-        ``center`` (3,), ``radius``; cylinder: ``point`` (3,), ``axis`` (3,) unit, ``radius``;
-        vessel: ``centreline`` (m, 3), ``radius`` (a number or (m,))) and ``friction``, the mu [-]
-        that applies to it (its own, else the default).
+        'vessel', 'bifurcation'), its geometry in m (plane: ``point`` (3,), ``normal`` (3,) unit;
+        sphere: ``center`` (3,), ``radius``; cylinder: ``point`` (3,), ``axis`` (3,) unit,
+        ``radius``; vessel: ``centreline`` (m, 3), ``radius`` (a number or (m,)); bifurcation:
+        ``trunk`` (m, 3), ``left`` (k, 3), ``right`` (k', 3), ``radius``, ``left_radius``,
+        ``right_radius`` (each a number or one per point)) and ``friction``, the mu [-] that
+        applies to it (its own, else the default).
     """
     if contact is None:
         return None

@@ -19,6 +19,9 @@ Modelling choices (assumptions, with numbers for the defaults):
   bending mode (6.9 Hz); the rubber's real loss factor is not known.
 * The magnets are point dipoles at their centres (uniform magnetisation, no induced magnetisation,
   no magnet-magnet coupling: ~0.1 mT at 25 mm, under 1% of the applied field, magnetic.md §1.3).
+* Contact: with ``ManipulatorSpec.contact`` the rod moves among obstacles (e.g. inside a vessel or
+  a ``Bifurcation``), with the contact loads of ``softrnn.rod.contact`` evaluated at every solver
+  step beside the magnet loads; the explicit step then also respects the contact springs.
 """
 
 import math
@@ -30,6 +33,7 @@ import numpy as np
 from ..errors import SimulationError, bad, vec3
 from ..progress import Progress
 from ..rod.boundary import Clamp
+from ..rod.contact import Contact, node_parameters, step_limit
 from ..rod.inputs import SetupInputs
 from ..rod.kernels import Samples, StepInputs
 from ..rod.loads import smoothstep
@@ -37,7 +41,7 @@ from ..rod.lumped import lumped_rod, with_damping
 from ..rod.shapes import RodShape, straight
 from ..rod.simulation import Damping, Setup, Trajectory, check_run_size
 from ..rod.spec import NodeOverride, RodSpec
-from ..rod.stability import DEFAULT_SAFETY, stable_step
+from ..rod.stability import DEFAULT_SAFETY, omega_max, stable_step
 from ..rod.state import SAMPLE_FIELDS, empty_samples, half_kick, initial_state
 from ..rod.status import raise_for_status
 from . import _driver
@@ -88,6 +92,9 @@ class ManipulatorSpec:
     magnet_stiffness_factor : float or None
         cap on the magnet segments' Young's modulus as a multiple of the rod's
         (None: the magnets' own modulus, e.g. 41.4 GPa; see the module docstring)
+    contact : softrnn.rod.Contact or None
+        obstacles around the rod (e.g. a ``Vessel`` or ``Bifurcation`` it lies in), with the
+        contact law of ``softrnn.rod.contact``; None: none (the rod moves freely)
     """
 
     length: float = 0.05
@@ -102,6 +109,7 @@ class ManipulatorSpec:
     gravity: tuple = (0.0, 0.0, -9.81)
     damping: Damping = DEFAULT_DAMPING
     magnet_stiffness_factor: float | None = 100.0
+    contact: Contact | None = None
 
     def __post_init__(self):
         for name in ("length", "diameter", "youngs_modulus", "density"):
@@ -118,6 +126,8 @@ class ManipulatorSpec:
             raise bad("coils", type(self.coils).__name__, "a CoilLayout (see softrnn.magnetics.bigmag_like)")
         if not isinstance(self.damping, Damping):
             raise bad("damping", self.damping, "a softrnn.rod.Damping")
+        if self.contact is not None and not isinstance(self.contact, Contact):
+            raise bad("contact", type(self.contact).__name__, "a softrnn.rod.Contact, or None for no obstacles")
         try:
             magnets = default_magnets(self.length) if self.magnets is None else tuple(self.magnets)
         except TypeError:
@@ -131,6 +141,8 @@ class ManipulatorSpec:
                 density=self.density, n_nodes=self.n_nodes, poisson_ratio=self.poisson_ratio)
         self._check_magnets()
         self._check_workspace()
+        if self.contact is not None:
+            self.setup()  # the rod's straight start inside the obstacles (rod.contact.check_initial)
 
     # ------------------------------------------------------------------ validation
     def _check_magnets(self) -> None:
@@ -210,14 +222,21 @@ class ManipulatorSpec:
         return straight(self.n_nodes, self.length, origin=self.base, direction=_AXIS, normal=_NORMAL)
 
     def setup(self) -> Setup:
-        """The rod problem without magnetic loads (base clamped, gravity, damping): a plain
-        ``softrnn.rod.Simulator`` on it gives the zero-current motion."""
+        """The rod problem without magnetic loads (base clamped, gravity, damping, the obstacles of
+        ``contact``): a plain ``softrnn.rod.Simulator`` on it gives the zero-current motion."""
         return Setup(rod=self.rod_spec(), reference=self.reference_shape(), boundary=(Clamp(0),),
-                     damping=self.damping, gravity=self.gravity)
+                     damping=self.damping, gravity=self.gravity, contact=self.contact)
 
     def stable_step(self, safety: float = DEFAULT_SAFETY) -> float:
-        """Largest accepted solver step h [s]."""
-        return stable_step(self.rod_spec().lumped(), self.segment_length, self.damping.kelvin_voigt, safety)
+        """Largest accepted solver step h [s]; with ``contact``, the contact springs and dampers
+        add to the fastest node's frequency (``softrnn.rod.contact.step_limit``)."""
+        lumped = self.rod_spec().lumped()
+        h = stable_step(lumped, self.segment_length, self.damping.kelvin_voigt, safety)
+        if self.contact is None:
+            return h
+        nodes = node_parameters(self.contact, self.rod_spec(), self.gravity)
+        omega = omega_max(lumped, self.segment_length)
+        return min(h, safety * step_limit(nodes, lumped["mass"], omega))
 
     def scaled(self, *, stiffness: float = 1.0, remanence: float = 1.0, damping: float = 1.0,
                density: float = 1.0) -> "ManipulatorSpec":
@@ -368,7 +387,8 @@ class ManipulatorTrajectory:
     ----------
     rod : Trajectory
         the rod's ``Trajectory`` (time (S,), positions (S, n, 3), quaternions (S, n, 4),
-        velocities, applied forces/torques including the magnetic ones, reactions, energy)
+        velocities, applied forces/torques including the magnetic ones, reactions, energy; with
+        ``ManipulatorSpec.contact``, contact_forces and contact_torques (S, n, 3) [N], [N m])
     currents : (S, n_c) [A]
         the coil currents
     magnet_positions : (S, M, 3) [m]
@@ -428,7 +448,11 @@ class _Model:
         self.spec = spec
         setup = spec.setup()
         self.rod = lumped_rod(setup)
-        self.state = initial_state(setup, self.rod, SetupInputs(setup))
+        inputs = SetupInputs(setup)
+        self.state = initial_state(setup, self.rod, inputs)
+        # with obstacles: the static contact fields, and the scratch of the applied loads
+        self.contact = ({} if inputs.contact is None
+                        else dict(inputs.contact, contact_applied=np.zeros((spec.n_nodes, 6))))
         anchors = [spec.magnet_anchor(j) for j in range(len(spec.magnets))]
         mag_node = np.array([a for a, _ in anchors], dtype=np.int64)
         self.ext_idx = np.unique(np.concatenate([mag_node, mag_node + 1])).astype(np.int64)
@@ -447,12 +471,18 @@ class _Model:
             row.currents[:] = currents
         return row
 
-    def step_inputs(self) -> StepInputs:
-        """Rod inputs of one step: zero magnet loads ext_w (1, m, 12), no PD tracking or prescribed motion."""
+    def step_inputs(self, n_rows: int = 0) -> StepInputs:
+        """Rod inputs of one step: zero magnet loads ext_w (1, m, 12), no PD tracking or prescribed
+        motion; with obstacles, the contact fields with the state's tracked segments and room for
+        the contact loads of n_rows samples of every node."""
         none = np.zeros(0, dtype=np.int64)
+        contact = {}
+        if self.contact:
+            contact = dict(self.contact, contact_segment=self.state.contact_segment,
+                           contact_samples=np.zeros((n_rows, self.spec.n_nodes if n_rows else 0, 6)))
         return StepInputs(ext_idx=self.ext_idx, ext_w=np.zeros((1, self.ext_idx.size, 12)), pd_idx=none,
                           pd_target=np.zeros((1, 0, 3)), pd_gain=np.zeros((0, 2)), presc_idx=none,
-                          presc_r=np.zeros((2, 0, 3)), presc_R=np.zeros((2, 0, 3, 3)))
+                          presc_r=np.zeros((2, 0, 3)), presc_R=np.zeros((2, 0, 3, 3)), **contact)
 
     def loads(self, currents: np.ndarray) -> StepInputs:
         """Rod inputs of one step with the magnet loads of the current pose and currents (n_c,) [A]."""
@@ -470,8 +500,10 @@ class _Model:
 
     def drive(self, damping: Damping, h: float, t0: float, n_steps: int, stride: int, schedule,
               n_rows: int, *, block: int | None = None,
-              progress: Progress | None = None) -> tuple[Samples, "_driver.MagnetSamples"]:
-        """Run the numba driver with ``damping``; returns the rod's and the magnets' outputs (n_rows samples).
+              progress: Progress | None = None) -> tuple[Samples, "_driver.MagnetSamples", np.ndarray | None]:
+        """Run the numba driver with ``damping``; returns the rod's and the magnets' outputs (n_rows
+        samples), and with obstacles the contact force [N] and torque [N m] (n_rows, n, 6) of every
+        node at the samples (None without).
 
         ``block``: solver steps per driver call (None: all in one call); the results are the same
         bit for bit whatever the blocks (``_driver.drive``). ``progress(done, n_rows)`` after each
@@ -480,7 +512,7 @@ class _Model:
         n = self.spec.n_nodes
         out = empty_samples(np.arange(n, dtype=np.int64), n_rows, n)
         mag = _driver.empty_magnet_samples(self.spec.coils.n_coils, self.magnets.mag_node.size, lead=(n_rows,))
-        rod, state, inputs = with_damping(self.rod, damping), self.state.arrays(), self.step_inputs()
+        rod, state, inputs = with_damping(self.rod, damping), self.state.arrays(), self.step_inputs(n_rows)
         work, row = np.zeros((n, 6)), self._row()
         size = n_steps if block is None else max(1, int(block))
         recorded = 0
@@ -495,7 +527,7 @@ class _Model:
             if progress is not None and done > recorded:
                 progress(done, n_rows)
             recorded = done
-        return out, mag
+        return out, mag, (inputs.contact_samples if self.contact else None)
 
 
 def _schedule(spec: ManipulatorSpec, run: ManipulatorRun, currents) -> CurrentSchedule:
@@ -589,11 +621,13 @@ def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun,
                     block=DRIVE_BLOCK_STEPS)
     n_steps = (run.n_samples - 1) * substeps + 1
     start = time.perf_counter()
-    out, mag = model.drive(spec.damping, h, 0.0, n_steps, substeps, schedule, run.n_samples,
-                           block=max(1, DRIVE_BLOCK_STEPS // substeps) * substeps, progress=progress)
+    out, mag, contact = model.drive(spec.damping, h, 0.0, n_steps, substeps, schedule, run.n_samples,
+                                    block=max(1, DRIVE_BLOCK_STEPS // substeps) * substeps, progress=progress)
     wall = time.perf_counter() - start
+    loads = {} if contact is None else {"contact_forces": contact[..., :3], "contact_torques": contact[..., 3:]}
     traj = Trajectory(time=run.dt * np.arange(run.n_samples), nodes=np.arange(spec.n_nodes), step=h,
-                      substeps=substeps, wall_time=wall, **{name: getattr(out, name) for name in SAMPLE_FIELDS})
+                      substeps=substeps, wall_time=wall, **{name: getattr(out, name) for name in SAMPLE_FIELDS},
+                      **loads)
     mu = np.einsum("smij,mj->smi", mag.rotations, model.magnets.mag_mu_body)
     return ManipulatorTrajectory(rod=traj, currents=mag.currents, magnet_positions=mag.positions,
                                  magnet_rotations=mag.rotations, magnet_moments=mu, fields=mag.fields,

@@ -3,6 +3,7 @@
 from .batch import simulate_batch as simulate_batch
 from .boundary import Clamp as Clamp
 from .boundary import Pin as Pin
+from .contact import Bifurcation as Bifurcation
 from .contact import Contact as Contact
 from .contact import Cylinder as Cylinder
 from .contact import Plane as Plane

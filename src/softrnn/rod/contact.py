@@ -5,7 +5,10 @@
 * ``Plane(point, normal)``: a half space; the rod stays on the side ``normal`` points to;
 * ``Sphere(center, radius)`` and ``Cylinder(point, axis, radius)`` (infinite): the rod stays outside;
 * ``Vessel(centreline, radius)``: a tube, open at both ends, the rod inside it; the centreline is a
-  cubic spline through the given points, sampled into a dense polyline for the kernels.
+  cubic spline through the given points, sampled into a dense polyline for the kernels;
+* ``Bifurcation(trunk, left, right, radius)``: a vessel that splits in two, the rod inside it; its
+  lumen is the union of two vessels (trunk + left branch, trunk + right branch), so a node touches
+  a wall only where it is outside both, and then the nearer one pushes it back.
 
 The rod's surface is its centreline offset by the rod radius r (per node, overrides included). Per
 node and obstacle, with gap g the signed distance from the node to the obstacle's surface minus r
@@ -29,7 +32,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from ..errors import bad, finite, is_finite_number, nonnegative, positive, vec3
-from .kernels import CYLINDER, PLANE, SPHERE, VESSEL
+from .kernels import BIFURCATION, BRANCH, CYLINDER, PLANE, SPHERE, UNION_BLEND, VESSEL
 
 STANDARD_GRAVITY = 9.81
 """Reference acceleration [m/s^2] of the default stiffness when the setup has no constant gravity."""
@@ -163,22 +166,24 @@ class Cylinder:
         return _radial_gap(q - np.outer(q @ e, e), self.radius, radius)
 
 
-def _centreline(points, radius) -> tuple[np.ndarray, np.ndarray]:
-    """A vessel's validated centreline points (m, 3) [m] and radii (m,) [m]."""
+def _centreline(points, radius, line: str = "vessel.centreline", size: str = "vessel.radius",
+                least: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """Validated centreline points (m, 3) [m], m >= least, and radii (m,) [m]; errors name the
+    arguments ``line`` and ``size``."""
     try:
         p = np.array(points, dtype=float)
     except (TypeError, ValueError):
-        raise bad("vessel.centreline", points, "an (m, 3) array of points in m, m >= 2") from None
-    if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < 2 or not np.all(np.isfinite(p)):
-        raise bad("vessel.centreline", f"an array of shape {p.shape}", "(m, 3) finite points in m, m >= 2")
+        raise bad(line, points, f"an (m, 3) array of points in m, m >= {least}") from None
+    if p.ndim != 2 or p.shape[1] != 3 or p.shape[0] < least or not np.all(np.isfinite(p)):
+        raise bad(line, f"an array of shape {p.shape}", f"(m, 3) finite points in m, m >= {least}")
     if np.any(np.linalg.norm(np.diff(p, axis=0), axis=1) <= 0):
-        raise bad("vessel.centreline", "repeated consecutive points", "distinct consecutive points")
+        raise bad(line, "repeated consecutive points", "distinct consecutive points")
     if is_finite_number(radius):
-        rad = np.full(len(p), positive("vessel.radius", radius, "m"))
+        rad = np.full(len(p), positive(size, radius, "m"))
     else:
         rad = np.array(radius, dtype=float) if np.ndim(radius) == 1 else np.zeros(0)
         if rad.shape != (len(p),) or not np.all(np.isfinite(rad)) or np.any(rad <= 0):
-            raise bad("vessel.radius", radius, f"a positive radius in m, or ({len(p)},) positive radii, one per point")
+            raise bad(size, radius, f"a positive radius in m, or ({len(p)},) positive radii, one per point")
     return p, rad
 
 
@@ -278,7 +283,117 @@ class Vessel:
         return np.where(beyond | (d <= 0), np.inf, size - radius - d), normal
 
 
-OBSTACLES = (Plane, Sphere, Cylinder, Vessel)
+def _branch(side: str, points, radius, trunk: np.ndarray, trunk_radii: np.ndarray):
+    """A bifurcation branch's validated points (k, 3) [m] after the junction (a first point on the
+    junction dropped) and its radius: a number [m] (None: the trunk's at the junction) or (k,) [m]."""
+    line, size = f"bifurcation.{side}", f"bifurcation.{side}_radius"
+    if radius is None:
+        radius = float(trunk_radii[-1])
+    p, rad = _centreline(points, radius, line, size, least=1)
+    if np.array_equal(p[0], trunk[-1]):
+        p, rad = p[1:], rad[1:]
+        if len(p) == 0:
+            raise bad(line, "only the junction", "at least one point after the junction (the trunk's last point)")
+    value = float(radius) if is_finite_number(radius) else rad
+    return p, value, rad
+
+
+@dataclass(frozen=True, eq=False)
+class Bifurcation:
+    """A vessel that splits in two: a trunk, then a left and a right branch, the rod inside it.
+
+    The lumen is the union of two ``Vessel`` tubes, trunk + left branch and trunk + right branch:
+    a node touches a wall only where it is outside both tubes, and the nearer wall (the larger gap)
+    pushes it back (docs/lgvi.md §2.11); where the two gaps differ by less than ``UNION_BLEND``
+    times the rod radius (the crease where the walls meet, at the carina), the normal blends theirs.
+    The trunk and each branch are cubic splines of their own (``Vessel``'s, over the chord length),
+    a branch's from the junction through its points, so the tubes meet at the junction with a
+    corner; the kernels track the closest segment of each tube per node.
+
+    Attributes
+    ----------
+    trunk : (m, 3)
+        centreline points of the trunk [m], m >= 2; its last point is the junction
+    left, right : (k, 3)
+        centreline points of each branch after the junction [m], k >= 1 (a first point equal to
+        the junction is dropped here)
+    radius : float or (m,)
+        the trunk's inner radius [m], or one per trunk point
+    left_radius, right_radius : float, (k,) or None
+        each branch's inner radius [m], or one per branch point; None: the trunk's radius at the
+        junction (resolved here)
+    friction : float or None
+        friction coefficient mu [-]; None: the ``Contact``'s
+    vessels : tuple of Vessel
+        (trunk + left, trunk + right), computed, with this friction: each one's ``centreline`` and
+        ``radius`` are the trunk's points and radii followed by the branch's, its ``points`` and
+        ``radii`` the trunk's polyline followed by the branch's (the radius at the junction the
+        trunk's)
+    trunk_rows : int
+        the rows of each vessel's ``points`` that are the trunk's (computed; the last one is the
+        junction)
+    """
+
+    trunk: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    radius: float | np.ndarray
+    left_radius: float | np.ndarray | None = None
+    right_radius: float | np.ndarray | None = None
+    friction: float | None = None
+
+    def __post_init__(self):
+        trunk, trunk_radii = _centreline(self.trunk, self.radius, "bifurcation.trunk", "bifurcation.radius")
+        trunk.setflags(write=False)
+        object.__setattr__(self, "trunk", trunk)
+        object.__setattr__(self, "radius", float(self.radius) if is_finite_number(self.radius) else trunk_radii)
+        object.__setattr__(self, "friction", _friction(self.friction))
+        trunk_points, trunk_sampled = _sample(trunk, trunk_radii)
+        vessels = []
+        for side in ("left", "right"):
+            p, value, rad = _branch(side, getattr(self, side), getattr(self, f"{side}_radius"), trunk, trunk_radii)
+            p.setflags(write=False)
+            object.__setattr__(self, side, p)
+            object.__setattr__(self, f"{side}_radius", value)
+            vessel = Vessel(np.concatenate([trunk, p]), np.concatenate([trunk_radii, rad]), friction=self.friction)
+            # the trunk's own spline, then the branch's from the junction (a corner there)
+            points, radii = _sample(np.concatenate([trunk[-1:], p]), np.concatenate([rad[:1], rad]))
+            points = np.concatenate([trunk_points, points[1:]])
+            radii = np.concatenate([trunk_sampled, radii[1:]])
+            for name, a in (("points", points), ("radii", radii)):
+                a.setflags(write=False)
+                object.__setattr__(vessel, name, a)
+            vessels.append(vessel)
+        object.__setattr__(self, "vessels", tuple(vessels))
+        object.__setattr__(self, "trunk_rows", len(trunk_points))
+
+    def gap(self, positions: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Gaps (n,) [m] and inward unit normals (n, 3) at node positions (n, 3) [m] with rod radii
+        (n,) [m], brute force: the larger gap of the two vessels, with its normal, blended with the
+        other's where their gaps differ by less than ``UNION_BLEND`` r (as the kernels do; the
+        normal is only used where the gap is negative)."""
+        (g, n), (h, m) = (v.gap(positions, radius) for v in self.vessels)
+        best = np.maximum(g, h)
+        width = UNION_BLEND * np.asarray(radius, dtype=float)
+        with np.errstate(invalid="ignore"):  # inf - inf beyond both open ends
+            u = np.clip(1.0 - (best - g) / width, 0.0, None)
+            w = np.clip(1.0 - (best - h) / width, 0.0, None)
+        b = np.nan_to_num(u)[:, None] * n + np.nan_to_num(w)[:, None] * m
+        size = np.linalg.norm(b, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            normal = np.where(size[:, None] > 0, b / size[:, None], 0.0)
+        return np.where((best < 0) & ~(size > 0), np.inf, best), normal
+
+    def inside(self, positions: np.ndarray, radius=0.0) -> np.ndarray:
+        """Which tubes hold each point, (n, 2) bool (left, right): the surface of a rod of radius
+        ``radius`` [m] (a number or (n,)) around the points (n, 3) [m] clear of that tube's wall
+        (gap >= 0, open ends included). Inside both: the trunk or the junction; one: that branch."""
+        x = np.atleast_2d(np.asarray(positions, dtype=float))
+        r = np.broadcast_to(np.asarray(radius, dtype=float), (len(x),))
+        return np.stack([v.gap(x, r)[0] >= 0 for v in self.vessels], axis=1)
+
+
+OBSTACLES = (Plane, Sphere, Cylinder, Vessel, Bifurcation)
 """The obstacle types a ``Contact`` takes."""
 
 
@@ -289,7 +404,8 @@ class Contact:
     Attributes
     ----------
     obstacles : tuple
-        ``Plane``, ``Sphere``, ``Cylinder`` and ``Vessel`` entries (one obstacle alone is accepted)
+        ``Plane``, ``Sphere``, ``Cylinder``, ``Vessel`` and ``Bifurcation`` entries (one obstacle
+        alone is accepted)
     friction : float
         Coulomb friction coefficient mu [-] of the obstacles that set none (0: frictionless)
     slip_velocity : float
@@ -323,9 +439,11 @@ class Contact:
         try:
             obstacles = tuple(obstacles)
         except TypeError:
-            raise bad("contact.obstacles", self.obstacles, "a tuple of Plane, Sphere, Cylinder or Vessel") from None
+            raise bad("contact.obstacles", self.obstacles,
+                      "a tuple of Plane, Sphere, Cylinder, Vessel or Bifurcation") from None
         if not obstacles or not all(isinstance(o, OBSTACLES) for o in obstacles):
-            raise bad("contact.obstacles", self.obstacles, "one or more Plane, Sphere, Cylinder or Vessel entries")
+            raise bad("contact.obstacles", self.obstacles,
+                      "one or more Plane, Sphere, Cylinder, Vessel or Bifurcation entries")
         object.__setattr__(self, "obstacles", obstacles)
         object.__setattr__(self, "friction", nonnegative("contact.friction", self.friction))
         object.__setattr__(self, "slip_velocity", positive("contact.slip_velocity", self.slip_velocity, "m/s"))
@@ -368,28 +486,43 @@ def node_parameters(contact: Contact, rod, gravity) -> np.ndarray:
     return np.ascontiguousarray(np.stack([radius, k, c], axis=1))
 
 
+def _columns(contact: Contact) -> list:
+    """The kernels' obstacle columns: (obstacle index, kind, vessel or None) per column, a
+    bifurcation as a BIFURCATION column (its left vessel) and a BRANCH column (its right one)."""
+    columns = []
+    for j, ob in enumerate(contact.obstacles):
+        if isinstance(ob, Bifurcation):
+            columns += [(j, BIFURCATION, ob.vessels[0]), (j, BRANCH, ob.vessels[1])]
+        else:
+            columns.append((j, VESSEL, ob) if isinstance(ob, Vessel) else (j, None, None))
+    return columns
+
+
 def kernel_arrays(contact: Contact, rod, gravity) -> dict:
     """The static contact fields of ``kernels.StepInputs`` (contact_kind, contact_geom,
     contact_range, contact_friction, contact_points, contact_radii, contact_node) for a
-    ``Contact`` on the rod ``rod`` (a ``RodSpec``) under ``gravity`` (see ``node_parameters``)."""
-    o = len(contact.obstacles)
+    ``Contact`` on the rod ``rod`` (a ``RodSpec``) under ``gravity`` (see ``node_parameters``):
+    one column per obstacle, a ``Bifurcation`` one per vessel."""
+    columns = _columns(contact)
+    o = len(columns)
     kind = np.zeros(o, dtype=np.int64)
     geom = np.zeros((o, 7))
     rng = np.zeros((o, 2), dtype=np.int64)
     points, radii, start = [], [], 0
-    for j, ob in enumerate(contact.obstacles):
+    for c, (j, kd, vessel) in enumerate(columns):
+        ob = contact.obstacles[j]
         if isinstance(ob, Plane):
-            kind[j], geom[j, :6] = PLANE, (*ob.point, *ob.normal)
+            kind[c], geom[c, :6] = PLANE, (*ob.point, *ob.normal)
         elif isinstance(ob, Sphere):
-            kind[j], geom[j, :3], geom[j, 6] = SPHERE, ob.center, ob.radius
+            kind[c], geom[c, :3], geom[c, 6] = SPHERE, ob.center, ob.radius
         elif isinstance(ob, Cylinder):
-            kind[j], geom[j] = CYLINDER, (*ob.point, *ob.axis, ob.radius)
+            kind[c], geom[c] = CYLINDER, (*ob.point, *ob.axis, ob.radius)
         else:
-            kind[j], rng[j] = VESSEL, (start, len(ob.points))
-            points.append(ob.points)
-            radii.append(ob.radii)
-            start += len(ob.points)
-    friction = np.array([[contact.friction_of(ob), contact.slip_velocity] for ob in contact.obstacles])
+            kind[c], rng[c] = kd, (start, len(vessel.points))
+            points.append(vessel.points)
+            radii.append(vessel.radii)
+            start += len(vessel.points)
+    friction = np.array([[contact.friction_of(contact.obstacles[j]), contact.slip_velocity] for j, *_ in columns])
     return dict(contact_kind=kind, contact_geom=geom, contact_range=rng, contact_friction=friction,
                 contact_points=np.ascontiguousarray(np.concatenate(points) if points else np.zeros((0, 3))),
                 contact_radii=np.ascontiguousarray(np.concatenate(radii) if radii else np.zeros(0)),
@@ -397,12 +530,14 @@ def kernel_arrays(contact: Contact, rod, gravity) -> dict:
 
 
 def initial_segments(contact: Contact, positions: np.ndarray) -> np.ndarray:
-    """The tracked vessel segments (n, o) int64 at node positions (n, 3) [m]: the closest segment
-    of each vessel by brute force (0 in the columns of other obstacles)."""
-    seg = np.zeros((len(positions), len(contact.obstacles)), dtype=np.int64)
-    for j, ob in enumerate(contact.obstacles):
-        if isinstance(ob, Vessel):
-            seg[:, j] = closest_segments(ob.points, positions)[0]
+    """The tracked vessel segments (n, o) int64 at node positions (n, 3) [m], one column per
+    kernel column (``kernel_arrays``): the closest segment of each vessel, a bifurcation's included,
+    by brute force (0 in the columns of other obstacles)."""
+    columns = _columns(contact)
+    seg = np.zeros((len(positions), len(columns)), dtype=np.int64)
+    for c, (_, _, vessel) in enumerate(columns):
+        if vessel is not None:
+            seg[:, c] = closest_segments(vessel.points, positions)[0]
     return seg
 
 
@@ -410,9 +545,10 @@ def check_initial(contact: Contact, positions: np.ndarray, radius: np.ndarray) -
     """Refuse rod radii (n,) [m] wider than a vessel, and node positions (n, 3) [m] that start deeper
     in an obstacle than the rod's radius, with a one-line error naming the node and obstacle."""
     for j, ob in enumerate(contact.obstacles):
-        if isinstance(ob, Vessel) and np.max(radius) >= np.min(ob.radii):
-            raise bad(f"contact.obstacles[{j}].radius", float(np.min(ob.radii)),
-                      f"a vessel wider than the rod (rod radius up to {np.max(radius):.4g} m)")
+        for vessel in ob.vessels if isinstance(ob, Bifurcation) else (ob,) if isinstance(ob, Vessel) else ():
+            if np.max(radius) >= np.min(vessel.radii):
+                raise bad(f"contact.obstacles[{j}].radius", float(np.min(vessel.radii)),
+                          f"a vessel wider than the rod (rod radius up to {np.max(radius):.4g} m)")
     gaps = contact.gaps(positions, radius)
     deep = gaps < -radius[:, None]
     if np.any(deep):

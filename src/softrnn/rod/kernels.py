@@ -63,6 +63,13 @@ PLANE = 0
 SPHERE = 1
 CYLINDER = 2
 VESSEL = 3
+BIFURCATION = 4  # a union of two vessels: this column's and the next (BRANCH) column's
+BRANCH = 5  # the second vessel of the BIFURCATION in the column before it; no loads of its own
+
+UNION_BLEND = 0.25
+"""Blend width of a bifurcation's normal, a fraction of the rod radius: where the gaps of its two
+vessels differ by less (the crease where their walls meet, at the carina), the normal blends theirs
+(``_union_gap``, docs/lgvi.md §2.11)."""
 
 
 class LumpedRod(NamedTuple):
@@ -184,15 +191,17 @@ class StepInputs(NamedTuple):
         the displacements q [m] (a leading batch axis in ``advance_batch``):
         tau = k max(0, q - (l_0 - l)) from the tendon length l at the start of each step
     contact_kind : (o,) int64
-        obstacle kinds PLANE, SPHERE, CYLINDER or VESSEL (``rod.contact``); o = 0 (default): no
+        obstacle kinds PLANE, SPHERE, CYLINDER, VESSEL, or BIFURCATION followed by a BRANCH
+        column (one column per vessel of a ``rod.contact.Bifurcation``); o = 0 (default): no
         contact, and the kernels do no contact work
     contact_geom : (o, 7)
         plane: point [m], unit normal; sphere: centre [m], -, -, -, radius [m]; cylinder: point [m],
-        unit axis, radius [m]; vessel: unused
+        unit axis, radius [m]; vessel, bifurcation, branch: unused
     contact_range : (o, 2) int64
-        vessel: first row and number of rows of its centreline in contact_points
+        vessel, bifurcation, branch: first row and number of rows of its centreline in
+        contact_points
     contact_friction : (o, 2)
-        friction coefficient mu [-] and slip velocity v_s [m/s] per obstacle
+        friction coefficient mu [-] and slip velocity v_s [m/s] per column (a bifurcation's in both)
     contact_points : (P, 3)
         the vessels' centreline polylines [m], one after another
     contact_radii : (P,)
@@ -200,7 +209,7 @@ class StepInputs(NamedTuple):
     contact_node : (n, 3)
         per node: rod radius r_a [m], contact stiffness k_a [N/m], contact damping c_a [N s/m]
     contact_segment : (n, o) int64
-        per node and vessel: the closest polyline segment, the warm start of the local search,
+        per node and vessel column: the closest polyline segment, the warm start of the local search,
         updated in place (the array of ``RodState.contact_segment``)
     contact_samples : (S, s, 6)
         output: the contact force [N] and torque [N m] (world frame) of the saved nodes at the
@@ -545,6 +554,31 @@ def _vessel_gap(a, o, x0, x1, x2, ra, inputs):
 
 
 @njit(**_INLINE)
+def _union_gap(a, o, x0, x1, x2, ra, inputs):
+    """Gap [m] and inward unit normal of node a in the union of the vessels of columns o and o + 1
+    (a bifurcation, docs/lgvi.md §2.11): the larger of their gaps, so that a node inside either
+    (gap >= 0) touches no wall. Its normal is that vessel's, blended with the other's where their
+    gaps differ by less than UNION_BLEND ra (weights 1 - difference / (UNION_BLEND ra)), so that a
+    node on the crease between the two walls is pushed straight back from it. Both vessels' tracked
+    segments are updated."""
+    g, n0, n1, n2 = _vessel_gap(a, o, x0, x1, x2, ra, inputs)
+    h, m0, m1, m2 = _vessel_gap(a, o + 1, x0, x1, x2, ra, inputs)
+    best = max(g, h)
+    if best >= 0.0:
+        return best, 0.0, 0.0, 0.0
+    width = UNION_BLEND * ra
+    u = max(0.0, 1.0 - (best - g) / width)
+    w = max(0.0, 1.0 - (best - h) / width)
+    b0 = u * n0 + w * m0
+    b1 = u * n1 + w * m1
+    b2 = u * n2 + w * m2
+    size = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+    if not size > 0.0:  # opposite normals: no direction to push
+        return 1.0, 0.0, 0.0, 0.0
+    return best, b0 / size, b1 / size, b2 / size
+
+
+@njit(**_INLINE)
 def _friction(a, h, mu, vs, fn, ra, n0, n1, n2, R, v, w, rod):
     """Regularised Coulomb friction f_t = -mu fn v_t / max(|v_t|, v_s') at the contact point -ra n
     of node a (docs/lgvi.md §2.11): v_t the tangential velocity of that point from the staggered
@@ -585,7 +619,8 @@ def _friction(a, h, mu, vs, fn, ra, n0, n1, n2, R, v, w, rod):
 def _obstacle_gap(a, o, x0, x1, x2, ra, inputs):
     """Gap [m] between the surface of node a (centreline point x, rod radius ra) and obstacle o,
     and the obstacle's unit normal at the node, pointing to the rod's side; gap 1 where the normal
-    is undefined (a node on a sphere's centre or a cylinder's axis, a vessel's open ends)."""
+    is undefined (a node on a sphere's centre or a cylinder's axis, a vessel's open ends) and in a
+    BRANCH column (a bifurcation's gap is its BIFURCATION column's, ``_union_gap``)."""
     geom = inputs.contact_geom
     kd = inputs.contact_kind[o]
     if kd == PLANE:
@@ -595,6 +630,10 @@ def _obstacle_gap(a, o, x0, x1, x2, ra, inputs):
         return (x0 - geom[o, 0]) * n0 + (x1 - geom[o, 1]) * n1 + (x2 - geom[o, 2]) * n2 - ra, n0, n1, n2
     if kd == VESSEL:
         return _vessel_gap(a, o, x0, x1, x2, ra, inputs)
+    if kd == BIFURCATION:
+        return _union_gap(a, o, x0, x1, x2, ra, inputs)
+    if kd == BRANCH:  # its gap is part of the BIFURCATION column's
+        return 1.0, 0.0, 0.0, 0.0
     q0 = x0 - geom[o, 0]
     q1 = x1 - geom[o, 1]
     q2 = x2 - geom[o, 2]

@@ -20,8 +20,9 @@ class RodState:
     """Mutable integrator state (n nodes): rotations (n, 3, 3), positions (n, 3) [m], staggered
     velocities (n, 3) [m/s] (world) and angular_velocities (n, 3) [rad/s] (body), the previous
     strains prev_curvature, prev_shear (n - 1, 3) [1/m], [-], the time [s] and, with contact
-    (``rod.contact``), contact_segment (n, o) int64: per node and obstacle the tracked closest
-    segment of a vessel's polyline (0 for other obstacles; (0, 0) without contact)."""
+    (``rod.contact``), contact_segment (n, o) int64: per node and kernel column (one per obstacle,
+    two for a bifurcation: ``rod.contact.kernel_arrays``) the tracked closest segment of a vessel's
+    polyline (0 for other obstacles; (0, 0) without contact)."""
 
     rotations: np.ndarray
     positions: np.ndarray

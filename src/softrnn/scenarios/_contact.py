@@ -1,16 +1,16 @@
 """The ``[contact]`` table of a scenario: the contact law's parameters and its ``[[contact.obstacles]]``
-entries (plane, sphere, cylinder, vessel) read into a ``softrnn.rod.contact.Contact``."""
+entries (plane, sphere, cylinder, vessel, bifurcation) read into a ``softrnn.rod.contact.Contact``."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..errors import SoftrnnInputError
-from ..rod.contact import Contact, Cylinder, Plane, Sphere, Vessel
+from ..rod.contact import Bifurcation, Contact, Cylinder, Plane, Sphere, Vessel
 from .reading import ScenarioError, _Ctx, _is_number, _read_csv, _Table, number, rows3, string, table_list, vec3
 
 _CONTACT_KEYS = {
-    "obstacles": "[[contact.obstacles]] entries (kind = plane, sphere, cylinder or vessel)",
+    "obstacles": "[[contact.obstacles]] entries (kind = plane, sphere, cylinder, vessel or bifurcation)",
     "friction": "the Coulomb friction coefficient of the obstacles that set none (>= 0, default 0)",
     "slip_velocity": "the slip velocity of the regularised friction in m/s (> 0, default 1e-4)",
     "stiffness": "the penalty stiffness per length of rod in N/m^2 (default: from penetration)",
@@ -29,6 +29,15 @@ _OBSTACLE_KEYS = {
     "vessel": {"centreline": "the centreline points [[x, y, z], ...] in m (at least 2)",
                "file": "a CSV file of x, y, z rows: the centreline (instead of centreline)",
                "radius": "the inner radius in m, or a list of radii, one per centreline point"},
+    "bifurcation": {"trunk": "the trunk's centreline points [[x, y, z], ...] in m (at least 2; the last one is the "
+                             "junction)",
+                    "left": "the left branch's centreline points after the junction [[x, y, z], ...] in m",
+                    "right": "the right branch's centreline points after the junction [[x, y, z], ...] in m",
+                    "radius": "the trunk's inner radius in m, or a list of radii, one per trunk point",
+                    "left_radius": "the left branch's inner radius in m, or a list, one per point (default: the "
+                                   "trunk's at the junction)",
+                    "right_radius": "the right branch's inner radius in m, or a list, one per point (default: the "
+                                    "trunk's at the junction)"},
 }
 KINDS = tuple(_OBSTACLE_KEYS)
 
@@ -74,6 +83,8 @@ def _obstacle(ctx: _Ctx, raw, path: str):
         if kind == "cylinder":
             return Cylinder(t.get("point", vec3("m")), t.get("axis", vec3(nonzero=True)),
                             t.get("radius", number("m", positive=True)), friction=friction)
+        if kind == "bifurcation":
+            return _bifurcation(ctx, t, friction)
         points, radius = _vessel(ctx, t)
         return Vessel(points, radius, friction=friction)
     except ScenarioError:
@@ -97,13 +108,36 @@ def _vessel(ctx: _Ctx, t: _Table) -> tuple[np.ndarray, float | np.ndarray]:
     if np.any(steps <= 0):
         i = int(np.argmin(steps))
         raise ctx.invalid(key, f"points {i} and {i + 1} at the same place", "distinct consecutive points")
-    raw = t.get("radius", lambda c, k, x: x)
+    return points, _radius(ctx, t, "radius", m, "centreline point")
+
+
+def _radius(ctx: _Ctx, t: _Table, name: str, m: int, per: str) -> float | np.ndarray:
+    """The radius key ``name``: a number [m] or a list of m radii [m], one per ``per``."""
+    raw = t.get(name, lambda c, k, x: x)
     if _is_number(raw):
-        return points, number("m", positive=True)(ctx, t.key("radius"), raw)
-    what = f"a radius in m (> 0), or a list of {m} radii in m (> 0), one per centreline point"
+        return number("m", positive=True)(ctx, t.key(name), raw)
+    what = f"a radius in m (> 0), or a list of {m} radii in m (> 0), one per {per}"
     if not isinstance(raw, list) or len(raw) != m or not all(_is_number(x) and np.isfinite(x) and x > 0 for x in raw):
-        raise ctx.invalid(t.key("radius"), raw, what)
-    return points, np.array(raw, dtype=float)
+        raise ctx.invalid(t.key(name), raw, what)
+    return np.array(raw, dtype=float)
+
+
+def _bifurcation(ctx: _Ctx, t: _Table, friction) -> Bifurcation:
+    """A bifurcation entry: the trunk's and branches' centreline points (inline) and radii."""
+    lines = {}
+    for name, least in (("trunk", 2), ("left", 1), ("right", 1)):
+        points = t.get(name, rows3("m"))
+        if len(points) < least:
+            raise ctx.invalid(t.key(name), f"{len(points)} point", f"at least {least} points [[x, y, z], ...] in m")
+        steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+        if np.any(steps <= 0):
+            i = int(np.argmin(steps))
+            raise ctx.invalid(t.key(name), f"points {i} and {i + 1} at the same place", "distinct consecutive points")
+        lines[name] = points
+    radius = _radius(ctx, t, "radius", len(lines["trunk"]), "trunk point")
+    branch = {f"{side}_radius": _radius(ctx, t, f"{side}_radius", len(lines[side]), f"{side} branch point")
+              for side in ("left", "right") if t.has(f"{side}_radius")}
+    return Bifurcation(lines["trunk"], lines["left"], lines["right"], radius, friction=friction, **branch)
 
 
 def describe(contact: Contact) -> list[str]:
@@ -131,8 +165,24 @@ def _obstacle_text(ob) -> str:
         return f"sphere at {v(ob.center)} m, radius {ob.radius:.4g} m"
     if isinstance(ob, Cylinder):
         return f"cylinder through {v(ob.point)} m, axis {v(ob.axis)}, radius {ob.radius:.4g} m"
-    length = float(np.sum(np.linalg.norm(np.diff(ob.points, axis=0), axis=1)))
-    rad = np.unique(ob.radii)
-    size = f"{rad[0]:.4g} m" if rad.size == 1 else f"{rad.min():.4g}-{rad.max():.4g} m"
+    if isinstance(ob, Bifurcation):
+        k = ob.trunk_rows - 1
+        trunk, (left, right) = ob.trunk, (vessel.points[k:] for vessel in ob.vessels)
+        return (f"bifurcation: trunk from {v(trunk[0])} to the junction {v(trunk[-1])} m, length "
+                f"{_length(ob.vessels[0].points[:k + 1]):.4g} m, radius {_size(ob.radius)}; left branch to "
+                f"{v(ob.left[-1])} m, length {_length(left):.4g} m, radius {_size(ob.left_radius)}; right branch to "
+                f"{v(ob.right[-1])} m, length {_length(right):.4g} m, radius {_size(ob.right_radius)}")
     return (f"vessel of {len(ob.centreline)} centreline points from {v(ob.centreline[0])} to "
-            f"{v(ob.centreline[-1])} m, length {length:.4g} m, radius {size}")
+            f"{v(ob.centreline[-1])} m, length {_length(ob.points):.4g} m, radius {_size(ob.radii)}")
+
+
+def _length(points: np.ndarray) -> float:
+    """Length [m] of a polyline (P, 3) [m]."""
+    return float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)))
+
+
+def _size(radius) -> str:
+    """A radius [m] or radii in words: one value, or their range."""
+    rad = np.unique(np.atleast_1d(np.asarray(radius, dtype=float)))
+    return f"{rad[0]:.4g} m" if rad.size == 1 else f"{rad.min():.4g}-{rad.max():.4g} m"
+

@@ -37,7 +37,7 @@ SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "s
                                    "square-random", "semicircle", "semicircle-cosine", "tendon-planar",
                                    "tendon-planar-sine", "tendon-spatial", "tendon-spatial-sine",
                                    "tendon-displacement", "steel-wire", "nitinol-guidewire", "contact-plane",
-                                   "vessel-guidewire")
+                                   "vessel-guidewire", "contact-capstan")
 FORMAT_VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 
@@ -59,8 +59,8 @@ _TOP_KEYS = {
     "tendons": "[[tendons]] entries: name, offset, routing, end_node or end_s, tension (or displacement and "
                "stiffness)",
     "damping": "the damping table: translational, rotational, kelvin_voigt",
-    "contact": "the contact table: friction, ..., and [[contact.obstacles]] (kind = plane, sphere, cylinder or "
-               "vessel)",
+    "contact": "the contact table: friction, ..., and [[contact.obstacles]] (kind = plane, sphere, cylinder, "
+               "vessel or bifurcation)",
     "run": "the run table: dt, duration or n_samples, substeps, nodes_of_interest, ...",
     "randomize": "a table of dotted keys -> distributions for sweeps",
     "calibrate": "a table of dotted keys -> {bounds = [lo, hi], start = value} for softrnn calibrate",

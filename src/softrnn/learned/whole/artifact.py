@@ -59,7 +59,8 @@ def encoding_to_dict(enc: Encoding) -> dict:
             "ref_quaternions": enc.ref_quaternions.tolist(), "fixed": enc.fixed.tolist(),
             "feedback": bool(enc.feedback),
             **({"drive": enc.drive, "channels": list(enc.channels)} if enc.drive != "wrench" else {}),
-            **({"prescribed": enc.prescribed.tolist()} if enc.prescribed.any() else {})}
+            **({"prescribed": enc.prescribed.tolist()} if enc.prescribed.any() else {}),
+            **({"obstacles": True} if enc.obstacles else {})}
 
 
 def encoding_from_dict(d: dict) -> Encoding:
@@ -69,7 +70,8 @@ def encoding_from_dict(d: dict) -> Encoding:
                     ref_positions=np.asarray(d["ref_positions"]), ref_quaternions=np.asarray(d["ref_quaternions"]),
                     fixed=np.asarray(d["fixed"], dtype=bool), feedback=bool(d.get("feedback", False)),
                     drive=str(d.get("drive", "wrench")), channels=tuple(d.get("channels", ())),
-                    prescribed=None if "prescribed" not in d else np.asarray(d["prescribed"], dtype=bool))
+                    prescribed=None if "prescribed" not in d else np.asarray(d["prescribed"], dtype=bool),
+                    obstacles=bool(d.get("obstacles", False)))
 
 
 def save_dynamic(folder, trained, meta: dict | None = None) -> None:

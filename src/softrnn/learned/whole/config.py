@@ -91,6 +91,12 @@ class DynamicConfig:
     not predicted, it follows the data, and its change over each step reaches every node as 6
     load channels (``Encoding.prescribed``). False: the clamp is predicted like any other node,
     from its own history."""
+    obstacles: bool = True
+    """Where the data record obstacles (runs simulated with contact), keep a free run's predicted
+    nodes out of them: after each step a node inside an obstacle is moved back to its surface
+    (``softrnn.learned.whole.obstacles``; in evaluations, rollouts and the validation that picks
+    the weights, not in the training loss or an exported step). False: the model's nodes may pass
+    through the obstacles."""
     envelope: float | None = 0.25
     """Where the network's correction acts (``DynamicNet.envelope_gate``): fully on a node whose
     features lie within the training data's range of each channel, fading linearly to zero at
@@ -116,7 +122,7 @@ class DynamicConfig:
         integer("kernel", self.kernel, 1)
         if self.kernel % 2 == 0:
             raise bad("kernel", self.kernel, "an odd kernel size (1, 3, 5, ...)")
-        for name in ("linear", "conv", "feedback", "prescribed"):
+        for name in ("linear", "conv", "feedback", "prescribed", "obstacles"):
             if not isinstance(getattr(self, name), bool):
                 raise bad(name, getattr(self, name), "true or false")
         if not (self.linear or self.conv or self.memory == "lstm"):
@@ -148,8 +154,9 @@ class DynamicConfig:
 
     def to_dict(self) -> dict:
         """The fields as a dict (model.json's ``config``); ``drive``, ``start_fraction``,
-        ``load_ridge`` and ``prescribed`` only when they are not their defaults (so models, checkpoints and reproduce
-        step files written before them are recorded, and resumed, as before)."""
+        ``load_ridge``, ``prescribed`` and ``obstacles`` only when they are not their defaults (so
+        models, checkpoints and reproduce step files written before them are recorded, and
+        resumed, as before)."""
         d = asdict(self)
         for key, default in _LATER_DEFAULTS.items():
             if d[key] == default:
@@ -168,7 +175,8 @@ class DynamicConfig:
         return cls(**d)
 
 
-_LATER_DEFAULTS = {"drive": "wrench", "start_fraction": 0.0, "load_ridge": None, "prescribed": True}
+_LATER_DEFAULTS = {"drive": "wrench", "start_fraction": 0.0, "load_ridge": None, "prescribed": True,
+                   "obstacles": True}
 """Fields added after models were first saved, left out of ``to_dict`` at their defaults."""
 
 

@@ -36,6 +36,7 @@ from scipy.spatial.transform import Rotation
 from ...errors import SoftrnnInputError, bad
 from .config import resolve_stride
 from .feedback import feedback_of, moving_clamps
+from .obstacles import ObstacleProjection, rod_radius
 
 FIXED_TOLERANCE_M = 1e-9
 """A kept node whose position never moves by more than this [m], and whose orientation never turns
@@ -95,6 +96,7 @@ class Trajectory:
     name: str = ""
     feedback: object = None
     prescribed: tuple = ()
+    projection: object = None
 
     def inputs(self, hist: np.ndarray, k: int) -> np.ndarray:
         """The loads (M, L) of model step ``k`` given the history ``hist`` (H, M, 6) ending at state
@@ -120,6 +122,11 @@ class Trajectory:
         for m, c in self.prescribed:
             nxt[m] = x[m] + loads[m, c:c + 6]
         return nxt
+
+    def project(self, nxt: np.ndarray) -> np.ndarray:
+        """``nxt`` (M, 6) with its predicted nodes moved out of the data's obstacles, in place
+        (``softrnn.learned.whole.obstacles``; unchanged without ``projection``)."""
+        return nxt if self.projection is None else self.projection(nxt)
 
     @property
     def n_steps(self) -> int:
@@ -152,6 +159,9 @@ class Encoding:
     prescribed : ndarray (M,) bool or None
         kept nodes moved along a prescribed path (a moving clamp): inputs, not predicted (None:
         none)
+    obstacles : bool
+        keep the predicted nodes of a free run out of a data set's obstacles (its recorded
+        contact; ``softrnn.learned.whole.obstacles``)
     feedback : bool
         apply the PD laws of a data set's scenario to the model's own state
         (``softrnn.learned.whole.feedback``) instead of taking their recorded forces
@@ -174,6 +184,7 @@ class Encoding:
     drive: str = "wrench"
     channels: tuple = ()
     prescribed: np.ndarray | None = None
+    obstacles: bool = False
 
     def __post_init__(self):
         object.__setattr__(self, "channels", tuple(str(a) for a in self.channels))
@@ -290,8 +301,12 @@ class Encoding:
             loads = act if self.drive == "actuation" else np.concatenate([loads, act], axis=-1)
         if self.prescribed.any():
             loads = np.concatenate([loads, self.path_inputs(states)], axis=-1)
+        projection = None
+        if self.obstacles and dataset.contact is not None:
+            projection = ObstacleProjection(dataset.contact, self.ref_positions[self.kept], rod_radius(dataset),
+                                            ~(self.fixed | self.prescribed))
         return Trajectory(time=time, states=states, loads=loads, name=name, feedback=fb,
-                          prescribed=self.prescribed_columns)
+                          prescribed=self.prescribed_columns, projection=projection)
 
     def path_inputs(self, states: np.ndarray) -> np.ndarray:
         """The prescribed nodes' change of state over each model step, states (S, M, 6) ->
@@ -337,13 +352,16 @@ def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
 
 
 def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: float,
-                  feedback: bool = False, drive: str = "wrench", prescribed: bool = False) -> Encoding:
+                  feedback: bool = False, drive: str = "wrench", prescribed: bool = False,
+                  obstacles: bool = False) -> Encoding:
     """The encoding for training on ``datasets`` (each holding every node, the same saved step):
     the reference pose is the first sample of the first one; fixed nodes are those that never move;
     ``feedback``: PD laws act on the model's state (``Encoding.feedback``; 'wrench' drive only);
     ``drive``: the load input (``DynamicConfig.drive``; the channels are the first data set's);
     ``prescribed``: the clamps the data's scenario moves along a path (``moving_clamps``, the same
-    in every data set) are inputs, not predicted, and always kept (``Encoding.prescribed``)."""
+    in every data set) are inputs, not predicted, and always kept (``Encoding.prescribed``);
+    ``obstacles``: free runs keep out of a data set's recorded obstacles, where the first data set
+    has some (``Encoding.obstacles``)."""
     if not datasets:
         raise SoftrnnInputError("no training data: give at least one trajectory")
     first = datasets[0]
@@ -371,7 +389,8 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
     return Encoding(n_nodes=n, kept=probe.kept, model_dt=model_dt, data_dt=probe.data_dt, length=length,
                     ref_positions=probe.ref_positions, ref_quaternions=probe.ref_quaternions,
                     fixed=fixed, feedback=bool(feedback) and drive == "wrench", drive=drive,
-                    channels=channels, prescribed=np.isin(probe.kept, paths) & ~fixed)
+                    channels=channels, prescribed=np.isin(probe.kept, paths) & ~fixed,
+                    obstacles=bool(obstacles) and first.contact is not None)
 
 
 def _moving_clamps(datasets: list) -> tuple:

@@ -54,7 +54,8 @@ def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -
     the step (1-based) where it diverged, or None. Rows from a divergence on are NaN. The loads are
     the data's, with the trajectory's feedback laws applied to the run's own states
     (``Trajectory.inputs``); prescribed nodes follow their recorded path whatever the predictor
-    (``Trajectory.follow``)."""
+    (``Trajectory.follow``), and predicted ones are kept out of the data's obstacles
+    (``Trajectory.project``)."""
     H = int(predictor.history)
     stop = traj.n_steps if stop is None else int(stop)
     check_step_start(start, H, stop)
@@ -66,7 +67,7 @@ def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -
         nonlocal memory
         u = traj.inputs(hist, start + k - H)
         nxt, memory = predictor.step(hist, u, memory)
-        traj.follow(nxt, hist[-1], u)        # prescribed nodes on their path, for a baseline too
+        traj.project(traj.follow(nxt, hist[-1], u))    # prescribed nodes on their path, out of obstacles
         return nxt if np.all(np.abs(nxt) < DIVERGED_M) else None
 
     k = free_steps(step, state, H)
@@ -136,7 +137,7 @@ def one_step(predictor, traj: Trajectory, start: int, stop: int | None = None) -
         hist = traj.states[j - H + 1:j + 1]
         u = traj.inputs(hist, j)
         nxt, memory = predictor.step(hist, u, memory)
-        traj.follow(nxt, hist[-1], u)
+        traj.project(traj.follow(nxt, hist[-1], u))
         if np.all(np.abs(nxt) < DIVERGED_M):
             out[i] = nxt
     return out

@@ -1,0 +1,81 @@
+"""Obstacles in a whole-manipulator model's free run: the model's nodes kept out of the obstacles the
+data were simulated with (NumPy only).
+
+A whole-manipulator model learns contact only as the motion the data show near an obstacle: nothing
+in its step knows a table or a vessel wall, so a free run can sink the rod into the table or carry a
+guidewire through the wall of its vessel. Where a data set records its obstacles (the ``contact``
+attribute of a run simulated with contact, ``softrnn.io.schema.contact_record``) and the model's
+``Encoding.obstacles`` is set (``DynamicConfig.obstacles``), every step of a free run is followed by
+a projection: each predicted kept node whose rod surface lies inside an obstacle (gap g < 0, as
+``softrnn.rod.contact`` measures it, with the rod's radius) is moved back to the surface, by -g
+along the obstacle's normal. The node's state, and so its velocity in the next step's history,
+change with it: the motion into the wall is removed, as an inelastic, frictionless contact would
+remove it. Fixed and prescribed nodes are not moved; obstacles are applied one after the other.
+The nodes between kept nodes (decoded by a spline) are not projected.
+
+The projection is not part of the network, its training loss or an exported ONNX step: a control
+loop that steps the model itself applies ``ObstacleProjection`` after each step as the evaluation
+does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import bad
+from ...io.schema import contact_from_record
+
+
+def rod_radius(dataset) -> float:
+    """The rod's radius [m] from a data set's ``attrs["rod"]`` (a one-line error without it)."""
+    rod = dataset.attrs.get("rod")
+    if isinstance(rod, dict) and isinstance(rod.get("radius"), (int, float)) and rod["radius"] > 0:
+        return float(rod["radius"])
+    raise bad("data", "a data set with obstacles but without the rod's radius",
+              "a data set written by softrnn simulate or sweep (attrs['rod'] holds the radius)")
+
+
+class ObstacleProjection:
+    """Keep kept nodes out of a contact's obstacles (see the module docstring).
+
+    Parameters
+    ----------
+    contact : Contact or dict
+        the obstacles: a ``softrnn.rod.Contact``, or a data set's ``contact`` record
+    ref_positions : ndarray (M, 3)
+        the kept nodes' reference positions [m] (a state's displacements are added to them)
+    radius : float
+        the rod's radius [m]
+    free : ndarray (M,) bool
+        the nodes that may be moved (the predicted ones: not fixed, not prescribed)
+    """
+
+    def __init__(self, contact, ref_positions: np.ndarray, radius: float, free: np.ndarray):
+        contact = contact_from_record(contact) if isinstance(contact, dict) else contact
+        self.obstacles = tuple(contact.obstacles)
+        self.ref = np.asarray(ref_positions, dtype=np.float64)
+        self.free = np.asarray(free, dtype=bool)
+        self.radius = np.full(int(self.free.sum()), float(radius))
+        self.moved = 0
+        """Node moves made so far (a node moved by two obstacles counts twice)."""
+
+    def __call__(self, state: np.ndarray) -> np.ndarray:
+        """Project ``state`` (M, 6) in place (its displacement columns) and return it."""
+        p = self.ref[self.free] + state[self.free, :3]
+        for obstacle in self.obstacles:
+            gap, normal = obstacle.gap(p, self.radius)
+            inside = gap < 0.0
+            if inside.any():
+                p[inside] -= gap[inside, None] * normal[inside]
+                self.moved += int(inside.sum())
+        state[self.free, :3] = p - self.ref[self.free]
+        return state
+
+    def depth(self, state: np.ndarray) -> float:
+        """The deepest a free kept node of ``state`` (M, 6) lies inside an obstacle [m] (0 if none)."""
+        p = self.ref[self.free] + state[self.free, :3]
+        worst = 0.0
+        for obstacle in self.obstacles:
+            gap, _ = obstacle.gap(p, self.radius)
+            worst = max(worst, float(-np.min(gap, initial=0.0)))
+        return worst
