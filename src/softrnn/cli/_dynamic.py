@@ -122,8 +122,8 @@ def _add_train(p):
                    help="predict a clamp that the data's scenario moves along a path like any other node, from "
                         "its own history (default: its recorded path is an input, and the model follows it)")
     p.add_argument("--ignore-obstacles", dest="obstacles", action="store_false", default=None,
-                   help="let the model's free runs pass through the obstacles the data were simulated with "
-                        "(default: a predicted node inside one is moved back to its surface after each step)")
+                   help="report the model's free runs as they are, even where they pass through the obstacles the "
+                        "data were simulated with (default: a reported node inside one is moved back to its surface)")
     p.add_argument("--threads", type=int, default=None, metavar="T",
                    help="PyTorch threads while training (default: PyTorch's own choice)")
     again = p.add_mutually_exclusive_group()

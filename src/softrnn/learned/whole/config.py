@@ -92,11 +92,11 @@ class DynamicConfig:
     load channels (``Encoding.prescribed``). False: the clamp is predicted like any other node,
     from its own history."""
     obstacles: bool = True
-    """Where the data record obstacles (runs simulated with contact), keep a free run's predicted
-    nodes out of them: after each step a node inside an obstacle is moved back to its surface
+    """Where the data record obstacles (runs simulated with contact), keep the poses a free run
+    reports out of them: a predicted node inside an obstacle is moved back to its surface
     (``softrnn.learned.whole.obstacles``; in evaluations, rollouts and the validation that picks
-    the weights, not in the training loss or an exported step). False: the model's nodes may pass
-    through the obstacles."""
+    the weights; the model steps on its own states, and the training loss and an exported step do
+    not project). False: the reported nodes may lie inside the obstacles."""
     envelope: float | None = 0.25
     """Where the network's correction acts (``DynamicNet.envelope_gate``): fully on a node whose
     features lie within the training data's range of each channel, fading linearly to zero at

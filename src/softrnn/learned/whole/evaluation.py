@@ -54,8 +54,8 @@ def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -
     the step (1-based) where it diverged, or None. Rows from a divergence on are NaN. The loads are
     the data's, with the trajectory's feedback laws applied to the run's own states
     (``Trajectory.inputs``); prescribed nodes follow their recorded path whatever the predictor
-    (``Trajectory.follow``), and predicted ones are kept out of the data's obstacles
-    (``Trajectory.project``)."""
+    (``Trajectory.follow``). The returned states are moved out of the data's obstacles
+    (``Trajectory.project``); the run itself steps on the unprojected ones."""
     H = int(predictor.history)
     stop = traj.n_steps if stop is None else int(stop)
     check_step_start(start, H, stop)
@@ -67,11 +67,20 @@ def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -
         nonlocal memory
         u = traj.inputs(hist, start + k - H)
         nxt, memory = predictor.step(hist, u, memory)
-        traj.project(traj.follow(nxt, hist[-1], u))    # prescribed nodes on their path, out of obstacles
+        traj.follow(nxt, hist[-1], u)        # prescribed nodes on their path, for a baseline too
         return nxt if np.all(np.abs(nxt) < DIVERGED_M) else None
 
     k = free_steps(step, state, H)
-    return state[H:], None if k is None else k - H + 1
+    return _projected(traj, state[H:]), None if k is None else k - H + 1
+
+
+def _projected(traj: Trajectory, states: np.ndarray) -> np.ndarray:
+    """``states`` (K, M, 6) with every finite row moved out of the data's obstacles (in place)."""
+    if traj.projection is not None:
+        for row in states:
+            if np.all(np.isfinite(row)):
+                traj.project(row)
+    return states
 
 
 def node_errors(encoding: Encoding, states: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -137,10 +146,10 @@ def one_step(predictor, traj: Trajectory, start: int, stop: int | None = None) -
         hist = traj.states[j - H + 1:j + 1]
         u = traj.inputs(hist, j)
         nxt, memory = predictor.step(hist, u, memory)
-        traj.project(traj.follow(nxt, hist[-1], u))
+        traj.follow(nxt, hist[-1], u)
         if np.all(np.abs(nxt) < DIVERGED_M):
             out[i] = nxt
-    return out
+    return _projected(traj, out)
 
 
 def tip_errors(encoding: Encoding, states: np.ndarray, truth: np.ndarray) -> dict:

@@ -1,21 +1,22 @@
-"""Obstacles in a whole-manipulator model's free run: the model's nodes kept out of the obstacles the
-data were simulated with (NumPy only).
+"""Obstacles in a whole-manipulator model's free run: the poses it reports kept out of the
+obstacles the data were simulated with (NumPy only).
 
 A whole-manipulator model learns contact only as the motion the data show near an obstacle: nothing
 in its step knows a table or a vessel wall, so a free run can sink the rod into the table or carry a
 guidewire through the wall of its vessel. Where a data set records its obstacles (the ``contact``
 attribute of a run simulated with contact, ``softrnn.io.schema.contact_record``) and the model's
-``Encoding.obstacles`` is set (``DynamicConfig.obstacles``), every step of a free run is followed by
-a projection: each predicted kept node whose rod surface lies inside an obstacle (gap g < 0, as
+``Encoding.obstacles`` is set (``DynamicConfig.obstacles``), the states a free run reports are
+projected: each predicted kept node whose rod surface lies inside an obstacle (gap g < 0, as
 ``softrnn.rod.contact`` measures it, with the rod's radius) is moved back to the surface, by -g
-along the obstacle's normal. The node's state, and so its velocity in the next step's history,
-change with it: the motion into the wall is removed, as an inelastic, frictionless contact would
-remove it. Fixed and prescribed nodes are not moved; obstacles are applied one after the other.
-The nodes between kept nodes (decoded by a spline) are not projected.
+along the obstacle's normal (obstacles one after the other; fixed and prescribed nodes are not
+moved; the nodes decoded between kept nodes are not projected themselves). For a convex obstacle
+region and a true pose outside the obstacle, the projection can only bring a node closer to it.
 
-The projection is not part of the network, its training loss or an exported ONNX step: a control
-loop that steps the model itself applies ``ObstacleProjection`` after each step as the evaluation
-does.
+The projection is applied to what a run reports, not fed back into the model's history: the model
+steps on its own unprojected states. Fed back, it held the nodes lying on a table at the surface
+while the model's rotations kept turning, and the free runs diverged (docs/guide/dynamic.md). It is
+not part of the network, its training loss or an exported ONNX step: a control loop that steps the
+model itself applies ``ObstacleProjection`` to a copy of each state it uses.
 """
 
 from __future__ import annotations
@@ -60,7 +61,8 @@ class ObstacleProjection:
         """Node moves made so far (a node moved by two obstacles counts twice)."""
 
     def __call__(self, state: np.ndarray) -> np.ndarray:
-        """Project ``state`` (M, 6) in place (its displacement columns) and return it."""
+        """Project ``state`` (M, 6) in place (its displacement columns) and return it; ``moved``
+        counts the node moves made."""
         p = self.ref[self.free] + state[self.free, :3]
         for obstacle in self.obstacles:
             gap, normal = obstacle.gap(p, self.radius)
