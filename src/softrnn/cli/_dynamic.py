@@ -263,7 +263,7 @@ def _train_summary(folder, config, encoding, info: dict, data: dict, head: str =
                                                   else "")
     return (f"{head} {config.steps} steps in {info.get('train_seconds', float('nan')):.1f} s, final loss "
             f"{'-' if loss is None else f'{loss:.4g}'}{selected}; model_dt {encoding.model_dt:g} s, "
-            f"{encoding.n_kept - int(encoding.prescribed.sum())} of {encoding.n_nodes} nodes predicted"
+            f"{encoding.n_predicted} of {encoding.n_nodes} nodes predicted"
             f"{_on_path(encoding)}{_driven(encoding)}; "
             f"{n['train']} training trajectories{_whole(data)}, "
             f"{n['validation']} for validation{_separate(data)}, {n['heldout']} held out (listed in "
@@ -673,7 +673,7 @@ def _rollout_summary(model, data, ds, seconds: float, out) -> None:
     err = np.linalg.norm(ds.positions[1:].astype(np.float64) - data.positions[rows[1:]].astype(np.float64), axis=-1)
     steps = len(ds.time) - 1
     print(f"dynamic rollout: {steps} model steps of {model.encoding.model_dt:g} s ({k} data samples each) from "
-          f"t = {ds.time[0]:g} to {ds.time[-1]:g} s, {model.encoding.n_kept} of {model.encoding.n_nodes} nodes "
+          f"t = {ds.time[0]:g} to {ds.time[-1]:g} s, {model.encoding.n_predicted} of {model.encoding.n_nodes} nodes "
           f"predicted, in {seconds:.3f} s ({seconds / steps * 1e6:.0f} us per step)")
     print(f"  largest error vs the data over every node: {err.max() * 1e3:.3g} mm "
           f"({100 * err.max() / model.encoding.length:.3g} % of the rod length)")

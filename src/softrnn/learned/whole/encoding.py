@@ -223,8 +223,14 @@ class Encoding:
 
     @property
     def n_kept(self) -> int:
-        """M, the predicted nodes."""
+        """M, the kept nodes (the model's state)."""
         return int(len(self.kept))
+
+    @property
+    def n_predicted(self) -> int:
+        """The kept nodes the model predicts: all but the prescribed ones (fixed nodes count, as
+        the model holds them)."""
+        return self.n_kept - int(self.prescribed.sum())
 
     def node_features(self) -> np.ndarray:
         """Per-node constants (M, 3): arc position s/L in [0, 1], distance to the nearest fixed node

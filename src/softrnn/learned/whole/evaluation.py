@@ -304,7 +304,6 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
         traj = enc.trajectory(generalisation)
         general = {"tip_node": enc.n_nodes - 1,
                    **{name: span_error(p, enc, traj, generalisation, s0, tip=True) for name, p in preds.items()}}
-    return DynamicEvaluation(model_dt_s=enc.model_dt, predicted_nodes=enc.n_kept - int(enc.prescribed.sum()),
-                             nodes=enc.n_nodes,
+    return DynamicEvaluation(model_dt_s=enc.model_dt, predicted_nodes=enc.n_predicted, nodes=enc.n_nodes,
                              length_m=enc.length, history=int(engine.history), test_span=test_span, heldout=held,
                              horizons=table, generalisation=general)
