@@ -24,7 +24,7 @@ ALLOWED = {
     "softrnn.io": {"softrnn", "softrnn.rod"},
     "softrnn.statics": {"softrnn", "softrnn.rod"},
     "softrnn.magnetics": {"softrnn", "softrnn.rod", "softrnn.statics"},
-    "softrnn.scenarios": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.statics"},
+    "softrnn.scenarios": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.statics", "softrnn.magnetics"},
     "softrnn.figures": {"softrnn", "softrnn.io"},
     "softrnn.sweeps": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.scenarios"},
     "softrnn.calibration": {"softrnn", "softrnn.rod", "softrnn.scenarios", "softrnn.sweeps"},

@@ -117,10 +117,11 @@ def test_assumptions_come_from_the_files():
     for key in ("material", "damping", "ellipse", "square", "semicircle"):
         assert len(ASSUMPTIONS[key]) > 40
     # the shared assumptions read the same in every file of the urethane rods; the stiff wires
-    # (steel, nitinol) state their own under other keys
+    # (steel, nitinol) and the magnetic manipulator (PMC-770, its own damping) state their own under
+    # other keys
     for name in SCENARIO_NAMES:
         sc = load_scenario(name)
-        urethane = sc.setup.rod.youngs_modulus == 2.5e6
+        urethane = sc.magnetic is None and sc.setup.rod.youngs_modulus == 2.5e6
         for key in ("material", "damping"):
             if urethane:
                 assert sc.assumptions[key] == ASSUMPTIONS[key], (name, key)
@@ -184,6 +185,12 @@ def test_variants_are_deterministic_and_differ():
 @pytest.mark.parametrize("name", [n for n in SCENARIO_NAMES if load_scenario(n).randomized])
 def test_a_variant_builds_and_runs(name):
     v = load_scenario(name).variant(1)
+    if v.magnetic is not None:  # the magnetic manipulator runs on its own driver (every node saved)
+        from softrnn.scenarios.magnetic import simulate_magnetic
+
+        traj = simulate_magnetic(v.magnetic, replace(v.config, n_samples=4))
+        assert np.all(np.isfinite(traj.positions)) and traj.currents.shape == (4, 6)
+        return
     traj = Simulator(v.setup).run(replace(v.config, n_samples=4, save_nodes=v.nodes_of_interest))
     assert np.all(np.isfinite(traj.positions))
 

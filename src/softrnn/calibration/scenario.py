@@ -376,7 +376,11 @@ def prepare(scenario: Scenario, dataset, keys, *, span: str = "train", nodes=Non
     """Check everything about fitting the dotted ``keys`` of ``scenario`` to the positions of
     ``dataset`` (a ``softrnn.io.Dataset`` of the same rod, named ``data`` in errors) over ``span``
     (``resolve_span``) for the recorded ``nodes`` (None: all), before any long work; one-line
-    ``SoftrnnInputError`` for anything wrong."""
+    ``SoftrnnInputError`` for anything wrong (a magnetic scenario is refused: the fit runs the plain
+    rod simulator)."""
+    if getattr(scenario, "magnetic", None) is not None:
+        raise bad("scenario", scenario.name, "a plain rod scenario: softrnn calibrate does not fit magnetic "
+                                             "scenarios (the manipulator has its own driver)")
     parameters = parameters_of(scenario, keys)
     names = [p.name for p in parameters]
     check_dataset(scenario, dataset, data, names)

@@ -132,7 +132,8 @@ def _simulate(args, scenario, path: str) -> None:
         summary = simulate_summary(name=scenario.name, title=scenario.title, setup=scenario.setup, config=config,
                                    node=scenario.nodes_of_interest[0], out_path=path,
                                    scenario_text=scenario.text, seed=scenario.seed,
-                                   attrs={"scenario_name": scenario.name}, progress=bar)
+                                   attrs={"scenario_name": scenario.name}, progress=bar,
+                                   magnetic=scenario.magnetic)
     kept = f", saved in {args.save_data}" if args.save_data else ""
     print(f"animate: simulated {scenario.name} ({summary['duration_s']:g} s of motion) in "
           f"{summary['total_time_s']:.1f} s{kept}")

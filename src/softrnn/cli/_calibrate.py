@@ -100,6 +100,9 @@ def run(args) -> int:
         if str(err).startswith("scenario="):
             raise SoftrnnInputError(f"--{err}") from None
         raise
+    if scenario.magnetic is not None:
+        raise bad("--scenario", scenario.name, "a plain rod scenario: softrnn calibrate does not fit magnetic "
+                                               "scenarios (the manipulator has its own driver)")
     dataset = read_dataset(args.data, group=args.group)
     cache = out.parent / f".{out.name}.trials"
     options = FitOptions(max_evaluations=args.max_evaluations)

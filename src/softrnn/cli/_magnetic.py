@@ -229,8 +229,8 @@ def _navigate(args) -> int:
     """softrnn magnetic navigate -o PATH: the steering demonstration, written as a dataset."""
     from ..errors import bad, positive
     from ..files import prepare_output
-    from ..io.writer import write_trajectory
     from ..magnetics.navigation import navigate, navigation_spec, tip_branch
+    from ..scenarios.magnetic import write_manipulator_dataset
 
     field = positive("--field", args.field, "mT") * 1e-3
     if not (isinstance(args.duration, float) and 0.1 <= args.duration <= 10.0):
@@ -245,9 +245,7 @@ def _navigate(args) -> int:
     attrs = {"scenario_name": "magnetic-navigation", "branch": args.branch, "field_T": field,
              "tip_branch": tip_branch(bif, tip),
              "description": "the magnetic manipulator steered at a bifurcation (softrnn magnetic navigate)"}
-    write_trajectory(args.out, traj.rod, dt=float(traj.time[1] - traj.time[0]), rod=spec.rod_spec(), attrs=attrs,
-                     actuation_units={f"coil_{k}": "A" for k in range(traj.currents.shape[1])},
-                     actuation=traj.currents, contact=spec.contact)
+    write_manipulator_dataset(args.out, traj, spec, dt=float(traj.time[1] - traj.time[0]), attrs=attrs)
     print(f"wrote {args.out}: {traj.time.size} samples, t = 0 .. {traj.time[-1]:g} s, {traj.wall_time:.1f} s of "
           f"simulation")
     where = {"left": "in the left branch", "right": "in the right branch", "wall": "on a wall (outside both tubes)",

@@ -180,6 +180,20 @@ def _environment(data: dict) -> str:
     return f"  gravity: {g}; damping: {damping}"
 
 
+def _magnetic(sc: Scenario) -> list[str]:
+    """The lines of a magnetic scenario's manipulator, coils and environment."""
+    m = sc.magnetic
+    spec, d = m.spec, m.spec.damping
+    magnets = ", ".join(f"{mg.grade} at {mg.arc_length * 1e3:.4g} mm" for mg in spec.magnets)
+    drive = (f"field [{', '.join(_num(b * 1e3) for b in m.field)}] mT at the centre, " if m.field is not None
+             else "") + "currents [" + ", ".join(f"{i if abs(i) >= 5e-3 else 0.0:.2f}" for i in m.currents) + "] A"
+    return [f"  magnetic: the manipulator, magnets {magnets}; base clamped at "
+            f"[{', '.join(_num(x) for x in spec.base)}] m, straight along +x",
+            f"  coils: {drive}; zero until {m.start:g} s, ramp {m.ramp:g} s, then held; settling {m.settle:g} s",
+            f"  gravity: [{', '.join(_num(x) for x in spec.gravity)}] m/s^2; damping: translational "
+            f"{_num(d.translational)}, rotational {_num(d.rotational)}, kelvin_voigt {_num(d.kelvin_voigt)}"]
+
+
 def _run(sc: Scenario) -> str:
     c, n = sc.config, sc.setup.rod.n_nodes
     substeps = "auto" if c.substeps is None else str(c.substeps)
@@ -212,9 +226,12 @@ def summary(sc: Scenario) -> str:
     lines.append(f"  rod: L = {rod.length:.4g} m, r = {rod.radius * 1e3:.4g} mm, {rod.n_nodes} nodes, "
                  f"E = {_pa(rod.youngs_modulus)}, rho = {rod.density:g} kg/m^3, {shear}"
                  + (f", {overrides} section override{'s' if overrides > 1 else ''}" if overrides else ""))
-    lines.append(_shapes(data))
-    lines += _boundary_and_loads(data, rod.n_nodes)
-    lines.append(_environment(data))
+    if sc.magnetic is not None:
+        lines += _magnetic(sc)
+    else:
+        lines.append(_shapes(data))
+        lines += _boundary_and_loads(data, rod.n_nodes)
+        lines.append(_environment(data))
     lines += contact_lines(sc.setup)
     lines.append(_run(sc))
     lines.append(f"  seed: {sc.seed}")

@@ -45,6 +45,8 @@ def run(args) -> int:
     setup, config = scenario.setup, scenario.config
     rod = {k: getattr(args, k) for k in ("radius", "youngs_modulus", "density", "poisson_ratio")
            if getattr(args, k) is not None}
+    if scenario.magnetic is not None:
+        _check_magnetic(args, rod)
     if rod:
         setup = replace(setup, rod=replace(setup.rod, **rod))
     changes = {k: v for k, v in (("dt", args.dt), ("n_samples", args.samples), ("substeps", args.substeps),
@@ -55,11 +57,22 @@ def run(args) -> int:
         summary = simulate_summary(name=scenario.name, title=scenario.title, setup=setup, config=config,
                                    node=scenario.nodes_of_interest[0], out_path=args.out,
                                    scenario_text=scenario.text, seed=scenario.seed,
-                                   attrs={"scenario_name": scenario.name}, progress=bar)
+                                   attrs={"scenario_name": scenario.name}, progress=bar,
+                                   magnetic=scenario.magnetic)
     print(format_summary(summary))
     if args.json:
         atomic_write_text(args.json, json.dumps(summary, indent=2))
     return 0
+
+
+def _check_magnetic(args, rod: dict) -> None:
+    """Refuse the options a magnetic scenario (the manipulator's driver) cannot honour."""
+    for name in rod:
+        flag = "--" + name.replace("_", "-")
+        raise bad(flag, rod[name], "no rod override for a magnetic scenario (its rod is the manipulator's: set "
+                                   "[magnetic] keys in the scenario file)")
+    if args.integrator not in (None, "explicit"):
+        raise bad("--integrator", args.integrator, "explicit for a magnetic scenario (the manipulator's driver)")
 
 
 def format_summary(s: dict) -> str:
@@ -77,6 +90,10 @@ def format_summary(s: dict) -> str:
         f"  energy [J]: start {s['energy_start_j']:.4g}, end {s['energy_end_j']:.4g}; "
         f"max |R^T R - I| = {s['max_orthogonality_error']:.1e}",
     ]
+    if s.get("currents_a") is not None:
+        where = f", tip in: {s['tip_branch']}" if s.get("tip_branch") else ""
+        lines.append("  coil currents [A]: " + ", ".join(f"{i if abs(i) >= 5e-3 else 0.0:.2f}" for i in s["currents_a"])
+                     + where)
     if s["output"]:
         lines.append(f"  wrote {s['output']} ({s['saved_nodes']} nodes x {s['n_samples']} samples)")
     return "\n".join(lines)

@@ -165,7 +165,8 @@ def contact_record(contact) -> dict | None:
         ``radius``; vessel: ``centreline`` (m, 3), ``radius`` (a number or (m,)); bifurcation:
         ``trunk`` (m, 3), ``left`` (k, 3), ``right`` (k', 3), ``radius``, ``left_radius``,
         ``right_radius`` (each a number or one per point)) and ``friction``, the mu [-] that
-        applies to it (its own, else the default).
+        applies to it (its own, else the default); ``self_contact`` true where the rod's own
+        segments touch too (absent otherwise).
     """
     if contact is None:
         return None
@@ -184,6 +185,8 @@ def contact_record(contact) -> dict | None:
     record = {key: getattr(contact, key) for key in _CONTACT_KEYS}
     record = {k: None if v is None else float(v) for k, v in record.items()}
     record["obstacles"] = obstacles
+    if contact.self_contact:          # only where set: records without it read as before
+        record["self_contact"] = True
     return record
 
 
@@ -204,6 +207,8 @@ def contact_from_record(record) -> Contact:
             raise bad(f"contact.obstacles[{j}]", _short(entry), f"the {kind}'s {', '.join(keys)}")
         obstacles.append(cls(*(entry[k] for k in keys), friction=entry.get("friction")))
     options = {k: record[k] for k in _CONTACT_KEYS if record.get(k) is not None}
+    if "self_contact" in record:
+        options["self_contact"] = record["self_contact"]
     try:
         return Contact(obstacles=tuple(obstacles), **options)
     except TypeError as err:

@@ -4,7 +4,9 @@ The manipulator's rod (``ManipulatorSpec``: the PMC-770 rod with its two magnets
 base) lies in a ``softrnn.rod.Bifurcation`` with contact; the coils apply a field across the trunk,
 toward one branch, and the magnets' torque bends the tip into that branch's mouth. ``navigate``
 runs one case, ``tip_branch`` tells where the tip ended; ``softrnn magnetic navigate`` stores a run
-as a dataset that ``softrnn show`` and ``softrnn animate`` read (with its obstacles and currents).
+as a dataset that ``softrnn show`` and ``softrnn animate`` read (with its obstacles and currents);
+the shipped scenario ``magnetic-bifurcation`` describes the same demonstration (``ramp_schedule``
+makes the currents of both).
 
 The demonstration's values (assumptions, with reasons):
 
@@ -128,10 +130,45 @@ def navigate(branch: str, *, spec: ManipulatorSpec | None = None, field: float =
     B = steering_field(bif, branch, field)
     currents = currents_for_field(spec.coils, (0.0, 0.0, 0.0), B)
     n_samples = int(round((ramp + hold) / positive("dt", dt, "s"))) + 1
-    schedule = CurrentSchedule(np.array([0.0, ramp, ramp + hold]), np.stack([np.zeros_like(currents), currents,
-                                                                             currents]))
+    schedule = ramp_schedule(currents, ramp, ramp + hold)
     run = ManipulatorRun(dt=dt, n_samples=n_samples, settle=settle)
     return simulate_manipulator(spec, schedule, run, progress=progress)
+
+
+def ramp_schedule(currents, ramp: float, end: float, start: float = 0.0) -> CurrentSchedule:
+    """Currents that are zero until ``start`` [s], rise linearly to ``currents`` (n_c,) [A] over
+    ``ramp`` [s] and then hold, as a ``CurrentSchedule`` that covers the run to ``end`` [s].
+
+    Parameters
+    ----------
+    currents : array-like (n_c,)
+        the held coil currents [A]
+    ramp : float
+        rise time [s], > 0
+    end : float
+        the run's last time [s] (the schedule holds the currents to it)
+    start : float
+        time [s] >= 0 at which the rise begins
+
+    Returns
+    -------
+    CurrentSchedule
+        times 0, start (when > 0), start + ramp and end (when later), with the currents there
+    """
+    held = np.asarray(currents, dtype=float)
+    positive("ramp", ramp, "s")
+    if isinstance(start, bool) or not isinstance(start, (int, float)) or not math.isfinite(start) or start < 0:
+        raise bad("start", start, "a time >= 0 in s")
+    times, values = [0.0], [np.zeros_like(held)]
+    if start > 0:
+        times.append(float(start))
+        values.append(np.zeros_like(held))
+    times.append(start + ramp)
+    values.append(held)
+    if end > start + ramp:
+        times.append(float(end))
+        values.append(held)
+    return CurrentSchedule(np.array(times), np.stack(values))
 
 
 def _bifurcation_of(spec: ManipulatorSpec) -> Bifurcation:

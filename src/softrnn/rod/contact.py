@@ -32,7 +32,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from ..errors import bad, finite, is_finite_number, nonnegative, positive, vec3
-from .kernels import BIFURCATION, BRANCH, CYLINDER, PLANE, SPHERE, UNION_BLEND, VESSEL
+from .kernels import BIFURCATION, BRANCH, CYLINDER, PLANE, SELF, SPHERE, UNION_BLEND, VESSEL
 
 STANDARD_GRAVITY = 9.81
 """Reference acceleration [m/s^2] of the default stiffness when the setup has no constant gravity."""
@@ -424,15 +424,19 @@ class Contact:
     reference_acceleration : float or None
         a_ref [m/s^2] > 0 of the default stiffness; None: |g| of the setup's constant gravity, or
         ``STANDARD_GRAVITY`` without one
+    self_contact : bool
+        also contact between the rod's own segments (frictionless, with the same stiffness and
+        damping per node, in series; ``self_contact_gap``); the obstacles may then be empty
     """
 
-    obstacles: tuple
+    obstacles: tuple = ()
     friction: float = 0.0
     slip_velocity: float = DEFAULT_SLIP_VELOCITY
     stiffness: float | None = None
     damping: float | None = None
     penetration: float = DEFAULT_PENETRATION
     reference_acceleration: float | None = None
+    self_contact: bool = False
 
     def __post_init__(self):
         obstacles = (self.obstacles,) if isinstance(self.obstacles, OBSTACLES) else self.obstacles
@@ -441,9 +445,12 @@ class Contact:
         except TypeError:
             raise bad("contact.obstacles", self.obstacles,
                       "a tuple of Plane, Sphere, Cylinder, Vessel or Bifurcation") from None
-        if not obstacles or not all(isinstance(o, OBSTACLES) for o in obstacles):
+        if not isinstance(self.self_contact, bool):
+            raise bad("contact.self_contact", self.self_contact, "true or false")
+        if not (obstacles or self.self_contact) or not all(isinstance(o, OBSTACLES) for o in obstacles):
             raise bad("contact.obstacles", self.obstacles,
-                      "one or more Plane, Sphere, Cylinder, Vessel or Bifurcation entries")
+                      "one or more Plane, Sphere, Cylinder, Vessel or Bifurcation entries (or none, with "
+                      "self_contact = true)")
         object.__setattr__(self, "obstacles", obstacles)
         object.__setattr__(self, "friction", nonnegative("contact.friction", self.friction))
         object.__setattr__(self, "slip_velocity", positive("contact.slip_velocity", self.slip_velocity, "m/s"))
@@ -463,8 +470,18 @@ class Contact:
 
     def gaps(self, positions: np.ndarray, radius: np.ndarray) -> np.ndarray:
         """Gaps (n, o) [m] of the rod's surface to each obstacle at node positions (n, 3) [m] with
-        rod radii (n,) [m] (NumPy, brute force; inf where no contact is possible)."""
-        return np.stack([o.gap(positions, radius)[0] for o in self.obstacles], axis=1)
+        rod radii (n,) [m] (NumPy, brute force; inf where no contact is possible; o = 0 without
+        obstacles)."""
+        x = np.asarray(positions, dtype=float)
+        return np.stack([o.gap(x, radius)[0] for o in self.obstacles] or [np.zeros((0, len(x)))], axis=-1
+                        ).reshape(len(x), len(self.obstacles))
+
+
+def self_contact_gap(rod) -> int:
+    """The least index gap j - i of two segments i < j of ``rod`` (a ``RodSpec``) that may touch:
+    2 + ceil(2 r_max / l), l the segment length, so that neighbouring segments of a straight or
+    gently bent rod, whose surfaces overlap near their shared nodes, are never in contact."""
+    return 2 + math.ceil(2.0 * float(np.max(rod.node_properties()["radius"])) / rod.segment_length - 1e-12)
 
 
 def node_parameters(contact: Contact, rod, gravity) -> np.ndarray:
@@ -502,7 +519,8 @@ def kernel_arrays(contact: Contact, rod, gravity) -> dict:
     """The static contact fields of ``kernels.StepInputs`` (contact_kind, contact_geom,
     contact_range, contact_friction, contact_points, contact_radii, contact_node) for a
     ``Contact`` on the rod ``rod`` (a ``RodSpec``) under ``gravity`` (see ``node_parameters``):
-    one column per obstacle, a ``Bifurcation`` one per vessel."""
+    one column per obstacle, a ``Bifurcation`` one per vessel, and a last SELF column with
+    ``self_contact`` (its geom[0]: ``self_contact_gap``)."""
     columns = _columns(contact)
     o = len(columns)
     kind = np.zeros(o, dtype=np.int64)
@@ -522,7 +540,13 @@ def kernel_arrays(contact: Contact, rod, gravity) -> dict:
             points.append(vessel.points)
             radii.append(vessel.radii)
             start += len(vessel.points)
-    friction = np.array([[contact.friction_of(contact.obstacles[j]), contact.slip_velocity] for j, *_ in columns])
+    friction = np.array([[contact.friction_of(contact.obstacles[j]), contact.slip_velocity] for j, *_ in columns]
+                        ).reshape(o, 2)
+    if contact.self_contact:                 # the last column: between the rod's own segments
+        kind = np.append(kind, SELF)
+        geom = np.vstack([geom, [[self_contact_gap(rod), 0, 0, 0, 0, 0, 0]]])
+        rng = np.vstack([rng, np.zeros((1, 2), dtype=np.int64)])
+        friction = np.vstack([friction, [[0.0, contact.slip_velocity]]])
     return dict(contact_kind=kind, contact_geom=geom, contact_range=rng, contact_friction=friction,
                 contact_points=np.ascontiguousarray(np.concatenate(points) if points else np.zeros((0, 3))),
                 contact_radii=np.ascontiguousarray(np.concatenate(radii) if radii else np.zeros(0)),
@@ -534,7 +558,7 @@ def initial_segments(contact: Contact, positions: np.ndarray) -> np.ndarray:
     kernel column (``kernel_arrays``): the closest segment of each vessel, a bifurcation's included,
     by brute force (0 in the columns of other obstacles)."""
     columns = _columns(contact)
-    seg = np.zeros((len(positions), len(columns)), dtype=np.int64)
+    seg = np.zeros((len(positions), len(columns) + int(contact.self_contact)), dtype=np.int64)
     for c, (_, _, vessel) in enumerate(columns):
         if vessel is not None:
             seg[:, c] = closest_segments(vessel.points, positions)[0]

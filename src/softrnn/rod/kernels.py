@@ -37,8 +37,9 @@ costs far more than LLVM and grows faster than linearly with the size of a funct
   inference needs no extra pass over the function.
 
 Contact (docs/lgvi.md §2.11): ``_contact_loads`` adds the contact loads of the obstacles in
-``StepInputs`` to the applied loads once per step, before the node loop, and only when there are
-obstacles (``contact_kind`` not empty): without them a step does no contact work.
+``StepInputs`` (and, with a SELF column, between the rod's own segments: ``_self_contact``) to the
+applied loads once per step, before the node loop, and only when there are obstacles
+(``contact_kind`` not empty): without them a step does no contact work.
 """
 
 import math
@@ -65,6 +66,7 @@ CYLINDER = 2
 VESSEL = 3
 BIFURCATION = 4  # a union of two vessels: this column's and the next (BRANCH) column's
 BRANCH = 5  # the second vessel of the BIFURCATION in the column before it; no loads of its own
+SELF = 6  # contact between the rod's own segments (geom[0]: the least index gap of a segment pair)
 
 UNION_BLEND = 0.25
 """Blend width of a bifurcation's normal, a fraction of the rod radius: where the gaps of its two
@@ -192,11 +194,13 @@ class StepInputs(NamedTuple):
         tau = k max(0, q - (l_0 - l)) from the tendon length l at the start of each step
     contact_kind : (o,) int64
         obstacle kinds PLANE, SPHERE, CYLINDER, VESSEL, or BIFURCATION followed by a BRANCH
-        column (one column per vessel of a ``rod.contact.Bifurcation``); o = 0 (default): no
-        contact, and the kernels do no contact work
+        column (one column per vessel of a ``rod.contact.Bifurcation``), and a last SELF column
+        for contact between the rod's own segments; o = 0 (default): no contact, and the kernels
+        do no contact work
     contact_geom : (o, 7)
         plane: point [m], unit normal; sphere: centre [m], -, -, -, radius [m]; cylinder: point [m],
-        unit axis, radius [m]; vessel, bifurcation, branch: unused
+        unit axis, radius [m]; self: the least index gap j - i of a pair of segments i < j that
+        may touch; vessel, bifurcation, branch: unused
     contact_range : (o, 2) int64
         vessel, bifurcation, branch: first row and number of rows of its centreline in
         contact_points
@@ -632,7 +636,7 @@ def _obstacle_gap(a, o, x0, x1, x2, ra, inputs):
         return _vessel_gap(a, o, x0, x1, x2, ra, inputs)
     if kd == BIFURCATION:
         return _union_gap(a, o, x0, x1, x2, ra, inputs)
-    if kd == BRANCH:  # its gap is part of the BIFURCATION column's
+    if kd == BRANCH or kd == SELF:  # part of the BIFURCATION column's gap; self-contact: ``_self_contact``
         return 1.0, 0.0, 0.0, 0.0
     q0 = x0 - geom[o, 0]
     q1 = x1 - geom[o, 1]
@@ -646,6 +650,100 @@ def _obstacle_gap(a, o, x0, x1, x2, ra, inputs):
     if not d > 0.0:
         return 1.0, 0.0, 0.0, 0.0
     return d - geom[o, 6] - ra, q0 / d, q1 / d, q2 / d
+
+
+@njit(**_INLINE)
+def _segment_pair(p0, p1, q0, q1, r):
+    """Parameters (s, t) in [0, 1] of the closest points p0 + s (p1 - p0) and q0 + t (q1 - q0) of
+    segments (p0, p1) and (q0, q1) of the rows of r (n, 3); both of nonzero length."""
+    d1x = r[p1, 0] - r[p0, 0]
+    d1y = r[p1, 1] - r[p0, 1]
+    d1z = r[p1, 2] - r[p0, 2]
+    d2x = r[q1, 0] - r[q0, 0]
+    d2y = r[q1, 1] - r[q0, 1]
+    d2z = r[q1, 2] - r[q0, 2]
+    ex = r[p0, 0] - r[q0, 0]
+    ey = r[p0, 1] - r[q0, 1]
+    ez = r[p0, 2] - r[q0, 2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    c = d1x * ex + d1y * ey + d1z * ez
+    f = d2x * ex + d2y * ey + d2z * ez
+    den = a * e - b * b
+    s = min(max((b * f - c * e) / den, 0.0), 1.0) if den > 1e-12 * a * e else 0.0
+    t = (b * s + f) / e
+    if t < 0.0:
+        t = 0.0
+        s = min(max(-c / a, 0.0), 1.0)
+    elif t > 1.0:
+        t = 1.0
+        s = min(max((b - c) / a, 0.0), 1.0)
+    return s, t
+
+
+@njit(**_INLINE)
+def _push_pair(a, wa, f0, f1, f2, row, record, save_slot, inputs, work_f):
+    """work_f[a] += wa f (and the saved contact loads of node a at a saved step)."""
+    work_f[a, 0] += wa * f0
+    work_f[a, 1] += wa * f1
+    work_f[a, 2] += wa * f2
+    if record and save_slot[a] >= 0:
+        smp = inputs.contact_samples
+        smp[row, save_slot[a], 0] += wa * f0
+        smp[row, save_slot[a], 1] += wa * f1
+        smp[row, save_slot[a], 2] += wa * f2
+
+
+@njit(**_INLINE)
+def _self_contact(row, record, r, v, gap_index, inputs, save_slot, work_f):
+    """Frictionless contact between the rod's own segments i < j, j - i >= gap_index (docs/lgvi.md
+    §2.11): where their closest points P (on i) and Q (on j) are nearer than the sum of the rod
+    radii there, fn = max(0, -k gap - c v_n) along n = (P - Q) / |P - Q|, with k and c the series
+    combination of the two points' (nodal values interpolated), v_n the normal velocity of P
+    relative to Q; +fn n goes to segment i's nodes and -fn n to segment j's, split as the closest
+    points divide the segments (the pair's forces sum to zero). Brute force over the pairs, each
+    rejected first by its bounding spheres."""
+    node = inputs.contact_node
+    n = len(r)
+    for i in range(n - 1):
+        for j in range(i + gap_index, n - 1):
+            mx = 0.5 * (r[i, 0] + r[i + 1, 0] - r[j, 0] - r[j + 1, 0])
+            my = 0.5 * (r[i, 1] + r[i + 1, 1] - r[j, 1] - r[j + 1, 1])
+            mz = 0.5 * (r[i, 2] + r[i + 1, 2] - r[j, 2] - r[j + 1, 2])
+            li = math.sqrt((r[i + 1, 0] - r[i, 0]) ** 2 + (r[i + 1, 1] - r[i, 1]) ** 2 + (r[i + 1, 2] - r[i, 2]) ** 2)
+            lj = math.sqrt((r[j + 1, 0] - r[j, 0]) ** 2 + (r[j + 1, 1] - r[j, 1]) ** 2 + (r[j + 1, 2] - r[j, 2]) ** 2)
+            reach = 0.5 * (li + lj) + max(node[i, 0], node[i + 1, 0]) + max(node[j, 0], node[j + 1, 0])
+            if mx * mx + my * my + mz * mz >= reach * reach or not (li > 0.0 and lj > 0.0):
+                continue
+            s, t = _segment_pair(i, i + 1, j, j + 1, r)
+            d0 = (1 - s) * r[i, 0] + s * r[i + 1, 0] - (1 - t) * r[j, 0] - t * r[j + 1, 0]
+            d1 = (1 - s) * r[i, 1] + s * r[i + 1, 1] - (1 - t) * r[j, 1] - t * r[j + 1, 1]
+            d2 = (1 - s) * r[i, 2] + s * r[i + 1, 2] - (1 - t) * r[j, 2] - t * r[j + 1, 2]
+            dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            gap = dist - ((1 - s) * node[i, 0] + s * node[i + 1, 0] + (1 - t) * node[j, 0] + t * node[j + 1, 0])
+            if gap >= 0.0 or not dist > 0.0:
+                continue
+            n0 = d0 / dist
+            n1 = d1 / dist
+            n2 = d2 / dist
+            ki = (1 - s) * node[i, 1] + s * node[i + 1, 1]
+            kj = (1 - t) * node[j, 1] + t * node[j + 1, 1]
+            ci = (1 - s) * node[i, 2] + s * node[i + 1, 2]
+            cj = (1 - t) * node[j, 2] + t * node[j + 1, 2]
+            u0 = (1 - s) * v[i, 0] + s * v[i + 1, 0] - (1 - t) * v[j, 0] - t * v[j + 1, 0]
+            u1 = (1 - s) * v[i, 1] + s * v[i + 1, 1] - (1 - t) * v[j, 1] - t * v[j + 1, 1]
+            u2 = (1 - s) * v[i, 2] + s * v[i + 1, 2] - (1 - t) * v[j, 2] - t * v[j + 1, 2]
+            vn = u0 * n0 + u1 * n1 + u2 * n2
+            fn = -ki * kj / (ki + kj) * gap - (ci * cj / (ci + cj) if ci + cj > 0.0 else 0.0) * vn
+            if fn > 0.0:
+                f0 = fn * n0
+                f1 = fn * n1
+                f2 = fn * n2
+                _push_pair(i, 1 - s, f0, f1, f2, row, record, save_slot, inputs, work_f)
+                _push_pair(i + 1, s, f0, f1, f2, row, record, save_slot, inputs, work_f)
+                _push_pair(j, t - 1, f0, f1, f2, row, record, save_slot, inputs, work_f)
+                _push_pair(j + 1, -t, f0, f1, f2, row, record, save_slot, inputs, work_f)
 
 
 @njit(**_INLINE)
@@ -701,6 +799,9 @@ def _contact_loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
             work_f[a, 3] += t0
             work_f[a, 4] += t1
             work_f[a, 5] += t2
+    last = len(inputs.contact_kind) - 1
+    if inputs.contact_kind[last] == SELF:
+        _self_contact(row, record, r, v, int(inputs.contact_geom[last, 0]), inputs, save_slot, work_f)
 
 
 @njit(**_INLINE)

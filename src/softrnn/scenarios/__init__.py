@@ -6,7 +6,9 @@ cases built from them, and the summary of a scenario's run.
 * ``paths``: target and motion paths (figure-8, random smooth, pose motions);
 * ``cases``: the paper's Data-sets I-III as ``Case`` records and their ``ASSUMPTIONS``;
 * ``summary``: ``simulate_summary``, the run behind ``softrnn simulate``, and ``contact_lines``, the
-  obstacles in a scenario's summary.
+  obstacles in a scenario's summary;
+* ``magnetic``: magnetic scenarios (a ``[magnetic]`` table): ``MagneticScenario``, run by the
+  manipulator's driver (``simulate_magnetic``) and written with the coil currents.
 """
 
 from .reading import ScenarioError as ScenarioError

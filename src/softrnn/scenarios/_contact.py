@@ -7,7 +7,19 @@ import numpy as np
 
 from ..errors import SoftrnnInputError
 from ..rod.contact import Bifurcation, Contact, Cylinder, Plane, Sphere, Vessel
-from .reading import ScenarioError, _Ctx, _is_number, _read_csv, _Table, number, rows3, string, table_list, vec3
+from .reading import (
+    ScenarioError,
+    _Ctx,
+    _is_number,
+    _read_csv,
+    _Table,
+    boolean,
+    number,
+    rows3,
+    string,
+    table_list,
+    vec3,
+)
 
 _CONTACT_KEYS = {
     "obstacles": "[[contact.obstacles]] entries (kind = plane, sphere, cylinder, vessel or bifurcation)",
@@ -18,6 +30,7 @@ _CONTACT_KEYS = {
     "penetration": "the default stiffness' penetration under the reference load, a fraction of the rod radius "
                    "in (0, 1) (default 0.005)",
     "reference_acceleration": "the reference acceleration of the default stiffness in m/s^2 (default: |gravity|)",
+    "self_contact": "true: the rod's own segments touch too (frictionless; default false)",
 }
 _FRICTION = {"friction": "this obstacle's friction coefficient (>= 0; default: contact.friction)"}
 _OBSTACLE_KEYS = {
@@ -45,11 +58,13 @@ KINDS = tuple(_OBSTACLE_KEYS)
 def read_contact(ctx: _Ctx, raw) -> Contact:
     """The ``[contact]`` table as a ``Contact`` (every key checked; API errors name the table)."""
     t = _Table(ctx, raw, "contact", _CONTACT_KEYS)
-    entries = t.get("obstacles", table_list)
-    if not entries:
-        raise ctx.invalid("contact.obstacles", entries, "at least one [[contact.obstacles]] entry")
+    self_contact = t.get("self_contact", boolean, False)
+    entries = t.get("obstacles", table_list, []) if self_contact else t.get("obstacles", table_list)
+    if not entries and not self_contact:
+        raise ctx.invalid("contact.obstacles", entries, "at least one [[contact.obstacles]] entry (or self_contact "
+                                                        "= true)")
     obstacles = tuple(_obstacle(ctx, o, f"contact.obstacles.{i}") for i, o in enumerate(entries))
-    kw = {"friction": t.get("friction", number(nonnegative=True), 0.0)}
+    kw = {"friction": t.get("friction", number(nonnegative=True), 0.0), "self_contact": self_contact}
     for name, conv in (("slip_velocity", number("m/s", positive=True)),
                        ("stiffness", number("N/m^2", positive=True)),
                        ("damping", number("N s/m^2", nonnegative=True)),
@@ -149,7 +164,9 @@ def describe(contact: Contact) -> list[str]:
         law += f", damping {contact.damping:g} N s/m^2"
     if contact.reference_acceleration is not None:
         law += f" at {contact.reference_acceleration:g} m/s^2"
-    lines = [f"  contact: {len(contact.obstacles)} obstacle{'s' if len(contact.obstacles) > 1 else ''}; {law}"]
+    if contact.self_contact:
+        law += "; the rod's own segments touch too (frictionless)"
+    lines = [f"  contact: {len(contact.obstacles)} obstacle{'s' if len(contact.obstacles) != 1 else ''}; {law}"]
     for i, ob in enumerate(contact.obstacles):
         lines.append(f"    {i}: {_obstacle_text(ob)}" + ("" if ob.friction is None else f", friction {ob.friction:g}"))
     return lines

@@ -4,7 +4,8 @@ Python API (``RodSpec``, shapes, ``Clamp``/``Pin``, loads, ``Damping``, ``Setup`
 A scenario names the rod, its reference (stress-free) and initial shapes, the boundary conditions,
 the loads, damping and gravity, the saved interval and duration (or sample count), the solver
 sub-steps, the nodes of interest and a seed, and optionally the rigid obstacles it touches
-(``[contact]``); an optional ``[randomize]`` table declares which values
+(``[contact]``); a ``[magnetic]`` table makes it describe the magnetic manipulator instead of a
+plain rod (``softrnn.scenarios.magnetic``); an optional ``[randomize]`` table declares which values
 a sweep varies and how (``Scenario.variant(i)``), and an optional ``[calibrate]`` table the bounds of
 the values ``softrnn calibrate`` may fit (``Scenario.with_values`` builds a trial). The format is
 documented in docs/scenario-format.md. The paper's cases and their generalisation variants ship inside the
@@ -27,9 +28,11 @@ from ..errors import SoftrnnInputError, bad
 from ..rod.simulation import Damping, RunConfig, Setup
 from ._contact import read_contact
 from ._initial import initial_shape, with_static_start
+from ._magnetic import check_magnetic_run, read_magnetic
 from ._sections import _DAMPING_KEYS, _boundary, _gravity, _loads, _rod, _run, _shape
 from ._tendons import read_tendons
 from .calibrate import _check_calibrate, _flatten_calibrate
+from .magnetic import MagneticScenario
 from .randomize import _flatten_randomize, _sample, _set_path
 from .reading import ScenarioError, _as_is, _Ctx, _show, _Table, integer, number, string, table_list
 
@@ -37,7 +40,7 @@ SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "s
                                    "square-random", "semicircle", "semicircle-cosine", "tendon-planar",
                                    "tendon-planar-sine", "tendon-spatial", "tendon-spatial-sine",
                                    "tendon-displacement", "steel-wire", "nitinol-guidewire", "contact-plane",
-                                   "vessel-guidewire", "contact-capstan")
+                                   "vessel-guidewire", "contact-capstan", "magnetic-bifurcation")
 FORMAT_VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 
@@ -64,6 +67,7 @@ _TOP_KEYS = {
     "run": "the run table: dt, duration or n_samples, substeps, nodes_of_interest, ...",
     "randomize": "a table of dotted keys -> distributions for sweeps",
     "calibrate": "a table of dotted keys -> {bounds = [lo, hi], start = value} for softrnn calibrate",
+    "magnetic": "the magnetic manipulator instead of a plain rod: field_mT or currents, start, ramp, settle, ...",
 }
 
 
@@ -72,7 +76,9 @@ class Scenario:
     """A loaded scenario: the TOML ``text`` and its parsed ``data`` (for a variant: with the sampled
     values substituted), and what they build: ``setup``, ``config``, ``nodes_of_interest``.
     ``randomize`` maps dotted keys to their distributions, ``calibrate`` to (lower, upper, start or
-    None) from the ``[calibrate]`` table."""
+    None) from the ``[calibrate]`` table. A scenario with a ``[magnetic]`` table has ``magnetic``
+    (a ``MagneticScenario``: the manipulator and its currents, run by its own driver), and its
+    ``setup`` is the manipulator's rod problem without magnetic loads (``ManipulatorSpec.setup``)."""
 
     name: str
     title: str
@@ -89,6 +95,7 @@ class Scenario:
     assumptions: dict = field(default_factory=dict)
     randomize: dict = field(default_factory=dict, repr=False)
     calibrate: dict = field(default_factory=dict, repr=False)
+    magnetic: MagneticScenario | None = field(default=None, repr=False)
 
     @property
     def randomized(self) -> bool:
@@ -205,14 +212,19 @@ def _build(ctx: _Ctx, text: str, doc: dict, variant_index: int | None = None, sa
     """The ``Scenario`` of the TOML document ``doc`` (parsed from ``text``), every value checked."""
     top = _Table(ctx, doc, "", _TOP_KEYS)
     name, title, seed, gravity, paper, assumptions = _header(ctx, top)
-    setup = _setup(ctx, top, doc, gravity)
+    magnetic = read_magnetic(ctx, doc, gravity) if "magnetic" in doc else None
+    if magnetic is not None:
+        setup = magnetic.spec.setup()
+        check_magnetic_run(ctx, doc.get("run"))
+    else:
+        setup = _setup(ctx, top, doc, gravity)
     config, interest = _run(ctx, top.raw_value("run"), setup.rod, setup.damping)
     randomize = _flatten_randomize(ctx, top.get("randomize", _as_is, {}))
     calibrate = _flatten_calibrate(ctx, top.get("calibrate", _as_is, {}))
     return Scenario(name=name, title=title, source=ctx.source, text=text, data=doc, setup=setup, config=config,
                     nodes_of_interest=interest, seed=seed, paper=dict(paper), variant_index=variant_index,
                     sampled=dict(sampled or {}), assumptions=dict(assumptions), randomize=randomize,
-                    calibrate=calibrate)
+                    calibrate=calibrate, magnetic=magnetic)
 
 
 def _builtin_dir():

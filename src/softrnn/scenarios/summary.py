@@ -11,6 +11,7 @@ from ..progress import Progress
 from ..rod import RunConfig, Setup, Simulator
 from ..rod.tendons import tendon_actuation, tendon_sink
 from ._contact import describe
+from .magnetic import MagneticScenario, magnetic_summary
 
 
 class _NodeCollector:
@@ -29,7 +30,8 @@ class _NodeCollector:
 
 def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, node: int,
                      out_path=None, scenario_text: str = "", seed: int | None = None, attrs: dict | None = None,
-                     progress: Progress | None = None, series: dict | None = None) -> dict:
+                     progress: Progress | None = None, series: dict | None = None,
+                     magnetic: MagneticScenario | None = None) -> dict:
     """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically), with the
     tensions of the setup's tendons as its actuation channels ``tendon_<name>`` [N] and, with
     contact, the obstacles and the contact loads on the saved nodes.
@@ -37,7 +39,15 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
     Returns a JSON-ready summary: timing, step, the node of interest's range, energy, orthogonality.
     If a dict is passed as ``series`` it receives the arrays time (T,), node_positions (T, 3) [m]
     and energy (T, 3) [J] (kinetic, elastic, gravitational).
+
+    With ``magnetic`` (a magnetic scenario's ``Scenario.magnetic``) the manipulator's driver runs it
+    instead (``magnetic.magnetic_summary``: every node saved, the coil currents as actuation
+    channels); ``setup`` is then unused.
     """
+    if magnetic is not None:
+        return magnetic_summary(name=name, title=title, magnetic=magnetic, config=config, node=node,
+                                out_path=out_path, scenario_text=scenario_text, seed=seed, attrs=attrs,
+                                progress=progress, series=series)
     node = setup.node_index(node, "node of interest")
     if out_path is None:
         config = replace(config, save_nodes=(node,))

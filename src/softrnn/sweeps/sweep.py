@@ -27,6 +27,7 @@ from ..progress import Progress
 from ..resume import REFUSE, Settings, check
 from ..rod import Simulator
 from ..rod.tendons import tendon_actuation, tendon_sink
+from ..scenarios.magnetic import magnetic_summary
 from ..scenarios.scenario import parse_scenario
 from .dask import completed, require
 
@@ -95,9 +96,14 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
     returns a small summary."""
     scenario = parse_scenario(text, source).variant(index)
     config = run_config(scenario.config, n_samples, dt)
+    attrs = {"variant_index": index, "sampled": json.dumps(scenario.sampled), "scenario_name": scenario.name}
+    if scenario.magnetic is not None:  # the manipulator's driver; the coil currents as actuation channels
+        summary = magnetic_summary(name=scenario.name, title=scenario.title, magnetic=scenario.magnetic,
+                                   config=config, node=scenario.nodes_of_interest[0], out_path=path,
+                                   scenario_text=scenario.text, seed=scenario.seed, attrs=attrs)
+        return {"index": index, "wall_time": summary["total_time_s"], "substeps": summary["substeps"]}
     sim = Simulator(scenario.setup)
     nodes = list(range(scenario.setup.rod.n_nodes)) if config.save_nodes is None else list(config.save_nodes)
-    attrs = {"variant_index": index, "sampled": json.dumps(scenario.sampled), "scenario_name": scenario.name}
     start = time.perf_counter()
     tendons = scenario.setup.tendons
     _, units = tendon_actuation(tendons, ())  # tendon tensions: actuation channels tendon_<name> [N]

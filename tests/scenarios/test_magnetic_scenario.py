@@ -1,0 +1,136 @@
+"""Magnetic scenarios (a ``[magnetic]`` table): the shipped magnetic-bifurcation steers the
+manipulator's tip into the left branch, exactly as ``navigate("left")``; the opposite field steers
+it into the right; malformed or forbidden keys are one-line errors naming the key; softrnn simulate,
+show, scenario show and sweep run it."""
+
+import json
+
+import numpy as np
+import pytest
+
+from softrnn.io import read_dataset
+from softrnn.magnetics.navigation import navigate, tip_branch
+from softrnn.scenarios import ScenarioError, load_scenario, parse_scenario, scenario_text
+from softrnn.scenarios.magnetic import bifurcation_of, simulate_magnetic
+
+from helpers import run_cli
+
+NAME = "magnetic-bifurcation"
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario(NAME)
+
+
+@pytest.fixture(scope="module")
+def left_run(scenario):
+    return simulate_magnetic(scenario.magnetic, scenario.config)
+
+
+def test_the_shipped_scenario_steers_into_the_left_branch_exactly_as_navigate(scenario, left_run):
+    bif = bifurcation_of(scenario.magnetic.spec)
+    assert tip_branch(bif, left_run.positions[-1, -1]) == "left"
+    reference = navigate("left")          # the demo's values: 15 mT, ramp 0.5 s, hold 0.5 s, settle 0.3 s
+    np.testing.assert_array_equal(left_run.positions, reference.positions)
+    np.testing.assert_array_equal(left_run.quaternions, reference.quaternions)
+    np.testing.assert_array_equal(left_run.currents, reference.currents)
+    assert scenario.setup.contact is scenario.magnetic.spec.contact and scenario.setup.rod.n_nodes == 26
+
+
+def test_the_opposite_field_steers_into_the_right_branch(scenario):
+    right = scenario.with_values({"magnetic.field_mT.1": -15.0})
+    traj = simulate_magnetic(right.magnetic, right.config)
+    assert tip_branch(bifurcation_of(right.magnetic.spec), traj.positions[-1, -1]) == "right"
+    np.testing.assert_allclose(right.magnetic.currents, -scenario.magnetic.currents, atol=1e-12)
+
+
+def test_variants_pick_the_branch_and_the_friction(scenario):
+    sampled = [scenario.variant(i).sampled for i in range(8)]
+    assert {s["magnetic.field_mT.1"] for s in sampled} == {15.0, -15.0}
+    assert all(0.05 <= s["contact.friction"] <= 0.2 for s in sampled)
+    v = scenario.variant(0)
+    assert v.magnetic.spec.contact.friction == v.sampled["contact.friction"]
+
+
+def _text(old: str, new: str) -> str:
+    text = scenario_text(NAME)
+    assert old in text
+    return text.replace(old, new, 1)
+
+
+FIELD = "field_mT = [0.0, 15.0, 0.0]"
+BAD = [
+    (_text("\n[magnetic]\n", "\n[rod]\nlength = 0.05\n\n[magnetic]\n"), "rod", "builds its own rod"),
+    (_text("\n[magnetic]\n", "\n[[boundary]]\nkind = \"clamp\"\nnode = 0\n\n[magnetic]\n"), "boundary", "clamped"),
+    (_text("\n[magnetic]\n", "\n[[loads]]\nkind = \"force\"\nnode = 0\n\n[magnetic]\n"), "loads", "coils drive"),
+    (_text("\n[magnetic]\n", "\n[reference]\nkind = \"straight\"\n\n[magnetic]\n"), "reference", "straight"),
+    (_text("\n[magnetic]\n", "\n[initial]\nfrom = \"static\"\n\n[magnetic]\n"), "initial", "settles"),
+    (_text("\n[magnetic]\n", "\n[tendons]\n\n[magnetic]\n"), "tendons", "no tendons"),
+    (_text(FIELD, "field_mT = [0.0, 15.0]"), "magnetic.field_mT", "expected"),
+    (_text(FIELD, "field_mT = [0.0, 500.0, 0.0]"), "magnetic.field_mT", "coil limit"),
+    (_text(FIELD, "currents = [1.0, 2.0]"), "magnetic.currents", "6 currents in A"),
+    (_text(FIELD, FIELD + "\ncurrents = [0, 0, 0, 0, 0, 0]"), "magnetic.field_mT", "exactly one"),
+    (_text("ramp = 0.5 ", "ramp = 0.0 "), "magnetic.ramp", "expected"),
+    (_text("settle = 0.3 ", "settle = -1.0 "), "magnetic.settle", "expected"),
+    (_text(FIELD, FIELD + "\nbase = [-0.025, 0.0]"), "magnetic.base", "expected"),
+    (_text(FIELD, FIELD + "\nlength = 0.5"), "magnetic", "workspace"),
+    (_text(FIELD, FIELD + "\nmagnets = 2"), "magnetic.magnets", "unknown key"),
+    (_text("nodes_of_interest", "save_nodes = [0, 25]\nnodes_of_interest"), "run.save_nodes", "every node"),
+    (_text("nodes_of_interest", "integrator = \"implicit\"\nnodes_of_interest"), "run.integrator", "explicit"),
+    (_text("gravity = [0.0, 0.0, -9.81]", "gravity = { kind = \"constant\", value = [0.0, 0.0, -9.81] }"),
+     "gravity", "constant"),
+]
+
+
+@pytest.mark.parametrize("text, key, words", BAD, ids=[f"{i}-{b[1]}" for i, b in enumerate(BAD)])
+def test_malformed_or_forbidden_keys_are_one_line_errors_naming_the_key(text, key, words):
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text, "m.toml")
+    message = str(info.value)
+    assert "\n" not in message and message.startswith("m.toml: ") and key in message and words in message, message
+    assert info.value.key == key
+
+
+def test_calibrate_refuses_a_magnetic_scenario_in_one_line(scenario):
+    from softrnn.calibration.scenario import prepare
+    from softrnn.errors import SoftrnnInputError
+
+    with pytest.raises(SoftrnnInputError, match="^scenario='magnetic-bifurcation' is invalid: a plain rod") as info:
+        prepare(scenario, None, ["contact.friction"])
+    assert "\n" not in str(info.value)
+
+
+def test_simulate_writes_a_dataset_that_show_reads(left_run, tmp_path, capsys):
+    out = tmp_path / "x.h5"
+    assert run_cli(["simulate", NAME, "-o", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "tip in: left" in text and "coil currents [A]" in text
+    ds = read_dataset(out)
+    assert ds.n_samples == 101 and ds.positions.shape == (101, 26, 3) and ds.has_contact
+    assert list(ds.actuation_units) == [f"coil_{k}" for k in range(6)]
+    assert ds.attrs["tip_branch"] == "left" and ds.attrs["scenario_name"] == NAME
+    np.testing.assert_array_equal(ds.positions, left_run.positions.astype(np.float32))   # stored as float32
+    assert run_cli(["show", str(out)]) == 0
+    assert run_cli(["simulate", NAME, "--radius", "0.002", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--radius" in err and "magnetic scenario" in err
+
+
+def test_scenario_show_summary(capsys):
+    assert run_cli(["scenario", "show", NAME, "--summary"]) == 0
+    text = capsys.readouterr().out
+    assert "bifurcation" in text and "coils: field [0, 15, 0] mT at the centre" in text
+    assert "magnets N42 at 25 mm, N45 at 49 mm" in text
+
+
+def test_a_sweep_of_two_variants(tmp_path, capsys):
+    out = tmp_path / "sweep"
+    assert run_cli(["sweep", NAME, "--count", "2", "-o", str(out), "--samples", "11", "--workers", "1",
+                    "--quiet"]) == 0
+    manifest = json.loads((out / "sweep.json").read_text())
+    assert manifest["n_samples"] == 11
+    for i in range(2):
+        ds = read_dataset(out / f"traj-{i:05d}.h5")
+        assert ds.n_samples == 11 and ds.positions.shape[1] == 26 and len(ds.actuation_units) == 6
+        assert json.loads(ds.attrs["sampled"]) == load_scenario(NAME).variant(i).sampled
