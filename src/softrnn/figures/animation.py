@@ -63,6 +63,7 @@ from .geometry import (
     sphere_mesh,
     tube_mesh,
     tube_walls_2d,
+    widen_to_aspect,
 )
 from .saving import atomic_output, new_figure
 
@@ -180,13 +181,7 @@ class _Scene:
         # widen the narrower range so that one metre is as long on both axes of the fixed box
         box = ax.get_position()
         aspect = (box.width * fig.get_figwidth()) / (box.height * fig.get_figheight())
-        (xl, xh), (yl, yh) = (lo[a], hi[a]), (lo[b], hi[b])
-        if (xh - xl) / (yh - yl) < aspect:
-            grow = ((yh - yl) * aspect - (xh - xl)) / 2
-            xl, xh = xl - grow, xh + grow
-        else:
-            grow = ((xh - xl) / aspect - (yh - yl)) / 2
-            yl, yh = yl - grow, yh + grow
+        xl, xh, yl, yh = widen_to_aspect(lo[a], hi[a], lo[b], hi[b], aspect)
         ax.set_xlim(xl, xh)
         ax.set_ylim(yl, yh)
         ax.set_aspect("equal", adjustable="box")

@@ -26,7 +26,7 @@ from matplotlib.patches import Rectangle
 from scipy.ndimage import binary_erosion, distance_transform_edt
 
 from ..errors import bad
-from .geometry import _PLANES, _nice, choose_view
+from .geometry import _PLANES, _nice, choose_view, widen_to_aspect
 from .saving import new_figure
 
 TIP_LENGTH = 0.03  # m: the radiopaque distal part of a guidewire
@@ -89,12 +89,7 @@ def frame_box(tip: np.ndarray, margin: float, aspect: float) -> tuple[float, flo
     lo, hi = tip.min(0), tip.max(0)
     pad = max(0.15 * float((hi - lo).max()), margin)
     (x0, y0), (x1, y1) = lo - pad, hi + pad
-    if (x1 - x0) / (y1 - y0) < aspect:
-        grow = ((y1 - y0) * aspect - (x1 - x0)) / 2
-        x0, x1 = x0 - grow, x1 + grow
-    else:
-        grow = ((x1 - x0) / aspect - (y1 - y0)) / 2
-        y0, y1 = y0 - grow, y1 + grow
+    x0, x1, y0, y1 = widen_to_aspect(x0, x1, y0, y1, aspect)
     return float(x0), float(x1), float(y0), float(y1)
 
 

@@ -183,3 +183,16 @@ def tube_walls_2d(points, radii, plane: str, max_points: int = 400) -> tuple[np.
     t = np.where(length > 1e-12 * max(float(np.ptp(c)), 1e-12), t / np.maximum(length, 1e-300), 0.0)
     n = np.stack([-t[:, 1], t[:, 0]], axis=1)
     return c, c + r[:, None] * n, c - r[:, None] * n
+
+
+def widen_to_aspect(x0: float, x1: float, y0: float, y1: float, aspect: float) -> tuple[float, float, float, float]:
+    """The box [x0, x1] x [y0, y1] widened, about its centre, along its narrower side so that its
+    width over its height is ``aspect`` (one metre as long on both axes of a frame of that shape):
+    (x0, x1, y0, y1)."""
+    if (x1 - x0) / (y1 - y0) < aspect:
+        grow = ((y1 - y0) * aspect - (x1 - x0)) / 2
+        x0, x1 = x0 - grow, x1 + grow
+    else:
+        grow = ((x1 - x0) / aspect - (y1 - y0)) / 2
+        y0, y1 = y0 - grow, y1 + grow
+    return x0, x1, y0, y1

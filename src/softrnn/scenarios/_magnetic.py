@@ -7,9 +7,8 @@ import numpy as np
 
 from ..errors import SoftrnnInputError
 from ..magnetics.manipulator import DEFAULT_DAMPING, ManipulatorSpec, currents_for_field
-from ..rod.simulation import Damping
 from ._contact import read_contact
-from ._sections import _DAMPING_KEYS
+from ._sections import read_damping
 from .magnetic import MagneticScenario
 from .reading import _Ctx, _Table, number, numbers, vec3
 
@@ -70,13 +69,7 @@ def _spec(ctx: _Ctx, t: _Table, doc: dict, gravity) -> ManipulatorSpec:
           (("length", "m"), ("diameter", "m"), ("youngs_modulus", "Pa"), ("density", "kg/m^3")) if t.has(name)}
     if t.has("base"):
         kw["base"] = t.get("base", vec3("m"))
-    damping = DEFAULT_DAMPING
-    if "damping" in doc:
-        dt_ = _Table(ctx, doc["damping"], "damping", _DAMPING_KEYS)
-        try:
-            damping = Damping(**{k: dt_.get(k, number(nonnegative=True)) for k in dt_.raw})
-        except SoftrnnInputError as exc:
-            raise ctx.wrap("damping", exc) from None
+    damping = read_damping(ctx, doc["damping"]) if "damping" in doc else DEFAULT_DAMPING
     contact = read_contact(ctx, doc["contact"]) if "contact" in doc else None
     try:
         return ManipulatorSpec(gravity=gravity, damping=damping, contact=contact, **kw)

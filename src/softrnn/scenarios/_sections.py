@@ -445,6 +445,15 @@ def _loads(ctx: _Ctx, entries, n: int) -> tuple:
 _DAMPING_KEYS = {"translational": "viscous drag per length in N s/m^2",
                  "rotational": "rotational drag per length in N s", "kelvin_voigt": "retardation time in s"}
 
+
+def read_damping(ctx: _Ctx, raw) -> Damping:
+    """The ``[damping]`` table (``raw``, a dict) as ``Damping`` (every key checked)."""
+    t = _Table(ctx, raw, "damping", _DAMPING_KEYS)
+    try:
+        return Damping(**{k: t.get(k, number(nonnegative=True)) for k in t.raw})
+    except SoftrnnInputError as exc:
+        raise ctx.wrap("damping", exc) from None
+
 _RUN_KEYS = {
     "dt": "the saved interval in s",
     "duration": "the simulated time in s (or give n_samples)",

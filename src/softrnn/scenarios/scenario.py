@@ -25,16 +25,16 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
-from ..rod.simulation import Damping, RunConfig, Setup
+from ..rod.simulation import RunConfig, Setup
 from ._contact import read_contact
 from ._initial import initial_shape, with_static_start
 from ._magnetic import check_magnetic_run, read_magnetic
-from ._sections import _DAMPING_KEYS, _boundary, _gravity, _loads, _rod, _run, _shape
+from ._sections import _boundary, _gravity, _loads, _rod, _run, _shape, read_damping
 from ._tendons import read_tendons
 from .calibrate import _check_calibrate, _flatten_calibrate
 from .magnetic import MagneticScenario
 from .randomize import _flatten_randomize, _sample, _set_path
-from .reading import ScenarioError, _as_is, _Ctx, _show, _Table, integer, number, string, table_list
+from .reading import ScenarioError, _as_is, _Ctx, _show, _Table, integer, string, table_list
 
 SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "square-circle", "square-figure8",
                                    "square-random", "semicircle", "semicircle-cosine", "tendon-planar",
@@ -187,11 +187,7 @@ def _setup(ctx: _Ctx, top: _Table, doc: dict, gravity: tuple) -> Setup:
     boundary = _boundary(ctx, top.get("boundary", table_list, []), start, rod.n_nodes)
     loads = _loads(ctx, top.get("loads", table_list, []), rod.n_nodes)
     tendons = read_tendons(ctx, top.get("tendons", table_list, []), rod)
-    dt_ = _Table(ctx, top.get("damping", _as_is, {}), "damping", _DAMPING_KEYS)
-    try:
-        damping = Damping(**{k: dt_.get(k, number(nonnegative=True)) for k in dt_.raw})
-    except SoftrnnInputError as exc:
-        raise ctx.wrap("damping", exc) from None
+    damping = read_damping(ctx, top.get("damping", _as_is, {}))
     contact = read_contact(ctx, doc["contact"]) if "contact" in doc else None
     try:
         setup = Setup(rod=rod, reference=reference, initial=initial, boundary=boundary, loads=loads,

@@ -145,8 +145,14 @@ def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction
 
 def rod_length(dataset) -> float:
     """The rod's length [m] from a data set's ``attrs["rod"]``."""
+    return rod_value(dataset, "length")
+
+
+def rod_value(dataset, key: str) -> float:
+    """A positive number of a data set's ``attrs["rod"]`` (``length``, ``radius``: [m]); a one-line
+    error naming the key when the data set lacks it."""
     rod = dataset.attrs.get("rod")
-    if isinstance(rod, dict) and isinstance(rod.get("length"), (int, float)) and rod["length"] > 0:
-        return float(rod["length"])
-    raise bad("data", "a data set without the rod's length",
-              "a data set written by softrnn simulate or sweep (attrs['rod'] holds the length)")
+    if isinstance(rod, dict) and isinstance(rod.get(key), (int, float)) and rod[key] > 0:
+        return float(rod[key])
+    raise bad("data", f"a data set without the rod's {key}",
+              f"a data set written by softrnn simulate or sweep (attrs['rod'] holds the {key})")

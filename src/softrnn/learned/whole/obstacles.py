@@ -23,17 +23,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...errors import bad
 from ...io.schema import contact_from_record
+from .data import rod_value
 
 
 def rod_radius(dataset) -> float:
     """The rod's radius [m] from a data set's ``attrs["rod"]`` (a one-line error without it)."""
-    rod = dataset.attrs.get("rod")
-    if isinstance(rod, dict) and isinstance(rod.get("radius"), (int, float)) and rod["radius"] > 0:
-        return float(rod["radius"])
-    raise bad("data", "a data set with obstacles but without the rod's radius",
-              "a data set written by softrnn simulate or sweep (attrs['rod'] holds the radius)")
+    return rod_value(dataset, "radius")
 
 
 class ObstacleProjection:
