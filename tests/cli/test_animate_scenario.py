@@ -78,3 +78,40 @@ def test_scenario_options_are_refused_with_a_dataset(tmp_path, capsys):
     assert run_cli(["animate", str(h5), "--samples", "3", "-o", str(tmp_path / "d.gif")]) == 2
     err = capsys.readouterr().err
     assert "--samples=3" in err and "only with a scenario" in err and not (tmp_path / "d.gif").exists()
+
+
+def test_a_prediction_is_drawn_in_the_obstacles_of_its_datas_scenario(tmp_path):
+    """A rollout records no contact but keeps its data's scenario (and a sweep variant's draws):
+    animate draws that scenario's obstacles, in the variant's geometry, and the fluoroscopy look."""
+    import json
+    from argparse import Namespace
+
+    from softrnn.cli._animate import _obstacles
+    from softrnn.io import Dataset, write_dataset
+    from softrnn.rod import Vessel
+
+    text = scenario_text("vessel-guidewire")
+    T, N = 3, 31
+    p = np.zeros((T, N, 3))
+    p[:, :, 0] = np.linspace(-0.32, -0.02, N)
+    p[:, :, 2] = -0.00255
+    q = np.zeros((T, N, 4))
+    q[..., 0] = 1.0
+    attrs = {"dt": 0.02, "rod": {"length": 0.3, "radius": 0.00045}, "scenario_text": text, "prediction": True,
+             "sampled": json.dumps({"contact.friction": 0.15})}
+    data = Dataset(time=np.arange(T) * 0.02, nodes=np.arange(N), positions=p, quaternions=q,
+                   forces=np.zeros((T, N, 3)), torques=np.zeros((T, N, 3)), attrs=attrs)
+    args = Namespace(no_obstacles=False)
+    contact = _obstacles(args, data)
+    assert isinstance(contact.obstacles[0], Vessel) and contact.friction == 0.15
+    assert _obstacles(Namespace(no_obstacles=True), data) is False
+    recorded = Dataset(time=data.time, nodes=data.nodes, positions=p, quaternions=q, forces=data.forces,
+                       torques=data.torques, attrs={**attrs, "prediction": False})
+    assert _obstacles(args, recorded) is True          # a simulated run: its own record (none here)
+    path = tmp_path / "pred.h5"
+    write_dataset(path, data)
+    out = tmp_path / "pred.gif"
+    assert run_cli(["animate", str(path), "-o", str(out), "--size", "160x140", "--quiet"]) == 0
+    with Image.open(out) as im:
+        rgb = np.asarray(im.convert("RGB"), dtype=int)
+    assert np.all(rgb[..., 0] == rgb[..., 2])          # the fluoroscopy look: the vessel was found

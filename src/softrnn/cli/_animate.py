@@ -2,16 +2,17 @@
 file's obstacles drawn (.gif, or .mp4 with ffmpeg). ``softrnn animate SCENARIO``: simulate the
 scenario first (into a temporary dataset, or the --save-data file) and animate that."""
 
+import json
 import tempfile
 from dataclasses import replace
 from pathlib import Path
 
-from ..errors import bad
+from ..errors import SoftrnnInputError, bad
 from ..figures.animation import STYLES, animate
 from ..figures.data import _title, check_suffix, load
 from ..files import prepare_output
 from ..io.reader import read_dataset
-from ..scenarios.scenario import SCENARIO_NAMES, load_scenario
+from ..scenarios.scenario import SCENARIO_NAMES, load_scenario, parse_scenario
 from ..scenarios.summary import simulate_summary
 from ._plot import named_node
 from ._progress import Bar
@@ -152,10 +153,30 @@ def _animate(args, data_path: str, out: Path, size: tuple[int, int], label: str)
     with Bar(f"animate {label}", unit="frame", enabled=not args.quiet) as bar:
         animate(data, out, fps=args.fps, frames=args.frames, duration=args.duration, node=node,
                 trail=not args.no_trail, view=args.view, elev=args.elev, azim=args.azim, size=size,
-                title=None if _named(data) else Path(label).stem, obstacles=not args.no_obstacles,
+                title=None if _named(data) else Path(label).stem, obstacles=_obstacles(args, data),
                 contact_forces=not args.no_contact_forces, style=args.style, progress=bar)
     print(f"animate: wrote {out}")
     return 0
+
+
+def _obstacles(args, data):
+    """What to draw: nothing (--no-obstacles), the data's own obstacles (True), or, for a prediction
+    (a rollout records no contact but keeps its data's scenario), the obstacles of that scenario,
+    with a sweep variant's drawn values."""
+    if args.no_obstacles:
+        return False
+    attrs = dict(getattr(data, "attrs", None) or {})
+    text = attrs.get("scenario_text")
+    if attrs.get("contact") is not None or not attrs.get("prediction") or not text or "[contact]" not in text:
+        return True
+    try:
+        scenario = parse_scenario(text)
+        sampled = json.loads(attrs["sampled"]) if isinstance(attrs.get("sampled"), str) else {}
+        if sampled:
+            scenario = scenario.with_values(sampled)
+    except (SoftrnnInputError, ValueError, TypeError):
+        return True           # the scenario no longer reads: draw what the data record (nothing)
+    return True if scenario.setup.contact is None else scenario.setup.contact
 
 
 def _named(data) -> bool:
