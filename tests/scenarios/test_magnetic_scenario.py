@@ -1,7 +1,7 @@
 """Magnetic scenarios (a ``[magnetic]`` table): the shipped magnetic-bifurcation steers the
-manipulator's tip into the left branch, exactly as ``navigate("left")``; the opposite field steers
-it into the right; malformed or forbidden keys are one-line errors naming the key; softrnn simulate,
-show, scenario show and sweep run it."""
+manipulator's tip into the left branch and inserts the rod 12 mm, exactly as ``navigate("left")``
+with ``DEMO_ADVANCE``; the opposite field steers it into the right; malformed or forbidden keys
+are one-line errors naming the key; softrnn simulate, show, scenario show and sweep run it."""
 
 import json
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from softrnn.io import read_dataset
-from softrnn.magnetics.navigation import navigate, tip_branch
+from softrnn.magnetics.navigation import DEMO_ADVANCE, navigate, navigation_spec, tip_branch
 from softrnn.scenarios import ScenarioError, load_scenario, parse_scenario, scenario_text
 from softrnn.scenarios.magnetic import bifurcation_of, simulate_magnetic
 
@@ -31,7 +31,9 @@ def left_run(scenario):
 def test_the_shipped_scenario_steers_into_the_left_branch_exactly_as_navigate(scenario, left_run):
     bif = bifurcation_of(scenario.magnetic.spec)
     assert tip_branch(bif, left_run.positions[-1, -1]) == "left"
-    reference = navigate("left")          # the demo's values: 15 mT, ramp 0.5 s, hold 0.5 s, settle 0.3 s
+    assert scenario.magnetic.spec.advance == DEMO_ADVANCE
+    # the demo's values: 15 mT, ramp 0.5 s, hold 0.7 s, settle 0.3 s, the base advanced 12 mm
+    reference = navigate("left", spec=navigation_spec(advance=DEMO_ADVANCE), hold=0.7)
     np.testing.assert_array_equal(left_run.positions, reference.positions)
     np.testing.assert_array_equal(left_run.quaternions, reference.quaternions)
     np.testing.assert_array_equal(left_run.currents, reference.currents)
@@ -76,6 +78,13 @@ BAD = [
     (_text(FIELD, FIELD + "\nbase = [-0.025, 0.0]"), "magnetic.base", "expected"),
     (_text(FIELD, FIELD + "\nlength = 0.5"), "magnetic", "workspace"),
     (_text(FIELD, FIELD + "\nmagnets = 2"), "magnetic.magnets", "unknown key"),
+    (_text("distance = 0.012", "distance = -0.012"), "magnetic.advance.distance", "positive number in m"),
+    (_text("start = 0.3,", "start = -0.3,"), "magnetic.advance.start", "a number >= 0 in s"),
+    (_text("ramp = 0.7 }", "ramp = 0 }"), "magnetic.advance.ramp", "positive number in s"),
+    (_text("ramp = 0.7 }", "ramp = 0.7, speed = 1 }"), "magnetic.advance.speed", "unknown key"),
+    (_text("distance = 0.012", "distance = 0.2"), "magnetic.advance", "when fully advanced"),
+    (_text("advance = { distance = 0.012, start = 0.3, ramp = 0.7 }", "advance = 0.012"), "magnetic.advance",
+     "a table"),
     (_text("nodes_of_interest", "save_nodes = [0, 25]\nnodes_of_interest"), "run.save_nodes", "every node"),
     (_text("nodes_of_interest", "integrator = \"implicit\"\nnodes_of_interest"), "run.integrator", "explicit"),
     (_text("gravity = [0.0, 0.0, -9.81]", "gravity = { kind = \"constant\", value = [0.0, 0.0, -9.81] }"),
@@ -107,7 +116,7 @@ def test_simulate_writes_a_dataset_that_show_reads(left_run, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "tip in: left" in text and "coil currents [A]" in text
     ds = read_dataset(out)
-    assert ds.n_samples == 101 and ds.positions.shape == (101, 26, 3) and ds.has_contact
+    assert ds.n_samples == 121 and ds.positions.shape == (121, 26, 3) and ds.has_contact
     assert list(ds.actuation_units) == [f"coil_{k}" for k in range(6)]
     assert ds.attrs["tip_branch"] == "left" and ds.attrs["scenario_name"] == NAME
     np.testing.assert_array_equal(ds.positions, left_run.positions.astype(np.float32))   # stored as float32

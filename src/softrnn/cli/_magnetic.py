@@ -90,6 +90,9 @@ def _navigate_args(sub):
     v.add_argument("--field", type=float, default=15.0, help="field across the trunk in mT (default: 15)")
     v.add_argument("--duration", type=float, default=1.0,
                    help="run time in s: the currents ramp up over the first half, then hold (default: 1)")
+    v.add_argument("--advance", type=float, default=None, metavar="MM",
+                   help="insert the base MM mm along the trunk (0 to 20), from a quarter of the run over half of "
+                        "it, a smoothstep (default: a fixed base)")
     v.add_argument("--overwrite", action="store_true", help="replace PATH if it exists (default: refuse)")
     v.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -229,20 +232,27 @@ def _navigate(args) -> int:
     """softrnn magnetic navigate -o PATH: the steering demonstration, written as a dataset."""
     from ..errors import bad, positive
     from ..files import prepare_output
+    from ..magnetics.manipulator import BaseAdvance
     from ..magnetics.navigation import navigate, navigation_spec, tip_branch
     from ..scenarios.magnetic import write_manipulator_dataset
 
     field = positive("--field", args.field, "mT") * 1e-3
     if not (isinstance(args.duration, float) and 0.1 <= args.duration <= 10.0):
         raise bad("--duration", args.duration, "a run time in s from 0.1 to 10")
+    advance = None
+    if args.advance is not None:
+        if not (isinstance(args.advance, float) and 0.0 < args.advance <= 20.0):
+            raise bad("--advance", args.advance, "an insertion in mm, > 0 and at most 20 (the branches are 25 mm long)")
+        advance = BaseAdvance(distance=args.advance * 1e-3, start=0.25 * args.duration, ramp=0.5 * args.duration)
     prepare_output(args.out, "-o", overwrite=args.overwrite)
-    spec = navigation_spec()
+    spec = navigation_spec(advance=advance)
     half = 0.5 * args.duration
     with Bar("navigate", unit="sample", enabled=not args.quiet) as bar:
         traj = navigate(args.branch, spec=spec, field=field, ramp=half, hold=half, progress=bar)
     tip = traj.positions[-1, -1]
     bif = spec.contact.obstacles[0]
     attrs = {"scenario_name": "magnetic-navigation", "branch": args.branch, "field_T": field,
+             **({} if advance is None else {"advance_m": advance.distance}),
              "tip_branch": tip_branch(bif, tip),
              "description": "the magnetic manipulator steered at a bifurcation (softrnn magnetic navigate)"}
     write_manipulator_dataset(args.out, traj, spec, dt=float(traj.time[1] - traj.time[0]), attrs=attrs)
@@ -251,8 +261,9 @@ def _navigate(args) -> int:
     where = {"left": "in the left branch", "right": "in the right branch", "wall": "on a wall (outside both tubes)",
              "trunk": "in the trunk or at the junction, inside both tubes"}[tip_branch(bif, tip)]
     currents = ", ".join(f"{i if abs(i) >= 5e-3 else 0.0:.2f}" for i in traj.currents[-1])
-    print(f"tip at [{tip[0] * 1e3:.2f}, {tip[1] * 1e3:.2f}, {tip[2] * 1e3:.2f}] mm, {where} (steered: {args.branch}, "
-          f"currents {currents} A)")
+    inserted = "" if advance is None else f", base advanced {args.advance:g} mm"
+    print(f"tip at [{tip[0] * 1e3:.2f}, {tip[1] * 1e3:.2f}, {tip[2] * 1e3:.2f}] mm, {where} (steered: {args.branch}"
+          f"{inserted}, currents {currents} A)")
     return 0
 
 

@@ -187,8 +187,10 @@ def _magnetic(sc: Scenario) -> list[str]:
     magnets = ", ".join(f"{mg.grade} at {mg.arc_length * 1e3:.4g} mm" for mg in spec.magnets)
     drive = (f"field [{', '.join(_num(b * 1e3) for b in m.field)}] mT at the centre, " if m.field is not None
              else "") + "currents [" + ", ".join(f"{i if abs(i) >= 5e-3 else 0.0:.2f}" for i in m.currents) + "] A"
+    a = spec.advance
+    base = ("" if a is None else f", advanced {a.distance * 1e3:.4g} mm along +x from {a.start:g} s over {a.ramp:g} s")
     return [f"  magnetic: the manipulator, magnets {magnets}; base clamped at "
-            f"[{', '.join(_num(x) for x in spec.base)}] m, straight along +x",
+            f"[{', '.join(_num(x) for x in spec.base)}] m, straight along +x{base}",
             f"  coils: {drive}; zero until {m.start:g} s, ramp {m.ramp:g} s, then held; settling {m.settle:g} s",
             f"  gravity: [{', '.join(_num(x) for x in spec.gravity)}] m/s^2; damping: translational "
             f"{_num(d.translational)}, rotational {_num(d.rotational)}, kelvin_voigt {_num(d.kelvin_voigt)}"]

@@ -59,7 +59,7 @@ DOMAIN = {
     "magnetic experiment": ("--quick", "--samples", "--epochs", "--predict", "--no-calibrate"),
     "magnetic compare": ("--epochs", "--predict", "--calibrate"),
     "magnetic example-csv": ("--samples",),
-    "magnetic navigate": ("--branch", "--field", "--duration"),
+    "magnetic navigate": ("--branch", "--field", "--duration", "--advance"),
     "dynamic": (),
     "dynamic train": ("--heldout", "--validation", "--validate-on", "--train-fraction", "--model-dt",
                       "--node-stride", "--history", "--memory", "--width", "--layers", "--steps", "--unroll",

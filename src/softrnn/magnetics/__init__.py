@@ -22,6 +22,7 @@ from .magnets import moment_world as moment_world
 from .magnets import torque as torque
 from .magnets import wrench as wrench
 from .magnets import wrench_matrix as wrench_matrix
+from .manipulator import BaseAdvance as BaseAdvance
 from .manipulator import CurrentSchedule as CurrentSchedule
 from .manipulator import ManipulatorRun as ManipulatorRun
 from .manipulator import ManipulatorSpec as ManipulatorSpec

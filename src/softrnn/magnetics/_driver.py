@@ -1,5 +1,6 @@
 """Numba driver of the magnetic manipulator: per solver step, the magnet wrenches from the current pose
-and coil currents, then one step of ``softrnn.rod.kernels.advance_into`` (magnetic.md §2.5).
+and coil currents (and, for an advancing base, its prescribed position), then one step of
+``softrnn.rod.kernels.advance_into`` (magnetic.md §2.5).
 
 Magnet j sits between nodes a = mag_node[j] and a + 1 at the fraction t = mag_frac[j] of that
 segment. Its centre is p = (1 - t) r_a + t r_{a+1}, its rotation R_c = R_a cay(t cay^-1(R_a^T R_{a+1}))
@@ -239,9 +240,25 @@ def _record_row(row, out, k):
             out.wrenches[k, jm, c] = row.wrenches[jm, c]
 
 
+@njit(**_INLINE)
+def _base_into(base, t, presc_r, i):
+    """presc_r[i, 0] <- the advancing base's position at time t [s]: base[0:3] + d s(x) base[3:6],
+    x = (t - start) / ramp clipped to [0, 1], s the smoothstep 6x^5 - 15x^4 + 10x^3; base (9,) holds
+    the position [m], the axis, the distance d [m], start and ramp [s] (``manipulator._AdvancingBase``)."""
+    x = (t - base[7]) / base[8]
+    if x < 0.0:
+        x = 0.0
+    elif x > 1.0:
+        x = 1.0
+    d = base[6] * (x * x * x * (x * (6.0 * x - 15.0) + 10.0))
+    for c in range(3):
+        presc_r[i, 0, c] = base[c] + d * base[3 + c]
+
+
 def _build_drive(stamp):
     @njit(cache=True, no_rewrites=True)
-    def drive(rod, state, inputs, out, mag_out, magnets, times, values, h, t0, k_begin, k_end, stride, work_f, row):
+    def drive(rod, state, inputs, out, mag_out, magnets, times, values, h, t0, k_begin, k_end, stride, work_f, row,
+              base):
         """Advance steps k_begin .. k_end - 1 of size h [s], step k at t0 + k h [s]; returns (status,
         step, magnet index).
 
@@ -251,10 +268,13 @@ def _build_drive(stamp):
         sample), so the samples are identical bit for bit.
 
         rod, state, inputs, out, work_f as for ``rod.kernels.advance_into``, with inputs for one step
-        (ext_w (1, m, 12), overwritten at every step with the magnet loads; no PD tracking and no
-        prescribed motion). Samples are written at steps k with k % stride == 0 into row k // stride
-        of out and of mag_out (``MagnetSamples``). Currents follow ``currents_at(t, times, values)``.
-        magnets : ``MagnetModel``; row : one ``MagnetSamples`` row of scratch.
+        (ext_w (1, m, 12), overwritten at every step with the magnet loads; no PD tracking).
+        Samples are written at steps k with k % stride == 0 into row k // stride of out and of
+        mag_out (``MagnetSamples``). Currents follow ``currents_at(t, times, values)``.
+        magnets : ``MagnetModel``; row : one ``MagnetSamples`` row of scratch. base : the advancing
+        base's profile (9,) (``_base_into``), whose position at t and t + h every step writes into
+        inputs.presc_r[0] and [1] (inputs.presc_idx = [0], presc_R its held rotation); (0,): a
+        fixed base (no prescribed motion).
         """
         if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
             return -1, 0, -1
@@ -271,6 +291,9 @@ def _build_drive(stamp):
                 return TOO_CLOSE, k, bad_magnet
             if k % stride == 0:
                 _record_row(row, mag_out, k // stride)
+            if len(base) > 0:
+                _base_into(base, t, inputs.presc_r, s0)
+                _base_into(base, t0 + (k + 1) * h, inputs.presc_r, one)
             status, step = advance_into(rod, state, inputs, out, h, k, one, stride, s0, work_f)
             if status != OK:
                 return status, step, -1

@@ -22,6 +22,9 @@ Modelling choices (assumptions, with numbers for the defaults):
 * Contact: with ``ManipulatorSpec.contact`` the rod moves among obstacles (e.g. inside a vessel or
   a ``Bifurcation``), with the contact loads of ``softrnn.rod.contact`` evaluated at every solver
   step beside the magnet loads; the explicit step then also respects the contact springs.
+* Insertion: with ``ManipulatorSpec.advance`` (a ``BaseAdvance``) the base is a clamp that moves
+  along its own axis (+x) by a smoothstep profile, its rotation held; the driver prescribes its
+  position at every solver step, as ``softrnn.rod.Simulator`` does for a ``Clamp`` with a motion.
 """
 
 import math
@@ -30,7 +33,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import SimulationError, bad, vec3
+from ..errors import SimulationError, bad, nonnegative, positive, vec3
 from ..progress import Progress
 from ..rod.boundary import Clamp
 from ..rod.contact import Contact, node_parameters, step_limit
@@ -66,6 +69,64 @@ _AXIS = (1.0, 0.0, 0.0)
 _NORMAL = (0.0, 0.0, 1.0)
 
 
+@dataclass(frozen=True)
+class BaseAdvance:
+    """Insertion of the manipulator: its base moves ``distance`` [m] along its own axis (+x), starting
+    at ``start`` [s] and reaching the distance ``ramp`` [s] later by a C2 smoothstep
+    (``softrnn.rod.loads.smoothstep``); the base's rotation is held.
+
+    Attributes
+    ----------
+    distance : float
+        how far the base advances [m], > 0
+    start : float
+        when the advance begins [s], >= 0 (the base is still before; also while settling)
+    ramp : float
+        how long the advance takes [s], > 0
+    """
+
+    distance: float
+    start: float = 0.0
+    ramp: float = 1.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "distance", positive("advance.distance", self.distance, "m"))
+        object.__setattr__(self, "start", nonnegative("advance.start", self.start, "s"))
+        object.__setattr__(self, "ramp", positive("advance.ramp", self.ramp, "s"))
+
+    def offset(self, t) -> np.ndarray:
+        """The distance advanced (K,) [m] at times t (K,) [s]."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        return self.distance * smoothstep((t - self.start) / self.ramp)
+
+    @property
+    def end(self) -> float:
+        """When the base stops, start + ramp [s]."""
+        return self.start + self.ramp
+
+
+@dataclass(frozen=True)
+class _AdvancingBase:
+    """The pose motion of an advancing base (``Clamp.motion``): position ``base`` + offset(t) along
+    ``axis``, rotation ``rotation`` (3 rows of 3, a tuple so that equal motions compare equal) held;
+    t (K,) -> (K, 3) [m], (K, 3, 3)."""
+
+    base: tuple
+    axis: tuple
+    rotation: tuple
+    advance: BaseAdvance
+
+    def __call__(self, t):
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        pos = np.asarray(self.base) + self.advance.offset(t)[:, None] * np.asarray(self.axis)
+        return pos, np.broadcast_to(np.array(self.rotation, dtype=float), (t.size, 3, 3)).copy()
+
+    def parameters(self) -> np.ndarray:
+        """The driver's profile array (9,): base (3) [m], axis (3), distance [m], start, ramp [s]."""
+        a = self.advance
+        return np.array([*self.base, *self.axis, a.distance, a.start, a.ramp], dtype=float)
+
+
 @dataclass(frozen=True, kw_only=True)
 class ManipulatorSpec:
     """The physical magnetic manipulator (magnetic.md §1.3; rod material of Tariverdi et al. 2021).
@@ -95,6 +156,8 @@ class ManipulatorSpec:
     contact : softrnn.rod.Contact or None
         obstacles around the rod (e.g. a ``Vessel`` or ``Bifurcation`` it lies in), with the
         contact law of ``softrnn.rod.contact``; None: none (the rod moves freely)
+    advance : BaseAdvance or None
+        insertion: the base advances along +x (``BaseAdvance``); None: the base stays fixed
     """
 
     length: float = 0.05
@@ -110,6 +173,7 @@ class ManipulatorSpec:
     damping: Damping = DEFAULT_DAMPING
     magnet_stiffness_factor: float | None = 100.0
     contact: Contact | None = None
+    advance: BaseAdvance | None = None
 
     def __post_init__(self):
         for name in ("length", "diameter", "youngs_modulus", "density"):
@@ -128,6 +192,8 @@ class ManipulatorSpec:
             raise bad("damping", self.damping, "a softrnn.rod.Damping")
         if self.contact is not None and not isinstance(self.contact, Contact):
             raise bad("contact", type(self.contact).__name__, "a softrnn.rod.Contact, or None for no obstacles")
+        if self.advance is not None and not isinstance(self.advance, BaseAdvance):
+            raise bad("advance", self.advance, "a softrnn.magnetics.BaseAdvance, or None for a fixed base")
         try:
             magnets = default_magnets(self.length) if self.magnets is None else tuple(self.magnets)
         except TypeError:
@@ -171,12 +237,15 @@ class ManipulatorSpec:
 
     def _check_workspace(self) -> None:
         s = np.linspace(0.0, self.length, self.n_nodes)
-        pts = np.asarray(self.base) + s[:, None] * np.asarray(_AXIS)
-        reach = float(np.max(np.linalg.norm(pts, axis=1)))
-        if reach > self.coils.workspace_radius:
-            raise bad("base", self.base,
-                      f"a rod inside the coils' workspace: it reaches {reach:.4g} m from the centre, beyond "
-                      f"workspace_radius = {self.coils.workspace_radius:.4g} m")
+        advanced = [] if self.advance is None else [("advance.distance", self.advance.distance)]
+        for name, shift in [("base", 0.0)] + advanced:  # the straight rod at the start and fully advanced
+            pts = np.asarray(self.base) + (s[:, None] + shift) * np.asarray(_AXIS)
+            reach = float(np.max(np.linalg.norm(pts, axis=1)))
+            if reach > self.coils.workspace_radius:
+                raise bad(name, self.base if name == "base" else shift,
+                          f"a rod inside the coils' workspace: it reaches {reach:.4g} m from the centre"
+                          f"{'' if name == 'base' else ' when fully advanced'}, beyond "
+                          f"workspace_radius = {self.coils.workspace_radius:.4g} m")
 
     # ------------------------------------------------------------------ derived quantities
     @property
@@ -222,10 +291,23 @@ class ManipulatorSpec:
         return straight(self.n_nodes, self.length, origin=self.base, direction=_AXIS, normal=_NORMAL)
 
     def setup(self) -> Setup:
-        """The rod problem without magnetic loads (base clamped, gravity, damping, the obstacles of
-        ``contact``): a plain ``softrnn.rod.Simulator`` on it gives the zero-current motion."""
-        return Setup(rod=self.rod_spec(), reference=self.reference_shape(), boundary=(Clamp(0),),
+        """The rod problem without magnetic loads (base clamped, or with ``advance`` a clamp that
+        follows the insertion; gravity, damping, the obstacles of ``contact``): a plain
+        ``softrnn.rod.Simulator`` on it gives the zero-current motion."""
+        reference = self.reference_shape()
+        clamp = Clamp(0) if self.advance is None else Clamp(0, motion=self.base_motion(reference))
+        return Setup(rod=self.rod_spec(), reference=reference, boundary=(clamp,),
                      damping=self.damping, gravity=self.gravity, contact=self.contact)
+
+    def base_motion(self, reference: RodShape | None = None) -> "_AdvancingBase | None":
+        """The advancing base's pose motion (``Clamp.motion``: t (K,) -> positions (K, 3) [m],
+        rotations (K, 3, 3), the rotation of ``reference`` at node 0, default the straight rod's),
+        or None for a fixed base."""
+        if self.advance is None:
+            return None
+        reference = self.reference_shape() if reference is None else reference
+        rotation = tuple(tuple(float(x) for x in row) for row in reference.rotations[0])
+        return _AdvancingBase(base=self.base, axis=_AXIS, rotation=rotation, advance=self.advance)
 
     def stable_step(self, safety: float = DEFAULT_SAFETY) -> float:
         """Largest accepted solver step h [s]; with ``contact``, the contact springs and dampers
@@ -450,6 +532,11 @@ class _Model:
         self.rod = lumped_rod(setup)
         inputs = SetupInputs(setup)
         self.state = initial_state(setup, self.rod, inputs)
+        # the advancing base: its node, its pose at t = 0 and the driver's profile (9,) ((0,): fixed)
+        self.presc_idx = inputs.presc_idx
+        self.presc_r, self.presc_R = inputs.prescribed(np.zeros(2))
+        motion = setup.boundary[0].motion
+        self.base_profile = np.zeros(0) if motion is None else motion.parameters()
         # with obstacles: the static contact fields, and the scratch of the applied loads
         self.contact = ({} if inputs.contact is None
                         else dict(inputs.contact, contact_applied=np.zeros((spec.n_nodes, 6))))
@@ -472,17 +559,18 @@ class _Model:
         return row
 
     def step_inputs(self, n_rows: int = 0) -> StepInputs:
-        """Rod inputs of one step: zero magnet loads ext_w (1, m, 12), no PD tracking or prescribed
-        motion; with obstacles, the contact fields with the state's tracked segments and room for
-        the contact loads of n_rows samples of every node."""
+        """Rod inputs of one step: zero magnet loads ext_w (1, m, 12), no PD tracking; with an
+        advancing base its prescribed pose (2, 1, ...) at t = 0 (the driver writes it at every
+        step), else no prescribed motion; with obstacles, the contact fields with the state's
+        tracked segments and room for the contact loads of n_rows samples of every node."""
         none = np.zeros(0, dtype=np.int64)
         contact = {}
         if self.contact:
             contact = dict(self.contact, contact_segment=self.state.contact_segment,
                            contact_samples=np.zeros((n_rows, self.spec.n_nodes if n_rows else 0, 6)))
         return StepInputs(ext_idx=self.ext_idx, ext_w=np.zeros((1, self.ext_idx.size, 12)), pd_idx=none,
-                          pd_target=np.zeros((1, 0, 3)), pd_gain=np.zeros((0, 2)), presc_idx=none,
-                          presc_r=np.zeros((2, 0, 3)), presc_R=np.zeros((2, 0, 3, 3)), **contact)
+                          pd_target=np.zeros((1, 0, 3)), pd_gain=np.zeros((0, 2)), presc_idx=self.presc_idx,
+                          presc_r=self.presc_r.copy(), presc_R=self.presc_R.copy(), **contact)
 
     def loads(self, currents: np.ndarray) -> StepInputs:
         """Rod inputs of one step with the magnet loads of the current pose and currents (n_c,) [A]."""
@@ -520,7 +608,7 @@ class _Model:
             k1 = min(k0 + size, n_steps)
             status, step, magnet = _driver.drive(
                 rod, state, inputs, out, mag, self.magnets, schedule.times, schedule.values, float(h), float(t0),
-                int(k0), int(k1), int(stride), work, row)
+                int(k0), int(k1), int(stride), work, row, self.base_profile)
             raise_for_status(int(status), step=int(step), t0=t0, h=h, magnet=int(magnet), min_distance=MIN_DISTANCE,
                              more_fixes=("lower the currents",))
             done = min((k1 - 1) // stride + 1, n_rows)

@@ -11,8 +11,13 @@ makes the currents of both).
 The demonstration's values (assumptions, with reasons):
 
 * Rod: the default manipulator (50 mm of PMC-770 rubber, 3 mm thick, magnets at 25 and 49 mm),
-  clamped at x = -25 mm on the trunk's axis, pointing along +x; gravity -z. A fixed base: the rod
-  is not advanced, so its tip reaches only the branches' mouths (5 mm past the junction).
+  clamped at x = -25 mm on the trunk's axis, pointing along +x; gravity -z. With a fixed base
+  (``navigation_spec()``) the tip reaches only the branches' mouths (5 mm past the junction).
+* Insertion (``DEMO_ADVANCE``, ``navigation_spec(advance=...)``): the base advances 12 mm along the
+  trunk (to x = -13 mm; the trunk extends to -35 mm behind it), starting at 0.3 s, when the field
+  is at 60 % and the tip already leans toward the branch, over 0.7 s (smoothstep: 17 mm/s on
+  average, 32 mm/s at its fastest): the steered tip then ends 17 mm along the branch, at 70 % of
+  its 25 mm. Without a field the tip is pushed into the carina's crease and the advance jams there.
 * Vessel (``demo_bifurcation``): a phantom, 7 mm inner diameter throughout (a large artery's
   size, e.g. the common carotid's 6-7 mm, scaled to the 3 mm rod so that it has 2 mm of room to
   bend): a straight trunk from x = -35 mm (behind the clamp) to the junction at x = 20 mm, and two
@@ -33,6 +38,7 @@ import numpy as np
 from ..errors import bad, positive
 from ..rod.contact import Bifurcation, Contact
 from .manipulator import (
+    BaseAdvance,
     CurrentSchedule,
     ManipulatorRun,
     ManipulatorSpec,
@@ -50,6 +56,10 @@ DEMO_FIELD = 0.015
 JUNCTION_X = 0.020
 """x [m] of the demonstration's junction (the rod's tip is at x = 25 mm)."""
 
+DEMO_ADVANCE = BaseAdvance(distance=0.012, start=0.3, ramp=0.7)
+"""The demonstration's insertion: 12 mm along the trunk from 0.3 s to 1.0 s (run it to 1.2 s,
+e.g. ``navigate(branch, spec=navigation_spec(advance=DEMO_ADVANCE), hold=0.7)``)."""
+
 
 def demo_bifurcation(*, radius: float = 0.0035, angle: float = 20.0, junction: float = JUNCTION_X,
                      branch_length: float = 0.025) -> Bifurcation:
@@ -66,14 +76,15 @@ def demo_bifurcation(*, radius: float = 0.0035, angle: float = 20.0, junction: f
 
 
 def navigation_spec(bifurcation: Bifurcation | None = None, *, friction: float = 0.1,
-                    reference_acceleration: float = 1000.0) -> ManipulatorSpec:
+                    reference_acceleration: float = 1000.0, advance: BaseAdvance | None = None) -> ManipulatorSpec:
     """The default manipulator inside ``bifurcation`` (None: ``demo_bifurcation()``) with contact of
-    ``friction`` [-] and the default penalty stiffness at ``reference_acceleration`` [m/s^2]."""
+    ``friction`` [-] and the default penalty stiffness at ``reference_acceleration`` [m/s^2]; its base
+    fixed, or inserted by ``advance`` (e.g. ``DEMO_ADVANCE``)."""
     bifurcation = demo_bifurcation() if bifurcation is None else bifurcation
     if not isinstance(bifurcation, Bifurcation):
         raise bad("bifurcation", type(bifurcation).__name__, "a softrnn.rod.Bifurcation, or None for the demo's")
     contact = Contact(obstacles=bifurcation, friction=friction, reference_acceleration=reference_acceleration)
-    return ManipulatorSpec(contact=contact)
+    return ManipulatorSpec(contact=contact, advance=advance)
 
 
 def steering_field(bifurcation: Bifurcation, branch: str, magnitude: float = DEMO_FIELD) -> np.ndarray:
@@ -105,7 +116,9 @@ def navigate(branch: str, *, spec: ManipulatorSpec | None = None, field: float =
     branch : str
         'left', 'right', or 'none' (no field: the control)
     spec : ManipulatorSpec or None
-        a manipulator whose ``contact`` holds a ``Bifurcation`` (None: ``navigation_spec()``)
+        a manipulator whose ``contact`` holds a ``Bifurcation`` (None: ``navigation_spec()``, a
+        fixed base); with ``spec.advance`` the base is inserted meanwhile (choose ramp + hold to
+        cover ``spec.advance.end``)
     field : float
         field magnitude [T] (``steering_field``), made by the minimum-norm currents at the
         workspace centre

@@ -5,7 +5,8 @@ at the camera rate does); the state carries over from frame to frame.
 ``ManipulatorStepper(spec, dt, currents0)`` settles the rod at rest under ``currents0`` (heavy drag
 for ``settle`` s, as ``simulate_manipulator`` does), then ``step(currents)`` advances one frame of
 ``dt`` s and ``positions``/``rotations`` give the state at the frame's end. With the same currents
-held throughout, K steps reproduce ``simulate_manipulator``'s K + 1 samples exactly.
+held throughout, K steps reproduce ``simulate_manipulator``'s K + 1 samples exactly. An advancing
+base (``ManipulatorSpec.advance``) follows its profile in the frames' time, as in a batch run.
 """
 
 from __future__ import annotations

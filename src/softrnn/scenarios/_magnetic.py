@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SoftrnnInputError
-from ..magnetics.manipulator import DEFAULT_DAMPING, ManipulatorSpec, currents_for_field
+from ..magnetics.manipulator import DEFAULT_DAMPING, BaseAdvance, ManipulatorSpec, currents_for_field
 from ._contact import read_contact
 from ._sections import read_damping
 from .magnetic import MagneticScenario
@@ -24,6 +24,13 @@ MAGNETIC_KEYS = {
     "youngs_modulus": "the rod's Young's modulus in Pa (default 2.5e6, PMC-770)",
     "density": "the rod's density in kg/m^3 (default 1000)",
     "base": "the clamped base [x, y, z] in m (default [-length/2, 0, 0]); the rod points along +x",
+    "advance": "the base's insertion { distance = m, start = s, ramp = s } along +x (default: none, a fixed base)",
+}
+
+ADVANCE_KEYS = {
+    "distance": "how far the base advances along +x in m (> 0)",
+    "start": "when the advance begins in s (>= 0, default 0)",
+    "ramp": "how long the advance takes in s, a smoothstep (> 0, default 1)",
 }
 
 FORBIDDEN = {
@@ -31,7 +38,7 @@ FORBIDDEN = {
            "in [magnetic])",
     "reference": "the manipulator's rod is straight from its base along +x (set magnetic.base)",
     "initial": "the manipulator starts straight at rest and settles for magnetic.settle s",
-    "boundary": "the manipulator's base is clamped (set magnetic.base)",
+    "boundary": "the manipulator's base is clamped (set magnetic.base, and magnetic.advance to insert it)",
     "loads": "the coils drive the manipulator (set magnetic.field_mT or magnetic.currents)",
     "tendons": "the manipulator has no tendons; the coils drive it (set magnetic.field_mT or magnetic.currents)",
     "calibrate": "softrnn calibrate fits plain rod scenarios only",
@@ -69,14 +76,25 @@ def _spec(ctx: _Ctx, t: _Table, doc: dict, gravity) -> ManipulatorSpec:
           (("length", "m"), ("diameter", "m"), ("youngs_modulus", "Pa"), ("density", "kg/m^3")) if t.has(name)}
     if t.has("base"):
         kw["base"] = t.get("base", vec3("m"))
+    if t.has("advance"):
+        kw["advance"] = _advance(ctx, t.raw["advance"])
     damping = read_damping(ctx, doc["damping"]) if "damping" in doc else DEFAULT_DAMPING
     contact = read_contact(ctx, doc["contact"]) if "contact" in doc else None
     try:
         return ManipulatorSpec(gravity=gravity, damping=damping, contact=contact, **kw)
     except SoftrnnInputError as exc:
         text = str(exc)
+        key = "magnetic.advance" if text.startswith("advance") else "magnetic"
         raise ctx.wrap("contact" if contact is not None and ("contact" in text or "obstacle" in text)
-                       else "magnetic", exc) from None
+                       else key, exc) from None
+
+
+def _advance(ctx: _Ctx, raw) -> BaseAdvance:
+    """The ``magnetic.advance`` table as a ``BaseAdvance``, every value checked."""
+    a = _Table(ctx, raw, "magnetic.advance", ADVANCE_KEYS)
+    return BaseAdvance(distance=a.get("distance", number("m", positive=True)),
+                       start=a.get("start", number("s", nonnegative=True), 0.0),
+                       ramp=a.get("ramp", number("s", positive=True), 1.0))
 
 
 def _currents(ctx: _Ctx, t: _Table, spec: ManipulatorSpec) -> tuple[np.ndarray, np.ndarray | None]:
