@@ -92,6 +92,8 @@ def run(args) -> int:
         raise bad("--duration", args.duration, "a playback length > 0 s")
     if not args.fps > 0:
         raise bad("--fps", args.fps, "a number of frames per second > 0")
+    if args.style == "fluoroscopy" and args.view == "3d":      # before any simulation
+        raise bad("--view", args.view, "a flat view (auto, xy, xz or yz) with --style fluoroscopy")
     if scenario is None:
         return _animate(args, args.data, out, size, Path(args.data).name)
     with tempfile.TemporaryDirectory(prefix="softrnn-animate-") as folder:
@@ -167,7 +169,7 @@ def _obstacles(args, data):
         return False
     attrs = dict(getattr(data, "attrs", None) or {})
     text = attrs.get("scenario_text")
-    if attrs.get("contact") is not None or not attrs.get("prediction") or not text or "[contact]" not in text:
+    if attrs.get("contact") is not None or not attrs.get("prediction") or not text or "contact" not in text:
         return True
     try:
         scenario = parse_scenario(text)

@@ -232,8 +232,8 @@ def _navigate(args) -> int:
     """softrnn magnetic navigate -o PATH: the steering demonstration, written as a dataset."""
     from ..errors import bad, positive
     from ..files import prepare_output
-    from ..magnetics.manipulator import BaseAdvance
-    from ..magnetics.navigation import navigate, navigation_spec, tip_branch
+    from ..magnetics.manipulator import BaseAdvance, currents_for_field
+    from ..magnetics.navigation import navigate, navigation_spec, steering_field, tip_branch
     from ..scenarios.magnetic import write_manipulator_dataset
 
     field = positive("--field", args.field, "mT") * 1e-3
@@ -244,22 +244,27 @@ def _navigate(args) -> int:
         if not (isinstance(args.advance, float) and 0.0 < args.advance <= 20.0):
             raise bad("--advance", args.advance, "an insertion in mm, > 0 and at most 20 (the branches are 25 mm long)")
         advance = BaseAdvance(distance=args.advance * 1e-3, start=0.25 * args.duration, ramp=0.5 * args.duration)
-    prepare_output(args.out, "-o", overwrite=args.overwrite)
     spec = navigation_spec(advance=advance)
+    per_mt = abs(currents_for_field(spec.coils, (0.0, 0.0, 0.0), steering_field(
+        spec.contact.obstacles[0], "left", 1e-3))).max()          # the currents are linear in the field
+    if args.branch != "none" and args.field * per_mt > spec.coils.current_limit:
+        raise bad("--field", args.field, f"at most {spec.coils.current_limit / per_mt:.4g} mT (the coils' "
+                                         f"{spec.coils.current_limit:g} A limit)")
+    prepare_output(args.out, "-o", overwrite=args.overwrite)
     half = 0.5 * args.duration
     with Bar("navigate", unit="sample", enabled=not args.quiet) as bar:
         traj = navigate(args.branch, spec=spec, field=field, ramp=half, hold=half, progress=bar)
     tip = traj.positions[-1, -1]
-    bif = spec.contact.obstacles[0]
+    ended = tip_branch(spec.contact.obstacles[0], tip)
     attrs = {"scenario_name": "magnetic-navigation", "branch": args.branch, "field_T": field,
              **({} if advance is None else {"advance_m": advance.distance}),
-             "tip_branch": tip_branch(bif, tip),
+             "tip_branch": ended,
              "description": "the magnetic manipulator steered at a bifurcation (softrnn magnetic navigate)"}
     write_manipulator_dataset(args.out, traj, spec, dt=float(traj.time[1] - traj.time[0]), attrs=attrs)
     print(f"wrote {args.out}: {traj.time.size} samples, t = 0 .. {traj.time[-1]:g} s, {traj.wall_time:.1f} s of "
           f"simulation")
     where = {"left": "in the left branch", "right": "in the right branch", "wall": "on a wall (outside both tubes)",
-             "trunk": "in the trunk or at the junction, inside both tubes"}[tip_branch(bif, tip)]
+             "trunk": "in the trunk or at the junction, inside both tubes"}[ended]
     currents = ", ".join(f"{i if abs(i) >= 5e-3 else 0.0:.2f}" for i in traj.currents[-1])
     inserted = "" if advance is None else f", base advanced {args.advance:g} mm"
     print(f"tip at [{tip[0] * 1e3:.2f}, {tip[1] * 1e3:.2f}, {tip[2] * 1e3:.2f}] mm, {where} (steered: {args.branch}"

@@ -49,6 +49,10 @@ class DelayedBar(Bar):
         super().__init__(desc, unit, enabled)
         self.after, self.start = after, None
 
+    def __enter__(self):
+        self.start = time.perf_counter()      # the work starts here, not at its first report
+        return self
+
     def __call__(self, done: int, total: int, info: dict | None = None) -> None:
         now = time.perf_counter()
         self.start = now if self.start is None else self.start

@@ -65,10 +65,10 @@ from .geometry import (
     tube_walls_2d,
     widen_to_aspect,
 )
+from .saving import FRAME_DPI as _DPI
 from .saving import atomic_output, new_figure
 
 DEFAULT_SIZE = (640, 560)  # pixels
-_DPI = 100
 _ROD, _NODE, _TRAIL, _FORCE, _GHOST = "#1f5fa8", "#d62728", "#ff9f1c", "#2ca02c", "0.72"
 _CONTACT, _OBSTACLE, _ALPHA = "#9467bd", "#8c564b", 0.22
 

@@ -27,12 +27,12 @@ from scipy.ndimage import binary_erosion, distance_transform_edt
 
 from ..errors import bad
 from .geometry import _PLANES, _nice, choose_view, widen_to_aspect
+from .saving import FRAME_DPI as _DPI
 from .saving import new_figure
 
 TIP_LENGTH = 0.03  # m: the radiopaque distal part of a guidewire
 MIN_WIRE_PIXELS = 1.6  # the rod's line is never thinner than this, whatever its true diameter
 DEFAULT_SEED = 20261127  # the background's noise
-_DPI = 100
 _FIELD = 0.66  # the background's grey in the middle of the field (0 black, 1 white)
 _CONTRAST = 0.5  # the share of the field's brightness the contrast takes at a lumen's centreline
 _WALL = 0.75  # the lumen's outline: its edge pixels this much darker

@@ -23,6 +23,10 @@ matplotlib.use("Agg")
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
+FRAME_DPI = 100
+"""Dots per inch of animation frames: a frame of W x H pixels is a W/DPI x H/DPI inch figure (both
+looks of ``softrnn animate``, and the ffmpeg writer)."""
+
 from ..files import umask_mode  # noqa: E402
 
 DPI = 110

@@ -204,7 +204,8 @@ def contact_from_record(record) -> Contact:
         cls, keys = _KINDS[kind]
         missing = [k for k in keys if k not in entry]
         if missing:
-            raise bad(f"contact.obstacles[{j}]", _short(entry), f"the {kind}'s {', '.join(keys)}")
+            raise bad(f"contact.obstacles[{j}]", _short(entry), f"the {kind}'s {', '.join(keys)} (missing: "
+                                                                 f"{', '.join(missing)})")
         obstacles.append(cls(*(entry[k] for k in keys), friction=entry.get("friction")))
     options = {k: record[k] for k in _CONTACT_KEYS if record.get(k) is not None}
     if "self_contact" in record:

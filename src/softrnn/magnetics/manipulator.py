@@ -662,6 +662,8 @@ def check_manipulator_run(spec: ManipulatorSpec, run: ManipulatorRun, extra_byte
     h = run.dt / substeps
     settle_steps = int(math.ceil(run.settle / h)) if run.settle > 0 else 0
     per_sample = 8 * (spec.coils.n_coils + 30 * len(spec.magnets))   # currents, p, R, B, G, W
+    if spec.contact is not None:                                       # the contact loads, 6 per node
+        per_sample += 8 * 6 * spec.n_nodes
     check_run_size(n_samples=run.n_samples, dt=run.dt, substeps=substeps, n_saved=spec.n_nodes,
                    held_samples=run.n_samples, extra_bytes=run.n_samples * per_sample + extra_bytes,
                    extra_steps=1 + settle_steps, streamable=False, auto_substeps=run.substeps is None)

@@ -201,7 +201,8 @@ def results_page(report: dict, run: dict, figures: Callable[[str], bool]) -> str
                        else f"`{m.group(2)}`", body)
     head = ["# Results", "",
             "Every figure on this page, and in the README's table of results, comes from one full run of "
-            "`softrnn reproduce`, committed in `docs/results/reference/` (`report.json`, `report.md` and "
+            "`softrnn reproduce` (its benchmark step run again, as the notes here say), committed in "
+            "`docs/results/reference/` (`report.json`, `report.md` and "
             f"the figures): {run_sentence(run)}. {run.get('notes', '')}".rstrip(), "",
             "Run `make reproduce` for your own machine's figures. Speeds depend on the machine; the accuracy "
             "figures are reproduced exactly on the same machine and software, and may differ in their last digits "

@@ -707,11 +707,11 @@ def _self_contact(row, record, r, v, gap_index, inputs, save_slot, work_f):
     node = inputs.contact_node
     n = len(r)
     for i in range(n - 1):
+        li = math.sqrt((r[i + 1, 0] - r[i, 0]) ** 2 + (r[i + 1, 1] - r[i, 1]) ** 2 + (r[i + 1, 2] - r[i, 2]) ** 2)
         for j in range(i + gap_index, n - 1):
             mx = 0.5 * (r[i, 0] + r[i + 1, 0] - r[j, 0] - r[j + 1, 0])
             my = 0.5 * (r[i, 1] + r[i + 1, 1] - r[j, 1] - r[j + 1, 1])
             mz = 0.5 * (r[i, 2] + r[i + 1, 2] - r[j, 2] - r[j + 1, 2])
-            li = math.sqrt((r[i + 1, 0] - r[i, 0]) ** 2 + (r[i + 1, 1] - r[i, 1]) ** 2 + (r[i + 1, 2] - r[i, 2]) ** 2)
             lj = math.sqrt((r[j + 1, 0] - r[j, 0]) ** 2 + (r[j + 1, 1] - r[j, 1]) ** 2 + (r[j + 1, 2] - r[j, 2]) ** 2)
             reach = 0.5 * (li + lj) + max(node[i, 0], node[i + 1, 0]) + max(node[j, 0], node[j + 1, 0])
             if mx * mx + my * my + mz * mz >= reach * reach or not (li > 0.0 and lj > 0.0):

@@ -19,6 +19,7 @@ from ..magnetics.manipulator import (
     ManipulatorRun,
     ManipulatorSpec,
     ManipulatorTrajectory,
+    check_manipulator_run,
     simulate_manipulator,
 )
 from ..magnetics.navigation import ramp_schedule, tip_branch
@@ -86,6 +87,11 @@ class MagneticScenario:
         safety, with this scenario's settling."""
         return ManipulatorRun(dt=config.dt, n_samples=config.n_samples, substeps=config.substeps,
                               safety=config.safety, settle=self.settle)
+
+    def check_size(self, config: RunConfig) -> None:
+        """Refuse a run of ``config`` too large for this machine (``check_manipulator_run``: the
+        manipulator holds every sample), with a one-line error."""
+        check_manipulator_run(self.spec, self.run(config))
 
 
 def simulate_magnetic(magnetic: MagneticScenario, config: RunConfig,

@@ -178,8 +178,12 @@ def check_sweep(scenario, count, *, n_workers=2, n_samples=None, dt=None) -> flo
 def _too_large(sim, scenario, n_samples, dt) -> str | None:
     """``check_run_size``'s refusal of one variant's run with these settings, or None where it fits
     (other errors of the run's settings are raised)."""
+    config = run_config(scenario.config, n_samples, dt)
     try:
-        sim.check_size(run_config(scenario.config, n_samples, dt), streamed=True)
+        if scenario.magnetic is None:
+            sim.check_size(config, streamed=True)
+        else:           # the manipulator holds every sample (check_manipulator_run)
+            scenario.magnetic.check_size(config)
     except SoftrnnInputError as err:
         if not str(err).startswith("the run "):
             raise

@@ -230,3 +230,12 @@ def conv_channels(history: int, reads: str = "all", loads: int = 6) -> list[int]
 def load_channels(history: int, loads: int = 6) -> slice:
     """Where the ``loads`` load channels sit among the features (the convolution skips them)."""
     return slice(6 * history, 6 * history + loads)
+
+
+def path_columns(prescribed, loads: int) -> tuple:
+    """((kept index m, first load column c), ...) of the prescribed nodes (a (M,) bool mask) among
+    ``loads`` load channels: each one's change of state over a step sits in channels c .. c + 5,
+    the last 6 P channels in node order (``Encoding.prescribed``)."""
+    nodes = [int(m) for m, flag in enumerate(prescribed) if flag]
+    first = int(loads) - 6 * len(nodes)
+    return tuple((m, first + 6 * j) for j, m in enumerate(nodes))

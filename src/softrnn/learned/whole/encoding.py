@@ -34,7 +34,7 @@ from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation
 
 from ...errors import SoftrnnInputError, bad
-from .config import resolve_stride
+from .config import path_columns, resolve_stride
 from .feedback import feedback_of, moving_clamps
 from .obstacles import ObstacleProjection, rod_radius
 
@@ -218,8 +218,7 @@ class Encoding:
     def prescribed_columns(self) -> tuple:
         """((kept index m, first load column c), ...) of the prescribed nodes: the node's change of
         state over a step sits in load channels c .. c + 5 (the last 6 P channels, in node order)."""
-        first = self.load_width - 6 * int(self.prescribed.sum())
-        return tuple((int(m), first + 6 * j) for j, m in enumerate(np.flatnonzero(self.prescribed)))
+        return path_columns(self.prescribed, self.load_width)
 
     @property
     def n_kept(self) -> int:

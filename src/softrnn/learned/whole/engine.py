@@ -15,7 +15,7 @@ from numpy.lib.stride_tricks import as_strided
 
 from ...errors import SimulationError, bad
 from .. import horizons
-from .config import conv_channels
+from .config import conv_channels, path_columns
 
 DIVERGED_M = horizons.DIVERGED_M
 """A state component beyond this (m or rad) ends a free run as diverged (the node models' limit,
@@ -114,10 +114,7 @@ class DynamicEngine:
                          (w["cell.bias_ih"] + w["cell.bias_hh"]).astype(dt))
         # features (M, C): state, H-1 velocities, load (L channels), constants; the convolution reads all but the load
         self.load_width = L = int(self.load_scale.shape[0])
-        P = int(self.prescribed.sum())
-        # (kept index, first load column) of each prescribed node's change over a step (Encoding.prescribed)
-        self.prescribed_columns = tuple((int(m), L - 6 * P + 6 * j)
-                                        for j, m in enumerate(np.flatnonzero(self.prescribed)))
+        self.prescribed_columns = path_columns(self.prescribed, L)   # where each one's path change sits
         C = 6 * H + L + self.node_features.shape[1]
         self._f = np.zeros((M, C), dtype=dt)
         self._f[:, 6 * H + L:] = self.node_features

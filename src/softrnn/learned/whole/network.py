@@ -41,7 +41,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from .config import DynamicConfig, conv_channels, n_channels
+from .config import DynamicConfig, conv_channels, n_channels, path_columns
 
 SCALE_KEYS = {"state_scale": "sx", "velocity_scale": "sv", "load_scale": "su", "dv_scale": "sa"}
 """The scale buffers of ``DynamicNet`` and their keys in its ``state_dict``, in a model folder's
@@ -98,8 +98,7 @@ class DynamicNet(nn.Module):
         L = int(self.load_scale.numel())              # load channels: 6, or with actuation inputs m or 6 + m
         C = n_channels(config.history, L)
         self.n_kept, self.n_in, self.load_width = M, C, L
-        P = int(presc.sum())
-        self.prescribed_columns = [(int(m), L - 6 * P + 6 * j) for j, m in enumerate(torch.nonzero(presc)[:, 0])]
+        self.prescribed_columns = path_columns(presc.tolist(), L)
         self.linear = nn.Linear(M * C, M * 6) if config.linear else None
         self.register_buffer("conv_cols", torch.as_tensor(conv_channels(config.history, config.conv_reads, L)),
                              persistent=False)
