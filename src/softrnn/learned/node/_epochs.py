@@ -17,8 +17,8 @@ import torch
 from ...errors import SoftrnnInputError
 from ...progress import Progress
 from ._checkpoint import Checkpoint
-from .data import Normalizer
 from .model import ModelConfig, NodeLSTM
+from .normalizer import Normalizer
 
 
 @contextmanager

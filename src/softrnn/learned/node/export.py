@@ -37,7 +37,7 @@ from ... import __version__
 from ...errors import SoftrnnInputError, bad
 from ...files import atomic_write_bytes
 from .artifact import NodeModel
-from .data import NODE_POSITION
+from .normalizer import NODE_POSITION
 
 FORMAT = "softrnn-node-model-export"
 """Value of the ``format`` metadata entry of an exported file."""

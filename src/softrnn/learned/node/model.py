@@ -24,7 +24,7 @@ import torch
 from torch import nn
 
 from ...errors import SoftrnnInputError, bad, integer, is_int
-from .data import OUTPUTS
+from .normalizer import OUTPUTS
 
 
 def _widths(name: str, value) -> tuple[int, ...]:

@@ -45,8 +45,9 @@ from ...progress import Progress
 from ._checkpoint import Checkpoint, epochs_left, finished_state, load_finished, nothing_left, training_settings
 from ._epochs import new_module, torch_settings, train_epochs
 from .artifact import NodeModel, check_replaceable, save_model
-from .data import Normalizer, SampleSpec, node_positions_sha256, wrench_units
+from .data import SampleSpec, node_positions_sha256, wrench_units
 from .model import ModelConfig
+from .normalizer import Normalizer
 from .training_data import (
     TrainingData,
     dataset_meta,
