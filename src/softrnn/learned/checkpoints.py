@@ -19,15 +19,20 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
+from .. import __version__
 from ..errors import bad
 from ..files import atomic_write_bytes, atomic_write_text, json_default, prepare_output
-from ..resume import REFUSE, Settings, check
+from ..resume import REFUSE, Difference, Settings, check
+from .artifacts import ModelFolderError
 
 CHECKPOINT = "checkpoint.pt"
 """A training's checkpoint in its model folder, there only while the training is unfinished."""
 
 SETTINGS = "checkpoint.json"
 """The settings a checkpoint was written with (``TrainingFolder``), beside it."""
+
+CHECKPOINT_VERSION = 1
+"""Layout version of a ``Checkpoint``'s file."""
 
 RESTART = "train with --overwrite to start again"
 """What to do about a checkpoint that cannot be resumed."""
@@ -116,3 +121,55 @@ class TrainingFolder:
         check(done, self.settings, otherwise=REFUSE, refuse=lambda why: bad(
             "resume", True, f"the settings of the finished model in {self.folder} ({why}); train with --overwrite "
                             "to replace it, or choose another folder"))
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """The checkpoint of a training run in model folder ``folder`` with ``settings`` stored inside it
+    (``Settings.to_json``; the node model's ``training_settings``): the module, optimiser, generator,
+    the loop's state and the best weights so far, written after every epoch."""
+
+    folder: Path
+    settings: Settings
+
+    @property
+    def path(self) -> Path:
+        """``<folder>/checkpoint.pt``."""
+        return self.folder / CHECKPOINT
+
+    def save(self, module, optimizer, generator, state: dict, best: dict) -> None:
+        """Write the checkpoint atomically: the module's and optimiser's state dicts, the
+        generator's state, the loop's ``state`` and the ``best`` weights so far."""
+        save_state(self.path, {"checkpoint_version": CHECKPOINT_VERSION, "softrnn_version": __version__,
+                               "settings": self.settings.to_json(), "module": module.state_dict(),
+                               "optimizer": optimizer.state_dict(), "generator": generator.get_state(),
+                               "state": state, "best": best})
+
+    def restore(self, module, optimizer, generator, state: dict) -> dict:
+        """Load the checkpoint into the given objects (``state`` updated in place); returns the
+        best weights so far. Raises ``ModelFolderError`` for a corrupt checkpoint or one written
+        with other settings."""
+        try:
+            ckpt = load_state(self.path)
+            if not isinstance(ckpt, dict) or ckpt.get("checkpoint_version") != CHECKPOINT_VERSION:
+                raise ValueError("not a softrnn training checkpoint of this version")
+        except Exception as err:  # noqa: BLE001 - torch raises many types for a corrupt file
+            raise self._corrupt(err) from None
+        check(ckpt.get("settings"), self.settings, otherwise=REFUSE, refuse=self._other_settings)
+        try:
+            module.load_state_dict(ckpt["module"])
+            optimizer.load_state_dict(ckpt["optimizer"])
+            generator.set_state(ckpt["generator"])
+            state.update(ckpt["state"])
+            best = ckpt["best"]
+        except (KeyError, RuntimeError, ValueError, TypeError) as err:
+            raise self._corrupt(err) from None
+        return best
+
+    def _other_settings(self, diff: Difference) -> ModelFolderError:
+        return ModelFolderError(f"{self.folder}: {CHECKPOINT} was written with other settings ({diff}); resume "
+                                f"with the same settings, or train without --resume to start again")
+
+    def _corrupt(self, err) -> ModelFolderError:
+        return ModelFolderError(f"{self.folder}: {CHECKPOINT} is corrupt ({' '.join(str(err).split())[:160]}); "
+                                f"delete it and train without --resume")

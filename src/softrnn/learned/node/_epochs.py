@@ -16,7 +16,7 @@ import torch
 
 from ...errors import SoftrnnInputError
 from ...progress import Progress
-from ._checkpoint import Checkpoint
+from ..checkpoints import Checkpoint
 from .model import ModelConfig, NodeLSTM
 from .normalizer import Normalizer
 

@@ -42,7 +42,8 @@ import numpy as np
 from ... import __version__
 from ...errors import bad, integer
 from ...progress import Progress
-from ._checkpoint import Checkpoint, epochs_left, finished_state, load_finished, nothing_left, training_settings
+from ..checkpoints import Checkpoint
+from ._checkpoint import epochs_left, finished_state, load_finished, nothing_left, training_settings
 from ._epochs import new_module, torch_settings, train_epochs
 from .artifact import NodeModel, check_replaceable, save_model
 from .data import SampleSpec, node_positions_sha256, wrench_units

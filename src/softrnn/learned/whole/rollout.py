@@ -8,6 +8,7 @@ import numpy as np
 from ...errors import bad
 from ...io.reader import Dataset
 from ...io.schema import POSITION_LIMIT_M
+from ..rollout import predicted_attrs, reference_columns
 from .evaluation import free_run
 
 
@@ -29,12 +30,11 @@ def rollout_dataset(model, dataset, start: int, stop: int | None = None, attrs: 
     inside = np.all(np.abs(positions) < POSITION_LIMIT_M, axis=(1, 2))
     n = int(np.argmin(inside)) if not inside.all() else len(states)
     rows = (start + np.arange(n)) * enc.stride(float(dataset.dt))
-    extra = {key: v for key, v in dataset.attrs.items() if key not in ("softrnn_version", "schema_version")}
-    extra.update(dt=enc.model_dt, prediction=True, rollout="dynamic", model_dt_s=enc.model_dt,
-                 start_time_s=float(traj.time[start]), **(attrs or {}))
+    extra = predicted_attrs(dataset.attrs, ("softrnn_version", "schema_version"), {
+        "dt": enc.model_dt, "prediction": True, "rollout": "dynamic", "model_dt_s": enc.model_dt,
+        "start_time_s": float(traj.time[start]), **(attrs or {})})
     ds = Dataset(time=traj.time[start:start + n], nodes=np.arange(enc.n_nodes), positions=positions[:n],
-                 quaternions=quaternions[:n], forces=dataset.forces[rows], torques=dataset.torques[rows], attrs=extra,
-                 actuation=dataset.actuation[rows], actuation_units=dataset.actuation_units)
+                 quaternions=quaternions[:n], attrs=extra, **reference_columns(dataset, rows))
     return ds, diverged
 
 
