@@ -144,41 +144,21 @@ def torch_threads(threads: int | None):
 def rollout(models, dataset, start: int | None = None, stop: int | None = None, *,
             unmodelled: str = "reference", threads: int | None = 1, progress: Progress | None = None,
             engine: bool = True) -> Rollout:
-    """Free-running prediction of samples ``start .. stop-1`` of ``dataset``.
+    """Free-running prediction of samples ``start .. stop-1`` of ``dataset`` by node models.
 
-    Parameters
-    ----------
-    models : Manipulator, NodeModel, or sequence of NodeModel
-        The node models (a bare model or list: each predicts its own ``spec.node``).
-    dataset : softrnn.io.Dataset
-        Reference: the seed history (rows ``start-H .. start-1``), the wrenches, the quaternions,
-        and the nodes without a model. It must store every modelled node and neighbour.
-    start, stop : int or None
-        Reference sample indices of the first predicted sample and one past the last (defaults:
-        ``H`` and ``T``, the whole record after the seed).
-    unmodelled : 'reference' or 'hold'
-        Nodes without a model follow the reference, or hold their last seed pose.
-    threads : int or None
-        Torch threads during a rollout through ``predict`` (``torch_threads``; None leaves the setting alone).
-    engine : bool
-        Run trained ``NodeModel`` s with the compiled inference engine (``softrnn.learned.node.engine``,
-        every step inside one call; equal to ``predict`` within float32 rounding); False, or models
-        that are not NodeModels, call ``predict`` once per distinct model and step.
-    progress : callable(done, total) or None
-        Called every 256 steps (every 4096 with the engine) and at the end.
+    ``models``: a ``Manipulator``, a ``NodeModel`` or a list of them (each predicts its ``spec.node``).
+    ``dataset`` gives the seed history (rows ``start-H .. start-1``), the wrenches, quaternions and the
+    unmodelled nodes, which follow it (``unmodelled="reference"``) or hold their last seed pose (``"hold"``).
+    ``start``, ``stop``: sample indices (defaults H and T). ``engine``: trained models run in the
+    compiled engine (``softrnn.learned.node.engine``), else ``predict`` per model and step
+    under ``threads`` torch threads. ``progress(done, total)`` every 256 steps (4096 with the engine);
+    the update scheme: the module docstring, docs/guide/models.md#the-whole-manipulator-paper-fig-2c.
 
     Returns
     -------
     Rollout
-        Rows ``start-H .. stop-1`` (H = ``manipulator.history``).
-
-    Raises
-    ------
-    SoftrnnInputError
-        A node or neighbour the data set lacks, a span outside the record or too short a record.
-    RolloutDiverged (a SimulationError)
-        A model predicted a non-finite position or one beyond ``DIVERGED_M`` (the message names
-        the node and the time).
+        Rows ``start-H .. stop-1`` (H = ``manipulator.history``); positions (T', N, 3) float32 [m].
+        A non-finite predicted position, or one beyond ``DIVERGED_M``, raises ``RolloutDiverged``.
     """
     manip = _as_manipulator(models)
     if unmodelled not in UNMODELLED:
