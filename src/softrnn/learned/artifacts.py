@@ -5,7 +5,8 @@ the whole-manipulator model's: ``softrnn.learned.whole.artifact``), written atom
 back with every file checked. What is wrong with one is a one-line ``ModelFolderError``:
 ``<folder>: <file> what is wrong; what to do``. This module holds what the two kinds share:
 the error, the checks of the folder itself, the format entry of its JSON header, reading and
-writing its JSON files, and telling its own files from foreign ones. The description an export
+writing its JSON files and the records in them (``from_fields``), and telling its own files from
+foreign ones. The description an export
 stores (``export_header``) starts with the same three entries for every kind.
 """
 
@@ -83,6 +84,17 @@ def check_format(folder: Path, name: str, doc, fmt: str, newest: int, *, what: s
         raise ModelFolderError(f"{folder}: {name} has format_version {version}, newer than this softrnn reads "
                                f"({newest}); upgrade softrnn")
     return doc
+
+
+def from_fields(cls, d, name: str, tuples=()):
+    """``cls(**d)`` of the dict ``d`` read from a model folder's JSON (the keys in ``tuples`` as tuples);
+    anything but a dict of ``cls``'s fields is a one-line error naming ``name``."""
+    if not isinstance(d, dict):
+        raise bad(name, type(d).__name__, f"a dict of {cls.__name__} fields")
+    try:
+        return cls(**{k: tuple(v) if k in tuples and v is not None else v for k, v in d.items()})
+    except TypeError as err:
+        raise bad(name, sorted(d), f"the {cls.__name__} fields ({err})") from None
 
 
 def foreign_files(folder, ours) -> list[str]:

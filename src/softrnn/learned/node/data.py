@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...errors import SoftrnnInputError, bad, is_int
+from ..artifacts import from_fields
 from .normalizer import NODE_POSITION, OUTPUTS, STD_RELATIVE_FLOOR, Normalizer  # noqa: F401 - re-exported
 
 INPUTS = ("positions", "poses")
@@ -239,16 +240,7 @@ class SampleSpec:
     @classmethod
     def from_dict(cls, d: dict) -> SampleSpec:
         """Inverse of ``to_dict``; unknown or missing keys raise SoftrnnInputError."""
-        if not isinstance(d, dict):
-            raise bad("spec", type(d).__name__, "a dict of SampleSpec fields")
-        try:
-            values = dict(d)
-            for key in ("neighbours", "channels"):
-                if values.get(key) is not None:
-                    values[key] = tuple(values[key])
-            return cls(**values)
-        except TypeError as err:
-            raise bad("spec", sorted(d), f"the SampleSpec fields ({err})") from None
+        return from_fields(cls, d, "spec", tuples=("neighbours", "channels"))
 
 
 def _node_text(nodes) -> str:

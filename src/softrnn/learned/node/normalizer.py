@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...errors import bad
+from ..artifacts import from_fields
 
 OUTPUTS = ("increment", "pose", "acceleration")
 
@@ -234,9 +235,4 @@ class Normalizer:
     @classmethod
     def from_dict(cls, d: dict) -> Normalizer:
         """Inverse of ``to_dict``; a malformed dict raises SoftrnnInputError."""
-        if not isinstance(d, dict):
-            raise bad("normalizer", type(d).__name__, "a dict of Normalizer fields")
-        try:
-            return cls(**d)
-        except TypeError as err:
-            raise bad("normalizer", sorted(d), f"the Normalizer fields ({err})") from None
+        return from_fields(cls, d, "normalizer")
