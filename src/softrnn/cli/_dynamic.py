@@ -213,10 +213,8 @@ def _on_path(encoding) -> str:
 
 def _driven(encoding) -> str:
     """', driven by actuation a, b' (and the wrenches) for a model with actuation inputs, else ''."""
-    if not encoding.channels:
-        return ""
-    return f", driven by actuation {', '.join(encoding.channels)}" + (" and the wrenches" if encoding.drive == "both"
-                                                                      else "")
+    both = " and the wrenches" if encoding.drive == "both" else ""
+    return f", driven by actuation {', '.join(encoding.channels)}{both}" if encoding.channels else ""
 
 
 def _train(args) -> int:
