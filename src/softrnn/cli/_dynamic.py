@@ -12,7 +12,6 @@ import numpy as np
 from ..errors import SimulationError, SoftrnnInputError, bad, require_extra
 from ..files import atomic_write_text, json_default, prepare_output
 from ..learned.spans import check_beyond_trained
-from ..resume import REFUSE, Settings, check
 from ._progress import Bar, stop_code
 from ._vocabulary import deprecate, deprecate_converted, output
 
@@ -20,15 +19,13 @@ NAME = "dynamic"
 HELP = ("the learned whole-manipulator model (beyond the paper): train it on data sets and sweeps, evaluate it "
         "free running at every node beside baselines, roll it out as a data set, export a step to ONNX")
 
-CHECKPOINT = "checkpoint.pt"
-SETTINGS = "checkpoint.json"
 _OPTIONS = {"model_dt": "--model-dt", "node_stride": "--node-stride", "history": "--history", "memory": "--memory",
             "width": "--width", "layers": "--layers", "steps": "--steps", "unroll": "--unroll", "noise": "--noise",
             "seed": "--seed", "heldout": "--heldout", "validation": "--validation",
             "train_fraction": "--train-fraction", "data": "DATA", "drive": "--drive", "envelope": "--envelope",
             "prior_tau": "--prior-tau", "ema": "--ema", "ridge": "--ridge", "load_ridge": "--load-ridge",
             "linear_lr": "--linear-lr", "conv_reads": "--conv-reads", "start_fraction": "--start-fraction",
-            "validate_on": "--validate-on"}
+            "validate_on": "--validate-on", "resume": "--resume", "start_time": "--start", "stop_time": "--stop"}
 """Library argument names -> the options that set them (for the one-line errors)."""
 
 
@@ -128,7 +125,7 @@ def _add_train(p):
                    help="PyTorch threads while training (default: PyTorch's own choice)")
     again = p.add_mutually_exclusive_group()
     again.add_argument("--resume", action="store_true",
-                       help=f"continue an interrupted training from MODEL_DIR/{CHECKPOINT} (same settings)")
+                       help="continue an interrupted training from MODEL_DIR/checkpoint.pt (same settings)")
     again.add_argument("--overwrite", action="store_true",
                        help="replace the model or unfinished training in MODEL_DIR (default: refuse)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -165,92 +162,16 @@ def _config(args):
     return DynamicConfig(**{k: (None if v is _OFF else v) for k, v in given.items()})
 
 
-def _check_step(split, config) -> None:
-    """Every input's saved interval must divide the model's step (checked before anything is written)."""
-    from ..io.reader import read_dataset
-    from ..learned.whole.config import resolve_stride
-
-    for part in split.train + split.validation:
-        head = read_dataset(part.path, group=None if part.group == "/" else part.group, stop=1)
-        resolve_stride(config.model_dt, float(head.dt))
-
-
-def _model_folder(args) -> Path:
-    """The checked -o folder: new, empty, or holding only a model or an unfinished training."""
-    from ..learned.whole.artifact import FILES
-
-    folder = prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite or args.resume,
-                            holds=("model.json", CHECKPOINT, SETTINGS),
-                            fix="pass --overwrite to replace it or --resume to continue it")
-    if folder.is_dir():
-        foreign = sorted(p.name for p in folder.iterdir()
-                         if not p.name.startswith(".") and p.name not in set(FILES) | {CHECKPOINT, SETTINGS})
-        if foreign:
-            raise bad("-o", str(folder), f"a new or empty folder, or one 'softrnn dynamic train' wrote, but it holds "
-                                         f"other files ({', '.join(foreign[:3])}); choose another folder")
-    return folder
-
-
-def _settings(config, split) -> Settings:
-    """What a checkpoint or a finished model must match to be resumed: the config and the data."""
-    return Settings.of({"config": config.to_dict(), "data": split.describe()}, keys=("config", "data"),
-                       opaque={"data": "the {name} data differ"})
-
-
-def _start_checkpoint(folder: Path, settings: Settings, resume: bool) -> None:
-    """Check a checkpoint to resume against ``settings`` and read it (a damaged or foreign file is
-    refused here, before any work); or, starting afresh, remove an old one. Either way ``SETTINGS``
-    records the settings beside the checkpoint."""
-    from ..learned.whole.training import read_checkpoint
-
-    ckpt, saved = folder / CHECKPOINT, folder / SETTINGS
-    if resume and ckpt.is_file():
-        try:
-            then = json.loads(saved.read_text())
-        except (OSError, ValueError):
-            raise bad("--resume", True, f"a checkpoint with its settings, but {saved} is missing or unreadable; "
-                                        "train with --overwrite to start again") from None
-        check(then, settings, otherwise=REFUSE, refuse=lambda why: bad(
-            "--resume", True, f"the settings of the checkpoint in {folder} ({why}); resume with the same settings, "
-                              "or train with --overwrite to start again"))
-        read_checkpoint(ckpt)
-        return
-    ckpt.unlink(missing_ok=True)
-    atomic_write_text(saved, json.dumps(settings.to_json(), indent=1, default=json_default) + "\n")
-
-
-def _discard(folder: Path, created: bool) -> None:
-    """After a failed start: remove the settings written for a checkpoint that never came, and the
-    folder if this run created it and it is empty again (no partial output)."""
-    if not (folder / CHECKPOINT).exists():
-        (folder / SETTINGS).unlink(missing_ok=True)
-        if created and folder.is_dir() and not any(folder.iterdir()):
-            folder.rmdir()
-
-
-def _interrupted(folder: Path, created: bool) -> None:
+def _interrupted(run) -> None:
     """Say what an interrupted training kept (its last checkpoint, or nothing)."""
     from ..learned.whole import training
 
-    _discard(folder, created)
-    if (folder / CHECKPOINT).is_file():
+    if run.kept():
         print(f"softrnn: interrupted; the training's last checkpoint (one every {training.CHECKPOINT_EVERY} steps) "
-              f"is kept in {folder}/{CHECKPOINT}; run the same command with --resume to continue", file=sys.stderr)
+              f"is kept in {run.checkpoint}; run the same command with --resume to continue", file=sys.stderr)
     else:
         print(f"softrnn: interrupted before the first checkpoint (after {training.CHECKPOINT_EVERY} steps); "
               "nothing was kept", file=sys.stderr)
-
-
-def _finished(folder: Path, settings: Settings):
-    """The finished model in ``folder`` (--resume after the end), if it was trained with ``settings``
-    (a one-line refusal otherwise)."""
-    from ..learned.whole.artifact import load_dynamic
-
-    model = load_dynamic(folder)
-    check({"config": model.config.to_dict(), "data": model.meta.get("data")}, settings, otherwise=REFUSE,
-          refuse=lambda why: bad("--resume", True, f"the settings of the finished model in {folder} ({why}); train "
-                                                   "with --overwrite to replace it, or choose another folder"))
-    return model
 
 
 def _train_summary(folder, config, encoding, info: dict, data: dict, head: str = "dynamic train:") -> str:
@@ -265,14 +186,9 @@ def _train_summary(folder, config, encoding, info: dict, data: dict, head: str =
             f"{'-' if loss is None else f'{loss:.4g}'}{selected}; model_dt {encoding.model_dt:g} s, "
             f"{encoding.n_predicted} of {encoding.n_nodes} nodes predicted"
             f"{_on_path(encoding)}{_driven(encoding)}; "
-            f"{n['train']} training trajectories{_whole(data)}, "
+            f"{n['train']} training trajectories{' (every sample trained on)' if data.get('validate_on') else ''}, "
             f"{n['validation']} for validation{_separate(data)}, {n['heldout']} held out (listed in "
             f"{folder}/model.json)")
-
-
-def _whole(data: dict) -> str:
-    """' (every sample trained on)' where separate validation recordings were given."""
-    return " (every sample trained on)" if data.get("validate_on") else ""
 
 
 def _separate(data: dict) -> str:
@@ -297,19 +213,17 @@ def _on_path(encoding) -> str:
 
 def _driven(encoding) -> str:
     """', driven by actuation a, b' (and the wrenches) for a model with actuation inputs, else ''."""
-    if not encoding.channels:
-        return ""
-    return f", driven by actuation {', '.join(encoding.channels)}" + (" and the wrenches" if encoding.drive == "both"
-                                                                      else "")
+    both = " and the wrenches" if encoding.drive == "both" else ""
+    return f", driven by actuation {', '.join(encoding.channels)}{both}" if encoding.channels else ""
 
 
 def _train(args) -> int:
     require_extra("learn")
     from ..learned.whole.artifact import save_dynamic
-    from ..learned.whole.data import split_inputs
-    from ..learned.whole.fit import fit
+    from ..learned.whole.data import check_step, split_inputs
+    from ..learned.whole.fit import fit, model_folder, prepare_training
 
-    folder = _model_folder(args)
+    folder = model_folder(args.out, overwrite=args.overwrite or args.resume)
     if args.threads is not None and args.threads < 1:
         raise bad("--threads", args.threads, "an integer >= 1")
     with _as_options():
@@ -320,24 +234,17 @@ def _train(args) -> int:
         split = split_inputs([Path(p).absolute() for p in args.data], heldout=args.heldout,
                              validation=args.validation, train_fraction=fraction,
                              validate_on=[Path(p).absolute() for p in args.validate_on])
-        _check_step(split, config)
-    settings = _settings(config, split)
-    if args.resume and (folder / "model.json").is_file() and not (folder / CHECKPOINT).is_file():
-        model = _finished(folder, settings)         # refuses other settings, --steps included
-        raise bad("--resume", True, f"a training with steps left, but {folder} holds a finished model that already "
-                                    f"ran its {model.config.steps} steps (a finished training is not continued); "
-                                    "train with --overwrite to start again, or choose another folder")
-    created = not folder.exists()
-    _start_checkpoint(folder, settings, args.resume)
+        check_step(split, config)
+        run = prepare_training(folder, config, split, resume=args.resume)
     with _StepBar("dynamic train", unit="step", enabled=not args.quiet) as bar, _as_options():
         try:
-            trained, meta = fit(split, config, progress=bar, checkpoint=folder / CHECKPOINT, threads=args.threads)
+            trained, meta = fit(split, config, progress=bar, checkpoint=run.checkpoint, threads=args.threads)
         except KeyboardInterrupt as err:
             bar.close()
-            _interrupted(folder, created)
+            _interrupted(run)
             return stop_code(err)
         except BaseException:
-            _discard(folder, created)
+            run.discard()
             raise
     save_dynamic(folder, trained, meta)
     print(_train_summary(folder, config, trained.encoding, trained.info, meta["data"]))
@@ -583,54 +490,20 @@ def _add_rollout(p):
     p.add_argument("--overwrite", action="store_true", help="replace the -o file if it exists (default: refuse)")
 
 
-def _window(time: np.ndarray, start_time, stop_time) -> None:
-    """Refuse, from DATA's time axis alone (before the model or the node arrays are read), a
-    ``--start`` or ``--stop`` that is not a time inside the data: a free run needs the data's loads."""
-    eps = 1e-9 * max(1.0, abs(float(time[-1])))
-    for option, value in (("--start", start_time), ("--stop", stop_time)):
-        if value is not None and not (np.isfinite(value) and time[0] - eps <= value <= time[-1] + eps):
-            raise bad(option, value, f"a time from the data's start ({time[0]:g} s) up to the data's end "
-                                     f"({time[-1]:g} s): the model runs free on the data's loads, not past them")
-
-
-def _steps(time: np.ndarray, history: int, start_time, stop_time) -> tuple[int, int]:
-    """Model steps: ``start`` (the last data state) and ``stop`` (exclusive) for the given times [s]
-    on the model's step times ``time``."""
-    n_steps, eps = len(time), 1e-9 * max(1.0, abs(float(time[-1])))
-    t = time
-    stop = n_steps if stop_time is None else int(np.searchsorted(t, stop_time + eps, side="right"))
-    if stop_time is not None and not stop_time <= t[-1] + eps:
-        raise bad("--stop", stop_time, f"a time up to the data's end ({t[-1]:g} s)")
-    start = int(round(0.6 * (n_steps - 1))) if start_time is None else \
-        int(np.searchsorted(t, start_time + eps, side="right")) - 1
-    first = history - 1
-    if start < first or start > n_steps - 2:
-        raise bad("--start", start_time, f"a time from {t[first]:g} s (the model reads {history} states) to "
-                                              f"{t[-2]:g} s (one model step before the end)")
-    if stop < start + 2:
-        raise bad("--stop", stop_time, f"a time after the start ({t[start]:g} s) by a model step "
-                                            f"({t[start + 1] - t[start]:g} s) or more")
-    return start, stop
-
-
 def _check_rollout_size(model, axis, k: int, start: int, stop: int, stop_time) -> None:
-    """Refuse, before DATA's node arrays are read, a rollout whose arrays would not fit this machine
-    (``rod.simulation.array_limit``): DATA read whole, its encoded trajectory, the free run from model
-    step ``start`` to ``stop`` and the data set written; ``axis``: DATA's time axis (``nodes=[]``)."""
+    """Refuse, before DATA's node arrays are read, a rollout whose arrays (``rollout_bytes``) would not
+    fit this machine (``rod.simulation.array_limit``); ``axis``: DATA's time axis (``nodes=[]``)."""
+    from ..learned.whole.rollout import rollout_bytes
     from ..rod import simulation
 
-    enc, T = model.encoding, axis.n_samples
-    N, M, span = enc.n_nodes, enc.n_kept, stop - start
-    data = T * (8 + 4 * (13 * N + axis.n_actuation) + 8 * 3 * N)      # float32 arrays, float64 forces copy
-    encoded = ((T - 1) // k + 1) * M * (6 + enc.load_width) * 8
-    run = (model.engine.history + span) * M * 6 * 8 + span * N * (7 * 8 + 13 * 4)
-    held, limit = data + encoded + run, simulation.array_limit()
+    (held, data), limit = rollout_bytes(model, axis, k, start, stop), simulation.array_limit()
     if held > limit:
         raise bad("--stop", stop_time, f"a shorter rollout: this one is too large for this machine, from "
-                                       f"{axis.time[start * k]:g} to {axis.time[(stop - 1) * k]:g} s ({span} model "
-                                       f"steps, {N} nodes) it would hold {held / 2**30:.3g} GiB of arrays in memory "
-                                       f"(limit {limit / 2**30:.3g} GiB, DATA itself {data / 2**30:.3g} GiB); stop "
-                                       "earlier, or give a shorter DATA file")
+                                       f"{axis.time[start * k]:g} to {axis.time[(stop - 1) * k]:g} s ({stop - start} "
+                                       f"model steps, {model.encoding.n_nodes} nodes) it would hold "
+                                       f"{held / 2**30:.3g} GiB of arrays in memory (limit {limit / 2**30:.3g} GiB, "
+                                       f"DATA itself {data / 2**30:.3g} GiB); stop earlier, or give a shorter "
+                                       "DATA file")
 
 
 def _rollout(args) -> int:
@@ -638,7 +511,7 @@ def _rollout(args) -> int:
     from ..io.writer import write_dataset
     from ..learned.whole.artifact import load_dynamic
     from ..learned.whole.encoding import check_compatible
-    from ..learned.whole.rollout import rollout_dataset
+    from ..learned.whole.rollout import check_window, rollout_dataset, rollout_steps
 
     if not str(args.output).endswith((".h5", ".hdf5")):
         raise bad("-o", args.output, "a file name ending in .h5 or .hdf5")
@@ -646,11 +519,13 @@ def _rollout(args) -> int:
         raise bad("-o", args.output, "another file than DATA")
     prepare_output(args.output, "-o", overwrite=args.overwrite)
     axis = read_dataset(args.data, group=args.group, nodes=[])       # the time axis, no node arrays
-    _window(axis.time, args.start_time, args.stop_time)
+    with _as_options():
+        check_window(axis.time, args.start_time, args.stop_time)
     model = load_dynamic(args.model)
     check_compatible(model.encoding, read_dataset(args.data, group=args.group, stop=1), "DATA")
     times, k = _step_times(model, axis)
-    start, stop = _steps(times, model.engine.history, args.start_time, args.stop_time)
+    with _as_options():
+        start, stop = rollout_steps(times, model.engine.history, args.start_time, args.stop_time)
     _check_rollout_size(model, axis, k, start, stop, args.stop_time)
     data = read_dataset(args.data, group=args.group)
     traj = model.encoding.trajectory(data)

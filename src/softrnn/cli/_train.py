@@ -121,14 +121,12 @@ class _LossBar(Bar):
 
 
 def run(args) -> int:
-    from ..files import prepare_output
     from ..io.reader import read_dataset
-    from ..learned.node.artifact import CHECKPOINT, check_replaceable
+    from ..learned.checkpoints import CHECKPOINT, output_folder
+    from ..learned.node.artifact import check_replaceable
     from ..learned.node.train import TrainConfig, train_node_model
 
-    prepare_output(args.out, "-o", kind="folder", overwrite=args.overwrite or args.resume,
-                   holds=("config.json", CHECKPOINT),
-                   fix="pass --overwrite to replace it or --resume to continue it")
+    output_folder(args.out, holds=("config.json", CHECKPOINT), overwrite=args.overwrite or args.resume)
     check_replaceable(args.out)   # a folder of other files is never replaced
     args.group = one_group(args.data, args.group, "--group")
     if args.validate_on is not None:

@@ -12,7 +12,12 @@ Shared by both kinds (NumPy only):
   ``one_step``, ``free_run``, ``horizon_errors``, ``standard_baselines``;
 * ``horizons``: ``HORIZONS``, ``WHOLE_HORIZONS``, ``free_steps``, ``DIVERGED_M``,
   ``RolloutDiverged``, ``spread_starts``, ``worst_by_horizon``, ``HorizonTable``;
-* ``spans``: ``check_span`` and the other checks of an evaluated span.
+* ``spans``: ``check_span`` and the other checks of an evaluated span;
+* ``artifacts``: model folders (``ModelFolderError``, their JSON files and format checks);
+* ``checkpoints``: the checkpoint lifecycle of every training (``output_folder``, ``Checkpoint``,
+  ``TrainingFolder``);
+* ``export``: the ONNX export core (``onnx_graph``, ``onnx_metadata``);
+* ``rollout``: a free run as a data set of the reference's format (``predicted_attrs``).
 
 Names are imported lazily.
 """

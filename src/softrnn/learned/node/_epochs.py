@@ -16,9 +16,9 @@ import torch
 
 from ...errors import SoftrnnInputError
 from ...progress import Progress
-from ._checkpoint import Checkpoint
-from .data import Normalizer
+from ..checkpoints import Checkpoint
 from .model import ModelConfig, NodeLSTM
+from .normalizer import Normalizer
 
 
 @contextmanager

@@ -12,8 +12,9 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from .data import Normalizer, SampleSpec, Windows
+from .data import SampleSpec, Windows
 from .model import ModelConfig, NodeLSTM
+from .normalizer import Normalizer
 
 
 # ------------------------------------------------------------------------------------------ one step

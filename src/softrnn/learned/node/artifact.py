@@ -26,9 +26,12 @@ import numpy as np
 import torch
 
 from ...errors import SoftrnnInputError, bad, one_line
-from ...files import atomic_folder, json_default
-from .data import Normalizer, SampleSpec
+from ...files import atomic_folder
+from ..artifacts import ModelFolderError, check_format, foreign_files, open_folder, read_json, write_json
+from ..checkpoints import CHECKPOINT
+from .data import SampleSpec
 from .model import ModelConfig, NodeLSTM
+from .normalizer import Normalizer
 
 FORMAT = "softrnn-node-model"
 """Value of ``format`` in config.json."""
@@ -37,14 +40,10 @@ FORMAT_VERSION = 1
 """Layout version of the folder; readers refuse newer ones."""
 
 FILES = ("weights.safetensors", "config.json", "normalizer.json", "meta.json")
-CHECKPOINT = "checkpoint.pt"
-"""The trainer's per-epoch checkpoint, present in the folder only while a training is unfinished."""
+"""The files of a model folder; ``CHECKPOINT`` (``softrnn.learned.checkpoints``) is there only while a
+training is unfinished. ``ModelFolderError`` is ``softrnn.learned.artifacts``'."""
 
 _OURS = set(FILES) | {CHECKPOINT}
-
-
-class ModelFolderError(SoftrnnInputError):
-    """A model folder that cannot be used; one line: ``<folder>: <file> what is wrong; what to do``."""
 
 
 @dataclass
@@ -118,14 +117,9 @@ def is_model_folder(folder) -> bool:
     folder = Path(folder)
     if not folder.exists():
         return True
-    if not folder.is_dir():
+    if not folder.is_dir() or foreign_files(folder, _OURS):
         return False
-    names = {p.name for p in folder.iterdir()}
-    if not names:
-        return True
-    if not names <= _OURS | {n for n in names if n.startswith(".")}:
-        return False
-    if "config.json" in names:
+    if (folder / "config.json").exists():
         try:
             return json.loads((folder / "config.json").read_text()).get("format") == FORMAT
         except (OSError, ValueError, AttributeError):
@@ -162,32 +156,14 @@ def save_model(folder, model: NodeModel) -> None:
                                                                      "format_version": str(FORMAT_VERSION)})
         config = {"format": FORMAT, "format_version": FORMAT_VERSION, "model": model.config.to_dict(),
                   "spec": model.spec.to_dict()}
-        _write_json(tmp / "config.json", config)
-        _write_json(tmp / "normalizer.json", model.normalizer.to_dict())
-        _write_json(tmp / "meta.json", model.meta)
+        write_json(tmp / "config.json", config)
+        write_json(tmp / "normalizer.json", model.normalizer.to_dict())
+        write_json(tmp / "meta.json", model.meta)
 
     atomic_folder(folder, write)
 
 
-def _write_json(path: Path, value) -> None:
-    try:
-        text = json.dumps(value, indent=2, allow_nan=False, default=json_default)
-    except (TypeError, ValueError) as err:
-        raise bad(path.stem, "...", f"JSON-serialisable values without NaN/inf ({one_line(err)})") from None
-    path.write_text(text + "\n")
-
-
 # ------------------------------------------------------------------------------------------ load
-def _read_json(folder: Path, name: str):
-    path = folder / name
-    if not path.is_file():
-        raise ModelFolderError(f"{folder}: {name} is missing; the model folder is incomplete, train the model again")
-    try:
-        return json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, ValueError) as err:
-        raise ModelFolderError(f"{folder}: {name} is corrupt ({one_line(err)}); train the model again") from None
-
-
 def load_model(folder) -> NodeModel:
     """Read and check a model folder written by ``save_model``.
 
@@ -196,29 +172,15 @@ def load_model(folder) -> NodeModel:
     ModelFolderError
         One line naming the folder and the missing, corrupt, foreign or inconsistent file.
     """
-    folder = Path(folder)
-    if not folder.exists():
-        raise ModelFolderError(f"{folder}: no such model folder; train one with 'softrnn train DATA.h5 --node N "
-                               f"-o {folder}'")
-    if not folder.is_dir():
-        raise ModelFolderError(f"{folder}: is a file, not a model folder (a folder written by 'softrnn train')")
+    folder = open_folder(folder, made_by="'softrnn train'", train=f"'softrnn train DATA.h5 --node N -o {folder}'")
     if not (folder / "config.json").exists() and (folder / CHECKPOINT).exists():
         raise ModelFolderError(f"{folder}: holds an unfinished training (config.json is missing, {CHECKPOINT} is "
                                f"there); finish it with 'softrnn train ... -o {folder} --resume'")
     if not (folder / "config.json").exists():
         raise ModelFolderError(f"{folder}: config.json is missing; this is not a softrnn model folder (one written "
                                f"by 'softrnn train')")
-    config = _read_json(folder, "config.json")
-    if not isinstance(config, dict) or config.get("format") != FORMAT:
-        found = config.get("format") if isinstance(config, dict) else type(config).__name__
-        raise ModelFolderError(f"{folder}: config.json is not a softrnn node model's (format={found!r}, expected "
-                               f"{FORMAT!r}); pass a folder written by 'softrnn train'")
-    version = config.get("format_version")
-    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
-        raise ModelFolderError(f"{folder}: config.json has format_version={version!r}; expected an integer >= 1")
-    if version > FORMAT_VERSION:
-        raise ModelFolderError(f"{folder}: config.json has format_version {version}, newer than this softrnn "
-                               f"reads ({FORMAT_VERSION}); upgrade softrnn")
+    config = check_format(folder, "config.json", read_json(folder, "config.json"), FORMAT, FORMAT_VERSION,
+                          what="node model", made_by="'softrnn train'")
     try:
         model_config = ModelConfig.from_dict(config.get("model"))
         spec = SampleSpec.from_dict(config.get("spec"))
@@ -233,7 +195,7 @@ def load_model(folder) -> NodeModel:
                                f"{model_config.pose_features}, {model_config.wrench_features}, "
                                f"{model_config.history}); train the model again")
     try:
-        normalizer = Normalizer.from_dict(_read_json(folder, "normalizer.json"))
+        normalizer = Normalizer.from_dict(read_json(folder, "normalizer.json"))
     except ModelFolderError:
         raise
     except SoftrnnInputError as err:
@@ -245,7 +207,7 @@ def load_model(folder) -> NodeModel:
     if have != want:
         raise ModelFolderError(f"{folder}: normalizer.json does not match config.json (P, W, output, relative, "
                                f"per node = {have} vs {want}); train the model again")
-    meta = _read_json(folder, "meta.json")
+    meta = read_json(folder, "meta.json")
     if not isinstance(meta, dict):
         raise ModelFolderError(f"{folder}: meta.json is invalid (a {type(meta).__name__}, expected an object); "
                                f"train the model again")

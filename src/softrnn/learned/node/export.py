@@ -33,11 +33,12 @@ import numpy as np
 import torch
 from torch import nn
 
-from ... import __version__
-from ...errors import SoftrnnInputError, bad
+from ...errors import bad
 from ...files import atomic_write_bytes
+from ..artifacts import export_header
+from ..export import DEFAULT_OPSET, check_opset, check_target, metadata_strings, onnx_graph, onnx_metadata  # noqa: F401
 from .artifact import NodeModel
-from .data import NODE_POSITION
+from .normalizer import NODE_POSITION
 
 FORMAT = "softrnn-node-model-export"
 """Value of the ``format`` metadata entry of an exported file."""
@@ -47,9 +48,6 @@ FORMAT_VERSION = 1
 
 INPUT_NAMES = ("poses", "wrenches")
 OUTPUT_NAME = "next_position"
-
-DEFAULT_OPSET = 17
-"""ONNX opset written by default (ONNX Runtime >= 1.14 reads it)."""
 
 OPSETS = range(11, 21)
 """Opsets the (TorchScript-based) ONNX exporter of torch writes for this graph."""
@@ -162,7 +160,7 @@ def describe(model: NodeModel) -> dict[str, str]:
         wrench_layout = (f"wrenches[b, k, :] = the actuation inputs {act} at step k" if spec.wrench == "none" else
                          wrench_layout + f", then the actuation inputs {act}")
     names = list(INPUT_NAMES[:2 if c.wrench_features else 1])
-    d = {"format": FORMAT, "format_version": FORMAT_VERSION, "softrnn_version": __version__,
+    d = {**export_header(FORMAT, FORMAT_VERSION),
          "node": spec.node, "neighbours": list(spec.neighbours), "window_nodes": list(spec.window_nodes),
          "history": c.history, "inputs": spec.inputs, "per_node": spec.per_node, "pose_features": c.pose_features,
          "wrench": spec.wrench, "wrench_features": c.wrench_features, "output": c.output, "relative": c.relative,
@@ -173,19 +171,10 @@ def describe(model: NodeModel) -> dict[str, str]:
          "pose_layout": pose_layout, "wrench_layout": wrench_layout,
          "output_layout": f"{OUTPUT_NAME}[b, :] = the node's x, y, z [m] at the step after window b",
          "precision": "float32 inputs, arithmetic and output (normalisation included)"}
-    return {k: v if isinstance(v, str) else json.dumps(v) for k, v in d.items()}
+    return metadata_strings(d)
 
 
 # ------------------------------------------------------------------------------------ export
-def _check_target(path) -> Path:
-    if not isinstance(path, (str, Path)) or not str(path):
-        raise bad("path", path, "a file path")
-    path = Path(path)
-    if path.is_dir():
-        raise bad("path", str(path), "a file path, not a folder")
-    return path
-
-
 def _example(model: NodeModel, batch: int) -> tuple[torch.Tensor, ...]:
     """Realistic example inputs (the normaliser's means) of batch ``batch``."""
     c, norm = model.config, model.normalizer
@@ -217,34 +206,19 @@ def export_onnx(model: NodeModel, path, *, opset: int | None = None, dynamic_bat
         ``path``. The graph's inputs are ``poses`` (B, H, P) and, for W > 0, ``wrenches`` (B, H, W),
         its output ``next_position`` (B, 3), all float32; ``metadata_props`` holds ``describe(model)``.
     """
-    import onnx  # optional extra: learn (ONNX)
-
     wrapped = PhysicalNodeModel(model)
-    path = _check_target(path)
-    if opset is None:
-        opset = DEFAULT_OPSET
-    if isinstance(opset, bool) or not isinstance(opset, (int, np.integer)) or int(opset) not in OPSETS:
-        raise bad("opset", opset, f"an ONNX opset from {OPSETS.start} to {OPSETS.stop - 1} (default {DEFAULT_OPSET})")
+    path = check_target(path)
+    opset = check_opset(opset, OPSETS)
     if not isinstance(dynamic_batch, (bool, np.bool_)):
         raise bad("dynamic_batch", dynamic_batch, "true or false")
     args = _example(model, 1)
     names = list(INPUT_NAMES[:len(args)])
     axes = {name: {0: "batch"} for name in names + [OUTPUT_NAME]} if dynamic_batch else None
-    buffer = io.BytesIO()
-    with warnings.catch_warnings(), torch.no_grad():
-        # the TorchScript-based exporter is deprecated in favour of the dynamo one, which needs
-        # onnxscript; it warns about LSTM batch sizes, which the graph handles (initial states are zeros)
-        warnings.simplefilter("ignore")
-        torch.onnx.export(wrapped, args, buffer, dynamo=False, input_names=names, output_names=[OUTPUT_NAME],
-                          dynamic_axes=axes, opset_version=int(opset), do_constant_folding=True)
-    proto = onnx.load_from_string(buffer.getvalue())
-    for key, value in describe(model).items():
-        entry = proto.metadata_props.add()
-        entry.key, entry.value = key, value
-    proto.doc_string = (f"softrnn node model: node {model.spec.node}'s next position [m] from its window of "
-                        f"{model.config.history} steps (metadata_props describe the inputs)")
-    onnx.checker.check_model(proto)
-    atomic_write_bytes(path, proto.SerializeToString())
+    doc = (f"softrnn node model: node {model.spec.node}'s next position [m] from its window of "
+           f"{model.config.history} steps (metadata_props describe the inputs)")
+    data = onnx_graph(wrapped, args, input_names=names, output_names=[OUTPUT_NAME], opset=opset,
+                      metadata=describe(model), doc=doc, dynamic_axes=axes)
+    atomic_write_bytes(path, data)
     return path
 
 
@@ -256,7 +230,7 @@ def export_torchscript(model: NodeModel, path) -> Path:
     the extra file ``softrnn.json`` (``torch.jit.load(path, _extra_files={"softrnn.json": ""})``).
     """
     wrapped = PhysicalNodeModel(model)
-    path = _check_target(path)
+    path = check_target(path)
     buffer = io.BytesIO()
     with warnings.catch_warnings(), torch.no_grad():
         # tracer notes on the LSTM (the traced graph is batch-generic) and torch 2.13's deprecation
@@ -266,18 +240,3 @@ def export_torchscript(model: NodeModel, path) -> Path:
         torch.jit.save(traced, buffer, _extra_files={TORCHSCRIPT_EXTRA_FILE: json.dumps(describe(model))})
     atomic_write_bytes(path, buffer.getvalue())
     return path
-
-
-def onnx_metadata(path) -> dict[str, str]:
-    """The ``metadata_props`` of an ONNX file as a dict (strings; JSON values for lists and objects)."""
-    import onnx  # optional extra: learn (ONNX)
-
-    path = Path(path)
-    if not path.is_file():
-        raise bad("path", str(path), "an existing ONNX file")
-    try:
-        proto = onnx.load(str(path), load_external_data=False)
-    except Exception as err:  # noqa: BLE001 - protobuf raises several types for a foreign file
-        raise SoftrnnInputError(f"path={str(path)!r} is invalid: expected an ONNX file "
-                                f"({' '.join(str(err).split())[:200]})") from None
-    return {p.key: p.value for p in proto.metadata_props}

@@ -24,7 +24,8 @@ import torch
 from torch import nn
 
 from ...errors import SoftrnnInputError, bad, integer, is_int
-from .data import OUTPUTS
+from ..artifacts import from_fields
+from .normalizer import OUTPUTS
 
 
 def _widths(name: str, value) -> tuple[int, ...]:
@@ -110,12 +111,7 @@ class ModelConfig:
     @classmethod
     def from_dict(cls, d: dict) -> ModelConfig:
         """Inverse of ``to_dict``; unknown or missing keys raise SoftrnnInputError."""
-        if not isinstance(d, dict):
-            raise bad("model", type(d).__name__, "a dict of ModelConfig fields")
-        try:
-            return cls(**d)
-        except TypeError as err:
-            raise SoftrnnInputError(f"model={sorted(d)} is invalid: expected the ModelConfig fields ({err})") from None
+        return from_fields(cls, d, "model")
 
 
 def _dense(widths: tuple[int, ...], n_in: int) -> tuple[nn.Sequential, int]:

@@ -49,6 +49,7 @@ from ...io.writer import write_trajectory
 from ...progress import Progress
 from .. import spans
 from ..horizons import DIVERGED_M
+from ..rollout import predicted_attrs, reference_columns
 from .engine import engine_rollout, group_by_architecture
 from .manipulator import (
     UNMODELLED,
@@ -143,41 +144,21 @@ def torch_threads(threads: int | None):
 def rollout(models, dataset, start: int | None = None, stop: int | None = None, *,
             unmodelled: str = "reference", threads: int | None = 1, progress: Progress | None = None,
             engine: bool = True) -> Rollout:
-    """Free-running prediction of samples ``start .. stop-1`` of ``dataset``.
+    """Free-running prediction of samples ``start .. stop-1`` of ``dataset`` by node models.
 
-    Parameters
-    ----------
-    models : Manipulator, NodeModel, or sequence of NodeModel
-        The node models (a bare model or list: each predicts its own ``spec.node``).
-    dataset : softrnn.io.Dataset
-        Reference: the seed history (rows ``start-H .. start-1``), the wrenches, the quaternions,
-        and the nodes without a model. It must store every modelled node and neighbour.
-    start, stop : int or None
-        Reference sample indices of the first predicted sample and one past the last (defaults:
-        ``H`` and ``T``, the whole record after the seed).
-    unmodelled : 'reference' or 'hold'
-        Nodes without a model follow the reference, or hold their last seed pose.
-    threads : int or None
-        Torch threads during a rollout through ``predict`` (``torch_threads``; None leaves the setting alone).
-    engine : bool
-        Run trained ``NodeModel`` s with the compiled inference engine (``softrnn.learned.node.engine``,
-        every step inside one call; equal to ``predict`` within float32 rounding); False, or models
-        that are not NodeModels, call ``predict`` once per distinct model and step.
-    progress : callable(done, total) or None
-        Called every 256 steps (every 4096 with the engine) and at the end.
+    ``models``: a ``Manipulator``, a ``NodeModel`` or a list of them (each predicts its ``spec.node``).
+    ``dataset`` gives the seed history (rows ``start-H .. start-1``), the wrenches, quaternions and the
+    unmodelled nodes, which follow it (``unmodelled="reference"``) or hold their last seed pose (``"hold"``).
+    ``start``, ``stop``: sample indices (defaults H and T). ``engine``: trained models run in the
+    compiled engine (``softrnn.learned.node.engine``), else ``predict`` per model and step
+    under ``threads`` torch threads. ``progress(done, total)`` every 256 steps (4096 with the engine);
+    the update scheme: the module docstring, docs/guide/models.md#the-whole-manipulator-paper-fig-2c.
 
     Returns
     -------
     Rollout
-        Rows ``start-H .. stop-1`` (H = ``manipulator.history``).
-
-    Raises
-    ------
-    SoftrnnInputError
-        A node or neighbour the data set lacks, a span outside the record or too short a record.
-    RolloutDiverged (a SimulationError)
-        A model predicted a non-finite position or one beyond ``DIVERGED_M`` (the message names
-        the node and the time).
+        Rows ``start-H .. stop-1`` (H = ``manipulator.history``); positions (T', N, 3) float32 [m].
+        A non-finite predicted position, or one beyond ``DIVERGED_M``, raises ``RolloutDiverged``.
     """
     manip = _as_manipulator(models)
     if unmodelled not in UNMODELLED:
@@ -261,6 +242,10 @@ def _predict_group(g, state, quats, forces, torques, k: int, time, first: int, a
 
 
 # --------------------------------------------------------------------------------------- output
+_COPIED = ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version")
+"""The reference's attributes a node rollout's data set keeps as they are (the writer's own arguments)."""
+
+
 def rollout_dataset(result: Rollout, reference, *, models: list[str] | None = None, source: str = ""):
     """The rollout as a ``Dataset`` (same nodes and times as the reference's rows ``first .. stop-1``):
     positions predicted, quaternions, forces, torques and actuation copied from the reference. Its attrs mark
@@ -268,9 +253,8 @@ def rollout_dataset(result: Rollout, reference, *, models: list[str] | None = No
     ``predicted_from_s``, ``unmodelled``, ``orientations``, ``reference``), keep the reference's
     extra metadata and append ' (predicted)' to its ``scenario_name``."""
     sl = slice(result.first, result.stop)
-    keep = {k: v for k, v in reference.attrs.items() if k not in RESERVED_ATTRS and k != "schema_version"}
-    name = keep.get("scenario_name") or "data"
-    keep.update({
+    name = reference.attrs.get("scenario_name") or "data"
+    keep = predicted_attrs(reference.attrs, RESERVED_ATTRS, {
         "scenario_name": f"{name} (predicted)",
         "prediction": True,
         "models": list(models or []),
@@ -282,25 +266,20 @@ def rollout_dataset(result: Rollout, reference, *, models: list[str] | None = No
         "orientations": "copied from the reference (the models predict positions only)",
         "reference": str(source),
     })
-    act = getattr(reference, "actuation", None)
     if "node_of_interest" not in keep or int(keep.get("node_of_interest", -1)) not in result.modelled:
         keep["node_of_interest"] = int(result.modelled[0])
-    for key in ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version"):
+    for key in _COPIED:
         if key in reference.attrs:
             keep[key] = reference.attrs[key]
     return Dataset(time=result.time, nodes=result.nodes, positions=result.positions,
-                   quaternions=reference.quaternions[sl], forces=reference.forces[sl],
-                   torques=reference.torques[sl], attrs=keep,
-                   actuation=act if act is None else act[sl],
-                   actuation_units=getattr(reference, "actuation_units", None))
+                   quaternions=reference.quaternions[sl], attrs=keep, **reference_columns(reference, sl))
 
 
 def write_rollout(path, result: Rollout, reference, *, models: list[str] | None = None, source: str = "") -> Path:
     """Write the rollout to ``path`` in the data set format (atomically; see ``rollout_dataset``),
     so ``softrnn animate`` and ``softrnn plot`` show it like the reference."""
     ds = rollout_dataset(result, reference, models=models, source=source)
-    extra = {k: v for k, v in ds.attrs.items()
-             if k not in ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version")}
+    extra = {k: v for k, v in ds.attrs.items() if k not in _COPIED}
     seed = reference.attrs.get("seed")
     write_trajectory(path, ds, dt=reference.dt, rod=reference.attrs.get("rod"),
                      scenario_text=reference.attrs.get("scenario_text", "") or "",

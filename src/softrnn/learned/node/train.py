@@ -42,11 +42,13 @@ import numpy as np
 from ... import __version__
 from ...errors import bad, integer
 from ...progress import Progress
-from ._checkpoint import Checkpoint, epochs_left, finished_state, load_finished, nothing_left, training_settings
+from ..checkpoints import Checkpoint
+from ._checkpoint import epochs_left, finished_state, load_finished, nothing_left, training_settings
 from ._epochs import new_module, torch_settings, train_epochs
 from .artifact import NodeModel, check_replaceable, save_model
-from .data import Normalizer, SampleSpec, node_positions_sha256, wrench_units
+from .data import SampleSpec, node_positions_sha256, wrench_units
 from .model import ModelConfig
+from .normalizer import Normalizer
 from .training_data import (
     TrainingData,
     dataset_meta,
@@ -132,44 +134,17 @@ def train_node_model(dataset_path, spec: SampleSpec, model_config_overrides: dic
                      out_folder, *, resume: bool = False, progress: Progress | None = None, pool=None,
                      validation=None, validation_group: str | None = None, group: str | None = None,
                      refuse_done: bool = False) -> NodeModel:
-    """Train one node's model and save it to ``out_folder``.
+    """Train one node's model on ``dataset_path`` (a file, its sweep ``group``, or a ``Dataset``) and save it.
 
-    Parameters
-    ----------
-    dataset_path : str, Path or softrnn.io.Dataset
-        The trajectory (only the window nodes' columns are read); of a sweep file, its ``group``.
-    spec : SampleSpec
-        The node, neighbours, history, inputs, wrench and train fraction (resolved here).
-    model_config_overrides : dict or None
-        ``ModelConfig`` fields other than those the spec sets, e.g. ``{"lstm_units": 64}``.
-    train : TrainConfig
-        The training settings.
-    out_folder : str or Path
-        The model folder (new, empty, or an earlier model / unfinished training, which is replaced).
-    resume : bool
-        Continue from ``out_folder/checkpoint.pt`` if present (the settings must match, except
-        epochs, patience and threads); a finished model there is trained on (``_finished``).
-    refuse_done : bool
-        With ``resume``, refuse a finished model with nothing left to train instead of returning it.
-    pool : sequence of int or None
-        Beyond the paper: train one model shared by these nodes (their windows pooled, the spec's
-        neighbours taken at the same offsets from each; ``Manipulator.of(shared=model,
-        shared_nodes=pool)`` applies it). Use ``relative=True`` inputs (``model_config_overrides``)
-        so the model does not depend on where a node is; the normaliser is fitted on the pooled
-        windows. The model's ``spec.node`` stays the spec's node (it is evaluated there).
-    progress : callable or None
-        ``progress(done, total, info)`` after every batch (batches over all epochs); ``info`` holds
-        ``epoch``, ``epochs``, ``loss`` (this epoch's running mean) and, after the first epoch,
-        ``validation_loss`` and ``best_validation_loss``.
-    validation : str, Path, softrnn.io.Dataset or None
-        A separate validation recording (another session of the same robot: the same nodes,
-        units, sample interval and actuation channels; a one-line ``validate_on=...`` error
-        otherwise). Every sample of ``dataset_path`` is then a training sample (no test span, the
-        spec's ``train_fraction`` and the config's ``validation_fraction`` are not used) and the
-        whole of ``validation`` is the validation span of early stopping. The model's meta.json
-        records both files (``training_data``). None: the chronological split of one record.
-    validation_group, group : str or None
-        The trajectory's group in a sweep file given as ``validation`` / ``dataset_path``.
+    ``spec`` (resolved here) sets the node, neighbours, history, inputs, wrench and train fraction;
+    ``model_config_overrides`` other ``ModelConfig`` fields (``{"lstm_units": 64}``); ``train`` the
+    ``TrainConfig``. ``out_folder`` is new, empty, or an earlier model or unfinished training (replaced).
+    ``resume`` continues from its ``checkpoint.pt`` (same settings but epochs, patience, threads) or
+    trains a finished model on; ``refuse_done`` then refuses one with nothing left to train. ``pool``:
+    one model shared by these nodes (windows pooled; use ``relative=True``). ``validation`` (and
+    ``validation_group``): a separate validation recording, the whole training record then being
+    trained on. ``progress(done, total, info)`` after every batch (``info``: epoch, epochs, loss, and
+    the validation losses). The spans, pooling and resume rules: docs/guide/models.md#training.
 
     Returns
     -------

@@ -16,7 +16,6 @@ Loading needs NumPy, numba and safetensors only (no PyTorch): ``load_dynamic(fol
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -24,7 +23,8 @@ import numpy as np
 
 from ... import __version__
 from ...errors import SoftrnnInputError, one_line
-from ...files import atomic_folder, json_default
+from ...files import atomic_folder
+from ..artifacts import ModelFolderError, check_format, open_folder, read_json, write_json
 from .config import DynamicConfig, linear_config
 from .encoding import Encoding
 from .engine import DynamicEngine
@@ -33,9 +33,9 @@ FORMAT = "softrnn-dynamic-model"
 FORMAT_VERSION = 1
 FILES = ("weights.safetensors", "linear.safetensors", "model.json")
 
-
-class DynamicFolderError(SoftrnnInputError):
-    """A model folder that cannot be used; one line naming the folder, the file and what to do."""
+DynamicFolderError = ModelFolderError
+"""A model folder that cannot be used (``softrnn.learned.artifacts.ModelFolderError``, under its former name)."""
+_MADE_BY = "'softrnn dynamic train'"
 
 
 @dataclass(eq=False)
@@ -90,12 +90,11 @@ def save_dynamic(folder, trained, meta: dict | None = None) -> None:
     doc = {"format": FORMAT, "format_version": FORMAT_VERSION, "softrnn_version": __version__,
            "config": trained.config.to_dict(), "encoding": encoding_to_dict(trained.encoding),
            "meta": {"training": trained.info, **(meta or {})}}
-    text = json.dumps(doc, indent=1, allow_nan=False, default=json_default) + "\n"
 
     def write(tmp: Path) -> None:
+        write_json(tmp / "model.json", doc, indent=1)
         save_file(state, str(tmp / "weights.safetensors"), metadata={"format": FORMAT})
         save_file(linear, str(tmp / "linear.safetensors"), metadata={"format": FORMAT})
-        (tmp / "model.json").write_text(text)
 
     atomic_folder(folder, write)
 
@@ -109,32 +108,12 @@ def is_dynamic_folder(folder) -> bool:
 def load_dynamic(folder) -> LoadedDynamic:
     """Read a model folder written by ``save_dynamic``; a missing, corrupt or foreign file is a
     one-line ``DynamicFolderError``."""
-    folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
-        raise DynamicFolderError(f"{folder}: is a file, not a model folder; give a folder written by "
-                                 "'softrnn dynamic train'")
-    if not folder.is_dir():
-        raise DynamicFolderError(f"{folder}: no such model folder; give a folder written by "
-                                 "'softrnn dynamic train'")
-    path = folder / "model.json"
-    if not path.is_file():
+    folder = open_folder(folder, made_by=_MADE_BY, train=f"'softrnn dynamic train DATA ... -o {folder}'")
+    if not (folder / "model.json").is_file():
         raise DynamicFolderError(f"{folder}: model.json is missing; this is not a whole-manipulator model "
-                                 "folder (train one with 'softrnn dynamic train')")
-    try:
-        doc = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise DynamicFolderError(f"{folder}: model.json is unreadable ({one_line(err)[:120]}); "
-                                 "train the model again") from None
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise DynamicFolderError(f"{folder}: model.json is not a {FORMAT} file; give a folder written by "
-                                 "'softrnn dynamic train'")
-    version = doc.get("format_version", 0)
-    if not isinstance(version, int) or isinstance(version, bool):
-        raise DynamicFolderError(f"{folder}: model.json has format_version={version!r}; expected an integer, "
-                                 "train the model again")
-    if version > FORMAT_VERSION:
-        raise DynamicFolderError(f"{folder}: format version {doc.get('format_version')} is newer than this "
-                                 f"softrnn reads ({FORMAT_VERSION}); upgrade softrnn")
+                                 f"folder (train one with {_MADE_BY})")
+    doc = check_format(folder, "model.json", read_json(folder, "model.json"), FORMAT, FORMAT_VERSION,
+                       what="whole-manipulator model", made_by=_MADE_BY, unversioned=True)
     from safetensors.numpy import load_file  # optional extra: learn (safetensors)
 
     for name in FILES[:2]:

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from ...errors import bad, integer
 from ...io.reader import list_groups, read_dataset, read_node
+from .config import resolve_stride
 
 
 @dataclass(frozen=True)
@@ -141,6 +142,14 @@ def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction
             raise bad("validate_on", part.path, "a recording that is not also training, validation or held-out "
                                                 "data (DATA); validate on a separate session")
     return Split(train=train, heldout=held, validation=val + given, validate_on=given)
+
+
+def check_step(split: Split, config) -> None:
+    """Refuse a ``DynamicConfig`` whose ``model_dt`` is not a whole multiple of every input's saved
+    interval (checked on one sample of each, before any work)."""
+    for part in split.train + split.validation:
+        head = read_dataset(part.path, group=None if part.group == "/" else part.group, stop=1)
+        resolve_stride(config.model_dt, float(head.dt))
 
 
 def rod_length(dataset) -> float:

@@ -22,9 +22,7 @@ before anything is written, and writes both files atomically.
 
 from __future__ import annotations
 
-import io
 import json
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,9 +30,10 @@ import numpy as np
 import torch
 from torch import nn
 
-from ... import __version__
 from ...errors import SimulationError, bad
 from ...files import atomic_write_bytes, atomic_write_text, json_default
+from ..artifacts import export_header
+from ..export import DEFAULT_OPSET, check_opset, check_target, onnx_graph
 from .artifact import LoadedDynamic, encoding_to_dict
 from .encoding import lumping_matrix
 from .network import SCALE_KEYS, DynamicNet
@@ -45,14 +44,14 @@ FORMAT = "softrnn-dynamic-model-export"
 FORMAT_VERSION = 1
 """Layout version of the exported inputs, outputs and sidecar."""
 
-DEFAULT_OPSET = 17
-"""ONNX opset written (ONNX Runtime >= 1.14 reads it)."""
-
 TOLERANCE = 1e-5
 """Largest difference [m or rad] between the ONNX graph (float32) and the NumPy engine (float64) on
 the check's random input; a larger one refuses the export."""
 
 SIDECAR_SUFFIX = ".json"
+
+OPSETS = range(17, 21)
+"""Opsets this graph is exported to."""
 
 
 @dataclass(frozen=True)
@@ -175,8 +174,7 @@ def describe(model: LoadedDynamic) -> dict:
         inputs.update(memory_h=[1, M, W], memory_c=[1, M, W])
         outputs.update(memory_h_out=[1, M, W], memory_c_out=[1, M, W])
     return {
-        "format": FORMAT, "format_version": FORMAT_VERSION, "softrnn_version": __version__,
-        "config": c.to_dict(), "encoding": encoding_to_dict(enc),
+        **export_header(FORMAT, FORMAT_VERSION), "config": c.to_dict(), "encoding": encoding_to_dict(enc),
         "lumping": lumping_matrix(enc.n_nodes, enc.kept).tolist(),
         "inputs": inputs, "outputs": outputs,
         "units": {"state": "m (columns 0-2), rad (columns 3-5)", "loads": _load_units(enc),
@@ -219,29 +217,17 @@ _LAYOUT = {
 
 def _graph(model: LoadedDynamic, opset: int) -> bytes:
     """The ONNX model of one step (bytes) with ``describe``'s scalars as metadata."""
-    import onnx  # optional extra: learn (ONNX)
-
     wrapped = OnnxStep(step_net(model))
     example = tuple(torch.from_numpy(v) for v in random_inputs(model).values())
-    buffer = io.BytesIO()
-    with warnings.catch_warnings(), torch.no_grad():
-        # the TorchScript-based exporter is deprecated in favour of the dynamo one (needs onnxscript)
-        warnings.simplefilter("ignore")
-        torch.onnx.export(wrapped, example, buffer, dynamo=False, input_names=input_names(model),
-                          output_names=output_names(model), opset_version=int(opset), do_constant_folding=True)
-    proto = onnx.load_from_string(buffer.getvalue())
     d = describe(model)
-    meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "softrnn_version": __version__,
+    meta = {**export_header(FORMAT, FORMAT_VERSION),
             "history": model.config.history, "kept": d["encoding"]["kept"], "n_nodes": model.encoding.n_nodes,
             "model_dt": model.encoding.model_dt, "memory": model.config.memory, "inputs": d["inputs"],
             "outputs": d["outputs"], "sidecar": "the file's name + '.json' holds the encoding and the layouts"}
-    for key, value in meta.items():
-        entry = proto.metadata_props.add()
-        entry.key, entry.value = key, value if isinstance(value, str) else json.dumps(value)
-    proto.doc_string = (f"softrnn whole-manipulator model: one step of {model.encoding.model_dt:g} s on "
-                        f"{model.encoding.n_kept} kept nodes (metadata_props and the .json sidecar describe it)")
-    onnx.checker.check_model(proto)
-    return proto.SerializeToString()
+    doc = (f"softrnn whole-manipulator model: one step of {model.encoding.model_dt:g} s on "
+           f"{model.encoding.n_kept} kept nodes (metadata_props and the .json sidecar describe it)")
+    return onnx_graph(wrapped, example, input_names=input_names(model), output_names=output_names(model),
+                      opset=opset, metadata=meta, doc=doc)
 
 
 def export_onnx(model: LoadedDynamic, path, *, opset: int = DEFAULT_OPSET, seed: int = 0) -> Exported:
@@ -264,12 +250,9 @@ def export_onnx(model: LoadedDynamic, path, *, opset: int = DEFAULT_OPSET, seed:
         The paths and the check's largest difference. Raises ``SimulationError`` (nothing written)
         when the difference exceeds ``TOLERANCE``.
     """
-    if isinstance(opset, bool) or not isinstance(opset, (int, np.integer)) or not 17 <= int(opset) <= 20:
-        raise bad("opset", opset, f"an ONNX opset from 17 to 20 (default {DEFAULT_OPSET})")
-    path = Path(path)
-    if path.is_dir():
-        raise bad("path", str(path), "a file path, not a folder")
-    data = _graph(model, int(opset))
+    opset = check_opset(opset, OPSETS)
+    path = check_target(path)
+    data = _graph(model, opset)
     diff = max_difference(model, data, seed)
     if not diff <= TOLERANCE:
         raise SimulationError(f"the ONNX graph differs from the NumPy engine by {diff:.3g} (more than "

@@ -1,15 +1,20 @@
-"""``fit``: train a whole-manipulator model on the training parts of a ``Split`` (files in, model out)."""
+"""``fit``: train a whole-manipulator model on the training parts of a ``Split`` (files in, model out);
+``prepare_training``: its model folder's checkpoint lifecycle (``softrnn.learned.checkpoints``)."""
 
 from __future__ import annotations
 
 import ast
+from pathlib import Path
 
-from ...errors import SoftrnnInputError
+from ...errors import SoftrnnInputError, bad
 from ...progress import Progress
+from ...resume import Settings
+from ..checkpoints import CHECKPOINT, SETTINGS, TrainingFolder, output_folder
+from .artifact import FILES, load_dynamic
 from .config import DynamicConfig, resolve_node_stride
 from .data import Split, rod_length
 from .encoding import check_compatible, make_encoding
-from .training import TrainedDynamic, train_dynamic_model
+from .training import TrainedDynamic, read_checkpoint, train_dynamic_model
 
 
 def fit(split: Split, config: DynamicConfig, *, progress: Progress | None = None, checkpoint=None,
@@ -51,3 +56,32 @@ def _reason(err: SoftrnnInputError) -> str:
     except (ValueError, SyntaxError):
         value = head.partition("=")[2]
     return f"it is {value}; give {expected}"
+
+
+def training_settings(config: DynamicConfig, split: Split) -> Settings:
+    """What a checkpoint or a finished model must match to be resumed: the config and the data."""
+    return Settings.of({"config": config.to_dict(), "data": split.describe()}, keys=("config", "data"),
+                       opaque={"data": "the {name} data differ"})
+
+
+def model_folder(out, *, overwrite: bool) -> Path:
+    """The checked output folder ``out`` of a training (``checkpoints.output_folder``): new, empty, or
+    holding only a whole-manipulator model or an unfinished training (replaced only with ``overwrite``)."""
+    return output_folder(out, holds=("model.json", CHECKPOINT, SETTINGS), ours=set(FILES) | {CHECKPOINT, SETTINGS},
+                         overwrite=overwrite, made_by="'softrnn dynamic train'")
+
+
+def prepare_training(folder, config: DynamicConfig, split: Split, *, resume: bool) -> TrainingFolder:
+    """The training run in model ``folder`` (checked by ``checkpoints.output_folder``), started: with
+    ``resume``, its checkpoint checked against the settings and read (a finished model there is
+    refused: a finished training is not continued); otherwise an old checkpoint removed."""
+    folder = Path(folder)
+    run = TrainingFolder(folder, training_settings(config, split), created=not folder.exists())
+    if resume and (folder / "model.json").is_file() and not run.checkpoint.is_file():
+        model = load_dynamic(folder)
+        run.check_finished({"config": model.config.to_dict(), "data": model.meta.get("data")})
+        raise bad("resume", True, f"a training with steps left, but {folder} holds a finished model that already "
+                                  f"ran its {model.config.steps} steps (a finished training is not continued); "
+                                  "train with --overwrite to start again, or choose another folder")
+    run.start(resume, read_checkpoint)
+    return run

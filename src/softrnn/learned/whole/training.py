@@ -17,7 +17,6 @@ it with the same result as an uninterrupted one.
 
 from __future__ import annotations
 
-import io
 import math
 import pickle
 import re
@@ -30,8 +29,8 @@ import torch
 from scipy.sparse.linalg import ArpackError, ArpackNoConvergence, eigs
 
 from ...errors import SoftrnnInputError
-from ...files import atomic_write_bytes
 from ...progress import Progress
+from ..checkpoints import RESTART, load_state, save_state
 from .artifact import engine_of
 from .config import DynamicConfig, linear_config, load_channels
 from .encoding import Encoding, Trajectory
@@ -276,8 +275,7 @@ def _lr_at(config: DynamicConfig, step: int) -> float:
 CHECKPOINT_FORMAT = "softrnn-whole-training-checkpoint"
 """The ``format`` entry of a training checkpoint (``_save_checkpoint``)."""
 
-_FIX = "train with --overwrite to start again"
-"""What to do about a training checkpoint that cannot be resumed."""
+_FIX = RESTART
 
 
 def _why(err) -> str:
@@ -312,8 +310,7 @@ def read_checkpoint(path) -> dict:
     """
     path = Path(path)
     try:
-        with torch.serialization.safe_globals([_Loop]):
-            state = torch.load(path, weights_only=True, map_location="cpu")
+        state = load_state(path, allowed=[_Loop])
     except (OSError, EOFError, RuntimeError, ValueError, TypeError, KeyError, AttributeError, ImportError,
             IndexError, pickle.UnpicklingError) as err:
         raise SoftrnnInputError(f"{path}: the training checkpoint is damaged or not one written by softrnn "
@@ -357,10 +354,8 @@ def _restore_checkpoint(path: Path, net, opt, gen) -> _Loop:
 def _save_checkpoint(path: Path, net, opt, gen, loop) -> None:
     """Write the training's state to ``path`` atomically as plain tensors, dicts, lists and numbers
     (``read_checkpoint`` loads it with ``weights_only=True``)."""
-    buf = io.BytesIO()
-    torch.save({"format": CHECKPOINT_FORMAT, "net": net.state_dict(), "opt": opt.state_dict(),
-                "gen": gen.get_state(), "loop": {f.name: getattr(loop, f.name) for f in fields(_Loop)}}, buf)
-    atomic_write_bytes(path, buf.getvalue())
+    save_state(path, {"format": CHECKPOINT_FORMAT, "net": net.state_dict(), "opt": opt.state_dict(),
+                      "gen": gen.get_state(), "loop": {f.name: getattr(loop, f.name) for f in fields(_Loop)}})
 
 
 def validation_error(net: DynamicNet, validation: list[Trajectory], max_steps: int = VALIDATION_STEPS) -> float:
