@@ -440,4 +440,65 @@ class LinearAR:
                 "alpha_max": float(self.alpha.max())}
 
 
-__all__ = ["ALPHAS", "MAX_MANIPULATOR_FEATURES", "MODES", "LinearAR", "LinearARConfig"]
+
+
+
+# ------------------------------------------------------------------------------------- LinearARX
+@final
+@dataclass(frozen=True, eq=False)
+class LinearARX:
+    """A linear ARX model of an output y (T, D) driven by known inputs u (T, m), fitted by least
+    squares (``fit``) and run free on its own output (``run``): y_k = sum_{i=1..na} A_i y_{k-i} +
+    sum_{j=0..nb-1} B_j u_{k-j} + c. The lab benchmark's linear baseline (``softrnn.lab.families``).
+
+    Attributes
+    ----------
+    na, nb : int
+        Output lags and input lags (the current input included).
+    weights : ndarray (na D + nb m + 1, D) float64
+        [A_1 .. A_na, B_0 .. B_nb-1, c] stacked, in the units of y per unit of each row.
+    """
+
+    na: int
+    nb: int
+    weights: np.ndarray
+
+    @property
+    def history(self) -> int:
+        """Rows a run takes from its seed: max(na, nb - 1)."""
+        return max(self.na, self.nb - 1)
+
+    @staticmethod
+    def _row(na: int, nb: int, y: np.ndarray, u: np.ndarray, k: int) -> np.ndarray:
+        return np.concatenate([*(y[k - i] for i in range(1, na + 1)), *(u[k - j] for j in range(nb)), [1.0]])
+
+    @classmethod
+    def fit(cls, outputs, inputs, na: int = 1, nb: int = 1) -> LinearARX:
+        """Least squares over every row k >= max(na, nb - 1) of each pair (y (T, D), u (T, m)) of
+        ``outputs`` and ``inputs`` (sequences of arrays, one pair per recording)."""
+        for name, value in (("na", na), ("nb", nb)):
+            if not is_int(value) or value < 1:
+                raise bad(name, value, "an integer >= 1 (lags)")
+        m = max(na, nb - 1)
+        X, Y = [], []
+        for y, u in zip(outputs, inputs):
+            for k in range(m, len(y)):
+                X.append(cls._row(na, nb, y, u, k))
+                Y.append(y[k])
+        return cls(na=int(na), nb=int(nb), weights=np.linalg.lstsq(np.array(X), np.array(Y), rcond=None)[0])
+
+    def run(self, seed, inputs) -> np.ndarray:
+        """Free-running outputs (T, D) over ``inputs`` u (T, m): the first ``history`` rows are those of
+        ``seed`` (T', D), T' >= history (the initial condition), every later one is predicted from
+        the model's own outputs."""
+        u = np.asarray(inputs)
+        seed = np.asarray(seed)
+        m = self.history
+        y = np.empty((len(u), seed.shape[1]), dtype=seed.dtype)
+        y[:m] = seed[:m]
+        for k in range(m, len(u)):
+            y[k] = self._row(self.na, self.nb, y, u, k) @ self.weights
+        return y
+
+
+__all__ = ["ALPHAS", "MAX_MANIPULATOR_FEATURES", "MODES", "LinearAR", "LinearARConfig", "LinearARX"]
