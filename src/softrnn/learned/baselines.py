@@ -6,7 +6,8 @@ step ahead alone. Persistence is what a model must beat one step ahead at a fine
 constant velocity is exact for uniform motion; the linear model (``LinearAR``) gets the inputs of
 the learned node models (paper Fig. 2B: the last ``history`` samples of the node's and its
 neighbours' positions and the node's wrenches) and predicts the increment, so it is exact for a
-linear system (a damped mass-spring chain) and strong for small motions of a rod.
+linear system (a damped mass-spring chain) and strong for small motions of a rod; it lives in
+``softrnn.learned.linear`` (and is importable from here).
 
 Arrays are time first, like the data sets (``softrnn.io``): positions ``(T, N, 3)`` [m] of
 N stored nodes, called *columns* here (for a ``Dataset`` the order of ``dataset.nodes``); wrenches
@@ -32,7 +33,10 @@ import numpy as np
 from ..errors import bad, is_int
 from ._arrays import _checked, _columns, _history, _indices, _positions, _window, _wrenches
 from .horizons import DIVERGED_M, HORIZONS, RolloutDiverged, free_steps
-from .linear import ALPHAS, MAX_MANIPULATOR_FEATURES, MODES, LinearAR, LinearARConfig
+from .linear import ALPHAS as ALPHAS  # re-exported: the linear model's names, where they used to be
+from .linear import MAX_MANIPULATOR_FEATURES as MAX_MANIPULATOR_FEATURES
+from .linear import MODES as MODES
+from .linear import LinearAR, LinearARConfig
 from .spans import WINDOWS, check_span
 
 _BATCH = 1024
@@ -140,32 +144,13 @@ def one_step(baseline: AbstractBaseline, positions, wrenches, start: int, stop: 
 
 def free_run(baseline: AbstractBaseline, positions, wrenches, start: int, stop: int, *,
              modelled=None) -> np.ndarray:
-    """Free-running prediction (stop - start, N, 3) [m] of samples ``start .. stop-1``.
-
-    The window before ``start`` is the reference's (rows start-H .. start-1); every later window
-    holds the baseline's own predictions for the ``modelled`` columns (default: every column) and
-    the reference for the others (a clamped boundary, or the neighbours of one node as in
-    ``evaluate.free_running``). The wrenches are always the reference's (known inputs).
-
-    Parameters
-    ----------
-    baseline : AbstractBaseline
-        The fitted baseline.
-    positions : array-like (T, N, 3)
-        Reference positions [m].
-    wrenches : array-like (T, N, W) or None
-        Reference forces [N] (and torques [N m]).
-    start, stop : int
-        history <= start < stop <= T.
-    modelled : sequence of int or None
-        Predicted columns.
-
-    Raises
-    ------
-    RolloutDiverged
-        A predicted coordinate beyond ``DIVERGED_M`` or not finite (``node`` is the column, ``time``
-        is NaN: the arrays carry no times).
-    """
+    """Free-running prediction (stop - start, N, 3) [m] of samples ``start .. stop-1`` (history <=
+    start < stop <= T) by the fitted ``baseline`` from the reference ``positions`` (T, N, 3) [m] and
+    ``wrenches`` (T, N, W) or None [N, N m]: the window before ``start`` is the reference's, every
+    later one holds the baseline's own predictions for the ``modelled`` columns (default every
+    column) and the reference for the others; the wrenches are always the reference's. The loop is
+    ``horizons.free_steps``. A coordinate beyond ``DIVERGED_M`` or not finite raises
+    ``RolloutDiverged`` (``node``: the column, ``time``: NaN)."""
     P = _positions("positions", positions)
     Wr = _wrenches("wrenches", wrenches, P.shape[:2], 0)   # any width: the baseline checks its own
     H = _history(baseline.history)
@@ -198,36 +183,14 @@ def _diverged(column: int, sample: int):
 
 def horizon_errors(pred_fn: Callable, positions, wrenches, starts, horizons=HORIZONS, *,
                    stop: int | None = None, nodes=None) -> dict[int, dict]:
-    """Free-running errors after 1, 10, 100, 1000 ... predicted samples, over several starts.
-
-    Parameters
-    ----------
-    pred_fn : callable
-        ``pred_fn(positions, wrenches, start, stop) -> (stop - start, N, 3)``: a causal free-running
-        predictor [m] seeded from the reference before ``start``, e.g.
-        ``functools.partial(free_run, baseline, modelled=...)``; it may raise ``RolloutDiverged``.
-    positions : array-like (T, N, 3)
-        Reference [m].
-    wrenches : array-like (T, N, W) or None
-        Passed to ``pred_fn``.
-    starts : sequence of int
-        First predicted samples (each >= the predictor's history).
-    horizons : sequence of int
-        Horizons h >= 1 [samples]: the error at sample start + h - 1.
-    stop : int or None
-        End of the span (default T): a horizon is used from a start only if start + h <= stop, and
-        a horizon that fits no start is left out.
-    nodes : sequence of int or None
-        Columns the errors are taken over (default every column; pass the modelled ones, since the
-        reference-driven columns have no error).
-
-    Returns
-    -------
-    dict
-        {h: {'max_abs_m', 'mean_abs_m': largest and mean |predicted - reference| over every node,
-        axis and start [m] (None if a run diverged before h), 'n_starts', 'diverged': runs that
-        diverged before h}}.
-    """
+    """Free-running errors at ``horizons`` h [samples] (the error at sample start + h - 1) from each of
+    ``starts``: ``pred_fn(positions, wrenches, start, stop) -> (stop - start, N, 3)`` [m] is a causal
+    predictor seeded from the reference before ``start`` (e.g. ``partial(free_run, baseline)``; it
+    may raise ``RolloutDiverged``), ``positions`` (T, N, 3) [m] the reference. A horizon is used
+    from a start only where start + h <= ``stop`` (default T); the errors are taken over ``nodes``
+    (default every column). Returns {h: {'max_abs_m', 'mean_abs_m': largest and mean |predicted -
+    reference| over the nodes, axes and starts [m] (None where a run diverged before h),
+    'n_starts', 'diverged': runs that diverged before h}}, for the horizons that fit a start."""
     P = _positions("positions", positions)
     Wr = _wrenches("wrenches", wrenches, P.shape[:2], 0)   # any width: the baseline checks its own
     T = P.shape[0]
@@ -292,6 +255,5 @@ def standard_baselines(positions, wrenches, start: int, stop: int, *, config: Li
     return {"persistence": Persistence(), "constant velocity": ConstantVelocity(), "linear": linear}
 
 
-__all__ = ["ALPHAS", "MAX_MANIPULATOR_FEATURES", "MODES", "AbstractBaseline", "ConstantVelocity", "LinearAR",
-           "LinearARConfig", "Persistence", "StateBaseline", "dataset_wrenches", "free_run", "horizon_errors",
-           "one_step", "standard_baselines"]
+__all__ = ["AbstractBaseline", "ConstantVelocity", "Persistence", "StateBaseline", "dataset_wrenches", "free_run",
+           "horizon_errors", "one_step", "standard_baselines"]

@@ -318,29 +318,12 @@ class LinearAR:
     @classmethod
     def fit(cls, config: LinearARConfig, positions, wrenches=None, start: int = 0, stop: int | None = None, *,
             modelled=None) -> LinearAR:
-        """Fit on the samples ``[start, stop)`` (every window and target inside the span, like
-        ``data.make_windows``; pass the learned model's training span, ``data.split``).
-
-        Parameters
-        ----------
-        config : LinearARConfig
-            How it is built and fitted.
-        positions : array-like (T, N, 3)
-            Reference positions [m].
-        wrenches : array-like (T, N, 6), (T, N, 3) or None
-            Forces [N] (and torques [N m]) applied at the nodes.
-        start, stop : int
-            Training span (default stop: T). It needs history + 1 samples, history + 2 when alpha
-            is chosen on the validation tail.
-        modelled : sequence of int or None
-            Columns to predict (default: every column).
-
-        Raises
-        ------
-        SoftrnnInputError
-            One line naming the argument: shapes, a span that does not fit, or too large a
-            whole-manipulator model.
-        """
+        """The model of ``config`` fitted on the samples ``[start, stop)`` (default stop T; every window
+        and target inside the span, like ``data.make_windows``: pass the learned model's training
+        span) of ``positions`` (T, N, 3) [m] and ``wrenches`` (T, N, 6), (T, N, 3) or None [N, N m],
+        predicting the ``modelled`` columns (default every column). The span needs history + 1
+        samples (history + 2 where alpha is chosen on the validation tail). Shapes, a span that
+        does not fit or too large a whole-manipulator model are one-line ``SoftrnnInputError``s."""
         if not isinstance(config, LinearARConfig):
             raise bad("config", type(config).__name__, "a LinearARConfig")
         P = _positions("positions", positions)
