@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 import tempfile
 from dataclasses import dataclass, field, replace
+from typing import Protocol
 
 import numpy as np
 
@@ -52,6 +53,22 @@ from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonR
 PLAY_WIDTHS = (0.05, 0.15)
 """Widths of the play operators of the hysteresis state, as fractions of each input's range in
 the training sessions."""
+
+
+class Family(Protocol):
+    """What the benchmark needs of a model family (every class below): ``fit`` returns the fitted
+    model, a new frozen instance, whose ``predict`` runs free over a session."""
+
+    name: str
+
+    def fit(self, sessions) -> Family:
+        """The model fitted on training sessions (a list of ``Recording``)."""
+
+    def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
+
+    def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
 
 
 def _previous(u: np.ndarray) -> np.ndarray:
@@ -463,7 +480,7 @@ def holdout_split(sessions) -> tuple[list, list]:
     return [part(0, cut)], [part(cut, s.n_rows)]
 
 
-@dataclass
+@dataclass(frozen=True)
 class Choice:
     """The option chosen for a family and the hold-out scores of each candidate [mm]."""
 
