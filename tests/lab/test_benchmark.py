@@ -2,6 +2,7 @@
 the JSON the issue's script reads, every model and baseline fitted on the training session only
 and run free over the validation session, options chosen on the training session's hold-out."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,18 +11,18 @@ import pytest
 from softrnn.errors import SoftrnnInputError
 from softrnn.lab.benchmark import BASELINES, FAMILIES, BenchmarkOptions, run_benchmark
 from softrnn.lab.families import (
-    LinearARX,
+    LinearARXFamily,
     NetOptions,
     NodeOptions,
-    Persistence,
+    PersistenceFamily,
     SequenceOptions,
     StaticPolynomial,
     holdout_split,
     play,
-    tip_errors,
 )
 from softrnn.lab.recording import read_recording
 from softrnn.lab.tendon_robot import CalibrationOptions
+from softrnn.learned.metrics import tip_errors
 
 from helpers import tendon_recording
 
@@ -69,8 +70,8 @@ def test_physics_of_the_right_model_class_wins(report):
 
 def test_baselines_by_hand(sessions):
     train, val = sessions
-    assert np.all(Persistence().fit([train]).predict(val) == val.tip[0])
-    arx = LinearARX(1, 1).fit([train])
+    assert np.all(PersistenceFamily().fit([train]).predict(val) == val.tip[0])
+    arx = LinearARXFamily(1, 1).fit([train])
     pred = arx.predict(val)
     assert np.array_equal(pred[0], val.tip[0])
     step = np.concatenate([pred[3], val.inputs[4], [1.0]]) @ arx.W          # free: fed its own output
@@ -84,7 +85,7 @@ def test_baselines_by_hand(sessions):
 def test_tip_errors_are_euclidean():
     ref = np.zeros((4, 3))
     pred = np.array([[3e-3, 4e-3, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]])
-    e = tip_errors(pred, ref)
+    e = tip_errors(pred, ref).tip_summary()
     assert e["tip_rmse_mm"] == pytest.approx(np.sqrt(25 / 4)) and e["tip_mean_mm"] == pytest.approx(5 / 4)
 
 
@@ -113,3 +114,14 @@ def test_a_pull_beyond_the_routing_is_refused(sessions):
     far = type(val)(**{**vars(val), "inputs": val.inputs * 10})
     with pytest.raises(SoftrnnInputError, match="beyond what the routing allows"):
         run_benchmark([train], far, BenchmarkOptions(length=0.08, families=("physics",), **FAST))
+
+
+def test_fit_returns_a_new_frozen_model_and_leaves_the_family_as_it_was(sessions):
+    train, val = sessions
+    for family in (LinearARXFamily(2, 1), StaticPolynomial(2, 1e-3), PersistenceFamily()):
+        fitted = family.fit([train])
+        assert type(fitted) is type(family) and fitted.predict(val).shape == val.tip.shape
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            fitted.name = "changed"
+    arx = LinearARXFamily(2, 1)
+    assert arx.fit([train]).arx.na == 2 and arx.arx is None

@@ -11,7 +11,16 @@ import pytest
 from softrnn.errors import SoftrnnInputError
 from softrnn.learned import baselines, horizons, spans
 from softrnn.learned.baselines import ConstantVelocity, Persistence, StateBaseline, free_run
-from softrnn.learned.horizons import HORIZONS, WHOLE_HORIZONS, HorizonTable, free_steps, worst_by_horizon
+from softrnn.learned.horizons import (
+    HORIZON_STARTS,
+    HORIZONS,
+    WHOLE_HORIZON_STARTS,
+    WHOLE_HORIZONS,
+    HorizonRow,
+    HorizonTable,
+    free_steps,
+    worst_by_horizon,
+)
 from softrnn.learned.node.data import SampleSpec
 from softrnn.learned.node.evaluate import BaselineComparison, compare_baselines, evaluate, horizon_table
 from softrnn.learned.whole import evaluation
@@ -33,6 +42,8 @@ def test_one_horizons_definition():
     assert HORIZONS == (1, 10, 100, 1000)
     assert WHOLE_HORIZONS == (10, 100, 1000) and evaluation.HORIZONS == WHOLE_HORIZONS
     assert baselines.horizon_errors.__defaults__[0] == HORIZONS
+    assert HORIZON_STARTS == 5 and WHOLE_HORIZON_STARTS == evaluation.HORIZON_STARTS == 4
+    assert horizons.horizon_table.__defaults__[:2] == (HORIZONS, HORIZON_STARTS)
 
 
 def test_both_kinds_give_the_same_numbers_for_persistence_on_uniform_motion():
@@ -45,14 +56,14 @@ def test_both_kinds_give_the_same_numbers_for_persistence_on_uniform_motion():
     ds = chain_dataset(pos, np.tile([1.0, 0, 0, 0], pos.shape[:2] + (1,)), dt)
     enc = make_encoding([ds], model_dt=dt, node_stride=2, length=LENGTH)
     persistence = StateBaseline(Persistence())
-    whole = evaluation.horizon_errors(persistence, enc, [(enc.trajectory(ds), ds)], (10, 100))
+    whole = evaluation.compare({"persistence": persistence}, enc, [(enc.trajectory(ds), ds)], (10, 100)).to_dict()
     for h in (10, 100):
         expected = 100.0 * h * STEP_M / LENGTH                         # % of the rod's length
         assert node[str(h)]["persistence"] == pytest.approx(expected, rel=1e-12)
-        assert whole[str(h)] == pytest.approx(expected, rel=1e-9)
+        assert whole[str(h)]["persistence"] == pytest.approx(expected, rel=1e-9)
         assert node[str(h)]["model"] == pytest.approx(0.0, abs=1e-12)  # constant velocity is exact
-    cv = evaluation.horizon_errors(StateBaseline(ConstantVelocity()), enc, [(enc.trajectory(ds), ds)], (10,))
-    assert cv["10"] == pytest.approx(0.0, abs=1e-9)
+    cv = evaluation.compare({"cv": StateBaseline(ConstantVelocity())}, enc, [(enc.trajectory(ds), ds)], (10,))
+    assert cv.to_dict()["10"]["cv"] == pytest.approx(0.0, abs=1e-9)
 
 
 def test_the_simple_baselines_step_states_of_any_width_alike():
@@ -90,13 +101,17 @@ def test_free_steps_stops_where_the_run_diverges():
 
 # ------------------------------------------------------------------------------------- typed results
 def test_horizon_tables_to_dict_keep_the_reports_key_order():
-    node = HorizonTable(rows={1: {"model": 1.0}, 10: None}, unit="mm", n_starts=2,
-                        max_abs_mm={1: {"model": 1.0}, 10: None}, starts={1: [3, 4], 10: None})
+    node = HorizonTable(kind="at", names=("model",), n_starts=2,
+                        rows=(HorizonRow(1, {"model": 1e-3}, (3, 4)), HorizonRow(10, None)))
     d = node.to_dict()
+    assert d == {"unit": "mm", "n_starts": 2, "1": {"model": 1.0}, "10": None, "max_abs_mm": {"1": {"model": 1.0},
+                 "10": None}, "starts": {"1": [3, 4], "10": None}}
     assert list(d) == ["unit", "n_starts", "1", "10", "max_abs_mm", "starts"]
     assert list(d["max_abs_mm"]) == list(d["starts"]) == ["1", "10"]
     assert json.loads(json.dumps(d)) == d
-    whole = HorizonTable(rows={10: {"model": None, "persistence": 2.0}, 100: {"model": 3.0, "persistence": 4.0}})
+    whole = HorizonTable(kind="within", names=("model", "persistence"),
+                         rows=(HorizonRow(10, {"model": np.inf, "persistence": 2.0}),
+                               HorizonRow(100, {"model": 3.0, "persistence": 4.0})))
     assert whole.to_dict() == {"10": {"model": None, "persistence": 2.0}, "100": {"model": 3.0, "persistence": 4.0}}
     assert list(whole.to_dict()) == ["10", "100"]
 
@@ -112,7 +127,9 @@ def test_a_dynamic_evaluation_writes_only_what_was_evaluated_in_order():
     assert d["test_span_max_pct_of_length"] == d["generalisation_max_pct_of_length"] == 1.5
     held = evaluation.DynamicEvaluation(model_dt_s=0.02, predicted_nodes=5, nodes=9, length_m=0.5, history=3,
                                         test_span=None, heldout={"variants": 1},
-                                        horizons=HorizonTable(rows={10: {"model": 1.0}}), generalisation=None)
+                                        horizons=HorizonTable(kind="within", names=("model",),
+                                                              rows=(HorizonRow(10, {"model": 1.0}),)),
+                                        generalisation=None)
     assert list(held.to_dict())[-2:] == ["heldout", "horizons"] and held.to_dict()["horizons"] == {"10": {"model": 1.0}}
     assert json.loads(json.dumps(d)) == d
 

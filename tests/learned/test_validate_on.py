@@ -15,7 +15,7 @@ from softrnn.learned.node.data import SampleSpec, make_windows
 from softrnn.learned.node.evaluate import evaluate, metrics
 from softrnn.learned.node.training_data import check_validation_data
 from softrnn.learned.whole.data import split_inputs
-from softrnn.learned.whole.evaluation import tip_errors
+from softrnn.learned.whole.evaluation import tip_summary
 
 from helpers import LENGTH, node_dataset, save_h5
 
@@ -192,10 +192,10 @@ def test_the_tip_euclidean_error_is_the_hand_computed_one():
     states = np.zeros((4, 3, 6))
     states[:, -1, :3] = [[3e-3, 4e-3, 0], [0, 0, 0], [1e-3, 1e-3, 1e-3], [0, 0, 2e-3]]     # 5, 0, sqrt(3), 2 mm
     states[:, 0, :3] = 1.0                                                                 # not the tip: ignored
-    out = tip_errors(_Tip, states, truth)
+    out = tip_summary(_Tip, states, truth)
     d = np.array([5.0, 0.0, np.sqrt(3), 2.0])
     assert out["rmse_euclidean_mm"] == pytest.approx(np.sqrt(np.mean(d ** 2)))
     assert out["mean_euclidean_mm"] == pytest.approx(d.mean())
     assert out["mean_euclidean_pct_of_length"] == pytest.approx(d.mean() / (LENGTH * 1e3) * 100)
     states[2] = np.nan
-    assert set(tip_errors(_Tip, states, truth).values()) == {None}
+    assert set(tip_summary(_Tip, states, truth).values()) == {None}

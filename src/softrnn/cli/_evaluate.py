@@ -150,7 +150,7 @@ def _max_pct(block) -> float | str | None:
 def baseline_lines(r: dict) -> list[str]:
     """The table of the model beside the baselines (one step, free running, by horizon) and the
     plain statements of where a baseline beats the model, for an ``Evaluation.to_dict()`` report."""
-    from ..learned.node.evaluate import horizon_keys
+    from ..learned.node.comparison import horizon_keys
 
     base = r.get("baselines")
     if not base:

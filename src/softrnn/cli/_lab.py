@@ -11,9 +11,10 @@ from ..figures.lab import benchmark_figure
 from ..figures.saving import save_figure
 from ..files import atomic_write_text, prepare_output
 from ..lab.benchmark import FAMILIES, BenchmarkOptions, check_pulls, robot_for, run_benchmark, settle_lag
-from ..lab.families import displacements, tip_errors
+from ..lab.families import displacements
 from ..lab.recording import Layout, check_sessions, read_recording, shift_inputs
 from ..lab.tendon_robot import calibrate
+from ..learned.metrics import tip_errors
 from ._progress import Bar
 from ._vocabulary import deprecate, output
 
@@ -196,7 +197,7 @@ def _calibrate(args) -> int:
     report = {**cal.to_dict(), "lag_rows": lag, "sessions": [r.path for r in train]}
     if args.validate:
         v = recordings[-1]
-        err = tip_errors(cal.predict(displacements(v)), v.tip)
+        err = tip_errors(cal.predict(displacements(v)), v.tip).tip_summary()
         report["validation"] = {"path": v.path, **{k: round(x, 4) for k, x in err.items()},
                                 "tip_rmse_pct_of_length": round(err["tip_rmse_mm"] / (args.length * 1e3) * 100, 4)}
     atomic_write_text(args.output, json.dumps(report, indent=2) + "\n")

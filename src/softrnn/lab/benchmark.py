@@ -15,14 +15,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad, positive
+from ..learned.metrics import tip_errors
 from .families import (
     Hybrid,
     LearnedMap,
-    LinearARX,
+    LinearARXFamily,
     NetOptions,
-    NodeLSTM,
+    NodeFamily,
     NodeOptions,
-    Persistence,
+    PersistenceFamily,
     Physics,
     Sequence,
     SequenceOptions,
@@ -30,7 +31,6 @@ from .families import (
     choose,
     displacements,
     holdout_split,
-    tip_errors,
 )
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
@@ -206,7 +206,7 @@ class _Table:
     def record(self, table: dict, name: str, model, holdout_scores=None) -> None:
         pred = model.predict(self.validation)
         self.predictions[name] = pred
-        err = tip_errors(pred, self.validation.tip)
+        err = tip_errors(pred, self.validation.tip).tip_summary()
         err["tip_rmse_pct_of_length"] = err["tip_rmse_mm"] / (self.length * 1e3) * 100.0
         table[name] = {k: round(v, 4) for k, v in err.items()}
         self.details[name] = model.describe()
@@ -217,10 +217,10 @@ class _Table:
 def _baselines(train: list[Recording], out: _Table) -> None:
     """Persistence, the linear ARX model and the static polynomial map, their options chosen on the
     training sessions' hold-out part."""
-    out.record(out.baselines, "persistence", Persistence().fit(train))
-    c = choose({f"na={a},nb={b}": (lambda a=a, b=b: LinearARX(a, b)) for a, b in ARX_ORDERS}, train)
+    out.record(out.baselines, "persistence", PersistenceFamily().fit(train))
+    c = choose({f"na={a},nb={b}": (lambda a=a, b=b: LinearARXFamily(a, b)) for a, b in ARX_ORDERS}, train)
     a, b = (int(x.split("=")[1]) for x in c.chosen.split(","))
-    out.record(out.baselines, "linear_arx", LinearARX(a, b).fit(train), c.scores)
+    out.record(out.baselines, "linear_arx", LinearARXFamily(a, b).fit(train), c.scores)
     c = choose({f"degree={d},ridge={r:g}": (lambda d=d, r=r: StaticPolynomial(d, r)) for d, r in POLY_CANDIDATES},
                train)
     d, r = (x.split("=")[1] for x in c.chosen.split(","))
@@ -234,7 +234,7 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
     held_ref = np.vstack([s.tip for s in held])
 
     def held_score(model):
-        return round(tip_errors(np.vstack([model.predict(s) for s in held]), held_ref)["tip_rmse_mm"], 4)
+        return round(tip_errors(np.vstack([model.predict(s) for s in held]), held_ref).rmse_mm, 4)
 
     holdout = {}
     physics = held_physics = None
@@ -264,8 +264,8 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
         out.record(out.models, "sequence", Sequence(options.sequence).fit(train))
         step("sequence")
     if "node_lstm" in families:
-        holdout["node_lstm"] = held_score(NodeLSTM(options.length, options.node).fit(fit_part))
-        out.record(out.models, "node_lstm", NodeLSTM(options.length, options.node).fit(train))
+        holdout["node_lstm"] = held_score(NodeFamily(options.length, options.node).fit(fit_part))
+        out.record(out.models, "node_lstm", NodeFamily(options.length, options.node).fit(train))
         step("node_lstm")
     return holdout
 

@@ -1,15 +1,17 @@
 """The models a robot's recordings are fitted with, and the baselines they are compared with.
 
-Every model is fitted on training sessions (``fit(sessions)``) and predicts the tip of a whole
-session free running from its start on the commands alone (``predict(session)`` -> (T, 3) [m]):
-the recorded tip is read only where a model needs an initial condition (the first row for
-persistence, the first ``na`` rows for the linear ARX model), never afterwards.
+Every family is a frozen description of a model; ``fit(sessions)`` returns the fitted model, a
+new frozen instance of the same class, which predicts the tip of a whole session free running from
+its start on the commands alone (``predict(session)`` -> (T, 3) [m]) and says what it is
+(``describe()``): the recorded tip is read only where a model needs an initial condition (the first
+row for persistence, the first ``na`` rows for the linear ARX model), never afterwards.
 
-Baselines:
+Baselines (the cores shared with the learned models, ``softrnn.learned``):
 
-* ``Persistence``: the tip stays where the session starts.
-* ``LinearARX``: y_k = sum_i A_i y_{k-i} + sum_j B_j u_{k-j} + c, least squares, iterated on its
-  own output.
+* ``PersistenceFamily``: ``learned.baselines.Persistence`` run free: the tip stays where the
+  session starts.
+* ``LinearARXFamily``: ``learned.linear.LinearARX`` of the tip driven by the commands, y_k = sum_i
+  A_i y_{k-i} + sum_j B_j u_{k-j} + c, least squares, run free on its own output.
 * ``StaticPolynomial``: the tip as a polynomial of the current inputs (ridge least squares).
 
 softrnn's models:
@@ -22,6 +24,9 @@ softrnn's models:
   predicts only what the physics misses.
 * ``Sequence``: a recurrent network (GRU) reading the commands and the interval since the previous
   row, so it can represent lag, creep and hysteresis; it runs free from a zero state.
+* ``NodeFamily``: softrnn's per-node LSTM (``softrnn.learned.node``) driven by the commands alone.
+
+The errors of a prediction are ``softrnn.learned.metrics.tip_errors``.
 
 Options with more than one sensible value (the ARX orders, the polynomial's degree and ridge,
 the hysteresis state) are chosen on a hold-out part of the training sessions (``choose``), never
@@ -33,12 +38,15 @@ from __future__ import annotations
 import math
 import tempfile
 from dataclasses import dataclass, field, replace
+from typing import Protocol
 
 import numpy as np
 
 from ..errors import SoftrnnInputError
 from ..io.reader import Dataset
-from ..learned.metrics import euclidean_errors
+from ..learned.baselines import Persistence, free_run
+from ..learned.linear import LinearARX
+from ..learned.metrics import tip_errors
 from .recording import Recording
 from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate
 
@@ -47,12 +55,20 @@ PLAY_WIDTHS = (0.05, 0.15)
 the training sessions."""
 
 
-def tip_errors(predicted: np.ndarray, recorded: np.ndarray) -> dict:
-    """Euclidean tip errors over every row [mm]: ``tip_rmse_mm`` = sqrt(mean |p - p_ref|^2) and
-    ``tip_mean_mm`` = mean |p - p_ref|; ``tip_max_mm`` the largest."""
-    rmse, mean = euclidean_errors(predicted, recorded)
-    largest = float(np.max(np.linalg.norm(np.asarray(predicted) - np.asarray(recorded), axis=1)) * 1e3)
-    return {"tip_rmse_mm": rmse, "tip_mean_mm": mean, "tip_max_mm": largest}
+class Family(Protocol):
+    """What the benchmark needs of a model family (every class below): ``fit`` returns the fitted
+    model, a new frozen instance, whose ``predict`` runs free over a session."""
+
+    name: str
+
+    def fit(self, sessions) -> Family:
+        """The model fitted on training sessions (a list of ``Recording``)."""
+
+    def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
+
+    def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
 
 
 def _previous(u: np.ndarray) -> np.ndarray:
@@ -72,56 +88,53 @@ def play(u: np.ndarray, width: np.ndarray) -> np.ndarray:
 
 
 # -------------------------------------------------------------------------------------------- baselines
-@dataclass
-class Persistence:
-    """The tip stays at the session's first recorded position."""
+@dataclass(frozen=True)
+class PersistenceFamily:
+    """The tip stays at the session's first recorded position (``learned.baselines.Persistence``
+    run free from the first row)."""
 
     name: str = "persistence"
 
-    def fit(self, sessions) -> Persistence:
-        """Fit on training sessions (a list of ``Recording``); returns the model."""
+    def fit(self, sessions) -> PersistenceFamily:
+        """The fitted model (nothing to fit) for training sessions (a list of ``Recording``)."""
         return self
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
-        return np.repeat(session.tip[:1], session.n_rows, axis=0)
+        tip = session.tip[:, None]                                                  # (T, 1, 3)
+        if session.n_rows == 1:
+            return session.tip.copy()
+        return np.concatenate([session.tip[:1], free_run(Persistence(), tip, None, 1, session.n_rows)[:, 0]])
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
         return {"kind": "the first row's tip held"}
 
 
-@dataclass
-class LinearARX:
-    """y_k = sum_{i=1..na} A_i y_{k-i} + sum_{j=0..nb-1} B_j u_{k-j} + c, free running."""
+@dataclass(frozen=True, eq=False)
+class LinearARXFamily:
+    """The tip as a linear ARX model of the commands (``learned.linear.LinearARX``, ``na`` tip lags,
+    ``nb`` input lags), free running."""
 
     na: int = 1
     nb: int = 1
     name: str = "linear_arx"
-    W: np.ndarray | None = None
+    arx: LinearARX | None = None
 
-    def _rows(self, y, u, k):
-        return np.concatenate([*(y[k - i] for i in range(1, self.na + 1)), *(u[k - j] for j in range(self.nb)), [1.0]])
+    @property
+    def W(self) -> np.ndarray:
+        """The fitted weights (``LinearARX.weights``)."""
+        return self.arx.weights
 
-    def fit(self, sessions) -> LinearARX:
-        """Fit on training sessions (a list of ``Recording``); returns the model."""
-        m = max(self.na, self.nb - 1)
-        X, Y = [], []
-        for s in sessions:
-            for k in range(m, s.n_rows):
-                X.append(self._rows(s.tip, s.inputs, k))
-                Y.append(s.tip[k])
-        self.W = np.linalg.lstsq(np.array(X), np.array(Y), rcond=None)[0]
-        return self
+    def fit(self, sessions) -> LinearARXFamily:
+        """The model fitted on training sessions (a list of ``Recording``)."""
+        sessions = list(sessions)
+        arx = LinearARX.fit([s.tip for s in sessions], [s.inputs for s in sessions], self.na, self.nb)
+        return replace(self, arx=arx)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
-        m = max(self.na, self.nb - 1)
-        y = np.empty_like(session.tip)
-        y[:m] = session.tip[:m]
-        for k in range(m, session.n_rows):
-            y[k] = self._rows(y, session.inputs, k) @ self.W
-        return y
+        return self.arx.run(session.tip, session.inputs)
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
@@ -143,7 +156,7 @@ def _monomials(u: np.ndarray, degree: int) -> np.ndarray:
     return np.column_stack(cols)
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class StaticPolynomial:
     """The tip as a polynomial of the current inputs (ridge least squares on standardised inputs;
     ``ridge`` relative to the features' mean square)."""
@@ -159,15 +172,14 @@ class StaticPolynomial:
         return _monomials((u - self.mu) / self.sd, self.degree)
 
     def fit(self, sessions) -> StaticPolynomial:
-        """Fit on training sessions (a list of ``Recording``); returns the model."""
+        """The model fitted on training sessions (a list of ``Recording``)."""
         u = np.vstack([s.inputs for s in sessions])
         y = np.vstack([s.tip for s in sessions])
-        self.mu, self.sd = u.mean(axis=0), u.std(axis=0) + 1e-12
-        X = self._features(u)
+        scaled = replace(self, mu=u.mean(axis=0), sd=u.std(axis=0) + 1e-12)
+        X = scaled._features(u)
         G = X.T @ X
         lam = self.ridge * np.trace(G) / G.shape[0]
-        self.W = np.linalg.solve(G + lam * np.eye(G.shape[0]), X.T @ y)
-        return self
+        return replace(scaled, W=np.linalg.solve(G + lam * np.eye(G.shape[0]), X.T @ y))
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
@@ -192,7 +204,7 @@ def displacements(session: Recording) -> np.ndarray:
     return session.inputs * np.asarray(factors)
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class Physics:
     """The calibrated tendon robot (``softrnn.lab.tendon_robot``); ``start``: parameters to refine
     from instead of the multi-start search."""
@@ -205,11 +217,11 @@ class Physics:
     start: object = None
 
     def fit(self, sessions) -> Physics:
-        """Fit on training sessions (a list of ``Recording``); returns the model."""
+        """The model calibrated on training sessions (a list of ``Recording``)."""
         q = np.vstack([displacements(s) for s in sessions])
         tip = np.vstack([s.tip for s in sessions])
-        self.calibration = calibrate(self.robot, q, tip, self.options, progress=self.progress, start=self.start)
-        return self
+        return replace(self, calibration=calibrate(self.robot, q, tip, self.options, progress=self.progress,
+                                                   start=self.start))
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
@@ -222,15 +234,21 @@ class Physics:
 
 @dataclass(frozen=True)
 class NetOptions:
-    """The networks' size and training: ``hidden`` units in each of two tanh layers, ``members``
-    of the ensemble (averaged), full-batch AdamW for ``steps`` with ``weight_decay``, ``seed``."""
+    """The networks' size and training (``LearnedMap``, ``Hybrid``): an ensemble of two-layer tanh
+    MLPs, averaged, each trained full batch with AdamW."""
 
     hidden: int = 64
+    """Units in each of the two tanh layers."""
     members: int = 3
+    """Networks in the ensemble."""
     steps: int = 1500
+    """Full-batch AdamW steps per network."""
     lr: float = 3e-3
+    """Learning rate."""
     weight_decay: float = 0.1
+    """AdamW's weight decay."""
     seed: int = 0
+    """Seed of member m: seed * 1000 + m."""
 
 
 def _features(session: Recording, widths: np.ndarray | None) -> np.ndarray:
@@ -249,7 +267,7 @@ class _Ensemble:
         self.members = []
 
     def fit(self, X: np.ndarray, Y: np.ndarray) -> _Ensemble:
-        """Fit on training sessions (a list of ``Recording``); returns the model."""
+        """Train the members on features ``X`` (M, F) and targets ``Y`` (M, D); returns itself."""
         import torch  # optional extra: learn (PyTorch)
 
         o = self.options
@@ -286,7 +304,7 @@ def _widths(sessions, hysteresis: bool):
     return [f * np.ptp(u, axis=0) for f in PLAY_WIDTHS]
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class LearnedMap:
     """A learned static map with input history: an MLP ensemble of (u_k, u_{k-1}[, hysteresis
     state]) to the tip."""
@@ -296,15 +314,15 @@ class LearnedMap:
     name: str = "learned_map"
     net: object = None
     widths: object = None
+    offset: np.ndarray | None = None
 
     def fit(self, sessions) -> LearnedMap:
-        """Fit on training sessions (a list of ``Recording``); returns the model."""
-        self.widths = _widths(sessions, self.hysteresis)
-        X = np.vstack([_features(s, self.widths) for s in sessions])
-        self.offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
-        Y = np.vstack([s.tip for s in sessions]) - self.offset
-        self.net = _Ensemble(self.options).fit(X, Y)
-        return self
+        """The model fitted on training sessions (a list of ``Recording``)."""
+        widths = _widths(sessions, self.hysteresis)
+        X = np.vstack([_features(s, widths) for s in sessions])
+        offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
+        Y = np.vstack([s.tip for s in sessions]) - offset
+        return replace(self, widths=widths, offset=offset, net=_Ensemble(self.options).fit(X, Y))
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
@@ -317,10 +335,10 @@ class LearnedMap:
                 **{k: v for k, v in vars(self.options).items()}}
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class Hybrid:
     """Calibrated physics plus a learned residual: tip = physics(u_k) + MLP(u_k, u_{k-1}[,
-    hysteresis state], physics(u_k))."""
+    hysteresis state], physics(u_k)); ``physics`` fitted (calibrated) or to be fitted with it."""
 
     physics: Physics
     hysteresis: bool = False
@@ -333,15 +351,13 @@ class Hybrid:
         return np.hstack([_features(s, self.widths), base])
 
     def fit(self, sessions) -> Hybrid:
-        """Fit on training sessions (a list of ``Recording``); returns the model."""
-        if self.physics.calibration is None:
-            self.physics.fit(sessions)
-        self.widths = _widths(sessions, self.hysteresis)
-        bases = [self.physics.predict(s) for s in sessions]
-        X = np.vstack([self._X(s, b) for s, b in zip(sessions, bases)])
+        """The model fitted on training sessions (a list of ``Recording``)."""
+        physics = self.physics if self.physics.calibration is not None else self.physics.fit(sessions)
+        out = replace(self, physics=physics, widths=_widths(sessions, self.hysteresis))
+        bases = [physics.predict(s) for s in sessions]
+        X = np.vstack([out._X(s, b) for s, b in zip(sessions, bases)])
         Y = np.vstack([s.tip - b for s, b in zip(sessions, bases)])
-        self.net = _Ensemble(self.options).fit(X, Y)
-        return self
+        return replace(out, net=_Ensemble(self.options).fit(X, Y))
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
@@ -357,21 +373,25 @@ class Hybrid:
 
 @dataclass(frozen=True)
 class SequenceOptions:
-    """The recurrent model: ``hidden`` GRU units, trained on windows of ``window`` rows (the state
-    carried from the session's start through the windows before) for ``epochs`` passes over the
-    sessions, or fewer where that would take more than ``max_steps`` optimiser steps (long
-    recordings)."""
+    """The recurrent model (``Sequence``) and its training with AdamW."""
 
     hidden: int = 32
+    """GRU units."""
     window: int = 64
+    """Rows per training window (the state carried from the session's start through the windows before)."""
     epochs: int = 300
+    """Passes over the sessions, or fewer where that would take more than ``max_steps``."""
     max_steps: int = 6000
+    """Most optimiser steps (long recordings)."""
     lr: float = 3e-3
+    """Learning rate."""
     weight_decay: float = 1e-3
+    """AdamW's weight decay."""
     seed: int = 0
+    """PyTorch's seed."""
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class Sequence:
     """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s]) and
     writing the tip: a dynamic model of the commands alone, run free from a zero state."""
@@ -379,6 +399,10 @@ class Sequence:
     options: SequenceOptions = SequenceOptions()
     name: str = "sequence"
     net: object = None
+    offset: np.ndarray | None = None
+    mu: np.ndarray | None = None
+    sd: np.ndarray | None = None
+    scale: float = 1.0
 
     def _inputs(self, s: Recording) -> np.ndarray:
         u = s.inputs
@@ -386,36 +410,20 @@ class Sequence:
         return np.hstack([u, u - _previous(u), np.log(dt)[:, None]])
 
     def fit(self, sessions) -> Sequence:
-        """Fit on training sessions (a list of ``Recording``); returns the model."""
+        """The model fitted on training sessions (a list of ``Recording``)."""
         import torch  # optional extra: learn (PyTorch)
 
-        o = self.options
-        torch.manual_seed(o.seed)
-        self.offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
+        torch.manual_seed(self.options.seed)
+        offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
         X = [self._inputs(s) for s in sessions]
-        Y = [s.tip - self.offset for s in sessions]
+        Y = [s.tip - offset for s in sessions]
         allX = np.vstack(X)
-        self.mu, self.sd = allX.mean(axis=0), allX.std(axis=0) + 1e-9
-        self.scale = float(np.sqrt(np.mean(np.vstack(Y) ** 2))) or 1.0
-        gru = torch.nn.GRU(allX.shape[1], o.hidden, batch_first=True)
-        head = torch.nn.Linear(o.hidden, 3)
-        params = list(gru.parameters()) + list(head.parameters())
-        opt = torch.optim.AdamW(params, lr=o.lr, weight_decay=o.weight_decay)
-        xs = [torch.tensor((x - self.mu) / self.sd, dtype=torch.float32)[None] for x in X]
-        ys = [torch.tensor(y / self.scale, dtype=torch.float32)[None] for y in Y]
-        per_epoch = sum(-(-x.shape[1] // o.window) for x in xs)
-        for _ in range(max(1, min(o.epochs, o.max_steps // per_epoch))):
-            for x, y in zip(xs, ys):
-                h = None
-                for a in range(0, x.shape[1], o.window):
-                    out, h = gru(x[:, a:a + o.window], h)
-                    loss = torch.mean((head(out) - y[:, a:a + o.window]) ** 2)
-                    opt.zero_grad()
-                    loss.backward()
-                    opt.step()
-                    h = h.detach()
-        self.net = (gru, head)
-        return self
+        mu, sd = allX.mean(axis=0), allX.std(axis=0) + 1e-9
+        scale = float(np.sqrt(np.mean(np.vstack(Y) ** 2))) or 1.0
+        xs = [torch.tensor((x - mu) / sd, dtype=torch.float32)[None] for x in X]
+        ys = [torch.tensor(y / scale, dtype=torch.float32)[None] for y in Y]
+        return replace(self, net=_train_gru(self.options, xs, ys, allX.shape[1]), offset=offset, mu=mu, sd=sd,
+                       scale=scale)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
@@ -430,6 +438,29 @@ class Sequence:
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
         return {"kind": "GRU of the commands and intervals", **{k: v for k, v in vars(self.options).items()}}
+
+
+def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int) -> tuple:
+    """(GRU, linear head) trained on the sessions' standardised inputs ``xs`` and scaled tips ``ys``
+    (each a (1, T, .) float32 tensor), windows of ``o.window`` rows carrying the state."""
+    import torch  # optional extra: learn (PyTorch)
+
+    gru = torch.nn.GRU(n_inputs, o.hidden, batch_first=True)
+    head = torch.nn.Linear(o.hidden, 3)
+    params = list(gru.parameters()) + list(head.parameters())
+    opt = torch.optim.AdamW(params, lr=o.lr, weight_decay=o.weight_decay)
+    per_epoch = sum(-(-x.shape[1] // o.window) for x in xs)
+    for _ in range(max(1, min(o.epochs, o.max_steps // per_epoch))):
+        for x, y in zip(xs, ys):
+            h = None
+            for a in range(0, x.shape[1], o.window):
+                out, h = gru(x[:, a:a + o.window], h)
+                loss = torch.mean((head(out) - y[:, a:a + o.window]) ** 2)
+                opt.zero_grad()
+                loss.backward()
+                opt.step()
+                h = h.detach()
+    return gru, head
 
 
 # ------------------------------------------------------------------------------------------- choice
@@ -449,7 +480,7 @@ def holdout_split(sessions) -> tuple[list, list]:
     return [part(0, cut)], [part(cut, s.n_rows)]
 
 
-@dataclass
+@dataclass(frozen=True)
 class Choice:
     """The option chosen for a family and the hold-out scores of each candidate [mm]."""
 
@@ -466,12 +497,12 @@ def choose(candidates: dict, sessions) -> Choice:
         model = factory().fit(fit_part)
         pred = np.vstack([model.predict(s) for s in held])
         ref = np.vstack([s.tip for s in held])
-        score = tip_errors(pred, ref)["tip_rmse_mm"]
+        score = tip_errors(pred, ref).rmse_mm
         scores[label] = score if math.isfinite(score) else math.inf
     return Choice(chosen=min(scores, key=scores.get), scores=scores)
 
 
-# ------------------------------------------------------------------------------------ the node LSTM
+# ---------------------------------------------------------------------------------- the node model
 def as_dataset(sessions, length: float):
     """The sessions as one ``softrnn.io.Dataset`` of the tip (node 1 of a 2-node rod of ``length``
     [m]) and the inputs as actuation channels: the rows in order, each later session's times
@@ -500,20 +531,25 @@ def as_dataset(sessions, length: float):
 
 @dataclass(frozen=True)
 class NodeOptions:
-    """The node LSTM's settings (those of the lab workflow guide): ``history`` steps, ``units`` LSTM
-    units, ``rollout_steps`` of the multi-step loss, at most ``epochs`` with early-stopping
-    ``patience``, ``seed``."""
+    """The node LSTM's settings (``NodeFamily``; those of the lab workflow guide), passed to
+    ``softrnn.learned.node`` (``SampleSpec``, ``TrainConfig``)."""
 
     history: int = 4
+    """Past rows a prediction reads (the first rows of a session are the run's initial condition)."""
     units: int = 64
+    """LSTM units."""
     rollout_steps: int = 8
+    """Steps of the multi-step loss."""
     epochs: int = 60
+    """Most epochs."""
     patience: int = 20
+    """Epochs without improvement on the hold-out part before training stops."""
     seed: int = 0
+    """Training seed."""
 
 
-@dataclass
-class NodeLSTM:
+@dataclass(frozen=True, eq=False)
+class NodeFamily:
     """softrnn's per-node LSTM (``softrnn train --drive actuation``, the paper's model driven by the
     inputs alone): trained on the first part of the training sessions and stopped early on the
     hold-out part (``holdout_split``), run free over a session from its first ``history`` rows
@@ -524,8 +560,8 @@ class NodeLSTM:
     name: str = "node_lstm"
     model: object = None
 
-    def fit(self, sessions) -> NodeLSTM:
-        """Fit on training sessions (a list of ``Recording``); returns the model."""
+    def fit(self, sessions) -> NodeFamily:
+        """The model trained on training sessions (a list of ``Recording``)."""
         from ..learned.node.data import SampleSpec  # optional extra: learn (PyTorch)
         from ..learned.node.train import TrainConfig, train_node_model  # optional extra: learn (PyTorch)
 
@@ -535,9 +571,9 @@ class NodeLSTM:
                           drive="actuation")
         config = TrainConfig(epochs=o.epochs, patience=o.patience, seed=o.seed, rollout_steps=o.rollout_steps)
         with tempfile.TemporaryDirectory() as folder:
-            self.model = train_node_model(as_dataset(fit_part, self.length), spec, {"lstm_units": o.units}, config,
-                                          folder, validation=as_dataset(held, self.length))
-        return self
+            model = train_node_model(as_dataset(fit_part, self.length), spec, {"lstm_units": o.units}, config,
+                                     folder, validation=as_dataset(held, self.length))
+        return replace(self, model=model)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""

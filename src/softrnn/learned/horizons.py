@@ -9,21 +9,31 @@ model (NumPy only).
   runs from a few starts spread over each span; the error of one run is a function each kind of
   model passes in (a node model: the error at the horizon; the whole model: the largest error
   over every node within the horizon);
-* ``HorizonTable``: the resulting table, as the reports write it (``to_dict``).
+* ``horizon_table`` and ``HorizonTable``: the table of several predictors from the same starts, as
+  the reports write it (``to_dict``); ``HORIZON_STARTS``, the starts per span.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import final
 
 import numpy as np
 
-from ..errors import SimulationError
+from ..errors import SimulationError, bad
 
 HORIZONS = (1, 10, 100, 1000)
 """Free-running horizons of the reports [predicted samples, or model steps]."""
+
+HORIZON_STARTS = 5
+"""Free-running starts per span and horizon, spread evenly over the span: the default of every
+horizon table (``horizon_table``), the node models' reports included."""
+
+WHOLE_HORIZON_STARTS = 4
+"""The starts per trajectory and horizon the whole-manipulator model's published reports were made
+with: ``whole.evaluation.evaluate_dynamic`` passes it explicitly, so its figures stay as published
+(the common default, ``HORIZON_STARTS``, would move them)."""
 
 WHOLE_HORIZONS = tuple(h for h in HORIZONS if h > 1)
 """The horizons of a whole manipulator run free: ``HORIZONS`` less the first (10, 100, 1000), in
@@ -90,26 +100,10 @@ class HorizonWorst:
 
 def worst_by_horizon(error: Callable[[int, int, int], float], spans: Sequence[tuple[int, int]], horizons,
                      n_starts: int) -> dict[int, HorizonWorst | None]:
-    """The largest error of free runs by horizon, over spans and starts.
-
-    Parameters
-    ----------
-    error : callable(span, start, h) -> float
-        The error of one free run from ``start`` in span number ``span``, h samples (or steps) on;
-        inf for a run that diverged before.
-    spans : sequence of (first, stop)
-        For horizon h a span is used where first + h <= stop, from ``n_starts`` starts spread over
-        [first, stop - h] (``spread_starts``).
-    horizons : sequence of int
-        h >= 1, in the order of the result.
-    n_starts : int
-        Starts per span and horizon.
-
-    Returns
-    -------
-    dict
-        {h: ``HorizonWorst``, or None where no span fits h}.
-    """
+    """The largest ``error(span, start, h)`` of free runs (inf: a run that diverged before h) by
+    horizon h, over the ``spans`` [(first, stop)] with first + h <= stop, from ``n_starts`` starts
+    spread over [first, stop - h] (``spread_starts``): {h: ``HorizonWorst``, or None where no span
+    fits h}, in the order of ``horizons``."""
     out: dict[int, HorizonWorst | None] = {}
     for h in horizons:
         worst, used = 0.0, []
@@ -122,30 +116,83 @@ def worst_by_horizon(error: Callable[[int, int, int], float], spans: Sequence[tu
     return out
 
 
+KINDS = ("at", "within")
+"""What a ``HorizonTable``'s errors measure: ``"at"``, the largest |predicted - reference| over the
+nodes and axes at the horizon [m] (a node model's table); ``"within"``, the largest distance over
+every node within the horizon [% of the rod's length] (the whole-manipulator model's)."""
+
+
+@final
+@dataclass(frozen=True)
+class HorizonRow:
+    """One horizon of a ``HorizonTable``."""
+
+    horizon: int
+    """h [samples, or model steps]."""
+    worst: Mapping[str, float] | None
+    """{predictor: the largest error over the spans and starts, in the table's unit; inf: diverged;
+    nan: h fits none of its spans}, or None where h fits no span."""
+    starts: tuple[int, ...] | None = None
+    """The starts used in the first span (None where h fits no span)."""
+
+
 @final
 @dataclass(frozen=True)
 class HorizonTable:
-    """Free-running errors by horizon of a model and its baselines: a node model's table (in
-    ``unit``, with the errors in mm and the starts) or the whole-manipulator model's (``unit`` None:
-    its rows only, in % of the rod's length)."""
+    """Free-running errors by horizon of a model and its baselines (``horizon_table``)."""
 
-    rows: dict
-    """{h: {predictor name: error or 'diverged' or None}, or None where h does not fit the span}."""
-    unit: str | None = None
-    """'% of length' or 'mm' (a node model's table); None (the whole model's)."""
-    n_starts: int | None = None
-    """Starts per horizon (a node model's table)."""
-    max_abs_mm: dict | None = None
-    """{h: {name: error [mm] or 'diverged'} or None} (a node model's table)."""
-    starts: dict | None = None
-    """{h: [start samples] or None} (a node model's table)."""
+    kind: str
+    """One of ``KINDS``."""
+    names: tuple[str, ...]
+    """The predictors, in report order."""
+    rows: tuple[HorizonRow, ...]
+    """One per horizon, in report order."""
+    n_starts: int = HORIZON_STARTS
+    """Starts per span and horizon."""
+    length_m: float | None = None
+    """The rod's length [m] of an ``"at"`` table's percentages (None: the table is in mm)."""
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise bad("kind", self.kind, f"one of {', '.join(KINDS)}")
 
     def to_dict(self) -> dict:
-        """The reports' JSON: a node model's {'unit', 'n_starts', str(h): row, ..., 'max_abs_mm':
-        {str(h): ...}, 'starts': {str(h): ...}}, or the whole model's {str(h): row}."""
-        rows = {str(h): row for h, row in self.rows.items()}
-        if self.unit is None:
-            return rows
-        return {"unit": self.unit, "n_starts": self.n_starts, **rows,
-                "max_abs_mm": {str(h): v for h, v in self.max_abs_mm.items()},
-                "starts": {str(h): v for h, v in self.starts.items()}}
+        """The reports' JSON: an ``"at"`` table's {'unit', 'n_starts', str(h): {name: error or
+        'diverged'} or None, ..., 'max_abs_mm': {str(h): ...}, 'starts': {str(h): [...] or None}},
+        or a ``"within"`` table's {str(h): {name: error [% of length] or None (diverged, or h fits no
+        span)}}."""
+        if self.kind == "within":
+            return {str(r.horizon): {n: None if r.worst is None or not np.isfinite(r.worst[n]) else float(r.worst[n])
+                                     for n in self.names} for r in self.rows}
+        mm = {str(r.horizon): None if r.worst is None else
+              {n: "diverged" if np.isinf(r.worst[n]) else r.worst[n] * 1e3 for n in self.names} for r in self.rows}
+        rows = {h: None if row is None else {n: _pct(v, self.length_m) for n, v in row.items()}
+                for h, row in mm.items()}
+        return {"unit": "% of length" if self.length_m else "mm", "n_starts": int(self.n_starts), **rows,
+                "max_abs_mm": mm,
+                "starts": {str(r.horizon): None if r.starts is None else list(r.starts) for r in self.rows}}
+
+
+def _pct(mm, length: float | None):
+    """An error [mm] as % of ``length`` [m] (unchanged without a length, or when not a number)."""
+    number = isinstance(mm, (int, float, np.floating)) and not isinstance(mm, bool)
+    return mm if not length or not number else mm / (float(length) * 1e3) * 100.0
+
+
+def horizon_table(errors: Mapping[str, Callable[[int, int, int], float]], spans, horizons=HORIZONS,
+                  n_starts: int = HORIZON_STARTS, *, kind: str = "at", length_m: float | None = None) -> HorizonTable:
+    """The ``HorizonTable`` of several predictors: ``errors`` {name: error(span, start, h)} as
+    ``worst_by_horizon`` takes it (inf: diverged), over ``spans`` [(first, stop)] (or {name: spans},
+    where the predictors' histories differ), at ``horizons`` (in that order), ``n_starts`` starts per
+    span (``spread_starts``)."""
+    rows = []
+    for h in horizons:
+        worst = {name: worst_by_horizon(fn, spans[name] if isinstance(spans, Mapping) else spans, (int(h),),
+                                        n_starts)[int(h)] for name, fn in errors.items()}
+        fits = [w for w in worst.values() if w is not None]
+        if not fits:
+            rows.append(HorizonRow(horizon=int(h), worst=None))
+        else:          # nan: h fits none of this predictor's spans
+            errs = {n: np.nan if w is None else w.error for n, w in worst.items()}
+            rows.append(HorizonRow(horizon=int(h), worst=errs, starts=fits[0].starts[0]))
+    return HorizonTable(kind=kind, names=tuple(errors), rows=tuple(rows), n_starts=int(n_starts), length_m=length_m)

@@ -15,10 +15,11 @@ from ..errors import SoftrnnInputError
 from ..io.reader import read_dataset
 from ..learned.baselines import ConstantVelocity, LinearAR, LinearARConfig, Persistence, free_run
 from ..learned.horizons import WHOLE_HORIZONS, RolloutDiverged
+from ..learned.node.comparison import horizon_misses, horizon_table
 from ..learned.node.data import SampleSpec
 from ..learned.node.engine import ManipulatorStepper
-from ..learned.node.evaluate import horizon_misses, horizon_table, metrics
 from ..learned.node.manipulator import Manipulator
+from ..learned.node.predictions import metrics
 from ..learned.node.rollout import rollout
 from ..timing import step_rate
 from .stepfiles import load_step, save_step
@@ -132,34 +133,13 @@ def _model_run(manip, ds, positions, wrenches, start: int, stop: int) -> np.ndar
 
 
 def compare_baselines(manip, model, ds, r, pool: tuple, start: int, stop: int, quick: bool) -> dict:
-    """The shared model's free run beside the baselines, all run free over the test span from the
-    same seed (``baselines.free_run``; the unmodelled nodes follow the data).
-
-    Parameters
-    ----------
-    manip : Manipulator
-        The shared model over ``pool``.
-    model : NodeModel
-        The shared model: its ``spec.history``, and ``meta['test_span']`` (the linear models are
-        fitted on the samples before it).
-    ds : Dataset
-        The whole record, every node stored (positions (T, N, 3) [m], forces (T, N, 3) [N]).
-    r : Rollout or None
-        The model's free run over [start, stop) (None: it diverged).
-    pool : tuple of int
-        The modelled nodes.
-    start, stop : int
-        The test span's predicted samples.
-    quick : bool
-        Fewer starts per horizon (``quick_horizon_starts``).
-
-    Returns
-    -------
-    dict
-        {baselines: {name: {test_span: errors, or {diverged, node, sample, time_s}} or {skipped},
-        model_test_span, horizons: ``evaluate.horizon_table`` at ``baseline_horizons`` plus
-        ``test_span`` (% of length, the largest over the modelled nodes), misses, baselines_s}.
-    """
+    """The shared model's free run ``r`` (a Rollout over [start, stop), None: it diverged) beside the
+    baselines (``_fit_baselines``, fitted before ``model.meta['test_span']``), all run free over
+    the test span [start, stop) of ``ds`` from the same seed (``baselines.free_run``; the nodes
+    outside ``pool`` follow the data); ``quick``: fewer starts per horizon. Returns {baselines: {name:
+    {test_span: errors or {diverged, node, sample, time_s}} or {skipped}}, model_test_span,
+    horizons: ``horizon_table`` at ``baseline_horizons`` plus ``test_span`` [% of length], misses,
+    baselines_s}."""
     t0 = time.perf_counter()
     cfg, length = MANIPULATOR, float(ds.attrs["rod"]["length"])
     P = np.asarray(ds.positions, dtype=np.float64)                          # (T, N, 3)

@@ -26,8 +26,8 @@ from typing import final
 import numpy as np
 
 from ..baselines import ConstantVelocity, Persistence, StateBaseline
-from ..horizons import WHOLE_HORIZONS, HorizonTable, free_steps, worst_by_horizon
-from ..metrics import euclidean_errors, euclidean_summary
+from ..horizons import WHOLE_HORIZON_STARTS, WHOLE_HORIZONS, HorizonTable, free_steps, horizon_table
+from ..metrics import euclidean_summary, tip_errors
 from ..spans import check_step_start, start_of_test_span
 from .encoding import Encoding, Trajectory
 from .engine import DIVERGED_M
@@ -38,8 +38,10 @@ HORIZONS = WHOLE_HORIZONS
 BASELINES = ("persistence", "constant_velocity", "linear")
 """The baselines reported beside the model, in report order: their JSON keys."""
 
-HORIZON_STARTS = 4
-"""Free-running starts per trajectory and horizon, spread evenly over each trajectory."""
+HORIZON_STARTS = WHOLE_HORIZON_STARTS
+"""Free-running starts per trajectory and horizon, spread evenly over each trajectory: 4, the count
+of the published reports (``softrnn.learned.horizons.WHOLE_HORIZON_STARTS``), passed explicitly in
+place of the shared default ``softrnn.learned.horizons.HORIZON_STARTS``."""
 
 
 def state_baselines() -> dict[str, StateBaseline]:
@@ -120,7 +122,7 @@ def _spread(values: list) -> dict:
 
 def span_error(predictor, encoding, traj, dataset, start: int, *, tip: bool = False) -> dict:
     """The largest error over all nodes from ``start`` to the end: {max_pct_of_length, diverged_at,
-    steps}; with ``tip`` also the tip's Euclidean errors free running (``tip_errors``: None where the
+    steps}; with ``tip`` also the tip's Euclidean errors free running (``tip_summary``: None where the
     run diverged) and one step ahead (``one_step``: each step from the data's history)."""
     states, diverged = free_run(predictor, traj, start)
     steps = np.arange(start + 1, start + 1 + len(states))
@@ -128,8 +130,8 @@ def span_error(predictor, encoding, traj, dataset, start: int, *, tip: bool = Fa
     err = 100.0 * node_errors(encoding, states, truth) / encoding.length
     out = {"max_pct_of_length": _pct(err.max()), "diverged_at": diverged, "steps": int(len(err))}
     if tip:
-        out.update(tip_errors(encoding, states, truth))
-        out["one_step"] = tip_errors(encoding, one_step(predictor, traj, start), truth)
+        out.update(tip_summary(encoding, states, truth))
+        out["one_step"] = tip_summary(encoding, one_step(predictor, traj, start), truth)
     return out
 
 
@@ -152,15 +154,13 @@ def one_step(predictor, traj: Trajectory, start: int, stop: int | None = None) -
     return _projected(traj, out)
 
 
-def tip_errors(encoding: Encoding, states: np.ndarray, truth: np.ndarray) -> dict:
-    """The tip's (the rod's last node's) Euclidean position errors of ``states`` (K, M, 6) against
-    ``truth`` (K, N, 3) [m]: {rmse_euclidean_mm: sqrt(mean_k |p - p_ref|^2), mean_euclidean_mm, and
-    both as % of the rod length (``*_pct_of_length``)}; every value None where a state is NaN
-    (diverged)."""
+def tip_summary(encoding: Encoding, states: np.ndarray, truth: np.ndarray) -> dict:
+    """The tip's (the rod's last node's) ``softrnn.learned.metrics.tip_errors`` of ``states`` (K, M, 6)
+    against ``truth`` (K, N, 3) [m], as ``TipErrors.summary()`` (% of the rod length); every value
+    None where a state is NaN (diverged)."""
     if len(states) == 0 or not np.all(np.isfinite(states)):
         return dict.fromkeys(euclidean_summary(0.0, 0.0, None))
-    rmse, mean = euclidean_errors(encoding.positions(states)[:, -1], truth[:, -1])
-    return euclidean_summary(rmse, mean, encoding.length)
+    return tip_errors(encoding.positions(states)[:, -1], truth[:, -1], encoding.length).summary()
 
 
 def _run_worst(predictor, encoding, runs: list, span: int, start: int, n: int) -> float:
@@ -169,17 +169,6 @@ def _run_worst(predictor, encoding, runs: list, span: int, start: int, n: int) -
     traj, dataset = runs[span]
     err, _ = run_errors(predictor, encoding, traj, dataset, int(start), int(start) + n + 1)
     return float(err.max())
-
-
-def horizon_errors(predictor, encoding, runs: list, horizons=HORIZONS, n_starts: int = HORIZON_STARTS) -> dict:
-    """Largest error [% of L] over all nodes within ``n`` free steps, the worst over ``runs`` (a list
-    of (Trajectory, Dataset)) and over up to ``n_starts`` evenly spaced starts in each
-    (``softrnn.learned.horizons.worst_by_horizon``); None where no trajectory is long enough for
-    ``n`` steps, or where a run diverged. {str(n): value}."""
-    first = max(int(predictor.history) - 1, 2)      # every predictor (history 2 or more) can start here
-    spans = [(first, traj.n_steps - 1) for traj, _ in runs]
-    worst = worst_by_horizon(partial(_run_worst, predictor, encoding, runs), spans, horizons, n_starts)
-    return {str(n): None if w is None else _pct(w.error) for n, w in worst.items()}
 
 
 def first_start(*predictors) -> int:
@@ -202,12 +191,16 @@ def step_at(time: np.ndarray, seconds: float) -> int:
     return int(np.searchsorted(time, float(seconds) + eps, side="right")) - 1
 
 
-def compare(engine, linear, encoding, runs: list, horizons=HORIZONS) -> HorizonTable:
-    """Horizon errors of the model and the three baselines on ``runs``: a ``HorizonTable`` whose
-    ``to_dict()`` is {str(n): {"model", "persistence", "constant_velocity", "linear"}}."""
-    preds = {"model": engine, **state_baselines(), "linear": linear}
-    table = {name: horizon_errors(p, encoding, runs, horizons) for name, p in preds.items()}
-    return HorizonTable(rows={int(n): {name: table[name][str(n)] for name in preds} for n in horizons})
+def compare(predictors: dict, encoding, runs: list, horizons=HORIZONS,
+            n_starts: int = HORIZON_STARTS) -> HorizonTable:
+    """The ``"within"`` ``HorizonTable`` of ``predictors`` ({name: predictor}, e.g. the model and the
+    three baselines) on ``runs`` [(Trajectory, Dataset)]: the largest error [% of L] over every node
+    within h free steps, the worst over the runs and ``n_starts`` starts in each
+    (``softrnn.learned.horizons.horizon_table``); to_dict {str(h): {name: value or None}}."""
+    spans = {name: [(max(int(p.history) - 1, 2), traj.n_steps - 1) for traj, _ in runs]   # its history fits
+             for name, p in predictors.items()}
+    errors = {name: partial(_run_worst, p, encoding, runs) for name, p in predictors.items()}
+    return horizon_table(errors, spans, horizons, n_starts, kind="within")
 
 
 @final
@@ -253,35 +246,16 @@ class DynamicEvaluation:
 
 
 def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_start_fraction: float = 0.6,
-                     horizons=HORIZONS, test_start_time: float | None = None) -> DynamicEvaluation:
-    """The free-running evaluation of a loaded model (``load_dynamic``) beside its baselines.
-
-    Parameters
-    ----------
-    test : Dataset or None
-        The paper trajectory: the model runs free from ``test_start_fraction`` of it to the end
-        (its test span; the first part is where it was trained). A separate test recording the
-        model never saw: ``test_start_fraction`` 0 runs it free from its start (the first
-        ``history`` states are the initial condition).
-    heldout : sequence of Dataset
-        Sweep variants the model never saw: each run free from its start, and the horizons.
-    generalisation : Dataset or None
-        The paper's generalisation scenario, run free from its start.
-    test_start_time : float or None
-        Where the test span starts instead [s, on ``test``'s time axis]: at the last model step at
-        or before it (``step_at``), and never before the first step every predictor can start from.
-        The time of the model step at ``test_start_fraction`` gives the same span.
-
-    Returns
-    -------
-    DynamicEvaluation
-        Its ``to_dict()``: ``model_dt_s``, ``predicted_nodes``, ``nodes``, ``test_span`` and
-        ``test_span_max_pct_of_length``, ``heldout`` {variants, per_variant, median/worst},
-        ``generalisation`` and ``generalisation_max_pct_of_length``, ``horizons`` (model and
-        baselines), with every baseline's span errors beside the model's; on the test span and the
-        generalisation data also the tip's Euclidean errors (``tip_errors``) free running and one
-        step ahead (``one_step``), the tip being node ``tip_node``.
-    """
+                     horizons=HORIZONS, test_start_time: float | None = None,
+                     horizon_starts: int = HORIZON_STARTS) -> DynamicEvaluation:
+    """The free-running evaluation of a loaded model (``load_dynamic``) beside its baselines
+    (docs/guide/dynamic.md): ``test`` (a Dataset or None) run free from ``test_start_fraction`` of it
+    (or from the model step at ``test_start_time`` [s], ``step_at``) to its end; each of ``heldout``
+    (Datasets the model never saw) run free from its start, and the ``horizons`` [model steps] table
+    over them with ``horizon_starts`` starts per trajectory (``compare``); ``generalisation`` (a Dataset
+    or None) run free from its start. Every baseline beside the model; on the test span and the
+    generalisation data the tip's Euclidean errors too (``tip_summary``), free running and one step
+    ahead. Returns a ``DynamicEvaluation`` (``to_dict()``: the JSON report)."""
     enc, engine, linear = model.encoding, model.engine, model.linear
     preds = {"model": engine, **state_baselines(), "linear": linear}
     s0 = first_start(*preds.values())
@@ -299,7 +273,7 @@ def evaluate_dynamic(model, *, test=None, heldout=(), generalisation=None, test_
                for name, p in preds.items()}
         held = {"variants": len(runs), **_spread(per["model"]), "per_variant": per["model"],
                 "baselines": {name: _spread(per[name]) for name in BASELINES}}
-        table = compare(engine, linear, enc, runs, horizons)
+        table = compare(preds, enc, runs, horizons, horizon_starts)
     if generalisation is not None:
         traj = enc.trajectory(generalisation)
         general = {"tip_node": enc.n_nodes - 1,
