@@ -10,7 +10,7 @@ import math
 import pytest
 
 from softrnn.bench import simulator as bench_simulator
-from softrnn.bench.simulator import CONTACT_CASES, CONTACT_KEYS, contact_configs, format_contact, time_contact
+from softrnn.bench.contact import CONTACT_CASES, CONTACT_KEYS, contact_configs, format_contact, time_contact
 from softrnn.cli.main import main
 from softrnn.rod import Clamp, RodSpec, RunConfig, Setup, Simulator, straight
 from softrnn.scenarios import load_scenario
