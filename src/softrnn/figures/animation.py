@@ -298,7 +298,7 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
 
     ``data`` is dataset-like (``figures.data``): time (T,) [s], nodes, positions (T, N, 3) [m],
     optional forces and contact_forces (T, N, 3) [N], attrs. It shows ``frames`` frames, or
-    ``duration`` s of playback at ``fps``, spread evenly over [``start``, ``stop``] [s] (default
+    ``duration`` s of playback at ``fps``, spread evenly from ``start`` to ``stop`` [s] (default
     ``min(samples, max_frames)`` over the whole record); marks ``node`` (default: the one the data
     names) and its ``trail``; in the ``view`` 'auto', 'xy', 'xz', 'yz' or '3d' (camera ``elev``,
     ``azim`` [deg]) at ``size`` (width, height) [pixels]. ``obstacles``: True the data's, False none,

@@ -132,9 +132,8 @@ def lumen_depth(vessels, view: str, box, width: int, height: int) -> np.ndarray:
 
     Parameters
     ----------
-    vessels : list of dict
-        ``obstacles.obstacles_of`` entries of kind 'vessel': ``points`` (P, 3), ``radii`` (P,) [m]
-    view : str
+    vessels, view : list of dict, str
+        ``obstacles.obstacles_of`` entries of kind 'vessel' (``points`` (P, 3), ``radii`` (P,) [m]);
         the plane, 'xy', 'xz' or 'yz'
     box : tuple of float
         (left, right, bottom, top) [m] of the picture (``frame_box``)

@@ -479,14 +479,10 @@ def solve(rod: StaticRod, loads: StaticLoads | None = None, *, tol: float = DEFA
 
     Parameters
     ----------
-    rod : StaticRod
-        the rod
-    loads : StaticLoads or None
-        point loads, distributed load, field and gradient at the magnets, tendon tensions
-    tol : float
-        tolerance E on |[n(L+), m(L+)]|_2 [N, N m]
-    n_steps : int
-        RK4 steps N
+    rod, loads : StaticRod, StaticLoads or None
+        the rod; its point and distributed loads, the field at its magnets, its tendons' tensions
+    tol, n_steps : float, int
+        tolerance E on |[n(L+), m(L+)]|_2 [N, N m]; RK4 steps N
     guess : None, (6,) or StaticSolution
         base wrench [n(0), m(0)] to start from (None: rigid-rod balance)
     max_iter : int
