@@ -132,24 +132,33 @@ def _model_run(manip, ds, positions, wrenches, start: int, stop: int) -> np.ndar
 
 
 def compare_baselines(manip, model, ds, r, pool: tuple, start: int, stop: int, quick: bool) -> dict:
-    """The shared model's free run beside the baselines, all free over the test span from one seed
-    (``baselines.free_run``; the unmodelled nodes follow the data); keys: docs/report-format.md.
+    """The shared model's free run beside the baselines, all run free over the test span from the
+    same seed (``baselines.free_run``; the unmodelled nodes follow the data).
 
     Parameters
     ----------
-    manip, model : Manipulator, NodeModel
-        The shared model over ``pool``; its node model (the linear fits end at ``meta['test_span']``).
+    manip : Manipulator
+        The shared model over ``pool``.
+    model : NodeModel
+        The shared model: its ``spec.history``, and ``meta['test_span']`` (the linear models are
+        fitted on the samples before it).
     ds : Dataset
         The whole record, every node stored (positions (T, N, 3) [m], forces (T, N, 3) [N]).
-    r, pool : Rollout or None, tuple of int
-        The model's free run over [start, stop) (None: it diverged); the modelled nodes.
-    start, stop, quick : int, int, bool
-        The test span's predicted samples; fewer starts per horizon (``quick_horizon_starts``).
+    r : Rollout or None
+        The model's free run over [start, stop) (None: it diverged).
+    pool : tuple of int
+        The modelled nodes.
+    start, stop : int
+        The test span's predicted samples.
+    quick : bool
+        Fewer starts per horizon (``quick_horizon_starts``).
 
     Returns
     -------
     dict
-        ``baselines``, ``model_test_span``, ``horizons``, ``misses``, ``baselines_s``
+        {baselines: {name: {test_span: errors, or {diverged, node, sample, time_s}} or {skipped},
+        model_test_span, horizons: ``evaluate.horizon_table`` at ``baseline_horizons`` plus
+        ``test_span`` (% of length, the largest over the modelled nodes), misses, baselines_s}.
     """
     t0 = time.perf_counter()
     cfg, length = MANIPULATOR, float(ds.attrs["rod"]["length"])
