@@ -6,6 +6,7 @@ from .grid import build_grid as build_grid
 from .rod import PointLoad as PointLoad
 from .rod import PointMagnet as PointMagnet
 from .rod import RigidSegment as RigidSegment
+from .rod import SectionStiffness as SectionStiffness
 from .rod import StaticLoads as StaticLoads
 from .rod import StaticRod as StaticRod
 from .solution import StaticSolution as StaticSolution

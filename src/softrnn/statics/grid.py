@@ -45,11 +45,11 @@ def _interval_properties(rod: StaticRod, a: float, b: float) -> tuple[np.ndarray
     mid = 0.5 * (a + b)
     seg = next((g for g in rod.rigid_segments if g.s0 <= mid <= g.s1), None)
     k = rod.stiffness() if seg is None else rod.segment_stiffness(seg)
-    weight = rod.weight_per_length if seg is None else k["weight"]
-    kinv = np.array([1 / k["EI"], 1 / k["EI"], 1 / k["GJ"], 1 / k["GA"], 1 / k["GA"], 1 / k["EA"]])
+    weight = rod.weight_per_length if seg is None else k.weight
+    kinv = np.array([1 / k.EI, 1 / k.EI, 1 / k.GJ, 1 / k.GA, 1 / k.GA, 1 / k.EA])
     if not rod.extensible_shearable:
         kinv[3:] = 0.0
-    return kinv, weight, k["EI"]
+    return kinv, weight, k.EI
 
 
 def _allocate_steps(weights: list[float], n_steps: int) -> list[int]:
@@ -74,7 +74,7 @@ def build_grid(rod: StaticRod, load_points, n_steps: int) -> Grid:
         raise bad("n_steps", n_steps, f"at least {n_int}: one RK4 step per interval between the load points, "
                                       f"stiffness changes and ends at s = {[round(p, 9) for p in points]} m")
     props = [_interval_properties(rod, a, b) for a, b in zip(points, points[1:])]
-    EI = rod.stiffness()["EI"]
+    EI = rod.stiffness().EI
     weights = [(b - a) * (EI / ei) ** 0.25 for (a, b), (_, _, ei) in zip(zip(points, points[1:]), props)]
     counts = _allocate_steps(weights, n_steps)
     s = [0.0]

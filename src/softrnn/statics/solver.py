@@ -67,7 +67,7 @@ class StaticSolver:
         self.max_iter = integer("max_iter", max_iter)
         self._layouts: dict[tuple, tuple] = {}
         self.grid = self._grid(())  # checks n_steps against the rod's own load points
-        EI = rod.stiffness()["EI"]
+        EI = rod.stiffness().EI
         L = rod.length
         self._scale = np.array([EI / L**2] * 3 + [EI / L] * 3)
         self._base = np.concatenate([rod.base_position, matrix_to_quaternion(rod.base_rotation)])
@@ -174,7 +174,7 @@ class StaticSolver:
     def _tendon_bend(self) -> float:
         """Bending measure sum tau |offset| L / EI of the tendons of the last ``_kernel_inputs``."""
         return float(sum(tau * math.hypot(*td.offset) for tau, td in zip(self._tension, self.rod.tendons))
-                     * self.rod.length / self.rod.stiffness()["EI"])
+                     * self.rod.length / self.rod.stiffness().EI)
 
     def _rigid_moments(self, grid: Grid, arrays) -> tuple[np.ndarray, np.ndarray]:
         """Total external force (3,) [N] and the internal moment (N + 1, 3) [N m] at the grid points
@@ -242,7 +242,7 @@ class StaticSolver:
         else:
             with np.errstate(over="ignore", invalid="ignore"):  # absurd loads: the kernel reports NOT_FINITE
                 force, moments = self._rigid_moments(grid, arrays)
-                bend = float(np.linalg.norm(moments, axis=1).max()) * self.rod.length / self.rod.stiffness()["EI"]
+                bend = float(np.linalg.norm(moments, axis=1).max()) * self.rod.length / self.rod.stiffness().EI
                 bend += self._tendon_bend()
             direct = bend <= _DIRECT_BEND or not math.isfinite(bend)
             if not (direct and run.shoot(np.concatenate([force, moments[0]]), None, 1.0)) and math.isfinite(bend):
@@ -313,7 +313,7 @@ class StaticSolver:
             dl_dxi[:, i] = (lengths_t[moved] - lengths[moved]) / step
         dr_dtau = np.empty((6, moved.size))
         dl_dtau = np.empty((moved.size, moved.size))
-        EI = self.rod.stiffness()["EI"]
+        EI = self.rod.stiffness().EI
         for b, j in enumerate(moved):
             tau = self._tension[j]
             arm = max(math.hypot(*self.rod.tendons[j].offset), self.rod.radius)
@@ -338,7 +338,7 @@ class StaticSolver:
         stiffness = self.rod.stiffness()
         offsets = np.array([math.hypot(*self.rod.tendons[j].offset) for j in moved])
         # what the shooting tolerance resolves of a tendon's length, and of its tension
-        slack = self.tol * (1.0 / k + L * (offsets / stiffness["EI"] + 1.0 / stiffness["EA"])) + 1e-13 * L
+        slack = self.tol * (1.0 / k + L * (offsets / stiffness.EI + 1.0 / stiffness.EA)) + 1e-13 * L
         if self._warm_tau is not None and xi is None:
             tau = self._warm_tau.copy()
         else:
