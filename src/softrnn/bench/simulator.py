@@ -115,7 +115,47 @@ def _timed(fn: Callable[[], object]) -> tuple[float, float]:
     return time.perf_counter() - t, time.process_time() - c
 
 
-def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, duration_s: float) -> dict:
+@dataclasses.dataclass(frozen=True)
+class SingleRodTiming:
+    """One rod's timing (``time_single``); ``to_dict()`` is its JSON entry.
+
+    Attributes
+    ----------
+    nodes, substeps, samples, steps, reps : int
+        the rod's nodes, solver steps per saved interval, saved samples, solver steps per run, runs
+    step_s, simulated_s, wall_s : float
+        the solver step, the simulated span and the median wall of a run [s]
+    us_per_node_step, us_per_node_step_all_saved : float
+        wall / (steps * nodes) [us], saving ``saved_nodes`` and saving every node
+    realtime_factor, realtime_factor_all_saved : float
+        simulated s per wall s, likewise
+    cpu_fraction : float
+        process CPU time / wall (median; below ~0.95: the run waited for a core)
+    saved_nodes : tuple of int
+        the nodes saved
+    """
+
+    nodes: int
+    substeps: int
+    step_s: float
+    us_per_node_step: float
+    realtime_factor: float
+    us_per_node_step_all_saved: float
+    realtime_factor_all_saved: float
+    cpu_fraction: float
+    saved_nodes: tuple
+    samples: int
+    steps: int
+    simulated_s: float
+    wall_s: float
+    reps: int
+
+    def to_dict(self) -> dict:
+        """The JSON entry (``saved_nodes`` a list)."""
+        return dict(dataclasses.asdict(self), saved_nodes=list(self.saved_nodes))
+
+
+def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, duration_s: float) -> SingleRodTiming:
     """Median wall of ``Simulator(setup).run(config')`` over ``reps`` runs, config' covering the
     first ``duration_s`` simulated seconds and saving ``save_nodes``; then the same with all nodes
     saved (median of 3)."""
@@ -135,22 +175,12 @@ def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, duration
     wall = statistics.median(walls)
     wall_all = statistics.median(walls_all)
     simulated = (samples - 1) * cfg.dt
-    return {
-        "nodes": n,
-        "substeps": substeps,
-        "step_s": cfg.dt / substeps,
-        "us_per_node_step": 1e6 * wall / (steps * n),
-        "realtime_factor": simulated / wall,
-        "us_per_node_step_all_saved": 1e6 * wall_all / (steps * n),
-        "realtime_factor_all_saved": simulated / wall_all,
-        "cpu_fraction": statistics.median(c / w for w, c in timed),
-        "saved_nodes": list(cfg.save_nodes),
-        "samples": samples,
-        "steps": steps,
-        "simulated_s": simulated,
-        "wall_s": wall,
-        "reps": reps,
-    }
+    return SingleRodTiming(nodes=n, substeps=substeps, step_s=cfg.dt / substeps,
+                           us_per_node_step=1e6 * wall / (steps * n), realtime_factor=simulated / wall,
+                           us_per_node_step_all_saved=1e6 * wall_all / (steps * n),
+                           realtime_factor_all_saved=simulated / wall_all,
+                           cpu_fraction=statistics.median(c / w for w, c in timed), saved_nodes=tuple(cfg.save_nodes),
+                           samples=samples, steps=steps, simulated_s=simulated, wall_s=wall, reps=reps)
 
 
 def time_startup(cache_dir: str) -> dict:
@@ -227,7 +257,7 @@ def _single_rods(sizes, reps: int, duration: float, case_duration: float, tick: 
     sizes_out = {}
     for n in sizes:
         setup, config = cantilever(n)
-        sizes_out[str(n)] = time_single(setup, config, config.save_nodes, reps, duration)
+        sizes_out[str(n)] = time_single(setup, config, config.save_nodes, reps, duration).to_dict()
         tick()
     sim["cantilever50"] = sizes_out.pop("50")
     sim["cantilever_nodes"] = sizes_out
@@ -235,7 +265,7 @@ def _single_rods(sizes, reps: int, duration: float, case_duration: float, tick: 
     for name in PAPER_CASES:
         try:
             setup, config, save = _paper_case(name)
-            cases[name] = time_single(setup, config, save, reps, case_duration)
+            cases[name] = time_single(setup, config, save, reps, case_duration).to_dict()
             cases[name]["paper_us_per_node_step"] = PAPER["us_per_node_step"][name]
             cases[name]["speedup_vs_paper"] = PAPER["us_per_node_step"][name] / cases[name]["us_per_node_step"]
         except Exception as exc:  # a case under construction must not sink the benchmark
