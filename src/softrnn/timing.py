@@ -138,26 +138,19 @@ def _timed_calls(step: Callable[[], object], n: int) -> np.ndarray:
 
 
 def step_rate(step: Callable[[], object], *, steps: int, repeats: int = 5, warmup: int = 200) -> StepRate:
-    """Time ``step()``: ``warmup`` untimed calls, then ``steps`` timed calls in ``repeats`` runs of
-    (nearly) equal length (fewer runs when ``steps < repeats``).
+    """Time ``step()``: ``warmup`` (>= 0) untimed calls, then ``steps`` (>= 1) timed calls in
+    ``repeats`` (>= 1) runs of (nearly) equal length (fewer runs when ``steps < repeats``).
 
     Parameters
     ----------
     step : callable
         Called with no arguments; whatever it returns is ignored. A step that walks through data
         keeps its own position (e.g. ``itertools.cycle`` over row indices).
-    steps : int
-        Timed calls, all runs together (>= 1).
-    repeats : int
-        Runs the timed calls are split into (>= 1).
-    warmup : int
-        Untimed calls first (>= 0).
 
     Returns
     -------
     StepRate
-        ``median_hz`` (median over the runs of each run's mean rate), ``mean_hz``, the call-time
-        percentiles ``p50_us``, ``p90_us``, ``p99_us`` [us], ``steps`` and ``repeats``.
+        The median and mean rates [Hz] and the call-time percentiles [us].
     """
     steps, repeats, warmup = integer("steps", steps), integer("repeats", repeats), integer("warmup", warmup, 0)
     if not callable(step):

@@ -6,11 +6,12 @@ benchmark's job); the full bench runs in test_fresh_process."""
 
 import json
 import math
+from types import SimpleNamespace
 
 import pytest
 
 from softrnn.bench import simulator as bench_simulator
-from softrnn.bench.simulator import CONTACT_CASES, CONTACT_KEYS, contact_configs, format_contact, time_contact
+from softrnn.bench.contact import CONTACT_CASES, CONTACT_KEYS, contact_configs, format_contact, time_contact
 from softrnn.cli.main import main
 from softrnn.rod import Clamp, RodSpec, RunConfig, Setup, Simulator, straight
 from softrnn.scenarios import load_scenario
@@ -21,7 +22,7 @@ def _stand_ins(monkeypatch):
     the contact part of the simulator benchmark runs for real."""
     row = dict(nodes=59, substeps=1, us_per_node_step=0.05, us_per_node_step_all_saved=0.06, realtime_factor=10.0,
                cpu_fraction=1.0)
-    monkeypatch.setattr(bench_simulator, "time_single", lambda *a, **k: dict(row))
+    monkeypatch.setattr(bench_simulator, "time_single", lambda *a, **k: SimpleNamespace(to_dict=lambda: dict(row)))
     monkeypatch.setattr(bench_simulator, "time_integrators", lambda *a, tick=None, **k: {"how": "stand-in"})
     monkeypatch.setattr(bench_simulator, "time_compile", lambda *a: dict(cold_s=1.0, cached_s=0.1, import_s=0.05))
     monkeypatch.setattr(bench_simulator, "time_batch", lambda *a: dict(row, rods=16, threads=2))

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from softrnn.bench.simulator import (
+from softrnn.bench.integrators import (
     INTEGRATORS,
     KEYS,
     REFERENCE_REFINE,

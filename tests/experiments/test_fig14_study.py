@@ -12,14 +12,14 @@ from softrnn.errors import SoftrnnInputError
 from softrnn.experiments.fig14 import (
     FIGURE,
     MANIFEST,
-    PAPER_FIG14,
     StudyConfig,
     model_folder,
     point_path,
-    region,
     run_study,
     summary,
 )
+from softrnn.experiments.fig14_config import PAPER_FIG14
+from softrnn.experiments.fig14_summary import region
 from softrnn.io import write_trajectory
 from softrnn.learned.node.artifact import load_model
 from softrnn.learned.node.evaluate import evaluate

@@ -10,7 +10,8 @@ import pytest
 from PIL import Image
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.figures import animation, fluoroscopy
+from softrnn.figures import _movie, animation, fluoroscopy
+from softrnn.figures import obstacles as figure_obstacles
 from softrnn.io.schema import contact_record
 from softrnn.rod import Contact, Sphere, Vessel
 from softrnn.rod import contact as contact_module
@@ -37,7 +38,7 @@ def _frame(data, size=(320, 280)):
                                     view="auto", title="wire", size=size,
                                     obstacles=animation.obstacles_of(data.attrs["contact"]), rod_radius=WIRE)
     frames = []
-    animation._render(scene, np.array([0]), lambda rgba: frames.append(np.array(rgba)))
+    _movie.render_frames(scene, np.array([0]), lambda rgba: frames.append(np.array(rgba)))
     rgb = frames[0][..., :3].astype(int)
     assert np.all(rgb[..., 0] == rgb[..., 1]) and np.all(rgb[..., 1] == rgb[..., 2])  # greys only
     return rgb[..., 0], scene
@@ -130,7 +131,7 @@ def test_an_obstacle_with_vessels_is_drawn_as_each_vessel(tmp_path, monkeypatch)
     seen = []
     real = fluoroscopy.lumen_depth
     monkeypatch.setattr(fluoroscopy, "lumen_depth", lambda vessels, *a: seen.append(vessels) or real(vessels, *a))
-    monkeypatch.setattr(animation, "contact_from_record", lambda record: contact)
+    monkeypatch.setattr(figure_obstacles, "contact_from_record", lambda record: contact)
     data.attrs["contact"] = {"obstacles": [{"kind": "bifurcation"}]}
     animation.animate(data, tmp_path / "record.gif", frames=2, size=(160, 140), style="auto")
     assert [len(v) for v in seen] == [3]

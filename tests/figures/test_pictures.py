@@ -9,7 +9,7 @@ from PIL import Image
 
 from softrnn.cli._plot import named_node
 from softrnn.errors import SoftrnnInputError
-from softrnn.figures import animation, geometry, pictures
+from softrnn.figures import _movie, animation, geometry, pictures
 from softrnn.figures import data as figure_data
 
 from helpers import run_cli
@@ -124,7 +124,7 @@ def test_interrupted_animation_leaves_no_file(tmp_path, monkeypatch):
         animation.animate(rod_data(), tmp_path / "rod.gif", frames=10, size=(160, 140))
     assert files_in(tmp_path) == []
     calls.clear()
-    monkeypatch.setattr(animation._GifSink, "finish", lambda self: (_ for _ in ()).throw(OSError("disk full")))
+    monkeypatch.setattr(_movie.GifSink, "finish", lambda self: (_ for _ in ()).throw(OSError("disk full")))
     with pytest.raises(OSError):
         animation.animate(rod_data(), tmp_path / "rod.gif", frames=2, size=(160, 140))
     assert files_in(tmp_path) == []

@@ -47,7 +47,7 @@ def tip_load(force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0), s=L) -> StaticLoads:
 
 
 STIFF = rod().stiffness()
-EI, EA, GA = STIFF["EI"], STIFF["EA"], STIFF["GA"]
+EI, EA, GA = STIFF.EI, STIFF.EA, STIFF.GA
 
 
 # --------------------------------------------------------------------------- beam theory, elastica
@@ -154,7 +154,7 @@ def test_tip_magnet_in_uniform_field_bends_the_rod_to_the_torque_balance():
     length, mu = 0.05, 8.6e-3
     soft = StaticRod(length=length, radius=1.5e-3, youngs_modulus=2.5e6, density=1000.0, gravity=(0.0, 0.0, 0.0),
                      magnets=(PointMagnet(s=length, moment_body=(0.0, 0.0, mu)),))
-    ei = soft.stiffness()["EI"]
+    ei = soft.stiffness().EI
     B = 1.85 * ei / (mu * length)  # T: a tip angle of about 1 rad
     sol = solve(soft, StaticLoads(magnetic_field=(0.0, 0.0, B)), tol=1e-12).raise_for_status()
     theta = brentq(lambda t: t - mu * B * length * math.cos(t) / ei, 0.0, math.pi / 2)
@@ -180,7 +180,7 @@ def test_magnetic_manipulator_is_in_global_equilibrium():
     p0 = sol.positions[0]
     mid_s = 0.5 * (sol.s[1:] + sol.s[:-1])
     in_magnet = [any(seg.s0 <= s <= seg.s1 for seg in mrod.rigid_segments) for s in mid_s]
-    weight = np.where(in_magnet, mrod.segment_stiffness(mrod.rigid_segments[0])["weight"], mrod.weight_per_length)
+    weight = np.where(in_magnet, mrod.segment_stiffness(mrod.rigid_segments[0]).weight, mrod.weight_per_length)
     ds = np.diff(sol.s)
     mid = 0.5 * (sol.positions[1:] + sol.positions[:-1]) - p0
     force = (weight * ds)[:, None] * g

@@ -76,10 +76,10 @@ def simulator_speed(setup, config, node: int, duration_s: float, reps: int) -> d
                         (node,), reps, duration_s)
     finally:
         numba.set_num_threads(previous)
-    return {"sim_s_per_wall_s": r["realtime_factor"], "sim_s_per_wall_s_all_saved": r["realtime_factor_all_saved"],
-            "saved_dt_s": float(config.dt), "substeps": r["substeps"], "step_s": r["step_s"],
-            "nodes": r["nodes"], "simulated_s": r["simulated_s"], "wall_s": r["wall_s"],
-            "cpu_fraction": r["cpu_fraction"], "reps": reps, "threads": 1}
+    return {"sim_s_per_wall_s": r.realtime_factor, "sim_s_per_wall_s_all_saved": r.realtime_factor_all_saved,
+            "saved_dt_s": float(config.dt), "substeps": r.substeps, "step_s": r.step_s,
+            "nodes": r.nodes, "simulated_s": r.simulated_s, "wall_s": r.wall_s,
+            "cpu_fraction": r.cpu_fraction, "reps": reps, "threads": 1}
 
 
 def model_speed(engine, traj, model_dt: float, steps: int) -> dict:

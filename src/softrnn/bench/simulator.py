@@ -10,19 +10,13 @@ Measures (see benchmarks/README.md):
   compile) and again with the filled cache (cached start), import time included;
 * a batch of 16 rods (59-node cantilevers, different tip loads) through ``simulate_batch`` on
   2 threads (and, for reference, on 1 thread);
-* the two integrators (``RunConfig(integrator="explicit" | "implicit")``) on the paper's cases and
-  the stiff wires ``steel-wire`` and ``nitinol-guidewire``, each at its automatic step: cost, real-time
-  factor and the tracked node's error against the same integrator at an 8x smaller step
-  (``time_integrators``; ``INTEGRATOR_HOW`` says exactly how);
-* the cost of contact: the shipped contact scenarios (``contact-plane``, ``vessel-guidewire``) as
-  shipped and the same setup with ``contact=None`` at the contact run's solver step, and the overhead
-  with/without - 1 (``time_contact_cases``; ``CONTACT_HOW`` says exactly how).
+* the two integrators on the paper's cases and the stiff wires (``bench.integrators``);
+* the cost of contact in the shipped contact scenarios (``bench.contact``).
 
 ``run_benchmark`` returns a JSON-ready dict, ``format_table`` renders it; neither prints.
 """
 
 import dataclasses
-import math
 import os
 import statistics
 import subprocess
@@ -32,15 +26,14 @@ import time
 from collections.abc import Callable
 
 import numba
-import numpy as np
 
-from ..errors import bad
 from ..progress import Progress
 from ..rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, simulate_batch, straight
-from ..scenarios import load_scenario
-from ..scenarios.cases import PAPER_CASES as SCENARIO_PAPER_CASES
 from ..scenarios.cases import build_case
 from ..timing import load_average, machine_info
+from ._runs import covering_samples, goal_mark
+from .contact import CONTACT_CASES, contact_overheads, format_contact, time_contact_cases
+from .integrators import INTEGRATOR_CASES, INTEGRATORS, format_integrators, time_integrators
 
 PAPER_SOURCE = "Tariverdi et al. 2021, Front. Robot. AI 8:631303, sections 4.1-4.3"
 PAPER = {
@@ -59,43 +52,6 @@ GOALS = {
 }
 PAPER_CASES = ("ellipse", "square", "semicircle")
 GOAL_NODES = (59, 101)
-
-INTEGRATORS = ("explicit", "implicit")
-INTEGRATOR_CASES = tuple(SCENARIO_PAPER_CASES) + ("steel-wire", "nitinol-guidewire")
-KEYS = ("us_per_node_step", "dt_s", "real_time_factor", "tip_error_pct_of_length")
-"""The figures of every ``simulator.integrators[INTEGRATOR][CASE]`` entry (the error may be None)."""
-REFERENCE_REFINE = 8          # the reference takes REFERENCE_REFINE x the substeps (a step 8x smaller)
-REFERENCE_MAX_STEPS = 2_000_000  # solver steps a reference run may take; beyond: timed over fixed steps
-INTEGRATOR_HOW = (
-    "per scenario (softrnn.scenarios.load_scenario; the paper's cases and the stiff wires), its own saved interval "
-    "dt and setup, the integrator switched, substeps=None (automatic), only the tracked node saved (the scenario's "
-    "last node of interest: the free tip of square and the wires, the node of interest of ellipse and semicircle, "
-    "which are clamped at both ends). dt_s = dt / substeps, the solver step the integrator chooses for that dt "
-    "(explicit: the largest stable step, Simulator.stable_step; implicit: rod.implicit.accuracy_step, at most dt). "
-    "Timed: the first span_s simulated seconds from rest, one warm-up run, then the median wall of reps runs of "
-    "Simulator(setup).run(config), numba 1 thread; us_per_node_step = wall / (steps * nodes), real_time_factor = "
-    "simulated s / wall s. tip_error_pct_of_length = 100 * max over the saved samples of |r - r_ref| / L, r the "
-    "tracked node's position, r_ref that of one run of the same integrator with 8x the substeps (a step 8x "
-    "smaller), same samples. Where that reference would take more than 2,000,000 solver steps (the explicit step "
-    "of a stiff wire, about 1e-10 s), fixed_steps solver steps from rest are timed instead (the real-time factor "
-    "from them) and the error is null with tip_error_reason.")
-
-CONTACT_CASES = ("contact-plane", "vessel-guidewire")
-"""The shipped contact scenarios whose cost of contact ``simulator.contact`` records."""
-CONTACT_KEYS = ("us_per_node_step", "us_per_node_step_without_contact", "overhead")
-"""The figures of every ``simulator.contact[CASE]`` entry."""
-CONTACT_HOW = (
-    "per scenario (softrnn.scenarios.load_scenario), its setup, saved interval dt and integrator as shipped, only "
-    "the tracked node saved (its last node of interest); the solver step is the contact run's automatic one "
-    "(substeps fixed to it), and the same setup with contact=None is run at that same step, so that only the "
-    "contact work differs (without the obstacles the rod moves differently: it falls through the table or the "
-    "vessel's floor). Timed: the first saved intervals from rest that make node_steps node-steps (solver steps * "
-    "nodes), at most the first max_span_s simulated seconds (the cost per step depends a little on the motion, "
-    "and the motions with and without contact drift apart: the rod of contact-plane, free of its table, swings "
-    "from the clamp, and over the whole scenario its steps cost about 15 % more than over the first second), one "
-    "warm-up run of each, then reps runs of Simulator(setup).run(config) alternating with and without contact, "
-    "numba 1 thread, the median wall of each; us_per_node_step = wall / (steps * nodes), overhead = "
-    "us_per_node_step / us_per_node_step_without_contact - 1 (goal: at most 0.30).")
 
 # cantilever of the task: L = 1 m, r = 1 cm, E = 1 MPa, rho = 1000 kg/m^3, nu = 0.5, gravity,
 # clamped at node 0, horizontal along +x (it falls and swings under its own weight)
@@ -159,12 +115,47 @@ def _timed(fn: Callable[[], object]) -> tuple[float, float]:
     return time.perf_counter() - t, time.process_time() - c
 
 
-def _samples(config: RunConfig, duration_s: float) -> int:
-    """Samples covering the first ``duration_s`` of a run (at most the config's own)."""
-    return int(min(config.n_samples, max(2, 1 + round(duration_s / config.dt))))
+@dataclasses.dataclass(frozen=True)
+class SingleRodTiming:
+    """One rod's timing (``time_single``); ``to_dict()`` is its JSON entry.
+
+    Attributes
+    ----------
+    nodes, substeps, samples, steps, reps : int
+        the rod's nodes, solver steps per saved interval, saved samples, solver steps per run, runs
+    step_s, simulated_s, wall_s : float
+        the solver step, the simulated span and the median wall of a run [s]
+    us_per_node_step, us_per_node_step_all_saved : float
+        wall / (steps * nodes) [us], saving ``saved_nodes`` and saving every node
+    realtime_factor, realtime_factor_all_saved : float
+        simulated s per wall s, likewise
+    cpu_fraction : float
+        process CPU time / wall (median; below ~0.95: the run waited for a core)
+    saved_nodes : tuple of int
+        the nodes saved
+    """
+
+    nodes: int
+    substeps: int
+    step_s: float
+    us_per_node_step: float
+    realtime_factor: float
+    us_per_node_step_all_saved: float
+    realtime_factor_all_saved: float
+    cpu_fraction: float
+    saved_nodes: tuple
+    samples: int
+    steps: int
+    simulated_s: float
+    wall_s: float
+    reps: int
+
+    def to_dict(self) -> dict:
+        """The JSON entry (``saved_nodes`` a list)."""
+        return dict(dataclasses.asdict(self), saved_nodes=list(self.saved_nodes))
 
 
-def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, duration_s: float) -> dict:
+def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, duration_s: float) -> SingleRodTiming:
     """Median wall of ``Simulator(setup).run(config')`` over ``reps`` runs, config' covering the
     first ``duration_s`` simulated seconds and saving ``save_nodes``; then the same with all nodes
     saved (median of 3)."""
@@ -175,7 +166,7 @@ def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, duration
         return Simulator(setup).run(dataclasses.replace(cfg, n_samples=samples, save_nodes=save))
 
     run(2)  # warm-up: compiles the kernel or loads it from the cache
-    samples = _samples(config, duration_s)
+    samples = covering_samples(config, duration_s)
     timed = [_timed(lambda: run(samples)) for _ in range(reps)]
     walls = [w for w, _ in timed]
     walls_all = [_wall(lambda: run(samples, None)) for _ in range(3)]
@@ -184,22 +175,12 @@ def time_single(setup: Setup, config: RunConfig, save_nodes, reps: int, duration
     wall = statistics.median(walls)
     wall_all = statistics.median(walls_all)
     simulated = (samples - 1) * cfg.dt
-    return {
-        "nodes": n,
-        "substeps": substeps,
-        "step_s": cfg.dt / substeps,
-        "us_per_node_step": 1e6 * wall / (steps * n),
-        "realtime_factor": simulated / wall,
-        "us_per_node_step_all_saved": 1e6 * wall_all / (steps * n),
-        "realtime_factor_all_saved": simulated / wall_all,
-        "cpu_fraction": statistics.median(c / w for w, c in timed),
-        "saved_nodes": list(cfg.save_nodes),
-        "samples": samples,
-        "steps": steps,
-        "simulated_s": simulated,
-        "wall_s": wall,
-        "reps": reps,
-    }
+    return SingleRodTiming(nodes=n, substeps=substeps, step_s=cfg.dt / substeps,
+                           us_per_node_step=1e6 * wall / (steps * n), realtime_factor=simulated / wall,
+                           us_per_node_step_all_saved=1e6 * wall_all / (steps * n),
+                           realtime_factor_all_saved=simulated / wall_all,
+                           cpu_fraction=statistics.median(c / w for w, c in timed), saved_nodes=tuple(cfg.save_nodes),
+                           samples=samples, steps=steps, simulated_s=simulated, wall_s=wall, reps=reps)
 
 
 def time_startup(cache_dir: str) -> dict:
@@ -246,7 +227,7 @@ def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, duration_s: f
             return simulate_batch(setups, dataclasses.replace(config, n_samples=samples))
 
         run(2)  # warm-up
-        samples = _samples(config, duration_s)
+        samples = covering_samples(config, duration_s)
         timed = [_timed(lambda: run(samples)) for _ in range(reps)]
         walls = [w for w, _ in timed]
     finally:
@@ -269,162 +250,6 @@ def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, duration_s: f
     }
 
 
-# ---------------------------------------------------------------------------------------------- integrators
-def _tracked_node(scenario) -> int:
-    """The node an integrator entry follows: the scenario's last node of interest (0-based)."""
-    nodes = tuple(scenario.nodes_of_interest) or (-1,)
-    return scenario.setup.node_index(int(nodes[-1]))
-
-
-def integrator_configs(setup: Setup, config: RunConfig, node: int, integrator: str, span_s: float,
-                       fixed_steps: int) -> tuple[float, RunConfig, RunConfig | None, str | None]:
-    """(solver step h [s], timed config, reference config or None, why no reference) of one
-    integrator entry: the scenario's config with the integrator, automatic substeps and only
-    ``node`` saved, over its first ``span_s``; if the reference (``REFERENCE_REFINE`` x the substeps)
-    would exceed ``REFERENCE_MAX_STEPS``, ``fixed_steps`` solver steps of h instead, no reference."""
-    cfg = dataclasses.replace(config, integrator=integrator, substeps=None, save_nodes=(node,))
-    substeps = Simulator(setup).resolve_substeps(cfg)
-    h = cfg.dt / substeps
-    samples = _samples(cfg, span_s)
-    ref_steps = (samples - 1) * substeps * REFERENCE_REFINE
-    if ref_steps <= REFERENCE_MAX_STEPS:
-        timed = dataclasses.replace(cfg, n_samples=samples)
-        return h, timed, dataclasses.replace(timed, substeps=substeps * REFERENCE_REFINE), None
-    # h * (1 - 1e-9): fixed substeps must not exceed the stable step by a rounding error
-    timed = dataclasses.replace(cfg, dt=fixed_steps * h * (1 - 1e-9), n_samples=2, substeps=fixed_steps)
-    reason = (f"the reference over {span_s:g} s would take {ref_steps:.2g} solver steps of "
-              f"{h / REFERENCE_REFINE:.3g} s (limit {REFERENCE_MAX_STEPS:,}); over the {fixed_steps} timed steps "
-              f"({fixed_steps * h:.2g} s) the node barely moves")
-    return h, timed, None, reason
-
-
-def time_integrator(setup: Setup, config: RunConfig, node: int, integrator: str, reps: int, span_s: float,
-                    fixed_steps: int) -> dict:
-    """One ``simulator.integrators[integrator][case]`` entry (``INTEGRATOR_HOW``)."""
-    h, timed, reference, reason = integrator_configs(setup, config, node, integrator, span_s, fixed_steps)
-    Simulator(setup).run(dataclasses.replace(timed, n_samples=2))  # warm-up: compiles or loads the kernel
-    runs = []
-    for _ in range(reps):
-        c, t = time.process_time(), time.perf_counter()
-        trajectory = Simulator(setup).run(timed)
-        runs.append((time.perf_counter() - t, time.process_time() - c))
-    wall = statistics.median(w for w, _ in runs)
-    steps = trajectory.n_steps
-    simulated = steps * trajectory.step
-    n = setup.rod.n_nodes
-    entry = {"us_per_node_step": 1e6 * wall / (steps * n), "dt_s": h, "real_time_factor": simulated / wall,
-             "tip_error_pct_of_length": None, "tip_node": node, "nodes": n, "substeps": trajectory.substeps,
-             "steps": steps, "simulated_s": simulated, "wall_s": wall, "reps": reps,
-             "cpu_fraction": statistics.median(c / w for w, c in runs), "reference_dt_s": None}
-    if reference is None:
-        entry["tip_error_reason"] = reason
-        return entry
-    ref = Simulator(setup).run(reference)
-    error = np.linalg.norm(trajectory.positions[:, 0] - ref.positions[:, 0], axis=1)
-    entry["tip_error_pct_of_length"] = float(100.0 * np.max(error) / setup.rod.length)
-    entry["reference_dt_s"] = ref.step
-    return entry
-
-
-def time_integrators(reps: int, span_s: float, fixed_steps: int, cases=INTEGRATOR_CASES,
-                     tick: Callable[[], None] | None = None) -> dict:
-    """``simulator.integrators``: {integrator: {case: entry}} for ``INTEGRATORS`` and ``cases``, plus
-    "how" (``INTEGRATOR_HOW``). A case that fails is recorded as {"error": ...}. Run it with numba on
-    one thread."""
-    out: dict = {name: {} for name in INTEGRATORS}
-    for case in cases:
-        try:
-            scenario = load_scenario(case)
-            node = _tracked_node(scenario)
-        except Exception as exc:  # a scenario under construction must not sink the benchmark
-            scenario, error = None, {"error": f"{type(exc).__name__}: {exc}"}
-        for integrator in INTEGRATORS:
-            if scenario is None:
-                out[integrator][case] = dict(error)
-                continue
-            try:
-                out[integrator][case] = time_integrator(scenario.setup, scenario.config, node, integrator, reps,
-                                                        span_s, fixed_steps)
-            except Exception as exc:
-                out[integrator][case] = {"error": f"{type(exc).__name__}: {exc}"}
-        if tick is not None:
-            tick()
-    out["how"] = INTEGRATOR_HOW
-    return out
-
-
-# ---------------------------------------------------------------------------------------------- contact
-def contact_configs(setup: Setup, config: RunConfig, node: int, node_steps: int,
-                    max_span_s: float) -> tuple[Setup, RunConfig]:
-    """(the setup without contact, the timed config) of one ``simulator.contact`` entry: the
-    scenario's config saving only ``node``, its substeps fixed to the automatic ones of the run with
-    contact (the run without contact takes the same solver step), over the first saved intervals
-    that make ``node_steps`` node-steps (solver steps * nodes), at most ``max_span_s`` simulated
-    seconds (and at least one interval)."""
-    cfg = dataclasses.replace(config, save_nodes=(node,), substeps=None)
-    substeps = Simulator(setup).resolve_substeps(cfg)
-    enough = 1 + math.ceil(node_steps / (substeps * setup.rod.n_nodes))
-    samples = min(_samples(cfg, max_span_s), max(2, enough))
-    timed = dataclasses.replace(cfg, substeps=substeps, n_samples=samples)
-    return dataclasses.replace(setup, contact=None), timed
-
-
-def time_contact(setup: Setup, config: RunConfig, node: int, reps: int, node_steps: int,
-                 max_span_s: float) -> dict:
-    """One ``simulator.contact`` entry (``CONTACT_HOW``): the setup (with contact) against itself
-    without contact at the same solver step, ``reps`` runs of each, alternating, over the span of
-    ``contact_configs``."""
-    if setup.contact is None:
-        raise bad("setup.contact", None, "a Contact: the setup's contact is what is timed")
-    bare, timed = contact_configs(setup, config, node, node_steps, max_span_s)
-    pair = (setup, bare)
-    for s in pair:  # warm-up: compiles the kernel or loads it from the cache
-        Simulator(s).run(dataclasses.replace(timed, n_samples=2))
-    runs: tuple[list, list] = ([], [])
-    for _ in range(reps):
-        for s, out in zip(pair, runs):
-            c, t = time.process_time(), time.perf_counter()
-            trajectory = Simulator(s).run(timed)
-            out.append((time.perf_counter() - t, time.process_time() - c))
-    with_contact, without = (statistics.median(w for w, _ in out) for out in runs)
-    steps = trajectory.n_steps
-    n = setup.rod.n_nodes
-    per_node_step = 1e6 / (steps * n)
-    return {"us_per_node_step": with_contact * per_node_step,
-            "us_per_node_step_without_contact": without * per_node_step,
-            "overhead": with_contact / without - 1.0,
-            "integrator": timed.integrator, "dt_s": trajectory.step, "substeps": trajectory.substeps,
-            "obstacles": [type(o).__name__ for o in setup.contact.obstacles], "tip_node": node, "nodes": n,
-            "steps": steps, "simulated_s": steps * trajectory.step, "wall_s": with_contact,
-            "wall_without_contact_s": without, "reps": reps,
-            "cpu_fraction": min(statistics.median(c / w for w, c in out) for out in runs)}
-
-
-def time_contact_cases(reps: int, node_steps: int, max_span_s: float, cases=CONTACT_CASES,
-                       tick: Callable[[], None] | None = None) -> dict:
-    """``simulator.contact``: {case: entry} for ``cases`` (``time_contact``), plus "how"
-    (``CONTACT_HOW``). A case that fails is recorded as {"error": ...}. Run it with numba on one
-    thread."""
-    out: dict = {}
-    for case in cases:
-        try:
-            scenario = load_scenario(case)
-            out[case] = time_contact(scenario.setup, scenario.config, _tracked_node(scenario), reps, node_steps,
-                                     max_span_s)
-        except Exception as exc:  # a scenario under construction must not sink the benchmark
-            out[case] = {"error": f"{type(exc).__name__}: {exc}"}
-        if tick is not None:
-            tick()
-    out["how"] = CONTACT_HOW
-    return out
-
-
-def contact_overheads(sim: dict) -> list[float]:
-    """The measured overheads of ``simulator.contact`` (the entries without an error)."""
-    entries = sim.get("contact", {})
-    return [e["overhead"] for case, e in entries.items() if case != "how" and "overhead" in e]
-
-
 # ---------------------------------------------------------------------------------------------- report
 def _single_rods(sizes, reps: int, duration: float, case_duration: float, tick: Callable[[], None]) -> dict:
     """The single-rod entries (``cantilever50``, ``cantilever_nodes``, ``cases``); numba on 1 thread."""
@@ -432,7 +257,7 @@ def _single_rods(sizes, reps: int, duration: float, case_duration: float, tick: 
     sizes_out = {}
     for n in sizes:
         setup, config = cantilever(n)
-        sizes_out[str(n)] = time_single(setup, config, config.save_nodes, reps, duration)
+        sizes_out[str(n)] = time_single(setup, config, config.save_nodes, reps, duration).to_dict()
         tick()
     sim["cantilever50"] = sizes_out.pop("50")
     sim["cantilever_nodes"] = sizes_out
@@ -440,7 +265,7 @@ def _single_rods(sizes, reps: int, duration: float, case_duration: float, tick: 
     for name in PAPER_CASES:
         try:
             setup, config, save = _paper_case(name)
-            cases[name] = time_single(setup, config, save, reps, case_duration)
+            cases[name] = time_single(setup, config, save, reps, case_duration).to_dict()
             cases[name]["paper_us_per_node_step"] = PAPER["us_per_node_step"][name]
             cases[name]["speedup_vs_paper"] = PAPER["us_per_node_step"][name] / cases[name]["us_per_node_step"]
         except Exception as exc:  # a case under construction must not sink the benchmark
@@ -538,64 +363,6 @@ def _single_rows(sim: dict) -> list[tuple[str, dict]]:
     return rows
 
 
-def _ok(flag) -> str:
-    return "-" if flag is None else ("ok" if flag else "MISS")
-
-
-def format_integrators(integrators: dict, settings: dict | None = None) -> list[str]:
-    """Text lines of ``simulator.integrators`` (one row per case and integrator)."""
-    s = (settings or {}).get("integrators", {})
-    span = f"the first {s['span_s']:g} s" if "span_s" in s else "a short span"
-    lines = [f"integrators, 1 thread: each scenario at its own saved interval, automatic step, {span} "
-             f"(stiff explicit: {s.get('fixed_steps', 'fixed')} steps); error: tracked node vs the same "
-             f"integrator at a step {REFERENCE_REFINE}x smaller, % of L"]
-    head = (f"  {'case':<19}{'integrator':<11}{'node':>5}{'step [s]':>11}{'us/node-step':>14}{'real-time x':>13}"
-            f"{'error [% L]':>13}{'cpu':>6}")
-    lines += [head, "  " + "-" * (len(head) - 2)]
-    cases = list(dict.fromkeys(c for name in INTEGRATORS for c in integrators.get(name, {})))
-    for case in cases:
-        for name in INTEGRATORS:
-            e = integrators.get(name, {}).get(case)
-            if e is None:
-                continue
-            if "error" in e:
-                lines.append(f"  {case:<19}{name:<11}  error: {e['error']}")
-                continue
-            err = e["tip_error_pct_of_length"]
-            lines.append(f"  {case:<19}{name:<11}{e['tip_node']:>5}{e['dt_s']:>11.3g}{e['us_per_node_step']:>14.4f}"
-                         f"{e['real_time_factor']:>13.3g}{'n/a' if err is None else f'{err:.2g}':>13}"
-                         f"{100 * e.get('cpu_fraction', float('nan')):>5.0f}%")
-    reasons = sorted({f"{case} ({name}): {e['tip_error_reason']}" for name in INTEGRATORS
-                      for case, e in integrators.get(name, {}).items() if e.get("tip_error_reason")})
-    lines += [f"  n/a: {r}" for r in reasons]
-    return lines
-
-
-def format_contact(contact: dict, goal: float | None, met, settings: dict | None = None) -> list[str]:
-    """Text lines of ``simulator.contact`` (one row per case), the overhead beside its ``goal``
-    (None: not recorded) and whether the largest met it (``met``: True, False or None)."""
-    s = (settings or {}).get("contact", {})
-    span = (f"{s['node_steps']:,} node-steps, at most the first {s['max_span_s']:g} s" if "node_steps" in s
-            else "a short span")
-    goal_text = "" if goal is None else f"; goal: overhead <= {goal:.2f}   {_ok(met)}"
-    lines = [f"contact, 1 thread: each contact scenario as shipped vs contact=None at the same step ({span})"
-             f"{goal_text}"]
-    head = (f"  {'case':<19}{'integrator':<11}{'nodes':>6}{'step [s]':>11}{'span [s]':>10}{'with':>10}{'without':>10}"
-            f"{'overhead':>10}{'cpu':>6}")
-    lines += [head + "   (us/node-step)", "  " + "-" * (len(head) - 2)]
-    for case, e in contact.items():
-        if case == "how":
-            continue
-        if "error" in e:
-            lines.append(f"  {case:<19}  error: {e['error']}")
-            continue
-        lines.append(f"  {case:<19}{e['integrator']:<11}{e['nodes']:>6}{e['dt_s']:>11.3g}"
-                     f"{e.get('simulated_s', float('nan')):>10.3g}{e['us_per_node_step']:>10.4f}"
-                     f"{e['us_per_node_step_without_contact']:>10.4f}{100 * e['overhead']:>9.0f}%"
-                     f"{100 * e.get('cpu_fraction', float('nan')):>5.0f}%")
-    return lines
-
-
 def format_table(result: dict) -> str:
     """Plain-text table of a ``run_benchmark`` result, goals beside the measured figures."""
     m, sim, goals = result["machine"], result["simulator"], result["goals"]
@@ -615,7 +382,7 @@ def format_table(result: dict) -> str:
             continue
         judged = e["nodes"] in GOAL_NODES
         goal = f"<={g_node:.2f}" if judged else ""
-        status = _ok(e["us_per_node_step"] <= g_node) if judged else ""
+        status = goal_mark(e["us_per_node_step"] <= g_node) if judged else ""
         paper = e.get("paper_us_per_node_step")
         lines.append(
             f"  {name:<14}{e['nodes']:>6}{e['substeps']:>9}{e['us_per_node_step']:>14.4f}{goal:>8}{status:>6}"
@@ -638,13 +405,13 @@ def format_table(result: dict) -> str:
         "",
         "start-up (fresh interpreter, import + first 5-node simulate)",
         f"  cold compile (empty numba cache) {c['cold_s']:>8.2f} s   goal < {goals['cold_compile_s']:.1f} s"
-        f"   {_ok(met['cold_compile_s'])}",
+        f"   {goal_mark(met['cold_compile_s'])}",
         f"  cached start                     {c['cached_s']:>8.2f} s   goal < {goals['cached_start_s']:.1f} s"
-        f"   {_ok(met['cached_start_s'])}   (import alone {c['import_s']:.2f} s)",
+        f"   {goal_mark(met['cached_start_s'])}   (import alone {c['import_s']:.2f} s)",
         "",
         f"batch: simulate_batch, {b['rods']} x {b['nodes']}-node cantilevers, {b['threads']} threads",
         f"  {b['us_per_node_step']:.4f} us/node-step   goal <= {goals['batch16_2threads_us_per_node_step']:.2f}"
-        f"   {_ok(met['batch16_2threads_us_per_node_step'])}   (1 thread: {b['us_per_node_step_1thread']:.4f}; "
+        f"   {goal_mark(met['batch16_2threads_us_per_node_step'])}   (1 thread: {b['us_per_node_step_1thread']:.4f}; "
         f"speed-up {b['speedup_vs_1thread']:.2f}x; cpu {b.get('cpu_fraction', float('nan')):.2f} cores busy)",
         "",
         f"paper: {result['paper']['source']}: analytical model "

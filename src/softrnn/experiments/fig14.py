@@ -37,8 +37,9 @@ one-line error (use another folder).
 
 The paper's statements (Tariverdi et al. 2021, Front. Robot. AI 8:631303, section 5.3, Figure 14,
 "Data-set IV"; the text names only Data-sets I-III in section 4, and this project runs the study on
-the semicircle case, section 4.3) are copied in ``PAPER_FIG14`` and set beside the regions found
-here in the summary.
+the semicircle case, section 4.3) are copied in ``PAPER_FIG14`` (``experiments.fig14_config``, with
+the study's ``StudyConfig``) and set beside the regions found here in the summary
+(``experiments.fig14_summary``).
 """
 
 from __future__ import annotations
@@ -46,25 +47,21 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-import math
 import signal
 import threading
 import time
 from contextlib import closing, contextmanager
-from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-from matplotlib.colors import LogNorm
-from matplotlib.patches import Rectangle
 
 from .. import __version__
-from ..errors import SoftrnnInputError, bad, integer, is_int
-from ..figures.saving import save_figure, subplots
+from ..errors import SoftrnnInputError, bad, is_int
+from ..figures.saving import save_figure
 from ..files import atomic_write_text
 from ..io.reader import read_dataset
 from ..learned.node.artifact import load_model
-from ..learned.node.data import SampleSpec, pose_rows, wrench_rows
+from ..learned.node.data import pose_rows, wrench_rows
 from ..learned.node.engine import NodeStepper
 from ..learned.node.evaluate import evaluation_span, load_for_model, metrics, one_step, rod_length
 from ..learned.node.train import TrainConfig, train_node_model
@@ -73,139 +70,16 @@ from ..progress import Progress
 from ..resume import REFUSE, Settings, check
 from ..sweeps.dask import completed, require
 from ..timing import machine_info, step_rate
+from .fig14_config import StudyConfig
+from .fig14_summary import fig14_figure, summary
 
 MANIFEST = "study.json"
-GRID = ("units", "history")
-"""The settings that may change between runs of a study in one folder (the grid grows or shrinks)."""
 FIGURE = "fig14.png"
 MODELS = "models"
 FORMAT = "softrnn-fig14-study"
 FORMAT_VERSION = 1
 SYNCHRONOUS = "synchronous"
 """``scheduler`` value that runs the grid points in the calling process, without Dask."""
-
-PAPER_FIG14 = {
-    "source": "Tariverdi et al. 2021, 'A Recurrent Neural-Network-Based Real-Time Dynamic Model for Soft "
-              "Continuum Manipulators', Front. Robot. AI 8:631303, section 5.3, Figure 14 (Data-set IV)",
-    "bandwidth": "Figure 14A demonstrates the computation bandwidth required for the prediction of the next step "
-                 "using the trained model with a different number of LSTM units and a different size of time "
-                 "history horizons in Data-set IV. The figure suggests that computation bandwidths are fairly "
-                 "unchanged with the number of LSTM units; however, increasing the length of time history reduces "
-                 "bandwidth. The optimal region maximizing the bandwidth is approximately with time history size in "
-                 "(2, 20) and LSTM unit size in (5, 15).",
-    "rms_error": "Figure 14B suggests that RMS error of the prediction decreases by increasing the number of LSTM "
-                 "units and the optimal area minimizing RMS errors is approximately with time history size in "
-                 "(2, 20) and LSTM unit size in (20, 25).",
-    "bandwidth_region": {"history": [2, 20], "lstm_units": [5, 15]},
-    "rms_error_region": {"history": [2, 20], "lstm_units": [20, 25]},
-}
-"""The paper's Fig. 14 statements, quoted, and its two optimal regions (history and LSTM unit ranges)."""
-
-
-def _grid(name: str, value) -> tuple[int, ...]:
-    """A non-empty sequence of distinct positive integers, sorted."""
-    if is_int(value):
-        value = (value,)
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
-        raise bad(name, value, "a non-empty list of distinct positive integers, e.g. 5,10,15")
-    out = tuple(value)
-    if not out or not all(is_int(a) and a >= 1 for a in out) or len(set(out)) != len(out):
-        raise bad(name, list(out), "a non-empty list of distinct positive integers, e.g. 5,10,15")
-    return tuple(sorted(int(a) for a in out))
-
-
-def _default_train() -> TrainConfig:
-    return TrainConfig(rollout_steps=1, max_train_windows=10_000)
-
-
-@dataclass(frozen=True, kw_only=True)
-class StudyConfig:
-    """What a Fig. 14 study trains and measures.
-
-    Parameters
-    ----------
-    node : int
-        The predicted rod node (negative: from the rod's end).
-    units : tuple of int
-        LSTM units per layer of the grid (the paper's axis: 5 .. 25).
-    history : tuple of int
-        History sizes H (past time steps per window) of the grid (the paper's axis: 2 .. 20).
-    epochs : int
-        Training epochs of every point. The default, 10, keeps a 5 x 4 study of one case within a
-        few minutes on two cores; the project's models train 30.
-    seed : int
-        Seed of every point's weights and shuffling (the same for all points).
-    train : TrainConfig
-        The other training settings; its ``epochs`` and ``seed`` are replaced by the fields above.
-        Default: one-step training (``rollout_steps=1``, the paper's loss, and the study measures
-        one-step errors) on at most 10,000 windows (``max_train_windows``).
-    neighbours : tuple of int or None
-        Input I's neighbour nodes (None: the adjacent ones, ``SampleSpec``).
-    inputs : str
-        ``"positions"`` or ``"poses"`` (``SampleSpec.inputs``).
-    wrench : str
-        ``"none"``, ``"force"`` or ``"wrench"`` (``SampleSpec.wrench``).
-    bandwidth_steps : int
-        Timed ``NodeStepper.step`` calls per point (after 200 untimed ones).
-    torch_steps : int
-        Timed eager PyTorch ``predict`` calls per point (0: not measured).
-    region_tolerance : float
-        A region is the grid points within this fraction of the best value: bandwidth >= (1 - tol)
-        x the highest, RMS error <= (1 + tol) x the lowest.
-    """
-
-    node: int
-    units: tuple[int, ...] = (5, 10, 15, 20, 25)
-    history: tuple[int, ...] = (2, 5, 10, 20)
-    epochs: int = 10
-    seed: int = 0
-    train: TrainConfig = field(default_factory=_default_train)
-    neighbours: tuple[int, ...] | None = None
-    inputs: str = "positions"
-    wrench: str = "force"
-    bandwidth_steps: int = 2000
-    torch_steps: int = 200
-    region_tolerance: float = 0.1
-
-    def __post_init__(self):
-        if not is_int(self.node):
-            raise bad("node", self.node, "an integer node index")
-        object.__setattr__(self, "node", int(self.node))
-        object.__setattr__(self, "units", _grid("units", self.units))
-        object.__setattr__(self, "history", _grid("history", self.history))
-        for name, low in (("epochs", 1), ("seed", 0), ("bandwidth_steps", 10), ("torch_steps", 0)):
-            object.__setattr__(self, name, integer(name, getattr(self, name), low))
-        if not isinstance(self.train, TrainConfig):
-            raise bad("train", type(self.train).__name__, "a TrainConfig")
-        object.__setattr__(self, "train", replace(self.train, epochs=self.epochs, seed=self.seed))
-        tol = self.region_tolerance
-        if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating)) or not 0.0 <= tol < 1.0:
-            raise bad("region_tolerance", tol, "a fraction in [0, 1), e.g. 0.1 for within 10 % of the best")
-        object.__setattr__(self, "region_tolerance", float(tol))
-        spec = self.spec(self.history[0])  # checks neighbours, inputs and wrench
-        object.__setattr__(self, "neighbours", spec.neighbours)
-
-    def spec(self, history: int):
-        """The ``SampleSpec`` of the grid points of history ``history``."""
-        return SampleSpec(node=self.node, neighbours=self.neighbours, history=history, inputs=self.inputs,
-                          wrench=self.wrench)
-
-    @property
-    def points(self) -> list[tuple[int, int]]:
-        """The grid points (units, history), units varying fastest."""
-        return [(u, h) for h in self.history for u in self.units]
-
-    def to_dict(self) -> dict:
-        """JSON-ready settings."""
-        d = asdict(self)
-        d["units"], d["history"] = list(self.units), list(self.history)
-        d["neighbours"] = None if self.neighbours is None else list(self.neighbours)
-        return d
-
-    def settings(self) -> Settings:
-        """What every point's result depends on (everything but the grid, ``GRID``): a rerun must
-        match it."""
-        return Settings.of(self, may_differ=GRID)
 
 
 # ------------------------------------------------------------------------------------------ files
@@ -348,10 +222,8 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
     Returns
     -------
     dict
-        ``stepper`` and ``torch`` (or None), each timed by ``softrnn.timing.step_rate``: ``hz`` (the
-        median over 5 runs of each run's calls per second), ``median_us`` (1e6 / ``hz``),
-        ``p90_us`` (90th percentile of the single call times), ``mean_hz`` (calls / total time),
-        ``calls``.
+        ``stepper`` and ``torch`` (or None): ``hz``, ``median_us``, ``p90_us``, ``mean_hz``, ``calls``
+        as ``softrnn.timing.step_rate`` times them.
     """
     import torch  # optional extra: learn (PyTorch)
 
@@ -440,33 +312,24 @@ class _Steps:
 
 def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None = None, workers: int | None = None,
               progress: Progress | None = None) -> dict:
-    """Run (or complete) a Fig. 14 study of ``data_path`` in ``out_dir``.
+    """Run (or complete: finished points are kept) a Fig. 14 study (see the module docstring).
 
     Parameters
     ----------
-    data_path : str or Path
-        A softrnn HDF5 data set (one trajectory).
+    data_path, out_dir : str or Path
+        A softrnn HDF5 data set (one trajectory); the study folder (created).
     config : StudyConfig
         The study's grid and training settings.
-    out_dir : str or Path
-        The study folder (created; see the module docstring). Finished points found there are kept.
     scheduler : str or None
-        None: a Dask ``LocalCluster`` of ``workers`` single-threaded processes; ``"synchronous"``:
-        every point in this process, no Dask; otherwise the address of a Dask scheduler
-        (``tcp://HOST:PORT``).
-    workers : int or None
-        Local worker processes (default 2; only with ``scheduler=None``).
+        None: a local Dask cluster of ``workers`` processes (default 2); ``"synchronous"``: in this
+        process, no Dask; else a Dask scheduler's address (``tcp://HOST:PORT``).
     progress : callable(done, total) or None
-        Called as the study advances: each grid point counts two steps (trained and evaluated;
-        bandwidths measured), steps found done count at once.
+        Called as the study advances (two steps per grid point: trained, measured).
 
     Returns
     -------
     dict
-        ``summary(...)``: the grids, every point's record, the bandwidth [Hz] and RMS error [mm]
-        tables (rows: history, columns: units), the regions beside the paper's, ``computed``
-        (points trained now), ``measured`` (points timed now), ``found`` (points already finished),
-        ``figure`` (path of fig14.png) and ``wall_seconds``.
+        ``summary(...)`` plus ``computed``, ``measured``, ``found``, ``figure`` and ``wall_seconds``.
     """
     if not isinstance(config, StudyConfig):
         raise bad("config", type(config).__name__, "a StudyConfig")
@@ -554,148 +417,3 @@ def _execute(data_path: str, config: StudyConfig, out_dir: str, todo: list, sche
     tasks = [(train_point, (data_path, cd, u, h, out_dir), f"softrnn-study-{tag}-{point_name(u, h)}") for u, h in todo]
     yield from completed(tasks, scheduler, workers, alternatives=f"use {SYNCHRONOUS!r} to run in this process, ",
                          local_guard=_workers_ignore_ctrl_c)
-
-
-# ------------------------------------------------------------------------------------------ summary
-def _table(config: StudyConfig, records: list[dict], value) -> np.ndarray:
-    """(len(history), len(units)) array of ``value(record)`` (NaN where None)."""
-    t = np.full((len(config.history), len(config.units)), np.nan)
-    for r in records:
-        v = value(r)
-        if v is not None:
-            t[config.history.index(r["history"]), config.units.index(r["units"])] = v
-    return t
-
-
-def _stepper_hz(r):
-    return r["bandwidth"]["stepper"]["hz"] if r.get("bandwidth") else None
-
-
-def _torch_hz(r):
-    b = r.get("bandwidth")
-    return b["torch"]["hz"] if b and b.get("torch") else None
-
-
-def _rmse(r):
-    return r["error"]["rmse_mm"]
-
-
-def region(config: StudyConfig, table: np.ndarray, *, maximise: bool) -> dict | None:
-    """The grid points within ``config.region_tolerance`` of the best value of ``table``
-    (len(history), len(units)): ``best`` {units, history, value}, ``points`` [[units, history]],
-    and the ranges they span, ``units`` [lo, hi] and ``history`` [lo, hi]. None if all NaN."""
-    if not np.isfinite(table).any():
-        return None
-    tol = config.region_tolerance
-    best = np.nanmax(table) if maximise else np.nanmin(table)
-    i, j = np.argwhere(table == best)[0]
-    with np.errstate(invalid="ignore"):
-        inside = table >= (1 - tol) * best if maximise else table <= (1 + tol) * best
-    pts = [[config.units[b], config.history[a]] for a, b in np.argwhere(inside)]
-    us, hs = [p[0] for p in pts], [p[1] for p in pts]
-    return {"best": {"units": config.units[j], "history": config.history[i], "value": float(best)},
-            "criterion": f"{'>=' if maximise else '<='} {(1 - tol) if maximise else (1 + tol):g} x the best",
-            "points": sorted(pts), "units": [min(us), max(us)], "history": [min(hs), max(hs)]}
-
-
-def _in_paper_region(points: list, paper: dict) -> float:
-    """Fraction of ``points`` [[units, history]] inside the paper's ranges (closed)."""
-    lo_u, hi_u = paper["lstm_units"]
-    lo_h, hi_h = paper["history"]
-    inside = [lo_u <= u <= hi_u and lo_h <= h <= hi_h for u, h in points]
-    return sum(inside) / len(inside) if inside else math.nan
-
-
-def trend(table: np.ndarray, axis: int) -> float | None:
-    """Mean relative change of ``table`` from the smallest to the largest grid value along
-    ``axis`` (0: history, 1: units), e.g. -0.5: halved; None with a single grid value."""
-    if table.shape[axis] < 2:
-        return None
-    first, last = (table[0], table[-1]) if axis == 0 else (table[:, 0], table[:, -1])
-    ok = np.isfinite(first) & np.isfinite(last) & (first != 0)
-    return float(np.mean(last[ok] / first[ok] - 1.0)) if ok.any() else None
-
-
-def summary(config: StudyConfig, records: list[dict]) -> dict:
-    """The tables, regions and trends of a study's point records, beside the paper's Fig. 14."""
-    bw, tbw, err = (_table(config, records, f) for f in (_stepper_hz, _torch_hz, _rmse))
-
-    def listed(t):
-        return [[None if not np.isfinite(v) else float(v) for v in row] for row in t]
-
-    regions = {}
-    for name, table, maximise, paper_key in (("bandwidth", bw, True, "bandwidth_region"),
-                                             ("torch_bandwidth", tbw, True, "bandwidth_region"),
-                                             ("rms_error", err, False, "rms_error_region")):
-        reg = region(config, table, maximise=maximise)
-        if reg is not None:
-            paper = PAPER_FIG14[paper_key]
-            reg["paper"] = paper
-            reg["fraction_in_paper_region"] = _in_paper_region(reg["points"], paper)
-        regions[name] = reg
-    trends = {"bandwidth_vs_units": trend(bw, 1), "bandwidth_vs_history": trend(bw, 0),
-              "torch_bandwidth_vs_units": trend(tbw, 1), "torch_bandwidth_vs_history": trend(tbw, 0),
-              "rms_error_vs_units": trend(err, 1), "rms_error_vs_history": trend(err, 0)}
-    return {"config": config.to_dict(), "units": list(config.units), "history": list(config.history),
-            "points": records, "bandwidth_hz": listed(bw), "torch_bandwidth_hz": listed(tbw),
-            "rmse_mm": listed(err), "regions": regions, "trends": trends,
-            "paper": {k: PAPER_FIG14[k] for k in ("source", "bandwidth", "rms_error", "bandwidth_region",
-                                                  "rms_error_region")}}
-
-
-# ------------------------------------------------------------------------------------------ figure
-def _short(v: float) -> str:
-    """3 significant digits, thousands as k: 0.357, 1.98k, 446k."""
-    return f"{v / 1e3:.3g}k" if abs(v) >= 1e3 else f"{v:.3g}"
-
-
-def fig14_figure(result: dict):
-    """The Fig. 14 heatmaps of a study ``summary``: (A) bandwidth of the compiled stepper [Hz],
-    (A') of eager PyTorch [Hz] when measured, (B) one-step RMS error [mm], over LSTM units (x) and
-    history size (y). Solid outlines: the region found (within the tolerance of the best); dashed:
-    the grid points inside the paper's region; the error's colour scale is logarithmic. Returns
-    the matplotlib Figure."""
-
-    units, hist = result["units"], result["history"]
-    panels = [("A: bandwidth, compiled stepper [Hz]", result["bandwidth_hz"], "bandwidth", "viridis")]
-    if any(v is not None for row in result["torch_bandwidth_hz"] for v in row):
-        panels.append(("A': bandwidth, eager PyTorch [Hz]", result["torch_bandwidth_hz"], "torch_bandwidth",
-                       "viridis"))
-    panels.append(("B: one-step RMS error [mm]", result["rmse_mm"], "rms_error", "magma_r"))
-    fig, axes = subplots(1, len(panels), figsize=(4.6 * len(panels), 3.2 + 0.35 * len(hist)), squeeze=False)
-    for ax, (title, rows, key, cmap) in zip(axes[0], panels):
-        t = np.array([[np.nan if v is None else v for v in row] for row in rows], dtype=float)
-        finite = t[np.isfinite(t)]
-        log = key == "rms_error" and finite.size > 0 and finite.min() > 0      # errors span decades
-        norm = LogNorm(finite.min(), finite.max()) if log else None
-        im = ax.imshow(t, origin="lower", cmap=cmap, aspect="auto", norm=norm)
-        fig.colorbar(im, ax=ax, shrink=0.85)
-        mid = (np.sqrt(finite.min() * finite.max()) if log else 0.5 * (finite.min() + finite.max())) \
-            if finite.size else 0.0
-        for a in range(t.shape[0]):
-            for b in range(t.shape[1]):
-                if np.isfinite(t[a, b]):
-                    light = (t[a, b] < mid) == (cmap == "viridis")
-                    ax.text(b, a, _short(t[a, b]), ha="center", va="center", fontsize=7,
-                            color="white" if light else "black")
-        reg = result["regions"].get(key)
-        if reg is not None:
-            for u, h in reg["points"]:
-                ax.add_patch(Rectangle((units.index(u) - 0.5, hist.index(h) - 0.5), 1, 1, fill=False,
-                                       edgecolor="red", lw=2.0))
-            paper = reg["paper"]
-            for a, h in enumerate(hist):
-                for b, u in enumerate(units):
-                    if paper["lstm_units"][0] <= u <= paper["lstm_units"][1] and \
-                            paper["history"][0] <= h <= paper["history"][1]:
-                        ax.add_patch(Rectangle((b - 0.42, a - 0.42), 0.84, 0.84, fill=False, edgecolor="cyan",
-                                               lw=1.0, ls="--"))
-        ax.set_xticks(range(len(units)), [str(u) for u in units])
-        ax.set_yticks(range(len(hist)), [str(h) for h in hist])
-        ax.set_xlabel("LSTM units")
-        ax.set_ylabel("history size H")
-        ax.set_title(title, fontsize=9)
-    fig.suptitle("Fig. 14 study (red: within the tolerance of the best; dashed cyan: the paper's region)",
-                 fontsize=9)
-    fig.tight_layout()
-    return fig

@@ -7,12 +7,8 @@ interest and its trail marked, fixed equal-aspect axes that cover the whole moti
 the motion is planar and a 3-D view otherwise.
 
 With contact (``softrnn.rod.contact``; a dataset's ``contact`` attribute, docs/dataset-format.md)
-the obstacles are drawn too (``draw_obstacles``): a plane as a translucent rectangle around the
-rod's extent, a sphere as a translucent surface (a disc in a flat view), a cylinder as a surface
-segment over the rod's extent (its shadow in a flat view), a vessel as its centreline and a
-translucent tube (two wall lines in a flat view); the contact forces are arrows of their own colour
-on the applied forces' scale. An obstacle with ``vessels`` (a tuple of vessels) is drawn as each
-of them.
+the obstacles are drawn too (``figures.obstacles``); the contact forces are arrows of their own
+colour on the applied forces' scale. The frames are rendered and written by ``figures._movie``.
 
 ``style='fluoroscopy'`` draws instead the picture of an X-ray screen: the rod as a radiopaque
 guidewire in its contrast-filled vessels (``figures.fluoroscopy``); ``style='auto'`` picks it for a
@@ -25,17 +21,13 @@ import math
 from pathlib import Path
 
 import numpy as np
-from matplotlib.animation import FFMpegWriter
-from matplotlib.colors import to_rgb
 from matplotlib.lines import Line2D
-from matplotlib.patches import Circle, Patch, Polygon
-from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
-from PIL import Image
-from scipy.spatial import ConvexHull, QhullError
+from matplotlib.patches import Patch
+from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
 from ..errors import SoftrnnInputError, bad
-from ..io.schema import contact_from_record
 from ..progress import Progress
+from ._movie import write_movie
 from .data import (
     DEFAULT_MAX_FRAMES,
     _column,
@@ -57,20 +49,16 @@ from .geometry import (
     _fmt,
     _max_norm,
     choose_view,
-    cylinder_mesh,
     force_scale,
-    plane_patch,
-    sphere_mesh,
-    tube_mesh,
-    tube_walls_2d,
     widen_to_aspect,
 )
+from .obstacles import OBSTACLE_COLOR, draw_obstacles, obstacles_of
 from .saving import FRAME_DPI as _DPI
-from .saving import atomic_output, new_figure
+from .saving import new_figure
 
 DEFAULT_SIZE = (640, 560)  # pixels
 _ROD, _NODE, _TRAIL, _FORCE, _GHOST = "#1f5fa8", "#d62728", "#ff9f1c", "#2ca02c", "0.72"
-_CONTACT, _OBSTACLE, _ALPHA = "#9467bd", "#8c564b", 0.22
+_CONTACT = "#9467bd"
 
 
 class _Scene:
@@ -129,7 +117,7 @@ class _Scene:
         self._init_arrows()
         if self.obstacles:
             draw_obstacles(self.ax, self.obstacles, self.view, *self.rod_box)
-            handles.append(Patch(facecolor=_OBSTACLE, alpha=0.4, edgecolor=_OBSTACLE,
+            handles.append(Patch(facecolor=OBSTACLE_COLOR, alpha=0.4, edgecolor=OBSTACLE_COLOR,
                                  label=f"obstacle{'s' if len(self.obstacles) > 1 else ''}"))
         scale = f"{_fmt(self.fref)} N = {_fmt(self.lref)} m" if self.has_forces or self.has_contact else ""
         if self.has_forces:
@@ -273,118 +261,6 @@ class _Scene:
         self.stamp.set_text(f"{self.title}:  t = {self.time[i]:.{self.decimals}f} s")
 
 
-def obstacles_of(contact) -> list[dict]:
-    """The obstacles to draw of a contact: a ``softrnn.rod.Contact`` (or an object with its
-    ``obstacles`` and ``friction``), a stored record (a dataset's ``attrs['contact']``,
-    ``softrnn.io.schema.contact_record``) or None (none). One dict per obstacle as in the record
-    (``kind``, geometry [m] and ``friction``); a vessel's also has ``points`` (P, 3) and ``radii``
-    (P,) [m], its dense centreline (``softrnn.rod.Vessel.points``). An obstacle with ``vessels`` (a
-    tuple of ``Vessel``, e.g. a branching vessel) is drawn as each of its vessels."""
-    if contact is None:
-        return []
-    built = contact_from_record(contact) if isinstance(contact, dict) else contact
-    obstacles = getattr(built, "obstacles", None)
-    if obstacles is None:
-        raise bad("contact", type(built).__name__, "a softrnn.rod.Contact, a stored contact record, or None")
-    default = float(getattr(built, "friction", 0.0) or 0.0)
-    return [entry for ob in obstacles for entry in _obstacle_entries(ob, default)]
-
-
-_GEOMETRY = (("vessel", ("centreline", "radius")), ("cylinder", ("point", "axis", "radius")),
-             ("sphere", ("center", "radius")), ("plane", ("point", "normal")))
-"""The obstacles' kinds (``softrnn.rod.contact``), told apart by the attributes of their geometry."""
-
-
-def _obstacle_entries(ob, friction: float) -> list[dict]:
-    """The drawn entries of one obstacle (see ``obstacles_of``): its vessels' for one with ``vessels``."""
-    vessels = getattr(ob, "vessels", None)
-    if vessels is not None:
-        own = getattr(ob, "friction", None)
-        return [e for v in vessels for e in _obstacle_entries(v, friction if own is None else float(own))]
-    for kind, keys in _GEOMETRY:
-        if all(hasattr(ob, k) for k in keys):
-            entry = {"kind": kind}
-            entry.update({k: _plain(getattr(ob, k)) for k in keys})
-            own = getattr(ob, "friction", None)
-            entry["friction"] = friction if own is None else float(own)
-            if kind == "vessel":
-                entry.update(points=np.asarray(ob.points), radii=np.asarray(ob.radii))
-            return [entry]
-    raise bad("contact.obstacles", type(ob).__name__, "Plane, Sphere, Cylinder or Vessel obstacles, or ones with "
-                                                      "vessels (a tuple of Vessel)")
-
-
-def _plain(value):
-    """A geometry value as in a contact record: a float, or nested lists of floats."""
-    if np.ndim(value) == 0:
-        return float(value)
-    return np.asarray(value, dtype=float).tolist()
-
-
-def draw_obstacles(ax, obstacles, view: str, lo, hi) -> list:
-    """Draw ``obstacles`` (``obstacles_of``) on the axes ``ax`` of the view ``view`` ('xy', 'xz',
-    'yz' or '3d') around the rod's extent, the box [lo, hi] (3,) [m]; returns the artists made.
-
-    Planes are rectangles over the box, cylinders segments over its span on their axis, spheres
-    whole, vessels their centreline and wall; all translucent, under the rod. In 3-D they are
-    clipped to the axes' limits."""
-    artists = []
-    for ob in obstacles:
-        kind = ob["kind"]
-        if view == "3d":
-            artists += _draw_3d(ax, ob, kind, lo, hi)
-            continue
-        a, b = _PLANES[view]
-        if kind == "vessel":
-            c, left, right = tube_walls_2d(ob["points"], ob["radii"], view)
-            artists += ax.plot(c[:, 0], c[:, 1], color=_OBSTACLE, lw=0.8, ls="-.", zorder=0.5)
-            artists += ax.plot(left[:, 0], left[:, 1], right[:, 0], right[:, 1], color=_OBSTACLE, lw=1.2, zorder=0.5)
-            continue
-        if kind == "sphere":
-            patch = Circle((ob["center"][a], ob["center"][b]), ob["radius"])
-        else:
-            if kind == "plane":
-                pts = plane_patch(ob["point"], ob["normal"], lo, hi)
-            else:
-                pts = cylinder_mesh(ob["point"], ob["axis"], ob["radius"], lo, hi).reshape(-1, 3)
-            patch = Polygon(_outline(pts[:, [a, b]]), closed=True)
-        patch.set(facecolor=_OBSTACLE, alpha=_ALPHA, edgecolor=_OBSTACLE, lw=1.0, zorder=0.5)
-        artists.append(ax.add_patch(patch))
-    return artists
-
-
-def _outline(points: np.ndarray) -> np.ndarray:
-    """The convex outline (k, 2) of projected points (m, 2) (a flat one: its two ends)."""
-    try:
-        return points[ConvexHull(points).vertices]
-    except (QhullError, ValueError):  # collinear: a plane seen edge-on
-        d = points - points.mean(0)
-        _, _, vt = np.linalg.svd(d, full_matrices=False)
-        t = d @ vt[0]
-        return points[[int(np.argmin(t)), int(np.argmax(t))]]
-
-
-def _draw_3d(ax, ob: dict, kind: str, lo, hi) -> list:
-    """One obstacle on 3-D axes (see ``draw_obstacles``)."""
-    style = dict(color=_OBSTACLE, alpha=_ALPHA, linewidth=0, shade=False, axlim_clip=True)
-    if kind == "plane":
-        poly = Poly3DCollection([plane_patch(ob["point"], ob["normal"], lo, hi)], facecolor=_OBSTACLE,
-                                alpha=_ALPHA, edgecolor=_OBSTACLE)
-        ax.add_collection3d(poly, autolim=False, axlim_clip=True)
-        return [poly]
-    if kind == "sphere":
-        mesh = sphere_mesh(ob["center"], ob["radius"])
-    elif kind == "cylinder":
-        mesh = cylinder_mesh(ob["point"], ob["axis"], ob["radius"], lo, hi)
-    else:
-        mesh = tube_mesh(ob["points"], ob["radii"])
-    out = [ax.plot_surface(mesh[..., 0], mesh[..., 1], mesh[..., 2], **style)]
-    if kind == "vessel":
-        c = ob["points"]
-        out += ax.plot(c[:, 0], c[:, 1], c[:, 2], color=_OBSTACLE, lw=0.8, ls="-.", axlim_clip=True)
-    return out
-
-
 def _obstacles_to_draw(data, obstacles) -> list[dict]:
     """``animate``'s obstacles: True the data's own (``attrs['contact']``), False none, else those given."""
     if obstacles is False:
@@ -420,60 +296,20 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
             style: str = "plain", progress: Progress | None = None) -> Path:
     """Write an animation of the rod to ``out_path`` (``.gif``, or ``.mp4`` with ffmpeg installed).
 
-    Parameters
-    ----------
-    data : dataset-like
-        time, nodes, positions, optional forces, contact_forces and attrs (with ``contact``, the
-        obstacles' record) (see ``figures.data``)
-    out_path : path
-        the ``.gif`` or ``.mp4`` file to write
-    fps : float
-        frames per second of playback
-    frames : int or None
-        how many frames, spread evenly over the samples in [start, stop] (give at most one of
-        ``frames`` and ``duration``; default ``min(samples, max_frames)``)
-    duration : float or None
-        seconds of playback instead (``duration * fps`` frames)
-    start, stop : float or None
-        the time span [s] to animate (default: the whole record)
-    node : int or None
-        the node of interest to mark (default: the one the data's attrs name, as
-        ``figures.data.node_of_interest`` reads them, when it is stored; else none)
-    trail : bool
-        draw the path of the node of interest so far
-    view : str
-        'auto' (a flat view when the motion is planar, else 3-D), 'xy', 'xz', 'yz' or '3d'
-    elev, azim : float
-        the camera of the 3-D view [deg]
-    title : str or None
-        the name in the time stamp (default: a short name from the data's attrs)
-    size : tuple of int
-        (width, height) in pixels (rounded up to even numbers for .mp4)
-    max_frames : int
-        the default frame count's cap
-    obstacles : bool, Contact or dict
-        True: draw the data's obstacles (``attrs['contact']``, stored by the dataset writer), if
-        any; False: none; a ``softrnn.rod.Contact`` or contact record: those (``draw_obstacles``)
-    contact_forces : bool
-        draw the data's contact forces (``contact_forces`` (T, N, 3) [N]) as arrows, on the scale
-        of the applied forces
-    style : str
-        'plain': the rod, forces and obstacles on axes in metres; 'fluoroscopy': an X-ray picture of
-        the rod in its vessels (``figures.fluoroscopy``); 'auto': ``pick_style``
-    progress : Progress or None
-        optional callable progress(done, total) per frame
+    ``data`` is dataset-like (``figures.data``): time (T,) [s], nodes, positions (T, N, 3) [m],
+    optional forces and contact_forces (T, N, 3) [N], attrs. It shows ``frames`` frames, or
+    ``duration`` s of playback at ``fps``, spread evenly from ``start`` to ``stop`` [s] (default
+    ``min(samples, max_frames)`` over the whole record); marks ``node`` (default: the one the data
+    names) and its ``trail``; in the ``view`` 'auto', 'xy', 'xz', 'yz' or '3d' (camera ``elev``,
+    ``azim`` [deg]) at ``size`` (width, height) [pixels]. ``obstacles``: True the data's, False none,
+    or a Contact or contact record (``figures.obstacles``); ``style``: one of ``STYLES``
+    (``pick_style``); ``progress(done, total)`` per frame. The file appears complete or not at all
+    (docs/guide/datasets.md#pictures).
 
     Returns
     -------
     Path
         the path written
-
-    Notes
-    -----
-    Rendering: the axes, ghost shape, clamps, obstacles and legend are drawn once; each frame redraws
-    only the rod, trail, node, arrows and time stamp over them. GIF frames share one palette; all frames are
-    held in memory (1 byte per pixel) until the file is written, under a temporary name in the same
-    folder (``saving.atomic_output``), renamed onto ``out_path`` when complete.
     """
     out_path = Path(out_path)
     suffix, width, height = _check_options(out_path, fps, view, size)
@@ -489,7 +325,7 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
         scene = _Scene(time, nodes, positions, forces, i0, i1, idx, node_col=_node_column(data, node, nodes, attrs),
                        view=view, trail=trail, title=title or _title(attrs), size=(width, height),
                        elev=float(elev), azim=float(azim), contact_forces=cforces, obstacles=drawn)
-    _write_movie(scene, idx, out_path, suffix, fps, progress)
+    write_movie(scene, idx, out_path, suffix, fps, progress, colors=(_ROD, _NODE, _TRAIL, _FORCE, _CONTACT, "k"))
     return out_path
 
 
@@ -551,149 +387,3 @@ def _contact_forces(data, shape: tuple) -> np.ndarray | None:
     if arr.shape != shape or not np.issubdtype(arr.dtype, np.number):
         raise bad("contact_forces", f"shape {arr.shape}", f"numbers of shape {shape} matching positions")
     return arr
-
-
-class _GifSink:
-    """Collects frames as 8-bit palette images (a quarter of the memory of RGBA) and writes one GIF.
-
-    One palette serves all frames: a median cut of the first frame (which holds every static colour)
-    plus gradients from the backgrounds to each moving artist's colour, each entry set to the
-    commonest exact colour of its box (so white stays 255, not 252). Frames are mapped onto it by
-    exact nearest colour through a lookup table filled as new colours appear (a few ms a frame)."""
-
-    def __init__(self, tmp: str, size: tuple[int, int], fps: float, colors=()):
-        self.tmp, self.size, self.fps, self.frames = tmp, size, fps, []
-        self.colors = colors
-        self.table = None  # (256, 3) palette
-        self.lut = None  # packed RGB -> palette index
-        self.known = None
-
-    def _make_palette(self, first: np.ndarray) -> None:
-        """The shared palette from the first frame and the moving artists' colour ramps."""
-        h, w, _ = first.shape
-        grounds = [np.array([255.0, 255.0, 255.0]), first[h // 2, w // 2], first[h // 3, w // 3]]
-        ramp = np.linspace(0.0, 1.0, 32)[:, None]
-        strips = [(1 - ramp) * g + ramp * 255 * np.array(to_rgb(c)) for c in self.colors for g in grounds]
-        swatch = np.concatenate(strips).round().astype(np.uint8)
-        # repeated so that median cut (which splits by pixel count) gives the ramps about a third
-        # of the palette instead of lumping them with the static colours
-        reps = max(1, (h * w) // (2 * len(swatch)))
-        swatch = np.repeat(swatch, reps, axis=0)
-        rows = -(-len(swatch) // w)
-        pad = np.full((rows * w - len(swatch), 3), 255, dtype=np.uint8)
-        extra = np.concatenate([swatch, pad]).reshape(rows, w, 3)
-        sheet = np.concatenate([first, extra])
-        pal = Image.fromarray(sheet).quantize(colors=256, method=Image.Quantize.MEDIANCUT,
-                                              dither=Image.Dither.NONE)
-        idx = np.asarray(pal, dtype=np.int64).ravel()
-        code = _pack(sheet).ravel()
-        table = np.zeros((256, 3), dtype=np.int64)
-        given = np.array(pal.getpalette() or [], dtype=np.int64)[:768]
-        table.ravel()[:given.size] = given
-        pairs, counts = np.unique(idx * (1 << 24) + code, return_counts=True)
-        order = np.lexsort((-counts, pairs >> 24))
-        firsts = np.unique(pairs[order] >> 24, return_index=True)[1]
-        for pair in pairs[order][firsts]:
-            k, c = int(pair >> 24), int(pair & 0xFFFFFF)
-            table[k] = (c >> 16, (c >> 8) & 255, c & 255)
-        self.table = table
-        self.lut = np.zeros(1 << 24, dtype=np.uint8)
-        self.known = np.zeros(1 << 24, dtype=bool)
-
-    def _indices(self, rgb: np.ndarray) -> np.ndarray:
-        """Palette indices of an (H, W, 3) frame; new colours are looked up and remembered."""
-        code = _pack(rgb)
-        new = np.unique(code[~self.known[code]])
-        for k in range(0, new.size, 2048):
-            part = new[k:k + 2048]
-            cols = np.stack([part >> 16, (part >> 8) & 255, part & 255], axis=1)
-            self.lut[part] = ((cols[:, None, :] - self.table[None, :, :]) ** 2).sum(-1).argmin(1)
-            self.known[part] = True
-        return self.lut[code]
-
-    def add(self, rgba) -> None:
-        """Append one RGBA frame, mapped onto the shared palette."""
-        rgb = np.asarray(rgba)[..., :3]
-        if self.table is None:
-            self._make_palette(rgb)
-        index = np.ascontiguousarray(self._indices(rgb))
-        im = Image.frombuffer("P", self.size, index, "raw", "P", 0, 1)
-        im.putpalette(self.table.astype(np.uint8).ravel().tolist())
-        self.frames.append(im)
-
-    def finish(self) -> None:
-        """Write the GIF to the temporary file."""
-        self.frames[0].save(self.tmp, format="GIF", save_all=True, append_images=self.frames[1:],
-                            duration=max(20, int(round(1000 / self.fps))), loop=0)
-
-    def abort(self) -> None:
-        """Drop the frames."""
-        self.frames = []
-
-
-def _pack(rgb: np.ndarray) -> np.ndarray:
-    """(..., 3) uint8 colours as int64 codes r << 16 | g << 8 | b."""
-    rgb = rgb.astype(np.int64)
-    return (rgb[..., 0] << 16) | (rgb[..., 1] << 8) | rgb[..., 2]
-
-
-class _FfmpegSink:
-    """Pipes raw RGBA frames to ffmpeg (matplotlib's FFMpegWriter builds the command line)."""
-
-    def __init__(self, tmp: str, fig, fps: float):
-        self.writer = FFMpegWriter(fps=fps, codec="libx264", extra_args=["-pix_fmt", "yuv420p"])
-        self.writer.setup(fig, tmp, dpi=_DPI)
-
-    def add(self, rgba) -> None:
-        """Pipe one RGBA frame to ffmpeg."""
-        self.writer._proc.stdin.write(bytes(rgba))
-
-    def finish(self) -> None:
-        """Close the pipe and let ffmpeg finish the file."""
-        self.writer.finish()
-
-    def abort(self) -> None:
-        """Stop ffmpeg without finishing the file."""
-        proc = getattr(self.writer, "_proc", None)
-        if proc is not None:  # stop ffmpeg without finishing the file
-            proc.kill()
-            proc.wait()
-
-
-def _render(scene: _Scene, idx: np.ndarray, add, progress: Progress | None = None) -> None:
-    """Draw the static parts once, then per frame only the moving artists over a copy of them (Agg
-    blitting) and hand the RGBA buffer to ``add``."""
-    fig = scene.fig
-    canvas = fig.canvas
-    for artist in scene.dynamic:
-        artist.set_animated(True)
-    canvas.draw()
-    background = canvas.copy_from_bbox(fig.bbox)
-    for n, i in enumerate(idx):
-        canvas.restore_region(background)
-        scene.update(int(i))
-        for artist in scene.dynamic:
-            if hasattr(artist, "do_3d_projection"):
-                artist.do_3d_projection()
-            fig.draw_artist(artist)
-        add(canvas.buffer_rgba())
-        if progress is not None:
-            progress(n + 1, len(idx))
-
-
-def _write_movie(scene, idx: np.ndarray, out_path: Path, suffix: str, fps: float, progress) -> None:
-    """Render the frames ``idx`` of ``scene`` into ``out_path`` (.gif or .mp4) atomically
-    (``saving.atomic_output``: nothing is left behind on error or Ctrl-C)."""
-    with atomic_output(out_path) as tmp:
-        if suffix == ".mp4":
-            sink = _FfmpegSink(tmp, scene.fig, fps)
-        else:
-            w, h = (int(round(v)) for v in scene.fig.bbox.size)
-            colors = getattr(scene, "colors", (_ROD, _NODE, _TRAIL, _FORCE, _CONTACT, "k"))
-            sink = _GifSink(tmp, (w, h), fps, colors=colors)
-        try:
-            _render(scene, idx, sink.add, progress)
-            sink.finish()
-        except BaseException:
-            sink.abort()
-            raise

@@ -126,14 +126,14 @@ def xray_background(width: int, height: int, seed: int = DEFAULT_SEED) -> np.nda
 
 
 def lumen_depth(vessels, view: str, box, width: int, height: int) -> np.ndarray:
-    """The contrast agent a vessel picture shows: its depth along the X-rays at each pixel.
+    """The contrast agent a vessel picture shows: its depth along the X-rays at each pixel, the chord
+    sqrt(1 - (d / r)^2) of the tube at a distance d from its projected centreline (to half a pixel),
+    the largest of the vessels' (their union: a shared trunk is one lumen).
 
     Parameters
     ----------
-    vessels : list of dict
-        the vessels (``animation.obstacles_of`` entries of kind 'vessel': ``points`` (P, 3) and
-        ``radii`` (P,) [m])
-    view : str
+    vessels, view : list of dict, str
+        ``obstacles.obstacles_of`` entries of kind 'vessel' (``points`` (P, 3), ``radii`` (P,) [m]);
         the plane, 'xy', 'xz' or 'yz'
     box : tuple of float
         (left, right, bottom, top) [m] of the picture (``frame_box``)
@@ -143,10 +143,7 @@ def lumen_depth(vessels, view: str, box, width: int, height: int) -> np.ndarray:
     Returns
     -------
     np.ndarray
-        (height, width) in [0, 1] (the first row is the top): the chord sqrt(1 - (d / r)^2) of the
-        tube at a distance d from its projected centreline, over the diameter 2 r there, the largest
-        of the vessels' (their union: a lumen that two vessels share, like a trunk, is one lumen);
-        distances to within half a pixel (a distance transform of the rasterised centreline)
+        (height, width) in [0, 1], the first row the top
     """
     x0, x1, y0, y1 = box
     px = (x1 - x0) / width
@@ -224,7 +221,7 @@ class FluoroScene:
     size : tuple of int
         (width, height) in pixels
     obstacles : list of dict
-        ``animation.obstacles_of`` entries; the vessels are drawn (an X-ray image shows no walls
+        ``obstacles.obstacles_of`` entries; the vessels are drawn (an X-ray image shows no walls
         or planes)
     rod_radius : float or None
         the rod's radius [m] (its line's width); None: ``MIN_WIRE_PIXELS``

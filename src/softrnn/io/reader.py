@@ -202,7 +202,7 @@ def _columns(stored: np.ndarray, wanted, n_total, where) -> list[int]:
 
 def read_dataset(path, *, nodes=None, group: str | None = None, start: int | None = None,
                  stop: int | None = None) -> Dataset:
-    """Read (part of) a trajectory, checking the layout, shapes, dtypes and values.
+    """Read (part of) a trajectory, checking it (a bad file: ``DatasetError``, one line naming it).
 
     Parameters
     ----------
@@ -212,25 +212,14 @@ def read_dataset(path, *, nodes=None, group: str | None = None, start: int | Non
         Rod node indices to read (negative: from the rod's end), in the order wanted; only those
         columns are read from disk. None: all stored nodes.
     group : str or None
-        The trajectory of a sweep file (one of ``list_groups(path)``); None or '/' for a
-        single-trajectory file.
+        The trajectory of a sweep file (``list_groups(path)``); None or '/' for a single one.
     start, stop : int or None
         Sample range ``start:stop`` (Python slice rules, negative from the end).
 
     Returns
     -------
     Dataset
-        Arrays in the stored dtypes (time float64, nodes int64, the rest float32) and the attrs;
-        ``actuation`` (T', m) holds every actuation channel of samples ``start:stop`` (whatever
-        ``nodes`` is), (T', 0) for a file without actuation (schema 1, or none recorded);
-        ``contact_forces`` and ``contact_torques`` (T', N', 3) where the file has them (schema 3),
-        else None.
-
-    Raises
-    ------
-    DatasetError
-        One line naming the file and the problem: missing file, not HDF5, truncated or corrupt, not
-        a softrnn dataset, newer schema, missing or malformed dataset/attribute, non-finite values.
+        The arrays in their stored dtypes, ``actuation`` every channel whatever ``nodes``, and the attrs.
     """
     path = Path(path)
     for name, value in (("start", start), ("stop", stop)):

@@ -157,16 +157,10 @@ def contact_record(contact) -> dict | None:
     Returns
     -------
     dict or None
-        ``friction`` (the default mu [-]), ``slip_velocity`` [m/s], ``stiffness`` [N/m^2] or None,
-        ``damping`` [N s/m^2] or None, ``penetration`` [-], ``reference_acceleration`` [m/s^2] or
-        None, and ``obstacles``: one dict per obstacle with ``kind`` ('plane', 'sphere', 'cylinder',
-        'vessel', 'bifurcation'), its geometry in m (plane: ``point`` (3,), ``normal`` (3,) unit;
-        sphere: ``center`` (3,), ``radius``; cylinder: ``point`` (3,), ``axis`` (3,) unit,
-        ``radius``; vessel: ``centreline`` (m, 3), ``radius`` (a number or (m,)); bifurcation:
-        ``trunk`` (m, 3), ``left`` (k, 3), ``right`` (k', 3), ``radius``, ``left_radius``,
-        ``right_radius`` (each a number or one per point)) and ``friction``, the mu [-] that
-        applies to it (its own, else the default); ``self_contact`` true where the rod's own
-        segments touch too (absent otherwise).
+        ``friction`` (the default mu [-]), ``slip_velocity``, ``stiffness``, ``damping``,
+        ``penetration``, ``reference_acceleration``, ``obstacles`` (one dict per obstacle: ``kind``,
+        its geometry [m] and ``friction``) and ``self_contact`` where the rod touches itself; every
+        key with its units: docs/dataset-format.md.
     """
     if contact is None:
         return None

@@ -1,4 +1,16 @@
-"""Summaries of dataset files (``softrnn show``): layout, time axis, storage, per-node ranges, every value checked."""
+"""Summaries of dataset files (``softrnn show``): layout, time axis, storage, per-node ranges, every value checked.
+
+``describe`` returns a JSON-ready dict: ``path``, ``file_size_bytes``, ``kind``, ``groups``, ``group``,
+``n_samples``, ``n_nodes``, ``n_nodes_total``, ``nodes``, ``time_start_s``, ``time_end_s``, ``duration_s``,
+``dt_s``, ``dt_uniform`` (every step within 1e-6 dt of dt), ``stored_values`` (all arrays of all groups),
+``bytes_per_value`` (file size / stored values), ``storage`` (per array: dtype, chunks, compression,
+stored bytes), ``node_ranges`` (per summarised node: position min/max [m], max |force| [N], max |torque|
+[N m], and with contact max |contact force| [N]), ``actuation`` (per channel, in column order: name,
+unit, min and max; [] without actuation), ``contact`` (None without contact loads, else ``fields``
+(the contact datasets), ``obstacles`` (their kinds, [] where not recorded), ``recorded`` (whether the
+obstacles are stored), ``max_force_n`` and ``max_torque_nm`` over every sample and node), ``verified``
+and ``attrs`` (with the obstacles' record as ``contact`` where stored).
+"""
 
 from __future__ import annotations
 
@@ -15,7 +27,7 @@ from .schema import ACTUATION, CONTACT, CONTACT_FIELDS, FIELDS, TIME_CHUNK, Data
 
 def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool = True,
              progress: Progress | None = None) -> dict:
-    """Summary of a dataset file for ``softrnn show``.
+    """Summary of a dataset file for ``softrnn show``, with ranges of ``max_nodes`` nodes (first, middle, last).
 
     Parameters
     ----------
@@ -23,30 +35,15 @@ def describe(path, *, group: str | None = None, max_nodes: int = 3, verify: bool
         The dataset file.
     group : str or None
         Trajectory to summarise in a sweep file (default: its first).
-    max_nodes : int
-        How many nodes get per-node ranges (first, middle, last).
     verify : bool
-        Also read the whole trajectory, block by block (bounded memory), and check every value
-        (finite, unit quaternions, readable chunks). False: read only the time axis and the
-        summarised nodes.
+        Also read and check every value, block by block (False: the time axis and those nodes).
     progress : softrnn.progress.Progress or None
-        With ``verify``: called as ``progress(done, n_samples)`` with the samples checked so far, 0
-        at the start and after each block (a 100 MB file takes seconds).
+        With ``verify``: ``progress(done, n_samples)`` at the start and after each block.
 
     Returns
     -------
     dict (JSON-ready)
-        ``path``, ``file_size_bytes``, ``kind``, ``groups``, ``group``, ``n_samples``, ``n_nodes``,
-        ``n_nodes_total``, ``nodes``, ``time_start_s``, ``time_end_s``, ``duration_s``, ``dt_s``,
-        ``dt_uniform`` (every step within 1e-6 dt of dt), ``stored_values`` (all arrays of all groups),
-        ``bytes_per_value`` (file size / stored values), ``storage`` (per array: dtype, chunks,
-        compression, stored bytes), ``node_ranges`` (per summarised node: position min/max [m],
-        max |force| [N], max |torque| [N m], and with contact max |contact force| [N]),
-        ``actuation`` (per channel, in column order: name, unit, min and max; [] without
-        actuation), ``contact`` (None without contact loads, else ``fields`` (the contact
-        datasets), ``obstacles`` (their kinds, [] where not recorded), ``recorded`` (whether the
-        obstacles are stored), ``max_force_n`` and ``max_torque_nm`` over every sample and node),
-        ``verified`` and ``attrs`` (with the obstacles' record as ``contact`` where stored).
+        The summary; its keys: the module docstring.
     """
     path = Path(path)
     with _Reading(path) as f:

@@ -281,7 +281,9 @@ class DatasetWriter:
 
     # ------------------------------------------------------------------ streaming
     def append(self, chunk, actuation=None) -> None:
-        """Add the next k samples.
+        """Add the next k samples. Invalid data (wrong shape, NaN/inf, times not increasing, too many
+        samples, non-unit quaternions, positions beyond ``POSITION_LIMIT_M``) raises ``DatasetError``
+        and discards the file being written.
 
         Parameters
         ----------
@@ -289,17 +291,10 @@ class DatasetWriter:
             ``time`` (k,) [s], ``positions`` (k, N, 3) [m], ``quaternions`` (k, N, 4),
             ``forces`` (k, N, 3) [N] and ``torques`` (k, N, 3) [N m] (and optionally ``nodes`` (N,),
             which must equal the writer's, and ``contact_forces`` (k, N, 3) [N] and
-            ``contact_torques`` (k, N, 3) [N m], None without contact). The arrays are copied,
-            never modified.
+            ``contact_torques`` (k, N, 3) [N m], None without contact). The arrays are copied.
         actuation : ndarray (k, m) or None
             The actuation channels' values in the writer's ``actuation_units`` (column order);
             None: the chunk's own ``actuation`` attribute. Required when the writer has channels.
-
-        Notes
-        -----
-        Invalid data (wrong shape, NaN/inf, times not increasing, too many samples, non-unit
-        quaternions, positions beyond ``POSITION_LIMIT_M``) raises ``DatasetError`` and discards
-        the file being written.
         """
         if self._state != "open":
             raise DatasetError(f"{self.path}: the writer is {self._state}; create a new DatasetWriter")

@@ -10,7 +10,7 @@ and their ratio, the family chosen on the training sessions' hold-out part, and 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -96,31 +96,129 @@ class BenchmarkOptions:
             raise bad("families", ",".join(self.families), f"one or more of {', '.join(FAMILIES)}")
 
 
-@dataclass
-class BenchmarkResult:
-    """What ``run_benchmark`` found (``to_dict()`` for the JSON)."""
+@dataclass(frozen=True)
+class TipScore:
+    """One model's Euclidean tip errors over the validation session (rounded to 4 digits).
 
-    robot: dict
-    models: dict
-    baselines: dict
-    chosen_on_training: dict
-    details: dict
-    skipped: dict
+    Attributes
+    ----------
+    tip_rmse_mm, tip_mean_mm, tip_max_mm : float
+        RMS, mean and largest error of the tip position [mm]
+    tip_rmse_pct_of_length : float
+        the RMS error in % of the robot's length
+    """
+
+    tip_rmse_mm: float
+    tip_mean_mm: float
+    tip_max_mm: float
+    tip_rmse_pct_of_length: float
+
+    def to_dict(self) -> dict:
+        """The JSON entry."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class RobotInfo:
+    """The robot and sessions a benchmark ran on.
+
+    Attributes
+    ----------
+    length_m : float
+        the robot's length [m]
+    lag : dict
+        ``lag_rows``, ``estimated`` and, estimated, ``linear_fit_rmse_mm_by_lag`` (``settle_lag``)
+    training_sessions, validation_session : tuple of dict, dict
+        the sessions' ``Recording.describe()``
+    segments_m, tendons_per_segment : tuple of float or None, int or None
+        the physics' segment lengths [m] and tendons per segment (None: no robot)
+    """
+
+    length_m: float
+    lag: dict
+    training_sessions: tuple
+    validation_session: dict
+    segments_m: tuple | None = None
+    tendons_per_segment: int | None = None
+
+    def to_dict(self) -> dict:
+        """The JSON's ``robot``."""
+        out = {"length_m": self.length_m, **self.lag, "training_sessions": list(self.training_sessions),
+               "validation_session": self.validation_session}
+        if self.segments_m is not None:
+            out.update(segments_m=list(self.segments_m), tendons_per_segment=self.tendons_per_segment)
+        return out
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The family the training sessions' hold-out part prefers.
+
+    Attributes
+    ----------
+    family : str
+        the family with the lowest hold-out error
+    holdout_rmse_mm : dict
+        {family: tip RMSE [mm] on the hold-out part}
+    holdout : str
+        what the hold-out part was
+    """
+
+    family: str
+    holdout_rmse_mm: dict
+    holdout: str
+
+    def to_dict(self) -> dict:
+        """The JSON's ``chosen_on_training``."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class BenchmarkResult:
+    """What ``run_benchmark`` found (``to_dict()`` for the JSON).
+
+    Attributes
+    ----------
+    robot : RobotInfo
+        the robot and sessions
+    models, baselines : dict of str to TipScore
+        each model family's and baseline's errors over the validation session
+    chosen_on_training : Choice or None
+        the family the hold-out part prefers (None: no family was run)
+    details, skipped : dict of str to dict, dict of str to str
+        each model's ``describe()`` (with its hold-out scores); the families skipped and why
+    seconds : float
+        the wall time [s]
+    predictions : dict of str to ndarray
+        each model's and baseline's predicted tip path (T, 3) [m]
+    validation : Recording or None
+        the validation session, shifted by the lag
+    """
+
+    robot: RobotInfo
+    models: dict[str, TipScore]
+    baselines: dict[str, TipScore]
+    chosen_on_training: Choice | None
+    details: dict[str, dict]
+    skipped: dict[str, str]
     seconds: float
-    predictions: dict = field(default_factory=dict, repr=False)
+    predictions: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     validation: Recording | None = field(default=None, repr=False)
 
-    def _best(self, table: dict) -> str | None:
-        return min(table, key=lambda k: table[k]["tip_rmse_mm"]) if table else None
+    @staticmethod
+    def _best(table: dict) -> str | None:
+        return min(table, key=lambda k: table[k].tip_rmse_mm) if table else None
 
     def to_dict(self) -> dict:
         """The benchmark's JSON (docs/guide/real-robots.md)."""
         best_model, best_baseline = self._best(self.models), self._best(self.baselines)
-        ratio = (self.models[best_model]["tip_rmse_mm"] / self.baselines[best_baseline]["tip_rmse_mm"]
+        ratio = (self.models[best_model].tip_rmse_mm / self.baselines[best_baseline].tip_rmse_mm
                  if best_model and best_baseline else None)
-        return {"robot": self.robot, "models": self.models, "baselines": self.baselines,
+        return {"robot": self.robot.to_dict(), "models": {k: v.to_dict() for k, v in self.models.items()},
+                "baselines": {k: v.to_dict() for k, v in self.baselines.items()},
                 "best_model": best_model, "best_baseline": best_baseline,
-                "ratio_best_model_to_best_baseline": ratio, "chosen_on_training": self.chosen_on_training,
+                "ratio_best_model_to_best_baseline": ratio,
+                "chosen_on_training": {} if self.chosen_on_training is None else self.chosen_on_training.to_dict(),
                 "skipped": self.skipped, "details": self.details, "seconds": round(self.seconds, 1)}
 
 
@@ -270,6 +368,11 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
     return holdout
 
 
+def _scores(table: dict) -> dict[str, TipScore]:
+    """{name: TipScore} of a ``_Table`` entry {name: {tip_rmse_mm, ...}}."""
+    return {name: TipScore(**errors) for name, errors in table.items()}
+
+
 def run_benchmark(train: list[Recording], validation: Recording, options: BenchmarkOptions,
                   progress=None) -> BenchmarkResult:
     """Fit every baseline and model family on ``train`` (sessions of one robot) and run each free
@@ -295,13 +398,14 @@ def run_benchmark(train: list[Recording], validation: Recording, options: Benchm
     _baselines(train, out)
     step("baselines")
     holdout = _models(train, families, robot, options, out, step)
-    chosen = {"family": min(holdout, key=holdout.get), "holdout_rmse_mm": holdout,
-              "holdout": "the last training session" if len(train) >= 2 else
-                         "the last quarter of the training session"} if holdout else {}
-    robot_info = {"length_m": options.length, **lag_info,
-                  "training_sessions": [s.describe() for s in train], "validation_session": validation.describe()}
-    if robot is not None:
-        robot_info.update(segments_m=list(robot.segment_lengths), tendons_per_segment=robot.tendons_per_segment)
-    return BenchmarkResult(robot=robot_info, models=out.models, baselines=out.baselines, chosen_on_training=chosen,
-                           details=out.details, skipped=skipped, seconds=time.perf_counter() - t0,
+    chosen = Choice(family=min(holdout, key=holdout.get), holdout_rmse_mm=holdout,
+                    holdout="the last training session" if len(train) >= 2 else
+                            "the last quarter of the training session") if holdout else None
+    robot_info = RobotInfo(length_m=options.length, lag=lag_info, training_sessions=tuple(s.describe() for s in train),
+                           validation_session=validation.describe(),
+                           segments_m=None if robot is None else tuple(robot.segment_lengths),
+                           tendons_per_segment=None if robot is None else robot.tendons_per_segment)
+    return BenchmarkResult(robot=robot_info, models=_scores(out.models), baselines=_scores(out.baselines),
+                           chosen_on_training=chosen, details=out.details, skipped=skipped,
+                           seconds=time.perf_counter() - t0,
                            predictions=out.predictions, validation=validation)

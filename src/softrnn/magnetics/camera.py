@@ -115,26 +115,18 @@ def _fit_at(Y: np.ndarray, sc: np.ndarray, sm: np.ndarray, lo: float, hi: float,
 
 def camera_measure(positions, s_nodes, s_magnets, noise: float, rng, *, points: int = 25,
                    degree: int = 5) -> CameraMeasurement:
-    """The camera model: sample the centreline, add noise, fit P(s), read the magnets.
+    """The camera model: sample ``points`` centreline points evenly over [s_nodes[0], s_nodes[-1]]
+    (linear between the nodes), add noise, fit P(s) of ``degree`` to each coordinate (least squares,
+    Legendre basis on the scaled arc length), read the magnets.
 
     Parameters
     ----------
-    positions : (T, n, 3) [m]
-        Centreline nodes of the rod (the real robot's, or any curve).
-    s_nodes : (n,) [m]
-        Their arc lengths, increasing from the base.
+    positions, s_nodes : (T, n, 3) [m], (n,) [m]
+        Centreline nodes of the rod (the real robot's, or any curve); their arc lengths, increasing.
     s_magnets : (M,) [m]
         Arc lengths of the magnets' centres (constant: the paper assumes no extension).
     noise : float
-        Standard deviation [m] of the Gaussian noise added to every coordinate of every sampled point.
-    rng : numpy.random.Generator
-        Source of the noise.
-    points : int
-        Sampled centreline points, evenly spaced over [s_nodes[0], s_nodes[-1]] (linear
-        interpolation between the nodes).
-    degree : int
-        Degree of the least-squares polynomial P(s) fitted to each coordinate (a Legendre basis
-        on the scaled arc length, well conditioned).
+        Standard deviation [m] of the Gaussian noise (drawn from ``rng``) on every sampled coordinate.
 
     Returns
     -------

@@ -109,32 +109,24 @@ def steering_field(bifurcation: Bifurcation, branch: str, magnitude: float = DEM
 def navigate(branch: str, *, spec: ManipulatorSpec | None = None, field: float = DEMO_FIELD,
              ramp: float = 0.5, hold: float = 0.5, dt: float = 0.01, settle: float = 0.3,
              progress=None) -> ManipulatorTrajectory:
-    """Steer the manipulator's tip into ``branch`` of its bifurcation.
+    """Steer the manipulator's tip into ``branch`` of its bifurcation ('left', 'right', or 'none': no
+    field, the control); the run samples every ``dt`` [s] from t = 0 to ramp + hold (``progress``: as
+    for ``simulate_manipulator``).
 
     Parameters
     ----------
-    branch : str
-        'left', 'right', or 'none' (no field: the control)
     spec : ManipulatorSpec or None
-        a manipulator whose ``contact`` holds a ``Bifurcation`` (None: ``navigation_spec()``, a
-        fixed base); with ``spec.advance`` the base is inserted meanwhile (choose ramp + hold to
-        cover ``spec.advance.end``)
+        a manipulator whose ``contact`` holds a ``Bifurcation`` (None: ``navigation_spec()``); with
+        ``spec.advance`` the base is inserted meanwhile (ramp + hold should cover its end)
     field : float
-        field magnitude [T] (``steering_field``), made by the minimum-norm currents at the
-        workspace centre
-    ramp, hold : float
-        the currents rise linearly from zero over ``ramp`` [s], then hold for ``hold`` [s]
-    dt : float
-        saved interval [s]
-    settle : float
-        settling [s] at zero current before t = 0 (the rod sags onto the vessel's floor)
-    progress : softrnn.progress.Progress or None
-        as for ``simulate_manipulator``
+        field magnitude [T] (``steering_field``), by the minimum-norm currents at the workspace centre
+    ramp, hold, dt, settle : float
+        the currents' linear rise and hold [s]; saved interval [s]; settling at zero current before t = 0 [s]
 
     Returns
     -------
     ManipulatorTrajectory
-        the run, samples every ``dt`` from t = 0 to ramp + hold, with the contact loads
+        the run, with the contact loads
     """
     spec = navigation_spec() if spec is None else spec
     bif = _bifurcation_of(spec)

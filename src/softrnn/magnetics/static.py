@@ -1,7 +1,18 @@
 """The static Cosserat model of the magnetic manipulator: the rod of a ``ManipulatorSpec`` in the
 static solver of ``softrnn.statics`` (``static_rod``), and the magnets' orientations it predicts from
 the coil currents (``static_predictions``: B and G at the magnets by fixed-point iteration on their
-positions; paper Sec. 5)."""
+positions; paper Sec. 5).
+
+For each sample the field B and gradient G at the magnets depend on where the magnets are, and
+where they are depends on B and G: starting from the previous sample's positions (the straight
+rod for the first), B and G are evaluated at the magnets, the static BVP is solved (warm-started
+``StaticSolver``) and repeated with the new positions until they move less than
+``position_tol`` [m] (about 5 iterations: the field changes little over the magnets' motion).
+
+A solve that does not converge is retried once from a cold start; a sample whose solve or fixed
+point still fails is recorded in ``failures`` (NaN in the arrays, never a silent value). More
+than ``max_failures`` (a fraction of the samples) failing raises ``SimulationError``.
+"""
 
 from __future__ import annotations
 
@@ -93,17 +104,8 @@ def static_rod(spec: ManipulatorSpec | None = None) -> StaticRod:
 def static_predictions(currents, *, spec: ManipulatorSpec | None = None, n_steps: int = 40, tol: float = 1e-7,
                        position_tol: float = 1e-7, max_iterations: int = 30, max_failures: float = 0.05,
                        progress: Progress | None = None) -> StaticPrediction:
-    """The static Cosserat model's magnet orientations for each sample of coil currents.
-
-    For each sample the field B and gradient G at the magnets depend on where the magnets are, and
-    where they are depends on B and G: starting from the previous sample's positions (the straight
-    rod for the first), B and G are evaluated at the magnets, the static BVP is solved (warm-started
-    ``StaticSolver``) and repeated with the new positions until they move less than
-    ``position_tol`` [m] (about 5 iterations: the field changes little over the magnets' motion).
-
-    A solve that does not converge is retried once from a cold start; a sample whose solve or fixed
-    point still fails is recorded in ``failures`` (NaN in the arrays, never a silent value). More
-    than ``max_failures`` (a fraction of the samples) failing raises ``SimulationError``.
+    """The static Cosserat model's magnet orientations for each sample of coil currents (the fixed
+    point on the magnets' positions and the failure rules: the module docstring).
 
     Parameters
     ----------
@@ -113,12 +115,10 @@ def static_predictions(currents, *, spec: ManipulatorSpec | None = None, n_steps
         The nominal manipulator (default ``ManipulatorSpec()``); see ``static_rod``.
     n_steps, tol :
         RK4 steps N and tolerance E of the static solver.
-    position_tol : float
-        Fixed-point tolerance [m].
-    max_iterations : int
-        Fixed-point iterations per sample.
+    position_tol, max_iterations : float, int
+        Fixed-point tolerance [m] and iterations per sample.
     max_failures : float
-        Largest tolerated fraction of failed samples.
+        Largest tolerated fraction of failed samples (more raise ``SimulationError``).
     progress : softrnn.progress.Progress or None
         Called as ``progress(done, total, info)`` every 10 samples (None: no reports).
     """

@@ -39,14 +39,7 @@ def frozen(*, length: float, weight, mass, inertia, C1, C2, D1, D2, K0, G0, ct, 
     gravity : array_like, (3,)
         Gravitational acceleration [m/s^2], world frame.
     kind : array_like of int, (n,)
-        ``kernels.FREE``, ``CLAMPED`` or ``PINNED`` per node.
-    kv_on : bool
-        Kelvin-Voigt damping on.
-
-    Returns
-    -------
-    LumpedRod
-        The read-only copies.
+        ``kernels.FREE``, ``CLAMPED`` or ``PINNED`` per node (``kv_on``: Kelvin-Voigt damping on).
     """
     f = np.float64
     return LumpedRod(

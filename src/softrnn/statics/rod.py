@@ -109,6 +109,27 @@ class PointLoad:
                            tuple(float(x) for x in _vector("point_load.torque", self.torque, "N m")))
 
 
+@dataclass(frozen=True)
+class SectionStiffness:
+    """The stiffnesses of a rod section (``StaticRod.stiffness``, ``StaticRod.segment_stiffness``).
+
+    Attributes
+    ----------
+    EI, GJ : float
+        bending and torsional stiffness [N m^2]
+    EA, GA : float
+        axial and shear (kappa G A) stiffness [N]
+    weight : float or None
+        mass per length [kg/m] of a rigid segment (None: the flexible rod's, ``weight_per_length``)
+    """
+
+    EI: float
+    GJ: float
+    EA: float
+    GA: float
+    weight: float | None = None
+
+
 @dataclass(frozen=True, kw_only=True, eq=False)
 class StaticRod:
     """A straight, stress-free Cosserat rod of circular section, clamped at its base.
@@ -248,24 +269,25 @@ class StaticRod:
         """G [Pa] of the rod material."""
         return self.youngs_modulus / (2.0 * (1.0 + self.poisson_ratio))
 
-    def stiffness(self) -> dict[str, float]:
+    def stiffness(self) -> SectionStiffness:
         """Stiffnesses of the flexible rod: EI, GJ [N m^2], EA, GA (kappa G A) [N]."""
         r, E, G = self.radius, self.youngs_modulus, self.shear_modulus
         area, second = math.pi * r * r, math.pi * r**4 / 4.0
         pick = {"EI": (self.bending_stiffness, E * second), "GJ": (self.torsional_stiffness, 2.0 * G * second),
                 "EA": (self.axial_stiffness, E * area),
                 "GA": (self.shear_stiffness, self.shear_coefficient * G * area)}
-        return {key: float(override if override is not None else default) for key, (override, default) in pick.items()}
+        return SectionStiffness(**{key: float(override if override is not None else default)
+                                   for key, (override, default) in pick.items()})
 
-    def segment_stiffness(self, seg: RigidSegment) -> dict[str, float]:
+    def segment_stiffness(self, seg: RigidSegment) -> SectionStiffness:
         """Stiffnesses EI, GJ, EA, GA and mass per length ``weight`` [kg/m] of a rigid segment."""
         r = self.radius if seg.radius is None else seg.radius
         nu = self.poisson_ratio if seg.poisson_ratio is None else seg.poisson_ratio
         E = seg.youngs_modulus
         G = E / (2.0 * (1.0 + nu))
         area, second = math.pi * r * r, math.pi * r**4 / 4.0
-        return {"EI": E * second, "GJ": 2.0 * G * second, "EA": E * area, "GA": self.shear_coefficient * G * area,
-                "weight": seg.density * area}
+        return SectionStiffness(EI=E * second, GJ=2.0 * G * second, EA=E * area, GA=self.shear_coefficient * G * area,
+                                weight=seg.density * area)
 
     @property
     def weight_per_length(self) -> float:

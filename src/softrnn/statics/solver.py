@@ -15,208 +15,23 @@ theorem on the integration at the converged base wrench: 7 + m integrations, no 
 stops when every tension matches its displacement to within what the shooting tolerance resolves.
 """
 
-import enum
-import heapq
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SimulationError, bad, integer
-from ..rod.so3 import matrix_to_quaternion, quaternion_to_matrix
+from ..errors import bad, integer
+from ..rod.so3 import matrix_to_quaternion
 from . import kernels
+from .grid import Grid, build_grid
 from .rod import StaticLoads, StaticRod, _arc_length, shown
+from .solution import NO_TENSIONS, StaticSolution, Status, outcome_message
 
 DEFAULT_N_STEPS = 40
 DEFAULT_TOL = 1e-6
 DEFAULT_MAX_ITER = 100
-_SNAP = 1e-9  # load points closer than this fraction of L share one grid point
 
 _NO_LOADS = StaticLoads()
-_EMPTY = np.zeros(0)
-_EMPTY.setflags(write=False)
 _TENSION_MAX_ITER = 50  # Newton updates of the tensions of tendons driven by a displacement
-
-
-class Status(enum.Enum):
-    """Outcome of a static solve."""
-
-    CONVERGED = kernels.CONVERGED
-    ITERATION_LIMIT = kernels.ITERATION_LIMIT
-    SINGULAR = kernels.SINGULAR
-    NOT_FINITE = kernels.NOT_FINITE
-
-
-@dataclass(frozen=True, eq=False)
-class Grid:
-    """RK4 grid: s (N + 1,) [m] with every load point and stiffness change on a grid point;
-    h (N,) [m], kinv (N, 6) compliances and weight (N,) [kg/m] per step (see ``kernels``)."""
-
-    s: np.ndarray
-    h: np.ndarray
-    kinv: np.ndarray
-    weight: np.ndarray
-
-    def index(self, s: float) -> int:
-        """Grid point of the arc length s (a load point of this grid)."""
-        return int(np.argmin(np.abs(self.s - s)))
-
-
-def _breakpoints(rod: StaticRod, load_points) -> list[float]:
-    L = rod.length
-    points = [0.0, L] + [m.s for m in rod.magnets] + [p for seg in rod.rigid_segments for p in (seg.s0, seg.s1)]
-    points += [rod.tendon_end(td) for td in rod.tendons]
-    points += list(load_points)
-    merged = []
-    for p in sorted(points):
-        if not merged or p - merged[-1] > _SNAP * L:
-            merged.append(p)
-    merged[-1] = L
-    return merged
-
-
-def _interval_properties(rod: StaticRod, a: float, b: float) -> tuple[np.ndarray, float, float]:
-    """Compliances (6,), mass per length [kg/m] and bending stiffness EI of the interval (a, b)."""
-    mid = 0.5 * (a + b)
-    seg = next((g for g in rod.rigid_segments if g.s0 <= mid <= g.s1), None)
-    k = rod.stiffness() if seg is None else rod.segment_stiffness(seg)
-    weight = rod.weight_per_length if seg is None else k["weight"]
-    kinv = np.array([1 / k["EI"], 1 / k["EI"], 1 / k["GJ"], 1 / k["GA"], 1 / k["GA"], 1 / k["EA"]])
-    if not rod.extensible_shearable:
-        kinv[3:] = 0.0
-    return kinv, weight, k["EI"]
-
-
-def _allocate_steps(weights: list[float], n_steps: int) -> list[int]:
-    """Steps per interval: one each, then greedily to the interval with the largest weight per
-    step (RK4's error per step grows like h^4 / EI, so the weight is length * EI^(-1/4))."""
-    counts = [1] * len(weights)
-    heap = [(-w, i) for i, w in enumerate(weights)]
-    heapq.heapify(heap)
-    for _ in range(n_steps - len(weights)):
-        _, i = heapq.heappop(heap)
-        counts[i] += 1
-        heapq.heappush(heap, (-weights[i] / counts[i], i))
-    return counts
-
-
-def build_grid(rod: StaticRod, load_points, n_steps: int) -> Grid:
-    """The RK4 grid of ``n_steps`` steps over [0, L] with the magnets, the ends of the rigid
-    segments, the tendons' terminations and ``load_points`` (arc lengths [m]) on grid points."""
-    points = _breakpoints(rod, load_points)
-    n_int = len(points) - 1
-    if n_steps < n_int:
-        raise bad("n_steps", n_steps, f"at least {n_int}: one RK4 step per interval between the load points, "
-                                      f"stiffness changes and ends at s = {[round(p, 9) for p in points]} m")
-    props = [_interval_properties(rod, a, b) for a, b in zip(points, points[1:])]
-    EI = rod.stiffness()["EI"]
-    weights = [(b - a) * (EI / ei) ** 0.25 for (a, b), (_, _, ei) in zip(zip(points, points[1:]), props)]
-    counts = _allocate_steps(weights, n_steps)
-    s = [0.0]
-    kinv, weight = [], []
-    for (a, b), (ki, wi, _), c in zip(zip(points, points[1:]), props, counts):
-        s.extend(a + (b - a) * np.arange(1, c + 1) / c)
-        kinv.extend([ki] * c)
-        weight.extend([wi] * c)
-    s = np.array(s)
-    s[-1] = rod.length
-    return Grid(s=s, h=np.diff(s), kinv=np.array(kinv), weight=np.array(weight))
-
-
-@dataclass(frozen=True, eq=False)
-class StaticSolution:
-    """Result of a static solve.
-
-    Attributes
-    ----------
-    status : Status
-        CONVERGED only when residual <= tol
-    message : str
-        one line: what happened and how to fix it
-    iterations : int
-        Levenberg-Marquardt iterations
-    residual : float
-        |[n(L+), m(L+)]|_2 of the tip wrench [N, N m mixed, as the paper]
-    tol : float
-        the tolerance E it was solved to
-    integrations : int
-        RK4 integrations of the rod (Jacobians included)
-    s : (N + 1,)
-        grid arc lengths [m]
-    positions : (N + 1, 3)
-        centreline [m], world frame
-    quaternions : (N + 1, 4)
-        unit, scalar first, body -> world
-    n : (N + 1, 3)
-        internal force [N], world frame, on the base side of each grid point (with tendons: the
-        section's total, rod plus tendons)
-    m : (N + 1, 3)
-        internal moment [N m], world frame, likewise
-    base_wrench : (6,)
-        [n(0), m(0)]: the load the rod puts on its base (the clamp's reaction on the rod is
-        -base_wrench); a warm-start guess
-    tendon_tensions : (m,)
-        the tensions [N] of the rod's m tendons in this solution (given, or solved for the tendons
-        driven by a displacement)
-    tendon_shortening : (m,)
-        l_0 - l [m]: how much each tendon's path along the rod is shorter than on the stress-free
-        rod (bending toward it, compression)
-    """
-
-    status: Status
-    message: str
-    iterations: int
-    residual: float
-    tol: float
-    integrations: int
-    s: np.ndarray
-    positions: np.ndarray
-    quaternions: np.ndarray
-    n: np.ndarray
-    m: np.ndarray
-    base_wrench: np.ndarray
-    tendon_tensions: np.ndarray = field(default_factory=lambda: _EMPTY)
-    tendon_shortening: np.ndarray = field(default_factory=lambda: _EMPTY)
-
-    @property
-    def converged(self) -> bool:
-        """True when the solve met its tolerance (``status`` is ``Status.CONVERGED``)."""
-        return self.status is Status.CONVERGED
-
-    @property
-    def rotations(self) -> np.ndarray:
-        """Rotation matrices (N + 1, 3, 3), body -> world (columns d1, d2, d3)."""
-        return quaternion_to_matrix(self.quaternions)
-
-    @property
-    def tip_position(self) -> np.ndarray:
-        """positions[-1] (3,) [m]."""
-        return self.positions[-1]
-
-    def index(self, s: float) -> int:
-        """Grid point nearest to the arc length s [m] (load points and magnets are grid points)."""
-        return int(np.argmin(np.abs(self.s - s)))
-
-    def raise_for_status(self) -> "StaticSolution":
-        """Return self if converged, else raise ``SimulationError`` with the one-line message."""
-        if self.status is not Status.CONVERGED:
-            raise SimulationError(f"static solve {self.status.name.lower()}: {self.message}")
-        return self
-
-
-def _message(status: Status, residual: float, tol: float, iterations: int, max_iter: int) -> str:
-    res = f"tip wrench residual {residual:.3g}"
-    if status is Status.CONVERGED:
-        return f"converged: {res} <= tol {tol:.3g} after {iterations} iteration{'s' if iterations != 1 else ''}"
-    if status is Status.ITERATION_LIMIT:
-        return (f"no convergence in max_iter={max_iter} iterations ({res} > tol {tol:.3g}); raise max_iter, "
-                "start from a closer guess (e.g. a previous solution's base_wrench) or apply the load in steps")
-    if status is Status.SINGULAR:
-        return (f"the Levenberg-Marquardt step stalled ({res} > tol {tol:.3g} after {iterations} iterations: "
-                "singular shooting Jacobian or a tolerance below round-off); loosen tol, start from a closer "
-                "guess or apply the load in smaller steps")
-    return (f"the rod integration overflowed to non-finite values ({res}); check that the loads, the field "
-            "and the guess are physically sized (N, N m, T) for this rod")
 
 
 def _check_tol(tol) -> float:
@@ -252,7 +67,7 @@ class StaticSolver:
         self.max_iter = integer("max_iter", max_iter)
         self._layouts: dict[tuple, tuple] = {}
         self.grid = self._grid(())  # checks n_steps against the rod's own load points
-        EI = rod.stiffness()["EI"]
+        EI = rod.stiffness().EI
         L = rod.length
         self._scale = np.array([EI / L**2] * 3 + [EI / L] * 3)
         self._base = np.concatenate([rod.base_position, matrix_to_quaternion(rod.base_rotation)])
@@ -359,7 +174,7 @@ class StaticSolver:
     def _tendon_bend(self) -> float:
         """Bending measure sum tau |offset| L / EI of the tendons of the last ``_kernel_inputs``."""
         return float(sum(tau * math.hypot(*td.offset) for tau, td in zip(self._tension, self.rod.tendons))
-                     * self.rod.length / self.rod.stiffness()["EI"])
+                     * self.rod.length / self.rod.stiffness().EI)
 
     def _rigid_moments(self, grid: Grid, arrays) -> tuple[np.ndarray, np.ndarray]:
         """Total external force (3,) [N] and the internal moment (N + 1, 3) [N m] at the grid points
@@ -427,7 +242,7 @@ class StaticSolver:
         else:
             with np.errstate(over="ignore", invalid="ignore"):  # absurd loads: the kernel reports NOT_FINITE
                 force, moments = self._rigid_moments(grid, arrays)
-                bend = float(np.linalg.norm(moments, axis=1).max()) * self.rod.length / self.rod.stiffness()["EI"]
+                bend = float(np.linalg.norm(moments, axis=1).max()) * self.rod.length / self.rod.stiffness().EI
                 bend += self._tendon_bend()
             direct = bend <= _DIRECT_BEND or not math.isfinite(bend)
             if not (direct and run.shoot(np.concatenate([force, moments[0]]), None, 1.0)) and math.isfinite(bend):
@@ -498,7 +313,7 @@ class StaticSolver:
             dl_dxi[:, i] = (lengths_t[moved] - lengths[moved]) / step
         dr_dtau = np.empty((6, moved.size))
         dl_dtau = np.empty((moved.size, moved.size))
-        EI = self.rod.stiffness()["EI"]
+        EI = self.rod.stiffness().EI
         for b, j in enumerate(moved):
             tau = self._tension[j]
             arm = max(math.hypot(*self.rod.tendons[j].offset), self.rod.radius)
@@ -523,7 +338,7 @@ class StaticSolver:
         stiffness = self.rod.stiffness()
         offsets = np.array([math.hypot(*self.rod.tendons[j].offset) for j in moved])
         # what the shooting tolerance resolves of a tendon's length, and of its tension
-        slack = self.tol * (1.0 / k + L * (offsets / stiffness["EI"] + 1.0 / stiffness["EA"])) + 1e-13 * L
+        slack = self.tol * (1.0 / k + L * (offsets / stiffness.EI + 1.0 / stiffness.EA)) + 1e-13 * L
         if self._warm_tau is not None and xi is None:
             tau = self._warm_tau.copy()
         else:
@@ -631,8 +446,8 @@ class _Run:
         Y, xi = self.Y, self.xi
         Y.setflags(write=False)
         xi.setflags(write=False)
-        message = _message(self.status, self.residual, s.tol, self.iterations, s.max_iter) + self.note
-        tensions, shortening = _EMPTY, _EMPTY
+        message = outcome_message(self.status, self.residual, s.tol, self.iterations, s.max_iter) + self.note
+        tensions, shortening = NO_TENSIONS, NO_TENSIONS
         if s.rod.tendons:
             tensions = s._tension.copy()
             with np.errstate(over="ignore", invalid="ignore"):
@@ -659,19 +474,15 @@ def _guess_array(guess) -> np.ndarray:
 
 def solve(rod: StaticRod, loads: StaticLoads | None = None, *, tol: float = DEFAULT_TOL,
           n_steps: int = DEFAULT_N_STEPS, guess=None, max_iter: int = DEFAULT_MAX_ITER) -> StaticSolution:
-    """Solve the static BVP of ``rod`` under ``loads`` once (see ``StaticSolver.solve``).
+    """Solve the static BVP of ``rod`` under ``loads`` once (see ``StaticSolver.solve``; the method and
+    the choice of ``tol``: docs/guide/statics.md).
 
     Parameters
     ----------
-    rod : StaticRod
-        the rod
-    loads : StaticLoads or None
-        point loads, distributed load, field B and gradient G at the magnets, tendon tensions and
-        displacements
-    tol : float
-        tolerance E on |[n(L+), m(L+)]|_2 [N, N m]
-    n_steps : int
-        RK4 steps N
+    rod, loads : StaticRod, StaticLoads or None
+        the rod; its point and distributed loads, the field at its magnets, its tendons' tensions
+    tol, n_steps : float, int
+        tolerance E on |[n(L+), m(L+)]|_2 [N, N m]; RK4 steps N
     guess : None, (6,) or StaticSolution
         base wrench [n(0), m(0)] to start from (None: rigid-rod balance)
     max_iter : int
@@ -681,12 +492,5 @@ def solve(rod: StaticRod, loads: StaticLoads | None = None, *, tol: float = DEFA
     -------
     StaticSolution
         the solution with a ``status``; call ``raise_for_status()`` to turn a failure into an error.
-
-    Notes
-    -----
-    As in the paper, E bounds the 2-norm of the tip force [N] and moment [N m] together, in
-    absolute terms. A tip-moment error dM turns the tip by about dM L / EI, so for a small, soft rod
-    choose E well below EI / L (the magnetic manipulator: EI / L = 2e-4 N m, so E = 1e-6 allows
-    ~0.3 deg; the shooting usually converges quadratically far below E).
     """
     return StaticSolver(rod, n_steps=n_steps, tol=tol, max_iter=max_iter).solve(loads, guess=guess)

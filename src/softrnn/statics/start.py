@@ -244,7 +244,7 @@ def static_solution(setup: Setup, time: float = 0.0, *, steps_per_segment: int =
     rod, loads, body = static_problem(setup, time)
     k = integer("steps_per_segment", steps_per_segment)
     L, n = rod.length, setup.rod.n_nodes
-    stiffness = rod.stiffness()["EI"]
+    stiffness = rod.stiffness().EI
     tol = RELATIVE_TOL * min(stiffness / L**2, stiffness / L) if tol is None else tol
     solver = StaticSolver(rod, n_steps=k * (n - 1), tol=tol, max_iter=max_iter)
     grid = [PointLoad(s=L * a / (n - 1)) for a in range(1, n - 1)]  # zero loads: grid points on the nodes

@@ -130,31 +130,23 @@ def _remove_stale_temporaries(out_dir: Path) -> None:
 
 
 def check_sweep(scenario, count, *, n_workers=2, n_samples=None, dt=None) -> float | None:
-    """Refuse, before any file, worker or step, a sweep that cannot run or is too large.
+    """Refuse, before any file, worker or step, a sweep that cannot run or is too large for this
+    machine (``rod.simulation.check_run_size``, as ``softrnn simulate`` does): one line naming the
+    option (``SoftrnnInputError``).
 
     Parameters
     ----------
     scenario : Scenario
         The scenario whose variants are simulated (it needs a [randomize] table).
-    count : int
-        Variants 0..count-1 (``--count``): at most ``MAX_COUNT``.
-    n_workers : int
-        Local worker processes (``--workers``).
-    n_samples : int or None
-        Samples per trajectory (``--samples``; None: the scenario's).
-    dt : float or None
-        The saved interval [s] (``--dt``; None: the scenario's).
+    count, n_workers : int
+        Variants 0..count-1 (``--count``, at most ``MAX_COUNT``); local worker processes (``--workers``).
+    n_samples, dt : int or None, float or None
+        Samples per trajectory (``--samples``) and the saved interval [s] (``--dt``); None: the scenario's.
 
     Returns
     -------
     float or None
         ``dt`` as a float.
-
-    Raises
-    ------
-    SoftrnnInputError
-        One line naming the option: a bad value, too many variants, or one variant's run too large
-        for this machine (``rod.simulation.check_run_size``, as ``softrnn simulate`` refuses it).
     """
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
         raise bad("--count", count, "an integer >= 1")

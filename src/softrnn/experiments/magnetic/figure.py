@@ -11,7 +11,7 @@ from .config import AXES, MAGNETS
 def plot_fig12(time_s, measured, predictions: dict, static, title: str = "", calibrated=None):
     """Like the paper's Fig. 12: measured and predicted orientation over the test span, both magnets
     (columns), about y (the bending axis) and about x (rows), plus the absolute error about y;
-    LSTM one step ahead (and free running, dotted), static Cosserat model.
+    LSTM one step ahead (and free running, dotted), static Cosserat model. Returns the Figure.
 
     Parameters
     ----------
@@ -22,17 +22,11 @@ def plot_fig12(time_s, measured, predictions: dict, static, title: str = "", cal
     predictions : dict
         Per magnet name: ``index`` (K,) the test span's sample indices, ``rnn`` (K, 3) [rad] the
         one-step predictions, ``free`` (K, 3) [rad] the free-running ones or None.
-    static : (T, 2, 3) [rad] or None
-        The static model's predictions (NaN where it failed), or None for no static model.
+    static, calibrated : (T, 2, 3) [rad] or None
+        The static model's predictions (NaN where it failed) and the calibrated dynamic Cosserat
+        model's from the currents alone; None: not drawn.
     title : str
         Figure title (empty: a default).
-    calibrated : (T, 2, 3) [rad] or None
-        The calibrated dynamic Cosserat model's predictions from the currents alone, or None.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        The figure (Fig. 12).
     """
     fig, axes = subplots(3, 2, figsize=(11, 7.5), sharex=True)
     for col, name in enumerate(("distal", "proximal")):

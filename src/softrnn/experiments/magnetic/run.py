@@ -234,15 +234,10 @@ def run_experiment(config: ExperimentConfig, out_dir, progress: Progress | None 
     Returns
     -------
     dict (JSON-ready)
-        ``distal`` and ``proximal``, each with ``rnn``, ``cosserat``, ``calibrated`` and
-        ``rnn_free_running`` as [[max, mean] per axis x, y, z] in degrees (and ``tangent_angles``);
-        ``calibration`` (``calibrate_and_predict``; None with ``config.calibrate`` false);
-        ``best_on_bending_axis`` (per magnet and statistic, the model with the lowest error); ``paper`` (Table 1 in the
-        same shape); ``bending_axis`` (the axis of the largest measured range); per magnet
-        ``lstm_beats_static_on_bending_axis`` (a lower mean error about it) and ``..._max`` (a lower
-        max error); ``static`` (failures,
-        solves); ``timings`` (simulation, static, training and total seconds, static solves and
-        predictions per second, LSTM steps per second); ``assumptions``; ``config``; ``files``.
+        ``distal`` and ``proximal`` (the errors of ``rnn``, ``cosserat``, ``calibrated`` and
+        ``rnn_free_running`` as [[max, mean] per axis x, y, z] in degrees), ``paper`` (Table 1 in that
+        shape), the bending-axis comparisons, ``calibration``, ``static``, ``timings``,
+        ``assumptions``, ``config``, ``files``; every key: docs/report-format.md.
     """
     if not isinstance(config, ExperimentConfig):
         raise bad("config", type(config).__name__, "an ExperimentConfig")
