@@ -18,14 +18,15 @@ import numpy as np
 from ..errors import bad, is_finite_number
 from ..magnetics.camera import camera_measure
 from ..magnetics.manipulator import ManipulatorSpec
+from ..magnetics.plant import PlantDefaults
 from ..magnetics.stepper import ManipulatorStepper
 from ..progress import Progress
 from .static_inverse import DISTAL
 
 
 @dataclass(frozen=True, kw_only=True)
-class LoopConfig:
-    """The plant and camera of the closed loop (defaults: the magnetic experiment's).
+class LoopConfig(PlantDefaults):
+    """The plant and camera of the closed loop (defaults: the magnetic experiment's, ``PlantDefaults``).
 
     Attributes
     ----------
@@ -44,13 +45,6 @@ class LoopConfig:
     """
 
     rate: float = 30.0
-    stiffness: float = 1.04
-    remanence: float = 0.97
-    damping: float = 2.0
-    camera_noise: float = 2e-4
-    camera_points: int = 100
-    polynomial_degree: int = 3
-    settle: float = 0.5
     seed: int = 0
 
     def __post_init__(self):

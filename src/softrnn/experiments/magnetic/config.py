@@ -12,6 +12,7 @@ import numpy as np
 from ... import __version__
 from ...errors import bad, integer
 from ...magnetics.manipulator import ManipulatorSpec
+from ...magnetics.plant import PlantDefaults
 from ._checks import number, triple
 
 MAGNETS = ("proximal", "distal")
@@ -49,7 +50,7 @@ ORIENTATION_NOTE = (
 
 
 @dataclass(frozen=True, kw_only=True)
-class ExperimentConfig:
+class ExperimentConfig(PlantDefaults):
     """The simulated experiment (defaults: the paper's 669 samples, history 2, 60 % training).
 
     Parameters
@@ -128,17 +129,10 @@ class ExperimentConfig:
     samples: int | None = None
     sample_rate: float = 30.0
     seed: int = 0
-    stiffness: float = 1.04
-    remanence: float = 0.97
-    damping: float = 2.0
     density: float = 1.0
     field_amplitude: tuple = (0.004, 0.001, 0.015)
     field_band: tuple = (0.05, 1.0)
     current_peak: float = 0.95
-    settle: float = 0.5
-    camera_noise: float = 2e-4
-    camera_points: int = 100
-    polynomial_degree: int = 3
     static_steps: int = 40
     static_tol: float = 1e-7
     position_tol: float = 1e-7
