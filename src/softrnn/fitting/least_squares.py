@@ -164,32 +164,14 @@ def _uncertainty(J: np.ndarray, r: np.ndarray, names: tuple, scale: np.ndarray) 
 
 def fit(model, measured, parameters, *, weights=None, evaluator=None, options: FitOptions | None = None,
         progress: Progress | None = None, cache_dir=None, fingerprint: str = "") -> FitResult:
-    """Fit ``parameters`` (``Parameter`` list) so that ``model(values)`` matches ``measured``.
+    """Fit ``parameters`` (``Parameter`` list: start values and bounds) so that the picklable
+    ``model(values)`` -> (m_all,) prediction, for a tuple of the parameters' values in their order,
+    matches ``measured`` (m,) (NaN where there is none, left out); method in the module docstring.
 
-    Parameters
-    ----------
-    model : callable
-        picklable ``model(values)`` -> (m_all,) prediction for a tuple of the parameters' values in
-        ``parameters`` order (see the module docstring)
-    measured : (m,)
-        measurements, NaN where there is none (left out)
-    parameters : list of Parameter
-        the fitted parameters, their start values and bounds
-    weights : (m,) or scalar or None
-        multiplies each residual (e.g. 1 / its noise level); None: 1
-    evaluator : InProcess or Evaluator or None
-        runs the simulations (None: this process; ``softrnn.calibration.parallel.Evaluator``: Dask)
-    options : FitOptions or None
-        how to fit (None: ``FitOptions()``)
-    progress : Progress or None
-        ``progress(trials, budget, info)`` after every batch of simulations
-    cache_dir, fingerprint : path, str
-        keep every trial in ``cache_dir`` to resume (see the module docstring)
-
-    Returns
-    -------
-    FitResult
-        the finished fit
+    ``weights`` (m,) or scalar multiplies each residual (e.g. 1 / its noise level; None: 1);
+    ``evaluator`` runs the simulations (None: ``InProcess``); ``options`` says how to fit (None:
+    ``FitOptions()``); ``progress(trials, budget, info)`` after every batch of simulations;
+    ``cache_dir`` and ``fingerprint`` keep every trial to resume. Returns the ``FitResult``.
     """
 
     options = FitOptions() if options is None else options
