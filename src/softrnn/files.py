@@ -1,4 +1,5 @@
-"""Atomic file writes (a temporary name in the same folder, then rename), the ``default=`` of every
+"""Atomic file writes (a hidden temporary name in the same folder, then rename: ``temporary_path``,
+``atomic_output``), the ``default=`` of every
 ``json.dumps`` (``json_default``) and the checks of output paths that every command makes before
 any long work (``prepare_output``)."""
 
@@ -6,6 +7,8 @@ import dataclasses
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -21,20 +24,54 @@ def umask_mode() -> int:
     return 0o666 & ~mask
 
 
-def atomic_write_bytes(path, data: bytes) -> None:
-    """Write ``data`` to ``path`` so that readers see the old file or the whole new one."""
+def temporary_path(path) -> Path:
+    """Create an empty temporary file beside ``path`` and return its name: hidden, in the same
+    folder, ending in the same suffix (``.STEM.XXXXXXXX.tmp.SUFFIX``, the one name scheme of every
+    temporary file softrnn writes), with the usual permissions. The folder is created if missing."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
+    os.close(fd)
+    os.chmod(tmp, umask_mode())
+    return Path(tmp)
+
+
+def discard(tmp) -> None:
+    """Remove the temporary file ``tmp`` if it is there."""
+    Path(tmp).unlink(missing_ok=True)
+
+
+@contextmanager
+def atomic_outputs(paths) -> Iterator[list]:
+    """Yield one ``temporary_path`` (str) beside each of ``paths`` to write into; when the block
+    ends normally each is renamed onto its path (``os.replace``), when it raises (Ctrl-C
+    included) every temporary file is removed and the paths are left as they were."""
+    temps = []
     try:
-        os.chmod(tmp, umask_mode())
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
+        for path in paths:
+            temps.append(str(temporary_path(path)))
+        yield list(temps)
+        for tmp, path in zip(temps, paths):
+            os.chmod(tmp, umask_mode())
+            os.replace(tmp, path)
     except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        for tmp in temps:
+            discard(tmp)
         raise
+
+
+@contextmanager
+def atomic_output(path) -> Iterator[str]:
+    """Yield a ``temporary_path`` (str) beside ``path`` to write into, renamed onto ``path`` when
+    the block ends normally and removed when it raises (``atomic_outputs`` of one path)."""
+    with atomic_outputs([path]) as (tmp,):
+        yield tmp
+
+
+def atomic_write_bytes(path, data: bytes) -> None:
+    """Write ``data`` to ``path`` so that readers see the old file or the whole new one."""
+    with atomic_output(path) as tmp, open(tmp, "wb") as fh:
+        fh.write(data)
 
 
 def atomic_write_text(path, text: str) -> None:
@@ -43,11 +80,12 @@ def atomic_write_text(path, text: str) -> None:
 
 
 def atomic_folder(folder, write) -> None:
-    """Make ``folder`` appear whole: ``write(tmp)`` fills a temporary folder beside it, which is then
-    renamed onto ``folder`` (an existing one is moved aside first and removed after)."""
+    """Make ``folder`` appear whole: ``write(tmp)`` fills a temporary folder beside it (named as
+    ``temporary_path`` names files), which is then renamed onto ``folder`` (an existing one is
+    moved aside first and removed after)."""
     folder = Path(folder)
     folder.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=folder.parent))
+    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.stem}.", suffix=f".tmp{folder.suffix}", dir=folder.parent))
     try:
         mode = umask_mode()
         os.chmod(tmp, mode | ((mode & 0o444) >> 2))  # a folder's mode under the umask (0o755 for 022)
@@ -56,7 +94,7 @@ def atomic_folder(folder, write) -> None:
             os.chmod(p, mode)
         old = None
         if folder.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.old-", dir=folder.parent))
+            old = Path(tempfile.mkdtemp(prefix=f".{folder.stem}.", suffix=f".old{folder.suffix}", dir=folder.parent))
             os.rmdir(old)
             os.replace(folder, old)
         os.replace(tmp, folder)

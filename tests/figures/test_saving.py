@@ -15,6 +15,7 @@ from matplotlib.figure import Figure
 from PIL import Image
 
 import softrnn.figures
+from softrnn import files
 from softrnn.figures import plots, saving
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -87,7 +88,7 @@ def test_the_file_is_replaced_in_one_rename_from_a_hidden_name_beside_it(tmp_pat
         renames.append((Path(src), Path(dst), Path(dst).read_bytes()))
         real_replace(src, dst)
 
-    monkeypatch.setattr(saving.os, "replace", replace)
+    monkeypatch.setattr(files.os, "replace", replace)  # the one temporary-file helper (softrnn.files)
     saving.save_figure(a_figure(), out)
     [(src, dst, before)] = renames
     assert dst == out and src.parent == tmp_path and src.name.startswith(".f.") and src.suffix == ".png"

@@ -1,3 +1,3 @@
-"""Calibrating a simulator to recorded data (``softrnn calibrate``): ``fit`` (bounded least squares with
-parallel finite differences), ``parallel`` (in this process or on Dask), ``scenario`` (a scenario
-file fitted to a dataset)."""
+"""Calibrating a simulator to recorded data (``softrnn calibrate``) with the calibration core
+(``softrnn.fitting``, whose names ``fit`` keeps): ``parallel`` (the fit's simulations in this
+process or on Dask), ``scenario`` (a scenario file fitted to a dataset)."""

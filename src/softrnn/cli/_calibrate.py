@@ -5,13 +5,13 @@ import json
 import shutil
 from pathlib import Path
 
-from ..calibration.fit import FitOptions
 from ..calibration.parallel import Evaluator
 from ..calibration.scenario import HEADER, fitted_text, prepare
 from ..calibration.scenario import run as run_calibration
 from ..errors import SoftrnnInputError, bad
 from ..figures.data import FIGURE_SUFFIXES, check_suffix
 from ..files import atomic_write_bytes, atomic_write_text, json_default, prepare_output
+from ..fitting import FitOptions
 from ..io.reader import read_dataset
 from ..scenarios.scenario import load_scenario, parse_scenario
 from ._progress import Bar

@@ -1,11 +1,10 @@
 """softrnn import-csv LAB.csv -o DATA.h5: turn lab data (docs/csv-format.md) into a dataset file;
 several sessions of a robot (A.csv B.csv -o FOLDER) into one file each."""
 
-import os
 from pathlib import Path
 
 from ..errors import bad
-from ..files import prepare_output
+from ..files import atomic_outputs, prepare_output
 from ..io import read_dataset
 from ..io.csv_import import csv_layout, import_csv, read_csv, recording_trajectory, write_recording
 from ..lab.recording import (
@@ -120,18 +119,11 @@ def _write_all(pairs: list) -> None:
     if not folder.exists():
         folder.mkdir(parents=True)
         made.append(folder)
-    temps = []
     try:
-        for out, write in pairs:
-            tmp = out.with_name(f".{out.name}.part")
-            temps.append(tmp)
-            write(tmp)
-        for (out, _), tmp in zip(pairs, temps):
-            os.replace(tmp, out)
+        with atomic_outputs([out for out, _ in pairs]) as temps:
+            for (_, write), tmp in zip(pairs, temps):
+                write(Path(tmp))
     except BaseException:
-        for tmp in temps:
-            if tmp.exists():
-                tmp.unlink()
         for f in made:
             if not any(f.iterdir()):
                 f.rmdir()

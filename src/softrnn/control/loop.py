@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import bad, is_finite_number
 from ..magnetics.camera import camera_measure
 from ..magnetics.manipulator import ManipulatorSpec
+from ..magnetics.plant import PLANT
 from ..magnetics.stepper import ManipulatorStepper
 from ..progress import Progress
 from .static_inverse import DISTAL
@@ -25,7 +26,8 @@ from .static_inverse import DISTAL
 
 @dataclass(frozen=True, kw_only=True)
 class LoopConfig:
-    """The plant and camera of the closed loop (defaults: the magnetic experiment's).
+    """The plant and camera of the closed loop (defaults: the magnetic experiment's,
+    ``softrnn.magnetics.plant.PLANT``).
 
     Attributes
     ----------
@@ -43,14 +45,14 @@ class LoopConfig:
         seeds the camera noise
     """
 
-    rate: float = 30.0
-    stiffness: float = 1.04
-    remanence: float = 0.97
-    damping: float = 2.0
-    camera_noise: float = 2e-4
-    camera_points: int = 100
-    polynomial_degree: int = 3
-    settle: float = 0.5
+    rate: float = PLANT.rate
+    stiffness: float = PLANT.stiffness
+    remanence: float = PLANT.remanence
+    damping: float = PLANT.damping
+    camera_noise: float = PLANT.camera_noise
+    camera_points: int = PLANT.camera_points
+    polynomial_degree: int = PLANT.polynomial_degree
+    settle: float = PLANT.settle
     seed: int = 0
 
     def __post_init__(self):

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
-from ..io.csv_import import read_csv_lines, shown
+from ..io.csv_table import read_csv_lines, shown
 
 REFERENCES = ("step", "sine", "random")
 """The shipped references (``reference(name, ...)``); a path to a CSV is the user's own."""

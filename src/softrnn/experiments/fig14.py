@@ -149,7 +149,7 @@ def _check_manifest(out_dir: Path, config: StudyConfig, data_path: Path) -> dict
 
 
 def _remove_stale_temporaries(out_dir: Path) -> None:
-    for p in out_dir.glob(".point-*.tmp"):
+    for p in out_dir.glob(".point-*.tmp*"):
         p.unlink(missing_ok=True)
 
 

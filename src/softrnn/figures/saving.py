@@ -11,10 +11,6 @@ untouched and no partial file behind.
 from __future__ import annotations
 
 import io
-import os
-import tempfile
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import matplotlib
@@ -27,7 +23,7 @@ FRAME_DPI = 100
 """Dots per inch of animation frames: a frame of W x H pixels is a W/DPI x H/DPI inch figure (both
 looks of ``softrnn animate``, and the ffmpeg writer)."""
 
-from ..files import umask_mode  # noqa: E402
+from ..files import atomic_output  # noqa: E402  (the one temporary-file helper; animations use it from here)
 
 DPI = 110
 """Resolution [dots per inch] of every saved figure unless a caller asks for another."""
@@ -47,26 +43,6 @@ def subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float] | N
     ``Figure.subplots``)."""
     fig = new_figure(figsize=figsize)
     return fig, fig.subplots(nrows, ncols, **kwargs)
-
-
-@contextmanager
-def atomic_output(path) -> Iterator[str]:
-    """Yield a temporary file name beside ``path`` (same folder and suffix, created empty) to write
-    into; when the block ends normally the file gets the usual permissions and is renamed onto
-    ``path`` (``os.replace``), when it raises (Ctrl-C included) the temporary file is removed and
-    ``path`` is left as it was. The folder is created if missing."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
-    os.close(fd)
-    try:
-        yield tmp
-        os.chmod(tmp, umask_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def save_figure(fig: Figure, path, *, dpi: float = DPI) -> Path:

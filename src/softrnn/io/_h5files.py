@@ -1,24 +1,14 @@
-"""Opening HDF5 files: the one place files are opened, atomic temporary files, one-line errors for bad files."""
+"""Opening HDF5 files: the one place files are opened, one-line errors for bad files."""
 
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import h5py
 
 from ..errors import SoftrnnInputError, one_line
-from ..files import umask_mode
 from .schema import DatasetError
-
-
-def _temp_path(path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f"{path.name}.tmp-", dir=path.parent)
-    os.close(fd)
-    os.chmod(tmp, umask_mode())
-    return Path(tmp)
 
 
 def _h5open(path, mode: str = "r") -> h5py.File:

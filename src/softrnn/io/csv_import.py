@@ -24,15 +24,15 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import bad
+from ..files import atomic_output
 from ..progress import Progress
-from ._h5files import _temp_path
+from .csv_table import ACTUATION_COLUMN, ACTUATION_PREFIX, parse_cells, read_csv_lines, shown, time_steps
 from .reader import Dataset, read_dataset
 from .schema import ACTUATION_NAME, ACTUATION_UNITS, POSITION_LIMIT_M, DatasetError
 from .writer import DatasetWriter
@@ -48,9 +48,6 @@ _NAME = re.compile(r"^n(0|[1-9][0-9]*)_([a-z]+)$")
 PATTERN = ("time, then per node i (0-based): n{i}_x, n{i}_y, n{i}_z, optional n{i}_qw, n{i}_qx, n{i}_qy, "
            "n{i}_qz, optional n{i}_fx, n{i}_fy, n{i}_fz and n{i}_tx, n{i}_ty, n{i}_tz, and optional actuation "
            "columns act_<name>[<unit>]")
-ACTUATION_PREFIX = "act_"
-"""Prefix of an actuation column: ``act_<name>[<unit>]``, e.g. ``act_tendon_1[N]``."""
-_ACT = re.compile(r"^act_([^\[\]]*?)\s*(?:\[\s*([^\[\]]*?)\s*\])?$", re.IGNORECASE)
 _ACT_EXAMPLE = "act_<name>[<unit>], e.g. act_tendon_1[N] or act_p_chamber_2[kPa]"
 QUATERNION_IMPORT_TOLERANCE = 1e-3
 """CSV quaternions farther than this from unit norm are rejected; closer ones are normalised
@@ -61,111 +58,6 @@ def _fail(path: Path, message: str) -> DatasetError:
     return DatasetError(f"{path}: {message}")
 
 
-def time_steps(path: Path, rows: list, time: np.ndarray,
-               fix: str = "rows must be in strictly increasing time order, without duplicates") -> np.ndarray:
-    """The steps between a CSV file's samples, checked.
-
-    Parameters
-    ----------
-    path : Path
-        The file, for the message.
-    rows : list of (int, list of str)
-        The data rows with their line numbers, as ``read_csv_lines`` gives them.
-    time : (T,) array
-        The time column [s].
-    fix : str
-        What the message tells the user to do about a time that does not increase.
-
-    Returns
-    -------
-    (T - 1,) array
-        The steps [s], every one positive and finite.
-
-    Raises
-    ------
-    DatasetError
-        One line naming the two lines of the first step that is not positive, or not finite (times
-        near the largest float).
-    """
-    with np.errstate(over="ignore"):   # times near +-1.8e308: refused below
-        steps = np.diff(time)
-    if np.any(steps <= 0):
-        i = int(np.argmax(steps <= 0))
-        raise _fail(path, f"line {rows[i + 1][0]}: time {float(time[i + 1])!r} is not after {float(time[i])!r} "
-                          f"(line {rows[i][0]}); {fix}")
-    if not np.isfinite(steps).all():
-        i = int(np.argmax(~np.isfinite(steps)))
-        raise _fail(path, f"line {rows[i + 1][0]}: the step from time {float(time[i])!r} to {float(time[i + 1])!r} "
-                          "is not a finite number of seconds; times must be in s")
-    return steps
-
-
-# ----------------------------------------------------------------------------------------- parsing
-def shown(text, limit: int = 40) -> str:
-    """``repr`` of a piece of a user's file for a message: at most ``limit`` characters (then ``...``),
-    so that a header or cell of binary garbage stays short and on one line."""
-    text = str(text)
-    return repr(text) if len(text) <= limit else repr(text[:limit]) + "..."
-
-
-_SIGNATURES = ((b"\x89HDF\r\n\x1a\n", "an HDF5 file (a softrnn dataset?)"),
-               (b"PK\x03\x04", "a ZIP archive (an Excel .xlsx workbook or a NumPy .npz?)"),
-               (b"\xd0\xcf\x11\xe0", "an old Excel .xls workbook"))
-"""Leading bytes of files that are often given where a CSV is expected, and what they are."""
-
-
-def read_text_file(path: Path, what: str, error=None) -> str:
-    """The text of a UTF-8 file (a byte-order mark is dropped); a missing, folder, unreadable,
-    UTF-16, non-UTF-8 or binary file (one holding NUL bytes; an HDF5 file or a workbook, named as
-    such by its first bytes, ``_SIGNATURES``) raises ``error`` (default
-    ``DatasetError``) with a one-line message naming the file and the fix (``what``: what the file
-    should be, e.g. ``"the lab data"``)."""
-    def fail(message):
-        return (error or DatasetError)(f"{path}: {message}")
-
-    if not path.exists():
-        raise fail("no such file; check the path")
-    if path.is_dir():
-        raise fail("is a folder; pass a CSV file")
-    try:
-        data = path.read_bytes()
-    except OSError as err:
-        raise fail(f"cannot be read ({err.strerror or type(err).__name__}); check the file and its "
-                   "permissions") from None
-    kind = next((name for magic, name in _SIGNATURES if data.startswith(magic)), None)
-    if kind:
-        raise fail(f"is {kind}, not a UTF-8 text file; export {what} as CSV (comma-separated text)")
-    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
-        raise fail(f"is a UTF-16 text file, not a UTF-8 text file; save {what} as UTF-8 CSV (comma-separated text)")
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise fail(f"is not a UTF-8 text file; export {what} as CSV (comma-separated text)") from None
-    if "\x00" in text:
-        raise fail(f"holds NUL bytes, so it is not a text file (binary data, or UTF-16 text without a byte-order "
-                   f"mark); export {what} as UTF-8 CSV (comma-separated text)")
-    return text
-
-
-def read_csv_lines(path: Path, expected: str, error=None, what: str = "the lab data") -> list[tuple[int, str]]:
-    """The non-empty, non-comment lines of a UTF-8 CSV file as (line number, stripped text);
-    a missing, folder, unreadable, non-UTF-8, binary or empty file, or one whose header is separated
-    by semicolons or tabs, raises ``error`` (default ``DatasetError``) with a one-line message naming
-    the file (``expected``: what the header should hold; ``what``: what the file should be,
-    ``read_text_file``)."""
-    text = read_text_file(Path(path), what, error)
-    lines = [(n, line.strip()) for n, line in enumerate(text.splitlines(), start=1)
-             if line.strip() and not line.strip().startswith("#")]
-    if not lines:
-        raise (error or DatasetError)(f"{path}: is empty (no header line); expected {expected}")
-    number, header = lines[0]
-    separator = next((name for sep, name in ((";", "semicolons"), ("\t", "tabs")) if sep in header), None)
-    if "," not in header and separator:
-        raise (error or DatasetError)(f"{path}: line {number} (header): the columns are separated by {separator}; "
-                                      "save the file comma-separated, with a decimal point '.'")
-    return lines
-
-
 def _read_lines(path: Path) -> list[tuple[int, str]]:
     return read_csv_lines(path, f"a header with the columns {PATTERN}")
 
@@ -174,7 +66,7 @@ def _actuation_column(path: Path, number: int, text: str) -> tuple[str, str]:
     """(channel name, unit) of the actuation column ``text`` (``act_<name>[<unit>]``), or a
     one-line DatasetError naming the column, what is wrong and the fix."""
     where = f"line {number} (header), column {text!r}"
-    m = _ACT.match(text)
+    m = ACTUATION_COLUMN.match(text)
     if not m:
         raise _fail(path, f"{where}: is not an actuation column; write {_ACT_EXAMPLE}")
     name, unit = m.group(1).lower(), m.group(2)
@@ -257,54 +149,6 @@ def _check_node_groups(path: Path, number: int, layout: dict) -> None:
                               f"node {with_q[0]}, so every node needs n{{i}}_qw..n{{i}}_qz (or no node has them)")
 
 
-PARSE_BLOCK_ROWS = 65536
-"""Rows of a CSV file converted to numbers at a time (``read_csv``'s progress is reported per block)."""
-
-
-def _parse_values(path: Path, names: list[str], rows: list[tuple[int, str]],
-                  progress: Progress | None = None) -> np.ndarray:
-    """The (T, columns) float64 values of a CSV file's data ``rows``, checked: one value per column,
-    every cell a finite number. Converted ``PARSE_BLOCK_ROWS`` rows at a time, ``progress(done, T)``
-    after each block."""
-    width = len(names)
-    cells = [line.split(",") for _, line in rows]
-    for (number, _), row in zip(rows, cells):
-        if len(row) != width:
-            more = "more" if len(row) > width else "fewer"
-            raise _fail(path, f"line {number} has {len(row)} cells but the header has {width} columns "
-                              f"({more} cells than column names); every row needs one value per column")
-    values = np.empty((len(rows), width))
-    for a in range(0, len(rows), PARSE_BLOCK_ROWS):
-        b = min(a + PARSE_BLOCK_ROWS, len(rows))
-        values[a:b] = _numbers(path, names, rows[a:b], cells[a:b])
-        if progress is not None:
-            progress(b, len(rows))
-    finite = np.isfinite(values)
-    if not finite.all():
-        i, j = (int(v) for v in np.argwhere(~finite)[0])
-        raise _fail(path, f"line {rows[i][0]}, column {names[j]!r} (column {j + 1}): the cell "
-                          f"{shown(rows[i][1].split(',')[j].strip())} is not a finite number; every value must be "
-                          "finite")
-    return values
-
-
-def _numbers(path: Path, names: list[str], rows: list, cells: list) -> np.ndarray:
-    """``cells`` (rows of strings) as a float64 array; a cell that is not a number is named with its
-    line and column."""
-    try:
-        return np.array(cells, dtype=np.float64).reshape(len(rows), len(names))
-    except ValueError:
-        for (number, _), row in zip(rows, cells):
-            for j, cell in enumerate(row):
-                try:
-                    float(cell)
-                except ValueError:
-                    what = "is empty" if not cell.strip() else f"{shown(cell.strip())} is not a number"
-                    raise _fail(path, f"line {number}, column {names[j]!r} (column {j + 1}): the cell {what}; "
-                                      f"every cell must be a number (decimal point '.', no units)") from None
-        raise  # pragma: no cover - numpy and float() accept the same strings
-
-
 def read_csv(csv_path, progress: Progress | None = None) -> dict:
     """Parse and validate a lab CSV without writing anything; ``progress(rows done, rows)`` while
     its values are converted (``PARSE_BLOCK_ROWS`` at a time).
@@ -330,7 +174,7 @@ def read_csv(csv_path, progress: Progress | None = None) -> dict:
     if len(rows) < 2:
         raise _fail(path, f"has {len(rows)} data row{'s' if len(rows) != 1 else ''} after the header; at least 2 "
                           f"samples are needed")
-    values = _parse_values(path, names, rows, progress)
+    values = parse_cells(path, names, rows, progress=progress)
     time = values[:, 0].copy()
     time_steps(path, rows, time)   # checked: every step positive and finite
     nodes = np.array(sorted(layout), dtype=np.int64)
@@ -375,30 +219,16 @@ class _Chunk:
 
 def import_csv(csv_path, out_path, *, rod_length: float | None = None, seed: int | None = None,
                scenario_text: str = "", progress: Progress | None = None) -> Dataset:
-    """Convert a lab CSV (docs/csv-format.md) into a softrnn HDF5 dataset, atomically.
+    """Convert a lab CSV ``csv_path`` into the HDF5 dataset ``out_path``, atomically
+    (docs/csv-format.md); returns the file as read back.
 
-    Parameters
-    ----------
-    csv_path : str or Path
-        The CSV file (read only).
-    out_path : str or Path
-        The HDF5 file to write (replaced if it exists; untouched when the CSV is invalid).
-    rod_length : float or None
-        The rod's length L [m], stored as ``attrs['rod'] = {'length': L}`` (None: no rod record).
-    seed : int or None
-        Stored as the dataset's seed.
-    scenario_text : str
-        Free text describing the experiment.
-    progress : softrnn.progress.Progress or None
-        Called as ``progress(rows done, rows)`` while the CSV's values are converted.
-
-    Returns
-    -------
-    Dataset
-        The file as read back. ``attrs``: ``dt`` is the median time step (the real times are kept),
-        ``source='csv'``, ``source_file`` (the CSV's name), ``has_orientations``, ``force_nodes``,
-        ``torque_nodes``; ``actuation`` and ``actuation_units`` hold the ``act_<name>[<unit>]``
-        columns (m = 0 without any).
+    ``out_path`` is replaced if it exists and untouched when the CSV is invalid. ``rod_length`` L
+    [m] is stored as ``attrs['rod'] = {'length': L}`` (None: no rod record), ``seed`` as the
+    dataset's seed, ``scenario_text`` as free text describing the experiment; ``progress(rows
+    done, rows)`` while the values are converted. The dataset's ``attrs``: ``dt`` the median time
+    step [s] (the real times are kept), ``source='csv'``, ``source_file``, ``has_orientations``,
+    ``force_nodes``, ``torque_nodes``; its ``actuation`` (T, m) and ``actuation_units`` hold the
+    ``act_<name>[<unit>]`` columns (m = 0 without any).
     """
     csv_path, out_path = Path(csv_path), Path(out_path)
     if rod_length is not None and (isinstance(rod_length, bool) or not isinstance(rod_length, (int, float))
@@ -455,18 +285,11 @@ def export_csv(dataset, csv_path) -> None:
         header.append(f"{ACTUATION_PREFIX}{name}[{unit}]")
         columns.append(dataset.actuation[:, j])
     block = np.column_stack(columns).astype(np.float64) if columns else np.zeros((dataset.n_samples, 0))
-    tmp = _temp_path(csv_path)
-    try:
-        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(",".join(header) + "\n")
-            fmt = ",".join(["%.9g"] * block.shape[1])
-            for t, row in zip(dataset.time, block):
-                fh.write(repr(float(t)) + "," + fmt % tuple(row) + "\n")
-        os.replace(tmp, csv_path)
-    except BaseException:
-        if tmp.exists():
-            tmp.unlink()
-        raise
+    with atomic_output(csv_path) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(",".join(header) + "\n")
+        fmt = ",".join(["%.9g"] * block.shape[1])
+        for t, row in zip(dataset.time, block):
+            fh.write(repr(float(t)) + "," + fmt % tuple(row) + "\n")
 
 
 # ------------------------------------------------------------------------------------------ robot recordings
@@ -521,38 +344,18 @@ def _label_runs(labels) -> list:
 
 
 def recording_trajectory(time, tip, inputs, names, units, *, columns=(), labels=(), source="") -> dict:
-    """Check a robot recording's arrays and turn them into a dataset's content, writing nothing.
+    """Check a robot recording's arrays and turn them into a dataset's content, writing nothing
+    (docs/csv-format.md, "Robot recordings").
 
-    Parameters
-    ----------
-    time : (T,) [s]
-        Times as recorded (any origin, e.g. Unix time), strictly increasing, any spacing.
-    tip : (T, 3) [m]
-        The tracked tip.
-    inputs : (T, m)
-        The commanded inputs, in their channels' units.
-    names, units : m str
-        Channel names and units (``""`` means dimensionless, stored as ``1``); the units must be
-        ``ACTUATION_UNITS`` (a ``<name>_<unit>`` column's unit matched ignoring case).
-    columns : m str
-        Column names, for the messages (default: the names).
-    labels : T str
-        Row labels, or ().
-    source : str
-        The file the arrays came from, named in the messages.
-
-    Returns
-    -------
-    dict
-        ``time`` (T,) [s] from 0, ``time_origin_s`` (the recorded time of the first row), ``tip``
-        (T, 3), ``actuation`` (T, m), ``actuation_units`` ({name: unit}) and ``labels`` (runs
-        ``[label, first row, rows]``, or None when there are no labels or their JSON exceeds
-        ``LABELS_LIMIT`` characters; ``label_runs`` counts them either way).
-
-    Raises
-    ------
-    DatasetError
-        One line naming the source, the column or row and the fix.
+    ``time`` (T,) [s] as recorded (any origin), strictly increasing; ``tip`` (T, 3) [m];
+    ``inputs`` (T, m) in their channels' units; ``names``, ``units`` one per channel (``""``:
+    dimensionless, stored as ``1``; a ``<name>_<unit>`` column's unit matched ignoring case);
+    ``columns`` the column names for the messages (default: the names); ``labels`` one per row, or
+    (); ``source`` the file named in the messages. Returns a dict: ``time`` (T,) [s] from 0,
+    ``time_origin_s`` (the first row's recorded time), ``tip`` (T, 3) [m], ``actuation`` (T, m),
+    ``actuation_units`` ({name: unit}), ``labels`` (runs ``[label, first row, rows]``, or None
+    without labels or beyond ``LABELS_LIMIT`` characters of JSON) and ``label_runs`` (their count).
+    Raises a one-line ``DatasetError`` naming the source, the column or row and the fix.
     """
     source = source or "recording"
     time = np.asarray(time, dtype=np.float64)

@@ -27,8 +27,8 @@ the caller's own metadata), and with the contact datasets ``contact`` (JSON: the
 (gzip level 4 with byte shuffle, Fletcher-32 checksums), so one node's series is read without
 touching the other nodes' chunks.
 
-Writes are atomic: data goes to ``<path>.tmp-XXXX`` in the same folder and is renamed onto ``path``
-only when the trajectory is complete; a failed or interrupted write leaves no file at ``path`` (and
+Writes are atomic: data goes to a hidden ``.STEM.XXXX.tmp.h5`` in the same folder and is renamed
+onto ``path`` only when the trajectory is complete; a failed or interrupted write leaves no file at ``path`` (and
 the previous file, if any, unchanged). Every problem with a file is a one-line ``DatasetError``
 naming the file, what is wrong and what to do.
 """

@@ -7,7 +7,8 @@ from pathlib import Path
 
 from .. import __version__
 from ..errors import bad
-from ._h5files import _h5open, _Reading, _temp_path
+from ..files import atomic_output
+from ._h5files import _h5open, _Reading
 from .reader import list_groups, read_dataset
 from .schema import ACTUATION, CONTACT_FIELDS, FIELDS, SCHEMA_VERSION, SWEEP_PREFIX, DatasetError
 
@@ -17,11 +18,16 @@ def sweep_group_name(index: int) -> str:
     return f"{SWEEP_PREFIX}{int(index):05d}"
 
 
+def _h5_files(folder: Path) -> list[Path]:
+    """The ``*.h5`` files of ``folder``, sorted, hidden ones (temporary files) left out."""
+    return sorted(p for p in folder.glob("*.h5") if not p.name.startswith("."))
+
+
 def trajectories(path) -> list[tuple[Path, str]]:
     """Every trajectory under ``path`` as (file, group) pairs: a file (single or sweep) or a folder
-    of ``*.h5`` files (sorted by name; not recursive)."""
+    of ``*.h5`` files (sorted by name, hidden ones left out; not recursive)."""
     path = Path(path)
-    files = sorted(path.glob("*.h5")) if path.is_dir() else [path]
+    files = _h5_files(path) if path.is_dir() else [path]
     return [(f, g) for f in files for g in list_groups(f)]
 
 
@@ -43,7 +49,7 @@ def merge_files(paths, out_path) -> None:
     """
     out_path = Path(out_path)
     if isinstance(paths, (str, os.PathLike)) and Path(paths).is_dir():
-        files = sorted(Path(paths).glob("*.h5"))
+        files = _h5_files(Path(paths))
         if not files:
             raise DatasetError(f"{paths}: the folder holds no *.h5 files to merge")
     elif isinstance(paths, (str, os.PathLike)):
@@ -60,8 +66,7 @@ def merge_files(paths, out_path) -> None:
             # full validation before anything is written
             schema = max(schema, read_dataset(f, group=g).attrs["schema_version"])
             sources.append((f, g))
-    tmp = _temp_path(out_path)
-    try:
+    with atomic_output(out_path) as tmp:
         with _h5open(tmp, "w") as out:
             out.attrs["softrnn_schema"] = schema
             out.attrs["softrnn_version"] = __version__
@@ -76,8 +81,3 @@ def merge_files(paths, out_path) -> None:
                     for name in ("time", "nodes") + FIELDS + tuple(n for n in (ACTUATION,) + CONTACT_FIELDS
                                                                    if n in grp):
                         src.copy(grp[name], dst, name=name)
-        os.replace(tmp, out_path)
-    except BaseException:
-        if tmp.exists():
-            tmp.unlink()
-        raise

@@ -14,9 +14,9 @@ import numpy as np
 
 from .. import __version__
 from ..errors import SoftrnnInputError, bad, one_line
-from ..files import json_default
+from ..files import json_default, temporary_path
 from ._checks import _inspect
-from ._h5files import _discard, _h5open, _temp_path
+from ._h5files import _discard, _h5open
 from .reader import Dataset
 from .schema import (
     _DESCRIPTION,
@@ -119,7 +119,7 @@ class DatasetWriter:
     Parameters
     ----------
     path : str or Path
-        Output file. It is written as ``<path>.tmp-XXXX`` in the same folder and renamed onto
+        Output file. It is written as ``.STEM.XXXX.tmp.h5`` in the same folder and renamed onto
         ``path`` by ``close()``; an exception inside ``with``, or invalid data passed to ``append``,
         removes the temporary file and leaves ``path`` as it was.
     nodes : int or sequence of int (N,)
@@ -213,7 +213,7 @@ class DatasetWriter:
                                    f"'{self.group}' (write to a new file, or merge_files both)")
             if "/" + self.group in info["groups"]:
                 raise DatasetError(f"{self.path}: group '{self.group}' already exists; choose another name")
-        self._tmp = _temp_path(self.path)
+        self._tmp = temporary_path(self.path)
         self._finalizer = weakref.finalize(self, _discard, None, str(self._tmp))
         try:
             if self.group is not None and self.path.exists():

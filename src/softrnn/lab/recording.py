@@ -21,7 +21,6 @@ channels differ. ``shift_inputs`` lines a command up with a response that lags i
 from __future__ import annotations
 
 import fnmatch
-import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad, is_int
-from ..io.csv_import import read_csv_lines, shown
+from ..io.csv_table import ACTUATION_COLUMN, CellWords, parse_cells, read_csv_lines, shown, time_steps
 
 TIME_COLUMNS = ("time", "timestamp")
 """Accepted names of the time column [s], first match wins."""
@@ -40,8 +39,16 @@ DEFAULT_INPUTS = ("act_*", "servo_*")
 POSITION_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
 """Units the tip may be given in, with their factor to m."""
 _UNIT_SUFFIX = re.compile(r"_(mm|m|deg|rad|n|a|ma|v|kpa|pa)$", re.IGNORECASE)
-_ACT = re.compile(r"^act_([^\[\]]*?)\s*(?:\[\s*([^\[\]]*?)\s*\])?$", re.IGNORECASE)
 _NODE = re.compile(r"^n(0|[1-9][0-9]*)_([xyz])$")
+_CELL = "line {line}, column {name!r}: {text} is not a finite number; fix or remove the row"
+WORDS = CellWords(width="line {line}: {cells} cells for {width} columns; every row needs one value per header column",
+                  empty="line {line}, column {name!r}: the cell is empty; fix or remove the row",
+                  not_number=_CELL, not_finite=_CELL,
+                  order="line {line}: the time {time!r} {what} the previous row's {previous!r}; sort the rows by "
+                        "time and drop duplicated rows",
+                  step="line {line}: the step from the time {previous!r} to {time!r} is not a finite number of "
+                       "seconds; times must be in s")
+"""How a recording's reader words a bad row, cell or time (``softrnn.io.csv_table.CellWords``)."""
 
 
 @dataclass(frozen=True)
@@ -147,7 +154,7 @@ def _columns(header: list[str], most: int = 12) -> str:
 
 
 def _split_unit(column: str) -> tuple[str, str]:
-    m = _ACT.match(column)
+    m = ACTUATION_COLUMN.match(column)
     if m:
         return m.group(1).lower(), (m.group(2) or "")
     m = _UNIT_SUFFIX.search(column)
@@ -214,38 +221,11 @@ def read_recording(path, layout: Layout = Layout()) -> Recording:
     icols = _pick_inputs(path, header, layout.inputs)
     pcols, scale = _pick_tip(path, header, layout)
     lcol = next((header.index(c) for c in LABEL_COLUMNS if c in header), None)
-    numeric = [tcol, *icols, *pcols]
-    values = np.empty((len(lines) - 1, len(numeric)))
-    labels = []
-    for r, (number, line) in enumerate(lines[1:]):
-        cells = line.split(",")
-        if len(cells) != len(header):
-            raise _fail(path, f"line {number}: {len(cells)} cells for {len(header)} columns; every row needs one "
-                              "value per header column")
-        for k, j in enumerate(numeric):
-            try:
-                v = float(cells[j])
-            except ValueError:
-                v = math.nan
-            if not math.isfinite(v):
-                text = cells[j].strip()
-                what = f"{shown(text)} is not a finite number" if text else "the cell is empty"
-                raise _fail(path, f"line {number}, column {header[j]!r}: {what}; fix or remove the row")
-            values[r, k] = v
-        if lcol is not None:
-            labels.append(cells[lcol].strip())
+    rows = lines[1:]
+    values = parse_cells(path, header, rows, [tcol, *icols, *pcols], words=WORDS, error=SoftrnnInputError)
+    labels = [line.split(",")[lcol].strip() for _, line in rows] if lcol is not None else []
     time = values[:, 0]
-    with np.errstate(over="ignore"):   # times near +-1.8e308: refused below
-        steps = np.diff(time)
-    if np.any(steps <= 0):
-        r = int(np.argmax(steps <= 0)) + 1
-        what = "repeats" if steps[r - 1] == 0 else "goes back from"
-        raise _fail(path, f"line {lines[r + 1][0]}: the time {float(time[r])!r} {what} the previous row's "
-                          f"{float(time[r - 1])!r}; sort the rows by time and drop duplicated rows")
-    if not np.isfinite(steps).all():
-        r = int(np.argmax(~np.isfinite(steps))) + 1
-        raise _fail(path, f"line {lines[r + 1][0]}: the step from the time {float(time[r - 1])!r} to "
-                          f"{float(time[r])!r} is not a finite number of seconds; times must be in s")
+    time_steps(path, rows, time, words=WORDS, error=SoftrnnInputError)
     split = [_split_unit(header[j]) for j in icols]
     return Recording(path=str(path), time=time, inputs=values[:, 1:1 + len(icols)].copy(),
                      names=tuple(n for n, _ in split), units=tuple(u for _, u in split),

@@ -30,11 +30,11 @@ stiffness), never EI or k by itself (no force is recorded). Gravity and friction
 routing are left out: the calibration report says how far the recorded poses are from this
 model, and a learned residual (``softrnn.lab.families``) takes what it misses.
 
-Calibration (``calibrate``): nonlinear least squares (``scipy.optimize.least_squares``, a soft-L1
-loss against outlying rows) of the tip over every row of the training sessions, from several
-starts (the tendons' angular order and the angle between segments are not known in advance), the
-best refined. Parameters: the tendon angles and offsets, the routing radius, EI_s / k per segment,
-the marker offset and the base pose.
+Calibration (``calibrate``): nonlinear least squares (the calibration core's ``multistart``,
+``softrnn.fitting``, with a soft-L1 loss against outlying rows) of the tip over every row of the
+training sessions, from several starts (the tendons' angular order and the angle between segments
+are not known in advance), the best refined. Parameters: the tendon angles and offsets, the
+routing radius, EI_s / k per segment, the marker offset and the base pose.
 """
 
 from __future__ import annotations
@@ -45,10 +45,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from ..errors import SoftrnnInputError, bad, integer, is_finite_number, positive
+from ..fitting import StartOptions, multistart
 
 _PGS_ITERATIONS = 200
 _PGS_TOL = 1e-10
@@ -221,21 +221,16 @@ def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray) -
 
 # -------------------------------------------------------------------------------------- calibration
 @dataclass(frozen=True)
-class CalibrationOptions:
-    """How ``calibrate`` searches. ``starts``: the angular layouts tried (the tendons' order and the
-    angle between segments); ``quick_evaluations`` per start, ``evaluations`` for the refinement
-    of the best ``refine`` starts; ``loss_scale`` [m], where the soft-L1 loss turns from quadratic
-    to linear (rows farther off than this count less)."""
+class CalibrationOptions(StartOptions):
+    """How ``calibrate`` searches (``softrnn.fitting.StartOptions``): ``starts``: the angular layouts
+    tried (the tendons' order and the angle between segments); ``quick_evaluations`` per start,
+    ``evaluations`` for the refinement of the best ``refine`` starts; ``loss_scale`` [m], where the
+    soft-L1 loss turns from quadratic to linear (rows farther off than this count less)."""
 
-    quick_evaluations: int = 60
-    evaluations: int = 400
-    refine: int = 2
     loss_scale: float = 10e-3
 
     def __post_init__(self):
-        integer("quick_evaluations", self.quick_evaluations)
-        integer("evaluations", self.evaluations)
-        integer("refine", self.refine)
+        super().__post_init__()
         positive("loss_scale", self.loss_scale, "m")
 
 
@@ -325,36 +320,23 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
     def residual(x):
         return ((tip_positions(robot, _unpack(x, robot), q)[0] - tip) * 1e3).ravel()
 
-    tried = []
-    starts = _starts(robot) if start is None else []
-    total = len(starts) + (options.refine if start is None else 1)
-    if start is not None:
-        tried.append({"tendon_order": "given", "segment_twist_deg": None, "x": _pack(start), "rmse_mm": math.nan})
-    for k, (sign, twist) in enumerate(starts):
+    def rmse_mm(fun):
+        return float(np.sqrt(np.mean(np.sum(fun.reshape(-1, 3) ** 2, axis=1))))
+
+    starts = []
+    for sign, twist in _starts(robot) if start is None else []:
         angles = np.radians(sign * np.tile(np.arange(robot.tendons_per_segment) * 360.0 / robot.tendons_per_segment,
                                            S) + np.repeat(np.arange(S) * twist, robot.tendons_per_segment))
         # compliance start: the tendons as stiff as the backbone's bending over one segment
         guess = TendonParameters(angles=angles, offsets=np.zeros(n), routing_radius=robot.routing_radius,
                                  compliance=np.full(S, 1.0 / (robot.routing_radius ** 2 * robot.length / S)),
                                  marker=0.0, rotation=rotation, base=base)
-        sol = least_squares(residual, _pack(guess), bounds=(lower, upper), loss="soft_l1", f_scale=scale,
-                            max_nfev=options.quick_evaluations, x_scale="jac")
-        tried.append({"tendon_order": "counter-clockwise" if sign > 0 else "clockwise",
-                      "segment_twist_deg": twist, "x": sol.x,
-                      "rmse_mm": float(np.sqrt(np.mean(np.sum(sol.fun.reshape(-1, 3) ** 2, axis=1))))})
-        if progress is not None:
-            progress(k + 1, total)
-    best = None
-    for k, entry in enumerate(sorted(tried, key=lambda e: e["rmse_mm"])[:options.refine if start is None else 1]):
-        sol = least_squares(residual, entry["x"], bounds=(lower, upper), loss="soft_l1", f_scale=scale,
-                            max_nfev=options.evaluations, x_scale="jac")
-        rmse = float(np.sqrt(np.mean(np.sum(sol.fun.reshape(-1, 3) ** 2, axis=1)))) * 1e-3
-        entry["refined_rmse_mm"] = rmse * 1e3
-        if best is None or rmse < best[0]:
-            best = (rmse, sol.x)
-        if progress is not None:
-            progress(len(starts) + k + 1, total)
+        starts.append(({"tendon_order": "counter-clockwise" if sign > 0 else "clockwise",
+                        "segment_twist_deg": twist}, _pack(guess)))
+    resume = None if start is None else ({"tendon_order": "given", "segment_twist_deg": None}, _pack(start))
+    found = multistart(residual, starts, (lower, upper), options=options, score=rmse_mm, key="rmse_mm", resume=resume,
+                       progress=progress, loss="soft_l1", f_scale=scale, x_scale="jac")
     starts_out = tuple({key: (round(v, 4) if isinstance(v, float) else v) for key, v in e.items() if key != "x"}
-                       for e in tried)
-    return Calibration(robot=robot, params=_unpack(best[1], robot), rmse_m=best[0], starts=starts_out,
+                       for e in found.tried)
+    return Calibration(robot=robot, params=_unpack(found.x, robot), rmse_m=found.score * 1e-3, starts=starts_out,
                        seconds=time.perf_counter() - t0)

@@ -2,8 +2,8 @@
 Cosserat model (``softrnn.magnetics``) with the rod's Young's modulus, the magnets' remanence and
 the damping scaled by fitted factors, driven by the recorded coil currents, read by the same
 camera model without noise, fitted to the measured magnet orientations (and positions, where the
-record has them) of the training span (``softrnn.calibration.fit``). The calibrated model then
-predicts the test span from the currents alone.
+record has them) of the training span (``softrnn.fitting``, the calibration core). The calibrated
+model then predicts the test span from the currents alone.
 
 Residuals: per channel (a magnet's orientation component about x or y, or a position component),
 model minus measurement, divided by that channel's noise level, estimated from the measurement's
@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...calibration.fit import FitOptions, Parameter, fit
 from ...errors import bad
+from ...fitting import FitOptions, Parameter, fit
 from ...magnetics.camera import camera_measure
 from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, resolve_substeps, simulate_manipulator
 

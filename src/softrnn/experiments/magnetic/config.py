@@ -12,6 +12,7 @@ import numpy as np
 from ... import __version__
 from ...errors import bad, integer
 from ...magnetics.manipulator import ManipulatorSpec
+from ...magnetics.plant import PLANT
 from ._checks import number, triple
 
 MAGNETS = ("proximal", "distal")
@@ -50,7 +51,8 @@ ORIENTATION_NOTE = (
 
 @dataclass(frozen=True, kw_only=True)
 class ExperimentConfig:
-    """The simulated experiment (defaults: the paper's 669 samples, history 2, 60 % training).
+    """The simulated experiment (defaults: the paper's 669 samples, history 2, 60 % training; the
+    plant's and the camera's: ``softrnn.magnetics.plant.PLANT``).
 
     Parameters
     ----------
@@ -126,19 +128,19 @@ class ExperimentConfig:
     """
 
     samples: int | None = None
-    sample_rate: float = 30.0
+    sample_rate: float = PLANT.rate
     seed: int = 0
-    stiffness: float = 1.04
-    remanence: float = 0.97
-    damping: float = 2.0
+    stiffness: float = PLANT.stiffness
+    remanence: float = PLANT.remanence
+    damping: float = PLANT.damping
     density: float = 1.0
     field_amplitude: tuple = (0.004, 0.001, 0.015)
     field_band: tuple = (0.05, 1.0)
     current_peak: float = 0.95
-    settle: float = 0.5
-    camera_noise: float = 2e-4
-    camera_points: int = 100
-    polynomial_degree: int = 3
+    settle: float = PLANT.settle
+    camera_noise: float = PLANT.camera_noise
+    camera_points: int = PLANT.camera_points
+    polynomial_degree: int = PLANT.polynomial_degree
     static_steps: int = 40
     static_tol: float = 1e-7
     position_tol: float = 1e-7

@@ -25,7 +25,7 @@ import numpy as np
 
 from ...errors import SoftrnnInputError, bad
 from ...files import atomic_write_text
-from ...io.csv_import import read_csv_lines, shown, time_steps
+from ...io.csv_table import CellWords, parse_cells, read_csv_lines, shown, time_steps
 from ...magnetics.camera import camera_measure, tangents_from_rotation_vectors
 from ...magnetics.manipulator import ManipulatorRun, ManipulatorSpec, simulate_manipulator
 from ...magnetics.static import static_predictions
@@ -47,6 +47,13 @@ KNOWN = ("time",) + CURRENTS + ORIENTATION + POSITION + WRENCH
 LAYOUT = ("time, I0..I5 [A] and/or m{j}_fx,m{j}_fy,m{j}_fz,m{j}_tx,m{j}_ty,m{j}_tz [N, N m], "
           "m{j}_rx,m{j}_ry,m{j}_rz [deg], optional m{j}_x,m{j}_y,m{j}_z [m], for magnets j = 0 (proximal) and "
           "1 (distal); see docs/magnetic-format.md")
+_NUMBER = "every cell must be a number (decimal point '.', no units)"
+WORDS = CellWords(width="line {line} has {cells} cells but the header has {width} columns; every row needs one value "
+                        "per column",
+                  empty="line {line}, column {name!r}: the cell is empty; " + _NUMBER,
+                  not_number="line {line}, column {name!r}: the cell {text} is not a number; " + _NUMBER,
+                  not_finite="line {line}, column {name!r}: {text} is not a finite number; every value must be finite")
+"""How the lab CSV's reader words a bad row or cell (``softrnn.io.csv_table.CellWords``)."""
 DT_SPREAD = 0.1
 """Largest relative deviation of a time step from the median step (the LSTM assumes a constant interval)."""
 
@@ -125,29 +132,6 @@ def _header(path: Path, number: int, line: str) -> list[str]:
     return out
 
 
-def _values(path: Path, names: list[str], rows: list[tuple[int, str]]) -> np.ndarray:
-    width = len(names)
-    values = np.empty((len(rows), width))
-    for i, (number, line) in enumerate(rows):
-        cells = line.split(",")
-        if len(cells) != width:
-            raise _fail(path, f"line {number} has {len(cells)} cells but the header has {width} columns; every row "
-                              f"needs one value per column")
-        for j, cell in enumerate(cells):
-            text = cell.strip()
-            try:
-                v = float(text)
-            except ValueError:
-                what = "is empty" if not text else f"{shown(text)} is not a number"
-                raise _fail(path, f"line {number}, column {names[j]!r}: the cell {what}; every cell must be a number "
-                                  f"(decimal point '.', no units)") from None
-            if not math.isfinite(v):
-                raise _fail(path, f"line {number}, column {names[j]!r}: {shown(text)} is not a finite number; every "
-                                  "value must be finite")
-            values[i, j] = v
-    return values
-
-
 def read_lab_csv(path, *, spec: ManipulatorSpec | None = None) -> LabData:
     """Parse and check a magnetic lab CSV (docs/magnetic-format.md).
 
@@ -174,7 +158,7 @@ def read_lab_csv(path, *, spec: ManipulatorSpec | None = None) -> LabData:
     rows = lines[1:]
     if len(rows) < 2:
         raise _fail(path, f"has {len(rows)} data row{'s' if len(rows) != 1 else ''}; a comparison needs a few hundred")
-    V = _values(path, names, rows)
+    V = parse_cells(path, names, rows, words=WORDS, error=SoftrnnInputError)
     col = {name: j for j, name in enumerate(names)}
     t = V[:, 0]
     step = time_steps(path, rows, t, "times must increase strictly: sort the rows and drop duplicated ones")

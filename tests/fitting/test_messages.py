@@ -3,7 +3,7 @@ the tolerance or the budget, never SciPy's own termination message."""
 
 import pytest
 
-from softrnn.calibration.fit import FitOptions, stop_reason
+from softrnn.fitting import FitOptions, stop_reason
 
 OPTIONS = FitOptions(max_evaluations=40, xtol=1e-6, ftol=1e-8, gtol=1e-10)
 

@@ -1,12 +1,12 @@
-"""The calibration's least-squares core (softrnn.calibration.fit) on models with known answers:
+"""The calibration's least-squares core (softrnn.fitting) on models with known answers:
 ordinary least squares' estimates and standard errors, a degenerate pair flagged, failed trials
 penalised and counted, the finite-difference batch on several workers equal to the serial one."""
 
 import numpy as np
 import pytest
 
-from softrnn.calibration.fit import FitOptions, Parameter, fit
 from softrnn.errors import SimulationError, SoftrnnInputError
+from softrnn.fitting import FitOptions, Parameter, fit
 
 T = np.linspace(0.0, 1.0, 50)
 

@@ -1,0 +1,35 @@
+"""The calibration core's fit from several starts: the best start refined, a resumed fit refining its
+given point alone, and the records of what was tried."""
+
+import numpy as np
+
+from softrnn.fitting import StartOptions, multistart
+
+
+def _residual(x):
+    # two minima in x[0] (at -1 and +2, the deeper at +2), a line in x[1]
+    return np.array([(x[0] + 1.0) * (x[0] - 2.0), 0.1 * (x[0] - 2.0), x[1] - 3.0])
+
+
+def _rms(fun):
+    return float(np.sqrt(np.mean(fun ** 2)))
+
+
+def test_the_best_start_is_refined_and_every_start_recorded():
+    starts = [({"start": "left"}, np.array([-1.5, 0.0])), ({"start": "right"}, np.array([2.5, 0.0]))]
+    calls = []
+    found = multistart(_residual, starts, (np.full(2, -np.inf), np.full(2, np.inf)),
+                       options=StartOptions(quick_evaluations=20, evaluations=50, refine=1), score=_rms, key="rms",
+                       progress=lambda done, total: calls.append((done, total)))
+    np.testing.assert_allclose(found.x, [2.0, 3.0], atol=1e-6)
+    assert found.score < 1e-6 and calls == [(1, 3), (2, 3), (3, 3)]
+    assert [e["start"] for e in found.tried] == ["left", "right"]
+    assert "refined_rms" in found.tried[1] and "refined_rms" not in found.tried[0]
+
+
+def test_a_resumed_fit_refines_its_point_alone():
+    free = (np.full(2, -np.inf), np.full(2, np.inf))
+    found = multistart(_residual, [({"start": "left"}, np.array([-1.5, 0.0]))], free, options=StartOptions(),
+                       score=_rms, resume=({"start": "given"}, np.array([1.8, 2.0])))
+    assert [e["start"] for e in found.tried] == ["given"] and np.isnan(found.tried[0]["score"])
+    np.testing.assert_allclose(found.x, [2.0, 3.0], atol=1e-6)
