@@ -23,6 +23,7 @@ import re
 import time
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
+from typing import final
 
 import numpy as np
 import torch
@@ -288,7 +289,30 @@ def _why(err) -> str:
     return text[:120] or f"{type(err).__name__}: it ends early"
 
 
-def read_checkpoint(path) -> dict:
+@final
+@dataclass(frozen=True)
+class TrainingCheckpoint:
+    """A whole-model training checkpoint as plain values (``read_checkpoint``).
+
+    Attributes
+    ----------
+    net : dict
+        The network's ``state_dict`` (name: tensor).
+    opt : dict
+        The optimiser's ``state_dict``.
+    gen : torch.Tensor
+        The random generator's state (``torch.Generator.get_state``).
+    loop : _Loop
+        The training loop's state: step, losses, linear fit, validation errors, best weights, average.
+    """
+
+    net: dict
+    opt: dict
+    gen: torch.Tensor
+    loop: _Loop
+
+
+def read_checkpoint(path) -> TrainingCheckpoint:
     """The training checkpoint at ``path`` as plain values, read without running any code of the file.
 
     Parameters
@@ -300,7 +324,7 @@ def read_checkpoint(path) -> dict:
 
     Returns
     -------
-    dict
+    TrainingCheckpoint
         ``net``, ``opt`` (state dicts), ``gen`` (the generator's state) and ``loop`` (``_Loop``).
 
     Raises
@@ -322,7 +346,7 @@ def read_checkpoint(path) -> dict:
     if not (known and isinstance(loop, _Loop) and all(isinstance(state.get(k), dict) for k in ("net", "opt"))
             and isinstance(state.get("gen"), torch.Tensor)):
         raise SoftrnnInputError(f"{path}: is not a softrnn whole-model training checkpoint; {_FIX}")
-    return {"net": state["net"], "opt": state["opt"], "gen": state["gen"], "loop": loop}
+    return TrainingCheckpoint(net=state["net"], opt=state["opt"], gen=state["gen"], loop=loop)
 
 
 def _restore_checkpoint(path: Path, net, opt, gen) -> _Loop:
@@ -342,13 +366,13 @@ def _restore_checkpoint(path: Path, net, opt, gen) -> _Loop:
     """
     state = read_checkpoint(path)
     try:
-        net.load_state_dict(state["net"])
-        opt.load_state_dict(state["opt"])
-        gen.set_state(state["gen"])
+        net.load_state_dict(state.net)
+        opt.load_state_dict(state.opt)
+        gen.set_state(state.gen)
     except (RuntimeError, ValueError, TypeError, KeyError, IndexError) as err:
         raise SoftrnnInputError(f"{path}: the training checkpoint does not fit this model "
                                 f"({' '.join(str(err).split())[:120]}); {_FIX}") from None
-    return state["loop"]
+    return state.loop
 
 
 def _save_checkpoint(path: Path, net, opt, gen, loop) -> None:
