@@ -106,16 +106,16 @@ def test_regions_and_paper_statements():
     config = StudyConfig(node=0, units=(5, 10, 20), history=(2, 10))
     bw = np.array([[100.0, 95.0, 80.0], [50.0, 40.0, 30.0]])                # rows: history, columns: units
     reg = region(config, bw, maximise=True)
-    assert reg["best"] == {"units": 5, "history": 2, "value": 100.0}
-    assert reg["points"] == [[5, 2], [10, 2]] and reg["units"] == [5, 10] and reg["history"] == [2, 2]
+    assert reg.best == {"units": 5, "history": 2, "value": 100.0}
+    assert reg.points == [[5, 2], [10, 2]] and reg.units == [5, 10] and reg.history == [2, 2]
     err = region(config, np.array([[3.0, 2.0, 1.05], [3.0, 2.0, 1.0]]), maximise=False)
-    assert err["points"] == [[20, 2], [20, 10]]
+    assert err.points == [[20, 2], [20, 10]]
     records = [{"units": u, "history": h, "error": {"rmse_mm": 1.0 / u},
                 "bandwidth": {"stepper": {"hz": 100.0 / h}, "torch": None}} for h in (2, 10) for u in (5, 10, 20)]
     s = summary(config, records)
-    assert s.regions["rms_error"]["points"] == [[20, 2], [20, 10]]
-    assert s.regions["rms_error"]["fraction_in_paper_region"] == 1.0    # units 20, H 2-10: in (20, 25) x (2, 20)
-    assert s.regions["bandwidth"]["fraction_in_paper_region"] == pytest.approx(2 / 3)
+    assert s.regions["rms_error"].points == [[20, 2], [20, 10]]
+    assert s.regions["rms_error"].fraction_in_paper_region == 1.0    # units 20, H 2-10: in (20, 25) x (2, 20)
+    assert s.regions["bandwidth"].fraction_in_paper_region == pytest.approx(2 / 3)
     assert s.trends["bandwidth_vs_history"] == pytest.approx(-0.8) and s.trends["bandwidth_vs_units"] == 0.0
     assert s.regions["torch_bandwidth"] is None
     assert "(5, 15)" in s.paper["bandwidth"] and "(20, 25)" in s.paper["rms_error"]

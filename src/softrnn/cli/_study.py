@@ -70,10 +70,10 @@ def _print_regions(result) -> None:
         reg = result.regions.get(key)
         if reg is None:
             continue
-        best, paper = reg["best"], reg["paper"]
+        best, paper = reg.best, reg.paper
         print(f"{label}: best {best['value']:.4g} {unit} at {best['units']} units, H = {best['history']}; region "
-              f"({reg['criterion']}): units {reg['units'][0]}-{reg['units'][1]}, H {reg['history'][0]}-"
-              f"{reg['history'][1]} ({len(reg['points'])} points, {reg['fraction_in_paper_region']:.0%} inside the "
+              f"({reg.criterion}): units {reg.units[0]}-{reg.units[1]}, H {reg.history[0]}-"
+              f"{reg.history[1]} ({len(reg.points)} points, {reg.fraction_in_paper_region:.0%} inside the "
               f"paper's); paper: units {paper['lstm_units'][0]}-{paper['lstm_units'][1]}, H {paper['history'][0]}-"
               f"{paper['history'][1]}")
     for key, label in (("bandwidth", "stepper bandwidth"), ("torch_bandwidth", "torch bandwidth"),

@@ -1,11 +1,11 @@
-"""A Fig. 14 study's summary (``summary`` -> ``StudySummary``: its tables, regions and trends beside
-the paper's ``PAPER_FIG14``; ``StudyResult``: a finished study) and figure (``fig14_figure``: the
+"""A Fig. 14 study's summary (``summary`` -> ``StudySummary``: its tables, regions (``Region``) and
+trends beside the paper's ``PAPER_FIG14``; ``StudyResult``: a finished study) and figure (``fig14_figure``: the
 heatmaps over LSTM units x history size)."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import final
 
 import numpy as np
@@ -39,7 +39,44 @@ def _rmse(r):
     return r["error"]["rmse_mm"]
 
 
-def region(config: StudyConfig, table: np.ndarray, *, maximise: bool) -> dict | None:
+@final
+@dataclass(frozen=True)
+class Region:
+    """The grid points near the best of a study's table (``region``); ``to_dict()`` is its JSON form.
+
+    Attributes
+    ----------
+    best : dict
+        {units, history, value}: the best grid point and its value (Hz or mm).
+    criterion : str
+        The tolerance, e.g. ``">= 0.9 x the best"``.
+    points : list of [units, history]
+        The grid points within the tolerance, sorted.
+    units, history : list of int
+        The ranges [lo, hi] the points span.
+    paper : dict or None
+        The paper's region {history, lstm_units} beside it (``summary``; None: not set beside it).
+    fraction_in_paper_region : float or None
+        The fraction of ``points`` inside the paper's region (None: not set beside it).
+    """
+
+    best: dict
+    criterion: str
+    points: list
+    units: list
+    history: list
+    paper: dict | None = None
+    fraction_in_paper_region: float | None = None
+
+    def to_dict(self) -> dict:
+        """Every field in order (``paper`` and ``fraction_in_paper_region`` only where set)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        if self.paper is None:
+            del out["paper"], out["fraction_in_paper_region"]
+        return out
+
+
+def region(config: StudyConfig, table: np.ndarray, *, maximise: bool) -> Region | None:
     """The grid points within ``config.region_tolerance`` of the best value of ``table``
     (len(history), len(units)): ``best`` {units, history, value}, ``points`` [[units, history]],
     and the ranges they span, ``units`` [lo, hi] and ``history`` [lo, hi]. None if all NaN."""
@@ -52,9 +89,9 @@ def region(config: StudyConfig, table: np.ndarray, *, maximise: bool) -> dict | 
         inside = table >= (1 - tol) * best if maximise else table <= (1 + tol) * best
     pts = [[config.units[b], config.history[a]] for a, b in np.argwhere(inside)]
     us, hs = [p[0] for p in pts], [p[1] for p in pts]
-    return {"best": {"units": config.units[j], "history": config.history[i], "value": float(best)},
-            "criterion": f"{'>=' if maximise else '<='} {(1 - tol) if maximise else (1 + tol):g} x the best",
-            "points": sorted(pts), "units": [min(us), max(us)], "history": [min(hs), max(hs)]}
+    return Region(best={"units": config.units[j], "history": config.history[i], "value": float(best)},
+                  criterion=f"{'>=' if maximise else '<='} {(1 - tol) if maximise else (1 + tol):g} x the best",
+                  points=sorted(pts), units=[min(us), max(us)], history=[min(hs), max(hs)])
 
 
 def _in_paper_region(points: list, paper: dict) -> float:
@@ -98,7 +135,7 @@ class StudySummary:
     rmse_mm : list of list
         The one-step RMS error on the test span [mm] (len(history), len(units)).
     regions : dict
-        {bandwidth, torch_bandwidth, rms_error: ``region`` with ``paper`` and
+        {bandwidth, torch_bandwidth, rms_error: a ``Region`` with ``paper`` and
         ``fraction_in_paper_region``, or None}.
     trends : dict
         {bandwidth, torch_bandwidth, rms_error}_vs_{units, history}: ``trend`` (relative change) or None.
@@ -118,9 +155,11 @@ class StudySummary:
     paper: dict
 
     def to_dict(self) -> dict:
-        """The JSON summary: ``config`` (``StudyConfig.to_dict``), then every other field in order."""
+        """The JSON summary: ``config`` (``StudyConfig.to_dict``), then every other field in order
+        (``regions`` as ``Region.to_dict``)."""
         out = {f.name: getattr(self, f.name) for f in fields(self)}
         out["config"] = self.config.to_dict()
+        out["regions"] = {k: None if r is None else r.to_dict() for k, r in self.regions.items()}
         return out
 
 
@@ -167,8 +206,7 @@ def summary(config: StudyConfig, records: list[dict]) -> StudySummary:
         reg = region(config, table, maximise=maximise)
         if reg is not None:
             paper = PAPER_FIG14[paper_key]
-            reg["paper"] = paper
-            reg["fraction_in_paper_region"] = _in_paper_region(reg["points"], paper)
+            reg = replace(reg, paper=paper, fraction_in_paper_region=_in_paper_region(reg.points, paper))
         regions[name] = reg
     trends = {"bandwidth_vs_units": trend(bw, 1), "bandwidth_vs_history": trend(bw, 0),
               "torch_bandwidth_vs_units": trend(tbw, 1), "torch_bandwidth_vs_history": trend(tbw, 0),
@@ -217,10 +255,10 @@ def fig14_figure(result: StudySummary):
                             color="white" if light else "black")
         reg = result.regions.get(key)
         if reg is not None:
-            for u, h in reg["points"]:
+            for u, h in reg.points:
                 ax.add_patch(Rectangle((units.index(u) - 0.5, hist.index(h) - 0.5), 1, 1, fill=False,
                                        edgecolor="red", lw=2.0))
-            paper = reg["paper"]
+            paper = reg.paper
             for a, h in enumerate(hist):
                 for b, u in enumerate(units):
                     if paper["lstm_units"][0] <= u <= paper["lstm_units"][1] and \

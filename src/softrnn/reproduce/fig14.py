@@ -32,6 +32,7 @@ def fig14_step(out: Path, quick: bool, progress_factory: ProgressFactory | None 
     figure.write_bytes(Path(result.figure).read_bytes())
     keep = ("units", "history", "bandwidth_hz", "torch_bandwidth_hz", "rmse_mm", "regions", "trends", "paper",
             "wall_seconds")
-    kept = {k: getattr(result, k) for k in keep}
+    summary = result.to_dict()
+    kept = {k: summary[k] for k in keep}
     return save_step(step_file, {"case": FIG14["case"], "node": case.node_of_interest, "figure": "fig14.png",
                                  "folder": str(folder.relative_to(out)), **kept}, quick)
