@@ -65,7 +65,32 @@ class TrainedDynamic:
     info: dict = field(default_factory=dict)
 
 
-def scales(trajectories: list[Trajectory], wrench: bool = True) -> dict:
+@final
+@dataclass(frozen=True)
+class Scales:
+    """The training data's per-channel standard deviations that scale ``DynamicNet``'s inputs and
+    outputs (``scales``); the field names are the keys of the saved weights (``network.SCALE_KEYS``).
+    State channels: displacement [m] (0-2) and rotation vector [rad] (3-5) of ``Encoding``.
+
+    Attributes
+    ----------
+    sx : numpy.ndarray
+        (6,) of the states [m, rad].
+    sv : numpy.ndarray
+        (6,) of the velocities, the states' change over one model step [m, rad].
+    su : numpy.ndarray
+        (L,) of the loads' channels (wrench [N, N m] and / or actuation, in the data's units).
+    sa : numpy.ndarray
+        (6,) of the velocity changes over one model step [m, rad]; 0 for a channel that never moves.
+    """
+
+    sx: np.ndarray
+    sv: np.ndarray
+    su: np.ndarray
+    sa: np.ndarray
+
+
+def scales(trajectories: list[Trajectory], wrench: bool = True) -> Scales:
     """Per-channel standard deviations (6,) of states ``sx``, velocities ``sv``, loads ``su`` (L,) and
     velocity changes ``sa`` over ``trajectories``; the inputs' floored within each kind
     (``_group_floor``). An input channel that never varies gets 1; a
@@ -88,7 +113,7 @@ def scales(trajectories: list[Trajectory], wrench: bool = True) -> dict:
         res[key] = np.where(s > _FLOOR, s, 1.0)
     moving = out["sv"].std(axis=0) > _FLOOR
     res["sa"] = np.where(moving, res["sa"], 0.0)
-    return res
+    return Scales(**res)
 
 
 def _group_floor(s: np.ndarray) -> np.ndarray:
