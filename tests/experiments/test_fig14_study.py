@@ -62,15 +62,15 @@ def full(data_file, tmp_path_factory):
 
 
 def _rmse(result) -> dict:
-    return {(r["units"], r["history"]): r["error"]["rmse_mm"] for r in result["points"]}
+    return {(r["units"], r["history"]): r["error"]["rmse_mm"] for r in result.points}
 
 
 # ------------------------------------------------------------------------------------------ results
 def test_every_grid_point_has_errors_bandwidths_and_a_model(full):
     out, result = full
-    assert sorted(result["computed"]) == [[4, 2], [4, 3], [8, 2], [8, 3]] and result["found"] == []
-    assert len(result["points"]) == 4
-    for r in result["points"]:
+    assert sorted(result.computed) == [[4, 2], [4, 3], [8, 2], [8, 3]] and result.found == []
+    assert len(result.points) == 4
+    for r in result.points:
         e, b = r["error"], r["bandwidth"]
         assert e["rmse_mm"] > 0 and e["n_targets"] == 120 - r["history"]
         # overall RMSE (paper Eq. 2 over every target) = root mean of the per-axis mean squares
@@ -81,7 +81,7 @@ def test_every_grid_point_has_errors_bandwidths_and_a_model(full):
         assert on_disk == json.loads(json.dumps(r))
         model = load_model(model_folder(out, r["units"], r["history"]))
         assert (model.config.lstm_units, model.spec.history) == (r["units"], r["history"])
-    table = np.array(result["rmse_mm"])                                     # (history, units)
+    table = np.array(result.rmse_mm)                                     # (history, units)
     assert table.shape == (2, 2) and table[1, 0] == _rmse(result)[(4, 3)]
     manifest = json.loads((out / MANIFEST).read_text())
     assert manifest["config"] == CONFIG.to_dict() and len(manifest["data"]["sha256"]) == 64
@@ -89,7 +89,7 @@ def test_every_grid_point_has_errors_bandwidths_and_a_model(full):
 
 def test_the_point_errors_are_those_of_softrnn_evaluate(full, data_file):
     out, result = full
-    r = result["points"][3]
+    r = result.points[3]
     ev = evaluate(load_model(model_folder(out, r["units"], r["history"])), data_file, free=False)
     assert r["error"]["rmse_mm"] == pytest.approx(ev.one_step_errors.rmse_mm, rel=1e-12)
     assert r["error"]["max_abs_mm"] == pytest.approx(list(ev.one_step_errors.max_abs_mm), rel=1e-12)
@@ -97,7 +97,7 @@ def test_the_point_errors_are_those_of_softrnn_evaluate(full, data_file):
 
 def test_the_figure_is_a_png(full):
     out, result = full
-    assert result["figure"] == str(out / FIGURE)
+    assert result.figure == str(out / FIGURE)
     assert (out / FIGURE).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert not list(out.glob(".*tmp*"))
 
@@ -106,19 +106,19 @@ def test_regions_and_paper_statements():
     config = StudyConfig(node=0, units=(5, 10, 20), history=(2, 10))
     bw = np.array([[100.0, 95.0, 80.0], [50.0, 40.0, 30.0]])                # rows: history, columns: units
     reg = region(config, bw, maximise=True)
-    assert reg["best"] == {"units": 5, "history": 2, "value": 100.0}
-    assert reg["points"] == [[5, 2], [10, 2]] and reg["units"] == [5, 10] and reg["history"] == [2, 2]
+    assert reg.best == {"units": 5, "history": 2, "value": 100.0}
+    assert reg.points == [[5, 2], [10, 2]] and reg.units == [5, 10] and reg.history == [2, 2]
     err = region(config, np.array([[3.0, 2.0, 1.05], [3.0, 2.0, 1.0]]), maximise=False)
-    assert err["points"] == [[20, 2], [20, 10]]
+    assert err.points == [[20, 2], [20, 10]]
     records = [{"units": u, "history": h, "error": {"rmse_mm": 1.0 / u},
                 "bandwidth": {"stepper": {"hz": 100.0 / h}, "torch": None}} for h in (2, 10) for u in (5, 10, 20)]
     s = summary(config, records)
-    assert s["regions"]["rms_error"]["points"] == [[20, 2], [20, 10]]
-    assert s["regions"]["rms_error"]["fraction_in_paper_region"] == 1.0    # units 20, H 2-10: in (20, 25) x (2, 20)
-    assert s["regions"]["bandwidth"]["fraction_in_paper_region"] == pytest.approx(2 / 3)
-    assert s["trends"]["bandwidth_vs_history"] == pytest.approx(-0.8) and s["trends"]["bandwidth_vs_units"] == 0.0
-    assert s["regions"]["torch_bandwidth"] is None
-    assert "(5, 15)" in s["paper"]["bandwidth"] and "(20, 25)" in s["paper"]["rms_error"]
+    assert s.regions["rms_error"].points == [[20, 2], [20, 10]]
+    assert s.regions["rms_error"].fraction_in_paper_region == 1.0    # units 20, H 2-10: in (20, 25) x (2, 20)
+    assert s.regions["bandwidth"].fraction_in_paper_region == pytest.approx(2 / 3)
+    assert s.trends["bandwidth_vs_history"] == pytest.approx(-0.8) and s.trends["bandwidth_vs_units"] == 0.0
+    assert s.regions["torch_bandwidth"] is None
+    assert "(5, 15)" in s.paper["bandwidth"] and "(20, 25)" in s.paper["rms_error"]
     assert PAPER_FIG14["bandwidth_region"] == {"history": [2, 20], "lstm_units": [5, 15]}
 
 
@@ -130,8 +130,8 @@ def test_an_interrupted_study_computes_only_the_missing_points(full, data_file, 
     assert done == ["point-u04-h02.json", "point-u08-h02.json"]
     weights = _mtimes(model_folder(tmp_path, u, 2) / "weights.safetensors" for u in (4, 8))
     result = run_study(data_file, CONFIG, tmp_path, scheduler=SYNC)
-    assert result["computed"] == [[4, 3], [8, 3]] and result["found"] == []
-    assert result["measured"] == [[4, 2], [4, 3], [8, 2], [8, 3]]          # the first run timed none
+    assert result.computed == [[4, 3], [8, 3]] and result.found == []
+    assert result.measured == [[4, 2], [4, 3], [8, 2], [8, 3]]          # the first run timed none
     assert _mtimes(model_folder(tmp_path, u, 2) / "weights.safetensors" for u in (4, 8)) == weights
     assert _rmse(result) == _rmse(full[1])                                # = the uninterrupted study
 
@@ -143,8 +143,8 @@ def test_a_deleted_point_is_the_only_one_computed_again(full, data_file, tmp_pat
     shutil.rmtree(model_folder(out, 8, 3))
     kept = _mtimes(point_path(out, u, h) for u, h in CONFIG.points if (u, h) != (8, 3))
     result = run_study(data_file, CONFIG, out, scheduler=SYNC)
-    assert result["computed"] == [[8, 3]] and result["measured"] == [[8, 3]]
-    assert result["found"] == [[4, 2], [4, 3], [8, 2]]
+    assert result.computed == [[8, 3]] and result.measured == [[8, 3]]
+    assert result.found == [[4, 2], [4, 3], [8, 2]]
     assert _mtimes(point_path(out, u, h) for u, h in CONFIG.points if (u, h) != (8, 3)) == kept
     assert _rmse(result) == _rmse(full[1])
 
@@ -152,8 +152,8 @@ def test_a_deleted_point_is_the_only_one_computed_again(full, data_file, tmp_pat
 def test_the_grid_may_shrink_and_nothing_is_recomputed(full, data_file):
     out, _ = full
     result = run_study(data_file, StudyConfig(**dict(TINY, units=(8,), history=(2,))), out, scheduler=SYNC)
-    assert result["computed"] == [] and result["measured"] == [] and result["found"] == [[8, 2]]
-    assert result["rmse_mm"] == [[_rmse(full[1])[(8, 2)]]]
+    assert result.computed == [] and result.measured == [] and result.found == [[8, 2]]
+    assert result.rmse_mm == [[_rmse(full[1])[(8, 2)]]]
 
 
 # ------------------------------------------------------------------------------------------ refusals
@@ -211,9 +211,9 @@ def test_a_local_dask_cluster_gives_the_in_process_results(full, data_file, tmp_
     environ = dict(os.environ)
     result = run_study(data_file, config, tmp_path, workers=1)
     assert dict(os.environ) == environ   # worker settings never leak into the calling process
-    assert result["computed"] == [[4, 2], [4, 3]]
+    assert result.computed == [[4, 2], [4, 3]]
     assert {p: v for p, v in _rmse(result).items()} == {p: v for p, v in _rmse(full[1]).items() if p[0] == 4}
-    assert all(r["bandwidth"]["torch"] is None for r in result["points"])
+    assert all(r["bandwidth"]["torch"] is None for r in result.points)
 
 
 # ------------------------------------------------------------------------------------------ CLI

@@ -303,8 +303,8 @@ def test_torch_rollout_and_numpy_engine_agree(memory, bound, kernel, reads, enve
     fixed = np.zeros(M, bool)
     fixed[0] = True
     s = np.linspace(0, 1, M)
-    scales = {key: rng.uniform(0.5, 2.0, 6) * mag for key, mag in
-              (("sx", 0.1), ("sv", 0.01), ("su", 1.0), ("sa", 0.001))}
+    scales = training.Scales(**{key: rng.uniform(0.5, 2.0, 6) * mag for key, mag in
+                                (("sx", 0.1), ("sv", 0.01), ("su", 1.0), ("sa", 0.001))})
     net = DynamicNet(config, np.stack([s, s, fixed.astype(float)], 1), fixed, scales)
     gen = torch.Generator().manual_seed(2)
     with torch.no_grad():
@@ -367,7 +367,8 @@ def test_the_scale_buffers_keep_their_saved_keys(trained, tmp_path):
     assert set(saved) == set(state)                                   # the folder's keys, as in earlier releases
     # a model folder's weights load into a fresh network under the new buffer names
     fresh = DynamicNet(net.config, net.node_features.numpy(), net.fixed.numpy(),
-                       {key: np.ones(getattr(net, name).shape) for name, key in SCALE_KEYS.items()})
+                       training.Scales(**{key: np.ones(getattr(net, name).shape)
+                                          for name, key in SCALE_KEYS.items()}))
     fresh.load_state_dict({k: torch.as_tensor(v) for k, v in saved.items()} | {"fixed": net.fixed})
     assert _same_weights(fresh, net)
 
@@ -465,9 +466,9 @@ def test_the_damping_prior_makes_the_ridge_start_strictly_stable(chain_encoding)
     W0 = training.damping_prior(net.__class__(dataclasses.replace(config, prior_tau=1.0), enc.node_features(),
                                               enc.fixed, sc))
     r, i, c, C = 0.01 / 1.0, 1, 1, net.n_in                    # node 1 (free), channel y (moving)
-    assert W0[i * C + c, i * 6 + c] == pytest.approx(-r * r * sc["sx"][c] / sc["sa"][c])
-    assert W0[i * C + 6 + c, i * 6 + c] == pytest.approx(-2 * r * sc["sv"][c] / sc["sa"][c])
-    assert np.count_nonzero(W0) == 2 * int((~enc.fixed).sum()) * int((sc["sa"] > 0).sum())
+    assert W0[i * C + c, i * 6 + c] == pytest.approx(-r * r * sc.sx[c] / sc.sa[c])
+    assert W0[i * C + 6 + c, i * 6 + c] == pytest.approx(-2 * r * sc.sv[c] / sc.sa[c])
+    assert np.count_nonzero(W0) == 2 * int((~enc.fixed).sum()) * int((sc.sa > 0).sum())
 
 
 def test_the_baseline_stays_the_best_linear_model_wherever_the_network_starts(chain_encoding):
@@ -491,7 +492,7 @@ def test_a_load_penalty_of_its_own_frees_the_load_response_only():
     rest (normal equations of random data solved directly); a lighter load penalty leaves larger
     load coefficients; the baseline's config drops it."""
     M, H = 4, 3
-    sc = {k: np.ones(6) for k in ("sx", "sv", "su", "sa")}
+    sc = training.Scales(**{k: np.ones(6) for k in ("sx", "sv", "su", "sa")})
     fixed = np.zeros(M, bool)
     feats = np.stack([np.linspace(0, 1, M)] * 2 + [fixed.astype(float)], 1)
     rng = np.random.default_rng(5)
@@ -543,7 +544,7 @@ def test_start_fraction_draws_windows_from_the_trajectories_first_steps(monkeypa
 
 def test_the_envelope_gate_fades_the_correction_outside_the_data():
     net = DynamicNet(DynamicConfig(width=4, layers=1, envelope=0.5), np.zeros((3, 3)), np.zeros(3, bool),
-                     {k: np.ones(6) for k in ("sx", "sv", "su", "sa")})
+                     training.Scales(**{k: np.ones(6) for k in ("sx", "sv", "su", "sa")}))
     G = int(net.conv_cols.numel())
     net.set_envelope(torch.full((G,), -1.0), torch.full((G,), 1.0))      # range width 2: margin 1
     g = torch.zeros(3, G)

@@ -50,10 +50,10 @@ def _fmt(v, spec=".3g") -> str:
     return "-" if v is None else format(v, spec)
 
 
-def _print_table(result: dict) -> None:
+def _print_table(result) -> None:
     print(f"{'units':>5} {'H':>3} {'params':>7} {'RMSE mm':>9} {'x':>9} {'y':>9} {'z':>9} "
           f"{'stepper Hz':>11} {'torch Hz':>9} {'epochs':>6}")
-    for r in result["points"]:
+    for r in result.points:
         e, b = r["error"], r.get("bandwidth") or {}
         torch = (b.get("torch") or {}).get("hz")
         print(f"{r['units']:>5} {r['history']:>3} {r['parameters']:>7} {e['rmse_mm']:>9.3g} "
@@ -62,18 +62,18 @@ def _print_table(result: dict) -> None:
                 f"{r['training']['epochs_run']:>6}")
 
 
-def _print_regions(result: dict) -> None:
-    t = result["trends"]
+def _print_regions(result) -> None:
+    t = result.trends
     for key, label, unit in (("bandwidth", "bandwidth (compiled stepper)", "Hz"),
                              ("torch_bandwidth", "bandwidth (eager PyTorch)", "Hz"),
                              ("rms_error", "RMS error", "mm")):
-        reg = result["regions"].get(key)
+        reg = result.regions.get(key)
         if reg is None:
             continue
-        best, paper = reg["best"], reg["paper"]
+        best, paper = reg.best, reg.paper
         print(f"{label}: best {best['value']:.4g} {unit} at {best['units']} units, H = {best['history']}; region "
-              f"({reg['criterion']}): units {reg['units'][0]}-{reg['units'][1]}, H {reg['history'][0]}-"
-              f"{reg['history'][1]} ({len(reg['points'])} points, {reg['fraction_in_paper_region']:.0%} inside the "
+              f"({reg.criterion}): units {reg.units[0]}-{reg.units[1]}, H {reg.history[0]}-"
+              f"{reg.history[1]} ({len(reg.points)} points, {reg.fraction_in_paper_region:.0%} inside the "
               f"paper's); paper: units {paper['lstm_units'][0]}-{paper['lstm_units'][1]}, H {paper['history'][0]}-"
               f"{paper['history'][1]}")
     for key, label in (("bandwidth", "stepper bandwidth"), ("torch_bandwidth", "torch bandwidth"),
@@ -82,9 +82,9 @@ def _print_regions(result: dict) -> None:
         if u is not None or h is not None:
             print(f"{label}: {_fmt(None if u is None else 100 * u, '+.0f')} % from the fewest to the most units, "
                   f"{_fmt(None if h is None else 100 * h, '+.0f')} % from the shortest to the longest history")
-    print(f"paper ({result['paper']['source']}):")
-    print(f"  \"{result['paper']['bandwidth']}\"")
-    print(f"  \"{result['paper']['rms_error']}\"")
+    print(f"paper ({result.paper['source']}):")
+    print(f"  \"{result.paper['bandwidth']}\"")
+    print(f"  \"{result.paper['rms_error']}\"")
 
 
 def run(args) -> int:
@@ -110,15 +110,15 @@ def run(args) -> int:
             print(f"softrnn: interrupted; the finished grid points are kept in {args.out}; run the same command "
                   f"again to compute only the missing ones", file=sys.stderr)
             return stop_code(err)
-    n = len(result["points"])
-    print(f"study hparams: {n} grid points in {args.out} ({len(result['computed'])} trained, "
-          f"{len(result['measured'])} timed now, {len(result['found'])} already there) in "
-          f"{result['wall_seconds']:.1f} s; one-step RMS error on the test span, bandwidth = calls per second on one "
+    n = len(result.points)
+    print(f"study hparams: {n} grid points in {args.out} ({len(result.computed)} trained, "
+          f"{len(result.measured)} timed now, {len(result.found)} already there) in "
+          f"{result.wall_seconds:.1f} s; one-step RMS error on the test span, bandwidth = calls per second on one "
           f"thread (the median of 5 runs)")
     _print_table(result)
     _print_regions(result)
-    print(f"figure: {result['figure']}")
+    print(f"figure: {result.figure}")
     if args.json:
-        atomic_write_text(args.json, json.dumps(result, indent=2, allow_nan=False) + "\n")
+        atomic_write_text(args.json, json.dumps(result.to_dict(), indent=2, allow_nan=False) + "\n")
         print(f"summary written to {args.json}")
     return 0

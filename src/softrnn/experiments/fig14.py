@@ -51,6 +51,7 @@ import signal
 import threading
 import time
 from contextlib import closing, contextmanager
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -71,7 +72,7 @@ from ..resume import REFUSE, Settings, check
 from ..sweeps.dask import completed, require
 from ..timing import machine_info, step_rate
 from .fig14_config import StudyConfig
-from .fig14_summary import fig14_figure, summary
+from .fig14_summary import StudyResult, fig14_figure, summary
 
 MANIFEST = "study.json"
 FIGURE = "fig14.png"
@@ -311,7 +312,7 @@ class _Steps:
 
 
 def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None = None, workers: int | None = None,
-              progress: Progress | None = None) -> dict:
+              progress: Progress | None = None) -> StudyResult:
     """Run (or complete: finished points are kept) a Fig. 14 study (see the module docstring).
 
     Parameters
@@ -328,8 +329,9 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
 
     Returns
     -------
-    dict
-        ``summary(...)`` plus ``computed``, ``measured``, ``found``, ``figure`` and ``wall_seconds``.
+    StudyResult
+        ``summary(...)`` plus ``data``, ``out_dir``, ``computed``, ``measured``, ``found``, ``figure`` and
+        ``wall_seconds`` (``to_dict()``: the JSON summary).
     """
     if not isinstance(config, StudyConfig):
         raise bad("config", type(config).__name__, "a StudyConfig")
@@ -367,13 +369,11 @@ def run_study(data_path, config: StudyConfig, out_dir, *, scheduler: str | None 
     measured = _measure_missing(out, records, data_path, spec, config, tick)
 
     result = summary(config, [records[p] for p in config.points])
-    result.update(data=data, out_dir=str(out), computed=[list(p) for p in sorted(computed)],
-                  measured=[list(p) for p in sorted(measured)], found=[list(p) for p in sorted(found)])
-
     save_figure(fig14_figure(result), out / FIGURE)
-    result["figure"] = str(out / FIGURE)
-    result["wall_seconds"] = time.perf_counter() - t0
-    return result
+    return StudyResult(**{f.name: getattr(result, f.name) for f in fields(result)}, data=data, out_dir=str(out),
+                       computed=[list(p) for p in sorted(computed)], measured=[list(p) for p in sorted(measured)],
+                       found=[list(p) for p in sorted(found)], figure=str(out / FIGURE),
+                       wall_seconds=time.perf_counter() - t0)
 
 
 def _measure_missing(out: Path, records: dict, data_path: Path, spec, config: StudyConfig, tick) -> list:

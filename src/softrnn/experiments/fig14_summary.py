@@ -1,9 +1,12 @@
-"""A Fig. 14 study's summary (``summary``: its tables, regions and trends beside the paper's
-``PAPER_FIG14``) and figure (``fig14_figure``: the heatmaps over LSTM units x history size)."""
+"""A Fig. 14 study's summary (``summary`` -> ``StudySummary``: its tables, regions (``Region``) and
+trends beside the paper's ``PAPER_FIG14``; ``StudyResult``: a finished study) and figure (``fig14_figure``: the
+heatmaps over LSTM units x history size)."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, fields, replace
+from typing import final
 
 import numpy as np
 from matplotlib.colors import LogNorm
@@ -36,7 +39,44 @@ def _rmse(r):
     return r["error"]["rmse_mm"]
 
 
-def region(config: StudyConfig, table: np.ndarray, *, maximise: bool) -> dict | None:
+@final
+@dataclass(frozen=True)
+class Region:
+    """The grid points near the best of a study's table (``region``); ``to_dict()`` is its JSON form.
+
+    Attributes
+    ----------
+    best : dict
+        {units, history, value}: the best grid point and its value (Hz or mm).
+    criterion : str
+        The tolerance, e.g. ``">= 0.9 x the best"``.
+    points : list of [units, history]
+        The grid points within the tolerance, sorted.
+    units, history : list of int
+        The ranges [lo, hi] the points span.
+    paper : dict or None
+        The paper's region {history, lstm_units} beside it (``summary``; None: not set beside it).
+    fraction_in_paper_region : float or None
+        The fraction of ``points`` inside the paper's region (None: not set beside it).
+    """
+
+    best: dict
+    criterion: str
+    points: list
+    units: list
+    history: list
+    paper: dict | None = None
+    fraction_in_paper_region: float | None = None
+
+    def to_dict(self) -> dict:
+        """Every field in order (``paper`` and ``fraction_in_paper_region`` only where set)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        if self.paper is None:
+            del out["paper"], out["fraction_in_paper_region"]
+        return out
+
+
+def region(config: StudyConfig, table: np.ndarray, *, maximise: bool) -> Region | None:
     """The grid points within ``config.region_tolerance`` of the best value of ``table``
     (len(history), len(units)): ``best`` {units, history, value}, ``points`` [[units, history]],
     and the ranges they span, ``units`` [lo, hi] and ``history`` [lo, hi]. None if all NaN."""
@@ -49,9 +89,9 @@ def region(config: StudyConfig, table: np.ndarray, *, maximise: bool) -> dict | 
         inside = table >= (1 - tol) * best if maximise else table <= (1 + tol) * best
     pts = [[config.units[b], config.history[a]] for a, b in np.argwhere(inside)]
     us, hs = [p[0] for p in pts], [p[1] for p in pts]
-    return {"best": {"units": config.units[j], "history": config.history[i], "value": float(best)},
-            "criterion": f"{'>=' if maximise else '<='} {(1 - tol) if maximise else (1 + tol):g} x the best",
-            "points": sorted(pts), "units": [min(us), max(us)], "history": [min(hs), max(hs)]}
+    return Region(best={"units": config.units[j], "history": config.history[i], "value": float(best)},
+                  criterion=f"{'>=' if maximise else '<='} {(1 - tol) if maximise else (1 + tol):g} x the best",
+                  points=sorted(pts), units=[min(us), max(us)], history=[min(hs), max(hs)])
 
 
 def _in_paper_region(points: list, paper: dict) -> float:
@@ -72,7 +112,87 @@ def trend(table: np.ndarray, axis: int) -> float | None:
     return float(np.mean(last[ok] / first[ok] - 1.0)) if ok.any() else None
 
 
-def summary(config: StudyConfig, records: list[dict]) -> dict:
+@dataclass(frozen=True)
+class StudySummary:
+    """The tables, regions and trends of a Fig. 14 study beside the paper's (``summary``);
+    ``to_dict()`` is its JSON form. Tables are lists of rows (len(history), len(units)), None where
+    a point has no value.
+
+    Attributes
+    ----------
+    config : StudyConfig
+        The study's settings.
+    units : list of int
+        The grid's LSTM units (the tables' columns).
+    history : list of int
+        The grid's history sizes (the tables' rows).
+    points : list of dict
+        Each grid point's record (the point file's content), in grid order.
+    bandwidth_hz : list of list
+        The compiled stepper's bandwidth [Hz] (len(history), len(units)).
+    torch_bandwidth_hz : list of list
+        Eager PyTorch's bandwidth [Hz] (len(history), len(units)); None where not measured.
+    rmse_mm : list of list
+        The one-step RMS error on the test span [mm] (len(history), len(units)).
+    regions : dict
+        {bandwidth, torch_bandwidth, rms_error: a ``Region`` with ``paper`` and
+        ``fraction_in_paper_region``, or None}.
+    trends : dict
+        {bandwidth, torch_bandwidth, rms_error}_vs_{units, history}: ``trend`` (relative change) or None.
+    paper : dict
+        The paper's statements (``PAPER_FIG14``: source, bandwidth, rms_error and their regions).
+    """
+
+    config: StudyConfig
+    units: list
+    history: list
+    points: list
+    bandwidth_hz: list
+    torch_bandwidth_hz: list
+    rmse_mm: list
+    regions: dict
+    trends: dict
+    paper: dict
+
+    def to_dict(self) -> dict:
+        """The JSON summary: ``config`` (``StudyConfig.to_dict``), then every other field in order
+        (``regions`` as ``Region.to_dict``)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out["config"] = self.config.to_dict()
+        out["regions"] = {k: None if r is None else r.to_dict() for k, r in self.regions.items()}
+        return out
+
+
+@final
+@dataclass(frozen=True)
+class StudyResult(StudySummary):
+    """A finished Fig. 14 study (``experiments.fig14.run_study``): its ``StudySummary`` and the run's
+    record; ``to_dict()`` is the study's JSON summary (``softrnn study hparams --json``).
+
+    Attributes
+    ----------
+    data : dict
+        The data file's record in the manifest (path, SHA-256).
+    out_dir : str
+        The study folder.
+    computed, measured, found : list of [units, history]
+        The points trained by this run, timed by this run, and found finished (with bandwidths).
+    figure : str
+        The heatmaps' file (``fig14.png`` in the study folder).
+    wall_seconds : float
+        The run's wall time [s].
+    """
+
+    data: dict
+    out_dir: str
+    computed: list
+    measured: list
+    found: list
+    figure: str
+    wall_seconds: float
+
+
+def summary(config: StudyConfig, records: list[dict]) -> StudySummary:
     """The tables, regions and trends of a study's point records, beside the paper's Fig. 14."""
     bw, tbw, err = (_table(config, records, f) for f in (_stepper_hz, _torch_hz, _rmse))
 
@@ -86,17 +206,16 @@ def summary(config: StudyConfig, records: list[dict]) -> dict:
         reg = region(config, table, maximise=maximise)
         if reg is not None:
             paper = PAPER_FIG14[paper_key]
-            reg["paper"] = paper
-            reg["fraction_in_paper_region"] = _in_paper_region(reg["points"], paper)
+            reg = replace(reg, paper=paper, fraction_in_paper_region=_in_paper_region(reg.points, paper))
         regions[name] = reg
     trends = {"bandwidth_vs_units": trend(bw, 1), "bandwidth_vs_history": trend(bw, 0),
               "torch_bandwidth_vs_units": trend(tbw, 1), "torch_bandwidth_vs_history": trend(tbw, 0),
               "rms_error_vs_units": trend(err, 1), "rms_error_vs_history": trend(err, 0)}
-    return {"config": config.to_dict(), "units": list(config.units), "history": list(config.history),
-            "points": records, "bandwidth_hz": listed(bw), "torch_bandwidth_hz": listed(tbw),
-            "rmse_mm": listed(err), "regions": regions, "trends": trends,
-            "paper": {k: PAPER_FIG14[k] for k in ("source", "bandwidth", "rms_error", "bandwidth_region",
-                                                  "rms_error_region")}}
+    return StudySummary(config=config, units=list(config.units), history=list(config.history), points=records,
+                        bandwidth_hz=listed(bw), torch_bandwidth_hz=listed(tbw), rmse_mm=listed(err),
+                        regions=regions, trends=trends,
+                        paper={k: PAPER_FIG14[k] for k in ("source", "bandwidth", "rms_error", "bandwidth_region",
+                                                           "rms_error_region")})
 
 
 # ------------------------------------------------------------------------------------------ figure
@@ -105,19 +224,19 @@ def _short(v: float) -> str:
     return f"{v / 1e3:.3g}k" if abs(v) >= 1e3 else f"{v:.3g}"
 
 
-def fig14_figure(result: dict):
-    """The Fig. 14 heatmaps of a study ``summary``: (A) bandwidth of the compiled stepper [Hz],
+def fig14_figure(result: StudySummary):
+    """The Fig. 14 heatmaps of a study ``summary`` (a ``StudySummary``): (A) bandwidth of the compiled stepper [Hz],
     (A') of eager PyTorch [Hz] when measured, (B) one-step RMS error [mm], over LSTM units (x) and
     history size (y). Solid outlines: the region found (within the tolerance of the best); dashed:
     the grid points inside the paper's region; the error's colour scale is logarithmic. Returns
     the matplotlib Figure."""
 
-    units, hist = result["units"], result["history"]
-    panels = [("A: bandwidth, compiled stepper [Hz]", result["bandwidth_hz"], "bandwidth", "viridis")]
-    if any(v is not None for row in result["torch_bandwidth_hz"] for v in row):
-        panels.append(("A': bandwidth, eager PyTorch [Hz]", result["torch_bandwidth_hz"], "torch_bandwidth",
+    units, hist = result.units, result.history
+    panels = [("A: bandwidth, compiled stepper [Hz]", result.bandwidth_hz, "bandwidth", "viridis")]
+    if any(v is not None for row in result.torch_bandwidth_hz for v in row):
+        panels.append(("A': bandwidth, eager PyTorch [Hz]", result.torch_bandwidth_hz, "torch_bandwidth",
                        "viridis"))
-    panels.append(("B: one-step RMS error [mm]", result["rmse_mm"], "rms_error", "magma_r"))
+    panels.append(("B: one-step RMS error [mm]", result.rmse_mm, "rms_error", "magma_r"))
     fig, axes = subplots(1, len(panels), figsize=(4.6 * len(panels), 3.2 + 0.35 * len(hist)), squeeze=False)
     for ax, (title, rows, key, cmap) in zip(axes[0], panels):
         t = np.array([[np.nan if v is None else v for v in row] for row in rows], dtype=float)
@@ -134,12 +253,12 @@ def fig14_figure(result: dict):
                     light = (t[a, b] < mid) == (cmap == "viridis")
                     ax.text(b, a, _short(t[a, b]), ha="center", va="center", fontsize=7,
                             color="white" if light else "black")
-        reg = result["regions"].get(key)
+        reg = result.regions.get(key)
         if reg is not None:
-            for u, h in reg["points"]:
+            for u, h in reg.points:
                 ax.add_patch(Rectangle((units.index(u) - 0.5, hist.index(h) - 0.5), 1, 1, fill=False,
                                        edgecolor="red", lw=2.0))
-            paper = reg["paper"]
+            paper = reg.paper
             for a, h in enumerate(hist):
                 for b, u in enumerate(units):
                     if paper["lstm_units"][0] <= u <= paper["lstm_units"][1] and \

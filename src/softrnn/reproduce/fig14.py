@@ -29,8 +29,10 @@ def fig14_step(out: Path, quick: bool, progress_factory: ProgressFactory | None 
     result = run_study(out / "data" / f"{FIG14['case']}.h5", config, folder, workers=2, progress=progress)
     figure = out / "figures" / "fig14.png"
     figure.parent.mkdir(parents=True, exist_ok=True)
-    figure.write_bytes(Path(result["figure"]).read_bytes())
+    figure.write_bytes(Path(result.figure).read_bytes())
     keep = ("units", "history", "bandwidth_hz", "torch_bandwidth_hz", "rmse_mm", "regions", "trends", "paper",
             "wall_seconds")
+    summary = result.to_dict()
+    kept = {k: summary[k] for k in keep}
     return save_step(step_file, {"case": FIG14["case"], "node": case.node_of_interest, "figure": "fig14.png",
-                                 "folder": str(folder.relative_to(out)), **{k: result[k] for k in keep}}, quick)
+                                 "folder": str(folder.relative_to(out)), **kept}, quick)

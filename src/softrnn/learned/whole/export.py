@@ -37,6 +37,7 @@ from ..export import DEFAULT_OPSET, check_opset, check_target, onnx_graph
 from .artifact import LoadedDynamic, encoding_to_dict
 from .encoding import lumping_matrix
 from .network import SCALE_KEYS, DynamicNet
+from .training import Scales
 
 FORMAT = "softrnn-dynamic-model-export"
 """Value of the ``format`` entry of the ONNX metadata and the sidecar."""
@@ -86,7 +87,7 @@ def step_net(model: LoadedDynamic) -> DynamicNet:
     if not isinstance(model, LoadedDynamic):
         raise bad("model", type(model).__name__, "a LoadedDynamic (softrnn.learned.whole.load_dynamic(folder))")
     w = model.weights
-    scales = {key: np.asarray(w[key]) for key in SCALE_KEYS.values()}
+    scales = Scales(**{key: np.asarray(w[key]) for key in SCALE_KEYS.values()})
     prescribed = np.asarray(w["prescribed"], dtype=bool) if "prescribed" in w else None
     net = DynamicNet(model.config, np.asarray(w["node_features"]), np.asarray(w["fixed"], dtype=bool), scales,
                      prescribed)

@@ -45,8 +45,8 @@ from .config import DynamicConfig, conv_channels, n_channels, path_columns
 
 SCALE_KEYS = {"state_scale": "sx", "velocity_scale": "sv", "load_scale": "su", "dv_scale": "sa"}
 """The scale buffers of ``DynamicNet`` and their keys in its ``state_dict``, in a model folder's
-weights.safetensors (docs/dynamic-model-format.md) and in ``training.scales``: the saved format keeps
-the short keys."""
+weights.safetensors (docs/dynamic-model-format.md) and the fields of ``training.Scales``: the saved
+format keeps the short keys."""
 
 
 def feedback_force(hist: torch.Tensor, feedback, k: int, width: int = 6) -> torch.Tensor:
@@ -82,10 +82,11 @@ class DynamicNet(nn.Module):
     deviations (``SCALE_KEYS``): ``state_scale``, ``velocity_scale``, ``dv_scale`` (6,) of the
     states, velocities and velocity changes, ``load_scale`` (L,) of the loads (L = 6, or m / 6 + m
     with actuation inputs: ``load_width``); with an envelope also ``env_lo``, ``env_hi``, ``env_inv``.
-    ``scales`` holds the four standard deviations under their saved keys (``training.scales``).
+    ``scales`` (a ``training.Scales``) holds the four standard deviations as fields named by their saved
+    keys (``training.scales``).
     """
 
-    def __init__(self, config: DynamicConfig, node_features, fixed, scales: dict, prescribed=None):
+    def __init__(self, config: DynamicConfig, node_features, fixed, scales, prescribed=None):
         super().__init__()
         self.config = config
         self.register_buffer("node_features", torch.as_tensor(node_features, dtype=torch.float32))
@@ -93,7 +94,7 @@ class DynamicNet(nn.Module):
         presc = torch.zeros_like(self.fixed) if prescribed is None else torch.as_tensor(prescribed, dtype=torch.bool)
         self.register_buffer("prescribed", presc, persistent=False)
         for name, key in SCALE_KEYS.items():
-            self.register_buffer(name, torch.as_tensor(scales[key], dtype=torch.float32))
+            self.register_buffer(name, torch.as_tensor(getattr(scales, key), dtype=torch.float32))
         M = int(self.node_features.shape[0])
         L = int(self.load_scale.numel())              # load channels: 6, or with actuation inputs m or 6 + m
         C = n_channels(config.history, L)

@@ -23,6 +23,7 @@ import re
 import time
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
+from typing import final
 
 import numpy as np
 import torch
@@ -64,7 +65,32 @@ class TrainedDynamic:
     info: dict = field(default_factory=dict)
 
 
-def scales(trajectories: list[Trajectory], wrench: bool = True) -> dict:
+@final
+@dataclass(frozen=True)
+class Scales:
+    """The training data's per-channel standard deviations that scale ``DynamicNet``'s inputs and
+    outputs (``scales``); the field names are the keys of the saved weights (``network.SCALE_KEYS``).
+    State channels: displacement [m] (0-2) and rotation vector [rad] (3-5) of ``Encoding``.
+
+    Attributes
+    ----------
+    sx : numpy.ndarray
+        (6,) of the states [m, rad].
+    sv : numpy.ndarray
+        (6,) of the velocities, the states' change over one model step [m, rad].
+    su : numpy.ndarray
+        (L,) of the loads' channels (wrench [N, N m] and / or actuation, in the data's units).
+    sa : numpy.ndarray
+        (6,) of the velocity changes over one model step [m, rad]; 0 for a channel that never moves.
+    """
+
+    sx: np.ndarray
+    sv: np.ndarray
+    su: np.ndarray
+    sa: np.ndarray
+
+
+def scales(trajectories: list[Trajectory], wrench: bool = True) -> Scales:
     """Per-channel standard deviations (6,) of states ``sx``, velocities ``sv``, loads ``su`` (L,) and
     velocity changes ``sa`` over ``trajectories``; the inputs' floored within each kind
     (``_group_floor``). An input channel that never varies gets 1; a
@@ -87,7 +113,7 @@ def scales(trajectories: list[Trajectory], wrench: bool = True) -> dict:
         res[key] = np.where(s > _FLOOR, s, 1.0)
     moving = out["sv"].std(axis=0) > _FLOOR
     res["sa"] = np.where(moving, res["sa"], 0.0)
-    return res
+    return Scales(**res)
 
 
 def _group_floor(s: np.ndarray) -> np.ndarray:
@@ -288,7 +314,30 @@ def _why(err) -> str:
     return text[:120] or f"{type(err).__name__}: it ends early"
 
 
-def read_checkpoint(path) -> dict:
+@final
+@dataclass(frozen=True)
+class TrainingCheckpoint:
+    """A whole-model training checkpoint as plain values (``read_checkpoint``).
+
+    Attributes
+    ----------
+    net : dict
+        The network's ``state_dict`` (name: tensor).
+    opt : dict
+        The optimiser's ``state_dict``.
+    gen : torch.Tensor
+        The random generator's state (``torch.Generator.get_state``).
+    loop : _Loop
+        The training loop's state: step, losses, linear fit, validation errors, best weights, average.
+    """
+
+    net: dict
+    opt: dict
+    gen: torch.Tensor
+    loop: _Loop
+
+
+def read_checkpoint(path) -> TrainingCheckpoint:
     """The training checkpoint at ``path`` as plain values, read without running any code of the file.
 
     Parameters
@@ -300,7 +349,7 @@ def read_checkpoint(path) -> dict:
 
     Returns
     -------
-    dict
+    TrainingCheckpoint
         ``net``, ``opt`` (state dicts), ``gen`` (the generator's state) and ``loop`` (``_Loop``).
 
     Raises
@@ -322,7 +371,7 @@ def read_checkpoint(path) -> dict:
     if not (known and isinstance(loop, _Loop) and all(isinstance(state.get(k), dict) for k in ("net", "opt"))
             and isinstance(state.get("gen"), torch.Tensor)):
         raise SoftrnnInputError(f"{path}: is not a softrnn whole-model training checkpoint; {_FIX}")
-    return {"net": state["net"], "opt": state["opt"], "gen": state["gen"], "loop": loop}
+    return TrainingCheckpoint(net=state["net"], opt=state["opt"], gen=state["gen"], loop=loop)
 
 
 def _restore_checkpoint(path: Path, net, opt, gen) -> _Loop:
@@ -342,13 +391,13 @@ def _restore_checkpoint(path: Path, net, opt, gen) -> _Loop:
     """
     state = read_checkpoint(path)
     try:
-        net.load_state_dict(state["net"])
-        opt.load_state_dict(state["opt"])
-        gen.set_state(state["gen"])
+        net.load_state_dict(state.net)
+        opt.load_state_dict(state.opt)
+        gen.set_state(state.gen)
     except (RuntimeError, ValueError, TypeError, KeyError, IndexError) as err:
         raise SoftrnnInputError(f"{path}: the training checkpoint does not fit this model "
                                 f"({' '.join(str(err).split())[:120]}); {_FIX}") from None
-    return state["loop"]
+    return state.loop
 
 
 def _save_checkpoint(path: Path, net, opt, gen, loop) -> None:
