@@ -46,6 +46,15 @@ def integer(name: str, value, low: int = 1) -> int:
     return int(value)
 
 
+def int_items(name: str, value, expected: str) -> tuple:
+    """``value`` as a tuple of items: one integer gives ``(value,)``, an iterable other than a
+    string its items (not checked here); a ``SoftrnnInputError`` (``expected``) for anything else."""
+    items = (value,) if is_int(value) else value
+    if isinstance(items, (str, bytes)) or not hasattr(items, "__iter__"):
+        raise bad(name, items, expected)
+    return tuple(items)
+
+
 def _in(unit: str) -> str:
     return f" in {unit}" if unit else ""
 

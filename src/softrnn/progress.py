@@ -31,3 +31,18 @@ class Progress(Protocol):
 
 ProgressFactory = Callable[[str], Progress]
 """``progress_factory(description) -> Progress``: a new callback for each part of a pipeline."""
+
+
+class Ticks:
+    """Counts finished units of work: each call ``ticks()`` adds one and reports
+    ``progress(done, total)`` (nothing where ``progress`` is None)."""
+
+    def __init__(self, progress: Progress | None, total: int):
+        self.progress = progress
+        self.total = total
+        self.done = 0
+
+    def __call__(self) -> None:
+        self.done += 1
+        if self.progress is not None:
+            self.progress(self.done, self.total)

@@ -11,6 +11,7 @@ import pytest
 from softrnn.errors import SoftrnnInputError
 from softrnn.lab.benchmark import BASELINES, FAMILIES, BenchmarkOptions, run_benchmark
 from softrnn.lab.families import (
+    NODE_TRAINING,
     LinearARXFamily,
     NetOptions,
     NodeOptions,
@@ -27,7 +28,7 @@ from softrnn.learned.metrics import tip_errors
 from helpers import tendon_recording
 
 FAST = dict(nets=NetOptions(members=1, steps=150, hidden=16), sequence=SequenceOptions(epochs=3, hidden=8),
-            node=NodeOptions(epochs=2, units=8, rollout_steps=2),
+            node=NodeOptions(units=8, training=dataclasses.replace(NODE_TRAINING, epochs=2, rollout_steps=2)),
             calibration=CalibrationOptions(quick_evaluations=25, evaluations=150))
 
 

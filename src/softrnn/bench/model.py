@@ -35,7 +35,7 @@ from ..learned.node.data import Normalizer, SampleSpec
 from ..learned.node.engine import ManipulatorStepper, NodeStepper
 from ..learned.node.manipulator import Manipulator
 from ..learned.node.model import ModelConfig, NodeLSTM
-from ..progress import Progress
+from ..progress import Progress, Ticks
 from ..timing import step_rate
 
 GOALS = {"node_step_hz_median": 200_000, "speedup_vs_eager_torch": 15, "manipulator_step_hz_median": 20_000}
@@ -206,13 +206,7 @@ def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, pro
     if all_threads > 1:
         manip_cases += [("compact", COMPACT, all_threads, True), ("default", None, all_threads, True)]
     total = len(items) + len(manip_cases)
-    done = 0
-
-    def tick():
-        nonlocal done
-        done += 1
-        if progress is not None:
-            progress(done, total)
+    tick = Ticks(progress, total)
 
     node = time_node_step(node_model, n_node)
     tick()

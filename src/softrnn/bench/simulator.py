@@ -27,7 +27,7 @@ from collections.abc import Callable
 
 import numba
 
-from ..progress import Progress
+from ..progress import Progress, Ticks
 from ..rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulator, simulate_batch, straight
 from ..scenarios.cases import build_case
 from ..timing import load_average, machine_info
@@ -288,13 +288,7 @@ def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict
     contact_settings = (3, 500_000, 1.0) if quick else (5, 2_000_000, 1.0)
     sizes = (50, 59, 101)
     n_items = len(sizes) + len(PAPER_CASES) + len(INTEGRATOR_CASES) + len(CONTACT_CASES) + 2
-    done = 0
-
-    def tick():
-        nonlocal done
-        done += 1
-        if progress is not None:
-            progress(done, n_items)
+    tick = Ticks(progress, n_items)
 
     if progress is not None:
         progress(0, n_items)

@@ -13,7 +13,7 @@ from ..errors import SimulationError, SoftrnnInputError, bad, require_extra
 from ..files import atomic_write_text, json_default, prepare_output
 from ..learned.spans import check_beyond_trained
 from ._progress import Bar, stop_code
-from ._vocabulary import deprecate, deprecate_converted, output
+from ._vocabulary import deprecate, deprecate_converted, output, settings
 
 NAME = "dynamic"
 HELP = ("the learned whole-manipulator model (beyond the paper): train it on data sets and sweeps, evaluate it "
@@ -56,6 +56,50 @@ def _as_options():
 
 
 # ------------------------------------------------------------------------------------------ train
+def _float_or_off(text: str):
+    """A number, or 'off' (the option switched off: None in the config)."""
+    if text.strip().lower() == "off":
+        return _OFF
+    return float(text)
+
+
+_float_or_off.__name__ = "number or 'off'"     # argparse names the type in its error
+_OFF = "off"
+
+
+_WINDOW = (
+    ("--train-fraction", float, "F", "train on the first F of every single-trajectory file (default: 0.6, the rest "
+                                     "is the test span; 1 with --validate-on)"),
+    ("--model-dt", float, "S", "the model's step [s], a whole multiple of the data's interval (default: 0.02)"),
+    ("--node-stride", int, "K", "predict every K-th node and both ends (default: about 20 segments)"),
+    ("--history", int, "H", "states read per step (default: 3)"),
+)
+"""``dynamic train``'s options of the data's spans and the model's window (``settings`` rows)."""
+
+_NETWORK = (
+    ("--width", int, "W", "channels of the convolution (default: 48)"),
+    ("--layers", int, "L", "hidden layers of the convolution (default: 3)"),
+    ("--steps", int, "N", "optimiser steps (default: 4000)"),
+    ("--unroll", int, "K", "free steps in the loss (default: 20)"),
+    ("--noise", float, "X", "input noise in units of the velocities' spread (default: 0.01)"),
+    ("--seed", int, "S", "random seed (default: 0)"),
+    ("--ema", float, "D", "decay of the running average of the weights validated beside them (default: 0.995; 0: off)"),
+    ("--envelope", _float_or_off, "M", "the network's correction acts within the training data's range of its inputs "
+                                       "and fades to zero M times that range beyond it; 'off': everywhere (default: "
+                                       "0.25)"),
+    ("--prior-tau", _float_or_off, "S", "the ridge fit of the linear term is shrunk toward a critically damped "
+                                        "relaxation with this time constant [s]; 'off': toward zero (default: 0.5)"),
+    ("--ridge", float, "R", "where the ladder of ridge penalties for the linear term's fit starts (relative to the "
+                            "mean feature variance; default: 1e-6); the linear baseline's ladder starts at 1e-6 "
+                            "regardless"),
+    ("--load-ridge", float, "R", "a separate ridge penalty on the load coefficients of the network's linear term "
+                                 "(default: the same as the rest)"),
+    ("--linear-lr", float, "F", "the linear term's learning rate as a fraction of the network's (default: 0.01; 0: "
+                                "frozen)"),
+)
+"""``dynamic train``'s options of the network and its optimiser, as ``_WINDOW``."""
+
+
 def _add_train(p):
     p.add_argument("data", nargs="+", metavar="DATA",
                    help="data set files (every node stored) or sweep folders (traj-NNNNN.h5 files)")
@@ -69,40 +113,10 @@ def _add_train(p):
                    help="separate validation recordings (other sessions of the same robot: files or sweep folders, "
                         "used whole) that choose among the training's checkpoints by free runs; every "
                         "single-trajectory DATA file is then trained on whole (no test span)")
-    p.add_argument("--train-fraction", type=float, default=None, metavar="F",
-                   help="train on the first F of every single-trajectory file (default: 0.6, the rest is the "
-                        "test span; 1 with --validate-on)")
-    p.add_argument("--model-dt", type=float, default=None, metavar="S",
-                   help="the model's step [s], a whole multiple of the data's interval (default: 0.02)")
-    p.add_argument("--node-stride", type=int, default=None, metavar="K",
-                   help="predict every K-th node and both ends (default: about 20 segments)")
-    p.add_argument("--history", type=int, default=None, metavar="H", help="states read per step (default: 3)")
+    settings(p, _WINDOW)
     p.add_argument("--memory", choices=("window", "lstm"), default=None,
                    help="the history window alone, or also an LSTM cell per node (default: window)")
-    p.add_argument("--width", type=int, default=None, metavar="W", help="channels of the convolution (default: 48)")
-    p.add_argument("--layers", type=int, default=None, metavar="L",
-                   help="hidden layers of the convolution (default: 3)")
-    p.add_argument("--steps", type=int, default=None, metavar="N", help="optimiser steps (default: 4000)")
-    p.add_argument("--unroll", type=int, default=None, metavar="K", help="free steps in the loss (default: 20)")
-    p.add_argument("--noise", type=float, default=None, metavar="X",
-                   help="input noise in units of the velocities' spread (default: 0.01)")
-    p.add_argument("--seed", type=int, default=None, metavar="S", help="random seed (default: 0)")
-    p.add_argument("--ema", type=float, default=None, metavar="D",
-                   help="decay of the running average of the weights validated beside them (default: 0.995; 0: off)")
-    p.add_argument("--envelope", type=_float_or_off, default=None, metavar="M",
-                   help="the network's correction acts within the training data's range of its inputs and fades "
-                        "to zero M times that range beyond it; 'off': everywhere (default: 0.25)")
-    p.add_argument("--prior-tau", type=_float_or_off, default=None, metavar="S",
-                   help="the ridge fit of the linear term is shrunk toward a critically damped relaxation with "
-                        "this time constant [s]; 'off': toward zero (default: 0.5)")
-    p.add_argument("--ridge", type=float, default=None, metavar="R",
-                   help="where the ladder of ridge penalties for the linear term's fit starts (relative to the mean "
-                        "feature variance; default: 1e-6); the linear baseline's ladder starts at 1e-6 regardless")
-    p.add_argument("--load-ridge", type=float, default=None, metavar="R",
-                   help="a separate ridge penalty on the load coefficients of the network's linear term "
-                        "(default: the same as the rest)")
-    p.add_argument("--linear-lr", type=float, default=None, metavar="F",
-                   help="the linear term's learning rate as a fraction of the network's (default: 0.01; 0: frozen)")
+    settings(p, _NETWORK)
     p.add_argument("--conv-reads", choices=("all", "displacements", "loads"), default=None,
                    help="what the convolution reads: the states and velocities (all, the default), their "
                         "displacements only, or everything including the loads")
@@ -139,17 +153,6 @@ class _StepBar(Bar):
         if self.bar is not None and info:
             self.bar.set_postfix_str(f"loss {info.get('loss', float('nan')):.3g} unroll {info.get('unroll')}",
                                      refresh=False)
-
-
-def _float_or_off(text: str):
-    """A number, or 'off' (the option switched off: None in the config)."""
-    if text.strip().lower() == "off":
-        return _OFF
-    return float(text)
-
-
-_float_or_off.__name__ = "number or 'off'"     # argparse names the type in its error
-_OFF = "off"
 
 
 def _config(args):

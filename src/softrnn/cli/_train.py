@@ -5,13 +5,28 @@ from pathlib import Path
 
 from ..errors import SoftrnnInputError, bad
 from ._progress import Bar, stop_code
-from ._vocabulary import output
+from ._vocabulary import output, settings
 
 NAME = "train"
 PREDICTS = ("increment", "acceleration", "pose")
 """What a node model can predict (--predict)."""
 
 HELP = "train a node's LSTM model (paper Fig. 2A/B) on a dataset and save it as a model folder"
+
+
+_TRAINING = (
+    ("--epochs", int, None, "most epochs (default: 30)"),
+    ("--batch-size", int, None, "windows per step (default: 256; the paper used 1, about 100x slower on a CPU)"),
+    ("--lr", float, None, "Adam's initial learning rate (default: 0.002, cosine decay)"),
+    ("--patience", int, None, "early-stopping patience in epochs (default: 8)"),
+    ("--units", int, None, "LSTM units per layer (default: 32)"),
+    ("--layers", int, None, "LSTM layers (default: 2)"),
+    ("--dense", None, "W,...", "dense widths after the LSTM (default: 32)"),
+    ("--rollout-steps", int, None, "steps of the multi-step loss, feeding the node's predictions back (default: 4; "
+                                   "1: plain one-step training, about 3x faster)"),
+)
+"""The training's and the network's options (``settings`` rows): none given, ``TrainConfig``'s and
+``ModelConfig``'s defaults."""
 
 
 def add_args(p):
@@ -49,17 +64,7 @@ def add_args(p):
                         "on the last part of DATA's first 60 %%")
     p.add_argument("--validate-group", default=None, metavar="G",
                    help="the trajectory's group inside a sweep file given as --validate-on")
-    p.add_argument("--epochs", type=int, default=None, help="most epochs (default: 30)")
-    p.add_argument("--batch-size", type=int, default=None,
-                   help="windows per step (default: 256; the paper used 1, about 100x slower on a CPU)")
-    p.add_argument("--lr", type=float, default=None, help="Adam's initial learning rate (default: 0.002, cosine decay)")
-    p.add_argument("--patience", type=int, default=None, help="early-stopping patience in epochs (default: 8)")
-    p.add_argument("--units", type=int, default=None, help="LSTM units per layer (default: 32)")
-    p.add_argument("--layers", type=int, default=None, help="LSTM layers (default: 2)")
-    p.add_argument("--dense", default=None, metavar="W,...", help="dense widths after the LSTM (default: 32)")
-    p.add_argument("--rollout-steps", type=int, default=None,
-                   help="steps of the multi-step loss, feeding the node's predictions back (default: 4; 1: plain "
-                        "one-step training, about 3x faster)")
+    settings(p, _TRAINING)
     p.add_argument("--pool", default=None, metavar="A..B|A,B,...",
                    help="beyond the paper: train one model shared by these nodes (their windows pooled; "
                         "e.g. 1..99 for every interior node); implies --relative")

@@ -286,3 +286,10 @@ class JsonOrSwitch(argparse.Action):
                  "--json PATH to write it to a file")
             values = STDOUT
         setattr(namespace, self.dest, values)
+
+
+def settings(parser, table) -> None:
+    """One option per row of ``table`` (flag, type, metavar, help; None: argparse's own), each with
+    the default None: the library's own default applies where the option is not given."""
+    for flag, kind, metavar, text in table:
+        parser.add_argument(flag, type=kind, default=None, metavar=metavar, help=text)

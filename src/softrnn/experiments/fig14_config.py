@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from ..errors import bad, integer, is_int
+from ..errors import bad, int_items, integer, is_int
 from ..learned.node.data import SampleSpec
 from ..learned.node.train import TrainConfig
 from ..resume import Settings
@@ -35,13 +35,10 @@ PAPER_FIG14 = {
 
 def _grid(name: str, value) -> tuple[int, ...]:
     """A non-empty sequence of distinct positive integers, sorted."""
-    if is_int(value):
-        value = (value,)
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
-        raise bad(name, value, "a non-empty list of distinct positive integers, e.g. 5,10,15")
-    out = tuple(value)
+    expected = "a non-empty list of distinct positive integers, e.g. 5,10,15"
+    out = int_items(name, value, expected)
     if not out or not all(is_int(a) and a >= 1 for a in out) or len(set(out)) != len(out):
-        raise bad(name, list(out), "a non-empty list of distinct positive integers, e.g. 5,10,15")
+        raise bad(name, list(out), expected)
     return tuple(sorted(int(a) for a in out))
 
 

@@ -113,12 +113,8 @@ class TipScore:
     tip_max_mm: float
     tip_rmse_pct_of_length: float
 
-    def to_dict(self) -> dict:
-        """The JSON entry."""
-        return asdict(self)
 
-
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RobotInfo:
     """The robot and sessions a benchmark ran on.
 
@@ -126,20 +122,20 @@ class RobotInfo:
     ----------
     length_m : float
         the robot's length [m]
+    segments_m, tendons_per_segment : tuple of float or None, int or None
+        the physics' segment lengths [m] and tendons per segment (None: no robot)
     lag : dict
         ``lag_rows``, ``estimated`` and, estimated, ``linear_fit_rmse_mm_by_lag`` (``settle_lag``)
     training_sessions, validation_session : tuple of dict, dict
         the sessions' ``Recording.describe()``
-    segments_m, tendons_per_segment : tuple of float or None, int or None
-        the physics' segment lengths [m] and tendons per segment (None: no robot)
     """
 
     length_m: float
+    segments_m: tuple | None = None
+    tendons_per_segment: int | None = None
     lag: dict
     training_sessions: tuple
     validation_session: dict
-    segments_m: tuple | None = None
-    tendons_per_segment: int | None = None
 
     def to_dict(self) -> dict:
         """The JSON's ``robot``."""
@@ -167,10 +163,6 @@ class Choice:
     family: str
     holdout_rmse_mm: dict
     holdout: str
-
-    def to_dict(self) -> dict:
-        """The JSON's ``chosen_on_training``."""
-        return asdict(self)
 
 
 @dataclass(frozen=True)
@@ -214,11 +206,11 @@ class BenchmarkResult:
         best_model, best_baseline = self._best(self.models), self._best(self.baselines)
         ratio = (self.models[best_model].tip_rmse_mm / self.baselines[best_baseline].tip_rmse_mm
                  if best_model and best_baseline else None)
-        return {"robot": self.robot.to_dict(), "models": {k: v.to_dict() for k, v in self.models.items()},
-                "baselines": {k: v.to_dict() for k, v in self.baselines.items()},
+        return {"robot": self.robot.to_dict(), "models": {k: asdict(v) for k, v in self.models.items()},
+                "baselines": {k: asdict(v) for k, v in self.baselines.items()},
                 "best_model": best_model, "best_baseline": best_baseline,
                 "ratio_best_model_to_best_baseline": ratio,
-                "chosen_on_training": {} if self.chosen_on_training is None else self.chosen_on_training.to_dict(),
+                "chosen_on_training": {} if self.chosen_on_training is None else asdict(self.chosen_on_training),
                 "skipped": self.skipped, "details": self.details, "seconds": round(self.seconds, 1)}
 
 

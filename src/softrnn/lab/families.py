@@ -47,6 +47,7 @@ from ..io.reader import Dataset
 from ..learned.baselines import Persistence, free_run
 from ..learned.linear import LinearARX
 from ..learned.metrics import tip_errors
+from ..learned.node.train_config import TrainConfig
 from .recording import Recording
 from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate
 
@@ -529,23 +530,29 @@ def as_dataset(sessions, length: float):
                    actuation_units={n: (u or "1") for n, u in zip(first.names, first.units)})
 
 
+NODE_TRAINING = TrainConfig(rollout_steps=8, epochs=60, patience=20)
+"""The lab's training of the node LSTM (those of the lab workflow guide): 8 steps of the multi-step
+loss, at most 60 epochs, 20 epochs' patience on the hold-out part; ``dataclasses.replace`` it to
+change one."""
+
+
 @dataclass(frozen=True)
 class NodeOptions:
-    """The node LSTM's settings (``NodeFamily``; those of the lab workflow guide), passed to
-    ``softrnn.learned.node`` (``SampleSpec``, ``TrainConfig``)."""
+    """The node LSTM's settings (``NodeFamily``; those of the lab workflow guide): its window and
+    size, and its training (``softrnn.learned.node``'s own ``TrainConfig``)."""
 
     history: int = 4
     """Past rows a prediction reads (the first rows of a session are the run's initial condition)."""
     units: int = 64
     """LSTM units."""
-    rollout_steps: int = 8
-    """Steps of the multi-step loss."""
-    epochs: int = 60
-    """Most epochs."""
-    patience: int = 20
-    """Epochs without improvement on the hold-out part before training stops."""
-    seed: int = 0
-    """Training seed."""
+    training: TrainConfig = NODE_TRAINING
+    """How it is trained (the multi-step loss, epochs, patience on the hold-out part, seed)."""
+
+    def describe(self) -> dict:
+        """The options, JSON-ready: the window, the size and the training settings the lab sets."""
+        t = self.training
+        return {"history": self.history, "units": self.units, "rollout_steps": t.rollout_steps,
+                "epochs": t.epochs, "patience": t.patience, "seed": t.seed}
 
 
 @dataclass(frozen=True, eq=False)
@@ -563,15 +570,14 @@ class NodeFamily:
     def fit(self, sessions) -> NodeFamily:
         """The model trained on training sessions (a list of ``Recording``)."""
         from ..learned.node.data import SampleSpec  # optional extra: learn (PyTorch)
-        from ..learned.node.train import TrainConfig, train_node_model  # optional extra: learn (PyTorch)
+        from ..learned.node.train import train_node_model  # optional extra: learn (PyTorch)
 
         o = self.options
         fit_part, held = holdout_split(sessions)
         spec = SampleSpec(node=1, neighbours=(), history=o.history, inputs="positions", wrench="none",
                           drive="actuation")
-        config = TrainConfig(epochs=o.epochs, patience=o.patience, seed=o.seed, rollout_steps=o.rollout_steps)
         with tempfile.TemporaryDirectory() as folder:
-            model = train_node_model(as_dataset(fit_part, self.length), spec, {"lstm_units": o.units}, config,
+            model = train_node_model(as_dataset(fit_part, self.length), spec, {"lstm_units": o.units}, o.training,
                                      folder, validation=as_dataset(held, self.length))
         return replace(self, model=model)
 
@@ -587,4 +593,4 @@ class NodeFamily:
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
         return {"kind": "per-node LSTM driven by the inputs alone (softrnn train --drive actuation)",
-                **{k: v for k, v in vars(self.options).items()}}
+                **self.options.describe()}

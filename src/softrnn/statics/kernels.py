@@ -91,18 +91,52 @@ def _rotation(y, R):
 
 
 @njit(**_INLINE)
+def _body_wrench(y, R):
+    """R[3, 3] <- the rotation of the state y[13]; returns its body-frame stress resultants
+    R^T n, R^T m (nb0, nb1, nb2, mb0, mb1, mb2) [N, N m]."""
+    _rotation(y, R)
+    nx, ny, nz = y[7], y[8], y[9]
+    mx, my, mz = y[10], y[11], y[12]
+    nb0 = R[0, 0] * nx + R[1, 0] * ny + R[2, 0] * nz
+    nb1 = R[0, 1] * nx + R[1, 1] * ny + R[2, 1] * nz
+    nb2 = R[0, 2] * nx + R[1, 2] * ny + R[2, 2] * nz
+    mb0 = R[0, 0] * mx + R[1, 0] * my + R[2, 0] * mz
+    mb1 = R[0, 1] * mx + R[1, 1] * my + R[2, 1] * mz
+    mb2 = R[0, 2] * mx + R[1, 2] * my + R[2, 2] * mz
+    return nb0, nb1, nb2, mb0, mb1, mb2
+
+
+@njit(**_INLINE)
+def _strains(kinv, k, n0, n1, n2, m0, m1, m2):
+    """The strains (u0, u1, u2, v0, v1, v2) of the section on step k under the body-frame wrench
+    (n, m): u = Kb^-1 m, v = Ks^-1 n + e3."""
+    return (kinv[k, 0] * m0, kinv[k, 1] * m1, kinv[k, 2] * m2,
+            kinv[k, 3] * n0, kinv[k, 4] * n1, kinv[k, 5] * n2 + 1.0)
+
+
+@njit(**_INLINE)
+def _tendon_path(geom, j, s, u0, u1, u2, v0, v1, v2):
+    """Tendon j at arc length s [m]: its offset rho = (o0, o1, 0) [m] and t = v + u x rho + rho'
+    (t0, t1, t2), the rate of its path (unnormalised tangent), for the strains (u, v)."""
+    c = math.cos(geom[j, 2] * s)
+    sn = math.sin(geom[j, 2] * s)
+    o0 = c * geom[j, 0] - sn * geom[j, 1]
+    o1 = sn * geom[j, 0] + c * geom[j, 1]
+    # rho' = rate e3 x rho
+    t0 = v0 - u2 * o1 - geom[j, 2] * o1
+    t1 = v1 + u2 * o0 + geom[j, 2] * o0
+    t2 = v2 + u0 * o1 - u1 * o0
+    return o0, o1, t0, t1, t2
+
+
+@njit(**_INLINE)
 def _tendon_strains(kinv, k, nb0, nb1, nb2, mb0, mb1, mb2, s, tendons, scale):
     """The strains (u, v) of the section at arc length s on step k whose total body-frame wrench is
     (nb, mb), with the active stress of the tendons routed through it: the fixed point of
     v = Ks^-1 (nb - sum tau t) + e3, u = Kb^-1 (mb - sum tau rho x t), t the unit vector of
     v + u x rho + rho' (a contraction with the ratio ~ tau |rho|^2 / EI, converged to round-off)."""
     tension, geom, end = tendons
-    u0 = kinv[k, 0] * mb0
-    u1 = kinv[k, 1] * mb1
-    u2 = kinv[k, 2] * mb2
-    v0 = kinv[k, 3] * nb0
-    v1 = kinv[k, 4] * nb1
-    v2 = kinv[k, 5] * nb2 + 1.0
+    u0, u1, u2, v0, v1, v2 = _strains(kinv, k, nb0, nb1, nb2, mb0, mb1, mb2)
     for _ in range(_TENDON_MAX_ITER):
         n0, n1, n2, m0, m1, m2 = nb0, nb1, nb2, mb0, mb1, mb2
         size = 0.0
@@ -110,15 +144,8 @@ def _tendon_strains(kinv, k, nb0, nb1, nb2, mb0, mb1, mb2, s, tendons, scale):
             tau = scale * tension[j]
             if k >= end[j] or not tau > 0.0:
                 continue
-            c = math.cos(geom[j, 2] * s)
-            sn = math.sin(geom[j, 2] * s)
-            o0 = c * geom[j, 0] - sn * geom[j, 1]
-            o1 = sn * geom[j, 0] + c * geom[j, 1]
+            o0, o1, t0, t1, t2 = _tendon_path(geom, j, s, u0, u1, u2, v0, v1, v2)
             size = max(size, abs(o0) + abs(o1))
-            # t ~ v + u x rho + rho', rho = (o0, o1, 0), rho' = rate e3 x rho
-            t0 = v0 - u2 * o1 - geom[j, 2] * o1
-            t1 = v1 + u2 * o0 + geom[j, 2] * o0
-            t2 = v2 + u0 * o1 - u1 * o0
             f = tau / math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
             n0 -= f * t0
             n1 -= f * t1
@@ -126,12 +153,7 @@ def _tendon_strains(kinv, k, nb0, nb1, nb2, mb0, mb1, mb2, s, tendons, scale):
             m0 -= f * o1 * t2
             m1 += f * o0 * t2
             m2 -= f * (o0 * t1 - o1 * t0)
-        w0 = kinv[k, 0] * m0
-        w1 = kinv[k, 1] * m1
-        w2 = kinv[k, 2] * m2
-        z0 = kinv[k, 3] * n0
-        z1 = kinv[k, 4] * n1
-        z2 = kinv[k, 5] * n2 + 1.0
+        w0, w1, w2, z0, z1, z2 = _strains(kinv, k, n0, n1, n2, m0, m1, m2)
         change = (abs(z0 - v0) + abs(z1 - v1) + abs(z2 - v2)
                   + size * (abs(w0 - u0) + abs(w1 - u1) + abs(w2 - u2)))
         u0, u1, u2, v0, v1, v2 = w0, w1, w2, z0, z1, z2
@@ -146,26 +168,13 @@ def _derivative(y, kinv, k, fx, fy, fz, s, tendons, scale, R, dy):
     (fx, fy, fz) [N/m] and the tendons (tension (m,) [N] times ``scale``, geometry (m, 3):
     offset [m] and twist rate [rad/m], termination step (m,)) at the arc length s [m]; R[3, 3] is
     scratch."""
-    _rotation(y, R)
+    nb0, nb1, nb2, mb0, mb1, mb2 = _body_wrench(y, R)
     nx, ny, nz = y[7], y[8], y[9]
-    mx, my, mz = y[10], y[11], y[12]
-    # body-frame stress resultants R^T n, R^T m
-    nb0 = R[0, 0] * nx + R[1, 0] * ny + R[2, 0] * nz
-    nb1 = R[0, 1] * nx + R[1, 1] * ny + R[2, 1] * nz
-    nb2 = R[0, 2] * nx + R[1, 2] * ny + R[2, 2] * nz
-    mb0 = R[0, 0] * mx + R[1, 0] * my + R[2, 0] * mz
-    mb1 = R[0, 1] * mx + R[1, 1] * my + R[2, 1] * mz
-    mb2 = R[0, 2] * mx + R[1, 2] * my + R[2, 2] * mz
     _, _, tendon_end = tendons
     if len(tendon_end) > 0:
         u0, u1, u2, v0, v1, v2 = _tendon_strains(kinv, k, nb0, nb1, nb2, mb0, mb1, mb2, s, tendons, scale)
     else:
-        u0 = kinv[k, 0] * mb0
-        u1 = kinv[k, 1] * mb1
-        u2 = kinv[k, 2] * mb2
-        v0 = kinv[k, 3] * nb0
-        v1 = kinv[k, 4] * nb1
-        v2 = kinv[k, 5] * nb2 + 1.0
+        u0, u1, u2, v0, v1, v2 = _strains(kinv, k, nb0, nb1, nb2, mb0, mb1, mb2)
     px = R[0, 0] * v0 + R[0, 1] * v1 + R[0, 2] * v2
     py = R[1, 0] * v0 + R[1, 1] * v1 + R[1, 2] * v2
     pz = R[2, 0] * v0 + R[2, 1] * v1 + R[2, 2] * v2
@@ -214,70 +223,99 @@ def _apply_jumps(y, a, jumps, scale, mag_node, mu, B, G, R):
         y[12] -= wx * by - wy * bx
 
 
-@njit(**_HELPER)
-def _integrate(xi, base, grid, mags, loads, Y, work, R, r):
-    """Integrate from the base wrench xi[6] to the tip; Y[N + 1, 13] <- the states at the grid
-    points (before their point loads; Y[0, 7:13] = xi), r[6] <- the tip residual (after the tip's
-    point loads). ``work`` (5, 13) is scratch. Returns False when a value is not finite."""
-    h, kinv, weight, jumps = grid
-    mag_node, mu, B, G = mags
-    gravity, distributed, scale, tendons = loads
-    y = work[0]
-    yt = work[1]
-    k1 = work[2]
-    k2 = work[3]
-    k3 = work[4]
-    for i in range(3):
-        y[i] = base[i]
-    for i in range(4):
-        y[3 + i] = base[3 + i]
-    for i in range(6):
-        y[7 + i] = xi[i]
-    n_steps = len(h)
-    sk = 0.0
-    for k in range(n_steps):
-        for i in range(13):
-            Y[k, i] = y[i]
-        _apply_jumps(y, k, jumps, scale, mag_node, mu, B, G, R)
-        hk = h[k]
-        fx = scale * (weight[k] * gravity[0] + distributed[0])
-        fy = scale * (weight[k] * gravity[1] + distributed[1])
-        fz = scale * (weight[k] * gravity[2] + distributed[2])
-        _derivative(y, kinv, k, fx, fy, fz, sk, tendons, scale, R, k1)
-        for i in range(13):
-            yt[i] = y[i] + 0.5 * hk * k1[i]
-        _derivative(yt, kinv, k, fx, fy, fz, sk + 0.5 * hk, tendons, scale, R, k2)
-        for i in range(13):
-            yt[i] = y[i] + 0.5 * hk * k2[i]
-        _derivative(yt, kinv, k, fx, fy, fz, sk + 0.5 * hk, tendons, scale, R, k3)
-        for i in range(13):
-            yt[i] = y[i] + hk * k3[i]
-            k1[i] += 2.0 * (k2[i] + k3[i])
-        _derivative(yt, kinv, k, fx, fy, fz, sk + hk, tendons, scale, R, k2)
-        for i in range(13):
-            y[i] += hk / 6.0 * (k1[i] + k2[i])
-        sk += hk
-        qn = 1.0 / math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
-        for i in range(3, 7):
-            y[i] *= qn
-    for i in range(13):
-        Y[n_steps, i] = y[i]
-    _apply_jumps(y, n_steps, jumps, scale, mag_node, mu, B, G, R)
-    finite = True
-    for i in range(6):
-        r[i] = y[7 + i]
-        if not math.isfinite(r[i]):
-            finite = False
-    return finite
+def _integrator(lengths_too: bool, options: dict):
+    """``integrate(xi, base, grid, mags, loads, Y, work, R, r, lengths, rates)``, compiled with
+    ``options``: RK4 from the base wrench xi[6] to the tip, r[6] <- the tip residual (after the tip's
+    point loads) and Y[N + 1, 13] <- the grid points' states (before their point loads), or, when
+    ``lengths_too`` (a constant of the code), lengths (m,) <- the tendons' path lengths [m] (extra
+    RK4 states). ``work`` (5, 13), ``rates`` (4, m): scratch. False when a value is not finite."""
+
+    @njit(**options)
+    def integrate(xi, base, grid, mags, loads, Y, work, R, r, lengths, rates):
+        h, kinv, weight, jumps = grid
+        mag_node, mu, B, G = mags
+        gravity, distributed, scale, tendons = loads
+        y, yt, k1, k2, k3 = work[0], work[1], work[2], work[3], work[4]
+        for i in range(3):
+            y[i] = base[i]
+        for i in range(4):
+            y[3 + i] = base[3 + i]
+        for i in range(6):
+            y[7 + i] = xi[i]
+        if lengths_too:
+            for j in range(len(lengths)):
+                lengths[j] = 0.0
+        n_steps = len(h)
+        sk = 0.0
+        for k in range(n_steps):
+            if not lengths_too:
+                for i in range(13):
+                    Y[k, i] = y[i]
+            _apply_jumps(y, k, jumps, scale, mag_node, mu, B, G, R)
+            hk = h[k]
+            fx = scale * (weight[k] * gravity[0] + distributed[0])
+            fy = scale * (weight[k] * gravity[1] + distributed[1])
+            fz = scale * (weight[k] * gravity[2] + distributed[2])
+            if lengths_too:
+                _tendon_rates(y, kinv, k, sk, tendons, scale, R, rates[0])
+            _derivative(y, kinv, k, fx, fy, fz, sk, tendons, scale, R, k1)
+            for i in range(13):
+                yt[i] = y[i] + 0.5 * hk * k1[i]
+            if lengths_too:
+                _tendon_rates(yt, kinv, k, sk + 0.5 * hk, tendons, scale, R, rates[1])
+            _derivative(yt, kinv, k, fx, fy, fz, sk + 0.5 * hk, tendons, scale, R, k2)
+            for i in range(13):
+                yt[i] = y[i] + 0.5 * hk * k2[i]
+            if lengths_too:
+                _tendon_rates(yt, kinv, k, sk + 0.5 * hk, tendons, scale, R, rates[2])
+            _derivative(yt, kinv, k, fx, fy, fz, sk + 0.5 * hk, tendons, scale, R, k3)
+            for i in range(13):
+                yt[i] = y[i] + hk * k3[i]
+                k1[i] += 2.0 * (k2[i] + k3[i])
+            if lengths_too:
+                _tendon_rates(yt, kinv, k, sk + hk, tendons, scale, R, rates[3])
+            _derivative(yt, kinv, k, fx, fy, fz, sk + hk, tendons, scale, R, k2)
+            for i in range(13):
+                y[i] += hk / 6.0 * (k1[i] + k2[i])
+            if lengths_too:
+                for j in range(len(lengths)):
+                    lengths[j] += hk / 6.0 * (rates[0, j] + 2.0 * (rates[1, j] + rates[2, j]) + rates[3, j])
+            sk += hk
+            qn = 1.0 / math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
+            for i in range(3, 7):
+                y[i] *= qn
+        if not lengths_too:
+            for i in range(13):
+                Y[n_steps, i] = y[i]
+        _apply_jumps(y, n_steps, jumps, scale, mag_node, mu, B, G, R)
+        finite = True
+        for i in range(6):
+            r[i] = y[7 + i]
+            if not math.isfinite(r[i]):
+                finite = False
+        if lengths_too:
+            for j in range(len(lengths)):
+                if not math.isfinite(lengths[j]):
+                    finite = False
+        return finite
+
+    return integrate
+
+
+_integrate = _integrator(False, _HELPER)
+"""``shoot``'s integration: the grid states, contracted multiply-adds (``_HELPER``)."""
+_integrate_lengths = _integrator(True, dict(_HELPER, fastmath=False))
+"""``tendon_lengths``' integration: the tendons' path lengths, without contraction (its arithmetic
+as it always was)."""
 
 
 @njit(**_HELPER)
-def _scaled_residual(x, sc, base, grid, mags, loads, Y, work, R, xi, r, rs):
+def _scaled_residual(x, sc, base, grid, mags, loads, Y, work, R, xi, r, rs, lengths, rates):
     """rs[6] <- scaled tip residual at scaled unknowns x[6] (xi = x * sc); returns the unscaled
     residual norm, or inf when not finite."""
     for i in range(6):
         xi[i] = x[i] * sc[i]
-    if not _integrate(xi, base, grid, mags, loads, Y, work, R, r):
+    if not _integrate(xi, base, grid, mags, loads, Y, work, R, r, lengths, rates):
         return math.inf
     norm2 = 0.0
     for i in range(6):
@@ -287,19 +325,21 @@ def _scaled_residual(x, sc, base, grid, mags, loads, Y, work, R, xi, r, rs):
 
 
 @njit(**_HELPER)
-def _jacobian(x, rs, sc, base, grid, mags, loads, Y, work, R, xi, r, xt, rt, J):
-    """J[6, 6] <- forward-difference Jacobian of the scaled residual at x (rs = residual at x);
-    returns False when a perturbed integration is not finite."""
+def _jacobian(x, rs, sc, base, grid, mags, loads, Y, work, R, xi, r, xt, rt, J, lengths, rates, info):
+    """J[6, 6] <- forward-difference Jacobian of the scaled residual at x (rs = residual at x),
+    counted in ``info`` (``shoot``'s); returns False when a perturbed integration is not finite."""
     for j in range(6):
         for i in range(6):
             xt[i] = x[i]
         step = _FD_STEP * max(1.0, abs(x[j]))
         xt[j] = x[j] + step
         step = xt[j] - x[j]  # the representable step
-        if not math.isfinite(_scaled_residual(xt, sc, base, grid, mags, loads, Y, work, R, xi, r, rt)):
+        if not math.isfinite(_scaled_residual(xt, sc, base, grid, mags, loads, Y, work, R, xi, r, rt, lengths, rates)):
             return False
         for i in range(6):
             J[i, j] = (rt[i] - rs[i]) / step
+    info[INFO_INTEGRATIONS] += 6.0
+    info[INFO_JACOBIANS] += 1.0
     return True
 
 
@@ -372,11 +412,13 @@ def shoot(xi, sc, J, have_jacobian, tol, max_iter, base, grid, mags, loads, Y, i
     g = np.empty(6)
     A = np.empty((6, 6))
     Yt = np.empty_like(Y)
+    no_lengths = np.empty(0)  # no tendon path lengths carried
+    no_rates = np.empty((4, 0))
     for i in range(6):
         x[i] = xi[i] / sc[i]
     info[INFO_ITERATIONS] = 0.0
     info[INFO_JACOBIANS] = 0.0
-    norm = _scaled_residual(x, sc, base, grid, mags, loads, Y, work, R, xi_t, r, rs)
+    norm = _scaled_residual(x, sc, base, grid, mags, loads, Y, work, R, xi_t, r, rs, no_lengths, no_rates)
     info[INFO_INTEGRATIONS] = 1.0
     info[INFO_RESIDUAL] = norm
     if not math.isfinite(norm):
@@ -385,10 +427,9 @@ def shoot(xi, sc, J, have_jacobian, tol, max_iter, base, grid, mags, loads, Y, i
         return CONVERGED
     fresh = False
     if not have_jacobian:
-        if not _jacobian(x, rs, sc, base, grid, mags, loads, Yt, work, R, xi_t, r, xt, rt, J):
+        if not _jacobian(x, rs, sc, base, grid, mags, loads, Yt, work, R, xi_t, r, xt, rt, J, no_lengths, no_rates,
+                         info):
             return NOT_FINITE
-        info[INFO_INTEGRATIONS] += 6.0
-        info[INFO_JACOBIANS] += 1.0
         fresh = True
     cost = 0.0
     for i in range(6):
@@ -403,7 +444,7 @@ def shoot(xi, sc, J, have_jacobian, tol, max_iter, base, grid, mags, loads, Y, i
             return SINGULAR
         for i in range(6):
             xt[i] = x[i] + d[i]
-        norm_t = _scaled_residual(xt, sc, base, grid, mags, loads, Yt, work, R, xi_t, r, rt)
+        norm_t = _scaled_residual(xt, sc, base, grid, mags, loads, Yt, work, R, xi_t, r, rt, no_lengths, no_rates)
         info[INFO_INTEGRATIONS] += 1.0
         cost_t = math.inf
         predicted = 0.0
@@ -449,10 +490,9 @@ def shoot(xi, sc, J, have_jacobian, tol, max_iter, base, grid, mags, loads, Y, i
             nu = 2.0
         elif not fresh:
             # a step with an updated (Broyden) Jacobian failed: recompute it here by differences
-            if not _jacobian(x, rs, sc, base, grid, mags, loads, Yt, work, R, xi_t, r, xt, rt, J):
+            if not _jacobian(x, rs, sc, base, grid, mags, loads, Yt, work, R, xi_t, r, xt, rt, J, no_lengths, no_rates,
+                             info):
                 return NOT_FINITE
-            info[INFO_INTEGRATIONS] += 6.0
-            info[INFO_JACOBIANS] += 1.0
             fresh = True
         else:
             lam *= nu
@@ -470,93 +510,23 @@ def _tendon_rates(y, kinv, k, s, tendons, scale, R, rates):
     the state y[13] on step k at arc length s, for the tendons routed through the step (0 for the
     others); the strains as in ``_derivative``. R[3, 3] is scratch."""
     tension, geom, end = tendons
-    _rotation(y, R)
-    nx, ny, nz = y[7], y[8], y[9]
-    mx, my, mz = y[10], y[11], y[12]
-    nb0 = R[0, 0] * nx + R[1, 0] * ny + R[2, 0] * nz
-    nb1 = R[0, 1] * nx + R[1, 1] * ny + R[2, 1] * nz
-    nb2 = R[0, 2] * nx + R[1, 2] * ny + R[2, 2] * nz
-    mb0 = R[0, 0] * mx + R[1, 0] * my + R[2, 0] * mz
-    mb1 = R[0, 1] * mx + R[1, 1] * my + R[2, 1] * mz
-    mb2 = R[0, 2] * mx + R[1, 2] * my + R[2, 2] * mz
+    nb0, nb1, nb2, mb0, mb1, mb2 = _body_wrench(y, R)
     u0, u1, u2, v0, v1, v2 = _tendon_strains(kinv, k, nb0, nb1, nb2, mb0, mb1, mb2, s, tendons, scale)
     for j in range(len(end)):
         rates[j] = 0.0
         if k >= end[j]:
             continue
-        c = math.cos(geom[j, 2] * s)
-        sn = math.sin(geom[j, 2] * s)
-        o0 = c * geom[j, 0] - sn * geom[j, 1]
-        o1 = sn * geom[j, 0] + c * geom[j, 1]
-        t0 = v0 - u2 * o1 - geom[j, 2] * o1
-        t1 = v1 + u2 * o0 + geom[j, 2] * o0
-        t2 = v2 + u0 * o1 - u1 * o0
+        _, _, t0, t1, t2 = _tendon_path(geom, j, s, u0, u1, u2, v0, v1, v2)
         rates[j] = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
 
 
 @njit(cache=True, error_model="numpy", no_rewrites=True)
 def tendon_lengths(xi, base, grid, mags, loads, r, lengths):
-    """Integrate from the base wrench xi[6] as ``_integrate`` does, with the path length of every
+    """Integrate from the base wrench xi[6] as ``shoot`` does, with the path length of every
     tendon (the integral of |v + u x rho + rho'| ds up to its termination) as extra RK4 states:
     r[6] <- the tip residual, lengths (m,) <- the tendons' lengths [m]. Returns False when a value
     is not finite."""
-    h, kinv, weight, jumps = grid
-    mag_node, mu, B, G = mags
-    gravity, distributed, scale, tendons = loads
-    m = len(lengths)
     work = np.empty((5, 13))
-    rates = np.empty((4, m))
+    rates = np.empty((4, len(lengths)))
     R = np.empty((3, 3))
-    y = work[0]
-    yt = work[1]
-    k1 = work[2]
-    k2 = work[3]
-    k3 = work[4]
-    for i in range(3):
-        y[i] = base[i]
-    for i in range(4):
-        y[3 + i] = base[3 + i]
-    for i in range(6):
-        y[7 + i] = xi[i]
-    for j in range(m):
-        lengths[j] = 0.0
-    sk = 0.0
-    for k in range(len(h)):
-        _apply_jumps(y, k, jumps, scale, mag_node, mu, B, G, R)
-        hk = h[k]
-        fx = scale * (weight[k] * gravity[0] + distributed[0])
-        fy = scale * (weight[k] * gravity[1] + distributed[1])
-        fz = scale * (weight[k] * gravity[2] + distributed[2])
-        _tendon_rates(y, kinv, k, sk, tendons, scale, R, rates[0])
-        _derivative(y, kinv, k, fx, fy, fz, sk, tendons, scale, R, k1)
-        for i in range(13):
-            yt[i] = y[i] + 0.5 * hk * k1[i]
-        _tendon_rates(yt, kinv, k, sk + 0.5 * hk, tendons, scale, R, rates[1])
-        _derivative(yt, kinv, k, fx, fy, fz, sk + 0.5 * hk, tendons, scale, R, k2)
-        for i in range(13):
-            yt[i] = y[i] + 0.5 * hk * k2[i]
-        _tendon_rates(yt, kinv, k, sk + 0.5 * hk, tendons, scale, R, rates[2])
-        _derivative(yt, kinv, k, fx, fy, fz, sk + 0.5 * hk, tendons, scale, R, k3)
-        for i in range(13):
-            yt[i] = y[i] + hk * k3[i]
-            k1[i] += 2.0 * (k2[i] + k3[i])
-        _tendon_rates(yt, kinv, k, sk + hk, tendons, scale, R, rates[3])
-        _derivative(yt, kinv, k, fx, fy, fz, sk + hk, tendons, scale, R, k2)
-        for i in range(13):
-            y[i] += hk / 6.0 * (k1[i] + k2[i])
-        for j in range(m):
-            lengths[j] += hk / 6.0 * (rates[0, j] + 2.0 * (rates[1, j] + rates[2, j]) + rates[3, j])
-        sk += hk
-        qn = 1.0 / math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
-        for i in range(3, 7):
-            y[i] *= qn
-    _apply_jumps(y, len(h), jumps, scale, mag_node, mu, B, G, R)
-    finite = True
-    for i in range(6):
-        r[i] = y[7 + i]
-        if not math.isfinite(r[i]):
-            finite = False
-    for j in range(m):
-        if not math.isfinite(lengths[j]):
-            finite = False
-    return finite
+    return _integrate_lengths(xi, base, grid, mags, loads, np.empty((0, 13)), work, R, r, lengths, rates)

@@ -2,7 +2,7 @@
 
 * ``data``: ``SampleSpec``, ``make_windows``, ``split``, ``Normalizer`` (NumPy only);
 * ``model``: ``ModelConfig``, ``NodeLSTM`` (PyTorch);
-* ``train``: ``TrainConfig``, ``train_node_model``;
+* ``train_config``: ``TrainConfig`` (NumPy only); ``train``: ``train_node_model``;
 * ``artifact``: ``NodeModel``, ``save_model``, ``load_model``.
 
 Names are imported lazily, so ``softrnn.learned.node.data`` does not import PyTorch.
@@ -14,7 +14,7 @@ _EXPORTS = {
     "SampleSpec": "data", "Windows": "data", "make_windows": "data", "split": "data", "Normalizer": "data",
     "pose_rows": "data", "wrench_rows": "data",
     "ModelConfig": "model", "NodeLSTM": "model",
-    "TrainConfig": "train", "train_node_model": "train",
+    "TrainConfig": "train_config", "train_node_model": "train",
     "NodeModel": "artifact", "save_model": "artifact", "load_model": "artifact", "ModelFolderError": "artifact",
 }
 

@@ -309,6 +309,44 @@ def gather_window(pos, quat, rows, cols, per, xw):
                     xw[j, a * per + 3 + c] = quat[k, col, c]
 
 
+@njit(cache=True, inline="always")
+def _window_rows(k, H):
+    """The rows k-H .. k-1 (H,) int64 a prediction of row k reads."""
+    rows = np.empty(H, np.int64)
+    for j in range(H):
+        rows[j] = k - H + j
+    return rows
+
+
+@njit(cache=True, inline="always")
+def _gather_node(pos, quat, wrench, rows, cols, b, per, xw, ww):
+    """Node b's windows: xw (H, P) as ``gather_window``, ww (H, W) <- its wrench rows ``rows`` of
+    ``wrench`` (T, B, W)."""
+    gather_window(pos, quat, rows, cols, per, xw)
+    for j in range(rows.shape[0]):
+        for c in range(ww.shape[1]):
+            ww[j, c] = wrench[rows[j], b, c]
+
+
+@njit(cache=True, inline="always")
+def _first_beyond(pred, n, limit):
+    """(1, b) for the first of the n nodes b whose prediction pred (n, 3) is not finite or beyond
+    ``limit`` [m]; (0, -1) when none is."""
+    for b in range(n):
+        for q in range(3):
+            if not (abs(pred[b, q]) <= limit):
+                return 1, b
+    return 0, -1
+
+
+@njit(cache=True, inline="always")
+def _write_row(pos, k, tgt_cols, pred):
+    """Row k of pos (T, N, 3) float32 <- the predictions pred (B, 3) at columns ``tgt_cols``."""
+    for b in range(tgt_cols.shape[0]):
+        for q in range(3):
+            pos[k, tgt_cols[b], q] = np.float32(pred[b, q])
+
+
 @njit(cache=True)
 def rollout_steps(params, norm, arch, layers, which, in_cols, tgt_cols, pos, quat, wrench, k0, k1, limit, pred, wk,
                   eb):
@@ -323,9 +361,7 @@ def rollout_steps(params, norm, arch, layers, which, in_cols, tgt_cols, pos, qua
         status, b = predict_row(params, norm, arch, layers, which, in_cols, pos, quat, wrench, k, limit, pred, wk, eb)
         if status != 0:
             return status, b, k
-        for b in range(which.shape[0]):
-            for q in range(3):
-                pos[k, tgt_cols[b], q] = np.float32(pred[b, q])
+        _write_row(pos, k, tgt_cols, pred)
     return 0, -1, k1
 
 
@@ -372,15 +408,10 @@ def predict_row(params, norm, arch, layers, which, in_cols, pos, quat, wrench, k
     ebf = eb.view(np.float32)
     xw = np.empty((H, P), np.float32)
     ww = np.empty((H, W), np.float32)
-    rows = np.empty(H, np.int64)
+    rows = _window_rows(k, H)
     o3 = np.empty(3)
-    for j in range(H):
-        rows[j] = k - H + j
     for b in range(which.shape[0]):
-        gather_window(pos, quat, rows, in_cols[b], per, xw)
-        for j in range(H):
-            for c in range(W):
-                ww[j, c] = wrench[rows[j], b, c]
+        _gather_node(pos, quat, wrench, rows, in_cols[b], b, per, xw, ww)
         forward(params[which[b]], norm[which[b]], arch, layers, xw, ww, wk, eb, ebf, o3)
         for q in range(3):
             if not (abs(o3[q]) <= limit):
@@ -400,14 +431,9 @@ def predict_row_parallel(params, norm, arch, layers, which, in_cols, pos, quat, 
     for b in prange(B):
         xw = np.empty((H, P), np.float32)
         ww = np.empty((H, W), np.float32)
-        rows = np.empty(H, np.int64)
+        rows = _window_rows(k, H)
         o3 = np.empty(3)
-        for j in range(H):
-            rows[j] = k - H + j
-        gather_window(pos, quat, rows, in_cols[b], per, xw)
-        for j in range(H):
-            for c in range(W):
-                ww[j, c] = wrench[rows[j], b, c]
+        _gather_node(pos, quat, wrench, rows, in_cols[b], b, per, xw, ww)
         eb = eb2[b]
         forward(params[which[b]], norm[which[b]], arch, layers, xw, ww, wk2[b], eb, eb.view(np.float32), o3)
         flags[b] = 0
@@ -432,9 +458,7 @@ def commit_row(pos, quat, wrench, wrench_next, tgt_cols, pred, hold):
         for a in range(pos.shape[1]):
             for c in range(3):
                 pos[H, a, c] = pos[H - 1, a, c]
-    for b in range(tgt_cols.shape[0]):
-        for c in range(3):
-            pos[H, tgt_cols[b], c] = np.float32(pred[b, c])
+    _write_row(pos, H, tgt_cols, pred)
     for a in range(quat.shape[1]):
         for c in range(4):
             quat[H, a, c] = quat[H - 1, a, c]
@@ -482,6 +506,18 @@ def _sigma_block(y, eb):
     flat = y.reshape(-1)
     n = flat.shape[0]
     _logistic(flat, 0, n, eb, eb.view(np.float32))
+
+
+@njit(fastmath=FM, cache=True)
+def _tanh_dense(x, p, r, eb):
+    """The tanh dense layer r (a ``LAYER``) on x (B, n_in) -> new (B, n_out) float32, as
+    2 sigma(.) - 1 of its doubled affine map (eb int32 scratch of >= B n_out values)."""
+    y = _dense(x, p, r.off_w, r.off_b, r.n_in, r.n_out)
+    _sigma_block(y, eb)
+    for b in range(y.shape[0]):
+        for q in range(r.n_out):
+            y[b, q] = np.float32(2.0) * y[b, q] - np.float32(1.0)
+    return y
 
 
 @njit(fastmath=FM, cache=True)
@@ -553,13 +589,7 @@ def forward_gemm(p, nrm, arch, layers, X, Wr, eb, out):
     feat_w = wn
     if W > 0:
         for k in range(nwd):
-            r = layers[NL + k]
-            y = _dense(feat_w, p, r.off_w, r.off_b, r.n_in, r.n_out)
-            _sigma_block(y, eb)
-            for b in range(B):
-                for q in range(r.n_out):
-                    y[b, q] = np.float32(2.0) * y[b, q] - np.float32(1.0)
-            feat_w = y
+            feat_w = _tanh_dense(feat_w, p, layers[NL + k], eb)
     n_w = feat_w.shape[1] if W > 0 else 0
     feat = np.empty((B, U + n_w), np.float32)
     for b in range(B):
@@ -569,13 +599,7 @@ def forward_gemm(p, nrm, arch, layers, X, Wr, eb, out):
             feat[b, U + q] = feat_w[b, q]
     cur = feat
     for k in range(nhd):
-        r = layers[NL + nwd + k]
-        y = _dense(cur, p, r.off_w, r.off_b, r.n_in, r.n_out)
-        _sigma_block(y, eb)
-        for b in range(B):
-            for q in range(r.n_out):
-                y[b, q] = np.float32(2.0) * y[b, q] - np.float32(1.0)
-        cur = y
+        cur = _tanh_dense(cur, p, layers[NL + nwd + k], eb)
     y = _dense(cur, p, net.off_out, net.off_out + 3 * net.out_inputs, net.out_inputs, 3)
     if net.skip != 0:
         y += np.dot(sk, _mat(p, net.off_skip, n_skip, 3))
@@ -595,15 +619,10 @@ def forward_gemm(p, nrm, arch, layers, X, Wr, eb, out):
 def _gather_all(arch, in_cols, pos, quat, wrench, k, X, Wr):
     """X (B, H, P) and Wr (B, H, W) <- every node's windows for row k (rows k-H .. k-1)."""
     net = arch[0]
-    H, W, per = net.history, net.wrench_features, net.per_node
-    rows = np.empty(H, np.int64)
-    for j in range(H):
-        rows[j] = k - H + j
+    H, per = net.history, net.per_node
+    rows = _window_rows(k, H)
     for b in range(in_cols.shape[0]):
-        gather_window(pos, quat, rows, in_cols[b], per, X[b])
-        for j in range(H):
-            for c in range(W):
-                Wr[b, j, c] = wrench[rows[j], b, c]
+        _gather_node(pos, quat, wrench, rows, in_cols[b], b, per, X[b], Wr[b])
 
 
 @njit(cache=True)
@@ -613,11 +632,7 @@ def predict_row_shared(params, norm, arch, layers, in_cols, pos, quat, wrench, k
     B = in_cols.shape[0]
     _gather_all(arch, in_cols, pos, quat, wrench, k, X, Wr)
     forward_gemm(params[0], norm[0], arch, layers, X, Wr, eb, pred)
-    for b in range(B):
-        for q in range(3):
-            if not (abs(pred[b, q]) <= limit):
-                return 1, b
-    return 0, -1
+    return _first_beyond(pred, B, limit)
 
 
 @njit(cache=True)
@@ -629,9 +644,7 @@ def rollout_steps_shared(params, norm, arch, layers, in_cols, tgt_cols, pos, qua
                                        eb)
         if status != 0:
             return status, b, k
-        for b in range(in_cols.shape[0]):
-            for q in range(3):
-                pos[k, tgt_cols[b], q] = np.float32(pred[b, q])
+        _write_row(pos, k, tgt_cols, pred)
     return 0, -1, k1
 
 
@@ -646,8 +659,4 @@ def predict_row_shared_parallel(params, norm, arch, layers, in_cols, pos, quat, 
     for i in prange(n_chunks):
         lo, hi = chunks[i], chunks[i + 1]
         forward_gemm(params[0], norm[0], arch, layers, X[lo:hi], Wr[lo:hi], eb[i], pred[lo:hi])
-    for b in range(B):
-        for q in range(3):
-            if not (abs(pred[b, q]) <= limit):
-                return 1, b
-    return 0, -1
+    return _first_beyond(pred, B, limit)

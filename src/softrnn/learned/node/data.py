@@ -416,13 +416,18 @@ def split(n_samples: int, spec: SampleSpec) -> tuple[range, range]:
     if not is_int(n_samples) or n_samples < 0:
         raise bad("n_samples", n_samples, "a number of samples >= 0")
     cut = int(math.floor(spec.train_fraction * n_samples))
-    need = spec.history + 1
-    if min(cut, n_samples - cut) < need:
-        raise bad("history", spec.history,
-                  f"a history that fits the data: the {n_samples} samples split at {spec.train_fraction:g} give "
-                  f"spans of {cut} and {n_samples - cut} samples, and a window needs history + 1 = {need}; "
-                  f"use a shorter history or a longer dataset")
+    check_spans(spec, cut, n_samples - cut, f"the {n_samples} samples split at {spec.train_fraction:g} give spans "
+                                            f"of {cut} and {n_samples - cut} samples")
     return range(0, cut), range(cut, n_samples)
+
+
+def check_spans(spec: SampleSpec, first: int, second: int, split_as: str) -> None:
+    """Refuse ``spec``'s history where either of two spans (``first``, ``second`` samples; cut as
+    ``split_as`` says, for the message) is too short to hold one window (history + 1 samples)."""
+    need = spec.history + 1
+    if min(first, second) < need:
+        raise bad("history", spec.history, f"a history that fits the data: {split_as}, and a window needs "
+                                           f"history + 1 = {need}; use a shorter history or a longer dataset")
 
 
 def node_positions_sha256(data, node: int) -> str:

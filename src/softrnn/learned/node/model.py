@@ -23,19 +23,16 @@ import numpy as np
 import torch
 from torch import nn
 
-from ...errors import SoftrnnInputError, bad, integer, is_int
+from ...errors import SoftrnnInputError, bad, int_items, integer, is_int
 from ..artifacts import from_fields
 from .normalizer import OUTPUTS
 
 
 def _widths(name: str, value) -> tuple[int, ...]:
-    if is_int(value):
-        value = (value,)
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
-        raise bad(name, value, "a sequence of positive layer widths (may be empty)")
-    out = tuple(value)
+    expected = "a sequence of positive layer widths (may be empty)"
+    out = int_items(name, value, expected)
     if not all(is_int(a) and a >= 1 for a in out):
-        raise bad(name, value, "a sequence of positive layer widths (may be empty)")
+        raise bad(name, (value,) if is_int(value) else value, expected)
     return tuple(int(a) for a in out)
 
 
