@@ -31,10 +31,11 @@ class _NodeCollector:
 def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, node: int,
                      out_path=None, scenario_text: str = "", seed: int | None = None, attrs: dict | None = None,
                      progress: Progress | None = None, series: dict | None = None,
-                     magnetic: MagneticScenario | None = None) -> dict:
+                     magnetic: MagneticScenario | None = None, record=None) -> dict:
     """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically), with the
     tensions of the setup's tendons as its actuation channels ``tendon_<name>`` [N] and, with
-    contact, the obstacles and the contact loads on the saved nodes.
+    contact, the obstacles and the contact loads on the saved nodes, and ``record`` (the scenario's
+    ``Scenario.record``, ``softrnn.io.record``; None: none) as the file's scenario record.
 
     Returns a JSON-ready summary: timing, step, the node of interest's range, energy, orthogonality.
     If a dict is passed as ``series`` it receives the arrays time (T,), node_positions (T, 3) [m]
@@ -68,7 +69,7 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
         _, units = tendon_actuation(setup.tendons, np.zeros(0))
         with DatasetWriter(out_path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=setup.rod,
                            scenario_text=scenario_text, seed=seed, attrs=attrs, actuation_units=units,
-                           contact=setup.contact) as writer:
+                           contact=setup.contact, record=record) as writer:
             sink = _NodeCollector(nodes.index(node), forward=tendon_sink(writer.append, setup.tendons))
             stats = sim.run(config, progress=progress, sink=sink)
     total = time.perf_counter() - start

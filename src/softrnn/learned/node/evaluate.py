@@ -47,7 +47,6 @@ record is longer than the history; each problem is a one-line ``SoftrnnInputErro
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -57,6 +56,7 @@ import numpy as np
 
 from ...errors import SoftrnnInputError, bad
 from ...io.reader import read_dataset
+from ...io.record import read_record
 from ...paper import paper_results
 from .. import baselines as bl
 from ..horizons import HORIZONS, HorizonTable, spread_starts, worst_by_horizon
@@ -343,7 +343,8 @@ def paper_reference(attrs: dict) -> dict | None:
     with the paper's test figures, a generalisation scenario with its generalisation figures.
     Returns {key, figures: 'test' | 'generalisation', section, predicted_node, max_abs_mm,
     mean_abs_mm, max_pct_of_length} or None."""
-    table = _scenario_toml(attrs).get("paper")
+    record = read_record(attrs)
+    table = record.paper if record is not None else None
     key = role = None
     if isinstance(table, dict) and isinstance(table.get("key"), str):
         key = table["key"]
@@ -360,17 +361,6 @@ def paper_reference(attrs: dict) -> dict | None:
             "predicted_node": cases[key].get("predicted_node"),
             "max_abs_mm": list(figures["max_abs_mm"]), "mean_abs_mm": list(figures["mean_abs_mm"]),
             "max_pct_of_length": list(figures["max_pct_of_length"])}
-
-
-def _scenario_toml(attrs: dict) -> dict:
-    """The data set's scenario text (TOML) as a dict ({} if absent or unreadable)."""
-    text = attrs.get("scenario_text")
-    if not isinstance(text, str) or not text.strip():
-        return {}
-    try:
-        return tomllib.loads(text)
-    except (tomllib.TOMLDecodeError, ValueError):
-        return {}
 
 
 def trained_on(model) -> str | None:

@@ -285,7 +285,7 @@ def rollout_dataset(result: Rollout, reference, *, models: list[str] | None = No
     act = getattr(reference, "actuation", None)
     if "node_of_interest" not in keep or int(keep.get("node_of_interest", -1)) not in result.modelled:
         keep["node_of_interest"] = int(result.modelled[0])
-    for key in ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version"):
+    for key in ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version", "scenario_record"):
         if key in reference.attrs:
             keep[key] = reference.attrs[key]
     return Dataset(time=result.time, nodes=result.nodes, positions=result.positions,
@@ -300,7 +300,8 @@ def write_rollout(path, result: Rollout, reference, *, models: list[str] | None 
     so ``softrnn animate`` and ``softrnn plot`` show it like the reference."""
     ds = rollout_dataset(result, reference, models=models, source=source)
     extra = {k: v for k, v in ds.attrs.items()
-             if k not in ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version")}
+             if k not in ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version",
+                          "scenario_record")}
     seed = reference.attrs.get("seed")
     write_trajectory(path, ds, dt=reference.dt, rod=reference.attrs.get("rod"),
                      scenario_text=reference.attrs.get("scenario_text", "") or "",
