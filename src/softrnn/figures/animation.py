@@ -279,7 +279,7 @@ def obstacles_of(contact) -> list[dict]:
     ``softrnn.io.schema.contact_record``) or None (none). One dict per obstacle as in the record
     (``kind``, geometry [m] and ``friction``: ``Obstacle.to_record``); a vessel's also has ``points``
     (P, 3) and ``radii`` (P,) [m], its dense centreline (``softrnn.geometry.Vessel.points``). A
-    bifurcation is drawn as each of its vessels."""
+    bifurcation (an obstacle with ``vessels``) is drawn as each of its vessels."""
     if contact is None:
         return []
     built = contact_from_record(contact) if isinstance(contact, dict) else contact
@@ -295,12 +295,12 @@ _DRAWN = ("plane", "sphere", "cylinder", "vessel")
 
 
 def _obstacle_entries(ob, friction: float) -> list[dict]:
-    """The drawn entries of one obstacle (see ``obstacles_of``), told apart by its ``kind``: its
-    record, a vessel's with its dense polyline, a bifurcation's as its vessels'."""
+    """The drawn entries of one obstacle (see ``obstacles_of``): its record (``kind``), a vessel's with
+    its dense polyline; an obstacle made of vessels (``vessels``, a bifurcation) as its vessels'."""
     kind = getattr(ob, "kind", None)
     own = getattr(ob, "friction", None)
     mu = friction if own is None else float(own)
-    if kind == "bifurcation":
+    if getattr(ob, "vessels", None) is not None:       # a union of vessels (a Bifurcation)
         return [e for v in ob.vessels for e in _obstacle_entries(v, mu)]
     if kind not in _DRAWN:
         raise bad("contact.obstacles", type(ob).__name__, "Plane, Sphere, Cylinder or Vessel obstacles, or ones with "

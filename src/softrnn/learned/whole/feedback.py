@@ -80,7 +80,7 @@ def pd_laws(dataset) -> list:
     scenario record stores them (a sweep variant's draws in them). [] for data without a scenario
     (lab data) or a scenario without PD loads; data whose scenario text has PD loads but which has no
     record (a file written before the record existed) is a one-line error."""
-    record = _record(dataset, ('"pd"',), "feedback = false (the recorded PD forces as inputs)")
+    record = _record(dataset, lambda text: '"pd"' in text, "feedback = false (the recorded PD forces as inputs)")
     return [] if record is None else list(record.pd)
 
 
@@ -89,17 +89,18 @@ def moving_clamps(dataset) -> tuple:
     prescribed path, as its scenario record stores them. () for data without a scenario (lab data)
     or without such a clamp; data whose scenario text moves a clamp but which has no record is a
     one-line error."""
-    record = _record(dataset, ("displacement", "rotation"), "prescribed = false")
+    record = _record(dataset, lambda text: "[[boundary]]" in text and ("displacement" in text or "rotation" in text),
+                     "prescribed = false")
     return () if record is None else tuple(record.moving_clamps)
 
 
-def _record(dataset, words: tuple, instead: str):
+def _record(dataset, needs, instead: str):
     """The data set's scenario record (``softrnn.io.record``), or None without one; a data set
-    without a record whose scenario text names one of ``words`` (a file written before the record
-    existed) is a one-line error that offers ``instead``."""
+    without a record whose scenario text may hold what it is read for (``needs(text)``: a file
+    written before the record existed) is a one-line error that offers ``instead``."""
     record = read_record(dataset)
     text = dataset.attrs.get("scenario_text")
-    if record is None and isinstance(text, str) and any(w in text for w in words):
+    if record is None and isinstance(text, str) and needs(text):
         raise bad("data", "a data set without its scenario record (written by an older softrnn)",
                   f"the record added (softrnn.scenarios.record.with_record), the data simulated again, or {instead}")
     return record
