@@ -36,8 +36,8 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
     """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically), with the
     tensions of the setup's tendons as its actuation channels ``tendon_<name>`` [N] and, with
     contact, the obstacles and the contact loads on the saved nodes, and ``record`` (the scenario's
-    ``Scenario.record``, ``softrnn.io.record``; None: that of ``scenario_text``, where it reads) as
-    the file's scenario record.
+    ``Scenario.record``, ``softrnn.io.record``; None: that of ``scenario_text``, where it reads, with
+    the draws ``attrs["sampled"]`` of variant ``attrs["variant_index"]``) as the file's scenario record.
 
     Returns a JSON-ready summary: timing, step, the node of interest's range, energy, orthogonality.
     If a dict is passed as ``series`` it receives the arrays time (T,), node_positions (T, 3) [m]
@@ -69,7 +69,10 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
     else:
         # tendon tensions are stored as the actuation channels tendon_<name> [N]
         _, units = tendon_actuation(setup.tendons, np.zeros(0))
-        record = record if record is not None else record_of_text(scenario_text)
+        if record is None:              # that of the text, with a sweep variant's draws in attrs
+            extra = attrs or {}
+            index = extra.get("variant_index")
+            record = record_of_text(scenario_text, extra.get("sampled"), index if isinstance(index, int) else None)
         with DatasetWriter(out_path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=setup.rod,
                            scenario_text=scenario_text, seed=seed, attrs=attrs, actuation_units=units,
                            contact=setup.contact, record=record) as writer:
