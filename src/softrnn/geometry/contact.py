@@ -112,27 +112,22 @@ CONTACT_KEYS = ("friction", "slip_velocity", "stiffness", "damping", "penetratio
 
 
 def contact_record(contact) -> dict | None:
-    """The ``contact`` attribute (a JSON-ready dict) of a ``softrnn.rod.Contact``.
+    """The ``contact`` attribute (a JSON-ready dict) of a ``Contact`` (docs/dataset-format.md).
 
     Parameters
     ----------
     contact : Contact, dict or None
-        the setup's contact (``Setup.contact``), or a record of this form (e.g. read from a file:
-        checked by rebuilding the Contact); None gives None
+        the setup's contact (``Setup.contact``), or a record of this form (checked by rebuilding
+        the Contact); None gives None
 
     Returns
     -------
     dict or None
-        ``friction`` (the default mu [-]), ``slip_velocity`` [m/s], ``stiffness`` [N/m^2] or None,
-        ``damping`` [N s/m^2] or None, ``penetration`` [-], ``reference_acceleration`` [m/s^2] or
-        None, and ``obstacles``: one dict per obstacle with ``kind`` ('plane', 'sphere', 'cylinder',
-        'vessel', 'bifurcation'), its geometry in m (plane: ``point`` (3,), ``normal`` (3,) unit;
-        sphere: ``center`` (3,), ``radius``; cylinder: ``point`` (3,), ``axis`` (3,) unit,
-        ``radius``; vessel: ``centreline`` (m, 3), ``radius`` (a number or (m,)); bifurcation:
-        ``trunk`` (m, 3), ``left`` (k, 3), ``right`` (k', 3), ``radius``, ``left_radius``,
-        ``right_radius`` (each a number or one per point)) and ``friction``, the mu [-] that
-        applies to it (its own, else the default); ``self_contact`` true where the rod's own
-        segments touch too (absent otherwise).
+        the contact law's parameters (``CONTACT_KEYS``: ``friction`` [-], ``slip_velocity`` [m/s],
+        ``stiffness`` [N/m^2], ``damping`` [N s/m^2], ``penetration`` [-],
+        ``reference_acceleration`` [m/s^2], None for a default rule), ``obstacles`` (each one's
+        ``Obstacle.to_record``, with the friction that applies to it) and ``self_contact`` (true,
+        only where set).
     """
     if contact is None:
         return None

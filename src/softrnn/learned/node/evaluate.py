@@ -56,7 +56,7 @@ import numpy as np
 
 from ...errors import SoftrnnInputError, bad
 from ...io.reader import read_dataset
-from ...io.record import read_record
+from ...io.record import read_record, scenario_name
 from ...paper import paper_results
 from .. import baselines as bl
 from ..horizons import HORIZONS, HorizonTable, spread_starts, worst_by_horizon
@@ -339,8 +339,9 @@ def _check_channels(model, dataset, trained: dict, where: str) -> None:
 
 def paper_reference(attrs: dict) -> dict | None:
     """The paper's figures to compare with, from the data set's scenario: its ``[paper]`` table
-    (``key``, ``role``), else its ``scenario_name`` (``PAPER_KEYS``). A training scenario compares
-    with the paper's test figures, a generalisation scenario with its generalisation figures.
+    (``key``, ``role``, from its record), else its name (``softrnn.io.record.scenario_name``,
+    ``PAPER_KEYS``). A training scenario compares with the paper's test figures, a generalisation
+    scenario with its generalisation figures.
     Returns {key, figures: 'test' | 'generalisation', section, predicted_node, max_abs_mm,
     mean_abs_mm, max_pct_of_length} or None."""
     record = read_record(attrs)
@@ -350,8 +351,8 @@ def paper_reference(attrs: dict) -> dict | None:
         key = table["key"]
         role = "generalisation" if table.get("role") == "generalisation" else "test"
     else:
-        name = attrs.get("scenario_name")
-        if isinstance(name, str) and name in PAPER_KEYS:
+        name = scenario_name(attrs)
+        if name in PAPER_KEYS:
             key, role = PAPER_KEYS[name]
     cases = paper_results()["cases"]
     if key not in cases or role not in cases[key]:
