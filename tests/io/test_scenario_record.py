@@ -82,6 +82,14 @@ def test_a_sweep_writes_each_variants_record(tmp_path):
     assert records[0].pd[0].stiffness != records[1].pd[0].stiffness
 
 
+def test_show_names_the_record_in_one_line(files, capsys):
+    _, root = files
+    assert run_cli(["show", str(root / "with.h5")]) == 0
+    out = capsys.readouterr().out
+    assert "scenario record: square, variant 2; 1 PD law(s), moving clamps none" in out
+    assert "scenario_record=" not in out
+
+
 def test_a_broken_record_is_one_line(files, tmp_path):
     _, root = files
     path = tmp_path / "broken.h5"
