@@ -45,6 +45,7 @@ def test_a_simulated_variant_carries_its_record(files):
     variant, root = files
     data = read_dataset(root / "with.h5")
     record = read_record(data)
+    assert data.record.to_record() == record.to_record()
     assert isinstance(record, ScenarioRecord) and record.name == "square" == scenario_name(data)
     assert record.variant_index == 2 and record.sampled == json.loads(json.dumps(variant.sampled))
     assert record.nodes_of_interest == (50,) and record.paper == variant.paper and record.moving_clamps == ()
@@ -66,7 +67,7 @@ def test_the_record_adds_an_attribute_only(files):
 def test_an_older_file_loads_without_it_and_gets_it_back_from_its_text(files, tmp_path):
     _, root = files
     old = read_dataset(root / "plain.h5")
-    assert read_record(old) is None and RECORD not in old.attrs
+    assert read_record(old) is None and old.record is None and RECORD not in old.attrs
     rebuilt = read_record(with_record(old))
     assert rebuilt.to_record() == read_record(read_dataset(root / "with.h5")).to_record()
     write_dataset(tmp_path / "copy.h5", read_dataset(root / "with.h5"))        # a copy keeps it
