@@ -53,6 +53,8 @@ CONTACT_SCHEMA = 3
 """Version of a trajectory with the contact datasets ``contact_forces``, ``contact_torques`` and the
 ``contact`` attribute (older readers refuse it instead of dropping the contact loads); the newest
 schema this softrnn reads."""
+# The optional ``scenario_record`` attribute (``softrnn.io.record``) keeps the schema: an older reader
+# ignores it and keeps the scenario's text, so nothing is lost; ``record.RECORD_VERSION`` versions it.
 
 TIME_CHUNK = 4096
 """Samples per HDF5 chunk along time (the simulator's chunk length; docs/dataset-format.md#size)."""
