@@ -11,6 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
+from softrnn.errors import SoftrnnInputError
 from softrnn.io import DatasetError, read_dataset, write_dataset
 from softrnn.io.record import RECORD, ScenarioRecord, read_record, scenario_name
 from softrnn.scenarios.record import with_record
@@ -72,6 +73,25 @@ def test_an_older_file_loads_without_it_and_gets_it_back_from_its_text(files, tm
     assert rebuilt.to_record() == read_record(read_dataset(root / "with.h5")).to_record()
     write_dataset(tmp_path / "copy.h5", read_dataset(root / "with.h5"))        # a copy keeps it
     assert read_dataset(tmp_path / "copy.h5").attrs[RECORD] == read_dataset(root / "with.h5").attrs[RECORD]
+
+
+def test_an_older_file_is_upgraded_into_a_copy_with_the_record(files, tmp_path):
+    from softrnn.io import list_groups, merge_files
+    from softrnn.scenarios.record import upgrade_file
+
+    _, root = files
+    assert upgrade_file(root / "plain.h5", tmp_path / "new.h5") == 1
+    new, plain = read_dataset(tmp_path / "new.h5"), read_dataset(root / "plain.h5")
+    assert new.attrs[RECORD] == read_dataset(root / "with.h5").attrs[RECORD]
+    assert {k: v for k, v in new.attrs.items() if k != RECORD} == plain.attrs
+    np.testing.assert_array_equal(new.positions, plain.positions)
+    merge_files([root / "plain.h5", root / "with.h5"], tmp_path / "sweep.h5")
+    assert upgrade_file(tmp_path / "sweep.h5", tmp_path / "sweep-new.h5") == 1    # one had it already
+    assert list_groups(tmp_path / "sweep-new.h5") == list_groups(tmp_path / "sweep.h5")
+    assert all(read_dataset(tmp_path / "sweep-new.h5", group=g).record is not None
+               for g in list_groups(tmp_path / "sweep-new.h5"))
+    with pytest.raises(SoftrnnInputError, match="another file"):
+        upgrade_file(root / "plain.h5", root / "plain.h5")
 
 
 def test_a_sweep_writes_each_variants_record(tmp_path):

@@ -1,15 +1,19 @@
 """The scenario record of a data set written before the record existed: rebuilt from the scenario
 text it stored (``attrs["scenario_text"]``) and a sweep variant's draws (``attrs["sampled"]``), so
-that old files keep working where a feature needs the record (``softrnn.io.record``)."""
+that old files keep working where a feature needs the record (``softrnn.io.record``): in memory
+(``with_record``) or as a new file (``upgrade_file``)."""
 
 from __future__ import annotations
 
 import copy
 import dataclasses
 import json
+from pathlib import Path
 
-from ..errors import SoftrnnInputError
+from ..errors import SoftrnnInputError, bad
+from ..io.reader import list_groups, read_dataset
 from ..io.record import RECORD, ScenarioRecord, read_record
+from ..io.writer import write_dataset
 from .scenario import parse_scenario
 
 
@@ -49,3 +53,19 @@ def with_record(dataset):
     out = copy.copy(dataset)                  # a dataset-like object (a slice read for a picture)
     out.attrs = attrs
     return out
+
+
+def upgrade_file(path, out) -> int:
+    """Copy the data file ``path`` (one trajectory, or a sweep: every group, as it is named) to
+    ``out`` (another file, written atomically), each trajectory with its scenario record where it
+    had none (``with_record``); the arrays and other attributes are copied bit for bit. Returns
+    the trajectories that got a record."""
+    if Path(out).resolve() == Path(path).resolve():
+        raise bad("out", str(out), "another file than the one read")
+    groups, added = list_groups(path), 0
+    for group in groups:
+        data = read_dataset(path, group=None if group == "/" else group)
+        upgraded = with_record(data)
+        added += upgraded is not data
+        write_dataset(out, upgraded, group=None if group == "/" else group.strip("/"))
+    return added

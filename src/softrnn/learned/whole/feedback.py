@@ -102,7 +102,8 @@ def _record(dataset, needs, instead: str):
     text = dataset.attrs.get("scenario_text")
     if record is None and isinstance(text, str) and needs(text):
         raise bad("data", "a data set without its scenario record (written by an older softrnn)",
-                  f"the record added (softrnn.scenarios.record.with_record), the data simulated again, or {instead}")
+                  f"the record added (softrnn.scenarios.record.upgrade_file or with_record), the data simulated "
+                  f"again, or {instead}")
     return record
 
 
