@@ -11,6 +11,7 @@ from softrnn.cli._plot import named_node
 from softrnn.errors import SoftrnnInputError
 from softrnn.figures import _movie, animation, geometry, pictures
 from softrnn.figures import data as figure_data
+from softrnn.scenarios.scenario import scenario_text
 
 from helpers import run_cli
 
@@ -86,8 +87,10 @@ def test_node_of_interest_from_attrs_or_scenario():
     assert figure_data.node_of_interest(d) is None
     d.attrs = {"node_of_interest": 7}
     assert figure_data.node_of_interest(d) == 7
-    d.attrs = {"scenario_text": "name = 'x'\n[run]\nnodes_of_interest = [-1]\n", "n_nodes_total": 11}
+    d.attrs = {"scenario_record": {"version": 1, "name": "x", "nodes_of_interest": [10]}, "n_nodes_total": 11}
     assert figure_data.node_of_interest(d) == 10
+    d.attrs = {"scenario_text": scenario_text("square"), "n_nodes_total": 51}   # an older file: no record
+    assert figure_data.node_of_interest(d) is None and named_node(d) == 50       # the command line rebuilds it
     d.attrs = {"case": "semicircle"}
     assert named_node(d) == 50  # the paper case's node: the command line looks it up
 

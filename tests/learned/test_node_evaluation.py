@@ -140,8 +140,8 @@ def test_a_diverging_free_run_is_reported_not_fatal():
 
 
 def test_paper_figures_follow_the_scenario():
-    text = '[paper]\nkey = "semicircle"\nrole = "generalisation"\n'
-    ref = paper_reference({"scenario_text": text})
+    record = {"version": 1, "name": "x", "paper": {"key": "semicircle", "role": "generalisation"}}
+    ref = paper_reference({"scenario_record": record})
     assert ref["figures"] == "generalisation" and ref["max_abs_mm"] == [3.73, 2.0, 8.1]
     assert paper_reference({"scenario_name": "square"})["figures"] == "test"
     assert paper_reference({"scenario_name": "ellipse-horizontal"})["key"] == "ellipse"

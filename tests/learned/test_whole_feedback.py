@@ -27,12 +27,13 @@ DT = 0.01
 
 def _simulate(scenario, n_samples: int = 41) -> Dataset:
     """``scenario`` simulated for ``n_samples`` samples every ``DT``, every node, with the attrs a
-    sweep writes (its text, the variant index and the values the variant drew)."""
+    sweep writes (its text and record, the variant index and the values the variant drew)."""
     from softrnn.rod import Simulator
 
     config = dataclasses.replace(scenario.config, dt=DT, n_samples=n_samples, save_nodes=None)
     traj = Simulator(scenario.setup).run(config)
-    attrs = {"dt": DT, "rod": dataclasses.asdict(scenario.setup.rod), "scenario_text": scenario.text}
+    attrs = {"dt": DT, "rod": dataclasses.asdict(scenario.setup.rod), "scenario_text": scenario.text,
+             "scenario_record": json.loads(json.dumps(scenario.record.to_record()))}   # as a file gives it
     if scenario.variant_index is not None:
         attrs["variant_index"] = scenario.variant_index
         attrs["sampled"] = json.dumps(scenario.sampled)
@@ -142,8 +143,11 @@ def test_a_free_run_applies_the_law_to_its_own_states(square_variant):
 def test_a_pd_node_the_model_does_not_predict_is_a_one_line_error(square_variant):
     _, ds = square_variant
     enc = make_encoding([ds], model_dt=DT, node_stride=5, length=0.5, feedback=True)
-    broken = dataclasses.replace(ds, attrs={**ds.attrs, "scenario_text": ds.attrs["scenario_text"].replace(
-        "node = -1", "node = 48", 1)})
+    from softrnn.scenarios.scenario import parse_scenario
+
+    text = ds.attrs["scenario_text"].replace("node = -1", "node = 48", 1)
+    broken = dataclasses.replace(ds, attrs={**ds.attrs, "scenario_text": text,
+                                            "scenario_record": parse_scenario(text).variant(3).record.to_record()})
     with pytest.raises(SoftrnnInputError) as info:
         enc.trajectory(broken)
     msg = str(info.value)
@@ -152,10 +156,30 @@ def test_a_pd_node_the_model_does_not_predict_is_a_one_line_error(square_variant
 
 def test_data_without_a_scenario_has_no_laws(square_variant):
     _, ds = square_variant
-    lab = dataclasses.replace(ds, attrs={k: v for k, v in ds.attrs.items() if k != "scenario_text"})
+    lab = dataclasses.replace(ds, attrs={k: v for k, v in ds.attrs.items()
+                                         if k not in ("scenario_text", "scenario_record")})
     assert pd_laws(lab) == []
     enc = make_encoding([lab], model_dt=DT, node_stride=5, length=0.5, feedback=True)
     assert enc.trajectory(lab).feedback is None
+
+
+def test_old_data_without_a_record_says_so_and_gets_the_same_laws_back_from_its_text(square_variant):
+    from softrnn.scenarios.record import with_record
+
+    _, ds = square_variant
+    old = dataclasses.replace(ds, attrs={k: v for k, v in ds.attrs.items() if k != "scenario_record"})
+    with pytest.raises(SoftrnnInputError) as info:
+        pd_laws(old)
+    msg = str(info.value)
+    assert "\n" not in msg and "with_record" in msg and "feedback = false" in msg, msg
+    (law,), (want,) = pd_laws(with_record(old)), pd_laws(ds)
+    assert (law.node, law.stiffness, law.damping) == (want.node, want.stiffness, want.damping)
+    t = np.linspace(0.0, 3.0, 7)
+    np.testing.assert_array_equal(law.target(t), want.target(t))
+    # a variant whose draws were not recorded cannot be rebuilt: still the one-line error
+    undrawn = dataclasses.replace(old, attrs={k: v for k, v in old.attrs.items() if k != "sampled"})
+    with pytest.raises(SoftrnnInputError, match="with_record"):
+        pd_laws(with_record(undrawn))
 
 
 def test_training_with_the_law_runs_and_the_penalty_is_chosen_on_validation(square_variant):

@@ -83,7 +83,7 @@ def _dataset(lift: float, n_samples: int = 121) -> Dataset:
     config = dataclasses.replace(sc.config, dt=DT, n_samples=n_samples, save_nodes=None)
     traj = Simulator(sc.setup).run(config)
     attrs = {"dt": DT, "rod": dataclasses.asdict(sc.setup.rod), "scenario_text": sc.text,
-             "contact": contact_record(sc.setup.contact)}
+             "contact": contact_record(sc.setup.contact), "scenario_record": sc.record.to_record()}
     return Dataset(time=traj.time, nodes=traj.nodes, positions=traj.positions, quaternions=traj.quaternions,
                    forces=traj.forces, torques=traj.torques, attrs=attrs, contact_forces=traj.contact_forces,
                    contact_torques=traj.contact_torques)

@@ -70,7 +70,8 @@ def _dataset(amplitude: float, start: float, n_samples: int = 121) -> Dataset:
     sc = parse_scenario(SCENARIO.replace("AMP", repr(amplitude)).replace("START", repr(start)))
     config = dataclasses.replace(sc.config, dt=DT, n_samples=n_samples, save_nodes=None)
     traj = Simulator(sc.setup).run(config)
-    attrs = {"dt": DT, "rod": dataclasses.asdict(sc.setup.rod), "scenario_text": sc.text}
+    attrs = {"dt": DT, "rod": dataclasses.asdict(sc.setup.rod), "scenario_text": sc.text,
+             "scenario_record": sc.record.to_record()}
     return Dataset(time=traj.time, nodes=traj.nodes, positions=traj.positions, quaternions=traj.quaternions,
                    forces=traj.forces, torques=traj.torques, attrs=attrs)
 
@@ -88,11 +89,19 @@ def trained(data):
     return training.train_dynamic_model(trajs, enc, config, threads=1), enc
 
 
+def _with_text(data: Dataset, text: str) -> Dataset:
+    """``data`` with the scenario ``text`` (its placeholders filled) and that scenario's record."""
+    from softrnn.scenarios.scenario import parse_scenario
+
+    text = text.replace("AMP", "0.03").replace("START", "0.1")
+    return dataclasses.replace(data, attrs={**data.attrs, "scenario_text": text,
+                                            "scenario_record": parse_scenario(text).record.to_record()})
+
+
 def test_the_moving_clamp_is_read_from_the_scenario(data):
     assert moving_clamps(data[0]) == (0,)
-    still = Dataset(time=data[0].time, nodes=data[0].nodes, positions=data[0].positions,
-                    quaternions=data[0].quaternions, forces=data[0].forces, torques=data[0].torques,
-                    attrs={**data[0].attrs, "scenario_text": SCENARIO.split("[[boundary]]")[0]})
+    head, tail = SCENARIO.split("[[boundary]]")
+    still = _with_text(data[0], head + "[damping]" + tail.split("[damping]")[1])
     assert moving_clamps(still) == ()
     lab = Dataset(time=data[0].time, nodes=data[0].nodes, positions=data[0].positions,
                   quaternions=data[0].quaternions, forces=data[0].forces, torques=data[0].torques,
@@ -186,11 +195,18 @@ def test_the_path_beats_predicting_the_clamp(data):
     assert errors[True] < 0.1 * errors[False]
 
 
+def test_old_data_without_a_record_says_so_and_gets_it_back_from_its_text(data):
+    from softrnn.scenarios.record import with_record
+
+    old = dataclasses.replace(data[0], attrs={k: v for k, v in data[0].attrs.items() if k != "scenario_record"})
+    with pytest.raises(SoftrnnInputError) as info:
+        moving_clamps(old)
+    assert "\n" not in str(info.value) and "with_record" in str(info.value)
+    assert moving_clamps(with_record(old)) == (0,)
+
+
 def test_data_of_different_moving_clamps_are_refused(data):
-    other = Dataset(time=data[0].time, nodes=data[0].nodes, positions=data[0].positions,
-                    quaternions=data[0].quaternions, forces=data[0].forces, torques=data[0].torques,
-                    attrs={**data[0].attrs, "scenario_text": data[0].attrs["scenario_text"].replace(
-                        "node = 0", "node = -1")})
+    other = _with_text(data[0], data[0].attrs["scenario_text"].replace("node = 0", "node = -1"))
     with pytest.raises(SoftrnnInputError, match="prescribed = false"):
         make_encoding([data[0], other], model_dt=0.02, node_stride=2, length=0.2, prescribed=True)
 

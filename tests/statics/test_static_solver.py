@@ -11,7 +11,7 @@ import pytest
 from scipy.optimize import brentq
 
 from softrnn.errors import SimulationError, SoftrnnInputError
-from softrnn.experiments.fig13 import magnetic_loads, magnetic_rod, run_fig13_study, write_fig13
+from softrnn.experiments.fig13 import run_fig13_study, write_fig13
 from softrnn.rod import Clamp, Constant, Damping, NodalLoad, RodSpec, RunConfig, Setup, Simulator, straight
 from softrnn.rod.so3 import axis_rotation
 from softrnn.statics import (
@@ -25,6 +25,7 @@ from softrnn.statics import (
     build_grid,
     solve,
 )
+from softrnn.statics.cases import magnetic_loads, magnetic_rod
 
 from helpers import reissner_cantilever_tip
 

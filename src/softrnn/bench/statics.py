@@ -1,6 +1,6 @@
 """Speed of the static Cosserat solver (``softrnn.statics``) on this machine.
 
-Measures, for the magnetic manipulator of ``softrnn.experiments.fig13`` (L 50 mm, two magnets,
+Measures, for the magnetic manipulator of ``softrnn.statics.cases`` (L 50 mm, two magnets,
 N = 13 RK4 steps, tolerance E = 1e-6 as in the paper's experiment):
 
 * warm-started solves per second: a control loop in which the 20 mT field turns slowly (1 deg
@@ -20,8 +20,8 @@ import time
 
 import numpy as np
 
-from ..experiments.fig13 import FIELD, GRADIENT, PAPER_FIG13, magnetic_rod
 from ..statics import StaticLoads, StaticSolver
+from ..statics.cases import FIELD, GRADIENT, PAPER_FIG13, magnetic_rod
 
 N_STEPS = 13
 TOL = 1e-6
@@ -114,7 +114,7 @@ def run_static_benchmark(quick: bool = False) -> dict:
     cold = time_cold(50 if quick else 300)
     return {
         "settings": {"n_steps": N_STEPS, "tol": TOL, "quick": quick,
-                     "case": "magnetic manipulator (softrnn.experiments.fig13.magnetic_rod), 20 mT field",
+                     "case": "magnetic manipulator (softrnn.statics.cases.magnetic_rod), 20 mT field",
                      "timing": "wall time of StaticSolver.solve, single thread, Python call included"},
         "warm": warm,
         "cold": cold,

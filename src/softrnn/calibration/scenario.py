@@ -26,12 +26,11 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-import tomlkit
 
 from .. import __version__
 from ..errors import SoftrnnInputError, bad, one_line
 from ..rod.simulation import RunConfig, Simulator
-from ..scenarios.calibrate import _lookup
+from ..scenarios.calibrate import _lookup, edited_text
 from ..scenarios.reading import ScenarioError, _is_number, _show
 from ..scenarios.scenario import Scenario, parse_scenario
 from .fit import FitOptions, FitResult, Parameter, fit
@@ -425,27 +424,11 @@ def calibrate_scenario(scenario: Scenario, dataset, keys, *, span: str = "train"
 
 
 # ------------------------------------------------------------------------------------ fitted file
-def _set_toml(doc, key: str, value: float) -> None:
-    """doc[a][b][0]... = value in a tomlkit document (the path exists: ``parameter_of`` checked it)."""
-    parts = key.split(".")
-    node = doc
-    for part in parts[:-1]:
-        node = node[int(part)] if isinstance(node, list) else node[part]
-    last = parts[-1]
-    if isinstance(node, list):
-        node[int(last)] = value
-    else:
-        node[last] = value
-
-
 def fitted_text(text: str, values: dict, header: str) -> str:
     """The scenario ``text`` with each dotted key of ``values`` set to its value, comments and layout
-    kept (tomlkit), below the comment line ``header`` (which starts with ``HEADER``; an earlier
-    calibration's header line is replaced)."""
-    doc = tomlkit.parse(text)
-    for key, value in values.items():
-        _set_toml(doc, key, float(value))
-    lines = tomlkit.dumps(doc).splitlines(keepends=True)
+    kept (``softrnn.scenarios.calibrate.edited_text``), below the comment line ``header`` (which
+    starts with ``HEADER``; an earlier calibration's header line is replaced)."""
+    lines = edited_text(text, {key: float(value) for key, value in values.items()}).splitlines(keepends=True)
     while lines and lines[0].startswith(HEADER):
         lines.pop(0)
     return header.rstrip("\n") + "\n" + "".join(lines)

@@ -2,17 +2,18 @@
 file's obstacles drawn (.gif, or .mp4 with ffmpeg). ``softrnn animate SCENARIO``: simulate the
 scenario first (into a temporary dataset, or the --save-data file) and animate that."""
 
-import json
 import tempfile
 from dataclasses import replace
 from pathlib import Path
 
-from ..errors import SoftrnnInputError, bad
+from ..errors import bad
 from ..figures.animation import STYLES, animate
 from ..figures.data import _title, check_suffix, load
 from ..files import prepare_output
 from ..io.reader import read_dataset
-from ..scenarios.scenario import SCENARIO_NAMES, load_scenario, parse_scenario
+from ..io.record import read_record
+from ..scenarios.record import with_record
+from ..scenarios.scenario import SCENARIO_NAMES, load_scenario
 from ..scenarios.summary import simulate_summary
 from ._plot import named_node
 from ._progress import Bar
@@ -136,7 +137,7 @@ def _simulate(args, scenario, path: str) -> None:
                                    node=scenario.nodes_of_interest[0], out_path=path,
                                    scenario_text=scenario.text, seed=scenario.seed,
                                    attrs={"scenario_name": scenario.name}, progress=bar,
-                                   magnetic=scenario.magnetic)
+                                   magnetic=scenario.magnetic, record=scenario.record)
     kept = f", saved in {args.save_data}" if args.save_data else ""
     print(f"animate: simulated {scenario.name} ({summary['duration_s']:g} s of motion) in "
           f"{summary['total_time_s']:.1f} s{kept}")
@@ -163,22 +164,15 @@ def _animate(args, data_path: str, out: Path, size: tuple[int, int], label: str)
 
 def _obstacles(args, data):
     """What to draw: nothing (--no-obstacles), the data's own obstacles (True), or, for a prediction
-    (a rollout records no contact but keeps its data's scenario), the obstacles of that scenario,
-    with a sweep variant's drawn values."""
+    (a rollout records no contact but keeps its data's scenario record), the obstacles of that
+    scenario, with a sweep variant's drawn values."""
     if args.no_obstacles:
         return False
     attrs = dict(getattr(data, "attrs", None) or {})
-    text = attrs.get("scenario_text")
-    if attrs.get("contact") is not None or not attrs.get("prediction") or not text or "contact" not in text:
+    if attrs.get("contact") is not None or not attrs.get("prediction"):
         return True
-    try:
-        scenario = parse_scenario(text)
-        sampled = json.loads(attrs["sampled"]) if isinstance(attrs.get("sampled"), str) else {}
-        if sampled:
-            scenario = scenario.with_values(sampled)
-    except (SoftrnnInputError, ValueError, TypeError):
-        return True           # the scenario no longer reads: draw what the data record (nothing)
-    return True if scenario.setup.contact is None else scenario.setup.contact
+    record = read_record(with_record(data))      # an older file's rebuilt from its scenario text
+    return True if record is None or record.contact is None else record.contact
 
 
 def _named(data) -> bool:

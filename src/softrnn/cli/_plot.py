@@ -8,6 +8,7 @@ from ..figures.pictures import plot_node
 from ..files import prepare_output
 from ..io.reader import read_dataset
 from ..scenarios.cases import CASE_NAMES, build_case
+from ..scenarios.record import with_record
 
 NAME = "plot"
 HELP = "plot one node's position per axis [mm] against time, with the forces on it, to .png/.pdf/.svg"
@@ -28,9 +29,10 @@ def add_args(p):
 
 def named_node(data) -> int | None:
     """The node of interest that dataset-like ``data`` names (``figures.data.node_of_interest``: its
-    attrs or scenario text), else that of the paper case its ``attrs['case']`` names, else None."""
+    attrs or scenario record, an older file's rebuilt from its scenario text), else that of the paper
+    case its ``attrs['case']`` names, else None."""
     case = _text(dict(getattr(data, "attrs", None) or {}).get("case"))
-    node = node_of_interest(data)
+    node = node_of_interest(with_record(data))
     if node is None and case in CASE_NAMES:
         node = node_of_interest(data, default=build_case(case).node_of_interest)
     return node

@@ -99,8 +99,14 @@ def format_summary(s: dict) -> str:
                    f"max |f_c| = {c['max_force_n']:.4g} N, max |tau_c| = {c['max_torque_nm']:.4g} N m")
         lines.append(f"  contact: {', '.join(c['fields'])}; {largest}; obstacles: "
                      f"{', '.join(c['obstacles']) or 'not recorded'}")
+    rec = a.get("scenario_record")
+    if rec:
+        variant = "" if rec.get("variant_index") is None else f", variant {rec['variant_index']}"
+        lines.append(f"  scenario record: {rec['name']}{variant}; {len(rec.get('pd', []))} PD law(s), moving "
+                     f"clamps {rec.get('moving_clamps') or 'none'}")
     extra = {k: v for k, v in a.items() if k not in ("schema_version", "softrnn_version", "units", "rod",
-                                                      "scenario_text", "seed", "dt", "n_nodes_total", "contact")}
+                                                      "scenario_text", "seed", "dt", "n_nodes_total", "contact",
+                                                      "scenario_record")}
     if extra:
         shown = ", ".join(f"{k}={json.dumps(v)}" for k, v in extra.items())
         lines.append(f"  attrs: {shown if len(shown) <= 200 else shown[:197] + '...'}")

@@ -58,7 +58,7 @@ def run(args) -> int:
                                    node=scenario.nodes_of_interest[0], out_path=args.out,
                                    scenario_text=scenario.text, seed=scenario.seed,
                                    attrs={"scenario_name": scenario.name}, progress=bar,
-                                   magnetic=scenario.magnetic)
+                                   magnetic=scenario.magnetic, record=scenario.record)
     print(format_summary(summary))
     if args.json:
         atomic_write_text(args.json, json.dumps(summary, indent=2))

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import shutil
-import tomllib
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -19,6 +18,7 @@ import numpy as np
 
 from ..errors import SoftrnnInputError, bad
 from ..io.reader import read_dataset, read_node
+from ..io.record import read_record, scenario_name
 
 ANIMATION_SUFFIXES = (".gif", ".mp4")
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -142,14 +142,14 @@ def check_suffix(path, choices=ANIMATION_SUFFIXES, argument: str = "output") -> 
 
 def node_of_interest(data, default: int | None = None) -> int | None:
     """The data's node of interest, if it names one: ``attrs['node_of_interest']``, else the first of
-    ``nodes_of_interest`` in the scenario text (``attrs['scenario_text']``, TOML); else ``default``,
+    the scenario's nodes of interest (its record, ``softrnn.io.record``); else ``default``,
     the caller's choice (for example the node of interest of the paper case that ``attrs['case']``
     names: the data does not hold it). Negative indices count from the rod's end."""
     attrs = dict(getattr(data, "attrs", None) or {})
     node = _first_int(attrs.get("node_of_interest"))
-    if node is None:
-        run = _scenario(attrs).get("run", {})
-        node = _first_int(run.get("nodes_of_interest") if isinstance(run, dict) else None)
+    record = read_record(attrs) if node is None else None
+    if record is not None and record.nodes_of_interest:
+        node = int(record.nodes_of_interest[0])
     if node is None and default is not None:
         node = int(default)
     if node is not None and node < 0:
@@ -182,24 +182,10 @@ def _text(value) -> str:
     return value if isinstance(value, str) else ""
 
 
-def _scenario(attrs: dict) -> dict:
-    """The scenario TOML of ``attrs['scenario_text']`` as a dict ({} if absent or unreadable)."""
-    text = _text(attrs.get("scenario_text"))
-    if not text.strip():
-        return {}
-    try:
-        return tomllib.loads(text)
-    except (tomllib.TOMLDecodeError, ValueError):
-        return {}
-
-
 def _title(attrs: dict, fallback: str = "rod") -> str:
-    """A short name for the data: ``case``, ``scenario_name`` or ``name`` in attrs, or the scenario's."""
-    for key in ("case", "scenario_name", "name"):
-        if _text(attrs.get(key)):
-            return _text(attrs.get(key))
-    name = _scenario(attrs).get("name")
-    return name if isinstance(name, str) and name else fallback
+    """A short name for the data: its scenario's (``softrnn.io.record.scenario_name``), else ``name`` in
+    attrs, else ``fallback``."""
+    return scenario_name(attrs) or _text(attrs.get("name")) or fallback
 
 
 def load(path, *, group: str | None = None, start: float | None = None, stop: float | None = None,

@@ -15,7 +15,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from scipy.spatial import ConvexHull, QhullError
 
 from ..errors import bad
-from ..io.schema import contact_from_record
+from ..geometry.contact import contact_from_record
 from .geometry import _PLANES, cylinder_mesh, plane_patch, sphere_mesh, tube_mesh, tube_walls_2d
 
 OBSTACLE_COLOR = "#8c564b"
@@ -28,9 +28,9 @@ def obstacles_of(contact) -> list[dict]:
     """The obstacles to draw of a contact: a ``softrnn.rod.Contact`` (or an object with its
     ``obstacles`` and ``friction``), a stored record (a dataset's ``attrs['contact']``,
     ``softrnn.io.schema.contact_record``) or None (none). One dict per obstacle as in the record
-    (``kind``, geometry [m] and ``friction``); a vessel's also has ``points`` (P, 3) and ``radii``
-    (P,) [m], its dense centreline (``softrnn.rod.Vessel.points``). An obstacle with ``vessels`` (a
-    tuple of ``Vessel``, e.g. a branching vessel) is drawn as each of its vessels."""
+    (``kind``, geometry [m] and ``friction``: ``Obstacle.to_record``); a vessel's also has ``points``
+    (P, 3) and ``radii`` (P,) [m], its dense centreline (``softrnn.geometry.Vessel.points``). A
+    bifurcation (an obstacle with ``vessels``) is drawn as each of its vessels."""
     if contact is None:
         return []
     built = contact_from_record(contact) if isinstance(contact, dict) else contact
@@ -41,35 +41,25 @@ def obstacles_of(contact) -> list[dict]:
     return [entry for ob in obstacles for entry in _obstacle_entries(ob, default)]
 
 
-_GEOMETRY = (("vessel", ("centreline", "radius")), ("cylinder", ("point", "axis", "radius")),
-             ("sphere", ("center", "radius")), ("plane", ("point", "normal")))
-"""The obstacles' kinds (``softrnn.rod.contact``), told apart by the attributes of their geometry."""
+_DRAWN = ("plane", "sphere", "cylinder", "vessel")
+"""The obstacle kinds drawn as they are (``softrnn.geometry.obstacles``); a bifurcation as its vessels."""
 
 
 def _obstacle_entries(ob, friction: float) -> list[dict]:
-    """The drawn entries of one obstacle (see ``obstacles_of``): its vessels' for one with ``vessels``."""
-    vessels = getattr(ob, "vessels", None)
-    if vessels is not None:
-        own = getattr(ob, "friction", None)
-        return [e for v in vessels for e in _obstacle_entries(v, friction if own is None else float(own))]
-    for kind, keys in _GEOMETRY:
-        if all(hasattr(ob, k) for k in keys):
-            entry = {"kind": kind}
-            entry.update({k: _plain(getattr(ob, k)) for k in keys})
-            own = getattr(ob, "friction", None)
-            entry["friction"] = friction if own is None else float(own)
-            if kind == "vessel":
-                entry.update(points=np.asarray(ob.points), radii=np.asarray(ob.radii))
-            return [entry]
-    raise bad("contact.obstacles", type(ob).__name__, "Plane, Sphere, Cylinder or Vessel obstacles, or ones with "
-                                                      "vessels (a tuple of Vessel)")
-
-
-def _plain(value):
-    """A geometry value as in a contact record: a float, or nested lists of floats."""
-    if np.ndim(value) == 0:
-        return float(value)
-    return np.asarray(value, dtype=float).tolist()
+    """The drawn entries of one obstacle (see ``obstacles_of``): its record (``kind``), a vessel's with
+    its dense polyline; an obstacle made of vessels (``vessels``, a bifurcation) as its vessels'."""
+    kind = getattr(ob, "kind", None)
+    own = getattr(ob, "friction", None)
+    mu = friction if own is None else float(own)
+    if getattr(ob, "vessels", None) is not None:       # a union of vessels (a Bifurcation)
+        return [e for v in ob.vessels for e in _obstacle_entries(v, mu)]
+    if kind not in _DRAWN:
+        raise bad("contact.obstacles", type(ob).__name__, "Plane, Sphere, Cylinder or Vessel obstacles, or ones with "
+                                                          "vessels (a tuple of Vessel)")
+    entry = ob.to_record(mu)
+    if kind == "vessel":
+        entry.update(points=np.asarray(ob.points), radii=np.asarray(ob.radii))
+    return [entry]
 
 
 def draw_obstacles(ax, obstacles, view: str, lo, hi) -> list:

@@ -11,6 +11,7 @@ import numpy as np
 from .. import __version__
 from ..errors import SoftrnnInputError
 from ._h5files import _Reading
+from .record import RECORD, ScenarioRecord
 from .schema import (
     _REQUIRED_ATTRS,
     _WIDTH,
@@ -158,7 +159,21 @@ def _layout(g: h5py.Group, path: Path, where: str) -> tuple[int, int, dict]:
     attrs["actuation_units"] = _actuation_layout(g, path, where, T)
     if any(name in g for name in CONTACT_FIELDS) or CONTACT in g.attrs:
         attrs[CONTACT] = _contact_layout(g, path, where, (T, N, 3))
+    if RECORD in g.attrs:
+        attrs[RECORD] = _record_attr(g, path, where)
     return T, N, attrs
+
+
+def _record_attr(g: h5py.Group, path: Path, where: str) -> dict:
+    """The group's scenario record (the ``scenario_record`` attribute, ``softrnn.io.record``), checked
+    by rebuilding it."""
+    record = _json_attr(g.attrs, RECORD, path, where)
+    try:
+        ScenarioRecord.from_record(record)
+    except SoftrnnInputError as err:
+        raise DatasetError(f"{path}: the scenario record of {where} is invalid ({err}); re-create the "
+                           f"file") from None
+    return record
 
 
 def _contact_layout(g: h5py.Group, path: Path, where: str, shape: tuple) -> dict | None:

@@ -11,6 +11,7 @@ from ..errors import SoftrnnInputError, bad
 from ..rod.spec import NodeOverride, RodSpec
 from ._checks import _check_values, _inspect, _layout, _select
 from ._h5files import _Reading
+from .record import read_record
 from .schema import (
     _WIDTH,
     ACTUATION,
@@ -160,6 +161,12 @@ class Dataset:
     def contact(self) -> dict | None:
         """The obstacles (``attrs['contact']``, a ``softrnn.io.schema.contact_record``), or None."""
         return self.attrs.get(CONTACT)
+
+    @property
+    def record(self):
+        """The scenario record (``softrnn.io.record.ScenarioRecord``: what drove the run), or None for
+        a file without one."""
+        return read_record(self.attrs)
 
     @property
     def has_orientations(self) -> bool:

@@ -23,12 +23,13 @@ contact_torques (T, N, 3) float32 optional (schema 3): their torques about the n
 and the attributes ``softrnn_schema``, ``softrnn_version``, ``dt``, ``seed`` (absent when there is
 none), ``rod`` (JSON), ``scenario`` (text), ``units`` (JSON), ``n_nodes_total`` and ``attrs`` (JSON,
 the caller's own metadata), and with the contact datasets ``contact`` (JSON: the obstacles, see
-``contact_record``). The per-node arrays are chunked ``(TIME_CHUNK, 1, c)`` and compressed
+``softrnn.geometry.contact.contact_record``), and, for a simulated scenario, ``scenario_record``
+(JSON: what drove the run, ``softrnn.io.record``). The per-node arrays are chunked ``(TIME_CHUNK, 1, c)`` and compressed
 (gzip level 4 with byte shuffle, Fletcher-32 checksums), so one node's series is read without
 touching the other nodes' chunks.
 
-Writes are atomic: data goes to a hidden ``.STEM.XXXX.tmp.h5`` in the same folder and is renamed
-onto ``path`` only when the trajectory is complete; a failed or interrupted write leaves no file at ``path`` (and
+Writes are atomic: data goes to ``<path>.tmp-XXXX`` in the same folder and is renamed onto ``path``
+only when the trajectory is complete; a failed or interrupted write leaves no file at ``path`` (and
 the previous file, if any, unchanged). Every problem with a file is a one-line ``DatasetError``
 naming the file, what is wrong and what to do.
 """
@@ -39,8 +40,9 @@ import re
 
 import numpy as np
 
-from ..errors import SoftrnnInputError, bad, is_finite_number
-from ..rod.contact import Bifurcation, Contact, Cylinder, Plane, Sphere, Vessel
+from ..errors import SoftrnnInputError, bad
+from ..geometry.contact import contact_from_record as contact_from_record
+from ..geometry.contact import contact_record as contact_record
 
 SCHEMA_VERSION = 2
 """Version of the file layout of a trajectory without contact (and of a sweep's root without contact
@@ -51,6 +53,8 @@ CONTACT_SCHEMA = 3
 """Version of a trajectory with the contact datasets ``contact_forces``, ``contact_torques`` and the
 ``contact`` attribute (older readers refuse it instead of dropping the contact loads); the newest
 schema this softrnn reads."""
+# The optional ``scenario_record`` attribute (``softrnn.io.record``) keeps the schema: an older reader
+# ignores it and keeps the scenario's text, so nothing is lost; ``record.RECORD_VERSION`` versions it.
 
 TIME_CHUNK = 4096
 """Samples per HDF5 chunk along time (the simulator's chunk length; docs/dataset-format.md#size)."""
@@ -102,7 +106,7 @@ ACTUATION_NAME = re.compile(r"^[a-z][a-z0-9_]{0,63}$")
 e.g. ``tendon_1``, ``p_chamber_2``, ``coil_3``."""
 
 RESERVED_ATTRS = ("schema_version", "softrnn_version", "units", "rod", "scenario_text", "seed", "dt",
-                  "n_nodes_total", "actuation_units", "contact")
+                  "n_nodes_total", "actuation_units", "contact", "scenario_record")
 SWEEP_PREFIX = "traj-"
 _REQUIRED_ATTRS = ("softrnn_schema", "softrnn_version", "dt", "rod", "scenario", "units", "n_nodes_total", "attrs")
 
@@ -130,84 +134,6 @@ def actuation_units(value, argument: str = "actuation_units") -> dict[str, str]:
                                                f"{', '.join(ACTUATION_UNITS)}")
         out[name] = unit
     return out
-
-
-_KINDS = {"plane": (Plane, ("point", "normal")), "sphere": (Sphere, ("center", "radius")),
-          "cylinder": (Cylinder, ("point", "axis", "radius")), "vessel": (Vessel, ("centreline", "radius")),
-          "bifurcation": (Bifurcation, ("trunk", "left", "right", "radius", "left_radius", "right_radius"))}
-_CONTACT_KEYS = ("friction", "slip_velocity", "stiffness", "damping", "penetration", "reference_acceleration")
-
-
-def _plain_value(value):
-    """A geometry value as JSON: a number, or nested lists of numbers."""
-    if is_finite_number(value):
-        return float(value)
-    return np.asarray(value, dtype=float).tolist()
-
-
-def contact_record(contact) -> dict | None:
-    """The ``contact`` attribute (a JSON-ready dict) of a ``softrnn.rod.Contact``.
-
-    Parameters
-    ----------
-    contact : Contact, dict or None
-        the setup's contact (``Setup.contact``), or a record of this form (e.g. read from a file:
-        checked by rebuilding the Contact); None gives None
-
-    Returns
-    -------
-    dict or None
-        ``friction`` (the default mu [-]), ``slip_velocity``, ``stiffness``, ``damping``,
-        ``penetration``, ``reference_acceleration``, ``obstacles`` (one dict per obstacle: ``kind``,
-        its geometry [m] and ``friction``) and ``self_contact`` where the rod touches itself; every
-        key with its units: docs/dataset-format.md.
-    """
-    if contact is None:
-        return None
-    if isinstance(contact, dict):
-        contact = contact_from_record(contact)
-    if not isinstance(contact, Contact):
-        raise bad("contact", _short(contact), "a softrnn.rod.Contact (Setup.contact), a stored contact record, "
-                                              "or None")
-    obstacles = []
-    for ob in contact.obstacles:
-        kind = next(k for k, (cls, _) in _KINDS.items() if isinstance(ob, cls))
-        entry = {"kind": kind}
-        entry.update({key: _plain_value(getattr(ob, key)) for key in _KINDS[kind][1]})
-        entry["friction"] = float(contact.friction_of(ob))
-        obstacles.append(entry)
-    record = {key: getattr(contact, key) for key in _CONTACT_KEYS}
-    record = {k: None if v is None else float(v) for k, v in record.items()}
-    record["obstacles"] = obstacles
-    if contact.self_contact:          # only where set: records without it read as before
-        record["self_contact"] = True
-    return record
-
-
-def contact_from_record(record) -> Contact:
-    """The ``softrnn.rod.Contact`` of a stored ``contact`` record (see ``contact_record``); a
-    malformed one is a one-line ``SoftrnnInputError``."""
-    if not isinstance(record, dict) or not isinstance(record.get("obstacles"), list):
-        raise bad("contact", _short(record), "a dict with 'obstacles' (a list) and the contact parameters "
-                                             "(see softrnn.io.schema.contact_record)")
-    obstacles = []
-    for j, entry in enumerate(record["obstacles"]):
-        kind = entry.get("kind") if isinstance(entry, dict) else None
-        if kind not in _KINDS:
-            raise bad(f"contact.obstacles[{j}]", _short(entry), f"a dict with kind one of {', '.join(_KINDS)}")
-        cls, keys = _KINDS[kind]
-        missing = [k for k in keys if k not in entry]
-        if missing:
-            raise bad(f"contact.obstacles[{j}]", _short(entry), f"the {kind}'s {', '.join(keys)} (missing: "
-                                                                 f"{', '.join(missing)})")
-        obstacles.append(cls(*(entry[k] for k in keys), friction=entry.get("friction")))
-    options = {k: record[k] for k in _CONTACT_KEYS if record.get(k) is not None}
-    if "self_contact" in record:
-        options["self_contact"] = record["self_contact"]
-    try:
-        return Contact(obstacles=tuple(obstacles), **options)
-    except TypeError as err:
-        raise bad("contact", _short(record), f"a valid contact record ({err})") from None
 
 
 def _group_name(group: str) -> str:

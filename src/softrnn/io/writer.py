@@ -18,6 +18,7 @@ from ..files import json_default, temporary_path
 from ._checks import _inspect
 from ._h5files import _discard, _h5open
 from .reader import Dataset
+from .record import RECORD, ScenarioRecord
 from .schema import (
     _DESCRIPTION,
     _WIDTH,
@@ -51,6 +52,17 @@ def _to_json(argument: str, value) -> str:
     except (TypeError, ValueError) as err:
         raise bad(argument, value, f"JSON-serialisable values (numbers, strings, lists, dicts; "
                                    f"no NaN/inf): {one_line(err)}") from None
+
+
+def _record_json(record) -> str:
+    """A scenario record (``ScenarioRecord`` or its stored dict, checked by rebuilding it) as JSON."""
+    if isinstance(record, dict):
+        ScenarioRecord.from_record(record)
+    elif isinstance(record, ScenarioRecord):
+        record = record.to_record()
+    else:
+        raise bad("record", type(record).__name__, "a softrnn.io.record.ScenarioRecord, a stored record, or None")
+    return _to_json("record", record)
 
 
 def _rod_dict(rod):
@@ -155,6 +167,10 @@ class DatasetWriter:
         chunks decide; if the first brings contact loads they are stored, with the attribute
         ``contact`` = null (obstacles not recorded); else none is stored and the file is exactly
         that of a run without contact.
+    record : ScenarioRecord, dict or None
+        What drove the run (``softrnn.io.record``; ``Scenario.record`` for a simulated scenario, or a
+        stored record such as ``Dataset.attrs["scenario_record"]``), stored as the JSON attribute
+        ``scenario_record``; None: none is stored.
 
     Notes
     -----
@@ -165,7 +181,8 @@ class DatasetWriter:
 
     def __init__(self, path, *, nodes, n_samples: int, dt: float, rod=None, scenario_text: str = "",
                  seed: int | None = None, attrs: dict | None = None, group: str | None = None,
-                 actuation_units: dict | None = None, contact=None, _softrnn_version: str | None = None):
+                 actuation_units: dict | None = None, contact=None, record=None,
+                 _softrnn_version: str | None = None):
         self.path = Path(path)
         node_arr = _node_array(nodes)
         self._contact_record = contact_record(contact)
@@ -193,6 +210,8 @@ class DatasetWriter:
         }
         if seed is not None:
             self._meta["seed"] = int(seed)
+        if record is not None:
+            self._meta[RECORD] = _record_json(record)
         self._written = 0
         self._buffer: list[dict] = []
         self._buffered = 0
@@ -504,15 +523,18 @@ def _float32_rows(rows: dict, where: str) -> dict:
 
 def write_trajectory(path, traj, *, dt: float, rod=None, scenario_text: str = "", seed: int | None = None,
                      attrs: dict | None = None, group: str | None = None, actuation_units: dict | None = None,
-                     actuation=None, contact=None) -> None:
+                     actuation=None, contact=None, record=None) -> None:
     """Write a whole trajectory (``softrnn.rod.Trajectory`` or ``Dataset``) to ``path`` atomically.
 
     Parameters are those of ``DatasetWriter``; the nodes are ``traj.nodes``. ``actuation_units``
     None takes ``traj.actuation_units`` where the trajectory has them (a ``Dataset``), else none;
     ``actuation`` (T, m) None takes ``traj.actuation``. The contact loads are the trajectory's own
     (``traj.contact_forces``, ``traj.contact_torques``; None: none); ``contact`` (the run's
-    ``Setup.contact``) None takes ``traj.contact`` where the trajectory has it (a ``Dataset``).
+    ``Setup.contact``) None takes ``traj.contact`` where the trajectory has it (a ``Dataset``);
+    ``record`` None takes ``traj.attrs["scenario_record"]`` where it has one.
     """
+    if record is None:
+        record = (getattr(traj, "attrs", None) or {}).get(RECORD)
     time = np.asarray(traj.time)
     if actuation_units is None:
         actuation_units = getattr(traj, "actuation_units", None)
@@ -520,7 +542,7 @@ def write_trajectory(path, traj, *, dt: float, rod=None, scenario_text: str = ""
         contact = getattr(traj, "contact", None)
     with DatasetWriter(path, nodes=np.asarray(traj.nodes), n_samples=int(time.shape[0]), dt=dt, rod=rod,
                        scenario_text=scenario_text, seed=seed, attrs=attrs, group=group,
-                       actuation_units=actuation_units, contact=contact) as writer:
+                       actuation_units=actuation_units, contact=contact, record=record) as writer:
         writer.append(traj, actuation)
 
 
@@ -533,5 +555,6 @@ def write_dataset(path, dataset: Dataset, *, group: str | None = None) -> None:
                        seed=dataset.attrs.get("seed"), attrs=attrs, group=group,
                        actuation_units=dataset.actuation_units,
                        contact=dataset.contact if dataset.has_contact else None,
+                       record=dataset.attrs.get(RECORD),
                        _softrnn_version=dataset.attrs.get("softrnn_version")) as writer:
         writer.append(dataset)

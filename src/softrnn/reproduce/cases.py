@@ -37,7 +37,7 @@ def run_case(case: Case, quick: bool, data_path, progress: Progress | None = Non
         out_path=data_path, scenario_text=scenario.text if scenario is not None else "",
         seed=scenario.seed if scenario is not None else None,
         attrs={"scenario_name": case.name, "node_of_interest": case.node_of_interest, "quick": quick},
-        progress=progress, series=series)
+        progress=progress, series=series, record=scenario.record if scenario is not None else None)
     summary["paper_section"] = case.paper_section
     summary["node_range_mm"] = (1e3 * (series["node_positions"].max(0) - series["node_positions"].min(0))).tolist()
     summary["density_kg_m3"] = case.setup.rod.density

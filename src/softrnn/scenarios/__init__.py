@@ -7,6 +7,8 @@ cases built from them, and the summary of a scenario's run.
 * ``cases``: the paper's Data-sets I-III as ``Case`` records and their ``ASSUMPTIONS``;
 * ``summary``: ``simulate_summary``, the run behind ``softrnn simulate``, and ``contact_lines``, the
   obstacles in a scenario's summary;
+* ``record``: the scenario record of a data set written before the record existed, rebuilt from its
+  text (``with_record``); a scenario's own is ``Scenario.record`` (``softrnn.io.record``);
 * ``magnetic``: magnetic scenarios (a ``[magnetic]`` table): ``MagneticScenario``, run by the
   manipulator's driver (``simulate_magnetic``) and written with the coil currents.
 """

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 
+import tomlkit
+
 from .reading import _Ctx, _is_number, _join, _show
 
 ENTRY_KEYS = ("bounds", "start")
@@ -94,3 +96,19 @@ def _check_calibrate(ctx: _Ctx, doc: dict, entries: dict) -> dict[str, tuple[flo
                                    f"give another start")
         out[key] = (lo, hi, s)
     return out
+
+
+def edited_text(text: str, values: dict) -> str:
+    """The scenario ``text`` with each dotted key of ``values`` (as in ``[randomize]``, the path
+    existing in the file) set to its value, comments and layout kept (tomlkit)."""
+    doc = tomlkit.parse(text)
+    for key, value in values.items():
+        *path, last = key.split(".")
+        node = doc
+        for part in path:
+            node = node[int(part)] if isinstance(node, list) else node[part]
+        if isinstance(node, list):
+            node[int(last)] = value
+        else:
+            node[last] = value
+    return tomlkit.dumps(doc)

@@ -25,6 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
+from ..io.record import PDLaw, ScenarioRecord
+from ..rod.boundary import Clamp
+from ..rod.loads import PDTracking
 from ..rod.simulation import RunConfig, Setup
 from ._contact import read_contact
 from ._initial import initial_shape, with_static_start
@@ -96,6 +99,17 @@ class Scenario:
     randomize: dict = field(default_factory=dict, repr=False)
     calibrate: dict = field(default_factory=dict, repr=False)
     magnetic: MagneticScenario | None = field(default=None, repr=False)
+
+    @property
+    def record(self) -> ScenarioRecord:
+        """What drives this scenario's run, as its data file stores it (``softrnn.io.record``): its name,
+        nodes of interest, ``[paper]`` table, PD laws, moving clamps, a variant's draws, obstacles."""
+        pd = tuple(PDLaw(load.node, load.target, load.stiffness, load.damping)
+                   for load in self.setup.loads if isinstance(load, PDTracking))
+        moving = tuple(sorted(bc.node for bc in self.setup.boundary if isinstance(bc, Clamp) and bc.motion is not None))
+        return ScenarioRecord(name=self.name, nodes_of_interest=tuple(self.nodes_of_interest), paper=dict(self.paper),
+                              pd=pd, moving_clamps=moving, sampled=dict(self.sampled),
+                              variant_index=self.variant_index, contact=self.setup.contact)
 
     @property
     def randomized(self) -> bool:

@@ -12,6 +12,7 @@ from ..rod import RunConfig, Setup, Simulator
 from ..rod.tendons import tendon_actuation, tendon_sink
 from ._contact import describe
 from .magnetic import MagneticScenario, magnetic_summary
+from .record import record_of_text
 
 
 class _NodeCollector:
@@ -31,10 +32,12 @@ class _NodeCollector:
 def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, node: int,
                      out_path=None, scenario_text: str = "", seed: int | None = None, attrs: dict | None = None,
                      progress: Progress | None = None, series: dict | None = None,
-                     magnetic: MagneticScenario | None = None) -> dict:
+                     magnetic: MagneticScenario | None = None, record=None) -> dict:
     """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically), with the
     tensions of the setup's tendons as its actuation channels ``tendon_<name>`` [N] and, with
-    contact, the obstacles and the contact loads on the saved nodes.
+    contact, the obstacles and the contact loads on the saved nodes, and ``record`` (the scenario's
+    ``Scenario.record``, ``softrnn.io.record``; None: that of ``scenario_text``, where it reads, with
+    the draws ``attrs["sampled"]`` of variant ``attrs["variant_index"]``) as the file's scenario record.
 
     Returns a JSON-ready summary: timing, step, the node of interest's range, energy, orthogonality.
     If a dict is passed as ``series`` it receives the arrays time (T,), node_positions (T, 3) [m]
@@ -66,9 +69,13 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
     else:
         # tendon tensions are stored as the actuation channels tendon_<name> [N]
         _, units = tendon_actuation(setup.tendons, np.zeros(0))
+        if record is None:              # that of the text, with a sweep variant's draws in attrs
+            extra = attrs or {}
+            index = extra.get("variant_index")
+            record = record_of_text(scenario_text, extra.get("sampled"), index if isinstance(index, int) else None)
         with DatasetWriter(out_path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=setup.rod,
                            scenario_text=scenario_text, seed=seed, attrs=attrs, actuation_units=units,
-                           contact=setup.contact) as writer:
+                           contact=setup.contact, record=record) as writer:
             sink = _NodeCollector(nodes.index(node), forward=tendon_sink(writer.append, setup.tendons))
             stats = sim.run(config, progress=progress, sink=sink)
     total = time.perf_counter() - start

@@ -109,7 +109,7 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
     _, units = tendon_actuation(tendons, ())  # tendon tensions: actuation channels tendon_<name> [N]
     with DatasetWriter(path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=scenario.setup.rod,
                        scenario_text=scenario.text, seed=scenario.seed, attrs=attrs, actuation_units=units,
-                       contact=scenario.setup.contact) as writer:
+                       contact=scenario.setup.contact, record=scenario.record) as writer:
         stats = sim.run(config, sink=tendon_sink(writer.append, tendons))
     return {"index": index, "wall_time": time.perf_counter() - start, "substeps": stats.substeps}
 

@@ -46,12 +46,12 @@ record is longer than the history; each problem is a one-line ``SoftrnnInputErro
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ...io.record import read_record, scenario_name
 from ...paper import paper_results
 from ..horizons import HORIZON_STARTS, HorizonTable
 from .comparison import (  # noqa: F401  (re-exported: the evaluation's public names)
@@ -103,18 +103,20 @@ PAPER_KEYS = {
 
 def paper_reference(attrs: dict) -> dict | None:
     """The paper's figures to compare with, from the data set's scenario: its ``[paper]`` table
-    (``key``, ``role``), else its ``scenario_name`` (``PAPER_KEYS``). A training scenario compares
-    with the paper's test figures, a generalisation scenario with its generalisation figures.
+    (``key``, ``role``, from its record), else its name (``softrnn.io.record.scenario_name``,
+    ``PAPER_KEYS``). A training scenario compares with the paper's test figures, a generalisation
+    scenario with its generalisation figures.
     Returns {key, figures: 'test' | 'generalisation', section, predicted_node, max_abs_mm,
     mean_abs_mm, max_pct_of_length} or None."""
-    table = _scenario_toml(attrs).get("paper")
+    record = read_record(attrs)
+    table = record.paper if record is not None else None
     key = role = None
     if isinstance(table, dict) and isinstance(table.get("key"), str):
         key = table["key"]
         role = "generalisation" if table.get("role") == "generalisation" else "test"
     else:
-        name = attrs.get("scenario_name")
-        if isinstance(name, str) and name in PAPER_KEYS:
+        name = scenario_name(attrs)
+        if name in PAPER_KEYS:
             key, role = PAPER_KEYS[name]
     cases = paper_results()["cases"]
     if key not in cases or role not in cases[key]:
@@ -124,17 +126,6 @@ def paper_reference(attrs: dict) -> dict | None:
             "predicted_node": cases[key].get("predicted_node"),
             "max_abs_mm": list(figures["max_abs_mm"]), "mean_abs_mm": list(figures["mean_abs_mm"]),
             "max_pct_of_length": list(figures["max_pct_of_length"])}
-
-
-def _scenario_toml(attrs: dict) -> dict:
-    """The data set's scenario text (TOML) as a dict ({} if absent or unreadable)."""
-    text = attrs.get("scenario_text")
-    if not isinstance(text, str) or not text.strip():
-        return {}
-    try:
-        return tomllib.loads(text)
-    except (tomllib.TOMLDecodeError, ValueError):
-        return {}
 
 
 # --------------------------------------------------------------------------------------- evaluate

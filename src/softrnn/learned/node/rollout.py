@@ -242,7 +242,8 @@ def _predict_group(g, state, quats, forces, torques, k: int, time, first: int, a
 
 
 # --------------------------------------------------------------------------------------- output
-_COPIED = ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version")
+_COPIED = ("rod", "scenario_text", "seed", "dt", "n_nodes_total", "units", "softrnn_version",
+           "scenario_record")
 """The reference's attributes a node rollout's data set keeps as they are (the writer's own arguments)."""
 
 

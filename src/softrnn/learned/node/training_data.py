@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol
@@ -18,6 +17,7 @@ import numpy as np
 
 from ...errors import SoftrnnInputError, bad
 from ...io.reader import Dataset, read_dataset
+from ...io.record import scenario_name
 from ._losses import _MultiStep, _OneStep, _RelativeMultiStep
 from .data import IRREGULAR_DT_TOLERANCE, Normalizer, SampleSpec, Windows, make_windows, regular_times, split
 from .model import ModelConfig
@@ -278,17 +278,10 @@ def _resolve_pool(pool, spec: SampleSpec, stored, total) -> tuple[int, ...] | No
 
 # ------------------------------------------------------------------------------------------ description
 def _scenario_name(attrs: dict, path) -> str | None:
-    for key in ("scenario_name", "case"):
-        if isinstance(attrs.get(key), str) and attrs[key]:
-            return attrs[key]
-    text = attrs.get("scenario_text") or ""
-    if text:
-        try:
-            name = tomllib.loads(text).get("name")
-            if isinstance(name, str):
-                return name
-        except (tomllib.TOMLDecodeError, ValueError):
-            pass
+    """The data's scenario name (``softrnn.io.record.scenario_name``), else the file's stem."""
+    name = scenario_name(attrs)
+    if name is not None:
+        return name
     return Path(path).stem if path is not None else None
 
 
@@ -313,7 +306,8 @@ def dataset_meta(data, path, group: str | None = None) -> dict:
         "softrnn_version": attrs.get("softrnn_version"),
         **({"actuation_units": dict(data.actuation_units)} if getattr(data, "actuation_units", None) else {}),
         "extra": {k: v for k, v in attrs.items() if k not in (
-            "schema_version", "softrnn_version", "units", "rod", "scenario_text", "seed", "dt", "n_nodes_total")},
+            "schema_version", "softrnn_version", "units", "rod", "scenario_text", "seed", "dt", "n_nodes_total",
+            "scenario_record")},
     }
 
 

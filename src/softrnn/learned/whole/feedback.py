@@ -1,7 +1,8 @@
 """State-feedback loads (PD tracking) applied to a whole-manipulator model's own state (NumPy only).
 
 A scenario's ``kind = "pd"`` load pulls a node toward a moving target,
-``f = stiffness (target(t) - r) - damping v`` (``softrnn.rod.loads.PDTracking``). A data set records
+``f = stiffness (target(t) - r) - damping v`` (its data's scenario record holds the law,
+``softrnn.io.record.PDLaw``, with its target, a time function of ``softrnn.geometry.paths``). A data set records
 the force the law produced *from the simulated rod's state*. Fed to a model as a known input, that
 force carries the true trajectory with it and leaves the model's own errors uncorrected: the model
 then runs the rod open loop, where the light drag lets every error persist (on the square, the
@@ -22,24 +23,12 @@ training's unrolled free runs, so training and free running see the same inputs.
 
 from __future__ import annotations
 
-import json
-import tomllib
 from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import SoftrnnInputError, bad
-from ...rod.loads import (
-    CirclePath,
-    Constant,
-    Figure8Path,
-    PDTracking,
-    RandomSmoothPath,
-    Sinusoid,
-    SquarePath,
-    Sum,
-    Window,
-)
+from ...errors import bad
+from ...io.record import read_record
 
 TARGET_SAMPLES = 8
 """Target samples averaged over each model step (midpoints of equal sub-intervals)."""
@@ -87,108 +76,35 @@ class Feedback:
 
 
 def pd_laws(dataset) -> list:
-    """The ``PDTracking`` loads of the scenario a data set was simulated from: the ``[[loads]]``
-    entries of kind ``"pd"`` in its ``attrs["scenario_text"]`` (TOML), with a sweep variant's drawn
-    values (``attrs["sampled"]``: {dotted key: value}, as ``softrnn sweep`` records them) put in
-    first. [] for data without a scenario (lab data) or a scenario without PD loads; a PD load that
-    cannot be rebuilt is a one-line error."""
-    text = dataset.attrs.get("scenario_text")
-    if not isinstance(text, str) or not text.strip():
-        return []
-    try:
-        doc = tomllib.loads(text)
-        _put_sampled(doc, dataset.attrs)
-        entries = doc.get("loads", [])
-        return [_law(entry) for entry in entries if isinstance(entry, dict) and entry.get("kind") == "pd"]
-    except (tomllib.TOMLDecodeError, SoftrnnInputError, KeyError, TypeError, ValueError, IndexError) as err:
-        if '"pd"' not in text:
-            return []
-        raise bad("data", f"a data set whose PD loads cannot be rebuilt ({str(err)[:80]})",
-                  "data whose scenario_text softrnn can read, or feedback = false (the recorded PD forces "
-                  "as inputs)") from None
+    """The PD laws (``softrnn.io.record.PDLaw``) of the scenario a data set was simulated from, as its
+    scenario record stores them (a sweep variant's draws in them). [] for data without a scenario
+    (lab data) or a scenario without PD loads; data whose scenario text has PD loads but which has no
+    record (a file written before the record existed) is a one-line error."""
+    record = _record(dataset, lambda text: '"pd"' in text, "feedback = false (the recorded PD forces as inputs)")
+    return [] if record is None else list(record.pd)
 
 
 def moving_clamps(dataset) -> tuple:
     """The nodes (0-based, increasing) that the scenario a data set was simulated from moves along a
-    prescribed path: ``[[boundary]]`` entries of kind clamp with a displacement or rotation in its
-    ``attrs["scenario_text"]``. () for data without a scenario (lab data) or without such a clamp."""
+    prescribed path, as its scenario record stores them. () for data without a scenario (lab data)
+    or without such a clamp; data whose scenario text moves a clamp but which has no record is a
+    one-line error."""
+    record = _record(dataset, lambda text: "[[boundary]]" in text and ("displacement" in text or "rotation" in text),
+                     "prescribed = false")
+    return () if record is None else tuple(record.moving_clamps)
+
+
+def _record(dataset, needs, instead: str):
+    """The data set's scenario record (``softrnn.io.record``), or None without one; a data set
+    without a record whose scenario text may hold what it is read for (``needs(text)``: a file
+    written before the record existed) is a one-line error that offers ``instead``."""
+    record = read_record(dataset)
     text = dataset.attrs.get("scenario_text")
-    if not isinstance(text, str) or "boundary" not in text:
-        return ()
-    try:
-        entries = tomllib.loads(text).get("boundary", [])
-    except tomllib.TOMLDecodeError:
-        return ()
-    n = len(dataset.nodes)
-    nodes = {int(e["node"]) % n for e in entries if isinstance(e, dict) and e.get("kind") == "clamp"
-             and isinstance(e.get("node"), int) and ("displacement" in e or "rotation" in e)}
-    return tuple(sorted(nodes))
-
-
-def _put_sampled(doc: dict, attrs) -> None:
-    """A sweep variant's drawn values (``attrs["sampled"]``, JSON) set into the scenario document;
-    a variant whose draws of its PD loads were not recorded is a ``ValueError``."""
-    sampled = attrs.get("sampled")
-    sampled = json.loads(sampled) if isinstance(sampled, str) else dict(sampled or {})
-    if attrs.get("variant_index") is not None and not sampled:
-        pd = {str(i) for i, e in enumerate(doc.get("loads", [])) if isinstance(e, dict) and e.get("kind") == "pd"}
-        if any(key.split(".")[:2] in (["loads", i] for i in pd) for key in doc.get("randomize", {})):
-            raise ValueError("a sweep variant without its drawn values (attrs 'sampled')")
-    for key, value in sampled.items():
-        *path, last = key.split(".")
-        node = doc
-        for part in path:
-            node = node[int(part)] if isinstance(node, list) else node[part]
-        if isinstance(node, list):
-            node[int(last)] = value
-        else:
-            node[last] = value
-
-
-def _law(entry: dict) -> PDTracking:
-    """A ``[[loads]]`` entry of kind ``"pd"`` as ``PDTracking`` (node as written: negative counts
-    from the end)."""
-    node = entry["node"]
-    if isinstance(node, bool) or not isinstance(node, int):
-        raise ValueError(f"loads node {node!r} is not an integer")
-    return PDTracking(node, _target(entry["target"]), stiffness=float(entry["stiffness"]),
-                      damping=float(entry.get("damping", 0.0)))
-
-
-_PLANE_PATHS = {"square": (SquarePath, ("side", "period")), "circle": (CirclePath, ("radius", "period")),
-                "figure8": (Figure8Path, ("width", "height", "period")),
-                "random_smooth": (RandomSmoothPath, ("amplitude", "cutoff"))}
-"""The target paths a PD law may follow: kind -> (class, its numbers besides centre, axes and ramp)."""
-
-
-def _target(raw: dict):
-    """The time function of a PD target's profile table, built as the scenario file builds it."""
-    kind = raw["kind"]
-    if kind == "constant":
-        return Constant(_vec(raw["value"]))
-    if kind == "sinusoid":
-        return Sinusoid(_vec(raw["amplitude"]), float(raw["frequency"]), phase=float(raw.get("phase", 0.0)),
-                        offset=_vec(raw.get("offset", (0.0, 0.0, 0.0))))
-    if kind == "window":
-        return Window(_target(raw["function"]), float(raw["start"]), float(raw["stop"]))
-    if kind == "sum":
-        return Sum(tuple(_target(term) for term in raw["terms"]))
-    if kind not in _PLANE_PATHS:
-        raise ValueError(f"a PD target of kind {kind!r}")
-    cls, names = _PLANE_PATHS[kind]
-    args = {name: _vec(raw[name]) for name in ("u", "v") if name in raw}
-    args["ramp"] = float(raw.get("ramp", 1.0))
-    numbers = [float(raw[name]) for name in names]
-    if kind == "random_smooth":
-        return cls(_vec(raw["center"]), *numbers, int(raw["seed"]), n_modes=int(raw.get("n_modes", 6)), **args)
-    return cls(_vec(raw["center"]), *numbers, **args)
-
-
-def _vec(x) -> tuple:
-    """A 3-vector of floats."""
-    if len(x) != 3:
-        raise ValueError(f"{x!r} is not a 3-vector")
-    return tuple(float(c) for c in x)
+    if record is None and isinstance(text, str) and needs(text):
+        raise bad("data", "a data set without its scenario record (written by an older softrnn)",
+                  f"the record added (softrnn.scenarios.record.upgrade_file or with_record), the data simulated "
+                  f"again, or {instead}")
+    return record
 
 
 def feedback_of(encoding, dataset, time: np.ndarray) -> Feedback | None:

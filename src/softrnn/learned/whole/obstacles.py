@@ -4,10 +4,10 @@ obstacles the data were simulated with (NumPy only).
 A whole-manipulator model learns contact only as the motion the data show near an obstacle: nothing
 in its step knows a table or a vessel wall, so a free run can sink the rod into the table or carry a
 guidewire through the wall of its vessel. Where a data set records its obstacles (the ``contact``
-attribute of a run simulated with contact, ``softrnn.io.schema.contact_record``) and the model's
+attribute of a run simulated with contact, ``softrnn.geometry.contact.contact_record``) and the model's
 ``Encoding.obstacles`` is set (``DynamicConfig.obstacles``), the states a free run reports are
 projected: each predicted kept node whose rod surface lies inside an obstacle (gap g < 0, as
-``softrnn.rod.contact`` measures it, with the rod's radius) is moved back to the surface, by -g
+``softrnn.geometry.obstacles`` measures it, with the rod's radius) is moved back to the surface, by -g
 along the obstacle's normal (obstacles one after the other; fixed and prescribed nodes are not
 moved; the nodes decoded between kept nodes are not projected themselves). For a convex obstacle
 region and a true pose outside the obstacle, the projection can only bring a node closer to it.
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...io.schema import contact_from_record
+from ...geometry.contact import contact_from_record
 from .data import rod_value
 
 
@@ -38,7 +38,7 @@ class ObstacleProjection:
     Parameters
     ----------
     contact : Contact or dict
-        the obstacles: a ``softrnn.rod.Contact``, or a data set's ``contact`` record
+        the obstacles: a ``softrnn.geometry.Contact``, or a data set's ``contact`` record
     ref_positions : ndarray (M, 3)
         the kept nodes' reference positions [m] (a state's displacements are added to them)
     radius : float
