@@ -25,9 +25,10 @@ from ..errors import bad
 from ..progress import Progress
 from . import kernels
 from .inputs import SetupInputs
+from .integrators import Explicit, choose_substeps
 from .kernels import StateArrays, StepInputs
 from .lumped import lumped_rod, node_kinds
-from .simulation import RunConfig, Setup, Trajectory, check_run_size, choose_substeps, save_nodes, save_slots
+from .simulation import RunConfig, Setup, Trajectory, check_run_size, save_nodes, save_slots
 from .stability import stable_step
 from .state import SAMPLE_FIELDS, empty_samples, half_kick, initial_state
 from .status import raise_for_status
@@ -99,8 +100,8 @@ def _checked(setups: Sequence[Setup], config: RunConfig) -> list[Setup]:
                                                            "obstacles one by one with Simulator)")
     if not isinstance(config, RunConfig):
         raise bad("config", type(config).__name__, "a softrnn.rod.RunConfig")
-    if config.integrator != "explicit":
-        raise bad("config.integrator", config.integrator,
+    if not isinstance(config.integrator, Explicit):
+        raise bad("config.integrator", str(config.integrator),
                   "'explicit': a batch runs the explicit integrator (run stiff rods one by one with Simulator)")
     return setups
 

@@ -6,7 +6,6 @@ rod's lumped arrays, built once (``rod.lumped``). The saved interval
 ``dt`` is split into ``substeps`` solver steps h = dt / substeps below the stability limit.
 """
 
-import math
 import os
 import time
 from collections.abc import Callable
@@ -16,11 +15,11 @@ import numpy as np
 
 from ..errors import SoftrnnInputError, bad, nonnegative
 from ..progress import Progress
-from . import implicit, kernels
+from . import implicit
 from .boundary import Clamp, Pin
 from .contact import Contact, check_initial, step_limit
-from .discrete import segment_strains
 from .inputs import SetupInputs
+from .integrators import BY_NAME, Explicit, Implicit, as_integrator
 from .kernels import Samples
 from .loads import NodalLoad, PDTracking
 from .lumped import lumped_rod
@@ -28,12 +27,12 @@ from .shapes import RodShape
 from .so3 import quaternion_to_matrix
 from .spec import RodSpec
 from .stability import DEFAULT_SAFETY, omega_max, stable_step
-from .state import SAMPLE_FIELDS, RodState, empty_samples, half_kick, initial_state
+from .state import SAMPLE_FIELDS, RodState, empty_samples, initial_state
 from .status import raise_for_status
 from .tendons import Tendon, check_offset
 
-INTEGRATORS = ("explicit", "implicit")
-"""The solver integrators a ``RunConfig`` may name."""
+INTEGRATORS = tuple(BY_NAME)
+"""The names of the solver integrators a ``RunConfig`` may take (``rod.integrators``)."""
 
 _CHUNK_STEPS = 65536
 _CHUNK_SAMPLES = 4096
@@ -64,7 +63,7 @@ def _size(n: float) -> str:
 def check_run_size(*, n_samples: int, dt: float, substeps: int, n_saved: int, held_samples: int,
                    chunk_steps: int = 0, step_bytes: int = 0, batch: int = 1, extra_bytes: int = 0,
                    extra_steps: int = 0, streamed: bool = False, streamable: bool = True,
-                   auto_substeps: bool = True, integrator: str | None = None) -> None:
+                   auto_substeps: bool = True, integrator: Explicit | Implicit | None = None) -> None:
     """Refuse, before anything is allocated or stepped, a run too large for this machine.
 
     Every simulation path calls it (``Simulator.run``, ``simulate_batch``, the magnetic
@@ -95,9 +94,8 @@ def check_run_size(*, n_samples: int, dt: float, substeps: int, n_saved: int, he
         fixes.append("save fewer nodes (save_nodes)")
     if held > limit and samples_heavy and streamable and not streamed:
         fixes.append("write to a file, which streams the samples (softrnn simulate -o FILE.h5, or a sink)")
-    if steps > MAX_SOLVER_STEPS and integrator == "explicit":
-        fixes.append("the implicit integrator, whose step does not shrink with the rod's stiffness "
-                     "(RunConfig(integrator=\"implicit\"), a scenario's run.integrator, --integrator implicit)")
+    if steps > MAX_SOLVER_STEPS and integrator is not None and integrator.step_advice:
+        fixes.append(integrator.step_advice)
     if batch > 1:
         fixes.append("fewer rods per batch")
     raise SoftrnnInputError(
@@ -233,13 +231,15 @@ class Setup:
 class RunConfig:
     """How to run: saved interval ``dt`` [s], ``n_samples`` saved states (the first at the start),
     solver ``substeps`` per saved interval (None: chosen automatically), the nodes to save
-    (None: all), the stability ``safety`` factor and the ``integrator``:
+    (None: all), the stability ``safety`` factor and the ``integrator`` (``rod.integrators``):
 
-    * ``"explicit"`` (default): the LGVI step of ``rod.kernels``; substeps None gives the fewest
+    * ``Explicit()`` (default): the LGVI step of ``rod.kernels``; substeps None gives the fewest
       stable ones, and an unstable choice is refused;
-    * ``"implicit"``: the stiff-stable step of ``rod.implicit`` (elastic and Kelvin-Voigt forces
-      implicit): any step is stable for the rod's own stiffness, and substeps None resolves its
-      fourth bending mode (``rod.implicit.accuracy_step``).
+    * ``Implicit(beta=..., theta=...)``: the stiff-stable step of ``rod.implicit`` (elastic and
+      Kelvin-Voigt forces implicit): any step is stable for the rod's own stiffness, and substeps
+      None resolves its fourth bending mode (``rod.implicit.accuracy_step``).
+
+    The names ``"explicit"`` and ``"implicit"`` are accepted and turned into those (with defaults).
     """
 
     dt: float
@@ -247,7 +247,7 @@ class RunConfig:
     substeps: int | None = None
     save_nodes: tuple | None = None
     safety: float = DEFAULT_SAFETY
-    integrator: str = "explicit"
+    integrator: Explicit | Implicit = Explicit()
 
     def __post_init__(self):
         if not isinstance(self.dt, (int, float)) or not np.isfinite(self.dt) or self.dt <= 0:
@@ -262,8 +262,7 @@ class RunConfig:
             raise bad("safety", self.safety, "a factor in (0, 1] applied to 2/omega_max")
         if self.save_nodes is not None:
             object.__setattr__(self, "save_nodes", tuple(int(a) for a in self.save_nodes))
-        if self.integrator not in INTEGRATORS:
-            raise bad("integrator", self.integrator, " or ".join(repr(i) for i in INTEGRATORS))
+        object.__setattr__(self, "integrator", as_integrator(self.integrator))
 
 
 @dataclass(frozen=True, eq=False)
@@ -380,7 +379,7 @@ class Simulator:
         self.inputs = SetupInputs(setup)
         self.state = initial_state(setup, self.rod, self.inputs)
         self.steps_done = 0
-        self._integrator = "explicit"
+        self._integrator = Explicit()
         self._work = None
         self._elastic = None
 
@@ -422,17 +421,9 @@ class Simulator:
         return substeps
 
     def resolve_substeps(self, config: RunConfig) -> int:
-        """Solver steps per saved interval; refuses an unstable explicit choice. The implicit
-        integrator takes ``config.substeps`` as given, or resolves the rod's bending modes
-        (``rod.implicit.accuracy_step``)."""
-        if config.integrator == "implicit":
-            if config.substeps is not None:
-                return int(config.substeps)
-            limit = implicit.accuracy_step(self.rod, self.inputs.pd_gain, config.safety)
-            if self.inputs.contact is not None:  # the contact loads stay explicit
-                limit = min(limit, config.safety * step_limit(self.inputs.contact["contact_node"], self.rod.mass))
-            return max(1, math.ceil(config.dt / limit * (1 - 1e-12)))
-        return choose_substeps(config, self.stable_step(config.safety))
+        """Solver steps per saved interval, as ``config.integrator`` chooses them (an unstable
+        explicit choice is refused; ``rod.integrators``)."""
+        return config.integrator.resolve_substeps(self, config)
 
     # ------------------------------------------------------------------ run
     def run(self, config: RunConfig, progress: Progress | None = None,
@@ -484,28 +475,27 @@ class Simulator:
                          n_nodes=self.setup.rod.n_nodes)
         return stats if sink is not None else _concatenate(chunks, stats)
 
-    def _implicit_work(self) -> "implicit.ImplicitWork":
-        """The implicit step's scratch arrays and its rod: the lumped rod with the explicit
-        Kelvin-Voigt term off (the implicit step takes it, with the retardation time of
-        ``setup.damping``); built on first use."""
+    def implicit_work(self) -> "implicit.ImplicitWork":
+        """The implicit step's scratch arrays, built on first use (``rod.integrators.Implicit``)."""
         if self._work is None:
             self._work = implicit.work_arrays(self.setup.rod.n_nodes)
             self._elastic = self.rod._replace(kv_on=False)
         return self._work
 
+    @property
+    def elastic_rod(self):
+        """The lumped rod with the explicit Kelvin-Voigt term off, for the implicit step (which takes
+        it with the retardation time of ``setup.damping``)."""
+        if self._elastic is None:
+            self.implicit_work()
+        return self._elastic
+
     def _half_kick(self, h: float) -> None:
-        """Start the staggered velocities of a state at rest (``rod.state.half_kick``)."""
+        """Start the staggered velocities of a state at rest (the integrator's half kick)."""
         inputs = self.inputs.at(np.array([self.state.time]), h)
         if self.inputs.contact is not None:
             inputs = self.inputs.with_contact(inputs, self.state.contact_segment, np.zeros((0, 0, 6)))
-        if self._integrator != "implicit":
-            half_kick(self.rod, self.state, inputs, h)
-            return
-        work, tau = self._implicit_work(), self.setup.damping.kelvin_voigt
-        out = empty_samples(save_slots(self.setup.rod.n_nodes, np.zeros(0, dtype=np.int64)), 1, 0)
-        if not implicit.implicit_half_kick(self._elastic, self.state.arrays(), inputs, out, h, work,
-                                           implicit.IMPLICIT_BETA, implicit.IMPLICIT_THETA, tau):
-            raise_for_status(implicit.SINGULAR, step=0, t0=self.state.time, h=h)
+        self._integrator.half_kick(self, inputs, h)
 
     def _advance(self, st: RodState, t0: float, h: float, k0: int, n_steps: int, stride: int, s0: int,
                  out: Samples, tensions: np.ndarray | None = None, contact: np.ndarray | None = None) -> None:
@@ -518,34 +508,12 @@ class Simulator:
             if contact is None:
                 contact = np.zeros(out.positions.shape[:2] + (6,))
             inputs = self.inputs.with_contact(inputs, st.contact_segment, contact)
-        if self._integrator == "implicit":
-            work = self._implicit_work()
-            code, step = implicit.advance(self._elastic, self.setup.damping.kelvin_voigt, st.arrays(), inputs,
-                                          out, h, k0, n_steps, stride, s0, work)
-            if self.rod.kv_on:
-                # the explicit step's Kelvin-Voigt memory, for a later explicit run of this simulator
-                st.prev_curvature[:], st.prev_shear[:] = segment_strains(st.rotations, st.positions, self.rod.length)
-        else:
-            code, step = kernels.advance(self.rod, st.arrays(), inputs, out, h, k0, n_steps, stride, s0)
+        code, step = self._integrator.advance(self, st, inputs, out, h, k0, n_steps, stride, s0)
         raise_for_status(code, step=step, t0=t0, h=h)
         if tensions is not None:
             k = k0 + np.arange(n_steps)
             saved = k % stride == 0
             tensions[k[saved] // stride - s0] = inputs.tendon_tension[saved]
-
-
-def choose_substeps(config: RunConfig, limit: float) -> int:
-    """Solver steps per saved interval of ``config`` for the stable step ``limit`` [s]: the fewest
-    stable ones, or ``config.substeps``, refused if unstable."""
-    if config.substeps is None:
-        return max(1, math.ceil(config.dt / limit * (1 - 1e-12)))
-    h = config.dt / config.substeps
-    if h > limit:
-        need = math.ceil(config.dt / limit)
-        raise bad("dt", config.dt,
-                  f"dt/substeps = {h:.3g} s exceeds the stable step limit {limit:.3g} s of this rod; "
-                  f"use substeps >= {need} (or substeps=None to choose it automatically)")
-    return int(config.substeps)
 
 
 def save_nodes(setup: Setup, config: RunConfig) -> np.ndarray:

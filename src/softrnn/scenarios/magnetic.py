@@ -112,8 +112,8 @@ def simulate_magnetic(magnetic: MagneticScenario, config: RunConfig,
     ManipulatorTrajectory
         every node at every saved sample, the coil currents and the magnets' quantities
     """
-    if config.integrator != "explicit":
-        raise bad("integrator", config.integrator, "explicit (the manipulator's driver is explicit)")
+    if config.integrator.name != "explicit":
+        raise bad("integrator", config.integrator.name, "explicit (the manipulator's driver is explicit)")
     run = magnetic.run(config)
     return simulate_manipulator(magnetic.spec, magnetic.schedule(run.duration), run, progress=progress)
 
