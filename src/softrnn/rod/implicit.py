@@ -56,10 +56,12 @@ from . import kernels as _kernels
 from .kernels import (
     CLAMPED,
     FREE,
+    MAGNET_TOO_CLOSE,
     OK,
     _applied_loads,
     _applied_outputs,
     _contact_loads,
+    _magnet_loads,
     _node,
     _quaternion_into,
     _segment,
@@ -425,12 +427,16 @@ def _solve_tridiagonal(n, work):
 def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
     """work.force <- the explicit force (world) and body torque of every node at step i, work.strain_map
     <- the segments' strain maps; the samples' positions, loads and quaternions are written when
-    ``record``. ``rod.kv_on`` must be False (the Kelvin-Voigt forces are implicit). Returns the
-    elastic and gravitational energies [J]."""
+    ``record``. ``rod.kv_on`` must be False (the Kelvin-Voigt forces are implicit). Returns False
+    (a magnet too close to a source: nothing else is done) or True, and the elastic and
+    gravitational energies [J]."""
     R = state.rotations
     r = state.positions
     work_f = work.applied
     _applied_loads(i, R, r, state.velocities, inputs, work_f)
+    if len(inputs.magnet_node) > 0:
+        if _magnet_loads(i, row, record, R, r, inputs, work_f) >= 0:
+            return False, 0.0, 0.0
     if len(inputs.tendon_stiffness) > 0:
         _tendon_springs(i, R, r, rod, inputs)
     contact = len(inputs.contact_kind) > 0
@@ -478,7 +484,7 @@ def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
                 _quaternion_into(R[a], out.quaternions[row, slot])
     if record and contact:
         _applied_outputs(row, inputs, out)
-    return e_el, e_g
+    return True, e_el, e_g
 
 
 @njit(**_INLINE)
@@ -521,7 +527,8 @@ def _build(stamp):
 
         As ``rod.kernels.advance_into`` (same records and sample rows), with ``work`` an
         ``ImplicitWork``, ``beta`` the Newmark weight and ``tau`` the Kelvin-Voigt retardation time
-        [s]; ``rod.kv_on`` must be False. status is OK, DIVERGED, NEWTON_FAILED or SINGULAR.
+        [s]; ``rod.kv_on`` must be False. status is OK, DIVERGED, NEWTON_FAILED, SINGULAR or
+        MAGNET_TOO_CLOSE.
         """
         if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
             return -1, k0
@@ -530,7 +537,9 @@ def _build(stamp):
             k = k0 + ii
             record = (k % stride) == 0
             row = k // stride - s0
-            e_el, e_g = _explicit_forces(ii, row, record, h, rod, state, inputs, out, work)
+            fine, e_el, e_g = _explicit_forces(ii, row, record, h, rod, state, inputs, out, work)
+            if not fine:
+                return MAGNET_TOO_CLOSE, k
             if not _new_velocities(ii, h, beta, theta, tau, rod, state, inputs, work):
                 return SINGULAR, k
             _add_implicit_forces(h, beta, theta, tau, rod, state, work)
@@ -555,7 +564,9 @@ def _build(stamp):
         step from rest would reach; the state must be at rest. Returns False if singular."""
         if len(stamp) == 0:
             return False
-        _explicit_forces(0, 0, False, h, rod, state, inputs, out, work)
+        fine, _, _ = _explicit_forces(0, 0, False, h, rod, state, inputs, out, work)
+        if not fine:
+            return False
         _known_velocities(0, h, rod, state, inputs, work)
         for a in range(len(state.positions)):
             for c in range(6):

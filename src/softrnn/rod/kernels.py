@@ -57,7 +57,14 @@ PINNED = 2
 OK = 0
 DIVERGED = 1
 NEWTON_FAILED = 2
-MAGNET_TOO_CLOSE = 10  # returned by ``magnetics._driver.drive``
+MAGNET_TOO_CLOSE = 10  # a magnet of ``StepInputs`` came closer than MIN_DIPOLE_DISTANCE to a dipole source
+
+MU0 = 4e-7 * math.pi
+"""Vacuum permeability [T m/A]."""
+
+MIN_DIPOLE_DISTANCE = 0.02
+"""Closest a magnet may come to a dipole source [m]: the point-dipole field is singular at the
+source (``softrnn.magnetics.coils.MIN_DISTANCE``)."""
 
 # Obstacle kinds of ``StepInputs.contact_kind`` (``rod.contact``; frozen into the compiled code).
 PLANE = 0
@@ -220,6 +227,27 @@ class StepInputs(NamedTuple):
         saved steps, rows as in ``Samples``
     contact_applied : (n, 6)
         scratch: the applied loads of a saved step before the contact loads join them
+    magnet_node : (M,) int64
+        magnets (point dipoles in the rod, ``rod.magnetic.MagneticDipoles``): magnet j lies between
+        nodes magnet_node[j] and magnet_node[j] + 1; M = 0 (default): no magnetic loads
+    magnet_body : (M, 4)
+        ... at the fraction magnet_body[j, 0] of that segment, with the body-frame moment
+        magnet_body[j, 1:4] [A m^2]
+    source_positions : (n_c, 3)
+        the dipole sources (coils) [m]
+    source_moments : (n_c, 3)
+        their moments per ampere [A m^2/A]
+    source_currents : (K, n_c)
+        their currents at each step [A]
+    magnet_positions, magnet_fields : (S + 1, M, 3)
+        output: the magnets' centres [m] and the field there [T] at the saved steps (rows as in
+        ``Samples``; the last row is the scratch of the other steps)
+    magnet_rotations, magnet_gradients : (S + 1, M, 3, 3)
+        output: the magnets' rotations (body -> world) and the field gradient [T/m], likewise
+    magnet_wrenches : (S + 1, M, 6)
+        output: force G mu [N] and torque mu x B [N m] on each magnet, likewise
+    magnet_failed : (1,) int64
+        output: the magnet that came too close (status MAGNET_TOO_CLOSE)
     """
 
     ext_idx: np.ndarray
@@ -246,6 +274,17 @@ class StepInputs(NamedTuple):
     contact_segment: np.ndarray = np.zeros((0, 0), dtype=np.int64)
     contact_samples: np.ndarray = np.zeros((0, 0, 6))
     contact_applied: np.ndarray = np.zeros((0, 6))
+    magnet_node: np.ndarray = np.zeros(0, dtype=np.int64)
+    magnet_body: np.ndarray = np.zeros((0, 4))
+    source_positions: np.ndarray = np.zeros((0, 3))
+    source_moments: np.ndarray = np.zeros((0, 3))
+    source_currents: np.ndarray = np.zeros((0, 0))
+    magnet_positions: np.ndarray = np.zeros((0, 0, 3))
+    magnet_rotations: np.ndarray = np.zeros((0, 0, 3, 3))
+    magnet_fields: np.ndarray = np.zeros((0, 0, 3))
+    magnet_gradients: np.ndarray = np.zeros((0, 0, 3, 3))
+    magnet_wrenches: np.ndarray = np.zeros((0, 0, 6))
+    magnet_failed: np.ndarray = np.zeros(1, dtype=np.int64)
 
 
 class Samples(NamedTuple):
@@ -826,6 +865,133 @@ def contact_wrench_into(h, R, r, v, w, rod, inputs, work_f):
     _contact_loads(0, False, h, R, r, v, w, rod, inputs, inputs.contact_kind, work_f)
 
 
+# ------------------------------------------------------------------ magnetic loads (docs/magnetic.md §2.5)
+@njit(cache=True, fastmath={"contract"}, error_model="numpy")
+def field_gradient_into(coil_pos, coil_moment, currents, p0, p1, p2, B, G):
+    """B (3,) [T] and G (3, 3) [T/m] at the point (p0, p1, p2) [m] for coils at coil_pos (n, 3) with
+    per-ampere moments coil_moment (n, 3) and currents (n,) [A]. Returns the distance [m] to the
+    nearest coil (the caller rejects distances below ``MIN_DIPOLE_DISTANCE``)."""
+    c = MU0 / (4.0 * math.pi)
+    for i in range(3):
+        B[i] = 0.0
+        for j in range(3):
+            G[i, j] = 0.0
+    dmin = np.inf
+    for k in range(len(currents)):
+        I = currents[k]
+        r0 = p0 - coil_pos[k, 0]
+        r1 = p1 - coil_pos[k, 1]
+        r2 = p2 - coil_pos[k, 2]
+        R2 = r0 * r0 + r1 * r1 + r2 * r2
+        R = math.sqrt(R2)
+        if R < dmin:
+            dmin = R
+        m0 = I * coil_moment[k, 0]
+        m1 = I * coil_moment[k, 1]
+        m2 = I * coil_moment[k, 2]
+        rm = r0 * m0 + r1 * m1 + r2 * m2
+        iR3 = 1.0 / (R2 * R)
+        iR5 = iR3 / R2
+        B[0] += c * (3.0 * r0 * rm * iR5 - m0 * iR3)
+        B[1] += c * (3.0 * r1 * rm * iR5 - m1 * iR3)
+        B[2] += c * (3.0 * r2 * rm * iR5 - m2 * iR3)
+        g = 3.0 * c * iR5
+        q = 5.0 * rm / R2
+        G[0, 0] += g * (2.0 * m0 * r0 + rm - q * r0 * r0)
+        G[1, 1] += g * (2.0 * m1 * r1 + rm - q * r1 * r1)
+        G[2, 2] += g * (2.0 * m2 * r2 + rm - q * r2 * r2)
+        g01 = g * (m0 * r1 + r0 * m1 - q * r0 * r1)
+        g02 = g * (m0 * r2 + r0 * m2 - q * r0 * r2)
+        g12 = g * (m1 * r2 + r1 * m2 - q * r1 * r2)
+        G[0, 1] += g01
+        G[1, 0] += g01
+        G[0, 2] += g02
+        G[2, 0] += g02
+        G[1, 2] += g12
+        G[2, 1] += g12
+    return dmin
+
+
+@njit(**_INLINE)
+def _interp_rotation_into(R, a, t, out):
+    """out (3, 3) <- R_a cay(t x), x = cay^-1(R_a^T R_{a+1}) (rotation a fraction t from node a to a + 1)."""
+    # vee(Q - Q^T) and tr Q of Q = R_a^T R_b, Q_ij = sum_c R_a[c, i] R_b[c, j]
+    tr = 0.0
+    v0 = 0.0
+    v1 = 0.0
+    v2 = 0.0
+    for c in range(3):
+        A0 = R[a, c, 0]
+        A1 = R[a, c, 1]
+        A2 = R[a, c, 2]
+        B0 = R[a + 1, c, 0]
+        B1 = R[a + 1, c, 1]
+        B2 = R[a + 1, c, 2]
+        tr += A0 * B0 + A1 * B1 + A2 * B2
+        v0 += A2 * B1 - A1 * B2
+        v1 += A0 * B2 - A2 * B0
+        v2 += A1 * B0 - A0 * B1
+    s = 2.0 * t / (1.0 + tr)
+    y0 = s * v0
+    y1 = s * v1
+    y2 = s * v2
+    times_cayley_into(R[a], y0, y1, y2, 4.0 / (4.0 + y0 * y0 + y1 * y1 + y2 * y2), out)
+
+
+@njit(**_INLINE)
+def _magnet_loads(i, row, record, R, r, inputs, work_f):
+    """work_f += the wrench of every magnet of ``inputs`` at step i (docs/magnetic.md §2.5): magnet j,
+    a fraction t of the way from node a to a + 1, sits at p = (1 - t) r_a + t r_{a+1} with the
+    rotation R_a cay(t cay^-1(R_a^T R_{a+1})) and the moment mu = R mu_body; f = G mu and mu x B
+    act at p, node a takes (1 - t) and node a + 1 t of both. The magnets' outputs go to row ``row``
+    at a saved step (``record``), else to the scratch row. Returns -1, or the index of a magnet
+    closer than ``MIN_DIPOLE_DISTANCE`` to a source (also in inputs.magnet_failed[0])."""
+    mag_node = inputs.magnet_node
+    body = inputs.magnet_body
+    w = row if record else len(inputs.magnet_positions) - 1
+    currents = inputs.source_currents[i]
+    for j in range(len(mag_node)):
+        a = mag_node[j]
+        t = body[j, 0]
+        P = inputs.magnet_positions[w, j]
+        for c in range(3):
+            P[c] = (1.0 - t) * r[a, c] + t * r[a + 1, c]
+        Rm = inputs.magnet_rotations[w, j]
+        _interp_rotation_into(R, a, t, Rm)
+        mu0 = 0.0
+        mu1 = 0.0
+        mu2 = 0.0
+        for c in range(3):
+            mu0 += Rm[0, c] * body[j, 1 + c]
+            mu1 += Rm[1, c] * body[j, 1 + c]
+            mu2 += Rm[2, c] * body[j, 1 + c]
+        B = inputs.magnet_fields[w, j]
+        G = inputs.magnet_gradients[w, j]
+        dmin = field_gradient_into(inputs.source_positions, inputs.source_moments, currents, P[0], P[1], P[2], B, G)
+        if not dmin >= MIN_DIPOLE_DISTANCE:
+            inputs.magnet_failed[0] = j
+            return j
+        W = inputs.magnet_wrenches[w, j]
+        for c in range(3):
+            W[c] = G[c, 0] * mu0 + G[c, 1] * mu1 + G[c, 2] * mu2
+        W[3] = mu1 * B[2] - mu2 * B[1]
+        W[4] = mu2 * B[0] - mu0 * B[2]
+        W[5] = mu0 * B[1] - mu1 * B[0]
+        for c in range(6):
+            work_f[a, c] += (1.0 - t) * W[c]
+            work_f[a + 1, c] += t * W[c]
+    return -1
+
+
+@njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
+def magnet_wrench_into(R, r, inputs, work_f):
+    """work_f (n, 6) += the magnets' force [N] and torque [N m] (world frame) in the configuration
+    R (n, 3, 3), r (n, 3) [m] with the currents of the first step of ``inputs``, as ``advance_into``
+    applies them (outputs in the scratch row). Returns -1, or the index of a magnet too close to a
+    source. For the start at rest."""
+    return _magnet_loads(0, 0, False, R, r, inputs, work_f)
+
+
 @njit(**_INLINE)
 def _segment(a, i, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, rod, inputs, h, Kp, Gp, record):
     """Stress resultants of segment a (nodes a, a + 1) in the old configuration at step i, R_a =
@@ -1131,7 +1297,7 @@ def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
     (k0 + i) % stride == 0, at row (k0 + i) // stride - s0, for the nodes with
     out.save_slot >= 0, and the energies of the whole rod (with obstacles, the contact loads into
     inputs.contact_samples). work_f (n, 6): scratch for the applied world force and torque of each
-    node. status is OK, DIVERGED or NEWTON_FAILED; the step index
+    node. status is OK, DIVERGED, NEWTON_FAILED or MAGNET_TOO_CLOSE; the step index
     is k0 + n_steps, or that of the failed step.
     """
     R = state.rotations
@@ -1155,6 +1321,10 @@ def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
         row = k // stride - s0
         # ---- applied loads at t_k into work_f (world force, world torque) ----
         _applied_loads(i, R, r, state.velocities, inputs, work_f)
+        # ---- magnetic loads from the configuration at t_k (none without magnets) ----
+        if len(inputs.magnet_node) > 0:
+            if _magnet_loads(i, row, record, R, r, inputs, work_f) >= 0:
+                return MAGNET_TOO_CLOSE, k
         # ---- tensions of the tendons driven by a displacement, from the configuration at t_k ----
         if len(inputs.tendon_stiffness) > 0:
             _tendon_springs(i, R, r, rod, inputs)
@@ -1264,7 +1434,9 @@ def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
                        inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b], inp.contact_kind,
                        inp.contact_geom, inp.contact_range, inp.contact_friction, inp.contact_points,
                        inp.contact_radii, inp.contact_node, inp.contact_segment, inp.contact_samples,
-                       inp.contact_applied),
+                       inp.contact_applied, inp.magnet_node, inp.magnet_body, inp.source_positions,
+                       inp.source_moments, inp.source_currents, inp.magnet_positions, inp.magnet_rotations,
+                       inp.magnet_fields, inp.magnet_gradients, inp.magnet_wrenches, inp.magnet_failed),
             Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b],
                     out.angular_velocities[b], out.forces[b], out.torques[b], out.reaction_forces[b],
                     out.reaction_torques[b], out.energy[b]),
