@@ -36,6 +36,7 @@ from ..errors import bad, nonnegative, positive, vec3
 from ..progress import Progress
 from ..rod.boundary import Clamp
 from ..rod.contact import Contact, node_parameters, step_limit
+from ..rod.integrators import Explicit, Implicit, as_integrator
 from ..rod.loads import smoothstep
 from ..rod.magnetic import MagneticDipoles
 from ..rod.magnetic import MagnetSamples as MagnetSamples
@@ -43,7 +44,10 @@ from ..rod.shapes import RodShape, straight
 from ..rod.simulation import Damping, RunConfig, Setup, Simulator, Trajectory, check_run_size
 from ..rod.spec import NodeOverride, RodSpec
 from ..rod.stability import DEFAULT_SAFETY, omega_max, stable_step
-from .coils import CoilLayout, bigmag_like, unit_field_maps
+from .coils import CoilLayout, bigmag_like
+from .currents import CurrentSchedule as CurrentSchedule
+from .currents import currents_for_field as currents_for_field
+from .currents import random_currents as random_currents
 from .magnets import Magnet, default_magnets
 
 DEFAULT_DAMPING = Damping(translational=0.05, rotational=0.0)
@@ -332,100 +336,15 @@ class ManipulatorSpec:
                                        kelvin_voigt=d.kelvin_voigt * damping))
 
 
-# --------------------------------------------------------------------------- currents
-@dataclass(frozen=True, eq=False)
-class CurrentSchedule:
-    """Coil currents as time inputs: values (T, n) [A] at increasing times (T,) [s], linear in
-    between, held at the first/last value outside."""
-
-    times: np.ndarray
-    values: np.ndarray
-
-    def __post_init__(self):
-        # private C-ordered copies, frozen (the caller's arrays stay writable)
-        t = np.array(self.times, dtype=float, order="C")
-        v = np.array(self.values, dtype=float, order="C")
-        if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
-            raise bad("currents.times", f"array of shape {t.shape}",
-                      "a 1-D array of strictly increasing finite times in s")
-        if v.ndim != 2 or v.shape[0] != t.size or not np.all(np.isfinite(v)):
-            raise bad("currents.values.shape", v.shape, f"({t.size}, n_coils) finite currents in A, one row per time")
-        t.setflags(write=False)
-        v.setflags(write=False)
-        object.__setattr__(self, "times", t)
-        object.__setattr__(self, "values", v)
-
-    @property
-    def n_coils(self) -> int:
-        """Coils n (columns of values)."""
-        return self.values.shape[1]
-
-    def __call__(self, t) -> np.ndarray:
-        """Currents (K, n) [A] at times t (K,) [s]."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        return np.stack([np.interp(t, self.times, self.values[:, k]) for k in range(self.n_coils)], -1)
-
-
-def random_currents(layout: CoilLayout, duration: float, *, seed: int, band: tuple = (0.1, 2.0),
-                    n_components: int = 6, peak: float = 0.9, ramp: float = 1.0,
-                    rate: float = 1000.0) -> CurrentSchedule:
-    """Smooth, band-limited random currents for every coil, reproducible from ``seed``.
-
-    Each coil's current is a sum of ``n_components`` sinusoids with frequencies drawn log-uniformly
-    in ``band`` [Hz], random phases and amplitudes, scaled so that its largest |I| is
-    ``peak * layout.current_limit``, and faded in from zero over ``ramp`` [s] (smoothstep). The
-    schedule is sampled at ``rate`` [Hz] from 0 to ``duration`` [s]; linear interpolation between
-    samples never exceeds the sampled peak, so the bound holds at every time.
-    """
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise bad("seed", seed, "an integer")
-    for name, value in (("duration", duration), ("rate", rate)):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
-            raise bad(name, value, "a positive finite number")
-    if not (isinstance(peak, (int, float)) and 0 < peak <= 1):
-        raise bad("peak", peak, "a fraction in (0, 1] of the current limit")
-    if not (isinstance(ramp, (int, float)) and np.isfinite(ramp) and ramp >= 0):
-        raise bad("ramp", ramp, "a fade-in time >= 0 in s")
-    try:
-        f_lo, f_hi = (float(b) for b in band)
-    except (TypeError, ValueError):
-        raise bad("band", band, "(f_min, f_max) in Hz") from None
-    if not (0 < f_lo <= f_hi < 0.5 * rate):
-        raise bad("band", band, f"0 < f_min <= f_max < rate/2 = {0.5 * rate:g} Hz")
-    if isinstance(n_components, bool) or not isinstance(n_components, int) or n_components < 1:
-        raise bad("n_components", n_components, "an integer >= 1")
-    rng = np.random.default_rng(seed)
-    n = layout.n_coils
-    t = np.arange(int(math.ceil(duration * rate)) + 1) / rate
-    freq = np.exp(rng.uniform(math.log(f_lo), math.log(f_hi), size=(n, n_components)))
-    phase = rng.uniform(0.0, 2.0 * math.pi, size=(n, n_components))
-    amp = rng.uniform(0.5, 1.0, size=(n, n_components))
-    I = np.einsum("kc,tkc->tk", amp, np.sin(2.0 * math.pi * freq[None] * t[:, None, None] + phase[None]))
-    fade = smoothstep(t / ramp) if ramp > 0 else np.ones_like(t)
-    I *= fade[:, None]
-    scale = np.max(np.abs(I), axis=0)
-    I *= peak * layout.current_limit / np.where(scale > 0, scale, 1.0)
-    return CurrentSchedule(t, I)
-
-
-def currents_for_field(layout: CoilLayout, point, field_t) -> np.ndarray:
-    """Minimum-norm currents (n,) [A] that produce the field ``field_t`` (3,) [T] at ``point`` (3,) [m]
-    (I = pinv(A_B(p)) B, magnetic.md §2.6; gradients are left uncontrolled). Raises if beyond the limit."""
-    beta, _ = unit_field_maps(layout, point)
-    b = np.asarray(field_t, dtype=float)
-    if b.shape != (3,) or not np.all(np.isfinite(b)):
-        raise bad("field", field_t, "a finite 3-vector in T")
-    I = np.linalg.pinv(beta) @ b
-    return layout.check_currents(I, "currents for the requested field")
-
-
 # --------------------------------------------------------------------------- run configuration and result
 @dataclass(frozen=True, kw_only=True)
 class ManipulatorRun:
     """How to run: saved interval dt [s], n_samples (the first at t = 0), solver substeps per
     interval (None: the fewest that are stable), stability safety factor, and an optional settling
     phase of ``settle`` [s] before t = 0 with the currents held at their t = 0 value and
-    ``settle_damping`` (heavy drag), so that a run can start from the sagged equilibrium."""
+    ``settle_damping`` (heavy drag), so that a run can start from the sagged equilibrium; the
+    ``integrator`` of both (``softrnn.rod.integrators``: ``Explicit()``, the default, or
+    ``Implicit()``; the names work too)."""
 
     dt: float
     n_samples: int
@@ -433,6 +352,7 @@ class ManipulatorRun:
     safety: float = DEFAULT_SAFETY
     settle: float = 0.0
     settle_damping: Damping = SETTLE_DAMPING
+    integrator: Explicit | Implicit = Explicit()
 
     def __post_init__(self):
         if isinstance(self.dt, bool) or not isinstance(self.dt, (int, float)) or not np.isfinite(self.dt) \
@@ -450,6 +370,7 @@ class ManipulatorRun:
             raise bad("settle", self.settle, "a settling time >= 0 in s")
         if not isinstance(self.settle_damping, Damping):
             raise bad("settle_damping", self.settle_damping, "a softrnn.rod.Damping")
+        object.__setattr__(self, "integrator", as_integrator(self.integrator))
 
     @property
     def duration(self) -> float:
@@ -530,19 +451,19 @@ def magnetic_load(spec: ManipulatorSpec, schedule: CurrentSchedule) -> MagneticD
 
 
 def manipulator_simulator(spec: ManipulatorSpec, schedule: CurrentSchedule, h: float, *, settle: float = 0.0,
-                          settle_damping: Damping = SETTLE_DAMPING) -> Simulator:
+                          settle_damping: Damping = SETTLE_DAMPING, integrator="explicit") -> Simulator:
     """A ``softrnn.rod.Simulator`` of the manipulator (``spec.setup()`` with its ``magnetic_load``),
     started at rest with the solver step ``h`` [s] and, with ``settle`` > 0 [s], settled for
     ceil(settle / h) steps before t = 0 with ``settle_damping`` (a simulator of the setup with
     that damping, whose state it continues; the currents and the base as the schedule and the
-    advance give them at t < 0)."""
+    advance give them at t < 0; stepped by ``integrator``)."""
     setup = replace(spec.setup(), loads=(magnetic_load(spec, schedule),))
     sim = Simulator(setup)
     if settle > 0:
         n_settle = int(math.ceil(settle / h))
         settler = Simulator(replace(setup, damping=settle_damping))
         settler.state.time = -n_settle * h
-        settler.advance(n_settle, h)
+        settler.advance(n_settle, h, integrator)
         sim.continue_from(settler)
     return sim
 
@@ -571,7 +492,11 @@ def _schedule(spec: ManipulatorSpec, run: ManipulatorRun, currents) -> CurrentSc
 
 def resolve_substeps(spec: ManipulatorSpec, run: ManipulatorRun) -> int:
     """Solver steps per saved interval, stable for the run's damping and the settling damping;
-    refuses an unstable explicit choice."""
+    refuses an unstable explicit choice (the implicit integrator's as ``Simulator.resolve_substeps``)."""
+    if not isinstance(run.integrator, Explicit):
+        config = RunConfig(dt=run.dt, n_samples=2, substeps=run.substeps, safety=run.safety,
+                           integrator=run.integrator)
+        return Simulator(spec.setup()).resolve_substeps(config)
     limit = spec.stable_step(run.safety)
     if run.settle > 0:
         limit = min(limit, replace(spec, damping=run.settle_damping).stable_step(run.safety))
@@ -595,7 +520,8 @@ def check_manipulator_run(spec: ManipulatorSpec, run: ManipulatorRun, extra_byte
         per_sample += 8 * 6 * spec.n_nodes
     check_run_size(n_samples=run.n_samples, dt=run.dt, substeps=substeps, n_saved=spec.n_nodes,
                    held_samples=run.n_samples, extra_bytes=run.n_samples * per_sample + extra_bytes,
-                   extra_steps=1 + settle_steps, streamable=False, auto_substeps=run.substeps is None)
+                   extra_steps=1 + settle_steps, streamable=False, auto_substeps=run.substeps is None,
+                   integrator=run.integrator)
     return substeps
 
 
@@ -630,10 +556,12 @@ def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun,
     substeps = check_manipulator_run(spec, run)
     schedule = _schedule(spec, run, currents)
     h = run.dt / substeps
-    sim = manipulator_simulator(spec, schedule, h, settle=run.settle, settle_damping=run.settle_damping)
+    sim = manipulator_simulator(spec, schedule, h, settle=run.settle, settle_damping=run.settle_damping,
+                                integrator=run.integrator)
     if progress is not None:
         progress(0, run.n_samples)
-    config = RunConfig(dt=run.dt, n_samples=run.n_samples, substeps=substeps, safety=run.safety)
+    config = RunConfig(dt=run.dt, n_samples=run.n_samples, substeps=substeps, safety=run.safety,
+                       integrator=run.integrator)
     traj = sim.run(config, progress, chunk_samples=max(1, DRIVE_BLOCK_STEPS // substeps))
     mag = traj.magnets
     mu = np.einsum("smij,mj->smi", mag.rotations, sim.inputs.magnetic.moments)
