@@ -1,4 +1,4 @@
-"""Status codes of the stepping kernels (``rod.kernels``, ``magnetics._driver``) with what each
+"""Status codes of the stepping kernels (``rod.kernels``, ``rod.implicit``) with what each
 means and how to fix it; ``raise_for_status`` turns a failed kernel call into a one-line
 ``SimulationError``, as ``statics.solver.Status`` does for the static solver."""
 

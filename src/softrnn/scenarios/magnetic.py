@@ -1,9 +1,10 @@
 """Magnetic scenarios: a scenario with a ``[magnetic]`` table describes the magnetic manipulator
 (``softrnn.magnetics.ManipulatorSpec``: a clamped rod with two embedded magnets, driven by coil
-currents) instead of a plain rod; ``softrnn simulate``, ``sweep`` and ``animate`` run it with the
-manipulator's own driver (``simulate_magnetic``) and store it as a dataset with the coil currents
-as actuation channels (``write_manipulator_dataset``, also behind ``softrnn magnetic navigate``).
-The table is documented in docs/scenario-format.md.
+currents) instead of a plain rod; ``softrnn simulate``, ``sweep`` and ``animate`` run it as the
+manipulator (``simulate_magnetic``: ``simulate_manipulator``, a rod ``Simulator`` run with the
+magnetic load) and store it as a dataset with the coil currents as actuation channels
+(``write_manipulator_dataset``, also behind ``softrnn magnetic navigate``). The table is documented
+in docs/scenario-format.md.
 """
 
 import math
@@ -96,7 +97,7 @@ class MagneticScenario:
 
 def simulate_magnetic(magnetic: MagneticScenario, config: RunConfig,
                       progress: Progress | None = None) -> ManipulatorTrajectory:
-    """Run a magnetic scenario with the manipulator's driver (``simulate_manipulator``).
+    """Run a magnetic scenario as a manipulator run (``simulate_manipulator``).
 
     Parameters
     ----------
@@ -113,7 +114,7 @@ def simulate_magnetic(magnetic: MagneticScenario, config: RunConfig,
         every node at every saved sample, the coil currents and the magnets' quantities
     """
     if config.integrator.name != "explicit":
-        raise bad("integrator", config.integrator.name, "explicit (the manipulator's driver is explicit)")
+        raise bad("integrator", config.integrator.name, "explicit (a magnetic scenario's runs are explicit)")
     run = magnetic.run(config)
     return simulate_manipulator(magnetic.spec, magnetic.schedule(run.duration), run, progress=progress)
 
