@@ -527,22 +527,19 @@ def check_manipulator_run(spec: ManipulatorSpec, run: ManipulatorRun, extra_byte
 
 def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun,
                          progress: Progress | None = None) -> ManipulatorTrajectory:
-    """Simulate the manipulator from the straight rod at rest, driven by ``currents``.
+    """Simulate the manipulator (``manipulator_simulator``'s run) from rest, driven by ``currents``.
 
     Parameters
     ----------
     spec : ManipulatorSpec
         The manipulator.
     currents : CurrentSchedule or (run.n_samples, n_coils) array
-        A schedule covering [0, run.duration], or sampled currents [A] at the save times (linear in
-        between).
+        A schedule covering [0, run.duration], or currents [A] at the save times (linear between).
     run : ManipulatorRun
         How to run.
     progress : softrnn.progress.Progress or None
         Called as ``progress(done, run.n_samples)`` with the samples recorded so far: 0 at the
-        start, then after each block of about ``DRIVE_BLOCK_STEPS`` solver steps (whole samples).
-        The run is stepped in these blocks with or without it, and the results do not depend on
-        them.
+        start, then after each chunk of about ``DRIVE_BLOCK_STEPS`` solver steps.
 
     Returns
     -------

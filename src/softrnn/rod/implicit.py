@@ -40,19 +40,18 @@ D = dcay^-1(x) = I - x^/2 + x x^T / 4, X = I - x^/2):
 the exact derivative of the SE(3)-Cayley strains of ``_segment`` (kappa l = x, gamma l = p - x x p / 2).
 
 Caching: numba checks a cached function against its own source file only; the functions here
-compile ``rod.kernels``' helpers into themselves, so they are built as closures over a hash of that
-file (as ``magnetics._driver`` does): an edit of ``kernels.py`` recompiles them.
+compile the kernel modules' helpers into themselves, so they are built as closures over
+``rod.kernel_records.kernel_stamp()``, a hash of those files (as ``rod.kernels`` does): an edit of
+any of them recompiles them.
 """
 
-import hashlib
 import math
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from . import kernels as _kernels
+from .kernel_records import kernel_stamp
 from .kernels import (
     CLAMPED,
     FREE,
@@ -124,16 +123,6 @@ def work_arrays(n: int) -> ImplicitWork:
                         np.zeros((n, 6, 6)), np.zeros((max(n - 1, 0), 6, 6)), np.zeros((n, 6)),
                         np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 6), dtype=np.int64), np.zeros((6, 7)),
                         np.zeros((6, 12)))
-
-
-def _dependency_stamp() -> str:
-    """Hash of ``rod/kernels.py``, whose helpers are compiled into this module's cached functions."""
-    digest = hashlib.sha256()
-    try:
-        digest.update(Path(_kernels.__file__).read_bytes())
-    except (OSError, TypeError):  # no source file (frozen or zipped install): nothing to track
-        digest.update(_kernels.__name__.encode())
-    return digest.hexdigest()[:16]
 
 
 _INLINE = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
@@ -519,7 +508,7 @@ def _new_velocities(i, h, beta, theta, tau, rod, state, inputs, work):
 
 
 def _build(stamp):
-    """The cached kernels, closed over ``stamp`` (the hash of rod/kernels.py, see the module docstring)."""
+    """The cached kernels, closed over ``stamp`` (``kernel_stamp()``, see the module docstring)."""
 
     @njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
     def advance_implicit_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work, beta, theta, tau):
@@ -585,7 +574,7 @@ def _build(stamp):
     return advance_implicit_into, implicit_half_kick
 
 
-advance_implicit_into, implicit_half_kick = _build(_dependency_stamp())
+advance_implicit_into, implicit_half_kick = _build(kernel_stamp())
 
 
 def advance(rod, tau, state, inputs, out, h, k0, n_steps, stride, s0, work):

@@ -4,7 +4,7 @@ whose currents follow a schedule (docs/magnetic.md §2.5).
 ``MagneticDipoles`` is one more load kind of a ``Setup`` (in ``Setup.loads``): the kernels evaluate
 the field and gradient of the sources at every magnet from the current pose at every solver step,
 in both integrators, and apply the force G mu and torque mu x B to the two nodes around each magnet
-(``rod.kernels._magnet_loads``). The currents are interpolated here, per step, into the kernels'
+(``rod.magnetic_kernels._magnet_loads``). The currents are interpolated here, per step, into the kernels'
 inputs (``source_currents``); the magnets' centres, rotations, fields, gradients and wrenches at the
 saved steps come back as ``MagnetSamples`` (``Trajectory.magnets``).
 """

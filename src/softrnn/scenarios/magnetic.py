@@ -141,12 +141,8 @@ def write_manipulator_dataset(path, traj: ManipulatorTrajectory, spec: Manipulat
         the manipulator that made it (its rod, with the magnet segments, and its contact)
     dt : float
         the saved interval [s]
-    attrs : dict or None
-        extra attributes stored with the dataset
-    scenario_text : str
-        the scenario's TOML text ("" for none)
-    seed : int or None
-        the scenario's seed
+    attrs, scenario_text, seed : dict or None, str, int or None
+        extra attributes stored with the dataset, the scenario's TOML text ("" for none) and seed
     """
     write_trajectory(path, traj.rod, dt=dt, rod=spec.rod_spec(), scenario_text=scenario_text, seed=seed,
                      attrs=attrs, actuation_units={f"coil_{k}": "A" for k in range(traj.currents.shape[1])},
