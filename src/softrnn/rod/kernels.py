@@ -67,7 +67,7 @@ from .magnetic_kernels import MIN_DIPOLE_DISTANCE as MIN_DIPOLE_DISTANCE
 from .magnetic_kernels import MU0 as MU0
 from .magnetic_kernels import _magnet_loads
 from .magnetic_kernels import field_gradient_into as field_gradient_into
-from .tendon_kernels import _tendon_springs
+from .tendon_kernels import _tendon_springs, _tendon_tangent
 
 # The rod step's body: compiled into (inlined in) the cached entry point ``advance_into``.
 _STEP = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
@@ -237,13 +237,7 @@ def _segment(a, i, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, r
     for j in range(len(tendon_end)):
         tau = inputs.tendon_tension[i, j]
         if a < tendon_end[j] and tau > 0.0:
-            route = inputs.tendon_route
-            o0 = route[j, a, 0]
-            o1 = route[j, a, 1]
-            o2 = route[j, a, 2]
-            t0 = ga0 + ka1 * o2 - ka2 * o1 + route[j, a, 3]
-            t1 = ga1 + ka2 * o0 - ka0 * o2 + route[j, a, 4]
-            t2 = ga2 + ka0 * o1 - ka1 * o0 + route[j, a, 5]
+            t0, t1, t2, o0, o1, o2 = _tendon_tangent(inputs.tendon_route, j, a, ga0, ga1, ga2, ka0, ka1, ka2)
             s = tau / math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
             t0 *= s
             t1 *= s

@@ -10,6 +10,19 @@ from .kernel_records import _INLINE
 
 
 @njit(**_INLINE)
+def _tendon_tangent(route, j, a, ga0, ga1, ga2, ka0, ka1, ka2):
+    """Tendon j's tangent t = Gamma + K x rho + rho' on segment a (not unit), and its offset rho
+    [m] (body frame of node a): returns (t0, t1, t2, o0, o1, o2)."""
+    o0 = route[j, a, 0]
+    o1 = route[j, a, 1]
+    o2 = route[j, a, 2]
+    t0 = ga0 + ka1 * o2 - ka2 * o1 + route[j, a, 3]
+    t1 = ga1 + ka2 * o0 - ka0 * o2 + route[j, a, 4]
+    t2 = ga2 + ka0 * o1 - ka1 * o0 + route[j, a, 5]
+    return t0, t1, t2, o0, o1, o2
+
+
+@njit(**_INLINE)
 def _tendon_springs(i, R, r, rod, inputs):
     """inputs.tendon_tension[i, j] <- k_j max(0, q_j - (l0_j - l_j)) for every tendon j driven by
     a displacement (stiffness k_j > 0), l_j = l sum_{a < e_j} |Gamma_a + K_a x rho_a + rho'_a| its
@@ -54,12 +67,7 @@ def _tendon_springs(i, R, r, rod, inputs):
         ka2 = x2 * il
         for j in range(len(stiffness)):
             if stiffness[j] > 0.0 and a < end[j]:
-                o0 = route[j, a, 0]
-                o1 = route[j, a, 1]
-                o2 = route[j, a, 2]
-                t0 = ga0 + ka1 * o2 - ka2 * o1 + route[j, a, 3]
-                t1 = ga1 + ka2 * o0 - ka0 * o2 + route[j, a, 4]
-                t2 = ga2 + ka0 * o1 - ka1 * o0 + route[j, a, 5]
+                t0, t1, t2, _, _, _ = _tendon_tangent(route, j, a, ga0, ga1, ga2, ka0, ka1, ka2)
                 tension[i, j] += math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
     for j in range(len(stiffness)):
         if stiffness[j] > 0.0:
