@@ -234,3 +234,15 @@ def test_integrators_are_typed_values_and_their_names_still_work():
     assert np.array_equal(named.positions, typed.positions)
     other = Simulator(sc.setup).run(replace(config, integrator=Implicit(beta=1.0)))
     assert not np.array_equal(named.positions, other.positions)
+
+
+def test_the_kernel_stamp_covers_every_kernel_module():
+    """The cached kernels are rebuilt when any module whose helpers they inline changes: every
+    ``*kernel*.py`` of ``softrnn.rod`` is in ``KERNEL_FILES``, and the stamp hashes them."""
+    from pathlib import Path
+
+    from softrnn.rod import kernel_records
+
+    folder = Path(kernel_records.__file__).parent
+    assert set(kernel_records.KERNEL_FILES) == {p.name for p in folder.glob("*kernel*.py")}
+    assert len(kernel_records.kernel_stamp()) == 16

@@ -40,7 +40,7 @@ def _or(phrases) -> str:
 
 def status_message(code: int, *, step: int, t0: float, h: float, magnet: int = -1, min_distance: float = 0.0,
                    more_fixes: tuple = ()) -> str:
-    """One line for a failed kernel call: what happened, when, and how to fix it.
+    """One line (returned) for a failed kernel call: what happened, when, and how to fix it.
 
     Parameters
     ----------
@@ -50,17 +50,10 @@ def status_message(code: int, *, step: int, t0: float, h: float, magnet: int = -
         Index of the failed step; it began at t = t0 + step h.
     t0, h : float
         Time of step 0 and the solver step [s].
-    magnet : int
-        For MAGNET_TOO_CLOSE: the magnet's index.
-    min_distance : float
-        For MAGNET_TOO_CLOSE: the smallest allowed distance to a coil [m].
+    magnet, min_distance : int, float
+        For MAGNET_TOO_CLOSE: the magnet's index, and the smallest allowed distance to a source [m].
     more_fixes : tuple of str
         Remedies that the caller's context adds after the status's own (e.g. "lower the currents").
-
-    Returns
-    -------
-    str
-        The one-line message.
     """
     status = KernelStatus(code)
     t = t0 + step * h
