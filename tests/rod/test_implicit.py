@@ -10,7 +10,8 @@ import pytest
 from softrnn.errors import SoftrnnInputError
 from softrnn.rod import Clamp, Constant, Damping, NodalLoad, RodSpec, RunConfig, Setup, Simulator, straight
 from softrnn.rod.discrete import segment_strains
-from softrnn.rod.implicit import accuracy_step, bending_frequency
+from softrnn.rod.implicit import IMPLICIT_BETA, IMPLICIT_THETA, accuracy_step, bending_frequency
+from softrnn.rod.integrators import Explicit, Implicit
 from softrnn.rod.loads import Scheduled
 from softrnn.rod.shapes import RodShape
 from softrnn.scenarios import load_scenario
@@ -214,3 +215,34 @@ def test_a_simulator_switches_between_the_integrators():
     ref = explicit.run(config)
     sag = np.abs(ref.positions[:, -1, 2]).max()
     assert np.abs(mixed.positions[:, -1] - ref.positions[:, -1]).max() < 0.02 * sag
+
+
+def test_integrators_are_typed_values_and_their_names_still_work():
+    """``RunConfig.integrator`` holds an ``Explicit``/``Implicit`` value (the names are converted);
+    ``Implicit`` carries its options, checked; a run with the default options is the named run's."""
+    assert RunConfig(dt=0.01, n_samples=2).integrator == Explicit()
+    assert RunConfig(dt=0.01, n_samples=2, integrator="implicit").integrator == Implicit()
+    assert (Implicit().beta, Implicit().theta) == (IMPLICIT_BETA, IMPLICIT_THETA)
+    assert str(Implicit(beta=1.0)) == "implicit" and Explicit().name == "explicit"
+    for bad_options in ({"beta": 0.1}, {"theta": 1.5}, {"beta": float("nan")}):
+        with pytest.raises(ValueError, match="integrator"):
+            Implicit(**bad_options)
+    sc = load_scenario("steel-wire")
+    config = replace(sc.config, n_samples=6, save_nodes=(-1,), substeps=40)
+    named = Simulator(sc.setup).run(replace(config, integrator="implicit"))
+    typed = Simulator(sc.setup).run(replace(config, integrator=Implicit(beta=IMPLICIT_BETA, theta=IMPLICIT_THETA)))
+    assert np.array_equal(named.positions, typed.positions)
+    other = Simulator(sc.setup).run(replace(config, integrator=Implicit(beta=1.0)))
+    assert not np.array_equal(named.positions, other.positions)
+
+
+def test_the_kernel_stamp_covers_every_kernel_module():
+    """The cached kernels are rebuilt when any module whose helpers they inline changes: every
+    ``*kernel*.py`` of ``softrnn.rod`` is in ``KERNEL_FILES``, and the stamp hashes them."""
+    from pathlib import Path
+
+    from softrnn.rod import kernel_records
+
+    folder = Path(kernel_records.__file__).parent
+    assert set(kernel_records.KERNEL_FILES) == {p.name for p in folder.glob("*kernel*.py")}
+    assert len(kernel_records.kernel_stamp()) == 16

@@ -73,7 +73,7 @@ def time_contact(setup: Setup, config: RunConfig, node: int, reps: int, node_ste
     return {"us_per_node_step": with_contact * per_node_step,
             "us_per_node_step_without_contact": without * per_node_step,
             "overhead": with_contact / without - 1.0,
-            "integrator": timed.integrator, "dt_s": trajectory.step, "substeps": trajectory.substeps,
+            "integrator": timed.integrator.name, "dt_s": trajectory.step, "substeps": trajectory.substeps,
             "obstacles": [type(o).__name__ for o in setup.contact.obstacles], "tip_node": node, "nodes": n,
             "steps": steps, "simulated_s": steps * trajectory.step, "wall_s": with_contact,
             "wall_without_contact_s": without, "reps": reps,

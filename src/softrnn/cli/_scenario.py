@@ -87,7 +87,8 @@ def entry(sc: Scenario) -> dict:
     config = sc.config
     return {"name": sc.name, "title": sc.title, "n_nodes": sc.setup.rod.n_nodes,
             "duration_s": (config.n_samples - 1) * config.dt, "dt_s": config.dt, "n_samples": config.n_samples,
-            "integrator": config.integrator, "paper_section": sc.paper.get("section"), "role": sc.paper.get("role"),
+            "integrator": config.integrator.name, "paper_section": sc.paper.get("section"),
+            "role": sc.paper.get("role"),
             "randomize": list(sc.randomize), "calibrate": list(sc.calibrate)}
 
 

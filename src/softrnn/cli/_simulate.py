@@ -66,13 +66,13 @@ def run(args) -> int:
 
 
 def _check_magnetic(args, rod: dict) -> None:
-    """Refuse the options a magnetic scenario (the manipulator's driver) cannot honour."""
+    """Refuse the options a magnetic scenario (the manipulator's run) does not honour."""
     for name in rod:
         flag = "--" + name.replace("_", "-")
         raise bad(flag, rod[name], "no rod override for a magnetic scenario (its rod is the manipulator's: set "
                                    "[magnetic] keys in the scenario file)")
     if args.integrator not in (None, "explicit"):
-        raise bad("--integrator", args.integrator, "explicit for a magnetic scenario (the manipulator's driver)")
+        raise bad("--integrator", args.integrator, "explicit for a magnetic scenario (its runs are explicit)")
 
 
 def format_summary(s: dict) -> str:

@@ -13,6 +13,9 @@ from .coils import gradient as gradient
 from .coils import pack5 as pack5
 from .coils import unit_field_maps as unit_field_maps
 from .coils import unpack5 as unpack5
+from .currents import CurrentSchedule as CurrentSchedule
+from .currents import currents_for_field as currents_for_field
+from .currents import random_currents as random_currents
 from .magnets import GRADES as GRADES
 from .magnets import Magnet as Magnet
 from .magnets import default_magnets as default_magnets
@@ -23,10 +26,7 @@ from .magnets import torque as torque
 from .magnets import wrench as wrench
 from .magnets import wrench_matrix as wrench_matrix
 from .manipulator import BaseAdvance as BaseAdvance
-from .manipulator import CurrentSchedule as CurrentSchedule
 from .manipulator import ManipulatorRun as ManipulatorRun
 from .manipulator import ManipulatorSpec as ManipulatorSpec
 from .manipulator import ManipulatorTrajectory as ManipulatorTrajectory
-from .manipulator import currents_for_field as currents_for_field
-from .manipulator import random_currents as random_currents
 from .manipulator import simulate_manipulator as simulate_manipulator

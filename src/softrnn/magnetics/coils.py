@@ -11,22 +11,23 @@ Array conventions (P field points, n coils):
     G           (P, 3, 3)         [T/m], G_ij = dB_i/dx_j (symmetric, traceless)
     A           (P, 8, n)         rows [Bx, By, Bz, dBx/dx, dBx/dy, dBx/dz, dBy/dy, dBy/dz] per ampere
 
-The NumPy functions check their input; ``field_gradient_into`` is the numba kernel the simulator
-calls every step (no checks, writes into preallocated arrays).
+The NumPy functions check their input; ``field_gradient_into`` (``rod.kernels``, where the simulator
+calls it every step) is the numba kernel: no checks, it writes into preallocated arrays.
 """
 
 import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from ..errors import bad, positive, vec3
+from ..rod.kernels import MIN_DIPOLE_DISTANCE
+from ..rod.kernels import field_gradient_into as field_gradient_into
 
 MU0 = 4e-7 * math.pi
 """Vacuum permeability mu0 [T m/A] (the pre-2019 exact value; CODATA 2018 differs by 5e-10 relative)."""
 
-MIN_DISTANCE = 0.02
+MIN_DISTANCE = MIN_DIPOLE_DISTANCE
 """Closest approach [m] of a field point to a coil's dipole (magnetic.md §2.1 guard R > r_min)."""
 
 
@@ -262,50 +263,3 @@ def gradient(layout: CoilLayout, points, currents) -> np.ndarray:
         raise bad("currents.shape", I.shape, f"({layout.n_coils},)")
     _, grad = unit_field_maps(layout, points)
     return np.einsum("...kij,k->...ij", grad, I)
-
-
-# --------------------------------------------------------------------------- numba kernel
-@njit(cache=True, fastmath={"contract"}, error_model="numpy")
-def field_gradient_into(coil_pos, coil_moment, currents, p0, p1, p2, B, G):
-    """B (3,) [T] and G (3, 3) [T/m] at the point (p0, p1, p2) [m] for coils at coil_pos (n, 3) with
-    per-ampere moments coil_moment (n, 3) and currents (n,) [A]. Returns the distance [m] to the
-    nearest coil (the caller rejects distances below ``MIN_DISTANCE``)."""
-    c = MU0 / (4.0 * math.pi)
-    for i in range(3):
-        B[i] = 0.0
-        for j in range(3):
-            G[i, j] = 0.0
-    dmin = np.inf
-    for k in range(len(currents)):
-        I = currents[k]
-        r0 = p0 - coil_pos[k, 0]
-        r1 = p1 - coil_pos[k, 1]
-        r2 = p2 - coil_pos[k, 2]
-        R2 = r0 * r0 + r1 * r1 + r2 * r2
-        R = math.sqrt(R2)
-        if R < dmin:
-            dmin = R
-        m0 = I * coil_moment[k, 0]
-        m1 = I * coil_moment[k, 1]
-        m2 = I * coil_moment[k, 2]
-        rm = r0 * m0 + r1 * m1 + r2 * m2
-        iR3 = 1.0 / (R2 * R)
-        iR5 = iR3 / R2
-        B[0] += c * (3.0 * r0 * rm * iR5 - m0 * iR3)
-        B[1] += c * (3.0 * r1 * rm * iR5 - m1 * iR3)
-        B[2] += c * (3.0 * r2 * rm * iR5 - m2 * iR3)
-        g = 3.0 * c * iR5
-        q = 5.0 * rm / R2
-        G[0, 0] += g * (2.0 * m0 * r0 + rm - q * r0 * r0)
-        G[1, 1] += g * (2.0 * m1 * r1 + rm - q * r1 * r1)
-        G[2, 2] += g * (2.0 * m2 * r2 + rm - q * r2 * r2)
-        g01 = g * (m0 * r1 + r0 * m1 - q * r0 * r1)
-        g02 = g * (m0 * r2 + r0 * m2 - q * r0 * r2)
-        g12 = g * (m1 * r2 + r1 * m2 - q * r1 * r2)
-        G[0, 1] += g01
-        G[1, 0] += g01
-        G[0, 2] += g02
-        G[2, 0] += g02
-        G[1, 2] += g12
-        G[2, 1] += g12
-    return dmin

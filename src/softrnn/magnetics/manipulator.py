@@ -1,7 +1,8 @@
 """The magnetic manipulator in the dynamic simulator: a clamped PMC-770 rod with two embedded magnets,
 driven by coil currents (Tariverdi et al. 2021, Fig. 9; defaults of magnetic.md §1.3).
 
-The rod is the Lie-group Cosserat rod of ``softrnn.rod``; ``_driver.drive`` recomputes the magnet
+The rod is the Lie-group Cosserat rod of ``softrnn.rod``, run by its ``Simulator`` with one magnetic
+load (``magnetic_load``: ``softrnn.rod.magnetic.MagneticDipoles``), whose kernels recompute the magnet
 wrenches from the magnets' current poses and the coil currents at every solver step.
 
 Modelling choices (assumptions, with numbers for the defaults):
@@ -23,32 +24,30 @@ Modelling choices (assumptions, with numbers for the defaults):
   a ``Bifurcation``), with the contact loads of ``softrnn.rod.contact`` evaluated at every solver
   step beside the magnet loads; the explicit step then also respects the contact springs.
 * Insertion: with ``ManipulatorSpec.advance`` (a ``BaseAdvance``) the base is a clamp that moves
-  along its own axis (+x) by a smoothstep profile, its rotation held; the driver prescribes its
-  position at every solver step, as ``softrnn.rod.Simulator`` does for a ``Clamp`` with a motion.
+  along its own axis (+x) by a smoothstep profile, its rotation held (a ``Clamp`` with a motion).
 """
 
 import math
-import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import SimulationError, bad, nonnegative, positive, vec3
+from ..errors import bad, nonnegative, positive, vec3
 from ..progress import Progress
 from ..rod.boundary import Clamp
 from ..rod.contact import Contact, node_parameters, step_limit
-from ..rod.inputs import SetupInputs
-from ..rod.kernels import Samples, StepInputs
+from ..rod.integrators import Explicit, Implicit, as_integrator
 from ..rod.loads import smoothstep
-from ..rod.lumped import lumped_rod, with_damping
+from ..rod.magnetic import MagneticDipoles
+from ..rod.magnetic import MagnetSamples as MagnetSamples
 from ..rod.shapes import RodShape, straight
-from ..rod.simulation import Damping, Setup, Trajectory, check_run_size
+from ..rod.simulation import Damping, RunConfig, Setup, Simulator, Trajectory, check_run_size
 from ..rod.spec import NodeOverride, RodSpec
 from ..rod.stability import DEFAULT_SAFETY, omega_max, stable_step
-from ..rod.state import SAMPLE_FIELDS, empty_samples, half_kick, initial_state
-from ..rod.status import raise_for_status
-from . import _driver
-from .coils import MIN_DISTANCE, CoilLayout, bigmag_like, unit_field_maps
+from .coils import CoilLayout, bigmag_like
+from .currents import CurrentSchedule as CurrentSchedule
+from .currents import currents_for_field as currents_for_field
+from .currents import random_currents as random_currents
 from .magnets import Magnet, default_magnets
 
 DEFAULT_DAMPING = Damping(translational=0.05, rotational=0.0)
@@ -56,9 +55,10 @@ DEFAULT_DAMPING = Damping(translational=0.05, rotational=0.0)
 mode (6.9 Hz; measured 2.1% at 0.02 N s/m^2); higher modes get less (the ratio falls as 1/omega)."""
 
 DRIVE_BLOCK_STEPS = 65536
-"""Solver steps per call of the numba driver in ``simulate_manipulator`` (rounded down to whole
-samples, at least one): a fraction of a second of stepping (6 samples of the magnetic experiment),
-so that progress reports and Ctrl-C come between blocks. The results do not depend on it."""
+"""Solver steps per chunk of ``simulate_manipulator``'s run (``Simulator.run``'s chunk_samples,
+rounded down to whole samples, at least one): a fraction of a second of stepping (6 samples of the
+magnetic experiment), so that progress reports and Ctrl-C come between chunks. The results do not
+depend on it."""
 
 SETTLE_DAMPING = Damping(translational=1.0, rotational=0.0)
 """Heavy drag [N s/m^2] used only while settling before a run: about critical on the first mode, so
@@ -336,100 +336,15 @@ class ManipulatorSpec:
                                        kelvin_voigt=d.kelvin_voigt * damping))
 
 
-# --------------------------------------------------------------------------- currents
-@dataclass(frozen=True, eq=False)
-class CurrentSchedule:
-    """Coil currents as time inputs: values (T, n) [A] at increasing times (T,) [s], linear in
-    between, held at the first/last value outside."""
-
-    times: np.ndarray
-    values: np.ndarray
-
-    def __post_init__(self):
-        # private C-ordered copies, frozen (the caller's arrays stay writable)
-        t = np.array(self.times, dtype=float, order="C")
-        v = np.array(self.values, dtype=float, order="C")
-        if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
-            raise bad("currents.times", f"array of shape {t.shape}",
-                      "a 1-D array of strictly increasing finite times in s")
-        if v.ndim != 2 or v.shape[0] != t.size or not np.all(np.isfinite(v)):
-            raise bad("currents.values.shape", v.shape, f"({t.size}, n_coils) finite currents in A, one row per time")
-        t.setflags(write=False)
-        v.setflags(write=False)
-        object.__setattr__(self, "times", t)
-        object.__setattr__(self, "values", v)
-
-    @property
-    def n_coils(self) -> int:
-        """Coils n (columns of values)."""
-        return self.values.shape[1]
-
-    def __call__(self, t) -> np.ndarray:
-        """Currents (K, n) [A] at times t (K,) [s]."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        return np.stack([np.interp(t, self.times, self.values[:, k]) for k in range(self.n_coils)], -1)
-
-
-def random_currents(layout: CoilLayout, duration: float, *, seed: int, band: tuple = (0.1, 2.0),
-                    n_components: int = 6, peak: float = 0.9, ramp: float = 1.0,
-                    rate: float = 1000.0) -> CurrentSchedule:
-    """Smooth, band-limited random currents for every coil, reproducible from ``seed``.
-
-    Each coil's current is a sum of ``n_components`` sinusoids with frequencies drawn log-uniformly
-    in ``band`` [Hz], random phases and amplitudes, scaled so that its largest |I| is
-    ``peak * layout.current_limit``, and faded in from zero over ``ramp`` [s] (smoothstep). The
-    schedule is sampled at ``rate`` [Hz] from 0 to ``duration`` [s]; linear interpolation between
-    samples never exceeds the sampled peak, so the bound holds at every time.
-    """
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise bad("seed", seed, "an integer")
-    for name, value in (("duration", duration), ("rate", rate)):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
-            raise bad(name, value, "a positive finite number")
-    if not (isinstance(peak, (int, float)) and 0 < peak <= 1):
-        raise bad("peak", peak, "a fraction in (0, 1] of the current limit")
-    if not (isinstance(ramp, (int, float)) and np.isfinite(ramp) and ramp >= 0):
-        raise bad("ramp", ramp, "a fade-in time >= 0 in s")
-    try:
-        f_lo, f_hi = (float(b) for b in band)
-    except (TypeError, ValueError):
-        raise bad("band", band, "(f_min, f_max) in Hz") from None
-    if not (0 < f_lo <= f_hi < 0.5 * rate):
-        raise bad("band", band, f"0 < f_min <= f_max < rate/2 = {0.5 * rate:g} Hz")
-    if isinstance(n_components, bool) or not isinstance(n_components, int) or n_components < 1:
-        raise bad("n_components", n_components, "an integer >= 1")
-    rng = np.random.default_rng(seed)
-    n = layout.n_coils
-    t = np.arange(int(math.ceil(duration * rate)) + 1) / rate
-    freq = np.exp(rng.uniform(math.log(f_lo), math.log(f_hi), size=(n, n_components)))
-    phase = rng.uniform(0.0, 2.0 * math.pi, size=(n, n_components))
-    amp = rng.uniform(0.5, 1.0, size=(n, n_components))
-    I = np.einsum("kc,tkc->tk", amp, np.sin(2.0 * math.pi * freq[None] * t[:, None, None] + phase[None]))
-    fade = smoothstep(t / ramp) if ramp > 0 else np.ones_like(t)
-    I *= fade[:, None]
-    scale = np.max(np.abs(I), axis=0)
-    I *= peak * layout.current_limit / np.where(scale > 0, scale, 1.0)
-    return CurrentSchedule(t, I)
-
-
-def currents_for_field(layout: CoilLayout, point, field_t) -> np.ndarray:
-    """Minimum-norm currents (n,) [A] that produce the field ``field_t`` (3,) [T] at ``point`` (3,) [m]
-    (I = pinv(A_B(p)) B, magnetic.md §2.6; gradients are left uncontrolled). Raises if beyond the limit."""
-    beta, _ = unit_field_maps(layout, point)
-    b = np.asarray(field_t, dtype=float)
-    if b.shape != (3,) or not np.all(np.isfinite(b)):
-        raise bad("field", field_t, "a finite 3-vector in T")
-    I = np.linalg.pinv(beta) @ b
-    return layout.check_currents(I, "currents for the requested field")
-
-
 # --------------------------------------------------------------------------- run configuration and result
 @dataclass(frozen=True, kw_only=True)
 class ManipulatorRun:
     """How to run: saved interval dt [s], n_samples (the first at t = 0), solver substeps per
     interval (None: the fewest that are stable), stability safety factor, and an optional settling
     phase of ``settle`` [s] before t = 0 with the currents held at their t = 0 value and
-    ``settle_damping`` (heavy drag), so that a run can start from the sagged equilibrium."""
+    ``settle_damping`` (heavy drag), so that a run can start from the sagged equilibrium; the
+    ``integrator`` of both (``softrnn.rod.integrators``: ``Explicit()``, the default, or
+    ``Implicit()``; the names work too)."""
 
     dt: float
     n_samples: int
@@ -437,6 +352,7 @@ class ManipulatorRun:
     safety: float = DEFAULT_SAFETY
     settle: float = 0.0
     settle_damping: Damping = SETTLE_DAMPING
+    integrator: Explicit | Implicit = Explicit()
 
     def __post_init__(self):
         if isinstance(self.dt, bool) or not isinstance(self.dt, (int, float)) or not np.isfinite(self.dt) \
@@ -454,6 +370,7 @@ class ManipulatorRun:
             raise bad("settle", self.settle, "a settling time >= 0 in s")
         if not isinstance(self.settle_damping, Damping):
             raise bad("settle_damping", self.settle_damping, "a softrnn.rod.Damping")
+        object.__setattr__(self, "integrator", as_integrator(self.integrator))
 
     @property
     def duration(self) -> float:
@@ -522,100 +439,33 @@ class ManipulatorTrajectory:
 
 
 # --------------------------------------------------------------------------- simulation
-class _Model:
-    """The manipulator as the driver needs it, built once from a spec: the lumped rod
-    (``rod.lumped``), its state, the coils and magnets (``_driver.MagnetModel``) and the loaded nodes."""
+def magnetic_load(spec: ManipulatorSpec, schedule: CurrentSchedule) -> MagneticDipoles:
+    """The magnets of ``spec`` in the field of its coils driven by ``schedule``, as a rod load
+    (``softrnn.rod.magnetic.MagneticDipoles``: magnet j at ``spec.magnet_anchor(j)``)."""
+    anchors = [spec.magnet_anchor(j) for j in range(len(spec.magnets))]
+    return MagneticDipoles(nodes=np.array([a for a, _ in anchors], dtype=np.int64),
+                           fractions=np.array([t for _, t in anchors], dtype=float),
+                           moments=np.array([m.moment_body for m in spec.magnets], dtype=float).reshape(-1, 3),
+                           source_positions=spec.coils.positions, source_moments=spec.coils.moments_per_ampere,
+                           times=schedule.times, currents=schedule.values)
 
-    def __init__(self, spec: ManipulatorSpec):
-        self.spec = spec
-        setup = spec.setup()
-        self.rod = lumped_rod(setup)
-        inputs = SetupInputs(setup)
-        self.state = initial_state(setup, self.rod, inputs)
-        # the advancing base: its node, its pose at t = 0 and the driver's profile (9,) ((0,): fixed)
-        self.presc_idx = inputs.presc_idx
-        self.presc_r, self.presc_R = inputs.prescribed(np.zeros(2))
-        motion = setup.boundary[0].motion
-        self.base_profile = np.zeros(0) if motion is None else motion.parameters()
-        # with obstacles: the static contact fields, and the scratch of the applied loads
-        self.contact = ({} if inputs.contact is None
-                        else dict(inputs.contact, contact_applied=np.zeros((spec.n_nodes, 6))))
-        anchors = [spec.magnet_anchor(j) for j in range(len(spec.magnets))]
-        mag_node = np.array([a for a, _ in anchors], dtype=np.int64)
-        self.ext_idx = np.unique(np.concatenate([mag_node, mag_node + 1])).astype(np.int64)
-        ext_slot = np.full(spec.n_nodes, -1, dtype=np.int64)
-        ext_slot[self.ext_idx] = np.arange(self.ext_idx.size)
-        self.magnets = _driver.MagnetModel(
-            coil_pos=spec.coils.positions, coil_moment=spec.coils.moments_per_ampere, mag_node=mag_node,
-            mag_frac=np.array([t for _, t in anchors], dtype=float),
-            mag_mu_body=np.array([m.moment_body for m in spec.magnets], dtype=float).reshape(-1, 3),
-            ext_slot=ext_slot)
 
-    def _row(self, currents: np.ndarray | None = None) -> _driver.MagnetSamples:
-        """One row of magnet quantities (scratch), with the given currents (n_c,) [A] or zeros."""
-        row = _driver.empty_magnet_samples(self.spec.coils.n_coils, self.magnets.mag_node.size)
-        if currents is not None:
-            row.currents[:] = currents
-        return row
-
-    def step_inputs(self, n_rows: int = 0) -> StepInputs:
-        """Rod inputs of one step: zero magnet loads ext_w (1, m, 12), no PD tracking; with an
-        advancing base its prescribed pose (2, 1, ...) at t = 0 (the driver writes it at every
-        step), else no prescribed motion; with obstacles, the contact fields with the state's
-        tracked segments and room for the contact loads of n_rows samples of every node."""
-        none = np.zeros(0, dtype=np.int64)
-        contact = {}
-        if self.contact:
-            contact = dict(self.contact, contact_segment=self.state.contact_segment,
-                           contact_samples=np.zeros((n_rows, self.spec.n_nodes if n_rows else 0, 6)))
-        return StepInputs(ext_idx=self.ext_idx, ext_w=np.zeros((1, self.ext_idx.size, 12)), pd_idx=none,
-                          pd_target=np.zeros((1, 0, 3)), pd_gain=np.zeros((0, 2)), presc_idx=self.presc_idx,
-                          presc_r=self.presc_r.copy(), presc_R=self.presc_R.copy(), **contact)
-
-    def loads(self, currents: np.ndarray) -> StepInputs:
-        """Rod inputs of one step with the magnet loads of the current pose and currents (n_c,) [A]."""
-        inputs = self.step_inputs()
-        bad_magnet = _driver.magnet_loads_into(self.state.rotations, self.state.positions, self._row(currents),
-                                               self.magnets, inputs.ext_w)
-        if bad_magnet >= 0:
-            raise SimulationError(f"magnet {bad_magnet} is within {MIN_DISTANCE} m of a coil at the start; "
-                                  f"move the rod or the coils apart")
-        return inputs
-
-    def half_kick(self, h: float, currents: np.ndarray) -> None:
-        """Start at rest to second order, as ``rod.Simulator`` does (``rod.state.half_kick``)."""
-        half_kick(self.rod, self.state, self.loads(currents), h)
-
-    def drive(self, damping: Damping, h: float, t0: float, n_steps: int, stride: int, schedule,
-              n_rows: int, *, block: int | None = None,
-              progress: Progress | None = None) -> tuple[Samples, "_driver.MagnetSamples", np.ndarray | None]:
-        """Run the numba driver with ``damping``; returns the rod's and the magnets' outputs (n_rows
-        samples), and with obstacles the contact force [N] and torque [N m] (n_rows, n, 6) of every
-        node at the samples (None without).
-
-        ``block``: solver steps per driver call (None: all in one call); the results are the same
-        bit for bit whatever the blocks (``_driver.drive``). ``progress(done, n_rows)`` after each
-        block that completes samples (``done``: the samples recorded so far).
-        """
-        n = self.spec.n_nodes
-        out = empty_samples(np.arange(n, dtype=np.int64), n_rows, n)
-        mag = _driver.empty_magnet_samples(self.spec.coils.n_coils, self.magnets.mag_node.size, lead=(n_rows,))
-        rod, state, inputs = with_damping(self.rod, damping), self.state.arrays(), self.step_inputs(n_rows)
-        work, row = np.zeros((n, 6)), self._row()
-        size = n_steps if block is None else max(1, int(block))
-        recorded = 0
-        for k0 in range(0, n_steps, size):
-            k1 = min(k0 + size, n_steps)
-            status, step, magnet = _driver.drive(
-                rod, state, inputs, out, mag, self.magnets, schedule.times, schedule.values, float(h), float(t0),
-                int(k0), int(k1), int(stride), work, row, self.base_profile)
-            raise_for_status(int(status), step=int(step), t0=t0, h=h, magnet=int(magnet), min_distance=MIN_DISTANCE,
-                             more_fixes=("lower the currents",))
-            done = min((k1 - 1) // stride + 1, n_rows)
-            if progress is not None and done > recorded:
-                progress(done, n_rows)
-            recorded = done
-        return out, mag, (inputs.contact_samples if self.contact else None)
+def manipulator_simulator(spec: ManipulatorSpec, schedule: CurrentSchedule, h: float, *, settle: float = 0.0,
+                          settle_damping: Damping = SETTLE_DAMPING, integrator="explicit") -> Simulator:
+    """A ``softrnn.rod.Simulator`` of the manipulator (``spec.setup()`` with its ``magnetic_load``),
+    started at rest with the solver step ``h`` [s] and, with ``settle`` > 0 [s], settled for
+    ceil(settle / h) steps before t = 0 with ``settle_damping`` (a simulator of the setup with
+    that damping, whose state it continues; the currents and the base as the schedule and the
+    advance give them at t < 0; stepped by ``integrator``)."""
+    setup = replace(spec.setup(), loads=(magnetic_load(spec, schedule),))
+    sim = Simulator(setup)
+    if settle > 0:
+        n_settle = int(math.ceil(settle / h))
+        settler = Simulator(replace(setup, damping=settle_damping))
+        settler.state.time = -n_settle * h
+        settler.advance(n_settle, h, integrator)
+        sim.continue_from(settler)
+    return sim
 
 
 def _schedule(spec: ManipulatorSpec, run: ManipulatorRun, currents) -> CurrentSchedule:
@@ -642,7 +492,11 @@ def _schedule(spec: ManipulatorSpec, run: ManipulatorRun, currents) -> CurrentSc
 
 def resolve_substeps(spec: ManipulatorSpec, run: ManipulatorRun) -> int:
     """Solver steps per saved interval, stable for the run's damping and the settling damping;
-    refuses an unstable explicit choice."""
+    refuses an unstable explicit choice (the implicit integrator's as ``Simulator.resolve_substeps``)."""
+    if not isinstance(run.integrator, Explicit):
+        config = RunConfig(dt=run.dt, n_samples=2, substeps=run.substeps, safety=run.safety,
+                           integrator=run.integrator)
+        return Simulator(spec.setup()).resolve_substeps(config)
     limit = spec.stable_step(run.safety)
     if run.settle > 0:
         limit = min(limit, replace(spec, damping=run.settle_damping).stable_step(run.safety))
@@ -666,28 +520,26 @@ def check_manipulator_run(spec: ManipulatorSpec, run: ManipulatorRun, extra_byte
         per_sample += 8 * 6 * spec.n_nodes
     check_run_size(n_samples=run.n_samples, dt=run.dt, substeps=substeps, n_saved=spec.n_nodes,
                    held_samples=run.n_samples, extra_bytes=run.n_samples * per_sample + extra_bytes,
-                   extra_steps=1 + settle_steps, streamable=False, auto_substeps=run.substeps is None)
+                   extra_steps=1 + settle_steps, streamable=False, auto_substeps=run.substeps is None,
+                   integrator=run.integrator)
     return substeps
 
 
 def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun,
                          progress: Progress | None = None) -> ManipulatorTrajectory:
-    """Simulate the manipulator from the straight rod at rest, driven by ``currents``.
+    """Simulate the manipulator (``manipulator_simulator``'s run) from rest, driven by ``currents``.
 
     Parameters
     ----------
     spec : ManipulatorSpec
         The manipulator.
     currents : CurrentSchedule or (run.n_samples, n_coils) array
-        A schedule covering [0, run.duration], or sampled currents [A] at the save times (linear in
-        between).
+        A schedule covering [0, run.duration], or currents [A] at the save times (linear between).
     run : ManipulatorRun
         How to run.
     progress : softrnn.progress.Progress or None
         Called as ``progress(done, run.n_samples)`` with the samples recorded so far: 0 at the
-        start, then after each block of about ``DRIVE_BLOCK_STEPS`` solver steps (whole samples).
-        The run is stepped in these blocks with or without it, and the results do not depend on
-        them.
+        start, then after each chunk of about ``DRIVE_BLOCK_STEPS`` solver steps.
 
     Returns
     -------
@@ -701,25 +553,16 @@ def simulate_manipulator(spec: ManipulatorSpec, currents, run: ManipulatorRun,
     substeps = check_manipulator_run(spec, run)
     schedule = _schedule(spec, run, currents)
     h = run.dt / substeps
-    model = _Model(spec)
-    model.half_kick(h, schedule.values[0])
+    sim = manipulator_simulator(spec, schedule, h, settle=run.settle, settle_damping=run.settle_damping,
+                                integrator=run.integrator)
     if progress is not None:
         progress(0, run.n_samples)
-    if run.settle > 0:
-        n_settle = int(math.ceil(run.settle / h))
-        model.drive(run.settle_damping, h, -n_settle * h, n_settle, n_settle + 1, schedule, 1,
-                    block=DRIVE_BLOCK_STEPS)
-    n_steps = (run.n_samples - 1) * substeps + 1
-    start = time.perf_counter()
-    out, mag, contact = model.drive(spec.damping, h, 0.0, n_steps, substeps, schedule, run.n_samples,
-                                    block=max(1, DRIVE_BLOCK_STEPS // substeps) * substeps, progress=progress)
-    wall = time.perf_counter() - start
-    loads = {} if contact is None else {"contact_forces": contact[..., :3], "contact_torques": contact[..., 3:]}
-    traj = Trajectory(time=run.dt * np.arange(run.n_samples), nodes=np.arange(spec.n_nodes), step=h,
-                      substeps=substeps, wall_time=wall, **{name: getattr(out, name) for name in SAMPLE_FIELDS},
-                      **loads)
-    mu = np.einsum("smij,mj->smi", mag.rotations, model.magnets.mag_mu_body)
+    config = RunConfig(dt=run.dt, n_samples=run.n_samples, substeps=substeps, safety=run.safety,
+                       integrator=run.integrator)
+    traj = sim.run(config, progress, chunk_samples=max(1, DRIVE_BLOCK_STEPS // substeps))
+    mag = traj.magnets
+    mu = np.einsum("smij,mj->smi", mag.rotations, sim.inputs.magnetic.moments)
     return ManipulatorTrajectory(rod=traj, currents=mag.currents, magnet_positions=mag.positions,
                                  magnet_rotations=mag.rotations, magnet_moments=mu, fields=mag.fields,
                                  gradients=mag.gradients, wrenches=mag.wrenches, step=h, substeps=substeps,
-                                 wall_time=wall)
+                                 wall_time=traj.wall_time)

@@ -22,8 +22,8 @@ from .manipulator import (
     CurrentSchedule,
     ManipulatorRun,
     ManipulatorSpec,
-    _Model,
     check_manipulator_run,
+    manipulator_simulator,
 )
 
 
@@ -63,12 +63,11 @@ class ManipulatorStepper:
         self.substeps = check_manipulator_run(spec, run)
         self.h = self.dt / self.substeps
         self.currents = self._checked(currents0)
-        self._model = _Model(spec)
-        self._model.half_kick(self.h, self.currents)
-        if settle > 0:
-            n_settle = int(math.ceil(settle / self.h))
-            held = CurrentSchedule(np.array([-n_settle * self.h, 0.0]), np.stack([self.currents, self.currents]))
-            self._model.drive(settle_damping, self.h, -n_settle * self.h, n_settle, n_settle + 1, held, 1)
+        n_settle = int(math.ceil(settle / self.h)) if settle > 0 else 0
+        held = CurrentSchedule(np.array([-n_settle * self.h, 0.0]) if n_settle else np.zeros(1),
+                               np.stack([self.currents] * (2 if n_settle else 1)))
+        self._sim = manipulator_simulator(spec, held, self.h, settle=settle, settle_damping=settle_damping)
+        self._sim.start(self.h)  # at rest under currents0 (settled: already started)
         self.time = 0.0
         self.frames = 0
 
@@ -81,27 +80,30 @@ class ManipulatorStepper:
     def step(self, currents) -> None:
         """Advance one frame with ``currents`` (n_c,) [A] held (refused beyond the coil limit)."""
         self.currents = self._checked(currents)
-        held = CurrentSchedule(np.array([self.time, self.time + self.dt]), np.stack([self.currents, self.currents]))
-        self._model.drive(self.spec.damping, self.h, self.time, self.substeps, self.substeps, held, 1)
+        magnetic = self._sim.inputs.magnetic
+        self._sim.inputs.magnetic = magnetic.with_currents(np.array([self.time, self.time + self.dt]),
+                                                           np.stack([self.currents, self.currents]))
+        self._sim.state.time = self.time
+        self._sim.advance(self.substeps, self.h)
         self.frames += 1
         self.time = self.frames * self.dt
 
     def snapshot(self) -> tuple:
         """The state to come back to with ``restore`` (a deep copy): a planner's rollouts branch from it."""
-        return self._model.state.copy(), self.time, self.frames, self.currents.copy()
+        return self._sim.state.copy(), self.time, self.frames, self.currents.copy()
 
     def restore(self, snapshot: tuple) -> None:
         """Return to a ``snapshot`` (copied again, so one snapshot serves many rollouts)."""
         state, self.time, self.frames, currents = snapshot
-        self._model.state = state.copy()
+        self._sim.state = state.copy()
         self.currents = currents.copy()
 
     @property
     def positions(self) -> np.ndarray:
         """Node positions (n, 3) [m] at ``time`` (a copy)."""
-        return np.array(self._model.state.positions, dtype=np.float64)
+        return np.array(self._sim.state.positions, dtype=np.float64)
 
     @property
     def rotations(self) -> np.ndarray:
         """Node rotations (n, 3, 3) body -> world at ``time`` (a copy)."""
-        return np.array(self._model.state.rotations, dtype=np.float64)
+        return np.array(self._sim.state.rotations, dtype=np.float64)

@@ -25,9 +25,11 @@ from ..errors import bad
 from ..progress import Progress
 from . import kernels
 from .inputs import SetupInputs
+from .integrators import Explicit, choose_substeps
 from .kernels import StateArrays, StepInputs
 from .lumped import lumped_rod, node_kinds
-from .simulation import RunConfig, Setup, Trajectory, check_run_size, choose_substeps, save_nodes, save_slots
+from .magnetic import MagneticDipoles
+from .simulation import RunConfig, Setup, Trajectory, check_run_size, save_nodes, save_slots
 from .stability import stable_step
 from .state import SAMPLE_FIELDS, empty_samples, half_kick, initial_state
 from .status import raise_for_status
@@ -97,10 +99,13 @@ def _checked(setups: Sequence[Setup], config: RunConfig) -> list[Setup]:
         if s.contact is not None:
             raise bad(f"setups[{b}].contact", "obstacles", "None: a batch has no contact (run setups with "
                                                            "obstacles one by one with Simulator)")
+        if any(isinstance(load, MagneticDipoles) for load in s.loads):
+            raise bad(f"setups[{b}].loads", "MagneticDipoles", "no magnetic load in a batch (run such setups one by "
+                                                               "one with Simulator)")
     if not isinstance(config, RunConfig):
         raise bad("config", type(config).__name__, "a softrnn.rod.RunConfig")
-    if config.integrator != "explicit":
-        raise bad("config.integrator", config.integrator,
+    if not isinstance(config.integrator, Explicit):
+        raise bad("config.integrator", str(config.integrator),
                   "'explicit': a batch runs the explicit integrator (run stiff rods one by one with Simulator)")
     return setups
 

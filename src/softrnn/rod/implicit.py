@@ -40,26 +40,27 @@ D = dcay^-1(x) = I - x^/2 + x x^T / 4, X = I - x^/2):
 the exact derivative of the SE(3)-Cayley strains of ``_segment`` (kappa l = x, gamma l = p - x x p / 2).
 
 Caching: numba checks a cached function against its own source file only; the functions here
-compile ``rod.kernels``' helpers into themselves, so they are built as closures over a hash of that
-file (as ``magnetics._driver`` does): an edit of ``kernels.py`` recompiles them.
+compile the kernel modules' helpers into themselves, so they are built as closures over
+``rod.kernel_records.kernel_stamp()``, a hash of those files (as ``rod.kernels`` does): an edit of
+any of them recompiles them.
 """
 
-import hashlib
 import math
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from . import kernels as _kernels
+from .kernel_records import kernel_stamp
 from .kernels import (
     CLAMPED,
     FREE,
+    MAGNET_TOO_CLOSE,
     OK,
     _applied_loads,
     _applied_outputs,
     _contact_loads,
+    _magnet_loads,
     _node,
     _quaternion_into,
     _segment,
@@ -122,16 +123,6 @@ def work_arrays(n: int) -> ImplicitWork:
                         np.zeros((n, 6, 6)), np.zeros((max(n - 1, 0), 6, 6)), np.zeros((n, 6)),
                         np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 6), dtype=np.int64), np.zeros((6, 7)),
                         np.zeros((6, 12)))
-
-
-def _dependency_stamp() -> str:
-    """Hash of ``rod/kernels.py``, whose helpers are compiled into this module's cached functions."""
-    digest = hashlib.sha256()
-    try:
-        digest.update(Path(_kernels.__file__).read_bytes())
-    except (OSError, TypeError):  # no source file (frozen or zipped install): nothing to track
-        digest.update(_kernels.__name__.encode())
-    return digest.hexdigest()[:16]
 
 
 _INLINE = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
@@ -425,12 +416,16 @@ def _solve_tridiagonal(n, work):
 def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
     """work.force <- the explicit force (world) and body torque of every node at step i, work.strain_map
     <- the segments' strain maps; the samples' positions, loads and quaternions are written when
-    ``record``. ``rod.kv_on`` must be False (the Kelvin-Voigt forces are implicit). Returns the
-    elastic and gravitational energies [J]."""
+    ``record``. ``rod.kv_on`` must be False (the Kelvin-Voigt forces are implicit). Returns False
+    (a magnet too close to a source: nothing else is done) or True, and the elastic and
+    gravitational energies [J]."""
     R = state.rotations
     r = state.positions
     work_f = work.applied
     _applied_loads(i, R, r, state.velocities, inputs, work_f)
+    if len(inputs.magnet_node) > 0:
+        if _magnet_loads(i, row, record, R, r, inputs, work_f) >= 0:
+            return False, 0.0, 0.0
     if len(inputs.tendon_stiffness) > 0:
         _tendon_springs(i, R, r, rod, inputs)
     contact = len(inputs.contact_kind) > 0
@@ -478,7 +473,7 @@ def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
                 _quaternion_into(R[a], out.quaternions[row, slot])
     if record and contact:
         _applied_outputs(row, inputs, out)
-    return e_el, e_g
+    return True, e_el, e_g
 
 
 @njit(**_INLINE)
@@ -513,7 +508,7 @@ def _new_velocities(i, h, beta, theta, tau, rod, state, inputs, work):
 
 
 def _build(stamp):
-    """The cached kernels, closed over ``stamp`` (the hash of rod/kernels.py, see the module docstring)."""
+    """The cached kernels, closed over ``stamp`` (``kernel_stamp()``, see the module docstring)."""
 
     @njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
     def advance_implicit_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work, beta, theta, tau):
@@ -521,7 +516,8 @@ def _build(stamp):
 
         As ``rod.kernels.advance_into`` (same records and sample rows), with ``work`` an
         ``ImplicitWork``, ``beta`` the Newmark weight and ``tau`` the Kelvin-Voigt retardation time
-        [s]; ``rod.kv_on`` must be False. status is OK, DIVERGED, NEWTON_FAILED or SINGULAR.
+        [s]; ``rod.kv_on`` must be False. status is OK, DIVERGED, NEWTON_FAILED, SINGULAR or
+        MAGNET_TOO_CLOSE.
         """
         if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
             return -1, k0
@@ -530,7 +526,9 @@ def _build(stamp):
             k = k0 + ii
             record = (k % stride) == 0
             row = k // stride - s0
-            e_el, e_g = _explicit_forces(ii, row, record, h, rod, state, inputs, out, work)
+            fine, e_el, e_g = _explicit_forces(ii, row, record, h, rod, state, inputs, out, work)
+            if not fine:
+                return MAGNET_TOO_CLOSE, k
             if not _new_velocities(ii, h, beta, theta, tau, rod, state, inputs, work):
                 return SINGULAR, k
             _add_implicit_forces(h, beta, theta, tau, rod, state, work)
@@ -555,7 +553,9 @@ def _build(stamp):
         step from rest would reach; the state must be at rest. Returns False if singular."""
         if len(stamp) == 0:
             return False
-        _explicit_forces(0, 0, False, h, rod, state, inputs, out, work)
+        fine, _, _ = _explicit_forces(0, 0, False, h, rod, state, inputs, out, work)
+        if not fine:
+            return False
         _known_velocities(0, h, rod, state, inputs, work)
         for a in range(len(state.positions)):
             for c in range(6):
@@ -574,7 +574,7 @@ def _build(stamp):
     return advance_implicit_into, implicit_half_kick
 
 
-advance_implicit_into, implicit_half_kick = _build(_dependency_stamp())
+advance_implicit_into, implicit_half_kick = _build(kernel_stamp())
 
 
 def advance(rod, tau, state, inputs, out, h, k0, n_steps, stride, s0, work):

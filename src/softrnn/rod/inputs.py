@@ -9,6 +9,7 @@ from .boundary import Clamp
 from .contact import kernel_arrays
 from .kernels import StepInputs
 from .loads import PDTracking
+from .magnetic import MagneticDipoles
 from .tendons import displacement_matrix, prescribed_tensions, routing_arrays, spring_arrays
 
 
@@ -42,6 +43,9 @@ class SetupInputs:
     contact : dict or None
         the static contact fields of ``StepInputs`` (``rod.contact.kernel_arrays``); None without
         ``Setup.contact``
+    magnetic : MagneticDipoles or None
+        the setup's magnetic load (``rod.magnetic``), None without; a control loop may replace it
+        between runs (e.g. ``MagneticDipoles.with_currents``)
     """
 
     def __init__(self, setup):
@@ -49,7 +53,11 @@ class SetupInputs:
         for bc in setup.boundary:
             if (bc.motion if isinstance(bc, Clamp) else bc.path) is not None:
                 presc.append((setup.node_index(bc.node), bc))
+        magnetic = [load for load in setup.loads if isinstance(load, MagneticDipoles)]
+        self.magnetic = magnetic[0] if magnetic else None
         for load in setup.loads:
+            if isinstance(load, MagneticDipoles):
+                continue
             a = setup.node_index(load.node)
             if isinstance(load, PDTracking):
                 pd.append((a, load))
@@ -80,8 +88,9 @@ class SetupInputs:
     def step_bytes(self) -> int:
         """Bytes of per-step inputs a chunk holds (times, loads, PD targets, prescribed poses and
         the load functions' temporaries)."""
+        sources = 0 if self.magnetic is None else self.magnetic.n_sources
         return 8 * (4 + 15 * self.ext_idx.size + 6 * len(self._pd) + 12 * len(self._presc) + 2 * len(self.tendons)
-                    + 2 * self.tendon_stiffness.size)
+                    + 2 * self.tendon_stiffness.size + sources)
 
     def prescribed(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Prescribed positions (K, q, 3) [m] and rotations (K, q, 3, 3) at times t (K,) [s]
@@ -112,7 +121,7 @@ class SetupInputs:
     def at(self, t: np.ndarray, h: float) -> StepInputs:
         """The inputs of the steps at times t (K,) [s]: loads, tendon tensions and displacements at
         t (the tensions of tendons driven by a displacement are 0 here: the kernel computes them),
-        prescribed poses at t and t + h."""
+        prescribed poses at t and t + h, the magnetic sources' currents at t."""
         K = t.size
         ext_w = np.zeros((K, self.ext_idx.size, 12))
         for j, a in enumerate(self.ext_idx):
@@ -135,7 +144,8 @@ class SetupInputs:
                           tendon_stiffness=self.tendon_stiffness, tendon_rest=self.tendon_rest,
                           tendon_displacement=(displacement_matrix(self.tendons, t) if self.displaced
                                                else np.zeros((K, 0))),
-                          **({} if self.contact is None else self.contact))
+                          **({} if self.contact is None else self.contact),
+                          **({} if self.magnetic is None else self.magnetic.kernel_arrays(t)))
 
     def with_contact(self, inputs: StepInputs, segment: np.ndarray, samples: np.ndarray) -> StepInputs:
         """``inputs`` of a setup with contact given the state's tracked vessel segments (n, o) int64

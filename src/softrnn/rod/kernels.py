@@ -4,16 +4,10 @@ Per node: explicit translation (T) and a 3-unknown Newton solve on the Cayley ve
 rotation (R); segment strains use the SE(3)-Cayley measure (second order in space). One call
 advances many steps; ``advance_batch`` advances many independent rods with ``prange``.
 
-The kernels take their arrays in four records (``typing.NamedTuple``, which numba passes as one
-heterogeneous tuple): ``LumpedRod`` (the rod, built once per setup by ``rod.lumped.lumped_rod``),
-``StateArrays`` (the state stepped in place), ``StepInputs`` (loads and prescribed motions of the
-steps of one call) and ``Samples`` (the output buffers). Their fields are listed in their
-docstrings, with n nodes, n - 1 segments, K steps in the call and S saved samples. The records are
-defined here, not in ``rod/lumped.py``, because numba keys a cached kernel on this file and on the
-records' field types only: reordering two fields of one type in another file would leave a stale
-cache entry that reads the wrong arrays.
-
-``advance_into`` never allocates and writes its results into the arrays passed in.
+The records (``LumpedRod``, ``StateArrays``, ``StepInputs``, ``Samples``) and the constants live in
+``rod.kernel_records``; the loads of each concept in their own kernel modules (``tendon_kernels``,
+``contact_kernels``, ``magnetic_kernels``); this module holds the rod step and re-exports their
+names. ``advance_into`` never allocates and writes its results into the arrays passed in.
 
 Structure, for compile time (a cold start compiles everything here; numba's Python front end
 costs far more than LLVM and grows faster than linearly with the size of a function):
@@ -26,9 +20,7 @@ costs far more than LLVM and grows faster than linearly with the size of a funct
   the machine code is that of one function: no call overhead per node) and ``_nrt=False`` (they
   never allocate; without it the reference counting of the arrays they receive survives the
   inlining as atomic calls in the node loop). They have no Python/C entry points and are not
-  cached themselves: their code is part of ``advance_into``'s cache entry, which numba keys on
-  this file, so they must stay in this module (``magnetics._driver`` also compiles
-  ``times_cayley_into`` into its functions, and hashes this file for that reason).
+  cached themselves: their code is part of the cached entry points' code.
 * ``no_rewrites``: numba's IR rewrites cost time and mark operations with a constant operand
   (``0.5 * x``) for a second, literal type resolution at lowering. Without them, take array
   lengths with ``len(a)``, not ``a.shape[0]`` (a literal index into a tuple would compile a
@@ -36,327 +28,53 @@ costs far more than LLVM and grows faster than linearly with the size of a funct
 * loop-carried variables get their final type before the loop (``jq``, ``f0``), so that type
   inference needs no extra pass over the function.
 
-Contact (docs/lgvi.md §2.11): ``_contact_loads`` adds the contact loads of the obstacles in
-``StepInputs`` (and, with a SELF column, between the rod's own segments: ``_self_contact``) to the
-applied loads once per step, before the node loop, and only when there are obstacles
-(``contact_kind`` not empty): without them a step does no contact work.
+Caching: numba checks a cached function against its own source file only. The helpers of the
+kernel modules (``kernel_records``, ``tendon_kernels``, ``contact_kernels``, ``magnetic_kernels``
+and this one) are inlined into the cached entry points, so those are built as closures over
+``kernel_stamp()``, a hash of all of these files: numba puts closure variables into the cache key,
+so an edit of any of them recompiles the entry points (``rod.implicit`` does the same).
 """
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
-FREE = 0
-CLAMPED = 1
-PINNED = 2
+from .contact_kernels import _applied_outputs, _contact_loads
+from .kernel_records import _INLINE, kernel_stamp
+from .kernel_records import BIFURCATION as BIFURCATION
+from .kernel_records import BRANCH as BRANCH
+from .kernel_records import CLAMPED as CLAMPED
+from .kernel_records import CYLINDER as CYLINDER
+from .kernel_records import DIVERGED as DIVERGED
+from .kernel_records import FREE as FREE
+from .kernel_records import MAGNET_TOO_CLOSE as MAGNET_TOO_CLOSE
+from .kernel_records import NEWTON_FAILED as NEWTON_FAILED
+from .kernel_records import OK as OK
+from .kernel_records import PINNED as PINNED
+from .kernel_records import PLANE as PLANE
+from .kernel_records import SELF as SELF
+from .kernel_records import SPHERE as SPHERE
+from .kernel_records import UNION_BLEND as UNION_BLEND
+from .kernel_records import VESSEL as VESSEL
+from .kernel_records import LumpedRod as LumpedRod
+from .kernel_records import Samples as Samples
+from .kernel_records import StateArrays as StateArrays
+from .kernel_records import StepInputs as StepInputs
+from .kernel_records import _quaternion_into as _quaternion_into
+from .kernel_records import times_cayley_into as times_cayley_into
+from .magnetic_kernels import MIN_DIPOLE_DISTANCE as MIN_DIPOLE_DISTANCE
+from .magnetic_kernels import MU0 as MU0
+from .magnetic_kernels import _magnet_loads
+from .magnetic_kernels import field_gradient_into as field_gradient_into
+from .tendon_kernels import _tendon_springs, _tendon_tangent
 
-# Status codes returned by the kernels (``rod.status.KernelStatus`` gives them names and messages;
-# they are defined here because compiled code freezes their values into the numba cache of this file).
-OK = 0
-DIVERGED = 1
-NEWTON_FAILED = 2
-MAGNET_TOO_CLOSE = 10  # returned by ``magnetics._driver.drive``
-
-# Obstacle kinds of ``StepInputs.contact_kind`` (``rod.contact``; frozen into the compiled code).
-PLANE = 0
-SPHERE = 1
-CYLINDER = 2
-VESSEL = 3
-BIFURCATION = 4  # a union of two vessels: this column's and the next (BRANCH) column's
-BRANCH = 5  # the second vessel of the BIFURCATION in the column before it; no loads of its own
-SELF = 6  # contact between the rod's own segments (geom[0]: the least index gap of a segment pair)
-
-UNION_BLEND = 0.25
-"""Blend width of a bifurcation's normal, a fraction of the rod radius: where the gaps of its two
-vessels differ by less (the crease where their walls meet, at the carina), the normal blends theirs
-(``_union_gap``, docs/lgvi.md §2.11)."""
-
-
-class LumpedRod(NamedTuple):
-    """The rod's lumped arrays, one record per setup (built by ``rod.lumped.lumped_rod``).
-
-    Attributes
-    ----------
-    length : float
-        segment length l [m]
-    weight : (n,)
-        trapezoid weights w_a, 1/2 at the ends [-]
-    mass : (n,)
-        node masses m_a [kg]
-    inertia : (n, 3)
-        node inertias J_a, body frame [kg m^2]
-    C1 : (n - 1, 3)
-        diag(kappa G A, kappa G A, E A) per segment [N]
-    C2 : (n - 1, 3)
-        diag(E I, E I, G J) per segment [N m^2]
-    D1, D2 : (n - 1, 3)
-        Kelvin-Voigt coefficients tau_d C1 [N s], tau_d C2 [N m^2 s]
-    K0 : (n - 1, 3)
-        stress-free curvature and twist [1/m]
-    G0 : (n - 1, 3)
-        stress-free shear and stretch [-]
-    ct : (n,)
-        translational drag per node [N s/m]
-    cr : (n,)
-        rotational drag per node [N m s]
-    gravity : (3,)
-        gravitational acceleration [m/s^2], world frame
-    kind : (n,) int64
-        FREE, CLAMPED or PINNED
-    kv_on : bool
-        Kelvin-Voigt damping on (tau_d > 0)
-    """
-
-    length: float
-    weight: np.ndarray
-    mass: np.ndarray
-    inertia: np.ndarray
-    C1: np.ndarray
-    C2: np.ndarray
-    D1: np.ndarray
-    D2: np.ndarray
-    K0: np.ndarray
-    G0: np.ndarray
-    ct: np.ndarray
-    cr: np.ndarray
-    gravity: np.ndarray
-    kind: np.ndarray
-    kv_on: bool
-
-
-class StateArrays(NamedTuple):
-    """The integrator state, stepped in place (a leading batch axis (B, ...) in ``advance_batch``).
-
-    Attributes
-    ----------
-    rotations : (n, 3, 3)
-        node rotations Lambda (columns d1, d2, d3), world <- body
-    positions : (n, 3)
-        node positions [m]
-    velocities : (n, 3)
-        staggered linear velocities v^{k-1} [m/s], world frame
-    angular_velocities : (n, 3)
-        staggered angular velocities omega^{k-1} [rad/s], body frame
-    prev_curvature : (n - 1, 3)
-        previous segment curvature (Kelvin-Voigt memory) [1/m]
-    prev_shear : (n - 1, 3)
-        previous segment shear and stretch [-]
-    """
-
-    rotations: np.ndarray
-    positions: np.ndarray
-    velocities: np.ndarray
-    angular_velocities: np.ndarray
-    prev_curvature: np.ndarray
-    prev_shear: np.ndarray
-
-
-class StepInputs(NamedTuple):
-    """Loads and prescribed motions of the K steps of one call (step i at t = (k0 + i) h).
-
-    In ``advance_batch`` ext_w, pd_target, presc_r and presc_R carry a leading batch axis (B, ...).
-
-    Attributes
-    ----------
-    ext_idx : (m,) int64
-        nodes with tabulated loads
-    ext_w : (K, m, 12)
-        force world, torque world, force body, torque body [N], [N m]
-    pd_idx : (p,) int64
-        nodes with PD tracking forces f = kp (target - r) - kd v
-    pd_target : (K, p, 3)
-        target positions [m]
-    pd_gain : (p, 2)
-        kp [N/m] and kd [N s/m]
-    presc_idx : (q,) int64
-        constrained nodes with prescribed motion
-    presc_r : (K + 1, q, 3)
-        their positions at t and t + h [m]
-    presc_R : (K + 1, q, 3, 3)
-        their rotations at t and t + h
-    tendon_route : (m_t, n - 1, 6)
-        per tendon and segment: the body-frame offset rho [m] and its rate d rho / ds [-] at the
-        segment's middle (``rod.tendons.routing_arrays``; default: no tendons)
-    tendon_end : (m_t,) int64
-        their termination nodes (>= 1): segments a < end carry them
-    tendon_tension : (K, m_t)
-        their tensions [N], >= 0 (a leading batch axis in ``advance_batch``); the kernel writes the
-        tensions of the tendons driven by a displacement into their columns
-    tendon_stiffness : (m_s,)
-        series stiffness k [N/m] per tendon, 0 for a tendon pulled with a tension; m_s = m_t, or 0
-        when no tendon is driven by a displacement (default)
-    tendon_rest : (m_s,)
-        the tendons' discrete lengths l_0 in the reference [m]
-    tendon_displacement : (K, m_s)
-        the displacements q [m] (a leading batch axis in ``advance_batch``):
-        tau = k max(0, q - (l_0 - l)) from the tendon length l at the start of each step
-    contact_kind : (o,) int64
-        obstacle kinds PLANE, SPHERE, CYLINDER, VESSEL, or BIFURCATION followed by a BRANCH
-        column (one column per vessel of a ``rod.contact.Bifurcation``), and a last SELF column
-        for contact between the rod's own segments; o = 0 (default): no contact, and the kernels
-        do no contact work
-    contact_geom : (o, 7)
-        plane: point [m], unit normal; sphere: centre [m], -, -, -, radius [m]; cylinder: point [m],
-        unit axis, radius [m]; self: the least index gap j - i of a pair of segments i < j that
-        may touch; vessel, bifurcation, branch: unused
-    contact_range : (o, 2) int64
-        vessel, bifurcation, branch: first row and number of rows of its centreline in
-        contact_points
-    contact_friction : (o, 2)
-        friction coefficient mu [-] and slip velocity v_s [m/s] per column (a bifurcation's in both)
-    contact_points : (P, 3)
-        the vessels' centreline polylines [m], one after another
-    contact_radii : (P,)
-        the vessels' radii at those points [m]
-    contact_node : (n, 3)
-        per node: rod radius r_a [m], contact stiffness k_a [N/m], contact damping c_a [N s/m]
-    contact_segment : (n, o) int64
-        per node and vessel column: the closest polyline segment, the warm start of the local search,
-        updated in place (the array of ``RodState.contact_segment``)
-    contact_samples : (S, s, 6)
-        output: the contact force [N] and torque [N m] (world frame) of the saved nodes at the
-        saved steps, rows as in ``Samples``
-    contact_applied : (n, 6)
-        scratch: the applied loads of a saved step before the contact loads join them
-    """
-
-    ext_idx: np.ndarray
-    ext_w: np.ndarray
-    pd_idx: np.ndarray
-    pd_target: np.ndarray
-    pd_gain: np.ndarray
-    presc_idx: np.ndarray
-    presc_r: np.ndarray
-    presc_R: np.ndarray
-    tendon_route: np.ndarray = np.zeros((0, 0, 6))
-    tendon_end: np.ndarray = np.zeros(0, dtype=np.int64)
-    tendon_tension: np.ndarray = np.zeros((0, 0))
-    tendon_stiffness: np.ndarray = np.zeros(0)
-    tendon_rest: np.ndarray = np.zeros(0)
-    tendon_displacement: np.ndarray = np.zeros((0, 0))
-    contact_kind: np.ndarray = np.zeros(0, dtype=np.int64)
-    contact_geom: np.ndarray = np.zeros((0, 7))
-    contact_range: np.ndarray = np.zeros((0, 2), dtype=np.int64)
-    contact_friction: np.ndarray = np.zeros((0, 2))
-    contact_points: np.ndarray = np.zeros((0, 3))
-    contact_radii: np.ndarray = np.zeros(0)
-    contact_node: np.ndarray = np.zeros((0, 3))
-    contact_segment: np.ndarray = np.zeros((0, 0), dtype=np.int64)
-    contact_samples: np.ndarray = np.zeros((0, 0, 6))
-    contact_applied: np.ndarray = np.zeros((0, 6))
-
-
-class Samples(NamedTuple):
-    """Output buffers: S samples of the s saved nodes (a leading batch axis (B, ...) in
-    ``advance_batch``, except save_slot). The field names are those of ``Trajectory``.
-
-    Attributes
-    ----------
-    save_slot : (n,) int64
-        column of each node in the outputs, -1: not saved
-    positions : (S, s, 3)
-        node positions [m], world frame
-    quaternions : (S, s, 4)
-        unit, scalar first (w, x, y, z), body -> world
-    velocities : (S, s, 3)
-        mid-step velocities [m/s], world frame
-    angular_velocities : (S, s, 3)
-        mid-step angular velocities [rad/s], world frame
-    forces, torques : (S, s, 3)
-        applied force [N] and torque [N m], world frame
-    reaction_forces : (S, s, 3)
-        support reaction force of constrained nodes [N], world frame
-    reaction_torques : (S, s, 3)
-        support reaction torque of clamped nodes [N m], world frame
-    energy : (S, 3)
-        kinetic, elastic and gravitational energy [J]
-    """
-
-    save_slot: np.ndarray
-    positions: np.ndarray
-    quaternions: np.ndarray
-    velocities: np.ndarray
-    angular_velocities: np.ndarray
-    forces: np.ndarray
-    torques: np.ndarray
-    reaction_forces: np.ndarray
-    reaction_torques: np.ndarray
-    energy: np.ndarray
-
+# The rod step's body: compiled into (inlined in) the cached entry point ``advance_into``.
+_STEP = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
+             forceinline=True, no_rewrites=True)
 
 _NEWTON_MAX_ITER = 12
 _NEWTON_RTOL = 1e-13
-
-# Helpers called only from compiled code (see the module docstring).
-_INLINE = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
-               forceinline=True, _nrt=False, no_rewrites=True)
-
-
-@njit(**_INLINE)
-def _quaternion_into(M, q):
-    """q[4] <- unit quaternion (w, x, y, z), w >= 0, of the rotation matrix M[3, 3] (Shepperd)."""
-    m00 = M[0, 0]
-    m11 = M[1, 1]
-    m22 = M[2, 2]
-    tr = m00 + m11 + m22
-    # the largest of 4 w^2, 4 x^2, 4 y^2, 4 z^2 gives the best conditioned formula
-    if tr > 0.0:
-        s = math.sqrt(tr + 1.0) * 2.0
-        w = 0.25 * s
-        x = (M[2, 1] - M[1, 2]) / s
-        y = (M[0, 2] - M[2, 0]) / s
-        z = (M[1, 0] - M[0, 1]) / s
-    elif m00 > m11 and m00 > m22:
-        s = math.sqrt(1.0 + m00 - m11 - m22) * 2.0
-        w = (M[2, 1] - M[1, 2]) / s
-        x = 0.25 * s
-        y = (M[0, 1] + M[1, 0]) / s
-        z = (M[0, 2] + M[2, 0]) / s
-    elif m11 > m22:
-        s = math.sqrt(1.0 + m11 - m00 - m22) * 2.0
-        w = (M[0, 2] - M[2, 0]) / s
-        x = (M[0, 1] + M[1, 0]) / s
-        y = 0.25 * s
-        z = (M[1, 2] + M[2, 1]) / s
-    else:
-        s = math.sqrt(1.0 + m22 - m00 - m11) * 2.0
-        w = (M[1, 0] - M[0, 1]) / s
-        x = (M[0, 2] + M[2, 0]) / s
-        y = (M[1, 2] + M[2, 1]) / s
-        z = 0.25 * s
-    nrm = math.sqrt(w * w + x * x + y * y + z * z)
-    if w < 0.0:
-        nrm = -nrm
-    q[0] = w / nrm
-    q[1] = x / nrm
-    q[2] = y / nrm
-    q[3] = z / nrm
-
-
-@njit(**_INLINE)
-def times_cayley_into(A, y0, y1, y2, ca, out):
-    """out[3, 3] <- A[3, 3] cay(y), cay(y) = I + ca (y^ + y^ y^/2), ca = 4/(4 + |y|^2) (docs/lgvi.md
-    section 2.2); out may be A. The caller computes ca: ``_node`` and ``magnetics._driver`` sum
-    |y|^2 in different orders, and each keeps its own rounding. Compiled code only."""
-    cb = 0.5 * ca
-    F00 = 1.0 - cb * (y1 * y1 + y2 * y2)
-    F11 = 1.0 - cb * (y0 * y0 + y2 * y2)
-    F22 = 1.0 - cb * (y0 * y0 + y1 * y1)
-    F01 = -ca * y2 + cb * y0 * y1
-    F10 = ca * y2 + cb * y0 * y1
-    F02 = ca * y1 + cb * y0 * y2
-    F20 = -ca * y1 + cb * y0 * y2
-    F12 = -ca * y0 + cb * y1 * y2
-    F21 = ca * y0 + cb * y1 * y2
-    for c in range(3):
-        A0 = A[c, 0]
-        A1 = A[c, 1]
-        A2 = A[c, 2]
-        out[c, 0] = A0 * F00 + A1 * F10 + A2 * F20
-        out[c, 1] = A0 * F01 + A1 * F11 + A2 * F21
-        out[c, 2] = A0 * F02 + A1 * F12 + A2 * F22
 
 
 @njit(**_INLINE)
@@ -427,403 +145,6 @@ def _applied_loads(i, R, r, v, inputs, work_f):
         a = pd_idx[j]
         for c in range(3):
             work_f[a, c] += pd_gain[j, 0] * (pd_target[i, j, c] - r[a, c]) - pd_gain[j, 1] * v[a, c]
-
-
-@njit(**_INLINE)
-def _tendon_springs(i, R, r, rod, inputs):
-    """inputs.tendon_tension[i, j] <- k_j max(0, q_j - (l0_j - l_j)) for every tendon j driven by
-    a displacement (stiffness k_j > 0), l_j = l sum_{a < e_j} |Gamma_a + K_a x rho_a + rho'_a| its
-    discrete length in the configuration (R, r) at the start of step i (strains as in ``_segment``)."""
-    stiffness = inputs.tendon_stiffness
-    end = inputs.tendon_end
-    route = inputs.tendon_route
-    tension = inputs.tendon_tension
-    l = rod.length
-    il = 1.0 / l
-    last = 0
-    for j in range(len(stiffness)):
-        if stiffness[j] > 0.0:
-            tension[i, j] = 0.0  # the sum of |t| over the routed segments, first
-            if end[j] > last:
-                last = end[j]
-    for a in range(last):
-        Q00 = R[a, 0, 0] * R[a + 1, 0, 0] + R[a, 1, 0] * R[a + 1, 1, 0] + R[a, 2, 0] * R[a + 1, 2, 0]
-        Q01 = R[a, 0, 0] * R[a + 1, 0, 1] + R[a, 1, 0] * R[a + 1, 1, 1] + R[a, 2, 0] * R[a + 1, 2, 1]
-        Q02 = R[a, 0, 0] * R[a + 1, 0, 2] + R[a, 1, 0] * R[a + 1, 1, 2] + R[a, 2, 0] * R[a + 1, 2, 2]
-        Q10 = R[a, 0, 1] * R[a + 1, 0, 0] + R[a, 1, 1] * R[a + 1, 1, 0] + R[a, 2, 1] * R[a + 1, 2, 0]
-        Q11 = R[a, 0, 1] * R[a + 1, 0, 1] + R[a, 1, 1] * R[a + 1, 1, 1] + R[a, 2, 1] * R[a + 1, 2, 1]
-        Q12 = R[a, 0, 1] * R[a + 1, 0, 2] + R[a, 1, 1] * R[a + 1, 1, 2] + R[a, 2, 1] * R[a + 1, 2, 2]
-        Q20 = R[a, 0, 2] * R[a + 1, 0, 0] + R[a, 1, 2] * R[a + 1, 1, 0] + R[a, 2, 2] * R[a + 1, 2, 0]
-        Q21 = R[a, 0, 2] * R[a + 1, 0, 1] + R[a, 1, 2] * R[a + 1, 1, 1] + R[a, 2, 2] * R[a + 1, 2, 1]
-        Q22 = R[a, 0, 2] * R[a + 1, 0, 2] + R[a, 1, 2] * R[a + 1, 1, 2] + R[a, 2, 2] * R[a + 1, 2, 2]
-        d0 = r[a + 1, 0] - r[a, 0]
-        d1 = r[a + 1, 1] - r[a, 1]
-        d2 = r[a + 1, 2] - r[a, 2]
-        p0 = R[a, 0, 0] * d0 + R[a, 1, 0] * d1 + R[a, 2, 0] * d2
-        p1 = R[a, 0, 1] * d0 + R[a, 1, 1] * d1 + R[a, 2, 1] * d2
-        p2 = R[a, 0, 2] * d0 + R[a, 1, 2] * d1 + R[a, 2, 2] * d2
-        s = 2.0 / (1.0 + Q00 + Q11 + Q22)
-        x0 = s * (Q21 - Q12)
-        x1 = s * (Q02 - Q20)
-        x2 = s * (Q10 - Q01)
-        ga0 = (p0 - 0.5 * (x1 * p2 - x2 * p1)) * il
-        ga1 = (p1 - 0.5 * (x2 * p0 - x0 * p2)) * il
-        ga2 = (p2 - 0.5 * (x0 * p1 - x1 * p0)) * il
-        ka0 = x0 * il
-        ka1 = x1 * il
-        ka2 = x2 * il
-        for j in range(len(stiffness)):
-            if stiffness[j] > 0.0 and a < end[j]:
-                o0 = route[j, a, 0]
-                o1 = route[j, a, 1]
-                o2 = route[j, a, 2]
-                t0 = ga0 + ka1 * o2 - ka2 * o1 + route[j, a, 3]
-                t1 = ga1 + ka2 * o0 - ka0 * o2 + route[j, a, 4]
-                t2 = ga2 + ka0 * o1 - ka1 * o0 + route[j, a, 5]
-                tension[i, j] += math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-    for j in range(len(stiffness)):
-        if stiffness[j] > 0.0:
-            stretch = inputs.tendon_displacement[i, j] - (inputs.tendon_rest[j] - l * tension[i, j])
-            tension[i, j] = stiffness[j] * stretch if stretch > 0.0 else 0.0
-
-
-_VESSEL_WINDOW = 3
-"""Segments searched either way of a node's tracked vessel segment before walking further."""
-
-
-@njit(**_INLINE)
-def _segment_projection(P, k, x0, x1, x2):
-    """Squared distance [m^2] from x to the segment P[k] -> P[k + 1] and the parameter t of the
-    projection of x on its line (not clipped: t < 0 or t > 1 lies beyond the segment's ends)."""
-    e0 = P[k + 1, 0] - P[k, 0]
-    e1 = P[k + 1, 1] - P[k, 1]
-    e2 = P[k + 1, 2] - P[k, 2]
-    q0 = x0 - P[k, 0]
-    q1 = x1 - P[k, 1]
-    q2 = x2 - P[k, 2]
-    t = (q0 * e0 + q1 * e1 + q2 * e2) / (e0 * e0 + e1 * e1 + e2 * e2)
-    tc = min(max(t, 0.0), 1.0)
-    d0 = q0 - tc * e0
-    d1 = q1 - tc * e1
-    d2 = q2 - tc * e2
-    return d0 * d0 + d1 * d1 + d2 * d2, t
-
-
-@njit(**_INLINE)
-def _vessel_gap(a, o, x0, x1, x2, ra, inputs):
-    """Gap [m] and inward unit normal of node a (centreline point x, rod radius ra) inside vessel o.
-    The tracked segment inputs.contact_segment[a, o] is the warm start of a local search (a window
-    of _VESSEL_WINDOW segments either way, then a walk while the distance decreases) and is
-    updated. Beyond the vessel's open ends, and on its centreline, the gap is 1 (no contact)."""
-    P = inputs.contact_points
-    rad = inputs.contact_radii
-    p0 = inputs.contact_range[o, 0]
-    last = inputs.contact_range[o, 1] - 2
-    j = inputs.contact_segment[a, o]
-    lo = max(j - _VESSEL_WINDOW, 0)
-    hi = min(j + _VESSEL_WINDOW, last)
-    best = lo
-    bd = math.inf
-    for jj in range(lo, hi + 1):
-        d2, t = _segment_projection(P, p0 + jj, x0, x1, x2)
-        if d2 < bd:
-            bd = d2
-            best = jj
-    while best == lo and lo > 0:
-        lo -= 1
-        d2, t = _segment_projection(P, p0 + lo, x0, x1, x2)
-        if d2 <= bd:  # ties to the lower index, as a search from the start would find
-            bd = d2
-            best = lo
-    while best == hi and hi < last:
-        hi += 1
-        d2, t = _segment_projection(P, p0 + hi, x0, x1, x2)
-        if d2 < bd:
-            bd = d2
-            best = hi
-    inputs.contact_segment[a, o] = best
-    d2, t = _segment_projection(P, p0 + best, x0, x1, x2)
-    if (best == 0 and t < 0.0) or (best == last and t > 1.0):
-        return 1.0, 0.0, 0.0, 0.0
-    tc = min(max(t, 0.0), 1.0)
-    k = p0 + best
-    c0 = P[k, 0] + tc * (P[k + 1, 0] - P[k, 0]) - x0
-    c1 = P[k, 1] + tc * (P[k + 1, 1] - P[k, 1]) - x1
-    c2 = P[k, 2] + tc * (P[k + 1, 2] - P[k, 2]) - x2
-    d = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
-    if not d > 0.0:
-        return 1.0, 0.0, 0.0, 0.0
-    radius = rad[k] + tc * (rad[k + 1] - rad[k])
-    return radius - ra - d, c0 / d, c1 / d, c2 / d
-
-
-@njit(**_INLINE)
-def _union_gap(a, o, x0, x1, x2, ra, inputs):
-    """Gap [m] and inward unit normal of node a in the union of the vessels of columns o and o + 1
-    (a bifurcation, docs/lgvi.md §2.11): the larger of their gaps, so that a node inside either
-    (gap >= 0) touches no wall. Its normal is that vessel's, blended with the other's where their
-    gaps differ by less than UNION_BLEND ra (weights 1 - difference / (UNION_BLEND ra)), so that a
-    node on the crease between the two walls is pushed straight back from it. Both vessels' tracked
-    segments are updated."""
-    g, n0, n1, n2 = _vessel_gap(a, o, x0, x1, x2, ra, inputs)
-    h, m0, m1, m2 = _vessel_gap(a, o + 1, x0, x1, x2, ra, inputs)
-    best = max(g, h)
-    if best >= 0.0:
-        return best, 0.0, 0.0, 0.0
-    width = UNION_BLEND * ra
-    u = max(0.0, 1.0 - (best - g) / width)
-    w = max(0.0, 1.0 - (best - h) / width)
-    b0 = u * n0 + w * m0
-    b1 = u * n1 + w * m1
-    b2 = u * n2 + w * m2
-    size = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
-    if not size > 0.0:  # opposite normals: no direction to push
-        return 1.0, 0.0, 0.0, 0.0
-    return best, b0 / size, b1 / size, b2 / size
-
-
-@njit(**_INLINE)
-def _friction(a, h, mu, vs, fn, ra, n0, n1, n2, R, v, w, rod):
-    """Regularised Coulomb friction f_t = -mu fn v_t / max(|v_t|, v_s') at the contact point -ra n
-    of node a (docs/lgvi.md §2.11): v_t the tangential velocity of that point from the staggered
-    v (world) and w (body), v_s' = max(v_s, h mu fn / m_eff) with 1/m_eff the node's inverse mass
-    along v_t, rotation included. Returns the force and its moment (-ra n) x f_t, world frame."""
-    W0 = R[a, 0, 0] * w[a, 0] + R[a, 0, 1] * w[a, 1] + R[a, 0, 2] * w[a, 2]
-    W1 = R[a, 1, 0] * w[a, 0] + R[a, 1, 1] * w[a, 1] + R[a, 1, 2] * w[a, 2]
-    W2 = R[a, 2, 0] * w[a, 0] + R[a, 2, 1] * w[a, 1] + R[a, 2, 2] * w[a, 2]
-    # velocity of the contact point: v + W x (-ra n), then its tangential part
-    c0 = v[a, 0] - ra * (W1 * n2 - W2 * n1)
-    c1 = v[a, 1] - ra * (W2 * n0 - W0 * n2)
-    c2 = v[a, 2] - ra * (W0 * n1 - W1 * n0)
-    vn = c0 * n0 + c1 * n1 + c2 * n2
-    c0 -= vn * n0
-    c1 -= vn * n1
-    c2 -= vn * n2
-    speed = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
-    if not speed > 0.0:
-        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    # moment axis k = n x v_t/|v_t| in the body frame: 1/m_eff = 1/m + ra^2 k . J^-1 k
-    k0 = (n1 * c2 - n2 * c1) / speed
-    k1 = (n2 * c0 - n0 * c2) / speed
-    k2 = (n0 * c1 - n1 * c0) / speed
-    kb0 = R[a, 0, 0] * k0 + R[a, 1, 0] * k1 + R[a, 2, 0] * k2
-    kb1 = R[a, 0, 1] * k0 + R[a, 1, 1] * k1 + R[a, 2, 1] * k2
-    kb2 = R[a, 0, 2] * k0 + R[a, 1, 2] * k1 + R[a, 2, 2] * k2
-    inertia = rod.inertia
-    im = 1.0 / rod.mass[a] + ra * ra * (kb0 * kb0 / inertia[a, 0] + kb1 * kb1 / inertia[a, 1]
-                                        + kb2 * kb2 / inertia[a, 2])
-    s = -mu * fn / max(speed, vs, h * mu * fn * im)
-    f0 = s * c0
-    f1 = s * c1
-    f2 = s * c2
-    return f0, f1, f2, -ra * (n1 * f2 - n2 * f1), -ra * (n2 * f0 - n0 * f2), -ra * (n0 * f1 - n1 * f0)
-
-
-@njit(**_INLINE)
-def _obstacle_gap(a, o, x0, x1, x2, ra, inputs):
-    """Gap [m] between the surface of node a (centreline point x, rod radius ra) and obstacle o,
-    and the obstacle's unit normal at the node, pointing to the rod's side; gap 1 where the normal
-    is undefined (a node on a sphere's centre or a cylinder's axis, a vessel's open ends) and in a
-    BRANCH column (a bifurcation's gap is its BIFURCATION column's, ``_union_gap``)."""
-    geom = inputs.contact_geom
-    kd = inputs.contact_kind[o]
-    if kd == PLANE:
-        n0 = geom[o, 3]
-        n1 = geom[o, 4]
-        n2 = geom[o, 5]
-        return (x0 - geom[o, 0]) * n0 + (x1 - geom[o, 1]) * n1 + (x2 - geom[o, 2]) * n2 - ra, n0, n1, n2
-    if kd == VESSEL:
-        return _vessel_gap(a, o, x0, x1, x2, ra, inputs)
-    if kd == BIFURCATION:
-        return _union_gap(a, o, x0, x1, x2, ra, inputs)
-    if kd == BRANCH or kd == SELF:  # part of the BIFURCATION column's gap; self-contact: ``_self_contact``
-        return 1.0, 0.0, 0.0, 0.0
-    q0 = x0 - geom[o, 0]
-    q1 = x1 - geom[o, 1]
-    q2 = x2 - geom[o, 2]
-    if kd == CYLINDER:
-        qa = q0 * geom[o, 3] + q1 * geom[o, 4] + q2 * geom[o, 5]
-        q0 -= qa * geom[o, 3]
-        q1 -= qa * geom[o, 4]
-        q2 -= qa * geom[o, 5]
-    d = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
-    if not d > 0.0:
-        return 1.0, 0.0, 0.0, 0.0
-    return d - geom[o, 6] - ra, q0 / d, q1 / d, q2 / d
-
-
-@njit(**_INLINE)
-def _segment_pair(p0, p1, q0, q1, r):
-    """Parameters (s, t) in [0, 1] of the closest points p0 + s (p1 - p0) and q0 + t (q1 - q0) of
-    segments (p0, p1) and (q0, q1) of the rows of r (n, 3); both of nonzero length."""
-    d1x = r[p1, 0] - r[p0, 0]
-    d1y = r[p1, 1] - r[p0, 1]
-    d1z = r[p1, 2] - r[p0, 2]
-    d2x = r[q1, 0] - r[q0, 0]
-    d2y = r[q1, 1] - r[q0, 1]
-    d2z = r[q1, 2] - r[q0, 2]
-    ex = r[p0, 0] - r[q0, 0]
-    ey = r[p0, 1] - r[q0, 1]
-    ez = r[p0, 2] - r[q0, 2]
-    a = d1x * d1x + d1y * d1y + d1z * d1z
-    e = d2x * d2x + d2y * d2y + d2z * d2z
-    b = d1x * d2x + d1y * d2y + d1z * d2z
-    c = d1x * ex + d1y * ey + d1z * ez
-    f = d2x * ex + d2y * ey + d2z * ez
-    den = a * e - b * b
-    s = min(max((b * f - c * e) / den, 0.0), 1.0) if den > 1e-12 * a * e else 0.0
-    t = (b * s + f) / e
-    if t < 0.0:
-        t = 0.0
-        s = min(max(-c / a, 0.0), 1.0)
-    elif t > 1.0:
-        t = 1.0
-        s = min(max((b - c) / a, 0.0), 1.0)
-    return s, t
-
-
-@njit(**_INLINE)
-def _push_pair(a, wa, f0, f1, f2, row, record, save_slot, inputs, work_f):
-    """work_f[a] += wa f (and the saved contact loads of node a at a saved step)."""
-    work_f[a, 0] += wa * f0
-    work_f[a, 1] += wa * f1
-    work_f[a, 2] += wa * f2
-    if record and save_slot[a] >= 0:
-        smp = inputs.contact_samples
-        smp[row, save_slot[a], 0] += wa * f0
-        smp[row, save_slot[a], 1] += wa * f1
-        smp[row, save_slot[a], 2] += wa * f2
-
-
-@njit(**_INLINE)
-def _self_contact(row, record, r, v, gap_index, inputs, save_slot, work_f):
-    """Frictionless contact between the rod's own segments i < j, j - i >= gap_index (docs/lgvi.md
-    §2.11): where their closest points P (on i) and Q (on j) are nearer than the sum of the rod
-    radii there, fn = max(0, -k gap - c v_n) along n = (P - Q) / |P - Q|, with k and c the series
-    combination of the two points' (nodal values interpolated), v_n the normal velocity of P
-    relative to Q; +fn n goes to segment i's nodes and -fn n to segment j's, split as the closest
-    points divide the segments (the pair's forces sum to zero). Brute force over the pairs, each
-    rejected first by its bounding spheres."""
-    node = inputs.contact_node
-    n = len(r)
-    for i in range(n - 1):
-        li = math.sqrt((r[i + 1, 0] - r[i, 0]) ** 2 + (r[i + 1, 1] - r[i, 1]) ** 2 + (r[i + 1, 2] - r[i, 2]) ** 2)
-        for j in range(i + gap_index, n - 1):
-            mx = 0.5 * (r[i, 0] + r[i + 1, 0] - r[j, 0] - r[j + 1, 0])
-            my = 0.5 * (r[i, 1] + r[i + 1, 1] - r[j, 1] - r[j + 1, 1])
-            mz = 0.5 * (r[i, 2] + r[i + 1, 2] - r[j, 2] - r[j + 1, 2])
-            lj = math.sqrt((r[j + 1, 0] - r[j, 0]) ** 2 + (r[j + 1, 1] - r[j, 1]) ** 2 + (r[j + 1, 2] - r[j, 2]) ** 2)
-            reach = 0.5 * (li + lj) + max(node[i, 0], node[i + 1, 0]) + max(node[j, 0], node[j + 1, 0])
-            if mx * mx + my * my + mz * mz >= reach * reach or not (li > 0.0 and lj > 0.0):
-                continue
-            s, t = _segment_pair(i, i + 1, j, j + 1, r)
-            d0 = (1 - s) * r[i, 0] + s * r[i + 1, 0] - (1 - t) * r[j, 0] - t * r[j + 1, 0]
-            d1 = (1 - s) * r[i, 1] + s * r[i + 1, 1] - (1 - t) * r[j, 1] - t * r[j + 1, 1]
-            d2 = (1 - s) * r[i, 2] + s * r[i + 1, 2] - (1 - t) * r[j, 2] - t * r[j + 1, 2]
-            dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            gap = dist - ((1 - s) * node[i, 0] + s * node[i + 1, 0] + (1 - t) * node[j, 0] + t * node[j + 1, 0])
-            if gap >= 0.0 or not dist > 0.0:
-                continue
-            n0 = d0 / dist
-            n1 = d1 / dist
-            n2 = d2 / dist
-            ki = (1 - s) * node[i, 1] + s * node[i + 1, 1]
-            kj = (1 - t) * node[j, 1] + t * node[j + 1, 1]
-            ci = (1 - s) * node[i, 2] + s * node[i + 1, 2]
-            cj = (1 - t) * node[j, 2] + t * node[j + 1, 2]
-            u0 = (1 - s) * v[i, 0] + s * v[i + 1, 0] - (1 - t) * v[j, 0] - t * v[j + 1, 0]
-            u1 = (1 - s) * v[i, 1] + s * v[i + 1, 1] - (1 - t) * v[j, 1] - t * v[j + 1, 1]
-            u2 = (1 - s) * v[i, 2] + s * v[i + 1, 2] - (1 - t) * v[j, 2] - t * v[j + 1, 2]
-            vn = u0 * n0 + u1 * n1 + u2 * n2
-            fn = -ki * kj / (ki + kj) * gap - (ci * cj / (ci + cj) if ci + cj > 0.0 else 0.0) * vn
-            if fn > 0.0:
-                f0 = fn * n0
-                f1 = fn * n1
-                f2 = fn * n2
-                _push_pair(i, 1 - s, f0, f1, f2, row, record, save_slot, inputs, work_f)
-                _push_pair(i + 1, s, f0, f1, f2, row, record, save_slot, inputs, work_f)
-                _push_pair(j, t - 1, f0, f1, f2, row, record, save_slot, inputs, work_f)
-                _push_pair(j + 1, -t, f0, f1, f2, row, record, save_slot, inputs, work_f)
-
-
-@njit(**_INLINE)
-def _contact_loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
-    """work_f += the contact force and torque (world) of every node (docs/lgvi.md §2.11): penalty
-    normal force fn = max(0, -k_a gap - c_a v_n) along the obstacle normal at the node, and
-    friction (``_friction``), from the configuration (R, r) and the staggered velocities v (world)
-    and w (body). At a saved step (``record``), the saved nodes' applied loads before the contact
-    (inputs.contact_applied) and their contact loads (inputs.contact_samples[row]) are kept."""
-    node = inputs.contact_node
-    fric = inputs.contact_friction
-    for a in range(len(r)):
-        x0 = r[a, 0]
-        x1 = r[a, 1]
-        x2 = r[a, 2]
-        ra = node[a, 0]
-        touched = False
-        f0 = f1 = f2 = t0 = t1 = t2 = 0.0
-        for o in range(len(inputs.contact_kind)):
-            gap, n0, n1, n2 = _obstacle_gap(a, o, x0, x1, x2, ra, inputs)
-            if gap < 0.0:
-                fn = -node[a, 1] * gap - node[a, 2] * (n0 * v[a, 0] + n1 * v[a, 1] + n2 * v[a, 2])
-                if fn > 0.0:
-                    touched = True
-                    f0 += fn * n0
-                    f1 += fn * n1
-                    f2 += fn * n2
-                    if fric[o, 0] > 0.0:
-                        ft0, ft1, ft2, m0, m1, m2 = _friction(a, h, fric[o, 0], fric[o, 1], fn, ra, n0, n1, n2,
-                                                              R, v, w, rod)
-                        f0 += ft0
-                        f1 += ft1
-                        f2 += ft2
-                        t0 += m0
-                        t1 += m1
-                        t2 += m2
-        if record:
-            slot = save_slot[a]
-            if slot >= 0:
-                for c in range(6):
-                    inputs.contact_applied[a, c] = work_f[a, c]
-                smp = inputs.contact_samples
-                smp[row, slot, 0] = f0
-                smp[row, slot, 1] = f1
-                smp[row, slot, 2] = f2
-                smp[row, slot, 3] = t0
-                smp[row, slot, 4] = t1
-                smp[row, slot, 5] = t2
-        if touched:
-            work_f[a, 0] += f0
-            work_f[a, 1] += f1
-            work_f[a, 2] += f2
-            work_f[a, 3] += t0
-            work_f[a, 4] += t1
-            work_f[a, 5] += t2
-    last = len(inputs.contact_kind) - 1
-    if inputs.contact_kind[last] == SELF:
-        _self_contact(row, record, r, v, int(inputs.contact_geom[last, 0]), inputs, save_slot, work_f)
-
-
-@njit(**_INLINE)
-def _applied_outputs(row, inputs, out):
-    """out.forces[row], out.torques[row] <- the saved nodes' applied loads without the contact
-    loads (kept by ``_contact_loads`` at this saved step)."""
-    save_slot = out.save_slot
-    for a in range(len(save_slot)):
-        slot = save_slot[a]
-        if slot >= 0:
-            for c in range(3):
-                out.forces[row, slot, c] = inputs.contact_applied[a, c]
-                out.torques[row, slot, c] = inputs.contact_applied[a, 3 + c]
-
-
-@njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
-def contact_wrench_into(h, R, r, v, w, rod, inputs, work_f):
-    """work_f (n, 6) += the contact force [N] and torque [N m] (world frame) of every node in the
-    configuration R (n, 3, 3), r (n, 3) [m] with the staggered velocities v (n, 3) [m/s] (world)
-    and w (n, 3) [rad/s] (body), step h [s], as ``advance_into`` applies them (``inputs`` a
-    ``StepInputs`` with contact; its tracked vessel segments are updated). For the start at rest."""
-    _contact_loads(0, False, h, R, r, v, w, rod, inputs, inputs.contact_kind, work_f)
 
 
 @njit(**_INLINE)
@@ -916,13 +237,7 @@ def _segment(a, i, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, r
     for j in range(len(tendon_end)):
         tau = inputs.tendon_tension[i, j]
         if a < tendon_end[j] and tau > 0.0:
-            route = inputs.tendon_route
-            o0 = route[j, a, 0]
-            o1 = route[j, a, 1]
-            o2 = route[j, a, 2]
-            t0 = ga0 + ka1 * o2 - ka2 * o1 + route[j, a, 3]
-            t1 = ga1 + ka2 * o0 - ka0 * o2 + route[j, a, 4]
-            t2 = ga2 + ka0 * o1 - ka1 * o0 + route[j, a, 5]
+            t0, t1, t2, o0, o1, o2 = _tendon_tangent(inputs.tendon_route, j, a, ga0, ga1, ga2, ka0, ka1, ka2)
             s = tau / math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
             t0 *= s
             t1 *= s
@@ -1122,16 +437,17 @@ def _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, o
     return OK, e_kin
 
 
-@njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
-def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
-    """Advance one rod by ``n_steps`` steps of size ``h`` [s]; returns (status, step index).
+@njit(**_STEP)
+def _advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
+    """Advance one rod by ``n_steps`` steps of size ``h`` [s]; returns (status, step index) (the body of
+    ``advance_into``, the cached entry point).
 
     rod : LumpedRod; state : StateArrays, advanced in place; inputs : StepInputs of the steps of
     this call (step i at t = (k0 + i) h); out : Samples. A sample is written when
     (k0 + i) % stride == 0, at row (k0 + i) // stride - s0, for the nodes with
     out.save_slot >= 0, and the energies of the whole rod (with obstacles, the contact loads into
     inputs.contact_samples). work_f (n, 6): scratch for the applied world force and torque of each
-    node. status is OK, DIVERGED or NEWTON_FAILED; the step index
+    node. status is OK, DIVERGED, NEWTON_FAILED or MAGNET_TOO_CLOSE; the step index
     is k0 + n_steps, or that of the failed step.
     """
     R = state.rotations
@@ -1155,6 +471,10 @@ def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
         row = k // stride - s0
         # ---- applied loads at t_k into work_f (world force, world torque) ----
         _applied_loads(i, R, r, state.velocities, inputs, work_f)
+        # ---- magnetic loads from the configuration at t_k (none without magnets) ----
+        if len(inputs.magnet_node) > 0:
+            if _magnet_loads(i, row, record, R, r, inputs, work_f) >= 0:
+                return MAGNET_TOO_CLOSE, k
         # ---- tensions of the tendons driven by a displacement, from the configuration at t_k ----
         if len(inputs.tendon_stiffness) > 0:
             _tendon_springs(i, R, r, rod, inputs)
@@ -1238,36 +558,95 @@ def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
     return OK, k0 + n_steps
 
 
+def _build_advance(stamp):
+    """``advance_into``, the cached entry point of ``_advance_into``, closed over ``stamp``
+    (``kernel_stamp()``, see the module docstring)."""
+
+    @njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
+    def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
+        """Advance one rod by ``n_steps`` steps of size ``h`` [s]; returns (status, step index)
+        (``_advance_into``, which documents the arguments)."""
+        if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
+            return -1, k0
+        return _advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f)
+
+    return advance_into
+
+
+advance_into = _build_advance(kernel_stamp())
+
+
+def _build_batch(stamp):
+    """``advance_batch`` over ``advance_into``, closed over ``stamp`` (see the module docstring)."""
+
+    @njit(parallel=True, cache=True)
+    def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
+        """Advance B independent rods of one ``rod`` (see ``advance_into``): state, inputs (except
+        the node indices and gains, and the contact arrays: a batch has no obstacles) and out (except
+        save_slot) carry a leading batch axis (B, ...).
+        status (B, 2) int64 receives (code, step) per rod."""
+        if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
+            return
+        st = state
+        inp = inputs
+        n_batch = len(st.positions)
+        for b in prange(n_batch):
+            work_f = np.empty((st.positions.shape[1], 6))
+            code, step = advance_into(
+                rod,
+                StateArrays(st.rotations[b], st.positions[b], st.velocities[b], st.angular_velocities[b],
+                            st.prev_curvature[b], st.prev_shear[b]),
+                StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
+                           inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b],
+                           inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b], inp.contact_kind,
+                           inp.contact_geom, inp.contact_range, inp.contact_friction, inp.contact_points,
+                           inp.contact_radii, inp.contact_node, inp.contact_segment, inp.contact_samples,
+                           inp.contact_applied, inp.magnet_node, inp.magnet_body, inp.source_positions,
+                           inp.source_moments, inp.source_currents, inp.magnet_positions, inp.magnet_rotations,
+                           inp.magnet_fields, inp.magnet_gradients, inp.magnet_wrenches, inp.magnet_failed),
+                Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b],
+                        out.angular_velocities[b], out.forces[b], out.torques[b], out.reaction_forces[b],
+                        out.reaction_torques[b], out.energy[b]),
+                h, k0, n_steps, stride, s0, work_f)
+            status[b, 0] = code
+            status[b, 1] = step
+
+    return advance_batch
+
+
+advance_batch = _build_batch(kernel_stamp())
+
+
+def _build_wrenches(stamp):
+    """The contact and magnetic loads of the start at rest, closed over ``stamp``."""
+
+    @njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
+    def contact_wrench_into(h, R, r, v, w, rod, inputs, work_f):
+        """work_f (n, 6) += the contact force [N] and torque [N m] (world frame) of every node in the
+        configuration R (n, 3, 3), r (n, 3) [m] with the staggered velocities v (n, 3) [m/s] (world)
+        and w (n, 3) [rad/s] (body), step h [s], as ``advance_into`` applies them (``inputs`` a
+        ``StepInputs`` with contact; its tracked vessel segments are updated). For the start at rest."""
+        if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
+            return
+        _contact_loads(0, False, h, R, r, v, w, rod, inputs, inputs.contact_kind, work_f)
+
+    @njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
+    def magnet_wrench_into(R, r, inputs, work_f):
+        """work_f (n, 6) += the magnets' force [N] and torque [N m] (world frame) in the configuration
+        R (n, 3, 3), r (n, 3) [m] with the currents of the first step of ``inputs``, as ``advance_into``
+        applies them (outputs in the scratch row). Returns -1, or the index of a magnet too close to a
+        source. For the start at rest."""
+        if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
+            return -2
+        return _magnet_loads(0, 0, False, R, r, inputs, work_f)
+
+    return contact_wrench_into, magnet_wrench_into
+
+
+contact_wrench_into, magnet_wrench_into = _build_wrenches(kernel_stamp())
+
+
 def advance(rod, state, inputs, out, h, k0, n_steps, stride, s0):
     """``advance_into`` with its scratch array allocated here; returns (status, step index)."""
     return advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0,
                         np.empty((len(state.positions), 6)))
-
-
-@njit(parallel=True, cache=True)
-def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
-    """Advance B independent rods of one ``rod`` (see ``advance_into``): state, inputs (except
-    the node indices and gains, and the contact arrays: a batch has no obstacles) and out (except
-    save_slot) carry a leading batch axis (B, ...).
-    status (B, 2) int64 receives (code, step) per rod."""
-    st = state
-    inp = inputs
-    n_batch = len(st.positions)
-    for b in prange(n_batch):
-        work_f = np.empty((st.positions.shape[1], 6))
-        code, step = advance_into(
-            rod,
-            StateArrays(st.rotations[b], st.positions[b], st.velocities[b], st.angular_velocities[b],
-                        st.prev_curvature[b], st.prev_shear[b]),
-            StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
-                       inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b],
-                       inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b], inp.contact_kind,
-                       inp.contact_geom, inp.contact_range, inp.contact_friction, inp.contact_points,
-                       inp.contact_radii, inp.contact_node, inp.contact_segment, inp.contact_samples,
-                       inp.contact_applied),
-            Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b],
-                    out.angular_velocities[b], out.forces[b], out.torques[b], out.reaction_forces[b],
-                    out.reaction_torques[b], out.energy[b]),
-            h, k0, n_steps, stride, s0, work_f)
-        status[b, 0] = code
-        status[b, 1] = step

@@ -1,7 +1,7 @@
 """The rod's lumped arrays built once per setup into the frozen ``LumpedRod`` record that the
-simulator, the batch simulator and the magnetic driver hand to the kernels (docs/lgvi.md §2.2, §2.6).
+simulator and the batch simulator hand to the kernels (docs/lgvi.md §2.2, §2.6).
 
-The record type lives in ``rod.kernels`` (see its module docstring for why) and is re-exported here.
+The record type lives in ``rod.kernel_records`` (see its module docstring for why) and is re-exported here.
 Its arrays are contiguous float64 (``kind``: int64) private copies, made read-only.
 """
 

@@ -6,7 +6,6 @@ rod's lumped arrays, built once (``rod.lumped``). The saved interval
 ``dt`` is split into ``substeps`` solver steps h = dt / substeps below the stability limit.
 """
 
-import math
 import os
 import time
 from collections.abc import Callable
@@ -16,24 +15,27 @@ import numpy as np
 
 from ..errors import SoftrnnInputError, bad, nonnegative
 from ..progress import Progress
-from . import implicit, kernels
+from . import implicit
 from .boundary import Clamp, Pin
 from .contact import Contact, check_initial, step_limit
-from .discrete import segment_strains
 from .inputs import SetupInputs
-from .kernels import Samples
+from .integrators import BY_NAME, Explicit, Implicit, as_integrator
+from .kernels import MIN_DIPOLE_DISTANCE, Samples
 from .loads import NodalLoad, PDTracking
 from .lumped import lumped_rod
+from .magnetic import MagneticDipoles, magnet_samples, start_wrench
 from .shapes import RodShape
-from .so3 import quaternion_to_matrix
 from .spec import RodSpec
 from .stability import DEFAULT_SAFETY, omega_max, stable_step
-from .state import SAMPLE_FIELDS, RodState, empty_samples, half_kick, initial_state
-from .status import raise_for_status
+from .state import RodState, empty_samples, initial_state
+from .status import KernelStatus, raise_for_status
 from .tendons import Tendon, check_offset
+from .trajectory import RunStats as RunStats
+from .trajectory import Trajectory as Trajectory
+from .trajectory import concatenate_chunks, to_trajectory
 
-INTEGRATORS = ("explicit", "implicit")
-"""The solver integrators a ``RunConfig`` may name."""
+INTEGRATORS = tuple(BY_NAME)
+"""The names of the solver integrators a ``RunConfig`` may take (``rod.integrators``)."""
 
 _CHUNK_STEPS = 65536
 _CHUNK_SAMPLES = 4096
@@ -64,7 +66,7 @@ def _size(n: float) -> str:
 def check_run_size(*, n_samples: int, dt: float, substeps: int, n_saved: int, held_samples: int,
                    chunk_steps: int = 0, step_bytes: int = 0, batch: int = 1, extra_bytes: int = 0,
                    extra_steps: int = 0, streamed: bool = False, streamable: bool = True,
-                   auto_substeps: bool = True, integrator: str | None = None) -> None:
+                   auto_substeps: bool = True, integrator: Explicit | Implicit | None = None) -> None:
     """Refuse, before anything is allocated or stepped, a run too large for this machine.
 
     Every simulation path calls it (``Simulator.run``, ``simulate_batch``, the magnetic
@@ -95,9 +97,8 @@ def check_run_size(*, n_samples: int, dt: float, substeps: int, n_saved: int, he
         fixes.append("save fewer nodes (save_nodes)")
     if held > limit and samples_heavy and streamable and not streamed:
         fixes.append("write to a file, which streams the samples (softrnn simulate -o FILE.h5, or a sink)")
-    if steps > MAX_SOLVER_STEPS and integrator == "explicit":
-        fixes.append("the implicit integrator, whose step does not shrink with the rod's stiffness "
-                     "(RunConfig(integrator=\"implicit\"), a scenario's run.integrator, --integrator implicit)")
+    if steps > MAX_SOLVER_STEPS and integrator is not None and integrator.step_advice:
+        fixes.append(integrator.step_advice)
     if batch > 1:
         fixes.append("fewer rods per batch")
     raise SoftrnnInputError(
@@ -190,14 +191,24 @@ class Setup:
                 raise bad("boundary node", bc.node, "each node at most once in the boundary conditions")
             seen.add(a)
         for load in self.loads:
+            if isinstance(load, MagneticDipoles):
+                self._check_magnetic(load)
+                continue
             if not isinstance(load, (NodalLoad, PDTracking)):
-                raise bad("loads", load, "NodalLoad or PDTracking entries")
+                raise bad("loads", load, "NodalLoad, PDTracking or MagneticDipoles entries")
             self.node_index(load.node, "load node")
         self._check_tendons()
         if self.contact is not None:
             if not isinstance(self.contact, Contact):
                 raise bad("contact", self.contact, "a softrnn.rod.contact.Contact, or None for no obstacles")
             check_initial(self.contact, self.initial.positions, self.rod.node_properties()["radius"])
+
+    def _check_magnetic(self, load: MagneticDipoles) -> None:
+        """A magnetic load: the only one of the setup, its magnets on segments of the rod."""
+        if sum(isinstance(other, MagneticDipoles) for other in self.loads) > 1:
+            raise bad("loads", "several MagneticDipoles", "at most one (put every magnet and source in one)")
+        if load.n_magnets and load.nodes.max() > self.rod.n_nodes - 2:
+            raise bad("magnetic.nodes", load.nodes.tolist(), f"segment start nodes in [0, {self.rod.n_nodes - 2}]")
 
     def _check_tendons(self) -> None:
         """Tendons: ``Tendon`` entries, distinct names, terminations on the rod, offsets inside
@@ -233,13 +244,15 @@ class Setup:
 class RunConfig:
     """How to run: saved interval ``dt`` [s], ``n_samples`` saved states (the first at the start),
     solver ``substeps`` per saved interval (None: chosen automatically), the nodes to save
-    (None: all), the stability ``safety`` factor and the ``integrator``:
+    (None: all), the stability ``safety`` factor and the ``integrator`` (``rod.integrators``):
 
-    * ``"explicit"`` (default): the LGVI step of ``rod.kernels``; substeps None gives the fewest
+    * ``Explicit()`` (default): the LGVI step of ``rod.kernels``; substeps None gives the fewest
       stable ones, and an unstable choice is refused;
-    * ``"implicit"``: the stiff-stable step of ``rod.implicit`` (elastic and Kelvin-Voigt forces
-      implicit): any step is stable for the rod's own stiffness, and substeps None resolves its
-      fourth bending mode (``rod.implicit.accuracy_step``).
+    * ``Implicit(beta=..., theta=...)``: the stiff-stable step of ``rod.implicit`` (elastic and
+      Kelvin-Voigt forces implicit): any step is stable for the rod's own stiffness, and substeps
+      None resolves its fourth bending mode (``rod.implicit.accuracy_step``).
+
+    The names ``"explicit"`` and ``"implicit"`` are accepted and turned into those (with defaults).
     """
 
     dt: float
@@ -247,7 +260,7 @@ class RunConfig:
     substeps: int | None = None
     save_nodes: tuple | None = None
     safety: float = DEFAULT_SAFETY
-    integrator: str = "explicit"
+    integrator: Explicit | Implicit = Explicit()
 
     def __post_init__(self):
         if not isinstance(self.dt, (int, float)) or not np.isfinite(self.dt) or self.dt <= 0:
@@ -262,93 +275,7 @@ class RunConfig:
             raise bad("safety", self.safety, "a factor in (0, 1] applied to 2/omega_max")
         if self.save_nodes is not None:
             object.__setattr__(self, "save_nodes", tuple(int(a) for a in self.save_nodes))
-        if self.integrator not in INTEGRATORS:
-            raise bad("integrator", self.integrator, " or ".join(repr(i) for i in INTEGRATORS))
-
-
-@dataclass(frozen=True, eq=False)
-class Trajectory:
-    """Saved states. S samples, s saved nodes.
-
-    time (S,) [s]; nodes (s,) 0-based node indices; positions (S, s, 3) [m];
-    quaternions (S, s, 4) unit, scalar first, body -> world; velocities (S, s, 3) [m/s];
-    angular_velocities (S, s, 3) [rad/s] world frame; forces (S, s, 3) [N] and torques (S, s, 3)
-    [N m]: applied external loads (including PD forces) in the world frame; reaction_forces,
-    reaction_torques (S, s, 3): support reactions of constrained nodes (zero for free nodes);
-    energy (S, 3) [J]: kinetic, elastic, gravitational. step [s] and substeps: the solver step;
-    wall_time [s] of the run. tendon_tensions (S, m) [N]: the tensions of the setup's m tendons the
-    run applied at each sample, in ``Setup.tendons`` order (those of tendons driven by a displacement
-    computed from the sample's configuration); None for a run without a tendon driven by a
-    displacement (the tensions are then the tendons' own profiles). contact_forces, contact_torques
-    (S, s, 3) [N], [N m]: the contact loads of ``Setup.contact`` on the saved nodes (normal force and
-    friction, and the friction's moment about the node), world frame, applied at each sample's step
-    (not part of ``forces``); None without contact.
-    """
-
-    time: np.ndarray
-    nodes: np.ndarray
-    positions: np.ndarray
-    quaternions: np.ndarray
-    velocities: np.ndarray
-    angular_velocities: np.ndarray
-    forces: np.ndarray
-    torques: np.ndarray
-    reaction_forces: np.ndarray
-    reaction_torques: np.ndarray
-    energy: np.ndarray
-    step: float
-    substeps: int
-    wall_time: float = 0.0
-    tendon_tensions: np.ndarray | None = None
-    contact_forces: np.ndarray | None = None
-    contact_torques: np.ndarray | None = None
-
-    @property
-    def n_steps(self) -> int:
-        """Solver steps between the first and the last sample."""
-        return max(len(self.time) - 1, 0) * self.substeps
-
-    def rotations(self) -> np.ndarray:
-        """Rotation matrices (S, s, 3, 3) from the quaternions."""
-        return quaternion_to_matrix(self.quaternions)
-
-
-@dataclass(frozen=True)
-class RunStats:
-    """What a run did: samples, solver step h [s], substeps per sample, wall time [s], nodes."""
-
-    n_samples: int
-    step: float
-    substeps: int
-    wall_time: float
-    n_nodes: int
-
-    @property
-    def n_steps(self) -> int:
-        """Solver steps between the first and the last sample."""
-        return max(self.n_samples - 1, 0) * self.substeps
-
-    @property
-    def us_per_node_step(self) -> float:
-        """Wall time per node and solver step [microseconds]."""
-        return 1e6 * self.wall_time / max(self.n_steps * self.n_nodes, 1)
-
-
-def _to_trajectory(out: Samples, times: np.ndarray, nodes: np.ndarray, h: float, substeps: int,
-                   tensions: np.ndarray | None = None, contact: np.ndarray | None = None) -> "Trajectory":
-    loads = {} if contact is None else {"contact_forces": contact[..., :3], "contact_torques": contact[..., 3:]}
-    return Trajectory(time=times, nodes=nodes, step=h, substeps=substeps, tendon_tensions=tensions,
-                      **{name: getattr(out, name) for name in SAMPLE_FIELDS}, **loads)
-
-
-def _concatenate(chunks: list, stats: "RunStats") -> "Trajectory":
-    first = chunks[0]
-    arrays = {name: np.concatenate([getattr(c, name) for c in chunks]) for name in ("time",) + SAMPLE_FIELDS}
-    for name in ("tendon_tensions", "contact_forces", "contact_torques"):
-        if getattr(first, name) is not None:
-            arrays[name] = np.concatenate([getattr(c, name) for c in chunks])
-    return Trajectory(nodes=first.nodes, step=stats.step, substeps=stats.substeps, wall_time=stats.wall_time,
-                      **arrays)
+        object.__setattr__(self, "integrator", as_integrator(self.integrator))
 
 
 def _from_rod(name: str, doc: str) -> property:
@@ -380,7 +307,8 @@ class Simulator:
         self.inputs = SetupInputs(setup)
         self.state = initial_state(setup, self.rod, self.inputs)
         self.steps_done = 0
-        self._integrator = "explicit"
+        self._started = False
+        self._integrator = Explicit()
         self._work = None
         self._elastic = None
 
@@ -422,32 +350,24 @@ class Simulator:
         return substeps
 
     def resolve_substeps(self, config: RunConfig) -> int:
-        """Solver steps per saved interval; refuses an unstable explicit choice. The implicit
-        integrator takes ``config.substeps`` as given, or resolves the rod's bending modes
-        (``rod.implicit.accuracy_step``)."""
-        if config.integrator == "implicit":
-            if config.substeps is not None:
-                return int(config.substeps)
-            limit = implicit.accuracy_step(self.rod, self.inputs.pd_gain, config.safety)
-            if self.inputs.contact is not None:  # the contact loads stay explicit
-                limit = min(limit, config.safety * step_limit(self.inputs.contact["contact_node"], self.rod.mass))
-            return max(1, math.ceil(config.dt / limit * (1 - 1e-12)))
-        return choose_substeps(config, self.stable_step(config.safety))
+        """Solver steps per saved interval, as ``config.integrator`` chooses them (an unstable
+        explicit choice is refused; ``rod.integrators``)."""
+        return config.integrator.resolve_substeps(self, config)
 
     # ------------------------------------------------------------------ run
     def run(self, config: RunConfig, progress: Progress | None = None,
-            sink: Callable[["Trajectory"], None] | None = None) -> "Trajectory | RunStats":
+            sink: Callable[["Trajectory"], None] | None = None, *,
+            chunk_samples: int | None = None) -> "Trajectory | RunStats":
         """Advance ``(n_samples - 1) * substeps`` steps from the current state; the first sample is
-        the current time. Samples are produced in chunks of at most ``_CHUNK_SAMPLES``: without a
-        ``sink`` they are collected and returned as one ``Trajectory``; with one, each chunk goes to
-        ``sink(chunk)`` (bounded memory, e.g. straight to a file) and ``RunStats`` is returned.
+        the current time. Samples are produced in chunks of at most ``_CHUNK_SAMPLES`` (or
+        ``chunk_samples``; the results do not depend on it): without a ``sink`` they are collected
+        and returned as one ``Trajectory``; with one, each chunk goes to ``sink(chunk)`` (bounded
+        memory, e.g. straight to a file) and ``RunStats`` is returned.
         ``progress(samples_done, n_samples)`` is called after every chunk. A run too large for this
         machine is refused first (``check_run_size``)."""
         substeps = self.check_size(config, streamed=sink is not None)
         h = config.dt / substeps
-        self._integrator = config.integrator
-        if self.steps_done == 0:
-            self._half_kick(h)
+        self.start(h, config.integrator)
         nodes = save_nodes(self.setup, config)
         slot = save_slots(self.setup.rod.n_nodes, nodes)
         S = config.n_samples
@@ -458,21 +378,15 @@ class Simulator:
         self._advance(self.state.copy(), t0, h, 0, 1, substeps, 0, empty_samples(slot, 1, nodes.size))
         start = time.perf_counter()
         per_chunk = max(1, min(_CHUNK_SAMPLES, _CHUNK_STEPS // substeps))
+        if chunk_samples is not None:
+            per_chunk = max(1, int(chunk_samples))
         j0 = 0
         while j0 < S:
             j1 = min(j0 + per_chunk, S - 1) if j0 < S - 1 else S
-            out = empty_samples(slot, j1 - j0, nodes.size)
-            tensions = np.zeros((j1 - j0, len(self.setup.tendons))) if self.inputs.displaced else None
-            contact = np.zeros((j1 - j0, nodes.size, 6)) if self.inputs.contact is not None else None
+            chunk = self._chunk(t0, h, substeps, j0, j1, S, slot, nodes, config.dt)
             if j0 < S - 1:
-                self._advance(self.state, t0, h, j0 * substeps, (j1 - j0) * substeps, substeps, j0, out, tensions,
-                              contact)
                 self.steps_done = k_start + j1 * substeps
                 self.state.time = t0 + j1 * substeps * h
-            else:
-                # the last sample's mid-step velocity needs one more step, taken on a copy
-                self._advance(self.state.copy(), t0, h, j0 * substeps, 1, substeps, j0, out, tensions, contact)
-            chunk = _to_trajectory(out, t0 + config.dt * np.arange(j0, j1), nodes, h, substeps, tensions, contact)
             if sink is None:
                 chunks.append(chunk)
             else:
@@ -482,70 +396,107 @@ class Simulator:
             j0 = j1
         stats = RunStats(n_samples=S, step=h, substeps=substeps, wall_time=time.perf_counter() - start,
                          n_nodes=self.setup.rod.n_nodes)
-        return stats if sink is not None else _concatenate(chunks, stats)
+        return stats if sink is not None else concatenate_chunks(chunks, stats)
 
-    def _implicit_work(self) -> "implicit.ImplicitWork":
-        """The implicit step's scratch arrays and its rod: the lumped rod with the explicit
-        Kelvin-Voigt term off (the implicit step takes it, with the retardation time of
-        ``setup.damping``); built on first use."""
+    def _chunk(self, t0: float, h: float, substeps: int, j0: int, j1: int, S: int, slot: np.ndarray,
+               nodes: np.ndarray, dt: float) -> "Trajectory":
+        """Samples j0 .. j1 - 1 of a run from t0 [s] (the state advanced to sample j1, except for the
+        run's last sample, whose mid-step velocity needs one more step, taken on a copy)."""
+        out = empty_samples(slot, j1 - j0, nodes.size)
+        tensions = np.zeros((j1 - j0, len(self.setup.tendons))) if self.inputs.displaced else None
+        contact = np.zeros((j1 - j0, nodes.size, 6)) if self.inputs.contact is not None else None
+        magnetic = self.inputs.magnetic
+        magnets = None if magnetic is None else dict(magnetic.buffers(j1 - j0),
+                                                     currents=np.zeros((j1 - j0, magnetic.n_sources)))
+        last = j0 >= S - 1
+        self._advance(self.state.copy() if last else self.state, t0, h, j0 * substeps,
+                      1 if last else (j1 - j0) * substeps, substeps, j0, out, tensions, contact, magnets)
+        record = None if magnets is None else magnet_samples(magnets.pop("currents"), magnets)
+        return to_trajectory(out, t0 + dt * np.arange(j0, j1), nodes, h, substeps, tensions, contact, record)
+
+    def start(self, h: float, integrator: Explicit | Implicit | str = "explicit") -> None:
+        """Use ``integrator`` from now on; a simulator not yet started starts its state at rest with
+        the step ``h`` [s] (the integrator's half kick, as the first ``run`` or ``advance`` does)."""
+        self._integrator = as_integrator(integrator)
+        if not self._started:
+            self._half_kick(h)
+            self._started = True
+
+    def continue_from(self, other: "Simulator") -> None:
+        """Take over the state of ``other`` (a simulator of a setup with the same rod, e.g. one that
+        settled it with heavier damping), as if this one had stepped it."""
+        self.state, self.steps_done, self._started = other.state, other.steps_done, other._started
+
+    def advance(self, n_steps: int, h: float, integrator: Explicit | Implicit | str = "explicit") -> None:
+        """Step the current state ``n_steps`` solver steps of ``h`` [s] without saving samples (e.g. a
+        settling phase); from a fresh simulator, the state starts at rest as ``run`` starts it."""
+        self.start(h, integrator)
+        t0 = self.state.time
+        none = save_slots(self.setup.rod.n_nodes, np.zeros(0, dtype=np.int64))
+        done = 0
+        while done < n_steps:
+            k = min(_CHUNK_STEPS, n_steps - done)
+            magnets = None if self.inputs.magnetic is None else dict(self.inputs.magnetic.buffers(1),
+                                                                      currents=np.zeros((1, 0)))
+            self._advance(self.state, t0, h, done, k, n_steps + 1, 0, empty_samples(none, 1, 0), None, None,
+                          magnets)
+            done += k
+        self.steps_done += n_steps
+        self.state.time = t0 + n_steps * h
+
+    def implicit_work(self) -> "implicit.ImplicitWork":
+        """The implicit step's scratch arrays, built on first use (``rod.integrators.Implicit``)."""
         if self._work is None:
             self._work = implicit.work_arrays(self.setup.rod.n_nodes)
             self._elastic = self.rod._replace(kv_on=False)
         return self._work
 
+    @property
+    def elastic_rod(self):
+        """The lumped rod with the explicit Kelvin-Voigt term off, for the implicit step (which takes
+        it with the retardation time of ``setup.damping``)."""
+        if self._elastic is None:
+            self.implicit_work()
+        return self._elastic
+
     def _half_kick(self, h: float) -> None:
-        """Start the staggered velocities of a state at rest (``rod.state.half_kick``)."""
+        """Start the staggered velocities of a state at rest (the integrator's half kick); a magnet
+        too close to a source at the start is refused (``rod.magnetic.start_wrench``)."""
         inputs = self.inputs.at(np.array([self.state.time]), h)
         if self.inputs.contact is not None:
             inputs = self.inputs.with_contact(inputs, self.state.contact_segment, np.zeros((0, 0, 6)))
-        if self._integrator != "implicit":
-            half_kick(self.rod, self.state, inputs, h)
-            return
-        work, tau = self._implicit_work(), self.setup.damping.kelvin_voigt
-        out = empty_samples(save_slots(self.setup.rod.n_nodes, np.zeros(0, dtype=np.int64)), 1, 0)
-        if not implicit.implicit_half_kick(self._elastic, self.state.arrays(), inputs, out, h, work,
-                                           implicit.IMPLICIT_BETA, implicit.IMPLICIT_THETA, tau):
-            raise_for_status(implicit.SINGULAR, step=0, t0=self.state.time, h=h)
+        if self.inputs.magnetic is not None:
+            start_wrench(self.state.rotations, self.state.positions, inputs)
+        self._integrator.half_kick(self, inputs, h)
 
     def _advance(self, st: RodState, t0: float, h: float, k0: int, n_steps: int, stride: int, s0: int,
-                 out: Samples, tensions: np.ndarray | None = None, contact: np.ndarray | None = None) -> None:
+                 out: Samples, tensions: np.ndarray | None = None, contact: np.ndarray | None = None,
+                 magnets: dict | None = None) -> None:
         """Steps k0 .. k0 + n_steps - 1 into ``out``; ``tensions`` (rows of out, m) [N], if given,
-        receives the tendon tensions applied at the saved steps, and ``contact`` (rows of out, saved
-        nodes, 6), with contact, the contact force [N] and torque [N m] (a scratch one if None)."""
+        receives the tendon tensions applied at the saved steps, ``contact`` (rows of out, saved
+        nodes, 6), with contact, the contact force [N] and torque [N m] (a scratch one if None), and
+        ``magnets``, with a magnetic load, its output buffers (``MagneticDipoles.buffers`` with
+        ``currents`` (rows of out, n_c) [A]; scratch ones if None)."""
         t = t0 + (k0 + np.arange(n_steps)) * h
         inputs = self.inputs.at(t, h)
         if self.inputs.contact is not None:
             if contact is None:
                 contact = np.zeros(out.positions.shape[:2] + (6,))
             inputs = self.inputs.with_contact(inputs, st.contact_segment, contact)
-        if self._integrator == "implicit":
-            work = self._implicit_work()
-            code, step = implicit.advance(self._elastic, self.setup.damping.kelvin_voigt, st.arrays(), inputs,
-                                          out, h, k0, n_steps, stride, s0, work)
-            if self.rod.kv_on:
-                # the explicit step's Kelvin-Voigt memory, for a later explicit run of this simulator
-                st.prev_curvature[:], st.prev_shear[:] = segment_strains(st.rotations, st.positions, self.rod.length)
-        else:
-            code, step = kernels.advance(self.rod, st.arrays(), inputs, out, h, k0, n_steps, stride, s0)
-        raise_for_status(code, step=step, t0=t0, h=h)
+        if self.inputs.magnetic is not None:
+            if magnets is None:
+                magnets = dict(self.inputs.magnetic.buffers(len(out.energy)), currents=np.zeros((len(out.energy), 0)))
+            inputs = inputs._replace(**{name: a for name, a in magnets.items() if name != "currents"})
+        code, step = self._integrator.advance(self, st, inputs, out, h, k0, n_steps, stride, s0)
+        context = {} if code != KernelStatus.MAGNET_TOO_CLOSE else dict(
+            magnet=int(inputs.magnet_failed[0]), min_distance=MIN_DIPOLE_DISTANCE, more_fixes=("lower the currents",))
+        raise_for_status(code, step=step, t0=t0, h=h, **context)
+        k = k0 + np.arange(n_steps)
+        saved = k % stride == 0
         if tensions is not None:
-            k = k0 + np.arange(n_steps)
-            saved = k % stride == 0
             tensions[k[saved] // stride - s0] = inputs.tendon_tension[saved]
-
-
-def choose_substeps(config: RunConfig, limit: float) -> int:
-    """Solver steps per saved interval of ``config`` for the stable step ``limit`` [s]: the fewest
-    stable ones, or ``config.substeps``, refused if unstable."""
-    if config.substeps is None:
-        return max(1, math.ceil(config.dt / limit * (1 - 1e-12)))
-    h = config.dt / config.substeps
-    if h > limit:
-        need = math.ceil(config.dt / limit)
-        raise bad("dt", config.dt,
-                  f"dt/substeps = {h:.3g} s exceeds the stable step limit {limit:.3g} s of this rod; "
-                  f"use substeps >= {need} (or substeps=None to choose it automatically)")
-    return int(config.substeps)
+        if magnets is not None and magnets["currents"].shape[1]:
+            magnets["currents"][k[saved] // stride - s0] = inputs.source_currents[saved]
 
 
 def save_nodes(setup: Setup, config: RunConfig) -> np.ndarray:

@@ -9,6 +9,7 @@ from .contact import initial_segments
 from .discrete import internal_loads, segment_strains
 from .inputs import SetupInputs
 from .kernels import CLAMPED, FREE, LumpedRod, Samples, StateArrays, StepInputs, contact_wrench_into
+from .magnetic import start_wrench
 from .tendons import spring_tensions, tendon_lengths, tendon_resultants
 
 SAMPLE_FIELDS = Samples._fields[1:]
@@ -73,7 +74,8 @@ def half_kick(rod: LumpedRod, state: RodState, inputs: StepInputs, h: float) -> 
     rod : the lumped rod; state : at rest, changed in place; inputs : ``StepInputs`` whose first
     step (ext_w[0], pd_target[0], tendon_tension[0], tendon_displacement[0]) holds the loads at the
     state's time (the tensions of tendons driven by a displacement are computed here from the
-    state, as the kernel does; the contact loads too, ``kernels.contact_wrench_into``); h : solver
+    state, as the kernel does; the contact and magnetic loads too, ``kernels.contact_wrench_into``,
+    ``rod.magnetic.start_wrench``); h : solver
     step [s].
     """
     R, r = state.rotations, state.positions
@@ -96,6 +98,11 @@ def half_kick(rod: LumpedRod, state: RodState, inputs: StepInputs, h: float) -> 
         t[a] += R[a].T @ ext_w[0, j, 3:6] + ext_w[0, j, 9:12]
     for j, a in enumerate(inputs.pd_idx):
         f[a] += inputs.pd_gain[j, 0] * (inputs.pd_target[0, j] - r[a])
+    if inputs.magnet_node.size:  # the magnets' loads at rest (``rod.magnetic``)
+        wrench = start_wrench(R, r, inputs)
+        for a in np.unique(np.concatenate([inputs.magnet_node, inputs.magnet_node + 1])):
+            f[a] += wrench[a, 0:3]
+            t[a] += R[a].T @ wrench[a, 3:6]
     if inputs.contact_kind.size:  # the contact loads at rest (inputs as ``SetupInputs.with_contact`` gives)
         wrench = np.zeros((len(r), 6))
         contact_wrench_into(h, R, r, state.velocities, state.angular_velocities, rod, inputs, wrench)

@@ -1,4 +1,4 @@
-"""Status codes of the stepping kernels (``rod.kernels``, ``magnetics._driver``) with what each
+"""Status codes of the stepping kernels (``rod.kernels``, ``rod.implicit``) with what each
 means and how to fix it; ``raise_for_status`` turns a failed kernel call into a one-line
 ``SimulationError``, as ``statics.solver.Status`` does for the static solver."""
 
@@ -40,8 +40,7 @@ def _or(phrases) -> str:
 
 def status_message(code: int, *, step: int, t0: float, h: float, magnet: int = -1, min_distance: float = 0.0,
                    more_fixes: tuple = ()) -> str:
-    """One line for a failed kernel call (``code``: a ``KernelStatus`` other than OK): what happened,
-    when, and how to fix it.
+    """One line (returned) for a failed kernel call: what happened, when, and how to fix it.
 
     Parameters
     ----------
@@ -50,14 +49,9 @@ def status_message(code: int, *, step: int, t0: float, h: float, magnet: int = -
     t0, h : float
         Time of step 0 and the solver step [s].
     magnet, min_distance : int, float
-        For MAGNET_TOO_CLOSE: the magnet's index and the smallest allowed distance to a coil [m].
+        For MAGNET_TOO_CLOSE: the magnet's index, and the smallest allowed distance to a source [m].
     more_fixes : tuple of str
         Remedies that the caller's context adds after the status's own (e.g. "lower the currents").
-
-    Returns
-    -------
-    str
-        The one-line message.
     """
     status = KernelStatus(code)
     t = t0 + step * h

@@ -54,8 +54,8 @@ def _refuse_rod_tables(ctx: _Ctx, doc: dict) -> None:
 
 
 def check_magnetic_run(ctx: _Ctx, raw) -> None:
-    """Refuse the ``[run]`` keys the manipulator's driver cannot honour (``save_nodes``, a
-    non-explicit ``integrator``); the rest is read as for any scenario."""
+    """Refuse the ``[run]`` keys a magnetic scenario does not honour (``save_nodes``, a non-explicit
+    ``integrator``); the rest is read as for any scenario."""
     if not isinstance(raw, dict):
         return
     if "save_nodes" in raw:
@@ -63,7 +63,7 @@ def check_magnetic_run(ctx: _Ctx, raw) -> None:
                                           "run saves every node")
     if raw.get("integrator", "explicit") != "explicit":
         raise ctx.invalid("run.integrator", raw["integrator"],
-                          "\"explicit\" in a magnetic scenario (the manipulator's driver is explicit)")
+                          "\"explicit\" in a magnetic scenario (its runs are explicit)")
 
 
 def _spec(ctx: _Ctx, t: _Table, doc: dict, gravity) -> ManipulatorSpec:

@@ -1,9 +1,10 @@
 """Magnetic scenarios: a scenario with a ``[magnetic]`` table describes the magnetic manipulator
 (``softrnn.magnetics.ManipulatorSpec``: a clamped rod with two embedded magnets, driven by coil
-currents) instead of a plain rod; ``softrnn simulate``, ``sweep`` and ``animate`` run it with the
-manipulator's own driver (``simulate_magnetic``) and store it as a dataset with the coil currents
-as actuation channels (``write_manipulator_dataset``, also behind ``softrnn magnetic navigate``).
-The table is documented in docs/scenario-format.md.
+currents) instead of a plain rod; ``softrnn simulate``, ``sweep`` and ``animate`` run it as the
+manipulator (``simulate_magnetic``: ``simulate_manipulator``, a rod ``Simulator`` run with the
+magnetic load) and store it as a dataset with the coil currents as actuation channels
+(``write_manipulator_dataset``, also behind ``softrnn magnetic navigate``). The table is documented
+in docs/scenario-format.md.
 """
 
 import math
@@ -96,7 +97,7 @@ class MagneticScenario:
 
 def simulate_magnetic(magnetic: MagneticScenario, config: RunConfig,
                       progress: Progress | None = None) -> ManipulatorTrajectory:
-    """Run a magnetic scenario with the manipulator's driver (``simulate_manipulator``).
+    """Run a magnetic scenario as a manipulator run (``simulate_manipulator``).
 
     Parameters
     ----------
@@ -112,8 +113,8 @@ def simulate_magnetic(magnetic: MagneticScenario, config: RunConfig,
     ManipulatorTrajectory
         every node at every saved sample, the coil currents and the magnets' quantities
     """
-    if config.integrator != "explicit":
-        raise bad("integrator", config.integrator, "explicit (the manipulator's driver is explicit)")
+    if config.integrator.name != "explicit":
+        raise bad("integrator", config.integrator.name, "explicit (a magnetic scenario's runs are explicit)")
     run = magnetic.run(config)
     return simulate_manipulator(magnetic.spec, magnetic.schedule(run.duration), run, progress=progress)
 
@@ -140,12 +141,8 @@ def write_manipulator_dataset(path, traj: ManipulatorTrajectory, spec: Manipulat
         the manipulator that made it (its rod, with the magnet segments, and its contact)
     dt : float
         the saved interval [s]
-    attrs : dict or None
-        extra attributes stored with the dataset
-    scenario_text : str
-        the scenario's TOML text ("" for none)
-    seed : int or None
-        the scenario's seed
+    attrs, scenario_text, seed : dict or None, str, int or None
+        extra attributes stored with the dataset, the scenario's TOML text ("" for none) and seed
     """
     write_trajectory(path, traj.rod, dt=dt, rod=spec.rod_spec(), scenario_text=scenario_text, seed=seed,
                      attrs=attrs, actuation_units={f"coil_{k}": "A" for k in range(traj.currents.shape[1])},

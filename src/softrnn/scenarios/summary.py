@@ -90,7 +90,7 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
     return {
         "case": name, "title": title, "length_m": rod.length, "radius_m": rod.radius,
         "youngs_modulus_pa": rod.youngs_modulus, "n_nodes": rod.n_nodes, "n_samples": config.n_samples,
-        "dt_s": config.dt, "duration_s": simulated, "integrator": config.integrator, "step_s": stats.step,
+        "dt_s": config.dt, "duration_s": simulated, "integrator": config.integrator.name, "step_s": stats.step,
         "substeps": stats.substeps,
         "stable_step_s": sim.stable_step(config.safety), "wall_time_s": stats.wall_time,
         "total_time_s": total, "us_per_node_step": stats.us_per_node_step,

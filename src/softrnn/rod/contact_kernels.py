@@ -1,0 +1,341 @@
+"""The contact kernels (docs/lgvi.md §2.11): the obstacles' gaps and normals, the penalty normal force
+and friction, and contact between the rod's own segments. ``_contact_loads`` adds the contact loads
+of the obstacles in ``StepInputs`` (and, with a SELF column, between the rod's own segments:
+``_self_contact``) to the applied loads once per step, before the node loop, and only when there are
+obstacles (``contact_kind`` not empty): without them a step does no contact work. Inlined into
+``rod.kernels`` and ``rod.implicit`` (see ``rod.kernel_records``)."""
+
+import math
+
+from numba import njit
+
+from .kernel_records import _INLINE, BIFURCATION, BRANCH, CYLINDER, PLANE, SELF, UNION_BLEND, VESSEL
+
+_VESSEL_WINDOW = 3
+"""Segments searched either way of a node's tracked vessel segment before walking further."""
+
+
+@njit(**_INLINE)
+def _segment_projection(P, k, x0, x1, x2):
+    """Squared distance [m^2] from x to the segment P[k] -> P[k + 1] and the parameter t of the
+    projection of x on its line (not clipped: t < 0 or t > 1 lies beyond the segment's ends)."""
+    e0 = P[k + 1, 0] - P[k, 0]
+    e1 = P[k + 1, 1] - P[k, 1]
+    e2 = P[k + 1, 2] - P[k, 2]
+    q0 = x0 - P[k, 0]
+    q1 = x1 - P[k, 1]
+    q2 = x2 - P[k, 2]
+    t = (q0 * e0 + q1 * e1 + q2 * e2) / (e0 * e0 + e1 * e1 + e2 * e2)
+    tc = min(max(t, 0.0), 1.0)
+    d0 = q0 - tc * e0
+    d1 = q1 - tc * e1
+    d2 = q2 - tc * e2
+    return d0 * d0 + d1 * d1 + d2 * d2, t
+
+
+@njit(**_INLINE)
+def _vessel_gap(a, o, x0, x1, x2, ra, inputs):
+    """Gap [m] and inward unit normal of node a (centreline point x, rod radius ra) inside vessel o.
+    The tracked segment inputs.contact_segment[a, o] is the warm start of a local search (a window
+    of _VESSEL_WINDOW segments either way, then a walk while the distance decreases) and is
+    updated. Beyond the vessel's open ends, and on its centreline, the gap is 1 (no contact)."""
+    P = inputs.contact_points
+    rad = inputs.contact_radii
+    p0 = inputs.contact_range[o, 0]
+    last = inputs.contact_range[o, 1] - 2
+    j = inputs.contact_segment[a, o]
+    lo = max(j - _VESSEL_WINDOW, 0)
+    hi = min(j + _VESSEL_WINDOW, last)
+    best = lo
+    bd = math.inf
+    for jj in range(lo, hi + 1):
+        d2, t = _segment_projection(P, p0 + jj, x0, x1, x2)
+        if d2 < bd:
+            bd = d2
+            best = jj
+    while best == lo and lo > 0:
+        lo -= 1
+        d2, t = _segment_projection(P, p0 + lo, x0, x1, x2)
+        if d2 <= bd:  # ties to the lower index, as a search from the start would find
+            bd = d2
+            best = lo
+    while best == hi and hi < last:
+        hi += 1
+        d2, t = _segment_projection(P, p0 + hi, x0, x1, x2)
+        if d2 < bd:
+            bd = d2
+            best = hi
+    inputs.contact_segment[a, o] = best
+    d2, t = _segment_projection(P, p0 + best, x0, x1, x2)
+    if (best == 0 and t < 0.0) or (best == last and t > 1.0):
+        return 1.0, 0.0, 0.0, 0.0
+    tc = min(max(t, 0.0), 1.0)
+    k = p0 + best
+    c0 = P[k, 0] + tc * (P[k + 1, 0] - P[k, 0]) - x0
+    c1 = P[k, 1] + tc * (P[k + 1, 1] - P[k, 1]) - x1
+    c2 = P[k, 2] + tc * (P[k + 1, 2] - P[k, 2]) - x2
+    d = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    if not d > 0.0:
+        return 1.0, 0.0, 0.0, 0.0
+    radius = rad[k] + tc * (rad[k + 1] - rad[k])
+    return radius - ra - d, c0 / d, c1 / d, c2 / d
+
+
+@njit(**_INLINE)
+def _union_gap(a, o, x0, x1, x2, ra, inputs):
+    """Gap [m] and inward unit normal of node a in the union of the vessels of columns o and o + 1
+    (a bifurcation, docs/lgvi.md §2.11): the larger of their gaps, so that a node inside either
+    (gap >= 0) touches no wall. Its normal is that vessel's, blended with the other's where their
+    gaps differ by less than UNION_BLEND ra (weights 1 - difference / (UNION_BLEND ra)), so that a
+    node on the crease between the two walls is pushed straight back from it. Both vessels' tracked
+    segments are updated."""
+    g, n0, n1, n2 = _vessel_gap(a, o, x0, x1, x2, ra, inputs)
+    h, m0, m1, m2 = _vessel_gap(a, o + 1, x0, x1, x2, ra, inputs)
+    best = max(g, h)
+    if best >= 0.0:
+        return best, 0.0, 0.0, 0.0
+    width = UNION_BLEND * ra
+    u = max(0.0, 1.0 - (best - g) / width)
+    w = max(0.0, 1.0 - (best - h) / width)
+    b0 = u * n0 + w * m0
+    b1 = u * n1 + w * m1
+    b2 = u * n2 + w * m2
+    size = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+    if not size > 0.0:  # opposite normals: no direction to push
+        return 1.0, 0.0, 0.0, 0.0
+    return best, b0 / size, b1 / size, b2 / size
+
+
+@njit(**_INLINE)
+def _friction(a, h, mu, vs, fn, ra, n0, n1, n2, R, v, w, rod):
+    """Regularised Coulomb friction f_t = -mu fn v_t / max(|v_t|, v_s') at the contact point -ra n
+    of node a (docs/lgvi.md §2.11): v_t the tangential velocity of that point from the staggered
+    v (world) and w (body), v_s' = max(v_s, h mu fn / m_eff) with 1/m_eff the node's inverse mass
+    along v_t, rotation included. Returns the force and its moment (-ra n) x f_t, world frame."""
+    W0 = R[a, 0, 0] * w[a, 0] + R[a, 0, 1] * w[a, 1] + R[a, 0, 2] * w[a, 2]
+    W1 = R[a, 1, 0] * w[a, 0] + R[a, 1, 1] * w[a, 1] + R[a, 1, 2] * w[a, 2]
+    W2 = R[a, 2, 0] * w[a, 0] + R[a, 2, 1] * w[a, 1] + R[a, 2, 2] * w[a, 2]
+    # velocity of the contact point: v + W x (-ra n), then its tangential part
+    c0 = v[a, 0] - ra * (W1 * n2 - W2 * n1)
+    c1 = v[a, 1] - ra * (W2 * n0 - W0 * n2)
+    c2 = v[a, 2] - ra * (W0 * n1 - W1 * n0)
+    vn = c0 * n0 + c1 * n1 + c2 * n2
+    c0 -= vn * n0
+    c1 -= vn * n1
+    c2 -= vn * n2
+    speed = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    if not speed > 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    # moment axis k = n x v_t/|v_t| in the body frame: 1/m_eff = 1/m + ra^2 k . J^-1 k
+    k0 = (n1 * c2 - n2 * c1) / speed
+    k1 = (n2 * c0 - n0 * c2) / speed
+    k2 = (n0 * c1 - n1 * c0) / speed
+    kb0 = R[a, 0, 0] * k0 + R[a, 1, 0] * k1 + R[a, 2, 0] * k2
+    kb1 = R[a, 0, 1] * k0 + R[a, 1, 1] * k1 + R[a, 2, 1] * k2
+    kb2 = R[a, 0, 2] * k0 + R[a, 1, 2] * k1 + R[a, 2, 2] * k2
+    inertia = rod.inertia
+    im = 1.0 / rod.mass[a] + ra * ra * (kb0 * kb0 / inertia[a, 0] + kb1 * kb1 / inertia[a, 1]
+                                        + kb2 * kb2 / inertia[a, 2])
+    s = -mu * fn / max(speed, vs, h * mu * fn * im)
+    f0 = s * c0
+    f1 = s * c1
+    f2 = s * c2
+    return f0, f1, f2, -ra * (n1 * f2 - n2 * f1), -ra * (n2 * f0 - n0 * f2), -ra * (n0 * f1 - n1 * f0)
+
+
+@njit(**_INLINE)
+def _obstacle_gap(a, o, x0, x1, x2, ra, inputs):
+    """Gap [m] between the surface of node a (centreline point x, rod radius ra) and obstacle o,
+    and the obstacle's unit normal at the node, pointing to the rod's side; gap 1 where the normal
+    is undefined (a node on a sphere's centre or a cylinder's axis, a vessel's open ends) and in a
+    BRANCH column (a bifurcation's gap is its BIFURCATION column's, ``_union_gap``)."""
+    geom = inputs.contact_geom
+    kd = inputs.contact_kind[o]
+    if kd == PLANE:
+        n0 = geom[o, 3]
+        n1 = geom[o, 4]
+        n2 = geom[o, 5]
+        return (x0 - geom[o, 0]) * n0 + (x1 - geom[o, 1]) * n1 + (x2 - geom[o, 2]) * n2 - ra, n0, n1, n2
+    if kd == VESSEL:
+        return _vessel_gap(a, o, x0, x1, x2, ra, inputs)
+    if kd == BIFURCATION:
+        return _union_gap(a, o, x0, x1, x2, ra, inputs)
+    if kd == BRANCH or kd == SELF:  # part of the BIFURCATION column's gap; self-contact: ``_self_contact``
+        return 1.0, 0.0, 0.0, 0.0
+    q0 = x0 - geom[o, 0]
+    q1 = x1 - geom[o, 1]
+    q2 = x2 - geom[o, 2]
+    if kd == CYLINDER:
+        qa = q0 * geom[o, 3] + q1 * geom[o, 4] + q2 * geom[o, 5]
+        q0 -= qa * geom[o, 3]
+        q1 -= qa * geom[o, 4]
+        q2 -= qa * geom[o, 5]
+    d = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+    if not d > 0.0:
+        return 1.0, 0.0, 0.0, 0.0
+    return d - geom[o, 6] - ra, q0 / d, q1 / d, q2 / d
+
+
+@njit(**_INLINE)
+def _segment_pair(p0, p1, q0, q1, r):
+    """Parameters (s, t) in [0, 1] of the closest points p0 + s (p1 - p0) and q0 + t (q1 - q0) of
+    segments (p0, p1) and (q0, q1) of the rows of r (n, 3); both of nonzero length."""
+    d1x = r[p1, 0] - r[p0, 0]
+    d1y = r[p1, 1] - r[p0, 1]
+    d1z = r[p1, 2] - r[p0, 2]
+    d2x = r[q1, 0] - r[q0, 0]
+    d2y = r[q1, 1] - r[q0, 1]
+    d2z = r[q1, 2] - r[q0, 2]
+    ex = r[p0, 0] - r[q0, 0]
+    ey = r[p0, 1] - r[q0, 1]
+    ez = r[p0, 2] - r[q0, 2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    c = d1x * ex + d1y * ey + d1z * ez
+    f = d2x * ex + d2y * ey + d2z * ez
+    den = a * e - b * b
+    s = min(max((b * f - c * e) / den, 0.0), 1.0) if den > 1e-12 * a * e else 0.0
+    t = (b * s + f) / e
+    if t < 0.0:
+        t = 0.0
+        s = min(max(-c / a, 0.0), 1.0)
+    elif t > 1.0:
+        t = 1.0
+        s = min(max((b - c) / a, 0.0), 1.0)
+    return s, t
+
+
+@njit(**_INLINE)
+def _push_pair(a, wa, f0, f1, f2, row, record, save_slot, inputs, work_f):
+    """work_f[a] += wa f (and the saved contact loads of node a at a saved step)."""
+    work_f[a, 0] += wa * f0
+    work_f[a, 1] += wa * f1
+    work_f[a, 2] += wa * f2
+    if record and save_slot[a] >= 0:
+        smp = inputs.contact_samples
+        smp[row, save_slot[a], 0] += wa * f0
+        smp[row, save_slot[a], 1] += wa * f1
+        smp[row, save_slot[a], 2] += wa * f2
+
+
+@njit(**_INLINE)
+def _self_contact(row, record, r, v, gap_index, inputs, save_slot, work_f):
+    """Frictionless contact between the rod's own segments i < j, j - i >= gap_index (docs/lgvi.md
+    §2.11): where their closest points P (on i) and Q (on j) are nearer than the sum of the rod
+    radii there, fn = max(0, -k gap - c v_n) along n = (P - Q) / |P - Q|, with k and c the series
+    combination of the two points' (nodal values interpolated), v_n the normal velocity of P
+    relative to Q; +fn n goes to segment i's nodes and -fn n to segment j's, split as the closest
+    points divide the segments (the pair's forces sum to zero). Brute force over the pairs, each
+    rejected first by its bounding spheres."""
+    node = inputs.contact_node
+    n = len(r)
+    for i in range(n - 1):
+        li = math.sqrt((r[i + 1, 0] - r[i, 0]) ** 2 + (r[i + 1, 1] - r[i, 1]) ** 2 + (r[i + 1, 2] - r[i, 2]) ** 2)
+        for j in range(i + gap_index, n - 1):
+            mx = 0.5 * (r[i, 0] + r[i + 1, 0] - r[j, 0] - r[j + 1, 0])
+            my = 0.5 * (r[i, 1] + r[i + 1, 1] - r[j, 1] - r[j + 1, 1])
+            mz = 0.5 * (r[i, 2] + r[i + 1, 2] - r[j, 2] - r[j + 1, 2])
+            lj = math.sqrt((r[j + 1, 0] - r[j, 0]) ** 2 + (r[j + 1, 1] - r[j, 1]) ** 2 + (r[j + 1, 2] - r[j, 2]) ** 2)
+            reach = 0.5 * (li + lj) + max(node[i, 0], node[i + 1, 0]) + max(node[j, 0], node[j + 1, 0])
+            if mx * mx + my * my + mz * mz >= reach * reach or not (li > 0.0 and lj > 0.0):
+                continue
+            s, t = _segment_pair(i, i + 1, j, j + 1, r)
+            d0 = (1 - s) * r[i, 0] + s * r[i + 1, 0] - (1 - t) * r[j, 0] - t * r[j + 1, 0]
+            d1 = (1 - s) * r[i, 1] + s * r[i + 1, 1] - (1 - t) * r[j, 1] - t * r[j + 1, 1]
+            d2 = (1 - s) * r[i, 2] + s * r[i + 1, 2] - (1 - t) * r[j, 2] - t * r[j + 1, 2]
+            dist = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            gap = dist - ((1 - s) * node[i, 0] + s * node[i + 1, 0] + (1 - t) * node[j, 0] + t * node[j + 1, 0])
+            if gap >= 0.0 or not dist > 0.0:
+                continue
+            n0 = d0 / dist
+            n1 = d1 / dist
+            n2 = d2 / dist
+            ki = (1 - s) * node[i, 1] + s * node[i + 1, 1]
+            kj = (1 - t) * node[j, 1] + t * node[j + 1, 1]
+            ci = (1 - s) * node[i, 2] + s * node[i + 1, 2]
+            cj = (1 - t) * node[j, 2] + t * node[j + 1, 2]
+            u0 = (1 - s) * v[i, 0] + s * v[i + 1, 0] - (1 - t) * v[j, 0] - t * v[j + 1, 0]
+            u1 = (1 - s) * v[i, 1] + s * v[i + 1, 1] - (1 - t) * v[j, 1] - t * v[j + 1, 1]
+            u2 = (1 - s) * v[i, 2] + s * v[i + 1, 2] - (1 - t) * v[j, 2] - t * v[j + 1, 2]
+            vn = u0 * n0 + u1 * n1 + u2 * n2
+            fn = -ki * kj / (ki + kj) * gap - (ci * cj / (ci + cj) if ci + cj > 0.0 else 0.0) * vn
+            if fn > 0.0:
+                f0 = fn * n0
+                f1 = fn * n1
+                f2 = fn * n2
+                _push_pair(i, 1 - s, f0, f1, f2, row, record, save_slot, inputs, work_f)
+                _push_pair(i + 1, s, f0, f1, f2, row, record, save_slot, inputs, work_f)
+                _push_pair(j, t - 1, f0, f1, f2, row, record, save_slot, inputs, work_f)
+                _push_pair(j + 1, -t, f0, f1, f2, row, record, save_slot, inputs, work_f)
+
+
+@njit(**_INLINE)
+def _contact_loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
+    """work_f += the contact force and torque (world) of every node (docs/lgvi.md §2.11): penalty
+    normal force fn = max(0, -k_a gap - c_a v_n) along the obstacle normal at the node, and
+    friction (``_friction``), from the configuration (R, r) and the staggered velocities v (world)
+    and w (body). At a saved step (``record``), the saved nodes' applied loads before the contact
+    (inputs.contact_applied) and their contact loads (inputs.contact_samples[row]) are kept."""
+    node = inputs.contact_node
+    fric = inputs.contact_friction
+    for a in range(len(r)):
+        x0 = r[a, 0]
+        x1 = r[a, 1]
+        x2 = r[a, 2]
+        ra = node[a, 0]
+        touched = False
+        f0 = f1 = f2 = t0 = t1 = t2 = 0.0
+        for o in range(len(inputs.contact_kind)):
+            gap, n0, n1, n2 = _obstacle_gap(a, o, x0, x1, x2, ra, inputs)
+            if gap < 0.0:
+                fn = -node[a, 1] * gap - node[a, 2] * (n0 * v[a, 0] + n1 * v[a, 1] + n2 * v[a, 2])
+                if fn > 0.0:
+                    touched = True
+                    f0 += fn * n0
+                    f1 += fn * n1
+                    f2 += fn * n2
+                    if fric[o, 0] > 0.0:
+                        ft0, ft1, ft2, m0, m1, m2 = _friction(a, h, fric[o, 0], fric[o, 1], fn, ra, n0, n1, n2,
+                                                              R, v, w, rod)
+                        f0 += ft0
+                        f1 += ft1
+                        f2 += ft2
+                        t0 += m0
+                        t1 += m1
+                        t2 += m2
+        if record:
+            slot = save_slot[a]
+            if slot >= 0:
+                for c in range(6):
+                    inputs.contact_applied[a, c] = work_f[a, c]
+                smp = inputs.contact_samples
+                smp[row, slot, 0] = f0
+                smp[row, slot, 1] = f1
+                smp[row, slot, 2] = f2
+                smp[row, slot, 3] = t0
+                smp[row, slot, 4] = t1
+                smp[row, slot, 5] = t2
+        if touched:
+            work_f[a, 0] += f0
+            work_f[a, 1] += f1
+            work_f[a, 2] += f2
+            work_f[a, 3] += t0
+            work_f[a, 4] += t1
+            work_f[a, 5] += t2
+    last = len(inputs.contact_kind) - 1
+    if inputs.contact_kind[last] == SELF:
+        _self_contact(row, record, r, v, int(inputs.contact_geom[last, 0]), inputs, save_slot, work_f)
+
+
+@njit(**_INLINE)
+def _applied_outputs(row, inputs, out):
+    """out.forces[row], out.torques[row] <- the saved nodes' applied loads without the contact
+    loads (kept by ``_contact_loads`` at this saved step)."""
+    save_slot = out.save_slot
+    for a in range(len(save_slot)):
+        slot = save_slot[a]
+        if slot >= 0:
+            for c in range(3):
+                out.forces[row, slot, c] = inputs.contact_applied[a, c]
+                out.torques[row, slot, c] = inputs.contact_applied[a, 3 + c]
