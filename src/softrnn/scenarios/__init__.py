@@ -16,7 +16,6 @@ cases built from them, and the summary of a scenario's run.
 """
 
 from . import record as _record  # noqa: F401  (registers the record builder of old data files)
-
 from .reading import ScenarioError as ScenarioError
 from .scenario import SCENARIO_NAMES as SCENARIO_NAMES
 from .scenario import Scenario as Scenario
