@@ -3,6 +3,8 @@ tests direct kernel calls, exact reference solutions, shear-free bent rod shapes
 checks shared by the two integrators (convergence order, energy error, zero-crossing period). Imported as
 ``helpers`` (pytest puts tests/ on sys.path)."""
 
+import contextlib
+
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
@@ -26,6 +28,19 @@ def run_cli(argv) -> int:
         return main(argv)
     except SystemExit as exc:  # argparse errors
         return exc.code
+
+
+@contextlib.contextmanager
+def without_record_builder():
+    """No scenario-record builder registered (``softrnn.io.record.set_record_builder``), as where only
+    ``softrnn.learned`` is imported: an older data file's record then stays None."""
+    from softrnn.io.record import set_record_builder
+
+    previous = set_record_builder(None)
+    try:
+        yield
+    finally:
+        set_record_builder(previous)
 
 
 # --------------------------------------------------------------------------- finite differences

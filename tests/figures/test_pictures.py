@@ -13,7 +13,7 @@ from softrnn.figures import _movie, animation, geometry, pictures
 from softrnn.figures import data as figure_data
 from softrnn.scenarios.scenario import scenario_text
 
-from helpers import run_cli
+from helpers import run_cli, without_record_builder
 
 
 def rod_data(n_samples=41, n_nodes=11, planar=False, force=True):
@@ -90,7 +90,9 @@ def test_node_of_interest_from_attrs_or_scenario():
     d.attrs = {"scenario_record": {"version": 1, "name": "x", "nodes_of_interest": [10]}, "n_nodes_total": 11}
     assert figure_data.node_of_interest(d) == 10
     d.attrs = {"scenario_text": scenario_text("square"), "n_nodes_total": 51}   # an older file: no record
-    assert figure_data.node_of_interest(d) is None and named_node(d) == 50       # the command line rebuilds it
+    with without_record_builder():          # as where softrnn.scenarios is not imported
+        assert figure_data.node_of_interest(d) is None and named_node(d) == 50   # the command line rebuilds it
+    assert figure_data.node_of_interest(d) == 50     # softrnn.scenarios imported: its builder rebuilds it
     d.attrs = {"case": "semicircle"}
     assert named_node(d) == 50  # the paper case's node: the command line looks it up
 

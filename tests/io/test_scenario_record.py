@@ -18,7 +18,7 @@ from softrnn.scenarios.record import with_record
 from softrnn.scenarios.scenario import load_scenario
 from softrnn.scenarios.summary import simulate_summary
 
-from helpers import run_cli
+from helpers import run_cli, without_record_builder
 
 
 def _simulate(scenario, path, record):
@@ -68,9 +68,13 @@ def test_the_record_adds_an_attribute_only(files):
 def test_an_older_file_loads_without_it_and_gets_it_back_from_its_text(files, tmp_path):
     _, root = files
     old = read_dataset(root / "plain.h5")
-    assert read_record(old) is None and old.record is None and RECORD not in old.attrs
+    with without_record_builder():          # as where softrnn.scenarios is not imported
+        assert read_record(old) is None and old.record is None and RECORD not in old.attrs
     rebuilt = read_record(with_record(old))
     assert rebuilt.to_record() == read_record(read_dataset(root / "with.h5")).to_record()
+    # softrnn.scenarios imported (as by every command): read_record rebuilds it from the text itself
+    assert RECORD not in old.attrs and read_record(old).to_record() == rebuilt.to_record()
+    assert old.record.to_record() == rebuilt.to_record()
     write_dataset(tmp_path / "copy.h5", read_dataset(root / "with.h5"))        # a copy keeps it
     assert read_dataset(tmp_path / "copy.h5").attrs[RECORD] == read_dataset(root / "with.h5").attrs[RECORD]
 

@@ -6,6 +6,7 @@ training loss blind to the clamp, a saved model read back, and the option that p
 instead."""
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -16,6 +17,8 @@ from softrnn.learned.whole import evaluation
 from softrnn.learned.whole.config import DynamicConfig
 from softrnn.learned.whole.encoding import make_encoding
 from softrnn.learned.whole.feedback import moving_clamps
+
+from helpers import run_cli, without_record_builder
 
 torch = pytest.importorskip("torch")
 
@@ -199,10 +202,40 @@ def test_old_data_without_a_record_says_so_and_gets_it_back_from_its_text(data):
     from softrnn.scenarios.record import with_record
 
     old = dataclasses.replace(data[0], attrs={k: v for k, v in data[0].attrs.items() if k != "scenario_record"})
-    with pytest.raises(SoftrnnInputError) as info:
-        moving_clamps(old)
+    with without_record_builder():          # as where softrnn.scenarios is not imported
+        with pytest.raises(SoftrnnInputError) as info:
+            moving_clamps(old)
     assert "\n" not in str(info.value) and "with_record" in str(info.value)
     assert moving_clamps(with_record(old)) == (0,)
+    assert moving_clamps(old) == (0,)       # softrnn.scenarios imported: rebuilt on reading
+
+
+def test_an_old_file_trains_and_evaluates_through_the_cli_as_a_new_one(data, tmp_path):
+    """A file written before the record existed (its ``scenario_record`` attribute deleted) trains
+    and evaluates through ``softrnn dynamic`` to the same model and figures as the file with it."""
+    import h5py
+
+    from softrnn.io import write_dataset
+
+    for name in ("new", "old"):
+        for i, d in enumerate(data):
+            write_dataset(tmp_path / name / f"traj-{i:05d}.h5", d)
+    for path in (tmp_path / "old").glob("*.h5"):
+        with h5py.File(path, "a") as f:
+            del f.attrs["scenario_record"]
+    reports = {}
+    for name in ("new", "old"):
+        model = tmp_path / f"model-{name}"
+        assert run_cli(["dynamic", "train", str(tmp_path / name), "-o", str(model), "--heldout", "1",
+                        "--model-dt", "0.02", "--node-stride", "2", "--steps", "2", "--width", "8", "--layers", "1",
+                        "--unroll", "2", "--threads", "1", "--quiet"]) == 0
+        assert load_dynamic(model).encoding.prescribed.any()          # the moving clamp is a path input
+        report = tmp_path / f"eval-{name}.json"
+        assert run_cli(["dynamic", "evaluate", str(model), "--heldout", str(tmp_path / name / "traj-00002.h5"),
+                        "--json", str(report)]) == 0
+        reports[name] = {k: v for k, v in json.loads(report.read_text()).items()
+                         if k not in ("model", "heldout_files")}          # the paths differ
+    assert reports["old"] == reports["new"]
 
 
 def test_data_of_different_moving_clamps_are_refused(data):

@@ -379,7 +379,7 @@ def prepare(scenario: Scenario, dataset, keys, *, span: str = "train", nodes=Non
     rod simulator)."""
     if getattr(scenario, "magnetic", None) is not None:
         raise bad("scenario", scenario.name, "a plain rod scenario: softrnn calibrate does not fit magnetic "
-                                             "scenarios (the manipulator has its own driver)")
+                                             "scenarios (the manipulator's rod and loads are set in [magnetic])")
     parameters = parameters_of(scenario, keys)
     names = [p.name for p in parameters]
     check_dataset(scenario, dataset, data, names)

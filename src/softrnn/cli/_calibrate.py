@@ -102,7 +102,7 @@ def run(args) -> int:
         raise
     if scenario.magnetic is not None:
         raise bad("--scenario", scenario.name, "a plain rod scenario: softrnn calibrate does not fit magnetic "
-                                               "scenarios (the manipulator has its own driver)")
+                                               "scenarios (the manipulator's rod and loads are set in [magnetic])")
     dataset = read_dataset(args.data, group=args.group)
     cache = out.parent / f".{out.name}.trials"
     options = FitOptions(max_evaluations=args.max_evaluations)

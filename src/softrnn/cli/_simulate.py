@@ -71,8 +71,6 @@ def _check_magnetic(args, rod: dict) -> None:
         flag = "--" + name.replace("_", "-")
         raise bad(flag, rod[name], "no rod override for a magnetic scenario (its rod is the manipulator's: set "
                                    "[magnetic] keys in the scenario file)")
-    if args.integrator not in (None, "explicit"):
-        raise bad("--integrator", args.integrator, "explicit for a magnetic scenario (its runs are explicit)")
 
 
 def format_summary(s: dict) -> str:

@@ -4,9 +4,11 @@ sweep variant's draws, and its obstacles (docs/dataset-format.md#the-scenario-re
 
 ``softrnn.scenarios`` writes it at simulation time (``Scenario.record``, passed to the writer as
 ``record``); every reader of a data file's scenario reads it here, through ``read_record``, typed,
-and never parses the scenario's text. A file written before the record existed (or lab data) has
-none: ``read_record`` gives None, and a feature that needs it says so (``softrnn.scenarios.record``
-adds it to such a data set from its scenario text).
+and never parses the scenario's text. A file written before the record existed has none stored:
+``read_record`` then asks the record builder registered with ``set_record_builder`` (importing
+``softrnn.scenarios`` registers one that rebuilds the record from the stored scenario text, so every
+CLI command reads old files as before); without a builder, or for lab data, it gives None, and a
+feature that needs the record says so (``softrnn.scenarios.record`` adds it to such a file).
 """
 
 from __future__ import annotations
@@ -22,6 +24,9 @@ RECORD = "scenario_record"
 
 RECORD_VERSION = 1
 """Version of the record's own layout (its ``version`` key); readers refuse a newer one."""
+
+_builder = None
+"""The record builder of ``set_record_builder`` (None: none registered)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,14 +132,32 @@ class ScenarioRecord:
                               variant_index=index, contact=contact)
 
 
+def set_record_builder(builder):
+    """Register ``builder`` (attrs dict -> ``ScenarioRecord`` or None; None: unregister) as the
+    fallback of ``read_record`` for a data set that stores no record but its scenario text (a file
+    written before the record existed). ``softrnn.scenarios`` registers its own at import (this
+    package may not import it). Returns the builder registered before."""
+    global _builder
+    if builder is not None and not callable(builder):
+        raise bad("builder", type(builder).__name__, "a callable attrs -> ScenarioRecord or None, or None")
+    previous, _builder = _builder, builder
+    return previous
+
+
 def read_record(data) -> ScenarioRecord | None:
-    """The record of a data set (a ``Dataset``, anything with ``attrs``, or an attrs dict), or None
-    where it has none (a file written before the record existed, lab data)."""
+    """The record of a data set (a ``Dataset``, anything with ``attrs``, or an attrs dict): the stored
+    one; without one, that of the registered builder (``set_record_builder``) from its scenario
+    text; None where neither gives one (lab data; an old file without a builder registered)."""
     attrs = data if isinstance(data, dict) else dict(getattr(data, "attrs", None) or {})
     raw = attrs.get(RECORD)
-    if raw is None:
+    if raw is not None:
+        return ScenarioRecord.from_record(raw)
+    if _builder is None or not isinstance(attrs.get("scenario_text"), str):
         return None
-    return ScenarioRecord.from_record(raw)
+    record = _builder(attrs)
+    if record is not None and not isinstance(record, ScenarioRecord):
+        raise bad("record builder", type(record).__name__, "a ScenarioRecord or None")
+    return record
 
 
 def scenario_name(data) -> str | None:

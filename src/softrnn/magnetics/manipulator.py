@@ -122,7 +122,7 @@ class _AdvancingBase:
         return pos, np.broadcast_to(np.array(self.rotation, dtype=float), (t.size, 3, 3)).copy()
 
     def parameters(self) -> np.ndarray:
-        """The driver's profile array (9,): base (3) [m], axis (3), distance [m], start, ramp [s]."""
+        """The motion's profile array (9,): base (3) [m], axis (3), distance [m], start, ramp [s]."""
         a = self.advance
         return np.array([*self.base, *self.axis, a.distance, a.start, a.ramp], dtype=float)
 

@@ -8,11 +8,14 @@ cases built from them, and the summary of a scenario's run.
 * ``summary``: ``simulate_summary``, the run behind ``softrnn simulate``, and ``contact_lines``, the
   obstacles in a scenario's summary;
 * ``record``: the scenario record of a data set written before the record existed, rebuilt from its
-  text (``with_record``); a scenario's own is ``Scenario.record`` (``softrnn.io.record``);
-* ``magnetic``: magnetic scenarios (a ``[magnetic]`` table): ``MagneticScenario``, run by the
-  manipulator's driver (``simulate_magnetic``) and written with the coil currents.
+  text (``with_record``; registered at import as ``softrnn.io.record``'s record builder, so that
+  ``read_record`` reads old files); a scenario's own is ``Scenario.record``;
+* ``magnetic``: magnetic scenarios (a ``[magnetic]`` table): ``MagneticScenario``, the manipulator
+  (a rod with the magnets' load, ``softrnn.rod.magnetic.MagneticDipoles``) run by the one rod
+  simulator (``simulate_magnetic``) and written with the coil currents.
 """
 
+from . import record as _record  # noqa: F401  (registers the record builder of old data files)
 from .reading import ScenarioError as ScenarioError
 from .scenario import SCENARIO_NAMES as SCENARIO_NAMES
 from .scenario import Scenario as Scenario

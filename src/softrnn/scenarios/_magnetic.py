@@ -54,16 +54,11 @@ def _refuse_rod_tables(ctx: _Ctx, doc: dict) -> None:
 
 
 def check_magnetic_run(ctx: _Ctx, raw) -> None:
-    """Refuse the ``[run]`` keys a magnetic scenario does not honour (``save_nodes``, a non-explicit
-    ``integrator``); the rest is read as for any scenario."""
-    if not isinstance(raw, dict):
-        return
-    if "save_nodes" in raw:
+    """Refuse the ``[run]`` key a magnetic scenario does not honour (``save_nodes``); the rest
+    (the integrator too) is read as for any scenario."""
+    if isinstance(raw, dict) and "save_nodes" in raw:
         raise ctx.error("run.save_nodes", "run.save_nodes: not allowed in a magnetic scenario: the manipulator's "
                                           "run saves every node")
-    if raw.get("integrator", "explicit") != "explicit":
-        raise ctx.invalid("run.integrator", raw["integrator"],
-                          "\"explicit\" in a magnetic scenario (its runs are explicit)")
 
 
 def _spec(ctx: _Ctx, t: _Table, doc: dict, gravity) -> ManipulatorSpec:

@@ -84,10 +84,10 @@ class MagneticScenario:
         return ramp_schedule(self.currents, self.ramp, end, self.start)
 
     def run(self, config: RunConfig) -> ManipulatorRun:
-        """The manipulator's run for the scenario's ``RunConfig``: its dt, samples, substeps and
-        safety, with this scenario's settling."""
+        """The manipulator's run for the scenario's ``RunConfig``: its dt, samples, substeps, safety
+        and integrator, with this scenario's settling."""
         return ManipulatorRun(dt=config.dt, n_samples=config.n_samples, substeps=config.substeps,
-                              safety=config.safety, settle=self.settle)
+                              safety=config.safety, settle=self.settle, integrator=config.integrator)
 
     def check_size(self, config: RunConfig) -> None:
         """Refuse a run of ``config`` too large for this machine (``check_manipulator_run``: the
@@ -104,7 +104,7 @@ def simulate_magnetic(magnetic: MagneticScenario, config: RunConfig,
     magnetic : MagneticScenario
         the scenario's manipulator and currents (``Scenario.magnetic``)
     config : RunConfig
-        the saved interval, samples, substeps and safety (``Scenario.config``)
+        the saved interval, samples, substeps, safety and integrator (``Scenario.config``)
     progress : softrnn.progress.Progress or None
         as for ``simulate_manipulator``
 
@@ -113,8 +113,6 @@ def simulate_magnetic(magnetic: MagneticScenario, config: RunConfig,
     ManipulatorTrajectory
         every node at every saved sample, the coil currents and the magnets' quantities
     """
-    if config.integrator.name != "explicit":
-        raise bad("integrator", config.integrator.name, "explicit (a magnetic scenario's runs are explicit)")
     run = magnetic.run(config)
     return simulate_manipulator(magnetic.spec, magnetic.schedule(run.duration), run, progress=progress)
 
@@ -126,10 +124,11 @@ def bifurcation_of(spec: ManipulatorSpec) -> Bifurcation | None:
 
 
 def write_manipulator_dataset(path, traj: ManipulatorTrajectory, spec: ManipulatorSpec, *, dt: float,
-                              attrs: dict | None = None, scenario_text: str = "", seed: int | None = None) -> None:
+                              attrs: dict | None = None, scenario_text: str = "", seed: int | None = None,
+                              record=None) -> None:
     """Write a manipulator run to the HDF5 dataset ``path`` (atomically): every node, the coil
-    currents as the actuation channels ``coil_<k>`` [A], and with contact the obstacles and the
-    contact loads.
+    currents as the actuation channels ``coil_<k>`` [A], with contact the obstacles and the
+    contact loads, and the scenario record ``record`` (``Scenario.record``; None: none).
 
     Parameters
     ----------
@@ -143,20 +142,24 @@ def write_manipulator_dataset(path, traj: ManipulatorTrajectory, spec: Manipulat
         the saved interval [s]
     attrs, scenario_text, seed : dict or None, str, int or None
         extra attributes stored with the dataset, the scenario's TOML text ("" for none) and seed
+    record : softrnn.io.record.ScenarioRecord or None
+        what drove the run (with ``spec.advance`` node 0 in its ``moving_clamps``), stored as the
+        attribute ``scenario_record``; None: none stored
     """
     write_trajectory(path, traj.rod, dt=dt, rod=spec.rod_spec(), scenario_text=scenario_text, seed=seed,
                      attrs=attrs, actuation_units={f"coil_{k}": "A" for k in range(traj.currents.shape[1])},
-                     actuation=traj.currents, contact=spec.contact)
+                     actuation=traj.currents, contact=spec.contact, record=record)
 
 
 def magnetic_summary(*, name: str, title: str, magnetic: MagneticScenario, config: RunConfig, node: int,
                      out_path=None, scenario_text: str = "", seed: int | None = None, attrs: dict | None = None,
-                     progress: Progress | None = None, series: dict | None = None) -> dict:
+                     progress: Progress | None = None, series: dict | None = None, record=None) -> dict:
     """Simulate a magnetic scenario and summarise it as ``simulate_summary`` does (same keys, plus
     ``tip_branch`` and the held ``currents_a``); with ``out_path`` write the dataset
     (``write_manipulator_dataset``, with the attribute ``tip_branch`` where the obstacles hold one
-    bifurcation). Parameters are those of ``simulate_summary``, with ``magnetic`` the scenario's
-    ``MagneticScenario`` in place of the setup; returns the JSON-ready summary."""
+    bifurcation, and the scenario record ``record``). Parameters are those of ``simulate_summary``,
+    with ``magnetic`` the scenario's ``MagneticScenario`` in place of the setup; returns the
+    JSON-ready summary."""
     spec = magnetic.spec
     node = spec.setup().node_index(node, "node of interest")
     start = time.perf_counter()
@@ -166,7 +169,7 @@ def magnetic_summary(*, name: str, title: str, magnetic: MagneticScenario, confi
     if out_path is not None:
         extra = {} if where is None else {"tip_branch": where}
         write_manipulator_dataset(out_path, traj, spec, dt=config.dt, attrs={**(attrs or {}), **extra},
-                                  scenario_text=scenario_text, seed=seed)
+                                  scenario_text=scenario_text, seed=seed, record=record)
     total = time.perf_counter() - start
     p = traj.positions[:, node]
     energy = traj.rod.energy
@@ -178,7 +181,7 @@ def magnetic_summary(*, name: str, title: str, magnetic: MagneticScenario, confi
     return {
         "case": name, "title": title, "length_m": spec.length, "radius_m": 0.5 * spec.diameter,
         "youngs_modulus_pa": spec.youngs_modulus, "n_nodes": spec.n_nodes, "n_samples": config.n_samples,
-        "dt_s": config.dt, "duration_s": simulated, "integrator": "explicit", "step_s": traj.step,
+        "dt_s": config.dt, "duration_s": simulated, "integrator": config.integrator.name, "step_s": traj.step,
         "substeps": traj.substeps, "stable_step_s": spec.stable_step(config.safety),
         "wall_time_s": traj.wall_time, "total_time_s": total,
         "us_per_node_step": 1e6 * traj.wall_time / (steps * spec.n_nodes),

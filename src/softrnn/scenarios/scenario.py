@@ -80,8 +80,9 @@ class Scenario:
     values substituted), and what they build: ``setup``, ``config``, ``nodes_of_interest``.
     ``randomize`` maps dotted keys to their distributions, ``calibrate`` to (lower, upper, start or
     None) from the ``[calibrate]`` table. A scenario with a ``[magnetic]`` table has ``magnetic``
-    (a ``MagneticScenario``: the manipulator and its currents, run by its own driver), and its
-    ``setup`` is the manipulator's rod problem without magnetic loads (``ManipulatorSpec.setup``)."""
+    (a ``MagneticScenario``: the manipulator and its currents; the one rod simulator runs it with the
+    magnets' load, ``rod.magnetic.MagneticDipoles``), and its ``setup`` is the manipulator's rod
+    problem without that load (``ManipulatorSpec.setup``)."""
 
     name: str
     title: str

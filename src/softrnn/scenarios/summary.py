@@ -43,14 +43,18 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
     If a dict is passed as ``series`` it receives the arrays time (T,), node_positions (T, 3) [m]
     and energy (T, 3) [J] (kinetic, elastic, gravitational).
 
-    With ``magnetic`` (a magnetic scenario's ``Scenario.magnetic``) the manipulator's driver runs it
-    instead (``magnetic.magnetic_summary``: every node saved, the coil currents as actuation
-    channels); ``setup`` is then unused.
+    With ``magnetic`` (a magnetic scenario's ``Scenario.magnetic``) it runs the manipulator instead,
+    a rod with the magnets' load (``magnetic.magnetic_summary``: every node saved, the coil currents
+    as actuation channels); ``setup`` is then unused.
     """
+    if out_path is not None and record is None:     # that of the text, with a sweep variant's draws in attrs
+        extra = attrs or {}
+        index = extra.get("variant_index")
+        record = record_of_text(scenario_text, extra.get("sampled"), index if isinstance(index, int) else None)
     if magnetic is not None:
         return magnetic_summary(name=name, title=title, magnetic=magnetic, config=config, node=node,
                                 out_path=out_path, scenario_text=scenario_text, seed=seed, attrs=attrs,
-                                progress=progress, series=series)
+                                progress=progress, series=series, record=record)
     node = setup.node_index(node, "node of interest")
     if out_path is None:
         config = replace(config, save_nodes=(node,))
@@ -69,10 +73,6 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
     else:
         # tendon tensions are stored as the actuation channels tendon_<name> [N]
         _, units = tendon_actuation(setup.tendons, np.zeros(0))
-        if record is None:              # that of the text, with a sweep variant's draws in attrs
-            extra = attrs or {}
-            index = extra.get("variant_index")
-            record = record_of_text(scenario_text, extra.get("sampled"), index if isinstance(index, int) else None)
         with DatasetWriter(out_path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=setup.rod,
                            scenario_text=scenario_text, seed=seed, attrs=attrs, actuation_units=units,
                            contact=setup.contact, record=record) as writer:

@@ -97,10 +97,11 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
     scenario = parse_scenario(text, source).variant(index)
     config = run_config(scenario.config, n_samples, dt)
     attrs = {"variant_index": index, "sampled": json.dumps(scenario.sampled), "scenario_name": scenario.name}
-    if scenario.magnetic is not None:  # the manipulator's driver; the coil currents as actuation channels
+    if scenario.magnetic is not None:  # the manipulator: a rod with the magnets' load; coil currents as actuation
         summary = magnetic_summary(name=scenario.name, title=scenario.title, magnetic=scenario.magnetic,
                                    config=config, node=scenario.nodes_of_interest[0], out_path=path,
-                                   scenario_text=scenario.text, seed=scenario.seed, attrs=attrs)
+                                   scenario_text=scenario.text, seed=scenario.seed, attrs=attrs,
+                                   record=scenario.record)
         return {"index": index, "wall_time": summary["total_time_s"], "substeps": summary["substeps"]}
     sim = Simulator(scenario.setup)
     nodes = list(range(scenario.setup.rod.n_nodes)) if config.save_nodes is None else list(config.save_nodes)

@@ -19,7 +19,16 @@ from ...errors import SoftrnnInputError, bad
 from ...io.reader import Dataset, read_dataset
 from ...io.record import scenario_name
 from ._losses import _MultiStep, _OneStep, _RelativeMultiStep
-from .data import IRREGULAR_DT_TOLERANCE, Normalizer, SampleSpec, Windows, make_windows, regular_times, split
+from .data import (
+    IRREGULAR_DT_TOLERANCE,
+    Normalizer,
+    SampleSpec,
+    Windows,
+    check_spans,
+    make_windows,
+    regular_times,
+    split,
+)
 from .model import ModelConfig
 
 
@@ -51,12 +60,8 @@ def spans(n_samples: int, spec: SampleSpec, validation_fraction: float) -> Spans
     train_span, test_span = split(n_samples, spec)
     cut = train_span.stop
     vcut = int(math.floor(cut * (1.0 - validation_fraction)))
-    need = spec.history + 1
-    if min(vcut, cut - vcut) < need:
-        raise bad("history", spec.history,
-                  f"a history that fits the data: the training span of {cut} samples splits into {vcut} for fitting "
-                  f"and {cut - vcut} for validation, and a window needs history + 1 = {need}; use a shorter "
-                  f"history or a longer dataset")
+    check_spans(spec, vcut, cut - vcut,
+                f"the training span of {cut} samples splits into {vcut} for fitting and {cut - vcut} for validation")
     return Spans(fit=range(0, vcut), validation=range(vcut, cut), test=test_span)
 
 

@@ -78,8 +78,9 @@ class Feedback:
 def pd_laws(dataset) -> list:
     """The PD laws (``softrnn.io.record.PDLaw``) of the scenario a data set was simulated from, as its
     scenario record stores them (a sweep variant's draws in them). [] for data without a scenario
-    (lab data) or a scenario without PD loads; data whose scenario text has PD loads but which has no
-    record (a file written before the record existed) is a one-line error."""
+    (lab data) or a scenario without PD loads. A file written before the record existed gets it from
+    its scenario text where ``softrnn.scenarios`` is imported (``read_record``'s builder; the CLI
+    always is); else, where that text has PD loads, a one-line error naming the fix."""
     record = _record(dataset, lambda text: '"pd"' in text, "feedback = false (the recorded PD forces as inputs)")
     return [] if record is None else list(record.pd)
 
@@ -87,23 +88,24 @@ def pd_laws(dataset) -> list:
 def moving_clamps(dataset) -> tuple:
     """The nodes (0-based, increasing) that the scenario a data set was simulated from moves along a
     prescribed path, as its scenario record stores them. () for data without a scenario (lab data)
-    or without such a clamp; data whose scenario text moves a clamp but which has no record is a
-    one-line error."""
-    record = _record(dataset, lambda text: "[[boundary]]" in text and ("displacement" in text or "rotation" in text),
-                     "prescribed = false")
+    or without such a clamp (a magnetic scenario with ``advance`` moves node 0). An older file
+    without a record: as for ``pd_laws``."""
+    record = _record(dataset, lambda text: ("[[boundary]]" in text and ("displacement" in text or "rotation" in text))
+                     or ("[magnetic]" in text and "advance" in text), "prescribed = false")
     return () if record is None else tuple(record.moving_clamps)
 
 
 def _record(dataset, needs, instead: str):
-    """The data set's scenario record (``softrnn.io.record``), or None without one; a data set
-    without a record whose scenario text may hold what it is read for (``needs(text)``: a file
-    written before the record existed) is a one-line error that offers ``instead``."""
+    """The data set's scenario record (``softrnn.io.record.read_record``: stored, or rebuilt from its
+    text by the registered builder), or None without one; a data set without one whose scenario
+    text may hold what it is read for (``needs(text)``: a file written before the record existed,
+    read without ``softrnn.scenarios`` imported) is a one-line error that offers ``instead``."""
     record = read_record(dataset)
     text = dataset.attrs.get("scenario_text")
     if record is None and isinstance(text, str) and needs(text):
         raise bad("data", "a data set without its scenario record (written by an older softrnn)",
-                  f"the record added (softrnn.scenarios.record.upgrade_file or with_record), the data simulated "
-                  f"again, or {instead}")
+                  f"the record added (import softrnn.scenarios, softrnn.scenarios.record.upgrade_file or "
+                  f"with_record), the data simulated again, or {instead}")
     return record
 
 
