@@ -70,12 +70,9 @@ class Rollout:
 
     Attributes
     ----------
-    time : ndarray (T,) float64
-        Sample times [s]: the reference's samples ``first .. stop-1``.
-    nodes : ndarray (N,) int64
-        The reference's stored nodes.
-    positions : ndarray (T, N, 3) float32
-        Positions [m]: rows ``0 .. seed-1`` are the reference (the seed history), later rows of the
+    time, nodes, positions : ndarray (T,), (N,), (T, N, 3)
+        As in ``softrnn.io.Dataset``, over the reference's samples ``first .. stop-1`` and its stored
+        nodes; positions [m]: rows ``0 .. seed-1`` are the reference (the seed history), later rows of the
         modelled nodes are predictions, and the unmodelled nodes follow the reference (or hold
         their last seed pose, ``unmodelled="hold"``).
     first : int
