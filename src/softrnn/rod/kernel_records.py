@@ -365,6 +365,21 @@ def _quaternion_into(M, q):
 
 
 @njit(**_INLINE)
+def _relative_rotation_parts(A, B, tr):
+    """tr + tr(A^T B) and vee(A^T B - B^T A) (sk0, sk1, sk2) of rotations A, B (3, 3): the parts of
+    cay^-1(A^T B) = 2 / (1 + tr(A^T B)) vee(A^T B - B^T A); the caller gives the start ``tr`` of the sum."""
+    sk0 = 0.0
+    sk1 = 0.0
+    sk2 = 0.0
+    for c in range(3):
+        tr += A[c, 0] * B[c, 0] + A[c, 1] * B[c, 1] + A[c, 2] * B[c, 2]
+        sk0 += A[c, 2] * B[c, 1] - A[c, 1] * B[c, 2]
+        sk1 += A[c, 0] * B[c, 2] - A[c, 2] * B[c, 0]
+        sk2 += A[c, 1] * B[c, 0] - A[c, 0] * B[c, 1]
+    return tr, sk0, sk1, sk2
+
+
+@njit(**_INLINE)
 def times_cayley_into(A, y0, y1, y2, ca, out):
     """out[3, 3] <- A[3, 3] cay(y), cay(y) = I + ca (y^ + y^ y^/2), ca = 4/(4 + |y|^2) (docs/lgvi.md
     section 2.2); out may be A. The caller computes ca: ``_node`` and ``magnetics._driver`` sum
