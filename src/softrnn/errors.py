@@ -1,6 +1,7 @@
 """Exceptions with one-line, fix-it messages (the CLI prints them and exits with code 2), and the
 validators every part uses to build them (``is_int``, ``integer``, ``finite``, ``positive``,
-``nonnegative``, ``vec3``, ``one_line``)."""
+``nonnegative``, ``vec3``, ``one_line``), and ``store_frozen``, which keeps the arrays a frozen
+dataclass checked as its read-only fields."""
 
 import importlib.util
 import math
@@ -98,6 +99,14 @@ def vec3(name: str, value, what: str = "", *, nonzero: bool = False) -> tuple[fl
         raise bad(name, value, f"{kind} [x, y, z]{' ' + what if what else ''}")
     return tuple(float(c) for c in items)
 
+
+
+def store_frozen(obj, **arrays) -> None:
+    """Set each array of ``arrays`` read-only and store it as the field of that name of the frozen
+    dataclass ``obj`` (in ``__post_init__``, after checking them)."""
+    for name, a in arrays.items():
+        a.setflags(write=False)
+        object.__setattr__(obj, name, a)
 
 EXTRAS = {"torch": "learn", "safetensors": "learn", "onnx": "learn", "onnxruntime": "learn",
           "distributed": "dask", "dask": "dask"}

@@ -292,34 +292,35 @@ def position_errors(predicted: np.ndarray, measured: np.ndarray, length: float) 
 
 
 @dataclass(frozen=True, eq=False)
-class ScenarioCalibration:
-    """A finished calibration of a scenario to a dataset.
+class CalibrationProblem:
+    """A calibration checked and ready to run (``prepare``): the ``parameters``, the ``model``, the
+    ``span`` with its ``time`` (S,) [s], the fitted ``nodes``, their ``measured`` positions (S, N, 3)
+    [m], and the ``fingerprint`` that names its trials in a cache folder."""
 
-    Attributes
-    ----------
-    result : FitResult
-        the fit
-    parameters : list of Parameter
-        the fitted parameters
-    model : ScenarioModel
-        the simulator that was fitted
-    span : Span
-        the span of the data fitted
-    time : (S,) [s]
-        times of the span's samples
-    nodes : tuple of int
-        the recorded nodes fitted
-    measured, start, fitted : (S, N, 3) [m]
-        positions of those nodes: data, the start's and the fit's
-    """
-
-    result: FitResult
     parameters: list
     model: ScenarioModel
     span: Span
     time: np.ndarray
     nodes: tuple
     measured: np.ndarray
+    fingerprint: str
+
+
+@dataclass(frozen=True, eq=False)
+class ScenarioCalibration(CalibrationProblem):
+    """A finished calibration of a scenario to a dataset: the ``CalibrationProblem`` it solved
+    (``parameters``, ``model``, ``span``, ``time``, ``nodes``, ``measured``, ``fingerprint``) with
+    its fit.
+
+    Attributes
+    ----------
+    result : FitResult
+        the fit
+    start, fitted : (S, N, 3) [m]
+        positions of the fitted nodes: the start's and the fit's predictions
+    """
+
+    result: FitResult
     start: np.ndarray
     fitted: np.ndarray
 
@@ -353,21 +354,6 @@ class ScenarioCalibration:
             "evaluations": r.evaluations, "seconds": r.seconds, "converged": r.success, "message": r.message,
             "history": [{"trial": t, "rms_percent_of_length": 100 * rms, "values": v} for t, rms, v in r.history],
         }
-
-
-@dataclass(frozen=True, eq=False)
-class CalibrationProblem:
-    """A calibration checked and ready to run (``prepare``): the ``parameters``, the ``model``, the
-    ``span`` with its ``time`` (S,) [s], the fitted ``nodes``, their ``measured`` positions (S, N, 3)
-    [m], and the ``fingerprint`` that names its trials in a cache folder."""
-
-    parameters: list
-    model: ScenarioModel
-    span: Span
-    time: np.ndarray
-    nodes: tuple
-    measured: np.ndarray
-    fingerprint: str
 
 
 def prepare(scenario: Scenario, dataset, keys, *, span: str = "train", nodes=None,
@@ -409,9 +395,7 @@ def run(problem: CalibrationProblem, *, evaluator=None, options: FitOptions | No
     result = fit(problem.model, (problem.measured / L).ravel(), problem.parameters, evaluator=evaluator,
                  options=options, progress=progress, cache_dir=cache_dir, fingerprint=problem.fingerprint)
     shape = problem.measured.shape
-    return ScenarioCalibration(result=result, parameters=problem.parameters, model=problem.model, span=problem.span,
-                               time=problem.time, nodes=problem.nodes, measured=problem.measured,
-                               start=result.prediction_start.reshape(shape) * L,
+    return ScenarioCalibration(**vars(problem), result=result, start=result.prediction_start.reshape(shape) * L,
                                fitted=result.prediction_fitted.reshape(shape) * L)
 
 

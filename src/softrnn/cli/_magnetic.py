@@ -102,12 +102,12 @@ UNITS = {"simulate": "sample", "predict": "sample", "static": "sample", "calibra
 """The unit each stage counts in (others: ``step``)."""
 
 
-class _Stages:
-    """A ``Progress`` with one tqdm bar per stage (``info["stage"]``, as the experiment reports it)."""
+class _Stages(Bar):
+    """A ``Progress`` with one tqdm bar per stage (``info["stage"]``, as the experiment reports it):
+    a ``Bar`` whose bar is the current stage's ``Bar``."""
 
     def __init__(self, enabled: bool):
-        self.enabled = enabled
-        self.bar = None
+        super().__init__("magnetic", enabled=enabled)
         self.stage = None
 
     def __call__(self, done: int, total: int, info: dict | None = None) -> None:
@@ -119,17 +119,6 @@ class _Stages:
             self.stage = stage
             self.bar = Bar(stage, unit=UNITS.get(stage, "step"))
         self.bar(done, total)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-            self.bar = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
 
 def _print_result(result: dict) -> None:

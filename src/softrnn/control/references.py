@@ -41,21 +41,14 @@ CSV_COLUMNS = ("time", "about_y_deg", "about_x_deg")
 
 @dataclass(frozen=True, eq=False)
 class Reference:
-    """Target orientation of the distal magnet at the frame times.
-
-    Attributes
-    ----------
-    name : str
-        the reference's name
-    times : (K,) [s]
-        the frame times from 0
-    angles : (K, 2) [rad]
-        columns (about x, about y) as the camera reports them
-    """
+    """Target orientation of the distal magnet at the frame times."""
 
     name: str
+    """The reference's name."""
     times: np.ndarray
+    """The frame times (K,) [s] from 0."""
     angles: np.ndarray
+    """The targets (K, 2) [rad]: columns (about x, about y) as the camera reports them."""
 
     def __post_init__(self):
         t = np.asarray(self.times, dtype=np.float64)

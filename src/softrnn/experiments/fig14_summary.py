@@ -42,31 +42,22 @@ def _rmse(r):
 @final
 @dataclass(frozen=True)
 class Region:
-    """The grid points near the best of a study's table (``region``); ``to_dict()`` is its JSON form.
-
-    Attributes
-    ----------
-    best : dict
-        {units, history, value}: the best grid point and its value (Hz or mm).
-    criterion : str
-        The tolerance, e.g. ``">= 0.9 x the best"``.
-    points : list of [units, history]
-        The grid points within the tolerance, sorted.
-    units, history : list of int
-        The ranges [lo, hi] the points span.
-    paper : dict or None
-        The paper's region {history, lstm_units} beside it (``summary``; None: not set beside it).
-    fraction_in_paper_region : float or None
-        The fraction of ``points`` inside the paper's region (None: not set beside it).
-    """
+    """The grid points near the best of a study's table (``region``); ``to_dict()`` is its JSON form."""
 
     best: dict
+    """{units, history, value}: the best grid point and its value (Hz or mm)."""
     criterion: str
+    """The tolerance, e.g. ``">= 0.9 x the best"``."""
     points: list
+    """The grid points [units, history] within the tolerance, sorted."""
     units: list
+    """The range [lo, hi] of LSTM units the points span."""
     history: list
+    """The range [lo, hi] of history sizes the points span."""
     paper: dict | None = None
+    """The paper's region {history, lstm_units} beside it (``summary``; None: not set beside it)."""
     fraction_in_paper_region: float | None = None
+    """The fraction of ``points`` inside the paper's region (None: not set beside it)."""
 
     def to_dict(self) -> dict:
         """Every field in order (``paper`` and ``fraction_in_paper_region`` only where set)."""

@@ -32,6 +32,19 @@ def _plane_axes(name: str, u, v) -> tuple[tuple, tuple]:
     return u, v
 
 
+def _check_plane_path(path, sizes: tuple) -> None:
+    """Check a target path in a plane (``center``, the positive fields ``sizes``, ``ramp`` >= 0, the
+    axes ``u`` and ``v``) and store its center and axes as tuples."""
+    name = type(path).__name__
+    object.__setattr__(path, "center", vec3(f"{name}.center", path.center))
+    for size in sizes:
+        positive(f"{name}.{size}", getattr(path, size))
+    nonnegative(f"{name}.ramp", path.ramp)
+    u, v = _plane_axes(name, path.u, path.v)
+    object.__setattr__(path, "u", u)
+    object.__setattr__(path, "v", v)
+
+
 def _blend(t: np.ndarray, ramp: float) -> np.ndarray:
     """Smoothstep ramp from 0 to 1 over ``ramp`` seconds (1 everywhere for ramp = 0)."""
     return smoothstep(t / ramp) if ramp > 0 else np.ones_like(t)
@@ -204,13 +217,7 @@ class SquarePath:
     ramp: float = 1.0
 
     def __post_init__(self):
-        object.__setattr__(self, "center", vec3("SquarePath.center", self.center))
-        positive("SquarePath.side", self.side)
-        positive("SquarePath.period", self.period)
-        nonnegative("SquarePath.ramp", self.ramp)
-        u, v = _plane_axes("SquarePath", self.u, self.v)
-        object.__setattr__(self, "u", u)
-        object.__setattr__(self, "v", v)
+        _check_plane_path(self, ("side", "period"))
 
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
@@ -239,13 +246,7 @@ class CirclePath:
     ramp: float = 1.0
 
     def __post_init__(self):
-        object.__setattr__(self, "center", vec3("CirclePath.center", self.center))
-        positive("CirclePath.radius", self.radius)
-        positive("CirclePath.period", self.period)
-        nonnegative("CirclePath.ramp", self.ramp)
-        u, v = _plane_axes("CirclePath", self.u, self.v)
-        object.__setattr__(self, "u", u)
-        object.__setattr__(self, "v", v)
+        _check_plane_path(self, ("radius", "period"))
 
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
@@ -272,14 +273,7 @@ class Figure8Path:
     ramp: float = 1.0
 
     def __post_init__(self):
-        object.__setattr__(self, "center", vec3("Figure8Path.center", self.center))
-        positive("Figure8Path.width", self.width)
-        positive("Figure8Path.height", self.height)
-        positive("Figure8Path.period", self.period)
-        nonnegative("Figure8Path.ramp", self.ramp)
-        u, v = _plane_axes("Figure8Path", self.u, self.v)
-        object.__setattr__(self, "u", u)
-        object.__setattr__(self, "v", v)
+        _check_plane_path(self, ("width", "height", "period"))
 
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
@@ -312,17 +306,11 @@ class RandomSmoothPath:
     _coef: tuple = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        object.__setattr__(self, "center", vec3("RandomSmoothPath.center", self.center))
-        positive("RandomSmoothPath.amplitude", self.amplitude)
-        positive("RandomSmoothPath.cutoff", self.cutoff)
-        nonnegative("RandomSmoothPath.ramp", self.ramp)
+        _check_plane_path(self, ("amplitude", "cutoff"))
         if not is_int(self.seed) or self.seed < 0:
             raise bad("RandomSmoothPath.seed", self.seed, "an integer >= 0")
         if not is_int(self.n_modes) or not 1 <= self.n_modes <= 64:
             raise bad("RandomSmoothPath.n_modes", self.n_modes, "an integer in [1, 64]")
-        u, v = _plane_axes("RandomSmoothPath", self.u, self.v)
-        object.__setattr__(self, "u", u)
-        object.__setattr__(self, "v", v)
         rng = np.random.default_rng(int(self.seed))
         freq = rng.uniform(0.1 * self.cutoff, self.cutoff, size=(2, self.n_modes))
         phase = rng.uniform(0.0, 2 * np.pi, size=(2, self.n_modes))

@@ -88,22 +88,15 @@ class Coil:
 
 @dataclass(frozen=True, kw_only=True)
 class CoilLayout:
-    """A set of stationary electromagnets around a spherical workspace.
-
-    Attributes
-    ----------
-    coils : tuple of Coil
-        the electromagnets
-    current_limit : float
-        largest |I_k| [A] of every coil
-    workspace_radius : float
-        radius [m] of the workspace around the origin; every coil must lie outside
-        it by at least ``MIN_DISTANCE`` (the point-dipole model is singular at the coil)
-    """
+    """A set of stationary electromagnets around a spherical workspace."""
 
     coils: tuple
+    """The electromagnets (``Coil``)."""
     current_limit: float = 8.0
+    """Largest |I_k| [A] of every coil."""
     workspace_radius: float = 0.05
+    """Radius [m] of the workspace around the origin; every coil must lie outside it by at least
+    ``MIN_DISTANCE`` (the point-dipole model is singular at the coil)."""
 
     def __post_init__(self):
         coils = tuple(self.coils)

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import bad
+from ..errors import bad, store_frozen
 from ..rod.loads import smoothstep
 from .coils import CoilLayout, unit_field_maps
 
@@ -29,10 +29,7 @@ class CurrentSchedule:
                       "a 1-D array of strictly increasing finite times in s")
         if v.ndim != 2 or v.shape[0] != t.size or not np.all(np.isfinite(v)):
             raise bad("currents.values.shape", v.shape, f"({t.size}, n_coils) finite currents in A, one row per time")
-        t.setflags(write=False)
-        v.setflags(write=False)
-        object.__setattr__(self, "times", t)
-        object.__setattr__(self, "values", v)
+        store_frozen(self, times=t, values=v)
 
     @property
     def n_coils(self) -> int:

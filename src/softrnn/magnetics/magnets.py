@@ -28,33 +28,25 @@ MAGNET_POISSON_RATIO = 0.3
 
 @dataclass(frozen=True, kw_only=True)
 class Magnet:
-    """A rigid block magnet embedded in the rod.
-
-    Attributes
-    ----------
-    arc_length : float
-        s [m] of the block's centre along the undeformed rod, from the clamped base
-    grade : str
-        a key of ``GRADES`` ('N42', 'N45'); ignored when ``remanence`` is given
-    remanence : float or None
-        Br [T], overrides the grade's nominal value (e.g. a perturbed "real" magnet)
-    size : tuple
-        block edges (a, b, c) [m]; c lies along the rod (d3), a along d1, b along d2
-    direction : tuple
-        magnetisation unit vector in the rod's body frame (d1, d2, d3 components);
-        (0, 0, 1) is axial along the tangent, (0, 0, -1) antiparallel
-    density, youngs_modulus, poisson_ratio : float
-        block material [kg/m^3], [Pa], [-] (paper values)
-    """
+    """A rigid block magnet embedded in the rod."""
 
     arc_length: float
+    """s [m] of the block's centre along the undeformed rod, from the clamped base."""
     grade: str = "N42"
+    """A key of ``GRADES`` ('N42', 'N45'); ignored when ``remanence`` is given."""
     remanence: float | None = None
+    """Br [T], overrides the grade's nominal value (e.g. a perturbed "real" magnet)."""
     size: tuple = (2e-3, 2e-3, 2e-3)
+    """Block edges (a, b, c) [m]; c lies along the rod (d3), a along d1, b along d2."""
     direction: tuple = (0.0, 0.0, 1.0)
+    """Magnetisation unit vector in the rod's body frame (d1, d2, d3 components); (0, 0, 1) is axial
+    along the tangent, (0, 0, -1) antiparallel."""
     density: float = MAGNET_DENSITY
+    """Block density [kg/m^3] (paper value)."""
     youngs_modulus: float = MAGNET_YOUNGS_MODULUS
+    """Block Young's modulus [Pa] (paper value)."""
     poisson_ratio: float = MAGNET_POISSON_RATIO
+    """Block Poisson ratio [-] (paper value)."""
 
     def __post_init__(self):
         finite("magnet.arc_length", self.arc_length)

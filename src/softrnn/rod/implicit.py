@@ -51,7 +51,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .kernel_records import kernel_stamp
+from .kernel_records import _segment_offset, kernel_stamp
 from .kernels import (
     CLAMPED,
     FREE,
@@ -133,12 +133,7 @@ _INLINE = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=Tr
 def _strain_map(a, R, r, B):
     """B[a] (6, 12) <- the linearised strain map of segment a (module docstring), times l."""
     Ba = B[a]
-    d0 = r[a + 1, 0] - r[a, 0]
-    d1 = r[a + 1, 1] - r[a, 1]
-    d2 = r[a + 1, 2] - r[a, 2]
-    p0 = R[a, 0, 0] * d0 + R[a, 1, 0] * d1 + R[a, 2, 0] * d2
-    p1 = R[a, 0, 1] * d0 + R[a, 1, 1] * d1 + R[a, 2, 1] * d2
-    p2 = R[a, 0, 2] * d0 + R[a, 1, 2] * d1 + R[a, 2, 2] * d2
+    p0, p1, p2 = _segment_offset(a, R, r)
     # Q = R_a^T R_{a+1} into B[a][3:6, 9:12] for now; x = cay^-1(Q)
     for i in range(3):
         for j in range(3):

@@ -312,6 +312,18 @@ _INLINE = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=Tr
 
 
 @njit(**_INLINE)
+def _segment_offset(a, R, r):
+    """p = R_a^T (r_{a+1} - r_a): segment a's node-to-node offset [m] in node a's frame, as p0, p1, p2."""
+    d0 = r[a + 1, 0] - r[a, 0]
+    d1 = r[a + 1, 1] - r[a, 1]
+    d2 = r[a + 1, 2] - r[a, 2]
+    p0 = R[a, 0, 0] * d0 + R[a, 1, 0] * d1 + R[a, 2, 0] * d2
+    p1 = R[a, 0, 1] * d0 + R[a, 1, 1] * d1 + R[a, 2, 1] * d2
+    p2 = R[a, 0, 2] * d0 + R[a, 1, 2] * d1 + R[a, 2, 2] * d2
+    return p0, p1, p2
+
+
+@njit(**_INLINE)
 def _quaternion_into(M, q):
     """q[4] <- unit quaternion (w, x, y, z), w >= 0, of the rotation matrix M[3, 3] (Shepperd)."""
     m00 = M[0, 0]
@@ -350,6 +362,21 @@ def _quaternion_into(M, q):
     q[1] = x / nrm
     q[2] = y / nrm
     q[3] = z / nrm
+
+
+@njit(**_INLINE)
+def _relative_rotation_parts(A, B, tr):
+    """tr + tr(A^T B) and vee(A^T B - B^T A) (sk0, sk1, sk2) of rotations A, B (3, 3): the parts of
+    cay^-1(A^T B) = 2 / (1 + tr(A^T B)) vee(A^T B - B^T A); the caller gives the start ``tr`` of the sum."""
+    sk0 = 0.0
+    sk1 = 0.0
+    sk2 = 0.0
+    for c in range(3):
+        tr += A[c, 0] * B[c, 0] + A[c, 1] * B[c, 1] + A[c, 2] * B[c, 2]
+        sk0 += A[c, 2] * B[c, 1] - A[c, 1] * B[c, 2]
+        sk1 += A[c, 0] * B[c, 2] - A[c, 2] * B[c, 0]
+        sk2 += A[c, 1] * B[c, 0] - A[c, 0] * B[c, 1]
+    return tr, sk0, sk1, sk2
 
 
 @njit(**_INLINE)

@@ -41,7 +41,7 @@ import numpy as np
 from numba import njit, prange
 
 from .contact_kernels import _applied_outputs, _contact_loads
-from .kernel_records import _INLINE, kernel_stamp
+from .kernel_records import _INLINE, _relative_rotation_parts, kernel_stamp
 from .kernel_records import BIFURCATION as BIFURCATION
 from .kernel_records import BRANCH as BRANCH
 from .kernel_records import CLAMPED as CLAMPED
@@ -360,21 +360,7 @@ def _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, o
         y2 = 0.0
         if jq >= 0:
             # y = cay^-1(A), A = R^T R_next: s = 2 / (1 + tr A), y = s vee(A - A^T)
-            tr = 1.0
-            sk0 = 0.0
-            sk1 = 0.0
-            sk2 = 0.0
-            for c in range(3):
-                R0 = R[a, c, 0]
-                R1 = R[a, c, 1]
-                R2 = R[a, c, 2]
-                P0 = presc_R[i + 1, jq, c, 0]
-                P1 = presc_R[i + 1, jq, c, 1]
-                P2 = presc_R[i + 1, jq, c, 2]
-                tr += R0 * P0 + R1 * P1 + R2 * P2
-                sk0 += R2 * P1 - R1 * P2
-                sk1 += R0 * P2 - R2 * P0
-                sk2 += R1 * P0 - R0 * P1
+            tr, sk0, sk1, sk2 = _relative_rotation_parts(R[a], presc_R[i + 1, jq], 1.0)  # tr = 1 + tr A
             s = 2.0 / tr
             y0 = s * sk0
             y1 = s * sk1

@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..errors import SimulationError, bad
+from ..errors import SimulationError, bad, store_frozen
 from .kernels import MIN_DIPOLE_DISTANCE, magnet_wrench_into
 
 
@@ -73,9 +73,7 @@ class MagneticDipoles:
         if np.any(nodes < 0) or np.any((fields["fractions"] < 0) | (fields["fractions"] >= 1)):
             raise bad("magnetic.nodes", nodes.tolist(), "segment start nodes >= 0 with fractions in [0, 1)")
         fields["currents"] = cur
-        for name, a in fields.items():
-            a.setflags(write=False)
-            object.__setattr__(self, name, a)
+        store_frozen(self, **fields)
 
     @property
     def n_magnets(self) -> int:

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernel_records import _INLINE, times_cayley_into
+from .kernel_records import _INLINE, _relative_rotation_parts, times_cayley_into
 
 MU0 = 4e-7 * math.pi
 """Vacuum permeability [T m/A]."""
@@ -68,21 +68,7 @@ def field_gradient_into(coil_pos, coil_moment, currents, p0, p1, p2, B, G):
 def _interp_rotation_into(R, a, t, out):
     """out (3, 3) <- R_a cay(t x), x = cay^-1(R_a^T R_{a+1}) (rotation a fraction t from node a to a + 1)."""
     # vee(Q - Q^T) and tr Q of Q = R_a^T R_b, Q_ij = sum_c R_a[c, i] R_b[c, j]
-    tr = 0.0
-    v0 = 0.0
-    v1 = 0.0
-    v2 = 0.0
-    for c in range(3):
-        A0 = R[a, c, 0]
-        A1 = R[a, c, 1]
-        A2 = R[a, c, 2]
-        B0 = R[a + 1, c, 0]
-        B1 = R[a + 1, c, 1]
-        B2 = R[a + 1, c, 2]
-        tr += A0 * B0 + A1 * B1 + A2 * B2
-        v0 += A2 * B1 - A1 * B2
-        v1 += A0 * B2 - A2 * B0
-        v2 += A1 * B0 - A0 * B1
+    tr, v0, v1, v2 = _relative_rotation_parts(R[a], R[a + 1], 0.0)
     s = 2.0 * t / (1.0 + tr)
     y0 = s * v0
     y1 = s * v1

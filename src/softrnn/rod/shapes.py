@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import bad
+from ..errors import bad, store_frozen
 from .so3 import frame_from_tangent
 
 
@@ -35,10 +35,7 @@ class RodShape:
         err = np.max(np.abs(R.transpose(0, 2, 1) @ R - np.eye(3)))
         if err > 1e-8 or np.any(np.linalg.det(R) < 0):
             raise bad("rotations", f"max |R^T R - I| = {err:.1e}", "proper rotation matrices")
-        r.setflags(write=False)
-        R.setflags(write=False)
-        object.__setattr__(self, "positions", r)
-        object.__setattr__(self, "rotations", R)
+        store_frozen(self, positions=r, rotations=R)
 
     @property
     def n_nodes(self) -> int:

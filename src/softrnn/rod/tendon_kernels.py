@@ -6,7 +6,7 @@ import math
 
 from numba import njit
 
-from .kernel_records import _INLINE
+from .kernel_records import _INLINE, _segment_offset
 
 
 @njit(**_INLINE)
@@ -49,12 +49,7 @@ def _tendon_springs(i, R, r, rod, inputs):
         Q20 = R[a, 0, 2] * R[a + 1, 0, 0] + R[a, 1, 2] * R[a + 1, 1, 0] + R[a, 2, 2] * R[a + 1, 2, 0]
         Q21 = R[a, 0, 2] * R[a + 1, 0, 1] + R[a, 1, 2] * R[a + 1, 1, 1] + R[a, 2, 2] * R[a + 1, 2, 1]
         Q22 = R[a, 0, 2] * R[a + 1, 0, 2] + R[a, 1, 2] * R[a + 1, 1, 2] + R[a, 2, 2] * R[a + 1, 2, 2]
-        d0 = r[a + 1, 0] - r[a, 0]
-        d1 = r[a + 1, 1] - r[a, 1]
-        d2 = r[a + 1, 2] - r[a, 2]
-        p0 = R[a, 0, 0] * d0 + R[a, 1, 0] * d1 + R[a, 2, 0] * d2
-        p1 = R[a, 0, 1] * d0 + R[a, 1, 1] * d1 + R[a, 2, 1] * d2
-        p2 = R[a, 0, 2] * d0 + R[a, 1, 2] * d1 + R[a, 2, 2] * d2
+        p0, p1, p2 = _segment_offset(a, R, r)
         s = 2.0 / (1.0 + Q00 + Q11 + Q22)
         x0 = s * (Q21 - Q12)
         x1 = s * (Q02 - Q20)

@@ -230,17 +230,7 @@ class Tendon:
             raise SoftrnnInputError(f"tendon {self.name!r} is driven by a displacement: its tension follows the "
                                     "rod's configuration; read it from Trajectory.tendon_tensions or "
                                     "StaticSolution.tendon_tensions")
-        if not callable(self.tension):
-            return np.full(t.shape, self.tension)
-        value = np.asarray(self.tension(t), dtype=float)
-        if value.shape != t.shape:
-            raise bad(f"tendon {self.name!r} tension", f"a profile returning shape {value.shape}",
-                      f"a profile t (K,) -> (K,) in N (got {t.shape} times); wrap a vector time function "
-                      "in softrnn.rod.tendons.Scalar")
-        if not np.all(np.isfinite(value)):
-            raise SoftrnnInputError(f"tendon {self.name!r}: the tension profile is not finite at "
-                                    f"t = {float(t[~np.isfinite(value)][0]):.6g} s; give finite tensions in N")
-        return np.maximum(value, 0.0)
+        return np.maximum(self._profile(self.tension, t, "tension", "N"), 0.0)
 
     def displacements(self, t) -> np.ndarray:
         """Displacement (K,) [m] at times t (K,) [s] of a tendon driven by one (not clipped: a
@@ -250,16 +240,21 @@ class Tendon:
         if self.displacement is None:
             raise bad(f"tendon {self.name!r} displacement", None, "a tendon driven by a displacement (this one is "
                                                                   "pulled with a tension)")
-        if not callable(self.displacement):
-            return np.full(t.shape, self.displacement)
-        value = np.asarray(self.displacement(t), dtype=float)
+        return self._profile(self.displacement, t, "displacement", "m")
+
+    def _profile(self, profile, t: np.ndarray, what: str, unit: str) -> np.ndarray:
+        """The constant or profile ``profile`` (the tension or the displacement, named ``what``, in
+        ``unit``) at times t (K,) [s]: (K,); another shape or a value that is not finite is an error."""
+        if not callable(profile):
+            return np.full(t.shape, profile)
+        value = np.asarray(profile(t), dtype=float)
         if value.shape != t.shape:
-            raise bad(f"tendon {self.name!r} displacement", f"a profile returning shape {value.shape}",
-                      f"a profile t (K,) -> (K,) in m (got {t.shape} times); wrap a vector time function "
+            raise bad(f"tendon {self.name!r} {what}", f"a profile returning shape {value.shape}",
+                      f"a profile t (K,) -> (K,) in {unit} (got {t.shape} times); wrap a vector time function "
                       "in softrnn.rod.tendons.Scalar")
         if not np.all(np.isfinite(value)):
-            raise SoftrnnInputError(f"tendon {self.name!r}: the displacement profile is not finite at "
-                                    f"t = {float(t[~np.isfinite(value)][0]):.6g} s; give finite displacements in m")
+            raise SoftrnnInputError(f"tendon {self.name!r}: the {what} profile is not finite at "
+                                    f"t = {float(t[~np.isfinite(value)][0]):.6g} s; give finite {what}s in {unit}")
         return value
 
     def end_index(self, n_nodes: int, seg_length: float) -> int:

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...errors import bad
+from ...errors import bad, store_frozen
 from ..artifacts import from_fields
 
 OUTPUTS = ("increment", "pose", "acceleration")
@@ -132,9 +132,7 @@ class Normalizer:
         for name in ("pose_std", "wrench_std", "target_std", "delta_std"):
             if np.any(values[name] <= 0):
                 raise bad(name, values[name].tolist(), "positive standard deviations")
-        for name, arr in values.items():
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
+        store_frozen(self, **values)
 
     @property
     def pose_features(self) -> int:

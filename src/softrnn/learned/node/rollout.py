@@ -66,35 +66,25 @@ from .manipulator import (
 # --------------------------------------------------------------------------------------- rollout
 @dataclass(frozen=True, eq=False)
 class Rollout:
-    """A free-running prediction of every stored node.
-
-    Attributes
-    ----------
-    time : ndarray (T,) float64
-        Sample times [s]: the reference's samples ``first .. stop-1``.
-    nodes : ndarray (N,) int64
-        The reference's stored nodes.
-    positions : ndarray (T, N, 3) float32
-        Positions [m]: rows ``0 .. seed-1`` are the reference (the seed history), later rows of the
-        modelled nodes are predictions, and the unmodelled nodes follow the reference (or hold
-        their last seed pose, ``unmodelled="hold"``).
-    first : int
-        Reference sample index of row 0 (``start - seed``).
-    seed : int
-        Rows of seed history (the manipulator's longest history).
-    modelled : tuple of int
-        The predicted nodes.
-    unmodelled : str
-        'reference' or 'hold'.
-    """
+    """A free-running prediction of every stored node (``time``, ``nodes`` and ``positions`` as in
+    ``softrnn.io.Dataset``)."""
 
     time: np.ndarray
+    """Sample times (T,) [s], float64: the reference's samples ``first .. stop-1``."""
     nodes: np.ndarray
+    """The reference's stored nodes (N,), int64."""
     positions: np.ndarray
+    """Positions (T, N, 3) [m], float32: rows ``0 .. seed-1`` are the reference (the seed history),
+    later rows of the modelled nodes are predictions, and the unmodelled nodes follow the reference
+    (or hold their last seed pose, ``unmodelled="hold"``)."""
     first: int
+    """Reference sample index of row 0 (``start - seed``)."""
     seed: int
+    """Rows of seed history (the manipulator's longest history)."""
     modelled: tuple
+    """The predicted nodes (int)."""
     unmodelled: str
+    """'reference' or 'hold'."""
 
     @property
     def start(self) -> int:
