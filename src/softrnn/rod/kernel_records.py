@@ -382,8 +382,9 @@ def _relative_rotation_parts(A, B, tr):
 @njit(**_INLINE)
 def times_cayley_into(A, y0, y1, y2, ca, out):
     """out[3, 3] <- A[3, 3] cay(y), cay(y) = I + ca (y^ + y^ y^/2), ca = 4/(4 + |y|^2) (docs/lgvi.md
-    section 2.2); out may be A. The caller computes ca: ``_node`` and ``magnetics._driver`` sum
-    |y|^2 in different orders, and each keeps its own rounding. Compiled code only."""
+    section 2.2); out may be A. The caller computes ca: ``_node`` and the magnet interpolation
+    (``magnetic_kernels``) sum |y|^2 in different orders, and each keeps its own rounding. Compiled
+    code only."""
     cb = 0.5 * ca
     F00 = 1.0 - cb * (y1 * y1 + y2 * y2)
     F11 = 1.0 - cb * (y0 * y0 + y2 * y2)
