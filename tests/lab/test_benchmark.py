@@ -12,6 +12,7 @@ from softrnn.errors import SoftrnnInputError
 from softrnn.lab.benchmark import BASELINES, FAMILIES, BenchmarkOptions, run_benchmark
 from softrnn.lab.families import (
     NODE_TRAINING,
+    ConstantVelocityFamily,
     LinearARXFamily,
     NetOptions,
     NodeOptions,
@@ -50,6 +51,7 @@ def test_report_has_the_documented_keys(report):
     assert set(report) >= {"robot", "models", "baselines", "best_model", "best_baseline",
                            "ratio_best_model_to_best_baseline", "seconds"}
     assert set(report["models"]) == set(FAMILIES) and set(report["baselines"]) == set(BASELINES)
+    assert "constant_velocity" in report["baselines"] and "constant_velocity" in BASELINES
     for entry in [*report["models"].values(), *report["baselines"].values()]:
         assert set(entry) >= {"tip_rmse_mm", "tip_mean_mm", "tip_rmse_pct_of_length"}
         assert all(math.isfinite(v) and v >= 0 for v in entry.values())
@@ -72,6 +74,10 @@ def test_physics_of_the_right_model_class_wins(report):
 def test_baselines_by_hand(sessions):
     train, val = sessions
     assert np.all(PersistenceFamily().fit([train]).predict(val) == val.tip[0])
+    cv = ConstantVelocityFamily().fit([train]).predict(val)                  # the first velocity, run free
+    k = np.arange(val.n_rows)[:, None]
+    np.testing.assert_allclose(cv, val.tip[0] + k * (val.tip[1] - val.tip[0]), rtol=0, atol=1e-10)
+    assert np.array_equal(cv[:2], val.tip[:2])
     arx = LinearARXFamily(1, 1).fit([train])
     pred = arx.predict(val)
     assert np.array_equal(pred[0], val.tip[0])
@@ -119,7 +125,7 @@ def test_a_pull_beyond_the_routing_is_refused(sessions):
 
 def test_fit_returns_a_new_frozen_model_and_leaves_the_family_as_it_was(sessions):
     train, val = sessions
-    for family in (LinearARXFamily(2, 1), StaticPolynomial(2, 1e-3), PersistenceFamily()):
+    for family in (LinearARXFamily(2, 1), StaticPolynomial(2, 1e-3), PersistenceFamily(), ConstantVelocityFamily()):
         fitted = family.fit([train])
         assert type(fitted) is type(family) and fitted.predict(val).shape == val.tip.shape
         with pytest.raises(dataclasses.FrozenInstanceError):

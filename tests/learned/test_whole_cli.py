@@ -159,9 +159,11 @@ def test_rollout_writes_a_data_set_of_every_node(model, data, tmp_path, capsys):
 
 def test_a_diverging_rollout_is_one_line_naming_the_time(model, data, tmp_path, capsys, monkeypatch):
     import softrnn.learned.whole.rollout as rollout
+    from softrnn.learned.horizons import RolloutDiverged
 
-    def diverging(predictor, traj, start, stop=None):
-        return np.full((stop - start - 1,) + traj.states.shape[1:], np.nan), 3
+    def diverging(predictor, traj, wrenches, start, stop):
+        raise RolloutDiverged("diverged", node=0, sample=start + 2, time=float(traj.time[start + 2]),
+                              states=np.full((stop - start,) + traj.states.shape[1:], np.nan))
 
     monkeypatch.setattr(rollout, "free_run", diverging)
     out = tmp_path / "pred.h5"

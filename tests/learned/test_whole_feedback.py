@@ -12,7 +12,7 @@ import pytest
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.io import Dataset
-from softrnn.learned.whole import evaluation
+from softrnn.learned.baselines import free_run
 from softrnn.learned.whole.config import DynamicConfig
 from softrnn.learned.whole.encoding import make_encoding
 from softrnn.learned.whole.feedback import Feedback, pd_laws
@@ -135,7 +135,7 @@ def test_a_free_run_applies_the_law_to_its_own_states(square_variant):
     enc = make_encoding([ds], model_dt=DT, node_stride=5, length=0.5, feedback=True)
     traj = enc.trajectory(ds)
     rec = _Recorder()
-    states, _ = evaluation.free_run(rec, traj, 3, 12)
+    states = free_run(rec, traj, None, 4, 12)
     for k, (hist, loads) in enumerate(rec.seen):
         np.testing.assert_allclose(loads, traj.loads[3 + k] + traj.feedback.force(hist[-1], hist[-2], 3 + k))
     # from the second step on, the history is the run's own: the law sees the predicted states

@@ -17,7 +17,8 @@ from scipy.interpolate import CubicSpline
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.io import Dataset, read_dataset, write_dataset
-from softrnn.learned.baselines import ConstantVelocity, Persistence, StateBaseline
+from softrnn.learned.baselines import ConstantVelocity, Persistence, StateBaseline, free_run
+from softrnn.learned.horizons import RolloutDiverged
 from softrnn.learned.whole import evaluation
 from softrnn.learned.whole.config import DynamicConfig, load_channels, resolve_stride
 from softrnn.learned.whole.encoding import Encoding, Trajectory, kept_nodes, lumping_matrix, make_encoding
@@ -283,9 +284,12 @@ def test_free_run_reports_a_divergence():
         def step(self, hist, loads, memory=None):
             return hist[-1] * 4.0 + 1.0, None
 
-    states, diverged = evaluation.free_run(Runaway(), traj, 1)
+    with pytest.raises(RolloutDiverged) as caught:
+        free_run(Runaway(), traj, None, 2, traj.n_steps)
+    states, diverged = caught.value.states, caught.value.sample - 1
     assert diverged == 3                                   # 1, 5, 21 > DIVERGED_M = 16
     assert np.isfinite(states[:2]).all() and np.isnan(states[2:]).all()
+    assert len(states) == traj.n_steps - 2 and caught.value.time == traj.time[4]
     err, _ = evaluation.run_errors(Runaway(), enc, traj, ds, 1)
     assert np.isfinite(err[:2]).all() and np.isinf(err[2:]).all()
 
@@ -346,9 +350,8 @@ def test_save_load_round_trip_gives_the_same_free_run(trained, chain_encoding, t
     np.testing.assert_array_equal(loaded.encoding.ref_quaternions, enc.ref_quaternions)
     H = trained.config.history
     for mine, theirs in ((engine_of(trained.net), loaded.engine), (engine_of(trained.linear), loaded.linear)):
-        a, da = evaluation.free_run(mine, trajs[0], H - 1)
-        b, db = evaluation.free_run(theirs, trajs[0], H - 1)
-        assert da is None and db is None
+        a = free_run(mine, trajs[0], None, H, trajs[0].n_steps)          # raises RolloutDiverged where it diverges
+        b = free_run(theirs, trajs[0], None, H, trajs[0].n_steps)
         np.testing.assert_array_equal(a, b)
 
 

@@ -10,6 +10,7 @@ import pytest
 
 from softrnn.io import Dataset
 from softrnn.io.schema import contact_record
+from softrnn.learned.baselines import free_run
 from softrnn.learned.whole import evaluation
 from softrnn.learned.whole.config import DynamicConfig
 from softrnn.learned.whole.encoding import make_encoding
@@ -129,12 +130,11 @@ def test_a_free_run_reports_no_node_inside_an_obstacle_and_steps_on_its_own_stat
     result = training.train_dynamic_model([enc.trajectory(d) for d in data[:2]], enc, config, threads=1)
     traj = enc.trajectory(data[2])
     assert traj.projection is not None
-    states, diverged = evaluation.free_run(engine_of(result.linear), traj, 2)
-    assert diverged is None
+    states = free_run(engine_of(result.linear), traj, None, 3, traj.n_steps)   # raises where it diverges
     assert max(traj.projection.depth(s) for s in states) <= 1e-12
     # the run steps on its own states: the projected run is the unprojected one, projected
     off = dataclasses.replace(traj, projection=None)
-    loose, _ = evaluation.free_run(engine_of(result.linear), off, 2)
+    loose = free_run(engine_of(result.linear), off, None, 3, off.n_steps)
     assert max(traj.projection.depth(s) for s in loose) > 0.01 * 0.004   # the model sinks 1 % of r into the table
     np.testing.assert_array_equal(states, np.array([traj.projection(s.copy()) for s in loose]))
     # the projection only brings the reported nodes closer to the data here (a half space), up to

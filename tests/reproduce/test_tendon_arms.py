@@ -63,8 +63,8 @@ def test_a_rerun_reads_the_finished_case(run):
 def test_the_model_reads_only_the_tensions(run):
     """Recorded forces and torques replaced by noise (or zeros) change nothing; other tensions do."""
     from softrnn.io import read_dataset
+    from softrnn.learned.baselines import free_run
     from softrnn.learned.whole.artifact import load_dynamic
-    from softrnn.learned.whole.evaluation import free_run
 
     out, _ = run
     loaded = load_dynamic(out / "tendons" / CASE / "model")
@@ -73,7 +73,7 @@ def test_the_model_reads_only_the_tensions(run):
     noisy = replace(ds, forces=rng.normal(size=ds.forces.shape), torques=np.zeros_like(ds.torques))
     pulled = replace(ds, actuation=ds.actuation + 3.0)
     enc = loaded.encoding
-    a, b, c = (free_run(loaded.engine, enc.trajectory(d), 2)[0] for d in (ds, noisy, pulled))
+    a, b, c = (free_run(loaded.engine, t, None, 3, t.n_steps) for t in map(enc.trajectory, (ds, noisy, pulled)))
     np.testing.assert_array_equal(a, b)
     assert not np.allclose(a, c)
 

@@ -17,6 +17,7 @@ import numpy as np
 from ..errors import SoftrnnInputError, bad, positive
 from ..learned.metrics import tip_errors
 from .families import (
+    ConstantVelocityFamily,
     Hybrid,
     LearnedMap,
     LinearARXFamily,
@@ -37,7 +38,8 @@ from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
 
 FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
 """softrnn's model families, in the order they are fitted."""
-BASELINES = ("persistence", "linear_arx", "static_map")
+BASELINES = ("persistence", "constant_velocity", "linear_arx", "static_map")
+"""The baselines, in report order: the first three the shared ones of ``softrnn.learned.baselines``."""
 ARX_ORDERS = ((1, 1), (2, 1), (1, 2), (2, 2))
 POLY_CANDIDATES = tuple((d, r) for d in (1, 2, 3) for r in (1e-6, 1e-3, 1e-1))
 MIN_ROWS = 10
@@ -305,9 +307,10 @@ class _Table:
 
 
 def _baselines(train: list[Recording], out: _Table) -> None:
-    """Persistence, the linear ARX model and the static polynomial map, their options chosen on the
-    training sessions' hold-out part."""
+    """Persistence, constant velocity, the linear ARX model and the static polynomial map, their options
+    chosen on the training sessions' hold-out part."""
     out.record(out.baselines, "persistence", PersistenceFamily().fit(train))
+    out.record(out.baselines, "constant_velocity", ConstantVelocityFamily().fit(train))
     c = choose({f"na={a},nb={b}": (lambda a=a, b=b: LinearARXFamily(a, b)) for a, b in ARX_ORDERS}, train)
     a, b = (int(x.split("=")[1]) for x in c.chosen.split(","))
     out.record(out.baselines, "linear_arx", LinearARXFamily(a, b).fit(train), c.scores)

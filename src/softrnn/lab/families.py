@@ -1,36 +1,32 @@
 """The models a robot's recordings are fitted with, and the baselines they are compared with.
 
-Every family is a frozen description of a model; ``fit(sessions)`` returns the fitted model, a
-new frozen instance of the same class, which predicts the tip of a whole session free running from
-its start on the commands alone (``predict(session)`` -> (T, 3) [m]) and says what it is
-(``describe()``): the recorded tip is read only where a model needs an initial condition (the first
-row for persistence, the first ``na`` rows for the linear ARX model), never afterwards.
+Every family is a frozen description of a model; ``fit(sessions)`` returns the fitted model, a new frozen
+instance of the same class, which predicts the tip of a whole session free running from its start on the
+commands alone (``predict(session)`` -> (T, 3) [m]) and says what it is (``describe()``): the recorded tip is
+read only where a model needs an initial condition (the first row for persistence, two for constant velocity,
+``na`` for the linear ARX model), never afterwards.
 
 Baselines (the cores shared with the learned models, ``softrnn.learned``):
 
-* ``PersistenceFamily``: ``learned.baselines.Persistence`` run free: the tip stays where the
-  session starts.
-* ``LinearARXFamily``: ``learned.linear.LinearARX`` of the tip driven by the commands, y_k = sum_i
-  A_i y_{k-i} + sum_j B_j u_{k-j} + c, least squares, run free on its own output.
+* ``PersistenceFamily``, ``ConstantVelocityFamily``: ``learned.baselines.Persistence`` and
+  ``ConstantVelocity`` run free: the tip stays where the session starts, or keeps its first velocity.
+* ``LinearARXFamily``: ``learned.linear.LinearARX`` of the tip driven by the commands (least squares, run free).
 * ``StaticPolynomial``: the tip as a polynomial of the current inputs (ridge least squares).
 
 softrnn's models:
 
 * ``Physics``: the calibrated tendon robot (``softrnn.lab.tendon_robot``).
-* ``LearnedMap``: a small network (an ensemble of MLPs) of the current and previous inputs, and
-  optionally a hysteresis state (play operators of each input), to the tip: a static map with
-  the path dependence that friction gives.
-* ``Hybrid``: the calibrated physics plus a network of the same inputs and the physics' tip that
-  predicts only what the physics misses.
-* ``Sequence``: a recurrent network (GRU) reading the commands and the interval since the previous
-  row, so it can represent lag, creep and hysteresis; it runs free from a zero state.
+* ``LearnedMap``: a small network (an ensemble of MLPs) of the current and previous inputs, and optionally a
+  hysteresis state (play operators of each input), to the tip: a static map with the path dependence of friction.
+* ``Hybrid``: the calibrated physics plus a network of the same inputs and the physics' tip that predicts only
+  what the physics misses.
+* ``Sequence``: a recurrent network (GRU) reading the commands and the interval since the previous row, so it
+  can represent lag, creep and hysteresis; it runs free from a zero state.
 * ``NodeFamily``: softrnn's per-node LSTM (``softrnn.learned.node``) driven by the commands alone.
 
-The errors of a prediction are ``softrnn.learned.metrics.tip_errors``.
-
-Options with more than one sensible value (the ARX orders, the polynomial's degree and ridge,
-the hysteresis state) are chosen on a hold-out part of the training sessions (``choose``), never
-on the session a model is reported on.
+The errors of a prediction are ``softrnn.learned.metrics.tip_errors``. Options with more than one sensible value
+(the ARX orders, the polynomial's degree and ridge, the hysteresis state) are chosen on a hold-out part of the
+training sessions (``choose``), never on the session a model is reported on.
 """
 
 from __future__ import annotations
@@ -44,7 +40,7 @@ import numpy as np
 
 from ..errors import SoftrnnInputError
 from ..io.reader import Dataset
-from ..learned.baselines import Persistence, free_run
+from ..learned.baselines import ConstantVelocity, Persistence, free_run
 from ..learned.linear import LinearARX
 from ..learned.metrics import tip_errors
 from ..learned.node.train_config import TrainConfig
@@ -91,25 +87,32 @@ def play(u: np.ndarray, width: np.ndarray) -> np.ndarray:
 # -------------------------------------------------------------------------------------------- baselines
 @dataclass(frozen=True)
 class PersistenceFamily:
-    """The tip stays at the session's first recorded position (``learned.baselines.Persistence``
-    run free from the first row)."""
+    """The tip stays at the session's first recorded position (``learned.baselines.Persistence`` run free)."""
 
     name: str = "persistence"
+    baseline, kind = Persistence(), "the first row's tip held"    # class attributes, not fields
 
     def fit(self, sessions) -> PersistenceFamily:
-        """The fitted model (nothing to fit) for training sessions (a list of ``Recording``)."""
+        """The fitted model (nothing to fit: ``self``) for training sessions (a list of ``Recording``)."""
         return self
 
     def predict(self, session: Recording) -> np.ndarray:
-        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
-        tip = session.tip[:, None]                                                  # (T, 1, 3)
-        if session.n_rows == 1:
-            return session.tip.copy()
-        return np.concatenate([session.tip[:1], free_run(Persistence(), tip, None, 1, session.n_rows)[:, 0]])
+        """The tip (T, 3) [m] over ``session``, free running from its first ``history`` rows."""
+        H, T = self.baseline.history, session.n_rows
+        run = free_run(self.baseline, session.tip[:, None], None, H, T)[:, 0] if T > H else session.tip[H:]
+        return np.concatenate([session.tip[:H], run])                              # (T, 3)
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
-        return {"kind": "the first row's tip held"}
+        return {"kind": self.kind}
+
+
+@dataclass(frozen=True)
+class ConstantVelocityFamily(PersistenceFamily):
+    """The tip keeps the velocity of the session's first two rows (``learned.baselines.ConstantVelocity``)."""
+
+    name: str = "constant_velocity"
+    baseline, kind = ConstantVelocity(), "the first two rows' velocity kept"
 
 
 @dataclass(frozen=True, eq=False)

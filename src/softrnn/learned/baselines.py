@@ -37,7 +37,7 @@ from .linear import ALPHAS as ALPHAS  # re-exported: the linear model's names, w
 from .linear import MAX_MANIPULATOR_FEATURES as MAX_MANIPULATOR_FEATURES
 from .linear import MODES as MODES
 from .linear import LinearAR, LinearARConfig
-from .spans import WINDOWS, check_span
+from .spans import WINDOWS, check_span, check_step_start
 
 _BATCH = 1024
 
@@ -98,7 +98,7 @@ class ConstantVelocity:
 @dataclass(frozen=True)
 class StateBaseline:
     """``Persistence`` or ``ConstantVelocity`` stepping a whole-manipulator model's encoded state
-    (``softrnn.learned.whole``): the predictor interface of ``whole.evaluation.free_run``.
+    (``softrnn.learned.whole``): a predictor of ``free_run`` over a ``Trajectory``.
 
     Attributes
     ----------
@@ -148,9 +148,14 @@ def free_run(baseline: AbstractBaseline, positions, wrenches, start: int, stop: 
     start < stop <= T) by the fitted ``baseline`` from the reference ``positions`` (T, N, 3) [m] and
     ``wrenches`` (T, N, W) or None [N, N m]: the window before ``start`` is the reference's, every
     later one holds the baseline's own predictions for the ``modelled`` columns (default every
-    column) and the reference for the others; the wrenches are always the reference's. The loop is
-    ``horizons.free_steps``. A coordinate beyond ``DIVERGED_M`` or not finite raises
-    ``RolloutDiverged`` (``node``: the column, ``time``: NaN)."""
+    column) and the reference for the others; the wrenches are always the reference's. Where
+    ``positions`` is a whole-manipulator model's ``Trajectory`` (``learned.whole.encoding``), the
+    predictor (a ``DynamicEngine``, ``StateBaseline``, ...) steps its encoded states instead
+    (``_free_run_states``; ``wrenches`` None). The loop is ``horizons.free_steps``. A coordinate
+    beyond ``DIVERGED_M`` or not finite raises ``RolloutDiverged`` (``node``: the column,
+    ``sample``: the row's index, ``states``: the run, NaN from there on)."""
+    if hasattr(positions, "follow"):                            # a whole-manipulator model's Trajectory
+        return _free_run_states(baseline, positions, int(start), int(stop))
     P = _positions("positions", positions)
     Wr = _wrenches("wrenches", wrenches, P.shape[:2], 0)   # any width: the baseline checks its own
     H = _history(baseline.history)
@@ -158,27 +163,61 @@ def free_run(baseline: AbstractBaseline, positions, wrenches, start: int, stop: 
     cols = _columns("modelled", modelled, P.shape[1])
     state = P[start - H:stop].copy()                                            # (H + L, N, 3)
     loads = None if Wr is None else Wr[start - H:stop]
+    bad_column = []
 
-    def step(k: int, window: np.ndarray) -> np.ndarray:
+    def step(k: int, window: np.ndarray) -> np.ndarray | None:
         pred = baseline.step(window, None if loads is None else loads[k - H:k], None if loads is None else loads[k])
         new = _checked(pred, P.shape[1:])[cols]
         bad_rows = ~(np.isfinite(new).all(axis=1) & (np.abs(new) <= DIVERGED_M).all(axis=1))
         if bad_rows.any():
-            _diverged(int(cols[np.flatnonzero(bad_rows)[0]]), start - H + k)
+            bad_column.append(int(cols[np.flatnonzero(bad_rows)[0]]))
+            return None
         row = state[k].copy()                  # the reference, for the columns not modelled
         row[cols] = new
         return row
 
     with np.errstate(under="ignore"):
-        free_steps(step, state, H)
+        k = free_steps(step, state, H)
+    if k is not None:
+        state[k:] = np.nan
+        raise RolloutDiverged(f"the baseline's free run diverged: column {bad_column[0]} left {DIVERGED_M:g} m (or "
+                              f"became not finite) at sample {start - H + k}; report it as diverged or use a shorter "
+                              "span", node=bad_column[0], sample=start - H + k, time=float("nan"), states=state[H:])
     return state[H:]
 
 
+def _free_run_states(predictor, traj, start: int, stop: int) -> np.ndarray:
+    """``free_run`` of a whole-manipulator ``predictor`` (``history``, ``step(hist, loads, memory)``)
+    from the states of ``traj`` before model step ``start`` (history <= start < stop <= S): states
+    (stop - start, M, 6) of steps start .. stop-1. The loads are the data's, with the trajectory's
+    feedback laws applied to the run's own states (``Trajectory.inputs``); prescribed nodes follow
+    their recorded path whatever the predictor (``Trajectory.follow``). The states returned are
+    moved out of the data's obstacles (``Trajectory.projected``); the run steps on the unprojected
+    ones. A state beyond ``DIVERGED_M`` or not finite raises ``RolloutDiverged`` (``sample``: its step)."""
+    H = int(predictor.history)
+    check_step_start(start - 1, H, stop)
+    state = np.full((H + stop - start,) + traj.states.shape[1:], np.nan)
+    state[:H] = traj.states[start - H:start]
+    memory, last = None, []
 
-def _diverged(column: int, sample: int):
-    raise RolloutDiverged(f"the baseline's free run diverged: column {column} left {DIVERGED_M:g} m (or became "
-                          f"not finite) at sample {sample}; report it as diverged or use a shorter span",
-                          node=column, sample=sample, time=float("nan"))
+    def step(k: int, hist: np.ndarray) -> np.ndarray | None:
+        nonlocal memory
+        u = traj.inputs(hist, start - 1 + k - H)
+        nxt, memory = predictor.step(hist, u, memory)
+        traj.follow(nxt, hist[-1], u)        # prescribed nodes on their path, for a baseline too
+        if np.all(np.abs(nxt) < DIVERGED_M):
+            return nxt
+        last.append(nxt)
+        return None
+
+    k = free_steps(step, state, H)
+    states = traj.projected(state[H:])
+    if k is not None:
+        node = int(np.flatnonzero(~np.all(np.abs(last[0]) < DIVERGED_M, axis=-1))[0])
+        at = start - H + k
+        raise RolloutDiverged(f"the free run diverged: node {node} left {DIVERGED_M:g} m (or became not finite) at "
+                              f"model step {at}", node=node, sample=at, time=float(traj.time[at]), states=states)
+    return states
 
 
 def horizon_errors(pred_fn: Callable, positions, wrenches, starts, horizons=HORIZONS, *,

@@ -48,11 +48,13 @@ also the largest coordinate a data set file stores (``softrnn.io.schema.POSITION
 
 class RolloutDiverged(SimulationError):
     """A model predicted a non-finite position or one beyond ``DIVERGED_M``; ``node``, ``sample``
-    (reference sample index) and ``time`` [s] say where."""
+    (reference sample index, or model step) and ``time`` [s] say where; ``states``, where the run
+    was ``baselines.free_run``'s, is what it returns had it not diverged, NaN from ``sample`` on."""
 
-    def __init__(self, message: str, *, node: int, sample: int, time: float):
+    def __init__(self, message: str, *, node: int, sample: int, time: float, states: np.ndarray | None = None):
         super().__init__(message)
         self.node, self.sample, self.time = int(node), int(sample), float(time)
+        self.states = states
 
 
 def free_steps(step: Callable[[int, np.ndarray], np.ndarray | None], state: np.ndarray, history: int) -> int | None:

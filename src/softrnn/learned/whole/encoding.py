@@ -128,6 +128,14 @@ class Trajectory:
         (``softrnn.learned.whole.obstacles``; unchanged without ``projection``)."""
         return nxt if self.projection is None else self.projection(nxt)
 
+    def projected(self, states: np.ndarray) -> np.ndarray:
+        """``states`` (K, M, 6) with every finite row moved out of the data's obstacles (in place)."""
+        if self.projection is not None:
+            for row in states:
+                if np.all(np.isfinite(row)):
+                    self.project(row)
+        return states
+
     @property
     def n_steps(self) -> int:
         """S, the model steps held."""

@@ -4,7 +4,7 @@ linear model on the same inputs, at every node (NumPy only).
 Every predictor steps the encoded state (``Encoding``) at the model's step: persistence (the state
 stays) and constant velocity (the last step repeats), the baselines of ``softrnn.learned.baselines``
 behind ``StateBaseline`` (``state_baselines``), the linear model and the learned model
-(``DynamicEngine``). The free-running loop (``horizons.free_steps``), the evaluation by horizon
+(``DynamicEngine``). The free run (``baselines.free_run``), the evaluation by horizon
 (``horizons.worst_by_horizon``) and the span checks (``softrnn.learned.spans``) are those of the
 node models; the error measure is this model's own. A free run starts from the data's history at a
 model step and feeds its own predictions back; the loads are the data's. Errors are measured at
@@ -25,8 +25,8 @@ from typing import final
 
 import numpy as np
 
-from ..baselines import ConstantVelocity, Persistence, StateBaseline
-from ..horizons import WHOLE_HORIZON_STARTS, WHOLE_HORIZONS, HorizonTable, free_steps, horizon_table
+from ..baselines import ConstantVelocity, Persistence, StateBaseline, free_run
+from ..horizons import WHOLE_HORIZON_STARTS, WHOLE_HORIZONS, HorizonTable, RolloutDiverged, horizon_table
 from ..metrics import euclidean_summary, tip_errors
 from ..spans import check_step_start, start_of_test_span
 from .encoding import Encoding, Trajectory
@@ -50,41 +50,6 @@ def state_baselines() -> dict[str, StateBaseline]:
     return {"persistence": StateBaseline(Persistence()), "constant_velocity": StateBaseline(ConstantVelocity())}
 
 
-def free_run(predictor, traj: Trajectory, start: int, stop: int | None = None) -> tuple[np.ndarray, int | None]:
-    """Run ``predictor`` free from model step ``start`` (the last history state) to ``stop``
-    (exclusive; default: the end): states (stop - start - 1, M, 6) of steps start+1 .. stop-1 and
-    the step (1-based) where it diverged, or None. Rows from a divergence on are NaN. The loads are
-    the data's, with the trajectory's feedback laws applied to the run's own states
-    (``Trajectory.inputs``); prescribed nodes follow their recorded path whatever the predictor
-    (``Trajectory.follow``). The returned states are moved out of the data's obstacles
-    (``Trajectory.project``); the run itself steps on the unprojected ones."""
-    H = int(predictor.history)
-    stop = traj.n_steps if stop is None else int(stop)
-    check_step_start(start, H, stop)
-    state = np.full((H + stop - start - 1,) + traj.states.shape[1:], np.nan)
-    state[:H] = traj.states[start - H + 1:start + 1]
-    memory = None
-
-    def step(k: int, hist: np.ndarray) -> np.ndarray | None:
-        nonlocal memory
-        u = traj.inputs(hist, start + k - H)
-        nxt, memory = predictor.step(hist, u, memory)
-        traj.follow(nxt, hist[-1], u)        # prescribed nodes on their path, for a baseline too
-        return nxt if np.all(np.abs(nxt) < DIVERGED_M) else None
-
-    k = free_steps(step, state, H)
-    return _projected(traj, state[H:]), None if k is None else k - H + 1
-
-
-def _projected(traj: Trajectory, states: np.ndarray) -> np.ndarray:
-    """``states`` (K, M, 6) with every finite row moved out of the data's obstacles (in place)."""
-    if traj.projection is not None:
-        for row in states:
-            if np.all(np.isfinite(row)):
-                traj.project(row)
-    return states
-
-
 def node_errors(encoding: Encoding, states: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """Largest position error over all nodes at each step (K,) [m]: ``states`` (K, M, 6) decoded to
     every node against ``truth`` (K, N, 3) [m]; inf where ``states`` is NaN (diverged)."""
@@ -104,7 +69,10 @@ def truth_positions(dataset, encoding: Encoding, steps: np.ndarray) -> np.ndarra
 
 def run_errors(predictor, encoding: Encoding, traj: Trajectory, dataset, start: int, stop: int | None = None):
     """(errors (K,) [% of L] at steps start+1 .. stop-1, diverged step or None) of one free run."""
-    states, diverged = free_run(predictor, traj, start, stop)
+    try:
+        states, diverged = free_run(predictor, traj, None, start + 1, traj.n_steps if stop is None else stop), None
+    except RolloutDiverged as exc:                      # its states: NaN from the divergence on
+        states, diverged = exc.states, exc.sample - start
     steps = np.arange(start + 1, start + 1 + len(states))
     err = node_errors(encoding, states, truth_positions(dataset, encoding, steps))
     return 100.0 * err / encoding.length, diverged
@@ -124,7 +92,10 @@ def span_error(predictor, encoding, traj, dataset, start: int, *, tip: bool = Fa
     """The largest error over all nodes from ``start`` to the end: {max_pct_of_length, diverged_at,
     steps}; with ``tip`` also the tip's Euclidean errors free running (``tip_summary``: None where the
     run diverged) and one step ahead (``one_step``: each step from the data's history)."""
-    states, diverged = free_run(predictor, traj, start)
+    try:
+        states, diverged = free_run(predictor, traj, None, start + 1, traj.n_steps), None
+    except RolloutDiverged as exc:                      # its states: NaN from the divergence on
+        states, diverged = exc.states, exc.sample - start
     steps = np.arange(start + 1, start + 1 + len(states))
     truth = truth_positions(dataset, encoding, steps)
     err = 100.0 * node_errors(encoding, states, truth) / encoding.length
@@ -151,7 +122,7 @@ def one_step(predictor, traj: Trajectory, start: int, stop: int | None = None) -
         traj.follow(nxt, hist[-1], u)
         if np.all(np.abs(nxt) < DIVERGED_M):
             out[i] = nxt
-    return _projected(traj, out)
+    return traj.projected(out)
 
 
 def tip_summary(encoding: Encoding, states: np.ndarray, truth: np.ndarray) -> dict:

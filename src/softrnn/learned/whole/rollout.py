@@ -8,8 +8,9 @@ import numpy as np
 from ...errors import bad
 from ...io.reader import Dataset
 from ...io.schema import POSITION_LIMIT_M
+from ..baselines import free_run
+from ..horizons import RolloutDiverged
 from ..rollout import predicted_attrs, reference_columns
-from .evaluation import free_run
 
 
 def rollout_dataset(model, dataset, start: int, stop: int | None = None, attrs: dict | None = None):
@@ -23,7 +24,10 @@ def rollout_dataset(model, dataset, start: int, stop: int | None = None, attrs: 
     model's step, so ``write_dataset`` writes it as is; ``attrs`` are added."""
     enc = model.encoding
     traj = enc.trajectory(dataset)
-    states, diverged = free_run(model.engine, traj, start, stop)
+    try:
+        states, diverged = free_run(model.engine, traj, None, start + 1, traj.n_steps if stop is None else stop), None
+    except RolloutDiverged as exc:                      # its states: NaN from the divergence on
+        states, diverged = exc.states, exc.sample - start
     ok = np.all(np.isfinite(states), axis=(1, 2))
     states = np.concatenate([traj.states[start:start + 1], states[:int(np.argmin(ok)) if not ok.all() else None]])
     positions, quaternions = enc.decode(states)

@@ -31,11 +31,12 @@ from scipy.sparse.linalg import ArpackError, ArpackNoConvergence, eigs
 
 from ...errors import SoftrnnInputError
 from ...progress import Progress
+from ..baselines import free_run
 from ..checkpoints import RESTART, load_state, save_state
+from ..horizons import RolloutDiverged
 from .artifact import engine_of
 from .config import DynamicConfig, linear_config, load_channels
 from .encoding import Encoding, Trajectory
-from .evaluation import free_run
 from .network import DynamicNet, feedback_force
 
 CHECKPOINT_EVERY = 100
@@ -415,8 +416,9 @@ def validation_error(net: DynamicNet, validation: list[Trajectory], max_steps: i
         stop = min(traj.n_steps, H + max_steps)
         if stop <= H:
             continue
-        states, diverged = free_run(engine, traj, H - 1, stop)
-        if diverged is not None:
+        try:
+            states = free_run(engine, traj, None, H, stop)
+        except RolloutDiverged:
             return math.inf
         errors.append(float(np.linalg.norm(states[..., :3] - traj.states[H:stop, :, :3], axis=-1).max()))
     return float(np.mean(errors)) if errors else 0.0
