@@ -272,11 +272,18 @@ def _is_kernel(node) -> bool:
     return any("jit" in ast.unparse(d) or "vectorize" in ast.unparse(d) for d in node.decorator_list)
 
 
+def _builds_kernel(node) -> bool:
+    """A kernel's builder: a function that defines a numba kernel (a closure over a cache stamp) and
+    returns it; its length is the kernel's."""
+    return any(isinstance(s, ast.FunctionDef) and _is_kernel(s) for s in node.body)
+
+
 def test_no_function_outside_numba_kernels_is_longer_than_80_lines():
     long = []
     for path in ROOT.rglob("*.py"):
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and not _is_kernel(node):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and not _is_kernel(node) \
+                    and not _builds_kernel(node):
                 lines = node.end_lineno - node.lineno + 1
                 if lines > 80:
                     long.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({lines} lines)")

@@ -2,14 +2,16 @@
 and friction, and contact between the rod's own segments. ``_contact_loads`` adds the contact loads
 of the obstacles in ``StepInputs`` (and, with a SELF column, between the rod's own segments:
 ``_self_contact``) to the applied loads once per step, before the node loop, and only when there are
-obstacles (``contact_kind`` not empty): without them a step does no contact work. Inlined into
-``rod.kernels`` and ``rod.implicit`` (see ``rod.kernel_records``)."""
+obstacles: ``_contact_loads_if_any`` and ``_applied_outputs_if_any`` compile to nothing for inputs
+whose ``contact_kind`` is None, so a rod without obstacles never compiles the contact kernels.
+Inlined into ``rod.kernels`` and ``rod.implicit`` (see ``rod.kernel_records``)."""
 
 import math
 
 from numba import njit
+from numba.extending import overload
 
-from .kernel_records import _INLINE, BIFURCATION, BRANCH, CYLINDER, PLANE, SELF, UNION_BLEND, VESSEL
+from .kernel_records import _INLINE, BIFURCATION, BRANCH, CYLINDER, PLANE, SELF, UNION_BLEND, VESSEL, absent
 
 _VESSEL_WINDOW = 3
 """Segments searched either way of a node's tracked vessel segment before walking further."""
@@ -339,3 +341,33 @@ def _applied_outputs(row, inputs, out):
             for c in range(3):
                 out.forces[row, slot, c] = inputs.contact_applied[a, c]
                 out.torques[row, slot, c] = inputs.contact_applied[a, 3 + c]
+
+
+def _contact_loads_if_any(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
+    """``_contact_loads``; nothing for inputs without obstacles. Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+def _applied_outputs_if_any(row, inputs, out):
+    """``_applied_outputs``; nothing for inputs without obstacles. Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(_contact_loads_if_any, jit_options=_INLINE)
+def _contact_loads_if_any_impl(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
+    if absent(inputs, "contact_kind"):
+        return lambda row, record, h, R, r, v, w, rod, inputs, save_slot, work_f: None
+
+    def loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
+        _contact_loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f)
+    return loads
+
+
+@overload(_applied_outputs_if_any, jit_options=_INLINE)
+def _applied_outputs_if_any_impl(row, inputs, out):
+    if absent(inputs, "contact_kind"):
+        return lambda row, inputs, out: None
+
+    def outputs(row, inputs, out):
+        _applied_outputs(row, inputs, out)
+    return outputs

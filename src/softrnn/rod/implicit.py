@@ -58,9 +58,9 @@ from .kernels import (
     MAGNET_TOO_CLOSE,
     OK,
     _applied_loads,
-    _applied_outputs,
-    _contact_loads,
-    _magnet_loads,
+    _applied_outputs_if_any,
+    _contact_loads_if_any,
+    _magnet_loads_if_any,
     _node,
     _quaternion_into,
     _segment,
@@ -418,15 +418,13 @@ def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
     r = state.positions
     work_f = work.applied
     _applied_loads(i, R, r, state.velocities, inputs, work_f)
-    if len(inputs.magnet_node) > 0:
-        if _magnet_loads(i, row, record, R, r, inputs, work_f) >= 0:
-            return False, 0.0, 0.0
+    if _magnet_loads_if_any(i, row, record, R, r, inputs, work_f) >= 0:
+        return False, 0.0, 0.0
     if len(inputs.tendon_stiffness) > 0:
         _tendon_springs(i, R, r, rod, inputs)
-    contact = len(inputs.contact_kind) > 0
-    if contact:  # explicit, with the applied loads (docs/lgvi.md §2.11)
-        _contact_loads(row, record, h, R, r, state.velocities, state.angular_velocities, rod, inputs, out.save_slot,
-                       work_f)
+    # contact: explicit, with the applied loads (docs/lgvi.md §2.11)
+    _contact_loads_if_any(row, record, h, R, r, state.velocities, state.angular_velocities, rod, inputs,
+                          out.save_slot, work_f)
     n = len(r)
     g0 = rod.gravity[0]
     g1 = rod.gravity[1]
@@ -466,8 +464,8 @@ def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
                     out.forces[row, slot, c] = work_f[a, c]
                     out.torques[row, slot, c] = work_f[a, 3 + c]
                 _quaternion_into(R[a], out.quaternions[row, slot])
-    if record and contact:
-        _applied_outputs(row, inputs, out)
+    if record:
+        _applied_outputs_if_any(row, inputs, out)
     return True, e_el, e_g
 
 
@@ -514,7 +512,7 @@ def _build(stamp):
         [s]; ``rod.kv_on`` must be False. status is OK, DIVERGED, NEWTON_FAILED, SINGULAR or
         MAGNET_TOO_CLOSE.
         """
-        if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
+        if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return -1, k0
         n = len(state.positions)
         for ii in range(n_steps):
@@ -546,7 +544,7 @@ def _build(stamp):
         """Start at rest to second order (``rod.state.half_kick`` for this step): the staggered
         velocities of the free degrees of freedom become -u/2, with u the velocities one implicit
         step from rest would reach; the state must be at rest. Returns False if singular."""
-        if len(stamp) == 0:
+        if stamp < 0:
             return False
         fine, _, _ = _explicit_forces(0, 0, False, h, rod, state, inputs, out, work)
         if not fine:

@@ -17,15 +17,16 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 KERNEL_FILES = ("kernel_records.py", "tendon_kernels.py", "contact_kernels.py", "magnetic_kernels.py", "kernels.py")
 """The kernel modules of ``softrnn.rod`` whose inline helpers are compiled into one another."""
 
 
-def kernel_stamp() -> str:
-    """Hash of the kernel modules (``KERNEL_FILES``): the closure variable of every cached kernel
-    that inlines their helpers, so that an edit of any of them recompiles it."""
+def kernel_stamp() -> int:
+    """Hash of the kernel modules (``KERNEL_FILES``), a non-negative 60-bit integer: the closure
+    variable of every cached kernel that inlines their helpers, so that an edit of any of them
+    recompiles it (an integer, so that referencing it costs the kernels no string code)."""
     digest = hashlib.sha256()
     folder = Path(__file__).parent
     for name in KERNEL_FILES:
@@ -33,7 +34,7 @@ def kernel_stamp() -> str:
             digest.update((folder / name).read_bytes())
         except OSError:  # no source file (frozen or zipped install): nothing to track
             digest.update(name.encode())
-    return digest.hexdigest()[:16]
+    return int(digest.hexdigest()[:15], 16)
 
 
 FREE = 0
@@ -180,11 +181,11 @@ class StepInputs(NamedTuple):
     tendon_displacement : (K, m_s)
         the displacements q [m] (a leading batch axis in ``advance_batch``):
         tau = k max(0, q - (l_0 - l)) from the tendon length l at the start of each step
-    contact_kind : (o,) int64
+    contact_kind : (o,) int64 or None
         obstacle kinds PLANE, SPHERE, CYLINDER, VESSEL, or BIFURCATION followed by a BRANCH
         column (one column per vessel of a ``rod.contact.Bifurcation``), and a last SELF column
-        for contact between the rod's own segments; o = 0 (default): no contact, and the kernels
-        do no contact work
+        for contact between the rod's own segments; None (default): no contact, and the kernels
+        compiled for these inputs leave the contact kernels out
     contact_geom : (o, 7)
         plane: point [m], unit normal; sphere: centre [m], -, -, -, radius [m]; cylinder: point [m],
         unit axis, radius [m]; self: the least index gap j - i of a pair of segments i < j that
@@ -208,9 +209,10 @@ class StepInputs(NamedTuple):
         saved steps, rows as in ``Samples``
     contact_applied : (n, 6)
         scratch: the applied loads of a saved step before the contact loads join them
-    magnet_node : (M,) int64
+    magnet_node : (M,) int64 or None
         magnets (point dipoles in the rod, ``rod.magnetic.MagneticDipoles``): magnet j lies between
-        nodes magnet_node[j] and magnet_node[j] + 1; M = 0 (default): no magnetic loads
+        nodes magnet_node[j] and magnet_node[j] + 1; None (default): no magnetic loads, and the
+        kernels compiled for these inputs leave the magnetic kernel out
     magnet_body : (M, 4)
         ... at the fraction magnet_body[j, 0] of that segment, with the body-frame
         moment [A m^2] in columns 1 to 3
@@ -245,7 +247,7 @@ class StepInputs(NamedTuple):
     tendon_stiffness: np.ndarray = np.zeros(0)
     tendon_rest: np.ndarray = np.zeros(0)
     tendon_displacement: np.ndarray = np.zeros((0, 0))
-    contact_kind: np.ndarray = np.zeros(0, dtype=np.int64)
+    contact_kind: np.ndarray | None = None
     contact_geom: np.ndarray = np.zeros((0, 7))
     contact_range: np.ndarray = np.zeros((0, 2), dtype=np.int64)
     contact_friction: np.ndarray = np.zeros((0, 2))
@@ -255,7 +257,7 @@ class StepInputs(NamedTuple):
     contact_segment: np.ndarray = np.zeros((0, 0), dtype=np.int64)
     contact_samples: np.ndarray = np.zeros((0, 0, 6))
     contact_applied: np.ndarray = np.zeros((0, 6))
-    magnet_node: np.ndarray = np.zeros(0, dtype=np.int64)
+    magnet_node: np.ndarray | None = None
     magnet_body: np.ndarray = np.zeros((0, 4))
     source_positions: np.ndarray = np.zeros((0, 3))
     source_moments: np.ndarray = np.zeros((0, 3))
@@ -309,6 +311,13 @@ class Samples(NamedTuple):
 # Helpers called only from compiled code (inlined into the cached entry points, never cached themselves).
 _INLINE = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
                forceinline=True, _nrt=False, no_rewrites=True)
+
+
+def absent(record_type, field: str) -> bool:
+    """True when the field ``field`` of the numba type of a ``StepInputs`` is None: for the
+    ``overload`` of an optional load (contact, magnets), which then compiles to nothing, so that a
+    rod without that load never compiles its kernel."""
+    return isinstance(record_type.types[record_type.fields.index(field)], types.NoneType)
 
 
 @njit(**_INLINE)

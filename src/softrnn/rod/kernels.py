@@ -27,6 +27,10 @@ costs far more than LLVM and grows faster than linearly with the size of a funct
   numba overload).
 * loop-carried variables get their final type before the loop (``jq``, ``f0``), so that type
   inference needs no extra pass over the function.
+* optional loads are chosen by type: without obstacles ``StepInputs.contact_kind`` is None, without
+  magnets ``magnet_node`` is None, and their kernels (``_contact_loads_if_any``,
+  ``_magnet_loads_if_any``: ``numba.extending.overload``s) compile to nothing, so a plain rod's cold
+  start never compiles contact or magnetic code (a rod with them compiles its own specialisation).
 
 Caching: numba checks a cached function against its own source file only. The helpers of the
 kernel modules (``kernel_records``, ``tendon_kernels``, ``contact_kernels``, ``magnetic_kernels``
@@ -40,7 +44,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .contact_kernels import _applied_outputs, _contact_loads
+from .contact_kernels import _applied_outputs_if_any, _contact_loads, _contact_loads_if_any
 from .kernel_records import _INLINE, _relative_rotation_parts, kernel_stamp
 from .kernel_records import BIFURCATION as BIFURCATION
 from .kernel_records import BRANCH as BRANCH
@@ -65,13 +69,9 @@ from .kernel_records import _quaternion_into as _quaternion_into
 from .kernel_records import times_cayley_into as times_cayley_into
 from .magnetic_kernels import MIN_DIPOLE_DISTANCE as MIN_DIPOLE_DISTANCE
 from .magnetic_kernels import MU0 as MU0
-from .magnetic_kernels import _magnet_loads
+from .magnetic_kernels import _magnet_loads, _magnet_loads_if_any
 from .magnetic_kernels import field_gradient_into as field_gradient_into
 from .tendon_kernels import _tendon_springs, _tendon_tangent
-
-# The rod step's body: compiled into (inlined in) the cached entry point ``advance_into``.
-_STEP = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
-             forceinline=True, no_rewrites=True)
 
 _NEWTON_MAX_ITER = 12
 _NEWTON_RTOL = 1e-13
@@ -423,138 +423,127 @@ def _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, o
     return OK, e_kin
 
 
-@njit(**_STEP)
-def _advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
-    """Advance one rod by ``n_steps`` steps of size ``h`` [s]; returns (status, step index) (the body of
-    ``advance_into``, the cached entry point).
-
-    rod : LumpedRod; state : StateArrays, advanced in place; inputs : StepInputs of the steps of
-    this call (step i at t = (k0 + i) h); out : Samples. A sample is written when
-    (k0 + i) % stride == 0, at row (k0 + i) // stride - s0, for the nodes with
-    out.save_slot >= 0, and the energies of the whole rod (with obstacles, the contact loads into
-    inputs.contact_samples). work_f (n, 6): scratch for the applied world force and torque of each
-    node. status is OK, DIVERGED, NEWTON_FAILED or MAGNET_TOO_CLOSE; the step index
-    is k0 + n_steps, or that of the failed step.
-    """
-    R = state.rotations
-    r = state.positions
-    Kp = state.prev_curvature
-    Gp = state.prev_shear
-    mass = rod.mass
-    save_slot = out.save_slot
-    out_r = out.positions
-    out_q = out.quaternions
-    out_f = out.forces
-    out_t = out.torques
-    out_e = out.energy
-    n = len(r)
-    g0 = rod.gravity[0]
-    g1 = rod.gravity[1]
-    g2 = rod.gravity[2]
-    for i in range(n_steps):
-        k = k0 + i
-        record = (k % stride) == 0
-        row = k // stride - s0
-        # ---- applied loads at t_k into work_f (world force, world torque) ----
-        _applied_loads(i, R, r, state.velocities, inputs, work_f)
-        # ---- magnetic loads from the configuration at t_k (none without magnets) ----
-        if len(inputs.magnet_node) > 0:
-            if _magnet_loads(i, row, record, R, r, inputs, work_f) >= 0:
-                return MAGNET_TOO_CLOSE, k
-        # ---- tensions of the tendons driven by a displacement, from the configuration at t_k ----
-        if len(inputs.tendon_stiffness) > 0:
-            _tendon_springs(i, R, r, rod, inputs)
-        # ---- contact loads from the configuration at t_k (none without obstacles) ----
-        contact = len(inputs.contact_kind) > 0
-        if contact:
-            _contact_loads(row, record, h, R, r, state.velocities, state.angular_velocities, rod, inputs,
-                           save_slot, work_f)
-        e_kin = 0.0
-        e_el = 0.0
-        e_g = 0.0
-        # carried from segment a - 1: spatial force n_{a-1}, torque T'_{a-1} in frame a
-        np0 = 0.0
-        np1 = 0.0
-        np2 = 0.0
-        tp0 = 0.0
-        tp1 = 0.0
-        tp2 = 0.0
-        for a in range(n):
-            # R_a is still the old rotation: node a is updated at the end of this iteration
-            Ra00 = R[a, 0, 0]
-            Ra01 = R[a, 0, 1]
-            Ra02 = R[a, 0, 2]
-            Ra10 = R[a, 1, 0]
-            Ra11 = R[a, 1, 1]
-            Ra12 = R[a, 1, 2]
-            Ra20 = R[a, 2, 0]
-            Ra21 = R[a, 2, 1]
-            Ra22 = R[a, 2, 2]
-            # ---- segment a (nodes a, a + 1), old configuration; none after the last node ----
-            # n_a (world), T_a (frame a), T'_a (frame a + 1)
-            n0 = n1 = n2 = T0 = T1 = T2 = q0 = q1 = q2 = 0.0
-            if a < n - 1:
-                n0, n1, n2, T0, T1, T2, q0, q1, q2, e = _segment(
-                    a, i, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, rod, inputs, h, Kp, Gp, record)
-                e_el += e
-            # ---- node a: internal force and torque from segments a - 1 and a, then the update ----
-            fi0 = n0 - np0
-            fi1 = n1 - np1
-            fi2 = n2 - np2
-            ti0 = T0 - tp0
-            ti1 = T1 - tp1
-            ti2 = T2 - tp2
-            np0 = n0
-            np1 = n1
-            np2 = n2
-            tp0 = q0
-            tp1 = q1
-            tp2 = q2
-            m = mass[a]
-            te0 = work_f[a, 3]
-            te1 = work_f[a, 4]
-            te2 = work_f[a, 5]
-            # total force on the node except inertia and viscous drag
-            F0 = fi0 + work_f[a, 0] + m * g0
-            F1 = fi1 + work_f[a, 1] + m * g1
-            F2 = fi2 + work_f[a, 2] + m * g2
-            # body torque
-            tb0 = ti0 + Ra00 * te0 + Ra10 * te1 + Ra20 * te2
-            tb1 = ti1 + Ra01 * te0 + Ra11 * te1 + Ra21 * te2
-            tb2 = ti2 + Ra02 * te0 + Ra12 * te1 + Ra22 * te2
-            if record:
-                e_g -= m * (g0 * r[a, 0] + g1 * r[a, 1] + g2 * r[a, 2])
-                slot = save_slot[a]
-                if slot >= 0:
-                    for c in range(3):
-                        out_r[row, slot, c] = r[a, c]
-                        out_f[row, slot, c] = work_f[a, c]
-                        out_t[row, slot, c] = work_f[a, 3 + c]
-                    _quaternion_into(R[a], out_q[row, slot])
-            status, ek = _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, out)
-            if status != OK:
-                return status, k
-            e_kin += ek
-        if record:
-            out_e[row, 0] = e_kin
-            out_e[row, 1] = e_el
-            out_e[row, 2] = e_g
-            if contact:
-                _applied_outputs(row, inputs, out)
-    return OK, k0 + n_steps
-
-
 def _build_advance(stamp):
-    """``advance_into``, the cached entry point of ``_advance_into``, closed over ``stamp``
-    (``kernel_stamp()``, see the module docstring)."""
+    """``advance_into``, the cached rod step, closed over ``stamp`` (``kernel_stamp()``, see the module
+    docstring)."""
 
     @njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
     def advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f):
-        """Advance one rod by ``n_steps`` steps of size ``h`` [s]; returns (status, step index)
-        (``_advance_into``, which documents the arguments)."""
-        if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
+        """Advance one rod by ``n_steps`` steps of size ``h`` [s]; returns (status, step index).
+
+        rod : LumpedRod; state : StateArrays, advanced in place; inputs : StepInputs of the steps of
+        this call (step i at t = (k0 + i) h); out : Samples. A sample is written when
+        (k0 + i) % stride == 0, at row (k0 + i) // stride - s0, for the nodes with
+        out.save_slot >= 0, and the energies of the whole rod (with obstacles, the contact loads into
+        inputs.contact_samples). work_f (n, 6): scratch for the applied world force and torque of each
+        node. status is OK, DIVERGED, NEWTON_FAILED or MAGNET_TOO_CLOSE; the step index
+        is k0 + n_steps, or that of the failed step.
+        """
+        if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return -1, k0
-        return _advance_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work_f)
+        R = state.rotations
+        r = state.positions
+        Kp = state.prev_curvature
+        Gp = state.prev_shear
+        mass = rod.mass
+        save_slot = out.save_slot
+        out_r = out.positions
+        out_q = out.quaternions
+        out_f = out.forces
+        out_t = out.torques
+        out_e = out.energy
+        n = len(r)
+        g0 = rod.gravity[0]
+        g1 = rod.gravity[1]
+        g2 = rod.gravity[2]
+        for i in range(n_steps):
+            k = k0 + i
+            record = (k % stride) == 0
+            row = k // stride - s0
+            # ---- applied loads at t_k into work_f (world force, world torque) ----
+            _applied_loads(i, R, r, state.velocities, inputs, work_f)
+            # ---- magnetic loads from the configuration at t_k (none without magnets) ----
+            if _magnet_loads_if_any(i, row, record, R, r, inputs, work_f) >= 0:
+                return MAGNET_TOO_CLOSE, k
+            # ---- tensions of the tendons driven by a displacement, from the configuration at t_k ----
+            if len(inputs.tendon_stiffness) > 0:
+                _tendon_springs(i, R, r, rod, inputs)
+            # ---- contact loads from the configuration at t_k (none without obstacles) ----
+            _contact_loads_if_any(row, record, h, R, r, state.velocities, state.angular_velocities, rod, inputs,
+                                  save_slot, work_f)
+            e_kin = 0.0
+            e_el = 0.0
+            e_g = 0.0
+            # carried from segment a - 1: spatial force n_{a-1}, torque T'_{a-1} in frame a
+            np0 = 0.0
+            np1 = 0.0
+            np2 = 0.0
+            tp0 = 0.0
+            tp1 = 0.0
+            tp2 = 0.0
+            for a in range(n):
+                # R_a is still the old rotation: node a is updated at the end of this iteration
+                Ra00 = R[a, 0, 0]
+                Ra01 = R[a, 0, 1]
+                Ra02 = R[a, 0, 2]
+                Ra10 = R[a, 1, 0]
+                Ra11 = R[a, 1, 1]
+                Ra12 = R[a, 1, 2]
+                Ra20 = R[a, 2, 0]
+                Ra21 = R[a, 2, 1]
+                Ra22 = R[a, 2, 2]
+                # ---- segment a (nodes a, a + 1), old configuration; none after the last node ----
+                # n_a (world), T_a (frame a), T'_a (frame a + 1)
+                n0 = n1 = n2 = T0 = T1 = T2 = q0 = q1 = q2 = 0.0
+                if a < n - 1:
+                    n0, n1, n2, T0, T1, T2, q0, q1, q2, e = _segment(
+                        a, i, R, r, Ra00, Ra01, Ra02, Ra10, Ra11, Ra12, Ra20, Ra21, Ra22, rod, inputs, h, Kp, Gp,
+                        record)
+                    e_el += e
+                # ---- node a: internal force and torque from segments a - 1 and a, then the update ----
+                fi0 = n0 - np0
+                fi1 = n1 - np1
+                fi2 = n2 - np2
+                ti0 = T0 - tp0
+                ti1 = T1 - tp1
+                ti2 = T2 - tp2
+                np0 = n0
+                np1 = n1
+                np2 = n2
+                tp0 = q0
+                tp1 = q1
+                tp2 = q2
+                m = mass[a]
+                te0 = work_f[a, 3]
+                te1 = work_f[a, 4]
+                te2 = work_f[a, 5]
+                # total force on the node except inertia and viscous drag
+                F0 = fi0 + work_f[a, 0] + m * g0
+                F1 = fi1 + work_f[a, 1] + m * g1
+                F2 = fi2 + work_f[a, 2] + m * g2
+                # body torque
+                tb0 = ti0 + Ra00 * te0 + Ra10 * te1 + Ra20 * te2
+                tb1 = ti1 + Ra01 * te0 + Ra11 * te1 + Ra21 * te2
+                tb2 = ti2 + Ra02 * te0 + Ra12 * te1 + Ra22 * te2
+                if record:
+                    e_g -= m * (g0 * r[a, 0] + g1 * r[a, 1] + g2 * r[a, 2])
+                    slot = save_slot[a]
+                    if slot >= 0:
+                        for c in range(3):
+                            out_r[row, slot, c] = r[a, c]
+                            out_f[row, slot, c] = work_f[a, c]
+                            out_t[row, slot, c] = work_f[a, 3 + c]
+                        _quaternion_into(R[a], out_q[row, slot])
+                status, ek = _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, out)
+                if status != OK:
+                    return status, k
+                e_kin += ek
+            if record:
+                out_e[row, 0] = e_kin
+                out_e[row, 1] = e_el
+                out_e[row, 2] = e_g
+                _applied_outputs_if_any(row, inputs, out)
+        return OK, k0 + n_steps
 
     return advance_into
 
@@ -571,7 +560,7 @@ def _build_batch(stamp):
         the node indices and gains, and the contact arrays: a batch has no obstacles) and out (except
         save_slot) carry a leading batch axis (B, ...).
         status (B, 2) int64 receives (code, step) per rod."""
-        if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
+        if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return
         st = state
         inp = inputs
@@ -612,7 +601,7 @@ def _build_wrenches(stamp):
         configuration R (n, 3, 3), r (n, 3) [m] with the staggered velocities v (n, 3) [m/s] (world)
         and w (n, 3) [rad/s] (body), step h [s], as ``advance_into`` applies them (``inputs`` a
         ``StepInputs`` with contact; its tracked vessel segments are updated). For the start at rest."""
-        if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
+        if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return
         _contact_loads(0, False, h, R, r, v, w, rod, inputs, inputs.contact_kind, work_f)
 
@@ -622,7 +611,7 @@ def _build_wrenches(stamp):
         R (n, 3, 3), r (n, 3) [m] with the currents of the first step of ``inputs``, as ``advance_into``
         applies them (outputs in the scratch row). Returns -1, or the index of a magnet too close to a
         source. For the start at rest."""
-        if len(stamp) == 0:  # never true: references the stamp so that it is a closure variable
+        if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return -2
         return _magnet_loads(0, 0, False, R, r, inputs, work_f)
 

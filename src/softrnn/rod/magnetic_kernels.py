@@ -1,14 +1,15 @@
 """The magnetic kernels (docs/magnetic.md §2.5): the field and gradient of point-dipole sources, and
 the wrench of the magnets embedded in the rod (``rod.magnetic.MagneticDipoles``) applied to the two
-nodes around each. ``_magnet_loads`` is inlined into ``rod.kernels`` and ``rod.implicit`` (see
+nodes around each. ``_magnet_loads_if_any`` is inlined into ``rod.kernels`` and ``rod.implicit`` (see
 ``rod.kernel_records``); ``field_gradient_into`` is cached on its own (it inlines nothing)."""
 
 import math
 
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
-from .kernel_records import _INLINE, _relative_rotation_parts, times_cayley_into
+from .kernel_records import _INLINE, _relative_rotation_parts, absent, times_cayley_into
 
 MU0 = 4e-7 * math.pi
 """Vacuum permeability [T m/A]."""
@@ -119,3 +120,20 @@ def _magnet_loads(i, row, record, R, r, inputs, work_f):
             work_f[a, c] += (1.0 - t) * W[c]
             work_f[a + 1, c] += t * W[c]
     return -1
+
+
+def _magnet_loads_if_any(i, row, record, R, r, inputs, work_f):
+    """``_magnet_loads`` for inputs with magnets; -1 (nothing to do) for inputs whose ``magnet_node``
+    is None. Compiled code only: the choice is made by type, so a rod without magnets never compiles
+    the magnetic kernel."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(_magnet_loads_if_any, jit_options=_INLINE)
+def _magnet_loads_if_any_impl(i, row, record, R, r, inputs, work_f):
+    if absent(inputs, "magnet_node"):
+        return lambda i, row, record, R, r, inputs, work_f: -1
+
+    def magnets(i, row, record, R, r, inputs, work_f):
+        return _magnet_loads(i, row, record, R, r, inputs, work_f)
+    return magnets

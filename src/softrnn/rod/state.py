@@ -98,12 +98,12 @@ def half_kick(rod: LumpedRod, state: RodState, inputs: StepInputs, h: float) -> 
         t[a] += R[a].T @ ext_w[0, j, 3:6] + ext_w[0, j, 9:12]
     for j, a in enumerate(inputs.pd_idx):
         f[a] += inputs.pd_gain[j, 0] * (inputs.pd_target[0, j] - r[a])
-    if inputs.magnet_node.size:  # the magnets' loads at rest (``rod.magnetic``)
+    if inputs.magnet_node is not None:  # the magnets' loads at rest (``rod.magnetic``)
         wrench = start_wrench(R, r, inputs)
         for a in np.unique(np.concatenate([inputs.magnet_node, inputs.magnet_node + 1])):
             f[a] += wrench[a, 0:3]
             t[a] += R[a].T @ wrench[a, 3:6]
-    if inputs.contact_kind.size:  # the contact loads at rest (inputs as ``SetupInputs.with_contact`` gives)
+    if inputs.contact_kind is not None:  # the contact loads at rest (inputs as ``SetupInputs.with_contact`` gives)
         wrench = np.zeros((len(r), 6))
         contact_wrench_into(h, R, r, state.velocities, state.angular_velocities, rod, inputs, wrench)
         f += wrench[:, :3]
