@@ -37,7 +37,7 @@ ALLOWED = {
                             "softrnn.scenarios", "softrnn.figures", "softrnn.sweeps", "softrnn.calibration",
                             "softrnn.learned", "softrnn.learned.node", "softrnn.fitting"},
     "softrnn.bench": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.statics", "softrnn.scenarios",
-                      "softrnn.sweeps", "softrnn.learned.node", "softrnn.learned.whole"},
+                      "softrnn.sweeps", "softrnn.learned", "softrnn.learned.node", "softrnn.learned.whole"},
     "softrnn.control": {"softrnn", "softrnn.io", "softrnn.magnetics", "softrnn.figures"},
     "softrnn.lab": {"softrnn", "softrnn.io", "softrnn.learned", "softrnn.learned.node", "softrnn.fitting"},
     "softrnn.reproduce": {"softrnn", "softrnn.io", "softrnn.scenarios", "softrnn.figures", "softrnn.sweeps",

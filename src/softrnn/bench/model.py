@@ -35,6 +35,7 @@ from ..learned.node.data import Normalizer, SampleSpec
 from ..learned.node.engine import ManipulatorStepper, NodeStepper
 from ..learned.node.manipulator import Manipulator
 from ..learned.node.model import ModelConfig, NodeLSTM
+from ..learned.threads import torch_threads
 from ..progress import Progress, Ticks
 from ..timing import step_rate
 
@@ -100,17 +101,13 @@ def time_eager_torch(model: NodeModel, n: int) -> dict:
     import torch  # optional extra: learn (PyTorch)
 
     H, P, W = model.config.history, model.config.pose_features, model.config.wrench_features
-    old = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
+    with torch_threads(1):
         z, w = torch.zeros(1, H, P), torch.zeros(1, H, W)
         poses = np.tile(np.asarray(model.normalizer.pose_mean, np.float32), (1, H, 1))
         wr = np.zeros((1, H, W), np.float32)
         with torch.inference_mode():
             module = _stats(lambda: model.module(z, w), n)
         predict = _stats(lambda: model.predict(poses, wr), max(200, n // 2))
-    finally:
-        torch.set_num_threads(old)
     return {"module": module, "predict": predict, "torch_threads": 1}
 
 

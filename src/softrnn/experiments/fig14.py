@@ -67,6 +67,7 @@ from ..learned.node.engine import NodeStepper
 from ..learned.node.evaluate import evaluation_span, load_for_model, metrics, one_step, rod_length
 from ..learned.node.train import TrainConfig, train_node_model
 from ..learned.node.training_data import spans
+from ..learned.threads import torch_threads
 from ..progress import Progress
 from ..resume import REFUSE, Settings, check
 from ..sweeps.dask import completed, require
@@ -226,7 +227,6 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
         ``stepper`` and ``torch`` (or None): ``hz``, ``median_us``, ``p90_us``, ``mean_hz``, ``calls``
         as ``softrnn.timing.step_rate`` times them.
     """
-    import torch  # optional extra: learn (PyTorch)
 
 
     H = int(model.spec.history)
@@ -255,12 +255,8 @@ def measure_bandwidth(model, dataset, *, steps: int = 2000, torch_steps: int = 2
             k = next(windows_in_turn)
             model.predict(windows[k:k + 1], wwin[k:k + 1])
 
-        old = torch.get_num_threads()
-        torch.set_num_threads(1)
-        try:
+        with torch_threads(1):
             out["torch"] = _rate(predict, torch_steps, 20)
-        finally:
-            torch.set_num_threads(old)
     return out
 
 

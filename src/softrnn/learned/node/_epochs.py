@@ -17,6 +17,7 @@ import torch
 from ...errors import SoftrnnInputError
 from ...progress import Progress
 from ..checkpoints import Checkpoint
+from ..threads import torch_threads
 from .model import ModelConfig, NodeLSTM
 from .normalizer import Normalizer
 
@@ -24,15 +25,13 @@ from .normalizer import Normalizer
 @contextmanager
 def torch_settings(threads: int):
     """Deterministic algorithms and a fixed thread count inside, the caller's settings after."""
-    old_threads = torch.get_num_threads()
     old_det = torch.are_deterministic_algorithms_enabled()
     old_warn = torch.is_deterministic_algorithms_warn_only_enabled()
-    torch.set_num_threads(threads)
     torch.use_deterministic_algorithms(True)
     try:
-        yield
+        with torch_threads(threads):
+            yield
     finally:
-        torch.set_num_threads(old_threads)
         torch.use_deterministic_algorithms(old_det, warn_only=old_warn)
 
 

@@ -35,8 +35,6 @@ a perfect model reproduces the reference bit for bit.
 
 from __future__ import annotations
 
-import sys
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -50,6 +48,7 @@ from ...progress import Progress
 from .. import spans
 from ..horizons import DIVERGED_M
 from ..rollout import predicted_attrs, reference_columns
+from ..threads import torch_threads
 from .engine import engine_rollout, group_by_architecture
 from .manipulator import (
     UNMODELLED,
@@ -113,22 +112,6 @@ def check_span(n_samples: int, history: int, start, stop, where: str = "the data
     start = history if start is None else start
     stop = n_samples if stop is None else stop
     return spans.check_span(n_samples, history, start, stop, wording=spans.SEEDS)
-
-
-@contextmanager
-def torch_threads(threads: int | None):
-    """Torch's intra-op thread count set to ``threads`` inside (None: unchanged), restored after.
-    The rollout's forwards are tiny (one window per node), where extra threads only add overhead."""
-    torch = sys.modules.get("torch")
-    if threads is None or torch is None:
-        yield
-        return
-    old = torch.get_num_threads()
-    torch.set_num_threads(int(threads))
-    try:
-        yield
-    finally:
-        torch.set_num_threads(old)
 
 
 def rollout(models, dataset, start: int | None = None, stop: int | None = None, *,

@@ -34,6 +34,7 @@ from ...progress import Progress
 from ..baselines import free_run
 from ..checkpoints import RESTART, load_state, save_state
 from ..horizons import RolloutDiverged
+from ..threads import torch_threads
 from .artifact import engine_of
 from .config import DynamicConfig, linear_config, load_channels
 from .encoding import Encoding, Trajectory
@@ -527,13 +528,8 @@ def train_dynamic_model(trajectories: list[Trajectory], encoding: Encoding, conf
     ``checkpoint``: a file path to save to every ``CHECKPOINT_EVERY`` steps and resume from.
     ``threads``: PyTorch's threads while training (None: as set; the caller's count is restored after).
     ``progress(step, steps, {"loss", "unroll"})`` after every step."""
-    old_threads = torch.get_num_threads()
-    if threads is not None:
-        torch.set_num_threads(int(threads))
-    try:
+    with torch_threads(threads):
         return _train(trajectories, encoding, config, validation, progress, checkpoint)
-    finally:
-        torch.set_num_threads(old_threads)
 
 
 def _train(trajectories, encoding, config, validation, progress, checkpoint) -> TrainedDynamic:
