@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol, final
+from typing import Protocol, final, runtime_checkable
 
 import numpy as np
 
@@ -142,6 +142,23 @@ def one_step(baseline: AbstractBaseline, positions, wrenches, start: int, stop: 
     return np.concatenate(parts)
 
 
+@runtime_checkable
+class StateTrajectory(Protocol):
+    """What ``free_run`` steps a whole-manipulator model over (``learned.whole.encoding.Trajectory``):
+    encoded states (S, M, 6) and times (S,) [s], the loads of a step given the run's own history
+    (feedback laws applied to it), the prescribed nodes put on their path, and states moved out of
+    the data's obstacles."""
+
+    states: np.ndarray
+    time: np.ndarray
+
+    def inputs(self, history: np.ndarray, step: int) -> np.ndarray: ...
+
+    def follow(self, nxt: np.ndarray, last: np.ndarray, loads: np.ndarray) -> np.ndarray: ...
+
+    def projected(self, states: np.ndarray) -> np.ndarray: ...
+
+
 def free_run(baseline: AbstractBaseline, positions, wrenches, start: int, stop: int, *,
              modelled=None) -> np.ndarray:
     """Free-running prediction (stop - start, N, 3) [m] of samples ``start .. stop-1`` (history <=
@@ -149,12 +166,12 @@ def free_run(baseline: AbstractBaseline, positions, wrenches, start: int, stop: 
     ``wrenches`` (T, N, W) or None [N, N m]: the window before ``start`` is the reference's, every
     later one holds the baseline's own predictions for the ``modelled`` columns (default every
     column) and the reference for the others; the wrenches are always the reference's. Where
-    ``positions`` is a whole-manipulator model's ``Trajectory`` (``learned.whole.encoding``), the
+    ``positions`` is a whole-manipulator model's ``Trajectory`` (a ``StateTrajectory``), the
     predictor (a ``DynamicEngine``, ``StateBaseline``, ...) steps its encoded states instead
     (``_free_run_states``; ``wrenches`` None). The loop is ``horizons.free_steps``. A coordinate
     beyond ``DIVERGED_M`` or not finite raises ``RolloutDiverged`` (``node``: the column,
     ``sample``: the row's index, ``states``: the run, NaN from there on)."""
-    if hasattr(positions, "follow"):                            # a whole-manipulator model's Trajectory
+    if isinstance(positions, StateTrajectory):                  # a whole-manipulator model's Trajectory
         return _free_run_states(baseline, positions, int(start), int(stop))
     P = _positions("positions", positions)
     Wr = _wrenches("wrenches", wrenches, P.shape[:2], 0)   # any width: the baseline checks its own
