@@ -29,11 +29,11 @@ import numpy as np
 
 from .. import __version__
 from ..errors import SoftrnnInputError, bad, one_line
+from ..fitting import FitOptions, FitResult, Parameter, fit
 from ..rod.simulation import RunConfig, Simulator
 from ..scenarios.calibrate import _lookup, edited_text
 from ..scenarios.reading import ScenarioError, _is_number, _show
 from ..scenarios.scenario import Scenario, parse_scenario
-from .fit import FitOptions, FitResult, Parameter, fit
 
 TRAIN_FRACTION = 0.6
 """The default span: the first 60 % of the samples (the paper's chronological train/test split)."""
@@ -388,7 +388,7 @@ def prepare(scenario: Scenario, dataset, keys, *, span: str = "train", nodes=Non
 
 def run(problem: CalibrationProblem, *, evaluator=None, options: FitOptions | None = None, progress=None,
         cache_dir=None) -> ScenarioCalibration:
-    """Fit a prepared problem (``softrnn.calibration.fit.fit``): evaluator : where the simulations run
+    """Fit a prepared problem (``softrnn.fitting.fit``): evaluator : where the simulations run
     (None: this process); options : ``FitOptions``; progress : ``progress(trials, budget, info)``;
     cache_dir : a folder keeping every trial, to resume an interrupted calibration."""
     L = problem.model.length

@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ...calibration.fit import FitOptions
 from ...calibration.parallel import Evaluator
 from ...errors import bad
 from ...files import atomic_write_text
+from ...fitting import FitOptions
 from ...io.reader import read_dataset
 from ...io.schema import DatasetError
 from ...io.writer import write_trajectory
@@ -108,7 +108,7 @@ def calibrate_and_predict(currents, orientations, positions, config: ExperimentC
     T = int(np.asarray(currents).shape[0])
     n = config.calibration_samples(T)
     dt = config.dt if dt is None else float(dt)
-    budget = config.calibration_evaluations * (len(FACTORS) + 1)     # the fit's most simulations (calibration.fit)
+    budget = config.calibration_evaluations * (len(FACTORS) + 1)     # the fit's most simulations (fitting.fit)
     if progress is not None:   # the bar from the start (the fit reports after each batch of simulations)
         progress(0, budget, {"stage": "calibrate"})
     t0 = time.perf_counter()
