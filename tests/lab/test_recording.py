@@ -69,6 +69,18 @@ def test_lag_is_shifted_and_estimated(tmp_path):
         shift_inputs(rec, 150)
 
 
+def test_a_long_lag_is_found_beyond_the_first_candidates(tmp_path):
+    """A tip 9 rows late: the first candidates 0..5 fit best at their largest, so the search goes
+    on (to 10) and finds 9; a fixed ``max_lag`` tries exactly 0..max_lag."""
+    tendon_recording(tmp_path / "a.csv", rows=300, lag=9, noise_mm=0.0)
+    rec = read_recording(tmp_path / "a.csv")
+    lag, scores = estimate_lag([rec])
+    assert lag == 9 and sorted(scores) == list(range(11))
+    assert scores[9] < min(v for k, v in scores.items() if k != 9)
+    lag, scores = estimate_lag([rec], max_lag=5)
+    assert lag == 5 and sorted(scores) == list(range(6))
+
+
 def test_a_bad_cell_names_its_line_and_column(tmp_path):
     tendon_recording(tmp_path / "a.csv", rows=10)
     lines = (tmp_path / "a.csv").read_text().splitlines()

@@ -8,6 +8,7 @@ from ..files import atomic_outputs, prepare_output
 from ..io import read_dataset
 from ..io.csv_import import csv_layout, import_csv, read_csv, recording_trajectory, write_recording
 from ..lab.recording import (
+    AUTO_LAGS,
     POSITION_UNITS,
     Layout,
     check_sessions,
@@ -20,8 +21,6 @@ from ._progress import DelayedBar
 NAME = "import-csv"
 HELP = ("convert a lab CSV (time, node positions, optional orientations, wrenches and actuation inputs) or a "
         "robot recording (timestamp, inputs, tip) into a dataset file")
-AUTO_MAX_LAG = 5
-"""``--lag auto`` tries 0..AUTO_MAX_LAG rows."""
 _RECORDING_OPTIONS = (("inputs", "--inputs"), ("tip", "--tip"), ("position_unit", "--position-unit"),
                       ("tip_node", "--tip-node"), ("lag", "--lag"))
 
@@ -46,7 +45,8 @@ def add_args(p):
                    help="rod node index the tip is stored as (default: 1, so the rod has 2 nodes)")
     g.add_argument("--lag", default=None, metavar="N|auto",
                    help="pair each row's tip with the inputs N rows earlier (default: 0); auto: estimate "
-                        f"N in 0..{AUTO_MAX_LAG} over all sessions and print the scores")
+                        f"N over all sessions (0..{AUTO_LAGS} rows, further while the largest fits best) and "
+                        "print the scores")
 
 
 def _check_args(args) -> tuple:
@@ -99,7 +99,7 @@ def _lag(recordings: list, lag) -> tuple:
     """(lag in rows, {lag: residual RMS [m]} or None): checked against every session's length, or
     estimated (and printed)."""
     if lag == "auto":
-        best, scores = estimate_lag(recordings, max_lag=AUTO_MAX_LAG)
+        best, scores = estimate_lag(recordings)
         shown = ", ".join(f"{k}: {v * 1e3:.4g}" for k, v in scores.items())
         print(f"lag: {best} row{'s' if best != 1 else ''} estimated (residual RMS of a linear fit of the tip "
               f"to the inputs, mm, per lag in rows: {shown})")

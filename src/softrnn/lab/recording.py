@@ -261,18 +261,36 @@ def shift_inputs(recording: Recording, lag: int) -> Recording:
                      columns=recording.columns)
 
 
-def estimate_lag(recordings, max_lag: int = 5) -> tuple[int, dict]:
-    """The command-to-response delay in rows: the ``lag`` in 0..``max_lag`` whose inputs explain the
-    tip best by a linear map fitted on ``recordings`` (least squares, the residual RMS [m]
-    compared). Returns (lag, {lag: residual RMS [m]}) so the choice can be reported."""
+AUTO_LAGS = 5
+"""``estimate_lag`` tries 0..AUTO_LAGS rows first, and more while the largest lag tried fits best."""
+
+
+def _lag_residual(recordings, lag: int) -> float:
+    """Residual RMS [m] of the tip fitted by a linear map of the inputs ``lag`` rows earlier."""
+    shifted = [shift_inputs(r, lag) for r in recordings]
+    X = np.vstack([np.hstack([s.inputs, np.ones((s.n_rows, 1))]) for s in shifted])
+    Y = np.vstack([s.tip for s in shifted])
+    W = np.linalg.lstsq(X, Y, rcond=None)[0]
+    return float(np.sqrt(np.mean(np.sum((X @ W - Y) ** 2, axis=1))))
+
+
+def estimate_lag(recordings, max_lag: int | None = None) -> tuple[int, dict]:
+    """The command-to-response delay in rows: the lag whose inputs explain the tip best by a linear
+    map fitted on ``recordings`` (least squares, the residual RMS [m] compared). ``max_lag``: try
+    0..max_lag; None: 0..``AUTO_LAGS``, then twice as far each time the largest lag tried fits best,
+    up to a tenth of the shortest session's rows (a slow response recorded at a high rate lags
+    many rows). Returns (lag, {lag: residual RMS [m]}) so the choice can be reported."""
+    shortest = min(r.n_rows for r in recordings)
+    limit = max_lag if max_lag is not None else max(AUTO_LAGS, shortest // 10)
+    top = limit if max_lag is not None else min(AUTO_LAGS, limit)
     scores = {}
-    for lag in range(0, max_lag + 1):
-        if any(lag >= r.n_rows - 2 for r in recordings):
-            break
-        shifted = [shift_inputs(r, lag) for r in recordings]
-        X = np.vstack([np.hstack([s.inputs, np.ones((s.n_rows, 1))]) for s in shifted])
-        Y = np.vstack([s.tip for s in shifted])
-        W = np.linalg.lstsq(X, Y, rcond=None)[0]
-        scores[lag] = float(np.sqrt(np.mean(np.sum((X @ W - Y) ** 2, axis=1))))
-    best = min(scores, key=scores.get)
-    return best, scores
+    while True:
+        for lag in range(len(scores), top + 1):
+            if lag >= shortest - 2:
+                limit = top = len(scores) - 1
+                break
+            scores[lag] = _lag_residual(recordings, lag)
+        best = min(scores, key=scores.get)
+        if best < top or top >= limit:
+            return best, scores
+        top = min(2 * top, limit)
