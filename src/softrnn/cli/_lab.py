@@ -150,25 +150,42 @@ def _benchmark(args) -> int:
     return 0
 
 
+_COLUMNS = (("tip RMSE [mm]", "tip_rmse_mm", 14), ("mean [mm]", "tip_mean_mm", 11),
+            ("RMSE [% L]", "tip_rmse_pct_of_length", 12), ("mean [% L]", "tip_mean_pct_of_length", 12),
+            ("aligned RMSE [mm]", "tip_rmse_aligned_mm", 19), ("aligned mean [mm]", "tip_mean_aligned_mm", 19),
+            ("[% L]", "tip_mean_aligned_pct_of_length", 8), ("cover 90", "coverage_90", 10))
+"""The terminal table's columns: (title, JSON key, width)."""
+
+
+def _cell(entry: dict, key: str, width: int) -> str:
+    value = entry.get(key)
+    if value is None:
+        return f"{'-':>{width}}"
+    return f"{value * 100:>{width - 1}.0f}%" if key == "coverage_90" else f"{value:>{width}.2f}"
+
+
 def format_benchmark(r: dict) -> str:
     """The text ``softrnn lab benchmark`` prints for its JSON report."""
     robot = r["robot"]
     lag = f"{robot['lag_rows']} rows" + (" (estimated)" if robot.get("estimated") else "")
     lines = [f"lab benchmark: {len(robot['training_sessions'])} training session(s), validation "
              f"{robot['validation_session']['rows']} rows; robot length {robot['length_m']:g} m; lag {lag}",
-             f"  {'':<22}{'tip RMSE [mm]':>14}{'mean [mm]':>11}{'RMSE [% L]':>12}"]
+             f"  {'':<22}" + "".join(f"{title:>{width}}" for title, _, width in _COLUMNS)]
     for title, table in (("models", r["models"]), ("baselines", r["baselines"])):
         lines.append(f"  {title}:")
         for name, e in table.items():
-            lines.append(f"    {name:<20}{e['tip_rmse_mm']:>14.2f}{e['tip_mean_mm']:>11.2f}"
-                         f"{e['tip_rmse_pct_of_length']:>12.2f}")
+            lines.append(f"    {name:<20}" + "".join(_cell(e, key, width) for _, key, width in _COLUMNS))
+    lines.append("  aligned: after removing the constant offset over the validation session; cover 90: the share "
+                 "of rows inside the model's stated 90 % ball")
     for name, why in r["skipped"].items():
         lines.append(f"  {name} not run: {why}")
     if r["ratio_best_model_to_best_baseline"] is not None:
         lines.append(f"  best model {r['best_model']}, best baseline {r['best_baseline']}: ratio "
                      f"{r['ratio_best_model_to_best_baseline']:.2f}")
     if r["chosen_on_training"]:
-        lines.append(f"  chosen on the training sessions' hold-out part: {r['chosen_on_training']['family']}")
+        c = r["chosen_on_training"]
+        lines.append(f"  chosen on the training sessions' hold-out part: {c['family']} "
+                     f"(validation tip RMSE {c['validation_tip_rmse_mm']:.2f} mm)")
     lines.append(f"  {r['seconds']:.0f} s")
     return "\n".join(lines)
 
