@@ -2,6 +2,7 @@
 file's order, paths against the file's folder, the benchmark's defaults left to it; every mistake one
 line naming the file and the robot's entry."""
 
+import shutil
 from pathlib import Path
 
 import pytest
@@ -81,3 +82,16 @@ def test_a_suite_without_robots_or_file_is_refused(folder):
         _suite(folder, "[robots.a\n")
     with pytest.raises(ScenarioError, match="cannot read the suite file"):
         read_suite(folder / "none.toml")
+
+
+def test_the_shipped_suite_of_the_shared_robot_reads(tmp_path):
+    """docs/results/real-robot/suite.toml, with stand-in files where it expects the recordings."""
+    shipped = Path(__file__).resolve().parents[2] / "docs" / "results" / "real-robot" / "suite.toml"
+    (tmp_path / "docs" / "results" / "real-robot").mkdir(parents=True)
+    shutil.copy(shipped, tmp_path / "docs" / "results" / "real-robot" / "suite.toml")
+    (tmp_path / "data" / "opencr-tdcr-v6").mkdir(parents=True)
+    for name in ("train", "val"):
+        (tmp_path / "data" / "opencr-tdcr-v6" / f"{name}.csv").write_text("time\n")
+    (robot,) = read_suite(tmp_path / "docs" / "results" / "real-robot" / "suite.toml").robots
+    assert robot.name == "opencr-tdcr-v6" and robot.length == 0.222 and robot.segments == (0.1, 0.1, 0.022)
+    assert robot.train == (str(tmp_path / "data" / "opencr-tdcr-v6" / "train.csv"),)

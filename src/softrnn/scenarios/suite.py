@@ -16,6 +16,7 @@ segments = [0.1, 0.1, 0.022]                 # optional, as every key below
 
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -134,7 +135,7 @@ def _session(ctx: _Ctx, key: str, x) -> str:
     """A session's path, resolved against the suite file's folder; a missing file is an error."""
     if not isinstance(x, str) or not x.strip():
         raise ctx.invalid(key, x, "a CSV path relative to the suite file")
-    path = Path(x) if Path(x).is_absolute() else ctx.base / x
+    path = Path(os.path.normpath(x if Path(x).is_absolute() else ctx.base / x))
     if not path.is_file():
         raise ctx.error(key, f"{key}: no session file {path} ({'a folder' if path.is_dir() else 'not found'}; "
                              "paths are relative to the suite file's folder)")
