@@ -168,13 +168,17 @@ def _benchmark(args) -> int:
             raise (_as_option(err) if str(err).startswith("lag=") else err) from None
     report = result.to_dict()
     if args.figure:      # the figure first: a failure leaves no file
-        shown = {f"{k} (model)": result.predictions[k] for k in [report["best_model"]] if k}
-        shown.update({f"{k} (baseline)": result.predictions[k] for k in [report["best_baseline"]] if k})
+        shown = {}
+        for name, kind, table in ((report["best_model"], "model", result.models),
+                                  (report["best_baseline"], "baseline", result.baselines)):
+            if name:
+                aligned = table[name].tip_mean_aligned_mm
+                shown[f"{name} ({kind}; offset-aligned mean {aligned:.1f} mm)"] = result.predictions[name]
         fig = benchmark_figure(result.validation.tip, shown,
                                title=f"{Path(args.validate).name}: free run on the commands alone")
         save_figure(fig, args.figure)
     if args.markdown:
-        name = Path(args.validate).parent.name or "robot"
+        name = Path(args.validate).resolve().parent.name or "robot"
         table = SuiteResult(suite="", title="lab benchmark", rows=(SuiteRow.from_report(name, args.json, report),))
         atomic_write_text(args.markdown, table.markdown())
     atomic_write_text(args.json, json.dumps(report, indent=2) + "\n")
