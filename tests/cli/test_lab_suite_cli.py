@@ -94,4 +94,25 @@ def test_suite_options_belong_in_the_file(folder, tmp_path, capsys):
     assert code == 2 and "leave out --length, --lag" in capsys.readouterr().err
     code = run_cli(["lab", "benchmark", "--json", str(tmp_path / "s.json"), "--quiet"])
     assert code == 2 and "required: --train, --validate, --length" in capsys.readouterr().err
+    code = run_cli(["lab", "benchmark", "--suite", suite, "--json", str(tmp_path / "s.json"), "--figure",
+                    str(tmp_path / "f.png"), "--quiet"])
+    assert code == 2 and "leave out --figure" in capsys.readouterr().err
+    code = run_cli(["lab", "benchmark", "--train", str(folder / "one" / "train.csv"), "--validate",
+                    str(folder / "one" / "val.csv"), "--length", "0.08", "--json", str(tmp_path / "s.json"),
+                    "--resume", "--quiet"])
+    assert code == 2 and "without --suite there is nothing to resume" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_one_robot_prints_and_writes_the_aligned_figures(folder, tmp_path, capsys):
+    out = tmp_path / "b.json"
+    assert run_cli(["lab", "benchmark", "--train", str(folder / "one" / "train.csv"), "--validate",
+                    str(folder / "one" / "val.csv"), "--length", "0.08", "--lag", "0", "--families", "physics",
+                    "--json", str(out), "--markdown", str(tmp_path / "b.md"), "--quiet"]) == 0
+    report = json.loads(out.read_text())
+    physics = report["models"]["physics"]
+    text = capsys.readouterr().out
+    assert "aligned mean [mm]" in text and f"{physics['tip_mean_aligned_mm']:.2f}" in text
+    assert f"physics (validation tip RMSE {physics['tip_rmse_mm']:.2f} mm)" in text
+    md = (tmp_path / "b.md").read_text()
+    assert f"| one | `physics` | {physics['tip_rmse_mm']:.2f} |" in md
