@@ -4,7 +4,7 @@ report kept in a folder (a finished robot is kept and skipped when the suite is 
 ``resume``), and one table of every robot's models and baselines (``SuiteResult``: JSON and Markdown).
 
 The suite file is read by ``softrnn.scenarios.suite``; the command line turns its entries into
-``SuiteJob`` s.
+``SuiteJob`` entries.
 """
 
 from __future__ import annotations
