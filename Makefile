@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install reproduce reproduce-quick real-robot results test test-all lint docs bench clean
+.PHONY: install reproduce reproduce-quick real-robot real-robot-suite results test test-all lint docs bench clean
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,13 @@ real-robot: $(STAMP)
 	mkdir -p out/real-robot
 	$(BIN)/softrnn lab benchmark --train $(DATA)/train.csv --validate $(DATA)/val.csv --length 0.222 \
 		--segments 0.1,0.1,0.022 --json out/real-robot/benchmark.json --figure out/real-robot/benchmark.png --overwrite
+
+# The same robot as a suite (docs/results/real-robot/suite.toml: the recordings in data/opencr-tdcr-v6/),
+# the table with the offset-aligned errors; a lab adds its robot to the suite file.
+real-robot-suite: $(STAMP)
+	mkdir -p out/real-robot
+	$(BIN)/softrnn lab benchmark --suite docs/results/real-robot/suite.toml --json out/real-robot/suite.json \
+		--markdown out/real-robot/suite.md --overwrite
 
 # The README's table of results and docs/results/index.md, rendered from the committed reference
 # run in docs/results/reference (its report.json and run.json); tests/project/test_results.py

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.lab.benchmark import BASELINES, FAMILIES, BenchmarkOptions, run_benchmark
+from softrnn.lab.benchmark import BASELINES, FAMILIES, BenchmarkOptions, _Table, run_benchmark
 from softrnn.lab.families import (
     NODE_TRAINING,
     ConstantVelocityFamily,
@@ -132,3 +132,45 @@ def test_fit_returns_a_new_frozen_model_and_leaves_the_family_as_it_was(sessions
             fitted.name = "changed"
     arx = LinearARXFamily(2, 1)
     assert arx.fit([train]).arx.na == 2 and arx.arx is None
+
+
+def test_report_has_the_fields_metrics(report, sessions):
+    """Per model and baseline: RMSE and mean, raw and after removing the session's constant offset, in mm
+    and % of the length; the chosen family's validation RMSE; no coverage where no model states one."""
+    _, val = sessions
+    aligned_keys = {"tip_rmse_aligned_mm", "tip_mean_aligned_mm", "tip_mean_aligned_pct_of_length",
+                    "tip_mean_pct_of_length", "tip_rmse_aligned_pct_of_length"}
+    for entry in [*report["models"].values(), *report["baselines"].values()]:
+        assert set(entry) >= aligned_keys and "coverage_90" not in entry
+        assert entry["tip_rmse_aligned_mm"] <= entry["tip_rmse_mm"] + 1e-3
+        assert entry["tip_mean_pct_of_length"] == pytest.approx(entry["tip_mean_mm"] / 80.0 * 100, rel=1e-3)
+        assert entry["tip_mean_aligned_pct_of_length"] == pytest.approx(entry["tip_mean_aligned_mm"] / 80.0 * 100,
+                                                                        rel=1e-3)
+    # persistence by hand: the first tip held, then the session's mean offset removed
+    pred = np.repeat(val.tip[:1], val.n_rows, axis=0)
+    pred = pred - (pred - val.tip).mean(axis=0)
+    by_hand = np.linalg.norm(pred - val.tip, axis=1) * 1e3
+    assert report["baselines"]["persistence"]["tip_mean_aligned_mm"] == pytest.approx(by_hand.mean(), abs=1e-4)
+    chosen = report["chosen_on_training"]
+    assert chosen["validation_tip_rmse_mm"] == report["models"][chosen["family"]]["tip_rmse_mm"]
+
+
+def test_a_model_that_states_its_uncertainty_gets_its_coverage(sessions):
+    """A model with ``predict_interval`` is scored on its tip, and its 90 % ball's coverage is reported."""
+    _, val = sessions
+
+    class Stated:
+        def predict_interval(self, session):
+            pred = session.tip + np.array([1e-3, 0, 0])                     # 1 mm off on every row
+            radius = np.where(np.arange(session.n_rows) % 4 == 0, 0.5e-3, 2e-3)
+            return pred, radius
+
+        def describe(self):
+            return {"kind": "stated"}
+
+    out = _Table(val, 0.08)
+    out.record(out.models, "stated", Stated())
+    score = out.models["stated"]
+    assert score.coverage_90 == pytest.approx(np.mean(np.arange(val.n_rows) % 4 != 0), abs=1e-4)
+    assert score.tip_rmse_mm == pytest.approx(1.0) and score.tip_rmse_aligned_mm == pytest.approx(0.0, abs=1e-9)
+    assert score.to_dict()["coverage_90"] == score.coverage_90

@@ -2,6 +2,7 @@
 
 import json
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,17 +14,20 @@ from ..files import atomic_write_text, prepare_output
 from ..lab.benchmark import FAMILIES, BenchmarkOptions, check_pulls, robot_for, run_benchmark, settle_lag
 from ..lab.families import displacements
 from ..lab.recording import Layout, check_sessions, read_recording, shift_inputs
+from ..lab.suite import SuiteJob, SuiteResult, SuiteRow, run_suite
 from ..lab.tendon_robot import calibrate
 from ..learned.metrics import tip_errors
-from ._progress import Bar
+from ..scenarios.suite import Suite, SuiteRobot, read_suite
+from ._progress import Bar, stop_code
 from ._vocabulary import deprecate, output
 
 NAME = "lab"
 HELP = "a real robot's recordings: benchmark every model family against baselines, calibrate the tendon physics"
 
 
-def _recording_args(q):
-    q.add_argument("--length", type=float, required=True, metavar="L_M", help="the robot's length in m")
+def _recording_args(q, suite: bool = False):
+    q.add_argument("--length", type=float, required=not suite, metavar="L_M",
+                   help="the robot's length in m" + (" (required without --suite)" if suite else ""))
     q.add_argument("--inputs", default=None, metavar="PATTERN[,PATTERN]",
                    help="the input columns, shell patterns in order (default: act_*, else servo_*)")
     q.add_argument("--tip", default=None, metavar="X,Y,Z", help="the tip columns (default: tip_x,tip_y,tip_z)")
@@ -43,6 +47,11 @@ def _recording_args(q):
     q.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+_SINGLE_ONLY = ("train", "validate", "figure", "families", "length", "inputs", "tip", "position_unit", "lag",
+                "segments", "tendons_per_segment", "routing_radius")
+"""``lab benchmark``'s options of one robot, which a suite file gives per robot instead."""
+
+
 def add_args(p):
     sub = p.add_subparsers(title="subcommands", dest="lab_command", required=True)
     b = sub.add_parser("benchmark", help="fit every model family and baseline on training sessions and run them "
@@ -50,15 +59,26 @@ def add_args(p):
                        description="fit every model family and baseline on the training sessions only and run "
                                    "each free over the validation session from its start on the commands alone; "
                                    "report the Euclidean tip RMSE and mean error in mm and % of the length")
-    b.add_argument("--train", nargs="+", required=True, metavar="TRAIN.csv", help="training sessions (CSV)")
-    b.add_argument("--validate", required=True, metavar="VAL.csv", help="the validation session (CSV)")
-    deprecate(b, b.add_argument("--json", required=True, metavar="PATH", help="the benchmark's JSON"), "-o", "--output")
+    b.add_argument("--train", nargs="+", default=None, metavar="TRAIN.csv",
+                   help="training sessions (CSV; required without --suite)")
+    b.add_argument("--validate", default=None, metavar="VAL.csv",
+                   help="the validation session (CSV; required without --suite)")
+    deprecate(b, b.add_argument("--json", required=True, metavar="PATH",
+                                help="the benchmark's JSON (with --suite: the suite's table; each robot's report "
+                                     "goes to the folder PATH's stem + '-robots' beside it)"), "-o", "--output")
     b.add_argument("--figure", default=None, metavar="PATH.png",
                    help="also draw the validation session's tip beside the best model and baseline")
     b.add_argument("--families", default=",".join(FAMILIES), metavar="NAME,...",
                    help=f"softrnn's model families to run (default: {','.join(FAMILIES)})")
-    _recording_args(b)
-    b.set_defaults(lab_run=_benchmark)
+    b.add_argument("--suite", default=None, metavar="FILE.toml",
+                   help="run every robot of a suite file instead (docs/guide/real-robots.md); the robots' "
+                        "sessions and options come from the file")
+    b.add_argument("--markdown", default=None, metavar="PATH.md", help="also write the table in Markdown")
+    b.add_argument("--resume", action="store_true",
+                   help="with --suite: keep the robots an interrupted run finished (same sessions and options)")
+    _recording_args(b, suite=True)
+    b.set_defaults(lab_run=_benchmark,
+                   lab_single={a.dest: a.default for a in b._actions if a.dest in _SINGLE_ONLY})
     c = sub.add_parser("calibrate", help="fit the tendon robot's physics to recordings' quasi-static poses",
                        description="fit the displacement-driven tendon robot (piecewise constant curvature, "
                                    "series stiffness, slack) to the recorded tip; write its parameters as JSON")
@@ -123,9 +143,20 @@ def _options(args, families) -> BenchmarkOptions:
 
 
 def _benchmark(args) -> int:
+    if args.suite:
+        return _suite(args)
+    missing = [flag for flag, value in (("--train", args.train), ("--validate", args.validate),
+                                        ("--length", args.length)) if value is None]
+    if missing:
+        raise SoftrnnInputError(f"the following arguments are required: {', '.join(missing)} (or give --suite "
+                                "FILE.toml)")
+    if args.resume:
+        raise SoftrnnInputError("--resume keeps the finished robots of a --suite run; without --suite there is "
+                                "nothing to resume: leave it out")
     prepare_output(args.json, "--json", overwrite=args.overwrite)
-    if args.figure:
-        prepare_output(args.figure, "--figure", overwrite=args.overwrite)
+    for path, flag in ((args.figure, "--figure"), (args.markdown, "--markdown")):
+        if path:
+            prepare_output(path, flag, overwrite=args.overwrite)
     options = _options(args, tuple(f.strip() for f in args.families.split(",") if f.strip()))
     layout = _layout(args)
     train = _read(args.train, layout)
@@ -136,18 +167,94 @@ def _benchmark(args) -> int:
         except SoftrnnInputError as err:
             raise (_as_option(err) if str(err).startswith("lag=") else err) from None
     report = result.to_dict()
-    if args.figure:      # the figure first: a failure leaves neither file
-        shown = {f"{k} (model)": result.predictions[k] for k in [report["best_model"]] if k}
-        shown.update({f"{k} (baseline)": result.predictions[k] for k in [report["best_baseline"]] if k})
+    if args.figure:      # the figure first: a failure leaves no file
+        shown = {}
+        for name, kind, table in ((report["best_model"], "model", result.models),
+                                  (report["best_baseline"], "baseline", result.baselines)):
+            if name:
+                aligned = table[name].tip_mean_aligned_mm
+                shown[f"{name} ({kind}; offset-aligned mean {aligned:.1f} mm)"] = result.predictions[name]
         fig = benchmark_figure(result.validation.tip, shown,
                                title=f"{Path(args.validate).name}: free run on the commands alone")
         save_figure(fig, args.figure)
+    if args.markdown:
+        name = Path(args.validate).resolve().parent.name or "robot"
+        table = SuiteResult(suite="", title="lab benchmark", rows=(SuiteRow.from_report(name, args.json, report),))
+        atomic_write_text(args.markdown, table.markdown())
     atomic_write_text(args.json, json.dumps(report, indent=2) + "\n")
     print(format_benchmark(report))
-    print(f"lab benchmark: wrote {args.json}")
-    if args.figure:
-        print(f"lab benchmark: wrote {args.figure}")
+    for path in (args.json, args.figure, args.markdown):
+        if path:
+            print(f"lab benchmark: wrote {path}")
     return 0
+
+
+def _robots_folder(json_path) -> Path:
+    """The folder of a suite's robot reports: the ``--json`` file's stem + ``-robots``, beside it."""
+    p = Path(json_path)
+    return p.with_name(p.stem + "-robots")
+
+
+def _job(suite: Suite, r: SuiteRobot) -> SuiteJob:
+    """The ``SuiteJob`` of a suite file's robot (its options checked; errors name the entry)."""
+    entry = f"{suite.path}: {r.key}"
+    given = {k: getattr(r, k) for k in ("segments", "tendons_per_segment", "routing_radius", "lag", "families")
+             if getattr(r, k) is not None}
+    try:
+        options = BenchmarkOptions(length=r.length, **given)
+        layout = Layout(inputs=r.inputs, tip=r.tip, position_unit=r.position_unit)
+    except SoftrnnInputError as err:
+        raise SoftrnnInputError(f"{entry}: {err}") from None
+    return SuiteJob(name=r.name, entry=entry, train=r.train, validation=r.validate, layout=layout, options=options)
+
+
+def _suite(args) -> int:
+    given = [f"--{d.replace('_', '-')}" for d, default in args.lab_single.items() if getattr(args, d) != default]
+    if given:
+        raise SoftrnnInputError(f"--suite gives each robot's sessions and options in its file: leave out "
+                                f"{', '.join(given)}")
+    again = args.overwrite or args.resume
+    prepare_output(args.json, "--json", overwrite=again)
+    if args.markdown:
+        prepare_output(args.markdown, "--markdown", overwrite=again)
+    folder = _robots_folder(args.json)
+    prepare_output(folder, "--json", kind="folder", overwrite=again,
+                   fix="give --resume to keep the robots it finished, or --overwrite to run them again")
+    suite = read_suite(args.suite)
+    jobs = [_job(suite, r) for r in suite.robots]
+    with Bar("lab benchmark", unit="stage", enabled=not args.quiet) as bar:
+        try:
+            result = run_suite(jobs, folder, suite=suite.path, title=suite.title, resume=args.resume, progress=bar)
+        except KeyboardInterrupt as err:
+            bar.close()
+            print(f"lab benchmark: interrupted; the robots finished are kept in {folder}: run the same command "
+                  "with --resume to go on", file=sys.stderr)
+            return stop_code(err)
+    if args.markdown:
+        atomic_write_text(args.markdown, result.markdown())
+    atomic_write_text(args.json, json.dumps(result.to_dict(), indent=2) + "\n")
+    print(result.markdown(), end="")
+    kept = [r.name for r in result.rows if r.resumed]
+    if kept:
+        print(f"lab benchmark: kept from an earlier run: {', '.join(kept)}")
+    for path in (folder, args.json, args.markdown):
+        if path:
+            print(f"lab benchmark: wrote {path}")
+    return 0
+
+
+_COLUMNS = (("tip RMSE [mm]", "tip_rmse_mm", 14), ("mean [mm]", "tip_mean_mm", 11),
+            ("RMSE [% L]", "tip_rmse_pct_of_length", 12), ("mean [% L]", "tip_mean_pct_of_length", 12),
+            ("aligned RMSE [mm]", "tip_rmse_aligned_mm", 19), ("aligned mean [mm]", "tip_mean_aligned_mm", 19),
+            ("[% L]", "tip_mean_aligned_pct_of_length", 8), ("cover 90", "coverage_90", 10))
+"""The terminal table's columns: (title, JSON key, width)."""
+
+
+def _cell(entry: dict, key: str, width: int) -> str:
+    value = entry.get(key)
+    if value is None:
+        return f"{'-':>{width}}"
+    return f"{value * 100:>{width - 1}.0f}%" if key == "coverage_90" else f"{value:>{width}.2f}"
 
 
 def format_benchmark(r: dict) -> str:
@@ -156,19 +263,22 @@ def format_benchmark(r: dict) -> str:
     lag = f"{robot['lag_rows']} rows" + (" (estimated)" if robot.get("estimated") else "")
     lines = [f"lab benchmark: {len(robot['training_sessions'])} training session(s), validation "
              f"{robot['validation_session']['rows']} rows; robot length {robot['length_m']:g} m; lag {lag}",
-             f"  {'':<22}{'tip RMSE [mm]':>14}{'mean [mm]':>11}{'RMSE [% L]':>12}"]
+             f"  {'':<22}" + "".join(f"{title:>{width}}" for title, _, width in _COLUMNS)]
     for title, table in (("models", r["models"]), ("baselines", r["baselines"])):
         lines.append(f"  {title}:")
         for name, e in table.items():
-            lines.append(f"    {name:<20}{e['tip_rmse_mm']:>14.2f}{e['tip_mean_mm']:>11.2f}"
-                         f"{e['tip_rmse_pct_of_length']:>12.2f}")
+            lines.append(f"    {name:<20}" + "".join(_cell(e, key, width) for _, key, width in _COLUMNS))
+    lines.append("  aligned: after removing the constant offset over the validation session; cover 90: the share "
+                 "of rows inside the model's stated 90 % ball")
     for name, why in r["skipped"].items():
         lines.append(f"  {name} not run: {why}")
     if r["ratio_best_model_to_best_baseline"] is not None:
         lines.append(f"  best model {r['best_model']}, best baseline {r['best_baseline']}: ratio "
                      f"{r['ratio_best_model_to_best_baseline']:.2f}")
     if r["chosen_on_training"]:
-        lines.append(f"  chosen on the training sessions' hold-out part: {r['chosen_on_training']['family']}")
+        c = r["chosen_on_training"]
+        lines.append(f"  chosen on the training sessions' hold-out part: {c['family']} "
+                     f"(validation tip RMSE {c['validation_tip_rmse_mm']:.2f} mm)")
     lines.append(f"  {r['seconds']:.0f} s")
     return "\n".join(lines)
 

@@ -3,8 +3,11 @@ sessions only, free running over a validation session from its start on the comm
 
 ``run_benchmark`` returns a ``BenchmarkResult``; its ``to_dict()`` is the JSON of
 ``softrnn lab benchmark`` (docs/guide/real-robots.md): the robot, per model and per baseline the
-Euclidean tip RMSE and mean error [mm] and the RMSE as % of the robot's length, the best of each
-and their ratio, the family chosen on the training sessions' hold-out part, and the time taken.
+Euclidean tip RMSE and mean error [mm] and as % of the robot's length, raw and after removing the
+constant offset over the session, the coverage of a stated 90 % uncertainty, the best of each and
+their ratio, the family chosen on the training sessions' hold-out part, and the time taken.
+``prepare`` does every check on the input before any fit (``run_prepared`` then runs), so that a
+suite of robots (``softrnn.lab.suite``) refuses a bad robot before it starts.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad, positive
-from ..learned.metrics import tip_errors
+from ..learned.metrics import aligned_tip_errors, coverage, tip_errors
 from .families import (
     ConstantVelocityFamily,
     Hybrid,
@@ -100,20 +103,55 @@ class BenchmarkOptions:
 
 @dataclass(frozen=True)
 class TipScore:
-    """One model's Euclidean tip errors over the validation session (rounded to 4 digits).
+    """One model's Euclidean tip errors over the validation session (rounded to 4 digits), raw and
+    after removing the constant offset over the session (``softrnn.learned.metrics.aligned_tip_errors``).
 
     Attributes
     ----------
     tip_rmse_mm, tip_mean_mm, tip_max_mm : float
         RMS, mean and largest error of the tip position [mm]
-    tip_rmse_pct_of_length : float
-        the RMS error in % of the robot's length
+    tip_rmse_pct_of_length, tip_mean_pct_of_length : float
+        the RMS and mean error in % of the robot's length
+    tip_rmse_aligned_mm, tip_mean_aligned_mm : float
+        the RMS and mean error after removing the constant offset mean_t (p - p_ref) [mm]
+    tip_rmse_aligned_pct_of_length, tip_mean_aligned_pct_of_length : float
+        the same in % of the robot's length
+    coverage_90 : float or None
+        the share of rows whose tip lies inside the model's stated 90 % ball (None: the model states
+        no uncertainty; left out of the JSON)
     """
 
     tip_rmse_mm: float
     tip_mean_mm: float
     tip_max_mm: float
     tip_rmse_pct_of_length: float
+    tip_mean_pct_of_length: float = float("nan")
+    tip_rmse_aligned_mm: float = float("nan")
+    tip_mean_aligned_mm: float = float("nan")
+    tip_rmse_aligned_pct_of_length: float = float("nan")
+    tip_mean_aligned_pct_of_length: float = float("nan")
+    coverage_90: float | None = None
+
+    @classmethod
+    def of(cls, predicted: np.ndarray, reference: np.ndarray, length: float, radius=None) -> TipScore:
+        """The score of ``predicted`` (T, 3) [m] against ``reference`` (T, 3) [m] for a robot of
+        ``length`` [m]; ``radius`` (T,) [m], the stated 90 % ball, gives the coverage."""
+        raw, aligned = tip_errors(predicted, reference, length), aligned_tip_errors(predicted, reference, length)
+        values = dict(tip_rmse_mm=raw.rmse_mm, tip_mean_mm=raw.mean_mm, tip_max_mm=raw.max_mm,
+                      tip_rmse_pct_of_length=raw.pct_of_length(raw.rmse_mm),
+                      tip_mean_pct_of_length=raw.pct_of_length(raw.mean_mm),
+                      tip_rmse_aligned_mm=aligned.rmse_mm, tip_mean_aligned_mm=aligned.mean_mm,
+                      tip_rmse_aligned_pct_of_length=aligned.pct_of_length(aligned.rmse_mm),
+                      tip_mean_aligned_pct_of_length=aligned.pct_of_length(aligned.mean_mm))
+        cover = None if radius is None else round(coverage(predicted, reference, radius), 4)
+        return cls(**{k: round(v, 4) for k, v in values.items()}, coverage_90=cover)
+
+    def to_dict(self) -> dict:
+        """The JSON of one model or baseline (``coverage_90`` only where the model states an uncertainty)."""
+        out = asdict(self)
+        if self.coverage_90 is None:
+            del out["coverage_90"]
+        return out
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -160,11 +198,14 @@ class Choice:
         {family: tip RMSE [mm] on the hold-out part}
     holdout : str
         what the hold-out part was
+    validation_tip_rmse_mm : float or None
+        the chosen family's tip RMSE over the validation session [mm] (its ``models`` entry)
     """
 
     family: str
     holdout_rmse_mm: dict
     holdout: str
+    validation_tip_rmse_mm: float | None = None
 
 
 @dataclass(frozen=True)
@@ -208,8 +249,8 @@ class BenchmarkResult:
         best_model, best_baseline = self._best(self.models), self._best(self.baselines)
         ratio = (self.models[best_model].tip_rmse_mm / self.baselines[best_baseline].tip_rmse_mm
                  if best_model and best_baseline else None)
-        return {"robot": self.robot.to_dict(), "models": {k: asdict(v) for k, v in self.models.items()},
-                "baselines": {k: asdict(v) for k, v in self.baselines.items()},
+        return {"robot": self.robot.to_dict(), "models": {k: v.to_dict() for k, v in self.models.items()},
+                "baselines": {k: v.to_dict() for k, v in self.baselines.items()},
                 "best_model": best_model, "best_baseline": best_baseline,
                 "ratio_best_model_to_best_baseline": ratio,
                 "chosen_on_training": {} if self.chosen_on_training is None else asdict(self.chosen_on_training),
@@ -289,18 +330,27 @@ def _families(options: BenchmarkOptions, robot, sessions) -> tuple[list, dict]:
 
 
 class _Table:
-    """The validation session's errors, predictions and model descriptions, filled as models are run."""
+    """The validation session's scores, predictions and model descriptions, filled as models are run."""
 
     def __init__(self, validation: Recording, length: float):
         self.validation, self.length = validation, length
-        self.predictions, self.details, self.models, self.baselines = {}, {}, {}, {}
+        self.predictions: dict[str, np.ndarray] = {}
+        self.details: dict[str, dict] = {}
+        self.models: dict[str, TipScore] = {}
+        self.baselines: dict[str, TipScore] = {}
 
     def record(self, table: dict, name: str, model, holdout_scores=None) -> None:
-        pred = model.predict(self.validation)
+        """Run ``model`` over the validation session and score it into ``table`` (``models`` or
+        ``baselines``). A model with ``predict_interval(session) -> (tip (T, 3) [m], radius (T,) [m])``
+        (the ball that holds the true tip with 90 % probability) is run by it: its tip is the prediction,
+        its radius gives the coverage."""
+        radius = None
+        if hasattr(model, "predict_interval"):
+            pred, radius = model.predict_interval(self.validation)
+        else:
+            pred = model.predict(self.validation)
         self.predictions[name] = pred
-        err = tip_errors(pred, self.validation.tip).tip_summary()
-        err["tip_rmse_pct_of_length"] = err["tip_rmse_mm"] / (self.length * 1e3) * 100.0
-        table[name] = {k: round(v, 4) for k, v in err.items()}
+        table[name] = TipScore.of(pred, self.validation.tip, self.length, radius)
         self.details[name] = model.describe()
         if holdout_scores is not None:
             self.details[name]["holdout_rmse_mm"] = holdout_scores
@@ -363,15 +413,43 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
     return holdout
 
 
-def _scores(table: dict) -> dict[str, TipScore]:
-    """{name: TipScore} of a ``_Table`` entry {name: {tip_rmse_mm, ...}}."""
-    return {name: TipScore(**errors) for name, errors in table.items()}
+@dataclass(frozen=True)
+class Prepared:
+    """Sessions checked and lined up for a benchmark (``prepare``): every check on the input done
+    before any fit.
+
+    Attributes
+    ----------
+    train, validation : tuple of Recording, Recording
+        the sessions, shifted by the lag
+    lag_info : dict
+        what to report of the lag (``settle_lag``)
+    robot : TendonRobot or None
+        the tendon robot of the options (None: the inputs do not split into segments)
+    families, skipped : tuple of str, dict of str to str
+        the families to run, and those skipped and why
+    seconds : float
+        the wall time the checks took [s]
+    """
+
+    train: tuple
+    validation: Recording
+    lag_info: dict
+    robot: TendonRobot | None
+    families: tuple
+    skipped: dict
+    seconds: float
+
+    @property
+    def stages(self) -> int:
+        """The stages ``run_prepared`` reports: the baselines, then each family."""
+        return 1 + len(self.families)
 
 
-def run_benchmark(train: list[Recording], validation: Recording, options: BenchmarkOptions,
-                  progress=None) -> BenchmarkResult:
-    """Fit every baseline and model family on ``train`` (sessions of one robot) and run each free
-    over ``validation`` from its start. ``progress(done, total, {"stage": text})`` after each stage."""
+def prepare(train: list[Recording], validation: Recording, options: BenchmarkOptions) -> Prepared:
+    """Check ``train`` and ``validation`` (sessions of one robot) against ``options`` and line them up
+    by the lag: one-line ``SoftrnnInputError`` for channels that differ, too few rows, a lag too long, a
+    pull beyond the routing."""
     t0 = time.perf_counter()
     check_sessions(list(train) + [validation])
     lag, lag_info = settle_lag(train, options)
@@ -380,27 +458,47 @@ def run_benchmark(train: list[Recording], validation: Recording, options: Benchm
     check_rows(train + [validation])
     robot = robot_for(options, validation.n_inputs)
     families, skipped = _families(options, robot, train + [validation])
-    stages = ["baselines"] + families
+    return Prepared(train=tuple(train), validation=validation, lag_info=lag_info, robot=robot,
+                    families=tuple(families), skipped=skipped, seconds=time.perf_counter() - t0)
+
+
+def run_benchmark(train: list[Recording], validation: Recording, options: BenchmarkOptions,
+                  progress=None) -> BenchmarkResult:
+    """Fit every baseline and model family on ``train`` (sessions of one robot) and run each free
+    over ``validation`` from its start. ``progress(done, total, {"stage": text})`` after each stage."""
+    return run_prepared(prepare(train, validation, options), options, progress)
+
+
+def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -> BenchmarkResult:
+    """``run_benchmark`` on sessions ``prepare`` checked with the same ``options``."""
+    t0 = time.perf_counter()
+    train, validation, robot, families = list(prepared.train), prepared.validation, prepared.robot, \
+        list(prepared.families)
     done = 0
 
     def step(stage):
         nonlocal done
         done += 1
         if progress is not None:
-            progress(done, len(stages), {"stage": stage})
+            progress(done, prepared.stages, {"stage": stage})
 
     out = _Table(validation, options.length)
     _baselines(train, out)
     step("baselines")
     holdout = _models(train, families, robot, options, out, step)
-    chosen = Choice(family=min(holdout, key=holdout.get), holdout_rmse_mm=holdout,
-                    holdout="the last training session" if len(train) >= 2 else
-                            "the last quarter of the training session") if holdout else None
-    robot_info = RobotInfo(length_m=options.length, lag=lag_info, training_sessions=tuple(s.describe() for s in train),
+    chosen = None
+    if holdout:
+        family = min(holdout, key=holdout.get)
+        chosen = Choice(family=family, holdout_rmse_mm=holdout,
+                        holdout="the last training session" if len(train) >= 2 else
+                                "the last quarter of the training session",
+                        validation_tip_rmse_mm=out.models[family].tip_rmse_mm)
+    robot_info = RobotInfo(length_m=options.length, lag=prepared.lag_info,
+                           training_sessions=tuple(s.describe() for s in train),
                            validation_session=validation.describe(),
                            segments_m=None if robot is None else tuple(robot.segment_lengths),
                            tendons_per_segment=None if robot is None else robot.tendons_per_segment)
-    return BenchmarkResult(robot=robot_info, models=_scores(out.models), baselines=_scores(out.baselines),
-                           chosen_on_training=chosen, details=out.details, skipped=skipped,
-                           seconds=time.perf_counter() - t0,
+    return BenchmarkResult(robot=robot_info, models=out.models, baselines=out.baselines,
+                           chosen_on_training=chosen, details=out.details, skipped=prepared.skipped,
+                           seconds=prepared.seconds + time.perf_counter() - t0,
                            predictions=out.predictions, validation=validation)

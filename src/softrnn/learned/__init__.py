@@ -15,7 +15,8 @@ Shared by both kinds (NumPy only):
 * ``horizons``: ``HORIZONS``, ``WHOLE_HORIZONS``, ``HORIZON_STARTS``, ``WHOLE_HORIZON_STARTS``,
   ``free_steps``, ``DIVERGED_M``, ``RolloutDiverged``, ``spread_starts``, ``worst_by_horizon``,
   ``horizon_table``, ``HorizonTable``, ``HorizonRow``;
-* ``metrics``: ``tip_errors``, ``TipErrors``, ``euclidean_errors``, ``euclidean_summary``;
+* ``metrics``: ``tip_errors``, ``TipErrors``, ``euclidean_errors``, ``euclidean_summary``,
+  ``aligned_tip_errors`` (after removing a session's constant offset), ``coverage``;
 * ``spans``: ``check_span`` and the other checks of an evaluated span;
 * ``artifacts``: model folders (``ModelFolderError``, their JSON files and format checks);
 * ``checkpoints``: the checkpoint lifecycle of every training (``output_folder``, ``Checkpoint``,
@@ -38,6 +39,7 @@ _EXPORTS = {
     "DIVERGED_M": "horizons", "RolloutDiverged": "horizons", "HORIZON_STARTS": "horizons",
     "WHOLE_HORIZON_STARTS": "horizons", "horizon_table": "horizons", "HorizonRow": "horizons",
     "tip_errors": "metrics", "TipErrors": "metrics", "euclidean_errors": "metrics", "euclidean_summary": "metrics",
+    "aligned_tip_errors": "metrics", "coverage": "metrics",
     "SpanWording": "spans", "check_span": "spans", "check_length": "spans", "check_fit_span": "spans",
     "check_step_start": "spans", "start_of_test_span": "spans", "check_beyond_trained": "spans",
 }

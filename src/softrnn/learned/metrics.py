@@ -1,6 +1,8 @@
 """The Euclidean tip error robotics papers report, shared by every learned model and the lab
 benchmark: sqrt(mean_t |p - p_ref|^2), mean_t |p - p_ref| and max_t |p - p_ref| [mm], and as % of a
-length (``tip_errors`` -> ``TipErrors``)."""
+length (``tip_errors`` -> ``TipErrors``); the same after removing the constant offset between model
+and measurement over a session (``aligned_tip_errors``, the metric of opencr-mujoco, arXiv 2606.22397);
+and the share of rows inside a stated uncertainty ball (``coverage``)."""
 
 from __future__ import annotations
 
@@ -19,11 +21,16 @@ def euclidean_errors(predicted, reference) -> tuple[float, float]:
         return float(np.sqrt(sq.mean())), float(np.sqrt(sq).mean())
 
 
+def pct_of_length(mm: float, length_m: float | None) -> float | None:
+    """``mm`` [mm] as % of ``length_m`` [m] (None without a length)."""
+    return None if not length_m else float(mm) / (float(length_m) * 1e3) * 100.0
+
+
 def euclidean_summary(rmse_mm: float, mean_mm: float, length_m: float | None) -> dict:
     """{rmse_euclidean_mm, mean_euclidean_mm, rmse_euclidean_pct_of_length,
     mean_euclidean_pct_of_length} (the percentages None without a length ``length_m`` [m])."""
     def pct(mm):
-        return None if not length_m else float(mm) / (float(length_m) * 1e3) * 100.0
+        return pct_of_length(mm, length_m)
 
     return {"rmse_euclidean_mm": float(rmse_mm), "mean_euclidean_mm": float(mean_mm),
             "rmse_euclidean_pct_of_length": pct(rmse_mm), "mean_euclidean_pct_of_length": pct(mean_mm)}
@@ -43,6 +50,10 @@ class TipErrors:
     length_m: float | None = None
     """The length [m] of the percentages (None: none)."""
 
+    def pct_of_length(self, mm: float) -> float | None:
+        """``mm`` [mm] as % of ``length_m`` (None without a length)."""
+        return pct_of_length(mm, self.length_m)
+
     def summary(self) -> dict:
         """``euclidean_summary``'s keys: the learned models' reports."""
         return euclidean_summary(self.rmse_mm, self.mean_mm, self.length_m)
@@ -58,3 +69,26 @@ def tip_errors(predicted, reference, length_m: float | None = None) -> TipErrors
     rmse, mean = euclidean_errors(predicted, reference)
     largest = float(np.max(np.linalg.norm(np.asarray(predicted) - np.asarray(reference), axis=1)) * 1e3)
     return TipErrors(rmse_mm=rmse, mean_mm=mean, max_mm=largest, length_m=length_m)
+
+
+def offset(predicted, reference) -> np.ndarray:
+    """(3,) the constant offset mean_t (p - p_ref) [m] of ``predicted`` against ``reference`` (T, 3) [m]."""
+    return np.mean(np.asarray(predicted, dtype=np.float64) - np.asarray(reference, dtype=np.float64), axis=0)
+
+
+def aligned_tip_errors(predicted, reference, length_m: float | None = None) -> TipErrors:
+    """The ``TipErrors`` of ``predicted`` (T, 3) [m] against ``reference`` (T, 3) [m] after removing
+    the constant offset over the rows: of p - mean_t (p - p_ref). Give one session at a time (the
+    offset is the session's; docs/guide/real-robots.md, "The metrics")."""
+    predicted = np.asarray(predicted, dtype=np.float64)
+    return tip_errors(predicted - offset(predicted, reference), reference, length_m)
+
+
+def coverage(predicted, reference, radius) -> float:
+    """The share of rows whose true tip lies in the stated ball: mean_t [|p - p_ref| <= r_t], for
+    ``predicted`` and ``reference`` (T, 3) [m] and ``radius`` (T,) [m]."""
+    err = np.linalg.norm(np.asarray(predicted, dtype=np.float64) - np.asarray(reference, dtype=np.float64), axis=1)
+    radius = np.asarray(radius, dtype=np.float64)
+    if radius.shape != err.shape:
+        raise ValueError(f"radius of shape {radius.shape} for {err.shape[0]} rows")
+    return float(np.mean(err <= radius))

@@ -12,7 +12,9 @@ cases built from them, and the summary of a scenario's run.
   ``read_record`` reads old files); a scenario's own is ``Scenario.record``;
 * ``magnetic``: magnetic scenarios (a ``[magnetic]`` table): ``MagneticScenario``, the manipulator
   (a rod with the magnets' load, ``softrnn.rod.magnetic.MagneticDipoles``) run by the one rod
-  simulator (``simulate_magnetic``) and written with the coil currents.
+  simulator (``simulate_magnetic``) and written with the coil currents;
+* ``suite``: the suite file of ``softrnn lab benchmark --suite`` (``read_suite``: robots, their sessions
+  and options; run by ``softrnn.lab.suite``).
 """
 
 from . import record as _record  # noqa: F401  (registers the record builder of old data files)
@@ -22,3 +24,4 @@ from .scenario import Scenario as Scenario
 from .scenario import load_scenario as load_scenario
 from .scenario import parse_scenario as parse_scenario
 from .scenario import scenario_text as scenario_text
+from .suite import read_suite as read_suite
