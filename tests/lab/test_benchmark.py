@@ -14,14 +14,13 @@ from softrnn.lab.families import (
     NODE_TRAINING,
     ConstantVelocityFamily,
     LinearARXFamily,
-    NetOptions,
     NodeOptions,
     PersistenceFamily,
-    SequenceOptions,
     StaticPolynomial,
     holdout_split,
     play,
 )
+from softrnn.lab.nets import NetOptions, SequenceOptions
 from softrnn.lab.recording import read_recording
 from softrnn.lab.tendon_robot import CalibrationOptions
 from softrnn.learned.metrics import tip_errors

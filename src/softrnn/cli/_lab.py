@@ -13,6 +13,7 @@ from ..files import atomic_write_text, prepare_output
 from ..lab.benchmark import FAMILIES, BenchmarkOptions, check_pulls, robot_for, run_benchmark, settle_lag
 from ..lab.families import displacements
 from ..lab.recording import Layout, check_sessions, read_recording, shift_inputs
+from ..lab.synthetic import SyntheticOptions
 from ..lab.tendon_robot import calibrate
 from ..learned.metrics import tip_errors
 from ._progress import Bar
@@ -57,6 +58,9 @@ def add_args(p):
                    help="also draw the validation session's tip beside the best model and baseline")
     b.add_argument("--families", default=",".join(FAMILIES), metavar="NAME,...",
                    help=f"softrnn's model families to run (default: {','.join(FAMILIES)})")
+    b.add_argument("--synthetic", type=float, default=None, metavar="N",
+                   help="synthetic rows from the calibrated physics for the learned families, N times the real "
+                        "rows (0: none; default: 5 where the physics can be calibrated, else none)")
     _recording_args(b)
     b.set_defaults(lab_run=_benchmark)
     c = sub.add_parser("calibrate", help="fit the tendon robot's physics to recordings' quasi-static poses",
@@ -113,11 +117,19 @@ def _read(paths, layout):
     return recordings
 
 
+def _synthetic(amount):
+    if amount is None:
+        return None
+    if not np.isfinite(amount) or amount < 0:
+        raise bad("--synthetic", amount, "a multiple of the real rows >= 0 (0: no synthetic data)")
+    return SyntheticOptions(amount=amount)
+
+
 def _options(args, families) -> BenchmarkOptions:
     try:
         return BenchmarkOptions(length=args.length, lag=_lag(args.lag), segments=_segments(args.segments),
                                 tendons_per_segment=args.tendons_per_segment, routing_radius=args.routing_radius,
-                                families=families)
+                                families=families, synthetic=_synthetic(args.synthetic))
     except SoftrnnInputError as err:
         raise _as_option(err) from None
 
@@ -134,7 +146,7 @@ def _benchmark(args) -> int:
         try:
             result = run_benchmark(train, validation, options, progress=bar)
         except SoftrnnInputError as err:
-            raise (_as_option(err) if str(err).startswith("lag=") else err) from None
+            raise (_as_option(err) if str(err).startswith(("lag=", "synthetic=")) else err) from None
     report = result.to_dict()
     if args.figure:      # the figure first: a failure leaves neither file
         shown = {f"{k} (model)": result.predictions[k] for k in [report["best_model"]] if k}

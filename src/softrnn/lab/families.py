@@ -16,12 +16,8 @@ Baselines (the cores shared with the learned models, ``softrnn.learned``):
 softrnn's models:
 
 * ``Physics``: the calibrated tendon robot (``softrnn.lab.tendon_robot``).
-* ``LearnedMap``: a small network (an ensemble of MLPs) of the current and previous inputs, and optionally a
-  hysteresis state (play operators of each input), to the tip: a static map with the path dependence of friction.
-* ``Hybrid``: the calibrated physics plus a network of the same inputs and the physics' tip that predicts only
-  what the physics misses.
-* ``Sequence``: a recurrent network (GRU) reading the commands and the interval since the previous row, so it
-  can represent lag, creep and hysteresis; it runs free from a zero state.
+* ``LearnedMap``, ``Hybrid`` (the physics plus a learned residual), ``Sequence`` (a GRU): the learned
+  families, taught by the physics' synthetic sessions (``softrnn.lab.nets``, ``softrnn.lab.synthetic``).
 * ``NodeFamily``: softrnn's per-node LSTM (``softrnn.learned.node``) driven by the commands alone.
 
 The errors of a prediction are ``softrnn.learned.metrics.tip_errors``. Options with more than one sensible value
@@ -236,237 +232,6 @@ class Physics:
         return {"kind": "calibrated tendon robot physics", **self.calibration.to_dict()}
 
 
-@dataclass(frozen=True)
-class NetOptions:
-    """The networks' size and training (``LearnedMap``, ``Hybrid``): an ensemble of two-layer tanh
-    MLPs, averaged, each trained full batch with AdamW."""
-
-    hidden: int = 64
-    """Units in each of the two tanh layers."""
-    members: int = 3
-    """Networks in the ensemble."""
-    steps: int = 1500
-    """Full-batch AdamW steps per network."""
-    lr: float = 3e-3
-    """Learning rate."""
-    weight_decay: float = 0.1
-    """AdamW's weight decay."""
-    seed: int = 0
-    """Seed of member m: seed * 1000 + m."""
-
-
-def _features(session: Recording, widths: np.ndarray | None) -> np.ndarray:
-    u = session.inputs
-    parts = [u, _previous(u)]
-    if widths is not None:
-        parts += [play(u, w) - u for w in widths]
-    return np.hstack(parts)
-
-
-class _Ensemble:
-    """An ensemble of two-layer tanh MLPs, inputs standardised, targets scaled by their RMS."""
-
-    def __init__(self, options: NetOptions):
-        self.options = options
-        self.members = []
-
-    def fit(self, X: np.ndarray, Y: np.ndarray) -> _Ensemble:
-        """Train the members on features ``X`` (M, F) and targets ``Y`` (M, D); returns itself."""
-        import torch  # optional extra: learn (PyTorch)
-
-        o = self.options
-        self.mu, self.sd = X.mean(axis=0), X.std(axis=0) + 1e-9
-        self.scale = float(np.sqrt(np.mean(Y ** 2))) or 1.0
-        x = torch.tensor((X - self.mu) / self.sd, dtype=torch.float32)
-        y = torch.tensor(Y / self.scale, dtype=torch.float32)
-        for m in range(o.members):
-            torch.manual_seed(o.seed * 1000 + m)
-            net = torch.nn.Sequential(torch.nn.Linear(X.shape[1], o.hidden), torch.nn.Tanh(),
-                                      torch.nn.Linear(o.hidden, o.hidden), torch.nn.Tanh(),
-                                      torch.nn.Linear(o.hidden, Y.shape[1]))
-            opt = torch.optim.AdamW(net.parameters(), lr=o.lr, weight_decay=o.weight_decay)
-            for _ in range(o.steps):
-                opt.zero_grad()
-                loss = torch.mean((net(x) - y) ** 2)
-                loss.backward()
-                opt.step()
-            self.members.append(net)
-        return self
-
-    def __call__(self, X: np.ndarray) -> np.ndarray:
-        import torch  # optional extra: learn (PyTorch)
-
-        with torch.no_grad():
-            x = torch.tensor((X - self.mu) / self.sd, dtype=torch.float32)
-            return np.mean([net(x).numpy() for net in self.members], axis=0).astype(float) * self.scale
-
-
-def _widths(sessions, hysteresis: bool):
-    if not hysteresis:
-        return None
-    u = np.vstack([s.inputs for s in sessions])
-    return [f * np.ptp(u, axis=0) for f in PLAY_WIDTHS]
-
-
-@dataclass(frozen=True, eq=False)
-class LearnedMap:
-    """A learned static map with input history: an MLP ensemble of (u_k, u_{k-1}[, hysteresis
-    state]) to the tip."""
-
-    hysteresis: bool = False
-    options: NetOptions = NetOptions()
-    name: str = "learned_map"
-    net: object = None
-    widths: object = None
-    offset: np.ndarray | None = None
-
-    def fit(self, sessions) -> LearnedMap:
-        """The model fitted on training sessions (a list of ``Recording``)."""
-        widths = _widths(sessions, self.hysteresis)
-        X = np.vstack([_features(s, widths) for s in sessions])
-        offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
-        Y = np.vstack([s.tip for s in sessions]) - offset
-        return replace(self, widths=widths, offset=offset, net=_Ensemble(self.options).fit(X, Y))
-
-    def predict(self, session: Recording) -> np.ndarray:
-        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
-        return self.net(_features(session, self.widths)) + self.offset
-
-    def describe(self) -> dict:
-        """What the model is and its options, JSON-ready."""
-        return {"kind": "MLP ensemble of the current and previous inputs" +
-                        (" and a hysteresis state (play operators)" if self.hysteresis else ""),
-                **{k: v for k, v in vars(self.options).items()}}
-
-
-@dataclass(frozen=True, eq=False)
-class Hybrid:
-    """Calibrated physics plus a learned residual: tip = physics(u_k) + MLP(u_k, u_{k-1}[,
-    hysteresis state], physics(u_k)); ``physics`` fitted (calibrated) or to be fitted with it."""
-
-    physics: Physics
-    hysteresis: bool = False
-    options: NetOptions = NetOptions()
-    name: str = "hybrid"
-    net: object = None
-    widths: object = None
-
-    def _X(self, s, base):
-        return np.hstack([_features(s, self.widths), base])
-
-    def fit(self, sessions) -> Hybrid:
-        """The model fitted on training sessions (a list of ``Recording``)."""
-        physics = self.physics if self.physics.calibration is not None else self.physics.fit(sessions)
-        out = replace(self, physics=physics, widths=_widths(sessions, self.hysteresis))
-        bases = [physics.predict(s) for s in sessions]
-        X = np.vstack([out._X(s, b) for s, b in zip(sessions, bases)])
-        Y = np.vstack([s.tip - b for s, b in zip(sessions, bases)])
-        return replace(out, net=_Ensemble(self.options).fit(X, Y))
-
-    def predict(self, session: Recording) -> np.ndarray:
-        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
-        base = self.physics.predict(session)
-        return base + self.net(self._X(session, base))
-
-    def describe(self) -> dict:
-        """What the model is and its options, JSON-ready."""
-        return {"kind": "calibrated physics + MLP residual" +
-                        (" with a hysteresis state (play operators)" if self.hysteresis else ""),
-                **{k: v for k, v in vars(self.options).items()}}
-
-
-@dataclass(frozen=True)
-class SequenceOptions:
-    """The recurrent model (``Sequence``) and its training with AdamW."""
-
-    hidden: int = 32
-    """GRU units."""
-    window: int = 64
-    """Rows per training window (the state carried from the session's start through the windows before)."""
-    epochs: int = 300
-    """Passes over the sessions, or fewer where that would take more than ``max_steps``."""
-    max_steps: int = 6000
-    """Most optimiser steps (long recordings)."""
-    lr: float = 3e-3
-    """Learning rate."""
-    weight_decay: float = 1e-3
-    """AdamW's weight decay."""
-    seed: int = 0
-    """PyTorch's seed."""
-
-
-@dataclass(frozen=True, eq=False)
-class Sequence:
-    """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s]) and
-    writing the tip: a dynamic model of the commands alone, run free from a zero state."""
-
-    options: SequenceOptions = SequenceOptions()
-    name: str = "sequence"
-    net: object = None
-    offset: np.ndarray | None = None
-    mu: np.ndarray | None = None
-    sd: np.ndarray | None = None
-    scale: float = 1.0
-
-    def _inputs(self, s: Recording) -> np.ndarray:
-        u = s.inputs
-        dt = np.concatenate([[np.median(np.diff(s.time))], np.diff(s.time)])
-        return np.hstack([u, u - _previous(u), np.log(dt)[:, None]])
-
-    def fit(self, sessions) -> Sequence:
-        """The model fitted on training sessions (a list of ``Recording``)."""
-        import torch  # optional extra: learn (PyTorch)
-
-        torch.manual_seed(self.options.seed)
-        offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
-        X = [self._inputs(s) for s in sessions]
-        Y = [s.tip - offset for s in sessions]
-        allX = np.vstack(X)
-        mu, sd = allX.mean(axis=0), allX.std(axis=0) + 1e-9
-        scale = float(np.sqrt(np.mean(np.vstack(Y) ** 2))) or 1.0
-        xs = [torch.tensor((x - mu) / sd, dtype=torch.float32)[None] for x in X]
-        ys = [torch.tensor(y / scale, dtype=torch.float32)[None] for y in Y]
-        return replace(self, net=_train_gru(self.options, xs, ys, allX.shape[1]), offset=offset, mu=mu, sd=sd,
-                       scale=scale)
-
-    def predict(self, session: Recording) -> np.ndarray:
-        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
-        import torch  # optional extra: learn (PyTorch)
-
-        gru, head = self.net
-        with torch.no_grad():
-            out, _ = gru(torch.tensor((self._inputs(session) - self.mu) / self.sd, dtype=torch.float32)[None])
-            y = head(out)[0].numpy().astype(float) * self.scale
-        return y + self.offset
-
-    def describe(self) -> dict:
-        """What the model is and its options, JSON-ready."""
-        return {"kind": "GRU of the commands and intervals", **{k: v for k, v in vars(self.options).items()}}
-
-
-def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int) -> tuple:
-    """(GRU, linear head) trained on the sessions' standardised inputs ``xs`` and scaled tips ``ys``
-    (each a (1, T, .) float32 tensor), windows of ``o.window`` rows carrying the state."""
-    import torch  # optional extra: learn (PyTorch)
-
-    gru = torch.nn.GRU(n_inputs, o.hidden, batch_first=True)
-    head = torch.nn.Linear(o.hidden, 3)
-    params = list(gru.parameters()) + list(head.parameters())
-    opt = torch.optim.AdamW(params, lr=o.lr, weight_decay=o.weight_decay)
-    per_epoch = sum(-(-x.shape[1] // o.window) for x in xs)
-    for _ in range(max(1, min(o.epochs, o.max_steps // per_epoch))):
-        for x, y in zip(xs, ys):
-            h = None
-            for a in range(0, x.shape[1], o.window):
-                out, h = gru(x[:, a:a + o.window], h)
-                loss = torch.mean((head(out) - y[:, a:a + o.window]) ** 2)
-                opt.zero_grad()
-                loss.backward()
-                opt.step()
-                h = h.detach()
-    return gru, head
-
-
 # ------------------------------------------------------------------------------------------- choice
 def holdout_split(sessions) -> tuple[list, list]:
     """Training sessions split for choosing options: with two or more sessions, the last one is
@@ -490,20 +255,23 @@ class Choice:
 
     chosen: object
     scores: dict = field(default_factory=dict)
+    model: object = None
+    """The chosen candidate fitted on the fitting part (for calibrations on the hold-out part)."""
 
 
 def choose(candidates: dict, sessions) -> Choice:
     """Fit each candidate (``{label: factory() -> model}``) on the fitting part of ``sessions``
     and score its free run on the hold-out part (Euclidean tip RMSE [mm]); the best label wins."""
     fit_part, held = holdout_split(sessions)
-    scores = {}
+    scores, models = {}, {}
     for label, factory in candidates.items():
-        model = factory().fit(fit_part)
+        model = models[label] = factory().fit(fit_part)
         pred = np.vstack([model.predict(s) for s in held])
         ref = np.vstack([s.tip for s in held])
         score = tip_errors(pred, ref).rmse_mm
         scores[label] = score if math.isfinite(score) else math.inf
-    return Choice(chosen=min(scores, key=scores.get), scores=scores)
+    best = min(scores, key=scores.get)
+    return Choice(chosen=best, scores=scores, model=models[best])
 
 
 # ---------------------------------------------------------------------------------- the node model
