@@ -103,7 +103,8 @@ def test_hybrid_is_its_physics_far_from_the_data_and_physics_plus_residual_on_th
     w = hybrid.weights(near)
     assert np.all((w > 0) & (w < 1))                                                   # falls off in between
     ungated = replace(hybrid, gate=math.inf)
-    np.testing.assert_allclose(ungated.predict(far), crude.predict(far) + ungated.net(ungated._X(far, crude.predict(far))))
+    base = crude.predict(far)
+    np.testing.assert_allclose(ungated.predict(far), base + ungated.net(ungated._X(far, base)))
     assert "gated off" in hybrid.describe()["kind"] and hybrid.describe()["gate_d0"] == 0.5
 
 

@@ -129,7 +129,7 @@ def _options(args, families) -> BenchmarkOptions:
     try:
         return BenchmarkOptions(length=args.length, lag=_lag(args.lag), segments=_segments(args.segments),
                                 tendons_per_segment=args.tendons_per_segment, routing_radius=args.routing_radius,
-                                families=families, synthetic=_synthetic(args.synthetic))
+                                families=families, synthetic=_synthetic(getattr(args, "synthetic", None)))
     except SoftrnnInputError as err:
         raise _as_option(err) from None
 
