@@ -14,7 +14,7 @@ from softrnn.lab.nets import Hybrid, LearnedMap, NetOptions, Sequence, SequenceO
 from softrnn.lab.recording import Recording, read_recording
 from softrnn.lab.synthetic import SyntheticOptions
 from softrnn.lab.tendon_robot import Calibration
-from softrnn.lab.uncertainty import ConstantInterval, conformal_q, constant_interval
+from softrnn.lab.uncertainty import InputDistance, WithInterval, conformal_q, with_interval
 
 from helpers import tendon_recording, tendon_robot_truth
 
@@ -131,17 +131,30 @@ def test_a_constant_interval_of_known_noise_holds_90_percent_of_fresh_rows(noisy
     hold-out rows is near the chi (3 dof) 90 % quantile, 0.5 mm x 2.50, and holds ~90 % of fresh rows."""
     _, held, fresh = noisy
     exact = _physics(1)
-    model = constant_interval(exact, exact, [held])
+    model = with_interval(exact, exact, [held], [held])
     assert model.interval_q == pytest.approx(0.5e-3 * 2.5003, rel=0.1)
     assert 0.87 <= _coverage(model, fresh) <= 0.93
     assert model.describe()["interval_90_radius_mm"] == pytest.approx(model.interval_q * 1e3, abs=1e-4)
     with pytest.raises(ValueError, match="not calibrated"):
-        ConstantInterval(exact).predict_interval(fresh)
+        WithInterval(exact).predict_interval(fresh)
 
 
 def test_learned_intervals_hold_about_90_percent_of_fresh_rows(noisy):
     fit, held, fresh = noisy
     physics = _physics(1)
-    for model in (LearnedMap(options=SMALL).fit([fit]), Hybrid(physics, options=SMALL, gate=1.0).fit([fit])):
+    for model in (LearnedMap(options=SMALL).fit([fit]), Hybrid(physics, options=SMALL, gate=1.0).fit([fit]),
+                  with_interval(physics, physics, [fit], [held], [fit])):
         calibrated = replace(model, interval_q=conformal_q(model, [held]))
         assert 0.8 <= _coverage(calibrated, fresh) <= 0.97, model.name
+
+
+def test_intervals_grow_with_the_distance_from_the_training_rows(noisy):
+    fit, held, _ = noisy
+    physics = _physics(1)
+    model = with_interval(physics, physics, [fit], [held], [fit])
+    far = replace(fit, inputs=fit.inputs + 3 * fit.inputs.std(axis=0))
+    d = InputDistance.of([fit])(far)
+    assert np.all(d > 0.0) and np.mean(d) > 2.0 and np.all(InputDistance.of([fit])(fit) == 0.0)
+    np.testing.assert_allclose(model.predict_interval(far)[1], model.interval_q * (1 + d))
+    np.testing.assert_allclose(model.predict_interval(fit)[1], model.interval_q)
+    assert model.describe()["interval_grows_with_distance"]

@@ -32,7 +32,7 @@ from .nets import GATES, Hybrid, LearnedMap, NetOptions, Sequence, SequenceOptio
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .synthetic import SyntheticOptions, pull_limits
 from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
-from .uncertainty import conformal_q, constant_interval
+from .uncertainty import conformal_q, with_interval
 
 FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
 """softrnn's model families, in the order they are fitted."""
@@ -364,7 +364,7 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
         physics = Physics(robot, options.calibration, start=held_physics.calibration.params).fit(train)
     if "physics" in families:
         holdout["physics"] = held_score(held_physics)
-        out.record(out.models, "physics", constant_interval(physics, held_physics, held))
+        out.record(out.models, "physics", with_interval(physics, held_physics, fit_part, held, train))
         step("physics")
     pair = (held_physics, physics)
     for name, fit in (("learned_map", _learned_map), ("hybrid", _hybrid), ("sequence", _sequence)):

@@ -18,8 +18,8 @@ real ones (for the hybrid they teach a zero residual where no real row is); ``re
 The benchmark chooses the mode, the hysteresis state and the gate on the training hold-out.
 
 Every family states a 90 % interval per row (``predict_interval``, ``softrnn.lab.uncertainty``): the
-map's ensemble spread plus its training error, for the hybrid plus the physics' error where the gate
-is off; the sequence model a constant radius.
+map's ensemble spread plus its training error, for the hybrid the physics' error where the gate is off,
+for the sequence model a constant; each times 1 + the distance from the training rows.
 """
 
 from __future__ import annotations
@@ -29,12 +29,11 @@ from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .families import PLAY_WIDTHS, Physics, _previous, play
 from .recording import Recording
 from .synthetic import SyntheticOptions, synthetic_sessions
-from .uncertainty import Intervals
+from .uncertainty import InputDistance, Intervals
 
 MODES = ("real", "finetune", "mixed")
 """How a family uses the physics' synthetic sessions (module docstring)."""
@@ -206,6 +205,7 @@ class LearnedMap(Intervals):
     widths: object = None
     offset: np.ndarray | None = None
     floor: float = 0.0
+    reach: InputDistance | None = None
     interval_q: float | None = None
 
     def fit(self, sessions) -> LearnedMap:
@@ -219,7 +219,7 @@ class LearnedMap(Intervals):
             return (np.vstack([_features(s, widths) for s in group]) if group else None,
                     np.vstack([s.tip for s in group]) - offset if group else None)
         net = _train(self.options, self.mode, self.synthetic.weight, data(sessions), data(syn))
-        out = replace(self, widths=widths, offset=offset, net=net)
+        out = replace(self, widths=widths, offset=offset, net=net, reach=InputDistance.of(sessions))
         err = np.concatenate([np.linalg.norm(out.predict(s) - s.tip, axis=1) for s in sessions])
         return replace(out, floor=float(np.sqrt(np.mean(err ** 2))) + 1e-9)
 
@@ -227,7 +227,7 @@ class LearnedMap(Intervals):
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         return self.net(_features(session, self.widths)) + self.offset
 
-    def interval_scale(self, session: Recording) -> np.ndarray:
+    def error_scale(self, session: Recording) -> np.ndarray:
         """(T,) [m] the training RMS error plus the ensemble's spread."""
         return self.floor + self.net.spread(_features(session, self.widths))
 
@@ -254,9 +254,7 @@ class Hybrid(Intervals):
     name: str = "hybrid"
     net: object = None
     widths: object = None
-    tree: object = None
-    u_mu: np.ndarray | None = None
-    u_sd: np.ndarray | None = None
+    reach: InputDistance | None = None
     floor: float = 0.0
     physics_rms: float = 0.0
     interval_q: float | None = None
@@ -279,10 +277,8 @@ class Hybrid(Intervals):
             bases = [physics.predict(s) for s in group]
             return (np.vstack([out._X(s, b) for s, b in zip(group, bases)]),
                     np.vstack([s.tip - b for s, b in zip(group, bases)]))
-        u = np.vstack([s.inputs for s in sessions])
-        mu, sd = u.mean(axis=0), u.std(axis=0) + 1e-12
         out = replace(out, net=_train(self.options, self.mode, self.synthetic.weight, data(sessions), data(syn)),
-                      tree=cKDTree((u - mu) / sd), u_mu=mu, u_sd=sd)
+                      reach=InputDistance.of(sessions))
         res = np.vstack([s.tip - physics.predict(s) for s in sessions])
         err = np.vstack([out.predict(s) - s.tip for s in sessions])
         return replace(out, floor=float(np.sqrt(np.mean(np.sum(err ** 2, axis=1)))) + 1e-9,
@@ -292,15 +288,14 @@ class Hybrid(Intervals):
         """(T,) the residual's weight w in [0, 1] per row: 1 on a training row, falling to 0 away from them."""
         if math.isinf(self.gate):
             return np.ones(session.n_rows)
-        d = self.tree.query((session.inputs - self.u_mu) / self.u_sd, k=1)[0]
-        return np.exp(-(d / self.gate) ** 2)
+        return np.exp(-(self.reach(session) / self.gate) ** 2)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         base = self.physics.predict(session)
         return base + self.weights(session)[:, None] * self.net(self._X(session, base))
 
-    def interval_scale(self, session: Recording) -> np.ndarray:
+    def error_scale(self, session: Recording) -> np.ndarray:
         """(T,) [m] the training RMS error and the ensemble's spread where the residual acts, the
         physics' RMS error where the gate turns it off."""
         w = self.weights(session)
@@ -352,6 +347,7 @@ class Sequence(Intervals):
     mu: np.ndarray | None = None
     sd: np.ndarray | None = None
     scale: float = 1.0
+    reach: InputDistance | None = None
     interval_q: float | None = None
 
     def _inputs(self, s: Recording) -> np.ndarray:
@@ -381,7 +377,7 @@ class Sequence(Intervals):
             pre = replace(self.options, max_steps=self.options.max_steps // 2)
             net = _train_gru(pre, xs[n:], ys[n:], allX.shape[1]) if syn else None
             net = _train_gru(self.options, xs[:n], ys[:n], allX.shape[1], net)
-        return replace(self, net=net, offset=offset, mu=mu, sd=sd, scale=scale)
+        return replace(self, net=net, offset=offset, mu=mu, sd=sd, scale=scale, reach=InputDistance.of(sessions))
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""

@@ -3,11 +3,12 @@ on the training sessions' hold-out part (split conformal prediction).
 
 A model that states an interval has ``predict_interval(session) -> (tip (T, 3) [m], radius (T,) [m])``:
 ``tip`` is ``predict(session)`` and the ball of ``radius`` around it should hold the true tip in 90 % of
-the rows. The radius is ``q * interval_scale(session)``: the model's own scale of its error per row (an
-ensemble's spread, the distance from the training data; 1 where it has none) times ``q``, the 90 %
-quantile of |error| / scale over the hold-out rows of the same model fitted on the rest (``conformal_q``).
-``ConstantInterval`` gives any model a constant radius (the physics: the 90 % quantile of its hold-out
-errors). The benchmark reports the share of validation rows inside (``coverage_90``).
+the rows. The radius is ``q * interval_scale(session)``: the model's own scale of its error per row
+(``error_scale``: an ensemble's spread; 1 where it has none) times 1 + d, d the distance of the row's
+standardised inputs from the nearest training row (``InputDistance``: errors grow out of range), times
+``q``, the 90 % quantile of |error| / scale over the hold-out rows of the same model fitted on the rest
+(``conformal_q``). ``WithInterval`` gives any fitted model such an interval (the physics). The
+benchmark reports the share of validation rows inside (``coverage_90``).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 COVERAGE = 0.9
 """The share of rows an interval should hold."""
@@ -34,15 +36,43 @@ def conformal_q(model, held) -> float:
     return float(r[rank - 1]) if 0 < rank <= r.size else math.inf
 
 
+@dataclass(frozen=True, eq=False)
+class InputDistance:
+    """The distance of a row's inputs from the nearest training row, each input standardised by
+    its training mean ``mu`` and deviation ``sd`` (``of(sessions)``)."""
+
+    tree: cKDTree
+    mu: np.ndarray
+    sd: np.ndarray
+
+    @classmethod
+    def of(cls, sessions) -> InputDistance:
+        """The distance from the rows of training ``sessions`` (a list of ``Recording``)."""
+        u = np.vstack([s.inputs for s in sessions])
+        mu, sd = u.mean(axis=0), u.std(axis=0) + 1e-12
+        return cls(cKDTree((u - mu) / sd), mu, sd)
+
+    def __call__(self, session) -> np.ndarray:
+        """(T,) the distance of each row of ``session`` [standard deviations]."""
+        return self.tree.query((session.inputs - self.mu) / self.sd, k=1)[0]
+
+
 class Intervals:
-    """What a family with an interval shares: ``interval_q`` (a field; None until calibrated) and
-    ``interval_scale(session)`` (T,) [m] (here 1 m: a constant radius)."""
+    """What a family with an interval shares: the fields ``interval_q`` (None until calibrated) and
+    ``reach`` (an ``InputDistance`` of its training rows, or None), and ``error_scale(session)``
+    (T,) (here 1: a radius of ``interval_q`` m, growing with the distance)."""
 
     interval_q: float | None
+    reach: InputDistance | None
+
+    def error_scale(self, session) -> np.ndarray:
+        """(T,) the model's scale of its error per row [m]: 1."""
+        return np.ones(session.n_rows)
 
     def interval_scale(self, session) -> np.ndarray:
-        """(T,) the model's scale of its error per row [m]: 1 (a constant radius of ``interval_q`` m)."""
-        return np.ones(session.n_rows)
+        """(T,) ``error_scale`` times 1 + the distance from the training rows (``reach``; 0 without)."""
+        d = 0.0 if self.reach is None else self.reach(session)
+        return self.error_scale(session) * (1.0 + d)
 
     def predict_interval(self, session) -> tuple[np.ndarray, np.ndarray]:
         """The tip (T, 3) [m] (``predict``) and the radius (T,) [m] of the ball that holds the true tip
@@ -54,11 +84,12 @@ class Intervals:
 
 
 @dataclass(frozen=True, eq=False)
-class ConstantInterval(Intervals):
-    """A fitted model (``model``: ``predict``, ``describe``, ``name``) with a constant 90 % radius
-    ``interval_q`` [m], e.g. the 90 % quantile of its hold-out errors (``constant_interval``)."""
+class WithInterval(Intervals):
+    """A fitted model (``model``: ``predict``, ``describe``, ``name``) with a 90 % radius ``interval_q``
+    [m] (times 1 + the distance from ``reach`` where given): ``with_interval``."""
 
     model: object
+    reach: InputDistance | None = None
     interval_q: float | None = None
 
     @property
@@ -71,11 +102,15 @@ class ConstantInterval(Intervals):
         return self.model.predict(session)
 
     def describe(self) -> dict:
-        """The model's description and the interval's radius [mm]."""
-        return {**self.model.describe(), "interval_90_radius_mm": round(self.interval_q * 1e3, 4)}
+        """The model's description and the interval's radius [mm] on the training rows."""
+        return {**self.model.describe(), "interval_90_radius_mm": round(self.interval_q * 1e3, 4),
+                "interval_grows_with_distance": self.reach is not None}
 
 
-def constant_interval(model, held_model, held) -> ConstantInterval:
-    """``model`` with a constant 90 % radius: the conformal quantile of the errors of ``held_model``
-    (the same family fitted without the hold-out sessions ``held``) on ``held``."""
-    return ConstantInterval(model, conformal_q(ConstantInterval(held_model), held))
+def with_interval(model, held_model, fit_part, held, train=None) -> WithInterval:
+    """``model`` (fitted on ``train``) with a 90 % interval calibrated on the hold-out sessions ``held``
+    by ``held_model`` (the same family fitted on ``fit_part``): a constant radius when ``train`` is
+    None, else growing with the distance from the training rows."""
+    reach = (lambda s: None) if train is None else InputDistance.of
+    q = conformal_q(WithInterval(held_model, reach(fit_part)), held)
+    return WithInterval(model, reach(train), q)
