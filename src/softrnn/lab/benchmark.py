@@ -288,11 +288,12 @@ def settle_synthetic(options: BenchmarkOptions, robot, sessions, families) -> tu
     options where the physics can be calibrated, ``options.synthetic`` where given; refused (one line)
     when given with an amount > 0 for a learned family while the physics cannot be calibrated."""
     reason = _physics_unavailable(robot, sessions)
-    learned = [f for f in families if f in ("learned_map", "sequence")]
+    if not {"learned_map", "hybrid", "sequence"} & set(families):
+        return SyntheticOptions(amount=0.0), "no learned family"
     if reason is None:
         syn = SyntheticOptions() if options.synthetic is None else options.synthetic
         return syn, None if syn.on else "synthetic data not asked for (amount 0)"
-    if options.synthetic is not None and options.synthetic.on and learned:
+    if options.synthetic is not None and options.synthetic.on and {"learned_map", "sequence"} & set(families):
         raise bad("synthetic", options.synthetic.amount, f"synthetic data need the calibrated tendon physics, "
                   f"which these sessions do not allow ({reason}); set the amount to 0")
     return SyntheticOptions(amount=0.0), f"no calibrated physics: {reason}"
@@ -358,7 +359,7 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
     holdout = {}
     physics = held_physics = None
     syn, no_syn = settle_synthetic(options, robot, train, families)
-    if "physics" in families or "hybrid" in families or (syn.on and {"learned_map", "sequence"} & set(families)):
+    if "physics" in families or "hybrid" in families or syn.on:
         held_physics = Physics(robot, options.calibration).fit(fit_part)
         # on every training row, refined from the hold-out part's calibration
         physics = Physics(robot, options.calibration, start=held_physics.calibration.params).fit(train)

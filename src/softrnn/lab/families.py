@@ -255,23 +255,20 @@ class Choice:
 
     chosen: object
     scores: dict = field(default_factory=dict)
-    model: object = None
-    """The chosen candidate fitted on the fitting part (for calibrations on the hold-out part)."""
 
 
 def choose(candidates: dict, sessions) -> Choice:
     """Fit each candidate (``{label: factory() -> model}``) on the fitting part of ``sessions``
     and score its free run on the hold-out part (Euclidean tip RMSE [mm]); the best label wins."""
     fit_part, held = holdout_split(sessions)
-    scores, models = {}, {}
+    scores = {}
     for label, factory in candidates.items():
-        model = models[label] = factory().fit(fit_part)
+        model = factory().fit(fit_part)
         pred = np.vstack([model.predict(s) for s in held])
         ref = np.vstack([s.tip for s in held])
         score = tip_errors(pred, ref).rmse_mm
         scores[label] = score if math.isfinite(score) else math.inf
-    best = min(scores, key=scores.get)
-    return Choice(chosen=best, scores=scores, model=models[best])
+    return Choice(chosen=min(scores, key=scores.get), scores=scores)
 
 
 # ---------------------------------------------------------------------------------- the node model
