@@ -158,3 +158,12 @@ def test_intervals_grow_with_the_distance_from_the_training_rows(noisy):
     np.testing.assert_allclose(model.predict_interval(far)[1], model.interval_q * (1 + d))
     np.testing.assert_allclose(model.predict_interval(fit)[1], model.interval_q)
     assert model.describe()["interval_grows_with_distance"]
+
+
+def test_too_few_hold_out_rows_for_the_quantile_give_an_unbounded_interval(noisy):
+    fit, held, fresh = noisy
+    exact = _physics(1)
+    five = replace(held, time=held.time[:5], inputs=held.inputs[:5], tip=held.tip[:5], labels=())
+    model = with_interval(exact, exact, [fit], [five], [fit])           # rank ceil(6 x 0.9) = 6 > 5 rows
+    assert model.interval_q == math.inf and model.describe()["interval_90_radius_mm"] is None
+    assert np.all(model.predict_interval(fresh)[1] == math.inf)

@@ -185,8 +185,8 @@ def _pretraining(family) -> dict:
     out = {"mode": family.mode}
     if family.mode != "real":
         out["synthetic"] = family.synthetic.describe()
-    if family.interval_q is not None:
-        out["interval_90_q"] = round(family.interval_q, 4)
+    if family.interval_q is not None:         # inf (too few hold-out rows for the quantile): null
+        out["interval_90_q"] = round(family.interval_q, 4) if math.isfinite(family.interval_q) else None
     return out
 
 

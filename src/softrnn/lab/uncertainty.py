@@ -103,7 +103,8 @@ class WithInterval(Intervals):
 
     def describe(self) -> dict:
         """The model's description and the interval's radius [mm] on the training rows."""
-        return {**self.model.describe(), "interval_90_radius_mm": round(self.interval_q * 1e3, 4),
+        q = self.interval_q
+        return {**self.model.describe(), "interval_90_radius_mm": round(q * 1e3, 4) if math.isfinite(q) else None,
                 "interval_grows_with_distance": self.reach is not None}
 
 
