@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from softrnn.errors import SoftrnnInputError
 from softrnn.lab.families import Physics
 from softrnn.lab.nets import Hybrid, LearnedMap, NetOptions, Sequence, SequenceOptions
 from softrnn.lab.recording import Recording, read_recording
@@ -76,13 +77,16 @@ def test_pretraining_on_the_physics_carries_to_unrecorded_combinations(two_segme
 
 def test_modes_need_a_physics_and_synthetic_data(two_segments):
     physics, train, _ = two_segments
-    with pytest.raises(ValueError, match="needs a calibrated physics"):
+    without = "mode='mixed' is invalid: 'real' for the learned_map family without a calibrated physics"
+    with pytest.raises(SoftrnnInputError, match=without):
         LearnedMap(options=SMALL, mode="mixed").fit([train])
-    with pytest.raises(ValueError, match="needs a calibrated physics"):
+    with pytest.raises(SoftrnnInputError, match="mode='finetune' is invalid: 'real' for the learned_map family"):
         LearnedMap(options=SMALL, mode="finetune", synthetic=SyntheticOptions(amount=0), physics=physics).fit([train])
-    with pytest.raises(ValueError, match="not offered"):
+    with pytest.raises(SoftrnnInputError, match="mode='finetune' is invalid: one of real, mixed for the hybrid"):
         Hybrid(physics, options=SMALL, mode="finetune").fit([train])
-    with pytest.raises(ValueError, match="not one of"):
+    with pytest.raises(SoftrnnInputError, match="mode='mixed' is invalid: one of real, finetune for the sequence"):
+        Sequence(mode="mixed").fit([train])
+    with pytest.raises(SoftrnnInputError, match="mode='magic' is invalid: one of real, finetune, mixed"):
         LearnedMap(options=SMALL, mode="magic").fit([train])
 
 

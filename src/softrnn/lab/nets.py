@@ -30,6 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..errors import bad
 from .families import PLAY_WIDTHS, Physics, _previous, play
 from .recording import Recording
 from .synthetic import SyntheticOptions, synthetic_sessions
@@ -142,17 +143,18 @@ def _widths(sessions, hysteresis: bool):
     return [f * np.ptp(u, axis=0) for f in PLAY_WIDTHS]
 
 
-def _check_mode(family) -> None:
-    if family.mode not in MODES:
-        raise ValueError(f"{family.name}: mode {family.mode!r} is not one of {', '.join(MODES)}")
+def _check_mode(family, offered=MODES) -> None:
+    if family.mode not in offered:
+        raise bad("mode", family.mode, f"one of {', '.join(offered)} for the {family.name} family")
     if family.mode != "real" and (family.physics is None or family.physics.calibration is None
                                   or not family.synthetic.on):
-        raise ValueError(f"{family.name}: mode {family.mode!r} needs a calibrated physics and synthetic.amount > 0")
+        raise bad("mode", family.mode, f"'real' for the {family.name} family without a calibrated physics and "
+                                       "synthetic.amount > 0 (the other modes learn from the physics' sessions)")
 
 
-def _synthetic(family, sessions) -> list:
-    """The synthetic sessions a family learns from ([] in mode ``real``)."""
-    _check_mode(family)
+def _synthetic(family, sessions, offered=MODES) -> list:
+    """The synthetic sessions a family learns from ([] in mode ``real``), its mode one of ``offered``."""
+    _check_mode(family, offered)
     return [] if family.mode == "real" else synthetic_sessions(family.physics, sessions, family.synthetic)
 
 
@@ -266,10 +268,8 @@ class Hybrid(Intervals):
         """The model fitted on training sessions (a list of ``Recording``)."""
         sessions = list(sessions)
         physics = self.physics if self.physics.calibration is not None else self.physics.fit(sessions)
-        if self.mode == "finetune":
-            raise ValueError("hybrid: mode 'finetune' is not offered (its synthetic residual is zero); use 'mixed'")
         out = replace(self, physics=physics, widths=_widths(sessions, self.hysteresis))
-        syn = _synthetic(out, sessions)
+        syn = _synthetic(out, sessions, ("real", "mixed"))           # its synthetic residual is zero: no pretraining
 
         def data(group):
             if not group:
@@ -359,10 +359,8 @@ class Sequence(Intervals):
         """The model fitted on training sessions (a list of ``Recording``)."""
         import torch  # optional extra: learn (PyTorch)
 
-        if self.mode == "mixed":
-            raise ValueError("sequence: mode 'mixed' is not offered; use 'finetune'")
         sessions = list(sessions)
-        syn = _synthetic(self, sessions)
+        syn = _synthetic(self, sessions, ("real", "finetune"))
         torch.manual_seed(self.options.seed)
         offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
         X = [self._inputs(s) for s in sessions + syn]
