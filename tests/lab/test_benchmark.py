@@ -14,15 +14,15 @@ from softrnn.lab.families import (
     NODE_TRAINING,
     ConstantVelocityFamily,
     LinearARXFamily,
-    NetOptions,
     NodeOptions,
     PersistenceFamily,
-    SequenceOptions,
     StaticPolynomial,
     holdout_split,
     play,
 )
+from softrnn.lab.nets import NetOptions, SequenceOptions
 from softrnn.lab.recording import read_recording
+from softrnn.lab.synthetic import SyntheticOptions
 from softrnn.lab.tendon_robot import CalibrationOptions
 from softrnn.learned.metrics import tip_errors
 
@@ -136,12 +136,18 @@ def test_fit_returns_a_new_frozen_model_and_leaves_the_family_as_it_was(sessions
 
 def test_report_has_the_fields_metrics(report, sessions):
     """Per model and baseline: RMSE and mean, raw and after removing the session's constant offset, in mm
-    and % of the length; the chosen family's validation RMSE; no coverage where no model states one."""
+    and % of the length; the chosen family's validation RMSE; a coverage where a model states its
+    uncertainty (every family but the node LSTM), none for the baselines."""
     _, val = sessions
     aligned_keys = {"tip_rmse_aligned_mm", "tip_mean_aligned_mm", "tip_mean_aligned_pct_of_length",
                     "tip_mean_pct_of_length", "tip_rmse_aligned_pct_of_length"}
+    for name, entry in report["models"].items():
+        assert ("coverage_90" in entry) == (name != "node_lstm")
+        assert entry.get("coverage_90", 0.5) is None or 0.0 <= entry.get("coverage_90", 0.5) <= 1.0
+    for entry in report["baselines"].values():
+        assert "coverage_90" not in entry
     for entry in [*report["models"].values(), *report["baselines"].values()]:
-        assert set(entry) >= aligned_keys and "coverage_90" not in entry
+        assert set(entry) >= aligned_keys
         assert entry["tip_rmse_aligned_mm"] <= entry["tip_rmse_mm"] + 1e-3
         assert entry["tip_mean_pct_of_length"] == pytest.approx(entry["tip_mean_mm"] / 80.0 * 100, rel=1e-3)
         assert entry["tip_mean_aligned_pct_of_length"] == pytest.approx(entry["tip_mean_aligned_mm"] / 80.0 * 100,
@@ -174,3 +180,40 @@ def test_a_model_that_states_its_uncertainty_gets_its_coverage(sessions):
     assert score.coverage_90 == pytest.approx(np.mean(np.arange(val.n_rows) % 4 != 0), abs=1e-4)
     assert score.tip_rmse_mm == pytest.approx(1.0) and score.tip_rmse_aligned_mm == pytest.approx(0.0, abs=1e-9)
     assert score.to_dict()["coverage_90"] == score.coverage_90
+
+
+def test_learned_families_say_their_mode_and_interval(report):
+    """Synthetic data by default where the physics is calibrated: each learned family's hold-out scores
+    list the modes tried, the hybrid's its gates; every model but the node LSTM states its interval."""
+    details = report["details"]
+    for name in ("learned_map", "hybrid", "sequence"):
+        assert details[name]["mode"] in ("real", "finetune", "mixed") and details[name]["interval_90_q"] > 0
+        assert "synthetic_data" not in details[name]
+    assert {"hysteresis=False,mode=real", "hysteresis=True,mode=real"} <= set(details["learned_map"]["holdout_rmse_mm"])
+    assert any("mode=mixed" in k for k in details["learned_map"]["holdout_rmse_mm"])
+    assert any(k.endswith("gate=inf") for k in details["hybrid"]["holdout_rmse_mm"])
+    assert set(details["sequence"]["holdout_rmse_mm"]) == {"mode=real", "mode=finetune"}
+    assert details["physics"]["interval_90_radius_mm"] > 0
+    hybrid = details["hybrid"]["holdout_rmse_mm"]
+    assert report["chosen_on_training"]["holdout_rmse_mm"]["hybrid"] == min(hybrid.values())
+
+
+def test_synthetic_data_without_a_physics_is_refused_or_left_out(sessions, tmp_path):
+    """Inputs that are not tendon displacements: synthetic data asked for is one line naming the
+    option; by default the learned families run on the real rows and say why."""
+    train, val = sessions
+    as_kpa = [type(s)(**{**vars(s), "units": ("kpa",) * s.n_inputs}) for s in (train, val)]
+    words = r"synthetic=2.0 is invalid: synthetic data need the calibrated tendon physics, which these sessions do not"
+    with pytest.raises(SoftrnnInputError, match=words + r" allow \(the inputs' units"):
+        run_benchmark([as_kpa[0]], as_kpa[1], BenchmarkOptions(length=0.08, families=("learned_map",), **FAST,
+                                                               synthetic=SyntheticOptions(amount=2.0)))
+    fast = {**FAST, "nets": NetOptions(members=1, steps=20, hidden=4)}
+    out = run_benchmark([as_kpa[0]], as_kpa[1], BenchmarkOptions(length=0.08, families=("learned_map",), **fast))
+    assert out.details["learned_map"]["synthetic_data"].startswith("not used: no calibrated physics")
+    assert out.details["learned_map"]["mode"] == "real"
+    off = run_benchmark([train], val, BenchmarkOptions(length=0.08, families=("learned_map",), **fast,
+                                                       synthetic=SyntheticOptions(amount=0.0)))
+    assert set(off.details["learned_map"]["holdout_rmse_mm"]) == {"hysteresis=False,mode=real",
+                                                                  "hysteresis=True,mode=real"}
+    with pytest.raises(SoftrnnInputError, match="synthetic=0.5 is invalid: a SyntheticOptions"):
+        BenchmarkOptions(length=0.1, synthetic=0.5)

@@ -15,6 +15,7 @@ from ..lab.benchmark import FAMILIES, BenchmarkOptions, check_pulls, robot_for, 
 from ..lab.families import displacements
 from ..lab.recording import Layout, check_sessions, read_recording, shift_inputs
 from ..lab.suite import SuiteJob, SuiteResult, SuiteRow, run_suite
+from ..lab.synthetic import SyntheticOptions
 from ..lab.tendon_robot import calibrate
 from ..learned.metrics import tip_errors
 from ..scenarios.suite import Suite, SuiteRobot, read_suite
@@ -48,7 +49,7 @@ def _recording_args(q, suite: bool = False):
 
 
 _SINGLE_ONLY = ("train", "validate", "figure", "families", "length", "inputs", "tip", "position_unit", "lag",
-                "segments", "tendons_per_segment", "routing_radius")
+                "segments", "tendons_per_segment", "routing_radius", "synthetic")
 """``lab benchmark``'s options of one robot, which a suite file gives per robot instead."""
 
 
@@ -70,6 +71,9 @@ def add_args(p):
                    help="also draw the validation session's tip beside the best model and baseline")
     b.add_argument("--families", default=",".join(FAMILIES), metavar="NAME,...",
                    help=f"softrnn's model families to run (default: {','.join(FAMILIES)})")
+    b.add_argument("--synthetic", type=float, default=None, metavar="N",
+                   help="synthetic rows from the calibrated physics for the learned families, N times the real "
+                        "rows (0: none; default: 5 where the physics can be calibrated, else none)")
     b.add_argument("--suite", default=None, metavar="FILE.toml",
                    help="run every robot of a suite file instead (docs/guide/real-robots.md); the robots' "
                         "sessions and options come from the file")
@@ -133,11 +137,19 @@ def _read(paths, layout):
     return recordings
 
 
+def _synthetic(amount):
+    if amount is None:
+        return None
+    if not np.isfinite(amount) or amount < 0:
+        raise bad("--synthetic", amount, "a multiple of the real rows >= 0 (0: no synthetic data)")
+    return SyntheticOptions(amount=amount)
+
+
 def _options(args, families) -> BenchmarkOptions:
     try:
         return BenchmarkOptions(length=args.length, lag=_lag(args.lag), segments=_segments(args.segments),
                                 tendons_per_segment=args.tendons_per_segment, routing_radius=args.routing_radius,
-                                families=families)
+                                families=families, synthetic=_synthetic(getattr(args, "synthetic", None)))
     except SoftrnnInputError as err:
         raise _as_option(err) from None
 
@@ -165,7 +177,7 @@ def _benchmark(args) -> int:
         try:
             result = run_benchmark(train, validation, options, progress=bar)
         except SoftrnnInputError as err:
-            raise (_as_option(err) if str(err).startswith("lag=") else err) from None
+            raise (_as_option(err) if str(err).startswith(("lag=", "synthetic=")) else err) from None
     report = result.to_dict()
     if args.figure:      # the figure first: a failure leaves no file
         shown = {}
@@ -200,6 +212,8 @@ def _job(suite: Suite, r: SuiteRobot) -> SuiteJob:
     entry = f"{suite.path}: {r.key}"
     given = {k: getattr(r, k) for k in ("segments", "tendons_per_segment", "routing_radius", "lag", "families")
              if getattr(r, k) is not None}
+    if r.synthetic is not None:
+        given["synthetic"] = SyntheticOptions(amount=r.synthetic)
     try:
         options = BenchmarkOptions(length=r.length, **given)
         layout = Layout(inputs=r.inputs, tip=r.tip, position_unit=r.position_unit)

@@ -1,7 +1,9 @@
 """Real robots' recordings: sessions read as they come (``recording``), the tendon robot's
 displacement-driven physics and its calibration (``tendon_robot``), the model families and the
-baselines fitted on training sessions (``families``), the benchmark that runs them free over a
-validation session (``benchmark``) and a suite of robots benchmarked in turn (``suite``)."""
+baselines fitted on training sessions (``families``), the learned families (``nets``) taught by the
+physics' synthetic sessions (``synthetic``) and their 90 % intervals (``uncertainty``), the benchmark
+that runs them free over a validation session (``benchmark``) and a suite of robots benchmarked in
+turn (``suite``)."""
 
 from .benchmark import BASELINES, FAMILIES, BenchmarkOptions, BenchmarkResult, run_benchmark
 from .recording import Layout, Recording, check_sessions, estimate_lag, read_recording, shift_inputs

@@ -13,7 +13,7 @@ suite of robots (``softrnn.lab.suite``) refuses a bad robot before it starts.
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -21,23 +21,21 @@ from ..errors import SoftrnnInputError, bad, positive
 from ..learned.metrics import aligned_tip_errors, coverage, tip_errors
 from .families import (
     ConstantVelocityFamily,
-    Hybrid,
-    LearnedMap,
     LinearARXFamily,
-    NetOptions,
     NodeFamily,
     NodeOptions,
     PersistenceFamily,
     Physics,
-    Sequence,
-    SequenceOptions,
     StaticPolynomial,
     choose,
     displacements,
     holdout_split,
 )
+from .nets import GATES, Hybrid, LearnedMap, NetOptions, Sequence, SequenceOptions
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
+from .synthetic import SyntheticOptions, pull_limits
 from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
+from .uncertainty import conformal_q, with_interval
 
 FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
 """softrnn's model families, in the order they are fitted."""
@@ -79,6 +77,10 @@ class BenchmarkOptions:
         the options of the ``node_lstm`` model
     calibration : CalibrationOptions
         the options of the physics' calibration
+    synthetic : SyntheticOptions or None
+        the physics' synthetic sessions the learned families may pretrain on (``softrnn.lab.synthetic``);
+        None: the default options where the physics can be calibrated, none otherwise; given with
+        ``amount`` > 0 for sessions the physics cannot take, the benchmark refuses to run
     """
 
     length: float
@@ -91,6 +93,7 @@ class BenchmarkOptions:
     sequence: SequenceOptions = SequenceOptions()
     node: NodeOptions = NodeOptions()
     calibration: CalibrationOptions = CalibrationOptions()
+    synthetic: SyntheticOptions | None = None
 
     def __post_init__(self):
         positive("length", self.length, "m")
@@ -99,6 +102,8 @@ class BenchmarkOptions:
         unknown = [f for f in self.families if f not in FAMILIES]
         if unknown or not self.families:
             raise bad("families", ",".join(self.families), f"one or more of {', '.join(FAMILIES)}")
+        if self.synthetic is not None and not isinstance(self.synthetic, SyntheticOptions):
+            raise bad("synthetic", self.synthetic, "a SyntheticOptions, or None")
 
 
 @dataclass(frozen=True)
@@ -284,7 +289,7 @@ def check_pulls(robot: TendonRobot, sessions) -> None:
     (a pull beyond bending every segment it spans by half a turn)."""
     for s in sessions:
         q = displacements(s)
-        limit = np.pi * robot.routing_radius * (robot.segment_of + 1)
+        limit = pull_limits(robot)
         over = q > limit
         if np.any(over):
             k, i = np.argwhere(over)[0]
@@ -313,18 +318,40 @@ def settle_lag(train: list[Recording], options: BenchmarkOptions) -> tuple[int, 
                  "linear_fit_rmse_mm_by_lag": {str(k): round(v * 1e3, 3) for k, v in scores.items()}}
 
 
+def _physics_unavailable(robot, sessions) -> str | None:
+    """Why the tendon physics cannot be calibrated on ``sessions`` (None: it can)."""
+    return "the inputs do not split into segments of --tendons-per-segment" if robot is None else \
+        _physics_reason(sessions, robot.n_tendons)
+
+
+def settle_synthetic(options: BenchmarkOptions, robot, sessions, families) -> tuple[SyntheticOptions, str | None]:
+    """The synthetic data the learned families of ``families`` get and, where none, why: the default
+    options where the physics can be calibrated, ``options.synthetic`` where given; refused (one line)
+    when given with an amount > 0 for a learned family while the physics cannot be calibrated."""
+    reason = _physics_unavailable(robot, sessions)
+    if not {"learned_map", "hybrid", "sequence"} & set(families):
+        return SyntheticOptions(amount=0.0), "no learned family"
+    if reason is None:
+        syn = SyntheticOptions() if options.synthetic is None else options.synthetic
+        return syn, None if syn.on else "synthetic data not asked for (amount 0)"
+    if options.synthetic is not None and options.synthetic.on and {"learned_map", "sequence"} & set(families):
+        raise bad("synthetic", options.synthetic.amount, f"synthetic data need the calibrated tendon physics, "
+                  f"which these sessions do not allow ({reason}); set the amount to 0")
+    return SyntheticOptions(amount=0.0), f"no calibrated physics: {reason}"
+
+
 def _families(options: BenchmarkOptions, robot, sessions) -> tuple[list, dict]:
     """The families to run and those skipped {name: why}: the physics and the hybrid need tendon
-    displacements that match the robot."""
+    displacements that match the robot (and so do synthetic data asked for: ``settle_synthetic``)."""
     families, skipped = list(options.families), {}
-    reason = "the inputs do not split into segments of --tendons-per-segment" if robot is None else \
-        _physics_reason(sessions, robot.n_tendons)
+    reason = _physics_unavailable(robot, sessions)
+    syn, _ = settle_synthetic(options, robot, sessions, families)
     if reason:
         for f in ("physics", "hybrid"):
             if f in families:
                 families.remove(f)
                 skipped[f] = reason
-    elif "physics" in families or "hybrid" in families:
+    elif "physics" in families or "hybrid" in families or syn.on:
         check_pulls(robot, sessions)
     return families, skipped
 
@@ -381,31 +408,24 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
 
     holdout = {}
     physics = held_physics = None
-    if "physics" in families or "hybrid" in families:
+    syn, no_syn = settle_synthetic(options, robot, train, families)
+    if "physics" in families or "hybrid" in families or syn.on:
         held_physics = Physics(robot, options.calibration).fit(fit_part)
         # on every training row, refined from the hold-out part's calibration
         physics = Physics(robot, options.calibration, start=held_physics.calibration.params).fit(train)
     if "physics" in families:
         holdout["physics"] = held_score(held_physics)
-        out.record(out.models, "physics", physics)
+        out.record(out.models, "physics", with_interval(physics, held_physics, fit_part, held, train))
         step("physics")
-    if "learned_map" in families:
-        c = choose({f"hysteresis={h}": (lambda h=h: LearnedMap(h, options.nets)) for h in (False, True)}, train)
-        holdout["learned_map"] = c.scores[c.chosen]
-        out.record(out.models, "learned_map", LearnedMap(c.chosen.endswith("True"), options.nets).fit(train),
-                   c.scores)
-        step("learned_map")
-    if "hybrid" in families:
-        scores = {f"hysteresis={h}": held_score(Hybrid(held_physics, h, options.nets).fit(fit_part))
-                  for h in (False, True)}
-        best = min(scores, key=scores.get)
-        holdout["hybrid"] = scores[best]
-        out.record(out.models, "hybrid", Hybrid(physics, best.endswith("True"), options.nets).fit(train), scores)
-        step("hybrid")
-    if "sequence" in families:
-        holdout["sequence"] = held_score(Sequence(options.sequence).fit(fit_part))
-        out.record(out.models, "sequence", Sequence(options.sequence).fit(train))
-        step("sequence")
+    pair = (held_physics, physics)
+    for name, fit in (("learned_map", _learned_map), ("hybrid", _hybrid), ("sequence", _sequence)):
+        if name in families:
+            model, scores = fit(train, pair, syn, options, held_score)
+            holdout[name] = min(scores.values())
+            out.record(out.models, name, model, scores)
+            if no_syn:
+                out.details[name]["synthetic_data"] = f"not used: {no_syn}"
+            step(name)
     if "node_lstm" in families:
         holdout["node_lstm"] = held_score(NodeFamily(options.length, options.node).fit(fit_part))
         out.record(out.models, "node_lstm", NodeFamily(options.length, options.node).fit(train))
@@ -444,6 +464,56 @@ class Prepared:
     def stages(self) -> int:
         """The stages ``run_prepared`` reports: the baselines, then each family."""
         return 1 + len(self.families)
+
+
+def _staged(make, modes, train, held_score, variants=lambda model: {"": model}) -> tuple:
+    """A learned family's options chosen on the hold-out part in two stages (``make(hysteresis, mode,
+    i)`` a family with the physics ``pair[i]``): the hysteresis state on the real rows alone, then
+    ``modes`` of the physics' synthetic data with that state, each fit scored in its ``variants``
+    ({label suffix: model}); the winner refitted on every training row, its 90 % interval calibrated
+    on the hold-out part. Returns (model, {candidate: hold-out RMSE [mm]})."""
+    fit_part, held = holdout_split(train)
+    scores, fitted = {}, {}
+
+    def attempt(h, m):
+        for suffix, model in variants(make(h, m, 0).fit(fit_part)).items():
+            label = f"hysteresis={h},mode={m}{suffix}"
+            fitted[label] = (h, m, suffix, model)
+            scores[label] = held_score(model)
+    for h in (False, True):
+        attempt(h, "real")
+    h = fitted[min(scores, key=scores.get)][0]
+    for m in modes:
+        attempt(h, m)
+    h, m, suffix, model = fitted[min(scores, key=scores.get)]
+    final = variants(make(h, m, 1).fit(train))[suffix]
+    return replace(final, interval_q=conformal_q(model, held)), scores
+
+
+def _learned_map(train, pair, syn, options, held_score) -> tuple:
+    """``LearnedMap``: its hysteresis state and mode (``finetune``, ``mixed`` with synthetic data) chosen
+    on the hold-out part (``_staged``)."""
+    return _staged(lambda h, m, i: LearnedMap(h, options.nets, m, syn, pair[i]),
+                   ("finetune", "mixed") if syn.on else (), train, held_score)
+
+
+def _hybrid(train, pair, syn, options, held_score) -> tuple:
+    """``Hybrid``: its hysteresis state and mode (``mixed`` with synthetic data) chosen on the hold-out
+    part (``_staged``), and its gate: each fit scored there with every gate width of ``GATES``."""
+    return _staged(lambda h, m, i: Hybrid(pair[i], h, options.nets, m, syn), ("mixed",) if syn.on else (),
+                   train, held_score, lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES})
+
+
+def _sequence(train, pair, syn, options, held_score) -> tuple:
+    """``Sequence``, pretrained on the synthetic sessions or not as the hold-out part prefers, its
+    (constant) interval calibrated there."""
+    fit_part, held = holdout_split(train)
+    fitted = {f"mode={m}": Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
+              for m in (("real", "finetune") if syn.on else ("real",))}
+    scores = {k: held_score(v) for k, v in fitted.items()}
+    best = min(scores, key=scores.get)
+    q = conformal_q(fitted[best], held)
+    return replace(Sequence(options.sequence, best.split("=")[1], syn, pair[1]).fit(train), interval_q=q), scores
 
 
 def prepare(train: list[Recording], validation: Recording, options: BenchmarkOptions) -> Prepared:

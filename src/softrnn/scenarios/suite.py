@@ -36,6 +36,8 @@ ROBOT_KEYS = {
     "inputs": "the input columns, a list of shell patterns",
     "tip": "the tip columns [x, y, z]",
     "position_unit": "the tip columns' unit: m, mm or cm",
+    "synthetic": "synthetic rows from the calibrated physics for the learned families, a multiple of the real "
+                 "rows (0: none)",
 }
 """The keys of a ``[robots.NAME]`` table and what each holds (the flags of ``lab benchmark``)."""
 TOP_KEYS = {"title": "the suite's title", "robots": "one [robots.NAME] table per robot"}
@@ -75,6 +77,8 @@ class SuiteRobot:
         the tip columns
     position_unit : str or None
         the tip columns' unit
+    synthetic : float or None
+        synthetic rows for the learned families, a multiple of the real rows (0: none)
     """
 
     name: str
@@ -90,6 +94,7 @@ class SuiteRobot:
     inputs: tuple = ()
     tip: tuple | None = None
     position_unit: str | None = None
+    synthetic: float | None = None
 
 
 @dataclass(frozen=True)
@@ -157,7 +162,8 @@ def _robot(ctx: _Ctx, name: str, raw) -> SuiteRobot:
         routing_radius=t.get("routing_radius", number("m", positive=True), None), lag=t.get("lag", _lag, None),
         families=t.get("families", _strings, None), inputs=t.get("inputs", _strings, ()),
         tip=t.get("tip", lambda c, k, x: _strings(c, k, x, 3), None),
-        position_unit=t.get("position_unit", string(("m", "mm", "cm")), None))
+        position_unit=t.get("position_unit", string(("m", "mm", "cm")), None),
+        synthetic=t.get("synthetic", number("", nonnegative=True), None))
 
 
 def read_suite(path) -> Suite:

@@ -1,0 +1,417 @@
+"""The learned model families of a robot's recordings, taught by the calibrated physics where the
+recordings do not reach.
+
+* ``LearnedMap``: an ensemble of MLPs of the current and previous inputs (and optionally a hysteresis
+  state, play operators of each input) to the tip: a static map with the path dependence of friction.
+* ``Hybrid``: the calibrated physics plus an MLP ensemble of the same inputs and the physics' tip that
+  predicts what the physics misses, its contribution gated off away from the training data (``gate``
+  d0: w = exp(-(d / d0)^2), d the distance of the row's standardised inputs to the nearest training
+  row), so that out of range the hybrid is its physics.
+* ``Sequence``: a GRU reading the commands and the interval since the previous row (lag, creep,
+  hysteresis); it runs free from a zero state.
+
+Physics-pretrained learning (``mode``): with a fitted ``physics`` (``families.Physics``) and
+``SyntheticOptions``, a family draws synthetic sessions from the physics (``synthetic_sessions``) and
+learns from them and the real rows: ``finetune`` trains on the synthetic sessions, then continues on
+the real rows; ``mixed`` trains once on both, the synthetic rows weighing ``weight`` against all the
+real ones (for the hybrid they teach a zero residual where no real row is); ``real`` ignores them.
+The benchmark chooses the mode, the hysteresis state and the gate on the training hold-out.
+
+Every family states a 90 % interval per row (``predict_interval``, ``softrnn.lab.uncertainty``): the
+map's ensemble spread plus its training error, for the hybrid the physics' error where the gate is off,
+for the sequence model a constant; each times 1 + the distance from the training rows.
+"""
+
+from __future__ import annotations
+
+import math
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..errors import bad
+from .families import PLAY_WIDTHS, Physics, _previous, play
+from .recording import Recording
+from .synthetic import SyntheticOptions, synthetic_sessions
+from .uncertainty import InputDistance, Intervals
+
+MODES = ("real", "finetune", "mixed")
+"""How a family uses the physics' synthetic sessions (module docstring)."""
+GATES = (0.5, 1.0, 2.0, 4.0, math.inf)
+"""The hybrid's gate widths d0 tried on the hold-out, in standardised input units (inf: no gate)."""
+
+
+@dataclass(frozen=True)
+class NetOptions:
+    """The networks' size and training (``LearnedMap``, ``Hybrid``): an ensemble of two-layer tanh
+    MLPs, averaged, each trained full batch with AdamW."""
+
+    hidden: int = 64
+    """Units in each of the two tanh layers."""
+    members: int = 3
+    """Networks in the ensemble."""
+    steps: int = 1500
+    """Full-batch AdamW steps per network (and again for the fine-tuning on the real rows)."""
+    lr: float = 3e-3
+    """Learning rate."""
+    weight_decay: float = 0.1
+    """AdamW's weight decay."""
+    seed: int = 0
+    """Seed of member m: seed * 1000 + m."""
+
+
+def _features(session: Recording, widths: np.ndarray | None) -> np.ndarray:
+    u = session.inputs
+    parts = [u, _previous(u)]
+    if widths is not None:
+        parts += [play(u, w) - u for w in widths]
+    return np.hstack(parts)
+
+
+class _Ensemble:
+    """An ensemble of two-layer tanh MLPs, inputs standardised, targets scaled by their RMS."""
+
+    def __init__(self, options: NetOptions):
+        self.options = options
+        self.members = []
+
+    def fit(self, X: np.ndarray, Y: np.ndarray, pool: tuple | None = None, weight: float = 0.0,
+            batch: int | None = None, warm: bool = False) -> _Ensemble:
+        """Train the members on features ``X`` (M, F) and targets ``Y`` (M, D), each step on a random
+        ``batch`` of their rows (None: all), plus ``weight`` times the loss on a random batch of
+        the rows of ``pool`` (Xp, Yp) as large; ``warm``: continue training the members (and keep the
+        scaling) from an earlier ``fit``. Returns itself."""
+        import torch  # optional extra: learn (PyTorch)
+
+        o = self.options
+        with _serial():
+            if not warm:
+                both = X if pool is None else np.vstack([X, pool[0]])
+                self.mu, self.sd = both.mean(axis=0), both.std(axis=0) + 1e-9
+                self.scale = float(np.sqrt(np.mean(Y ** 2))) or 1.0
+                self.members = []
+                for m in range(o.members):
+                    torch.manual_seed(o.seed * 1000 + m)
+                    self.members.append(torch.nn.Sequential(
+                        torch.nn.Linear(X.shape[1], o.hidden), torch.nn.Tanh(), torch.nn.Linear(o.hidden, o.hidden),
+                        torch.nn.Tanh(), torch.nn.Linear(o.hidden, Y.shape[1])))
+            x, y = self._tensors(X, Y)
+            xp, yp = self._tensors(*pool) if pool is not None else (None, None)
+            size = min(batch or len(X), len(X))
+            draw = torch.Generator().manual_seed(o.seed)
+            for net in self.members:
+                opt = torch.optim.AdamW(net.parameters(), lr=o.lr, weight_decay=o.weight_decay)
+                for _ in range(o.steps):
+                    opt.zero_grad()
+                    rows = torch.randint(len(X), (size,), generator=draw) if size < len(X) else slice(None)
+                    loss = torch.mean((net(x[rows]) - y[rows]) ** 2)
+                    if xp is not None:
+                        k = torch.randint(len(xp), (min(len(X), len(xp)),), generator=draw)
+                        loss = loss + weight * torch.mean((net(xp[k]) - yp[k]) ** 2)
+                    loss.backward()
+                    opt.step()
+        return self
+
+    def _tensors(self, X, Y):
+        import torch  # optional extra: learn (PyTorch)
+
+        return (torch.tensor((X - self.mu) / self.sd, dtype=torch.float32),
+                torch.tensor(Y / self.scale, dtype=torch.float32))
+
+    def outputs(self, X: np.ndarray) -> np.ndarray:
+        """(members, M, D) every member's output for features ``X`` (M, F), in the targets' units."""
+        import torch  # optional extra: learn (PyTorch)
+
+        with torch.no_grad(), _serial():
+            x = torch.tensor((X - self.mu) / self.sd, dtype=torch.float32)
+            return np.stack([net(x).numpy() for net in self.members]).astype(float) * self.scale
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        return self.outputs(X).mean(axis=0)
+
+    def spread(self, X: np.ndarray) -> np.ndarray:
+        """(M,) the members' RMS Euclidean distance from their mean, in the targets' units."""
+        out = self.outputs(X)
+        return np.sqrt(np.mean(np.sum((out - out.mean(axis=0)) ** 2, axis=2), axis=0))
+
+
+def _widths(sessions, hysteresis: bool):
+    if not hysteresis:
+        return None
+    u = np.vstack([s.inputs for s in sessions])
+    return [f * np.ptp(u, axis=0) for f in PLAY_WIDTHS]
+
+
+def _check_mode(family, offered=MODES) -> None:
+    if family.mode not in offered:
+        raise bad("mode", family.mode, f"one of {', '.join(offered)} for the {family.name} family")
+    if family.mode != "real" and (family.physics is None or family.physics.calibration is None
+                                  or not family.synthetic.on):
+        raise bad("mode", family.mode, f"'real' for the {family.name} family without a calibrated physics and "
+                                       "synthetic.amount > 0 (the other modes learn from the physics' sessions)")
+
+
+def _synthetic(family, sessions, offered=MODES) -> list:
+    """The synthetic sessions a family learns from ([] in mode ``real``), its mode one of ``offered``."""
+    _check_mode(family, offered)
+    return [] if family.mode == "real" else synthetic_sessions(family.physics, sessions, family.synthetic)
+
+
+def _train(options: NetOptions, mode: str, weight: float, real: tuple, synthetic: tuple) -> _Ensemble:
+    """An ensemble trained on (X, Y) of the real rows and of the synthetic rows as ``mode`` says; the
+    synthetic rows are drawn in batches as large as the real rows, so a step costs about the same."""
+    (Xr, Yr), (Xs, Ys) = real, synthetic
+    net = _Ensemble(options)
+    if mode == "finetune":
+        return net.fit(Xs, Ys, batch=len(Xr)).fit(Xr, Yr, warm=True)
+    if mode == "mixed":
+        return net.fit(Xr, Yr, pool=(Xs, Ys), weight=weight)
+    return net.fit(Xr, Yr)
+
+
+@contextmanager
+def _serial():
+    """PyTorch on one thread inside (small networks on a shared machine), the caller's count after."""
+    import torch  # optional extra: learn (PyTorch)
+
+    old = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(old)
+
+
+def _pretraining(family) -> dict:
+    out = {"mode": family.mode}
+    if family.mode != "real":
+        out["synthetic"] = family.synthetic.describe()
+    if family.interval_q is not None:         # inf (too few hold-out rows for the quantile): null
+        out["interval_90_q"] = round(family.interval_q, 4) if math.isfinite(family.interval_q) else None
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class LearnedMap(Intervals):
+    """A learned static map with input history: an MLP ensemble of (u_k, u_{k-1}[, hysteresis
+    state]) to the tip; ``mode``, ``synthetic``, ``physics``: its physics pretraining (module docstring)."""
+
+    hysteresis: bool = False
+    options: NetOptions = NetOptions()
+    mode: str = "real"
+    synthetic: SyntheticOptions = SyntheticOptions()
+    physics: Physics | None = None
+    name: str = "learned_map"
+    net: object = None
+    widths: object = None
+    offset: np.ndarray | None = None
+    floor: float = 0.0
+    reach: InputDistance | None = None
+    interval_q: float | None = None
+
+    def fit(self, sessions) -> LearnedMap:
+        """The model fitted on training sessions (a list of ``Recording``)."""
+        sessions = list(sessions)
+        syn = _synthetic(self, sessions)
+        widths = _widths(sessions, self.hysteresis)
+        offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
+
+        def data(group):
+            return (np.vstack([_features(s, widths) for s in group]) if group else None,
+                    np.vstack([s.tip for s in group]) - offset if group else None)
+        net = _train(self.options, self.mode, self.synthetic.weight, data(sessions), data(syn))
+        out = replace(self, widths=widths, offset=offset, net=net, reach=InputDistance.of(sessions))
+        err = np.concatenate([np.linalg.norm(out.predict(s) - s.tip, axis=1) for s in sessions])
+        return replace(out, floor=float(np.sqrt(np.mean(err ** 2))) + 1e-9)
+
+    def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
+        return self.net(_features(session, self.widths)) + self.offset
+
+    def error_scale(self, session: Recording) -> np.ndarray:
+        """(T,) [m] the training RMS error plus the ensemble's spread."""
+        return self.floor + self.net.spread(_features(session, self.widths))
+
+    def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
+        return {"kind": "MLP ensemble of the current and previous inputs" +
+                        (" and a hysteresis state (play operators)" if self.hysteresis else ""),
+                **{k: v for k, v in vars(self.options).items()}, **_pretraining(self)}
+
+
+@dataclass(frozen=True, eq=False)
+class Hybrid(Intervals):
+    """Calibrated physics plus a gated learned residual: tip = physics(u_k) + w(u_k) MLP(u_k, u_{k-1}[,
+    hysteresis state], physics(u_k)), w = exp(-(d / ``gate``)^2) with d the distance of the
+    standardised u_k to the nearest training row (``gate`` inf: w = 1); ``physics`` fitted
+    (calibrated) or to be fitted with it; ``mode`` ``real`` or ``mixed`` (module docstring)."""
+
+    physics: Physics
+    hysteresis: bool = False
+    options: NetOptions = NetOptions()
+    mode: str = "real"
+    synthetic: SyntheticOptions = SyntheticOptions()
+    gate: float = math.inf
+    name: str = "hybrid"
+    net: object = None
+    widths: object = None
+    reach: InputDistance | None = None
+    floor: float = 0.0
+    physics_rms: float = 0.0
+    interval_q: float | None = None
+
+    def _X(self, s, base):
+        return np.hstack([_features(s, self.widths), base])
+
+    def fit(self, sessions) -> Hybrid:
+        """The model fitted on training sessions (a list of ``Recording``)."""
+        sessions = list(sessions)
+        physics = self.physics if self.physics.calibration is not None else self.physics.fit(sessions)
+        out = replace(self, physics=physics, widths=_widths(sessions, self.hysteresis))
+        syn = _synthetic(out, sessions, ("real", "mixed"))           # its synthetic residual is zero: no pretraining
+
+        def data(group):
+            if not group:
+                return None, None
+            bases = [physics.predict(s) for s in group]
+            return (np.vstack([out._X(s, b) for s, b in zip(group, bases)]),
+                    np.vstack([s.tip - b for s, b in zip(group, bases)]))
+        out = replace(out, net=_train(self.options, self.mode, self.synthetic.weight, data(sessions), data(syn)),
+                      reach=InputDistance.of(sessions))
+        res = np.vstack([s.tip - physics.predict(s) for s in sessions])
+        err = np.vstack([out.predict(s) - s.tip for s in sessions])
+        return replace(out, floor=float(np.sqrt(np.mean(np.sum(err ** 2, axis=1)))) + 1e-9,
+                       physics_rms=float(np.sqrt(np.mean(np.sum(res ** 2, axis=1)))))
+
+    def weights(self, session: Recording) -> np.ndarray:
+        """(T,) the residual's weight w in [0, 1] per row: 1 on a training row, falling to 0 away from them."""
+        if math.isinf(self.gate):
+            return np.ones(session.n_rows)
+        return np.exp(-(self.reach(session) / self.gate) ** 2)
+
+    def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
+        base = self.physics.predict(session)
+        return base + self.weights(session)[:, None] * self.net(self._X(session, base))
+
+    def error_scale(self, session: Recording) -> np.ndarray:
+        """(T,) [m] the training RMS error and the ensemble's spread where the residual acts, the
+        physics' RMS error where the gate turns it off."""
+        w = self.weights(session)
+        spread = self.net.spread(self._X(session, self.physics.predict(session)))
+        return self.floor + w * spread + (1.0 - w) * self.physics_rms
+
+    def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
+        return {"kind": "calibrated physics + MLP residual" +
+                        (" with a hysteresis state (play operators)" if self.hysteresis else "") +
+                        (", gated off away from the training data" if not math.isinf(self.gate) else ""),
+                **{k: v for k, v in vars(self.options).items()}, **_pretraining(self),
+                "gate_d0": None if math.isinf(self.gate) else self.gate}
+
+
+@dataclass(frozen=True)
+class SequenceOptions:
+    """The recurrent model (``Sequence``) and its training with AdamW."""
+
+    hidden: int = 32
+    """GRU units."""
+    window: int = 64
+    """Rows per training window (the state carried from the session's start through the windows before)."""
+    epochs: int = 300
+    """Passes over the sessions, or fewer where that would take more than ``max_steps``."""
+    max_steps: int = 6000
+    """Most optimiser steps (long recordings; the pretraining on synthetic sessions has half as many)."""
+    lr: float = 3e-3
+    """Learning rate."""
+    weight_decay: float = 1e-3
+    """AdamW's weight decay."""
+    seed: int = 0
+    """PyTorch's seed."""
+
+
+@dataclass(frozen=True, eq=False)
+class Sequence(Intervals):
+    """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s]) and
+    writing the tip: a dynamic model of the commands alone, run free from a zero state; ``mode``
+    ``real`` or ``finetune`` (pretrained on the physics' synthetic sessions, module docstring)."""
+
+    options: SequenceOptions = SequenceOptions()
+    mode: str = "real"
+    synthetic: SyntheticOptions = SyntheticOptions()
+    physics: Physics | None = None
+    name: str = "sequence"
+    net: object = None
+    offset: np.ndarray | None = None
+    mu: np.ndarray | None = None
+    sd: np.ndarray | None = None
+    scale: float = 1.0
+    reach: InputDistance | None = None
+    interval_q: float | None = None
+
+    def _inputs(self, s: Recording) -> np.ndarray:
+        u = s.inputs
+        dt = np.concatenate([[np.median(np.diff(s.time))], np.diff(s.time)])
+        return np.hstack([u, u - _previous(u), np.log(dt)[:, None]])
+
+    def fit(self, sessions) -> Sequence:
+        """The model fitted on training sessions (a list of ``Recording``)."""
+        import torch  # optional extra: learn (PyTorch)
+
+        sessions = list(sessions)
+        syn = _synthetic(self, sessions, ("real", "finetune"))
+        torch.manual_seed(self.options.seed)
+        offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
+        X = [self._inputs(s) for s in sessions + syn]
+        Y = [s.tip - offset for s in sessions + syn]
+        allX = np.vstack(X)
+        mu, sd = allX.mean(axis=0), allX.std(axis=0) + 1e-9
+        scale = float(np.sqrt(np.mean(np.vstack(Y) ** 2))) or 1.0
+        xs = [torch.tensor((x - mu) / sd, dtype=torch.float32)[None] for x in X]
+        ys = [torch.tensor(y / scale, dtype=torch.float32)[None] for y in Y]
+        n = len(sessions)
+        with _serial():
+            pre = replace(self.options, max_steps=self.options.max_steps // 2)
+            net = _train_gru(pre, xs[n:], ys[n:], allX.shape[1]) if syn else None
+            net = _train_gru(self.options, xs[:n], ys[:n], allX.shape[1], net)
+        return replace(self, net=net, offset=offset, mu=mu, sd=sd, scale=scale, reach=InputDistance.of(sessions))
+
+    def predict(self, session: Recording) -> np.ndarray:
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
+        import torch  # optional extra: learn (PyTorch)
+
+        gru, head = self.net
+        with torch.no_grad(), _serial():
+            out, _ = gru(torch.tensor((self._inputs(session) - self.mu) / self.sd, dtype=torch.float32)[None])
+            y = head(out)[0].numpy().astype(float) * self.scale
+        return y + self.offset
+
+    def describe(self) -> dict:
+        """What the model is and its options, JSON-ready."""
+        return {"kind": "GRU of the commands and intervals", **{k: v for k, v in vars(self.options).items()},
+                **_pretraining(self)}
+
+
+def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple | None = None) -> tuple:
+    """(GRU, linear head) trained on the sessions' standardised inputs ``xs`` and scaled tips ``ys``
+    (each a (1, T, .) float32 tensor), windows of ``o.window`` rows carrying the state; ``net``: a
+    (GRU, head) to continue training (None: new ones)."""
+    import torch  # optional extra: learn (PyTorch)
+
+    gru, head = net if net is not None else (torch.nn.GRU(n_inputs, o.hidden, batch_first=True),
+                                             torch.nn.Linear(o.hidden, 3))
+    params = list(gru.parameters()) + list(head.parameters())
+    opt = torch.optim.AdamW(params, lr=o.lr, weight_decay=o.weight_decay)
+    per_epoch = sum(-(-x.shape[1] // o.window) for x in xs)
+    for _ in range(max(1, min(o.epochs, o.max_steps // per_epoch))):
+        for x, y in zip(xs, ys):
+            h = None
+            for a in range(0, x.shape[1], o.window):
+                out, h = gru(x[:, a:a + o.window], h)
+                loss = torch.mean((head(out) - y[:, a:a + o.window]) ** 2)
+                opt.zero_grad()
+                loss.backward()
+                opt.step()
+                h = h.detach()
+    return gru, head

@@ -1,0 +1,173 @@
+"""The learned families taught by the physics (``softrnn.lab.nets``) on a known tendon robot: a map
+pretrained on the physics' synthetic sessions carries over to commands never recorded, the hybrid
+is its physics away from the training data and physics + residual on them, and the 90 % intervals
+(``softrnn.lab.uncertainty``) hold about 90 % of fresh rows."""
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from softrnn.errors import SoftrnnInputError
+from softrnn.lab.families import Physics
+from softrnn.lab.nets import Hybrid, LearnedMap, NetOptions, Sequence, SequenceOptions
+from softrnn.lab.recording import Recording, read_recording
+from softrnn.lab.synthetic import SyntheticOptions
+from softrnn.lab.tendon_robot import Calibration
+from softrnn.lab.uncertainty import InputDistance, WithInterval, conformal_q, with_interval
+
+from helpers import tendon_recording, tendon_robot_truth
+
+SMALL = NetOptions(members=3, steps=300, hidden=16)
+
+
+def _physics(n_segments=1):
+    robot, params = tendon_robot_truth(n_segments)
+    return Physics(robot, calibration=Calibration(robot, params, 0.0, (), 0.0))
+
+
+def _session(physics, u_mm, seed, noise_mm=0.1, path=""):
+    """A recording of ``physics`` driven by commands ``u_mm`` (T, m) [mm], marker noise ``noise_mm`` per axis."""
+    T, m = u_mm.shape
+    rec = Recording(path=path, time=np.arange(T) * 0.6, inputs=u_mm, names=tuple(f"servo_{i}" for i in range(m)),
+                    units=("mm",) * m, tip=np.zeros((T, 3)))
+    tip = physics.predict(rec) + np.random.default_rng(seed).normal(0, noise_mm * 1e-3, (T, 3))
+    return replace(rec, tip=tip)
+
+
+def _one_segment_at_a_time(rows, seed, both=False):
+    """Commands of a two-segment robot: smooth random pulls of one segment's tendons while the other's
+    rest (``both``: both segments at once) [mm]."""
+    rng = np.random.default_rng(seed)
+    k = np.arange(rows)[:, None]
+    u = 3.0 * np.sin(0.05 * k * (1 + 0.3 * np.arange(6)) + rng.uniform(0, 6.3, 6)) - 0.5
+    if not both:
+        u[: rows // 2, 3:] = -0.5
+        u[rows // 2:, :3] = -0.5
+    return u
+
+
+@pytest.fixture(scope="module")
+def two_segments():
+    physics = _physics(2)
+    train = _session(physics, _one_segment_at_a_time(300, 0), 0)
+    test = _session(physics, _one_segment_at_a_time(200, 1, both=True), 1)
+    return physics, train, test
+
+
+def _rmse_mm(model, session):
+    return float(np.sqrt(np.mean(np.sum((model.predict(session) - session.tip) ** 2, axis=1)))) * 1e3
+
+
+def test_pretraining_on_the_physics_carries_to_unrecorded_combinations(two_segments):
+    """Trained on one segment at a time, tested on both together: the map that learnt from the
+    physics' synthetic sessions (segments combined) is far better than the map of the real rows alone."""
+    physics, train, test = two_segments
+    syn, nets = SyntheticOptions(amount=4.0), NetOptions(members=2, steps=1000, hidden=32)
+    real = LearnedMap(options=nets).fit([train])
+    taught = {m: LearnedMap(options=nets, mode=m, synthetic=syn, physics=physics).fit([train])
+              for m in ("finetune", "mixed")}
+    for m, model in taught.items():
+        assert _rmse_mm(model, test) < 0.75 * _rmse_mm(real, test), m
+        assert model.describe()["mode"] == m and model.describe()["synthetic"]["amount_x_real_rows"] == 4.0
+    seq = Sequence(SequenceOptions(epochs=2, hidden=8), mode="finetune", synthetic=syn, physics=physics).fit([train])
+    assert seq.predict(test).shape == test.tip.shape and seq.describe()["mode"] == "finetune"
+
+
+def test_modes_need_a_physics_and_synthetic_data(two_segments):
+    physics, train, _ = two_segments
+    without = "mode='mixed' is invalid: 'real' for the learned_map family without a calibrated physics"
+    with pytest.raises(SoftrnnInputError, match=without):
+        LearnedMap(options=SMALL, mode="mixed").fit([train])
+    with pytest.raises(SoftrnnInputError, match="mode='finetune' is invalid: 'real' for the learned_map family"):
+        LearnedMap(options=SMALL, mode="finetune", synthetic=SyntheticOptions(amount=0), physics=physics).fit([train])
+    with pytest.raises(SoftrnnInputError, match="mode='finetune' is invalid: one of real, mixed for the hybrid"):
+        Hybrid(physics, options=SMALL, mode="finetune").fit([train])
+    with pytest.raises(SoftrnnInputError, match="mode='mixed' is invalid: one of real, finetune for the sequence"):
+        Sequence(mode="mixed").fit([train])
+    with pytest.raises(SoftrnnInputError, match="mode='magic' is invalid: one of real, finetune, mixed"):
+        LearnedMap(options=SMALL, mode="magic").fit([train])
+
+
+def test_hybrid_is_its_physics_far_from_the_data_and_physics_plus_residual_on_them(two_segments):
+    physics, train, _ = two_segments
+    crude = Physics(physics.robot, calibration=replace(
+        physics.calibration, params=replace(physics.calibration.params, marker=8e-3)))     # a physics that misses
+    hybrid = Hybrid(crude, options=SMALL, gate=0.5).fit([train])
+    far = _session(physics, train.inputs + 6.0, 2)                                     # every tendon pulled 6 mm more
+    np.testing.assert_allclose(hybrid.predict(far), crude.predict(far), rtol=0, atol=1e-15)
+    assert np.all(hybrid.weights(far) < 1e-30)
+    base = crude.predict(train)
+    residual = hybrid.net(hybrid._X(train, base))
+    assert np.sqrt(np.mean(residual ** 2)) > 1e-4                                      # a residual that matters
+    np.testing.assert_allclose(hybrid.predict(train), base + residual, rtol=1e-12, atol=1e-15)
+    assert np.all(hybrid.weights(train) == 1.0)
+    near = _session(physics, train.inputs + 0.3, 3)
+    w = hybrid.weights(near)
+    assert np.all((w > 0) & (w < 1))                                                   # falls off in between
+    ungated = replace(hybrid, gate=math.inf)
+    base = crude.predict(far)
+    np.testing.assert_allclose(ungated.predict(far), base + ungated.net(ungated._X(far, base)))
+    assert "gated off" in hybrid.describe()["kind"] and hybrid.describe()["gate_d0"] == 0.5
+
+
+@pytest.fixture(scope="module")
+def noisy(tmp_path_factory):
+    """Sessions of the one-segment robot with 0.5 mm marker noise per axis: fit, hold-out, fresh."""
+    d = tmp_path_factory.mktemp("noisy")
+    out = []
+    for name, rows, seed in (("fit", 300, 0), ("held", 400, 1), ("fresh", 3000, 2)):
+        tendon_recording(d / f"{name}.csv", rows=rows, seed=seed, noise_mm=0.5)
+        out.append(read_recording(d / f"{name}.csv"))
+    return out
+
+
+def _coverage(model, session):
+    tip, radius = model.predict_interval(session)
+    np.testing.assert_array_equal(tip, model.predict(session))
+    assert radius.shape == (session.n_rows,) and np.all(radius > 0)
+    return float(np.mean(np.linalg.norm(tip - session.tip, axis=1) <= radius))
+
+
+def test_a_constant_interval_of_known_noise_holds_90_percent_of_fresh_rows(noisy):
+    """The exact physics on data with Gaussian noise (0.5 mm per axis): the radius calibrated on 400
+    hold-out rows is near the chi (3 dof) 90 % quantile, 0.5 mm x 2.50, and holds ~90 % of fresh rows."""
+    _, held, fresh = noisy
+    exact = _physics(1)
+    model = with_interval(exact, exact, [held], [held])
+    assert model.interval_q == pytest.approx(0.5e-3 * 2.5003, rel=0.1)
+    assert 0.87 <= _coverage(model, fresh) <= 0.93
+    assert model.describe()["interval_90_radius_mm"] == pytest.approx(model.interval_q * 1e3, abs=1e-4)
+    with pytest.raises(ValueError, match="not calibrated"):
+        WithInterval(exact).predict_interval(fresh)
+
+
+def test_learned_intervals_hold_about_90_percent_of_fresh_rows(noisy):
+    fit, held, fresh = noisy
+    physics = _physics(1)
+    for model in (LearnedMap(options=SMALL).fit([fit]), Hybrid(physics, options=SMALL, gate=1.0).fit([fit]),
+                  with_interval(physics, physics, [fit], [held], [fit])):
+        calibrated = replace(model, interval_q=conformal_q(model, [held]))
+        assert 0.8 <= _coverage(calibrated, fresh) <= 0.97, model.name
+
+
+def test_intervals_grow_with_the_distance_from_the_training_rows(noisy):
+    fit, held, _ = noisy
+    physics = _physics(1)
+    model = with_interval(physics, physics, [fit], [held], [fit])
+    far = replace(fit, inputs=fit.inputs + 3 * fit.inputs.std(axis=0))
+    d = InputDistance.of([fit])(far)
+    assert np.all(d > 0.0) and np.mean(d) > 2.0 and np.all(InputDistance.of([fit])(fit) == 0.0)
+    np.testing.assert_allclose(model.predict_interval(far)[1], model.interval_q * (1 + d))
+    np.testing.assert_allclose(model.predict_interval(fit)[1], model.interval_q)
+    assert model.describe()["interval_grows_with_distance"]
+
+
+def test_too_few_hold_out_rows_for_the_quantile_give_an_unbounded_interval(noisy):
+    fit, held, fresh = noisy
+    exact = _physics(1)
+    five = replace(held, time=held.time[:5], inputs=held.inputs[:5], tip=held.tip[:5], labels=())
+    model = with_interval(exact, exact, [fit], [five], [fit])           # rank ceil(6 x 0.9) = 6 > 5 rows
+    assert model.interval_q == math.inf and model.describe()["interval_90_radius_mm"] is None
+    assert np.all(model.predict_interval(fresh)[1] == math.inf)
