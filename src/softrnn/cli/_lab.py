@@ -57,6 +57,9 @@ def add_args(p):
                    help="also draw the validation session's tip beside the best model and baseline")
     b.add_argument("--families", default=",".join(FAMILIES), metavar="NAME,...",
                    help=f"softrnn's model families to run (default: {','.join(FAMILIES)})")
+    b.add_argument("--scenario", default=None, metavar="NAME|FILE",
+                   help="the robot's dynamic description (a scenario name such as tendon-spatial, or a TOML file) "
+                        "for the dynamic families on recordings of tendon tensions in N (default: none, skipped)")
     _recording_args(b)
     b.set_defaults(lab_run=_benchmark)
     c = sub.add_parser("calibrate", help="fit the tendon robot's physics to recordings' quasi-static poses",
@@ -117,7 +120,7 @@ def _options(args, families) -> BenchmarkOptions:
     try:
         return BenchmarkOptions(length=args.length, lag=_lag(args.lag), segments=_segments(args.segments),
                                 tendons_per_segment=args.tendons_per_segment, routing_radius=args.routing_radius,
-                                families=families)
+                                families=families, scenario=getattr(args, "scenario", None))
     except SoftrnnInputError as err:
         raise _as_option(err) from None
 
@@ -134,7 +137,7 @@ def _benchmark(args) -> int:
         try:
             result = run_benchmark(train, validation, options, progress=bar)
         except SoftrnnInputError as err:
-            raise (_as_option(err) if str(err).startswith("lag=") else err) from None
+            raise (_as_option(err) if str(err).startswith(("lag=", "scenario=")) else err) from None
     report = result.to_dict()
     if args.figure:      # the figure first: a failure leaves neither file
         shown = {f"{k} (model)": result.predictions[k] for k in [report["best_model"]] if k}

@@ -16,6 +16,8 @@ import numpy as np
 
 from ..errors import SoftrnnInputError, bad, positive
 from ..learned.metrics import tip_errors
+from .dynamic_families import DynamicHybrid, DynamicPhysics
+from .dynamic_physics import DynamicOptions, DynamicRobot
 from .families import (
     ConstantVelocityFamily,
     Hybrid,
@@ -38,6 +40,9 @@ from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
 
 FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
 """softrnn's model families, in the order they are fitted."""
+DYNAMIC_FAMILIES = ("dynamic_physics", "dynamic_hybrid")
+"""The families of dynamic recordings driven by tendon tensions, run where ``scenario`` describes the
+robot (``softrnn.lab.dynamic_families``)."""
 BASELINES = ("persistence", "constant_velocity", "linear_arx", "static_map")
 """The baselines, in report order: the first three the shared ones of ``softrnn.learned.baselines``."""
 ARX_ORDERS = ((1, 1), (2, 1), (1, 2), (2, 2))
@@ -76,6 +81,11 @@ class BenchmarkOptions:
         the options of the ``node_lstm`` model
     calibration : CalibrationOptions
         the options of the physics' calibration
+    scenario : str or None
+        the robot's dynamic description, a scenario name or TOML file (``dynamic_physics``); None:
+        the ``DYNAMIC_FAMILIES`` are skipped
+    dynamic : DynamicOptions
+        the options of the dynamic physics and its calibration
     """
 
     length: float
@@ -88,14 +98,16 @@ class BenchmarkOptions:
     sequence: SequenceOptions = SequenceOptions()
     node: NodeOptions = NodeOptions()
     calibration: CalibrationOptions = CalibrationOptions()
+    scenario: str | None = None
+    dynamic: DynamicOptions = DynamicOptions()
 
     def __post_init__(self):
         positive("length", self.length, "m")
         if self.lag != "auto" and (not isinstance(self.lag, int) or isinstance(self.lag, bool) or self.lag < 0):
             raise bad("lag", self.lag, "a whole number of rows >= 0, or 'auto'")
-        unknown = [f for f in self.families if f not in FAMILIES]
+        unknown = [f for f in self.families if f not in FAMILIES + DYNAMIC_FAMILIES]
         if unknown or not self.families:
-            raise bad("families", ",".join(self.families), f"one or more of {', '.join(FAMILIES)}")
+            raise bad("families", ",".join(self.families), f"one or more of {', '.join(FAMILIES + DYNAMIC_FAMILIES)}")
 
 
 @dataclass(frozen=True)
@@ -363,6 +375,38 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
     return holdout
 
 
+def _dynamic_families(options: BenchmarkOptions, sessions) -> tuple[list, dict, DynamicRobot | None]:
+    """The dynamic families to run (those named in ``options.families``, else both where a scenario
+    is given), those skipped {name: why} and the robot, its sessions checked (tensions in N, one per
+    tendon: a one-line error naming ``scenario`` otherwise)."""
+    named = [f for f in options.families if f in DYNAMIC_FAMILIES]
+    if options.scenario is None:
+        return [], {f: "no --scenario: the dynamic physics needs the robot's description (a scenario with its "
+                       "tendons)" for f in (named or DYNAMIC_FAMILIES)}, None
+    robot = DynamicRobot.from_scenario(options.scenario, options.dynamic)
+    for s in sessions:
+        robot.check(s)
+    return named or list(DYNAMIC_FAMILIES), {}, robot
+
+
+def _dynamic_models(train: list[Recording], families: list, robot, out: _Table, step) -> dict:
+    """The calibrated dynamic physics and the hybrid on it, fitted and run; their hold-out scores [mm]."""
+    holdout = {}
+    if not families:
+        return holdout
+    physics = DynamicPhysics(robot).fit(train)
+    if "dynamic_physics" in families:
+        holdout["dynamic_physics"] = physics.holdout_rmse_mm
+        out.record(out.models, "dynamic_physics", physics)
+        step("dynamic_physics")
+    if "dynamic_hybrid" in families:
+        hybrid = DynamicHybrid(physics).fit(train)
+        holdout["dynamic_hybrid"] = hybrid.holdout_rmse_mm
+        out.record(out.models, "dynamic_hybrid", hybrid, hybrid.holdout_scores)
+        step("dynamic_hybrid")
+    return holdout
+
+
 def _scores(table: dict) -> dict[str, TipScore]:
     """{name: TipScore} of a ``_Table`` entry {name: {tip_rmse_mm, ...}}."""
     return {name: TipScore(**errors) for name, errors in table.items()}
@@ -380,7 +424,10 @@ def run_benchmark(train: list[Recording], validation: Recording, options: Benchm
     check_rows(train + [validation])
     robot = robot_for(options, validation.n_inputs)
     families, skipped = _families(options, robot, train + [validation])
-    stages = ["baselines"] + families
+    dynamic, dynamic_skipped, dynamic_robot = _dynamic_families(options, train + [validation])
+    families = [f for f in families if f not in DYNAMIC_FAMILIES]
+    skipped.update(dynamic_skipped)
+    stages = ["baselines"] + families + dynamic
     done = 0
 
     def step(stage):
@@ -393,6 +440,7 @@ def run_benchmark(train: list[Recording], validation: Recording, options: Benchm
     _baselines(train, out)
     step("baselines")
     holdout = _models(train, families, robot, options, out, step)
+    holdout.update(_dynamic_models(train, dynamic, dynamic_robot, out, step))
     chosen = Choice(family=min(holdout, key=holdout.get), holdout_rmse_mm=holdout,
                     holdout="the last training session" if len(train) >= 2 else
                             "the last quarter of the training session") if holdout else None
