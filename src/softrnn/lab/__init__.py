@@ -1,6 +1,8 @@
 """Real robots' recordings: sessions read as they come (``recording``), the tendon robot's
 displacement-driven physics and its calibration (``tendon_robot``), the model families and the
-baselines fitted on training sessions (``families``) and the benchmark that runs them free over a
+baselines fitted on training sessions (``families``), the dynamic physics of a robot's scenario driven
+by its recorded tensions and its calibration (``dynamic_physics``) with its families
+(``dynamic_families``), and the benchmark that runs them free over a
 validation session (``benchmark``)."""
 
 from .benchmark import BASELINES, FAMILIES, BenchmarkOptions, BenchmarkResult, run_benchmark
