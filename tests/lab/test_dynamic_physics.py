@@ -201,3 +201,16 @@ def test_without_a_scenario_the_dynamic_families_are_skipped(sessions):
     result = run_benchmark(sessions[:1], sessions[1], BenchmarkOptions(length=0.4, lag=0, families=(
         "dynamic_physics",)))
     assert "no --scenario" in result.skipped["dynamic_physics"] and not result.models
+
+
+def test_settling_runs_the_first_rows_tensions_before_the_session(scenario_file):
+    """A session of constant tensions after ``settle`` seconds is the later part of a longer one."""
+    def constant(seconds):
+        t = np.arange(int(seconds * 20) + 1) / 20.0
+        u = np.tile([2.0, 1.0, 0.5], (t.size, 1))
+        return Recording(path="c", time=t, inputs=u, names=("a", "b", "c"), units=("N",) * 3,
+                         tip=np.zeros((t.size, 3)))
+
+    settled = DynamicRobot.from_scenario(str(scenario_file), DynamicOptions(settle=1.0))
+    plain = DynamicRobot.from_scenario(str(scenario_file))
+    np.testing.assert_allclose(settled.tip({}, constant(2.0)), plain.tip({}, constant(3.0))[20:], rtol=0, atol=1e-9)
