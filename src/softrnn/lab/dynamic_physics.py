@@ -177,8 +177,9 @@ def coarse(scenario: Scenario, nodes: int, node: int = -1) -> Scenario:
 
 @dataclass(frozen=True, eq=False)
 class DynamicRobot:
-    """A robot's dynamic description: the ``scenario`` (rod, tendons, boundary, damping, gravity)
-    run by the recorded tensions (``from_scenario`` loads one by name or path)."""
+    """A robot's dynamic description: the ``scenario`` (rod, tendons, boundary, damping, gravity;
+    its rod made ``coarse`` by ``from_scenario``, which loads one by name or path) run by the
+    recorded tensions with ``options``; ``nodes_described`` is the scenario's own node count."""
 
     scenario: Scenario
     options: DynamicOptions = DynamicOptions()
