@@ -39,7 +39,9 @@ ALLOWED = {
     "softrnn.bench": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.statics", "softrnn.scenarios",
                       "softrnn.sweeps", "softrnn.learned", "softrnn.learned.node", "softrnn.learned.whole"},
     "softrnn.control": {"softrnn", "softrnn.io", "softrnn.magnetics", "softrnn.figures"},
-    "softrnn.lab": {"softrnn", "softrnn.io", "softrnn.learned", "softrnn.learned.node", "softrnn.fitting"},
+    # lab -> rod, scenarios: the dynamic physics runs the robot's scenario on its recorded tensions
+    "softrnn.lab": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.scenarios", "softrnn.learned",
+                    "softrnn.learned.node", "softrnn.fitting"},
     "softrnn.reproduce": {"softrnn", "softrnn.io", "softrnn.scenarios", "softrnn.figures", "softrnn.sweeps",
                           "softrnn.learned", "softrnn.learned.node", "softrnn.learned.whole", "softrnn.experiments",
                           "softrnn.bench", "softrnn.control", "softrnn.lab"},

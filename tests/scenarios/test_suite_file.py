@@ -24,6 +24,7 @@ position_unit = "mm"
 tendons_per_segment = 3
 routing_radius = 0.004
 synthetic = 2.5
+scenario = "tendon-spatial"
 
 [robots.arm_a]
 train = ["data/a.csv"]
@@ -53,7 +54,7 @@ def test_a_suite_reads_in_order_with_paths_against_its_folder(folder):
     assert b.validate == str(folder / "data/bv.csv") and b.key == "robots.arm-b"
     assert b.segments == (0.1, 0.1) and b.lag == "auto" and b.families == ("physics", "hybrid")
     assert b.tip == ("tip_x", "tip_y", "tip_z") and b.routing_radius == 0.004 and b.tendons_per_segment == 3
-    assert b.synthetic == 2.5
+    assert b.synthetic == 2.5 and b.scenario == "tendon-spatial" and a.scenario is None
     assert (a.segments, a.lag, a.families, a.inputs, a.tip, a.position_unit, a.tendons_per_segment, a.synthetic) == \
         (None, None, None, (), None, None, None, None)
 
@@ -64,6 +65,7 @@ def test_a_suite_reads_in_order_with_paths_against_its_folder(folder):
     (('"data/b2.csv"', '"data/b3.csv"'), "robots.arm-b.train[1]: no session file"),
     (("length = 0.1\n", "length = -0.1\n"), "robots.arm_a.length = -0.1 is invalid"),
     (('lag = "auto"', 'lag = "soon"'), "robots.arm-b.lag = 'soon' is invalid"),
+    (('scenario = "tendon-spatial"', 'scenario = "arm.toml"'), "robots.arm-b.scenario: no scenario file"),
     (("synthetic = 2.5", "synthetic = -1"), "robots.arm-b.synthetic = -1 is invalid: expected a number >= 0"),
     (('tip = ["tip_x", "tip_y", "tip_z"]', 'tip = ["tip_x"]'), "robots.arm-b.tip = ['tip_x'] is invalid"),
     (("[robots.arm_a]", "[robots.'arm a']"), "the robot name 'arm a' is invalid"),

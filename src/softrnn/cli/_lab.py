@@ -49,7 +49,7 @@ def _recording_args(q, suite: bool = False):
 
 
 _SINGLE_ONLY = ("train", "validate", "figure", "families", "length", "inputs", "tip", "position_unit", "lag",
-                "segments", "tendons_per_segment", "routing_radius", "synthetic")
+                "segments", "tendons_per_segment", "routing_radius", "synthetic", "scenario")
 """``lab benchmark``'s options of one robot, which a suite file gives per robot instead."""
 
 
@@ -74,6 +74,9 @@ def add_args(p):
     b.add_argument("--synthetic", type=float, default=None, metavar="N",
                    help="synthetic rows from the calibrated physics for the learned families, N times the real "
                         "rows (0: none; default: 5 where the physics can be calibrated, else none)")
+    b.add_argument("--scenario", default=None, metavar="NAME|FILE",
+                   help="the robot's dynamic description (a scenario name such as tendon-spatial, or a TOML file) "
+                        "for the dynamic families on recordings of tendon tensions in N (default: none, skipped)")
     b.add_argument("--suite", default=None, metavar="FILE.toml",
                    help="run every robot of a suite file instead (docs/guide/real-robots.md); the robots' "
                         "sessions and options come from the file")
@@ -149,7 +152,8 @@ def _options(args, families) -> BenchmarkOptions:
     try:
         return BenchmarkOptions(length=args.length, lag=_lag(args.lag), segments=_segments(args.segments),
                                 tendons_per_segment=args.tendons_per_segment, routing_radius=args.routing_radius,
-                                families=families, synthetic=_synthetic(getattr(args, "synthetic", None)))
+                                families=families, synthetic=_synthetic(getattr(args, "synthetic", None)),
+                                scenario=getattr(args, "scenario", None))
     except SoftrnnInputError as err:
         raise _as_option(err) from None
 
@@ -177,7 +181,7 @@ def _benchmark(args) -> int:
         try:
             result = run_benchmark(train, validation, options, progress=bar)
         except SoftrnnInputError as err:
-            raise (_as_option(err) if str(err).startswith(("lag=", "synthetic=")) else err) from None
+            raise (_as_option(err) if str(err).startswith(("lag=", "synthetic=", "scenario=")) else err) from None
     report = result.to_dict()
     if args.figure:      # the figure first: a failure leaves no file
         shown = {}
@@ -210,7 +214,8 @@ def _robots_folder(json_path) -> Path:
 def _job(suite: Suite, r: SuiteRobot) -> SuiteJob:
     """The ``SuiteJob`` of a suite file's robot (its options checked; errors name the entry)."""
     entry = f"{suite.path}: {r.key}"
-    given = {k: getattr(r, k) for k in ("segments", "tendons_per_segment", "routing_radius", "lag", "families")
+    given = {k: getattr(r, k) for k in ("segments", "tendons_per_segment", "routing_radius", "lag", "families",
+                                        "scenario")
              if getattr(r, k) is not None}
     if r.synthetic is not None:
         given["synthetic"] = SyntheticOptions(amount=r.synthetic)

@@ -13,12 +13,14 @@ suite of robots (``softrnn.lab.suite``) refuses a bad robot before it starts.
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad, positive
 from ..learned.metrics import aligned_tip_errors, coverage, tip_errors
+from .dynamic_families import DynamicHybrid, DynamicPhysics
+from .dynamic_physics import DynamicOptions, DynamicRobot
 from .families import (
     ConstantVelocityFamily,
     LinearARXFamily,
@@ -31,14 +33,17 @@ from .families import (
     displacements,
     holdout_split,
 )
-from .nets import GATES, Hybrid, LearnedMap, NetOptions, Sequence, SequenceOptions
+from .nets import NetOptions, SequenceOptions, fit_hybrid, fit_learned_map, fit_sequence
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .synthetic import SyntheticOptions, pull_limits
 from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
-from .uncertainty import conformal_q, with_interval
+from .uncertainty import with_interval
 
 FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
 """softrnn's model families, in the order they are fitted."""
+DYNAMIC_FAMILIES = ("dynamic_physics", "dynamic_hybrid")
+"""The families of dynamic recordings driven by tendon tensions, run where ``scenario`` describes the
+robot (``softrnn.lab.dynamic_families``)."""
 BASELINES = ("persistence", "constant_velocity", "linear_arx", "static_map")
 """The baselines, in report order: the first three the shared ones of ``softrnn.learned.baselines``."""
 ARX_ORDERS = ((1, 1), (2, 1), (1, 2), (2, 2))
@@ -81,6 +86,11 @@ class BenchmarkOptions:
         the physics' synthetic sessions the learned families may pretrain on (``softrnn.lab.synthetic``);
         None: the default options where the physics can be calibrated, none otherwise; given with
         ``amount`` > 0 for sessions the physics cannot take, the benchmark refuses to run
+    scenario : str or None
+        the robot's dynamic description, a scenario name or TOML file (``dynamic_physics``); None:
+        the ``DYNAMIC_FAMILIES`` are skipped
+    dynamic : DynamicOptions
+        the options of the dynamic physics and its calibration
     """
 
     length: float
@@ -94,14 +104,16 @@ class BenchmarkOptions:
     node: NodeOptions = NodeOptions()
     calibration: CalibrationOptions = CalibrationOptions()
     synthetic: SyntheticOptions | None = None
+    scenario: str | None = None
+    dynamic: DynamicOptions = DynamicOptions()
 
     def __post_init__(self):
         positive("length", self.length, "m")
         if self.lag != "auto" and (not isinstance(self.lag, int) or isinstance(self.lag, bool) or self.lag < 0):
             raise bad("lag", self.lag, "a whole number of rows >= 0, or 'auto'")
-        unknown = [f for f in self.families if f not in FAMILIES]
+        unknown = [f for f in self.families if f not in FAMILIES + DYNAMIC_FAMILIES]
         if unknown or not self.families:
-            raise bad("families", ",".join(self.families), f"one or more of {', '.join(FAMILIES)}")
+            raise bad("families", ",".join(self.families), f"one or more of {', '.join(FAMILIES + DYNAMIC_FAMILIES)}")
         if self.synthetic is not None and not isinstance(self.synthetic, SyntheticOptions):
             raise bad("synthetic", self.synthetic, "a SyntheticOptions, or None")
 
@@ -418,7 +430,7 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
         out.record(out.models, "physics", with_interval(physics, held_physics, fit_part, held, train))
         step("physics")
     pair = (held_physics, physics)
-    for name, fit in (("learned_map", _learned_map), ("hybrid", _hybrid), ("sequence", _sequence)):
+    for name, fit in (("learned_map", fit_learned_map), ("hybrid", fit_hybrid), ("sequence", fit_sequence)):
         if name in families:
             model, scores = fit(train, pair, syn, options, held_score)
             holdout[name] = min(scores.values())
@@ -448,6 +460,10 @@ class Prepared:
         the tendon robot of the options (None: the inputs do not split into segments)
     families, skipped : tuple of str, dict of str to str
         the families to run, and those skipped and why
+    dynamic : tuple of str
+        the dynamic families to run (``DYNAMIC_FAMILIES``)
+    dynamic_robot : DynamicRobot or None
+        the robot of ``options.scenario`` they run (None: no scenario)
     seconds : float
         the wall time the checks took [s]
     """
@@ -459,61 +475,45 @@ class Prepared:
     families: tuple
     skipped: dict
     seconds: float
+    dynamic: tuple = ()
+    dynamic_robot: DynamicRobot | None = None
 
     @property
     def stages(self) -> int:
         """The stages ``run_prepared`` reports: the baselines, then each family."""
-        return 1 + len(self.families)
+        return 1 + len(self.families) + len(self.dynamic)
 
 
-def _staged(make, modes, train, held_score, variants=lambda model: {"": model}) -> tuple:
-    """A learned family's options chosen on the hold-out part in two stages (``make(hysteresis, mode,
-    i)`` a family with the physics ``pair[i]``): the hysteresis state on the real rows alone, then
-    ``modes`` of the physics' synthetic data with that state, each fit scored in its ``variants``
-    ({label suffix: model}); the winner refitted on every training row, its 90 % interval calibrated
-    on the hold-out part. Returns (model, {candidate: hold-out RMSE [mm]})."""
-    fit_part, held = holdout_split(train)
-    scores, fitted = {}, {}
-
-    def attempt(h, m):
-        for suffix, model in variants(make(h, m, 0).fit(fit_part)).items():
-            label = f"hysteresis={h},mode={m}{suffix}"
-            fitted[label] = (h, m, suffix, model)
-            scores[label] = held_score(model)
-    for h in (False, True):
-        attempt(h, "real")
-    h = fitted[min(scores, key=scores.get)][0]
-    for m in modes:
-        attempt(h, m)
-    h, m, suffix, model = fitted[min(scores, key=scores.get)]
-    final = variants(make(h, m, 1).fit(train))[suffix]
-    return replace(final, interval_q=conformal_q(model, held)), scores
+def _dynamic_families(options: BenchmarkOptions, sessions) -> tuple[list, dict, DynamicRobot | None]:
+    """The dynamic families to run (those named in ``options.families``, else both where a scenario
+    is given), those skipped {name: why} and the robot, its sessions checked (tensions in N, one per
+    tendon: a one-line error naming ``scenario`` otherwise)."""
+    named = [f for f in options.families if f in DYNAMIC_FAMILIES]
+    if options.scenario is None:
+        return [], {f: "no --scenario: the dynamic physics needs the robot's description (a scenario with its "
+                       "tendons)" for f in (named or DYNAMIC_FAMILIES)}, None
+    robot = DynamicRobot.from_scenario(options.scenario, options.dynamic)
+    for s in sessions:
+        robot.check(s)
+    return named or list(DYNAMIC_FAMILIES), {}, robot
 
 
-def _learned_map(train, pair, syn, options, held_score) -> tuple:
-    """``LearnedMap``: its hysteresis state and mode (``finetune``, ``mixed`` with synthetic data) chosen
-    on the hold-out part (``_staged``)."""
-    return _staged(lambda h, m, i: LearnedMap(h, options.nets, m, syn, pair[i]),
-                   ("finetune", "mixed") if syn.on else (), train, held_score)
-
-
-def _hybrid(train, pair, syn, options, held_score) -> tuple:
-    """``Hybrid``: its hysteresis state and mode (``mixed`` with synthetic data) chosen on the hold-out
-    part (``_staged``), and its gate: each fit scored there with every gate width of ``GATES``."""
-    return _staged(lambda h, m, i: Hybrid(pair[i], h, options.nets, m, syn), ("mixed",) if syn.on else (),
-                   train, held_score, lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES})
-
-
-def _sequence(train, pair, syn, options, held_score) -> tuple:
-    """``Sequence``, pretrained on the synthetic sessions or not as the hold-out part prefers, its
-    (constant) interval calibrated there."""
-    fit_part, held = holdout_split(train)
-    fitted = {f"mode={m}": Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
-              for m in (("real", "finetune") if syn.on else ("real",))}
-    scores = {k: held_score(v) for k, v in fitted.items()}
-    best = min(scores, key=scores.get)
-    q = conformal_q(fitted[best], held)
-    return replace(Sequence(options.sequence, best.split("=")[1], syn, pair[1]).fit(train), interval_q=q), scores
+def _dynamic_models(train: list[Recording], families: list, robot, out: _Table, step) -> dict:
+    """The calibrated dynamic physics and the hybrid on it, fitted and run; their hold-out scores [mm]."""
+    holdout = {}
+    if not families:
+        return holdout
+    physics = DynamicPhysics(robot).fit(train)
+    if "dynamic_physics" in families:
+        holdout["dynamic_physics"] = physics.holdout_rmse_mm
+        out.record(out.models, "dynamic_physics", physics)
+        step("dynamic_physics")
+    if "dynamic_hybrid" in families:
+        hybrid = DynamicHybrid(physics).fit(train)
+        holdout["dynamic_hybrid"] = hybrid.holdout_rmse_mm
+        out.record(out.models, "dynamic_hybrid", hybrid, hybrid.holdout_scores)
+        step("dynamic_hybrid")
+    return holdout
 
 
 def prepare(train: list[Recording], validation: Recording, options: BenchmarkOptions) -> Prepared:
@@ -528,8 +528,12 @@ def prepare(train: list[Recording], validation: Recording, options: BenchmarkOpt
     check_rows(train + [validation])
     robot = robot_for(options, validation.n_inputs)
     families, skipped = _families(options, robot, train + [validation])
+    dynamic, dynamic_skipped, dynamic_robot = _dynamic_families(options, train + [validation])
+    families = [f for f in families if f not in DYNAMIC_FAMILIES]
+    skipped.update(dynamic_skipped)
     return Prepared(train=tuple(train), validation=validation, lag_info=lag_info, robot=robot,
-                    families=tuple(families), skipped=skipped, seconds=time.perf_counter() - t0)
+                    families=tuple(families), skipped=skipped, seconds=time.perf_counter() - t0,
+                    dynamic=tuple(dynamic), dynamic_robot=dynamic_robot)
 
 
 def run_benchmark(train: list[Recording], validation: Recording, options: BenchmarkOptions,
@@ -556,6 +560,7 @@ def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -
     _baselines(train, out)
     step("baselines")
     holdout = _models(train, families, robot, options, out, step)
+    holdout.update(_dynamic_models(train, list(prepared.dynamic), prepared.dynamic_robot, out, step))
     chosen = None
     if holdout:
         family = min(holdout, key=holdout.get)

@@ -31,10 +31,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import bad
-from .families import PLAY_WIDTHS, Physics, _previous, play
+from .families import PLAY_WIDTHS, Physics, _previous, holdout_split, play
 from .recording import Recording
 from .synthetic import SyntheticOptions, synthetic_sessions
-from .uncertainty import InputDistance, Intervals
+from .uncertainty import InputDistance, Intervals, conformal_q
 
 MODES = ("real", "finetune", "mixed")
 """How a family uses the physics' synthetic sessions (module docstring)."""
@@ -415,3 +415,55 @@ def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple
                 opt.step()
                 h = h.detach()
     return gru, head
+
+
+# ------------------------------------------------------------------ fitted with their options chosen
+
+def staged(make, modes, train, held_score, variants=lambda model: {"": model}) -> tuple:
+    """A learned family's options chosen on the hold-out part in two stages (``make(hysteresis, mode,
+    i)`` a family with the physics ``pair[i]``): the hysteresis state on the real rows alone, then
+    ``modes`` of the physics' synthetic data with that state, each fit scored in its ``variants``
+    ({label suffix: model}); the winner refitted on every training row, its 90 % interval calibrated
+    on the hold-out part. Returns (model, {candidate: hold-out RMSE [mm]})."""
+    fit_part, held = holdout_split(train)
+    scores, fitted = {}, {}
+
+    def attempt(h, m):
+        for suffix, model in variants(make(h, m, 0).fit(fit_part)).items():
+            label = f"hysteresis={h},mode={m}{suffix}"
+            fitted[label] = (h, m, suffix, model)
+            scores[label] = held_score(model)
+    for h in (False, True):
+        attempt(h, "real")
+    h = fitted[min(scores, key=scores.get)][0]
+    for m in modes:
+        attempt(h, m)
+    h, m, suffix, model = fitted[min(scores, key=scores.get)]
+    final = variants(make(h, m, 1).fit(train))[suffix]
+    return replace(final, interval_q=conformal_q(model, held)), scores
+
+
+def fit_learned_map(train, pair, syn, options, held_score) -> tuple:
+    """``LearnedMap``: its hysteresis state and mode (``finetune``, ``mixed`` with synthetic data) chosen
+    on the hold-out part (``staged``)."""
+    return staged(lambda h, m, i: LearnedMap(h, options.nets, m, syn, pair[i]),
+                   ("finetune", "mixed") if syn.on else (), train, held_score)
+
+
+def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
+    """``Hybrid``: its hysteresis state and mode (``mixed`` with synthetic data) chosen on the hold-out
+    part (``staged``), and its gate: each fit scored there with every gate width of ``GATES``."""
+    return staged(lambda h, m, i: Hybrid(pair[i], h, options.nets, m, syn), ("mixed",) if syn.on else (),
+                   train, held_score, lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES})
+
+
+def fit_sequence(train, pair, syn, options, held_score) -> tuple:
+    """``Sequence``, pretrained on the synthetic sessions or not as the hold-out part prefers, its
+    (constant) interval calibrated there."""
+    fit_part, held = holdout_split(train)
+    fitted = {f"mode={m}": Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
+              for m in (("real", "finetune") if syn.on else ("real",))}
+    scores = {k: held_score(v) for k, v in fitted.items()}
+    best = min(scores, key=scores.get)
+    q = conformal_q(fitted[best], held)
+    return replace(Sequence(options.sequence, best.split("=")[1], syn, pair[1]).fit(train), interval_q=q), scores

@@ -152,11 +152,15 @@ class StateTrajectory(Protocol):
     states: np.ndarray
     time: np.ndarray
 
-    def inputs(self, history: np.ndarray, step: int) -> np.ndarray: ...
+    def inputs(self, history: np.ndarray, step: int) -> np.ndarray:
+        """The loads of model step ``step`` with the feedback laws applied to the run's own
+        ``history`` of states."""
 
-    def follow(self, nxt: np.ndarray, last: np.ndarray, loads: np.ndarray) -> np.ndarray: ...
+    def follow(self, nxt: np.ndarray, last: np.ndarray, loads: np.ndarray) -> np.ndarray:
+        """``nxt`` with the prescribed nodes put on their recorded path (in place)."""
 
-    def projected(self, states: np.ndarray) -> np.ndarray: ...
+    def projected(self, states: np.ndarray) -> np.ndarray:
+        """``states`` moved out of the data's obstacles."""
 
 
 def free_run(baseline: AbstractBaseline, positions, wrenches, start: int, stop: int, *,

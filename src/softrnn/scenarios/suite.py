@@ -36,6 +36,8 @@ ROBOT_KEYS = {
     "inputs": "the input columns, a list of shell patterns",
     "tip": "the tip columns [x, y, z]",
     "position_unit": "the tip columns' unit: m, mm or cm",
+    "scenario": "the robot's dynamic description for the dynamic families: a scenario name or a TOML path "
+                "relative to the suite file",
     "synthetic": "synthetic rows from the calibrated physics for the learned families, a multiple of the real "
                  "rows (0: none)",
 }
@@ -79,6 +81,9 @@ class SuiteRobot:
         the tip columns' unit
     synthetic : float or None
         synthetic rows for the learned families, a multiple of the real rows (0: none)
+    scenario : str or None
+        the robot's dynamic description (a scenario name, or a TOML path resolved against the suite
+        file's folder)
     """
 
     name: str
@@ -95,6 +100,7 @@ class SuiteRobot:
     tip: tuple | None = None
     position_unit: str | None = None
     synthetic: float | None = None
+    scenario: str | None = None
 
 
 @dataclass(frozen=True)
@@ -147,6 +153,17 @@ def _session(ctx: _Ctx, key: str, x) -> str:
     return str(path)
 
 
+def _scenario(ctx: _Ctx, key: str, x) -> str:
+    """A scenario name, or a TOML path (``.toml``) resolved against the suite file's folder."""
+    name = string(what="a scenario name or a TOML path")(ctx, key, x)
+    if not name.endswith(".toml"):
+        return name
+    path = Path(os.path.normpath(name if Path(name).is_absolute() else ctx.base / name))
+    if not path.is_file():
+        raise ctx.error(key, f"{key}: no scenario file {path} (paths are relative to the suite file's folder)")
+    return str(path)
+
+
 def _robot(ctx: _Ctx, name: str, raw) -> SuiteRobot:
     key = f"robots.{name}"
     if not _NAME.match(name):
@@ -163,7 +180,8 @@ def _robot(ctx: _Ctx, name: str, raw) -> SuiteRobot:
         families=t.get("families", _strings, None), inputs=t.get("inputs", _strings, ()),
         tip=t.get("tip", lambda c, k, x: _strings(c, k, x, 3), None),
         position_unit=t.get("position_unit", string(("m", "mm", "cm")), None),
-        synthetic=t.get("synthetic", number("", nonnegative=True), None))
+        synthetic=t.get("synthetic", number("", nonnegative=True), None),
+        scenario=t.get("scenario", _scenario, None))
 
 
 def read_suite(path) -> Suite:
