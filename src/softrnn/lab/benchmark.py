@@ -25,7 +25,6 @@ from .families import (
     NodeFamily,
     NodeOptions,
     PersistenceFamily,
-    Physics,
     Sequence,
     SequenceOptions,
     StaticPolynomial,
@@ -33,6 +32,7 @@ from .families import (
     displacements,
     holdout_split,
 )
+from .physics_variants import choose_physics
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
 
@@ -332,12 +332,12 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
     holdout = {}
     physics = held_physics = None
     if "physics" in families or "hybrid" in families:
-        held_physics = Physics(robot, options.calibration).fit(fit_part)
-        # on every training row, refined from the hold-out part's calibration
-        physics = Physics(robot, options.calibration, start=held_physics.calibration.params).fit(train)
+        # the variant (gravity, friction) chosen on the hold-out, refitted on every training row from there
+        pick = choose_physics(robot, options.calibration, fit_part, held, train)
+        held_physics, physics = pick.held, pick.physics
     if "physics" in families:
         holdout["physics"] = held_score(held_physics)
-        out.record(out.models, "physics", physics)
+        out.record(out.models, "physics", physics, pick.holdout_rmse_mm)
         step("physics")
     if "learned_map" in families:
         c = choose({f"hysteresis={h}": (lambda h=h: LearnedMap(h, options.nets)) for h in (False, True)}, train)
