@@ -132,3 +132,12 @@ def test_fit_returns_a_new_frozen_model_and_leaves_the_family_as_it_was(sessions
             fitted.name = "changed"
     arx = LinearARXFamily(2, 1)
     assert arx.fit([train]).arx.na == 2 and arx.arx is None
+
+
+def test_the_physics_variant_is_chosen_on_the_hold_out(report):
+    """Every physics variant's hold-out score is reported; the lowest is the one used."""
+    physics = report["details"]["physics"]
+    scores = physics["holdout_rmse_mm"]
+    assert set(scores) == {"plain", "gravity", "friction", "gravity+friction"}
+    assert physics["variant"] == min(scores, key=scores.get)
+    assert report["chosen_on_training"]["holdout_rmse_mm"]["physics"] == pytest.approx(scores[physics["variant"]])

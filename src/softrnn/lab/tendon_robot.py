@@ -25,16 +25,27 @@ the solution is unique; it is solved by projected Gauss-Seidel (``_tensions``). 
 the end of the chain of constant-curvature arcs (no twist between segments), plus a marker offset
 d along the last tangent, seen from the motion-capture frame through a rigid base pose.
 
-What poses alone can identify: only the ratio EI_s / k (bending stiffness over the series
-stiffness), never EI or k by itself (no force is recorded). Gravity and friction along the
-routing are left out: the calibration report says how far the recorded poses are from this
-model, and a learned residual (``softrnn.lab.families``) takes what it misses.
+Gravity and friction along the routing (options, ``CalibrationOptions``; solved row by row in order
+by ``softrnn.lab.tendon_kernels``, whose docstring has the equations): the backbone's weight bends
+every segment by the moment of everything distal to it, from the current shape (a fixed point
+with the tensions); a tendon's tension falls along its path as exp(-mu phi), phi the wrap angle
+from the base, while it is pulled in, and rises so while it is released (the direction from the
+change of its command since the previous row: path dependence, hysteresis). With neither, the rows
+are independent and the model is the closed one above.
+
+What poses alone can identify: only ratios, never a force or a stiffness by itself (no force is
+recorded): EI_s / k per segment (bending stiffness over the series stiffness), w / k (the weight per
+length over the series stiffness, so w / EI_s = (w / k)(k / EI_s)) with gravity's direction in the
+base frame, and the friction coefficient mu. What the model still misses, the calibration report
+shows as its error, and a learned residual (``softrnn.lab.families``) takes.
 
 Calibration (``calibrate``): nonlinear least squares (the calibration core's ``multistart``,
 ``softrnn.fitting``, with a soft-L1 loss against outlying rows) of the tip over every row of the
 training sessions, from several starts (the tendons' angular order and the angle between segments
 are not known in advance), the best refined. Parameters: the tendon angles and offsets, the
-routing radius, EI_s / k per segment, the marker offset and the base pose.
+routing radius, EI_s / k per segment, the marker offset and the base pose; with gravity (w / k)
+g_hat (3 values: the weight and its direction) and with friction mu, both refined from the plain
+model's calibration (the weight from zero, mu from 0.01).
 """
 
 from __future__ import annotations
@@ -414,7 +425,8 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
     (every row of the training sessions, in order; ``resets`` (K,) bool marks where each session
     starts, ``session_resets``). ``progress(done, total)`` after each start. With ``start`` (e.g. a
     calibration on part of the rows), only the refinement runs, from there. With gravity or friction
-    (``options``) and no ``start``, the plain model is calibrated first and refined from there."""
+    (``options``) and no ``start``, the plain model is calibrated first (its search on the row-by-row
+    kernels, faster) and everything refined from there."""
     q = np.asarray(q, dtype=float)
     tip = np.asarray(tip, dtype=float)
     if q.ndim != 2 or q.shape[1] != robot.n_tendons:
@@ -424,19 +436,32 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
     t0 = time.perf_counter()
     earlier = ()
     if options.variant != "plain" and start is None:
-        plain = calibrate(robot, q, tip, replace(options, gravity=False, friction=False), progress, resets=resets)
+        plain = _search(robot, q, tip, replace(options, gravity=False, friction=False), progress, None, resets,
+                        kernel=True)
         start, earlier = plain.params, plain.starts
     if start is not None:
         start = _variant_start(start, options)
     if options.variant != "plain":
         options = replace(options, evaluations=options.variant_evaluations)
+    found = _search(robot, q, tip, options, progress, start, resets, kernel=False, label="the plain model's"
+                    if earlier else "given")
+    return replace(found, starts=earlier + found.starts, seconds=time.perf_counter() - t0)
+
+
+def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: CalibrationOptions, progress,
+            start: TendonParameters | None, resets, kernel: bool, label: str = "given") -> Calibration:
+    """``calibrate``'s multi-start search (``start`` None) or refinement from ``start``; ``kernel``:
+    the plain model on the row-by-row kernels (mu = 0, the same model to their tolerances)."""
     rotation, base = _base_guess(robot, q, tip)
     n, S = robot.n_tendons, robot.n_segments
     scale = options.loss_scale * 1e3
     flags = {"gravity": options.gravity, "friction": options.friction}
 
     def residual(x):
-        return ((tip_positions(robot, _unpack(x, robot, **flags), q, resets)[0] - tip) * 1e3).ravel()
+        params = _unpack(x, robot, **flags)
+        if kernel and params.plain:
+            params = replace(params, friction=0.0)
+        return ((tip_positions(robot, params, q, resets)[0] - tip) * 1e3).ravel()
 
     def rmse_mm(fun):
         return float(np.sqrt(np.mean(np.sum(fun.reshape(-1, 3) ** 2, axis=1))))
@@ -451,11 +476,11 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
                                  marker=0.0, rotation=rotation, base=base)
         starts.append(({"tendon_order": "counter-clockwise" if sign > 0 else "clockwise",
                         "segment_twist_deg": twist}, _pack(guess)))
-    resume = None if start is None else ({"tendon_order": "given" if not earlier else "the plain model's",
-                                          "segment_twist_deg": None}, _pack(start))
+    resume = None if start is None else ({"tendon_order": label, "segment_twist_deg": None}, _pack(start))
+    t0 = time.perf_counter()
     found = multistart(residual, starts, _bounds(robot, options), options=options, score=rmse_mm, key="rmse_mm",
                        resume=resume, progress=progress, loss="soft_l1", f_scale=scale, x_scale="jac")
-    starts_out = earlier + tuple({key: (round(v, 4) if isinstance(v, float) else v)
-                                  for key, v in e.items() if key != "x"} for e in found.tried)
+    starts_out = tuple({key: (round(v, 4) if isinstance(v, float) else v) for key, v in e.items() if key != "x"}
+                       for e in found.tried)
     return Calibration(robot=robot, params=_unpack(found.x, robot, **flags), rmse_m=found.score * 1e-3,
                        starts=starts_out, seconds=time.perf_counter() - t0)
