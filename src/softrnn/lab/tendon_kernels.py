@@ -300,6 +300,12 @@ def _row(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, 
 
 
 @njit(cache=True)
+def _flush(v):
+    """v, or 0 where |v| < 1e-200 (no subnormal numbers in the results)."""
+    return v if abs(v) >= 1e-200 else 0.0
+
+
+@njit(cache=True)
 def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, tips, tau_out, bend_out, passes_out):
     """Solve every row of a session in order (see the module's docstring).
 
@@ -352,6 +358,9 @@ def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, 
             R0[:] = R
             p0[:] = p
         for a in range(3):
-            tips[k, a] = p0[a] + R0[a, 2] * marker
-        tau_out[k] = tau
-        bend_out[k] = b
+            tips[k, a] = _flush(p0[a] + R0[a, 2] * marker)
+        for i in range(n):
+            tau_out[k, i] = _flush(tau[i])
+        for s in range(S):
+            for a in range(2):
+                bend_out[k, s, a] = _flush(b[s, a])
