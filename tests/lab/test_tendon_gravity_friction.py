@@ -185,3 +185,34 @@ def test_the_hold_out_chooses_among_the_variants(tmp_path):
     assert pick.physics.options.variant == pick.variant == pick.physics.describe()["variant"]
     with pytest.raises(SoftrnnInputError, match="variants"):
         choose_physics(TendonRobot((0.08,), 3), CalibrationOptions(), fit_part, held, [rec], variants=("wind",))
+
+
+@pytest.mark.parametrize("gravity", [(0.0, 0.0, -9.81), (-9.81, 0.0, 0.0), (9.81, 0.0, 0.0)])
+def test_tendons_and_weight_together_follow_the_cosserat_statics(gravity):
+    """A two-segment robot bent by displacement-driven tendons and its own weight (a heavy, soft
+    backbone: the weight moves the tip by 2-18 mm): the model's tip moves by the weight within 5 %
+    of that motion of the Cosserat statics' tip (the same tendons, a Kirchhoff rod)."""
+    from softrnn.rod import Tendon
+    from softrnn.statics import StaticRod, solve
+
+    L2, r, E, radius, k, density = 0.2, 0.006, 2e6, 0.008, 3000.0, 1000.0
+    EI, w = E * np.pi * radius ** 4 / 4, density * np.pi * radius ** 2 * 9.81
+    angles = np.radians([0.0, 120.0, 240.0, 60.0, 180.0, 300.0])
+    q = np.array([3e-3, -2e-3, -2e-3, -2e-3, 2e-3, 1.2e-3])
+    tendons = tuple(Tendon(name=f"t{i}", offset=(r * np.cos(a), r * np.sin(a)), displacement=float(q[i]),
+                           stiffness=k, end_s=0.1 if i < 3 else 0.2) for i, a in enumerate(angles))
+    tips = []
+    for g in ((0.0, 0.0, 0.0), gravity):
+        sol = solve(StaticRod(length=L2, radius=radius, youngs_modulus=E, density=density, poisson_ratio=0.5,
+                              gravity=g, tendons=tendons, extensible_shearable=False), tol=1e-12)
+        sol.raise_for_status()
+        tips.append(np.array([sol.positions[-1, 2], -sol.positions[-1, 1], sol.positions[-1, 0]]))
+    robot = TendonRobot((0.1, 0.1), 3, r)
+    plain = TendonParameters(angles=angles, offsets=np.zeros(6), routing_radius=r, compliance=np.full(2, k / EI),
+                             marker=0.0, rotation=np.zeros(3), base=np.zeros(3))
+    # the static rod's frame (d3 = +x, d1 = +z, d2 = -y) in the model's (+z, +x, +y)
+    g_model = np.array([gravity[2], -gravity[1], gravity[0]]) / 9.81
+    tip = solve_rows(robot, dataclasses.replace(plain, gravity=g_model * w / k), q[None])[0][0]
+    motion = tips[1] - tips[0]
+    assert np.linalg.norm(motion) > 1e-3
+    assert np.linalg.norm(tip - tips[1]) < 0.05 * np.linalg.norm(motion)

@@ -4,8 +4,9 @@ friction along the routing (capstan), solved row by row along a session.
 Each row is a fixed point of the segments' bending vectors b (S, 2) [1/m]: from the current shape,
 the capstan factors of every tendon in every segment and the gravity curvature of every segment; then
 the tensions (the complementarity problem of the plain model with those factors and the gravity
-bending in its matrix and right side, projected Gauss-Seidel warm-started from the previous row);
-then the new bending vectors. A pass repeats until b changes by less than ``FIXED_POINT_TOL``, at most
+bending in its matrix and right side, solved exactly on the active set of the previous solution,
+corrected one tendon at a time); then the new bending vectors. Passes repeat, Anderson-accelerated
+with the previous pass, until b changes by less than ``FIXED_POINT_TOL``, at most
 ``FIXED_POINT_PASSES`` times; the first pass of a row starts from the previous row's solution.
 
 Gravity: the weight per length w along the backbone, in the base frame gravity = (w / k) g_hat
@@ -13,7 +14,9 @@ Gravity: the weight per length w along the backbone, in the base frame gravity =
 (masses lumped at the midpoints of ``PIECES`` pieces per segment: the moment of a straight piece is
 exact); segment s takes the constant curvature whose small-deflection tip displacement equals that of
 the moment along it, u_s = int M(s') (L - s') ds' / (EI_s int (L - s') ds') over the segment (Simpson on
-the piece ends; L the backbone's length), which gives Euler-Bernoulli's w L^4 / (8 EI) for a cantilever.
+the piece ends; L the backbone's length), which gives Euler-Bernoulli's w L^4 / (8 EI) for a cantilever,
+while a tendon's path shortens by the segment's mean gravity curvature int M ds' / (EI_s L_s) (what the
+bent rod's path does), so the tensions answer the weight as in the Cosserat rod.
 
 Friction: tendon i's tension in segment s is tau_i exp(-mu d_i phi_s) with phi_s the wrap angle from
 the base to the middle of segment s (the bending angles |b| L of the segments before it and half of
@@ -98,8 +101,9 @@ def _shape(b, L, frames, nodes, masses, scratch):
 
 @njit(cache=True)
 def _gravity_bend(b, L, compliance, gvec, frames, nodes, masses, scratch, out):
-    """The gravity curvature (S, 2) [1/m] of each segment for the shape b (S, 2) and gravity
-    gvec (3,) = (w / k) g_hat in the base frame (see the module's docstring)."""
+    """The gravity curvature of each segment for the shape b (S, 2) and gravity gvec (3,) = (w / k)
+    g_hat in the base frame (see the module's docstring): out (2, S, 2) [1/m], the tip-equivalent
+    one (the shape's) and the mean (the tendons' paths')."""
     S = b.shape[0]
     P = masses.shape[1]
     _shape(b, L, frames, nodes, masses, scratch)
@@ -112,7 +116,7 @@ def _gravity_bend(b, L, compliance, gvec, frames, nodes, masses, scratch, out):
     for s in range(S - 1, -1, -1):
         h = L[s] / P
         start -= L[s]
-        acc0 = acc1 = weights = 0.0
+        acc0 = acc1 = weights = mean0 = mean1 = plain = 0.0
         for k in range(P, -1, -1):
             if k < P:
                 for a in range(3):
@@ -132,8 +136,13 @@ def _gravity_bend(b, L, compliance, gvec, frames, nodes, masses, scratch, out):
             acc0 += w * uy
             acc1 -= w * ux
             weights += w
-        out[s, 0] = compliance[s] * acc0 / weights
-        out[s, 1] = compliance[s] * acc1 / weights
+            mean0 += simpson * uy
+            mean1 -= simpson * ux
+            plain += simpson
+        out[0, s, 0] = compliance[s] * acc0 / weights
+        out[0, s, 1] = compliance[s] * acc1 / weights
+        out[1, s, 0] = compliance[s] * mean0 / plain
+        out[1, s, 1] = compliance[s] * mean1 / plain
 
 
 @njit(cache=True)
@@ -250,7 +259,7 @@ def _pass(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs,
     for i in range(n):
         rhs[i] = qk[i] - offsets[i]
         for s in range(seg[i] + 1):
-            rhs[i] -= L[s] * (gb[s, 0] * rho[i, 0] + gb[s, 1] * rho[i, 1])
+            rhs[i] -= L[s] * (gb[1, s, 0] * rho[i, 0] + gb[1, s, 1] * rho[i, 1])
         for j in range(n):
             acc = 1.0 if i == j else 0.0
             dot = rho[i, 0] * rho[j, 0] + rho[i, 1] * rho[j, 1]
@@ -260,7 +269,7 @@ def _pass(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs,
     _lcp(M, rhs, tau, work[4], work[5])
     for s in range(S):
         for a in range(2):
-            v = gb[s, a]
+            v = gb[0, s, a]
             for i in range(n):
                 if seg[i] >= s:
                     v += compliance[s] * tau[i] * f[i, s] * rho[i, a]
@@ -324,7 +333,7 @@ def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, 
     tau = np.zeros(n)
     dirs = np.zeros(n)
     f = np.ones((n, S))
-    gb = np.zeros((S, 2))
+    gb = np.zeros((2, S, 2))
     M = np.empty((n, n))
     rhs = np.empty(n)
     work = (np.empty((S, P + 1, 3, 3)), np.empty((S, P + 1, 3)), np.empty((S, P, 3)), np.empty((3, 3, 3)),
