@@ -217,3 +217,12 @@ def test_synthetic_data_without_a_physics_is_refused_or_left_out(sessions, tmp_p
                                                                   "hysteresis=True,mode=real"}
     with pytest.raises(SoftrnnInputError, match="synthetic=0.5 is invalid: a SyntheticOptions"):
         BenchmarkOptions(length=0.1, synthetic=0.5)
+
+
+def test_the_physics_variant_is_chosen_on_the_hold_out(report):
+    """Every physics variant's hold-out score is reported; the lowest is the one used."""
+    physics = report["details"]["physics"]
+    scores = physics["holdout_rmse_mm"]
+    assert set(scores) == {"plain", "gravity", "friction", "gravity+friction"}
+    assert physics["variant"] == min(scores, key=scores.get)
+    assert report["chosen_on_training"]["holdout_rmse_mm"]["physics"] == pytest.approx(scores[physics["variant"]])

@@ -76,7 +76,7 @@ DOMAIN = {
     "lab": (),
     "lab benchmark": ("--train", "--validate", "--figure", "--families", "--length", "--inputs", "--tip",
                       "--position-unit", "--lag", "--segments", "--tendons-per-segment", "--routing-radius",
-                      "--suite", "--markdown"),
+                      "--suite", "--markdown", "--synthetic", "--scenario"),
     "lab calibrate": ("--validate", "--length", "--inputs", "--tip", "--position-unit", "--lag", "--segments",
                       "--tendons-per-segment", "--routing-radius"),
     "lab-example": ("--scenarios", "--duration", "--rate", "--noise"),

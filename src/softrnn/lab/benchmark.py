@@ -27,13 +27,13 @@ from .families import (
     NodeFamily,
     NodeOptions,
     PersistenceFamily,
-    Physics,
     StaticPolynomial,
     choose,
     displacements,
     holdout_split,
 )
 from .nets import NetOptions, SequenceOptions, fit_hybrid, fit_learned_map, fit_sequence
+from .physics_variants import choose_physics
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .synthetic import SyntheticOptions, pull_limits
 from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
@@ -422,12 +422,13 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
     physics = held_physics = None
     syn, no_syn = settle_synthetic(options, robot, train, families)
     if "physics" in families or "hybrid" in families or syn.on:
-        held_physics = Physics(robot, options.calibration).fit(fit_part)
-        # on every training row, refined from the hold-out part's calibration
-        physics = Physics(robot, options.calibration, start=held_physics.calibration.params).fit(train)
+        # the variant (gravity, friction) chosen on the hold-out, refitted on every training row from there
+        pick = choose_physics(robot, options.calibration, fit_part, held, train)
+        held_physics, physics = pick.held, pick.physics
     if "physics" in families:
         holdout["physics"] = held_score(held_physics)
-        out.record(out.models, "physics", with_interval(physics, held_physics, fit_part, held, train))
+        out.record(out.models, "physics", with_interval(physics, held_physics, fit_part, held, train),
+                   pick.holdout_rmse_mm)
         step("physics")
     pair = (held_physics, physics)
     for name, fit in (("learned_map", fit_learned_map), ("hybrid", fit_hybrid), ("sequence", fit_sequence)):

@@ -41,7 +41,7 @@ from ..learned.linear import LinearARX
 from ..learned.metrics import tip_errors
 from ..learned.node.train_config import TrainConfig
 from .recording import Recording
-from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate
+from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate, session_resets
 
 PLAY_WIDTHS = (0.05, 0.15)
 """Widths of the play operators of the hysteresis state, as fractions of each input's range in
@@ -206,8 +206,8 @@ def displacements(session: Recording) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Physics:
-    """The calibrated tendon robot (``softrnn.lab.tendon_robot``); ``start``: parameters to refine
-    from instead of the multi-start search."""
+    """The calibrated tendon robot (``softrnn.lab.tendon_robot``; gravity and friction as
+    ``options`` say); ``start``: parameters to refine from instead of the multi-start search."""
 
     robot: TendonRobot
     options: CalibrationOptions = CalibrationOptions()
@@ -217,11 +217,11 @@ class Physics:
     start: object = None
 
     def fit(self, sessions) -> Physics:
-        """The model calibrated on training sessions (a list of ``Recording``)."""
-        q = np.vstack([displacements(s) for s in sessions])
-        tip = np.vstack([s.tip for s in sessions])
-        return replace(self, calibration=calibrate(self.robot, q, tip, self.options, progress=self.progress,
-                                                   start=self.start))
+        """The model calibrated on training sessions (a list of ``Recording``, each solved from its start)."""
+        q, tip = np.vstack([displacements(s) for s in sessions]), np.vstack([s.tip for s in sessions])
+        cal = calibrate(self.robot, q, tip, self.options, progress=self.progress, start=self.start,
+                        resets=session_resets([s.n_rows for s in sessions]))
+        return replace(self, calibration=cal)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
@@ -229,7 +229,7 @@ class Physics:
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
-        return {"kind": "calibrated tendon robot physics", **self.calibration.to_dict()}
+        return {"kind": "calibrated tendon robot physics", "variant": self.options.variant} | self.calibration.to_dict()
 
 
 # ------------------------------------------------------------------------------------------- choice

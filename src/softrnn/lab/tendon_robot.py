@@ -25,23 +25,34 @@ the solution is unique; it is solved by projected Gauss-Seidel (``_tensions``). 
 the end of the chain of constant-curvature arcs (no twist between segments), plus a marker offset
 d along the last tangent, seen from the motion-capture frame through a rigid base pose.
 
-What poses alone can identify: only the ratio EI_s / k (bending stiffness over the series
-stiffness), never EI or k by itself (no force is recorded). Gravity and friction along the
-routing are left out: the calibration report says how far the recorded poses are from this
-model, and a learned residual (``softrnn.lab.families``) takes what it misses.
+Gravity and friction along the routing (options, ``CalibrationOptions``; solved row by row in order
+by ``softrnn.lab.tendon_kernels``, whose docstring has the equations): the backbone's weight bends
+every segment by the moment of everything distal to it, from the current shape (a fixed point
+with the tensions); a tendon's tension falls along its path as exp(-mu phi), phi the wrap angle
+from the base, while it is pulled in, and rises so while it is released (the direction from the
+change of its command since the previous row: path dependence, hysteresis). With neither, the rows
+are independent and the model is the closed one above.
+
+What poses alone can identify: only ratios, never a force or a stiffness by itself (no force is
+recorded): EI_s / k per segment (bending stiffness over the series stiffness), w / k (the weight per
+length over the series stiffness, so w / EI_s = (w / k)(k / EI_s)) with gravity's direction in the
+base frame, and the friction coefficient mu. What the model still misses, the calibration report
+shows as its error, and a learned residual (``softrnn.lab.families``) takes.
 
 Calibration (``calibrate``): nonlinear least squares (the calibration core's ``multistart``,
 ``softrnn.fitting``, with a soft-L1 loss against outlying rows) of the tip over every row of the
 training sessions, from several starts (the tendons' angular order and the angle between segments
 are not known in advance), the best refined. Parameters: the tendon angles and offsets, the
-routing radius, EI_s / k per segment, the marker offset and the base pose.
+routing radius, EI_s / k per segment, the marker offset and the base pose; with gravity (w / k)
+g_hat (3 values: the weight and its direction) and with friction mu, both refined from the plain
+model's calibration (the weight from zero, mu from 0.01).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
@@ -49,6 +60,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import SoftrnnInputError, bad, integer, is_finite_number, positive
 from ..fitting import StartOptions, multistart
+from .tendon_kernels import session_solve
 
 _PGS_ITERATIONS = 200
 _PGS_TOL = 1e-10
@@ -123,6 +135,11 @@ class TendonParameters:
         base orientation in the motion-capture frame (rotation vector)
     base : (3,) [m]
         base position in the motion-capture frame
+    gravity : (3,) or None
+        (w / k) g_hat: the backbone's weight per length over the series stiffness (dimensionless)
+        times the unit direction of gravity in the base frame; None: no gravity in the model
+    friction : float or None
+        mu, the friction coefficient along the routing (capstan); None: no friction in the model
     """
 
     angles: np.ndarray
@@ -132,12 +149,28 @@ class TendonParameters:
     marker: float
     rotation: np.ndarray
     base: np.ndarray
+    gravity: np.ndarray | None = None
+    friction: float | None = None
+
+    @property
+    def plain(self) -> bool:
+        """True without gravity and friction (the closed model of the module's docstring)."""
+        return self.gravity is None and self.friction is None
 
     def to_dict(self, robot: TendonRobot) -> dict:
         """JSON-ready, in mm and degrees, with the stiffness ratio k r^2 L_s / EI_s per segment."""
         ratio = [float(self.compliance[s] * self.routing_radius ** 2 * L)
                  for s, L in enumerate(robot.segment_lengths)]
         wrapped = np.angle(np.exp(1j * self.angles))          # in (-pi, pi]
+        extra = {}
+        if self.gravity is not None:
+            weight = float(np.linalg.norm(self.gravity))
+            g_hat = self.gravity / weight if weight > 0 else np.zeros(3)
+            extra.update(weight_over_series_stiffness=float(f"{weight:.6g}"),
+                         gravity_direction_base=g_hat.round(6).tolist(),
+                         gravity_direction_tracker=(_rotations(self.rotation) @ g_hat).round(6).tolist())
+        if self.friction is not None:
+            extra["routing_friction"] = round(float(self.friction), 6)
         return {"tendon_angles_deg": np.degrees(wrapped).round(3).tolist(),
                 "tendon_offsets_mm": (self.offsets * 1e3).round(4).tolist(),
                 "routing_radius_mm": round(self.routing_radius * 1e3, 4),
@@ -145,7 +178,7 @@ class TendonParameters:
                 "stiffness_ratio_k_r2_L_over_EI": [float(f"{x:.6g}") for x in ratio],
                 "marker_offset_mm": round(self.marker * 1e3, 4),
                 "base_rotation_deg": np.degrees(self.rotation).round(4).tolist(),
-                "base_position_mm": (self.base * 1e3).round(4).tolist()}
+                "base_position_mm": (self.base * 1e3).round(4).tolist(), **extra}
 
     @classmethod
     def from_dict(cls, d: dict) -> TendonParameters:
@@ -154,7 +187,10 @@ class TendonParameters:
                    routing_radius=d["routing_radius_mm"] * 1e-3,
                    compliance=1.0 / np.asarray(d["bending_over_series_stiffness_m3"], dtype=float),
                    marker=d["marker_offset_mm"] * 1e-3, rotation=np.radians(d["base_rotation_deg"]),
-                   base=np.asarray(d["base_position_mm"]) * 1e-3)
+                   base=np.asarray(d["base_position_mm"]) * 1e-3,
+                   gravity=(d["weight_over_series_stiffness"] * np.asarray(d["gravity_direction_base"], dtype=float)
+                            if "weight_over_series_stiffness" in d else None),
+                   friction=d.get("routing_friction"))
 
 
 # ------------------------------------------------------------------------------------------ physics
@@ -186,9 +222,15 @@ def _rotations(axis_angle: np.ndarray) -> np.ndarray:
     return Rotation.from_rotvec(axis_angle).as_matrix()
 
 
-def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray,
+                  resets: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The tip (K, 3) [m] in the motion-capture frame and the tensions over the series
-    stiffness tau / k (K, n) [m] for tendon displacements q (K, n) [m]."""
+    stiffness tau / k (K, n) [m] (at the base) for tendon displacements q (K, n) [m]. With gravity
+    or friction (``params``), the rows are solved in order (``solve_rows``): ``resets`` (K,) bool
+    marks the rows where a session starts (default: the first row only)."""
+    if not params.plain:
+        tip, tau, _, _ = solve_rows(robot, params, q, resets)
+        return tip, tau
     q = np.asarray(q, dtype=float)
     seg = robot.segment_of
     L = np.asarray(robot.segment_lengths)
@@ -219,19 +261,65 @@ def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray) -
     return x @ _rotations(params.rotation).T + params.base, tau
 
 
+def solve_rows(robot: TendonRobot, params: TendonParameters, q: np.ndarray, resets: np.ndarray | None = None) -> tuple:
+    """The fuller physics (gravity and friction, ``softrnn.lab.tendon_kernels``) row by row in order.
+
+    Returns the tip (K, 3) [m] in the motion-capture frame, tau / k (K, n) [m] at the base, the
+    segments' bending vectors (K, S, 2) [1/m] and the fixed-point passes (K,) of each row; ``resets``
+    (K,) bool marks the rows where a session starts (default: the first row only).
+    """
+    q = np.ascontiguousarray(q, dtype=float)
+    K, n = q.shape
+    reset = np.zeros(K, dtype=np.bool_) if resets is None else np.asarray(resets, dtype=np.bool_)
+    rho = params.routing_radius * np.stack([np.cos(params.angles), np.sin(params.angles)], axis=1)
+    gvec = np.zeros(3) if params.gravity is None else np.asarray(params.gravity, dtype=float)
+    tips, tau = np.empty((K, 3)), np.empty((K, n))
+    bend, passes = np.empty((K, robot.n_segments, 2)), np.empty(K, dtype=np.int64)
+    session_solve(q, reset, robot.segment_of, np.asarray(robot.segment_lengths), np.asarray(params.compliance, float),
+                  rho, np.asarray(params.offsets, float), float(params.friction or 0.0), gvec, float(params.marker),
+                  tips, tau, bend, passes)
+    return tips @ _rotations(params.rotation).T + params.base, tau, bend, passes
+
+
+def session_resets(lengths) -> np.ndarray:
+    """(sum of lengths,) bool: True at the first row of each of the stacked sessions of ``lengths`` rows."""
+    reset = np.zeros(int(sum(lengths)), dtype=bool)
+    reset[np.cumsum([0, *lengths[:-1]]).astype(int)] = True
+    return reset
+
+
 # -------------------------------------------------------------------------------------- calibration
 @dataclass(frozen=True)
 class CalibrationOptions(StartOptions):
     """How ``calibrate`` searches (``softrnn.fitting.StartOptions``): ``starts``: the angular layouts
     tried (the tendons' order and the angle between segments); ``quick_evaluations`` per start,
     ``evaluations`` for the refinement of the best ``refine`` starts; ``loss_scale`` [m], where the
-    soft-L1 loss turns from quadratic to linear (rows farther off than this count less)."""
+    soft-L1 loss turns from quadratic to linear (rows farther off than this count less).
+    ``gravity`` and ``friction`` add the backbone's weight (its direction fitted) and friction
+    along the routing (mu in 0..``friction_max``) to the model: the plain model is calibrated first,
+    then everything is refined from there with them (``variant_evaluations``). Both off (the
+    default): the plain model alone, as before."""
 
     loss_scale: float = 10e-3
+    gravity: bool = False
+    friction: bool = False
+    friction_max: float = 0.5
+    variant_evaluations: int = 150
 
     def __post_init__(self):
         super().__post_init__()
         positive("loss_scale", self.loss_scale, "m")
+        for name in ("gravity", "friction"):
+            if not isinstance(getattr(self, name), bool):
+                raise bad(name, getattr(self, name), "True or False")
+        if not is_finite_number(self.friction_max) or not 0.0 < self.friction_max <= 2.0:
+            raise bad("friction_max", self.friction_max, "a friction coefficient in (0, 2]")
+        integer("variant_evaluations", self.variant_evaluations)
+
+    @property
+    def variant(self) -> str:
+        """``plain``, ``gravity``, ``friction`` or ``gravity+friction``."""
+        return "+".join(n for n in ("gravity", "friction") if getattr(self, n)) or "plain"
 
 
 @dataclass(frozen=True)
@@ -245,14 +333,18 @@ class Calibration:
     starts: tuple
     seconds: float
 
-    def predict(self, q: np.ndarray) -> np.ndarray:
-        """The tip (K, 3) [m] for tendon displacements q (K, n) [m]."""
-        return tip_positions(self.robot, self.params, q)[0]
+    def predict(self, q: np.ndarray, resets: np.ndarray | None = None) -> np.ndarray:
+        """The tip (K, 3) [m] for tendon displacements q (K, n) [m], the rows of one session in order
+        (friction reads each tendon's previous row; ``resets`` (K,) bool marks where another starts)."""
+        return tip_positions(self.robot, self.params, q, resets)[0]
 
     def to_dict(self) -> dict:
         """JSON-ready: the model, the segments, the parameters, the fit and the starts tried."""
+        extra = "".join(t for t, on in ((", gravity", self.params.gravity is not None),
+                                        (", friction along the routing (capstan)", self.params.friction is not None))
+                        if on)
         return {"model": "piecewise-constant-curvature tendon robot, displacement-driven with series stiffness "
-                         "and slack (softrnn.lab.tendon_robot)",
+                         f"and slack{extra} (softrnn.lab.tendon_robot)",
                 "segment_lengths_m": list(self.robot.segment_lengths),
                 "tendons_per_segment": self.robot.tendons_per_segment,
                 "parameters": self.params.to_dict(self.robot),
@@ -260,17 +352,34 @@ class Calibration:
                 "seconds": round(self.seconds, 2)}
 
 
+_GRAVITY_UNIT = 1e-4
+"""The internal unit of w / k in the least squares."""
+
+
 def _pack(p: TendonParameters) -> np.ndarray:
-    # internal units: mm and rad, log compliance (well scaled for least squares)
+    # internal units: mm and rad, log compliance (well scaled for least squares); then gravity, friction
+    extra = ([] if p.gravity is None else list(np.asarray(p.gravity) / _GRAVITY_UNIT)) + \
+        ([] if p.friction is None else [p.friction])
     return np.concatenate([p.angles, p.offsets * 1e3, [p.routing_radius * 1e3], np.log(p.compliance * 1e-9),
-                           [p.marker * 1e3], p.rotation, p.base * 1e3])
+                           [p.marker * 1e3], p.rotation, p.base * 1e3, extra])
 
 
-def _unpack(x: np.ndarray, robot: TendonRobot) -> TendonParameters:
+def _unpack(x: np.ndarray, robot: TendonRobot, gravity: bool = False, friction: bool = False) -> TendonParameters:
     n, S = robot.n_tendons, robot.n_segments
+    end = 2 * n + 8 + S
     return TendonParameters(angles=x[:n], offsets=x[n:2 * n] * 1e-3, routing_radius=x[2 * n] * 1e-3,
                             compliance=np.exp(x[2 * n + 1:2 * n + 1 + S]) * 1e9, marker=x[2 * n + 1 + S] * 1e-3,
-                            rotation=x[2 * n + 2 + S:2 * n + 5 + S], base=x[2 * n + 5 + S:2 * n + 8 + S] * 1e-3)
+                            rotation=x[2 * n + 2 + S:2 * n + 5 + S], base=x[2 * n + 5 + S:end] * 1e-3,
+                            gravity=x[end:end + 3] * _GRAVITY_UNIT if gravity else None,
+                            friction=float(x[end + 3 * gravity]) if friction else None)
+
+
+def _variant_start(start: TendonParameters, options: CalibrationOptions) -> TendonParameters:
+    """``start`` with the gravity and friction of ``options`` (none yet: no weight, mu 0.01), or without."""
+    gravity = (np.zeros(3) if start.gravity is None else start.gravity) if options.gravity else None
+    friction = (0.01 if start.friction is None else min(start.friction, 0.99 * options.friction_max)) \
+        if options.friction else None
+    return replace(start, gravity=gravity, friction=friction)
 
 
 def _base_guess(robot: TendonRobot, q: np.ndarray, tip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -297,11 +406,27 @@ def _starts(robot: TendonRobot) -> list[tuple[int, float]]:
     return [(sign, twist) for twist in (0.0, spacing / 3, -spacing / 3, spacing / 2, -spacing / 2) for sign in (1, -1)]
 
 
+def _bounds(robot: TendonRobot, options: CalibrationOptions) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) of the packed parameters (``_pack``) for ``options``' variant."""
+    n, S = robot.n_tendons, robot.n_segments
+    inf = np.inf
+    lower = np.concatenate([np.full(n, -inf), np.full(n, -inf), [0.2 * robot.routing_radius * 1e3],
+                            np.full(S, -inf), [0.0], np.full(3, -inf), np.full(3, -inf),
+                            np.full(3 * options.gravity, -inf), np.zeros(int(options.friction))])
+    upper = np.concatenate([np.full(n, inf), np.full(n, inf), [5.0 * robot.routing_radius * 1e3],
+                            np.full(S, inf), [0.5 * robot.length * 1e3], np.full(3, inf), np.full(3, inf),
+                            np.full(3 * options.gravity, inf), np.full(int(options.friction), options.friction_max)])
+    return lower, upper
+
+
 def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: CalibrationOptions = CalibrationOptions(),
-              progress=None, start: TendonParameters | None = None) -> Calibration:
+              progress=None, start: TendonParameters | None = None, resets: np.ndarray | None = None) -> Calibration:
     """Fit the robot's parameters to tendon displacements q (K, n) [m] and tips (K, 3) [m]
-    (every row of the training sessions). ``progress(done, total)`` after each start. With
-    ``start`` (e.g. a calibration on part of the rows), only the refinement runs, from there."""
+    (every row of the training sessions, in order; ``resets`` (K,) bool marks where each session
+    starts, ``session_resets``). ``progress(done, total)`` after each start. With ``start`` (e.g. a
+    calibration on part of the rows), only the refinement runs, from there. With gravity or friction
+    (``options``) and no ``start``, the plain model is calibrated first (its search on the row-by-row
+    kernels, faster) and everything refined from there."""
     q = np.asarray(q, dtype=float)
     tip = np.asarray(tip, dtype=float)
     if q.ndim != 2 or q.shape[1] != robot.n_tendons:
@@ -309,16 +434,34 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
                                 f"x {robot.tendons_per_segment} tendons = {robot.n_tendons}; give --segments and "
                                 "--tendons-per-segment that match the input columns (segment order)")
     t0 = time.perf_counter()
+    earlier = ()
+    if options.variant != "plain" and start is None:
+        plain = _search(robot, q, tip, replace(options, gravity=False, friction=False), progress, None, resets,
+                        kernel=True)
+        start, earlier = plain.params, plain.starts
+    if start is not None:
+        start = _variant_start(start, options)
+    if options.variant != "plain":
+        options = replace(options, evaluations=options.variant_evaluations)
+    found = _search(robot, q, tip, options, progress, start, resets, kernel=False, label="the plain model's"
+                    if earlier else "given")
+    return replace(found, starts=earlier + found.starts, seconds=time.perf_counter() - t0)
+
+
+def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: CalibrationOptions, progress,
+            start: TendonParameters | None, resets, kernel: bool, label: str = "given") -> Calibration:
+    """``calibrate``'s multi-start search (``start`` None) or refinement from ``start``; ``kernel``:
+    the plain model on the row-by-row kernels (mu = 0, the same model to their tolerances)."""
     rotation, base = _base_guess(robot, q, tip)
     n, S = robot.n_tendons, robot.n_segments
-    lower = np.concatenate([np.full(n, -np.inf), np.full(n, -np.inf), [0.2 * robot.routing_radius * 1e3],
-                            np.full(S, -np.inf), [0.0], np.full(3, -np.inf), np.full(3, -np.inf)])
-    upper = np.concatenate([np.full(n, np.inf), np.full(n, np.inf), [5.0 * robot.routing_radius * 1e3],
-                            np.full(S, np.inf), [0.5 * robot.length * 1e3], np.full(3, np.inf), np.full(3, np.inf)])
     scale = options.loss_scale * 1e3
+    flags = {"gravity": options.gravity, "friction": options.friction}
 
     def residual(x):
-        return ((tip_positions(robot, _unpack(x, robot), q)[0] - tip) * 1e3).ravel()
+        params = _unpack(x, robot, **flags)
+        if kernel and params.plain:
+            params = replace(params, friction=0.0)
+        return ((tip_positions(robot, params, q, resets)[0] - tip) * 1e3).ravel()
 
     def rmse_mm(fun):
         return float(np.sqrt(np.mean(np.sum(fun.reshape(-1, 3) ** 2, axis=1))))
@@ -333,10 +476,11 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
                                  marker=0.0, rotation=rotation, base=base)
         starts.append(({"tendon_order": "counter-clockwise" if sign > 0 else "clockwise",
                         "segment_twist_deg": twist}, _pack(guess)))
-    resume = None if start is None else ({"tendon_order": "given", "segment_twist_deg": None}, _pack(start))
-    found = multistart(residual, starts, (lower, upper), options=options, score=rmse_mm, key="rmse_mm", resume=resume,
-                       progress=progress, loss="soft_l1", f_scale=scale, x_scale="jac")
+    resume = None if start is None else ({"tendon_order": label, "segment_twist_deg": None}, _pack(start))
+    t0 = time.perf_counter()
+    found = multistart(residual, starts, _bounds(robot, options), options=options, score=rmse_mm, key="rmse_mm",
+                       resume=resume, progress=progress, loss="soft_l1", f_scale=scale, x_scale="jac")
     starts_out = tuple({key: (round(v, 4) if isinstance(v, float) else v) for key, v in e.items() if key != "x"}
                        for e in found.tried)
-    return Calibration(robot=robot, params=_unpack(found.x, robot), rmse_m=found.score * 1e-3, starts=starts_out,
-                       seconds=time.perf_counter() - t0)
+    return Calibration(robot=robot, params=_unpack(found.x, robot, **flags), rmse_m=found.score * 1e-3,
+                       starts=starts_out, seconds=time.perf_counter() - t0)

@@ -1,0 +1,70 @@
+"""The tendon robot's physics variant chosen on the training hold-out: the plain model, with
+gravity, with friction along the routing, or with both (``softrnn.lab.tendon_robot``), each
+calibrated on the hold-out's fitting part and scored by its free run over the held part (Euclidean
+tip RMSE); the variant with the lowest score is refitted on every training row."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..errors import bad
+from ..learned.metrics import tip_errors
+from .families import Physics
+from .tendon_robot import CalibrationOptions, TendonRobot
+
+VARIANTS = {"plain": (False, False), "gravity": (True, False), "friction": (False, True),
+            "gravity+friction": (True, True)}
+"""The physics variants: {name: (gravity, friction)}."""
+
+
+@dataclass(frozen=True, eq=False)
+class PhysicsChoice:
+    """The chosen physics variant.
+
+    Attributes
+    ----------
+    variant : str
+        the variant with the lowest hold-out score (a key of ``VARIANTS``)
+    holdout_rmse_mm : dict
+        {variant: tip RMSE [mm] of its free run over the held part}
+    held : Physics
+        the chosen variant calibrated on the fitting part
+    physics : Physics
+        the chosen variant refitted on every training row (refined from ``held``)
+    """
+
+    variant: str
+    holdout_rmse_mm: dict
+    held: Physics
+    physics: Physics
+
+
+def holdout_rmse_mm(model, held) -> float:
+    """The tip RMSE [mm] of ``model``'s free run over each session of ``held`` (inf where not finite)."""
+    score = tip_errors(np.vstack([model.predict(s) for s in held]), np.vstack([s.tip for s in held])).rmse_mm
+    return round(score, 4) if math.isfinite(score) else math.inf
+
+
+def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: list, held: list, train: list,
+                   variants=tuple(VARIANTS)) -> PhysicsChoice:
+    """Calibrate every variant of ``variants`` on ``fit_part`` (the plain model from its multi-start
+    search, the others refined from it), score each on ``held`` and refit the best on ``train``
+    (lists of ``Recording``). ``options``' own gravity and friction are replaced by each variant's."""
+    unknown = [v for v in variants if v not in VARIANTS]
+    if unknown or not variants:
+        raise bad("variants", ",".join(variants), f"one or more of {', '.join(VARIANTS)}")
+    plain = Physics(robot, replace(options, gravity=False, friction=False)).fit(fit_part)
+    fitted, scores = {}, {}
+    for name in variants:
+        gravity, friction = VARIANTS[name]
+        model = plain if name == "plain" else \
+            Physics(robot, replace(options, gravity=gravity, friction=friction), start=plain.calibration.params
+                    ).fit(fit_part)
+        fitted[name], scores[name] = model, holdout_rmse_mm(model, held)
+    best = min(scores, key=scores.get)
+    chosen = fitted[best]
+    physics = replace(chosen, start=chosen.calibration.params, calibration=None).fit(train)
+    return PhysicsChoice(variant=best, holdout_rmse_mm=scores, held=chosen, physics=physics)

@@ -1,0 +1,375 @@
+"""Numba kernels of the tendon robot's fuller physics (``softrnn.lab.tendon_robot``): gravity and
+friction along the routing (capstan), solved row by row along a session.
+
+Each row is a fixed point of the segments' bending vectors b (S, 2) [1/m]: from the current shape,
+the capstan factors of every tendon in every segment and the gravity curvature of every segment; then
+the tensions (the complementarity problem of the plain model with those factors and the gravity
+bending in its matrix and right side, solved exactly on the active set of the previous solution,
+corrected one tendon at a time); then the new bending vectors. Passes repeat, Anderson-accelerated
+with the previous pass, until b changes by less than ``FIXED_POINT_TOL``, at most
+``FIXED_POINT_PASSES`` times; the first pass of a row starts from the previous row's solution.
+
+Gravity: the weight per length w along the backbone, in the base frame gravity = (w / k) g_hat
+(k the series stiffness), the moment about a point of the backbone is that of everything distal
+(masses lumped at the midpoints of ``PIECES`` pieces per segment: the moment of a straight piece is
+exact); segment s takes the constant curvature whose small-deflection tip displacement equals that of
+the moment along it, u_s = int M(s') (L - s') ds' / (EI_s int (L - s') ds') over the segment (Simpson on
+the piece ends; L the backbone's length), which gives Euler-Bernoulli's w L^4 / (8 EI) for a cantilever,
+while a tendon's path shortens by the segment's mean gravity curvature int M ds' / (EI_s L_s) (what the
+bent rod's path does), so the tensions answer the weight as in the Cosserat rod.
+
+Friction: tendon i's tension in segment s is tau_i exp(-mu d_i phi_s) with phi_s the wrap angle from
+the base to the middle of segment s (the bending angles |b| L of the segments before it and half of
+its own) and d_i = +1 while the tendon is pulled in (its command grew since the previous row), -1
+while released, the last direction kept while the command holds (0 at the session's start).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+PIECES = 8
+"""Pieces per segment for the gravity moment (even: Simpson's rule on their ends)."""
+FIXED_POINT_PASSES = 60
+FIXED_POINT_TOL = 1e-9
+"""A row's fixed point is reached when no bending vector changes by more than this [1/m]."""
+_PGS_ITERATIONS = 200
+_PGS_TOL = 1e-13
+_HOLD = 1e-9
+"""A command change under this [m] holds the tendon's friction direction."""
+
+
+@njit(cache=True)
+def _arc(bx, by, sigma, R0, p0, R, p):
+    """Frame R (3, 3) and position p (3,) at arclength sigma [m] of an arc with bending vector
+    (bx, by) [1/m] in the frame R0 (3, 3) at p0 (3,) of its start."""
+    kappa = math.hypot(bx, by)
+    if kappa < 1e-9:
+        dx, dy, lateral, axial, angle = 1.0, 0.0, 0.5 * kappa * sigma * sigma, sigma, 0.0
+    else:
+        dx, dy = bx / kappa, by / kappa
+        angle = kappa * sigma
+        lateral, axial = (1.0 - math.cos(angle)) / kappa, math.sin(angle) / kappa
+    loc0, loc1, loc2 = dx * lateral, dy * lateral, axial
+    for a in range(3):
+        p[a] = p0[a] + R0[a, 0] * loc0 + R0[a, 1] * loc1 + R0[a, 2] * loc2
+    # rotation about the axis (-dy, dx, 0) by angle (Rodrigues), then R = R0 @ rot
+    c, s = math.cos(angle), math.sin(angle)
+    ax, ay = -dy, dx
+    r00, r01, r02 = c + ax * ax * (1 - c), ax * ay * (1 - c), ay * s
+    r10, r11, r12 = ax * ay * (1 - c), c + ay * ay * (1 - c), -ax * s
+    r20, r21, r22 = -ay * s, ax * s, c
+    for a in range(3):
+        R[a, 0] = R0[a, 0] * r00 + R0[a, 1] * r10 + R0[a, 2] * r20
+        R[a, 1] = R0[a, 0] * r01 + R0[a, 1] * r11 + R0[a, 2] * r21
+        R[a, 2] = R0[a, 0] * r02 + R0[a, 1] * r12 + R0[a, 2] * r22
+
+
+@njit(cache=True)
+def _shape(b, L, frames, nodes, masses, scratch):
+    """The backbone of bending vectors b (S, 2): node frames (S, P+1, 3, 3), node positions
+    (S, P+1, 3) and piece midpoints (S, P, 3) [m], in the base frame; scratch (4, 3, 3)."""
+    S = b.shape[0]
+    P = masses.shape[1]
+    piece, half, rot = scratch[0], scratch[1], scratch[2]
+    eye = np.eye(3)
+    origin = np.zeros(3)
+    step = np.empty(3)
+    mid = np.empty(3)
+    for s in range(S):
+        h = L[s] / P
+        _arc(b[s, 0], b[s, 1], h, eye, origin, piece, step)       # one piece, in its own frame
+        _arc(b[s, 0], b[s, 1], 0.5 * h, eye, origin, half, mid)
+        if s == 0:
+            frames[0, 0] = eye
+            nodes[0, 0] = origin
+        else:
+            frames[s, 0] = frames[s - 1, P]
+            nodes[s, 0] = nodes[s - 1, P]
+        for k in range(P):
+            R = frames[s, k]
+            for a in range(3):
+                nodes[s, k + 1, a] = nodes[s, k, a] + R[a, 0] * step[0] + R[a, 1] * step[1] + R[a, 2] * step[2]
+                masses[s, k, a] = nodes[s, k, a] + R[a, 0] * mid[0] + R[a, 1] * mid[1] + R[a, 2] * mid[2]
+                for c in range(3):
+                    rot[a, c] = R[a, 0] * piece[0, c] + R[a, 1] * piece[1, c] + R[a, 2] * piece[2, c]
+            frames[s, k + 1] = rot
+
+
+@njit(cache=True)
+def _gravity_bend(b, L, compliance, gvec, frames, nodes, masses, scratch, out):
+    """The gravity curvature of each segment for the shape b (S, 2) and gravity gvec (3,) = (w / k)
+    g_hat in the base frame (see the module's docstring): out (2, S, 2) [1/m], the tip-equivalent
+    one (the shape's) and the mean (the tendons' paths')."""
+    S = b.shape[0]
+    P = masses.shape[1]
+    _shape(b, L, frames, nodes, masses, scratch)
+    total = 0.0
+    for s in range(S):
+        total += L[s]
+    m1 = np.zeros(3)                # distal first moment sum h x
+    mass = 0.0                      # distal length
+    start = total
+    for s in range(S - 1, -1, -1):
+        h = L[s] / P
+        start -= L[s]
+        acc0 = acc1 = weights = mean0 = mean1 = plain = 0.0
+        for k in range(P, -1, -1):
+            if k < P:
+                for a in range(3):
+                    m1[a] += h * masses[s, k, a]
+                mass += h
+            l0 = m1[0] - mass * nodes[s, k, 0]
+            l1 = m1[1] - mass * nodes[s, k, 1]
+            l2 = m1[2] - mass * nodes[s, k, 2]
+            # the moment (lever x gvec) in the node's frame
+            mx = l1 * gvec[2] - l2 * gvec[1]
+            my = l2 * gvec[0] - l0 * gvec[2]
+            mz = l0 * gvec[1] - l1 * gvec[0]
+            ux = frames[s, k, 0, 0] * mx + frames[s, k, 1, 0] * my + frames[s, k, 2, 0] * mz
+            uy = frames[s, k, 0, 1] * mx + frames[s, k, 1, 1] * my + frames[s, k, 2, 1] * mz
+            simpson = 1.0 if k == 0 or k == P else (4.0 if k % 2 == 1 else 2.0)
+            w = simpson * (total - start - k * h)
+            acc0 += w * uy
+            acc1 -= w * ux
+            weights += w
+            mean0 += simpson * uy
+            mean1 -= simpson * ux
+            plain += simpson
+        out[0, s, 0] = compliance[s] * acc0 / weights
+        out[0, s, 1] = compliance[s] * acc1 / weights
+        out[1, s, 0] = compliance[s] * mean0 / plain
+        out[1, s, 1] = compliance[s] * mean1 / plain
+
+
+@njit(cache=True)
+def _pgs(M, rhs, tau):
+    """Projected Gauss-Seidel for tau >= 0, M tau - rhs >= 0, tau (M tau - rhs) = 0 from the
+    given tau (n,) [m] (warm start)."""
+    n = rhs.size
+    for _ in range(_PGS_ITERATIONS):
+        change = 0.0
+        for i in range(n):
+            r = rhs[i]
+            for j in range(n):
+                if j != i:
+                    r -= M[i, j] * tau[j]
+            v = r / M[i, i]
+            if v < 0.0:
+                v = 0.0
+            change = max(change, abs(v - tau[i]))
+            tau[i] = v
+        if change < _PGS_TOL:
+            break
+
+
+@njit(cache=True)
+def _solve_active(M, rhs, active, tau, A):
+    """tau (n,) = the solution of M_AA tau_A = rhs_A on the active set (others 0), by Gaussian
+    elimination with partial pivoting in A (n, n+1) scratch; False where singular."""
+    n = rhs.size
+    idx = np.empty(n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        if active[i]:
+            idx[m] = i
+            m += 1
+    for r in range(m):
+        for c in range(m):
+            A[r, c] = M[idx[r], idx[c]]
+        A[r, m] = rhs[idx[r]]
+    for c in range(m):
+        p = c
+        for r in range(c + 1, m):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if abs(A[p, c]) < 1e-300:
+            return False
+        if p != c:
+            for k in range(c, m + 1):
+                A[c, k], A[p, k] = A[p, k], A[c, k]
+        for r in range(c + 1, m):
+            factor = A[r, c] / A[c, c]
+            for k in range(c, m + 1):
+                A[r, k] -= factor * A[c, k]
+    tau[:] = 0.0
+    for r in range(m - 1, -1, -1):
+        v = A[r, m]
+        for k in range(r + 1, m):
+            v -= A[r, k] * tau[idx[k]]
+        tau[idx[r]] = v / A[r, r]
+    return True
+
+
+@njit(cache=True)
+def _lcp(M, rhs, tau, active, A):
+    """tau >= 0, M tau - rhs >= 0, tau (M tau - rhs) = 0 (M (n, n) a P-matrix): the active set
+    of the warm start tau (n,) [m], corrected one index at a time (the most violated) until it holds
+    (exact up to rounding); projected Gauss-Seidel if that does not settle within 4 n changes."""
+    n = rhs.size
+    for i in range(n):
+        active[i] = tau[i] > 0.0
+    for _ in range(4 * n):
+        if not _solve_active(M, rhs, active, tau, A):
+            break
+        worst, which = 0.0, -1
+        for i in range(n):
+            if active[i]:
+                v = tau[i]
+            else:
+                v = -rhs[i]
+                for j in range(n):
+                    v += M[i, j] * tau[j]
+            if v < worst:
+                worst, which = v, i
+        if which < 0:
+            return
+        active[which] = not active[which]
+    for i in range(n):
+        tau[i] = max(tau[i], 0.0)
+    _pgs(M, rhs, tau)
+
+
+@njit(cache=True)
+def _factors(b, L, seg, dirs, mu, f):
+    """Capstan factors f (n, S): tendon i's tension in segment s over its tension at the base."""
+    n, S = f.shape
+    wrap = 0.0
+    for s in range(S):
+        angle = math.hypot(b[s, 0], b[s, 1]) * L[s]
+        mid = wrap + 0.5 * angle
+        wrap += angle
+        for i in range(n):
+            f[i, s] = math.exp(-mu * dirs[i] * mid) if seg[i] >= s else 0.0
+
+
+@njit(cache=True)
+def _pass(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs, work, out):
+    """One pass of a row's fixed point: out (S, 2) [1/m], the bending vectors of the tensions (tau (n,),
+    solved in place from its warm start) and gravity for the capstan factors and shape of b (S, 2)."""
+    n, S = f.shape
+    frames, nodes, masses, scratch = work[0], work[1], work[2], work[3]
+    if mu != 0.0:
+        _factors(b, L, seg, dirs, mu, f)
+    if gravity:
+        _gravity_bend(b, L, compliance, gvec, frames, nodes, masses, scratch, gb)
+    for i in range(n):
+        rhs[i] = qk[i] - offsets[i]
+        for s in range(seg[i] + 1):
+            rhs[i] -= L[s] * (gb[1, s, 0] * rho[i, 0] + gb[1, s, 1] * rho[i, 1])
+        for j in range(n):
+            acc = 1.0 if i == j else 0.0
+            dot = rho[i, 0] * rho[j, 0] + rho[i, 1] * rho[j, 1]
+            for s in range(min(seg[i], seg[j]) + 1):
+                acc += L[s] * compliance[s] * f[j, s] * dot
+            M[i, j] = acc
+    _lcp(M, rhs, tau, work[4], work[5])
+    for s in range(S):
+        for a in range(2):
+            v = gb[0, s, a]
+            for i in range(n):
+                if seg[i] >= s:
+                    v += compliance[s] * tau[i] * f[i, s] * rho[i, a]
+            out[s, a] = v
+
+
+@njit(cache=True)
+def _row(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs, work, acc):
+    """One row's fixed point b = G(b) (``_pass``), Anderson-accelerated with one previous pass:
+    b (S, 2) [1/m] and tau (n,) [m] updated in place from their warm start; acc (3, S, 2) scratch;
+    returns the passes taken."""
+    g, g_prev, r_prev = acc[0], acc[1], acc[2]
+    S = b.shape[0]
+    passes = 0
+    for it in range(FIXED_POINT_PASSES):
+        passes += 1
+        _pass(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs, work, g)
+        change = 0.0
+        num = den = 0.0
+        for s in range(S):
+            for a in range(2):
+                r = g[s, a] - b[s, a]
+                change = max(change, abs(r))
+                dr = r - r_prev[s, a]
+                num += dr * r
+                den += dr * dr
+        if change < FIXED_POINT_TOL or (not gravity and mu == 0.0):
+            b[:] = g
+            break
+        gamma = num / den if it > 0 and den > 0.0 else 0.0
+        for s in range(S):
+            for a in range(2):
+                r_prev[s, a] = g[s, a] - b[s, a]
+                b[s, a] = g[s, a] - gamma * (g[s, a] - g_prev[s, a])
+                g_prev[s, a] = g[s, a]
+    return passes
+
+
+@njit(cache=True)
+def _flush(v):
+    """v, or 0 where |v| < 1e-200 (no subnormal numbers in the results)."""
+    return v if abs(v) >= 1e-200 else 0.0
+
+
+@njit(cache=True)
+def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, tips, tau_out, bend_out, passes_out):
+    """Solve every row of a session in order (see the module's docstring).
+
+    q (K, n) [m] tendon displacements; reset (K,) bool, True where a session starts (straight
+    warm start, friction directions 0); seg (n,) int the segment each tendon ends at; L (S,) [m];
+    compliance (S,) k / EI_s [m^-3]; rho (n, 2) [m] tendon offsets; offsets (n,) [m] slacks; mu the
+    friction coefficient; gvec (3,) (w / k) g_hat in the base frame (zeros: no gravity); marker [m].
+    Writes tips (K, 3) [m] (base frame), tau_out (K, n) tau / k [m] at the base, bend_out (K, S, 2)
+    [1/m] and passes_out (K,) the fixed-point passes of each row.
+    """
+    K, n = q.shape
+    S = L.size
+    P = PIECES
+    gravity = gvec[0] != 0.0 or gvec[1] != 0.0 or gvec[2] != 0.0
+    b = np.zeros((S, 2))
+    tau = np.zeros(n)
+    dirs = np.zeros(n)
+    f = np.ones((n, S))
+    gb = np.zeros((2, S, 2))
+    M = np.empty((n, n))
+    rhs = np.empty(n)
+    work = (np.empty((S, P + 1, 3, 3)), np.empty((S, P + 1, 3)), np.empty((S, P, 3)), np.empty((3, 3, 3)),
+            np.zeros(n, dtype=np.bool_), np.empty((n, n + 1)))
+    acc = np.zeros((3, S, 2))
+    R = np.empty((3, 3))
+    R0 = np.empty((3, 3))
+    p = np.empty(3)
+    p0 = np.empty(3)
+    for k in range(K):
+        if k == 0 or reset[k]:
+            b[:] = 0.0
+            tau[:] = 0.0
+            dirs[:] = 0.0
+            gb[:] = 0.0
+        else:
+            for i in range(n):
+                dq = q[k, i] - q[k - 1, i]
+                if dq > _HOLD:
+                    dirs[i] = 1.0
+                elif dq < -_HOLD:
+                    dirs[i] = -1.0
+        passes_out[k] = _row(q[k], seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs,
+                             work, acc)
+        R0[:] = 0.0
+        for a in range(3):
+            R0[a, a] = 1.0
+        p0[:] = 0.0
+        for s in range(S):
+            _arc(b[s, 0], b[s, 1], L[s], R0, p0, R, p)
+            R0[:] = R
+            p0[:] = p
+        for a in range(3):
+            tips[k, a] = _flush(p0[a] + R0[a, 2] * marker)
+        for i in range(n):
+            tau_out[k, i] = _flush(tau[i])
+        for s in range(S):
+            for a in range(2):
+                bend_out[k, s, a] = _flush(b[s, a])
