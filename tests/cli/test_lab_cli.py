@@ -41,6 +41,19 @@ def test_calibrate_writes_the_robot(folder, tmp_path, capsys):
     assert len(robot["parameters"]["tendon_angles_deg"]) == 3
 
 
+def test_calibrate_with_gravity_and_friction(folder, tmp_path):
+    """``--gravity --friction``: the physics with the weight and the routing friction, their
+    parameters fitted (a frictionless, weightless robot's data: both come out small) and named."""
+    out = tmp_path / "robot.json"
+    assert run_cli(["lab", "calibrate", str(folder / "train.csv"), "--validate", str(folder / "val.csv"),
+                    "--length", "0.08", "--lag", "0", "--gravity", "--friction", "-o", str(out), "--quiet"]) == 0
+    robot = json.loads(out.read_text())
+    assert robot["variant"] == "gravity+friction"
+    assert 0.0 <= robot["parameters"]["routing_friction"] <= 0.5
+    assert len(robot["parameters"]["gravity_direction_base"]) == 3
+    assert robot["validation"]["tip_rmse_mm"] < 1.0
+
+
 def _bad(args, capsys):
     code = run_cli(args)
     err = capsys.readouterr().err.strip()

@@ -1,5 +1,6 @@
 """softrnn lab benchmark | calibrate: a real robot's recordings (docs/guide/real-robots.md)."""
 
+import dataclasses
 import json
 import re
 import sys
@@ -16,7 +17,7 @@ from ..lab.families import displacements
 from ..lab.recording import Layout, check_sessions, read_recording, shift_inputs
 from ..lab.suite import SuiteJob, SuiteResult, SuiteRow, run_suite
 from ..lab.synthetic import SyntheticOptions
-from ..lab.tendon_robot import calibrate
+from ..lab.tendon_robot import calibrate, session_resets
 from ..learned.metrics import tip_errors
 from ..scenarios.suite import Suite, SuiteRobot, read_suite
 from ._progress import Bar, stop_code
@@ -92,6 +93,10 @@ def add_args(p):
     c.add_argument("recordings", nargs="+", metavar="TRAIN.csv", help="the sessions to fit on (CSV)")
     output(c, old=(), required=True, metavar="ROBOT.json", help="the calibrated robot (JSON)")
     c.add_argument("--validate", default=None, metavar="VAL.csv", help="also report the tip error on this session")
+    c.add_argument("--gravity", action="store_true",
+                   help="add the backbone's weight to the physics, its direction fitted (default: without)")
+    c.add_argument("--friction", action="store_true",
+                   help="add friction along the tendons' routing (capstan), its coefficient fitted (default: without)")
     _recording_args(c)
     c.set_defaults(lab_run=_calibrate)
 
@@ -320,10 +325,11 @@ def _calibrate(args) -> int:
         raise bad("--segments", args.segments, f"segments whose tendons ({robot.n_tendons}) match the "
                                                f"{train[0].n_inputs} input columns")
     check_pulls(robot, recordings)
+    physics = dataclasses.replace(options.calibration, gravity=args.gravity, friction=args.friction)
     with Bar("lab calibrate", unit="start", enabled=not args.quiet) as bar:
         cal = calibrate(robot, np.vstack([displacements(r) for r in train]), np.vstack([r.tip for r in train]),
-                        progress=bar)
-    report = {**cal.to_dict(), "lag_rows": lag, "sessions": [r.path for r in train]}
+                        physics, progress=bar, resets=session_resets([r.n_rows for r in train]))
+    report = {**cal.to_dict(), "variant": physics.variant, "lag_rows": lag, "sessions": [r.path for r in train]}
     if args.validate:
         v = recordings[-1]
         err = tip_errors(cal.predict(displacements(v)), v.tip).tip_summary()
