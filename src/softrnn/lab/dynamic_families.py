@@ -23,12 +23,10 @@ import numpy as np
 
 from ..learned.linear import LinearARX
 from .dynamic_physics import DynamicCalibration, DynamicRobot, calibrate_dynamics
+from .families import HOLDOUT_FRACTION
 from .recording import Recording
+from .uncertainty import COVERAGE
 
-HOLDOUT_FRACTION = 0.75
-"""With one training session, the rows before this fraction fit and the rest are held out."""
-COVERAGE = 0.9
-"""The share of hold-out rows the interval's radius covers."""
 RESIDUALS = ("none", "static", "arx")
 """The residual models tried: none (the physics alone), r_k = W (u_k, p_k, 1) by least squares, and
 the linear ARX model of r driven by (u, p) with two lags each (``softrnn.learned.linear.LinearARX``)."""

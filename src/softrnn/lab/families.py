@@ -233,6 +233,10 @@ class Physics:
 
 
 # ------------------------------------------------------------------------------------------- choice
+HOLDOUT_FRACTION = 0.75
+"""With one training session, the rows before this fraction fit and the rest are held out."""
+
+
 def holdout_split(sessions) -> tuple[list, list]:
     """Training sessions split for choosing options: with two or more sessions, the last one is
     held out; with one, its last quarter (the rows in order, so the hold-out part is a later,
@@ -241,7 +245,7 @@ def holdout_split(sessions) -> tuple[list, list]:
     if len(sessions) >= 2:
         return sessions[:-1], sessions[-1:]
     s = sessions[0]
-    cut = int(round(0.75 * s.n_rows))
+    cut = int(round(HOLDOUT_FRACTION * s.n_rows))
 
     def part(a, b):
         return replace(s, time=s.time[a:b], inputs=s.inputs[a:b], tip=s.tip[a:b],
