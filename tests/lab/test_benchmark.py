@@ -14,16 +14,19 @@ from softrnn.lab.families import (
     NODE_TRAINING,
     ConstantVelocityFamily,
     LinearARXFamily,
+    NodeFamily,
     NodeOptions,
     PersistenceFamily,
+    Physics,
     StaticPolynomial,
     holdout_split,
+    novelty,
     play,
 )
 from softrnn.lab.nets import NetOptions, SequenceOptions
-from softrnn.lab.recording import read_recording
+from softrnn.lab.recording import Recording, read_recording
 from softrnn.lab.synthetic import SyntheticOptions
-from softrnn.lab.tendon_robot import CalibrationOptions
+from softrnn.lab.tendon_robot import CalibrationOptions, TendonRobot
 from softrnn.learned.metrics import tip_errors
 
 from helpers import tendon_recording
@@ -101,12 +104,48 @@ def test_play_operator_lags_a_reversal_by_its_width():
     np.testing.assert_allclose(play(u, np.array([0.5]))[:, 0], [0.0, 0.5, 1.5, 1.5, 1.5, 0.5])
 
 
-def test_holdout_is_the_later_part_or_the_last_session(sessions):
-    train, val = sessions
-    fit, held = holdout_split([train])
-    assert fit[0].n_rows + held[0].n_rows == train.n_rows and held[0].time[0] > fit[0].time[-1]
-    fit, held = holdout_split([train, val])
-    assert fit == [train] and held == [val]
+def _session(inputs, start=0.0):
+    inputs = np.asarray(inputs, dtype=float)
+    rows = len(inputs)
+    width = inputs.shape[1]
+    return Recording(path="", time=start + np.arange(rows, dtype=float), inputs=inputs, names=("a", "b", "c")[:width],
+                     units=("mm",) * width, tip=np.zeros((rows, 3)), labels=tuple(f"r{i}" for i in range(rows)))
+
+
+def test_holdout_holds_out_the_rows_farthest_in_command_space():
+    """One session: the stretch of rows whose commands reach where no other stretch goes is held out
+    (wherever it lies in time); every row lands in exactly one part, in order."""
+    rng = np.random.default_rng(0)
+    u = rng.uniform(-1.0, 1.0, (240, 2))
+    u[100:120] *= 8.0                                            # one stretch reaches far beyond the rest
+    s = _session(u)
+    fit, held = holdout_split([s])
+    rows = [r for part in [*fit, *held] for r in part.labels]
+    assert sorted(rows, key=lambda r: int(r[1:])) == list(s.labels) and len(rows) == len(set(rows))
+    held_rows = {int(r[1:]) for part in held for r in part.labels}
+    assert set(range(100, 120)) <= held_rows and len(held_rows) == 60          # a quarter of the rows
+    for part in [*fit, *held]:
+        assert np.all(np.diff(part.time) == 1.0)                # each part a contiguous run of rows
+    far = novelty([s.rows(0, 100), s.rows(100, 120), s.rows(120, 240)])
+    assert np.argmax(far) == 1
+
+
+def test_holdout_of_several_sessions_is_the_one_least_covered():
+    rng = np.random.default_rng(1)
+    near, also_near = _session(rng.uniform(-1, 1, (50, 2))), _session(rng.uniform(-1, 1, (50, 2)))
+    beyond = _session(rng.uniform(-1, 1, (50, 2)) * [6.0, 1.0])
+    fit, held = holdout_split([near, beyond, also_near])
+    assert held == [beyond] and fit == [near, also_near]
+
+
+def test_novelty_of_a_copy_is_zero_and_a_still_channel_counts_nothing():
+    u = np.column_stack([np.linspace(0, 1, 20), np.zeros(20)])
+    assert novelty([_session(u), _session(u)]).tolist() == [0.0, 0.0]
+    a, b = _session(u[:10]), _session(u[10:] + [0.3, 0.0])
+    with_still = novelty([a, b])
+    without = novelty([_session(u[:10, :1]), _session(u[10:, :1] + 0.3)])
+    np.testing.assert_allclose(with_still, without, rtol=1e-12)
+    assert np.all(with_still > 0)
 
 
 def test_bad_options_are_refused():
@@ -196,6 +235,25 @@ def test_learned_families_say_their_mode_and_interval(report):
     assert details["physics"]["interval_90_radius_mm"] > 0
     hybrid = details["hybrid"]["holdout_rmse_mm"]
     assert report["chosen_on_training"]["holdout_rmse_mm"]["hybrid"] == min(hybrid.values())
+    node = details["node_lstm"]
+    assert set(node["holdout_rmse_mm"]) == {"mode=real", "mode=mixed"} and node["mode"] in ("real", "mixed")
+    assert report["chosen_on_training"]["holdout_rmse_mm"]["node_lstm"] == min(node["holdout_rmse_mm"].values())
+
+
+def test_node_lstm_learns_from_the_physics_sessions_only_with_a_physics(sessions):
+    """Mode mixed needs a calibrated physics; its synthetic rows are capped at ``synthetic_amount``
+    per real row, whatever the synthetic options ask."""
+    train, _ = sessions
+    with pytest.raises(SoftrnnInputError, match="mode='mixed' is invalid"):
+        NodeFamily(0.08, mode="mixed")
+    with pytest.raises(SoftrnnInputError, match="synthetic_amount=-1 is invalid"):
+        NodeOptions(synthetic_amount=-1)
+    physics = Physics(TendonRobot((0.08,), 3, 4e-3), FAST["calibration"]).fit([train])
+    family = NodeFamily(0.08, NodeOptions(synthetic_amount=0.5), mode="mixed", synthetic=SyntheticOptions(amount=5),
+                        physics=physics)
+    taught = family._taught([train])
+    assert sum(s.n_rows for s in taught) == pytest.approx(0.5 * train.n_rows, rel=0.1)
+    assert NodeFamily(0.08)._taught([train]) == []
 
 
 def test_synthetic_data_without_a_physics_is_refused_or_left_out(sessions, tmp_path):

@@ -39,3 +39,19 @@ def test_coverage_counts_the_rows_inside_the_ball():
     assert coverage(pred, ref, np.array([5e-3, 0.5e-3, 0, 1e-3])) == pytest.approx(0.5)
     with pytest.raises(ValueError, match="radius"):
         coverage(pred, ref, np.ones(3))
+
+
+def test_per_pattern_alignment_removes_each_runs_own_offset():
+    """With labels, each run of consecutive rows with one label loses its own offset: a prediction off
+    by a different constant in each pattern is then exact, while one offset for the session is not;
+    a label that comes back later is a new run."""
+    rng = np.random.default_rng(2)
+    ref = rng.normal(0, 0.02, (30, 3))
+    labels = np.array(["a"] * 10 + ["b"] * 10 + ["a"] * 10)
+    shifts = np.repeat([[1e-3, 0, 0], [0, -4e-3, 0], [0, 0, 7e-3]], 10, axis=0)
+    pred = ref + shifts
+    each = aligned_tip_errors(pred, ref, 0.2, groups=labels)
+    assert each.rmse_mm == pytest.approx(0.0, abs=1e-12) and each.max_mm == pytest.approx(0.0, abs=1e-12)
+    assert aligned_tip_errors(pred, ref, 0.2).mean_mm > 3.0
+    with pytest.raises(ValueError, match="groups"):
+        aligned_tip_errors(pred, ref, groups=labels[:5])

@@ -22,9 +22,9 @@ from ..learned.metrics import aligned_tip_errors, coverage, tip_errors
 from .dynamic_families import DynamicHybrid, DynamicPhysics
 from .dynamic_physics import DynamicOptions, DynamicRobot
 from .families import (
+    HOLDOUT_RULES,
     ConstantVelocityFamily,
     LinearARXFamily,
-    NodeFamily,
     NodeOptions,
     PersistenceFamily,
     StaticPolynomial,
@@ -32,7 +32,7 @@ from .families import (
     displacements,
     holdout_split,
 )
-from .nets import NetOptions, SequenceOptions, fit_hybrid, fit_learned_map, fit_sequence
+from .nets import NetOptions, SequenceOptions, fit_hybrid, fit_learned_map, fit_node, fit_sequence
 from .physics_variants import choose_physics
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .synthetic import SyntheticOptions, pull_limits
@@ -50,7 +50,7 @@ ARX_ORDERS = ((1, 1), (2, 1), (1, 2), (2, 2))
 POLY_CANDIDATES = tuple((d, r) for d in (1, 2, 3) for r in (1e-6, 1e-3, 1e-1))
 MIN_ROWS = 10
 """Fewest rows of every session (after the lag) the benchmark runs on: the baselines, the families and
-their hold-out split (the last quarter of a sole training session) need that many; a 3-row session
+their hold-out split (a quarter of a sole training session, in stretches of rows) need that many; a 3-row session
 would end in a least-squares error, a few more in fits on empty windows."""
 
 
@@ -136,6 +136,10 @@ class TipScore:
     coverage_90 : float or None
         the share of rows whose tip lies inside the model's stated 90 % ball (None: the model states
         no uncertainty; left out of the JSON)
+    tip_mean_aligned_per_pattern_mm, tip_mean_aligned_per_pattern_pct_of_length : float or None
+        the mean error after removing the constant offset over each pattern (each run of rows with
+        one label; opencr-mujoco's per-trajectory metric) [mm] and in % of the length (None: the
+        session has no labels; left out of the JSON)
     """
 
     tip_rmse_mm: float
@@ -148,11 +152,14 @@ class TipScore:
     tip_rmse_aligned_pct_of_length: float = float("nan")
     tip_mean_aligned_pct_of_length: float = float("nan")
     coverage_90: float | None = None
+    tip_mean_aligned_per_pattern_mm: float | None = None
+    tip_mean_aligned_per_pattern_pct_of_length: float | None = None
 
     @classmethod
-    def of(cls, predicted: np.ndarray, reference: np.ndarray, length: float, radius=None) -> TipScore:
+    def of(cls, predicted: np.ndarray, reference: np.ndarray, length: float, radius=None, labels=()) -> TipScore:
         """The score of ``predicted`` (T, 3) [m] against ``reference`` (T, 3) [m] for a robot of
-        ``length`` [m]; ``radius`` (T,) [m], the stated 90 % ball, gives the coverage."""
+        ``length`` [m]; ``radius`` (T,) [m], the stated 90 % ball, gives the coverage; ``labels`` (T,
+        str, or empty), the rows' pattern labels, give the per-pattern aligned error."""
         raw, aligned = tip_errors(predicted, reference, length), aligned_tip_errors(predicted, reference, length)
         values = dict(tip_rmse_mm=raw.rmse_mm, tip_mean_mm=raw.mean_mm, tip_max_mm=raw.max_mm,
                       tip_rmse_pct_of_length=raw.pct_of_length(raw.rmse_mm),
@@ -160,15 +167,16 @@ class TipScore:
                       tip_rmse_aligned_mm=aligned.rmse_mm, tip_mean_aligned_mm=aligned.mean_mm,
                       tip_rmse_aligned_pct_of_length=aligned.pct_of_length(aligned.rmse_mm),
                       tip_mean_aligned_pct_of_length=aligned.pct_of_length(aligned.mean_mm))
+        if len(labels):
+            each = aligned_tip_errors(predicted, reference, length, groups=np.asarray(labels))
+            values.update(tip_mean_aligned_per_pattern_mm=each.mean_mm,
+                          tip_mean_aligned_per_pattern_pct_of_length=each.pct_of_length(each.mean_mm))
         cover = None if radius is None else round(coverage(predicted, reference, radius), 4)
         return cls(**{k: round(v, 4) for k, v in values.items()}, coverage_90=cover)
 
     def to_dict(self) -> dict:
         """The JSON of one model or baseline (``coverage_90`` only where the model states an uncertainty)."""
-        out = asdict(self)
-        if self.coverage_90 is None:
-            del out["coverage_90"]
-        return out
+        return {k: v for k, v in asdict(self).items() if v is not None}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -389,7 +397,7 @@ class _Table:
         else:
             pred = model.predict(self.validation)
         self.predictions[name] = pred
-        table[name] = TipScore.of(pred, self.validation.tip, self.length, radius)
+        table[name] = TipScore.of(pred, self.validation.tip, self.length, radius, self.validation.labels)
         self.details[name] = model.describe()
         if holdout_scores is not None:
             self.details[name]["holdout_rmse_mm"] = holdout_scores
@@ -431,7 +439,8 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
                    pick.holdout_rmse_mm)
         step("physics")
     pair = (held_physics, physics)
-    for name, fit in (("learned_map", fit_learned_map), ("hybrid", fit_hybrid), ("sequence", fit_sequence)):
+    for name, fit in (("learned_map", fit_learned_map), ("hybrid", fit_hybrid), ("sequence", fit_sequence),
+                      ("node_lstm", fit_node)):
         if name in families:
             model, scores = fit(train, pair, syn, options, held_score)
             holdout[name] = min(scores.values())
@@ -439,10 +448,6 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
             if no_syn:
                 out.details[name]["synthetic_data"] = f"not used: {no_syn}"
             step(name)
-    if "node_lstm" in families:
-        holdout["node_lstm"] = held_score(NodeFamily(options.length, options.node).fit(fit_part))
-        out.record(out.models, "node_lstm", NodeFamily(options.length, options.node).fit(train))
-        step("node_lstm")
     return holdout
 
 
@@ -566,8 +571,7 @@ def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -
     if holdout:
         family = min(holdout, key=holdout.get)
         chosen = Choice(family=family, holdout_rmse_mm=holdout,
-                        holdout="the last training session" if len(train) >= 2 else
-                                "the last quarter of the training session",
+                        holdout=HOLDOUT_RULES[len(train) >= 2],
                         validation_tip_rmse_mm=out.models[family].tip_rmse_mm)
     robot_info = RobotInfo(length_m=options.length, lag=prepared.lag_info,
                            training_sessions=tuple(s.describe() for s in train),

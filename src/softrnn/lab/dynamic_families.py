@@ -53,8 +53,7 @@ def split(sessions) -> tuple[list[_Part], list[_Part]]:
 
 def _head(part: _Part) -> Recording:
     """The part's session cut to its rows (a fitting part starts at the session's start)."""
-    s, r = part.session, part.rows
-    return replace(s, time=s.time[r], inputs=s.inputs[r], tip=s.tip[r], labels=s.labels[r] if s.labels else ())
+    return part.session.rows(part.rows.start or 0, part.rows.stop)
 
 
 def _errors(pred: np.ndarray, ref: np.ndarray) -> np.ndarray:

@@ -33,14 +33,16 @@ from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
+from scipy.spatial import cKDTree
 
-from ..errors import SoftrnnInputError
+from ..errors import SoftrnnInputError, bad, nonnegative
 from ..io.reader import Dataset
 from ..learned.baselines import ConstantVelocity, Persistence, free_run
 from ..learned.linear import LinearARX
 from ..learned.metrics import tip_errors
 from ..learned.node.train_config import TrainConfig
 from .recording import Recording
+from .synthetic import SyntheticOptions, synthetic_sessions
 from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate, session_resets
 
 PLAY_WIDTHS = (0.05, 0.15)
@@ -234,23 +236,62 @@ class Physics:
 
 # ------------------------------------------------------------------------------------------- choice
 HOLDOUT_FRACTION = 0.75
-"""With one training session, the rows before this fraction fit and the rest are held out."""
+"""The share of the training rows that fit while options are chosen; the rest is held out."""
+HOLDOUT_BLOCKS = (4, 12)
+"""A sole training session is cut into this many stretches of rows at least and at most (about one
+per ``BLOCK_ROWS`` rows); a quarter of them, the least covered by the rest, are held out."""
+BLOCK_ROWS = 20
+HOLDOUT_RULES = ("the quarter of the training session's stretches of rows farthest in command space from the rest",
+                 "the training session farthest in command space from the others")
+"""What ``holdout_split`` holds out of one session and of several, in words (the reports'
+``chosen_on_training.holdout``)."""
+
+
+def novelty(parts) -> np.ndarray:
+    """(P,) how far each of ``parts`` (``Recording``s) lies from the others in command space: the mean
+    distance of its rows' inputs to the nearest row of the other parts, each input scaled by its
+    standard deviation over all the parts (a channel that never moves counts nothing)."""
+    inputs = np.vstack([p.inputs for p in parts])
+    spread = inputs.std(axis=0)
+    scaled = inputs / np.where(spread > 0, spread, np.inf)
+    owner = np.repeat(np.arange(len(parts)), [p.n_rows for p in parts])
+    out = np.empty(len(parts))
+    for i in range(len(parts)):
+        mine = owner == i
+        out[i] = cKDTree(scaled[~mine]).query(scaled[mine])[0].mean()
+    return out
+
+
+def _runs(session: Recording, edges: np.ndarray, blocks) -> list[Recording]:
+    """The rows of ``session`` in the stretches ``blocks`` (indices into ``edges``' stretches), joined
+    where consecutive."""
+    out, start = [], None
+    for b in range(len(edges) - 1):
+        if b in blocks and start is None:
+            start = edges[b]
+        if start is not None and b + 1 not in blocks:
+            out.append(session.rows(start, edges[b + 1]))
+            start = None
+    return out
 
 
 def holdout_split(sessions) -> tuple[list, list]:
-    """Training sessions split for choosing options: with two or more sessions, the last one is
-    held out; with one, its last quarter (the rows in order, so the hold-out part is a later,
-    unseen stretch of the session)."""
+    """Training sessions split for choosing options, so that the choice tests a model where its data
+    end: (fitting part, held-out part), lists of ``Recording``. With two or more sessions, the session
+    farthest from the others in command space (``novelty``) is held out; with one, the session is cut
+    into stretches of rows (``HOLDOUT_BLOCKS``) and the quarter of them farthest from the rest is held
+    out, each run of held or kept stretches a session of its own (rows in order, never shuffled)."""
     sessions = list(sessions)
     if len(sessions) >= 2:
-        return sessions[:-1], sessions[-1:]
+        far = int(np.argmax(novelty(sessions)))
+        return [s for i, s in enumerate(sessions) if i != far], [sessions[far]]
     s = sessions[0]
-    cut = int(round(HOLDOUT_FRACTION * s.n_rows))
-
-    def part(a, b):
-        return replace(s, time=s.time[a:b], inputs=s.inputs[a:b], tip=s.tip[a:b],
-                       labels=s.labels[a:b] if s.labels else ())
-    return [part(0, cut)], [part(cut, s.n_rows)]
+    low, high = HOLDOUT_BLOCKS
+    edges = np.linspace(0, s.n_rows, min(high, max(low, s.n_rows // BLOCK_ROWS)) + 1).round().astype(int)
+    parts = [s.rows(a, b) for a, b in zip(edges[:-1], edges[1:])]
+    count = max(1, int(round((1.0 - HOLDOUT_FRACTION) * len(parts))))
+    held = set(np.argsort(-novelty(parts), kind="stable")[:count].tolist())
+    return _runs(s, edges, set(range(len(parts))) - held), _runs(s, edges, held)
 
 
 @dataclass(frozen=True)
@@ -319,6 +360,12 @@ class NodeOptions:
     """LSTM units."""
     training: TrainConfig = NODE_TRAINING
     """How it is trained (the multi-step loss, epochs, patience on the hold-out part, seed)."""
+    synthetic_amount: float = 1.0
+    """With the physics' synthetic sessions (``NodeFamily.mode`` ``mixed``): at most this many synthetic
+    rows per real row (the LSTM's training time grows with its rows)."""
+
+    def __post_init__(self):
+        nonnegative("synthetic_amount", self.synthetic_amount, "x the real rows")
 
     def describe(self) -> dict:
         """The options, JSON-ready: the window, the size and the training settings the lab sets."""
@@ -330,14 +377,33 @@ class NodeOptions:
 @dataclass(frozen=True, eq=False)
 class NodeFamily:
     """softrnn's per-node LSTM (``softrnn train --drive actuation``, the paper's model driven by the
-    inputs alone): trained on the first part of the training sessions and stopped early on the
+    inputs alone): trained on the fitting part of the training sessions and stopped early on the
     hold-out part (``holdout_split``), run free over a session from its first ``history`` rows
-    (the recorded tips there are its initial condition)."""
+    (the recorded tips there are its initial condition). ``mode`` ``mixed``: the calibrated
+    ``physics``' synthetic sessions (``softrnn.lab.synthetic``, ``synthetic`` with at most
+    ``options.synthetic_amount`` rows per real row) join its training rows."""
 
     length: float
     options: NodeOptions = NodeOptions()
     name: str = "node_lstm"
     model: object = None
+    mode: str = "real"
+    synthetic: SyntheticOptions = SyntheticOptions()
+    physics: object = None
+
+    def __post_init__(self):
+        if self.mode not in ("real", "mixed"):
+            raise bad("mode", self.mode, "'real' or 'mixed'")
+        if self.mode == "mixed" and (self.physics is None or not self.synthetic.on):
+            raise bad("mode", self.mode, "'real' for the node_lstm family without a calibrated physics and "
+                                         "synthetic.amount > 0 (mixed learns from the physics' sessions)")
+
+    def _taught(self, sessions) -> list:
+        """The synthetic sessions of mode ``mixed`` ([] in mode ``real``) for training on ``sessions``."""
+        if self.mode == "real":
+            return []
+        amount = min(self.synthetic.amount, self.options.synthetic_amount)
+        return synthetic_sessions(self.physics, sessions, replace(self.synthetic, amount=amount))
 
     def fit(self, sessions) -> NodeFamily:
         """The model trained on training sessions (a list of ``Recording``)."""
@@ -348,9 +414,10 @@ class NodeFamily:
         fit_part, held = holdout_split(sessions)
         spec = SampleSpec(node=1, neighbours=(), history=o.history, inputs="positions", wrench="none",
                           drive="actuation")
+        taught = self._taught(fit_part)
         with tempfile.TemporaryDirectory() as folder:
-            model = train_node_model(as_dataset(fit_part, self.length), spec, {"lstm_units": o.units}, o.training,
-                                     folder, validation=as_dataset(held, self.length))
+            model = train_node_model(as_dataset(fit_part + taught, self.length), spec, {"lstm_units": o.units},
+                                     o.training, folder, validation=as_dataset(held, self.length))
         return replace(self, model=model)
 
     def predict(self, session: Recording) -> np.ndarray:
@@ -364,5 +431,9 @@ class NodeFamily:
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
-        return {"kind": "per-node LSTM driven by the inputs alone (softrnn train --drive actuation)",
-                **self.options.describe()}
+        out = {"kind": "per-node LSTM driven by the inputs alone (softrnn train --drive actuation)",
+               **self.options.describe(), "mode": self.mode}
+        if self.mode != "real":
+            out["synthetic"] = self.synthetic.describe() | {"amount_x_real_rows": min(
+                self.synthetic.amount, self.options.synthetic_amount)}
+        return out

@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import bad
-from .families import PLAY_WIDTHS, Physics, _previous, holdout_split, play
+from .families import PLAY_WIDTHS, NodeFamily, Physics, _previous, holdout_split, play
 from .recording import Recording
 from .synthetic import SyntheticOptions, synthetic_sessions
 from .uncertainty import InputDistance, Intervals, conformal_q
@@ -467,3 +467,14 @@ def fit_sequence(train, pair, syn, options, held_score) -> tuple:
     best = min(scores, key=scores.get)
     q = conformal_q(fitted[best], held)
     return replace(Sequence(options.sequence, best.split("=")[1], syn, pair[1]).fit(train), interval_q=q), scores
+
+
+def fit_node(train, pair, syn, options, held_score) -> tuple:
+    """``NodeFamily`` (``options.node``), taught by the physics' synthetic sessions (mode ``mixed``) or
+    not, as the hold-out part prefers; the winner refitted on every training row."""
+    fit_part, _ = holdout_split(train)
+    modes = ("real", "mixed") if syn.on else ("real",)
+    scores = {f"mode={m}": held_score(NodeFamily(options.length, options.node, mode=m, synthetic=syn,
+                                                 physics=pair[0]).fit(fit_part)) for m in modes}
+    best = min(scores, key=scores.get).split("=")[1]
+    return NodeFamily(options.length, options.node, mode=best, synthetic=syn, physics=pair[1]).fit(train), scores

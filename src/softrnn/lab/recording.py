@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import fnmatch
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -133,6 +133,11 @@ class Recording:
     def intervals(self) -> np.ndarray:
         """(T - 1,) the time between consecutive rows [s]."""
         return np.diff(self.time)
+
+    def rows(self, start: int, stop: int) -> Recording:
+        """The recording cut to rows ``start`` to ``stop`` (a Python slice of the rows)."""
+        return replace(self, time=self.time[start:stop], inputs=self.inputs[start:stop], tip=self.tip[start:stop],
+                       labels=self.labels[start:stop] if self.labels else ())
 
     def describe(self) -> dict:
         """A JSON-ready summary: rows, duration, interval range, channels and units."""

@@ -76,12 +76,23 @@ def offset(predicted, reference) -> np.ndarray:
     return np.mean(np.asarray(predicted, dtype=np.float64) - np.asarray(reference, dtype=np.float64), axis=0)
 
 
-def aligned_tip_errors(predicted, reference, length_m: float | None = None) -> TipErrors:
+def aligned_tip_errors(predicted, reference, length_m: float | None = None, groups=None) -> TipErrors:
     """The ``TipErrors`` of ``predicted`` (T, 3) [m] against ``reference`` (T, 3) [m] after removing
     the constant offset over the rows: of p - mean_t (p - p_ref). Give one session at a time (the
-    offset is the session's; docs/guide/real-robots.md, "The metrics")."""
+    offset is the session's; docs/guide/real-robots.md, "The metrics"). ``groups`` (T,) labels: the
+    offset is removed over each run of consecutive rows with the same label instead (a trajectory
+    each, as a recording's pattern labels mark them)."""
     predicted = np.asarray(predicted, dtype=np.float64)
-    return tip_errors(predicted - offset(predicted, reference), reference, length_m)
+    if groups is None:
+        return tip_errors(predicted - offset(predicted, reference), reference, length_m)
+    labels = np.asarray(groups)
+    if labels.shape != predicted.shape[:1]:
+        raise ValueError(f"groups of shape {labels.shape} for {predicted.shape[0]} rows")
+    starts = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
+    shifted = predicted.copy()
+    for a, b in zip(starts, [*starts[1:], len(labels)]):
+        shifted[a:b] -= offset(predicted[a:b], np.asarray(reference)[a:b])
+    return tip_errors(shifted, reference, length_m)
 
 
 def coverage(predicted, reference, radius) -> float:
