@@ -65,7 +65,7 @@ def add_args(p):
     p.add_argument("--validate-group", default=None, metavar="G",
                    help="the trajectory's group inside a sweep file given as --validate-on")
     settings(p, _TRAINING)
-    p.add_argument("--pool", default=None, metavar="A..B|A,B,...",
+    p.add_argument("--pool", default=None, metavar="NODES",
                    help="beyond the paper: train one model shared by these nodes (their windows pooled; "
                         "e.g. 1..99 for every interior node); implies --relative")
     p.add_argument("--relative", action="store_true",
@@ -82,21 +82,10 @@ def add_args(p):
 
 
 def _pool(text: str) -> tuple:
-    """'A..B' (inclusive) or 'A,B,...'."""
-    t = text.strip()
-    if ".." in t:
-        a, _, b = t.partition("..")
-        try:
-            lo, hi = int(a), int(b)
-        except ValueError:
-            raise bad("--pool", text, "a node range A..B (inclusive) or comma-separated nodes, e.g. 1..99") from None
-        if hi < lo:
-            raise bad("--pool", text, "a range A..B with A <= B")
-        return tuple(range(lo, hi + 1))
-    out = _ints(t, "--pool")
-    if not out:
-        raise bad("--pool", text, "a node range A..B (inclusive) or comma-separated nodes, e.g. 1..99")
-    return out
+    """'A..B' (inclusive), 'A,B,...' or both (``_vocabulary.node_list``)."""
+    from ._vocabulary import node_list
+
+    return tuple(node_list(text, "--pool"))
 
 
 def _ints(text: str, argument: str) -> tuple:
@@ -147,8 +136,8 @@ def run(args) -> int:
         if node is None and len(head.nodes) == 1:    # one marker (a lab CSV of the tip alone): that node
             node = int(head.nodes[0])
         if node is None:
-            raise bad("--node", None, f"a node to model: the file names no node of interest; choose one of "
-                                      f"{describe_nodes(head.nodes)}")
+            raise SoftrnnInputError(f"--node is missing: the file names no node of interest; choose the node to "
+                                    f"model, one of {describe_nodes(head.nodes)}")
     if args.validate_group is not None and args.validate_on is None:
         raise bad("--validate-group", args.validate_group, "no group without --validate-on VAL.h5")
     spec = _spec(args, node)
