@@ -30,6 +30,8 @@ _TRAINING = (
 
 
 def add_args(p):
+    from ._vocabulary import deprecate
+
     p.add_argument("data", help="an HDF5 dataset written by softrnn (simulate, sweep, import-csv)")
     p.add_argument("--group", default=None, metavar="NAME",
                    help="the trajectory's group inside a merged sweep file (required where it holds several; "
@@ -44,8 +46,10 @@ def add_args(p):
                         "adjacent nodes n-1, n+1, one at an end of the rod)")
     p.add_argument("--history", type=int, default=2,
                    help="past time steps per window, eta + 1 (default: 2, the paper's)")
-    p.add_argument("--inputs", choices=("positions", "poses"), default="positions",
-                   help="input I per node: positions (3) or positions and quaternions (7) (default: positions)")
+    node_inputs = p.add_argument("--node-inputs", dest="inputs", choices=("positions", "poses"), default="positions",
+                                 help="input I per node: positions (3) or positions and quaternions (7) (default: "
+                                      "positions)")
+    deprecate(p, node_inputs, "--inputs", why=" (--inputs names a CSV's input columns in import-csv and lab)")
     p.add_argument("--wrench", choices=("none", "force", "wrench"), default=None,
                    help="input II: the node's force, force and torque, or none (Fig. 2A) (default: force if any "
                         "force acts on the node in the training span, else none)")
@@ -208,7 +212,7 @@ def _spec(args, node):
         channels = tuple(a.strip() for a in args.channels.split(",") if a.strip())
     neighbours = None if args.neighbours is None else _ints(args.neighbours, "--neighbours")
     if args.inputs == "poses" and not read_dataset(args.data, group=args.group, stop=1).has_orientations:
-        raise bad("--inputs", "poses", "'positions' (the data set has no orientations: a CSV without "
+        raise bad("--node-inputs", "poses", "'positions' (the data set has no orientations: a CSV without "
                                        "n{i}_qw..qz columns stores identity placeholders)")
     try:
         spec = SampleSpec(node=node, neighbours=neighbours, history=args.history, inputs=args.inputs, wrench=wrench,

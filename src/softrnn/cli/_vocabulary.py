@@ -40,17 +40,17 @@ DOMAIN = {
     "scenario list": (),
     "scenario show": ("--summary",),
     "scenario copy": (),
-    "simulate": ("--samples", "--substeps", "--dt", "--integrator", "--radius", "--youngs-modulus", "--density",
+    "simulate": ("--samples", "--duration", "--substeps", "--dt", "--integrator", "--radius", "--youngs-modulus", "--density",
                  "--poisson-ratio"),
     "sweep": ("--count", "--samples", "--dt", "--merge"),
     "reproduce": ("--quick",),
     "bench": ("--quick", "--only", "--model", "--dynamic-model"),
     "show": ("--quick",),
     "import-csv": ("--length", "--scenario", "--inputs", "--tip", "--position-unit", "--tip-node", "--lag"),
-    "animate": ("--fps", "--frames", "--duration", "--node", "--no-trail", "--view", "--elev", "--azim", "--size",
+    "animate": ("--fps", "--frames", "--playback", "--node", "--no-trail", "--view", "--elev", "--azim", "--size",
                 "--no-obstacles", "--no-contact-forces", "--style", "--save-data", "--samples", "--dt"),
     "plot": ("--node", "--no-forces"),
-    "train": ("--node", "--neighbours", "--history", "--inputs", "--wrench", "--drive", "--channels", "--predict",
+    "train": ("--node", "--neighbours", "--history", "--node-inputs", "--wrench", "--drive", "--channels", "--predict",
               "--validate-on", "--validate-group", "--epochs", "--batch-size", "--lr", "--patience", "--units",
               "--layers", "--dense", "--rollout-steps", "--pool", "--relative", "--threads"),
     "evaluate": ("--generalisation", "--figures", "--no-free-running"),
@@ -211,6 +211,22 @@ def node_list(text: str, argument: str, *, negative: bool = False) -> list:
     if not negative and min(out) < 0:
         raise SoftrnnInputError(f"{argument}={text!r} is invalid: node indices >= 0 ({NODE_RANGES})")
     return out
+
+
+RESTART_HELP = ("start again: remove the results an earlier run left in -o DIR (its own folder) first (default: "
+                "continue them)")
+"""The help of ``--overwrite`` in a resumable command (sweep, study hparams, reproduce)."""
+
+
+def start_again(folder, overwrite: bool) -> None:
+    """``--overwrite`` of a resumable command: remove its own ``folder`` (one ``prepare_output(...,
+    mine=...)`` accepted: empty or holding the command's marker) so that every step runs again;
+    nothing without ``overwrite``."""
+    import shutil
+    from pathlib import Path
+
+    if overwrite and Path(folder).is_dir():
+        shutil.rmtree(folder)
 
 
 def note(text: str) -> None:
