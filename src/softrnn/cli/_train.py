@@ -109,6 +109,8 @@ class _LossBar(Bar):
     def __call__(self, done, total, info=None):
         if self.finished:
             return
+        if done >= total and info is not None and not info.get("done"):
+            done = total - 1            # the last epoch's validation is still to come: the bar ends after it
         self.finished = done >= total
         super().__call__(done, total)
         if self.bar is not None and info:

@@ -155,7 +155,7 @@ FLAGS = "_flags"
 """The attribute of a parsed namespace that holds its command's ``flag_names`` (for ``in_flags``)."""
 
 LIBRARY_NAMES = {"lstm_units": "units", "lstm_layers": "layers", "dense_units": "dense", "learning_rate": "lr",
-                 "start": "start_time", "stop": "stop_time"}
+                 "start": "start_time", "stop": "stop_time", "n_samples": "samples"}
 """Library argument names whose option stores into another ``dest`` (library name -> dest)."""
 
 
@@ -175,7 +175,8 @@ def in_flags(text: str, flags: dict) -> str:
     """A library message in the command's words: each ``name=value`` whose name is an option of the
     command (``flags``, from ``flag_names``) as ``--option=value``; ``--option=None is invalid: X``
     (an option not given) as ``--option is missing: give X``, any other ``--option=None`` as ``no --option``."""
-    text = re.sub(r"(?<![\w.\-])([a-z][a-z0-9_]*)=", lambda m: f"{flags[m[1]]}=" if m[1] in flags else m[0], text)
+    text = re.sub(r"(?<![\w.\-])(?<!\w\()([a-z][a-z0-9_]*)=", lambda m: f"{flags[m[1]]}=" if m[1] in flags else m[0],
+                  text)                 # not an argument of a Python call: RunConfig(integrator=...)
     text = re.sub(r"(--[a-z][a-z0-9-]*)=None is invalid: (expected )?", r"\1 is missing: give ", text)
     return re.sub(r"(--[a-z][a-z0-9-]*)=None\b", r"no \1", text)
 
