@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from softrnn.scenarios.scenario import SCENARIO_NAMES, load_scenario, scenario_text
 from softrnn.cli._scenario import renamed
+from softrnn.scenarios.scenario import SCENARIO_NAMES, load_scenario, scenario_text
 
 from helpers import run_cli
 
@@ -78,7 +78,8 @@ def test_copy_refuses_an_existing_file_unless_overwrite(tmp_path, capsys):
     assert err.startswith("softrnn: error: -o=") and "--overwrite" in err and "\n" not in err
     assert path.read_text() == "# my edits\n"
     assert run_cli(["scenario", "copy", "square", "-o", str(path), "--overwrite"]) == 0
-    assert path.read_text() == renamed(scenario_text("square"), "mine", "A copy of the shipped scenario square, to edit")
+    title = "A copy of the shipped scenario square, to edit"
+    assert path.read_text() == renamed(scenario_text("square"), "mine", title)
 
 
 @pytest.mark.parametrize("argv, words", [

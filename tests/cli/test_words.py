@@ -40,7 +40,8 @@ def test_a_library_argument_is_named_as_the_commands_option():
 
 def test_none_never_reaches_a_message():
     flags = _flags("simulate", "semicircle")
-    assert vocabulary.in_flags("--node=None is invalid: a node to plot", flags) == "--node is missing: give a node to plot"
+    assert vocabulary.in_flags("--node=None is invalid: a node to plot", flags) == \
+        "--node is missing: give a node to plot"
     assert vocabulary.in_flags("substeps=2 is too few (or substeps=None to choose it automatically)", flags) == \
         "--substeps=2 is too few (or no --substeps to choose it automatically)"
     assert vocabulary.in_flags('or RunConfig(integrator="implicit") or n_samples=5', flags) == \
