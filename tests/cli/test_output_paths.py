@@ -295,7 +295,7 @@ def test_an_absurd_scenario_file_is_refused(tmp_path, capsys):
 def test_absurd_samples_are_refused_and_leave_nothing(tmp_path, capsys):
     out = tmp_path / "many.h5"
     assert run_cli(["simulate", "semicircle", "--samples", str(10**12), "--quiet", "-o", str(out)]) == 2
-    one_line_error(capsys, "n_samples=1000000000000", "TiB", "fewer samples")
+    one_line_error(capsys, "--samples=1000000000000", "TiB", "fewer samples")   # the option given
     assert listing(tmp_path) == []
 
 
