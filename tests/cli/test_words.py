@@ -205,3 +205,26 @@ def test_the_train_bar_ends_after_the_last_validation():
     assert bar.bar is not None and not bar.finished
     bar(4, 4, {"epoch": 2, "epochs": 2, "done": True, "best_validation_loss": 0.1})
     assert bar.bar is None and bar.finished
+
+
+def test_every_command_that_writes_has_overwrite():
+    """docs/guide/cli.md: "--overwrite ... every command that writes a file"."""
+    import argparse
+
+    def leaves(parser, path=()):
+        subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if not subs:
+            yield " ".join(path), parser
+        for action in subs:
+            for name, sub in action.choices.items():
+                yield from leaves(sub, (*path, name))
+
+    writers = {"--output", "--json", "--onnx", "--torchscript", "--figures", "--figure", "--markdown", "--merge",
+               "--save-data"}
+    found = 0
+    for name, parser in leaves(build_parser()):
+        options = {s for a in parser._actions for s in a.option_strings}
+        if options & writers:
+            assert "--overwrite" in options, name
+            found += 1
+    assert found >= 25
