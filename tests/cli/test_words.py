@@ -146,6 +146,9 @@ def test_animate_playback_is_the_movies_length_and_duration_an_old_spelling(caps
     assert parser.parse_args(["animate", "d.h5", "--duration", "3"]).duration == 3.0
     err = capsys.readouterr().err
     assert err.startswith("softrnn: note: --duration is deprecated; use --playback") and "simulated time" in err
+    with pytest.raises(SystemExit):           # the old spelling is still the movie's length: not with --frames
+        parser.parse_args(["animate", "d.h5", "--frames", "3", "--duration", "1"])
+    assert "argument --playback: not allowed with argument --frames" in capsys.readouterr().err
 
 
 def test_train_node_inputs_and_the_old_inputs(capsys):
