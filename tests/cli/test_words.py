@@ -231,3 +231,19 @@ def test_every_command_that_writes_has_overwrite():
             assert "--overwrite" in options, name
             found += 1
     assert found >= 25
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--rollout-steps", "30"], ["--rollout-steps=30 is invalid: fewer steps", "use --rollout-steps=1 or longer data"]),
+    (["--pool", "1..3", "--predict", "pose", "--rollout-steps", "4"],
+     ["--rollout-steps=4 is invalid", "(--predict='pose'); or use --predict='increment'"]),
+])
+def test_train_names_its_options_in_the_librarys_refusals(extra, words, tmp_path, capsys):
+    pytest.importorskip("torch")
+    from helpers import node_dataset, save_h5
+
+    data = save_h5(tmp_path / "d.h5", node_dataset(T=40))
+    assert run_cli(["train", str(data), "--node", "2", "-o", str(tmp_path / "m"), "--quiet", *extra]) == 2
+    err = _one_line_error(capsys, *words)
+    assert "rollout_steps" not in err and "output=" not in err
+    assert not (tmp_path / "m").exists()
