@@ -64,7 +64,7 @@ def test_nothing_to_write_or_evaluate_is_said_without_none(tmp_path, capsys):
     err = _one_line_error(capsys, "nothing to write: give at least one of --onnx PATH and --torchscript PATH")
     assert "None" not in err
     assert run_cli(["dynamic", "evaluate", str(tmp_path / "m")]) == 2
-    err = _one_line_error(capsys, "nothing to evaluate: give at least one of --test FILE")
+    err = _one_line_error(capsys, "nothing to evaluate: give --test FILE, --heldout PATH ... or --generalisation FILE")
     assert "None" not in err
 
 
