@@ -33,7 +33,7 @@ def test_simulate_prints_summary_and_json(tmp_path, capsys):
     (["frobnicate"], ["invalid choice"]),
     (["simulate", "square", "--radius", "0"], ["radius=0.0", "positive"]),
     (["simulate", "square", "--radius", "-0.01"], ["radius=-0.01", "positive"]),
-    (["simulate", "ellipse", "--youngs-modulus", "-5"], ["youngs_modulus=-5.0", "Pa"]),
+    (["simulate", "ellipse", "--youngs-modulus", "-5"], ["--youngs-modulus=-5.0", "Pa"]),
     (["simulate", "semicircle", "--density", "0"], ["density=0.0", "kg/m^3"]),
     (["simulate", "semicircle", "--dt", "-1"], ["dt=-1.0", "positive"]),
     (["simulate", "semicircle", "--dt", "0.01", "--substeps", "1"], ["stable step limit", "substeps >="]),

@@ -295,7 +295,7 @@ def test_an_absurd_scenario_file_is_refused(tmp_path, capsys):
 def test_absurd_samples_are_refused_and_leave_nothing(tmp_path, capsys):
     out = tmp_path / "many.h5"
     assert run_cli(["simulate", "semicircle", "--samples", str(10**12), "--quiet", "-o", str(out)]) == 2
-    one_line_error(capsys, "n_samples=1000000000000", "TiB", "fewer samples")
+    one_line_error(capsys, "--samples=1000000000000", "TiB", "fewer samples")   # the option given
     assert listing(tmp_path) == []
 
 
@@ -336,5 +336,5 @@ def test_a_batch_and_the_magnetic_driver_are_checked():
 def test_an_absurd_magnetic_experiment_creates_no_folder(tmp_path, capsys):
     out = tmp_path / "mag"
     assert run_cli(["magnetic", "experiment", "-o", str(out), "--samples", str(10**11), "--quiet"]) == 2
-    one_line_error(capsys, "n_samples=100000000000", "TiB")
+    one_line_error(capsys, "--samples=100000000000", "TiB")
     assert not out.exists()

@@ -6,6 +6,7 @@ import json
 
 import pytest
 
+from softrnn.cli._scenario import renamed
 from softrnn.scenarios.scenario import SCENARIO_NAMES, load_scenario, scenario_text
 
 from helpers import run_cli
@@ -56,10 +57,13 @@ def test_copy_round_trips_every_scenario(tmp_path, capsys):
         assert run_cli(["scenario", "copy", name, "-o", str(path)]) == 0
         said = capsys.readouterr().out
         assert f"wrote {path}" in said and f"softrnn simulate {path}" in said
-        assert path.read_text() == scenario_text(name)
+        title = f"A copy of the shipped scenario {name}, to edit"
+        assert path.read_text() == renamed(scenario_text(name), f"my-{name}", title)
         copy, shipped = load_scenario(path), load_scenario(name)
-        assert (copy.name, copy.title, copy.text, copy.data, copy.seed) == \
-               (shipped.name, shipped.title, shipped.text, shipped.data, shipped.seed)
+        assert (copy.name, copy.title) == (f"my-{name}", title)      # the copy is named, not the shipped one
+        assert (copy.text, copy.seed) == (path.read_text(), shipped.seed)
+        assert {k: v for k, v in copy.data.items() if k not in ("name", "title")} == \
+               {k: v for k, v in shipped.data.items() if k not in ("name", "title")}
         assert (copy.config, copy.setup.rod, copy.nodes_of_interest) == \
                (shipped.config, shipped.setup.rod, shipped.nodes_of_interest)
         assert (copy.calibrate, copy.randomize) == (shipped.calibrate, shipped.randomize)
@@ -74,7 +78,8 @@ def test_copy_refuses_an_existing_file_unless_overwrite(tmp_path, capsys):
     assert err.startswith("softrnn: error: -o=") and "--overwrite" in err and "\n" not in err
     assert path.read_text() == "# my edits\n"
     assert run_cli(["scenario", "copy", "square", "-o", str(path), "--overwrite"]) == 0
-    assert path.read_text() == scenario_text("square")
+    title = "A copy of the shipped scenario square, to edit"
+    assert path.read_text() == renamed(scenario_text("square"), "mine", title)
 
 
 @pytest.mark.parametrize("argv, words", [
@@ -125,3 +130,17 @@ def test_shipped_calibrate_tables_load_and_hold_their_starts(name):
         for part in key.split("."):
             value = value[int(part)] if isinstance(value, list) else value[part]
         assert start is None and lo < value < hi, key      # the file's value is the start, inside the bounds
+
+
+def test_a_copy_steered_elsewhere_does_not_keep_the_shipped_title(tmp_path, capsys):
+    path = tmp_path / "right.toml"
+    assert run_cli(["scenario", "copy", "magnetic-bifurcation", "-o", str(path)]) == 0
+    said = capsys.readouterr().out
+    assert "a copy of the shipped scenario magnetic-bifurcation, named right" in said
+    steered = path.read_text().replace("field_mT = [0.0, 15.0, 0.0]", "field_mT = [0.0, -15.0, 0.0]")
+    path.write_text(steered)
+    copy = load_scenario(path)
+    assert copy.name == "right" and "left branch" not in copy.title
+    assert run_cli(["scenario", "show", str(path), "--summary"]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first == "right: A copy of the shipped scenario magnetic-bifurcation, to edit"

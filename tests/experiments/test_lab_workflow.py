@@ -61,9 +61,10 @@ def test_workflow_generate_import_train_evaluate_export(tmp_path, capsys):
     assert run_cli(["import-csv", str(d / "csv" / "tendon-spatial.csv"), "-o", str(d / "lab.h5"),
                     "--length", "0.4"]) == 0
     assert "actuation tendon_a [N], tendon_b [N], tendon_c [N]" in capsys.readouterr().out
-    assert run_cli(["train", str(d / "lab.h5"), "--drive", "actuation", "--inputs", "poses", "-o", str(d / "no")]) == 2
+    assert run_cli(["train", str(d / "lab.h5"), "--drive", "actuation", "--node-inputs", "poses",
+                    "-o", str(d / "no")]) == 2
     err = capsys.readouterr().err.strip()               # a CSV without orientations has none to learn from
-    assert "--inputs='poses' is invalid" in err and "no orientations" in err and "\n" not in err
+    assert "--node-inputs='poses' is invalid" in err and "no orientations" in err and "\n" not in err
     assert not (d / "no").exists()
     assert run_cli(["train", str(d / "lab.h5"), "--drive", "actuation", "--history", "4",     # the only node: 40
                     "--units", "8", "--layers", "1", "--dense", "8", "--epochs", "2", "--rollout-steps", "2",

@@ -185,7 +185,7 @@ def test_cli_animate_and_plot(h5, tmp_path, capsys):
     (["animate", "{h5}", "-o", "{tmp}/rod.gif", "--start", "0.3", "--stop", "0.1"], ["--stop=0.1", "after"]),
     (["animate", "{h5}", "-o", "{tmp}/rod.gif", "--frames", "0"], ["--frames=0", ">= 1"]),
     (["animate", "{h5}", "-o", "{tmp}/rod.gif", "--size", "big"], ["--size='big'", "WIDTHxHEIGHT"]),
-    (["animate", "{h5}", "-o", "{tmp}/rod.gif", "--frames", "3", "--duration", "1"], ["not allowed with"]),
+    (["animate", "{h5}", "-o", "{tmp}/rod.gif", "--frames", "3", "--playback", "1"], ["not allowed with"]),
     (["animate", "{notes}", "-o", "{tmp}/rod.gif"], ["notes.txt", "not an HDF5 file"]),
 ])
 def test_cli_bad_input_is_one_line_exit_2_no_file(argv, words, h5, tmp_path, capsys):

@@ -187,6 +187,7 @@ def test_cli_export(data, tmp_path, capsys):
     assert run_cli(["export", str(folder), "--onnx", str(out / "m.onnx"), "--torchscript", str(out / "m.pt")]) == 0
     text = capsys.readouterr().out
     assert "wrote" in text and "(B, 3, 9)" in text and "(B, 3, 3)" in text
+    assert text.count("-> next_position (B, 3) [m])") == 2          # one output name for ONNX and TorchScript
     feeds, ref = windows(data, model)
     np.testing.assert_allclose(run_onnx(out / "m.onnx", feeds), ref, rtol=0, atol=TOL_M)
     with torch.inference_mode():
@@ -204,7 +205,7 @@ def test_cli_refuses_bad_input(data, tmp_path, capsys):
     out.mkdir()
     (out / "keep.onnx").write_bytes(b"old")
     cases = [
-        (["export", str(folder)], "at least one of --onnx PATH and --torchscript PATH"),
+        (["export", str(folder)], "nothing to write: give at least one of --onnx PATH and --torchscript PATH"),
         (["export", str(tmp_path / "not_a_model"), "--onnx", str(out / "a.onnx")], "config.json is missing"),
         (["export", str(tmp_path / "missing"), "--onnx", str(out / "a.onnx")], "no such model folder"),
         (["export", str(folder), "--onnx", str(out / "keep.onnx"), "--opset", "99", "--overwrite"], "opset=99"),

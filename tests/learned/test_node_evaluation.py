@@ -198,7 +198,7 @@ def test_rollout_command_writes_a_prediction_file(files, capsys):
             str(tmp / "shapes.png")]
     assert run_cli(argv) == 0
     text = capsys.readouterr().out
-    assert "5 modelled nodes (1-5; 5 models)" in text and "wrote" in text
+    assert "5 modelled nodes (1..5; 5 models)" in text and "wrote" in text
     pred, ref = read_dataset(out), read_dataset(data)
     assert np.array_equal(pred.time, ref.time) and np.array_equal(pred.positions[:2], ref.positions[:2])
     assert np.array_equal(pred.positions[:, 0], ref.positions[:, 0])   # the clamp follows the reference
@@ -208,7 +208,7 @@ def test_rollout_command_writes_a_prediction_file(files, capsys):
                     "--start", "0.3", "--stop", "0.5", "--quiet", "--overwrite"]) == 0
     pred = read_dataset(out)
     assert pred.n_samples == 23 and pred.attrs["modelled_nodes"] == [1, 2, 3, 4, 5]
-    assert "shared: nodes 1-4" in pred.attrs["models"][1]
+    assert "shared: nodes 1..4" in pred.attrs["models"][1]                    # A..B, as --shared-nodes
 
 
 @pytest.mark.parametrize("case, words", [

@@ -293,7 +293,7 @@ def test_cli_trains_and_reports(data_file, tmp_path, capsys):
     (["--node", "2", "--neighbours", "1,x"], ["--neighbours", "comma-separated"]),
     (["--node", "2", "--neighbours", "1,7"], ["node 7 is not stored"]),
     (["--node", "2", "--epochs", "0"], ["epochs=0"]),
-    (["--node", "2", "--units", "0"], ["lstm_units=0"]),
+    (["--node", "2", "--units", "0"], ["--units=0"]),
     (["--node", "2", "--pool", "1..x"], ["--pool", "A..B"]),
     (["--node", "2", "--pool", "0..3"], ["pool", "node 0", "offsets"]),
 ])

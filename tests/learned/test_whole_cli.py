@@ -269,7 +269,7 @@ def test_an_interrupted_training_resumes_to_the_same_weights(model, data, tmp_pa
     (["train", "{sweep}", "--prior-tau", "soon"], ["--prior-tau", "'soon'"]),
     (["train", "{sweep}", "--start-fraction", "1"], ["--start-fraction=1.0", "[0, 1)"]),
     (["train", "{sweep}", "--load-ridge", "-1"], ["--load-ridge=-1.0", ">= 0"]),
-    (["evaluate", "{model}"], ["at least one of --test"]),
+    (["evaluate", "{model}"], ["nothing to evaluate: give --test FILE, --heldout PATH ... or --generalisation FILE"]),
     (["evaluate", "{model}", "--test", "{one}", "--start", "1.5"], ["--start=1.5", "a time in [0, 0.58] s"]),
     (["evaluate", "{sweep}", "--test", "{one}"], ["model.json is missing"]),
     (["evaluate", "{model}", "--generalisation", "{sub}"], ["--generalisation=", "every node 0..50"]),

@@ -49,3 +49,14 @@ def test_the_phrases_match_what_they_mean():
     assert not _PATTERN.search("it stops when the cost no longer decreases")
     assert not _PATTERN.search("is never used to choose")
     assert not _PATTERN.search("issue 100 of the journal")
+
+
+def test_the_package_names_no_issue_number():
+    """Messages, help texts, shipped scenarios and docstrings (the API pages) are user-facing too:
+    no tracker words such as "issue 15" (``scenario show --summary`` printed one)."""
+    issue = re.compile(HISTORY[-1], re.IGNORECASE)
+    files = [p for ext in ("*.py", "*.toml") for p in (ROOT / "src" / "softrnn").rglob(ext)]
+    assert len(files) > 100
+    hits = [f"{p.relative_to(ROOT)}:{text.count(chr(10), 0, m.start()) + 1}: {m.group(0)!r}"
+            for p in files for text in [p.read_text(encoding="utf-8")] for m in issue.finditer(text)]
+    assert not hits, "issue numbers in user-facing text:\n" + "\n".join(hits)

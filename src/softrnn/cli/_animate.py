@@ -25,6 +25,8 @@ _DATA = (".h5", ".hdf5")
 
 
 def add_args(p):
+    from ._vocabulary import deprecate
+
     p.add_argument("data", metavar="DATA|SCENARIO",
                    help="an HDF5 dataset written by softrnn (e.g. by 'softrnn simulate -o'), or a scenario to "
                         "simulate first: a shipped name (" + ", ".join(SCENARIO_NAMES) + ") or a .toml file")
@@ -48,8 +50,9 @@ def add_args(p):
     count = p.add_mutually_exclusive_group()
     count.add_argument("--frames", type=int, default=None,
                        help="number of frames, evenly spaced in time (default: up to 200)")
-    count.add_argument("--duration", type=float, default=None,
-                       help="playback length in s (frames = duration x fps)")
+    playback = count.add_argument("--playback", dest="duration", type=float, default=None, metavar="SECONDS",
+                                  help="length of the movie in s (frames = playback x fps)")
+    deprecate(p, playback, "--duration", why=" (--duration is simulated time in the other commands)")
     p.add_argument("--start", type=float, default=None, help="first time shown [s] (default: the first sample)")
     p.add_argument("--stop", type=float, default=None, help="last time shown [s] (default: the last sample)")
     p.add_argument("--node", type=int, default=None,
@@ -90,7 +93,7 @@ def run(args) -> int:
     if args.frames is not None and args.frames < 1:
         raise bad("--frames", args.frames, "an integer >= 1")
     if args.duration is not None and not args.duration > 0:
-        raise bad("--duration", args.duration, "a playback length > 0 s")
+        raise bad("--playback", args.duration, "a movie length > 0 s")
     if not args.fps > 0:
         raise bad("--fps", args.fps, "a number of frames per second > 0")
     if args.style == "fluoroscopy" and args.view == "3d":      # before any simulation

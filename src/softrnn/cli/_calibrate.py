@@ -34,7 +34,8 @@ def add_args(p):
     output(p, dest="out", required=True, metavar="FITTED.toml", help="the scenario with the fitted values")
     p.add_argument("--span", default="train", metavar="SPAN",
                    help="the samples fitted: train (default: the first 60 %%), all, or T0:T1 in seconds")
-    p.add_argument("--nodes", default=None, metavar="A,B,...", help="the recorded nodes to fit (default: all)")
+    p.add_argument("--nodes", default=None, metavar="NODES",
+                   help="the recorded nodes to fit, e.g. 25,50,75 or 20..30 (-1: the last; default: all)")
     p.add_argument("--workers", type=int, default=1,
                    help="simulations at once: 1 (default) in this process, N > 1 on a local Dask cluster")
     p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
@@ -69,13 +70,10 @@ def _outputs(args) -> tuple[Path, Path, Path]:
 
 
 def _nodes(text):
-    if text is None:
-        return None
-    try:
-        return [int(a) for a in text.split(",")]
-    except ValueError:
-        raise bad("--nodes", text, "node indices separated by commas, e.g. 25,50,75 (negative: from the end)") \
-            from None
+    """The recorded nodes to fit: ``_vocabulary.node_list`` with -1 the last node (None: all)."""
+    from ._vocabulary import node_list
+
+    return None if text is None else node_list(text, "--nodes", negative=True)
 
 
 def _figure_bytes(cal, suffix: str, title: str) -> bytes:

@@ -381,7 +381,7 @@ def _evaluate(args) -> int:
     from ..learned.whole.evaluation import evaluate_dynamic
 
     if args.test is None and not args.heldout and args.generalisation is None:
-        raise bad("--test", None, "at least one of --test FILE, --heldout PATH ... and --generalisation FILE")
+        raise SoftrnnInputError("nothing to evaluate: give --test FILE, --heldout PATH ... or --generalisation FILE")
     if args.test_start is not None and not 0.0 < args.test_start < 1.0:
         raise bad("--test-start", args.test_start, "a fraction in (0, 1), e.g. 0.6")
     if args.test_start is not None and args.start_time is not None:

@@ -102,8 +102,7 @@ def format_report(r: dict) -> str:
         lines.append(_row("  max [% of length]", m["max_pct_of_length"]))
     rmse = [f"one step {r['one_step']['rmse_mm']:.3g} mm (max {r['one_step']['max_rmse_t_mm']:.3g})"]
     if fr and not fr["diverged"]:
-        rmse.append(f"free running {fr['rmse_mm']:.3g} mm (max {fr['max_rmse_t_mm']:.3g}; neighbours from the "
-                    f"reference)")
+        rmse.append(f"free running {fr['rmse_mm']:.3g} mm (max {fr['max_rmse_t_mm']:.3g}; {_fed(r)})")
     lines.append("  RMSE over the span: " + ", ".join(rmse))
     euclid = [f"one step {_euclid(r['one_step'])}"]
     if fr and not fr["diverged"]:
@@ -115,6 +114,13 @@ def format_report(r: dict) -> str:
     if paper and paper.get("predicted_node") is not None:
         lines.append(f"  (the paper's figures are for its node {paper['predicted_node']}, as the paper numbers it)")
     return "\n".join(lines + baseline_lines(r))
+
+
+def _fed(r: dict) -> str:
+    """What free running takes from the reference besides the node's own predictions."""
+    given = [w for w, on in (("neighbours", r["neighbours"]), ("wrench", r["wrench"] != "none"),
+                             ("actuation", r.get("channels"))) if on]
+    return " and ".join(given) + " from the reference" if given else "its own predictions only"
 
 
 def _euclid(m: dict) -> str:

@@ -25,10 +25,11 @@ def add_args(p):
 
 def _targets(args) -> dict:
     """{'onnx': Path, 'torchscript': Path} of the files asked for, checked before anything is written."""
+    from ..errors import SoftrnnInputError
+
     targets = {k: Path(v) for k, v in (("onnx", args.onnx), ("torchscript", args.torchscript)) if v}
     if not targets:
-        raise bad("--onnx", None, "at least one of --onnx PATH and --torchscript PATH (nothing to write); "
-                                  "give one or both")
+        raise SoftrnnInputError("nothing to write: give at least one of --onnx PATH and --torchscript PATH")
     if "onnx" not in targets and (args.opset is not None or args.static_batch):
         raise bad("--opset" if args.opset is not None else "--static-batch",
                   args.opset if args.opset is not None else True, "used with --onnx PATH only (ONNX options)")
@@ -47,6 +48,7 @@ def _targets(args) -> dict:
 
 def run(args) -> int:
     from ..learned.node.artifact import load_model
+    from ..learned.node.export import OUTPUT_NAME as OUTPUT
     from ..learned.node.export import export_onnx, export_torchscript
 
     targets = _targets(args)
@@ -57,8 +59,8 @@ def run(args) -> int:
         shapes += f", wrenches (B, {c.history}, {c.wrench_features}) [N" + (", N m]" if c.wrench_features == 6 else "]")
     if "onnx" in targets:
         export_onnx(model, targets["onnx"], opset=args.opset, dynamic_batch=not args.static_batch)
-        print(f"export: wrote {targets['onnx']} (ONNX; {shapes} -> next_position (B, 3) [m])")
+        print(f"export: wrote {targets['onnx']} (ONNX; {shapes} -> {OUTPUT} (B, 3) [m])")
     if "torchscript" in targets:
         export_torchscript(model, targets["torchscript"])
-        print(f"export: wrote {targets['torchscript']} (TorchScript; {shapes} -> output (B, 3) [m])")
+        print(f"export: wrote {targets['torchscript']} (TorchScript; {shapes} -> {OUTPUT} (B, 3) [m])")
     return 0

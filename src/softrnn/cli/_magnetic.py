@@ -69,7 +69,9 @@ def add_args(p):
     x = sub.add_parser("example-csv", help="write a simulated example lab CSV",
                        description="Simulate a short run of the experiment and write it in the lab format "
                                    "(currents, orientations, magnet positions): examples/magnetic_lab.csv is made so.")
-    x.add_argument("path", help="the CSV to write")
+    output(x, dest="csv", old=(), default=None, metavar="PATH.csv", help="the CSV to write")
+    x.add_argument("path", nargs="?", default=None, metavar="PATH",
+                   help="the CSV to write, as -o PATH (the older spelling, still accepted)")
     x.add_argument("--samples", type=int, default=300, help="rows (default: 300)")
     x.add_argument("--seed", type=int, default=1, help="random seed (default: 1)")
     x.add_argument("--overwrite", action="store_true", help="replace PATH if it exists (default: refuse)")
@@ -202,18 +204,21 @@ def _check_size(config) -> None:
 
 
 def _example_csv(args) -> int:
-    """softrnn magnetic example-csv PATH: a short simulated run in the lab format."""
+    """softrnn magnetic example-csv -o PATH: a short simulated run in the lab format."""
     from ..errors import bad
     from ..experiments.magnetic.lab import example_config, write_example_csv
     from ..files import prepare_output
 
+    if (args.csv is None) == (args.path is None):
+        raise bad("-o", args.csv, "the CSV to write, given once: -o PATH.csv (or the older positional PATH)")
+    path, argument = (args.csv, "-o") if args.csv is not None else (args.path, "PATH")
     if args.samples < 20:
         raise bad("--samples", args.samples, "at least 20 rows")
     _check_size(_config(example_config, samples=args.samples, seed=args.seed))
-    prepare_output(args.path, "PATH", overwrite=args.overwrite)
+    prepare_output(path, argument, overwrite=args.overwrite)
     with Bar("example-csv", unit="sample", enabled=not args.quiet) as bar:
-        data = write_example_csv(args.path, args.samples, seed=args.seed, progress=bar)
-    print(f"wrote {args.path}: {data.n_samples} rows, t = 0 .. {data.time[-1]:g} s")
+        data = write_example_csv(path, args.samples, seed=args.seed, progress=bar)
+    print(f"wrote {path}: {data.n_samples} rows, t = 0 .. {data.time[-1]:g} s")
     return 0
 
 

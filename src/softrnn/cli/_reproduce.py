@@ -14,6 +14,9 @@ HELP = ("reproduce the paper: simulated cases, node models, the whole manipulato
 def add_args(p):
     output(p, dest="out", default="out/reproduce", metavar="DIR", help="output folder (default: out/reproduce)")
     p.add_argument("--quick", action="store_true", help="shorter runs (10%% of each case), for a smoke test")
+    from ._vocabulary import RESTART_HELP
+
+    p.add_argument("--overwrite", action="store_true", help=RESTART_HELP)
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
@@ -22,6 +25,9 @@ def run(args) -> int:
     for extra in ("learn", "dask"):     # every step is needed: refuse before the first one runs
         require_extra(extra)
     prepare_output(args.out, "-o", kind="folder", overwrite=True, mine=("cases", "report.json"))
+    from ._vocabulary import start_again
+
+    start_again(args.out, args.overwrite)
     bars = []
 
     def factory(desc):

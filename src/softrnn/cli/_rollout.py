@@ -21,8 +21,8 @@ def add_args(p):
     p.add_argument("-o", "--output", required=True, metavar="PATH.h5", help="the predicted trajectory (.h5)")
     p.add_argument("--shared", default=None, metavar="MODEL",
                    help="one model applied to many nodes (beyond the paper), neighbours at the same offsets")
-    p.add_argument("--shared-nodes", default=None, metavar="LIST",
-                   help="nodes for --shared, e.g. '1-49' or '1,2,10-20' (default: the nodes a pooled model was "
+    p.add_argument("--shared-nodes", default=None, metavar="NODES",
+                   help="nodes for --shared, e.g. 1..49 or 1,2,10..20 (default: the nodes a pooled model was "
                         "trained for (train --pool), else every stored node whose neighbours are stored and that "
                         "has no model of its own)")
     p.add_argument("--group", default=None, help="the trajectory's group inside a sweep file")
@@ -40,24 +40,10 @@ def add_args(p):
 
 
 def parse_nodes(text: str, argument: str = "--shared-nodes") -> list[int]:
-    """'1-49' or '1,2,10-20' -> the node indices."""
-    out: list[int] = []
-    try:
-        for part in text.split(","):
-            part = part.strip()
-            if "-" in part:
-                a, b = part.split("-", 1)
-                lo, hi = int(a), int(b)
-                if hi < lo:
-                    raise ValueError
-                out.extend(range(lo, hi + 1))
-            else:
-                out.append(int(part))
-    except ValueError:
-        raise bad(argument, text, "node indices and ranges such as '1-49' or '1,2,10-20'") from None
-    if not out or min(out) < 0:
-        raise bad(argument, text, "node indices >= 0 such as '1-49'")
-    return sorted(set(out))
+    """'1..49' or '1,2,10..20' (also the older '1-49') -> the node indices, sorted."""
+    from ._vocabulary import node_list
+
+    return sorted(set(node_list(text, argument)))
 
 
 def run(args) -> int:
@@ -155,7 +141,7 @@ def _ranges(nodes) -> str:
         j = i
         while j + 1 < len(nodes) and nodes[j + 1] == nodes[j] + 1:
             j += 1
-        parts.append(f"{nodes[i]}-{nodes[j]}" if j > i else str(nodes[i]))
+        parts.append(f"{nodes[i]}..{nodes[j]}" if j > i else str(nodes[i]))
         i = j + 1
     return ",".join(parts)
 

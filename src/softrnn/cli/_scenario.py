@@ -255,16 +255,28 @@ def _copy(args) -> int:
     if out.suffix.lower() != ".toml":
         raise bad("-o", args.out, f"a scenario file name ending in .toml, e.g. my-{name}.toml")
     prepare_output(out, "-o", overwrite=args.overwrite)
-    text = scenario_text(name)
+    text = renamed(scenario_text(name), out.stem, f"A copy of the shipped scenario {name}, to edit")
     atomic_write_text(out, text)
     print(next_steps(load_scenario(name), out, len(text.splitlines())))
     return 0
 
 
+def renamed(text: str, name: str, title: str) -> str:
+    """A scenario's TOML ``text`` with its top-level ``name`` and ``title`` replaced (a copy is no
+    longer the shipped scenario: its name and title must not describe that one)."""
+    import re
+
+    for key, value in (("name", name), ("title", title)):
+        text, n = re.subn(rf"^{key} = .*$", f"{key} = {json.dumps(value)}", text, count=1, flags=re.M)
+        if not n:                      # not set at the top: put it after ``format``
+            text = re.sub(r"^(format = .*)$", rf"\1\n{key} = {json.dumps(value)}", text, count=1, flags=re.M)
+    return text
+
+
 def next_steps(sc: Scenario, out: Path, n_lines: int) -> str:
     """What ``softrnn scenario copy`` prints: where the copy went and the commands to run next."""
     fit = ",".join(list(sc.calibrate)[:2]) if sc.calibrate else "KEY"
-    lines = [f"wrote {out} ({n_lines} lines, the shipped scenario {sc.name}: {sc.title})",
+    lines = [f"wrote {out} ({n_lines} lines, a copy of the shipped scenario {sc.name}, named {out.stem})",
              f"next: edit it, then: softrnn simulate {out}",
              f"  or fit it to a recording: softrnn calibrate DATA.h5 --scenario {out} --fit {fit} "
              f"-o {out.with_name(out.stem + '-fitted.toml')}"]

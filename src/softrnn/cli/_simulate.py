@@ -19,6 +19,9 @@ def add_args(p):
     p.add_argument("scenario", help="a shipped scenario name or a path to a .toml file")
     output(p, dest="out", default=None, metavar="PATH.h5", help="save every node to this HDF5 dataset")
     p.add_argument("--samples", type=int, default=None, help="saved samples (default: the scenario's)")
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS",
+                   help="simulated time in s: the saved samples that span it at the saved interval (instead of "
+                        "--samples; default: the scenario's)")
     p.add_argument("--substeps", type=int, default=None, help="solver steps per saved dt (default: the scenario's)")
     p.add_argument("--dt", type=float, default=None, help="saved interval in s (default: the scenario's)")
     p.add_argument("--integrator", choices=INTEGRATORS, default=None,
@@ -49,7 +52,8 @@ def run(args) -> int:
         _check_magnetic(args, rod)
     if rod:
         setup = replace(setup, rod=replace(setup.rod, **rod))
-    changes = {k: v for k, v in (("dt", args.dt), ("n_samples", args.samples), ("substeps", args.substeps),
+    samples = args.samples if args.duration is None else _samples(args, config.dt)
+    changes = {k: v for k, v in (("dt", args.dt), ("n_samples", samples), ("substeps", args.substeps),
                                  ("integrator", args.integrator)) if v is not None}
     if changes:
         config = replace(config, **changes)
@@ -63,6 +67,16 @@ def run(args) -> int:
     if args.json:
         atomic_write_text(args.json, json.dumps(summary, indent=2))
     return 0
+
+
+def _samples(args, scenario_dt: float) -> int:
+    """The saved samples whose span is ``--duration`` s at the saved interval (``(samples - 1) dt``)."""
+    if args.samples is not None:
+        raise bad("--duration", args.duration, "one of --duration and --samples, not both")
+    dt = scenario_dt if args.dt is None else args.dt
+    if not 0 < args.duration < float("inf") or not dt > 0:
+        raise bad("--duration", args.duration, "a simulated time > 0 s")
+    return max(2, round(args.duration / dt) + 1)
 
 
 def _check_magnetic(args, rod: dict) -> None:

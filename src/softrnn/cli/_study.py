@@ -36,6 +36,9 @@ def add_args(p):
                         "cluster)")
     h.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
     h.add_argument("--json", default=None, metavar="PATH", help="also write the summary as JSON")
+    from ._vocabulary import RESTART_HELP
+
+    h.add_argument("--overwrite", action="store_true", help=RESTART_HELP)
     h.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -101,6 +104,9 @@ def run(args) -> int:
     wrench = args.wrench or _default_wrench(args.data, args.node)
     config = StudyConfig(node=args.node, units=_ints(args.units, "--units"), history=_ints(args.history, "--history"),
                          epochs=args.epochs, seed=args.seed, wrench=wrench, bandwidth_steps=args.bandwidth_steps)
+    from ._vocabulary import start_again
+
+    start_again(args.out, args.overwrite)
     with Bar("study hparams", unit="step", enabled=not args.quiet) as bar:
         try:
             result = run_study(args.data, config, args.out, scheduler=args.scheduler, workers=args.workers,

@@ -23,6 +23,9 @@ def add_args(p):
                    help="saved interval [s] (default: the scenario's); the solver step stays the stable one")
     p.add_argument("--merge", default=None, metavar="FILE.h5",
                    help="also combine the trajectories into one file, one group each")
+    from ._vocabulary import RESTART_HELP
+
+    p.add_argument("--overwrite", action="store_true", help=RESTART_HELP)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -34,6 +37,9 @@ def run(args) -> int:
     prepare_output(args.out, "-o", kind="folder", overwrite=True, mine=(MANIFEST,))
     if args.merge:
         prepare_output(args.merge, "--merge", overwrite=True)   # remade from the folder on every run
+    from ._vocabulary import start_again
+
+    start_again(args.out, args.overwrite)
     with Bar(f"sweep {scenario.name}", unit="traj", enabled=not args.quiet) as bar:
         result = run_sweep(scenario, args.count, args.out, scheduler=args.scheduler, n_workers=args.workers,
                            n_samples=args.samples, dt=args.dt, progress=bar)

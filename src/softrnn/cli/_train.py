@@ -30,6 +30,8 @@ _TRAINING = (
 
 
 def add_args(p):
+    from ._vocabulary import deprecate
+
     p.add_argument("data", help="an HDF5 dataset written by softrnn (simulate, sweep, import-csv)")
     p.add_argument("--group", default=None, metavar="NAME",
                    help="the trajectory's group inside a merged sweep file (required where it holds several; "
@@ -44,8 +46,10 @@ def add_args(p):
                         "adjacent nodes n-1, n+1, one at an end of the rod)")
     p.add_argument("--history", type=int, default=2,
                    help="past time steps per window, eta + 1 (default: 2, the paper's)")
-    p.add_argument("--inputs", choices=("positions", "poses"), default="positions",
-                   help="input I per node: positions (3) or positions and quaternions (7) (default: positions)")
+    node_inputs = p.add_argument("--node-inputs", dest="inputs", choices=("positions", "poses"), default="positions",
+                                 help="input I per node: positions (3) or positions and quaternions (7) (default: "
+                                      "positions)")
+    deprecate(p, node_inputs, "--inputs", why=" (--inputs names a CSV's input columns in import-csv and lab)")
     p.add_argument("--wrench", choices=("none", "force", "wrench"), default=None,
                    help="input II: the node's force, force and torque, or none (Fig. 2A) (default: force if any "
                         "force acts on the node in the training span, else none)")
@@ -65,7 +69,7 @@ def add_args(p):
     p.add_argument("--validate-group", default=None, metavar="G",
                    help="the trajectory's group inside a sweep file given as --validate-on")
     settings(p, _TRAINING)
-    p.add_argument("--pool", default=None, metavar="A..B|A,B,...",
+    p.add_argument("--pool", default=None, metavar="NODES",
                    help="beyond the paper: train one model shared by these nodes (their windows pooled; "
                         "e.g. 1..99 for every interior node); implies --relative")
     p.add_argument("--relative", action="store_true",
@@ -82,21 +86,10 @@ def add_args(p):
 
 
 def _pool(text: str) -> tuple:
-    """'A..B' (inclusive) or 'A,B,...'."""
-    t = text.strip()
-    if ".." in t:
-        a, _, b = t.partition("..")
-        try:
-            lo, hi = int(a), int(b)
-        except ValueError:
-            raise bad("--pool", text, "a node range A..B (inclusive) or comma-separated nodes, e.g. 1..99") from None
-        if hi < lo:
-            raise bad("--pool", text, "a range A..B with A <= B")
-        return tuple(range(lo, hi + 1))
-    out = _ints(t, "--pool")
-    if not out:
-        raise bad("--pool", text, "a node range A..B (inclusive) or comma-separated nodes, e.g. 1..99")
-    return out
+    """'A..B' (inclusive), 'A,B,...' or both (``_vocabulary.node_list``)."""
+    from ._vocabulary import node_list
+
+    return tuple(node_list(text, "--pool"))
 
 
 def _ints(text: str, argument: str) -> tuple:
@@ -116,6 +109,8 @@ class _LossBar(Bar):
     def __call__(self, done, total, info=None):
         if self.finished:
             return
+        if done >= total and info is not None and not info.get("done"):
+            done = total - 1            # the last epoch's validation is still to come: the bar ends after it
         self.finished = done >= total
         super().__call__(done, total)
         if self.bar is not None and info:
@@ -147,8 +142,8 @@ def run(args) -> int:
         if node is None and len(head.nodes) == 1:    # one marker (a lab CSV of the tip alone): that node
             node = int(head.nodes[0])
         if node is None:
-            raise bad("--node", None, f"a node to model: the file names no node of interest; choose one of "
-                                      f"{describe_nodes(head.nodes)}")
+            raise SoftrnnInputError(f"--node is missing: the file names no node of interest; choose the node to "
+                                    f"model, one of {describe_nodes(head.nodes)}")
     if args.validate_group is not None and args.validate_on is None:
         raise bad("--validate-group", args.validate_group, "no group without --validate-on VAL.h5")
     spec = _spec(args, node)
@@ -219,7 +214,7 @@ def _spec(args, node):
         channels = tuple(a.strip() for a in args.channels.split(",") if a.strip())
     neighbours = None if args.neighbours is None else _ints(args.neighbours, "--neighbours")
     if args.inputs == "poses" and not read_dataset(args.data, group=args.group, stop=1).has_orientations:
-        raise bad("--inputs", "poses", "'positions' (the data set has no orientations: a CSV without "
+        raise bad("--node-inputs", "poses", "'positions' (the data set has no orientations: a CSV without "
                                        "n{i}_qw..qz columns stores identity placeholders)")
     try:
         spec = SampleSpec(node=node, neighbours=neighbours, history=args.history, inputs=args.inputs, wrench=wrench,

@@ -4,7 +4,10 @@ one-line-error parser every command and nested subcommand uses, and the deprecat
 an old spelling working for one release with one note on stderr."""
 
 import argparse
+import re
 import sys
+
+from ..errors import SoftrnnInputError
 
 VOCABULARY = ("--help", "--version", "--output", "--json", "--overwrite", "--resume", "--quiet", "--seed",
               "--workers", "--scheduler", "--start", "--stop", "--group")
@@ -37,17 +40,17 @@ DOMAIN = {
     "scenario list": (),
     "scenario show": ("--summary",),
     "scenario copy": (),
-    "simulate": ("--samples", "--substeps", "--dt", "--integrator", "--radius", "--youngs-modulus", "--density",
-                 "--poisson-ratio"),
+    "simulate": ("--samples", "--duration", "--substeps", "--dt", "--integrator", "--radius", "--youngs-modulus",
+                 "--density", "--poisson-ratio"),
     "sweep": ("--count", "--samples", "--dt", "--merge"),
     "reproduce": ("--quick",),
     "bench": ("--quick", "--only", "--model", "--dynamic-model"),
     "show": ("--quick",),
     "import-csv": ("--length", "--scenario", "--inputs", "--tip", "--position-unit", "--tip-node", "--lag"),
-    "animate": ("--fps", "--frames", "--duration", "--node", "--no-trail", "--view", "--elev", "--azim", "--size",
+    "animate": ("--fps", "--frames", "--playback", "--node", "--no-trail", "--view", "--elev", "--azim", "--size",
                 "--no-obstacles", "--no-contact-forces", "--style", "--save-data", "--samples", "--dt"),
     "plot": ("--node", "--no-forces"),
-    "train": ("--node", "--neighbours", "--history", "--inputs", "--wrench", "--drive", "--channels", "--predict",
+    "train": ("--node", "--neighbours", "--history", "--node-inputs", "--wrench", "--drive", "--channels", "--predict",
               "--validate-on", "--validate-group", "--epochs", "--batch-size", "--lr", "--patience", "--units",
               "--layers", "--dense", "--rollout-steps", "--pool", "--relative", "--threads"),
     "evaluate": ("--generalisation", "--figures", "--no-free-running"),
@@ -136,6 +139,8 @@ class Parser(argparse.ArgumentParser):
         namespace, extras = super().parse_known_args(args, namespace)
         if extras and not any(isinstance(a, argparse._SubParsersAction) for a in self._actions):
             self.error("unrecognized arguments: " + " ".join(extras))   # here, not in the top-level parser
+        if not hasattr(namespace, FLAGS):       # the innermost (sub)command's options name the errors
+            setattr(namespace, FLAGS, flag_names(self))
         return namespace, extras
 
 
@@ -144,6 +149,85 @@ class _SubParsers(argparse._SubParsersAction):
 
     def __init__(self, *args, parser_class=None, **kwargs):
         super().__init__(*args, parser_class=Parser, **kwargs)
+
+
+FLAGS = "_flags"
+"""The attribute of a parsed namespace that holds its command's ``flag_names`` (for ``in_flags``)."""
+
+LIBRARY_NAMES = {"lstm_units": "units", "lstm_layers": "layers", "dense_units": "dense", "learning_rate": "lr",
+                 "start": "start_time", "stop": "stop_time", "n_samples": "samples"}
+"""Library argument names whose option stores into another ``dest`` (library name -> dest)."""
+
+
+def flag_names(parser) -> dict:
+    """``parser``'s options by the names the library gives their values: ``dest`` (and the
+    ``LIBRARY_NAMES`` that store into it) -> the long option, e.g. ``rollout_steps`` -> ``--rollout-steps``."""
+    flags = {}
+    for action in parser._actions:
+        longs = [s for s in action.option_strings if s.startswith("--")]
+        if longs and not isinstance(action, Deprecated) and action.dest not in (argparse.SUPPRESS, "help"):
+            flags.setdefault(action.dest, longs[-1] if longs[-1] == "--output" else longs[0])
+    flags.update({name: flags[dest] for name, dest in LIBRARY_NAMES.items() if dest in flags and name not in flags})
+    return flags
+
+
+def in_flags(text: str, flags: dict) -> str:
+    """A library message in the command's words: each ``name=value`` whose name is an option of the
+    command (``flags``, from ``flag_names``) as ``--option=value``; ``--option=None is invalid: X``
+    (an option not given) as ``--option is missing: give X``, any other ``--option=None`` as ``no --option``."""
+    text = re.sub(r"(?<![\w.\-])(?<!\w\()([a-z][a-z0-9_]*)=", lambda m: f"{flags[m[1]]}=" if m[1] in flags else m[0],
+                  text)                 # not an argument of a Python call: RunConfig(integrator=...)
+    text = re.sub(r"(--[a-z][a-z0-9-]*)=None is invalid: (expected )?", r"\1 is missing: give ", text)
+    return re.sub(r"(--[a-z][a-z0-9-]*)=None\b", r"no \1", text)
+
+
+NODE_RANGES = "node indices and inclusive ranges A..B, comma-separated, e.g. 1..49 or 1,2,10..20"
+"""The one spelling of a set of rod nodes (``--pool``, ``--shared-nodes``, ``--nodes``; docs/guide/cli.md)."""
+
+
+def _node_item(item: str, negative: bool) -> list:
+    if ".." in item:
+        a, _, b = item.partition("..")
+    elif not negative and "-" in item.strip().lstrip("-"):     # the older spelling A-B
+        a, _, b = item.partition("-")
+    else:
+        return [int(item)]
+    lo, hi = int(a), int(b)
+    if hi < lo:
+        raise ValueError(f"a range A..B with A <= B, not {item.strip()}")
+    return list(range(lo, hi + 1))
+
+
+def node_list(text: str, argument: str, *, negative: bool = False) -> list:
+    """The rod nodes ``text`` names, in order (``NODE_RANGES``: ``1..49``, ``1,2,10..20``; ``1-49``
+    is accepted too where ``negative`` is False, ``negative``: -1 is the last node); a one-line
+    error naming ``argument`` otherwise."""
+    out: list = []
+    try:
+        for item in text.split(","):
+            out += _node_item(item, negative)
+    except ValueError as err:
+        detail = str(err) if str(err).startswith("a range") else NODE_RANGES
+        raise SoftrnnInputError(f"{argument}={text!r} is invalid: {detail}") from None
+    if not negative and min(out) < 0:
+        raise SoftrnnInputError(f"{argument}={text!r} is invalid: node indices >= 0 ({NODE_RANGES})")
+    return out
+
+
+RESTART_HELP = ("start again: remove the results an earlier run left in -o DIR (its own folder) first (default: "
+                "continue them)")
+"""The help of ``--overwrite`` in a resumable command (sweep, study hparams, reproduce)."""
+
+
+def start_again(folder, overwrite: bool) -> None:
+    """``--overwrite`` of a resumable command: remove its own ``folder`` (one ``prepare_output(...,
+    mine=...)`` accepted: empty or holding the command's marker) so that every step runs again;
+    nothing without ``overwrite``."""
+    import shutil
+    from pathlib import Path
+
+    if overwrite and Path(folder).is_dir():
+        shutil.rmtree(folder)
 
 
 def note(text: str) -> None:

@@ -31,7 +31,7 @@ from . import (
     _train,
 )
 from ._progress import Terminated, stop_code
-from ._vocabulary import Parser
+from ._vocabulary import FLAGS, Parser, in_flags
 
 _Parser = Parser
 """The one-line-error parser of every command (``_vocabulary.Parser``; the old name)."""
@@ -94,7 +94,7 @@ def _main(args) -> int:
     try:
         return int(args.func(args) or 0)
     except (SoftrnnInputError, SimulationError) as err:
-        print(f"softrnn: error: {err}", file=sys.stderr)
+        print(f"softrnn: error: {in_flags(str(err), getattr(args, FLAGS, {}))}", file=sys.stderr)
         return 2
     except ImportError as err:
         missing = missing_extra(err)

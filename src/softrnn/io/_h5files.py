@@ -41,7 +41,7 @@ class _Reading:
             raise DatasetError(f"{p}: no such file; check the path")
         if p.is_dir():
             raise DatasetError(f"{p}: is a folder, not a dataset file; pass one .h5 file "
-                               f"(or merge the folder with merge_files)")
+                               f"(softrnn sweep --merge FILE.h5 writes a sweep's files into one)")
         try:
             signature = h5py.is_hdf5(str(p))
         except OSError as err:

@@ -168,8 +168,8 @@ class Checkpoint:
 
     def _other_settings(self, diff: Difference) -> ModelFolderError:
         return ModelFolderError(f"{self.folder}: {CHECKPOINT} was written with other settings ({diff}); resume "
-                                f"with the same settings, or train without --resume to start again")
+                                f"with the same settings, or {RESTART} (instead of --resume)")
 
     def _corrupt(self, err) -> ModelFolderError:
         return ModelFolderError(f"{self.folder}: {CHECKPOINT} is corrupt ({' '.join(str(err).split())[:160]}); "
-                                f"delete it and train without --resume")
+                                f"{RESTART} (instead of --resume)")

@@ -1,4 +1,4 @@
-"""Reproduce step: closed-loop control of the simulated magnetic rod (issue 14) under ``control/``:
+"""Reproduce step: closed-loop control of the simulated magnetic rod under ``control/``:
 ``static-inverse`` and ``mpc-learned`` on the step, sine and random references, ``mpc-learned``
 on robots 10 % stiffer and stronger, and 10 % softer and weaker, than the one it was identified on,
 and ``mpc-physics`` (far from real time) on the first ``physics_duration`` seconds of each
@@ -102,7 +102,7 @@ def _same_frames(folder: Path, ref: str) -> dict:
 
 
 def _goals(result: dict) -> dict:
-    """Issue 14's goals, measured: mpc-learned's RMS at most half static-inverse's on every reference,
+    """The control step's goals, measured: mpc-learned's RMS at most half static-inverse's on every reference,
     its p99 below 1 ms, robustness runs stable, no limit violation anywhere."""
     ratios = {r: result["mpc-learned"][r]["rms_deg"] / result["static-inverse"][r]["rms_deg"] for r in REFERENCES}
     p99 = max(result["mpc-learned"][r]["compute_ms_p99"] for r in REFERENCES)

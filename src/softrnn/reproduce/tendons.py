@@ -1,6 +1,6 @@
 """The learned whole-manipulator model (``softrnn.learned.whole``) of the tendon-driven arms, driven by the
 tendon tensions alone (``DynamicConfig.drive = "actuation"``), trained, run free beside its
-baselines and measured against the goals of the learned dynamic model (issue 15).
+baselines and measured against the goals of the learned dynamic model.
 
 A step of ``softrnn reproduce`` (``report.json["tendons"]``); alone: ``tendon_step(out, quick)``
 (one JSON-ready dict per case). Per case (``out/tendons/CASE/``, step file ``out/tendons/CASE.json``):

@@ -49,7 +49,8 @@ class Explicit:
     def step_advice(self) -> str | None:
         """What a run with too many solver steps may switch to (``check_run_size``)."""
         return ("the implicit integrator, whose step does not shrink with the rod's stiffness "
-                "(RunConfig(integrator=\"implicit\"), a scenario's run.integrator, --integrator implicit)")
+                "(--integrator implicit on the command line, run.integrator in a scenario file, or "
+                "RunConfig(integrator=\"implicit\") in Python)")
 
     def resolve_substeps(self, sim, config) -> int:
         """Solver steps per saved interval of ``config`` for the simulator ``sim``."""

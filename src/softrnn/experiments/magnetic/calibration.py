@@ -1,4 +1,4 @@
-"""The magnetic manipulator's physics calibrated to the camera's record (issue 13): the dynamic
+"""The magnetic manipulator's physics calibrated to the camera's record: the dynamic
 Cosserat model (``softrnn.magnetics``) with the rod's Young's modulus, the magnets' remanence and
 the damping scaled by fitted factors, driven by the recorded coil currents, read by the same
 camera model without noise, fitted to the measured magnet orientations (and positions, where the

@@ -44,7 +44,7 @@ def load_finished(folder: Path, settings: Settings) -> NodeModel:
 
     def refuse(diff: Difference) -> ModelFolderError:
         return ModelFolderError(f"{folder}: holds a finished model trained with other settings ({diff}); "
-                                f"train without --resume to replace it, or choose another folder")
+                                f"train with --overwrite instead of --resume to replace it, or choose another folder")
 
     check(done, settings, otherwise=REFUSE, refuse=refuse)
     return model
@@ -74,8 +74,8 @@ def nothing_left(folder: Path, state: dict, train) -> ModelFolderError:
         return ModelFolderError(f"{folder}: holds a finished model whose training stopped early after {done} epochs "
                                 f"({bad_epochs} without a better validation loss, --patience {train.patience}); "
                                 f"nothing is left to train: pass --patience above {bad_epochs} to train on, or train "
-                                f"without --resume to start again")
+                                f"with --overwrite instead of --resume to start again")
     ran = f"{done} epoch{'s' * (done != 1)}"
     return ModelFolderError(f"{folder}: holds a finished model that already ran {ran}, and --epochs {train.epochs} "
                             f"leaves nothing to train: pass --epochs above {done} to train on from it, or train "
-                            f"without --resume to start again")
+                            f"with --overwrite instead of --resume to start again")

@@ -345,8 +345,8 @@ def training_tensors(prepared: TrainingData, normalizer: Normalizer, config: Mod
         fit_l, val_l = training_windows(prepared.data, long_spec, train, prepared.pool,
                                         validation=prepared.validation_data)[:2]
     except SoftrnnInputError:
-        raise bad("rollout_steps", K, f"fewer steps: history + rollout_steps = {long_spec.history + 1} samples "
-                                      f"do not fit the fit and validation spans; use rollout_steps=1 or longer "
-                                      f"data") from None
+        raise bad("rollout_steps", K, f"fewer steps: windows of {long_spec.history + 1} samples (the history and "
+                                      f"the steps) do not fit the fit and validation spans; use rollout_steps=1 "
+                                      f"or longer data") from None
     multi = (_RelativeMultiStep if config.relative else _MultiStep)(normalizer, config, K, train.input_noise)
     return multi, multi.tensors(fit_l), multi.tensors(val_l)
