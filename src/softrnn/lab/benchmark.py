@@ -41,6 +41,8 @@ from .uncertainty import with_interval
 
 FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
 """softrnn's model families, in the order they are fitted."""
+TAUGHT = ("learned_map", "hybrid", "sequence", "node_lstm")
+"""The families that can learn from the physics' synthetic sessions."""
 DYNAMIC_FAMILIES = ("dynamic_physics", "dynamic_hybrid")
 """The families of dynamic recordings driven by tendon tensions, run where ``scenario`` describes the
 robot (``softrnn.lab.dynamic_families``)."""
@@ -349,12 +351,12 @@ def settle_synthetic(options: BenchmarkOptions, robot, sessions, families) -> tu
     options where the physics can be calibrated, ``options.synthetic`` where given; refused (one line)
     when given with an amount > 0 for a learned family while the physics cannot be calibrated."""
     reason = _physics_unavailable(robot, sessions)
-    if not {"learned_map", "hybrid", "sequence"} & set(families):
+    if not set(TAUGHT) & set(families):
         return SyntheticOptions(amount=0.0), "no learned family"
     if reason is None:
         syn = SyntheticOptions() if options.synthetic is None else options.synthetic
         return syn, None if syn.on else "synthetic data not asked for (amount 0)"
-    if options.synthetic is not None and options.synthetic.on and {"learned_map", "sequence"} & set(families):
+    if options.synthetic is not None and options.synthetic.on and (set(TAUGHT) - {"hybrid"}) & set(families):
         raise bad("synthetic", options.synthetic.amount, f"synthetic data need the calibrated tendon physics, "
                   f"which these sessions do not allow ({reason}); set the amount to 0")
     return SyntheticOptions(amount=0.0), f"no calibrated physics: {reason}"
