@@ -18,8 +18,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from .. import __version__
-from ..errors import SoftrnnInputError, bad, positive
-from ..files import atomic_write_text
+from ..errors import FileFault, SoftrnnInputError, bad, positive
+from ..files import KEPT, atomic_write_text
 from ..io.reader import read_dataset
 from ..io.schema import DatasetError
 from ..io.writer import DatasetWriter
@@ -226,12 +226,15 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
     if progress is not None:
         progress(done, count)
     start = time.perf_counter()
-    if todo:
-        for index in _execute(scenario, todo, out, scheduler, n_workers, n_samples, dt):
+    try:
+        for index in _execute(scenario, todo, out, scheduler, n_workers, n_samples, dt) if todo else ():
             result.computed.append(index)
             done += 1
             if progress is not None:
                 progress(done, count)
+    except FileFault as err:        # a full disk: the finished variants stay, the rerun continues
+        raise FileFault(str(err).replace(KEPT, f"{KEPT}, and the {done} finished variants are kept in {out}: run the "
+                                               f"same command again to continue")) from None
     result.wall_time = time.perf_counter() - start
     result.computed.sort()
     return result
