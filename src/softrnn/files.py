@@ -236,14 +236,15 @@ def read_whole(path) -> bytes:
     return data
 
 
-def check_room(path, need: float, argument: str, value, what: str, fix: str) -> None:
-    """Refuse up front (one line naming ``argument=value``: ``what`` would take about ``need``
-    bytes, the free space, ``fix``) an output larger than the free space on the disk of ``path``."""
+def check_room(path, need: float, what: str, fix: str) -> None:
+    """Refuse up front an output ``path`` that would not fit the free space on its disk: a one-line
+    ``FileFault`` (``cannot write PATH: what would take about need bytes, but FOLDER has F free;
+    fix``), before any work; nothing when it fits or the free space is unknown."""
     free = free_bytes(path)
     if free is None or need <= free:
         return
-    raise bad(argument, value, f"an output that fits the disk: {what} would take about {size_text(need)}, but "
-                               f"{nearest_folder(path)} has {size_text(free)} free; {fix}")
+    raise FileFault(f"cannot write {path}: {what} would take about {size_text(need)}, but {nearest_folder(path)} "
+                    f"has {size_text(free)} free; {fix}")
 
 
 def json_default(value):

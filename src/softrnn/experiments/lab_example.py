@@ -24,9 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import bad, integer, is_finite_number, positive
-from ..files import atomic_write_text
+from ..files import atomic_write_text, check_room, size_text
 from ..progress import Progress
 from ..rod import Simulator
+from ..rod.simulation import SAMPLE_VALUES, array_limit
 from ..rod.tendons import tension_matrix
 from ..scenarios import load_scenario
 
@@ -122,6 +123,28 @@ def csv_text(rec: dict, config: LabExampleConfig, command: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
+def csv_row_bytes(config: LabExampleConfig, n_channels: int) -> int:
+    """Bytes of one row of a recording's CSV (``csv_text``): the time, three coordinates and
+    ``n_channels`` tensions with their commas (a generous width for each number)."""
+    return len(f"{config.duration:.4f}") + 3 * 11 + n_channels * 10 + 3 + n_channels + 1
+
+
+def _check_size(out: Path, config: LabExampleConfig, scenarios) -> None:
+    """Refuse up front, before any run, recordings that would not fit the free disk of ``out``
+    (``files.check_room``) or this machine's memory (each recording is held whole while it is made)."""
+    n = samples(config)
+    rows = [n * csv_row_bytes(config, len(sc.setup.tendons)) for sc in scenarios]
+    fix = "use a lower --rate or a shorter --duration"
+    held = max(rows) + n * (SAMPLE_VALUES + 4) * 8      # one recording's text and its samples
+    if held > array_limit():
+        raise bad("rate", config.rate, f"a recording that fits this machine's memory: {config.duration:g} s at "
+                                       f"{config.rate:g} Hz ({n} samples) would hold about {size_text(held)} "
+                                       f"(limit {size_text(array_limit())}); {fix}")
+    check_room(out / f"{scenarios[0].name}.csv", sum(rows),
+               f"{len(rows)} recording{'s' if len(rows) > 1 else ''} of {n} rows "
+               f"({config.duration:g} s at {config.rate:g} Hz)", fix)
+
+
 def write_lab_example(out_dir, config: LabExampleConfig | None = None, *, command: str = "",
                       overwrite: bool = False, progress: Progress | None = None) -> list[Path]:
     """Write one CSV per scenario of ``config`` into ``out_dir`` (created if needed), each
@@ -141,6 +164,7 @@ def write_lab_example(out_dir, config: LabExampleConfig | None = None, *, comman
             if p.exists():
                 raise bad("out_dir", str(out), f"a folder without {p.name} (it exists; pass overwrite=True to "
                                                "replace it)")
+    _check_size(out, config, scenarios)
     n, total = samples(config), samples(config) * len(scenarios)
 
     def part(k: int, name: str):

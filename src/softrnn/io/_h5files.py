@@ -95,6 +95,8 @@ class _Reading:
             raise DatasetError(f"{p}: is a folder, not a dataset file; pass one .h5 file "
                                f"(or merge the folder with merge_files)")
         try:
+            st = p.stat()
+            self._stat = st.st_size, st.st_mtime_ns      # a file that changes from here on is told so
             signature = h5py.is_hdf5(str(p))
         except OSError as err:
             raise DatasetError(f"{p}: cannot be read ({one_line(err)})") from None
@@ -106,7 +108,6 @@ class _Reading:
         except OSError as err:
             raise DatasetError(f"{p}: truncated or corrupt HDF5 file ({_h5_reason(err)}); re-create or "
                                f"re-copy it") from None
-        self._stat = _fstat(self.f)
         return self.f
 
     def __exit__(self, exc_type, exc, tb):

@@ -41,6 +41,7 @@ from .schema import (
     _node_list,
     _short,
     _to_float32,
+    check_trajectory_room,
     contact_record,
 )
 from .schema import actuation_units as _channels
@@ -219,6 +220,8 @@ class DatasetWriter:
         self._state = "open"
         self._h5 = None
         self._tmp = None
+        check_trajectory_room(self.path, self.n_samples, self.nodes.size, len(self.actuation_units),
+                              self._contact_record is not None)
         self._open()
         if self._contact_record is not None:
             self._start_contact(self._contact_record)
