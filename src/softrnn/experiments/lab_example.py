@@ -84,6 +84,12 @@ def samples(config: LabExampleConfig) -> int:
     return int(round(config.duration * config.rate)) + 1
 
 
+def _run_config(sc, config: LabExampleConfig):
+    """The run of a loaded tendon scenario ``sc`` that a recording of ``config`` makes."""
+    node = sc.setup.node_index(config.node, "node")
+    return replace(sc.config, dt=1.0 / config.rate, n_samples=samples(config), save_nodes=(node,))
+
+
 def record(scenario, config: LabExampleConfig, index: int = 0, progress: Progress | None = None) -> dict:
     """Simulate ``scenario`` (a name, path or loaded ``Scenario`` with tendons) and sample it like
     the lab: returns ``name``, ``node`` (absolute index), ``n_nodes``, ``time`` (T,) [s],
@@ -93,7 +99,7 @@ def record(scenario, config: LabExampleConfig, index: int = 0, progress: Progres
     sc = _tendon_scenario(scenario)
     node = sc.setup.node_index(config.node, "node")
     dt = 1.0 / config.rate
-    run = replace(sc.config, dt=dt, n_samples=samples(config), save_nodes=(node,))
+    run = _run_config(sc, config)
     chunks = []
     Simulator(sc.setup).run(run, progress=progress, sink=chunks.append)
     clean = np.concatenate([c.positions[:, 0] for c in chunks])
@@ -130,16 +136,19 @@ def csv_row_bytes(config: LabExampleConfig, n_channels: int) -> int:
 
 
 def _check_size(out: Path, config: LabExampleConfig, scenarios) -> None:
-    """Refuse up front, before any run, recordings that would not fit the free disk of ``out``
-    (``files.check_room``) or this machine's memory (each recording is held whole while it is made)."""
+    """Refuse up front, before any run, recordings too large for this machine: runs too long
+    (``Simulator.check_size``), recordings that would not fit its memory (each is held whole while
+    it is made) or the free disk of ``out`` (``files.check_room``)."""
+    for sc in scenarios:
+        Simulator(sc.setup).check_size(_run_config(sc, config), streamed=True)
     n = samples(config)
     rows = [n * csv_row_bytes(config, len(sc.setup.tendons)) for sc in scenarios]
     fix = "use a lower --rate or a shorter --duration"
     held = max(rows) + n * (SAMPLE_VALUES + 4) * 8      # one recording's text and its samples
     if held > array_limit():
         raise bad("rate", config.rate, f"a recording that fits this machine's memory: {config.duration:g} s at "
-                                       f"{config.rate:g} Hz ({n} samples) would hold about {size_text(held)} "
-                                       f"(limit {size_text(array_limit())}); {fix}")
+                                       f"{config.rate:g} Hz ({n} samples) is too large, it would hold about "
+                                       f"{size_text(held)} (limit {size_text(array_limit())}); {fix}")
     check_room(out / f"{scenarios[0].name}.csv", sum(rows),
                f"{len(rows)} recording{'s' if len(rows) > 1 else ''} of {n} rows "
                f"({config.duration:g} s at {config.rate:g} Hz)", fix)

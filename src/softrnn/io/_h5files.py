@@ -95,8 +95,7 @@ class _Reading:
             raise DatasetError(f"{p}: is a folder, not a dataset file; pass one .h5 file "
                                f"(or merge the folder with merge_files)")
         try:
-            st = p.stat()
-            self._stat = st.st_size, st.st_mtime_ns      # a file that changes from here on is told so
+            self._stat = _stat(p)      # a file that changes from here on is told so
             signature = h5py.is_hdf5(str(p))
         except OSError as err:
             raise DatasetError(f"{p}: cannot be read ({one_line(err)})") from None
@@ -113,7 +112,7 @@ class _Reading:
     def __exit__(self, exc_type, exc, tb):
         changed = False
         if self.f is not None:
-            changed = self._stat is not None and _fstat(self.f) != self._stat
+            changed = self._stat is not None and _stat(self.path) != self._stat
             try:
                 self.f.close()
             except Exception:  # noqa: BLE001 - the original error matters more
@@ -129,12 +128,12 @@ class _Reading:
         return False
 
 
-def _fstat(f: h5py.File) -> tuple | None:
-    """(size, modification time [ns]) of the open file ``f`` (None where HDF5 gives no descriptor):
-    a file that changes while it is read is told so (``_Reading``)."""
+def _stat(path: Path) -> tuple | None:
+    """(size, modification time [ns]) of ``path`` (None: gone): a file that changes while it is read
+    is told so (``_Reading``)."""
     try:
-        st = os.fstat(f.id.get_vfd_handle())
-    except (OSError, ValueError, TypeError, NotImplementedError):
+        st = path.stat()
+    except OSError:
         return None
     return st.st_size, st.st_mtime_ns
 
