@@ -18,10 +18,11 @@ class SimulationError(RuntimeError):
     """A run that cannot continue (divergence, Newton failure); the message says why and how to fix it."""
 
 
-class FileFault(RuntimeError):
+class FileFault(OSError):
     """A fault of the machine, not of the input: a full disk, a vanished or unwritable folder
     (``softrnn.files.write_fault``). One line naming the path, what happened and the fix; what
-    was being written is removed, finished work kept. The CLI prints it and exits with code 2."""
+    was being written is removed, finished work kept. The CLI prints it and exits with code 2. An
+    ``OSError`` (``errno`` the system's), as the failed write was before it had a line of its own."""
 
 
 def bad(argument: str, value, expected: str) -> SoftrnnInputError:

@@ -194,6 +194,14 @@ def test_a_text_file_onto_a_full_disk_names_the_path(tmp_path, monkeypatch):
     assert _names(tmp_path) == ["rec.csv"] and out.read_text() == "old"
 
 
+def test_lab_example_onto_a_full_disk_leaves_nothing(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(files, "open", _FullFile, raising=False)
+    out = tmp_path / "lab"
+    assert run_cli(["lab-example", "-o", str(out), "--duration", "2", "--quiet"]) == 2
+    _one_line_error(capsys, f"cannot write {out / 'tendon-spatial.csv'}: No space left on device", "free space")
+    assert _names(tmp_path) == []
+
+
 def test_a_full_disk_while_streaming_a_dataset_discards_it(tmp_path, monkeypatch):
     traj = synthetic(5000)
     path = tmp_path / "run.h5"

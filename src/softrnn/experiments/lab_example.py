@@ -181,6 +181,12 @@ def write_lab_example(out_dir, config: LabExampleConfig | None = None, *, comman
             return None
         return lambda done, _total, info=None: progress(k * n + done, total, {"scenario": name})
 
-    for k, (sc, p) in enumerate(zip(scenarios, paths)):
-        atomic_write_text(p, csv_text(record(sc, config, k, part(k, sc.name)), config, command))
+    made = not out.exists()
+    try:
+        for k, (sc, p) in enumerate(zip(scenarios, paths)):
+            atomic_write_text(p, csv_text(record(sc, config, k, part(k, sc.name)), config, command))
+    except BaseException:       # a full disk, Ctrl-C: the finished recordings stay, an empty new folder goes
+        if made and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()
+        raise
     return paths

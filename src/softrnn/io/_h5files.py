@@ -11,7 +11,7 @@ from pathlib import Path
 
 import h5py
 
-from ..errors import SoftrnnInputError, one_line
+from ..errors import FileFault, SoftrnnInputError, one_line
 from ..files import CHANGED, FULL, write_fault
 from .schema import DatasetError
 
@@ -119,13 +119,18 @@ class _Reading:
                 pass
         if changed and (exc_type is None or issubclass(exc_type, Exception)):
             raise DatasetError(f"{self.path}: {CHANGED}") from None
-        if exc_type is not None and issubclass(exc_type, (OSError, RuntimeError)) and h5_errno(exc) in FULL:
+        if exc_type is not None and _write_failed(exc):
             return False        # a write beside the read failed (a full disk): the writer's to say
         if exc_type is not None and issubclass(exc_type, (OSError, RuntimeError, KeyError)) \
                 and not issubclass(exc_type, SoftrnnInputError):
             raise DatasetError(f"{self.path}: truncated or corrupt HDF5 file ({_h5_reason(exc)}); re-create or "
                                f"re-copy it") from None
         return False
+
+
+def _write_failed(exc) -> bool:
+    """Whether ``exc`` is a failed write (a ``FileFault``, or an HDF5 error of a full disk), not a bad read."""
+    return isinstance(exc, FileFault) or (isinstance(exc, (OSError, RuntimeError)) and h5_errno(exc) in FULL)
 
 
 def _stat(path: Path) -> tuple | None:
