@@ -236,15 +236,16 @@ def read_whole(path) -> bytes:
     return data
 
 
-def check_room(path, need: float, what: str, fix: str) -> None:
+def check_room(path, need: float, what: str, fix: str, *, least: bool = False) -> None:
     """Refuse up front an output ``path`` that would not fit the free space on its disk: a one-line
     ``FileFault`` (``cannot write PATH: what would take about need bytes, but FOLDER has F free;
-    fix``), before any work; nothing when it fits or the free space is unknown."""
+    fix``; ``least``: "at least", ``need`` being a lower bound), before any work; nothing when it
+    fits or the free space is unknown."""
     free = free_bytes(path)
     if free is None or need <= free:
         return
-    raise FileFault(f"cannot write {path}: {what} would take about {size_text(need)}, but {nearest_folder(path)} "
-                    f"has {size_text(free)} free; {fix}")
+    raise FileFault(f"cannot write {path}: {what} would take {'at least' if least else 'about'} {size_text(need)}, "
+                    f"but {nearest_folder(path)} has {size_text(free)} free; {fix}")
 
 
 def json_default(value):

@@ -397,7 +397,7 @@ def test_simulate_larger_than_the_free_disk_is_refused_up_front(tmp_path, monkey
     assert run_cli(["simulate", "tendon-spatial", "--samples", "100000", "--quiet", "-o", str(out)]) == 2
     raw = trajectory_bytes(100000, 41, 3)
     _one_line_error(capsys, f"cannot write {out}: the trajectory of 100000 samples of 41 nodes "
-                            f"({raw / 2**30:.3g} GiB uncompressed) would take about", "has 97.7 KiB free",
+                            f"({raw / 2**30:.3g} GiB uncompressed) would take at least", "has 97.7 KiB free",
                     "save fewer samples or nodes")
     assert _names(tmp_path) == []
 

@@ -190,4 +190,5 @@ def check_trajectory_room(path, n_samples: int, n_nodes: int, n_actuation: int =
     files = f"{count} trajectories" if count > 1 else "the trajectory"
     check_room(path, COMPRESSED_FRACTION * raw,
                f"{files} of {n_samples} samples of {n_nodes} nodes ({raw / 2**30:.3g} GiB uncompressed)",
-               "save fewer samples or nodes (a coarser --dt, --samples), or choose an output on another disk")
+               "save fewer samples or nodes (a coarser --dt, --samples), or choose an output on another disk",
+               least=True)
