@@ -1,4 +1,5 @@
-"""Exceptions with one-line, fix-it messages (the CLI prints them and exits with code 2), and the
+"""Exceptions with one-line, fix-it messages (the CLI prints them and exits with code 2: bad input,
+a run that cannot go on, a fault of the machine such as a full disk), and the
 validators every part uses to build them (``is_int``, ``integer``, ``finite``, ``positive``,
 ``nonnegative``, ``vec3``, ``one_line``), and ``store_frozen``, which keeps the arrays a frozen
 dataclass checked as its read-only fields."""
@@ -15,6 +16,13 @@ class SoftrnnInputError(ValueError):
 
 class SimulationError(RuntimeError):
     """A run that cannot continue (divergence, Newton failure); the message says why and how to fix it."""
+
+
+class FileFault(OSError):
+    """A fault of the machine, not of the input: a full disk, a vanished or unwritable folder
+    (``softrnn.files.write_fault``). One line naming the path, what happened and the fix; what
+    was being written is removed, finished work kept. The CLI prints it and exits with code 2. An
+    ``OSError`` (``errno`` the system's), as the failed write was before it had a line of its own."""
 
 
 def bad(argument: str, value, expected: str) -> SoftrnnInputError:

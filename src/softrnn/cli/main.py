@@ -7,7 +7,7 @@ import sys
 import threading
 
 from .. import __version__
-from ..errors import SimulationError, SoftrnnInputError, missing_extra
+from ..errors import FileFault, SimulationError, SoftrnnInputError, missing_extra
 from . import (
     _animate,
     _bench,
@@ -93,7 +93,7 @@ def main(argv=None) -> int:
 def _main(args) -> int:
     try:
         return int(args.func(args) or 0)
-    except (SoftrnnInputError, SimulationError) as err:
+    except (SoftrnnInputError, SimulationError, FileFault) as err:
         print(f"softrnn: error: {in_flags(str(err), getattr(args, FLAGS, {}))}", file=sys.stderr)
         return 2
     except ImportError as err:
@@ -103,13 +103,10 @@ def _main(args) -> int:
         print(f"softrnn: error: softrnn {args.command}: {missing}", file=sys.stderr)
         return 2
     except OSError as err:
-        # last resort: the commands check their outputs first (io_util.prepare_output), but a disk
-        # can fill up or a folder vanish while they run
-        if err.filename is None:
+        line = _fault_line(err)
+        if line is None:
             raise
-        reason = err.strerror or type(err).__name__
-        print(f"softrnn: error: cannot write {err.filename}: {reason}; check that its folder exists and is "
-              f"writable and that the disk has room, or choose another path", file=sys.stderr)
+        print(f"softrnn: error: {line}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as err:
         code = stop_code(err)
@@ -117,6 +114,21 @@ def _main(args) -> int:
         print(f"softrnn: {what}; no partial file was left; reproduce, sweep, study and calibrate keep their "
               "finished steps and resume when run again", file=sys.stderr)
         return code
+
+
+def _fault_line(err: OSError) -> str | None:
+    """The one line for an OSError that escaped a command (last resort: the writers raise
+    ``FileFault`` themselves, but a disk can fill up or a folder vanish anywhere): by the file it
+    names (``files.write_fault``), or a full disk without a name (e.g. numba's cache of compiled
+    code); None for anything else (a bug, shown whole)."""
+    from ..files import FULL, write_fault  # deferred: --version and --help stay free of numpy
+
+    if err.filename is not None:
+        return str(write_fault(err, os.fsdecode(err.filename), kept=""))
+    if err.errno in FULL:
+        return (f"a write failed: {os.strerror(err.errno)}; free space on the disk of the output (and of the "
+                f"temporary and cache folders, e.g. numba's), or choose an output on another disk, and run again")
+    return None
 
 
 if __name__ == "__main__":

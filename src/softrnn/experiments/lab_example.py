@@ -24,9 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import bad, integer, is_finite_number, positive
-from ..files import atomic_write_text
+from ..files import atomic_write_text, check_room, size_text
 from ..progress import Progress
 from ..rod import Simulator
+from ..rod.simulation import SAMPLE_VALUES, array_limit
 from ..rod.tendons import tension_matrix
 from ..scenarios import load_scenario
 
@@ -83,6 +84,12 @@ def samples(config: LabExampleConfig) -> int:
     return int(round(config.duration * config.rate)) + 1
 
 
+def _run_config(sc, config: LabExampleConfig):
+    """The run of a loaded tendon scenario ``sc`` that a recording of ``config`` makes."""
+    node = sc.setup.node_index(config.node, "node")
+    return replace(sc.config, dt=1.0 / config.rate, n_samples=samples(config), save_nodes=(node,))
+
+
 def record(scenario, config: LabExampleConfig, index: int = 0, progress: Progress | None = None) -> dict:
     """Simulate ``scenario`` (a name, path or loaded ``Scenario`` with tendons) and sample it like
     the lab: returns ``name``, ``node`` (absolute index), ``n_nodes``, ``time`` (T,) [s],
@@ -92,7 +99,7 @@ def record(scenario, config: LabExampleConfig, index: int = 0, progress: Progres
     sc = _tendon_scenario(scenario)
     node = sc.setup.node_index(config.node, "node")
     dt = 1.0 / config.rate
-    run = replace(sc.config, dt=dt, n_samples=samples(config), save_nodes=(node,))
+    run = _run_config(sc, config)
     chunks = []
     Simulator(sc.setup).run(run, progress=progress, sink=chunks.append)
     clean = np.concatenate([c.positions[:, 0] for c in chunks])
@@ -122,6 +129,31 @@ def csv_text(rec: dict, config: LabExampleConfig, command: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
+def csv_row_bytes(config: LabExampleConfig, n_channels: int) -> int:
+    """Bytes of one row of a recording's CSV (``csv_text``): the time, three coordinates and
+    ``n_channels`` tensions with their commas (a generous width for each number)."""
+    return len(f"{config.duration:.4f}") + 3 * 11 + n_channels * 10 + 3 + n_channels + 1
+
+
+def _check_size(out: Path, config: LabExampleConfig, scenarios) -> None:
+    """Refuse up front, before any run, recordings too large for this machine: runs too long
+    (``Simulator.check_size``), recordings that would not fit its memory (each is held whole while
+    it is made) or the free disk of ``out`` (``files.check_room``)."""
+    for sc in scenarios:
+        Simulator(sc.setup).check_size(_run_config(sc, config), streamed=True)
+    n = samples(config)
+    rows = [n * csv_row_bytes(config, len(sc.setup.tendons)) for sc in scenarios]
+    fix = "use a lower --rate or a shorter --duration"
+    held = max(rows) + n * (SAMPLE_VALUES + 4) * 8      # one recording's text and its samples
+    if held > array_limit():
+        raise bad("rate", config.rate, f"a recording that fits this machine's memory: {config.duration:g} s at "
+                                       f"{config.rate:g} Hz ({n} samples) is too large, it would hold about "
+                                       f"{size_text(held)} (limit {size_text(array_limit())}); {fix}")
+    check_room(out / f"{scenarios[0].name}.csv", sum(rows),
+               f"{len(rows)} recording{'s' if len(rows) > 1 else ''} of {n} rows "
+               f"({config.duration:g} s at {config.rate:g} Hz)", fix)
+
+
 def write_lab_example(out_dir, config: LabExampleConfig | None = None, *, command: str = "",
                       overwrite: bool = False, progress: Progress | None = None) -> list[Path]:
     """Write one CSV per scenario of ``config`` into ``out_dir`` (created if needed), each
@@ -141,6 +173,7 @@ def write_lab_example(out_dir, config: LabExampleConfig | None = None, *, comman
             if p.exists():
                 raise bad("out_dir", str(out), f"a folder without {p.name} (it exists; pass overwrite=True to "
                                                "replace it)")
+    _check_size(out, config, scenarios)
     n, total = samples(config), samples(config) * len(scenarios)
 
     def part(k: int, name: str):
@@ -148,6 +181,12 @@ def write_lab_example(out_dir, config: LabExampleConfig | None = None, *, comman
             return None
         return lambda done, _total, info=None: progress(k * n + done, total, {"scenario": name})
 
-    for k, (sc, p) in enumerate(zip(scenarios, paths)):
-        atomic_write_text(p, csv_text(record(sc, config, k, part(k, sc.name)), config, command))
+    made = not out.exists()
+    try:
+        for k, (sc, p) in enumerate(zip(scenarios, paths)):
+            atomic_write_text(p, csv_text(record(sc, config, k, part(k, sc.name)), config, command))
+    except BaseException:       # a full disk, Ctrl-C: the finished recordings stay, an empty new folder goes
+        if made and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()
+        raise
     return paths

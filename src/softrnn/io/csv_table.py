@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import FileFault
+from ..files import read_whole
 from ..progress import Progress
 from .schema import DatasetError
 
@@ -92,7 +94,9 @@ def read_text_file(path: Path, what: str, error=None) -> str:
     if path.is_dir():
         raise fail("is a folder; pass a CSV file")
     try:
-        data = path.read_bytes()
+        data = read_whole(path)
+    except FileFault as err:      # another program still writing it
+        raise fail(str(err)[len(f"{path}: "):]) from None
     except OSError as err:
         raise fail(f"cannot be read ({err.strerror or type(err).__name__}); check the file and its "
                    "permissions") from None

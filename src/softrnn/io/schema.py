@@ -41,6 +41,7 @@ import re
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
+from ..files import check_room
 from ..geometry.contact import contact_from_record as contact_from_record
 from ..geometry.contact import contact_record as contact_record
 
@@ -166,3 +167,28 @@ class _Text(str):
     def __repr__(self):
         return str(self)
 
+
+COMPRESSED_FRACTION = 0.1
+"""The smallest fraction of its uncompressed size that a trajectory's compressed file reaches (a
+bound well below what was measured: 0.3 to 0.45 for the tendon arms): the disk must hold at least
+this much (``trajectory_bytes``)."""
+
+
+def trajectory_bytes(n_samples: int, n_nodes: int, n_actuation: int = 0, contact: bool = False) -> int:
+    """Uncompressed bytes of a trajectory file's arrays: ``n_samples`` times (8 bytes), and per
+    sample and node the float32 fields (13 values, 6 more with ``contact``), ``n_actuation``
+    float32 channels per sample."""
+    per_node = sum(_WIDTH[name] for name in FIELDS) + (6 if contact else 0)
+    return int(n_samples) * (8 + 4 * (int(n_nodes) * per_node + int(n_actuation)))
+
+
+def check_trajectory_room(path, n_samples: int, n_nodes: int, n_actuation: int = 0, contact: bool = False,
+                          count: int = 1) -> None:
+    """Refuse up front (``files.check_room``) ``count`` trajectory files that would not fit the disk
+    of ``path`` even compressed to ``COMPRESSED_FRACTION`` of ``trajectory_bytes``."""
+    raw = count * trajectory_bytes(n_samples, n_nodes, n_actuation, contact)
+    files = f"{count} trajectories" if count > 1 else "the trajectory"
+    check_room(path, COMPRESSED_FRACTION * raw,
+               f"{files} of {n_samples} samples of {n_nodes} nodes ({raw / 2**30:.3g} GiB uncompressed)",
+               "save fewer samples or nodes (a coarser --dt, --samples), or choose an output on another disk",
+               least=True)

@@ -8,7 +8,7 @@ from pathlib import Path
 from .. import __version__
 from ..errors import bad
 from ..files import atomic_output
-from ._h5files import _h5open, _Reading
+from ._h5files import _h5writing, _Reading
 from .reader import list_groups, read_dataset
 from .schema import ACTUATION, CONTACT_FIELDS, FIELDS, SCHEMA_VERSION, SWEEP_PREFIX, DatasetError
 
@@ -67,7 +67,7 @@ def merge_files(paths, out_path) -> None:
             schema = max(schema, read_dataset(f, group=g).attrs["schema_version"])
             sources.append((f, g))
     with atomic_output(out_path) as tmp:
-        with _h5open(tmp, "w") as out:
+        with _h5writing(tmp, out_path) as out:
             out.attrs["softrnn_schema"] = schema
             out.attrs["softrnn_version"] = __version__
             out.attrs["kind"] = "sweep"

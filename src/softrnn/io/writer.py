@@ -14,9 +14,9 @@ import numpy as np
 
 from .. import __version__
 from ..errors import SoftrnnInputError, bad, one_line
-from ..files import json_default, temporary_path
+from ..files import json_default, temporary_path, write_fault
 from ._checks import _inspect
-from ._h5files import _discard, _h5open
+from ._h5files import _discard, _h5open, h5_errno
 from .reader import Dataset
 from .record import RECORD, ScenarioRecord
 from .schema import (
@@ -41,6 +41,7 @@ from .schema import (
     _node_list,
     _short,
     _to_float32,
+    check_trajectory_room,
     contact_record,
 )
 from .schema import actuation_units as _channels
@@ -219,6 +220,8 @@ class DatasetWriter:
         self._state = "open"
         self._h5 = None
         self._tmp = None
+        check_trajectory_room(self.path, self.n_samples, self.nodes.size, len(self.actuation_units),
+                              self._contact_record is not None)
         self._open()
         if self._contact_record is not None:
             self._start_contact(self._contact_record)
@@ -232,7 +235,11 @@ class DatasetWriter:
                                    f"'{self.group}' (write to a new file, or merge_files both)")
             if "/" + self.group in info["groups"]:
                 raise DatasetError(f"{self.path}: group '{self.group}' already exists; choose another name")
-        self._tmp = temporary_path(self.path)
+        try:
+            self._tmp = temporary_path(self.path)
+        except OSError as err:     # an unwritable or vanished folder
+            self._state = "aborted"
+            raise (write_fault(err, self.path) if err.errno else err) from None
         self._finalizer = weakref.finalize(self, _discard, None, str(self._tmp))
         try:
             if self.group is not None and self.path.exists():
@@ -252,6 +259,8 @@ class DatasetWriter:
             for key, value in self._meta.items():
                 g.attrs[key] = value
             self._create_datasets(g)
+        except (OSError, RuntimeError) as err:     # a full disk
+            self._failed(err)
         except BaseException:
             self.abort()
             raise
@@ -329,7 +338,10 @@ class DatasetWriter:
         self._buffered += k
         self._last_time = float(rows["time"][-1])
         if self._buffered >= self._chunk_len:
-            self._flush(final=False)
+            try:
+                self._flush(final=False)
+            except (OSError, RuntimeError) as err:     # a full disk
+                self._failed(err)
 
     def _validate_chunk(self, chunk, actuation=None) -> dict:
         """The chunk's arrays, checked, as float64 times (k,) and float32 copies of the rest."""
@@ -477,8 +489,11 @@ class DatasetWriter:
             if self._written != self.n_samples:
                 raise DatasetError(f"{self.path}: only {self._written} of n_samples={self.n_samples} samples were "
                                    f"written; the incomplete trajectory was not saved")
+            self._h5.flush()      # a full disk fails here, where the file can still be closed (``_failed``)
             self._h5.close()
             os.replace(self._tmp, self.path)
+        except (OSError, RuntimeError) as err:     # a full disk
+            self._failed(err)
         except BaseException:
             self.abort()
             raise
@@ -494,6 +509,22 @@ class DatasetWriter:
             fin()
         elif self._tmp is not None and self._state != "closed":
             _discard(self._h5, str(self._tmp))
+
+    def _failed(self, err: Exception):
+        """A write into the file failed (a full disk, a vanished folder): discard the file without
+        writing into it again (``_h5files._discard(..., failed=True)``: an HDF5 file whose write
+        failed cannot be closed otherwise, and crashes the process at exit), then raise
+        ``files.write_fault`` naming ``path`` (``err`` itself where it has no error number)."""
+        self._state = "aborted"
+        fin = getattr(self, "_finalizer", None)
+        if fin is not None:
+            fin.detach()
+        if self._tmp is not None:
+            _discard(self._h5, str(self._tmp), failed=True)
+        code = h5_errno(err)
+        if code is None:
+            raise err
+        raise write_fault(OSError(code, os.strerror(code)), self.path) from None
 
     def __enter__(self) -> DatasetWriter:
         return self

@@ -67,6 +67,16 @@ def write_json(path: Path, value, indent: int = 2) -> None:
     path.write_text(text + "\n")
 
 
+def write_tensors(path: Path, tensors: dict, metadata: dict | None = None) -> None:
+    """Write ``tensors`` (name -> torch tensor) as a safetensors file at ``path``, a file of a folder
+    being written: serialised in memory, then written by Python, so that a full disk is the
+    ``OSError`` the folder's writer turns into one line (``files.atomic_folder``), not the library's
+    own error."""
+    from safetensors.torch import save  # optional extra: learn (safetensors)
+
+    path.write_bytes(save(tensors, metadata=metadata))
+
+
 def check_format(folder: Path, name: str, doc, fmt: str, newest: int, *, what: str, made_by: str,
                  unversioned: bool = False) -> dict:
     """``doc`` (the JSON header ``name`` of ``folder``) checked to be ``{"format": fmt, "format_version":

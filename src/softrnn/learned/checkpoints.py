@@ -20,8 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .. import __version__
-from ..errors import bad
-from ..files import atomic_write_bytes, atomic_write_text, json_default, prepare_output
+from ..errors import FileFault, bad
+from ..files import KEPT, atomic_write_bytes, atomic_write_text, json_default, prepare_output
 from ..resume import REFUSE, Difference, Settings, check
 from .artifacts import ModelFolderError
 
@@ -53,12 +53,23 @@ def output_folder(out, *, holds, overwrite: bool, ours=None, made_by: str = "") 
 
 
 def save_state(path: Path, state: dict) -> None:
-    """Write a checkpoint's ``state`` (tensors, dicts, lists, numbers) to ``path`` atomically (``torch.save``)."""
+    """Write a checkpoint's ``state`` (tensors, dicts, lists, numbers) to ``path`` atomically
+    (``torch.save``). A full disk (``FileFault``) keeps the checkpoint of the last finished epoch
+    and says so (resume with ``--resume``); without one, a folder this call made is removed."""
     import torch  # optional extra: learn (PyTorch)
 
     buf = io.BytesIO()
     torch.save(state, buf)
-    atomic_write_bytes(path, buf.getvalue())
+    made = not path.parent.exists()
+    try:
+        atomic_write_bytes(path, buf.getvalue())
+    except FileFault as err:
+        if path.is_file():
+            raise FileFault(str(err).replace(KEPT, f"the last finished epoch is kept in {path}: run the same "
+                                                   f"command with --resume to continue")) from None
+        if made and path.parent.is_dir() and not any(path.parent.iterdir()):
+            path.parent.rmdir()
+        raise
 
 
 def load_state(path: Path, allowed=()):

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad, nonnegative
+from ..files import size_text as _size
 from ..progress import Progress
 from . import implicit
 from .boundary import Clamp, Pin
@@ -53,14 +54,6 @@ def array_limit() -> int:
     except (AttributeError, OSError, ValueError):
         return MAX_ARRAY_BYTES
     return min(MAX_ARRAY_BYTES, ram // 2) if ram > 0 else MAX_ARRAY_BYTES
-
-
-def _size(n: float) -> str:
-    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
-        if n < 1024 or unit == "PiB":
-            return f"{n:.3g} {unit}" if unit != "B" else f"{int(n)} B"
-        n /= 1024
-    return f"{n:.3g} PiB"  # pragma: no cover
 
 
 def check_run_size(*, n_samples: int, dt: float, substeps: int, n_saved: int, held_samples: int,

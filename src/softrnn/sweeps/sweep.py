@@ -18,10 +18,10 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from .. import __version__
-from ..errors import SoftrnnInputError, bad, positive
-from ..files import atomic_write_text
+from ..errors import FileFault, SoftrnnInputError, bad, positive
+from ..files import KEPT, atomic_write_text
 from ..io.reader import read_dataset
-from ..io.schema import DatasetError
+from ..io.schema import DatasetError, check_trajectory_room
 from ..io.writer import DatasetWriter
 from ..progress import Progress
 from ..resume import REFUSE, Settings, check
@@ -216,6 +216,9 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
     dt = check_sweep(scenario, count, n_workers=n_workers, n_samples=n_samples, dt=dt)
     require()
     out = Path(out_dir)
+    missing = sum(not trajectory_path(out, i).exists() for i in range(count))
+    if missing:     # before the folder is made
+        _check_room(scenario, out, missing, n_samples, dt)
     _check_manifest(out, scenario, n_samples, dt)
     _remove_stale_temporaries(out)
     result = SweepResult(files=[trajectory_path(out, i) for i in range(count)])
@@ -226,15 +229,29 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
     if progress is not None:
         progress(done, count)
     start = time.perf_counter()
-    if todo:
-        for index in _execute(scenario, todo, out, scheduler, n_workers, n_samples, dt):
+    try:
+        for index in _execute(scenario, todo, out, scheduler, n_workers, n_samples, dt) if todo else ():
             result.computed.append(index)
             done += 1
             if progress is not None:
                 progress(done, count)
+    except FileFault as err:        # a full disk: the finished variants stay, the rerun continues
+        raise FileFault(str(err).replace(KEPT, f"{KEPT}, and the {done} finished variants are kept in {out}: run the "
+                                               f"same command again to continue")) from None
     result.wall_time = time.perf_counter() - start
     result.computed.sort()
     return result
+
+
+def _check_room(scenario, out: Path, count: int, n_samples, dt) -> None:
+    """Refuse up front ``count`` more variants' files that would not fit the disk of ``out``
+    (``io.schema.check_trajectory_room``; the manipulator's files are not estimated)."""
+    if scenario.magnetic is not None:
+        return
+    config, setup = run_config(scenario.config, n_samples, dt), scenario.setup
+    nodes = setup.rod.n_nodes if config.save_nodes is None else len(config.save_nodes)
+    check_trajectory_room(out / "traj-00000.h5", config.n_samples, nodes, len(setup.tendons),
+                          setup.contact is not None, count=count)
 
 
 def _execute(scenario, todo, out: Path, scheduler, n_workers, n_samples, dt=None):

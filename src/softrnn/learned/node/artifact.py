@@ -27,7 +27,15 @@ import torch
 
 from ...errors import SoftrnnInputError, bad, one_line
 from ...files import atomic_folder
-from ..artifacts import ModelFolderError, check_format, foreign_files, open_folder, read_json, write_json
+from ..artifacts import (
+    ModelFolderError,
+    check_format,
+    foreign_files,
+    open_folder,
+    read_json,
+    write_json,
+    write_tensors,
+)
 from ..checkpoints import CHECKPOINT
 from .data import SampleSpec
 from .model import ModelConfig, NodeLSTM
@@ -150,10 +158,8 @@ def save_model(folder, model: NodeModel) -> None:
 
     def write(tmp: Path) -> None:
         state = {k: v.detach().to(torch.float32).contiguous().clone() for k, v in model.module.state_dict().items()}
-        from safetensors.torch import save_file  # optional extra: learn (safetensors)
-
-        save_file(state, str(tmp / "weights.safetensors"), metadata={"format": FORMAT,
-                                                                     "format_version": str(FORMAT_VERSION)})
+        write_tensors(tmp / "weights.safetensors", state, metadata={"format": FORMAT,
+                                                                    "format_version": str(FORMAT_VERSION)})
         config = {"format": FORMAT, "format_version": FORMAT_VERSION, "model": model.config.to_dict(),
                   "spec": model.spec.to_dict()}
         write_json(tmp / "config.json", config)

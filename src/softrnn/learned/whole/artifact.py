@@ -24,7 +24,7 @@ import numpy as np
 from ... import __version__
 from ...errors import SoftrnnInputError, one_line
 from ...files import atomic_folder
-from ..artifacts import ModelFolderError, check_format, open_folder, read_json, write_json
+from ..artifacts import ModelFolderError, check_format, open_folder, read_json, write_json, write_tensors
 from .config import DynamicConfig, linear_config
 from .encoding import Encoding
 from .engine import DynamicEngine
@@ -77,8 +77,6 @@ def encoding_from_dict(d: dict) -> Encoding:
 def save_dynamic(folder, trained, meta: dict | None = None) -> None:
     """Write a ``TrainedDynamic`` to ``folder`` atomically (an existing folder is replaced)."""
     import torch  # optional extra: learn (PyTorch)
-    from safetensors.torch import save_file  # optional extra: learn (safetensors)
-
     def tensors(net) -> dict:
         out = {k: v.detach().contiguous().clone().float() for k, v in net.state_dict().items()}
         out["fixed"] = net.fixed.detach().clone().to(dtype=torch.uint8)
@@ -93,8 +91,8 @@ def save_dynamic(folder, trained, meta: dict | None = None) -> None:
 
     def write(tmp: Path) -> None:
         write_json(tmp / "model.json", doc, indent=1)
-        save_file(state, str(tmp / "weights.safetensors"), metadata={"format": FORMAT})
-        save_file(linear, str(tmp / "linear.safetensors"), metadata={"format": FORMAT})
+        write_tensors(tmp / "weights.safetensors", state, metadata={"format": FORMAT})
+        write_tensors(tmp / "linear.safetensors", linear, metadata={"format": FORMAT})
 
     atomic_folder(folder, write)
 
