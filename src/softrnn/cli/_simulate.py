@@ -5,9 +5,7 @@ from dataclasses import replace
 
 from ..errors import bad
 from ..files import atomic_write_text, prepare_output
-from ..rod.simulation import INTEGRATORS
-from ..scenarios.scenario import SCENARIO_NAMES, load_scenario
-from ..scenarios.summary import simulate_summary
+from ._names import SCENARIO_NAMES
 from ._progress import Bar
 from ._vocabulary import output
 
@@ -16,6 +14,8 @@ HELP = "run a scenario (" + ", ".join(SCENARIO_NAMES) + ", or a .toml file) and 
 
 
 def add_args(p):
+    from ..rod.simulation import INTEGRATORS
+
     p.add_argument("scenario", help="a shipped scenario name or a path to a .toml file")
     output(p, dest="out", default=None, metavar="PATH.h5", help="save every node to this HDF5 dataset")
     p.add_argument("--samples", type=int, default=None, help="saved samples (default: the scenario's)")
@@ -34,7 +34,11 @@ def add_args(p):
 
 
 def run(args) -> int:
+    from ..scenarios.scenario import load_scenario
+    from ..scenarios.summary import simulate_summary
+
     scenario = load_scenario(args.scenario)
+
     if args.samples is not None and args.samples < 1:
         raise bad("--samples", args.samples, "an integer >= 1")
     if args.out is not None and not str(args.out).endswith((".h5", ".hdf5")):
