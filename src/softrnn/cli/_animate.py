@@ -79,7 +79,6 @@ def run(args) -> int:
     from ..figures.data import check_suffix
 
     scenario = _scenario(args)
-
     stem = Path(args.data).stem
     out = Path(args.output) if args.output else (Path(args.data).with_suffix(".gif") if scenario is None
                                                  else Path(stem + ".gif"))
@@ -188,5 +187,4 @@ def _obstacles(args, data):
 def _named(data) -> bool:
     from ..figures.data import _title
 
-    return _title(
-dict(getattr(data, "attrs", None) or {}), fallback="") != ""
+    return _title(dict(getattr(data, "attrs", None) or {}), fallback="") != ""

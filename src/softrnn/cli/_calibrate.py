@@ -95,7 +95,6 @@ def run(args) -> int:
     from ..scenarios.scenario import load_scenario, parse_scenario
 
     out, report_path, figure_path = _outputs(args)
-
     if isinstance(args.max_evaluations, bool) or args.max_evaluations < 2:
         raise bad("--max-evaluations", args.max_evaluations, "an integer >= 2")
     nodes = _nodes(args.nodes)

@@ -159,7 +159,6 @@ def _plan_spec(text):
     if text is None:
         return None
     try:
-
         factors = [float(v) for v in text.split(",")]
     except ValueError:
         factors = []

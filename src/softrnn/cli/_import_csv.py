@@ -165,7 +165,6 @@ def run(args) -> int:
     from ..lab.recording import check_sessions, read_recording, shift_inputs
 
     lag, given = _check_args(args)
-
     csvs = [Path(c) for c in args.csv]
     layouts = [csv_layout(c, recording=bool(given)) for c in csvs]
     if given and "nodes" in layouts:

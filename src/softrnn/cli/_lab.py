@@ -337,8 +337,7 @@ def _calibrate(args) -> int:
     from ..lab.tendon_robot import calibrate, session_resets
     from ..learned.metrics import tip_errors
 
-    prepare_output(
-args.output, "-o", overwrite=args.overwrite)
+    prepare_output(args.output, "-o", overwrite=args.overwrite)
     options = _options(args, ("physics",))
     recordings = _read(args.recordings + ([args.validate] if args.validate else []), _layout(args))
     lag, _ = settle_lag(recordings[:len(args.recordings)], options)

@@ -43,7 +43,6 @@ def run(args) -> int:
     from ..io.reader import read_dataset
 
     if args.output:
-
         check_suffix(args.output, FIGURE_SUFFIXES, argument="--output")
         prepare_output(args.output, "--output", overwrite=args.overwrite)
     node = args.node

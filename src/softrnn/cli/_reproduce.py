@@ -25,7 +25,6 @@ def run(args) -> int:
     prepare_output(args.out, "-o", kind="folder", overwrite=True, mine=("cases", "report.json"))
     bars = []
 
-
     def factory(desc):
         bar = Bar(desc, unit="step", enabled=not args.quiet)
         bars.append(bar)

@@ -115,7 +115,6 @@ def _list(args) -> int:
     from ..scenarios.scenario import load_scenario
 
     if args.json is not None:
-
         prepare_output(args.json, "--json", overwrite=args.overwrite)
     entries = [entry(load_scenario(name)) for name in SCENARIO_NAMES]
     print(format_list(entries))
@@ -262,7 +261,6 @@ def _copy(args) -> int:
     from ..scenarios.scenario import load_scenario, scenario_text
 
     name = _shipped(args.name)
-
     if args.out is None:
         raise SoftrnnInputError(f"-o is missing: give the file to write, e.g. softrnn scenario copy {name} "
                                 f"-o my-{name}.toml")

@@ -41,7 +41,6 @@ def run(args) -> int:
     from ..io.summary import describe
 
     path = _path(args)
-
     if args.json not in (None, STDOUT):
         prepare_output(args.json, "--json", overwrite=args.overwrite)
     with DelayedBar("show: checking every value", enabled=not (args.quiet or args.quick),

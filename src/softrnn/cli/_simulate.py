@@ -38,7 +38,6 @@ def run(args) -> int:
     from ..scenarios.summary import simulate_summary
 
     scenario = load_scenario(args.scenario)
-
     if args.samples is not None and args.samples < 1:
         raise bad("--samples", args.samples, "an integer >= 1")
     if args.out is not None and not str(args.out).endswith((".h5", ".hdf5")):

@@ -29,7 +29,6 @@ def run(args) -> int:
     from ..sweeps.sweep import MANIFEST, check_sweep, run_sweep
 
     scenario = load_scenario(args.scenario)
-
     # bad values and a sweep too large for this machine: refused before any folder, worker or step
     check_sweep(scenario, args.count, n_workers=args.workers, n_samples=args.samples, dt=args.dt)
     # resumable by design: its own folder is continued, anything else is refused

@@ -6,7 +6,8 @@ import signal
 import sys
 import threading
 
-from .. import __version__
+import softrnn
+
 from ..errors import SimulationError, SoftrnnInputError, missing_extra
 from . import (
     _animate,
@@ -44,6 +45,14 @@ at its top (its ``NAME``, ``HELP``, ``add_args`` and ``run``); the library parts
 inside its functions, when the command runs (tests/cli/test_startup.py checks which)."""
 
 
+class _Version(argparse._VersionAction):
+    """``--version``: prints ``softrnn VERSION``, looked up when asked for (``softrnn.__version__``)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        self.version = f"softrnn {softrnn.__version__}"
+        super().__call__(parser, namespace, values, option_string)
+
+
 class _Commands(_SubParsers):
     """The subcommands, each one's arguments added by its ``add_args`` when first needed
     (``complete``): when argparse reaches the command, or all at once for the whole tree. Some
@@ -70,7 +79,7 @@ def build_parser(complete: bool = True) -> argparse.ArgumentParser:
     """The parser of ``softrnn``; with ``complete=False`` each command's arguments are added only
     when that command is parsed (what ``main`` uses: the help and the version start at once)."""
     parser = Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
-    parser.add_argument("--version", action="version", version=f"softrnn {__version__}")
+    parser.add_argument("--version", action=_Version)
     sub = parser.add_subparsers(title="commands", dest="command", required=True, action=_Commands)
     for module in COMMANDS:
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)

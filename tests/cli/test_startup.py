@@ -1,0 +1,124 @@
+"""The command line starts at once: ``softrnn --help``, ``--version``, bare ``softrnn`` and each
+command's ``--help`` import none of the heavy libraries (numba, SciPy, Matplotlib, PyTorch, h5py,
+Dask, ONNX), which each command imports when it runs; ``scenario list`` imports no plotting or
+learning library. Which modules a fresh interpreter imported is checked, never how long it took
+(the times are in benchmarks/README.md)."""
+
+import ast
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import softrnn
+from softrnn.cli import _names
+from softrnn.cli.main import COMMANDS, build_parser
+from softrnn.scenarios import SCENARIO_NAMES
+
+from helpers import run_cli
+
+HEAVY = ("numba", "scipy", "matplotlib", "mpl_toolkits", "torch", "h5py", "dask", "onnx", "onnxruntime")
+"""The libraries that take a large part of a second or more to import."""
+
+PLOTTING_AND_LEARNING = ("matplotlib", "mpl_toolkits", "torch", "dask", "onnx", "onnxruntime")
+
+CLI = Path(softrnn.__file__).parent / "cli"
+
+_PROBE = """
+import contextlib, io, json, sys
+from softrnn.cli.main import main
+out = io.StringIO()
+with contextlib.redirect_stdout(out):
+    try:
+        code = main(sys.argv[1:])
+    except SystemExit as exc:
+        code = exc.code
+print(json.dumps({"code": code, "out": out.getvalue(), "modules": sorted({m.split(".")[0] for m in sys.modules})}))
+"""
+
+
+def _fresh(*argv: str) -> dict:
+    """``softrnn ARGV`` in a fresh interpreter: its exit code, its standard output and the top-level
+    packages it imported."""
+    src = str(Path(softrnn.__file__).parents[1])
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]),
+               NUMBA_NUM_THREADS="1")
+    proc = subprocess.run([sys.executable, "-c", _PROBE, *argv], capture_output=True, text=True, env=env,
+                          timeout=600, check=True)
+    return json.loads(proc.stdout.splitlines()[-1])
+
+
+@pytest.mark.parametrize("argv", [["--version"], ["--help"], [], ["scenario", "--help"], ["scenario", "list", "-h"],
+                                  ["show", "--help"], ["train", "--help"], ["dynamic", "train", "--help"]])
+def test_help_and_version_import_no_heavy_library(argv):
+    run = _fresh(*argv)
+    assert run["code"] == 0
+    assert sorted(set(run["modules"]) & set(HEAVY)) == []
+
+
+def test_bare_softrnn_prints_the_help_and_succeeds(capsys):
+    assert run_cli([]) == 0
+    bare = capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        build_parser().parse_args(["--help"])
+    assert exc.value.code == 0
+    assert bare.out == capsys.readouterr().out
+    assert bare.out.startswith("usage: softrnn") and "scenario" in bare.out and bare.err == ""
+
+
+def test_bare_softrnn_in_a_fresh_interpreter():
+    run = _fresh()
+    assert run["code"] == 0 and run["out"].startswith("usage: softrnn")
+    assert "lab-example" in run["out"]
+
+
+def test_version_in_a_fresh_interpreter():
+    run = _fresh("--version")
+    assert run["code"] == 0 and run["out"].strip() == f"softrnn {softrnn.__version__}"
+
+
+def test_scenario_list_imports_no_plotting_or_learning_library():
+    run = _fresh("scenario", "list")
+    assert run["code"] == 0 and run["out"].splitlines()[1].split()[0] == SCENARIO_NAMES[0]
+    assert sorted(set(run["modules"]) & set(PLOTTING_AND_LEARNING)) == []
+
+
+def test_every_command_parses_as_before_when_its_arguments_come_late():
+    """``main``'s parser adds a command's arguments when it reaches the command: the same result as
+    the complete tree's."""
+    argv = ["simulate", "ellipse", "--samples", "3", "--integrator", "implicit", "--quiet"]
+    late = build_parser(complete=False).parse_args(argv)
+    assert vars(late) == vars(build_parser().parse_args(argv))
+
+
+def test_the_help_lists_the_shipped_scenarios():
+    """The command line's copy of the shipped scenarios' names (for ``softrnn --help``) is the library's."""
+    assert _names.SCENARIO_NAMES == SCENARIO_NAMES
+
+
+def _top_imports(path: Path) -> list[str]:
+    """The modules ``path`` imports at its top (outside functions and ``if TYPE_CHECKING:``)."""
+    found = []
+    for node in ast.parse(path.read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            found.append("." * node.level + (node.module or ""))
+    return found
+
+
+LIGHT = {"..errors", "..files", "__future__", "numpy", "softrnn"}
+"""What a command-line module may import at its top besides the standard library and its siblings."""
+
+
+def test_the_command_line_modules_import_only_light_parts_at_their_top():
+    """Each subcommand imports the library parts it needs inside its functions, when it runs."""
+    stdlib = set(sys.stdlib_module_names)
+    heavy = {f"{p.name}: {m}" for p in sorted(CLI.glob("*.py")) for m in _top_imports(p)
+             if m not in LIGHT and m.split(".")[0] not in stdlib and not (m.startswith(".") and not m.startswith(".."))}
+    assert heavy == set()
+    assert {m.__name__.rpartition(".")[2] for m in COMMANDS} == {p.stem for p in CLI.glob("_*.py")} - {
+        "_names", "_progress", "_vocabulary"}
