@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 import softrnn
+from softrnn.bench.startup import commands_met, format_commands, time_commands
 from softrnn.cli import _names
 from softrnn.cli.main import COMMANDS, build_parser
 from softrnn.scenarios import SCENARIO_NAMES
@@ -80,6 +81,16 @@ def test_version_in_a_fresh_interpreter():
     assert run["code"] == 0 and run["out"].strip() == f"softrnn {softrnn.__version__}"
 
 
+def test_the_start_up_benchmark_times_a_command():
+    """``bench.startup`` (``simulator.commands``): wall and CPU times of fresh runs, the goal judged."""
+    commands = time_commands(2, {"version": ("--version",)})
+    entry = commands["version"]
+    assert entry["argv"] == ["--version"] and len(entry["runs_s"]) == 2 and entry["goal_s"] == 0.3
+    assert all(t > 0 for t in entry["runs_s"]) and entry["median_s"] > 0 and entry["cpu_s"] >= 0
+    assert commands_met(commands) == {"version_start_s": entry["median_s"] <= 0.3}
+    assert format_commands(commands)[1].startswith("  softrnn --version")
+
+
 def test_scenario_list_imports_no_plotting_or_learning_library():
     run = _fresh("scenario", "list")
     assert run["code"] == 0 and run["out"].splitlines()[1].split()[0] == SCENARIO_NAMES[0]
@@ -121,4 +132,4 @@ def test_the_command_line_modules_import_only_light_parts_at_their_top():
              if m not in LIGHT and m.split(".")[0] not in stdlib and not (m.startswith(".") and not m.startswith(".."))}
     assert heavy == set()
     assert {m.__name__.rpartition(".")[2] for m in COMMANDS} == {p.stem for p in CLI.glob("_*.py")} - {
-        "_names", "_progress", "_vocabulary"}
+        "__init__", "_names", "_progress", "_vocabulary"}
