@@ -1,5 +1,5 @@
-"""The command line starts at once: ``softrnn --help``, ``--version``, bare ``softrnn`` and each
-command's ``--help`` import none of the heavy libraries (numba, SciPy, Matplotlib, PyTorch, h5py,
+"""The command line starts at once: ``softrnn --help``, ``--version``, bare ``softrnn`` and the
+commands' ``--help`` import none of the heavy libraries (numba, SciPy, Matplotlib, PyTorch, h5py,
 Dask, ONNX), which each command imports when it runs; ``scenario list`` imports no plotting or
 learning library. Which modules a fresh interpreter imported is checked, never how long it took
 (the times are in benchmarks/README.md)."""
@@ -53,7 +53,9 @@ def _fresh(*argv: str) -> dict:
 
 
 @pytest.mark.parametrize("argv", [["--version"], ["--help"], [], ["scenario", "--help"], ["scenario", "list", "-h"],
-                                  ["show", "--help"], ["train", "--help"], ["dynamic", "train", "--help"]])
+                                  ["simulate", "--help"], ["animate", "--help"], ["show", "--help"], ["train", "-h"],
+                                  ["dynamic", "train", "--help"], ["control", "magnetic", "--help"],
+                                  ["lab", "benchmark", "--help"], ["import-csv", "--help"]])
 def test_help_and_version_import_no_heavy_library(argv):
     run = _fresh(*argv)
     assert run["code"] == 0
@@ -105,9 +107,19 @@ def test_every_command_parses_as_before_when_its_arguments_come_late():
     assert vars(late) == vars(build_parser().parse_args(argv))
 
 
-def test_the_help_lists_the_shipped_scenarios():
-    """The command line's copy of the shipped scenarios' names (for ``softrnn --help``) is the library's."""
+def test_the_names_the_help_shows_are_the_librarys():
+    """The command line's copies of the library's names (``cli._names``, for the help) equal them."""
+    from softrnn.control.controllers import CONTROLLERS
+    from softrnn.control.references import REFERENCES
+    from softrnn.figures.animation import STYLES
+    from softrnn.lab.benchmark import FAMILIES
+    from softrnn.lab.recording import AUTO_LAGS
+    from softrnn.rod.simulation import INTEGRATORS
+
     assert _names.SCENARIO_NAMES == SCENARIO_NAMES
+    assert (_names.INTEGRATORS, _names.STYLES, _names.FAMILIES, _names.AUTO_LAGS) == (INTEGRATORS, STYLES, FAMILIES,
+                                                                                      AUTO_LAGS)
+    assert (_names.CONTROLLERS, _names.REFERENCES) == (CONTROLLERS, REFERENCES)
 
 
 def _top_imports(path: Path) -> list[str]:

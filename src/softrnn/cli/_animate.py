@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..errors import bad
 from ..files import prepare_output
-from ._names import SCENARIO_NAMES
+from ._names import SCENARIO_NAMES, STYLES
 from ._plot import named_node
 from ._progress import Bar
 
@@ -19,8 +19,6 @@ _DATA = (".h5", ".hdf5")
 
 
 def add_args(p):
-    from ..figures.animation import STYLES
-
     p.add_argument("data", metavar="DATA|SCENARIO",
                    help="an HDF5 dataset written by softrnn (e.g. by 'softrnn simulate -o'), or a scenario to "
                         "simulate first: a shipped name (" + ", ".join(SCENARIO_NAMES) + ") or a .toml file")

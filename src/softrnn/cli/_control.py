@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 from ..errors import bad
 from ..files import prepare_output
+from ._names import CONTROLLERS, REFERENCES
 from ._progress import Bar
 from ._vocabulary import output
 
@@ -20,9 +21,6 @@ HELP = "closed-loop control of the simulated magnetic rod: a controller tracks a
 
 
 def add_args(p):
-    from ..control.controllers import CONTROLLERS
-    from ..control.references import REFERENCES
-
     sub = p.add_subparsers(title="plants", dest="plant", required=True)
     m = sub.add_parser("magnetic", help="the magnetic experiment's perturbed robot, measured by the camera model",
                        description="Run a controller in closed loop on the simulated magnetic robot (the "
@@ -55,7 +53,6 @@ def add_args(p):
 
 
 def run(args) -> int:
-    from ..control.controllers import CONTROLLERS
     from ..control.loop import LoopConfig
     from ..control.references import reference
     from ..control.run import FIGURE_FILE, RUN_FILE, SUMMARY_FILE, control_run, learned_model

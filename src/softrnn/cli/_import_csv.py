@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 from ..errors import bad
 from ..files import atomic_outputs, prepare_output
+from ._names import AUTO_LAGS
 from ._progress import DelayedBar
 
 if TYPE_CHECKING:
@@ -21,8 +22,6 @@ _RECORDING_OPTIONS = (("inputs", "--inputs"), ("tip", "--tip"), ("position_unit"
 
 
 def add_args(p):
-    from ..lab.recording import AUTO_LAGS
-
     p.add_argument("csv", nargs="+", help="CSV file(s), layout in docs/csv-format.md (e.g. examples/lab_data.csv); "
                                           "several: one dataset each, in the -o folder")
     p.add_argument("-o", "--output", required=True, metavar="PATH",

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import SoftrnnInputError, bad
 from ..files import atomic_write_text, prepare_output
+from ._names import FAMILIES
 from ._progress import Bar, stop_code
 from ._vocabulary import deprecate, output
 
@@ -54,8 +55,6 @@ _SINGLE_ONLY = ("train", "validate", "figure", "families", "length", "inputs", "
 
 
 def add_args(p):
-    from ..lab.benchmark import FAMILIES
-
     sub = p.add_subparsers(title="subcommands", dest="lab_command", required=True)
     b = sub.add_parser("benchmark", help="fit every model family and baseline on training sessions and run them "
                                          "free over a validation session",

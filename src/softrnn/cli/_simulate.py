@@ -5,7 +5,7 @@ from dataclasses import replace
 
 from ..errors import bad
 from ..files import atomic_write_text, prepare_output
-from ._names import SCENARIO_NAMES
+from ._names import INTEGRATORS, SCENARIO_NAMES
 from ._progress import Bar
 from ._vocabulary import output
 
@@ -14,8 +14,6 @@ HELP = "run a scenario (" + ", ".join(SCENARIO_NAMES) + ", or a .toml file) and 
 
 
 def add_args(p):
-    from ..rod.simulation import INTEGRATORS
-
     p.add_argument("scenario", help="a shipped scenario name or a path to a .toml file")
     output(p, dest="out", default=None, metavar="PATH.h5", help="save every node to this HDF5 dataset")
     p.add_argument("--samples", type=int, default=None, help="saved samples (default: the scenario's)")
