@@ -137,10 +137,10 @@ def main(argv=None) -> int:
 
 
 def _main(args) -> int:
-    # heavy: imported when a command runs; registers the scenario-record builder that reads older data files
-    from .. import scenarios  # noqa: F401
-
     try:
+        # imported when a command runs: registers the scenario-record builder that reads older data files
+        from .. import scenarios  # noqa: F401
+
         return int(args.func(args) or 0)
     except (SoftrnnInputError, SimulationError) as err:
         print(f"softrnn: error: {err}", file=sys.stderr)
