@@ -45,8 +45,8 @@ def _fresh(*argv: str) -> dict:
     """``softrnn ARGV`` in a fresh interpreter: its exit code, its standard output and the top-level
     packages it imported."""
     src = str(Path(softrnn.__file__).parents[1])
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]),
-               NUMBA_NUM_THREADS="1")
+    paths = [src, *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(paths), NUMBA_NUM_THREADS="1")
     proc = subprocess.run([sys.executable, "-c", _PROBE, *argv], capture_output=True, text=True, env=env,
                           timeout=600, check=True)
     return json.loads(proc.stdout.splitlines()[-1])
