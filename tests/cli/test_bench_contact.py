@@ -18,13 +18,14 @@ from softrnn.scenarios import load_scenario
 
 
 def _stand_ins(monkeypatch):
-    """The single-rod, integrator, start-up and batch timings replaced by fixed figures, so that only
+    """The single-rod, integrator, start-up, command start-up and batch timings replaced by fixed figures, so that only
     the contact part of the simulator benchmark runs for real."""
     row = dict(nodes=59, substeps=1, us_per_node_step=0.05, us_per_node_step_all_saved=0.06, realtime_factor=10.0,
                cpu_fraction=1.0)
     monkeypatch.setattr(bench_simulator, "time_single", lambda *a, **k: SimpleNamespace(to_dict=lambda: dict(row)))
     monkeypatch.setattr(bench_simulator, "time_integrators", lambda *a, tick=None, **k: {"how": "stand-in"})
     monkeypatch.setattr(bench_simulator, "time_compile", lambda *a: dict(cold_s=1.0, cached_s=0.1, import_s=0.05))
+    monkeypatch.setattr(bench_simulator, "time_commands", lambda *a: {})
     monkeypatch.setattr(bench_simulator, "time_batch", lambda *a: dict(row, rods=16, threads=2))
 
 

@@ -160,7 +160,7 @@ def test_an_escaping_oserror_with_a_file_name_is_one_line(monkeypatch, capsys):
     def full(**kwargs):
         raise OSError(errno.ENOSPC, "No space left on device", "/data/run.h5")
 
-    monkeypatch.setattr("softrnn.cli._simulate.simulate_summary", full)
+    monkeypatch.setattr("softrnn.scenarios.summary.simulate_summary", full)   # what simulate runs
     assert run_cli(["simulate", "semicircle", "--samples", "5", "--quiet"]) == 2
     one_line_error(capsys, "cannot write /data/run.h5: No space left on device")
 
@@ -169,7 +169,7 @@ def test_an_oserror_without_a_file_name_is_not_hidden(monkeypatch):
     def odd(**kwargs):
         raise OSError("something else")
 
-    monkeypatch.setattr("softrnn.cli._simulate.simulate_summary", odd)
+    monkeypatch.setattr("softrnn.scenarios.summary.simulate_summary", odd)
     with pytest.raises(OSError, match="something else"):
         run_cli(["simulate", "semicircle", "--samples", "5", "--quiet"])
 

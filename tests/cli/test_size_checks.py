@@ -57,11 +57,11 @@ def test_too_large_refused_up_front(case, tmp_path, capsys, huge_scenario):
 
 def test_a_sweep_within_the_limits_reaches_the_run(monkeypatch, tmp_path):
     """The checks refuse only what is too large: the largest count, with a modest run, is simulated."""
-    import softrnn.cli._sweep as cli_sweep
+    import softrnn.sweeps.sweep as sweeps  # softrnn sweep imports run_sweep from here when it runs
     from softrnn.sweeps.sweep import MAX_COUNT, SweepResult
 
     calls = []
-    monkeypatch.setattr(cli_sweep, "run_sweep", lambda scenario, count, *a, **k: calls.append(count) or SweepResult())
+    monkeypatch.setattr(sweeps, "run_sweep", lambda scenario, count, *a, **k: calls.append(count) or SweepResult())
     assert run_cli(["sweep", "semicircle", "-o", str(tmp_path / "out"), "--count", str(MAX_COUNT),
                     "--samples", "1000", "--dt", "0.01", "--quiet"]) == 0
     assert calls == [MAX_COUNT]

@@ -7,7 +7,8 @@ Measures (see benchmarks/README.md):
   cantilever, 59- and 101-node cantilevers, and the paper's three cases (``softrnn.scenarios.cases``);
   saving one node (the node of interest) and saving all nodes;
 * start-up: the first tiny ``simulate`` in a fresh interpreter with an empty numba cache (cold
-  compile) and again with the filled cache (cached start), import time included;
+  compile) and again with the filled cache (cached start), import time included; and the start of
+  ``softrnn --version``, ``--help`` and ``scenario list`` (``bench.startup``);
 * a batch of 16 rods (59-node cantilevers, different tip loads) through ``simulate_batch`` on
   2 threads (and, for reference, on 1 thread);
 * the two integrators on the paper's cases and the stiff wires (``bench.integrators``);
@@ -34,6 +35,8 @@ from ..timing import load_average, machine_info
 from ._runs import covering_samples, goal_mark
 from .contact import CONTACT_CASES, contact_overheads, format_contact, time_contact_cases
 from .integrators import INTEGRATOR_CASES, INTEGRATORS, format_integrators, time_integrators
+from .startup import GOALS as COMMAND_GOALS
+from .startup import commands_met, format_commands, time_commands
 
 PAPER_SOURCE = "Tariverdi et al. 2021, Front. Robot. AI 8:631303, sections 4.1-4.3"
 PAPER = {
@@ -49,6 +52,7 @@ GOALS = {
     "cached_start_s": 0.5,
     "batch16_2threads_us_per_node_step": 0.07,
     "contact_overhead": 0.30,
+    **{f"{name}_start_s": goal for name, goal in COMMAND_GOALS.items()},
 }
 PAPER_CASES = ("ellipse", "square", "semicircle")
 GOAL_NODES = (59, 101)
@@ -287,7 +291,7 @@ def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict
     # contact: reps, node-steps timed per run, at most the first max_span_s simulated [s] (CONTACT_HOW)
     contact_settings = (3, 500_000, 1.0) if quick else (5, 2_000_000, 1.0)
     sizes = (50, 59, 101)
-    n_items = len(sizes) + len(PAPER_CASES) + len(INTEGRATOR_CASES) + len(CONTACT_CASES) + 2
+    n_items = len(sizes) + len(PAPER_CASES) + len(INTEGRATOR_CASES) + len(CONTACT_CASES) + 3
     tick = Ticks(progress, n_items)
 
     if progress is not None:
@@ -304,6 +308,8 @@ def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict
         numba.set_num_threads(previous)
 
     sim["compile"] = time_compile(1 if quick else 3)
+    tick()
+    sim["commands"] = time_commands(3 if quick else 5)
     tick()
 
     threads = min(2, numba.config.NUMBA_NUM_THREADS)
@@ -347,6 +353,8 @@ def goals_met(result: dict) -> dict:
     }
     if "contact_overhead" in goals:  # results from before the contact entries have no such goal
         met["contact_overhead"] = (max(overheads) <= goals["contact_overhead"]) if overheads else None
+    if "commands" in sim:  # nor from before the command start-up entries
+        met.update(commands_met(sim["commands"]))
     return met
 
 
@@ -403,6 +411,7 @@ def format_table(result: dict) -> str:
         f"  cached start                     {c['cached_s']:>8.2f} s   goal < {goals['cached_start_s']:.1f} s"
         f"   {goal_mark(met['cached_start_s'])}   (import alone {c['import_s']:.2f} s)",
         "",
+        *([*format_commands(sim["commands"]), ""] if "commands" in sim else []),
         f"batch: simulate_batch, {b['rods']} x {b['nodes']}-node cantilevers, {b['threads']} threads",
         f"  {b['us_per_node_step']:.4f} us/node-step   goal <= {goals['batch16_2threads_us_per_node_step']:.2f}"
         f"   {goal_mark(met['batch16_2threads_us_per_node_step'])}   (1 thread: {b['us_per_node_step_1thread']:.4f}; "

@@ -7,14 +7,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from ..errors import bad
-from ..figures.animation import STYLES, animate
-from ..figures.data import _title, check_suffix, load
 from ..files import prepare_output
-from ..io.reader import read_dataset
-from ..io.record import read_record
-from ..scenarios.record import with_record
-from ..scenarios.scenario import SCENARIO_NAMES, load_scenario
-from ..scenarios.summary import simulate_summary
+from ._names import SCENARIO_NAMES, STYLES
 from ._plot import named_node
 from ._progress import Bar
 
@@ -83,6 +77,8 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def run(args) -> int:
+    from ..figures.data import check_suffix
+
     scenario = _scenario(args)
     stem = Path(args.data).stem
     out = Path(args.output) if args.output else (Path(args.data).with_suffix(".gif") if scenario is None
@@ -116,6 +112,8 @@ def _scenario(args):
             if value is not None:
                 raise bad(flag, value, f"only with a scenario to simulate; {text} is a dataset (leave {flag} out)")
         return None
+    from ..scenarios.scenario import load_scenario
+
     if not path.is_file() and text not in SCENARIO_NAMES:
         raise bad("data or scenario", text, "an existing .h5 dataset, a shipped scenario ("
                   + ", ".join(SCENARIO_NAMES) + ") or an existing scenario .toml file")
@@ -133,6 +131,8 @@ def _scenario(args):
 
 def _simulate(args, scenario, path: str) -> None:
     """Run ``scenario`` (with the --samples and --dt given) into the dataset ``path``, with progress."""
+    from ..scenarios.summary import simulate_summary
+
     changes = {k: v for k, v in (("dt", args.dt), ("n_samples", args.samples)) if v is not None}
     config = replace(scenario.config, **changes) if changes else scenario.config
     with Bar(f"simulate {scenario.name}", enabled=not args.quiet) as bar:
@@ -149,6 +149,10 @@ def _simulate(args, scenario, path: str) -> None:
 def _animate(args, data_path: str, out: Path, size: tuple[int, int], label: str) -> int:
     """Animate the dataset ``data_path`` (named ``label`` on the progress bar and, when its
     attributes name nothing, in the picture) into ``out`` with the options ``args``."""
+    from ..figures.animation import animate
+    from ..figures.data import load
+    from ..io.reader import read_dataset
+
     node = args.node
     if node is not None:  # check it first (cheap): the reader's error names the stored nodes
         node = int(read_dataset(data_path, nodes=[node], group=args.group, stop=1).nodes[0])
@@ -169,6 +173,9 @@ def _obstacles(args, data):
     """What to draw: nothing (--no-obstacles), the data's own obstacles (True), or, for a prediction
     (a rollout records no contact but keeps its data's scenario record), the obstacles of that
     scenario, with a sweep variant's drawn values."""
+    from ..io.record import read_record
+    from ..scenarios.record import with_record
+
     if args.no_obstacles:
         return False
     attrs = dict(getattr(data, "attrs", None) or {})
@@ -179,4 +186,6 @@ def _obstacles(args, data):
 
 
 def _named(data) -> bool:
+    from ..figures.data import _title
+
     return _title(dict(getattr(data, "attrs", None) or {}), fallback="") != ""

@@ -5,15 +5,8 @@ import json
 import shutil
 from pathlib import Path
 
-from ..calibration.parallel import Evaluator
-from ..calibration.scenario import HEADER, fitted_text, prepare
-from ..calibration.scenario import run as run_calibration
 from ..errors import SoftrnnInputError, bad
-from ..figures.data import FIGURE_SUFFIXES, check_suffix
 from ..files import atomic_write_bytes, atomic_write_text, json_default, prepare_output
-from ..fitting import FitOptions
-from ..io.reader import read_dataset
-from ..scenarios.scenario import load_scenario, parse_scenario
 from ._progress import Bar
 from ._vocabulary import deprecate, output
 
@@ -23,6 +16,8 @@ HELP = ("fit chosen values of a scenario (dotted keys, e.g. rod.youngs_modulus) 
 
 
 def add_args(p):
+    from ..fitting import FitOptions
+
     p.add_argument("data", metavar="DATA",
                    help="the recorded dataset (.h5, e.g. from softrnn simulate -o or import-csv)")
     p.add_argument("--group", default=None, help="the trajectory's group inside a sweep file")
@@ -52,6 +47,8 @@ def add_args(p):
 
 def _outputs(args) -> tuple[Path, Path, Path]:
     """(-o, --json, --figure) checked before any work: suffixes, distinct, writable."""
+    from ..figures.data import FIGURE_SUFFIXES, check_suffix
+
     out = Path(args.out)
     if out.suffix.lower() != ".toml":
         raise bad("-o", args.out, "a scenario file name ending in .toml")
@@ -88,6 +85,13 @@ def _figure_bytes(cal, suffix: str, title: str) -> bytes:
 
 
 def run(args) -> int:
+    from ..calibration.parallel import Evaluator
+    from ..calibration.scenario import HEADER, fitted_text, prepare
+    from ..calibration.scenario import run as run_calibration
+    from ..fitting import FitOptions
+    from ..io.reader import read_dataset
+    from ..scenarios.scenario import load_scenario, parse_scenario
+
     out, report_path, figure_path = _outputs(args)
     if isinstance(args.max_evaluations, bool) or args.max_evaluations < 2:
         raise bad("--max-evaluations", args.max_evaluations, "an integer >= 2")

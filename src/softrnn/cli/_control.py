@@ -1,18 +1,20 @@
 """softrnn control magnetic: close the loop on the simulated magnetic rod (camera at 30 Hz, a
 controller setting the coil currents each frame)."""
 
+from __future__ import annotations
+
 import zipfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from ..control.controllers import CONTROLLERS
-from ..control.loop import LoopConfig
-from ..control.references import REFERENCES, reference
-from ..control.run import FIGURE_FILE, MODEL_FILE, RUN_FILE, SUMMARY_FILE, control_run, learned_model
 from ..errors import bad
 from ..files import prepare_output
-from ..magnetics.manipulator import ManipulatorSpec
+from ._names import CONTROLLERS, REFERENCES
 from ._progress import Bar
 from ._vocabulary import output
+
+if TYPE_CHECKING:
+    from ..control.loop import LoopConfig
 
 NAME = "control"
 HELP = "closed-loop control of the simulated magnetic rod: a controller tracks a reference of the distal magnet"
@@ -51,6 +53,10 @@ def add_args(p):
 
 
 def run(args) -> int:
+    from ..control.loop import LoopConfig
+    from ..control.references import reference
+    from ..control.run import FIGURE_FILE, RUN_FILE, SUMMARY_FILE, control_run, learned_model
+
     if args.controller not in CONTROLLERS:
         raise bad("--controller", args.controller, f"one of {', '.join(CONTROLLERS)}")
     _check_size(args.duration, LoopConfig(seed=args.seed))
@@ -107,7 +113,7 @@ def _check_size(duration, config: LoopConfig) -> None:
     import math
 
     from ..errors import SoftrnnInputError
-    from ..magnetics.manipulator import ManipulatorRun, check_manipulator_run
+    from ..magnetics.manipulator import ManipulatorRun, ManipulatorSpec, check_manipulator_run
 
     if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
         return
@@ -125,6 +131,8 @@ def _check_model_file(path) -> None:
     """Refuse a ``--model`` that cannot be a control model (missing, a folder, not an ``.npz`` archive)
     with one line naming it, before numpy reads it (whose message for a foreign file suggests
     ``allow_pickle``)."""
+    from ..control.run import MODEL_FILE
+
     if path is None:
         return
     what = f"a control model file written by softrnn control (DIR/{MODEL_FILE})"
@@ -143,6 +151,8 @@ def _check_model_file(path) -> None:
 
 def _plan_spec(text):
     """The model mpc-physics plans on, from ``--plan-factors`` S,R,D (None: the nominal one)."""
+    from ..magnetics.manipulator import ManipulatorSpec
+
     if text is None:
         return None
     try:

@@ -11,7 +11,6 @@ import numpy as np
 
 from ..errors import SimulationError, SoftrnnInputError, bad, require_extra
 from ..files import atomic_write_text, json_default, prepare_output
-from ..learned.spans import check_beyond_trained
 from ._progress import Bar, stop_code
 from ._vocabulary import deprecate, deprecate_converted, output, settings
 
@@ -357,6 +356,7 @@ def _check_test(model, args, times: np.ndarray, k: int, seconds: float) -> None:
         raise bad("--test", str(args.test), "a trajectory whose test span the model never saw, but it "
                                             f"{'trained on' if role == 'train' else 'validated on'} all of it; "
                                             "use --heldout or --generalisation data instead")
+    from ..learned.spans import check_beyond_trained
     from ..learned.whole.evaluation import step_at
 
     # on the model's step grid (every k-th sample): the first predicted state, one model step after the

@@ -5,7 +5,6 @@ and beside the baselines (persistence, constant velocity, a linear AR model; by 
 import json
 from pathlib import Path
 
-from ..figures.evaluation import FIGURE_FILES, write_figures
 from ..files import atomic_write_text, prepare_output
 from ._progress import Bar
 
@@ -35,6 +34,7 @@ def add_args(p):
 
 
 def run(args) -> int:
+    from ..figures.evaluation import FIGURE_FILES, write_figures
     from ..learned.node.artifact import load_model
     from ..learned.node.evaluate import evaluate
 

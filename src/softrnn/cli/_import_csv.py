@@ -1,22 +1,18 @@
 """softrnn import-csv LAB.csv -o DATA.h5: turn lab data (docs/csv-format.md) into a dataset file;
 several sessions of a robot (A.csv B.csv -o FOLDER) into one file each."""
 
+from __future__ import annotations
+
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import bad
 from ..files import atomic_outputs, prepare_output
-from ..io import read_dataset
-from ..io.csv_import import csv_layout, import_csv, read_csv, recording_trajectory, write_recording
-from ..lab.recording import (
-    AUTO_LAGS,
-    POSITION_UNITS,
-    Layout,
-    check_sessions,
-    estimate_lag,
-    read_recording,
-    shift_inputs,
-)
+from ._names import AUTO_LAGS
 from ._progress import DelayedBar
+
+if TYPE_CHECKING:
+    from ..lab.recording import Layout
 
 NAME = "import-csv"
 HELP = ("convert a lab CSV (time, node positions, optional orientations, wrenches and actuation inputs) or a "
@@ -51,6 +47,8 @@ def add_args(p):
 
 def _check_args(args) -> tuple:
     """(lag: int or 'auto', recording options given) after checking every option's value."""
+    from ..lab.recording import POSITION_UNITS
+
     if args.length is not None and not args.length > 0:
         raise bad("--length", args.length, "a positive rod length in m")
     if args.position_unit is not None and args.position_unit not in POSITION_UNITS:
@@ -92,12 +90,16 @@ def _outputs(args) -> list:
 
 
 def _layout(args) -> Layout:
+    from ..lab.recording import Layout
+
     return Layout(inputs=args.inputs or (), tip=args.tip, position_unit=args.position_unit)
 
 
 def _lag(recordings: list, lag) -> tuple:
     """(lag in rows, {lag: residual RMS [m]} or None): checked against every session's length, or
     estimated (and printed)."""
+    from ..lab.recording import estimate_lag
+
     if lag == "auto":
         best, scores = estimate_lag(recordings)
         shown = ", ".join(f"{k}: {v * 1e3:.4g}" for k, v in scores.items())
@@ -157,6 +159,10 @@ def _describe_recording(out, ds) -> str:
 
 
 def run(args) -> int:
+    from ..io import read_dataset
+    from ..io.csv_import import csv_layout, import_csv, read_csv, recording_trajectory, write_recording
+    from ..lab.recording import check_sessions, read_recording, shift_inputs
+
     lag, given = _check_args(args)
     csvs = [Path(c) for c in args.csv]
     layouts = [csv_layout(c, recording=bool(given)) for c in csvs]

@@ -1,27 +1,27 @@
 """softrnn lab benchmark | calibrate: a real robot's recordings (docs/guide/real-robots.md)."""
 
+from __future__ import annotations
+
 import dataclasses
 import json
 import re
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
-from ..figures.lab import benchmark_figure
-from ..figures.saving import save_figure
 from ..files import atomic_write_text, prepare_output
-from ..lab.benchmark import FAMILIES, BenchmarkOptions, check_pulls, robot_for, run_benchmark, settle_lag
-from ..lab.families import displacements
-from ..lab.recording import Layout, check_sessions, read_recording, shift_inputs
-from ..lab.suite import SuiteJob, SuiteResult, SuiteRow, run_suite
-from ..lab.synthetic import SyntheticOptions
-from ..lab.tendon_robot import calibrate, session_resets
-from ..learned.metrics import tip_errors
-from ..scenarios.suite import Suite, SuiteRobot, read_suite
+from ._names import FAMILIES
 from ._progress import Bar, stop_code
 from ._vocabulary import deprecate, output
+
+if TYPE_CHECKING:
+    from ..lab.benchmark import BenchmarkOptions
+    from ..lab.recording import Layout
+    from ..lab.suite import SuiteJob
+    from ..scenarios.suite import Suite, SuiteRobot
 
 NAME = "lab"
 HELP = "a real robot's recordings: benchmark every model family against baselines, calibrate the tendon physics"
@@ -133,6 +133,8 @@ def _as_option(err: SoftrnnInputError) -> SoftrnnInputError:
 
 
 def _layout(args) -> Layout:
+    from ..lab.recording import Layout
+
     try:
         return Layout(inputs=args.inputs or (), tip=args.tip, position_unit=args.position_unit)
     except SoftrnnInputError as err:
@@ -140,12 +142,16 @@ def _layout(args) -> Layout:
 
 
 def _read(paths, layout):
+    from ..lab.recording import check_sessions, read_recording
+
     recordings = [read_recording(p, layout) for p in paths]
     check_sessions(recordings)
     return recordings
 
 
 def _synthetic(amount):
+    from ..lab.synthetic import SyntheticOptions
+
     if amount is None:
         return None
     if not np.isfinite(amount) or amount < 0:
@@ -154,6 +160,8 @@ def _synthetic(amount):
 
 
 def _options(args, families) -> BenchmarkOptions:
+    from ..lab.benchmark import BenchmarkOptions
+
     try:
         return BenchmarkOptions(length=args.length, lag=_lag(args.lag), segments=_segments(args.segments),
                                 tendons_per_segment=args.tendons_per_segment, routing_radius=args.routing_radius,
@@ -164,6 +172,12 @@ def _options(args, families) -> BenchmarkOptions:
 
 
 def _benchmark(args) -> int:
+    from ..figures.lab import benchmark_figure
+    from ..figures.saving import save_figure
+    from ..lab.benchmark import run_benchmark
+    from ..lab.recording import read_recording
+    from ..lab.suite import SuiteResult, SuiteRow
+
     if args.suite:
         return _suite(args)
     missing = [flag for flag, value in (("--train", args.train), ("--validate", args.validate),
@@ -218,6 +232,11 @@ def _robots_folder(json_path) -> Path:
 
 def _job(suite: Suite, r: SuiteRobot) -> SuiteJob:
     """The ``SuiteJob`` of a suite file's robot (its options checked; errors name the entry)."""
+    from ..lab.benchmark import BenchmarkOptions
+    from ..lab.recording import Layout
+    from ..lab.suite import SuiteJob
+    from ..lab.synthetic import SyntheticOptions
+
     entry = f"{suite.path}: {r.key}"
     given = {k: getattr(r, k) for k in ("segments", "tendons_per_segment", "routing_radius", "lag", "families",
                                         "scenario")
@@ -233,6 +252,9 @@ def _job(suite: Suite, r: SuiteRobot) -> SuiteJob:
 
 
 def _suite(args) -> int:
+    from ..lab.suite import run_suite
+    from ..scenarios.suite import read_suite
+
     given = [f"--{d.replace('_', '-')}" for d, default in args.lab_single.items() if getattr(args, d) != default]
     if given:
         raise SoftrnnInputError(f"--suite gives each robot's sessions and options in its file: leave out "
@@ -308,6 +330,12 @@ def format_benchmark(r: dict) -> str:
 
 
 def _calibrate(args) -> int:
+    from ..lab.benchmark import check_pulls, robot_for, settle_lag
+    from ..lab.families import displacements
+    from ..lab.recording import shift_inputs
+    from ..lab.tendon_robot import calibrate, session_resets
+    from ..learned.metrics import tip_errors
+
     prepare_output(args.output, "-o", overwrite=args.overwrite)
     options = _options(args, ("physics",))
     recordings = _read(args.recordings + ([args.validate] if args.validate else []), _layout(args))

@@ -3,12 +3,7 @@
 from pathlib import Path
 
 from ..errors import bad
-from ..figures.data import FIGURE_SUFFIXES, _text, _title, check_suffix, describe_nodes, load, node_of_interest
-from ..figures.pictures import plot_node
 from ..files import prepare_output
-from ..io.reader import read_dataset
-from ..scenarios.cases import CASE_NAMES, build_case
-from ..scenarios.record import with_record
 
 NAME = "plot"
 HELP = "plot one node's position per axis [mm] against time, with the forces on it, to .png/.pdf/.svg"
@@ -31,6 +26,10 @@ def named_node(data) -> int | None:
     """The node of interest that dataset-like ``data`` names (``figures.data.node_of_interest``: its
     attrs or scenario record, an older file's rebuilt from its scenario text), else that of the paper
     case its ``attrs['case']`` names, else None."""
+    from ..figures.data import _text, node_of_interest
+    from ..scenarios.cases import CASE_NAMES, build_case
+    from ..scenarios.record import with_record
+
     case = _text(dict(getattr(data, "attrs", None) or {}).get("case"))
     node = node_of_interest(with_record(data))
     if node is None and case in CASE_NAMES:
@@ -39,6 +38,10 @@ def named_node(data) -> int | None:
 
 
 def run(args) -> int:
+    from ..figures.data import FIGURE_SUFFIXES, _title, check_suffix, describe_nodes, load
+    from ..figures.pictures import plot_node
+    from ..io.reader import read_dataset
+
     if args.output:
         check_suffix(args.output, FIGURE_SUFFIXES, argument="--output")
         prepare_output(args.output, "--output", overwrite=args.overwrite)

@@ -6,8 +6,6 @@ import signal
 import sys
 import time
 
-from tqdm import tqdm
-
 
 class Bar:
     """A ``Progress`` backed by tqdm (``info`` is not shown); use as a context manager. A call with
@@ -23,6 +21,8 @@ class Bar:
         if self.bar is not None and self.bar.total != total:
             self.close()
         if self.bar is None:
+            from tqdm import tqdm  # imported with the first bar: tqdm imports importlib.metadata, tens of ms
+
             self.bar = tqdm(total=total, desc=self.desc, unit=self.unit, file=sys.stderr, leave=False,
                             dynamic_ncols=True, unit_scale=True)
         self.bar.update(done - self.bar.n)

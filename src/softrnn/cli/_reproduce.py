@@ -2,7 +2,6 @@
 
 from ..errors import require_extra
 from ..files import prepare_output
-from ..reproduce.pipeline import reproduce
 from ._progress import Bar
 from ._vocabulary import output
 
@@ -24,6 +23,8 @@ def run(args) -> int:
     # resumable by design: its own folder is continued, anything else is refused
     for extra in ("learn", "dask"):     # every step is needed: refuse before the first one runs
         require_extra(extra)
+    from ..reproduce.pipeline import reproduce
+
     prepare_output(args.out, "-o", kind="folder", overwrite=True, mine=("cases", "report.json"))
     from ._vocabulary import start_again
 

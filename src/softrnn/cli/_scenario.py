@@ -1,16 +1,21 @@
 """softrnn scenario list | show NAME | copy NAME -o FILE: the shipped scenarios, their TOML text, a
 short description, and an editable copy to simulate or calibrate."""
 
+from __future__ import annotations
+
 import json
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import SoftrnnInputError, bad
 from ..files import atomic_write_text, prepare_output
-from ..scenarios.scenario import SCENARIO_NAMES, Scenario, load_scenario, scenario_text
-from ..scenarios.summary import contact_lines
+from ._names import SCENARIO_NAMES
 from ._vocabulary import output
+
+if TYPE_CHECKING:
+    from ..scenarios.scenario import Scenario
 
 NAME = "scenario"
 HELP = ("the shipped scenarios: list them, show one's TOML text or a summary, copy one to a file to edit, "
@@ -69,6 +74,8 @@ def _shipped(name: str) -> str:
 
 def _load(name: str) -> Scenario:
     """A shipped scenario by name, or a scenario file by path (loaded and checked)."""
+    from ..scenarios.scenario import load_scenario
+
     if name in SCENARIO_NAMES:
         return load_scenario(name)
     path = Path(name)
@@ -105,6 +112,8 @@ def format_list(entries: list[dict]) -> str:
 
 
 def _list(args) -> int:
+    from ..scenarios.scenario import load_scenario
+
     if args.json is not None:
         prepare_output(args.json, "--json", overwrite=args.overwrite)
     entries = [entry(load_scenario(name)) for name in SCENARIO_NAMES]
@@ -219,6 +228,8 @@ def _tables(sc: Scenario) -> list[str]:
 
 def summary(sc: Scenario) -> str:
     """The short description ``softrnn scenario show NAME --summary`` prints."""
+    from ..scenarios.summary import contact_lines
+
     rod, data = sc.setup.rod, sc.data
     paper = ", ".join(f"{k} {v}" for k, v in sc.paper.items() if k in ("section", "dataset", "role"))
     lines = [f"{sc.name}: {sc.title}", f"  source: {sc.source}" + (f"; paper: {paper}" if paper else "")]
@@ -247,6 +258,8 @@ def summary(sc: Scenario) -> str:
 
 # ------------------------------------------------------------------------------------------- copy
 def _copy(args) -> int:
+    from ..scenarios.scenario import load_scenario, scenario_text
+
     name = _shipped(args.name)
     if args.out is None:
         raise SoftrnnInputError(f"-o is missing: give the file to write, e.g. softrnn scenario copy {name} "

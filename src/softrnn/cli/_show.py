@@ -4,7 +4,6 @@ import json
 
 from ..errors import SoftrnnInputError
 from ..files import atomic_write_text, prepare_output
-from ..io.summary import describe
 from ._progress import DelayedBar
 from ._vocabulary import STDOUT, JsonOrSwitch, note
 
@@ -39,6 +38,8 @@ def _path(args) -> str:
 
 
 def run(args) -> int:
+    from ..io.summary import describe
+
     path = _path(args)
     if args.json not in (None, STDOUT):
         prepare_output(args.json, "--json", overwrite=args.overwrite)

@@ -5,9 +5,7 @@ from dataclasses import replace
 
 from ..errors import bad
 from ..files import atomic_write_text, prepare_output
-from ..rod.simulation import INTEGRATORS
-from ..scenarios.scenario import SCENARIO_NAMES, load_scenario
-from ..scenarios.summary import simulate_summary
+from ._names import INTEGRATORS, SCENARIO_NAMES
 from ._progress import Bar
 from ._vocabulary import output
 
@@ -37,6 +35,9 @@ def add_args(p):
 
 
 def run(args) -> int:
+    from ..scenarios.scenario import load_scenario
+    from ..scenarios.summary import simulate_summary
+
     scenario = load_scenario(args.scenario)
     if args.samples is not None and args.samples < 1:
         raise bad("--samples", args.samples, "an integer >= 1")

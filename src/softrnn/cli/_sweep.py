@@ -1,8 +1,6 @@
 """softrnn sweep SCENARIO --count N -o DIR: randomised variants in parallel on Dask (resumable)."""
 
 from ..files import prepare_output
-from ..scenarios.scenario import load_scenario
-from ..sweeps.sweep import MANIFEST, check_sweep, run_sweep
 from ._progress import Bar
 from ._vocabulary import output
 
@@ -30,6 +28,9 @@ def add_args(p):
 
 
 def run(args) -> int:
+    from ..scenarios.scenario import load_scenario
+    from ..sweeps.sweep import MANIFEST, check_sweep, run_sweep
+
     scenario = load_scenario(args.scenario)
     # bad values and a sweep too large for this machine: refused before any folder, worker or step
     check_sweep(scenario, args.count, n_workers=args.workers, n_samples=args.samples, dt=args.dt)

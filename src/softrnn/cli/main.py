@@ -6,7 +6,8 @@ import signal
 import sys
 import threading
 
-from .. import __version__
+import softrnn
+
 from ..errors import FileFault, SimulationError, SoftrnnInputError, missing_extra
 from . import (
     _animate,
@@ -31,21 +32,61 @@ from . import (
     _train,
 )
 from ._progress import Terminated, stop_code
-from ._vocabulary import FLAGS, Parser, in_flags
+from ._vocabulary import FLAGS, Parser, _SubParsers, in_flags
 
 _Parser = Parser
 """The one-line-error parser of every command (``_vocabulary.Parser``; the old name)."""
 
 
-def build_parser() -> argparse.ArgumentParser:
+COMMANDS = (_scenario, _simulate, _sweep, _reproduce, _bench, _show, _import_csv, _animate, _plot, _train,
+            _evaluate, _rollout, _export, _study, _magnetic, _dynamic, _calibrate, _control, _lab, _lab_example)
+"""The subcommands' modules, in the order of ``softrnn --help``. Each module imports only light parts
+at its top (its ``NAME``, ``HELP``, ``add_args`` and ``run``); the library parts it needs are imported
+inside its functions, when the command runs (tests/cli/test_startup.py checks which)."""
+
+
+class _Version(argparse._VersionAction):
+    """``--version``: prints ``softrnn VERSION``, looked up when asked for (``softrnn.__version__``)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        self.version = f"softrnn {softrnn.__version__}"
+        super().__call__(parser, namespace, values, option_string)
+
+
+class _Commands(_SubParsers):
+    """The subcommands, each one's arguments added by its ``add_args`` when first needed
+    (``complete``): when argparse reaches the command, or all at once for the whole tree. Some
+    ``add_args`` import library parts for their defaults and choices; ``softrnn --help``,
+    ``--version`` and bare ``softrnn`` run none of them."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.pending = {}
+
+    def complete(self, name: str | None = None) -> None:
+        """Add the arguments of the command ``name`` (None: of every command) if not yet added."""
+        for key in (list(self.pending) if name is None else [name]):
+            add_args = self.pending.pop(key, None)
+            if add_args is not None:
+                add_args(self.choices[key])
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        self.complete(values[0])
+        super().__call__(parser, namespace, values, option_string)
+
+
+def build_parser(complete: bool = True) -> argparse.ArgumentParser:
+    """The parser of ``softrnn``; with ``complete=False`` each command's arguments are added only
+    when that command is parsed (what ``main`` uses: the help and the version start at once)."""
     parser = Parser(prog="softrnn", description="Real-time dynamic models of soft continuum manipulators.")
-    parser.add_argument("--version", action="version", version=f"softrnn {__version__}")
-    sub = parser.add_subparsers(title="commands", dest="command", required=True, parser_class=Parser)
-    for module in (_scenario, _simulate, _sweep, _reproduce, _bench, _show, _import_csv, _animate, _plot, _train,
-                   _evaluate, _rollout, _export, _study, _magnetic, _dynamic, _calibrate, _control, _lab, _lab_example):
+    parser.add_argument("--version", action=_Version)
+    sub = parser.add_subparsers(title="commands", dest="command", required=True, action=_Commands)
+    for module in COMMANDS:
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
-        module.add_args(p)
         p.set_defaults(func=module.run)
+        sub.pending[module.NAME] = module.add_args
+    if complete:
+        sub.complete()
     return parser
 
 
@@ -75,7 +116,12 @@ def _stop(signum, frame):
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(complete=False)
+    if not argv:        # bare softrnn: the help
+        parser.print_help()
+        return 0
+    args = parser.parse_args(argv)
     previous = {}
     for sig in (signal.SIGTERM, signal.SIGINT):
         try:   # only the main thread may set a handler; a caller's own handler comes back afterwards
@@ -92,6 +138,9 @@ def main(argv=None) -> int:
 
 def _main(args) -> int:
     try:
+        # imported when a command runs: registers the scenario-record builder that reads older data files
+        from .. import scenarios  # noqa: F401
+
         return int(args.func(args) or 0)
     except (SoftrnnInputError, SimulationError, FileFault) as err:
         print(f"softrnn: error: {in_flags(str(err), getattr(args, FLAGS, {}))}", file=sys.stderr)
