@@ -221,7 +221,7 @@ def test_a_full_disk_while_streaming_a_dataset_discards_it(tmp_path, monkeypatch
 
 def test_an_escaping_full_disk_without_a_file_name_is_one_line(monkeypatch, capsys):
     """e.g. numba writing its cache of compiled code onto a full disk."""
-    monkeypatch.setattr("softrnn.cli._simulate.simulate_summary", _no_space)
+    monkeypatch.setattr("softrnn.scenarios.summary.simulate_summary", _no_space)
     assert run_cli(["simulate", "semicircle", "--samples", "5", "--quiet"]) == 2
     _one_line_error(capsys, "a write failed: No space left on device", "free space")
 
