@@ -21,6 +21,7 @@ from softrnn.lab.families import (
     StaticPolynomial,
     holdout_split,
     novelty,
+    parsimonious,
     play,
 )
 from softrnn.lab.nets import NetOptions, SequenceOptions
@@ -136,6 +137,17 @@ def test_holdout_of_several_sessions_is_the_one_least_covered():
     beyond = _session(rng.uniform(-1, 1, (50, 2)) * [6.0, 1.0])
     fit, held = holdout_split([near, beyond, also_near])
     assert held == [beyond] and fit == [near, also_near]
+
+
+def test_the_simplest_candidate_within_one_standard_error_wins():
+    """The one-standard-error rule: over 50 rows the tolerance is 1/sqrt(100) = 10 % of the best score;
+    a later (more complex) candidate wins only when it is better by more than that."""
+    assert parsimonious({"simple": 10.9, "complex": 10.0}, 50) == "simple"
+    assert parsimonious({"simple": 11.1, "complex": 10.0}, 50) == "complex"
+    assert parsimonious({"simple": 11.1, "complex": 10.0}, 5000) == "complex"
+    assert parsimonious({"simple": 10.09, "complex": 10.0}, 5000) == "simple"
+    assert parsimonious({"diverged": math.inf, "fine": 3.0}, 50) == "fine"
+    assert parsimonious({"a": math.inf, "b": math.inf}, 50) == "a"
 
 
 def test_novelty_of_a_copy_is_zero_and_a_still_channel_counts_nothing():

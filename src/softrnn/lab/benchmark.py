@@ -30,7 +30,9 @@ from .families import (
     StaticPolynomial,
     choose,
     displacements,
+    held_rows,
     holdout_split,
+    parsimonious,
 )
 from .nets import NetOptions, SequenceOptions, fit_hybrid, fit_learned_map, fit_node, fit_sequence
 from .physics_variants import choose_physics
@@ -49,7 +51,12 @@ robot (``softrnn.lab.dynamic_families``)."""
 BASELINES = ("persistence", "constant_velocity", "linear_arx", "static_map")
 """The baselines, in report order: the first three the shared ones of ``softrnn.learned.baselines``."""
 ARX_ORDERS = ((1, 1), (2, 1), (1, 2), (2, 2))
-POLY_CANDIDATES = tuple((d, r) for d in (1, 2, 3) for r in (1e-6, 1e-3, 1e-1))
+POLY_CANDIDATES = tuple((d, r) for d in (1, 2, 3) for r in (1e-1, 1e-3, 1e-6))
+"""The baselines' candidates, simplest first (the hold-out's choice prefers the simplest, ``parsimonious``)."""
+LEAST_LEARNED = ("physics", "dynamic_physics", "hybrid", "dynamic_hybrid", "learned_map", "sequence", "node_lstm")
+"""The families from the one that leans least on learned parts to the one that leans most: the order
+in which the hold-out's family choice prefers them (``parsimonious``): the physics extrapolates by
+construction, a learned part only as far as its data reach."""
 MIN_ROWS = 10
 """Fewest rows of every session (after the lag) the benchmark runs on: the baselines, the families and
 their hold-out split (a quarter of a sole training session, in stretches of rows) need that many; a 3-row session
@@ -571,7 +578,8 @@ def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -
     holdout.update(_dynamic_models(train, list(prepared.dynamic), prepared.dynamic_robot, out, step))
     chosen = None
     if holdout:
-        family = min(holdout, key=holdout.get)
+        ordered = {f: holdout[f] for f in sorted(holdout, key=LEAST_LEARNED.index)}
+        family = parsimonious(ordered, held_rows(holdout_split(train)[1]))
         chosen = Choice(family=family, holdout_rmse_mm=holdout,
                         holdout=HOLDOUT_RULES[len(train) >= 2],
                         validation_tip_rmse_mm=out.models[family].tip_rmse_mm)

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..learned.linear import LinearARX
 from .dynamic_physics import DynamicCalibration, DynamicRobot, calibrate_dynamics
-from .families import HOLDOUT_FRACTION
+from .families import HOLDOUT_FRACTION, parsimonious
 from .recording import Recording
 from .uncertainty import COVERAGE
 
@@ -185,7 +185,7 @@ class DynamicHybrid:
             errors[kind] = np.concatenate(err)
             rmse = _rmse_mm(errors[kind])
             scores[kind] = rmse if np.isfinite(rmse) else float("inf")
-        best = min(scores, key=scores.get)
+        best = parsimonious(scores, sum(len(e) for e in err))
         every = rows([_Part(s, slice(0, None)) for s in sessions])
         return replace(self, physics=physics, residual=Residual(best).fit(every), holdout_rmse_mm=scores[best],
                        holdout_scores=scores, radius_m=float(np.quantile(errors[best], COVERAGE)))

@@ -294,6 +294,24 @@ def holdout_split(sessions) -> tuple[list, list]:
     return _runs(s, edges, set(range(len(parts))) - held), _runs(s, edges, held)
 
 
+def parsimonious(scores: dict, rows: int):
+    """The label of ``scores`` ({label: hold-out RMSE [mm]}, listed simplest first) to choose, by the
+    one-standard-error rule: the first whose score is within one standard error of the best score,
+    taken as 1/sqrt(2 ``rows``) of it (the standard error of an RMSE over ``rows`` independent rows;
+    a recording's rows are correlated, so the true one is larger). A more complex candidate is chosen
+    only where the hold-out shows it better by more than its score's own uncertainty."""
+    finite = {k: v for k, v in scores.items() if math.isfinite(v)}
+    if not finite:
+        return next(iter(scores))
+    limit = min(finite.values()) * (1.0 + 1.0 / math.sqrt(2.0 * max(int(rows), 1)))
+    return next(k for k, v in finite.items() if v <= limit)
+
+
+def held_rows(held) -> int:
+    """The rows of the held-out sessions ``held`` (a list of ``Recording``)."""
+    return sum(s.n_rows for s in held)
+
+
 @dataclass(frozen=True)
 class Choice:
     """The option chosen for a family and the hold-out scores of each candidate [mm]."""
@@ -303,8 +321,9 @@ class Choice:
 
 
 def choose(candidates: dict, sessions) -> Choice:
-    """Fit each candidate (``{label: factory() -> model}``) on the fitting part of ``sessions``
-    and score its free run on the hold-out part (Euclidean tip RMSE [mm]); the best label wins."""
+    """Fit each candidate (``{label: factory() -> model}``, simplest first) on the fitting part of
+    ``sessions`` and score its free run on the hold-out part (Euclidean tip RMSE [mm]); the simplest
+    within one standard error of the best wins (``parsimonious``)."""
     fit_part, held = holdout_split(sessions)
     scores = {}
     for label, factory in candidates.items():
@@ -313,7 +332,7 @@ def choose(candidates: dict, sessions) -> Choice:
         ref = np.vstack([s.tip for s in held])
         score = tip_errors(pred, ref).rmse_mm
         scores[label] = score if math.isfinite(score) else math.inf
-    return Choice(chosen=min(scores, key=scores.get), scores=scores)
+    return Choice(chosen=parsimonious(scores, held_rows(held)), scores=scores)
 
 
 # ---------------------------------------------------------------------------------- the node model

@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import bad
-from .families import PLAY_WIDTHS, NodeFamily, Physics, _previous, holdout_split, play
+from .families import PLAY_WIDTHS, NodeFamily, Physics, _previous, held_rows, holdout_split, parsimonious, play
 from .recording import Recording
 from .synthetic import SyntheticOptions, synthetic_sessions
 from .uncertainty import InputDistance, Intervals, conformal_q
@@ -437,10 +437,11 @@ def staged(make, modes, train, held_score, variants=lambda model: {"": model}) -
             scores[label] = held_score(model)
     for h in (False, True):
         attempt(h, "real")
-    h = fitted[min(scores, key=scores.get)][0]
+    rows = held_rows(held)
+    h = fitted[parsimonious(scores, rows)][0]
     for m in modes:
         attempt(h, m)
-    h, m, suffix, model = fitted[min(scores, key=scores.get)]
+    h, m, suffix, model = fitted[parsimonious(scores, rows)]
     final = variants(make(h, m, 1).fit(train))[suffix]
     return replace(final, interval_q=conformal_q(model, held)), scores
 
@@ -466,7 +467,7 @@ def fit_sequence(train, pair, syn, options, held_score) -> tuple:
     fitted = {f"mode={m}": Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
               for m in (("real", "finetune") if syn.on else ("real",))}
     scores = {k: held_score(v) for k, v in fitted.items()}
-    best = min(scores, key=scores.get)
+    best = parsimonious(scores, held_rows(held))
     q = conformal_q(fitted[best], held)
     return replace(Sequence(options.sequence, best.split("=")[1], syn, pair[1]).fit(train), interval_q=q), scores
 
@@ -474,9 +475,9 @@ def fit_sequence(train, pair, syn, options, held_score) -> tuple:
 def fit_node(train, pair, syn, options, held_score) -> tuple:
     """``NodeFamily`` (``options.node``), taught by the physics' synthetic sessions (mode ``mixed``) or
     not, as the hold-out part prefers; the winner refitted on every training row."""
-    fit_part, _ = holdout_split(train)
+    fit_part, held = holdout_split(train)
     modes = ("real", "mixed") if syn.on else ("real",)
     scores = {f"mode={m}": held_score(NodeFamily(options.length, options.node, mode=m, synthetic=syn,
                                                  physics=pair[0]).fit(fit_part)) for m in modes}
-    best = min(scores, key=scores.get).split("=")[1]
+    best = parsimonious(scores, held_rows(held)).split("=")[1]
     return NodeFamily(options.length, options.node, mode=best, synthetic=syn, physics=pair[1]).fit(train), scores

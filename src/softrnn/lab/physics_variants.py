@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import bad
 from ..learned.metrics import tip_errors
-from .families import Physics
+from .families import Physics, held_rows, parsimonious
 from .tendon_robot import CalibrationOptions, TendonRobot
 
 VARIANTS = {"plain": (False, False), "gravity": (True, False), "friction": (False, True),
@@ -64,7 +64,7 @@ def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: li
             Physics(robot, replace(options, gravity=gravity, friction=friction), start=plain.calibration.params
                     ).fit(fit_part)
         fitted[name], scores[name] = model, holdout_rmse_mm(model, held)
-    best = min(scores, key=scores.get)
+    best = parsimonious(scores, held_rows(held))
     chosen = fitted[best]
     physics = replace(chosen, start=chosen.calibration.params, calibration=None).fit(train)
     return PhysicsChoice(variant=best, holdout_rmse_mm=scores, held=chosen, physics=physics)
