@@ -78,7 +78,7 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory: ProgressFactory
     out = Path(out_dir)
     (out / "cases").mkdir(parents=True, exist_ok=True)
     numerics = pin_numerics()       # before PyTorch's first operation: the same figures on every machine
-    import torch  # noqa: F401  optional extra: learn (PyTorch), loaded here so that its thread count can be set
+    import torch  # noqa: F401  # optional extra: learn (PyTorch), loaded so that its threads can be set
     report = {"softrnn_version": __version__, "quick": quick,
               "machine": {**machine_info(), "numerics": numerics, "torch_threads": REPRODUCE_TORCH_THREADS},
               "assumptions": ASSUMPTIONS}
