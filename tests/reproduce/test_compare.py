@@ -30,6 +30,7 @@ def _report(quick=True) -> dict:
                   "regions": {"torch_bandwidth": {"best": {"units": 5}}, "rms_error": {"best": {"units": 20}}}},
         "magnetic": {"best_on_bending_axis": "rnn", "files": {"robot": "out/reproduce-quick/magnetic/robot.h5"}},
         "step_seconds": {"cases": 11.7, "control": 49.5},
+        "benchmark": {"model": {"manipulator_threads": 2}, "dynamic": {"cases": {"square": {"goal_met": True}}}},
     }
 
 
@@ -53,6 +54,8 @@ def test_equal_figures_pass():
     (("machine", "cpu"), "AMD EPYC"),
     (("softrnn_version",), "1.1"),
     (("magnetic", "files", "robot"), "/elsewhere/magnetic/robot.h5"),
+    (("benchmark", "model", "manipulator_threads"), 1),                 # the fastest count, chosen by speed
+    (("benchmark", "dynamic", "cases", "square", "goal_met"), False),   # a speed goal
 ])
 def test_a_moved_timing_path_or_machine_passes(path, value):
     run = copy.deepcopy(_report())
@@ -171,3 +174,19 @@ def test_cli_refuses_a_bad_reference_before_running(tmp_path, monkeypatch, capsy
     err = capsys.readouterr().err
     assert "--compare=" in err and "drop --quick" in err
     assert calls == []
+
+
+def test_the_committed_quick_reference_is_a_pinned_quick_run_of_every_step():
+    from pathlib import Path
+
+    from softrnn.learned.threads import PINNED_NUMERICS
+
+    folder = Path(__file__).resolve().parents[2] / "docs" / "results" / "reference-quick"
+    report = cmp.load_report(folder)
+    run = json.loads((folder / "run.json").read_text())
+    assert report["quick"] is True, "CI compares a quick run: the quick reference must be one"
+    assert report["machine"]["numerics"] == PINNED_NUMERICS, "made without the pinned code paths"
+    assert set(report["step_seconds"]) == {"cases", "node_models", "manipulator", "dynamic_model", "tendons",
+                                           "magnetic", "control", "fig13", "fig14", "benchmark"}
+    assert run["commit"] and run["command"].startswith("softrnn reproduce --quick")
+    assert len(cmp.figures(report)) > 1000

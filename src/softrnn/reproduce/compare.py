@@ -33,9 +33,10 @@ TIMING = re.compile(
 speeds and rates, compile and import times, the Fig. 14 inference bandwidths and the best region by
 them, the speed goals; ``machine`` and ``softrnn_version`` are left out by name (``MACHINE_KEYS``)."""
 
-TIMING_ENTRIES = re.compile(r"^(dynamic_model|tendons)/[^/]+/step_s$")
-"""Timings whose name elsewhere means a figure: a whole-manipulator step's wall seconds (``step_s`` is
-the integration step in a simulation's summary)."""
+TIMING_ENTRIES = re.compile(r"^benchmark(/|\[|$)|^(dynamic_model|tendons)/[^/]+/step_s$")
+"""Timings by their place in the report: the whole ``benchmark`` (``softrnn bench``: speeds, and the
+settings and choices made by speed, e.g. the fastest thread count and its goal flags), and a
+whole-manipulator step's wall seconds (``step_s`` is the integration step in a simulation's summary)."""
 
 MACHINE_KEYS = frozenset({"machine", "softrnn_version", "threads", "torch_threads", "usable_cores", "cores"})
 """Keys that describe the machine or the software version, not the method."""
