@@ -3,11 +3,13 @@
 
 import copy
 import json
+from pathlib import Path
 
 import pytest
 
 from softrnn.cli import _reproduce
 from softrnn.errors import SoftrnnInputError
+from softrnn.learned.threads import PINNED_NUMERICS
 from softrnn.reproduce import compare as cmp
 
 from helpers import run_cli
@@ -177,10 +179,6 @@ def test_cli_refuses_a_bad_reference_before_running(tmp_path, monkeypatch, capsy
 
 
 def test_the_committed_quick_reference_is_a_pinned_quick_run_of_every_step():
-    from pathlib import Path
-
-    from softrnn.learned.threads import PINNED_NUMERICS
-
     folder = Path(__file__).resolve().parents[2] / "docs" / "results" / "reference-quick"
     report = cmp.load_report(folder)
     run = json.loads((folder / "run.json").read_text())
