@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install reproduce reproduce-quick real-robot real-robot-suite results test test-all lint docs bench clean
+.PHONY: install reproduce reproduce-quick references real-robot real-robot-suite results test test-all lint docs bench clean
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -17,8 +17,23 @@ install: $(STAMP)
 reproduce: $(STAMP)
 	$(BIN)/softrnn reproduce -o out/reproduce
 
+# COMPARE=REF: then compare the accuracy figures with the reference REF (CI: docs/results/reference-quick)
 reproduce-quick: $(STAMP)
-	$(BIN)/softrnn reproduce --quick -o out/reproduce-quick
+	$(BIN)/softrnn reproduce --quick -o out/reproduce-quick $(if $(COMPARE),--compare $(COMPARE))
+
+# Both committed references regenerated from scratch in one go: the full run into docs/results/reference
+# and the quick run into docs/results/reference-quick (report.json, report.md, run.json, the figures the
+# reference shows), then the README and the results page rendered from them (make results). A change
+# that moves a figure on purpose runs this and commits the new references with it, saying why
+# (NOTES="..." goes into each run.json).
+references: $(STAMP)
+	rm -rf out/references
+	$(BIN)/softrnn reproduce -o out/references/reproduce
+	$(BIN)/softrnn reproduce --quick -o out/references/reproduce-quick
+	NOTES="$(NOTES)" $(BIN)/python -c "import os; from softrnn.reproduce.compare import save_reference as s; \
+		s('out/references/reproduce', 'docs/results/reference', notes=os.environ['NOTES']); \
+		s('out/references/reproduce-quick', 'docs/results/reference-quick', notes=os.environ['NOTES'])"
+	$(MAKE) results
 
 # The real-robot benchmark on recordings in the layout of docs/guide/real-robots.md:
 #   make real-robot DATA=path/to/opencr-tdcr-v6

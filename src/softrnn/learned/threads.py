@@ -1,9 +1,23 @@
-"""PyTorch's intra-op thread count, set for a block of work and restored after."""
+"""PyTorch's intra-op thread count, set for a block of work and restored after; the numeric libraries'
+code paths pinned so that a run's figures do not depend on the machine (``pinned_numerics``)."""
 
 from __future__ import annotations
 
+import os
 import sys
 from contextlib import contextmanager
+
+PINNED_NUMERICS = {"MKL_CBWR": "COMPATIBLE", "ONEDNN_MAX_CPU_ISA": "AVX2", "ATEN_CPU_CAPABILITY": "avx2"}
+"""The code path of each numeric library under PyTorch, fixed instead of chosen by the processor: MKL's
+conditional numerical reproducibility branch (``COMPATIBLE``, the one branch that gives the same
+results on Intel and other x86 processors), oneDNN's instruction set (its LSTM and linear kernels) and
+ATen's vectorised kernels (both AVX2, which every x86-64 processor since 2013 has). Unpinned, MKL and
+oneDNN choose AVX-512 kernels on one processor and AVX2 ones on another, whose float32 sums round
+differently in the last digit; training amplifies that to the 4th-6th digit of its figures."""
+
+REPRODUCE_TORCH_THREADS = 2
+"""PyTorch's threads in ``softrnn reproduce`` outside the trainings (which set their own, one each):
+fixed, because MKL's results depend on its thread count, and PyTorch's default is the machine's cores."""
 
 
 @contextmanager
@@ -22,3 +36,12 @@ def torch_threads(threads: int | None):
         yield
     finally:
         torch.set_num_threads(old)
+
+
+def pin_numerics() -> dict[str, str]:
+    """Set each variable of ``PINNED_NUMERICS`` that the environment does not set already (a value
+    the user set is kept) and return the values in force. Effective only before PyTorch's first
+    operation in this process; processes started after inherit them."""
+    for name, value in PINNED_NUMERICS.items():
+        os.environ.setdefault(name, value)
+    return {name: os.environ[name] for name in PINNED_NUMERICS}

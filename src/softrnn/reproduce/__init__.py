@@ -7,6 +7,7 @@ and the report they make (``render_markdown``).
 * ``tendons``: the whole-manipulator model of the tendon-driven arms, driven by their tensions alone
   (``tendon_step``; not a step of the pipeline);
 * ``stepfiles``: the step files that make a rerun resume;
+* ``compare``: a report's accuracy figures against a committed reference (``softrnn reproduce --compare``);
 * ``report``: ``render_markdown``, the Markdown report.
 """
 

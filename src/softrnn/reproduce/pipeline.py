@@ -26,6 +26,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..files import atomic_write_text
+from ..learned.threads import REPRODUCE_TORCH_THREADS, pin_numerics, torch_threads
 from ..paper import paper_case
 from ..progress import ProgressFactory
 from ..scenarios.cases import ASSUMPTIONS, PAPER_CASES, build_case
@@ -76,8 +77,20 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory: ProgressFactory
     """
     out = Path(out_dir)
     (out / "cases").mkdir(parents=True, exist_ok=True)
-    report = {"softrnn_version": __version__, "quick": quick, "machine": machine_info(),
+    numerics = pin_numerics()       # before PyTorch's first operation: the same figures on every machine
+    import torch  # noqa: F401  # optional extra: learn (PyTorch), loaded so that its threads can be set
+    report = {"softrnn_version": __version__, "quick": quick,
+              "machine": {**machine_info(), "numerics": numerics, "torch_threads": REPRODUCE_TORCH_THREADS},
               "assumptions": ASSUMPTIONS}
+    with torch_threads(REPRODUCE_TORCH_THREADS):
+        _steps(report, out, quick, progress_factory)
+    atomic_write_text(out / "report.json", json.dumps(report, indent=2))
+    atomic_write_text(out / "report.md", render_markdown(report))
+    return report
+
+
+def _steps(report: dict, out: Path, quick: bool, progress_factory: ProgressFactory | None) -> None:
+    """Every step in order into ``report``, and each step's wall seconds into its ``step_seconds``."""
     seconds = {}
 
     def timed(name, step, *args):
@@ -97,6 +110,3 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory: ProgressFactory
     report["fig14"] = timed("fig14", fig14_step, out, quick, progress_factory)
     report["benchmark"] = timed("benchmark", benchmark_step, out, quick, progress_factory)
     report["step_seconds"] = seconds
-    atomic_write_text(out / "report.json", json.dumps(report, indent=2))
-    atomic_write_text(out / "report.md", render_markdown(report))
-    return report
