@@ -7,7 +7,6 @@ from pathlib import Path
 
 import pytest
 
-from softrnn.cli import _reproduce
 from softrnn.errors import SoftrnnInputError
 from softrnn.learned.threads import PINNED_NUMERICS
 from softrnn.reproduce import compare as cmp
@@ -146,7 +145,7 @@ def _fake_run(tmp_path, monkeypatch, report):
         calls.append(out)
         _write(tmp_path / "out", report)
 
-    monkeypatch.setattr(_reproduce, "reproduce", lambda out, *, quick, progress_factory: fake(out, quick,
+    monkeypatch.setattr("softrnn.reproduce.pipeline.reproduce", lambda out, *, quick, progress_factory: fake(out, quick,
                                                                                              progress_factory))
     return calls
 
