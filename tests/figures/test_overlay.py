@@ -92,6 +92,10 @@ def test_cli_plot_and_animate_over_the_recorded_or_given_reference(pair, tmp_pat
     assert run_cli(["plot", str(pred_path), "--over", "-o", str(png)]) == 0        # the recorded reference
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert f"over {ref_path}" in capsys.readouterr().out
+    assert run_cli(["plot", str(pred_path), "-o", str(tmp_path / "alone.png")]) == 0     # a hint where it is useful
+    assert f"'softrnn plot {pred_path} --over' draws it over its reference data" in capsys.readouterr().out
+    assert run_cli(["plot", str(ref_path), "--node", "2", "-o", str(tmp_path / "ref.png")]) == 0
+    assert "--over" not in capsys.readouterr().out
     assert run_cli(["plot", str(pred_path), "--over", str(ref_path), "-o", str(png), "--overwrite",
                     "--node", "3"]) == 0
     seen = []
@@ -215,3 +219,30 @@ def test_animate_shows_a_rod_sagging_in_a_flat_vessel_from_above(tmp_path, monke
     animation.animate(data, tmp_path / "c.gif", frames=2, obstacles={"obstacles": []}, view="3d", style="auto")
     assert [type(s).__name__ for s in seen] == ["FluoroScene", "_Scene", "_Scene"]
     assert [s.view for s in seen] == ["xy", "xy", "3d"]
+
+
+# ------------------------------------------------------------------------------------------ end to end
+def test_rollout_suggests_the_overlay_and_it_draws(tmp_path, capsys):
+    pytest.importorskip("torch")
+    from softrnn.learned.node.artifact import save_model
+    from softrnn.learned.node.data import SampleSpec
+
+    from helpers import N_NODES, node_dataset, real_model, save_h5
+
+    ds = node_dataset(T=50)
+    data = save_h5(tmp_path / "data.h5", ds, scenario_name="synthetic")
+    folders = []
+    for a in range(1, N_NODES):
+        folders.append(tmp_path / f"node{a}")
+        save_model(folders[-1], real_model(ds, SampleSpec(node=a, history=2, wrench="force")))
+    pred = tmp_path / "pred.h5"
+    assert run_cli(["rollout", *map(str, folders), str(data), "-o", str(pred), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert f"softrnn animate {pred} --over {data}" in out and f"softrnn plot {pred} --over {data}" in out
+    assert "beside" not in out
+    assert run_cli(["plot", str(pred), "--over", "-o", str(tmp_path / "p.png")]) == 0
+    assert run_cli(["animate", str(pred), "--over", "-o", str(tmp_path / "a.gif"), "--frames", "3",
+                    "--size", "160x128", "--quiet"]) == 0
+    assert f"over {data}" in capsys.readouterr().out
+    with Image.open(tmp_path / "a.gif") as im:
+        assert im.n_frames == 3

@@ -15,7 +15,7 @@ from ..io.record import read_record
 from ..scenarios.record import with_record
 from ..scenarios.scenario import SCENARIO_NAMES, load_scenario
 from ..scenarios.summary import simulate_summary
-from ._plot import RECORDED, named_node, over_reference
+from ._plot import RECORDED, named_node, over_note, over_reference
 from ._progress import Bar
 
 NAME = "animate"
@@ -168,7 +168,7 @@ def _animate(args, data_path: str, out: Path, size: tuple[int, int], label: str)
                 trail=not args.no_trail, view=args.view, elev=args.elev, azim=args.azim, size=size,
                 title=None if _named(data) else Path(label).stem, obstacles=_obstacles(args, data),
                 contact_forces=not args.no_contact_forces, style=args.style, progress=bar, reference=reference)
-    print(f"animate: wrote {out}" + ("" if reference is None else f" (over {ref_path})"))
+    print(f"animate: wrote {out}" + over_note(dict(data.attrs), ref_path, f"softrnn animate {data_path} --over"))
     return 0
 
 

@@ -72,7 +72,7 @@ def run(args) -> int:
     title = None if _title(dict(data.attrs), fallback="") else f"{Path(args.data).stem}: node {node}"
     plot_node(data, node, out, forces=not args.no_forces, title=title, inputs=not args.no_inputs,
               reference=reference)
-    print(f"plot: wrote {out}" + ("" if reference is None else f" (over {ref_path})"))
+    print(f"plot: wrote {out}" + over_note(dict(data.attrs), ref_path, f"softrnn plot {args.data} --over"))
     return 0
 
 
@@ -94,3 +94,10 @@ def over_reference(over, data_path, attrs: dict, node: int | None = None):
         raise bad("--over", str(path), f"the data set the prediction was made from: it stores no node {node} "
                   f"(it stores {describe_nodes(stored)})")
     return read_dataset(path, nodes=[node]), path
+
+
+def over_note(attrs: dict, ref_path, command: str) -> str:
+    """' (over REF)' after an overlay; for a prediction drawn alone, how to draw it over its data."""
+    if ref_path is not None:
+        return f" (over {ref_path})"
+    return f" (a prediction: '{command}' draws it over its reference data)" if attrs.get("prediction") else ""
