@@ -53,11 +53,12 @@ test-all: $(STAMP)
 # (docs/guide/getting-started.md#pytorch-versions). Needs a package index with both (gigabytes).
 TORCH_LOW ?= 2.5.1
 TORCH_HIGH ?= <3
-TORCH_TESTS ?= tests/project/test_torch_range.py tests/learned tests/cli/test_tip_only_recordings.py
+TORCH_TESTS ?= tests/project/test_torch_range.py tests/learned tests/cli/test_tip_only_recordings.py \
+	tests/cli/test_fresh_process.py tests/cli/test_validate_on_cli.py tests/experiments tests/figures/test_overlay.py
 test-torch-range:
 	for end in low high; do \
 		venv=.venv-torch-$$end; spec='torch==$(TORCH_LOW)'; [ $$end = high ] && spec='torch$(TORCH_HIGH)'; \
-		$(PYTHON) -m venv $$venv && $$venv/bin/python -m pip install --quiet "$$spec" -e '.[learn,test]' && \
+		$(PYTHON) -m venv $$venv && $$venv/bin/python -m pip install --quiet "$$spec" -e '.[all,test]' && \
 		$$venv/bin/python -c "import torch; print('test-torch-range:', torch.__version__)" && \
 		NUMBA_NUM_THREADS=1 $$venv/bin/python -m pytest -q $(TORCH_TESTS) || exit 1; \
 	done
