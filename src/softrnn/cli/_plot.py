@@ -4,7 +4,7 @@ the node's error."""
 
 from pathlib import Path
 
-from ..errors import bad
+from ..errors import SoftrnnInputError, bad
 from ..figures.data import FIGURE_SUFFIXES, _text, _title, check_suffix, describe_nodes, load, node_of_interest
 from ..figures.overlay import recorded_reference
 from ..figures.pictures import plot_node
@@ -83,8 +83,8 @@ def over_reference(over, data_path, attrs: dict, node: int | None = None):
         return None, None
     path = recorded_reference(data_path, attrs) if over == RECORDED else Path(over)
     if path is None:
-        raise bad("--over", None, f"a reference data set: {data_path} records none (it is not a prediction of "
-                  f"'softrnn rollout'); give it with --over REFERENCE.h5")
+        raise SoftrnnInputError(f"--over without a path: {data_path} records no reference data set (it is not a "
+                                f"prediction of 'softrnn rollout'); give it with --over REFERENCE.h5")
     if path.resolve() == Path(data_path).resolve():
         raise bad("--over", str(over), "another file than the prediction (its reference data set)")
     if node is None:
