@@ -44,7 +44,7 @@ def test_dynamic_train_refuses_a_tip_only_recording(where, tmp_path, capsys):
     assert run_cli(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "Traceback" not in err, err
-    for words in ("records 1 node (10)", "several nodes", "softrnn train FILE --drive actuation",
+    for words in ("records one node (node 10)", "several nodes", "softrnn train FILE --drive actuation",
                   "softrnn lab benchmark"):
         assert words in err, err
     assert "kept=" not in err and "pass one of those node indices" not in err

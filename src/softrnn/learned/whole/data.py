@@ -106,12 +106,12 @@ def check_whole_rod(paths) -> None:
             continue
         nodes = read_dataset(first, group=None if groups[0] == "/" else groups[0], stop=1).nodes
         if len(nodes) < 2:
+            which = f"one node (node {int(nodes[0])})" if len(nodes) else "no node"
             raise SoftrnnInputError(
-                f"{first} records {len(nodes)} node{'' if len(nodes) == 1 else 's'} "
-                f"({', '.join(str(int(a)) for a in nodes) or 'none'}): the whole-manipulator model learns the rod "
-                f"at its nodes and needs recordings of several nodes along it (simulations, sweeps); for a tip-only "
-                f"recording train the tip's node model ('softrnn train FILE --drive actuation') or benchmark "
-                f"the CSV sessions with 'softrnn lab benchmark --train S1.csv --validate S2.csv'")
+                f"{first} records {which}: the whole-manipulator model learns the rod at its nodes and needs "
+                f"recordings of several nodes along it (simulations, sweeps); for a tip-only recording train the "
+                f"tip's node model ('softrnn train FILE --drive actuation') or benchmark the CSV sessions with "
+                f"'softrnn lab benchmark --train S1.csv --validate S2.csv'")
 
 
 def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction: float = 1.0,
