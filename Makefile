@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install reproduce reproduce-quick references real-robot real-robot-suite results test test-all lint docs bench clean
+.PHONY: install reproduce reproduce-quick references real-robot real-robot-suite results test test-all test-torch-range lint docs bench clean
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -63,6 +63,21 @@ test: $(STAMP)
 test-all: $(STAMP)
 	NUMBA_NUM_THREADS=1 $(BIN)/python -m pytest -q -m ''
 
+# The learn extra asks for torch>=$(TORCH_LOW),<3 (constraints.txt pins the release the figures were made
+# with): the learned-model tests with each end of that range installed in a venv of its own
+# (docs/guide/getting-started.md#pytorch-versions). Needs a package index with both (gigabytes).
+TORCH_LOW ?= 2.5.1
+TORCH_HIGH ?= <3
+TORCH_TESTS ?= tests/project/test_torch_range.py tests/learned tests/cli/test_tip_only_recordings.py \
+	tests/cli/test_fresh_process.py tests/cli/test_validate_on_cli.py tests/experiments tests/figures/test_overlay.py
+test-torch-range:
+	for end in low high; do \
+		venv=.venv-torch-$$end; spec='torch==$(TORCH_LOW)'; [ $$end = high ] && spec='torch$(TORCH_HIGH)'; \
+		$(PYTHON) -m venv $$venv && $$venv/bin/python -m pip install --quiet "$$spec" -e '.[all,test]' && \
+		$$venv/bin/python -c "import torch; print('test-torch-range:', torch.__version__)" && \
+		NUMBA_NUM_THREADS=1 $$venv/bin/python -m pytest -q $(TORCH_TESTS) || exit 1; \
+	done
+
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
 
@@ -73,4 +88,4 @@ bench: $(STAMP)
 	$(BIN)/softrnn bench --overwrite --json benchmarks/results/bench.json
 
 clean:
-	rm -rf $(VENV) out build site src/*.egg-info
+	rm -rf $(VENV) .venv-torch-low .venv-torch-high out build site src/*.egg-info

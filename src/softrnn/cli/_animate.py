@@ -9,7 +9,7 @@ from pathlib import Path
 from ..errors import bad
 from ..files import prepare_output
 from ._names import SCENARIO_NAMES, STYLES
-from ._plot import named_node
+from ._plot import RECORDED, named_node, over_note, over_reference
 from ._progress import Bar
 
 NAME = "animate"
@@ -53,11 +53,16 @@ def add_args(p):
                    help="node of interest to mark (default: the one the file names, if any)")
     p.add_argument("--no-trail", action="store_true", help="do not draw the path of the node of interest")
     p.add_argument("--view", default="auto", choices=("auto", "xy", "xz", "yz", "3d"),
-                   help="'auto' (default): a flat view when the motion is planar, else 3-D")
+                   help="'auto' (default): the plane of a flat vessel the file records (the rod seen inside it), "
+                        "else a flat view when the motion is planar, else 3-D")
     p.add_argument("--elev", type=float, default=22.0, help="3-D camera elevation in degrees (default 22)")
     p.add_argument("--azim", type=float, default=-50.0, help="3-D camera azimuth in degrees (default -50)")
     p.add_argument("--no-obstacles", action="store_true",
                    help="do not draw the obstacles the file records (contact with planes, spheres, cylinders, vessels)")
+    p.add_argument("--over", nargs="?", const=RECORDED, default=None, metavar="REFERENCE.h5",
+                   help="DATA is a prediction ('softrnn rollout', 'softrnn dynamic rollout'): draw its reference data "
+                        "set under it (grey, dashed) with the tip's error; without a path, the reference the "
+                        "prediction file records")
     p.add_argument("--no-contact-forces", action="store_true",
                    help="do not draw the file's contact forces as arrows")
     p.add_argument("--size", default="640x560", metavar="WxH", help="frame size in pixels (default 640x560)")
@@ -94,6 +99,10 @@ def run(args) -> int:
         raise bad("--fps", args.fps, "a number of frames per second > 0")
     if args.style == "fluoroscopy" and args.view == "3d":      # before any simulation
         raise bad("--view", args.view, "a flat view (auto, xy, xz or yz) with --style fluoroscopy")
+    if args.over is not None and args.style == "fluoroscopy":
+        raise bad("--style", args.style, "plain or auto with --over (the reference is drawn under the prediction)")
+    if args.over is not None and scenario is not None:
+        raise bad("--over", args.over, f"a prediction data set to draw over its reference; {args.data} is a scenario")
     if scenario is None:
         return _animate(args, args.data, out, size, Path(args.data).name)
     with tempfile.TemporaryDirectory(prefix="softrnn-animate-") as folder:
@@ -160,12 +169,13 @@ def _animate(args, data_path: str, out: Path, size: tuple[int, int], label: str)
     if node is None:  # the node the file names, marked when it is stored
         named = named_node(data)
         node = named if named is not None and named in set(data.nodes.tolist()) else None
+    reference, ref_path = over_reference(args.over, data_path, dict(data.attrs))
     with Bar(f"animate {label}", unit="frame", enabled=not args.quiet) as bar:
         animate(data, out, fps=args.fps, frames=args.frames, duration=args.duration, node=node,
                 trail=not args.no_trail, view=args.view, elev=args.elev, azim=args.azim, size=size,
                 title=None if _named(data) else Path(label).stem, obstacles=_obstacles(args, data),
-                contact_forces=not args.no_contact_forces, style=args.style, progress=bar)
-    print(f"animate: wrote {out}")
+                contact_forces=not args.no_contact_forces, style=args.style, progress=bar, reference=reference)
+    print(f"animate: wrote {out}" + over_note(dict(data.attrs), ref_path, f"softrnn animate {data_path} --over"))
     return 0
 
 

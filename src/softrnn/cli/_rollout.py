@@ -12,7 +12,7 @@ from ._progress import Bar
 
 NAME = "rollout"
 HELP = ("run node models together, free running from a data set's initial history (paper Fig. 2C), and "
-        "write the predicted trajectory as a data set (for 'softrnn animate' beside the reference)")
+        "write the predicted trajectory as a data set (for 'softrnn animate/plot PRED.h5 --over DATA.h5')")
 
 
 def add_args(p):
@@ -108,7 +108,8 @@ def run(args) -> int:
     worst = max(errors, key=lambda a: float(np.max(errors[a])))
     e = errors[worst]
     print(f"  largest error vs the reference: node {worst}, max |error| [mm] x {e[0]:.3f}, y {e[1]:.3f}, z {e[2]:.3f}")
-    print(f"rollout: wrote {out} (show it with 'softrnn animate {out}' beside 'softrnn animate {data_path}')")
+    print(f"rollout: wrote {out} (show it over the data with 'softrnn animate {out} --over {data_path}' or "
+          f"'softrnn plot {out} --over {data_path}')")
     if args.figure:
         _figure(result, data, args.figure)
         print(f"rollout: wrote {args.figure}")

@@ -93,7 +93,7 @@ def format_summary(s: dict) -> str:
         shown = ", ".join(f"{c['name']} [{c['unit']}] {c['min']:.4g} .. {c['max']:.4g}" for c in channels)
         lines.append(f"  actuation: {len(channels)} channel{'s' if len(channels) > 1 else ''}: {shown}")
     else:
-        lines.append("  actuation: none")
+        lines.append("  actuation: none (no inputs recorded: the loads are the nodes' forces and torques)")
     c = s.get("contact")
     if c:
         largest = ("largest not read (--quick)" if c["max_force_n"] is None else

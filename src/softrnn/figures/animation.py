@@ -50,30 +50,36 @@ from .geometry import (
     _max_norm,
     choose_view,
     force_scale,
+    vessel_plane,
     widen_to_aspect,
 )
 from .obstacles import OBSTACLE_COLOR, draw_obstacles, obstacles_of
+from .overlay import reference_positions
 from .saving import FRAME_DPI as _DPI
 from .saving import new_figure
 
 DEFAULT_SIZE = (640, 560)  # pixels
 _ROD, _NODE, _TRAIL, _FORCE, _GHOST = "#1f5fa8", "#d62728", "#ff9f1c", "#2ca02c", "0.72"
 _CONTACT = "#9467bd"
+_REFERENCE = "0.62"  # the data a prediction is drawn over: grey, dashed, under the prediction
 
 
 class _Scene:
     """The figure and its reusable artists; ``update(i)`` moves them to sample ``i``."""
 
     def __init__(self, time, nodes, positions, forces, i0, i1, frames, *, node_col, view, trail, title,
-                 size, elev=22.0, azim=-50.0, arrows_min=1e-6, contact_forces=None, obstacles=()):
+                 size, elev=22.0, azim=-50.0, arrows_min=1e-6, contact_forces=None, obstacles=(), reference=None):
         self.time, self.positions, self.forces, self.cforces = time, positions, forces, contact_forces
+        self.reference = reference          # (T, N, 3) [m]: the data a prediction is drawn over, or None
+        self.tip_col, self.tip = int(np.argmax(nodes)), int(np.max(nodes))
         self.node_col, self.title, self.obstacles = node_col, title, tuple(obstacles)
         self.node_label = None if node_col is None else int(nodes[node_col])
         self.elev, self.azim = elev, azim
         span = positions[i0:i1 + 1]
         every = max(1, span.shape[0] // 2000)
         sample = np.concatenate([np.asarray(span[::every], dtype=float),
-                                 np.asarray(positions[frames], dtype=float)])
+                                 np.asarray(positions[frames], dtype=float)]
+                                + ([] if reference is None else [reference[i0:i1 + 1:every], reference[frames]]))
         lo, hi = sample.reshape(-1, 3).min(0), sample.reshape(-1, 3).max(0)
         self.extent = extent = max(float((hi - lo).max()), 1e-3)
         self.rod_box = _bounds(sample.reshape(-1, 3))
@@ -135,9 +141,10 @@ class _Scene:
             fig.legend(handles=handles, loc="lower center", fontsize=7, ncol=3, frameon=False,
                        bbox_to_anchor=(0.5, 0.0))
         self.stamp = fig.suptitle(" ", fontsize=11)
-        self.dynamic = [a for a in (getattr(self, "trail", None), self.rod, getattr(self, "quiver", None),
-                                    getattr(self, "arrows", None), getattr(self, "cquiver", None),
-                                    getattr(self, "carrows", None), getattr(self, "dot", None), self.stamp)
+        self.dynamic = [a for a in (getattr(self, "trail", None), getattr(self, "ref", None), self.rod,
+                                    getattr(self, "quiver", None), getattr(self, "arrows", None),
+                                    getattr(self, "cquiver", None), getattr(self, "carrows", None),
+                                    getattr(self, "dot", None), self.stamp)
                         if a is not None]
 
     def _init_arrows(self):
@@ -154,6 +161,14 @@ class _Scene:
                 setattr(self, f"{name}quiver", self.ax.quiver(
                     np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), angles="xy", scale_units="xy",
                     scale=1.0 / self.k, color=color, width=0.006, minlength=0, zorder=7))
+
+    def _rod_handles(self, handles) -> None:
+        """The legend's first entries: the rod, or the prediction and its reference."""
+        if self.reference is None:
+            handles.insert(0, Line2D([], [], color=_ROD, lw=2.2, label="rod"))
+            return
+        handles[:0] = [Line2D([], [], color=_ROD, lw=2.2, label="prediction"),
+                       Line2D([], [], color=_REFERENCE, lw=2.6, ls="--", label="reference (data)")]
 
     def _node_handle(self):
         """The legend entry of the node of interest."""
@@ -183,7 +198,9 @@ class _Scene:
             ax.plot(first[self.fixed, a], first[self.fixed, b], "ks", ms=6, zorder=5)
             handles.append(Line2D([], [], color="k", marker="s", ls="none", ms=5, label="fixed"))
         (self.rod,) = ax.plot([], [], color=_ROD, lw=2.2, zorder=3)
-        handles.insert(0, Line2D([], [], color=_ROD, lw=2.2, label="rod"))
+        self._rod_handles(handles)
+        if self.reference is not None:
+            (self.ref,) = ax.plot([], [], color=_REFERENCE, lw=2.6, ls="--", zorder=2)
         if self.trail_idx is not None:
             (self.trail,) = ax.plot([], [], color=_TRAIL, lw=1.0, alpha=0.9, zorder=2)
         if self.node_col is not None:
@@ -212,7 +229,9 @@ class _Scene:
             ax.plot(first[self.fixed, 0], first[self.fixed, 1], first[self.fixed, 2], "ks", ms=6)
             handles.append(Line2D([], [], color="k", marker="s", ls="none", ms=5, label="fixed"))
         (self.rod,) = ax.plot([], [], [], color=_ROD, lw=2.2)
-        handles.insert(0, Line2D([], [], color=_ROD, lw=2.2, label="rod"))
+        self._rod_handles(handles)
+        if self.reference is not None:
+            (self.ref,) = ax.plot([], [], [], color=_REFERENCE, lw=2.6, ls="--")
         if self.trail_idx is not None:
             (self.trail,) = ax.plot([], [], [], color=_TRAIL, lw=1.0, alpha=0.9)
         if self.node_col is not None:
@@ -236,11 +255,13 @@ class _Scene:
     def update(self, i: int) -> None:
         """Move the rod, trail, node, arrows and time stamp to sample ``i``."""
         X = np.asarray(self.positions[i], dtype=float)
-        if self.view == "3d":
-            self.rod.set_data_3d(X[:, 0], X[:, 1], X[:, 2])
-        else:
-            a, b = self.axes
-            self.rod.set_data(X[:, a], X[:, b])
+        lines = [(self.rod, X)] + ([] if self.reference is None else [(self.ref, self.reference[i])])
+        a, b = getattr(self, "axes", (0, 1))
+        for line, P in lines:
+            if self.view == "3d":
+                line.set_data_3d(P[:, 0], P[:, 1], P[:, 2])
+            else:
+                line.set_data(P[:, a], P[:, b])
         if self.trail_idx is not None:
             m = int(np.searchsorted(self.trail_idx, i, side="right"))
             T = np.concatenate([self.trail_pts[:m], X[self.node_col][None]])
@@ -258,7 +279,11 @@ class _Scene:
             self._move_arrows("", X, self.forces[i])
         if self.has_contact:
             self._move_arrows("c", X, self.cforces[i])
-        self.stamp.set_text(f"{self.title}:  t = {self.time[i]:.{self.decimals}f} s")
+        stamp = f"{self.title}:  t = {self.time[i]:.{self.decimals}f} s"
+        if self.reference is not None:
+            error = float(np.linalg.norm(X[self.tip_col] - self.reference[i, self.tip_col])) * 1e3
+            stamp += f",  tip (node {self.tip}) error {error:.3g} mm"
+        self.stamp.set_text(stamp)
 
 
 def _obstacles_to_draw(data, obstacles) -> list[dict]:
@@ -293,7 +318,7 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
             trail: bool = True, view: str = "auto", elev: float = 22.0, azim: float = -50.0,
             title: str | None = None, size: tuple[int, int] = DEFAULT_SIZE,
             max_frames: int = DEFAULT_MAX_FRAMES, obstacles=True, contact_forces: bool = True,
-            style: str = "plain", progress: Progress | None = None) -> Path:
+            style: str = "plain", progress: Progress | None = None, reference=None) -> Path:
     """Write an animation of the rod to ``out_path`` (``.gif``, or ``.mp4`` with ffmpeg installed).
 
     ``data`` is dataset-like (``figures.data``): time (T,) [s], nodes, positions (T, N, 3) [m],
@@ -301,10 +326,12 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
     ``duration`` s of playback at ``fps``, spread evenly from ``start`` to ``stop`` [s] (default
     ``min(samples, max_frames)`` over the whole record); marks ``node`` (default: the one the data
     names) and its ``trail``; in the ``view`` 'auto', 'xy', 'xz', 'yz' or '3d' (camera ``elev``,
-    ``azim`` [deg]) at ``size`` (width, height) [pixels]. ``obstacles``: True the data's, False none,
-    or a Contact or contact record (``figures.obstacles``); ``style``: one of ``STYLES``
-    (``pick_style``); ``progress(done, total)`` per frame. The file appears complete or not at all
-    (docs/guide/datasets.md#pictures).
+    ``azim`` [deg]; 'auto': the plane of a flat vessel drawn, else ``choose_view``) at ``size``
+    (width, height) [pixels]. ``reference``: dataset-like data that ``data`` predicts, drawn
+    dashed under it with the tip's error (``figures.overlay``; the plain style). ``obstacles``:
+    True the data's, False none, or a Contact or contact record (``figures.obstacles``); ``style``:
+    one of ``STYLES`` (``pick_style``); ``progress(done, total)`` per frame. The file appears
+    complete or not at all (docs/guide/datasets.md#pictures).
 
     Returns
     -------
@@ -315,17 +342,23 @@ def animate(data, out_path, *, fps: float = 20, frames: int | None = None, durat
     suffix, width, height = _check_options(out_path, fps, view, size)
     time, nodes, positions, forces, attrs = _fields(data)
     drawn = _obstacles_to_draw(data, obstacles)
+    if view == "auto":
+        view = vessel_plane(drawn) or "auto"       # a rod in a flat vessel: seen along the plane's normal
+    ref = None if reference is None else reference_positions(data, reference)
+    if ref is not None and style == "fluoroscopy":
+        raise bad("style", style, "'plain' or 'auto' with a reference drawn under the prediction")
     i0, i1 = time_span(time, start, stop)
     idx = frame_indices(i1 - i0 + 1, frames=frames, duration=duration, fps=fps, max_frames=max_frames, first=i0)
-    if pick_style(style, drawn, view, positions[i0:i1 + 1]) == "fluoroscopy":
+    if pick_style(style, drawn, view, positions[i0:i1 + 1]) == "fluoroscopy" and ref is None:
         scene = FluoroScene(time, positions, i0, i1, idx, view=view, title=title or _title(attrs),
                             size=(width, height), obstacles=drawn, rod_radius=_rod_radius(attrs))
     else:
         cforces = _contact_forces(data, positions.shape) if contact_forces else None
         scene = _Scene(time, nodes, positions, forces, i0, i1, idx, node_col=_node_column(data, node, nodes, attrs),
                        view=view, trail=trail, title=title or _title(attrs), size=(width, height),
-                       elev=float(elev), azim=float(azim), contact_forces=cforces, obstacles=drawn)
-    write_movie(scene, idx, out_path, suffix, fps, progress, colors=(_ROD, _NODE, _TRAIL, _FORCE, _CONTACT, "k"))
+                       elev=float(elev), azim=float(azim), contact_forces=cforces, obstacles=drawn, reference=ref)
+    write_movie(scene, idx, out_path, suffix, fps, progress,
+                colors=(_ROD, _NODE, _TRAIL, _FORCE, _CONTACT, "k") + (() if ref is None else (_REFERENCE,)))
     return out_path
 
 

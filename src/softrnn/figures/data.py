@@ -211,4 +211,6 @@ def _slice(data, i0: int, i1: int):
     sl = slice(i0, i1 + 1)
     return SimpleNamespace(time=data.time[sl], nodes=data.nodes, positions=data.positions[sl],
                            forces=data.forces[sl] if getattr(data, "forces", None) is not None else None,
+                           actuation=data.actuation[sl] if getattr(data, "actuation", None) is not None else None,
+                           actuation_units=dict(getattr(data, "actuation_units", None) or {}),
                            attrs=dict(getattr(data, "attrs", None) or {}))

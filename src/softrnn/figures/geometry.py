@@ -54,6 +54,24 @@ def choose_view(positions: np.ndarray) -> str:
     return "3d"
 
 
+def vessel_plane(obstacles) -> str | None:
+    """'xy', 'xz' or 'yz' when the vessels among ``obstacles`` (``figures.obstacles.obstacles_of``:
+    dicts with ``kind`` and a vessel's centreline ``points`` (P, 3) [m]) span such a plane (one
+    axis' range below 1 % of the largest, the other two above), else None (no vessel, a straight one,
+    or a vessel bending in 3-D). A rod inside a flat vessel is seen inside it along the plane's normal."""
+    points = [np.asarray(o["points"], dtype=float).reshape(-1, 3) for o in obstacles
+              if o.get("kind") == "vessel" and o.get("points") is not None]
+    if not points:
+        return None
+    pts = np.concatenate(points)
+    ranges = pts.max(0) - pts.min(0)
+    big = float(ranges.max())
+    flat = ranges <= _FLAT * big
+    if big <= 0 or int(flat.sum()) != 1:
+        return None
+    return {2: "xy", 1: "xz", 0: "yz"}[int(np.argmax(flat))]
+
+
 def _bounds(points: np.ndarray, pad: float = 0.06, min_fraction: float = 0.15):
     """Per-axis (lo, hi) covering points (k, 3) with a margin, every axis at least ``min_fraction`` of
     the largest range (centred), so equal-aspect boxes never collapse."""

@@ -73,30 +73,82 @@ def node_trajectory_with_forces(time: np.ndarray, positions: np.ndarray, forces:
                                 title: str):
     """Positions (T, 3) [m] of one node against time (T,) [s], one panel per axis in mm, and, when
     ``forces`` (T, 3) [N] is given, a fourth panel with the force components and magnitude on it."""
-    rows = 3 if forces is None else 4
+    return node_panels(time, positions, forces=forces, title=title)
+
+
+def node_panels(time: np.ndarray, positions: np.ndarray, *, title: str, forces: np.ndarray | None = None,
+                inputs: np.ndarray | None = None, units: dict | None = None, reference: np.ndarray | None = None,
+                start: float | None = None):
+    """One node against time (T,) [s]: its positions (T, 3) [m] one panel per axis in mm; with
+    ``reference`` (T, 3) [m] that drawn dashed under them (the positions are then a prediction,
+    solid) and a panel of the error |positions - reference| [mm], ``start`` [s] marking where the
+    prediction starts; with ``forces`` (T, 3) [N] a panel of the force components and magnitude;
+    with ``inputs`` (T, m) a panel per unit of ``units`` ({channel: unit}, m entries, in column
+    order) with those channels (tendon tensions, displacements, currents)."""
+    groups = _unit_groups(units or {}) if inputs is not None and np.size(inputs) else []
+    rows = 3 + (reference is not None) + (forces is not None) + len(groups)
     fig, axes = subplots(rows, 1, figsize=(7, 1.9 * rows + 0.6), sharex=True)
     for c in range(3):
         ax = axes[c]
         y = positions[:, c] * 1e3
-        ax.plot(time, y, lw=0.9, color=f"C{c}")
+        shown = y if reference is None else np.concatenate([y, reference[:, c] * 1e3])
+        if reference is not None:
+            ax.plot(time, reference[:, c] * 1e3, lw=1.4, color="0.45", ls="--", label="reference (data)")
+        ax.plot(time, y, lw=0.9 if reference is None else 1.2, color=f"C{c}" if reference is None else "C0",
+                label=None if reference is None else "prediction")
         ax.ticklabel_format(axis="y", useOffset=False)
-        if y.size and np.ptp(y) < 1.0:  # an axis that (nearly) does not move: show +-1 mm, no offset
-            mid = 0.5 * (y.min() + y.max())
+        if shown.size and np.ptp(shown) < 1.0:  # an axis that (nearly) does not move: show +-1 mm, no offset
+            mid = 0.5 * (shown.min() + shown.max())
             ax.set_ylim(mid - 1.0, mid + 1.0)
         ax.set_ylabel(f"{'xyz'[c]} [mm]")
         ax.grid(alpha=0.3)
+    k = 3
+    if reference is not None:
+        axes[0].legend(fontsize=7, ncol=2, loc="upper right")
+        _error_panel(axes[k], time, positions, reference, start)
+        k += 1
     if forces is not None:
-        ax = axes[3]
+        ax = axes[k]
         for c in range(3):
             ax.plot(time, forces[:, c], lw=0.9, color=f"C{c}", label=f"F{'xyz'[c]}")
         ax.plot(time, np.sqrt((forces ** 2).sum(-1)), lw=0.8, color="k", ls="--", label="|F|")
         ax.set_ylabel("force [N]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, ncol=4, loc="upper right")
+        k += 1
+    for ax, (unit, columns) in zip(axes[k:], groups):
+        for n, (j, name) in enumerate(columns):
+            ax.plot(time, inputs[:, j], lw=0.9, color=f"C{n % 10}", label=name)
+        ax.set_ylabel(f"input [{unit}]" if unit else "input")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, ncol=min(4, len(columns)), loc="upper right")
     axes[-1].set_xlabel("t [s]")
     axes[0].set_title(title)
     fig.tight_layout()
     return fig
+
+
+def _unit_groups(units: dict) -> list[tuple[str, list[tuple[int, str]]]]:
+    """The actuation channels grouped by unit, in column order: [(unit, [(column, name), ...]), ...]."""
+    groups: dict[str, list] = {}
+    for j, (name, unit) in enumerate(units.items()):
+        groups.setdefault(str(unit), []).append((j, str(name)))
+    return list(groups.items())
+
+
+def _error_panel(ax, time: np.ndarray, positions: np.ndarray, reference: np.ndarray, start: float | None) -> None:
+    """The error |positions - reference| [mm] (T, 3 each, [m]) against time, its largest and last value
+    in the legend, a line where the prediction starts."""
+    d = (np.asarray(positions, dtype=float) - np.asarray(reference, dtype=float)) * 1e3
+    err = np.sqrt((d * d).sum(-1))
+    ax.plot(time, err, lw=0.9, color="C3",
+            label=f"|error|: largest {err.max():.3g} mm, last {err[-1]:.3g} mm" if err.size else "|error|")
+    if start is not None and time.size and time[0] <= start <= time[-1]:
+        ax.axvline(start, color="0.3", lw=0.8, ls=":", label=f"prediction from t = {start:g} s")
+    ax.set_ylabel("|error| [mm]")
+    ax.set_ylim(0.0, 1.35 * float(err.max()) if err.size and err.max() > 0 else 1.0)  # room for the legend
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
 
 
 def prediction_vs_reference(time: np.ndarray, reference: np.ndarray, predictions: dict, title: str):

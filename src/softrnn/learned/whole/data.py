@@ -23,7 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ...errors import bad, integer
+from ...errors import SoftrnnInputError, bad, integer
 from ...io.reader import list_groups, read_dataset, read_node
 from .config import resolve_stride
 
@@ -92,6 +92,28 @@ def validation_parts(paths) -> list:
     return out
 
 
+def check_whole_rod(paths) -> None:
+    """Refuse, in one line naming what to use instead, a recording of fewer than two nodes among
+    ``paths`` (files or sweep folders; the first trajectory of each is read, one sample): the
+    whole-manipulator model learns the rod at nodes along it, a tip marker alone cannot train it."""
+    for raw in [paths] if isinstance(paths, (str, Path)) else paths:
+        path = Path(raw)
+        first = next(iter(sorted(path.glob("traj-*.h5"))), None) if path.is_dir() else path
+        if first is None or not first.is_file():
+            continue                                    # split_inputs names what is missing
+        groups = list_groups(first)
+        if not groups:
+            continue
+        nodes = read_dataset(first, group=None if groups[0] == "/" else groups[0], stop=1).nodes
+        if len(nodes) < 2:
+            which = f"one node (node {int(nodes[0])})" if len(nodes) else "no node"
+            raise SoftrnnInputError(
+                f"{first} records {which}: the whole-manipulator model learns the rod at its nodes and needs "
+                f"recordings of several nodes along it (simulations, sweeps); for a tip-only recording train the "
+                f"tip's node model ('softrnn train FILE --drive actuation') or benchmark the CSV sessions with "
+                f"'softrnn lab benchmark --train S1.csv --validate S2.csv'")
+
+
 def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction: float = 1.0,
                  validate_on=()) -> Split:
     """Training, validation and held-out parts of ``paths`` (files or sweep folders).
@@ -103,6 +125,7 @@ def split_inputs(paths, *, heldout: int = 0, validation: int = 0, train_fraction
     validation = integer("validation", validation, 0)
     if not (0.0 < float(train_fraction) <= 1.0):
         raise bad("train_fraction", train_fraction, "a fraction in (0, 1]")
+    check_whole_rod(list(paths if not isinstance(paths, (str, Path)) else [paths]) + list(validate_on or []))
     given = validation_parts(validate_on) if validate_on else []
     if given and float(train_fraction) != 1.0:
         raise bad("train_fraction", train_fraction, "1 (or no train fraction) with separate validation recordings "
