@@ -26,7 +26,7 @@ def test_benchmark_writes_its_json_and_figure(folder, tmp_path, capsys):
     report = json.loads(out.read_text())
     assert set(report["models"]) == {"physics"} and report["best_model"] == "physics"
     assert len(report["robot"]["training_sessions"]) == 2
-    assert report["chosen_on_training"]["holdout"] == "the last training session"
+    assert report["chosen_on_training"]["holdout"] == "the training session farthest in command space from the others"
     assert (tmp_path / "b.png").stat().st_size > 10_000
     text = capsys.readouterr().out
     assert "tip RMSE [mm]" in text and "linear_arx" in text and "wrote" in text

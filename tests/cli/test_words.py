@@ -36,6 +36,11 @@ def test_a_library_argument_is_named_as_the_commands_option():
     # names the command has no option for, and spellings already in flags, stay as they are
     assert vocabulary.in_flags("kept=[0] is invalid; --validate-on=x; spec.history=2", flags) == \
         "kept=[0] is invalid; --validate-on=x; spec.history=2"
+    # a message about a TOML file's entries names the file's keys, not the command's options
+    lab = _flags("lab", "benchmark", "--suite", "s.toml", "--json", "s.json")
+    assert "families" in lab
+    assert vocabulary.in_flags("s.toml: robots.one: families='oracle' is invalid", lab) == \
+        "s.toml: robots.one: families='oracle' is invalid"
 
 
 def test_none_never_reaches_a_message():

@@ -174,7 +174,11 @@ def flag_names(parser) -> dict:
 def in_flags(text: str, flags: dict) -> str:
     """A library message in the command's words: each ``name=value`` whose name is an option of the
     command (``flags``, from ``flag_names``) as ``--option=value``; ``--option=None is invalid: X``
-    (an option not given) as ``--option is missing: give X``, any other ``--option=None`` as ``no --option``."""
+    (an option not given) as ``--option is missing: give X``, any other ``--option=None`` as ``no --option``.
+    A message about a TOML file's entries (``FILE.toml: ...``: a suite, a scenario) names the file's keys,
+    not the command's options, and is left as it is."""
+    if re.match(r"\S+\.toml: ", text):
+        return text
     text = re.sub(r"(?<![\w.\-])(?<!\w\()([a-z][a-z0-9_]*)=", lambda m: f"{flags[m[1]]}=" if m[1] in flags else m[0],
                   text)                 # not an argument of a Python call: RunConfig(integrator=...)
     text = re.sub(r"(--[a-z][a-z0-9-]*)=None is invalid: (expected )?", r"\1 is missing: give ", text)
