@@ -308,5 +308,5 @@ def test_whole_manipulator_model_driven_by_actuation(tmp_path, capsys):
     capsys.readouterr()
     assert run_cli(argv[:2] + [str(plain), "-o", str(tmp_path / "none")] + argv[5:] + ["--drive", "both"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "--drive='both' is invalid" in err and "or use drive='wrench'" in err
+    assert len(err.splitlines()) == 1 and "--drive='both' is invalid" in err and "or use --drive='wrench'" in err
     assert not (tmp_path / "none").exists()

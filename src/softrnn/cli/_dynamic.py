@@ -501,11 +501,13 @@ def _check_rollout_size(model, axis, k: int, start: int, stop: int, stop_time) -
 
     (held, data), limit = rollout_bytes(model, axis, k, start, stop), simulation.array_limit()
     if held > limit:
-        raise bad("--stop", stop_time, f"a shorter rollout: this one is too large for this machine, from "
-                                       f"{axis.time[start * k]:g} to {axis.time[(stop - 1) * k]:g} s ({stop - start} "
-                                       f"model steps, {model.encoding.n_nodes} nodes) it would hold "
-                                       f"{held / 2**30:.3g} GiB of arrays in memory (limit {limit / 2**30:.3g} GiB, "
-                                       f"DATA itself {data / 2**30:.3g} GiB); stop earlier, or give a shorter "
+        size = (f"too large for this machine, from {axis.time[start * k]:g} to {axis.time[(stop - 1) * k]:g} s "
+                f"({stop - start} model steps, {model.encoding.n_nodes} nodes) it would hold {held / 2**30:.3g} GiB "
+                f"of arrays in memory (limit {limit / 2**30:.3g} GiB, DATA itself {data / 2**30:.3g} GiB)")
+        if stop_time is None:
+            raise SoftrnnInputError(f"the rollout to the end of DATA is {size}; give --stop to stop earlier, or a "
+                                    "shorter DATA file")
+        raise bad("--stop", stop_time, f"a shorter rollout: this one is {size}; stop earlier, or give a shorter "
                                        "DATA file")
 
 
