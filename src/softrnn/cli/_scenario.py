@@ -18,6 +18,9 @@ if TYPE_CHECKING:
     from ..scenarios.scenario import Scenario
 
 NAME = "scenario"
+READS_DATASETS = False
+"""``scenario list``, ``show`` and ``copy`` read no data set: ``main`` need not register the reader of
+older files' scenario records (``softrnn.scenarios``, which imports the simulator) first."""
 HELP = ("the shipped scenarios: list them, show one's TOML text or a summary, copy one to a file to edit, "
         "simulate or calibrate")
 
@@ -111,12 +114,30 @@ def format_list(entries: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def _list(args) -> int:
+def built_listing() -> list[dict]:
+    """The lines of ``softrnn scenario list``, built from the shipped scenarios (imports the simulator)."""
     from ..scenarios.scenario import load_scenario
+
+    return [entry(load_scenario(name)) for name in SCENARIO_NAMES]
+
+
+def write_listing() -> None:
+    """Rewrite ``_scenario_list.py`` from the shipped scenarios (after editing one of them)."""
+    import pprint
+
+    path = Path(__file__).with_name("_scenario_list.py")
+    text = path.read_text(encoding="utf-8")
+    head = text[:text.index("SCENARIO_LIST = ")]
+    body = pprint.pformat(built_listing(), width=116, sort_dicts=False)
+    atomic_write_text(path, f"{head}SCENARIO_LIST = {body}\n")
+
+
+def _list(args) -> int:
+    from ._scenario_list import SCENARIO_LIST
 
     if args.json is not None:
         prepare_output(args.json, "--json", overwrite=args.overwrite)
-    entries = [entry(load_scenario(name)) for name in SCENARIO_NAMES]
+    entries = SCENARIO_LIST
     print(format_list(entries))
     if args.json is not None:
         atomic_write_text(args.json, json.dumps({"scenarios": entries}, indent=2) + "\n")

@@ -138,8 +138,9 @@ def main(argv=None) -> int:
 
 def _main(args) -> int:
     try:
-        # imported when a command runs: registers the scenario-record builder that reads older data files
-        from .. import scenarios  # noqa: F401
+        if getattr(sys.modules.get(args.func.__module__), "READS_DATASETS", True):
+            # imported when a command runs: registers the scenario-record builder that reads older data files
+            from .. import scenarios  # noqa: F401
 
         return int(args.func(args) or 0)
     except (SoftrnnInputError, SimulationError, FileFault) as err:
