@@ -507,8 +507,7 @@ def _check_rollout_size(model, axis, k: int, start: int, stop: int, stop_time) -
         if stop_time is None:
             raise SoftrnnInputError(f"the rollout to the end of DATA is {size}; give --stop to stop earlier, or a "
                                     "shorter DATA file")
-        raise bad("--stop", stop_time, f"a shorter rollout: this one is {size}; stop earlier, or give a shorter "
-                                       "DATA file")
+        raise bad("--stop", stop_time, f"a shorter rollout: this one is {size}; stop earlier, or a shorter DATA file")
 
 
 def _rollout(args) -> int:
