@@ -34,10 +34,10 @@ _TENDON_ROW = "| {} | {} | {} | {} |"
 
 FIGURES = [
     # page, quoted text, ((figure, source, rounding), ...)
-    ("reproduce.md", "took 36 min on the project's 2-vCPU machine (2026-11-27, a fresh clone",
-     (("36", "run:wall_time_s / 60", ".0f"), ("2026-11-27", "run:date", "s"))),
-    ("reproduce.md", "(in the reference run: dynamic models 13.3 min, control 9.6 min)",
-     (("13.3", "step_seconds/dynamic_model / 60", ".1f"), ("9.6", "step_seconds/control / 60", ".1f"))),
+    ("reproduce.md", "took 29 min on the project's 2-vCPU machine (2026-11-29; resumed once",
+     (("29", "run:wall_time_s / 60", ".0f"), ("2026-11-29", "run:date", "s"))),
+    ("reproduce.md", "(in the reference run: dynamic models 10.4 min, control 6.6 min)",
+     (("10.4", "step_seconds/dynamic_model / 60", ".1f"), ("6.6", "step_seconds/control / 60", ".1f"))),
 
     ("models.md", "the largest error over the interior nodes is 0.0237 % of the length 10 steps (1 ms) "
                   "after a start and 1.09 % after 100 steps",
@@ -50,10 +50,10 @@ FIGURES = [
      (("0.131", "max(ellipse/rollout/max_pct_of_length)", ".3g"),
       ("1.15", "max(square/rollout/max_pct_of_length)", ".3g"),
       ("0.112", "max(semicircle/rollout/max_pct_of_length)", ".3g"))),
-    ("models.md", "reference run 8.9e-08, 3.8e-07 and 1.1e-06 m (ellipse, square, semicircle;",
-     (("8.9e-08", "ellipse/engine_vs_pytorch/max_abs_difference_m", ".1e"),
-      ("3.8e-07", "square/engine_vs_pytorch/max_abs_difference_m", ".1e"),
-      ("1.1e-06", "semicircle/engine_vs_pytorch/max_abs_difference_m", ".1e"))),
+    ("models.md", "reference run 6.0e-08, 4.6e-06 and 6.7e-08 m (ellipse, square, semicircle;",
+     (("6.0e-08", "ellipse/engine_vs_pytorch/max_abs_difference_m", ".1e"),
+      ("4.6e-06", "square/engine_vs_pytorch/max_abs_difference_m", ".1e"),
+      ("6.7e-08", "semicircle/engine_vs_pytorch/max_abs_difference_m", ".1e"))),
 
     ("magnetics.md", "the fitted factors are 1.9285 ± 0.1071 for damping against 1.0395 ± 0.0008 for "
                      "stiffness and 0.9697 ± 0.0006 for remanence (the robot's: 2, 1.04 and 0.97)",
@@ -73,51 +73,51 @@ FIGURES = [
       ("0.33", "magnetic/proximal/rnn/1/1", ".2f"), ("0.81", "magnetic/proximal/cosserat/1/1", ".2f"),
       ("0.60", "magnetic/distal/calibrated/1/1", ".2f"), ("0.16", "magnetic/proximal/calibrated/1/1", ".2f"))),
 
-    ("statics.md", "In the reference run's Fig. 13 study a solve takes 0.019–0.061 ms (the mean of 50) at N = 13",
-     (("0.019", "min(fig13/summary/tolerance_sweep/mean_ms)", ".3f"),
-      ("0.061", "max(fig13/summary/tolerance_sweep/mean_ms)", ".3f"),
+    ("statics.md", "In the reference run's Fig. 13 study a solve takes 0.016–0.034 ms (the mean of 50) at N = 13",
+     (("0.016", "min(fig13/summary/tolerance_sweep/mean_ms)", ".3f"),
+      ("0.034", "max(fig13/summary/tolerance_sweep/mean_ms)", ".3f"),
       ("50", "fig13/summary/repetitions", "d"),
       ("13", "fig13/summary/tolerance_sweep/n_steps", "d"))),
-    ("statics.md", "and 0.032–0.158 ms at N = 100 and E = 1e-6",
-     (("0.032", "min(fig13/summary/node_sweep/mean_ms/-1)", ".3f"),
-      ("0.158", "max(fig13/summary/node_sweep/mean_ms/-1)", ".3f"),
+    ("statics.md", "and 0.025–0.111 ms at N = 100 and E = 1e-6",
+     (("0.025", "min(fig13/summary/node_sweep/mean_ms/-1)", ".3f"),
+      ("0.111", "max(fig13/summary/node_sweep/mean_ms/-1)", ".3f"),
       ("100", "fig13/summary/node_sweep/n_steps/-1", "d"))),
 
     # The tendon arms' table (docs/guide/dynamic.md, "Results")
-    ("dynamic.md", _TENDON_ROW.format("test span (last 40 % of the nominal run)", "0.617 (linear 1.64)",
-                                      "0.402 (linear 1.77)", "< 2"),
-     (("0.617", "tendons/tendon-planar/test_span/model/max_pct_of_length", ".3g"),
+    ("dynamic.md", _TENDON_ROW.format("test span (last 40 % of the nominal run)", "0.618 (linear 1.64)",
+                                      "0.45 (linear 1.77)", "< 2"),
+     (("0.618", "tendons/tendon-planar/test_span/model/max_pct_of_length", ".3g"),
       ("1.64", "tendons/tendon-planar/test_span/linear/max_pct_of_length", ".3g"),
-      ("0.402", "tendons/tendon-spatial/test_span/model/max_pct_of_length", ".3g"),
+      ("0.45", "tendons/tendon-spatial/test_span/model/max_pct_of_length", ".3g"),
       ("1.77", "tendons/tendon-spatial/test_span/linear/max_pct_of_length", ".3g"),
       ("2", "tendons/tendon-planar/goals/test_span_max_pct_of_length/goal", ".3g"))),
-    ("dynamic.md", _TENDON_ROW.format("held-out variants (8), median", "0.714 (linear 1.5)",
-                                      "1.35 (linear 2.97)", "< 2"),
-     (("0.714", "tendons/tendon-planar/heldout/median_max_pct_of_length", ".3g"),
+    ("dynamic.md", _TENDON_ROW.format("held-out variants (8), median", "0.627 (linear 1.5)",
+                                      "1.34 (linear 2.97)", "< 2"),
+     (("0.627", "tendons/tendon-planar/heldout/median_max_pct_of_length", ".3g"),
       ("1.5", "tendons/tendon-planar/heldout/baselines/linear/median_max_pct_of_length", ".3g"),
-      ("1.35", "tendons/tendon-spatial/heldout/median_max_pct_of_length", ".3g"),
+      ("1.34", "tendons/tendon-spatial/heldout/median_max_pct_of_length", ".3g"),
       ("2.97", "tendons/tendon-spatial/heldout/baselines/linear/median_max_pct_of_length", ".3g"),
       ("8", "tendons/tendon-planar/heldout/variants", "d"),
       ("2", "tendons/tendon-planar/goals/heldout_median_max_pct_of_length/goal", ".3g"))),
-    ("dynamic.md", _TENDON_ROW.format("held-out variants (8), worst", "1.15 (linear 2.54)",
-                                      "2.8 (linear 4)", "< 5"),
-     (("1.15", "tendons/tendon-planar/heldout/worst_max_pct_of_length", ".3g"),
+    ("dynamic.md", _TENDON_ROW.format("held-out variants (8), worst", "0.877 (linear 2.54)",
+                                      "3.19 (linear 4)", "< 5"),
+     (("0.877", "tendons/tendon-planar/heldout/worst_max_pct_of_length", ".3g"),
       ("2.54", "tendons/tendon-planar/heldout/baselines/linear/worst_max_pct_of_length", ".3g"),
-      ("2.8", "tendons/tendon-spatial/heldout/worst_max_pct_of_length", ".3g"),
+      ("3.19", "tendons/tendon-spatial/heldout/worst_max_pct_of_length", ".3g"),
       ("4", "tendons/tendon-spatial/heldout/baselines/linear/worst_max_pct_of_length", ".3g"),
       ("8", "tendons/tendon-spatial/heldout/variants", "d"),
       ("5", "tendons/tendon-planar/goals/heldout_worst_max_pct_of_length/goal", ".3g"))),
-    ("dynamic.md", _TENDON_ROW.format("generalisation (`-sine` variant, 10 s)", "1.46 (linear 5.15)",
-                                      "2.79 (linear 5.2)", "< 5"),
-     (("1.46", "tendons/tendon-planar/generalisation/model/max_pct_of_length", ".3g"),
+    ("dynamic.md", _TENDON_ROW.format("generalisation (`-sine` variant, 10 s)", "1.23 (linear 5.15)",
+                                      "2.86 (linear 5.2)", "< 5"),
+     (("1.23", "tendons/tendon-planar/generalisation/model/max_pct_of_length", ".3g"),
       ("5.15", "tendons/tendon-planar/generalisation/linear/max_pct_of_length", ".3g"),
-      ("2.79", "tendons/tendon-spatial/generalisation/model/max_pct_of_length", ".3g"),
+      ("2.86", "tendons/tendon-spatial/generalisation/model/max_pct_of_length", ".3g"),
       ("5.2", "tendons/tendon-spatial/generalisation/linear/max_pct_of_length", ".3g"),
       ("5", "tendons/tendon-spatial/goals/generalisation_max_pct_of_length/goal", ".3g"))),
-    ("dynamic.md", _TENDON_ROW.format("model at 10 / 100 / 1000 steps", "0.28 / 0.423 / 1.15",
-                                      "0.622 / 2.65 / 3.1", "below every baseline"),
+    ("dynamic.md", _TENDON_ROW.format("model at 10 / 100 / 1000 steps", "0.292 / 0.426 / 0.861",
+                                      "0.624 / 2.59 / 3.38", "below every baseline"),
      tuple((f, f"tendons/tendon-{arm}/horizons/{h}/model", ".3g")
-           for arm, figures in (("planar", ("0.28", "0.423", "1.15")), ("spatial", ("0.622", "2.65", "3.1")))
+           for arm, figures in (("planar", ("0.292", "0.426", "0.861")), ("spatial", ("0.624", "2.59", "3.38")))
            for h, f in zip((10, 100, 1000), figures))),
     ("dynamic.md", _TENDON_ROW.format("linear at 10 / 100 / 1000", "0.305 / 2.54 / 2.54", "0.635 / 4 / 4", ""),
      tuple((f, f"tendons/tendon-{arm}/horizons/{h}/linear", ".3g")
@@ -131,24 +131,24 @@ FIGURES = [
      tuple((f, f"tendons/tendon-{arm}/horizons/{h}/constant_velocity", ".3g")
            for arm, figures in (("planar", ("6.85", "62.1", "-")), ("spatial", ("15.3", "140", "-")))
            for h, f in zip((10, 100, 1000), figures))),
-    ("dynamic.md", "(the model beats the linear model 6-fold at 100 steps)",
-     (("6", "ratio(tendons/tendon-planar/horizons/100/linear, tendons/tendon-planar/horizons/100/model)", ".3g"),)),
-    ("dynamic.md", "on the spatial arm narrowly at 10 steps (0.622 against the linear model's 0.635)",
-     (("0.622", "tendons/tendon-spatial/horizons/10/model", ".3g"),
+    ("dynamic.md", "(the model beats the linear model 5.96-fold at 100 steps)",
+     (("5.96", "ratio(tendons/tendon-planar/horizons/100/linear, tendons/tendon-planar/horizons/100/model)", ".3g"),)),
+    ("dynamic.md", "on the spatial arm narrowly at 10 steps (0.624 against the linear model's 0.635)",
+     (("0.624", "tendons/tendon-spatial/horizons/10/model", ".3g"),
       ("0.635", "tendons/tendon-spatial/horizons/10/linear", ".3g"))),
-    ("dynamic.md", "Validation keeps the last checkpoint on both arms (step 1,000; 2.95 and 4.59 mm against "
+    ("dynamic.md", "Validation keeps the last checkpoint on both arms (step 1,000; 2.09 and 5.13 mm against "
                    "the linear start's 7.88 and 9.33 mm)",
      (("1,000", "tendons/tendon-planar/training/selected_step", ","),
       ("1,000", "tendons/tendon-spatial/training/selected_step", ","),
       ("1,000", "tendons/tendon-planar/train_config/steps", ","),
-      ("2.95", "tendons/tendon-planar/training/validation/-1/1 * 1000", ".3g"),
-      ("4.59", "tendons/tendon-spatial/training/validation/-1/1 * 1000", ".3g"),
+      ("2.09", "tendons/tendon-planar/training/validation/-1/1 * 1000", ".3g"),
+      ("5.13", "tendons/tendon-spatial/training/validation/-1/1 * 1000", ".3g"),
       ("7.88", "tendons/tendon-planar/training/validation/0/1 * 1000", ".3g"),
       ("9.33", "tendons/tendon-spatial/training/validation/0/1 * 1000", ".3g"))),
-    ("dynamic.md", "Training took 88 and 92 s on one thread; the whole step, with its simulations and sweeps, "
-                   "3.9 min.",
-     (("88", "tendons/tendon-planar/train_seconds", ".0f"), ("92", "tendons/tendon-spatial/train_seconds", ".0f"),
-      ("3.9", "step_seconds/tendons / 60", ".1f"))),
+    ("dynamic.md", "Training took 119 and 131 s on one thread; the whole step, with its simulations and sweeps, "
+                   "5.5 min.",
+     (("119", "tendons/tendon-planar/train_seconds", ".0f"), ("131", "tendons/tendon-spatial/train_seconds", ".0f"),
+      ("5.5", "step_seconds/tendons / 60", ".1f"))),
 ]
 
 CLAIMS = [
@@ -164,8 +164,8 @@ CLAIMS = [
      "calibrated"),
     ("magnetics.md", "the calibrated dynamic model is lower still", "magnetic/best_on_bending_axis/proximal/mean",
      "calibrated"),
-    ("statics.md", "and 0.032–0.158 ms at N = 100 and E = 1e-6", "fig13/summary/node_sweep/tol", 1e-6),
-    ("reproduce.md", "took 36 min on the project's 2-vCPU machine", "quick", False),
+    ("statics.md", "and 0.025–0.111 ms at N = 100 and E = 1e-6", "fig13/summary/node_sweep/tol", 1e-6),
+    ("reproduce.md", "took 29 min on the project's 2-vCPU machine", "quick", False),
 ]
 
 # "the README's run", "From the README ("Speed")", "(README)", "(README; ...", "are in the README", ...
