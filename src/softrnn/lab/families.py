@@ -35,14 +35,14 @@ from typing import Protocol
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import SoftrnnInputError, bad, nonnegative
+from ..errors import SoftrnnInputError, nonnegative
 from ..io.reader import Dataset
 from ..learned.baselines import ConstantVelocity, Persistence, free_run
 from ..learned.linear import LinearARX
 from ..learned.metrics import tip_errors
 from ..learned.node.train_config import TrainConfig
 from .recording import Recording
-from .synthetic import SyntheticOptions, synthetic_sessions
+from .synthetic import SyntheticOptions, check_mode, taught_sessions
 from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate, session_resets
 
 PLAY_WIDTHS = (0.05, 0.15)
@@ -411,18 +411,12 @@ class NodeFamily:
     physics: object = None
 
     def __post_init__(self):
-        if self.mode not in ("real", "mixed"):
-            raise bad("mode", self.mode, "'real' or 'mixed'")
-        if self.mode == "mixed" and (self.physics is None or not self.synthetic.on):
-            raise bad("mode", self.mode, "'real' for the node_lstm family without a calibrated physics and "
-                                         "synthetic.amount > 0 (mixed learns from the physics' sessions)")
+        check_mode(self, ("real", "mixed"))
 
     def _taught(self, sessions) -> list:
         """The synthetic sessions of mode ``mixed`` ([] in mode ``real``) for training on ``sessions``."""
-        if self.mode == "real":
-            return []
         amount = min(self.synthetic.amount, self.options.synthetic_amount)
-        return synthetic_sessions(self.physics, sessions, replace(self.synthetic, amount=amount))
+        return taught_sessions(self, sessions, ("real", "mixed"), replace(self.synthetic, amount=amount))
 
     def fit(self, sessions) -> NodeFamily:
         """The model trained on training sessions (a list of ``Recording``)."""

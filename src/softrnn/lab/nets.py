@@ -30,13 +30,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import bad
 from .families import PLAY_WIDTHS, NodeFamily, Physics, _previous, held_rows, holdout_split, parsimonious, play
 from .recording import Recording
-from .synthetic import SyntheticOptions, synthetic_sessions
+from .synthetic import SyntheticOptions, taught_sessions
 from .uncertainty import InputDistance, Intervals, conformal_q
 
-MODES = ("real", "finetune", "mixed")
 """How a family uses the physics' synthetic sessions (module docstring)."""
 GATES = (0.5, 1.0, 2.0, 4.0, 8.0)
 """The hybrid's gate widths d0 tried on the hold-out, in standardised input units: all finite, so that
@@ -145,21 +143,6 @@ def _widths(sessions, hysteresis: bool):
     return [f * np.ptp(u, axis=0) for f in PLAY_WIDTHS]
 
 
-def _check_mode(family, offered=MODES) -> None:
-    if family.mode not in offered:
-        raise bad("mode", family.mode, f"one of {', '.join(offered)} for the {family.name} family")
-    if family.mode != "real" and (family.physics is None or family.physics.calibration is None
-                                  or not family.synthetic.on):
-        raise bad("mode", family.mode, f"'real' for the {family.name} family without a calibrated physics and "
-                                       "synthetic.amount > 0 (the other modes learn from the physics' sessions)")
-
-
-def _synthetic(family, sessions, offered=MODES) -> list:
-    """The synthetic sessions a family learns from ([] in mode ``real``), its mode one of ``offered``."""
-    _check_mode(family, offered)
-    return [] if family.mode == "real" else synthetic_sessions(family.physics, sessions, family.synthetic)
-
-
 def _train(options: NetOptions, mode: str, weight: float, real: tuple, synthetic: tuple) -> _Ensemble:
     """An ensemble trained on (X, Y) of the real rows and of the synthetic rows as ``mode`` says; the
     synthetic rows are drawn in batches as large as the real rows, so a step costs about the same."""
@@ -215,7 +198,7 @@ class LearnedMap(Intervals):
     def fit(self, sessions) -> LearnedMap:
         """The model fitted on training sessions (a list of ``Recording``)."""
         sessions = list(sessions)
-        syn = _synthetic(self, sessions)
+        syn = taught_sessions(self, sessions)
         widths = _widths(sessions, self.hysteresis)
         offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
 
@@ -271,7 +254,7 @@ class Hybrid(Intervals):
         sessions = list(sessions)
         physics = self.physics if self.physics.calibration is not None else self.physics.fit(sessions)
         out = replace(self, physics=physics, widths=_widths(sessions, self.hysteresis))
-        syn = _synthetic(out, sessions, ("real", "mixed"))           # its synthetic residual is zero: no pretraining
+        syn = taught_sessions(out, sessions, ("real", "mixed"))      # its synthetic residual is zero: no pretraining
 
         def data(group):
             if not group:
@@ -362,7 +345,7 @@ class Sequence(Intervals):
         import torch  # optional extra: learn (PyTorch)
 
         sessions = list(sessions)
-        syn = _synthetic(self, sessions, ("real", "finetune"))
+        syn = taught_sessions(self, sessions, ("real", "finetune"))
         torch.manual_seed(self.options.seed)
         offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
         X = [self._inputs(s) for s in sessions + syn]

@@ -227,3 +227,28 @@ def synthetic_sessions(physics, sessions, options: SyntheticOptions = SyntheticO
             out.append(Recording(path=rec.path, time=t[ok], inputs=u[ok], names=first.names, units=first.units,
                                  tip=tip[ok], columns=first.columns))
     return out
+
+
+MODES = ("real", "finetune", "mixed")
+"""How a learned family uses the synthetic sessions: not at all, pretrained then fitted to the real
+rows, or both at once (``softrnn.lab.nets``)."""
+
+
+def check_mode(family, offered=MODES) -> None:
+    """Refuse (one line) a ``family`` whose ``mode`` is not one of ``offered``, or that learns from
+    synthetic sessions without a calibrated ``physics`` and ``synthetic.amount`` > 0."""
+    if family.mode not in offered:
+        raise bad("mode", family.mode, f"one of {', '.join(offered)} for the {family.name} family")
+    if family.mode != "real" and (family.physics is None or family.physics.calibration is None
+                                  or not family.synthetic.on):
+        raise bad("mode", family.mode, f"'real' for the {family.name} family without a calibrated physics and "
+                                       "synthetic.amount > 0 (the other modes learn from the physics' sessions)")
+
+
+def taught_sessions(family, sessions, offered=MODES, options: SyntheticOptions | None = None) -> list:
+    """The synthetic sessions ``family`` learns from beside ``sessions`` ([] in mode ``real``), its mode
+    one of ``offered`` (``check_mode``); ``options``: instead of ``family.synthetic``."""
+    check_mode(family, offered)
+    if family.mode == "real":
+        return []
+    return synthetic_sessions(family.physics, sessions, family.synthetic if options is None else options)
