@@ -260,7 +260,8 @@ def summary(sc: Scenario) -> str:
     shear = f"G = {_pa(rod.shear_modulus)}" if rod.shear_modulus is not None else f"nu = {rod.poisson_ratio:g}"
     lines.append(f"  rod: L = {rod.length:.4g} m, r = {rod.radius * 1e3:.4g} mm, {rod.n_nodes} nodes, "
                  f"E = {_pa(rod.youngs_modulus)}, rho = {rod.density:g} kg/m^3, {shear}"
-                 + (f", {overrides} section override{'s' if overrides > 1 else ''}" if overrides else ""))
+                 + (f", {overrides} section override{'s' if overrides > 1 else ''}" if overrides else "")
+                 + (f", {len(rod.sections)} material sections" if rod.sections else ""))
     if sc.magnetic is not None:
         lines += _magnetic(sc)
     else:

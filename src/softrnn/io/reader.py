@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SoftrnnInputError, bad
+from ..rod.materials import MaterialSection
 from ..rod.spec import NodeOverride, RodSpec
 from ._checks import _check_values, _inspect, _layout, _select
 from ._h5files import _Reading
@@ -185,6 +186,7 @@ class Dataset:
         try:
             values = dict(rod)
             values["overrides"] = tuple(NodeOverride(**o) for o in values.get("overrides", ()))
+            values["sections"] = tuple(MaterialSection(**o) for o in values.get("sections", ()))
             return RodSpec(**values)
         except (TypeError, SoftrnnInputError):
             return None

@@ -9,6 +9,8 @@ from .contact import Cylinder as Cylinder
 from .contact import Plane as Plane
 from .contact import Sphere as Sphere
 from .contact import Vessel as Vessel
+from .devices import Device as Device
+from .devices import guidewire as guidewire
 from .loads import Constant as Constant
 from .loads import NodalLoad as NodalLoad
 from .loads import PDTracking as PDTracking
@@ -17,10 +19,14 @@ from .loads import Sampled as Sampled
 from .loads import Sinusoid as Sinusoid
 from .loads import SquarePath as SquarePath
 from .loads import Window as Window
+from .materials import MaterialSection as MaterialSection
+from .shapes import Bend as Bend
 from .shapes import RodShape as RodShape
 from .shapes import arc as arc
+from .shapes import curved as curved
 from .shapes import ellipse as ellipse
 from .shapes import polyline as polyline
+from .shapes import shaped_tip as shaped_tip
 from .shapes import straight as straight
 from .simulation import Damping as Damping
 from .simulation import RunConfig as RunConfig

@@ -1,15 +1,17 @@
-"""Rod configurations: node positions and frames for straight rods, circular arcs, closed ellipses
-and arbitrary polylines. A shape serves as the stress-free reference or as an initial condition.
+"""Rod configurations: node positions and frames for straight rods, circular arcs, closed ellipses,
+arbitrary polylines and straight rods pre-shaped by bends (``curved``, ``shaped_tip``: a J or angled
+tip). A shape serves as the stress-free reference or as an initial condition.
 
 Nodes are equally spaced in arc length; frames put d3 on the tangent (docs/lgvi.md §2.1) and, for
 planar curves, d2 on the plane normal, so a planar reference has no twist.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import bad, store_frozen
+from ..errors import bad, finite, positive, store_frozen
 from .so3 import frame_from_tangent
 
 
@@ -134,3 +136,112 @@ def polyline(points, rotations=None, *, normal=(1.0, 0.0, 0.0)) -> RodShape:
         d1 = frames[i - 1][:, 0]
         frames[i] = frame_from_tangent(tan[i], d1)
     return RodShape(p, frames)
+
+
+@dataclass(frozen=True)
+class Bend:
+    """A constant rest curvature between arc lengths ``start`` and ``end`` [m] of a straight rod.
+
+    Attributes
+    ----------
+    start, end : float
+        Arc lengths from the first node [m], 0 <= start < end.
+    curvature : float
+        Curvature [1/m] (the bend turns the rod through curvature * (end - start) rad).
+    toward_deg : float
+        The direction the rod bends toward, in degrees from d1 toward d2 in the plane of the
+        section (0: toward d1, the ``normal`` of the straight rod; 90: toward d2).
+    """
+
+    start: float
+    end: float
+    curvature: float
+    toward_deg: float = 0.0
+
+    def __post_init__(self):
+        finite("bend.start", self.start, "m")
+        finite("bend.end", self.end, "m")
+        if self.start < 0 or self.end <= self.start:
+            raise bad("bend [start, end]", [self.start, self.end], "0 <= start < end, arc lengths in m")
+        positive("bend.curvature", self.curvature, "1/m")
+        finite("bend.toward_deg", self.toward_deg, "degrees")
+
+    @property
+    def body_curvature(self) -> np.ndarray:
+        """The curvature vector (3,) [1/m] in the body frame: d3' = curvature x d3 bends toward
+        cos(toward) d1 + sin(toward) d2."""
+        phi = math.radians(self.toward_deg)
+        return self.curvature * np.array([-math.sin(phi), math.cos(phi), 0.0])
+
+
+def _advance(R: np.ndarray, r: np.ndarray, k: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """Frame (3, 3) and position (3,) [m] after arc length ``t`` [m] of constant body curvature
+    ``k`` (3,) [1/m] normal to d3 (exact: a circular arc, or a straight piece for k = 0)."""
+    kappa = float(np.linalg.norm(k))
+    if kappa == 0.0:
+        return R, r + t * R[:, 2]
+    a = k / kappa
+    th = kappa * t
+    A = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    E = np.eye(3) + math.sin(th) * A + (1.0 - math.cos(th)) * (A @ A)
+    offset = np.array([0.0, 0.0, math.sin(th) / kappa]) + (1.0 - math.cos(th)) / kappa * np.cross(a, [0.0, 0.0, 1.0])
+    return R @ E, r + R @ offset
+
+
+def _checked_bends(bends, length: float) -> tuple:
+    """``bends`` as a tuple of ``Bend``, in order along the rod, disjoint and inside [0, length]."""
+    bends = tuple(bends)
+    for i, b in enumerate(bends):
+        if not isinstance(b, Bend):
+            raise bad(f"bends[{i}]", b, "Bend entries")
+        if i and b.start < bends[i - 1].end:
+            raise bad(f"bends[{i}].start", b.start, f"an arc length >= {bends[i - 1].end:g} m where bends[{i - 1}] "
+                                                     "ends (bends in order along the rod, not overlapping)")
+        if b.end > length * (1.0 + 1e-9):
+            raise bad(f"bends[{i}].end", b.end, f"an arc length <= the rod's length {length:g} m")
+    return bends
+
+
+def curved(n_nodes: int, length: float, bends=(), *, origin=(0.0, 0.0, 0.0), direction=(0.0, 0.0, 1.0),
+           normal=(1.0, 0.0, 0.0)) -> RodShape:
+    """A rod from ``origin`` along ``direction`` (d1 = ``normal`` made orthogonal), straight but for
+    its ``bends`` (``Bend`` entries, in order along it): the nodes lie on the exact curve at equal
+    arc lengths and carry its twist-free frames. As a reference it is a pre-shaped device; without
+    bends it is ``straight``."""
+    bends = _checked_bends(bends, length)
+    R = straight(2, length, origin=origin, direction=direction, normal=normal).rotations[0].copy()
+    r = np.asarray(origin, dtype=float).copy()
+    s_nodes = np.linspace(0.0, length, n_nodes)
+    cuts = sorted({x for b in bends for x in (b.start, b.end) if 0.0 < x < length})
+    pos, rot = [r], [R]
+    s, j = 0.0, 0
+    for target in s_nodes[1:]:
+        while s < target:
+            while j < len(cuts) and cuts[j] <= s:
+                j += 1
+            nxt = min(target, cuts[j]) if j < len(cuts) else target
+            mid = 0.5 * (s + nxt)
+            k = next((b.body_curvature for b in bends if b.start <= mid < b.end), np.zeros(3))
+            R, r = _advance(R, r, k, nxt - s)
+            s = nxt
+        pos.append(r)
+        rot.append(R)
+    return RodShape(np.array(pos), np.array(rot))
+
+
+def shaped_tip(n_nodes: int, length: float, *, angle_deg: float, bend_length: float, tip_length: float = 0.0,
+               toward_deg: float = 0.0, origin=(0.0, 0.0, 0.0), direction=(0.0, 0.0, 1.0),
+               normal=(1.0, 0.0, 0.0)) -> RodShape:
+    """A straight rod with a pre-shaped tip: one bend through ``angle_deg`` degrees over
+    ``bend_length`` [m] that ends ``tip_length`` [m] before the distal end (a straight tip beyond
+    it), bending toward ``toward_deg`` (``Bend``). A J tip: angle_deg = 180 (bend_length = pi times
+    the J's radius); an angled tip: 30-45 degrees over a few mm."""
+    positive("angle_deg", angle_deg, "degrees")
+    positive("bend_length", bend_length, "m")
+    if not (isinstance(tip_length, (int, float)) and 0.0 <= tip_length < math.inf):
+        raise bad("tip_length", tip_length, "a length >= 0 in m")
+    start = length - tip_length - bend_length
+    if start < 0:
+        raise bad("bend_length + tip_length", bend_length + tip_length, f"at most the rod's length {length:g} m")
+    bend = Bend(start, length - tip_length, math.radians(angle_deg) / bend_length, toward_deg)
+    return curved(n_nodes, length, (bend,), origin=origin, direction=direction, normal=normal)

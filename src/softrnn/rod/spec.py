@@ -1,7 +1,9 @@
-"""Rod specification: geometry, material and per-node overrides (frozen, validated).
+"""Rod specification: geometry, material, material sections along the rod and per-node overrides
+(frozen, validated).
 
 Lumping follows docs/lgvi.md §2.2: n nodes, n - 1 segments of length l = L / (n - 1); node
-masses and rotary inertias use the trapezoid rule (half weight at both ends).
+masses and rotary inertias use the trapezoid rule (half weight at both ends). A rod of several
+materials (``sections``, ``rod.materials``) integrates its sections over each node's share instead.
 """
 
 from dataclasses import dataclass, field
@@ -9,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import bad, is_int, positive
+from .materials import MaterialSection, check_cover, section_lumped, section_node_properties
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -62,6 +65,10 @@ class RodSpec:
         Timoshenko shear coefficient kappa (1 as in the LGVI references)
     overrides : tuple
         NodeOverride entries (embedded magnets, rigid segments)
+    sections : tuple
+        MaterialSection entries in order along the rod that tile [0, L] (a device of several
+        materials; empty: one material). A section's unset values are the rod's; overrides apply
+        on top of them.
     """
 
     length: float
@@ -73,6 +80,7 @@ class RodSpec:
     shear_modulus: float | None = None
     shear_coefficient: float = 1.0
     overrides: tuple[NodeOverride, ...] = field(default_factory=tuple)
+    sections: tuple[MaterialSection, ...] = field(default_factory=tuple)
 
     def __post_init__(self):
         positive("length", self.length, "m")
@@ -94,6 +102,13 @@ class RodSpec:
                 raise bad("overrides", o, "NodeOverride entries")
             if o.last >= self.n_nodes:
                 raise bad("override.last", o.last, f"a node index below n_nodes={self.n_nodes}")
+        object.__setattr__(self, "sections", tuple(self.sections))
+        if self.sections:
+            for i, sec in enumerate(self.sections):
+                if not isinstance(sec, MaterialSection):
+                    raise bad(f"sections[{i}]", sec, "MaterialSection entries")
+            check_cover([(sec.start, sec.end) for sec in self.sections], self.length)
+            self.node_properties()  # every section's radius above its inner radius
 
     @property
     def segment_length(self) -> float:
@@ -108,16 +123,24 @@ class RodSpec:
         return self.youngs_modulus / (2.0 * (1.0 + self.poisson_ratio))
 
     def node_properties(self) -> dict[str, np.ndarray]:
-        """Per-node radius, E, G, rho, each (n,), after overrides."""
+        """Per-node radius [m], inner (tube) radius [m], E [Pa], G [Pa], rho [kg/m^3], each (n,),
+        after overrides (with sections: those of the section that covers most of the node's share
+        of the rod, ``rod.materials.section_node_properties``)."""
         n = self.n_nodes
-        radius = np.full(n, float(self.radius))
-        E = np.full(n, float(self.youngs_modulus))
-        G = np.full(n, float(self.shear))
-        rho = np.full(n, float(self.density))
+        if self.sections:
+            p = section_node_properties(self)
+            radius, inner, E, G, rho = p["radius"], p["inner"], p["E"], p["G"], p["rho"]
+        else:
+            radius = np.full(n, float(self.radius))
+            inner = np.zeros(n)
+            E = np.full(n, float(self.youngs_modulus))
+            G = np.full(n, float(self.shear))
+            rho = np.full(n, float(self.density))
         for o in self.overrides:
             sl = slice(o.first, o.last + 1)
             if o.radius is not None:
                 radius[sl] = o.radius
+                inner[sl] = 0.0
             if o.youngs_modulus is not None:
                 E[sl] = o.youngs_modulus
                 nu = self.poisson_ratio if o.poisson_ratio is None else o.poisson_ratio
@@ -126,7 +149,7 @@ class RodSpec:
                 G[sl] = E[sl] / (2.0 * (1.0 + o.poisson_ratio))
             if o.density is not None:
                 rho[sl] = o.density
-        return {"radius": radius, "E": E, "G": G, "rho": rho}
+        return {"radius": radius, "inner": inner, "E": E, "G": G, "rho": rho}
 
     def lumped(self) -> dict[str, np.ndarray]:
         """Lumped arrays used by the integrator.
@@ -139,11 +162,15 @@ class RodSpec:
             ``inertia`` (n, 3): J_a = w_a l rho diag(I, I, 2I) [kg m^2];
             ``C1`` (n-1, 3): diag(kappa G A, kappa G A, E A) per segment [N];
             ``C2`` (n-1, 3): diag(E I, E I, G J) per segment [N m^2].
+            With ``sections`` the masses and stiffnesses integrate the sections
+            (``rod.materials.section_lumped``).
         """
         n, l = self.n_nodes, self.segment_length
         p = self.node_properties()
         w = np.ones(n)
         w[0] = w[-1] = 0.5
+        if self.sections:
+            return section_lumped(self, w, p)
         area = np.pi * p["radius"] ** 2
         second = np.pi * p["radius"] ** 4 / 4.0
         mass = w * p["rho"] * area * l

@@ -25,10 +25,11 @@ from ..rod.loads import (
     Sum,
     Window,
 )
-from ..rod.shapes import RodShape, arc, ellipse, ellipse_perimeter, polyline, straight
+from ..rod.shapes import RodShape, arc, curved, ellipse, ellipse_perimeter, polyline, straight
 from ..rod.simulation import INTEGRATORS, Damping, RunConfig
 from ..rod.spec import NodeOverride, RodSpec
 from ..rod.stability import DEFAULT_SAFETY, stable_step
+from ._materials import read_bends, read_sections
 from .paths import PoseMotion, PositionPath
 from .reading import (
     ScenarioError,
@@ -57,6 +58,8 @@ _ROD_KEYS = {
     "shear_modulus": "the shear modulus in Pa (overrides poisson_ratio)",
     "shear_coefficient": "the Timoshenko shear coefficient",
     "overrides": "[[rod.overrides]] entries: first, last and radius/youngs_modulus/poisson_ratio/density",
+    "sections": "[[rod.sections]] entries that tile the rod: from/to (m) or from_fraction/to_fraction and "
+                "radius/inner_radius/youngs_modulus/poisson_ratio/shear_modulus/density",
 }
 _OVERRIDE_KEYS = {
     "first": "the first node (0-based)", "last": "the last node (inclusive)", "radius": "radius in m",
@@ -99,6 +102,8 @@ def _rod(ctx: _Ctx, raw) -> RodSpec:
             overrides.append(NodeOverride(**ov))
         except SoftrnnInputError as exc:
             raise ctx.wrap(path, exc) from None
+    if t.has("sections"):
+        kwargs["sections"] = read_sections(ctx, t.get("sections", table_list), length, kwargs["radius"])
     try:
         return RodSpec(**kwargs, overrides=tuple(overrides))
     except SoftrnnInputError as exc:
@@ -107,7 +112,9 @@ def _rod(ctx: _Ctx, raw) -> RodSpec:
 
 _SHAPE_KEYS = {
     "straight": {"length": "the length in m (default: rod.length)", "origin": "the first node [x, y, z] in m",
-                 "direction": "the rod direction [x, y, z]", "normal": "the d1 direction hint [x, y, z]"},
+                 "direction": "the rod direction [x, y, z]", "normal": "the d1 direction hint [x, y, z]",
+                 "bends": "[[...bends]] entries: from/to (m) or from_fraction/to_fraction, curvature (1/m) or "
+                          "angle_deg, toward_deg (a pre-shaped tip)"},
     "arc": {"length": "the arc length in m (default: rod.length)", "radius": "the arc radius in m",
             "angle_deg": "the angle the arc turns through, in degrees (instead of radius)",
             "origin": "the first node [x, y, z] in m", "tangent": "the tangent at the first node",
@@ -136,7 +143,10 @@ def _shape(ctx: _Ctx, raw, path: str, rod: RodSpec) -> RodShape:
     try:
         if kind == "straight":
             kw = _vectors(t, ("origin", "direction", "normal"))
-            return straight(rod.n_nodes, t.get("length", number("m", positive=True), rod.length), **kw)
+            length = t.get("length", number("m", positive=True), rod.length)
+            if t.has("bends"):
+                return curved(rod.n_nodes, length, read_bends(ctx, t.get("bends", table_list), path, length), **kw)
+            return straight(rod.n_nodes, length, **kw)
         if kind == "arc":
             return _arc(ctx, t, path, rod)
         if kind == "ellipse":

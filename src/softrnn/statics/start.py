@@ -74,6 +74,10 @@ def _check_rod(setup: Setup) -> None:
         raise bad("rod.overrides", f"{len(spec.overrides)} node override(s)",
                   "a uniform rod for a static start (node overrides are not modelled by it); give the initial "
                   "shape explicitly instead")
+    if spec.sections:
+        raise bad("rod.sections", f"{len(spec.sections)} material sections",
+                  "a rod of one material for a static start (the static solver's rod is uniform); give the "
+                  "initial shape explicitly instead")
     L, n = spec.length, spec.n_nodes
     R0 = ref.rotations[0]
     straight = ref.positions[0] + np.linspace(0.0, L, n)[:, None] * R0[:, 2]
