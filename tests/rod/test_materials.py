@@ -33,13 +33,14 @@ from softrnn.rod.discrete import internal_loads, segment_strains
 from softrnn.rod.materials import check_cover
 from softrnn.statics import static_start
 
-from helpers import energy_error
+from helpers import planar_bent_shape
 
 L, R, E1, RHO, NU = 0.2, 0.002, 2e6, 1000.0, 0.5
-TIP_RTOL = 0.01          # settled tip deflection vs the closed form at 21 nodes
+TIP_RTOL = 0.01          # settled tip deflection vs the closed form at 21 nodes (measured 1.5e-3, 2.0e-3)
 REST_TOL = 1e-10         # largest move / L of a pre-shaped rod started in its rest shape
 RETURN_TOL = 1e-4        # a pre-shaped rod released from straight settles back to its shape (/ L)
-ENERGY_BOUND = 1e-5      # max |E - E0| / energy exchanged, undamped, two materials
+ENERGY_BOUND = 5e-3      # max |E - E0| / energy exchanged, undamped, two materials (measured 1.7e-3)
+ENERGY_DRIFT = 2e-4      # |mean of the last tenth - first tenth| / energy exchanged (measured 5e-5)
 
 
 def two_materials(n=21, boundary=0.1, E2=E1 / 8, rho2=RHO, r2=R, **kw) -> RodSpec:
@@ -106,18 +107,18 @@ def test_overrides_apply_on_top_of_the_sections():
 def _cantilever(rod, P, integrator):
     setup = Setup(rod=rod, reference=straight(rod.n_nodes, L, direction=(1, 0, 0), normal=(0, 0, 1)),
                   boundary=(Clamp(0),), loads=(NodalLoad(-1, force=Constant((0.0, 0.0, P))),),
-                  damping=Damping(translational=0.15, rotational=1e-6))
-    traj = Simulator(setup).run(RunConfig(dt=0.5, n_samples=9, save_nodes=(-1,), integrator=integrator))
+                  damping=Damping(translational=0.07, rotational=1e-6))  # about critical for the first mode
+    traj = Simulator(setup).run(RunConfig(dt=0.5, n_samples=11, save_nodes=(-1,), integrator=integrator))
     return traj.positions[:, 0, 2]
 
 
 @pytest.mark.parametrize("integrator", ["explicit", "implicit"])
 def test_a_two_material_cantilever_deflects_as_the_sum_of_its_sections(integrator):
     """A tip force P on a cantilever of E1 on the first half and E1/8 on the second: the settled
-    tip deflection is P (sum of the sections' bending and shear compliances), 2.1x that of the
+    tip deflection is P (sum of the sections' bending and shear compliances), 1.9x that of the
     rod of E1 alone; the load is small (deflection 1e-3 L)."""
     c = tip_compliance(0.1, E1 / 8)
-    assert c > 2 * tip_compliance(0.1, E1)  # the soft half dominates: a one-material rod fails this
+    assert c > 1.8 * tip_compliance(0.1, E1)  # the soft half dominates: a one-material rod fails this
     P = 1e-3 * L / c
     z = _cantilever(two_materials(), P, integrator)
     assert abs(z[-1] - z[-2]) < 1e-3 * abs(z[-1])  # settled
@@ -130,6 +131,13 @@ def test_a_boundary_inside_a_segment_deflects_as_the_closed_form():
     P = 1e-3 * L / c
     z = _cantilever(two_materials(boundary=a), P, "implicit")
     assert z[-1] == pytest.approx(P * c, rel=TIP_RTOL)
+
+
+def test_the_two_material_mismatch_is_the_discretisation_and_shrinks_with_the_node_spacing_squared():
+    c = tip_compliance(0.1, E1 / 8)
+    P = 1e-3 * L / c
+    err = [abs(_cantilever(two_materials(n=n), P, "implicit")[-1] / (P * c) - 1.0) for n in (21, 41)]
+    assert 3.0 < err[0] / err[1] < 5.0  # measured 1.5e-3 and 3.8e-4
 
 
 # --------------------------------------------------------------------------- pre-shaped tips
@@ -171,19 +179,30 @@ def test_a_pre_shaped_cantilever_released_from_straight_returns_to_its_shape(int
     assert np.linalg.norm(traj.positions[-1] - ref, axis=1).max() / L < RETURN_TOL
 
 
+def _energy_error(setup, h, steps):
+    traj = Simulator(setup).run(RunConfig(dt=100 * h, n_samples=steps // 100 + 1, substeps=100))
+    total = traj.energy.sum(axis=1)
+    return (total - total[0]) / np.ptp(traj.energy[:, 1])
+
+
 def test_undamped_energy_is_bounded_with_mixed_materials():
-    """A horizontal two-material cantilever (boundary inside a segment, denser soft tip) whipping
-    down in gravity: the symplectic scheme's energy error stays bounded."""
+    """A two-material cantilever (boundary inside a segment; the outer part thinner, 5x softer and
+    3x denser) released from a bent shape, undamped: the energy error of the symplectic scheme is
+    bounded, without drift, and quarters when the step halves (measured 1.7e-3 of the energy
+    exchanged, 4.4x; a uniform rod 0.6e-3, the same materials as a NodeOverride 1.9e-3)."""
     n = 15
     rod = RodSpec(length=L, radius=0.005, youngs_modulus=1e6, density=RHO, n_nodes=n,
                   sections=(MaterialSection(start=0.0, end=0.123),
                             MaterialSection(start=0.123, end=L, radius=0.004, youngs_modulus=2e5, density=3 * RHO)))
+    s = np.linspace(0.0, L, n)
     setup = Setup(rod=rod, reference=straight(n, L, direction=(1, 0, 0), normal=(0, 0, 1)), boundary=(Clamp(0),),
-                  gravity=(0, 0, -9.81))
-    sim = Simulator(setup)
-    err, traj = energy_error(sim, 50_000, sim.stable_step())
-    assert traj.positions[:, -1, 2].min() < -0.3 * L  # a large motion
+                  initial=planar_bent_shape(0.3 / L**2 * (L * s - s**2 / 2), L / (n - 1)))  # tip 0.1 L down
+    h = Simulator(setup).stable_step()
+    err = _energy_error(setup, h, 50_000)
+    tenth = err.size // 10
     assert np.abs(err).max() < ENERGY_BOUND
+    assert abs(err[-tenth:].mean() - err[:tenth].mean()) < ENERGY_DRIFT
+    assert 3.0 < np.abs(err).max() / np.abs(_energy_error(setup, h / 2, 100_000)).max() < 5.5
 
 
 # --------------------------------------------------------------------------- shapes
