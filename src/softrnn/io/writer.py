@@ -67,15 +67,10 @@ def _record_json(record) -> str:
 
 
 def _rod_dict(rod):
-    """The rod record: a ``RodSpec`` as its fields (its material ``sections`` only when it has some,
-    so a one-material rod's record is what it always was), a dict as given, or None."""
     if rod is None:
         return None
     if is_dataclass(rod) and not isinstance(rod, type):
-        d = asdict(rod)
-        if not d.get("sections", True):
-            del d["sections"]
-        return json.loads(_to_json("rod", d))
+        return json.loads(_to_json("rod", asdict(rod)))
     if isinstance(rod, dict):
         return json.loads(_to_json("rod", rod))
     raise bad("rod", type(rod).__name__, "a softrnn.rod.RodSpec, a dict of rod properties, or None")

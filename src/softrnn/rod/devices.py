@@ -53,7 +53,7 @@ class Device:
 
 def composite_section(start: float, end: float, outer_radius: float, core_radius: float, core: Material,
                       jacket: Material = JACKET) -> MaterialSection:
-    """The ``MaterialSection`` [start, end] [m] of a core of ``core_radius`` [m] in a jacket out to
+    """The ``MaterialSection`` from ``start`` to ``end`` [m] of a core of ``core_radius`` [m] in a jacket out to
     ``outer_radius`` [m], with the effective E, G and rho of the module docstring."""
     ro4, rc4 = outer_radius ** 4, core_radius ** 4
     ro2, rc2 = outer_radius ** 2, core_radius ** 2

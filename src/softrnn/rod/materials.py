@@ -2,7 +2,7 @@
 (``MaterialSection``), its check (the sections tile the rod) and its lumping into the arrays of the
 integrators (docs/guide/simulator.md, "Devices of several materials").
 
-A section [start, end] [m] holds a circular or tubular cross-section and a linear-elastic material;
+A section from arc length start to end [m] holds a circular or tubular cross-section and a linear-elastic material;
 what it leaves unset comes from the rod (``RodSpec``). Lumping integrates the sections exactly:
 node a carries the mass rho A and rotary inertia rho I of its share of the rod
 [s_a - l/2, s_a + l/2] (cut at the ends), and a segment that straddles a boundary the series
