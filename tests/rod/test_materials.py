@@ -235,6 +235,10 @@ def test_the_guidewire_has_a_soft_shaped_tip_and_starts_at_rest():
     assert np.allclose(guidewire(shape="straight").reference.positions[:, :2], 0.0)
     with pytest.raises(SoftrnnInputError, match=r"n_nodes=101 is invalid: at least \d+ nodes"):
         guidewire(1.0, 101, shape="angled")
+    own = guidewire(0.5, 101, bend=(90.0, 0.02, 0.01), direction=(1, 0, 0), normal=(0, 0, 1)).reference
+    np.testing.assert_allclose(own.rotations[-1][:, 2], [0, 0, 1], atol=1e-14)  # turned 90 degrees toward +z
+    with pytest.raises(SoftrnnInputError, match="bend"):
+        guidewire(bend=(90.0, 0.0, 0.0))
 
 
 # --------------------------------------------------------------------------- record and errors

@@ -68,13 +68,15 @@ def composite_section(start: float, end: float, outer_radius: float, core_radius
 def guidewire(length: float = 1.0, n_nodes: int = 201, *, radius: float = 0.45e-3, core: str = "nitinol",
               core_radius: float = 0.2e-3, tip_core_radius: float = 0.05e-3, tip_length: float = 0.04,
               taper_length: float = 0.06, taper_steps: int = 2, shape: str = "angled", toward_deg: float = 0.0,
-              origin=(0.0, 0.0, 0.0), direction=(0.0, 0.0, 1.0), normal=(1.0, 0.0, 0.0)) -> Device:
+              bend: tuple | None = None, origin=(0.0, 0.0, 0.0), direction=(0.0, 0.0, 1.0),
+              normal=(1.0, 0.0, 0.0)) -> Device:
     """A guidewire of ``length`` [m] from ``origin`` along ``direction``: a ``core`` wire (a name of
     ``CORE_MATERIALS``) of ``core_radius`` [m] in a polymer jacket of outer ``radius`` [m] (default:
     0.035 inch), the core tapering in ``taper_steps`` steps over ``taper_length`` [m] to
     ``tip_core_radius`` [m] along the soft distal ``tip_length`` [m], and the tip pre-shaped by
-    ``shape`` (``TIP_SHAPES``: straight, angled or j) toward ``toward_deg`` (``shapes.Bend``; 0:
-    toward ``normal``). The tip's bend must span at least 3 of the n_nodes - 1 segments."""
+    ``shape`` (``TIP_SHAPES``: straight, angled or j; ``bend``: its own (angle [deg], bend length
+    [m], straight tip beyond it [m]) instead) toward ``toward_deg`` (``shapes.Bend``; 0: toward
+    ``normal``). The tip's bend must span at least 3 of the n_nodes - 1 segments."""
     integer("n_nodes", n_nodes, 2)
     integer("taper_steps", taper_steps, 0)
     for name, value in (("length", length), ("radius", radius), ("core_radius", core_radius),
@@ -84,6 +86,10 @@ def guidewire(length: float = 1.0, n_nodes: int = 201, *, radius: float = 0.45e-
         raise bad("core", core, f"one of {', '.join(CORE_MATERIALS)}")
     if shape not in TIP_SHAPES:
         raise bad("shape", shape, f"one of {', '.join(TIP_SHAPES)}")
+    tip_bend = TIP_SHAPES[shape] if bend is None else tuple(bend)
+    if tip_bend is not None and (len(tip_bend) != 3 or not (tip_bend[0] > 0 and tip_bend[1] > 0 and tip_bend[2] >= 0)
+                                 or tip_bend[1] + tip_bend[2] > length):
+        raise bad("bend", bend, "(angle > 0 in degrees, bend length > 0 in m, straight tip >= 0 in m) within the wire")
     if not tip_core_radius <= core_radius < radius:
         raise bad("core radii", (tip_core_radius, core_radius), f"tip_core_radius <= core_radius < radius = {radius}")
     taper = taper_length if taper_steps else 0.0
@@ -102,8 +108,8 @@ def guidewire(length: float = 1.0, n_nodes: int = 201, *, radius: float = 0.45e-
                   n_nodes=n_nodes, poisson_ratio=mat.poisson_ratio, shear_modulus=body.shear_modulus,
                   sections=tuple(sections))
     bends = ()
-    if TIP_SHAPES[shape] is not None:
-        angle, bend_length, straight_tip = TIP_SHAPES[shape]
+    if tip_bend is not None:
+        angle, bend_length, straight_tip = tip_bend
         if bend_length < 3.0 * rod.segment_length * (1.0 - 1e-9):
             need = math.ceil(3.0 * length / bend_length) + 1
             raise bad("n_nodes", n_nodes, f"at least {need} nodes, so that the {shape} tip's bend of "
