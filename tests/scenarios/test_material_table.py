@@ -105,3 +105,13 @@ def test_the_command_line_refuses_a_gap_with_exit_2_and_writes_nothing(tmp_path,
 def test_the_scenario_summary_counts_the_sections(tmp_path, capsys):
     assert run_cli(["scenario", "show", str(_write(tmp_path, DEVICE)), "--summary"]) == 0
     assert "2 material sections" in capsys.readouterr().out
+
+
+def test_a_sweep_varies_a_section_and_a_bend(tmp_path):
+    text = DEVICE + ('[randomize]\n"rod.sections.1.youngs_modulus" = { uniform = [1e5, 1e6] }\n'
+                     '"reference.bends.0.angle_deg" = { uniform = [30.0, 180.0] }\n')
+    sc = load_scenario(_write(tmp_path, text))
+    v = sc.variant(2)
+    assert v.setup.rod.sections[1].youngs_modulus == v.sampled["rod.sections.1.youngs_modulus"] != 5e5
+    K0 = np.abs(np.diff(v.setup.reference.rotations[-7:, :, 2], axis=0)).sum()
+    assert K0 != np.abs(np.diff(sc.setup.reference.rotations[-7:, :, 2], axis=0)).sum()  # another tip angle
