@@ -9,6 +9,8 @@ from .contact import Cylinder as Cylinder
 from .contact import Plane as Plane
 from .contact import Sphere as Sphere
 from .contact import Vessel as Vessel
+from .hub import Commanded as Commanded
+from .hub import Hub as Hub
 from .loads import Constant as Constant
 from .loads import NodalLoad as NodalLoad
 from .loads import PDTracking as PDTracking
