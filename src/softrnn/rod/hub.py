@@ -91,11 +91,14 @@ class Commanded:
         self._value = [float(value)]
         self._rate = [0.0]
         self._last = -math.inf
+        self._arrays = None
 
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
-        k = np.searchsorted(np.asarray(self._start), t, side="right") - 1
-        start, value, rate = (np.asarray(a)[k] for a in (self._start, self._value, self._rate))
+        if self._arrays is None:                     # rebuilt after a command
+            self._arrays = tuple(np.array(a) for a in (self._start, self._value, self._rate))
+        k = np.searchsorted(self._arrays[0], t, side="right") - 1
+        start, value, rate = (a[k] for a in self._arrays)
         return np.where(rate != 0.0, value + rate * (t - np.where(np.isfinite(start), start, 0.0)), value)
 
     def at(self, t_now: float) -> float:
@@ -110,6 +113,7 @@ class Commanded:
         while len(self._start) > 1 and self._start[-1] > t_now:
             for seq in (self._start, self._value, self._rate):
                 seq.pop()
+            self._arrays = None
         self._last = float(t_now)
         return float(t_now)
 
@@ -137,6 +141,7 @@ class Commanded:
         self._append(float(t_now) + float(duration), float(target), 0.0)
 
     def _append(self, start: float, value: float, rate: float) -> None:
+        self._arrays = None
         if start == self._start[-1]:
             self._value[-1], self._rate[-1] = value, rate
             return
