@@ -139,3 +139,18 @@ def test_a_magnetic_scenario_refuses_a_hub_table():
     text = load_scenario("magnetic-bifurcation").text + "\n[hub]\ninsertion = 0.01\n"
     with pytest.raises(ScenarioError, match="hub: not allowed in a magnetic scenario"):
         parse_scenario(text, "m.toml")
+
+
+def test_a_sweep_stores_each_variants_hub(tmp_path):
+    """A sweep over the hub's rotation amplitude: every variant's data set holds its own turn."""
+    text = HEAD + PRESCRIBED + '[randomize]\n"hub.rotation.amplitude" = { uniform = [0.1, 1.0] }\n'
+    (tmp_path / "hub.toml").write_text(text, encoding="utf-8")
+    out = tmp_path / "sweep"
+    assert run_cli(["sweep", str(tmp_path / "hub.toml"), "--count", "2", "-o", str(out), "--samples", "11",
+                    "--workers", "1", "--quiet"]) == 0
+    for i in range(2):
+        data = read_dataset(out / f"traj-{i:05d}.h5")
+        amplitude = parse_scenario(text).variant(i).sampled["hub.rotation.amplitude"]
+        np.testing.assert_allclose(data.hub["hub_rotation"], amplitude * np.sin(2 * math.pi * 5.0 * data.time),
+                                   rtol=1e-6, atol=1e-7)
+        assert data.record.moving_clamps == (0,)
