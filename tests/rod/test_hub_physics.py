@@ -170,3 +170,17 @@ def test_a_hub_tells_its_inputs_and_measures_its_node():
     driven = _hub(force=1.0, rotation=0.3)
     assert math.isnan(driven.at(1.0)[0]) and driven.at(1.0)[1] == pytest.approx(0.3)
     assert driven.channels == {"hub_insertion": "m", "hub_rotation": "rad", "hub_force": "N"}
+
+
+def test_a_commanded_driven_hub_takes_force_and_torque_commands():
+    hub = Hub.commanded((0.0, 0.0, 0.0), tuple(AXIS), REF.rotations[0], pushed=True, twisted=True, mass=0.002,
+                        inertia=1e-9)
+    sim = Simulator(_setup(hub))
+    sim.advance(100, 5e-5)
+    np.testing.assert_allclose(sim.state.positions, REF.positions, atol=1e-15)     # no force yet: at rest
+    hub.command(sim.state.time, force=0.01, torque=1e-7)
+    sim.advance(400, 5e-5)
+    d, theta = hub.measure(sim.state.positions[0], sim.state.rotations[0])
+    assert d > 0 and theta > 0 and math.isnan(hub.at(sim.state.time)[0])
+    with pytest.raises(SoftrnnInputError, match="insertion_rate=0.1 is invalid"):
+        hub.command(sim.state.time, insertion_rate=0.1)
