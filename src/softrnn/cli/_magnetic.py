@@ -2,6 +2,7 @@
 softrnn magnetic navigate: the manipulator steered at a vessel bifurcation (docs/guide/navigation.md)."""
 
 import json
+import math
 
 from ._progress import Bar
 from ._vocabulary import output
@@ -95,6 +96,9 @@ def _navigate_args(sub):
     v.add_argument("--advance", type=float, default=None, metavar="MM",
                    help="insert the base MM mm along the trunk (0 to 20), from a quarter of the run over half of "
                         "it, a smoothstep (default: a fixed base)")
+    v.add_argument("--rotate", type=float, default=None, metavar="DEG",
+                   help="turn the base DEG degrees about its axis (the trunk's; -3600 to 3600), as a hub twists a "
+                        "device, with the same timing as --advance (default: its rotation held)")
     v.add_argument("--overwrite", action="store_true", help="replace PATH if it exists (default: refuse)")
     v.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -237,7 +241,12 @@ def _navigate(args) -> int:
     if args.advance is not None:
         if not (isinstance(args.advance, float) and 0.0 < args.advance <= 20.0):
             raise bad("--advance", args.advance, "an insertion in mm, > 0 and at most 20 (the branches are 25 mm long)")
-        advance = BaseAdvance(distance=args.advance * 1e-3, start=0.25 * args.duration, ramp=0.5 * args.duration)
+    if args.rotate is not None and not (isinstance(args.rotate, float) and math.isfinite(args.rotate)
+                                        and 0.0 < abs(args.rotate) <= 3600.0):
+        raise bad("--rotate", args.rotate, "a turn of the base in degrees, nonzero and within +-3600 (ten turns)")
+    if args.advance is not None or args.rotate is not None:
+        advance = BaseAdvance(distance=(args.advance or 0.0) * 1e-3, start=0.25 * args.duration,
+                              ramp=0.5 * args.duration, rotation=math.radians(args.rotate or 0.0))
     spec = navigation_spec(advance=advance)
     per_mt = abs(currents_for_field(spec.coils, (0.0, 0.0, 0.0), steering_field(
         spec.contact.obstacles[0], "left", 1e-3))).max()          # the currents are linear in the field
@@ -251,7 +260,8 @@ def _navigate(args) -> int:
     tip = traj.positions[-1, -1]
     ended = tip_branch(spec.contact.obstacles[0], tip)
     attrs = {"scenario_name": "magnetic-navigation", "branch": args.branch, "field_T": field,
-             **({} if advance is None else {"advance_m": advance.distance}),
+             **({} if args.advance is None else {"advance_m": advance.distance}),
+             **({} if args.rotate is None else {"rotate_rad": advance.rotation}),
              "tip_branch": ended,
              "description": "the magnetic manipulator steered at a bifurcation (softrnn magnetic navigate)"}
     write_manipulator_dataset(args.out, traj, spec, dt=float(traj.time[1] - traj.time[0]), attrs=attrs)
@@ -260,7 +270,8 @@ def _navigate(args) -> int:
     where = {"left": "in the left branch", "right": "in the right branch", "wall": "on a wall (outside both tubes)",
              "trunk": "in the trunk or at the junction, inside both tubes"}[ended]
     currents = ", ".join(f"{i if abs(i) >= 5e-3 else 0.0:.2f}" for i in traj.currents[-1])
-    inserted = "" if advance is None else f", base advanced {args.advance:g} mm"
+    inserted = "" if args.advance is None else f", base advanced {args.advance:g} mm"
+    inserted += "" if args.rotate is None else f", base turned {args.rotate:g} deg"
     print(f"tip at [{tip[0] * 1e3:.2f}, {tip[1] * 1e3:.2f}, {tip[2] * 1e3:.2f}] mm, {where} (steered: {args.branch}"
           f"{inserted}, currents {currents} A)")
     return 0

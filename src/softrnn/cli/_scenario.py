@@ -192,6 +192,10 @@ def _boundary_and_loads(data: dict, n: int) -> list[str]:
         moving = [k for k in ("displacement", "rotation") if k in b]
         bounds.append(f"{b.get('kind')} at node {_node(b.get('node'), n)}"
                       + (f" ({' and '.join(moving)} {', '.join(_kind(b[k]) for k in moving)})" if moving else ""))
+    hub = data.get("hub")
+    if isinstance(hub, dict):            # insertion and rotation at the hub (scenario-format.md#hub)
+        inputs = [f"{k} {_kind(hub[k])}" for k in ("insertion", "rotation", "force", "torque") if k in hub]
+        bounds.append(f"hub at node {_node(hub.get('node', 0), n)}" + (f" ({' and '.join(inputs)})" if inputs else ""))
     loads = []
     for ld in data.get("loads", []):
         what = ld.get("target") if ld.get("kind") == "pd" else ld.get("profile")

@@ -62,7 +62,7 @@ DOMAIN = {
     "magnetic experiment": ("--quick", "--samples", "--epochs", "--predict", "--no-calibrate"),
     "magnetic compare": ("--epochs", "--predict", "--calibrate"),
     "magnetic example-csv": ("--samples",),
-    "magnetic navigate": ("--branch", "--field", "--duration", "--advance"),
+    "magnetic navigate": ("--branch", "--field", "--duration", "--advance", "--rotate"),
     "dynamic": (),
     "dynamic train": ("--heldout", "--validation", "--validate-on", "--train-fraction", "--model-dt",
                       "--node-stride", "--history", "--memory", "--width", "--layers", "--steps", "--unroll",

@@ -19,6 +19,7 @@ from .schema import (
     CONTACT,
     CONTACT_FIELDS,
     FIELDS,
+    HUB_CHANNELS,
     DatasetError,
     _node_list,
     _to_float32,
@@ -152,6 +153,13 @@ class Dataset:
     def actuation_names(self) -> tuple[str, ...]:
         """The actuation channels' names, in column order (() without actuation)."""
         return tuple(self.actuation_units)
+
+    @property
+    def hub(self) -> dict:
+        """The hub's channels (``softrnn.io.schema.HUB_CHANNELS``: insertion [m], rotation [rad], and a
+        driven hub's force [N] and torque [N m]) present, as {name: (T,) float64}; {} without a hub."""
+        return {name: np.asarray(self.actuation[:, j], dtype=np.float64)
+                for j, name in enumerate(self.actuation_names) if name in HUB_CHANNELS}
 
     @property
     def has_contact(self) -> bool:

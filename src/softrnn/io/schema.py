@@ -14,7 +14,8 @@ quaternions(T, N, 4)    float32 unit quaternions (w, x, y, z), body -> world
 forces     (T, N, 3)    float32 applied external forces [N], world frame
 torques    (T, N, 3)    float32 applied external torques [N m], world frame
 actuation  (T, m)       float32 optional: named actuation inputs (tendon tensions, chamber
-                                pressures, coil currents, ...), one column per channel, with the
+                                pressures, coil currents, a hub's insertion and rotation:
+                                ``HUB_CHANNELS``, ...), one column per channel, with the
                                 attributes ``names`` and ``units`` (JSON lists of m strings)
 contact_forces (T, N, 3) float32 optional (schema 3): contact forces of the obstacles [N], world
 contact_torques (T, N, 3) float32 optional (schema 3): their torques about the nodes [N m], world
@@ -44,6 +45,7 @@ from ..errors import SoftrnnInputError, bad
 from ..files import check_room
 from ..geometry.contact import contact_from_record as contact_from_record
 from ..geometry.contact import contact_record as contact_record
+from ..rod.hub import HUB_CHANNELS as HUB_CHANNELS
 
 SCHEMA_VERSION = 2
 """Version of the file layout of a trajectory without contact (and of a sweep's root without contact
@@ -105,6 +107,19 @@ dimensionless signal (a duty cycle as a fraction), ``%`` for one in percent."""
 ACTUATION_NAME = re.compile(r"^[a-z][a-z0-9_]{0,63}$")
 """An actuation channel's name: a lower-case letter, then letters, digits or ``_`` (at most 64),
 e.g. ``tendon_1``, ``p_chamber_2``, ``coil_3``."""
+
+HUB_INPUTS = {"hub_insertion": "hub_force", "hub_rotation": "hub_torque"}
+"""Each hub position channel and the channel that drives it when the hub is driven (its position is
+then the rod's state, measured, and the driving channel is the input)."""
+
+
+def hub_inputs(names) -> tuple[str, ...]:
+    """The hub channels among the actuation channel ``names`` that are a model's inputs, in order: the
+    insertion [m] and rotation [rad] where prescribed, the force [N] and torque [N m] where they drive
+    the hub (``HUB_CHANNELS``, written by ``softrnn.rod.hub.HubRecorder``)."""
+    names = tuple(names)
+    return tuple(a for a in names if a in HUB_CHANNELS and HUB_INPUTS.get(a) not in names)
+
 
 RESERVED_ATTRS = ("schema_version", "softrnn_version", "units", "rod", "scenario_text", "seed", "dt",
                   "n_nodes_total", "actuation_units", "contact", "scenario_record")

@@ -24,7 +24,8 @@ Modelling choices (assumptions, with numbers for the defaults):
   a ``Bifurcation``), with the contact loads of ``softrnn.rod.contact`` evaluated at every solver
   step beside the magnet loads; the explicit step then also respects the contact springs.
 * Insertion: with ``ManipulatorSpec.advance`` (a ``BaseAdvance``) the base is a clamp that moves
-  along its own axis (+x) by a smoothstep profile, its rotation held (a ``Clamp`` with a motion).
+  along its own axis (+x) by a smoothstep profile and turns about it by the same profile (held
+  without a ``rotation``; a ``Clamp`` with a motion), as a hub inserts and rotates a device.
 """
 
 import math
@@ -32,10 +33,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import bad, nonnegative, positive, vec3
+from ..errors import bad, finite, nonnegative, positive, vec3
 from ..progress import Progress
 from ..rod.boundary import Clamp
 from ..rod.contact import Contact, node_parameters, step_limit
+from ..rod.hub import axis_rotation
 from ..rod.integrators import Explicit, Implicit, as_integrator
 from ..rod.loads import smoothstep
 from ..rod.magnetic import MagneticDipoles
@@ -71,33 +73,46 @@ _NORMAL = (0.0, 0.0, 1.0)
 
 @dataclass(frozen=True)
 class BaseAdvance:
-    """Insertion of the manipulator: its base moves ``distance`` [m] along its own axis (+x), starting
-    at ``start`` [s] and reaching the distance ``ramp`` [s] later by a C2 smoothstep
-    (``softrnn.rod.loads.smoothstep``); the base's rotation is held.
+    """Insertion and rotation of the manipulator at its base, its hub: the base moves ``distance`` [m]
+    along its own axis (+x) and turns ``rotation`` [rad] about it, starting at ``start`` [s] and
+    reaching both ``ramp`` [s] later by a C2 smoothstep (``softrnn.rod.loads.smoothstep``).
 
     Attributes
     ----------
     distance : float
-        how far the base advances [m], > 0
+        how far the base advances [m], >= 0 (> 0 unless it only turns)
     start : float
         when the advance begins [s], >= 0 (the base is still before; also while settling)
     ramp : float
         how long the advance takes [s], > 0
+    rotation : float
+        how far the base turns about its axis [rad] (right-handed about +x; default 0: its
+        rotation is held)
     """
 
     distance: float
     start: float = 0.0
     ramp: float = 1.0
+    rotation: float = 0.0
 
     def __post_init__(self):
-        object.__setattr__(self, "distance", positive("advance.distance", self.distance, "m"))
+        object.__setattr__(self, "distance", nonnegative("advance.distance", self.distance, "m"))
         object.__setattr__(self, "start", nonnegative("advance.start", self.start, "s"))
         object.__setattr__(self, "ramp", positive("advance.ramp", self.ramp, "s"))
+        object.__setattr__(self, "rotation", finite("advance.rotation", self.rotation, "rad"))
+        if self.distance == 0 and self.rotation == 0:
+            raise bad("advance.distance", self.distance, "a positive insertion in m, or a nonzero rotation in rad "
+                                                         "(an advance that moves nothing is no advance: None)")
 
     def offset(self, t) -> np.ndarray:
         """The distance advanced (K,) [m] at times t (K,) [s]."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         return self.distance * smoothstep((t - self.start) / self.ramp)
+
+    def angle(self, t) -> np.ndarray:
+        """The angle turned about the axis (K,) [rad] at times t (K,) [s]."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        return self.rotation * smoothstep((t - self.start) / self.ramp)
 
     @property
     def end(self) -> float:
@@ -108,8 +123,8 @@ class BaseAdvance:
 @dataclass(frozen=True)
 class _AdvancingBase:
     """The pose motion of an advancing base (``Clamp.motion``): position ``base`` + offset(t) along
-    ``axis``, rotation ``rotation`` (3 rows of 3, a tuple so that equal motions compare equal) held;
-    t (K,) -> (K, 3) [m], (K, 3, 3)."""
+    ``axis``, rotation ``rotation`` (3 rows of 3, a tuple so that equal motions compare equal) turned
+    by angle(t) about the axis (held without a rotation); t (K,) -> (K, 3) [m], (K, 3, 3)."""
 
     base: tuple
     axis: tuple
@@ -119,12 +134,16 @@ class _AdvancingBase:
     def __call__(self, t):
         t = np.atleast_1d(np.asarray(t, dtype=float))
         pos = np.asarray(self.base) + self.advance.offset(t)[:, None] * np.asarray(self.axis)
-        return pos, np.broadcast_to(np.array(self.rotation, dtype=float), (t.size, 3, 3)).copy()
+        held = np.array(self.rotation, dtype=float)
+        if self.advance.rotation == 0:
+            return pos, np.broadcast_to(held, (t.size, 3, 3)).copy()
+        return pos, axis_rotation(np.asarray(self.axis, dtype=float), self.advance.angle(t)) @ held
 
     def parameters(self) -> np.ndarray:
-        """The motion's profile array (9,): base (3) [m], axis (3), distance [m], start, ramp [s]."""
+        """The motion's profile array (10,): base (3) [m], axis (3), distance [m], start, ramp [s],
+        rotation [rad]."""
         a = self.advance
-        return np.array([*self.base, *self.axis, a.distance, a.start, a.ramp], dtype=float)
+        return np.array([*self.base, *self.axis, a.distance, a.start, a.ramp, a.rotation], dtype=float)
 
 
 @dataclass(frozen=True, kw_only=True)

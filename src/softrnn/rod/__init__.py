@@ -11,6 +11,8 @@ from .contact import Sphere as Sphere
 from .contact import Vessel as Vessel
 from .devices import Device as Device
 from .devices import guidewire as guidewire
+from .hub import Commanded as Commanded
+from .hub import Hub as Hub
 from .loads import Constant as Constant
 from .loads import NodalLoad as NodalLoad
 from .loads import PDTracking as PDTracking

@@ -24,6 +24,7 @@ import numpy as np
 from ..errors import bad
 from ..progress import Progress
 from . import kernels
+from .hub import driven_hub, with_hub
 from .inputs import SetupInputs
 from .integrators import Explicit, choose_substeps
 from .kernels import StateArrays, StepInputs
@@ -82,10 +83,19 @@ def _check_compatible(setups: list[Setup], inputs: list[SetupInputs]) -> None:
             raise bad(f"{where}.tendons", [td.name for td in s.tendons],
                       "tendons driven as in setups[0] (the same tendons by a displacement, with the same stiffness; "
                       "tensions and displacements may differ)")
+        if _drive(s) != _drive(s0):
+            raise bad(f"{where}.boundary", s.boundary, f"a hub driven as in setups[0] (node, kind, mass, inertia "
+                                                       f"{_drive(s0)}; forces and torques may differ)")
         varying = callable(s.gravity)
         if varying != callable(s0.gravity) or (not varying and s.gravity != s0.gravity):
             raise bad(f"{where}.gravity", s.gravity, f"the same constant gravity as setups[0] ({s0.gravity}), "
                                                      "or a time function in every setup (they may differ)")
+
+
+def _drive(setup: Setup) -> tuple | None:
+    """(node, kernel kind, mass [kg], inertia [kg m^2]) of a setup's driven hub (``rod.hub``), or None."""
+    found = driven_hub(setup)
+    return None if found is None else (found[0], found[1].kind, found[1].mass, found[1].inertia)
 
 
 def _checked(setups: Sequence[Setup], config: RunConfig) -> list[Setup]:
@@ -191,7 +201,7 @@ def simulate_batch(setups: Sequence[Setup], config: RunConfig,
     setups = _checked(setups, config)
     inputs = [SetupInputs(s) for s in setups]
     _check_compatible(setups, inputs)
-    rod = lumped_rod(setups[0])
+    rod = with_hub(lumped_rod(setups[0]), setups[0])
     B, S = len(setups), config.n_samples
     substeps = choose_substeps(config, stable_step(rod._asdict(), rod.length, setups[0].damping.kelvin_voigt,
                                                    config.safety))

@@ -1,12 +1,13 @@
-"""The time-dependent inputs of a setup (nodal loads, PD targets, prescribed boundary motions,
-tendon tensions and displacements, a time-varying gravity) evaluated chunk by chunk into the
-kernels' ``StepInputs`` record, with the setup's obstacles (``rod.contact``)."""
+"""The time-dependent inputs of a setup (nodal loads, PD targets, prescribed boundary motions, a
+driven hub's force and torque, tendon tensions and displacements, a time-varying gravity) evaluated
+chunk by chunk into the kernels' ``StepInputs`` record, with the setup's obstacles (``rod.contact``)."""
 
 import numpy as np
 
 from ..errors import bad
 from .boundary import Clamp
 from .contact import kernel_arrays
+from .hub import hub_loads
 from .kernels import StepInputs
 from .loads import PDTracking
 from .magnetic import MagneticDipoles
@@ -63,6 +64,8 @@ class SetupInputs:
                 pd.append((a, load))
             else:
                 ext.setdefault(a, []).append(load)
+        for a, load in hub_loads(setup):  # a driven hub's force and torque (rod.hub)
+            ext.setdefault(a, []).append(load)
         self._presc, self._ext, self._pd = presc, ext, pd
         self._gravity = setup.gravity if callable(setup.gravity) else None
         self._constant = None if self._gravity is not None else setup.gravity

@@ -40,6 +40,12 @@ def kernel_stamp() -> int:
 FREE = 0
 CLAMPED = 1
 PINNED = 2
+# A clamped node held by a driven hub (``rod.hub``): the guide holds its position across its axis d3
+# and its tilt; along d3 it moves under its loads with the hub's mass (PUSHED), or it turns about d3
+# under its loads with the hub's inertia (TWISTED), or both (DRIVEN); the rest is prescribed.
+HUB_PUSHED = 3
+HUB_TWISTED = 4
+HUB_DRIVEN = 5
 
 # Status codes returned by the kernels (``rod.status.KernelStatus`` gives them names and messages;
 # they are defined here because compiled code freezes their values into the numba cache of this file).

@@ -52,6 +52,9 @@ from .kernel_records import CLAMPED as CLAMPED
 from .kernel_records import CYLINDER as CYLINDER
 from .kernel_records import DIVERGED as DIVERGED
 from .kernel_records import FREE as FREE
+from .kernel_records import HUB_DRIVEN as HUB_DRIVEN
+from .kernel_records import HUB_PUSHED as HUB_PUSHED
+from .kernel_records import HUB_TWISTED as HUB_TWISTED
 from .kernel_records import MAGNET_TOO_CLOSE as MAGNET_TOO_CLOSE
 from .kernel_records import NEWTON_FAILED as NEWTON_FAILED
 from .kernel_records import OK as OK
@@ -120,6 +123,18 @@ def _solve_rotation(clamped, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol):
         y1 -= idet * (C10 * f0 + C11 * f1 + C12 * f2)
         y2 -= idet * (C20 * f0 + C21 * f1 + C22 * f2)
     return False, y0, y1, y2, f0, f1, f2
+
+
+@njit(**_INLINE)
+def _solve_twist(s, b, ja, hc, tol):
+    """Newton on ja (s + s^3 / 4) + hc s = b from the start s: the Cayley vector (0, 0, s) of a node
+    that turns about its d3 only (a driven hub, ``rod.hub``; Phi of ``_solve_rotation`` along d3)."""
+    for _ in range(_NEWTON_MAX_ITER):
+        g = ja * (s + 0.25 * s * s * s) + hc * s - b
+        if abs(g) <= tol:
+            break
+        s -= g / (ja * (1.0 + 0.75 * s * s) + hc)
+    return s
 
 
 @njit(**_INLINE)
@@ -325,7 +340,21 @@ def _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, o
         r[a, 1] += dx1
         r[a, 2] += dx2
     else:
-        if jq >= 0:
+        if kd == HUB_PUSHED or kd == HUB_DRIVEN:
+            # a pushed hub: free along its axis d3 (m holds the hub's mass), held across it
+            e0 = R[a, 0, 2]
+            e1 = R[a, 1, 2]
+            e2 = R[a, 2, 2]
+            sp = (m * (vo0 * e0 + vo1 * e1 + vo2 * e2) + h * (F0 * e0 + F1 * e1 + F2 * e2)) / (m + h * cta)
+            vn0 = sp * e0
+            vn1 = sp * e1
+            vn2 = sp * e2
+            if not (h * h * sp * sp < l * l):
+                return DIVERGED, 0.0
+            r[a, 0] += h * vn0
+            r[a, 1] += h * vn1
+            r[a, 2] += h * vn2
+        elif jq >= 0:
             vn0 = (presc_r[i + 1, jq, 0] - r[a, 0]) / h
             vn1 = (presc_r[i + 1, jq, 1] - r[a, 1]) / h
             vn2 = (presc_r[i + 1, jq, 2] - r[a, 2]) / h
@@ -354,7 +383,9 @@ def _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, o
     b1 = h * (jw1 - half_h * (wo2 * jw0 - wo0 * jw2) + cw * wo1 + h * tb1)
     b2 = h * (jw2 - half_h * (wo0 * jw1 - wo1 * jw0) + cw * wo2 + h * tb2)
     hc = h * rod.cr[a]
-    if kd == CLAMPED:
+    # held: the rotation is given (clamped, or a driven hub's: prescribed, or its twist solved below)
+    held = kd != FREE and kd != PINNED
+    if kd == CLAMPED or kd == HUB_PUSHED:
         y0 = 0.0
         y1 = 0.0
         y2 = 0.0
@@ -374,7 +405,12 @@ def _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, o
     # y is prescribed and Phi(y) = h^2 (body reaction torque)
     tol = _NEWTON_RTOL * (abs(b0) + abs(b1) + abs(b2)
                           + (ja0 + ja1 + ja2) * h * (abs(wo0) + abs(wo1) + abs(wo2)))
-    ok, y0, y1, y2, f0, f1, f2 = _solve_rotation(kd == CLAMPED, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol)
+    if kd == HUB_TWISTED or kd == HUB_DRIVEN:
+        # a twisted hub: turns about its d3 only (ja2 holds the hub's inertia)
+        y0 = 0.0
+        y1 = 0.0
+        y2 = _solve_twist(y2, b2, ja2, hc, tol)
+    ok, y0, y1, y2, f0, f1, f2 = _solve_rotation(held, y0, y1, y2, b0, b1, b2, ja0, ja1, ja2, hc, tol)
     if not ok:
         return NEWTON_FAILED, 0.0
     if kd != CLAMPED:
@@ -405,7 +441,7 @@ def _node(a, i, row, record, h, F0, F1, F2, tb0, tb1, tb2, rod, state, inputs, o
             ihh = 1.0 / hh
             for c in range(3):
                 rt = 0.0
-                if kd == CLAMPED:
+                if held:
                     rt = (R[a, c, 0] * f0 + R[a, c, 1] * f1 + R[a, c, 2] * f2) * ihh
                 out_rt[row, slot, c] = rt
                 if kd == FREE:

@@ -19,9 +19,10 @@ from ..progress import Progress
 from . import implicit
 from .boundary import Clamp, Pin
 from .contact import Contact, check_initial, step_limit
+from .hub import hub_of, with_hub
 from .inputs import SetupInputs
 from .integrators import BY_NAME, Explicit, Implicit, as_integrator
-from .kernels import MIN_DIPOLE_DISTANCE, Samples
+from .kernels import MIN_DIPOLE_DISTANCE, PINNED, Samples
 from .loads import NodalLoad, PDTracking
 from .lumped import lumped_rod
 from .magnetic import MagneticDipoles, magnet_samples, start_wrench
@@ -126,7 +127,8 @@ class Damping:
 @dataclass(frozen=True, kw_only=True, eq=False)
 class Setup:
     """The physical problem: rod, stress-free reference shape, initial shape (defaults to the
-    reference), boundary conditions, loads, damping, gravity and ``tendons``
+    reference), boundary conditions (``Clamp``, ``Pin``; at most one ``Clamp`` held by a
+    ``softrnn.rod.hub.Hub``: insertion and rotation at the hub), loads, damping, gravity and ``tendons``
     (``softrnn.rod.tendons.Tendon`` entries with distinct names, routed from node 0).
 
     ``gravity`` is a constant (3,) [m/s^2], or a time function t (K,) [s] -> (K, 3) [m/s^2] (e.g.
@@ -183,6 +185,7 @@ class Setup:
             if a in seen:
                 raise bad("boundary node", bc.node, "each node at most once in the boundary conditions")
             seen.add(a)
+        hub_of(self)  # at most one hub (softrnn.rod.hub)
         for load in self.loads:
             if isinstance(load, MagneticDipoles):
                 self._check_magnetic(load)
@@ -296,7 +299,7 @@ class Simulator:
 
     def __init__(self, setup: Setup):
         self.setup = setup
-        self.rod = lumped_rod(setup)
+        self.rod = with_hub(lumped_rod(setup), setup)  # a driven hub's node kind, mass and inertia
         self.inputs = SetupInputs(setup)
         self.state = initial_state(setup, self.rod, self.inputs)
         self.steps_done = 0
@@ -312,7 +315,7 @@ class Simulator:
     G0 = _from_rod("G0", "Stress-free shear and stretch (n - 1, 3) [-].")
     mass = _from_rod("mass", "Node masses (n,) [kg].")
     inertia = _from_rod("inertia", "Node inertias (n, 3) [kg m^2], body frame.")
-    kind = _from_rod("kind", "Node kinds (n,) int64: kernels.FREE, CLAMPED or PINNED.")
+    kind = _from_rod("kind", "Node kinds (n,) int64: kernels.FREE, CLAMPED, PINNED or a driven hub's HUB_*.")
 
     def stable_step(self, safety: float = DEFAULT_SAFETY) -> float:
         """Largest accepted solver step h [s] for this setup; with contact, the contact springs and
@@ -411,6 +414,9 @@ class Simulator:
         """Use ``integrator`` from now on; a simulator not yet started starts its state at rest with
         the step ``h`` [s] (the integrator's half kick, as the first ``run`` or ``advance`` does)."""
         self._integrator = as_integrator(integrator)
+        if isinstance(self._integrator, Implicit) and self.rod.kind.max(initial=0) > PINNED:
+            raise bad("integrator", "implicit", "the explicit integrator for a setup with a hub driven by a force or "
+                                                "a torque (softrnn.rod.hub)")
         if not self._started:
             self._half_kick(h)
             self._started = True

@@ -7,8 +7,9 @@ import numpy as np
 
 from .contact import initial_segments
 from .discrete import internal_loads, segment_strains
+from .hub import hub_half_kick
 from .inputs import SetupInputs
-from .kernels import CLAMPED, FREE, LumpedRod, Samples, StateArrays, StepInputs, contact_wrench_into
+from .kernels import FREE, PINNED, LumpedRod, Samples, StateArrays, StepInputs, contact_wrench_into
 from .magnetic import start_wrench
 from .tendons import spring_tensions, tendon_lengths, tendon_resultants
 
@@ -48,7 +49,7 @@ class RodState:
 
 def initial_state(setup, rod: LumpedRod, inputs: SetupInputs) -> RodState:
     """A ``Setup``'s initial shape at rest at t = 0, with the prescribed nodes at their t = 0 poses
-    (positions; and rotations of clamped nodes); the strain memory holds its strains."""
+    (positions; and rotations of clamped nodes and of a hub's); the strain memory holds its strains."""
     init = setup.initial
     R = np.ascontiguousarray(init.rotations, dtype=float).copy()
     r = np.ascontiguousarray(init.positions, dtype=float).copy()
@@ -56,7 +57,7 @@ def initial_state(setup, rod: LumpedRod, inputs: SetupInputs) -> RodState:
         pos, rot = inputs.prescribed(np.array([0.0]))
         for j, a in enumerate(inputs.presc_idx):
             r[a] = pos[0, j]
-            if rod.kind[a] == CLAMPED:
+            if rod.kind[a] != PINNED:  # clamped, or held by a hub
                 R[a] = rot[0, j]
     K, G = segment_strains(R, r, rod.length)
     n = r.shape[0]
@@ -110,8 +111,9 @@ def half_kick(rod: LumpedRod, state: RodState, inputs: StepInputs, h: float) -> 
         t += np.einsum("aji,aj->ai", R, wrench[:, 3:])
     free = rod.kind == FREE
     state.velocities[free] = -0.5 * h * f[free] / rod.mass[free, None]
-    rot = rod.kind != CLAMPED
+    rot = (rod.kind == FREE) | (rod.kind == PINNED)
     state.angular_velocities[rot] = -0.5 * h * t[rot] / rod.inertia[rot]
+    hub_half_kick(rod, state.velocities, state.angular_velocities, R, f, t, h)
 
 
 def empty_samples(save_slot: np.ndarray, n_samples: int, n_saved: int, lead: tuple = ()) -> Samples:

@@ -24,13 +24,15 @@ MAGNETIC_KEYS = {
     "youngs_modulus": "the rod's Young's modulus in Pa (default 2.5e6, PMC-770)",
     "density": "the rod's density in kg/m^3 (default 1000)",
     "base": "the clamped base [x, y, z] in m (default [-length/2, 0, 0]); the rod points along +x",
-    "advance": "the base's insertion { distance = m, start = s, ramp = s } along +x (default: none, a fixed base)",
+    "advance": "the base's insertion { distance = m, start = s, ramp = s, rotation = rad } along and about +x "
+               "(default: none, a fixed base)",
 }
 
 ADVANCE_KEYS = {
     "distance": "how far the base advances along +x in m (> 0)",
     "start": "when the advance begins in s (>= 0, default 0)",
     "ramp": "how long the advance takes in s, a smoothstep (> 0, default 1)",
+    "rotation": "how far the base turns about its axis meanwhile in rad, as a hub twists a device (default 0)",
 }
 
 FORBIDDEN = {
@@ -39,6 +41,7 @@ FORBIDDEN = {
     "reference": "the manipulator's rod is straight from its base along +x (set magnetic.base)",
     "initial": "the manipulator starts straight at rest and settles for magnetic.settle s",
     "boundary": "the manipulator's base is clamped (set magnetic.base, and magnetic.advance to insert it)",
+    "hub": "the manipulator's base is its hub (set magnetic.advance: distance, rotation)",
     "loads": "the coils drive the manipulator (set magnetic.field_mT or magnetic.currents)",
     "tendons": "the manipulator has no tendons; the coils drive it (set magnetic.field_mT or magnetic.currents)",
     "calibrate": "softrnn calibrate fits plain rod scenarios only",
@@ -89,7 +92,8 @@ def _advance(ctx: _Ctx, raw) -> BaseAdvance:
     a = _Table(ctx, raw, "magnetic.advance", ADVANCE_KEYS)
     return BaseAdvance(distance=a.get("distance", number("m", positive=True)),
                        start=a.get("start", number("s", nonnegative=True), 0.0),
-                       ramp=a.get("ramp", number("s", positive=True), 1.0))
+                       ramp=a.get("ramp", number("s", positive=True), 1.0),
+                       rotation=a.get("rotation", number("rad"), 0.0))
 
 
 def _currents(ctx: _Ctx, t: _Table, spec: ManipulatorSpec) -> tuple[np.ndarray, np.ndarray | None]:

@@ -30,6 +30,7 @@ from ..rod.boundary import Clamp
 from ..rod.loads import PDTracking
 from ..rod.simulation import RunConfig, Setup
 from ._contact import read_contact
+from ._hub import check_hub_run, read_hub, with_hub
 from ._initial import initial_shape, with_static_start
 from ._magnetic import check_magnetic_run, read_magnetic
 from ._sections import _boundary, _gravity, _loads, _rod, _run, _shape, read_damping
@@ -43,7 +44,8 @@ SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "s
                                    "square-random", "semicircle", "semicircle-cosine", "tendon-planar",
                                    "tendon-planar-sine", "tendon-spatial", "tendon-spatial-sine",
                                    "tendon-displacement", "steel-wire", "nitinol-guidewire", "contact-plane",
-                                   "vessel-guidewire", "contact-capstan", "magnetic-bifurcation")
+                                   "vessel-guidewire", "contact-capstan", "magnetic-bifurcation",
+                                   "vessel-guidewire-twist")
 FORMAT_VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 
@@ -61,6 +63,7 @@ _TOP_KEYS = {
     "initial": "the initial shape table (default: the reference; kind = straight, arc, ellipse, polyline or "
                "poses, or from = static or dataset)",
     "boundary": "[[boundary]] entries (kind = clamp or pin)",
+    "hub": "the hub table: node, entry, axis, insertion (or force, mass), rotation (or torque, inertia)",
     "loads": "[[loads]] entries (kind = force, torque or pd)",
     "tendons": "[[tendons]] entries: name, offset, routing, end_node or end_s, tension (or displacement and "
                "stiffness)",
@@ -104,10 +107,12 @@ class Scenario:
     @property
     def record(self) -> ScenarioRecord:
         """What drives this scenario's run, as its data file stores it (``softrnn.io.record``): its name,
-        nodes of interest, ``[paper]`` table, PD laws, moving clamps, a variant's draws, obstacles."""
+        nodes of interest, ``[paper]`` table, PD laws, moving clamps (a prescribed hub's too, not a
+        driven one's), a variant's draws, obstacles."""
         pd = tuple(PDLaw(load.node, load.target, load.stiffness, load.damping)
                    for load in self.setup.loads if isinstance(load, PDTracking))
-        moving = tuple(sorted(bc.node for bc in self.setup.boundary if isinstance(bc, Clamp) and bc.motion is not None))
+        moving = tuple(sorted(bc.node for bc in self.setup.boundary if isinstance(bc, Clamp) and bc.motion is not None
+                              and not getattr(bc.motion, "driven", False)))   # a driven hub's node is no path
         return ScenarioRecord(name=self.name, nodes_of_interest=tuple(self.nodes_of_interest), paper=dict(self.paper),
                               pd=pd, moving_clamps=moving, sampled=dict(self.sampled),
                               variant_index=self.variant_index, contact=self.setup.contact)
@@ -200,6 +205,8 @@ def _setup(ctx: _Ctx, top: _Table, doc: dict, gravity: tuple) -> Setup:
                               "(the rod would start stretched; use fit_length = true for an ellipse)")
     start = initial if initial is not None else reference
     boundary = _boundary(ctx, top.get("boundary", table_list, []), start, rod.n_nodes)
+    if "hub" in doc:
+        boundary = with_hub(ctx, boundary, read_hub(ctx, doc["hub"], start, rod.n_nodes))
     loads = _loads(ctx, top.get("loads", table_list, []), rod.n_nodes)
     tendons = read_tendons(ctx, top.get("tendons", table_list, []), rod)
     damping = read_damping(ctx, top.get("damping", _as_is, {}))
@@ -230,6 +237,7 @@ def _build(ctx: _Ctx, text: str, doc: dict, variant_index: int | None = None, sa
     else:
         setup = _setup(ctx, top, doc, gravity)
     config, interest = _run(ctx, top.raw_value("run"), setup.rod, setup.damping)
+    check_hub_run(ctx, setup, config)
     randomize = _flatten_randomize(ctx, top.get("randomize", _as_is, {}))
     calibrate = _flatten_calibrate(ctx, top.get("calibrate", _as_is, {}))
     return Scenario(name=name, title=title, source=ctx.source, text=text, data=doc, setup=setup, config=config,

@@ -9,7 +9,7 @@ import numpy as np
 from ..io.writer import DatasetWriter
 from ..progress import Progress
 from ..rod import RunConfig, Setup, Simulator
-from ..rod.tendons import tendon_actuation, tendon_sink
+from ..rod.hub import driven_hub, run_channels, run_sink
 from ._contact import describe
 from .magnetic import MagneticScenario, magnetic_summary
 from .record import record_of_text
@@ -34,7 +34,8 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
                      progress: Progress | None = None, series: dict | None = None,
                      magnetic: MagneticScenario | None = None, record=None) -> dict:
     """Simulate; with ``out_path`` write every saved node to an HDF5 dataset (atomically), with the
-    tensions of the setup's tendons as its actuation channels ``tendon_<name>`` [N] and, with
+    tensions of the setup's tendons as its actuation channels ``tendon_<name>`` [N] (then a hub's,
+    ``rod.hub.HUB_CHANNELS``: insertion [m], rotation [rad], a driven one's force and torque) and, with
     contact, the obstacles and the contact loads on the saved nodes, and ``record`` (the scenario's
     ``Scenario.record``, ``softrnn.io.record``; None: that of ``scenario_text``, where it reads, with
     the draws ``attrs["sampled"]`` of variant ``attrs["variant_index"]``) as the file's scenario record.
@@ -60,9 +61,11 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
         config = replace(config, save_nodes=(node,))
     nodes = list(range(setup.rod.n_nodes)) if config.save_nodes is None else [
         setup.node_index(a, "save_nodes") for a in config.save_nodes]
-    if node not in nodes:
-        nodes.append(node)
-        config = replace(config, save_nodes=tuple(nodes))
+    hub = driven_hub(setup) if out_path is not None else None   # a driven hub is measured on its node
+    for needed in [node] + ([] if hub is None else [hub[0]]):
+        if needed not in nodes:
+            nodes.append(needed)
+            config = replace(config, save_nodes=tuple(nodes))
     sim = Simulator(setup)
     # refuse an absurd run before the file is opened (the node's positions and the energy are kept)
     sim.check_size(config, streamed=True, extra_bytes_per_sample=8 * 6)
@@ -71,12 +74,11 @@ def simulate_summary(*, name: str, title: str, setup: Setup, config: RunConfig, 
         sink = _NodeCollector(nodes.index(node))
         stats = sim.run(config, progress=progress, sink=sink)
     else:
-        # tendon tensions are stored as the actuation channels tendon_<name> [N]
-        _, units = tendon_actuation(setup.tendons, np.zeros(0))
+        # tendon tensions are stored as the actuation channels tendon_<name> [N], then the hub's
         with DatasetWriter(out_path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=setup.rod,
-                           scenario_text=scenario_text, seed=seed, attrs=attrs, actuation_units=units,
+                           scenario_text=scenario_text, seed=seed, attrs=attrs, actuation_units=run_channels(setup),
                            contact=setup.contact, record=record) as writer:
-            sink = _NodeCollector(nodes.index(node), forward=tendon_sink(writer.append, setup.tendons))
+            sink = _NodeCollector(nodes.index(node), forward=run_sink(writer.append, setup, nodes))
             stats = sim.run(config, progress=progress, sink=sink)
     total = time.perf_counter() - start
     p = np.concatenate(sink.positions)

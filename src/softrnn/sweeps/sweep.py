@@ -26,7 +26,7 @@ from ..io.writer import DatasetWriter
 from ..progress import Progress
 from ..resume import REFUSE, Settings, check
 from ..rod import Simulator
-from ..rod.tendons import tendon_actuation, tendon_sink
+from ..rod.hub import run_channels, run_sink
 from ..scenarios.magnetic import magnetic_summary
 from ..scenarios.scenario import parse_scenario
 from .dask import completed, require
@@ -92,7 +92,7 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
                 dt: float | None = None) -> dict:
     """Simulate variant ``index`` of the scenario given by its TOML ``text`` and write it to
     ``path`` (atomically), ``n_samples`` samples ``dt`` s apart (None: the scenario's), with its
-    tendons' tensions as the actuation channels ``tendon_<name>`` [N]. Runs on a Dask worker;
+    tendons' tensions as the actuation channels ``tendon_<name>`` [N] and a hub's (``rod.hub``). Runs on a Dask worker;
     returns a small summary."""
     scenario = parse_scenario(text, source).variant(index)
     config = run_config(scenario.config, n_samples, dt)
@@ -106,12 +106,11 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
     sim = Simulator(scenario.setup)
     nodes = list(range(scenario.setup.rod.n_nodes)) if config.save_nodes is None else list(config.save_nodes)
     start = time.perf_counter()
-    tendons = scenario.setup.tendons
-    _, units = tendon_actuation(tendons, ())  # tendon tensions: actuation channels tendon_<name> [N]
+    units = run_channels(scenario.setup)  # tendon tensions tendon_<name> [N], then the hub's channels
     with DatasetWriter(path, nodes=nodes, n_samples=config.n_samples, dt=config.dt, rod=scenario.setup.rod,
                        scenario_text=scenario.text, seed=scenario.seed, attrs=attrs, actuation_units=units,
                        contact=scenario.setup.contact, record=scenario.record) as writer:
-        stats = sim.run(config, sink=tendon_sink(writer.append, tendons))
+        stats = sim.run(config, sink=run_sink(writer.append, scenario.setup, nodes))
     return {"index": index, "wall_time": time.perf_counter() - start, "substeps": stats.substeps}
 
 

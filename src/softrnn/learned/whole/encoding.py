@@ -13,7 +13,9 @@ each model step (the loads are known inputs over time), lumped onto the kept nod
 rod to a kept node is not added). With actuation inputs (``Encoding.drive`` 'actuation' or 'both')
 the data's actuation channels (tendon tensions, pressures, currents: ``Dataset.actuation``) are also
 averaged over each model step and given to every kept node alike, after the wrench's 6 channels
-('both') or instead of them ('actuation').
+('both') or instead of them ('actuation'). A hub's channels (``softrnn.io.schema.hub_inputs``: its
+prescribed insertion and rotation, or the force and torque that drive it) are inputs whatever the
+drive; with 'wrench' the encoding reads them as 'both' with those channels alone.
 
 **Prescribed nodes** (``Encoding.prescribed``): a clamp that the scenario moves along a prescribed
 path (``[[boundary]]`` of kind clamp with a displacement or rotation) is not predicted. Its pose is
@@ -34,6 +36,7 @@ from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation
 
 from ...errors import SoftrnnInputError, bad
+from ...io.schema import HUB_CHANNELS, hub_inputs
 from .config import path_columns, resolve_stride
 from .feedback import feedback_of, moving_clamps
 from .obstacles import ObstacleProjection, rod_radius
@@ -370,7 +373,8 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
     """The encoding for training on ``datasets`` (each holding every node, the same saved step):
     the reference pose is the first sample of the first one; fixed nodes are those that never move;
     ``feedback``: PD laws act on the model's state (``Encoding.feedback``; 'wrench' drive only);
-    ``drive``: the load input (``DynamicConfig.drive``; the channels are the first data set's);
+    ``drive``: the load input (``DynamicConfig.drive``; the channels are the first data set's,
+    ``_channels``: a hub's inputs with every drive);
     ``prescribed``: the clamps the data's scenario moves along a path (``moving_clamps``, the same
     in every data set) are inputs, not predicted, and always kept (``Encoding.prescribed``);
     ``obstacles``: free runs keep out of a data set's recorded obstacles, where the first data set
@@ -378,7 +382,10 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
     if not datasets:
         raise SoftrnnInputError("no training data: give at least one trajectory")
     first = datasets[0]
-    channels = () if drive == "wrench" else tuple(first.actuation_names)
+    channels = _channels(first.actuation_names, drive)
+    feedback = bool(feedback) and drive == "wrench"
+    if drive == "wrench" and channels:      # a hub's inputs reach the model beside the wrenches
+        drive = "both"
     if drive != "wrench" and not channels:
         raise SoftrnnInputError(f"drive={drive!r} is invalid: the training data has no actuation inputs; record "
                                 f"them (CSV columns act_<name>[<unit>], DatasetWriter(actuation_units=...)) or use "
@@ -401,9 +408,20 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
     fixed = moved <= FIXED_TOLERANCE_M
     return Encoding(n_nodes=n, kept=probe.kept, model_dt=model_dt, data_dt=probe.data_dt, length=length,
                     ref_positions=probe.ref_positions, ref_quaternions=probe.ref_quaternions,
-                    fixed=fixed, feedback=bool(feedback) and drive == "wrench", drive=drive,
+                    fixed=fixed, feedback=feedback, drive=drive,
                     channels=channels, prescribed=np.isin(probe.kept, paths) & ~fixed,
                     obstacles=bool(obstacles) and first.contact is not None)
+
+
+def _channels(names, drive: str) -> tuple:
+    """The actuation channels a model reads of a data set's ``names``: with drive 'wrench' a hub's
+    inputs alone (``softrnn.io.schema.hub_inputs``: its prescribed insertion [m] and rotation [rad],
+    or the force [N] and torque [N m] that drive it), else every channel but a driven hub's measured
+    insertion and rotation (the rod's state, not an input)."""
+    hub = hub_inputs(names)
+    if drive == "wrench":
+        return hub
+    return tuple(a for a in names if a not in HUB_CHANNELS or a in hub)
 
 
 def _moving_clamps(datasets: list) -> tuple:
