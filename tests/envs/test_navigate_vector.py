@@ -88,3 +88,18 @@ def test_the_scripted_navigator_reaches_either_branch():
         if done.all():
             break
     assert success.all()
+
+
+def test_the_benchmark_reports_both_runs_and_the_goal():
+    from softrnn.bench.envs import PUBLISHED, format_envs_table, run_envs_benchmark
+
+    result = run_envs_benchmark(span_s=0.0, config=SMALL, n_envs=2)
+    single, vector = result["single"], result["vector"]
+    assert single["envs"] == 1 and vector["envs"] == 2 and vector["vector_steps"] >= 3
+    assert result["speedup"] == pytest.approx(vector["steps_per_s"] / single["steps_per_s"])
+    assert vector["real_time_factor"] == pytest.approx(vector["steps_per_s"] / 2 * SMALL.step_time)
+    assert result["goal"]["met"] == (result["speedup"] >= 10.0)
+    assert 0.0 < single["kernel_fraction"] <= 1.0 and result["bound"]["speedup_limit"] > 0
+    assert all(p["env_steps_per_s"] is None or p["env_steps_per_s"] > 0 for p in PUBLISHED.values())
+    table = format_envs_table(result)
+    assert "NavigateVectorEnv" in table and "stEVE" in table and "CathSim" in table

@@ -17,6 +17,8 @@ from ._runs import goal_mark
 
 VECTOR_ENVS = 32
 """Environments of the vectorised run."""
+MIN_STEPS = 3
+"""Each run takes at least this many steps (of every environment), however long they take."""
 GOAL_SPEEDUP = 10.0
 """Goal: the vectorised run's steps per second at least this many times the single environment's."""
 GOAL_CORES = 2
@@ -40,7 +42,8 @@ HOW = ("NavigateConfig() defaults (the default vessel, a 31-node guidewire, 0.1 
        "at its automatic solver step); actions from ScriptedNavigator (episodes that insert, turn, reach the target or "
        "end), next-step autoreset in the vector env, reset() in the single one when an episode ends. One step to "
        "compile or load the kernels, then steps until span_s of wall time; steps_per_s = environment steps (all "
-       "environments) / wall; real_time_factor = simulated seconds per wall second per environment; numba threads: "
+       "environments) / wall (at least 3 steps each); real_time_factor = simulated seconds per wall second "
+       "per environment; kernel_fraction = the share of the wall spent in the batched kernel; numba threads: "
        "min(2, usable cores) for both runs (the single environment's batch of one runs on one).")
 
 
@@ -52,7 +55,7 @@ def _single(config: NavigateConfig, span_s: float) -> dict:
     obs, *_ = env.step(pilot(obs))  # compile or load the kernels
     kernel0 = env.episodes.rods.kernel_seconds
     steps, ends, start = 0, 0, time.perf_counter()
-    while time.perf_counter() - start < span_s:
+    while time.perf_counter() - start < span_s or steps < MIN_STEPS:
         obs, _, terminated, truncated, _ = env.step(pilot(obs))
         steps += 1
         if terminated or truncated:
@@ -74,7 +77,7 @@ def _vector(config: NavigateConfig, n: int, span_s: float) -> dict:
     obs, *_ = env.step(pilot(obs))
     kernel0 = env.episodes.rods.kernel_seconds
     calls, ends, start = 0, 0, time.perf_counter()
-    while time.perf_counter() - start < span_s:
+    while time.perf_counter() - start < span_s or calls < MIN_STEPS:
         obs, _, terminated, truncated, _ = env.step(pilot(obs))
         calls += 1
         ends += int(np.sum(terminated | truncated))
@@ -85,17 +88,19 @@ def _vector(config: NavigateConfig, n: int, span_s: float) -> dict:
             "steps_per_s": calls * n / wall, "real_time_factor": calls * config.step_time / wall}
 
 
-def run_envs_benchmark(quick: bool = False, span_s: float | None = None) -> dict:
-    """The ``envs`` part of ``softrnn bench`` (``HOW``): one environment, then ``VECTOR_ENVS``."""
+def run_envs_benchmark(quick: bool = False, span_s: float | None = None, config: NavigateConfig | None = None,
+                       n_envs: int = VECTOR_ENVS) -> dict:
+    """The ``envs`` part of ``softrnn bench`` (``HOW``): one environment, then ``n_envs``, each stepped
+    for ``span_s`` [s] of wall (None: 15 s, 4 s ``quick``), with ``config`` (None: the defaults)."""
     span = (4.0 if quick else 15.0) if span_s is None else float(span_s)
-    config = NavigateConfig()
+    config = NavigateConfig() if config is None else config
     usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = max(1, min(GOAL_CORES, usable, numba.config.NUMBA_NUM_THREADS))
     before = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:
         single = _single(config, span)
-        vector = _vector(config, VECTOR_ENVS, span)
+        vector = _vector(config, n_envs, span)
     finally:
         numba.set_num_threads(before)
     speedup = vector["steps_per_s"] / single["steps_per_s"]
@@ -115,7 +120,8 @@ def _bound(single: dict, vector: dict, threads: int) -> dict:
             "speedup_limit": limit,
             "reason": (f"the physics (the batched kernel, {single['substeps']} implicit solver steps per environment "
                        f"step) is {100 * p:.0f} % of a single environment's step; a batch divides it by its "
-                       f"{threads} thread(s) at most, so {VECTOR_ENVS} environments run at most {limit:.1f}x faster")}
+                       f"{threads} thread(s) at most, so {vector['envs']} environments run at most {limit:.1f}x "
+                       "faster")}
 
 
 def format_envs_table(result: dict) -> str:
