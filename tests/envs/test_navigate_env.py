@@ -157,3 +157,12 @@ def test_without_gymnasium_the_package_names_its_extra(tmp_path):
             "try:\n    import softrnn.envs\nexcept Exception as e:\n    print(type(e).__name__, e)\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert done.stdout.startswith("SoftrnnInputError") and "pip install 'softrnn[envs]'" in done.stdout
+
+
+def test_bench_names_the_missing_extra_in_one_line(tmp_path):
+    code = ("import sys\nsys.modules['gymnasium'] = None\nfrom softrnn.cli.main import main\n"
+            "sys.exit(main(['bench', '--only', 'envs', '--quick', '--json', 'b.json']))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1 and "pip install 'softrnn[envs]'" in lines[0]
+    assert not (tmp_path / "b.json").exists()
