@@ -166,3 +166,19 @@ def test_bench_names_the_missing_extra_in_one_line(tmp_path):
     lines = done.stderr.strip().splitlines()
     assert done.returncode == 2 and len(lines) == 1 and "pip install 'softrnn[envs]'" in lines[0]
     assert not (tmp_path / "b.json").exists()
+
+
+def test_a_track_may_say_where_its_branches_fork():
+    class Track:
+        obstacles, branches, entry_radius = (default_vessel(),), ("a", "b"), 0.004
+
+        def centreline(self, branch):
+            side = 1.0 if branch == "a" else -1.0      # the centrelines share only their first point
+            return np.array([[-0.2, 0.0, 0.0], [-0.001, side * 1e-9, 0.0], [0.05, side * 0.03, 0.0]])
+
+        def fork(self, branch):
+            return 0.199
+
+    paths = Paths(Track())
+    np.testing.assert_allclose(paths.fork, [0.199, 0.199])
+    assert paths.standing(np.array([[-0.05, 0.0, 0.0]]), np.array([1]))[1].tolist() == [-1]

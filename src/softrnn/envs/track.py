@@ -36,7 +36,9 @@ class Track(Protocol):
     entry_radius: float
 
     def centreline(self, branch: str) -> np.ndarray:
-        """The centreline (P, 3) [m] from the entry to ``branch``'s end (P >= 2)."""
+        """The centreline (P, 3) [m] from the entry to ``branch``'s end (P >= 2). A track may also
+        have ``fork(branch)``: the arc length [m] along it where the branch leaves the others
+        (``Paths`` finds it from the shared points of the centrelines otherwise)."""
 
 
 class BifurcationTrack:
@@ -94,8 +96,9 @@ class Paths:
     arc : list of (P_j,)
         the arc length at each centreline point [m]
     fork : (J,)
-        where each branch leaves the others: the arc length of the last point it shares with another
-        branch's centreline [m] (0 for a track of one branch)
+        where each branch leaves the others [m]: the track's ``fork(branch)`` where it has one (an
+        optional member of ``Track``), else the arc length of the last point the branch's centreline
+        shares with another branch's (0 for a track of one branch)
     """
 
     def __init__(self, track: Track):
@@ -114,6 +117,8 @@ class Paths:
                     same = np.all(p[:m] == q[:m], axis=1)
                     shared = max(shared, m if same.all() else int(np.argmin(same)))
             self.fork[j] = self.arc[j][shared - 1] if shared else 0.0
+        if callable(getattr(track, "fork", None)):
+            self.fork = np.array([float(track.fork(b)) for b in self.branches])
 
     def index(self, branch: str) -> int:
         """The index of ``branch``; a one-line error naming the branches otherwise."""
