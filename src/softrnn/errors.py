@@ -117,7 +117,7 @@ def store_frozen(obj, **arrays) -> None:
         object.__setattr__(obj, name, a)
 
 EXTRAS = {"torch": "learn", "safetensors": "learn", "onnx": "learn", "onnxruntime": "learn",
-          "distributed": "dask", "dask": "dask"}
+          "distributed": "dask", "dask": "dask", "gymnasium": "envs", "stable_baselines3": "rl"}
 """Optional packages and the extra of ``softrnn`` that installs each (pyproject.toml)."""
 
 
@@ -134,7 +134,7 @@ def missing_extra(err: ImportError) -> SoftrnnInputError | None:
 
 def require_extra(extra: str) -> None:
     """Raise the one-line ``missing_extra`` error now, before any output is written, when a package
-    of the optional ``extra`` ('learn' or 'dask') is not installed."""
+    of the optional ``extra`` ('learn', 'dask', 'envs' or 'rl') is not installed."""
     for name, owner in EXTRAS.items():
         if owner == extra and importlib.util.find_spec(name) is None:
             raise missing_extra(ModuleNotFoundError(f"No module named {name!r}", name=name))

@@ -37,8 +37,12 @@ ALLOWED = {
                             "softrnn.scenarios", "softrnn.figures", "softrnn.sweeps", "softrnn.calibration",
                             "softrnn.learned", "softrnn.learned.node", "softrnn.fitting"},
     "softrnn.bench": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.statics", "softrnn.scenarios",
-                      "softrnn.sweeps", "softrnn.learned", "softrnn.learned.node", "softrnn.learned.whole"},
+                      "softrnn.sweeps", "softrnn.learned", "softrnn.learned.node", "softrnn.learned.whole",
+                      "softrnn.envs"},
     "softrnn.control": {"softrnn", "softrnn.io", "softrnn.magnetics", "softrnn.figures"},
+    # envs: gymnasium environments of a device in a vessel, on the simulator and its obstacles
+    "softrnn.envs": {"softrnn", "softrnn.geometry", "softrnn.rod", "softrnn.scenarios", "softrnn.figures",
+                     "softrnn.magnetics"},
     # lab -> rod, scenarios: the dynamic physics runs the robot's scenario on its recorded tensions
     "softrnn.lab": {"softrnn", "softrnn.rod", "softrnn.io", "softrnn.scenarios", "softrnn.learned",
                     "softrnn.learned.node", "softrnn.fitting"},

@@ -1,12 +1,13 @@
 """Benchmarks on this machine (``softrnn bench``; scripts in ``benchmarks/``).
 
 ``run_all(parts)`` runs the learned-model (``bench.model``), simulator (``bench.simulator``),
-static-solver (``bench.statics``) and whole-manipulator-model (``bench.dynamic``) measurements and
-returns one JSON-ready dict::
+static-solver (``bench.statics``), whole-manipulator-model (``bench.dynamic``) and
+navigation-environment (``bench.envs``, optional extra ``envs``) measurements and returns one
+JSON-ready dict::
 
     {"machine": {...}, "model": {...}, "simulator": {"cases": {...}, "integrators": {...}, ...},
      "statics": {...},
-     "dynamic": {"cases": {...}, ...}, "paper": {...}, "goals_met": {...}, "settings": {...}}
+     "dynamic": {"cases": {...}, ...}, "envs": {...}, "paper": {...}, "goals_met": {...}, "settings": {...}}
 
 ``format_all`` renders it as text. Neither prints.
 """
@@ -23,7 +24,7 @@ from .statics import format_static_table, run_static_benchmark
 def run_all(parts=("model", "simulator", "statics", "dynamic"), *, quick: bool = False, model=None,
             dynamic_configs: dict | None = None, dynamic_models: dict | None = None,
             progress: Progress | None = None) -> dict:
-    """Run the selected parts in this order: model, simulator, statics, dynamic (each after the
+    """Run the selected parts in this order: model, simulator, statics, dynamic, envs (each after the
     last, so none competes with another for a core). ``model``: the node model to time (default: a
     synthetic one); ``dynamic_configs`` ({case: DynamicConfig}) the whole-manipulator models' stand-in
     architecture, ``dynamic_models`` ({case: LoadedDynamic}) trained ones timed instead."""
@@ -54,6 +55,12 @@ def run_all(parts=("model", "simulator", "statics", "dynamic"), *, quick: bool =
         result["dynamic"] = run_dynamic_benchmark(quick=quick, configs=dynamic_configs, models=dynamic_models,
                                                   progress=progress)
         goals_met.update({f"dynamic.{k}": v for k, v in result["dynamic"]["goals_met"].items()})
+    if "envs" in parts:
+        from .envs import run_envs_benchmark  # optional extra: envs (gymnasium)
+        result["envs"] = run_envs_benchmark(quick=quick)
+        goals_met["envs.vector_speedup"] = result["envs"]["goal"]["met"]
+        if progress is not None:
+            progress(1, 1)
     result["paper"] = paper
     result["goals_met"] = goals_met
     result["settings"]["load_average_end"] = load_average()
@@ -80,4 +87,7 @@ def format_all(result: dict) -> str:
         out += ["", format_static_table(result["statics"])]
     if "dynamic" in result:
         out += ["", format_dynamic_table(result["dynamic"])]
+    if "envs" in result:
+        from .envs import format_envs_table  # optional extra: envs (gymnasium)
+        out += ["", format_envs_table(result["envs"])]
     return "\n".join(out)

@@ -1,0 +1,80 @@
+"""The batched step of the navigation environments: B rods of one design in one vessel, each with
+its own state, hub motion, tracked vessel segments and contact outputs, advanced by the implicit
+integrator (``rod.implicit.advance_implicit_into``) in one call, in parallel over the rods (numba
+``prange``; the thread count is numba's).
+
+Caching: the kernel compiles the rod kernels' code into itself, so it is built as a closure over a
+hash of their files and of ``rod/implicit.py`` (``stamp``), as ``rod.kernels`` does: an edit of any
+of them recompiles it.
+"""
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+from numba import njit, prange
+
+from ..rod import implicit
+from ..rod.implicit import ImplicitWork, advance_implicit_into
+from ..rod.kernel_records import kernel_stamp
+from ..rod.kernels import Samples, StateArrays, StepInputs
+
+
+def stamp() -> int:
+    """A non-negative 60-bit hash of the rod kernels (``kernel_stamp``) and ``rod/implicit.py``."""
+    digest = hashlib.sha256(str(kernel_stamp()).encode())
+    try:
+        digest.update(Path(implicit.__file__).read_bytes())
+    except OSError:  # no source file (frozen or zipped install): nothing to track
+        digest.update(b"implicit")
+    return int(digest.hexdigest()[:15], 16)
+
+
+def _build(stamp_value):
+    """``advance_rods`` closed over ``stamp_value``."""
+
+    @njit(parallel=True, cache=True)
+    def advance_rods(rod, state, inputs, out, h, k0, n_steps, stride, s0, work, beta, theta, tau, status):
+        """Advance B rods of one ``rod`` (an elastic ``LumpedRod``) by ``n_steps`` implicit steps.
+
+        state, work (``ImplicitWork``) and out (except save_slot) carry a leading batch axis (B, ...);
+        so do inputs' ext_w, pd_target, presc_r, presc_R, tendon_tension, tendon_displacement,
+        contact_segment, contact_samples and contact_applied (the rest is shared). Per rod as
+        ``advance_implicit_into``; status (B, 2) int64 receives (code, step) per rod."""
+        if stamp_value < 0:  # never true: references the stamp so that it is a closure variable
+            return
+        st = state
+        inp = inputs
+        for b in prange(len(st.positions)):
+            code, step = advance_implicit_into(
+                rod,
+                StateArrays(st.rotations[b], st.positions[b], st.velocities[b], st.angular_velocities[b],
+                            st.prev_curvature[b], st.prev_shear[b]),
+                StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
+                           inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b],
+                           inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b], inp.contact_kind,
+                           inp.contact_geom, inp.contact_range, inp.contact_friction, inp.contact_points,
+                           inp.contact_radii, inp.contact_node, inp.contact_segment[b], inp.contact_samples[b],
+                           inp.contact_applied[b], inp.magnet_node, inp.magnet_body, inp.source_positions,
+                           inp.source_moments, inp.source_currents, inp.magnet_positions, inp.magnet_rotations,
+                           inp.magnet_fields, inp.magnet_gradients, inp.magnet_wrenches, inp.magnet_failed),
+                Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b],
+                        out.angular_velocities[b], out.forces[b], out.torques[b], out.reaction_forces[b],
+                        out.reaction_torques[b], out.energy[b]),
+                h, k0, n_steps, stride, s0,
+                ImplicitWork(work.applied[b], work.force[b], work.strain_map[b], work.diag[b], work.upper[b],
+                             work.rhs[b], work.u[b], work.known[b], work.fixed[b], work.pivot[b], work.weighted[b]),
+                beta, theta, tau)
+            status[b, 0] = code
+            status[b, 1] = step
+
+    return advance_rods
+
+
+advance_rods = _build(stamp())
+
+
+def stacked_work(n_rods: int, n_nodes: int) -> ImplicitWork:
+    """Zeroed ``ImplicitWork`` arrays for ``n_rods`` rods of ``n_nodes`` nodes, (B, ...) each."""
+    one = implicit.work_arrays(n_nodes)
+    return ImplicitWork(*(np.zeros((n_rods,) + a.shape, dtype=a.dtype) for a in one))
