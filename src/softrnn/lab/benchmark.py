@@ -416,12 +416,9 @@ def _baselines(train: list[Recording], split: tuple, out: _Table) -> None:
     """Persistence, constant velocity, the linear ARX model and the static polynomial map, their options
     chosen on the training sessions' hold-out part (``split``: fitting part, held part), each with a 90 %
     interval calibrated there (``uncertainty.calibrate``)."""
-    fit_part, held = split
-
     def record(name, family, scores=None):
-        model = with_interval(family.fit(train), family.fit(fit_part), fit_part, held, train, fitted=True)
+        model = with_interval(family.fit(train), family.fit(split[0]), *split, train, fitted=True)
         out.record(out.baselines, name, model, scores)
-
     record("persistence", PersistenceFamily())
     record("constant_velocity", ConstantVelocityFamily())
     c = choose({f"na={a},nb={b}": (lambda a=a, b=b: LinearARXFamily(a, b)) for a, b in ARX_ORDERS}, train, split)
@@ -452,7 +449,7 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
         held_physics, physics = pick.held, pick.physics
     if "physics" in families:
         holdout["physics"] = held_score(held_physics)
-        out.record(out.models, "physics", with_interval(physics, held_physics, fit_part, held, train, fitted=True),
+        out.record(out.models, "physics", with_interval(physics, held_physics, *split, train, fitted=True),
                    pick.holdout_rmse_mm)
         step("physics")
     pair = (held_physics, physics)
@@ -569,8 +566,7 @@ def run_benchmark(train: list[Recording], validation: Recording, options: Benchm
 def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -> BenchmarkResult:
     """``run_benchmark`` on sessions ``prepare`` checked with the same ``options``."""
     t0 = time.perf_counter()
-    train, validation, robot, families = list(prepared.train), prepared.validation, prepared.robot, \
-        list(prepared.families)
+    train, validation, robot, families = list(prepared.train), prepared.validation, prepared.robot, prepared.families
     done = 0
 
     def step(stage):
