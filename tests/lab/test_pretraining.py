@@ -4,7 +4,7 @@ is its physics away from the training data and physics + residual on them, and t
 (``softrnn.lab.uncertainty``) hold about 90 % of fresh rows."""
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pytest
@@ -15,7 +15,7 @@ from softrnn.lab.nets import Hybrid, LearnedMap, NetOptions, Sequence, SequenceO
 from softrnn.lab.recording import Recording, read_recording
 from softrnn.lab.synthetic import SyntheticOptions
 from softrnn.lab.tendon_robot import Calibration
-from softrnn.lab.uncertainty import InputDistance, WithInterval, conformal_q, with_interval
+from softrnn.lab.uncertainty import InputDistance, WithInterval, calibrate, conformal_q, with_interval
 
 from helpers import tendon_recording, tendon_robot_truth
 
@@ -171,3 +171,81 @@ def test_too_few_hold_out_rows_for_the_quantile_give_an_unbounded_interval(noisy
     model = with_interval(exact, exact, [fit], [five], [fit])           # rank ceil(6 x 0.9) = 6 > 5 rows
     assert model.interval_q == math.inf and model.describe()["interval_90_radius_mm"] is None
     assert np.all(model.predict_interval(fresh)[1] == math.inf)
+
+
+@dataclass(frozen=True, eq=False)
+class _Drifting:
+    """A model exact on its training rows and wrong by ``c`` [m] per standard deviation of the distance
+    from them (along y): a learned model extrapolating."""
+
+    c: float = 1e-3
+    reach: InputDistance | None = None
+    name: str = "drifting"
+
+    def fit(self, sessions):
+        return replace(self, reach=InputDistance.of(sessions))
+
+    def predict(self, s):
+        return np.column_stack([s.inputs[:, 0] * 1e-3, self.c * self.reach(s), np.zeros(s.n_rows)])
+
+    def describe(self):
+        return {"kind": "drifting"}
+
+
+def _line(u, seed, noise=0.5e-3):
+    """A recording of the tip (u mm, 0, 0) with ``noise`` [m] per axis, one input ``u`` (T,) [mm]."""
+    tip = np.column_stack([u * 1e-3, np.zeros((len(u), 2))]) + np.random.default_rng(seed).normal(0, noise, (len(u), 3))
+    return Recording(path="", time=np.arange(len(u)) * 0.6, inputs=u[:, None], names=("a",), units=("mm",), tip=tip)
+
+
+@pytest.mark.parametrize("c", [0.2e-3, 5e-3])
+def test_two_regime_intervals_hold_90_percent_near_the_training_rows_and_beyond(c):
+    """Fitted on u in [-1, 1] and held out on [1, 3]: q holds 90 % of the fitting rows (the noise's chi
+    quantile, 0.5 mm x 2.50), the growth b 90 % of the held rows; refitted on both, the ball holds
+    about 90 % of fresh rows inside and beyond them, however fast the error grows (the q (1 + d) law
+    holds 34-74 % of them at c = 0.2 and 1 mm per standard deviation, 100 % at 5 mm)."""
+    rng = np.random.default_rng(0)
+    fit, held = _line(rng.uniform(-1, 1, 400), 1), _line(rng.uniform(1, 3, 300), 2)
+    family = _Drifting(c)
+    model = with_interval(family.fit([fit, held]), family.fit([fit]), [fit], [held], [fit, held], fitted=True)
+    assert model.interval_q == pytest.approx(0.5e-3 * 2.5003, rel=0.1)
+    assert 0.0 < model.interval_slope <= 1.5 * c
+    held_model = replace(model, model=family.fit([fit]), reach=InputDistance.of([fit]))
+    assert _coverage(held_model, fit) >= 0.9 and _coverage(held_model, held) >= 0.9
+    for low, high in ((-1, 3), (-2, 4.5)):
+        assert 0.85 <= _coverage(model, _line(rng.uniform(low, high, 3000), 3)) <= 0.95
+    d = model.reach(held)
+    np.testing.assert_allclose(model.predict_interval(held)[1], model.interval_q + model.interval_slope * d)
+    assert model.describe()["interval_90_growth_mm"] == pytest.approx(model.interval_slope * 1e3, abs=1e-4)
+
+
+def test_calibrate_takes_the_conformal_ranks_of_both_parts():
+    """q: rank ceil(10 x 0.9) = 9 of the 9 fitting rows' errors / scale; b: the same rank of the held
+    rows' needed growth max(0, ratio - q) / d; inf at d = 0 for a row outside, 0 for a row inside."""
+    @dataclass(frozen=True, eq=False)
+    class Stub:
+        errors: dict
+        reach: object = None
+        name: str = "stub"
+
+        def predict(self, s):
+            return s.tip + np.column_stack([self.errors[s.path], np.zeros((s.n_rows, 2))])
+
+        def error_scale(self, s):
+            return np.full(s.n_rows, 2.0)
+
+    def part(path, d):
+        d = np.asarray(d, dtype=float)
+        return Recording(path=path, time=np.arange(d.size, dtype=float), inputs=d[:, None], names=("a",),
+                         units=("mm",), tip=np.zeros((d.size, 3)))
+    fit, held = part("fit", np.zeros(9)), part("held", np.arange(1.0, 10.0))
+    errors = {"fit": np.arange(1.0, 10.0) * 2.0, "held": 2.0 * (9.0 + np.arange(1.0, 10.0) ** 2)}
+    out = calibrate(Stub(errors, reach=lambda s: s.inputs[:, 0]), [fit], [held])
+    assert out == {"interval_q": 9.0, "interval_slope": 9.0}            # ratio - q = d^2: need d, rank 9
+    assert calibrate(Stub(errors), [fit], [held]) == {"interval_q": 90.0, "interval_slope": 0.0}
+    zero = part("held", [0.0] * 9)
+    out = calibrate(Stub({"fit": errors["fit"], "held": np.full(9, 30.0)}, reach=lambda s: s.inputs[:, 0]), [fit],
+                    [zero])
+    assert out["interval_slope"] == math.inf
+    assert calibrate(Stub({"fit": errors["fit"], "held": np.full(9, 2.0)}, reach=lambda s: s.inputs[:, 0]), [fit],
+                     [zero])["interval_slope"] == 0.0

@@ -63,6 +63,10 @@ def test_suite_runs_every_robot_and_resumes_after_an_interruption(data, tmp_path
         rel=1e-3)
     md = result.markdown()
     assert "| a | `physics` |" in md and "| b | `static_map` (baseline) |" in md and "aligned mean [% of L]" in md
+    assert "per pattern: aligned mean [% of L]" in md
+    row = next(line for line in md.splitlines() if line.startswith("| a | `physics` |"))
+    per_pattern = float(row.split("|")[10])            # the pattern-wise column, after the session-wide one
+    assert per_pattern == pytest.approx(a.models["physics"].tip_mean_aligned_per_pattern_pct_of_length, abs=0.006)
 
     # another session for a: its kept report is not reused
     changed = [_job(data, "a", "b.csv", "av.csv"), jobs[1]]

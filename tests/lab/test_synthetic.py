@@ -93,3 +93,24 @@ def test_deterministic_for_a_seed_and_noise_at_the_residual_level(recorded):
 def test_bad_options_are_refused(options, words):
     with pytest.raises(SoftrnnInputError, match=words.replace("(", r"\(").replace(")", r"\)")):
         SyntheticOptions(**options)
+
+
+def test_a_calibration_computes_its_predictions_and_sessions_once(recorded):
+    """``Physics.memo``: the same sessions give the same (copied) tips and the same synthetic sessions;
+    another calibration (``dataclasses.replace``) starts with its own memo; other tips of the recorded
+    sessions, or other options, are another entry."""
+    from dataclasses import replace
+
+    train, physics = recorded
+    fresh = replace(physics)
+    assert fresh.memo == {} and fresh.memo is not physics.memo
+    tip = fresh.predict(train)
+    tip[:] = 0.0                                              # a caller's change never reaches the memo
+    np.testing.assert_array_equal(fresh.predict(train), physics.calibration.predict(train.inputs * 1e-3))
+    first = synthetic_sessions(fresh, [train], SyntheticOptions(amount=1.0))
+    again = synthetic_sessions(fresh, [train], SyntheticOptions(amount=1.0))
+    assert [s is t for s, t in zip(first, again)] == [True] * len(first)
+    assert synthetic_sessions(fresh, [train], SyntheticOptions(amount=1.0, seed=1))[0] is not first[0]
+    moved = replace(train, tip=train.tip + 1e-3)
+    assert synthetic_sessions(fresh, [moved], SyntheticOptions(amount=1.0))[0] is not first[0]
+    assert train.commands_key() == moved.commands_key() != replace(train, inputs=train.inputs + 1.0).commands_key()

@@ -412,24 +412,29 @@ class _Table:
             self.details[name]["holdout_rmse_mm"] = holdout_scores
 
 
-def _baselines(train: list[Recording], out: _Table) -> None:
+def _baselines(train: list[Recording], split: tuple, out: _Table) -> None:
     """Persistence, constant velocity, the linear ARX model and the static polynomial map, their options
-    chosen on the training sessions' hold-out part."""
-    out.record(out.baselines, "persistence", PersistenceFamily().fit(train))
-    out.record(out.baselines, "constant_velocity", ConstantVelocityFamily().fit(train))
-    c = choose({f"na={a},nb={b}": (lambda a=a, b=b: LinearARXFamily(a, b)) for a, b in ARX_ORDERS}, train)
+    chosen on the training sessions' hold-out part (``split``: fitting part, held part), each with a 90 %
+    interval calibrated there (``uncertainty.calibrate``)."""
+    def record(name, family, scores=None):
+        model = with_interval(family.fit(train), family.fit(split[0]), *split, train, fitted=True)
+        out.record(out.baselines, name, model, scores)
+    record("persistence", PersistenceFamily())
+    record("constant_velocity", ConstantVelocityFamily())
+    c = choose({f"na={a},nb={b}": (lambda a=a, b=b: LinearARXFamily(a, b)) for a, b in ARX_ORDERS}, train, split)
     a, b = (int(x.split("=")[1]) for x in c.chosen.split(","))
-    out.record(out.baselines, "linear_arx", LinearARXFamily(a, b).fit(train), c.scores)
+    record("linear_arx", LinearARXFamily(a, b), c.scores)
     c = choose({f"degree={d},ridge={r:g}": (lambda d=d, r=r: StaticPolynomial(d, r)) for d, r in POLY_CANDIDATES},
-               train)
+               train, split)
     d, r = (x.split("=")[1] for x in c.chosen.split(","))
-    out.record(out.baselines, "static_map", StaticPolynomial(int(d), float(r)).fit(train), c.scores)
+    record("static_map", StaticPolynomial(int(d), float(r)), c.scores)
 
 
-def _models(train: list[Recording], families: list, robot, options: BenchmarkOptions, out: _Table, step) -> dict:
-    """Fit each family (its options chosen on the hold-out part) and run it; returns each family's
-    hold-out score [mm]."""
-    fit_part, held = holdout_split(train)
+def _models(train: list[Recording], split: tuple, families: list, robot, options: BenchmarkOptions, out: _Table,
+            step) -> dict:
+    """Fit each family (its options chosen on the hold-out part, ``split``: fitting part, held part)
+    and run it; returns each family's hold-out score [mm]."""
+    fit_part, held = split
     held_ref = np.vstack([s.tip for s in held])
 
     def held_score(model):
@@ -444,7 +449,7 @@ def _models(train: list[Recording], families: list, robot, options: BenchmarkOpt
         held_physics, physics = pick.held, pick.physics
     if "physics" in families:
         holdout["physics"] = held_score(held_physics)
-        out.record(out.models, "physics", with_interval(physics, held_physics, fit_part, held, train),
+        out.record(out.models, "physics", with_interval(physics, held_physics, *split, train, fitted=True),
                    pick.holdout_rmse_mm)
         step("physics")
     pair = (held_physics, physics)
@@ -561,8 +566,7 @@ def run_benchmark(train: list[Recording], validation: Recording, options: Benchm
 def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -> BenchmarkResult:
     """``run_benchmark`` on sessions ``prepare`` checked with the same ``options``."""
     t0 = time.perf_counter()
-    train, validation, robot, families = list(prepared.train), prepared.validation, prepared.robot, \
-        list(prepared.families)
+    train, validation, robot, families = list(prepared.train), prepared.validation, prepared.robot, prepared.families
     done = 0
 
     def step(stage):
@@ -572,14 +576,15 @@ def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -
             progress(done, prepared.stages, {"stage": stage})
 
     out = _Table(validation, options.length)
-    _baselines(train, out)
+    split = holdout_split(train)
+    _baselines(train, split, out)
     step("baselines")
-    holdout = _models(train, families, robot, options, out, step)
+    holdout = _models(train, split, families, robot, options, out, step)
     holdout.update(_dynamic_models(train, list(prepared.dynamic), prepared.dynamic_robot, out, step))
     chosen = None
     if holdout:
         ordered = {f: holdout[f] for f in sorted(holdout, key=LEAST_LEARNED.index)}
-        family = parsimonious(ordered, held_rows(holdout_split(train)[1]))
+        family = parsimonious(ordered, held_rows(split[1]))
         chosen = Choice(family=family, holdout_rmse_mm=holdout,
                         holdout=HOLDOUT_RULES[len(train) >= 2],
                         validation_tip_rmse_mm=out.models[family].tip_rmse_mm)

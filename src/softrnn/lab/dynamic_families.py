@@ -16,7 +16,6 @@ refitted on every training row.
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -64,12 +63,6 @@ def _rmse_mm(errors: np.ndarray) -> float:
     return round(float(np.sqrt(np.mean(errors ** 2))) * 1e3, 4)
 
 
-def _key(session: Recording) -> str:
-    h = hashlib.sha256(np.ascontiguousarray(session.time).tobytes())
-    h.update(np.ascontiguousarray(session.inputs).tobytes())
-    return f"{h.hexdigest()}:{session.lag}"
-
-
 @dataclass(frozen=True, eq=False)
 class DynamicPhysics:
     """The robot's dynamic simulation driven by the recorded tensions, calibrated on the training
@@ -93,7 +86,7 @@ class DynamicPhysics:
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from rest at its start on its tensions."""
-        key = _key(session)
+        key = session.commands_key()
         if key not in self.memo:
             if len(self.memo) > 16:
                 self.memo.clear()

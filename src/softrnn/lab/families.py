@@ -112,6 +112,11 @@ class ConstantVelocityFamily(PersistenceFamily):
     name: str = "constant_velocity"
     baseline, kind = ConstantVelocity(), "the first two rows' velocity kept"
 
+    def error_scale(self, session: Recording) -> np.ndarray:
+        """(T,) the scale of its error per row [1]: the rows since the session's start (at least 1), as a
+        velocity's error grows the position's linearly in time (``softrnn.lab.uncertainty``)."""
+        return np.maximum(np.arange(session.n_rows, dtype=float), 1.0)
+
 
 @dataclass(frozen=True, eq=False)
 class LinearARXFamily:
@@ -206,6 +211,10 @@ def displacements(session: Recording) -> np.ndarray:
     return session.inputs * np.asarray(factors)
 
 
+MEMO_SIZE = 256
+"""Most entries a model's memo keeps before it starts again."""
+
+
 @dataclass(frozen=True, eq=False)
 class Physics:
     """The calibrated tendon robot (``softrnn.lab.tendon_robot``; gravity and friction as
@@ -217,6 +226,9 @@ class Physics:
     calibration: Calibration | None = None
     progress: object = None
     start: object = None
+    memo: dict = field(default_factory=dict, init=False, repr=False)
+    """The predictions (and synthetic sessions, ``softrnn.lab.synthetic``) of this calibration already
+    computed, by ``Recording.commands_key``: the hold-out's candidates run it over the same sessions."""
 
     def fit(self, sessions) -> Physics:
         """The model calibrated on training sessions (a list of ``Recording``, each solved from its start)."""
@@ -227,7 +239,12 @@ class Physics:
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
-        return self.calibration.predict(displacements(session))
+        key = ("predict", session.commands_key())
+        if key not in self.memo:
+            if len(self.memo) > MEMO_SIZE:
+                self.memo.clear()
+            self.memo[key] = self.calibration.predict(displacements(session))
+        return self.memo[key].copy()
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
@@ -320,11 +337,12 @@ class Choice:
     scores: dict = field(default_factory=dict)
 
 
-def choose(candidates: dict, sessions) -> Choice:
+def choose(candidates: dict, sessions, split: tuple | None = None) -> Choice:
     """Fit each candidate (``{label: factory() -> model}``, simplest first) on the fitting part of
     ``sessions`` and score its free run on the hold-out part (Euclidean tip RMSE [mm]); the simplest
-    within one standard error of the best wins (``parsimonious``)."""
-    fit_part, held = holdout_split(sessions)
+    within one standard error of the best wins (``parsimonious``). ``split``: ``holdout_split(sessions)``
+    where already made."""
+    fit_part, held = holdout_split(sessions) if split is None else split
     scores = {}
     for label, factory in candidates.items():
         model = factory().fit(fit_part)

@@ -17,9 +17,10 @@ the real rows; ``mixed`` trains once on both, the synthetic rows weighing ``weig
 real ones (for the hybrid they teach a zero residual where no real row is); ``real`` ignores them.
 The benchmark chooses the mode, the hysteresis state and the gate on the training hold-out.
 
-Every family states a 90 % interval per row (``predict_interval``, ``softrnn.lab.uncertainty``): the
-map's ensemble spread plus its training error, for the hybrid the physics' error where the gate is off,
-for the sequence model a constant; each times 1 + the distance from the training rows.
+Every family states a 90 % interval per row (``predict_interval``, ``softrnn.lab.uncertainty``): an
+error scale (the map's ensemble spread plus its training error, for the hybrid the physics' error where
+the gate is off, for the sequence model and the node LSTM 1) times q + b d, d the distance from the
+training rows, q and b calibrated on the hold-out split (``uncertainty.calibrate``).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ import numpy as np
 from .families import PLAY_WIDTHS, NodeFamily, Physics, _previous, held_rows, holdout_split, parsimonious, play
 from .recording import Recording
 from .synthetic import SyntheticOptions, taught_sessions
-from .uncertainty import InputDistance, Intervals, conformal_q
+from .uncertainty import InputDistance, Intervals, WithInterval, calibrate
 
 """How a family uses the physics' synthetic sessions (module docstring)."""
 GATES = (0.5, 1.0, 2.0, 4.0, 8.0)
@@ -173,7 +174,7 @@ def _pretraining(family) -> dict:
     if family.mode != "real":
         out["synthetic"] = family.synthetic.describe()
     if family.interval_q is not None:         # inf (too few hold-out rows for the quantile): null
-        out["interval_90_q"] = round(family.interval_q, 4) if math.isfinite(family.interval_q) else None
+        out |= family.interval_description()
     return out
 
 
@@ -194,6 +195,7 @@ class LearnedMap(Intervals):
     floor: float = 0.0
     reach: InputDistance | None = None
     interval_q: float | None = None
+    interval_slope: float | None = None
 
     def fit(self, sessions) -> LearnedMap:
         """The model fitted on training sessions (a list of ``Recording``)."""
@@ -245,6 +247,7 @@ class Hybrid(Intervals):
     floor: float = 0.0
     physics_rms: float = 0.0
     interval_q: float | None = None
+    interval_slope: float | None = None
 
     def _X(self, s, base):
         return np.hstack([_features(s, self.widths), base])
@@ -334,6 +337,7 @@ class Sequence(Intervals):
     scale: float = 1.0
     reach: InputDistance | None = None
     interval_q: float | None = None
+    interval_slope: float | None = None
 
     def _inputs(self, s: Recording) -> np.ndarray:
         u = s.inputs
@@ -409,7 +413,7 @@ def staged(make, modes, train, held_score, variants=lambda model: {"": model}) -
     i)`` a family with the physics ``pair[i]``): the hysteresis state on the real rows alone, then
     ``modes`` of the physics' synthetic data with that state, each fit scored in its ``variants``
     ({label suffix: model}); the winner refitted on every training row, its 90 % interval calibrated
-    on the hold-out part. Returns (model, {candidate: hold-out RMSE [mm]})."""
+    on the hold-out split (``uncertainty.calibrate``). Returns (model, {candidate: hold-out RMSE [mm]})."""
     fit_part, held = holdout_split(train)
     scores, fitted = {}, {}
 
@@ -426,7 +430,7 @@ def staged(make, modes, train, held_score, variants=lambda model: {"": model}) -
         attempt(h, m)
     h, m, suffix, model = fitted[parsimonious(scores, rows)]
     final = variants(make(h, m, 1).fit(train))[suffix]
-    return replace(final, interval_q=conformal_q(model, held)), scores
+    return replace(final, **calibrate(model, fit_part, held)), scores
 
 
 def fit_learned_map(train, pair, syn, options, held_score) -> tuple:
@@ -445,22 +449,26 @@ def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
 
 def fit_sequence(train, pair, syn, options, held_score) -> tuple:
     """``Sequence``, pretrained on the synthetic sessions or not as the hold-out part prefers, its
-    (constant) interval calibrated there."""
+    interval calibrated on the hold-out split."""
     fit_part, held = holdout_split(train)
     fitted = {f"mode={m}": Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
               for m in (("real", "finetune") if syn.on else ("real",))}
     scores = {k: held_score(v) for k, v in fitted.items()}
     best = parsimonious(scores, held_rows(held))
-    q = conformal_q(fitted[best], held)
-    return replace(Sequence(options.sequence, best.split("=")[1], syn, pair[1]).fit(train), interval_q=q), scores
+    interval = calibrate(fitted[best], fit_part, held)
+    return replace(Sequence(options.sequence, best.split("=")[1], syn, pair[1]).fit(train), **interval), scores
 
 
 def fit_node(train, pair, syn, options, held_score) -> tuple:
     """``NodeFamily`` (``options.node``), taught by the physics' synthetic sessions (mode ``mixed``) or
-    not, as the hold-out part prefers; the winner refitted on every training row."""
+    not, as the hold-out part prefers; the winner refitted on every training row, with a 90 % interval
+    (``uncertainty.WithInterval``) calibrated on the hold-out split."""
     fit_part, held = holdout_split(train)
     modes = ("real", "mixed") if syn.on else ("real",)
-    scores = {f"mode={m}": held_score(NodeFamily(options.length, options.node, mode=m, synthetic=syn,
-                                                 physics=pair[0]).fit(fit_part)) for m in modes}
-    best = parsimonious(scores, held_rows(held)).split("=")[1]
-    return NodeFamily(options.length, options.node, mode=best, synthetic=syn, physics=pair[1]).fit(train), scores
+    fitted = {f"mode={m}": NodeFamily(options.length, options.node, mode=m, synthetic=syn, physics=pair[0]
+                                      ).fit(fit_part) for m in modes}
+    scores = {k: held_score(v) for k, v in fitted.items()}
+    best = parsimonious(scores, held_rows(held))
+    interval = calibrate(WithInterval(fitted[best], InputDistance.of(fit_part)), fit_part, held)
+    final = NodeFamily(options.length, options.node, mode=best.split("=")[1], synthetic=syn, physics=pair[1])
+    return WithInterval(final.fit(train), InputDistance.of(train), **interval), scores

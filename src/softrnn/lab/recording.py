@@ -21,6 +21,7 @@ channels differ. ``shift_inputs`` lines a command up with a response that lags i
 from __future__ import annotations
 
 import fnmatch
+import hashlib
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -138,6 +139,14 @@ class Recording:
         """The recording cut to rows ``start`` to ``stop`` (a Python slice of the rows)."""
         return replace(self, time=self.time[start:stop], inputs=self.inputs[start:stop], tip=self.tip[start:stop],
                        labels=self.labels[start:stop] if self.labels else ())
+
+    def commands_key(self) -> str:
+        """A digest of what a model driven by the commands reads of the recording (its times, inputs,
+        units and lag; not the tip): equal keys, equal predictions (the models' memos)."""
+        h = hashlib.sha256(np.ascontiguousarray(self.time, dtype=float).tobytes())
+        h.update(np.ascontiguousarray(self.inputs, dtype=float).tobytes())
+        h.update(repr((self.units, self.lag)).encode())
+        return h.hexdigest()
 
     def describe(self) -> dict:
         """A JSON-ready summary: rows, duration, interval range, channels and units."""

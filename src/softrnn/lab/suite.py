@@ -132,7 +132,9 @@ class SuiteRow:
 _COLUMNS = (("tip RMSE [mm]", "tip_rmse_mm"), ("mean [mm]", "tip_mean_mm"),
             ("RMSE [% of L]", "tip_rmse_pct_of_length"), ("mean [% of L]", "tip_mean_pct_of_length"),
             ("aligned RMSE [mm]", "tip_rmse_aligned_mm"), ("aligned mean [mm]", "tip_mean_aligned_mm"),
-            ("aligned mean [% of L]", "tip_mean_aligned_pct_of_length"), ("coverage 90 %", "coverage_90"))
+            ("aligned mean [% of L]", "tip_mean_aligned_pct_of_length"),
+            ("per pattern: aligned mean [% of L]", "tip_mean_aligned_per_pattern_pct_of_length"),
+            ("coverage 90 %", "coverage_90"))
 """The Markdown table's score columns: (title, ``TipScore`` attribute)."""
 
 
@@ -182,7 +184,9 @@ class SuiteResult:
                     lines.append(f"| {r.name} | `{name}`{kind} | " + " | ".join(cells) + " |")
         lines += ["", "Free run over each robot's validation session from its start on the commands alone; "
                       "aligned: after removing the constant offset between model and measurement over the "
-                      "session; coverage: the share of rows inside the model's stated 90 % ball."]
+                      "session; per pattern: after removing it over each pattern (each run of rows with one label; "
+                      "– where the session has no labels); coverage: the share of rows inside the model's stated 90 % "
+                      "ball."]
         return "\n".join(lines) + "\n"
 
 

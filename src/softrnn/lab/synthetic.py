@@ -18,6 +18,7 @@ docs/guide/real-robots.md.
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -198,8 +199,22 @@ def synthetic_sessions(physics, sessions, options: SyntheticOptions = SyntheticO
     """Synthetic sessions of the robot whose fitted ``physics`` (``families.Physics``) was calibrated
     on ``sessions`` (a list of ``Recording``): ``options.amount`` times their rows in sessions of
     their mean length, tips = the physics' (+ noise). Rows whose predicted tip is not finite are
-    dropped. [] when ``options.amount`` is 0."""
+    dropped. [] when ``options.amount`` is 0. Kept in ``physics.memo`` where it has one (the same
+    physics, sessions and options, the same synthetic sessions)."""
     sessions = list(sessions)
+    memo = getattr(physics, "memo", None)
+    key = ("synthetic", options, *((s.commands_key(), hashlib.sha256(np.ascontiguousarray(s.tip).tobytes()).digest())
+                                   for s in sessions))
+    if memo is not None and key in memo:
+        return list(memo[key])
+    out = _synthesize(physics, sessions, options)
+    if memo is not None:
+        memo[key] = tuple(out)
+    return out
+
+
+def _synthesize(physics, sessions: list, options: SyntheticOptions) -> list[Recording]:
+    """``synthetic_sessions`` computed."""
     real = sum(s.n_rows for s in sessions)
     total = int(round(options.amount * real))
     if total <= 0:

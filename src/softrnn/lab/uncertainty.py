@@ -3,12 +3,14 @@ on the training sessions' hold-out part (split conformal prediction).
 
 A model that states an interval has ``predict_interval(session) -> (tip (T, 3) [m], radius (T,) [m])``:
 ``tip`` is ``predict(session)`` and the ball of ``radius`` around it should hold the true tip in 90 % of
-the rows. The radius is ``q * interval_scale(session)``: the model's own scale of its error per row
-(``error_scale``: an ensemble's spread; 1 where it has none) times 1 + d, d the distance of the row's
-standardised inputs from the nearest training row (``InputDistance``: errors grow out of range), times
-``q``, the 90 % quantile of |error| / scale over the hold-out rows of the same model fitted on the rest
-(``conformal_q``). ``WithInterval`` gives any fitted model such an interval (the physics). The
-benchmark reports the share of validation rows inside (``coverage_90``).
+the rows. The radius is the model's own scale of its error per row (``error_scale``: an ensemble's
+spread; 1 where it has none) times q + b d, d the distance of the row's standardised inputs from the
+nearest training row (``InputDistance``: errors grow out of range). ``calibrate`` fits q and b on the
+model fitted without the hold-out rows (two-regime split conformal): q holds 90 % of the rows it was
+fitted on (d = 0), and b, the least growth with which the ball then holds 90 % of the hold-out rows,
+which lie beyond them. Without a fitted b the radius is q (1 + d) (``conformal_q``, q from the
+hold-out alone). ``WithInterval`` gives any fitted model such an interval (the physics, the baselines).
+The benchmark reports the share of validation rows inside (``coverage_90``).
 """
 
 from __future__ import annotations
@@ -23,17 +25,45 @@ COVERAGE = 0.9
 """The share of rows an interval should hold."""
 
 
-def conformal_q(model, held) -> float:
-    """The interval's factor ``q`` [1]: the ``COVERAGE`` quantile (split-conformal, rank ceil((n + 1) 0.9))
-    of |pred - tip| / ``model.interval_scale(s)`` over the rows of the hold-out sessions ``held``, where
-    ``model`` was fitted without them. inf when there are too few rows for the rank."""
-    ratios = []
-    for s in held:
-        err = np.linalg.norm(model.predict(s) - s.tip, axis=1)
-        ratios.append(err / np.maximum(model.interval_scale(s), 1e-300))
-    r = np.sort(np.concatenate(ratios))
+def quantile(values: np.ndarray) -> float:
+    """The split-conformal ``COVERAGE`` quantile of ``values`` (n,): the value of rank ceil((n + 1) 0.9);
+    inf when there are too few values for the rank."""
+    r = np.sort(np.asarray(values, dtype=float).ravel())
     rank = math.ceil((r.size + 1) * COVERAGE)
     return float(r[rank - 1]) if 0 < rank <= r.size else math.inf
+
+
+def _ratios(model, sessions, scale) -> tuple[np.ndarray, np.ndarray]:
+    """(|pred - tip| / scale (n,) [1], d (n,) [standard deviations]) over the rows of ``sessions``."""
+    ratios, dist = [], []
+    for s in sessions:
+        err = np.linalg.norm(model.predict(s) - s.tip, axis=1)
+        ratios.append(err / np.maximum(scale(s), 1e-300))
+        dist.append(np.zeros(s.n_rows) if model.reach is None else model.reach(s))
+    return np.concatenate(ratios), np.concatenate(dist)
+
+
+def conformal_q(model, held) -> float:
+    """The interval's factor ``q`` [1] of the radius q ``model.interval_scale`` (q (1 + d) times the
+    error scale): the ``COVERAGE`` quantile (``quantile``) of |pred - tip| / ``model.interval_scale(s)``
+    over the rows of the hold-out sessions ``held``, where ``model`` was fitted without them."""
+    return quantile(_ratios(model, held, model.interval_scale)[0])
+
+
+def calibrate(model, fit_part, held) -> dict:
+    """The interval of ``model`` (fitted on the sessions ``fit_part``, without ``held``), two-regime
+    split conformal: {"interval_q": q, "interval_slope": b} [1, 1 per standard deviation] of the radius
+    error_scale (q + b d). q is the ``COVERAGE`` quantile of |pred - tip| / error_scale over the rows of
+    ``fit_part``; b the same quantile over the hold-out rows of the growth each needs to lie inside,
+    max(0, ratio - q) / d (inf for a row outside at d = 0). inf where there are too few rows. A model
+    without ``reach`` gets b = 0 and the larger q of the two parts."""
+    q = quantile(_ratios(model, fit_part, model.error_scale)[0])
+    ratio, d = _ratios(model, held, model.error_scale)
+    if model.reach is None:                   # no distance: one radius that holds 90 % of both parts
+        return {"interval_q": max(q, quantile(ratio)), "interval_slope": 0.0}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        need = np.where(ratio <= q, 0.0, (ratio - q) / d)
+    return {"interval_q": q, "interval_slope": quantile(need)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,11 +88,13 @@ class InputDistance:
 
 
 class Intervals:
-    """What a family with an interval shares: the fields ``interval_q`` (None until calibrated) and
-    ``reach`` (an ``InputDistance`` of its training rows, or None), and ``error_scale(session)``
-    (T,) (here 1: a radius of ``interval_q`` m, growing with the distance)."""
+    """What a family with an interval shares: the fields ``interval_q`` (None until calibrated),
+    ``interval_slope`` (None: the radius grows as q (1 + d)) and ``reach`` (an ``InputDistance`` of its
+    training rows, or None), and ``error_scale(session)`` (T,) (here 1: a radius of ``interval_q`` m,
+    growing with the distance)."""
 
     interval_q: float | None
+    interval_slope: float | None
     reach: InputDistance | None
 
     def error_scale(self, session) -> np.ndarray:
@@ -76,21 +108,38 @@ class Intervals:
 
     def predict_interval(self, session) -> tuple[np.ndarray, np.ndarray]:
         """The tip (T, 3) [m] (``predict``) and the radius (T,) [m] of the ball that holds the true tip
-        in 90 % of the rows; a ``ValueError`` before the interval was calibrated (``conformal_q``)."""
+        in 90 % of the rows; a ``ValueError`` before the interval was calibrated (``calibrate``)."""
         if self.interval_q is None:
             raise ValueError(f"{self.name}: the interval is not calibrated (dataclasses.replace(model, "
-                             "interval_q=conformal_q(...)))")
-        return self.predict(session), self.interval_q * self.interval_scale(session)
+                             "**calibrate(...)))")
+        if self.interval_slope is None:
+            return self.predict(session), self.interval_q * self.interval_scale(session)
+        d = 0.0 if self.reach is None else self.reach(session)
+        with np.errstate(invalid="ignore"):          # an unbounded slope at d = 0 adds nothing
+            growth = np.where(d > 0, self.interval_slope * d, 0.0)
+        return self.predict(session), self.error_scale(session) * (self.interval_q + growth)
+
+    def interval_description(self) -> dict:
+        """The interval's q and slope b, JSON-ready (None where unbounded)."""
+        return {"interval_90_q": _finite(self.interval_q), "interval_90_slope": _finite(self.interval_slope)}
+
+
+def _finite(value, digits: int = 4, scale: float = 1.0):
+    """``value`` times ``scale``, rounded to ``digits``; None where it is None or not finite."""
+    return None if value is None or not math.isfinite(value) else round(value * scale, digits)
 
 
 @dataclass(frozen=True, eq=False)
 class WithInterval(Intervals):
-    """A fitted model (``model``: ``predict``, ``describe``, ``name``) with a 90 % radius ``interval_q``
-    [m] (times 1 + the distance from ``reach`` where given): ``with_interval``."""
+    """A fitted model (``model``: ``predict``, ``describe``, ``name``, optionally ``error_scale``) with a
+    90 % radius: ``interval_q`` [m] (times the model's error scale where it has one), growing with the
+    distance d from ``reach`` where given, by ``interval_slope`` d [m] (None: times 1 + d):
+    ``with_interval``."""
 
     model: object
     reach: InputDistance | None = None
     interval_q: float | None = None
+    interval_slope: float | None = None
 
     @property
     def name(self) -> str:
@@ -101,17 +150,28 @@ class WithInterval(Intervals):
         """The model's tip (T, 3) [m]."""
         return self.model.predict(session)
 
+    def error_scale(self, session) -> np.ndarray:
+        """(T,) the model's own scale of its error per row (``model.error_scale``; 1 where it has none)."""
+        own = getattr(self.model, "error_scale", None)
+        return np.ones(session.n_rows) if own is None else own(session)
+
     def describe(self) -> dict:
-        """The model's description and the interval's radius [mm] on the training rows."""
-        q = self.interval_q
-        return {**self.model.describe(), "interval_90_radius_mm": round(q * 1e3, 4) if math.isfinite(q) else None,
-                "interval_grows_with_distance": self.reach is not None}
+        """The model's description and the interval: its radius [mm] on the training rows (where the
+        error scale is 1) and its growth [mm per standard deviation of the distance]."""
+        out = {**self.model.describe(), "interval_90_radius_mm": _finite(self.interval_q, scale=1e3),
+               "interval_grows_with_distance": self.reach is not None}
+        if self.interval_slope is not None:
+            out["interval_90_growth_mm"] = _finite(self.interval_slope, scale=1e3)
+        return out
 
 
-def with_interval(model, held_model, fit_part, held, train=None) -> WithInterval:
+def with_interval(model, held_model, fit_part, held, train=None, fitted: bool = False) -> WithInterval:
     """``model`` (fitted on ``train``) with a 90 % interval calibrated on the hold-out sessions ``held``
     by ``held_model`` (the same family fitted on ``fit_part``): a constant radius when ``train`` is
-    None, else growing with the distance from the training rows."""
+    None, else growing with the distance from the training rows, as q (1 + d) with q from the hold-out
+    alone (``conformal_q``), or ``fitted``: as q + b d with q and b from both parts (``calibrate``)."""
     reach = (lambda s: None) if train is None else InputDistance.of
-    q = conformal_q(WithInterval(held_model, reach(fit_part)), held)
-    return WithInterval(model, reach(train), q)
+    held_model = WithInterval(held_model, reach(fit_part))
+    if fitted:
+        return WithInterval(model, reach(train), **calibrate(held_model, fit_part, held))
+    return WithInterval(model, reach(train), conformal_q(held_model, held))
