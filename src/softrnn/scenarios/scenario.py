@@ -43,7 +43,8 @@ SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "s
                                    "square-random", "semicircle", "semicircle-cosine", "tendon-planar",
                                    "tendon-planar-sine", "tendon-spatial", "tendon-spatial-sine",
                                    "tendon-displacement", "steel-wire", "nitinol-guidewire", "contact-plane",
-                                   "vessel-guidewire", "contact-capstan", "magnetic-bifurcation")
+                                   "vessel-guidewire", "contact-capstan", "magnetic-bifurcation",
+                                   "mesh-arch-guidewire")
 FORMAT_VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 

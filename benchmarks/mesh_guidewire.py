@@ -1,0 +1,112 @@
+"""A guidewire in a meshed vessel tree: real-time factor on one core, the deepest wall penetration
+and the kernels' distance error against the exact reference.
+
+    NUMBA_NUM_THREADS=1 .venv/bin/python benchmarks/mesh_guidewire.py --json benchmarks/results/mesh_guidewire.json
+    NUMBA_NUM_THREADS=1 .venv/bin/python benchmarks/mesh_guidewire.py --quick      # the shipped scenario only
+
+Cases:
+
+* ``scenario``: the shipped ``mesh-arch-guidewire`` as shipped (a 0.18 m guidewire, 37 nodes, pushed
+  0.15 m up the descending aorta of ``mesh-arch.vtu`` in 2 s, the implicit integrator, 2.5 s);
+* ``one_metre``: the same wire 1 m long (101 nodes, 10 mm segments) in ``arch_tree(descending=1.05)``
+  (built here, not shipped), its base at z = -1.02 m, pushed 0.15 m in 2 s; the implicit integrator.
+
+Per case: the wall time of the run after a warm-up run (numba compiled), the real-time factor
+(simulated / wall time), the deepest penetration of a node's surface into the mesh over the saved
+samples (the exact reference ``MeshVessel.gap``, % of the rod radius; goal < 5 %), the tip's final
+position and the branch of the centreline it is nearest, and the kernels' distance error: the
+kernels' gap (the walk, ``rod.contact_kernels._obstacle_gap``) against the exact one over every node
+of every saved sample, in order (the walk starts from each node's face of the sample before).
+A benchmark, not a test: pytest never collects it.
+"""
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+from numba import njit
+
+from softrnn.geometry.mesh import arch_tree
+from softrnn.rod import Contact, RunConfig, Setup, Simulator, straight
+from softrnn.rod.contact import MeshVessel, initial_segments, kernel_arrays
+from softrnn.rod.contact_kernels import _obstacle_gap
+from softrnn.rod.kernel_records import StepInputs
+from softrnn.scenarios import load_scenario
+from softrnn.timing import machine_info
+
+
+@njit(cache=False)
+def _kernel_gaps(path, ra, inputs, out):
+    for s in range(path.shape[0]):
+        for a in range(path.shape[1]):
+            out[s, a] = _obstacle_gap(a, 0, path[s, a, 0], path[s, a, 1], path[s, a, 2], ra, inputs)[0]
+
+
+def kernel_error(setup: Setup, positions: np.ndarray) -> float:
+    """Largest |kernel gap - exact gap| [m] over the saved positions (S, n, 3), walked in order."""
+    rod = setup.rod
+    arrays = kernel_arrays(setup.contact, rod, np.array(setup.gravity, dtype=float))
+    inputs = StepInputs(ext_idx=np.zeros(0, np.int64), ext_w=np.zeros((1, 0, 12)), pd_idx=np.zeros(0, np.int64),
+                        pd_target=np.zeros((1, 0, 3)), pd_gain=np.zeros((0, 2)), presc_idx=np.zeros(0, np.int64),
+                        presc_r=np.zeros((2, 0, 3)), presc_R=np.zeros((2, 0, 3, 3)),
+                        contact_segment=initial_segments(setup.contact, positions[0]), **arrays)
+    out = np.zeros(positions.shape[:2])
+    _kernel_gaps(positions, rod.radius, inputs, out)
+    mesh = setup.contact.obstacles[0]
+    exact = mesh.gap(positions.reshape(-1, 3), np.full(positions.shape[0] * positions.shape[1], rod.radius))[0]
+    return float(np.max(np.abs(out.reshape(-1) - exact)))
+
+
+def one_metre(base: Setup) -> Setup:
+    """The shipped scenario's wire made 1 m long in a 1.05 m descending aorta."""
+    mesh = MeshVessel(*arch_tree(descending=1.05), inlet=(0.0, 0.0, -1.05))
+    rod = replace(base.rod, length=1.0, n_nodes=101)
+    shape = straight(101, 1.0, origin=(0.0, -0.0054, -1.02), direction=(0.0, 0.0, 1.0), normal=(0.0, 1.0, 0.0))
+    contact = Contact(obstacles=(mesh,), friction=base.contact.friction, stiffness=base.contact.stiffness)
+    clamp = base.boundary[0]
+    clamp = replace(clamp, motion=replace(clamp.motion, position=tuple(shape.positions[0])))
+    return replace(base, rod=rod, reference=shape, initial=shape, contact=contact, boundary=(clamp,))
+
+
+def measure(setup: Setup, config: RunConfig) -> dict:
+    """One case's figures (see the module docstring)."""
+    Simulator(setup).run(replace(config, n_samples=3))                   # compile
+    start = time.perf_counter()
+    traj = Simulator(setup).run(config)
+    wall = time.perf_counter() - start
+    mesh, r = setup.contact.obstacles[0], setup.rod.radius
+    gaps = np.array([mesh.gap(p, np.full(len(p), r))[0] for p in traj.positions])
+    simulated = float(traj.time[-1] - traj.time[0])
+    tip = traj.positions[-1, -1]
+    centre = mesh.centreline
+    return {"nodes": setup.rod.n_nodes, "length_m": setup.rod.length, "simulated_s": simulated, "wall_s": wall,
+            "real_time_factor": simulated / wall, "solver_steps": int(traj.substeps * (len(traj.time) - 1)),
+            "deepest_penetration_percent_of_r": float(max(0.0, -gaps.min()) / r * 100),
+            "tip_final_m": tip.tolist(), "tip_branch": centre.nearest_branch(tip),
+            "tip_progress_m": float(mesh.centreline_progress(tip[None], centre.nearest_branch(tip))[0]),
+            "kernel_distance_error_m": kernel_error(setup, traj.positions)}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--json", help="write the results here")
+    parser.add_argument("--quick", action="store_true", help="the shipped scenario only")
+    args = parser.parse_args(argv)
+    sc = load_scenario("mesh-arch-guidewire")
+    config = RunConfig(dt=sc.config.dt, n_samples=sc.config.n_samples, integrator=sc.config.integrator)
+    results = {"machine": machine_info(), "scenario": measure(sc.setup, config)}
+    if not args.quick:
+        results["one_metre"] = measure(one_metre(sc.setup), config)
+    text = json.dumps(results, indent=2)
+    if args.json:
+        with open(args.json, "w", encoding="utf-8") as f:
+            f.write(text + "\n")
+    sys.stdout.write(text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
