@@ -4,6 +4,7 @@ entries (plane, sphere, cylinder, vessel, bifurcation, mesh) read into a ``softr
 from __future__ import annotations
 
 from functools import lru_cache
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -54,7 +55,8 @@ _OBSTACLE_KEYS = {
                                    "trunk's at the junction)",
                     "right_radius": "the right branch's inner radius in m, or a list, one per point (default: the "
                                     "trunk's at the junction)"},
-    "mesh": {"file": "a closed surface mesh (STL, OBJ, VTK/VTU, PLY), relative to the scenario file",
+    "mesh": {"file": "a closed surface mesh (STL, OBJ, VTK/VTU, PLY), relative to the scenario file, or a shipped "
+                     "mesh's name (mesh-arch.vtu)",
              "units": "the mesh's coordinates' unit, \"m\" or \"mm\"",
              "inlet": "a point [x, y, z] in m in the lumen where its centreline starts (default: an end of its "
                       "longest path)",
@@ -172,6 +174,9 @@ def _mesh(ctx: _Ctx, t: _Table, friction) -> MeshVessel:
     if ctx.base is None and not Path(name).is_absolute():
         raise ctx.invalid(t.key("file"), name, "an absolute path (a scenario given as text has no folder for files)")
     target = Path(name) if Path(name).is_absolute() else Path(str(ctx.base.joinpath(name)))
+    shipped = Path(str(resources.files("softrnn").joinpath("scenarios", name)))
+    if not target.exists() and Path(name).name == name and shipped.is_file():
+        target = shipped                  # a shipped mesh by its name (a copied scenario keeps working)
     units = t.get("units", string(("m", "mm")))
     options = {"inlet": t.get("inlet", vec3("m")) if t.has("inlet") else None,
                "cell": t.get("cell", number("m", positive=True)) if t.has("cell") else None}
