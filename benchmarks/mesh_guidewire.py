@@ -19,7 +19,9 @@ kernels' gap (the walk, ``rod.contact_kernels._obstacle_gap``) against the exact
 of every saved sample, in order (the walk starts from each node's face of the sample before): the
 largest difference where the exact gap is under 1 mm, and the least kernel - exact anywhere (a walk
 that stops on a farther face deep in the lumen only overestimates a positive gap).
-A benchmark, not a test: pytest never collects it.
+The cost of the mesh contact: the wall time per node-step of the first 0.5 s with it and of the same
+setup with contact=None at the same solver step (the wire then falls through the wall: only the
+contact work differs). A benchmark, not a test: pytest never collects it.
 """
 
 import argparse
@@ -79,12 +81,29 @@ def one_metre(base: Setup) -> Setup:
     return replace(base, rod=rod, reference=shape, initial=shape, contact=contact, boundary=(clamp,))
 
 
+def contact_cost(setup: Setup, config: RunConfig, substeps: int, span_s: float = 0.5) -> dict:
+    """Wall time per node-step [us] of the first ``span_s`` s with the mesh contact and of the same
+    setup with contact=None at the same solver step (only the tracked tip saved)."""
+    timed = replace(config, n_samples=int(round(span_s / config.dt)) + 1, substeps=substeps,
+                    save_nodes=(setup.rod.n_nodes - 1,))
+    out = {}
+    for name, case in (("with_contact", setup), ("without_contact", replace(setup, contact=None))):
+        Simulator(case).run(replace(timed, n_samples=3))
+        start = time.perf_counter()
+        Simulator(case).run(timed)
+        out[f"us_per_node_step_{name}"] = (time.perf_counter() - start) / (substeps * (timed.n_samples - 1)
+                                                                          * setup.rod.n_nodes) * 1e6
+    out["overhead"] = out["us_per_node_step_with_contact"] / out["us_per_node_step_without_contact"] - 1
+    return out
+
+
 def measure(setup: Setup, config: RunConfig) -> dict:
     """One case's figures (see the module docstring)."""
     Simulator(setup).run(replace(config, n_samples=3))                   # compile
     start = time.perf_counter()
     traj = Simulator(setup).run(config)
     wall = time.perf_counter() - start
+    cost = contact_cost(setup, config, traj.substeps)
     mesh, r = setup.contact.obstacles[0], setup.rod.radius
     gaps = np.array([mesh.gap(p, np.full(len(p), r))[0] for p in traj.positions])
     simulated = float(traj.time[-1] - traj.time[0])
@@ -95,7 +114,7 @@ def measure(setup: Setup, config: RunConfig) -> dict:
             "deepest_penetration_percent_of_r": float(max(0.0, -gaps.min()) / r * 100),
             "tip_final_m": tip.tolist(), "tip_branch": centre.nearest_branch(tip),
             "tip_progress_m": float(mesh.centreline_progress(tip[None], centre.nearest_branch(tip))[0]),
-            "kernel_distance_error": kernel_error(setup, traj.positions)}
+            "kernel_distance_error": kernel_error(setup, traj.positions), **cost}
 
 
 def main(argv=None) -> int:

@@ -8,6 +8,7 @@ the inlet to an end (a piece with no successor); spurs shorter than ``MIN_BINS``
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import distance_transform_edt
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra
 
@@ -119,8 +120,9 @@ def _graph(mask: np.ndarray, voxel: float):
 
 
 def centreline_of(vessel, inlet=None, voxel: float | None = None) -> Centreline:
-    """The centreline tree of a ``MeshVessel``'s lumen from ``inlet`` (3,) [m] (None: an end of
-    the lumen's longest path); ``voxel`` [m] (None: the mean edge length, grown to ``MAX_VOXELS``)."""
+    """The centreline tree of a ``MeshVessel``'s lumen from ``inlet`` (3,) [m] (None: the deepest
+    voxel within twice the lumen's largest depth of an end of its longest path); ``voxel`` [m]
+    (None: the mean edge length, grown to ``MAX_VOXELS``)."""
     v, f = vessel.vertices, vessel.faces
     if voxel is None:
         voxel = float(np.mean(np.linalg.norm(v[f] - v[np.roll(f, 1, axis=1)], axis=2)))
@@ -132,9 +134,12 @@ def centreline_of(vessel, inlet=None, voxel: float | None = None) -> Centreline:
     z, rest = np.divmod(flat, shape[1] * shape[0])
     y, x = np.divmod(rest, shape[0])
     centres = origin + (np.stack([x, y, z], axis=1) + 0.5) * voxel
-    if inlet is None:
+    if inlet is None:        # the deepest voxel near an end of the lumen's longest path (on its axis)
         far = dijkstra(graph, directed=False, indices=0)
-        start = int(np.argmax(np.where(np.isfinite(far), far, -1)))
+        end = int(np.argmax(np.where(np.isfinite(far), far, -1)))
+        depth = distance_transform_edt(mask).reshape(-1)[flat] * voxel
+        near = dijkstra(graph, directed=False, indices=end, limit=2.0 * float(depth.max()))
+        start = int(np.argmax(np.where(np.isfinite(near), depth, -1.0)))
     else:
         start = int(np.argmin(np.linalg.norm(centres - np.asarray(inlet, dtype=float), axis=1)))
     dist = dijkstra(graph, directed=False, indices=start)

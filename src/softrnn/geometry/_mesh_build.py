@@ -16,7 +16,7 @@ from ..errors import bad
 MAX_CELLS = 2_000_000
 """Most cells of a mesh's seed grid (its cell grows to keep to this)."""
 
-SEED_CELL = 4.0
+SEED_CELL = 2.0
 """The seed grid's default cell, in mean edge lengths."""
 
 FLAT = 1e-10

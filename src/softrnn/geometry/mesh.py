@@ -115,8 +115,8 @@ class MeshVessel(Obstacle):
         the kernels' seed-grid cell [m]; None: ``build.SEED_CELL`` mean edge lengths (grown to
         ``build.MAX_CELLS``)
     inlet : (3,) or None
-        a point in the lumen [m] where the centreline starts (the access); None: an end of its
-        longest path
+        a point in the lumen [m] where the centreline starts (the access); None: on the axis near an
+        end of the lumen's longest path
     file : str or None
         the file it was read from (recorded with its ``sha256``; ``load_mesh``), or None
     sha256 : str or None

@@ -16,6 +16,10 @@ from .kernel_records import _INLINE, BIFURCATION, BRANCH, CYLINDER, MESH, PLANE,
 _VESSEL_WINDOW = 3
 """Segments searched either way of a node's tracked vessel segment before walking further."""
 
+_MESH_MARGIN = 1.0
+"""A node whose walk from its tracked face ends nearer than 2 rod radii plus this many seed-grid
+cells to the wall also walks from its cell's seed face (the nearer result is kept)."""
+
 _MESH_WALK = 256
 """Most steps of the descent over a mesh's faces toward a node's closest face."""
 
@@ -244,11 +248,13 @@ def _mesh_gap(a, o, x0, x1, x2, ra, inputs):
     iy = min(max(int(math.floor((x1 - geom[o, 1]) / cell)), 0), gy - 1)
     iz = min(max(int(math.floor((x2 - geom[o, 2]) / cell)), 0), gz - 1)
     seed = idx[cb + ix + gx * (iy + gy * iz)]
+    near = (2.0 * ra + _MESH_MARGIN * cell) ** 2
     if seed != f:
         e2, r0, r1, r2, et = _triangle_closest(idx, val, fb, xv, seed, x0, x1, x2)
-        if e2 < d2:
+        if e2 < d2 or d2 < near:  # a nearer start, or a node near the wall: walk from the cell's face too
             g, e2, r0, r1, r2, et = _mesh_walk(idx, val, lay, seed, x0, x1, x2)
-            f, d2, q0, q1, q2, ft = g, e2, r0, r1, r2, et
+            if e2 < d2:
+                f, d2, q0, q1, q2, ft = g, e2, r0, r1, r2, et
     inputs.contact_segment[a, o] = f
     if ft == 0:
         k = xn + 3 * f

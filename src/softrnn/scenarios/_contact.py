@@ -58,8 +58,8 @@ _OBSTACLE_KEYS = {
     "mesh": {"file": "a closed surface mesh (STL, OBJ, VTK/VTU, PLY), relative to the scenario file, or a shipped "
                      "mesh's name (mesh-arch.vtu)",
              "units": "the mesh's coordinates' unit, \"m\" or \"mm\"",
-             "inlet": "a point [x, y, z] in m in the lumen where its centreline starts (default: an end of its "
-                      "longest path)",
+             "inlet": "a point [x, y, z] in m in the lumen where its centreline starts (default: on the axis "
+                      "near an end of its longest path)",
              "cell": "the contact's seed-grid cell in m (default: 4 mean edge lengths)"},
 }
 KINDS = tuple(_OBSTACLE_KEYS)
