@@ -19,6 +19,9 @@ MAX_CELLS = 2_000_000
 SEED_CELL = 2.0
 """The seed grid's default cell, in mean edge lengths."""
 
+SEED_REACH = 6.0
+"""Cells farther than this many cells from every vertex have no seed (deep in a wide lumen)."""
+
 FLAT = 1e-10
 """A face whose area is below this fraction of its longest edge squared is degenerate."""
 
@@ -177,8 +180,8 @@ def pseudonormal(face: np.ndarray, feature: np.ndarray, faces: np.ndarray, neigh
 def seed_grid(vertices: np.ndarray, faces: np.ndarray, rings: tuple[np.ndarray, np.ndarray], cell: float | None):
     """The kernels' seed grid: origin (3,) [m], cell size [m], shape (3,) int64 and per cell (C,) int64
     (x fastest) a face at a vertex near the cell's centre (within twice the distance of the nearest:
-    a start, the walks find the closest face). ``cell`` None: ``SEED_CELL`` mean edge lengths,
-    grown to keep within ``MAX_CELLS``."""
+    a start, the walks find the closest face), -1 where no vertex lies within ``SEED_REACH`` cells.
+    ``cell`` None: ``SEED_CELL`` mean edge lengths, grown to keep within ``MAX_CELLS``."""
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     if cell is None:
         edges = np.linalg.norm(vertices[faces] - vertices[np.roll(faces, 1, axis=1)], axis=2)
@@ -191,6 +194,7 @@ def seed_grid(vertices: np.ndarray, faces: np.ndarray, rings: tuple[np.ndarray, 
     axes = [origin[i] + (np.arange(shape[i]) + 0.5) * cell for i in range(3)]
     zz, yy, xx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
     centres = np.stack([xx.reshape(-1), yy.reshape(-1), zz.reshape(-1)], axis=1)
-    _, nearest = cKDTree(vertices).query(centres, eps=1.0)
+    _, nearest = cKDTree(vertices).query(centres, eps=1.0, distance_upper_bound=SEED_REACH * cell)
     offsets, ring = rings
-    return origin, float(cell), shape, ring[offsets[nearest]]
+    found = nearest < len(vertices)
+    return origin, float(cell), shape, np.where(found, ring[offsets[np.where(found, nearest, 0)]], -1)

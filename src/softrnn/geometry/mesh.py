@@ -11,7 +11,6 @@ the node's tracked face and from a seed grid's face, both O(1) per node and step
 the exact reference (a k-d tree over the faces).
 """
 
-import hashlib
 import os
 from dataclasses import InitVar, dataclass
 from pathlib import Path
@@ -20,6 +19,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..errors import bad, positive
+from ..files import file_sha256
 from ..progress import Progress
 from . import _mesh_build as build
 from ._centreline import Centreline, centreline_of
@@ -35,7 +35,7 @@ PLAUSIBLE_SIZE = (1e-3, 3.0)
 MAX_FACES = 5_000_000
 """Most faces of a mesh."""
 
-BYTES_PER_FACE = 400
+BYTES_PER_FACE = 800
 """Bytes a mesh holds per face once built (arrays, k-d tree, the kernels' copy), for the memory check."""
 
 EXTENSIONS = (".stl", ".obj", ".vtk", ".vtp", ".vtu", ".ply", ".off")
@@ -48,15 +48,6 @@ def _memory_limit() -> int:
         return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
     except (AttributeError, OSError, ValueError):
         return 8 * 2**30
-
-
-def file_sha256(path) -> str:
-    """The SHA-256 (hex) of a file's bytes."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def read_surface(path, where: str = "mesh.file") -> tuple[np.ndarray, np.ndarray]:
@@ -128,7 +119,7 @@ class MeshVessel(Obstacle):
     ring_offsets, ring : (V + 1,), (3F,) int64
         the faces around each vertex
     grid_origin, grid_cell, grid_shape, grid_faces : (3,) [m], float [m], (3,) int64, (C,) int64
-        the seed grid: per cell a face near its centre
+        the seed grid: per cell a face near its centre (-1: none within ``build.SEED_REACH`` cells)
     """
 
     kind: ClassVar[str] = "mesh"

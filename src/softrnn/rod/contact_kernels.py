@@ -196,14 +196,17 @@ def _triangle_closest(idx, val, fb, xv, f, p0, p1, p2):
 
 
 @njit(**_INLINE)
-def _mesh_walk(idx, val, lay, f, p0, p1, p2):
+def _mesh_walk(idx, val, lay, f, stop, p0, p1, p2):
     """The closest face to p found by descent from face f over the face adjacency: step to the
     nearest of the faces across f's edges while one is nearer than f, and where none is, to the
-    nearest face around f's vertices (its 1-ring) while one is; stop where none is nearer. Returns
-    the face, the squared distance [m^2], the closest point and its feature."""
+    nearest face around f's vertices (its 1-ring) while one is; stop where none is nearer, or on
+    face ``stop`` (a local minimum found before; -1: none). Returns the face, the squared distance
+    [m^2], the closest point and its feature."""
     fb, nb, ro, rg, cb, xv, xn, xw, gx, gy, gz = lay
     d2, q0, q1, q2, ft = _triangle_closest(idx, val, fb, xv, f, p0, p1, p2)
     for _ in range(_MESH_WALK):
+        if f == stop:
+            break
         best = f
         e2 = d2
         r0 = r1 = r2 = 0.0
@@ -242,17 +245,17 @@ def _mesh_gap(a, o, x0, x1, x2, ra, inputs):
     lay = _mesh_layout(o, inputs)
     fb, nb, ro, rg, cb, xv, xn, xw, gx, gy, gz = lay
     geom = inputs.contact_geom
-    f, d2, q0, q1, q2, ft = _mesh_walk(idx, val, lay, inputs.contact_segment[a, o], x0, x1, x2)
+    f, d2, q0, q1, q2, ft = _mesh_walk(idx, val, lay, inputs.contact_segment[a, o], -1, x0, x1, x2)
     cell = geom[o, 3]
     ix = min(max(int(math.floor((x0 - geom[o, 0]) / cell)), 0), gx - 1)
     iy = min(max(int(math.floor((x1 - geom[o, 1]) / cell)), 0), gy - 1)
     iz = min(max(int(math.floor((x2 - geom[o, 2]) / cell)), 0), gz - 1)
     seed = idx[cb + ix + gx * (iy + gy * iz)]
     near = (2.0 * ra + _MESH_MARGIN * cell) ** 2
-    if seed != f:
+    if seed >= 0 and seed != f:
         e2, r0, r1, r2, et = _triangle_closest(idx, val, fb, xv, seed, x0, x1, x2)
         if e2 < d2 or d2 < near:  # a nearer start, or a node near the wall: walk from the cell's face too
-            g, e2, r0, r1, r2, et = _mesh_walk(idx, val, lay, seed, x0, x1, x2)
+            g, e2, r0, r1, r2, et = _mesh_walk(idx, val, lay, seed, f, x0, x1, x2)
             if e2 < d2:
                 f, d2, q0, q1, q2, ft = g, e2, r0, r1, r2, et
     inputs.contact_segment[a, o] = f

@@ -204,7 +204,7 @@ class StepInputs(NamedTuple):
     contact_mesh_index : (I,) int64
         the meshes' integer arrays, one mesh after another (``rod.contact.mesh_arrays``): V, F,
         the seed grid's shape (3), faces (3F), face neighbours (3F), vertex ring offsets (V + 1),
-        ring faces (3F), the grid's seed faces (C)
+        ring faces (3F), the grid's seed faces (C, -1: none)
     contact_mesh_values : (M,)
         the meshes' vertices [m] (3V), unit face normals (3F) and vertex pseudonormals (3V)
     contact_node : (n, 3)

@@ -60,7 +60,7 @@ _OBSTACLE_KEYS = {
              "units": "the mesh's coordinates' unit, \"m\" or \"mm\"",
              "inlet": "a point [x, y, z] in m in the lumen where its centreline starts (default: on the axis "
                       "near an end of its longest path)",
-             "cell": "the contact's seed-grid cell in m (default: 4 mean edge lengths)"},
+             "cell": "the contact's seed-grid cell in m (default: 2 mean edge lengths)"},
 }
 KINDS = tuple(_OBSTACLE_KEYS)
 
