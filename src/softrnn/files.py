@@ -6,6 +6,7 @@ command makes before any long work (``prepare_output``)."""
 
 import dataclasses
 import errno
+import hashlib
 import os
 import shutil
 import tempfile
@@ -350,3 +351,12 @@ def prepare_output(path, argument: str, *, kind: str = "file", overwrite: bool =
     except OSError as err:
         raise bad(argument, str(p), f"a path that can be written ({_os_reason(err)}); choose another "
                                     f"path") from None
+
+
+def file_sha256(path) -> str:
+    """The SHA-256 (hex) of a file's bytes, read a MiB at a time."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()

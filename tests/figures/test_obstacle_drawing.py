@@ -1,14 +1,18 @@
 """Obstacles in the rod animation: the geometry helpers (plane patch, sphere, cylinder segment, vessel
 wall at its radius from the centreline, 2-D wall lines), every obstacle kind animated in every view,
-the obstacles and contact forces read from a dataset file, through the library and the CLI."""
+the obstacles and contact forces read from a dataset file, through the library and the CLI, and a
+mesh vessel drawn as its outline and centreline."""
 
 from types import SimpleNamespace
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from PIL import Image
 
 from softrnn.figures import animation, geometry
+from softrnn.geometry import MeshVessel
+from softrnn.geometry._marching import tube_tree_surface
 from softrnn.io import write_trajectory
 from softrnn.io.schema import contact_record
 from softrnn.rod import Contact, Cylinder, Plane, Sphere, Vessel
@@ -167,3 +171,24 @@ def test_obstacles_and_contact_forces_from_a_file(tmp_path, monkeypatch, capsys)
     assert run_cli(["animate", str(tmp_path / "c.h5"), "-o", str(tmp_path / "d.gif"), "--frames", "2",
                     "--no-obstacles", "--no-contact-forces", "--quiet"]) == 0
     assert len(seen) == 1
+
+
+@pytest.mark.parametrize("view", ["xy", "3d"])
+def test_a_mesh_vessel_is_drawn_as_its_outline_and_centreline(view, tmp_path):
+    tube = MeshVessel(*tube_tree_surface([(np.array([[0.0, 0, 0], [0.5, 0, 0]]), 0.03)], 0.01))
+    data = _data(["plane"])
+    data.attrs["contact"] = contact_record(Contact(obstacles=(tube,), friction=0.2))
+    out = tmp_path / f"mesh-{view}.gif"
+    animation.animate(data, out, frames=2, size=(160, 140), view=view)
+    with Image.open(out) as im:
+        assert im.n_frames == 2
+    obstacles = animation.obstacles_of(data.attrs["contact"])
+    assert [o["kind"] for o in obstacles] == ["mesh"] and len(obstacles[0]["branches"]) == 1
+    np.testing.assert_allclose(obstacles[0]["branches"][0][:, 1:], 0.0, atol=0.01)   # on the tube's axis
+    if view == "xy":
+        fig, ax = plt.subplots()
+        lines = animation.draw_obstacles(ax, obstacles, "xy", LO, HI)[0]
+        ends = np.concatenate(lines.get_segments())
+        middle = (ends[:, 0] > 0.05) & (ends[:, 0] < 0.45)
+        np.testing.assert_allclose(np.abs(ends[middle, 1]), 0.03, atol=0.002)        # the walls' outline
+        plt.close(fig)

@@ -5,7 +5,8 @@ Matplotlib. tests/cli/test_startup.py checks that each equals its source (named 
 SCENARIO_NAMES = ("ellipse", "ellipse-horizontal", "square", "square-circle", "square-figure8", "square-random",
                   "semicircle", "semicircle-cosine", "tendon-planar", "tendon-planar-sine", "tendon-spatial",
                   "tendon-spatial-sine", "tendon-displacement", "steel-wire", "nitinol-guidewire", "contact-plane",
-                  "vessel-guidewire", "contact-capstan", "magnetic-bifurcation", "vessel-guidewire-twist")
+                  "vessel-guidewire", "contact-capstan", "magnetic-bifurcation", "vessel-guidewire-twist",
+                  "mesh-arch-guidewire")
 """``softrnn.scenarios.scenario.SCENARIO_NAMES``: the shipped scenarios (``simulate``, ``animate``)."""
 
 INTEGRATORS = ("explicit", "implicit")

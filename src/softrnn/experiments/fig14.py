@@ -59,7 +59,7 @@ import numpy as np
 from .. import __version__
 from ..errors import SoftrnnInputError, bad, is_int
 from ..figures.saving import save_figure
-from ..files import atomic_write_text
+from ..files import atomic_write_text, file_sha256
 from ..io.reader import read_dataset
 from ..learned.node.artifact import load_model
 from ..learned.node.data import pose_rows, wrench_rows
@@ -111,15 +111,6 @@ def _read_point(path: Path) -> dict | None:
     except (OSError, ValueError):
         return None
     return d if isinstance(d, dict) and isinstance(d.get("error"), dict) else None
-
-
-def file_sha256(path) -> str:
-    """SHA-256 of a file's bytes (hex)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def _check_manifest(out_dir: Path, config: StudyConfig, data_path: Path) -> dict:

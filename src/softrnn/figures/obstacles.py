@@ -3,13 +3,15 @@ stored record into one dict per obstacle, ``draw_obstacles`` draws them on a fla
 
 A plane is a translucent rectangle around the rod's extent, a sphere a translucent surface (a disc
 in a flat view), a cylinder a surface segment over the rod's extent (its shadow in a flat view), a
-vessel its centreline and a translucent tube (two wall lines in a flat view). An obstacle with
-``vessels`` (a tuple of vessels) is drawn as each of them.
+vessel its centreline and a translucent tube (two wall lines in a flat view), a mesh vessel its
+centreline branches and its surface (its outline, the edges where it turns away, in a flat view).
+An obstacle with ``vessels`` (a tuple of vessels) is drawn as each of them.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.collections import LineCollection
 from matplotlib.patches import Circle, Polygon
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from scipy.spatial import ConvexHull, QhullError
@@ -41,7 +43,7 @@ def obstacles_of(contact) -> list[dict]:
     return [entry for ob in obstacles for entry in _obstacle_entries(ob, default)]
 
 
-_DRAWN = ("plane", "sphere", "cylinder", "vessel")
+_DRAWN = ("plane", "sphere", "cylinder", "vessel", "mesh")
 """The obstacle kinds drawn as they are (``softrnn.geometry.obstacles``); a bifurcation as its vessels."""
 
 
@@ -59,6 +61,9 @@ def _obstacle_entries(ob, friction: float) -> list[dict]:
     entry = ob.to_record(mu)
     if kind == "vessel":
         entry.update(points=np.asarray(ob.points), radii=np.asarray(ob.radii))
+    if kind == "mesh":
+        entry.update(vertices=np.asarray(ob.vertices), faces=np.asarray(ob.faces), neighbours=ob.neighbours,
+                     normals=ob.face_normals, branches=ob.centreline.branches)
     return [entry]
 
 
@@ -76,6 +81,9 @@ def draw_obstacles(ax, obstacles, view: str, lo, hi) -> list:
             artists += _draw_3d(ax, ob, kind, lo, hi)
             continue
         a, b = _PLANES[view]
+        if kind == "mesh":
+            artists += _draw_mesh_2d(ax, ob, a, b)
+            continue
         if kind == "vessel":
             c, left, right = tube_walls_2d(ob["points"], ob["radii"], view)
             artists += ax.plot(c[:, 0], c[:, 1], color=OBSTACLE_COLOR, lw=0.8, ls="-.", zorder=0.5)
@@ -106,9 +114,32 @@ def _outline(points: np.ndarray) -> np.ndarray:
         return points[[int(np.argmin(t)), int(np.argmax(t))]]
 
 
+def _draw_mesh_2d(ax, ob: dict, a: int, b: int) -> list:
+    """A mesh vessel in the flat view of axes a, b: its outline (the edges between a face turned
+    toward the viewer and one turned away) and its centreline branches (dash-dot)."""
+    view = np.zeros(3)
+    view[3 - a - b] = 1.0
+    facing = ob["normals"] @ view > 0
+    f, k = np.nonzero(facing[:, None] != facing[ob["neighbours"]])
+    keep = f < ob["neighbours"][f, k]
+    f, k = f[keep], k[keep]
+    ends = ob["vertices"][np.stack([ob["faces"][f, k], ob["faces"][f, (k + 1) % 3]], axis=1)][:, :, [a, b]]
+    lines = LineCollection(ends, colors=OBSTACLE_COLOR, linewidths=1.0, zorder=0.5)
+    out = [ax.add_collection(lines, autolim=True)]
+    for line in ob["branches"]:
+        out += ax.plot(line[:, a], line[:, b], color=OBSTACLE_COLOR, lw=0.8, ls="-.", zorder=0.5)
+    return out
+
+
 def _draw_3d(ax, ob: dict, kind: str, lo, hi) -> list:
     """One obstacle on 3-D axes (see ``draw_obstacles``)."""
     style = dict(color=OBSTACLE_COLOR, alpha=OBSTACLE_ALPHA, linewidth=0, shade=False, axlim_clip=True)
+    if kind == "mesh":
+        poly = Poly3DCollection(ob["vertices"][ob["faces"]], facecolor=OBSTACLE_COLOR, alpha=OBSTACLE_ALPHA / 2,
+                                linewidth=0)
+        ax.add_collection3d(poly, autolim=False, axlim_clip=True)
+        return [poly] + [ax.plot(c[:, 0], c[:, 1], c[:, 2], color=OBSTACLE_COLOR, lw=0.8, ls="-.",
+                                 axlim_clip=True)[0] for c in ob["branches"]]
     if kind == "plane":
         poly = Poly3DCollection([plane_patch(ob["point"], ob["normal"], lo, hi)], facecolor=OBSTACLE_COLOR,
                                 alpha=OBSTACLE_ALPHA, edgecolor=OBSTACLE_COLOR)

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import bad, finite, nonnegative, positive
-from .obstacles import OBSTACLES, Obstacle, _short
+from .obstacles import Obstacle, _short
 
 DEFAULT_PENETRATION = 0.005
 """Default penetration at the reference load, as a fraction of the rod radius: half the 1 % the
@@ -25,8 +25,8 @@ class Contact:
     Attributes
     ----------
     obstacles : tuple
-        ``Plane``, ``Sphere``, ``Cylinder``, ``Vessel`` and ``Bifurcation`` entries (one obstacle
-        alone is accepted)
+        ``Plane``, ``Sphere``, ``Cylinder``, ``Vessel``, ``Bifurcation`` and ``MeshVessel`` entries
+        (one obstacle alone is accepted)
     friction : float
         Coulomb friction coefficient mu [-] of the obstacles that set none (0: frictionless)
     slip_velocity : float
@@ -60,17 +60,17 @@ class Contact:
     self_contact: bool = False
 
     def __post_init__(self):
-        obstacles = (self.obstacles,) if isinstance(self.obstacles, OBSTACLES) else self.obstacles
+        obstacles = (self.obstacles,) if isinstance(self.obstacles, Obstacle) else self.obstacles
         try:
             obstacles = tuple(obstacles)
         except TypeError:
             raise bad("contact.obstacles", self.obstacles,
-                      "a tuple of Plane, Sphere, Cylinder, Vessel or Bifurcation") from None
+                      "a tuple of Plane, Sphere, Cylinder, Vessel, Bifurcation or MeshVessel") from None
         if not isinstance(self.self_contact, bool):
             raise bad("contact.self_contact", self.self_contact, "true or false")
-        if not (obstacles or self.self_contact) or not all(isinstance(o, OBSTACLES) for o in obstacles):
+        if not (obstacles or self.self_contact) or not all(isinstance(o, Obstacle) and o.kind for o in obstacles):
             raise bad("contact.obstacles", self.obstacles,
-                      "one or more Plane, Sphere, Cylinder, Vessel or Bifurcation entries (or none, with "
+                      "one or more Plane, Sphere, Cylinder, Vessel, Bifurcation or MeshVessel entries (or none, with "
                       "self_contact = true)")
         object.__setattr__(self, "obstacles", obstacles)
         object.__setattr__(self, "friction", nonnegative("contact.friction", self.friction))

@@ -46,10 +46,20 @@ def _unit(name: str, value) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
+KINDS = {}
+"""The obstacle classes by their record's ``kind`` (each subclass with a kind registers itself;
+``geometry.mesh.MeshVessel`` among them)."""
+
+
 class Obstacle:
     """The base of the obstacle types: their record's ``kind`` and ``to_record``."""
 
     kind: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.kind:
+            KINDS[cls.kind] = cls
 
     def to_record(self, friction: float | None = None) -> dict:
         """The record (JSON-ready): ``kind``, the geometry (``GEOMETRY[kind]``) in m, and ``friction``:
@@ -66,6 +76,8 @@ class Obstacle:
         kind = entry.get("kind") if isinstance(entry, dict) else None
         if kind not in KINDS:
             raise bad(where, _short(entry), f"a dict with kind one of {', '.join(KINDS)}")
+        if hasattr(KINDS[kind], "_from_entry"):      # a kind with a record of its own form (a mesh)
+            return KINDS[kind]._from_entry(entry, where)
         keys = GEOMETRY[kind]
         missing = [k for k in keys if k not in entry]
         if missing:
@@ -414,7 +426,8 @@ class Bifurcation(Obstacle):
 
 
 OBSTACLES = (Plane, Sphere, Cylinder, Vessel, Bifurcation)
-"""The obstacle types a ``Contact`` takes."""
+"""The obstacle types of this module (a ``Contact`` takes any ``Obstacle``: these and
+``geometry.mesh.MeshVessel``)."""
 
 
 def _plain(value):
@@ -423,9 +436,6 @@ def _plain(value):
         return float(value)
     return np.asarray(value, dtype=float).tolist()
 
-
-KINDS = {cls.kind: cls for cls in OBSTACLES}
-"""The obstacle classes by their record's ``kind``."""
 
 GEOMETRY = {"plane": ("point", "normal"), "sphere": ("center", "radius"), "cylinder": ("point", "axis", "radius"),
             "vessel": ("centreline", "radius"),

@@ -1,7 +1,7 @@
 """Contact between the rod and rigid, fixed obstacles, with Coulomb friction (docs/lgvi.md §2.11).
 
 ``Setup(contact=Contact(obstacles=(...), friction=mu))`` puts obstacles in the rod's world. The
-obstacles (``Plane``, ``Sphere``, ``Cylinder``, ``Vessel``, ``Bifurcation``) and the ``Contact``
+obstacles (``Plane``, ``Sphere``, ``Cylinder``, ``Vessel``, ``Bifurcation``, ``MeshVessel``) and the ``Contact``
 live in ``softrnn.geometry`` (shared with the data files, the pictures and the learned models) and
 are imported here too, so ``softrnn.rod.contact.Plane`` and the rest keep working.
 
@@ -28,6 +28,8 @@ from ..errors import bad
 from ..geometry.contact import DEFAULT_PENETRATION as DEFAULT_PENETRATION
 from ..geometry.contact import DEFAULT_SLIP_VELOCITY as DEFAULT_SLIP_VELOCITY
 from ..geometry.contact import Contact as Contact
+from ..geometry.mesh import MeshVessel as MeshVessel
+from ..geometry.mesh import load_mesh as load_mesh
 from ..geometry.obstacles import OBSTACLES as OBSTACLES
 from ..geometry.obstacles import UNION_BLEND as UNION_BLEND
 from ..geometry.obstacles import VESSEL_MAX_SEGMENTS as VESSEL_MAX_SEGMENTS
@@ -38,7 +40,7 @@ from ..geometry.obstacles import Plane as Plane
 from ..geometry.obstacles import Sphere as Sphere
 from ..geometry.obstacles import Vessel as Vessel
 from ..geometry.obstacles import closest_segments as closest_segments
-from .kernels import BIFURCATION, BRANCH, CYLINDER, PLANE, SELF, SPHERE, VESSEL
+from .kernels import BIFURCATION, BRANCH, CYLINDER, MESH, PLANE, SELF, SPHERE, VESSEL
 
 STANDARD_GRAVITY = 9.81
 """Reference acceleration [m/s^2] of the default stiffness when the setup has no constant gravity."""
@@ -78,23 +80,36 @@ _GEOM = {"plane": lambda ob: (PLANE, (*ob.point, *ob.normal, 0.0)),
 
 
 def _columns(contact: Contact) -> list:
-    """The kernels' obstacle columns: (obstacle index, kernel kind, vessel or None) per column, by
-    the obstacle's ``kind``; a bifurcation as a BIFURCATION column (its left vessel) and a BRANCH
+    """The kernels' obstacle columns: (obstacle index, kernel kind, vessel, mesh or None) per column,
+    by the obstacle's ``kind``; a bifurcation as a BIFURCATION column (its left vessel) and a BRANCH
     column (its right one)."""
     columns = []
     for j, ob in enumerate(contact.obstacles):
         if ob.kind == "bifurcation":
             columns += [(j, BIFURCATION, ob.vessels[0]), (j, BRANCH, ob.vessels[1])]
         else:
-            columns.append((j, VESSEL, ob) if ob.kind == "vessel" else (j, None, None))
+            columns.append((j, VESSEL, ob) if ob.kind == "vessel" else (j, MESH, ob) if ob.kind == "mesh"
+                           else (j, None, None))
     return columns
+
+
+def mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """A ``MeshVessel``'s arrays as the kernels read them (``kernels.StepInputs``): integers (I,)
+    int64 (V, F, the seed grid's shape, faces, neighbours, ring offsets, ring faces, seed faces) and
+    values (M,) (vertices [m], unit face normals, vertex pseudonormals), each flattened row-major."""
+    index = np.concatenate([[len(mesh.vertices), len(mesh.faces)], mesh.grid_shape, mesh.faces.reshape(-1),
+                            mesh.neighbours.reshape(-1), mesh.ring_offsets, mesh.ring, mesh.grid_faces])
+    values = np.concatenate([mesh.vertices.reshape(-1), mesh.face_normals.reshape(-1),
+                             mesh.vertex_normals.reshape(-1)])
+    return index.astype(np.int64), values
 
 
 def kernel_arrays(contact: Contact, rod, gravity) -> dict:
     """The static contact fields of ``kernels.StepInputs`` (contact_kind, contact_geom,
-    contact_range, contact_friction, contact_points, contact_radii, contact_node) for a
-    ``Contact`` on the rod ``rod`` (a ``RodSpec``) under ``gravity`` (see ``node_parameters``):
-    one column per obstacle, a ``Bifurcation`` one per vessel, and a last SELF column with
+    contact_range, contact_friction, contact_points, contact_radii, contact_mesh_index,
+    contact_mesh_values, contact_node) for a ``Contact`` on the rod ``rod`` (a ``RodSpec``) under
+    ``gravity`` (see ``node_parameters``): one column per obstacle, a ``Bifurcation`` one per
+    vessel, a ``MeshVessel``'s arrays by ``mesh_arrays``, and a last SELF column with
     ``self_contact`` (its geom[0]: ``self_contact_gap``)."""
     columns = _columns(contact)
     o = len(columns)
@@ -102,9 +117,17 @@ def kernel_arrays(contact: Contact, rod, gravity) -> dict:
     geom = np.zeros((o, 7))
     rng = np.zeros((o, 2), dtype=np.int64)
     points, radii, start = [], [], 0
+    index, values, sizes = [], [], [0, 0]
     for c, (j, kd, vessel) in enumerate(columns):
         if vessel is None:
             kind[c], geom[c] = _GEOM[contact.obstacles[j].kind](contact.obstacles[j])
+        elif kd == MESH:
+            kind[c], rng[c] = MESH, sizes
+            geom[c, :4] = (*vessel.grid_origin, vessel.grid_cell)
+            ints, floats = mesh_arrays(vessel)
+            index.append(ints)
+            values.append(floats)
+            sizes = [sizes[0] + len(ints), sizes[1] + len(floats)]
         else:
             kind[c], rng[c] = kd, (start, len(vessel.points))
             points.append(vessel.points)
@@ -120,17 +143,21 @@ def kernel_arrays(contact: Contact, rod, gravity) -> dict:
     return dict(contact_kind=kind, contact_geom=geom, contact_range=rng, contact_friction=friction,
                 contact_points=np.ascontiguousarray(np.concatenate(points) if points else np.zeros((0, 3))),
                 contact_radii=np.ascontiguousarray(np.concatenate(radii) if radii else np.zeros(0)),
+                contact_mesh_index=np.concatenate(index) if index else np.zeros(0, dtype=np.int64),
+                contact_mesh_values=np.concatenate(values) if values else np.zeros(0),
                 contact_node=node_parameters(contact, rod, gravity))
 
 
 def initial_segments(contact: Contact, positions: np.ndarray) -> np.ndarray:
     """The tracked vessel segments (n, o) int64 at node positions (n, 3) [m], one column per
     kernel column (``kernel_arrays``): the closest segment of each vessel, a bifurcation's included,
-    by brute force (0 in the columns of other obstacles)."""
+    by brute force, the closest face of a mesh (0 in the columns of other obstacles)."""
     columns = _columns(contact)
     seg = np.zeros((len(positions), len(columns) + int(contact.self_contact)), dtype=np.int64)
-    for c, (_, _, vessel) in enumerate(columns):
-        if vessel is not None:
+    for c, (_, kd, vessel) in enumerate(columns):
+        if kd == MESH:
+            seg[:, c] = vessel.closest_faces(positions)
+        elif vessel is not None:
             seg[:, c] = closest_segments(vessel.points, positions)[0]
     return seg
 

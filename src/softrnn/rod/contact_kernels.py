@@ -11,10 +11,17 @@ import math
 from numba import njit
 from numba.extending import overload
 
-from .kernel_records import _INLINE, BIFURCATION, BRANCH, CYLINDER, PLANE, SELF, UNION_BLEND, VESSEL, absent
+from .kernel_records import _INLINE, BIFURCATION, BRANCH, CYLINDER, MESH, PLANE, SELF, UNION_BLEND, VESSEL, absent
 
 _VESSEL_WINDOW = 3
 """Segments searched either way of a node's tracked vessel segment before walking further."""
+
+_MESH_MARGIN = 1.0
+"""A node whose walk from its tracked face ends nearer than 2 rod radii plus this many seed-grid
+cells to the wall also walks from its cell's seed face (the nearer result is kept)."""
+
+_MESH_WALK = 256
+"""Most steps of the descent over a mesh's faces toward a node's closest face."""
 
 
 @njit(**_INLINE)
@@ -109,6 +116,178 @@ def _union_gap(a, o, x0, x1, x2, ra, inputs):
 
 
 @njit(**_INLINE)
+def _mesh_layout(o, inputs):
+    """Where mesh column o's arrays start in contact_mesh_index (I) and contact_mesh_values (X):
+    faces, neighbours, ring offsets, ring faces, seed grid (I); vertices, face normals, vertex
+    pseudonormals (X); and the grid's shape (``rod.contact.mesh_arrays``)."""
+    i0 = inputs.contact_range[o, 0]
+    x0 = inputs.contact_range[o, 1]
+    idx = inputs.contact_mesh_index
+    nv = idx[i0]
+    nf = idx[i0 + 1]
+    fb = i0 + 5
+    nb = fb + 3 * nf
+    ro = nb + 3 * nf
+    rg = ro + nv + 1
+    cb = rg + 3 * nf
+    return fb, nb, ro, rg, cb, x0, x0 + 3 * nv, x0 + 3 * nv + 3 * nf, idx[i0 + 2], idx[i0 + 3], idx[i0 + 4]
+
+
+@njit(**_INLINE)
+def _triangle_closest(idx, val, fb, xv, f, p0, p1, p2):
+    """Squared distance [m^2] from p to face f, its closest point q and feature (0 inside, 1 + k
+    vertex k, 4 + k edge k from vertex k to k + 1; Ericson, Real-Time Collision Detection 5.1.5)."""
+    ia = xv + 3 * idx[fb + 3 * f]
+    ib = xv + 3 * idx[fb + 3 * f + 1]
+    ic = xv + 3 * idx[fb + 3 * f + 2]
+    a0 = val[ia]
+    a1 = val[ia + 1]
+    a2 = val[ia + 2]
+    ab0 = val[ib] - a0
+    ab1 = val[ib + 1] - a1
+    ab2 = val[ib + 2] - a2
+    ac0 = val[ic] - a0
+    ac1 = val[ic + 1] - a1
+    ac2 = val[ic + 2] - a2
+    ap0 = p0 - a0
+    ap1 = p1 - a1
+    ap2 = p2 - a2
+    d1 = ab0 * ap0 + ab1 * ap1 + ab2 * ap2
+    d2 = ac0 * ap0 + ac1 * ap1 + ac2 * ap2
+    ft = 0
+    v = 0.0
+    w = 0.0
+    d3 = d1 - (ab0 * ab0 + ab1 * ab1 + ab2 * ab2)       # ab . (p - b)
+    d4 = d2 - (ac0 * ab0 + ac1 * ab1 + ac2 * ab2)       # ac . (p - b)
+    d5 = d1 - (ab0 * ac0 + ab1 * ac1 + ab2 * ac2)       # ab . (p - c)
+    d6 = d2 - (ac0 * ac0 + ac1 * ac1 + ac2 * ac2)       # ac . (p - c)
+    vc = d1 * d4 - d3 * d2
+    vb = d5 * d2 - d1 * d6
+    va = d3 * d6 - d5 * d4
+    if d1 <= 0.0 and d2 <= 0.0:
+        ft = 1
+    elif d3 >= 0.0 and d4 <= d3:
+        ft = 2
+        v = 1.0
+    elif d6 >= 0.0 and d5 <= d6:
+        ft = 3
+        w = 1.0
+    elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        ft = 4
+        v = d1 / (d1 - d3)
+    elif va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
+        ft = 5
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        v = 1.0 - w
+    elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        ft = 6
+        w = d2 / (d2 - d6)
+    else:
+        total = va + vb + vc
+        v = vb / total
+        w = vc / total
+    q0 = a0 + v * ab0 + w * ac0
+    q1 = a1 + v * ab1 + w * ac1
+    q2 = a2 + v * ab2 + w * ac2
+    e0 = p0 - q0
+    e1 = p1 - q1
+    e2 = p2 - q2
+    return e0 * e0 + e1 * e1 + e2 * e2, q0, q1, q2, ft
+
+
+@njit(**_INLINE)
+def _mesh_walk(idx, val, lay, f, stop, p0, p1, p2):
+    """The closest face to p found by descent from face f over the face adjacency: step to the
+    nearest of the faces across f's edges while one is nearer than f, and where none is, to the
+    nearest face around f's vertices (its 1-ring) while one is; stop where none is nearer, or on
+    face ``stop`` (a local minimum found before; -1: none). Returns the face, the squared distance
+    [m^2], the closest point and its feature."""
+    fb, nb, ro, rg, cb, xv, xn, xw, gx, gy, gz = lay
+    d2, q0, q1, q2, ft = _triangle_closest(idx, val, fb, xv, f, p0, p1, p2)
+    for _ in range(_MESH_WALK):
+        if f == stop:
+            break
+        best = f
+        e2 = d2
+        r0 = r1 = r2 = 0.0
+        gt = 0
+        for k in range(3):
+            g = idx[nb + 3 * f + k]
+            c2, c0, c1, cc, ct = _triangle_closest(idx, val, fb, xv, g, p0, p1, p2)
+            if c2 < e2:
+                best = g
+                e2, r0, r1, r2, gt = c2, c0, c1, cc, ct
+        if best == f:
+            for k in range(3):
+                vert = idx[fb + 3 * f + k]
+                for j in range(idx[ro + vert], idx[ro + vert + 1]):
+                    g = idx[rg + j]
+                    c2, c0, c1, cc, ct = _triangle_closest(idx, val, fb, xv, g, p0, p1, p2)
+                    if c2 < e2:
+                        best = g
+                        e2, r0, r1, r2, gt = c2, c0, c1, cc, ct
+            if best == f:
+                break
+        f = best
+        d2, q0, q1, q2, ft = e2, r0, r1, r2, gt
+    return f, d2, q0, q1, q2, ft
+
+
+@njit(**_INLINE)
+def _mesh_gap(a, o, x0, x1, x2, ra, inputs):
+    """Gap [m] and unit normal into the lumen of node a (centreline point x, rod radius ra) in mesh
+    column o: the exact distance to the closest face, signed by the pseudonormal of its closest
+    feature (face, edge: the sum of its faces' normals, vertex: angle-weighted), minus ra. The face
+    comes from walks from the node's tracked face (inputs.contact_segment[a, o], updated) and from
+    the seed grid's face of the node's cell (docs/guide/navigation.md, "Vessels from meshes")."""
+    idx = inputs.contact_mesh_index
+    val = inputs.contact_mesh_values
+    lay = _mesh_layout(o, inputs)
+    fb, nb, ro, rg, cb, xv, xn, xw, gx, gy, gz = lay
+    geom = inputs.contact_geom
+    f, d2, q0, q1, q2, ft = _mesh_walk(idx, val, lay, inputs.contact_segment[a, o], -1, x0, x1, x2)
+    cell = geom[o, 3]
+    ix = min(max(int(math.floor((x0 - geom[o, 0]) / cell)), 0), gx - 1)
+    iy = min(max(int(math.floor((x1 - geom[o, 1]) / cell)), 0), gy - 1)
+    iz = min(max(int(math.floor((x2 - geom[o, 2]) / cell)), 0), gz - 1)
+    seed = idx[cb + ix + gx * (iy + gy * iz)]
+    near = (2.0 * ra + _MESH_MARGIN * cell) ** 2
+    if seed >= 0 and seed != f:
+        e2, r0, r1, r2, et = _triangle_closest(idx, val, fb, xv, seed, x0, x1, x2)
+        if e2 < d2 or d2 < near:  # a nearer start, or a node near the wall: walk from the cell's face too
+            g, e2, r0, r1, r2, et = _mesh_walk(idx, val, lay, seed, f, x0, x1, x2)
+            if e2 < d2:
+                f, d2, q0, q1, q2, ft = g, e2, r0, r1, r2, et
+    inputs.contact_segment[a, o] = f
+    if ft == 0:
+        k = xn + 3 * f
+        m0 = val[k]
+        m1 = val[k + 1]
+        m2 = val[k + 2]
+    elif ft >= 4:
+        k = xn + 3 * f
+        g = xn + 3 * idx[nb + 3 * f + ft - 4]
+        m0 = val[k] + val[g]
+        m1 = val[k + 1] + val[g + 1]
+        m2 = val[k + 2] + val[g + 2]
+    else:
+        k = xw + 3 * idx[fb + 3 * f + ft - 1]
+        m0 = val[k]
+        m1 = val[k + 1]
+        m2 = val[k + 2]
+    c0 = x0 - q0
+    c1 = x1 - q1
+    c2 = x2 - q2
+    d = math.sqrt(d2)
+    if not d > 0.0:  # on the wall: the normal is the feature's, inward
+        size = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+        return -ra, -m0 / size, -m1 / size, -m2 / size
+    if c0 * m0 + c1 * m1 + c2 * m2 < 0.0:  # inside the lumen
+        return d - ra, c0 / d, c1 / d, c2 / d
+    return -d - ra, -c0 / d, -c1 / d, -c2 / d
+
+
+@njit(**_INLINE)
 def _friction(a, h, mu, vs, fn, ra, n0, n1, n2, R, v, w, rod):
     """Regularised Coulomb friction f_t = -mu fn v_t / max(|v_t|, v_s') at the contact point -ra n
     of node a (docs/lgvi.md §2.11): v_t the tangential velocity of that point from the staggered
@@ -162,6 +341,8 @@ def _obstacle_gap(a, o, x0, x1, x2, ra, inputs):
         return _vessel_gap(a, o, x0, x1, x2, ra, inputs)
     if kd == BIFURCATION:
         return _union_gap(a, o, x0, x1, x2, ra, inputs)
+    if kd == MESH:
+        return _mesh_gap(a, o, x0, x1, x2, ra, inputs)
     if kd == BRANCH or kd == SELF:  # part of the BIFURCATION column's gap; self-contact: ``_self_contact``
         return 1.0, 0.0, 0.0, 0.0
     q0 = x0 - geom[o, 0]

@@ -62,6 +62,7 @@ VESSEL = 3
 BIFURCATION = 4  # a union of two vessels: this column's and the next (BRANCH) column's
 BRANCH = 5  # the second vessel of the BIFURCATION in the column before it; no loads of its own
 SELF = 6  # contact between the rod's own segments (geom[0]: the least index gap of a segment pair)
+MESH = 7  # a vessel lumen bounded by a closed triangle mesh (``geometry.mesh.MeshVessel``)
 
 UNION_BLEND = 0.25
 """Blend width of a bifurcation's normal, a fraction of the rod radius: where the gaps of its two
@@ -188,28 +189,35 @@ class StepInputs(NamedTuple):
         the displacements q [m] (a leading batch axis in ``advance_batch``):
         tau = k max(0, q - (l_0 - l)) from the tendon length l at the start of each step
     contact_kind : (o,) int64 or None
-        obstacle kinds PLANE, SPHERE, CYLINDER, VESSEL, or BIFURCATION followed by a BRANCH
+        obstacle kinds PLANE, SPHERE, CYLINDER, VESSEL, MESH, or BIFURCATION followed by a BRANCH
         column (one column per vessel of a ``rod.contact.Bifurcation``), and a last SELF column
         for contact between the rod's own segments; None (default): no contact, and the kernels
         compiled for these inputs leave the contact kernels out
     contact_geom : (o, 7)
         plane: point [m], unit normal; sphere: centre [m], -, -, -, radius [m]; cylinder: point [m],
         unit axis, radius [m]; self: the least index gap j - i of a pair of segments i < j that
-        may touch; vessel, bifurcation, branch: unused
+        may touch; mesh: its seed grid's origin [m] and cell [m]; vessel, bifurcation, branch: unused
     contact_range : (o, 2) int64
         vessel, bifurcation, branch: first row and number of rows of its centreline in
-        contact_points
+        contact_points; mesh: the first entries of its arrays in contact_mesh_index and
+        contact_mesh_values
     contact_friction : (o, 2)
         friction coefficient mu [-] and slip velocity v_s [m/s] per column (a bifurcation's in both)
     contact_points : (P, 3)
         the vessels' centreline polylines [m], one after another
     contact_radii : (P,)
         the vessels' radii at those points [m]
+    contact_mesh_index : (I,) int64
+        the meshes' integer arrays, one mesh after another (``rod.contact.mesh_arrays``): V, F,
+        the seed grid's shape (3), faces (3F), face neighbours (3F), vertex ring offsets (V + 1),
+        ring faces (3F), the grid's seed faces (C, -1: none)
+    contact_mesh_values : (M,)
+        the meshes' vertices [m] (3V), unit face normals (3F) and vertex pseudonormals (3V)
     contact_node : (n, 3)
         per node: rod radius r_a [m], contact stiffness k_a [N/m], contact damping c_a [N s/m]
     contact_segment : (n, o) int64
-        per node and vessel column: the closest polyline segment, the warm start of the local search,
-        updated in place (the array of ``RodState.contact_segment``)
+        per node and vessel column: the closest polyline segment (mesh column: the closest face),
+        the warm start of the local search, updated in place (the array of ``RodState.contact_segment``)
     contact_samples : (S, s, 6)
         output: the contact force [N] and torque [N m] (world frame) of the saved nodes at the
         saved steps, rows as in ``Samples``
@@ -259,6 +267,8 @@ class StepInputs(NamedTuple):
     contact_friction: np.ndarray = np.zeros((0, 2))
     contact_points: np.ndarray = np.zeros((0, 3))
     contact_radii: np.ndarray = np.zeros(0)
+    contact_mesh_index: np.ndarray = np.zeros(0, dtype=np.int64)
+    contact_mesh_values: np.ndarray = np.zeros(0)
     contact_node: np.ndarray = np.zeros((0, 3))
     contact_segment: np.ndarray = np.zeros((0, 0), dtype=np.int64)
     contact_samples: np.ndarray = np.zeros((0, 0, 6))

@@ -56,6 +56,7 @@ from .kernel_records import HUB_DRIVEN as HUB_DRIVEN
 from .kernel_records import HUB_PUSHED as HUB_PUSHED
 from .kernel_records import HUB_TWISTED as HUB_TWISTED
 from .kernel_records import MAGNET_TOO_CLOSE as MAGNET_TOO_CLOSE
+from .kernel_records import MESH as MESH
 from .kernel_records import NEWTON_FAILED as NEWTON_FAILED
 from .kernel_records import OK as OK
 from .kernel_records import PINNED as PINNED
@@ -611,7 +612,8 @@ def _build_batch(stamp):
                            inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b],
                            inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b], inp.contact_kind,
                            inp.contact_geom, inp.contact_range, inp.contact_friction, inp.contact_points,
-                           inp.contact_radii, inp.contact_node, inp.contact_segment, inp.contact_samples,
+                           inp.contact_radii, inp.contact_mesh_index, inp.contact_mesh_values,
+                           inp.contact_node, inp.contact_segment, inp.contact_samples,
                            inp.contact_applied, inp.magnet_node, inp.magnet_body, inp.source_positions,
                            inp.source_moments, inp.source_currents, inp.magnet_positions, inp.magnet_rotations,
                            inp.magnet_fields, inp.magnet_gradients, inp.magnet_wrenches, inp.magnet_failed),

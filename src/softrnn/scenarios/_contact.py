@@ -1,12 +1,16 @@
 """The ``[contact]`` table of a scenario: the contact law's parameters and its ``[[contact.obstacles]]``
-entries (plane, sphere, cylinder, vessel, bifurcation) read into a ``softrnn.rod.contact.Contact``."""
+entries (plane, sphere, cylinder, vessel, bifurcation, mesh) read into a ``softrnn.rod.contact.Contact``."""
 
 from __future__ import annotations
+
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import SoftrnnInputError
-from ..rod.contact import Bifurcation, Contact, Cylinder, Plane, Sphere, Vessel
+from ..rod.contact import Bifurcation, Contact, Cylinder, MeshVessel, Plane, Sphere, Vessel, load_mesh
 from .reading import (
     ScenarioError,
     _Ctx,
@@ -22,7 +26,7 @@ from .reading import (
 )
 
 _CONTACT_KEYS = {
-    "obstacles": "[[contact.obstacles]] entries (kind = plane, sphere, cylinder, vessel or bifurcation)",
+    "obstacles": "[[contact.obstacles]] entries (kind = plane, sphere, cylinder, vessel, bifurcation or mesh)",
     "friction": "the Coulomb friction coefficient of the obstacles that set none (>= 0, default 0)",
     "slip_velocity": "the slip velocity of the regularised friction in m/s (> 0, default 1e-4)",
     "stiffness": "the penalty stiffness per length of rod in N/m^2 (default: from penetration)",
@@ -51,6 +55,12 @@ _OBSTACLE_KEYS = {
                                    "trunk's at the junction)",
                     "right_radius": "the right branch's inner radius in m, or a list, one per point (default: the "
                                     "trunk's at the junction)"},
+    "mesh": {"file": "a closed surface mesh (STL, OBJ, VTK/VTU, PLY), relative to the scenario file, or a shipped "
+                     "mesh's name (mesh-arch.vtu)",
+             "units": "the mesh's coordinates' unit, \"m\" or \"mm\"",
+             "inlet": "a point [x, y, z] in m in the lumen where its centreline starts (default: on the axis "
+                      "near an end of its longest path)",
+             "cell": "the contact's seed-grid cell in m (default: 2 mean edge lengths)"},
 }
 KINDS = tuple(_OBSTACLE_KEYS)
 
@@ -83,7 +93,8 @@ def read_contact(ctx: _Ctx, raw) -> Contact:
 
 
 def _obstacle(ctx: _Ctx, raw, path: str):
-    """One ``[[contact.obstacles]]`` entry as a ``Plane``, ``Sphere``, ``Cylinder`` or ``Vessel``."""
+    """One ``[[contact.obstacles]]`` entry as a ``Plane``, ``Sphere``, ``Cylinder``, ``Vessel``,
+    ``Bifurcation`` or ``MeshVessel``."""
     if not isinstance(raw, dict):
         raise ctx.invalid(path, raw, "a table with kind = " + ", ".join(KINDS))
     kind = _Table(ctx, {"kind": raw["kind"]} if "kind" in raw else {}, path,
@@ -100,6 +111,8 @@ def _obstacle(ctx: _Ctx, raw, path: str):
                             t.get("radius", number("m", positive=True)), friction=friction)
         if kind == "bifurcation":
             return _bifurcation(ctx, t, friction)
+        if kind == "mesh":
+            return _mesh(ctx, t, friction)
         points, radius = _vessel(ctx, t)
         return Vessel(points, radius, friction=friction)
     except ScenarioError:
@@ -155,6 +168,33 @@ def _bifurcation(ctx: _Ctx, t: _Table, friction) -> Bifurcation:
     return Bifurcation(lines["trunk"], lines["left"], lines["right"], radius, friction=friction, **branch)
 
 
+def _mesh(ctx: _Ctx, t: _Table, friction) -> MeshVessel:
+    """A mesh entry: the surface file (relative to the scenario file) read in its stated units."""
+    name = t.get("file", string())
+    if ctx.base is None and not Path(name).is_absolute():
+        raise ctx.invalid(t.key("file"), name, "an absolute path (a scenario given as text has no folder for files)")
+    target = Path(name) if Path(name).is_absolute() else Path(str(ctx.base.joinpath(name)))
+    shipped = Path(str(resources.files("softrnn").joinpath("scenarios", name)))
+    if not target.exists() and Path(name).name == name and shipped.is_file():
+        target = shipped                  # a shipped mesh by its name (a copied scenario keeps working)
+    units = t.get("units", string(("m", "mm")))
+    options = {"inlet": t.get("inlet", vec3("m")) if t.has("inlet") else None,
+               "cell": t.get("cell", number("m", positive=True)) if t.has("cell") else None}
+    try:
+        stat = target.stat()
+    except OSError:
+        return load_mesh(target, units, friction=friction, where=t.key("file"), **options)
+    return _cached_mesh(str(target), stat.st_mtime_ns, stat.st_size, units, friction, options["inlet"],
+                        options["cell"], t.key("file"))
+
+
+@lru_cache(maxsize=4)
+def _cached_mesh(path: str, mtime_ns: int, size: int, units: str, friction, inlet, cell, where: str) -> MeshVessel:
+    """``load_mesh``, kept for a file read again unchanged (a scenario's variants each read it; the
+    ``MeshVessel`` is immutable)."""
+    return load_mesh(path, units, friction=friction, inlet=inlet, cell=cell, where=where)
+
+
 def describe(contact: Contact) -> list[str]:
     """Lines for a scenario summary: the law's parameters and one line per obstacle."""
     law = f"friction {contact.friction:g}, slip velocity {contact.slip_velocity:g} m/s"
@@ -182,6 +222,10 @@ def _obstacle_text(ob) -> str:
         return f"sphere at {v(ob.center)} m, radius {ob.radius:.4g} m"
     if isinstance(ob, Cylinder):
         return f"cylinder through {v(ob.point)} m, axis {v(ob.axis)}, radius {ob.radius:.4g} m"
+    if isinstance(ob, MeshVessel):
+        low, high = ob.vertices.min(axis=0), ob.vertices.max(axis=0)
+        return (f"mesh {Path(ob.file).name if ob.file else '(arrays)'}: {len(ob.faces)} faces, from {v(low)} to "
+                f"{v(high)} m")
     if isinstance(ob, Bifurcation):
         k = ob.trunk_rows - 1
         trunk, (left, right) = ob.trunk, (vessel.points[k:] for vessel in ob.vessels)
