@@ -15,8 +15,8 @@ from softrnn.io.schema import contact_record
 from softrnn.learned.baselines import free_run
 from softrnn.learned.whole.config import DynamicConfig, conv_channels
 from softrnn.learned.whole.encoding import make_encoding
-from softrnn.learned.whole.obstacles import ContactFeatures
-from softrnn.rod import Contact, Plane, Sphere
+from softrnn.learned.whole.obstacles import ContactFeatures, vessel_gap_into
+from softrnn.rod import Contact, Plane, Sphere, Vessel
 
 from helpers import run_cli
 
@@ -128,6 +128,23 @@ def test_the_gap_and_normal_are_those_of_the_nearest_obstacle_within_reach():
     np.testing.assert_allclose(out[0, 1], [d - 0.05 - RADIUS, -0.04 / d, 0.0, 0.1 / d], atol=1e-15)
     np.testing.assert_array_equal(out[0, 2], [0.3, 0.0, 0.0, 0.0])      # out of reach: capped, no normal
     assert ContactFeatures(None, ref, RADIUS, far=0.3)(states)[..., 0].tolist() == [[0.3] * 3] * 2
+
+
+def test_the_compiled_vessel_gap_is_the_vessels_own():
+    bend = np.array([[-0.1, 0.0, 0.0], [0.0, 0.0, 0.0], [0.03, 0.01, 0.0], [0.05, 0.04, 0.0], [0.06, 0.1, 0.0]])
+    vessel = Vessel(bend, np.array([0.003, 0.003, 0.004, 0.003, 0.003]))
+    rng = np.random.default_rng(0)
+    x = vessel.points[rng.integers(0, len(vessel.points), 200)] + rng.normal(0.0, 0.003, (200, 3))
+    x[:2] = [[-0.2, 0.0, 0.0], [0.0, 0.001, 0.0]]         # beyond the open end; inside, near the wall's axis
+    gap, normal = np.empty(200), np.empty((200, 3))
+    vessel_gap_into(vessel.points, vessel.radii, x, RADIUS, gap, normal)
+    want_gap, want_normal = vessel.gap(x, np.full(200, RADIUS))
+    assert gap[0] == np.inf and np.isfinite(gap[1]) and np.isfinite(gap).sum() > 150
+    np.testing.assert_allclose(gap, want_gap, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(normal, want_normal, rtol=0, atol=1e-12)
+    states = np.pad(x, ((0, 0), (0, 3)))
+    features = ContactFeatures(Contact(obstacles=vessel), np.zeros((200, 3)), RADIUS, far=0.3)(states)
+    np.testing.assert_allclose(features[:, 0], np.minimum(want_gap, 0.3), rtol=0, atol=1e-15)
 
 
 def test_the_contact_inputs_follow_the_wrench_and_precede_the_clamps_path(data):
