@@ -24,6 +24,7 @@ torch = pytest.importorskip("torch")
 
 from softrnn.learned.whole import training  # noqa: E402
 from softrnn.learned.whole.artifact import engine_of, load_dynamic, save_dynamic  # noqa: E402
+from softrnn.learned.whole.network import contact_inputs  # noqa: E402
 
 DT = 0.01
 RADIUS = 0.004
@@ -225,7 +226,7 @@ def test_the_torch_free_run_measures_the_contact_inputs_on_its_own_state(trained
     traj = enc.trajectory(data[2])
     hist = torch.as_tensor(traj.states[None, 2:5], dtype=torch.float32)
     loads = torch.as_tensor(traj.loads[None, 4:14], dtype=torch.float32)
-    measure = training._contact_of([traj], np.array([[0, 2]]))
+    measure = contact_inputs([traj], np.array([[0, 2]]))
     with torch.no_grad():
         got = result.net.rollout(hist, loads, None, measure)[0].double().numpy()
     want = free_run(engine_of(result.net), traj, None, 5, 15)

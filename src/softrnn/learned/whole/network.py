@@ -45,6 +45,7 @@ system instead of like a network.
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -64,6 +65,25 @@ def feedback_force(hist: torch.Tensor, feedback, k: int, width: int = 6) -> torc
     x, prev = hist[:, -1, :, :3], hist[:, -2, :, :3]
     f = gains[..., :1] * (targets[:, k] - x) - gains[..., 1:] * (x - prev) / dt
     return torch.cat([f, torch.zeros(f.shape[:-1] + (width - 3,), dtype=f.dtype)], dim=-1)
+
+
+def contact_inputs(trajectories, picks: np.ndarray):
+    """The contact inputs of the picked windows' trajectories for ``DynamicNet.rollout``: a function
+    of states (B, M, 6) (a tensor) giving (B, M, 4), one call per set of obstacles; None without."""
+    if trajectories[int(picks[0, 0])].contact is None:
+        return None
+    groups = {}
+    for row, (i, _) in enumerate(picks):
+        features = trajectories[int(i)].contact
+        groups.setdefault(features.key, (features, []))[1].append(row)
+
+    def measure(states: torch.Tensor) -> torch.Tensor:
+        x = states.double().numpy()
+        out = np.empty(x.shape[:-1] + (4,))
+        for features, rows in groups.values():
+            out[rows] = features(x[rows])
+        return torch.as_tensor(out, dtype=torch.float32)
+    return measure
 
 
 def _conv_stack(n_in: int, config: DynamicConfig) -> nn.Sequential:
@@ -139,6 +159,12 @@ class DynamicNet(nn.Module):
             return None
         first = 6 * self.config.history
         return slice(first + self.contact_columns.start, first + self.contact_columns.stop)
+
+    @classmethod
+    def of(cls, config: DynamicConfig, encoding, scales) -> DynamicNet:
+        """A net of ``config`` on ``encoding``'s nodes (an ``Encoding``), scaled by ``scales``."""
+        return cls(config, encoding.node_features(), encoding.fixed, scales, encoding.prescribed,
+                   encoding.contact_columns)
 
     # ---------------------------------------------------------------- saved keys of the scales
     def _save_to_state_dict(self, destination, prefix, keep_vars):

@@ -38,7 +38,7 @@ from ..threads import torch_threads
 from .artifact import engine_of
 from .config import DynamicConfig, linear_config, load_channels
 from .encoding import Encoding, Trajectory
-from .network import DynamicNet, feedback_force
+from .network import DynamicNet, contact_inputs, feedback_force
 
 CHECKPOINT_EVERY = 100
 VALIDATION_STEPS = 1000
@@ -139,25 +139,6 @@ def _windows(trajectories: list[Trajectory], length: int) -> np.ndarray:
         raise SoftrnnInputError(f"training data: every trajectory is shorter than {length} model steps "
                                 "(history + 1); give longer trajectories or a smaller model_dt")
     return np.concatenate(rows)
-
-
-def _contact_of(trajectories, picks: np.ndarray):
-    """The contact inputs of the picked windows' trajectories for ``DynamicNet.rollout``: a function
-    of states (B, M, 6) (a tensor) giving (B, M, 4), one call per set of obstacles; None without."""
-    if trajectories[int(picks[0, 0])].contact is None:
-        return None
-    groups = {}
-    for row, (i, _) in enumerate(picks):
-        features = trajectories[int(i)].contact
-        groups.setdefault(features.key, (features, []))[1].append(row)
-
-    def measure(states: torch.Tensor) -> torch.Tensor:
-        x = states.double().numpy()
-        out = np.empty(x.shape[:-1] + (4,))
-        for features, rows in groups.values():
-            out[rows] = features(x[rows])
-        return torch.as_tensor(out, dtype=torch.float32)
-    return measure
 
 
 def _batch(trajectories, picks: np.ndarray, H: int, K: int):
@@ -481,7 +462,7 @@ def _loss(net: DynamicNet, trajectories, windows, config: DynamicConfig, gen, st
         sigma = config.noise * net.velocity_scale * (net.dv_scale > 0) / math.sqrt(H)
         eps = torch.randn(hist.shape, generator=gen) * sigma
         hist = hist + torch.cumsum(eps, dim=1) * mask
-    contact = _contact_of(trajectories, picks)
+    contact = contact_inputs(trajectories, picks)
     err = (net.rollout(hist, loads, feedback, contact) - future) / net.velocity_scale * mask
     return (err ** 2).sum() / (float(mask.sum()) * 6 * config.batch * K)
 
@@ -525,12 +506,6 @@ def _average(loop: _Loop, net, decay: float) -> None:
                 loop.ema[k].copy_(v)
 
 
-def _net(config: DynamicConfig, encoding: Encoding, sc: Scales) -> DynamicNet:
-    """A ``DynamicNet`` of ``config`` on ``encoding``'s nodes, scaled by ``sc``."""
-    return DynamicNet(config, encoding.node_features(), encoding.fixed, sc, encoding.prescribed,
-                      encoding.contact_columns)
-
-
 def _start(net, trajectories, encoding, config, sc, validation=()):
     """``net``'s linear term fitted by ridge from ``config.ridge`` up (its penalty chosen on
     ``validation`` free runs, if any), ``net``'s envelope set to the data's feature range, and the
@@ -539,13 +514,13 @@ def _start(net, trajectories, encoding, config, sc, validation=()):
     best linear model on validation wherever the network starts (a network may start from a stiffer
     fit without weakening the baseline it is measured against). Fit info: ``ridge``,
     ``linear_radius`` and ``ridge_validation`` of the network's start; ``baseline_ridge``."""
-    baseline = _net(linear_config(config), encoding, sc)
+    baseline = DynamicNet.of(linear_config(config), encoding, sc)
     normal, (lo, hi) = _normal_equations(baseline, trajectories)
     cols = net.conv_cols.numpy()
     net.set_envelope(torch.as_tensor(lo[cols], dtype=torch.float32), torch.as_tensor(hi[cols], dtype=torch.float32))
     start = baseline
     if config.load_ridge is not None:       # the network's start has its own penalty on the loads
-        start = _net(replace(linear_config(config), load_ridge=config.load_ridge), encoding, sc)
+        start = DynamicNet.of(replace(linear_config(config), load_ridge=config.load_ridge), encoding, sc)
     fit = _fit_linear(start, normal, config.ridge, validation)
     if net.linear is not None:
         net.linear.load_state_dict(start.linear.state_dict())
@@ -575,7 +550,7 @@ def _train(trajectories, encoding, config, validation, progress, checkpoint) -> 
     torch.manual_seed(config.seed)
     windows = _windows(trajectories, config.history + config.unroll)
     sc = scales(trajectories, wrench=encoding.drive != "actuation")
-    net = _net(config, encoding, sc)
+    net = DynamicNet.of(config, encoding, sc)
     start = time.perf_counter()
     baseline, fit = _start(net, trajectories, encoding, config, sc, validation)
     opt, gen = _optimizer(net, config), torch.Generator().manual_seed(config.seed)
@@ -585,7 +560,7 @@ def _train(trajectories, encoding, config, validation, progress, checkpoint) -> 
         loop = _restore_checkpoint(path, net, opt, gen)
     shadow = None
     if config.ema > 0:
-        shadow = _net(config, encoding, sc)
+        shadow = DynamicNet.of(config, encoding, sc)
     if loop.step == 0:
         _validate(net, loop, validation)
     while loop.step < config.steps:
