@@ -134,6 +134,10 @@ def _add_train(p):
     p.add_argument("--ignore-obstacles", dest="obstacles", action="store_false", default=None,
                    help="report the model's free runs as they are, even where they pass through the obstacles the "
                         "data were simulated with (default: a reported node inside one is moved back to its surface)")
+    p.add_argument("--contact-inputs", dest="contact", action="store_true", default=None,
+                   help="where the data record obstacles, give the network's correction each kept node's gap to "
+                        "the nearest obstacle and its normal, measured on the model's own state at every step "
+                        "(default: off)")
     p.add_argument("--threads", type=int, default=None, metavar="T",
                    help="PyTorch threads while training (default: PyTorch's own choice)")
     again = p.add_mutually_exclusive_group()
@@ -159,7 +163,7 @@ def _config(args):
 
     names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed",
              "ema", "feedback", "drive", "envelope", "prior_tau", "ridge", "load_ridge", "linear_lr", "conv_reads",
-             "start_fraction", "prescribed", "obstacles")
+             "start_fraction", "prescribed", "obstacles", "contact")
     given = {k: getattr(args, k) for k in names if getattr(args, k) is not None}
     return DynamicConfig(**{k: (None if v is _OFF else v) for k, v in given.items()})
 

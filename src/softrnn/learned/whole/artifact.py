@@ -60,7 +60,7 @@ def encoding_to_dict(enc: Encoding) -> dict:
             "feedback": bool(enc.feedback),
             **({"drive": enc.drive, "channels": list(enc.channels)} if enc.drive != "wrench" else {}),
             **({"prescribed": enc.prescribed.tolist()} if enc.prescribed.any() else {}),
-            **({"obstacles": True} if enc.obstacles else {})}
+            **({"obstacles": True} if enc.obstacles else {}), **({"contact": True} if enc.contact else {})}
 
 
 def encoding_from_dict(d: dict) -> Encoding:
@@ -71,7 +71,7 @@ def encoding_from_dict(d: dict) -> Encoding:
                     fixed=np.asarray(d["fixed"], dtype=bool), feedback=bool(d.get("feedback", False)),
                     drive=str(d.get("drive", "wrench")), channels=tuple(d.get("channels", ())),
                     prescribed=None if "prescribed" not in d else np.asarray(d["prescribed"], dtype=bool),
-                    obstacles=bool(d.get("obstacles", False)))
+                    obstacles=bool(d.get("obstacles", False)), contact=bool(d.get("contact", False)))
 
 
 def save_dynamic(folder, trained, meta: dict | None = None) -> None:

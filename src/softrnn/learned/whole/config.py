@@ -97,6 +97,12 @@ class DynamicConfig:
     (``softrnn.learned.whole.obstacles``; in evaluations, rollouts and the validation that picks
     the weights; the model steps on its own states, and the training loss and an exported step do
     not project). False: the reported nodes may lie inside the obstacles."""
+    contact: bool = False
+    """Where the data record obstacles (runs simulated with contact), each kept node's signed gap to
+    the nearest obstacle and its normal there are inputs of the network's correction (4 load
+    channels, measured on the model's own state at every step: ``softrnn.learned.whole.obstacles``
+    ``ContactFeatures``); the linear term does not read them. False: the model knows the obstacles
+    only through the motion the data show near them."""
     envelope: float | None = 0.25
     """Where the network's correction acts (``DynamicNet.envelope_gate``): fully on a node whose
     features lie within the training data's range of each channel, fading linearly to zero at
@@ -122,7 +128,7 @@ class DynamicConfig:
         integer("kernel", self.kernel, 1)
         if self.kernel % 2 == 0:
             raise bad("kernel", self.kernel, "an odd kernel size (1, 3, 5, ...)")
-        for name in ("linear", "conv", "feedback", "prescribed", "obstacles"):
+        for name in ("linear", "conv", "feedback", "prescribed", "obstacles", "contact"):
             if not isinstance(getattr(self, name), bool):
                 raise bad(name, getattr(self, name), "true or false")
         if not (self.linear or self.conv or self.memory == "lstm"):
@@ -154,7 +160,7 @@ class DynamicConfig:
 
     def to_dict(self) -> dict:
         """The fields as a dict (model.json's ``config``); ``drive``, ``start_fraction``,
-        ``load_ridge``, ``prescribed`` and ``obstacles`` only when they are not their defaults (so
+        ``load_ridge``, ``prescribed``, ``obstacles`` and ``contact`` only when they are not their defaults (so
         models, checkpoints and reproduce step files written before them are recorded, and
         resumed, as before)."""
         d = asdict(self)
@@ -176,7 +182,7 @@ class DynamicConfig:
 
 
 _LATER_DEFAULTS = {"drive": "wrench", "start_fraction": 0.0, "load_ridge": None, "prescribed": True,
-                   "obstacles": True}
+                   "obstacles": True, "contact": False}
 """Fields added after models were first saved, left out of ``to_dict`` at their defaults."""
 
 
@@ -213,10 +219,11 @@ def n_channels(history: int, loads: int = 6) -> int:
     return 6 + 6 * (history - 1) + loads + N_CONST
 
 
-def conv_channels(history: int, reads: str = "all", loads: int = 6) -> list[int]:
+def conv_channels(history: int, reads: str = "all", loads: int = 6, contact: slice | None = None) -> list[int]:
     """The feature columns the convolution (and the LSTM cell) read: every one but the ``loads``
     load channels, with ``reads = "displacements"`` also none of the rotation columns of the state
-    and velocities, with ``reads = "loads"`` every one."""
+    and velocities, with ``reads = "loads"`` every one; ``contact``: the contact inputs among the
+    load channels (``Encoding.contact_columns``), read whatever ``reads`` says."""
     C = n_channels(history, loads)
     cut = load_channels(history, loads)
     if reads == "loads":
@@ -224,6 +231,8 @@ def conv_channels(history: int, reads: str = "all", loads: int = 6) -> list[int]
     cols = [c for c in range(C) if not cut.start <= c < cut.stop]
     if reads == "displacements":
         cols = [c for c in cols if c >= cut.stop or c % 6 < 3]
+    if contact is not None:
+        cols = sorted(cols + list(range(cut.start + contact.start, cut.start + contact.stop)))
     return cols
 
 

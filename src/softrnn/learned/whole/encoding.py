@@ -23,6 +23,12 @@ known: its change of state over each model step (6 numbers per prescribed node) 
 kept node's load channels, and a model step sets the node to its last state plus that change, so in
 a free run it follows its recorded path exactly and the other nodes are driven by it.
 
+**Contact inputs** (``Encoding.contact``): where the data record obstacles, each kept node's signed
+gap to the nearest obstacle and its normal (``obstacles.ContactFeatures``, 4 channels) follow the
+wrench and actuation channels, before the prescribed nodes' ones. A free run measures them on its
+own state at every step (``Trajectory.inputs``); the network's correction reads them, its linear
+term does not.
+
 Decoding interpolates displacements and rotation vectors along the node index with a cubic spline,
 so every node gets a pose and orientations stay unit quaternions by construction.
 """
@@ -39,7 +45,7 @@ from ...errors import SoftrnnInputError, bad
 from ...io.schema import HUB_CHANNELS, hub_inputs
 from .config import path_columns, resolve_stride
 from .feedback import feedback_of, moving_clamps
-from .obstacles import ObstacleProjection, rod_radius
+from .obstacles import CONTACT_CHANNELS, ContactFeatures, ObstacleProjection, rod_radius
 
 FIXED_TOLERANCE_M = 1e-9
 """A kept node whose position never moves by more than this [m], and whose orientation never turns
@@ -100,14 +106,20 @@ class Trajectory:
     feedback: object = None
     prescribed: tuple = ()
     projection: object = None
+    contact: object = None
+    contact_columns: slice | None = None
 
     def inputs(self, hist: np.ndarray, k: int) -> np.ndarray:
         """The loads (M, L) of model step ``k`` given the history ``hist`` (H, M, 6) ending at state
-        k: the recorded loads plus the feedback laws' forces from ``hist``'s last two states."""
-        if self.feedback is None:
+        k: the recorded loads plus the feedback laws' forces from ``hist``'s last two states, and the
+        contact inputs (``contact``, a ``ContactFeatures``) measured on ``hist``'s last state."""
+        if self.feedback is None and self.contact is None:
             return self.loads[k]
         out = np.array(self.loads[k], dtype=np.float64)
-        out[:, :6] += self.feedback.force(hist[-1], hist[-2], k)
+        if self.feedback is not None:
+            out[:, :6] += self.feedback.force(hist[-1], hist[-2], k)
+        if self.contact is not None:
+            out[:, self.contact_columns] = self.contact(hist[-1])
         return out
 
     def forced_loads(self) -> np.ndarray:
@@ -170,6 +182,9 @@ class Encoding:
     prescribed : ndarray (M,) bool or None
         kept nodes moved along a prescribed path (a moving clamp): inputs, not predicted (None:
         none)
+    contact : bool
+        each kept node's gap to the nearest obstacle and its normal are load channels
+        (``contact_columns``; the data's recorded obstacles, none where a data set has none)
     obstacles : bool
         keep the predicted nodes of a free run out of a data set's obstacles (its recorded
         contact; ``softrnn.learned.whole.obstacles``)
@@ -196,6 +211,7 @@ class Encoding:
     channels: tuple = ()
     prescribed: np.ndarray | None = None
     obstacles: bool = False
+    contact: bool = False
 
     def __post_init__(self):
         object.__setattr__(self, "channels", tuple(str(a) for a in self.channels))
@@ -221,9 +237,23 @@ class Encoding:
 
     @property
     def load_width(self) -> int:
-        """L, load channels per kept node: 6 (wrench), m (actuation) or 6 + m (both), and 6 more per
-        prescribed node."""
-        return (0 if self.drive == "actuation" else 6) + len(self.channels) + 6 * int(self.prescribed.sum())
+        """L, load channels per kept node: 6 (wrench), m (actuation) or 6 + m (both), 4 more with
+        contact inputs and 6 more per prescribed node."""
+        return ((0 if self.drive == "actuation" else 6) + len(self.channels) + self.n_contact
+                + 6 * int(self.prescribed.sum()))
+
+    @property
+    def n_contact(self) -> int:
+        """The contact input channels per kept node: 4 with ``contact``, else 0."""
+        return CONTACT_CHANNELS if self.contact else 0
+
+    @property
+    def contact_columns(self) -> slice | None:
+        """Where the contact inputs sit among the load channels (before the prescribed nodes'), or None."""
+        if not self.contact:
+            return None
+        end = self.load_width - 6 * int(self.prescribed.sum())
+        return slice(end - CONTACT_CHANNELS, end)
 
     @property
     def prescribed_columns(self) -> tuple:
@@ -315,6 +345,10 @@ class Encoding:
         if self.drive != "wrench":
             act = self.actuation(dataset, n_steps, k)                         # (S, M, m)
             loads = act if self.drive == "actuation" else np.concatenate([loads, act], axis=-1)
+        contact = None
+        if self.contact:
+            contact, gaps = self.contact_inputs(dataset, states)
+            loads = np.concatenate([loads, gaps], axis=-1)
         if self.prescribed.any():
             loads = np.concatenate([loads, self.path_inputs(states)], axis=-1)
         projection = None
@@ -322,7 +356,15 @@ class Encoding:
             projection = ObstacleProjection(dataset.contact, self.ref_positions[self.kept], rod_radius(dataset),
                                             ~(self.fixed | self.prescribed))
         return Trajectory(time=time, states=states, loads=loads, name=name, feedback=fb,
-                          prescribed=self.prescribed_columns, projection=projection)
+                          prescribed=self.prescribed_columns, projection=projection, contact=contact,
+                          contact_columns=self.contact_columns)
+
+    def contact_inputs(self, dataset, states: np.ndarray) -> tuple:
+        """(the data set's ``ContactFeatures``, their values along ``states`` (S, M, 6): (S, M, 4)); a
+        data set without obstacles has every node out of reach."""
+        radius = 0.0 if dataset.contact is None else rod_radius(dataset)
+        features = ContactFeatures(dataset.contact, self.ref_positions[self.kept], radius, self.length)
+        return features, features(states)
 
     def path_inputs(self, states: np.ndarray) -> np.ndarray:
         """The prescribed nodes' change of state over each model step, states (S, M, 6) ->
@@ -369,7 +411,7 @@ def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
 
 def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: float,
                   feedback: bool = False, drive: str = "wrench", prescribed: bool = False,
-                  obstacles: bool = False) -> Encoding:
+                  obstacles: bool = False, contact: bool = False) -> Encoding:
     """The encoding for training on ``datasets`` (each holding every node, the same saved step):
     the reference pose is the first sample of the first one; fixed nodes are those that never move;
     ``feedback``: PD laws act on the model's state (``Encoding.feedback``; 'wrench' drive only);
@@ -378,7 +420,8 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
     ``prescribed``: the clamps the data's scenario moves along a path (``moving_clamps``, the same
     in every data set) are inputs, not predicted, and always kept (``Encoding.prescribed``);
     ``obstacles``: free runs keep out of a data set's recorded obstacles, where the first data set
-    has some (``Encoding.obstacles``)."""
+    has some (``Encoding.obstacles``); ``contact``: each kept node's gap and normal to the nearest
+    obstacle are inputs, where the first data set has obstacles (``Encoding.contact``)."""
     if not datasets:
         raise SoftrnnInputError("no training data: give at least one trajectory")
     first = datasets[0]
@@ -410,7 +453,8 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
                     ref_positions=probe.ref_positions, ref_quaternions=probe.ref_quaternions,
                     fixed=fixed, feedback=feedback, drive=drive,
                     channels=channels, prescribed=np.isin(probe.kept, paths) & ~fixed,
-                    obstacles=bool(obstacles) and first.contact is not None)
+                    obstacles=bool(obstacles) and first.contact is not None,
+                    contact=bool(contact) and first.contact is not None)
 
 
 def _channels(names, drive: str) -> tuple:

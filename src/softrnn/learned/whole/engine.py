@@ -120,7 +120,10 @@ class DynamicEngine:
         self._f[:, 6 * H + L:] = self.node_features
         self._scale = np.concatenate([1.0 / self.state_scale] + [1.0 / self.velocity_scale] * (H - 1)
                                      + [1.0 / self.load_scale]).astype(dt)
-        self._keep = np.asarray(conv_channels(H, config.conv_reads, L))
+        contact = None                  # the contact inputs among the loads (DynamicNet.contact_columns), if any
+        if "contact_columns" in w:
+            contact = slice(*(int(v) for v in w["contact_columns"]))
+        self._keep = np.asarray(conv_channels(H, config.conv_reads, L, contact))
         self.envelope = None            # the correction's input range (DynamicNet.set_envelope), if any
         if "env_lo" in w:
             self.envelope = tuple(w[k].astype(dt) for k in ("env_lo", "env_hi", "env_inv"))

@@ -89,8 +89,9 @@ def step_net(model: LoadedDynamic) -> DynamicNet:
     w = model.weights
     scales = Scales(**{key: np.asarray(w[key]) for key in SCALE_KEYS.values()})
     prescribed = np.asarray(w["prescribed"], dtype=bool) if "prescribed" in w else None
+    contact = slice(*(int(v) for v in w["contact_columns"])) if "contact_columns" in w else None
     net = DynamicNet(model.config, np.asarray(w["node_features"]), np.asarray(w["fixed"], dtype=bool), scales,
-                     prescribed)
+                     prescribed, contact)
     state = {k: torch.as_tensor(np.asarray(v)) for k, v in w.items()}
     state["fixed"] = state["fixed"].to(torch.bool)
     for key, value in net.state_dict().items():     # a model saved before the envelope: not clipped
@@ -192,6 +193,10 @@ def _load_units(enc) -> str:
     act = ", ".join(f"{n} (column {first + j})" for j, n in enumerate(enc.channels))
     act = f"the mean actuation input over the model step, the same at every kept node, in its unit: {act}"
     text = wrench if enc.drive == "wrench" else act if enc.drive == "actuation" else f"{wrench}, then {act}"
+    if enc.contact:
+        c = enc.contact_columns
+        text += (f", then the contact inputs measured on the current state (columns {c.start}-{c.stop - 1}): the "
+                 "gap of the rod's surface to the nearest obstacle (m, at most the rod's length) and its unit normal")
     paths = [f"node {int(enc.kept[m])} (columns {c}-{c + 5})" for m, c in enc.prescribed_columns]
     if paths:
         text += (", then the change of each prescribed node's state over the coming model step (m, then rad; "

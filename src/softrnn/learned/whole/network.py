@@ -24,6 +24,13 @@ its next state is x plus its change over the step, read from its load channels.
   convolution may read the loads too (``conv_reads = "loads"``). With ``bound`` > 0 the correction
   is limited to +-bound by a tanh.
 
+**Contact inputs** (``contact``: each kept node's gap to the nearest obstacle and its normal, 4
+load channels, ``softrnn.learned.whole.obstacles.ContactFeatures``): the correction reads them, the
+linear term never does (their weights stay zero: a gap is not linear in the state). In a free run
+they are measured on the run's own state at every step (``rollout``'s ``contact``). The envelope
+clips them to the data's range widened by its margin but does not fade the correction on them: the
+correction is needed most where a node has gone deeper into a wall than the data ever did.
+
 With ``memory = "lstm"`` a per-node LSTM cell (shared along the rod, ``lstm_step``) also carries a
 hidden state from step to step and feeds the convolution.
 
@@ -38,6 +45,7 @@ system instead of like a network.
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -57,6 +65,25 @@ def feedback_force(hist: torch.Tensor, feedback, k: int, width: int = 6) -> torc
     x, prev = hist[:, -1, :, :3], hist[:, -2, :, :3]
     f = gains[..., :1] * (targets[:, k] - x) - gains[..., 1:] * (x - prev) / dt
     return torch.cat([f, torch.zeros(f.shape[:-1] + (width - 3,), dtype=f.dtype)], dim=-1)
+
+
+def contact_inputs(trajectories, picks: np.ndarray):
+    """The contact inputs of the picked windows' trajectories for ``DynamicNet.rollout``: a function
+    of states (B, M, 6) (a tensor) giving (B, M, 4), one call per set of obstacles; None without."""
+    if trajectories[int(picks[0, 0])].contact is None:
+        return None
+    groups = {}
+    for row, (i, _) in enumerate(picks):
+        features = trajectories[int(i)].contact
+        groups.setdefault(features.key, (features, []))[1].append(row)
+
+    def measure(states: torch.Tensor) -> torch.Tensor:
+        x = states.double().numpy()
+        out = np.empty(x.shape[:-1] + (4,))
+        for features, rows in groups.values():
+            out[rows] = features(x[rows])
+        return torch.as_tensor(out, dtype=torch.float32)
+    return measure
 
 
 def _conv_stack(n_in: int, config: DynamicConfig) -> nn.Sequential:
@@ -86,7 +113,7 @@ class DynamicNet(nn.Module):
     keys (``training.scales``).
     """
 
-    def __init__(self, config: DynamicConfig, node_features, fixed, scales, prescribed=None):
+    def __init__(self, config: DynamicConfig, node_features, fixed, scales, prescribed=None, contact=None):
         super().__init__()
         self.config = config
         self.register_buffer("node_features", torch.as_tensor(node_features, dtype=torch.float32))
@@ -100,9 +127,10 @@ class DynamicNet(nn.Module):
         C = n_channels(config.history, L)
         self.n_kept, self.n_in, self.load_width = M, C, L
         self.prescribed_columns = path_columns(presc.tolist(), L)
+        self.contact_columns = None if contact is None else slice(int(contact.start), int(contact.stop))
         self.linear = nn.Linear(M * C, M * 6) if config.linear else None
-        self.register_buffer("conv_cols", torch.as_tensor(conv_channels(config.history, config.conv_reads, L)),
-                             persistent=False)
+        self.register_buffer("conv_cols", torch.as_tensor(conv_channels(config.history, config.conv_reads, L,
+                                                                        self.contact_columns)), persistent=False)
         G = int(self.conv_cols.numel())
         if config.envelope is not None:     # no clipping until set_envelope (training) or load_state_dict
             self.register_buffer("env_lo", torch.full((G,), -torch.inf))
@@ -118,6 +146,25 @@ class DynamicNet(nn.Module):
         if self.linear is not None:
             nn.init.zeros_(self.linear.weight)
             nn.init.zeros_(self.linear.bias)
+            if self.contact_columns is not None:     # the linear term never reads the contact inputs
+                keep = torch.ones(M, C)
+                keep[:, self.contact_feature_columns] = 0.0
+                keep = keep.reshape(1, -1)
+                self.linear.weight.register_hook(lambda grad: grad * keep)
+
+    @property
+    def contact_feature_columns(self) -> slice | None:
+        """Where the contact inputs sit among a node's features (C,), or None."""
+        if self.contact_columns is None:
+            return None
+        first = 6 * self.config.history
+        return slice(first + self.contact_columns.start, first + self.contact_columns.stop)
+
+    @classmethod
+    def of(cls, config: DynamicConfig, encoding, scales) -> DynamicNet:
+        """A net of ``config`` on ``encoding``'s nodes (an ``Encoding``), scaled by ``scales``."""
+        return cls(config, encoding.node_features(), encoding.fixed, scales, encoding.prescribed,
+                   encoding.contact_columns)
 
     # ---------------------------------------------------------------- saved keys of the scales
     def _save_to_state_dict(self, destination, prefix, keep_vars):
@@ -130,30 +177,44 @@ class DynamicNet(nn.Module):
             destination[prefix + SCALE_KEYS.get(name, name)] = value
         if self.prescribed_columns:
             destination[prefix + "prescribed"] = self.prescribed if keep_vars else self.prescribed.detach()
+        if self.contact_columns is not None:
+            destination[prefix + "contact_columns"] = torch.tensor([self.contact_columns.start,
+                                                                    self.contact_columns.stop])
 
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
         """As ``nn.Module``'s, reading the scale buffers from their saved keys (``SCALE_KEYS``); a
-        saved ``prescribed`` mask must be the net's own."""
+        saved ``prescribed`` mask and ``contact_columns`` must be the net's own."""
         for name, key in SCALE_KEYS.items():
             if prefix + key in state_dict:
                 state_dict[prefix + name] = state_dict.pop(prefix + key)
         saved = state_dict.pop(prefix + "prescribed", None)
         if saved is not None and not torch.equal(saved.to(torch.bool), self.prescribed):
             raise ValueError("the saved prescribed nodes differ from the network's")
+        saved = state_dict.pop(prefix + "contact_columns", None)
+        own = None if self.contact_columns is None else [self.contact_columns.start, self.contact_columns.stop]
+        if (None if saved is None else [int(v) for v in saved.tolist()]) != own:
+            raise ValueError("the saved contact inputs differ from the network's")
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
     # ---------------------------------------------------------------------------- the envelope
     def set_envelope(self, lo: torch.Tensor, hi: torch.Tensor) -> None:
         """The data's range [lo, hi] of the ``conv_cols`` features ((G,) each, in scaled units):
         buffers ``env_lo``, ``env_hi`` and ``env_inv`` = 1 / (m (hi - lo)), 0 for a channel that
-        never varies (a constant, or a coordinate the data never move)."""
+        never varies (a constant, or a coordinate the data never move). The contact inputs get
+        ``env_inv`` 0 and their range widened by m (hi - lo): clipped there, never fading."""
         if self.env_lo is None:
             return
         width = float(self.config.envelope) * (hi - lo)
+        inv = torch.where(width > 1e-9, 1.0 / torch.clamp(width, min=1e-9), 0.0)
+        if self.contact_columns is not None:
+            cols = self.contact_feature_columns
+            ungated = (self.conv_cols >= cols.start) & (self.conv_cols < cols.stop)
+            lo, hi = torch.where(ungated, lo - width, lo), torch.where(ungated, hi + width, hi)
+            inv = torch.where(ungated, 0.0, inv)
         with torch.no_grad():
             self.env_lo.copy_(lo)
             self.env_hi.copy_(hi)
-            self.env_inv.copy_(torch.where(width > 1e-9, 1.0 / torch.clamp(width, min=1e-9), 0.0))
+            self.env_inv.copy_(inv)
 
     def envelope_gate(self, g: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(clipped inputs (..., G), gate (..., 1)): the gate is 1 inside the data's range, falls
@@ -243,13 +304,18 @@ class DynamicNet(nn.Module):
             dv = dv + correction
         return self.next_state(hist, dv, loads), memory
 
-    def rollout(self, hist: torch.Tensor, loads: torch.Tensor, feedback=None) -> torch.Tensor:
-        """Free run: hist (B, H, M, 6), loads (B, K, M, 6) for each step -> states (B, K, M, 6).
+    def rollout(self, hist: torch.Tensor, loads: torch.Tensor, feedback=None, contact=None) -> torch.Tensor:
+        """Free run: hist (B, H, M, 6), loads (B, K, M, L) for each step -> states (B, K, M, 6).
         ``feedback``: (gains (B, M, 2), targets (B, K, M, 3), model_dt) of PD laws applied to the
-        run's own states at every step (``softrnn.learned.whole.feedback``), or None."""
+        run's own states at every step (``softrnn.learned.whole.feedback``), or None. ``contact``:
+        a function of the latest states (B, M, 6) giving their contact inputs (B, M, 4), which
+        replace the loads' ``contact_columns`` at every step (no gradient flows through them), or None."""
         out, memory = [], None
         for k in range(loads.shape[1]):
             u = loads[:, k] if feedback is None else loads[:, k] + feedback_force(hist, feedback, k, loads.shape[-1])
+            if contact is not None:
+                c = self.contact_columns
+                u = torch.cat([u[..., :c.start], contact(hist[:, -1].detach()), u[..., c.stop:]], dim=-1)
             nxt, memory = self.forward(hist, u, memory)
             out.append(nxt)
             hist = torch.cat([hist[:, 1:], nxt[:, None]], dim=1)

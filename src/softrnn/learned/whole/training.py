@@ -38,7 +38,7 @@ from ..threads import torch_threads
 from .artifact import engine_of
 from .config import DynamicConfig, linear_config, load_channels
 from .encoding import Encoding, Trajectory
-from .network import DynamicNet, feedback_force
+from .network import DynamicNet, contact_inputs, feedback_force
 
 CHECKPOINT_EVERY = 100
 VALIDATION_STEPS = 1000
@@ -142,7 +142,7 @@ def _windows(trajectories: list[Trajectory], length: int) -> np.ndarray:
 
 
 def _batch(trajectories, picks: np.ndarray, H: int, K: int):
-    """hist (B, H, M, 6), loads (B, K, M, 6), future (B, K, M, 6) as float32 tensors and the
+    """hist (B, H, M, 6), loads (B, K, M, L), future (B, K, M, 6) as float32 tensors and the
     feedback laws (gains (B, M, 2), targets (B, K, M, 3), model_dt) for ``DynamicNet.rollout``, or
     None when no picked trajectory has any."""
     hist, loads, future, gains, targets = [], [], [], [], []
@@ -225,12 +225,26 @@ def _ridge_fit(net: DynamicNet, normal: tuple, ridge: float, prior: np.ndarray |
     ``config.load_ridge`` times it when set), shrunk toward ``prior`` (default:
     ``damping_prior(net)``)."""
     G, b, fm, am = normal
-    lam = _penalties(net, ridge) * max(float(np.trace(G)) / G.shape[0], _FLOOR)
     prior = damping_prior(net) if prior is None else prior
+    if net.contact_columns is not None:         # the linear term does not read the contact inputs
+        keep = np.ones((net.n_kept, net.n_in), dtype=bool)
+        keep[:, net.contact_feature_columns] = False
+        keep = np.flatnonzero(keep)
+        G, b, fm, W = G[np.ix_(keep, keep)], b[keep], fm[keep], np.zeros_like(prior)
+        lam = _penalties(net, ridge)[keep] * max(float(np.trace(G)) / G.shape[0], _FLOOR)
+        W[keep] = np.linalg.solve(G + np.diag(lam), b + lam[:, None] * prior[keep])
+        _set_linear(net, W, am - fm @ W[keep])
+        return
+    lam = _penalties(net, ridge) * max(float(np.trace(G)) / G.shape[0], _FLOOR)
     W = np.linalg.solve(G + np.diag(lam), b + lam[:, None] * prior)
+    _set_linear(net, W, am - fm @ W)
+
+
+def _set_linear(net: DynamicNet, W: np.ndarray, bias: np.ndarray) -> None:
+    """The linear term's weights from W (M C, M 6) and its bias (M 6,)."""
     with torch.no_grad():
         net.linear.weight.copy_(torch.as_tensor(W.T, dtype=torch.float32))
-        net.linear.bias.copy_(torch.as_tensor(am - fm @ W, dtype=torch.float32))
+        net.linear.bias.copy_(torch.as_tensor(bias, dtype=torch.float32))
 
 
 def spectral_radius(net: DynamicNet) -> float:
@@ -448,7 +462,8 @@ def _loss(net: DynamicNet, trajectories, windows, config: DynamicConfig, gen, st
         sigma = config.noise * net.velocity_scale * (net.dv_scale > 0) / math.sqrt(H)
         eps = torch.randn(hist.shape, generator=gen) * sigma
         hist = hist + torch.cumsum(eps, dim=1) * mask
-    err = (net.rollout(hist, loads, feedback) - future) / net.velocity_scale * mask
+    contact = contact_inputs(trajectories, picks)
+    err = (net.rollout(hist, loads, feedback, contact) - future) / net.velocity_scale * mask
     return (err ** 2).sum() / (float(mask.sum()) * 6 * config.batch * K)
 
 
@@ -499,14 +514,13 @@ def _start(net, trajectories, encoding, config, sc, validation=()):
     best linear model on validation wherever the network starts (a network may start from a stiffer
     fit without weakening the baseline it is measured against). Fit info: ``ridge``,
     ``linear_radius`` and ``ridge_validation`` of the network's start; ``baseline_ridge``."""
-    baseline = DynamicNet(linear_config(config), encoding.node_features(), encoding.fixed, sc, encoding.prescribed)
+    baseline = DynamicNet.of(linear_config(config), encoding, sc)
     normal, (lo, hi) = _normal_equations(baseline, trajectories)
     cols = net.conv_cols.numpy()
     net.set_envelope(torch.as_tensor(lo[cols], dtype=torch.float32), torch.as_tensor(hi[cols], dtype=torch.float32))
     start = baseline
     if config.load_ridge is not None:       # the network's start has its own penalty on the loads
-        start = DynamicNet(replace(linear_config(config), load_ridge=config.load_ridge), encoding.node_features(),
-                           encoding.fixed, sc, encoding.prescribed)
+        start = DynamicNet.of(replace(linear_config(config), load_ridge=config.load_ridge), encoding, sc)
     fit = _fit_linear(start, normal, config.ridge, validation)
     if net.linear is not None:
         net.linear.load_state_dict(start.linear.state_dict())
@@ -536,7 +550,7 @@ def _train(trajectories, encoding, config, validation, progress, checkpoint) -> 
     torch.manual_seed(config.seed)
     windows = _windows(trajectories, config.history + config.unroll)
     sc = scales(trajectories, wrench=encoding.drive != "actuation")
-    net = DynamicNet(config, encoding.node_features(), encoding.fixed, sc, encoding.prescribed)
+    net = DynamicNet.of(config, encoding, sc)
     start = time.perf_counter()
     baseline, fit = _start(net, trajectories, encoding, config, sc, validation)
     opt, gen = _optimizer(net, config), torch.Generator().manual_seed(config.seed)
@@ -546,7 +560,7 @@ def _train(trajectories, encoding, config, validation, progress, checkpoint) -> 
         loop = _restore_checkpoint(path, net, opt, gen)
     shadow = None
     if config.ema > 0:
-        shadow = DynamicNet(config, encoding.node_features(), encoding.fixed, sc, encoding.prescribed)
+        shadow = DynamicNet.of(config, encoding, sc)
     if loop.step == 0:
         _validate(net, loop, validation)
     while loop.step < config.steps:
