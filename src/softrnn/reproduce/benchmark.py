@@ -8,6 +8,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..bench import run_all
+from ..bench.simulator import warm_batch
 from ..files import atomic_write_text
 from ..progress import ProgressFactory
 from .dynamic import CONFIGS
@@ -38,8 +39,6 @@ def _warm() -> None:
     parent; a failure changes nothing (the benchmark then compiles the kernel itself)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        from ..bench.simulator import warm_batch
-
         warm_batch()
     except Exception:  # noqa: BLE001  # only numba's cache was to be filled
         pass
