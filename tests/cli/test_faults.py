@@ -12,6 +12,7 @@ import resource
 import shutil
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -278,6 +279,81 @@ def test_a_read_only_folder_for_real(tmp_path):
     finally:
         folder.chmod(0o700)
     assert _names(folder) == []
+
+
+def test_a_sweep_folder_removed_while_it_runs_is_one_line_and_not_made_again(tmp_path, monkeypatch, capsys):
+    """The folder goes after the first variant: the sweep stops (exit 2) naming the folder and the fix,
+    and no worker makes the folder again, empty of its manifest."""
+    pytest.importorskip("distributed")
+    from softrnn.cli import _sweep
+
+    out = tmp_path / "sweep"
+
+    class Vanishing(_sweep.Bar):
+        def __call__(self, done, total, info=None):
+            while done == 1 and out.exists():          # a worker may be adding a file meanwhile
+                shutil.rmtree(out, ignore_errors=True)
+
+    bar = _sweep.Bar
+    monkeypatch.setattr(_sweep, "Bar", Vanishing)
+    argv = ["sweep", "tendon-planar", "--count", "4", "-o", str(out), "--samples", "20", "--workers", "1", "--quiet"]
+    assert run_cli(argv) == 2
+    err = _one_line_error(capsys, f"the sweep folder {out} was removed or moved while the sweep ran",
+                          "put it back where it was", "run the same command again")
+    assert "(1 of 4 variants finished)" in err
+    assert _names(tmp_path) == []
+    monkeypatch.setattr(_sweep, "Bar", bar)
+    assert run_cli(argv) == 0                        # in place again: the same command runs
+    assert "4 computed" in capsys.readouterr().out
+
+
+def test_a_sweep_folder_moved_while_it_runs_keeps_its_variants(tmp_path):
+    """Moved aside after the first variant: the finished variants are in the moved folder, and moved
+    back, the same sweep continues from them."""
+    pytest.importorskip("distributed")
+    from softrnn.scenarios.scenario import load_scenario
+    from softrnn.sweeps.sweep import run_sweep
+
+    out, aside = tmp_path / "sweep", tmp_path / "aside"
+
+    def move(done, total, info=None):
+        if done == 1:
+            out.rename(aside)
+
+    with pytest.raises(FileFault, match=rf"the sweep folder {out} was removed or moved .*a moved folder keeps"):
+        run_sweep(load_scenario("tendon-planar"), 4, out, n_workers=1, n_samples=20, progress=move)
+    assert not out.exists()
+    assert "traj-00000.h5" in sorted(p.name for p in aside.glob("traj-*.h5"))
+    aside.rename(out)
+    again = run_sweep(load_scenario("tendon-planar"), 4, out, n_workers=1, n_samples=20)
+    assert sorted(again.skipped + again.computed) == [0, 1, 2, 3] and 0 in again.skipped
+    assert _names(out) == ["sweep.json", *(f"traj-0000{i}.h5" for i in range(4))]   # a temporary the move cut off: gone
+
+
+def test_dynamic_train_whose_model_meets_a_full_disk_names_the_checkpoint_it_kept(tmp_path, monkeypatch, capsys):
+    """The final save fails: the last step's checkpoint stays, named with the fix; --resume then saves
+    the model without training again."""
+    pytest.importorskip("torch")
+    from softrnn.learned.whole import artifact
+    from softrnn.scenarios.scenario import load_scenario
+    from softrnn.scenarios.summary import simulate_summary
+
+    data, sc = tmp_path / "data.h5", load_scenario("square")
+    simulate_summary(name=sc.name, title=sc.title, setup=sc.setup, config=replace(sc.config, dt=0.01, n_samples=61),
+                     node=sc.nodes_of_interest[0], out_path=str(data), scenario_text=sc.text, seed=sc.seed)
+    out = tmp_path / "model"
+    argv = ["dynamic", "train", str(data), "-o", str(out), "--steps", "3", "--model-dt", "0.02", "--node-stride", "10",
+            "--width", "8", "--layers", "1", "--unroll", "2", "--threads", "1", "--quiet"]
+    real = artifact.write_tensors
+    monkeypatch.setattr(artifact, "write_tensors", lambda *a, **k: _no_space())
+    assert run_cli(argv) == 2
+    _one_line_error(capsys, f"cannot write {out}: No space left on device", "free space",
+                    f"the training's last checkpoint is kept in {out / 'checkpoint.pt'}",
+                    "run the same command with --resume")
+    assert (out / "checkpoint.pt").is_file() and not (out / "model.json").exists()
+    monkeypatch.setattr(artifact, "write_tensors", real)
+    assert run_cli(argv + ["--resume"]) == 0
+    assert (out / "model.json").is_file() and not (out / "checkpoint.pt").exists()
 
 
 # ------------------------------------------------------------------------------ a file changed while read

@@ -1,7 +1,7 @@
 """The command line starts at once: ``softrnn --help``, ``--version``, bare ``softrnn`` and the
 commands' ``--help`` import none of the heavy libraries (numba, SciPy, Matplotlib, PyTorch, h5py,
-Dask, ONNX), which each command imports when it runs; ``scenario list`` imports no plotting or
-learning library. Which modules a fresh interpreter imported is checked, never how long it took
+Dask, ONNX), which each command imports when it runs, and neither do ``scenario list`` and
+``scenario show`` of a shipped scenario. Which modules a fresh interpreter imported is checked, never how long it took
 (the times are in benchmarks/README.md)."""
 
 import ast
@@ -106,6 +106,31 @@ def test_the_kept_scenario_list_is_the_one_built_from_the_scenarios():
     from softrnn.cli._scenario_list import SCENARIO_LIST
 
     assert SCENARIO_LIST == built_listing()
+
+
+@pytest.mark.parametrize("argv", [["scenario", "show", "square"], ["scenario", "show", "tendon-spatial", "--summary"],
+                                  ["scenario", "show", "magnetic-bifurcation", "--summary"]])
+def test_scenario_show_of_a_shipped_scenario_imports_no_heavy_library(argv):
+    """The shipped text and the kept summary, as the built scenario gives them."""
+    from softrnn.cli._scenario import summary
+    from softrnn.scenarios.scenario import load_scenario, scenario_text
+
+    run = _fresh(*argv)
+    name = argv[2]
+    assert run["code"] == 0
+    assert run["out"] == (summary(load_scenario(name)) + "\n" if "--summary" in argv else scenario_text(name))
+    assert sorted(set(run["modules"]) & set(HEAVY)) == []
+
+
+def test_the_kept_scenario_summaries_are_the_ones_built_from_the_scenarios():
+    """``scenario show NAME --summary`` prints lines kept in ``softrnn/data/scenario-summaries.json``;
+    they equal those built from the shipped scenarios (regenerated with the list by
+    ``cli._scenario.write_listing()``)."""
+    from softrnn.cli._scenario import built_summaries, kept_summaries
+
+    kept = kept_summaries()
+    assert list(kept) == list(SCENARIO_NAMES)
+    assert kept == built_summaries()
 
 
 def test_every_command_parses_as_before_when_its_arguments_come_late():

@@ -115,6 +115,38 @@ def test_bench_times_a_trained_model_folder(monkeypatch, tmp_path, capsys):
     assert len(err.splitlines()) == 1 and "no such model folder" in err
 
 
+def test_the_benchmarks_compile_starts_early_unless_the_benchmark_is_finished(tmp_path, monkeypatch):
+    """``warm_start``: a background process (daemonic, spawned) that compiles the batch kernel into
+    numba's cache; none once ``bench.json`` holds a finished benchmark."""
+    from types import SimpleNamespace
+
+    from softrnn import __version__
+    from softrnn.reproduce import benchmark as rb
+
+    started = []
+
+    class Process:
+        def __init__(self, target, name, daemon):
+            started.append((target, daemon))
+
+        def start(self):
+            started.append("started")
+
+    kinds = []
+    monkeypatch.setattr(rb.multiprocessing, "get_context", lambda kind: kinds.append(kind) or SimpleNamespace(
+        Process=Process))
+    assert isinstance(rb.warm_start(tmp_path, True), Process)
+    assert started == [(rb._warm, True), "started"] and kinds == ["spawn"]
+    (tmp_path / "bench.json").write_text(json.dumps({"quick": True, "softrnn_version": __version__, "model": {}}))
+    assert rb.warm_start(tmp_path, True) is None and rb.warm_start(tmp_path, False) is not None
+
+
+def test_the_longest_trainings_go_first():
+    jobs = [(name, None, None, DynamicConfig(steps=steps)) for name, steps in (("a", 20), ("b", 4000), ("c", 2500),
+                                                                              ("d", 4000))]
+    assert [job[0] for job in rd.longest_first(jobs)] == ["b", "d", "c", "a"]
+
+
 def test_trainings_side_by_side_give_the_weights_of_one_after_the_other(tmp_path):
     """``train_cases`` with two worker processes (one PyTorch thread each) writes the same models as
     training in this process, with progress reported per case; a finished model is not trained again."""

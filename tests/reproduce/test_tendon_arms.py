@@ -60,6 +60,25 @@ def test_a_rerun_reads_the_finished_case(run):
     assert again["step_s"] == e["step_s"] and again["heldout"] == e["heldout"]
 
 
+def test_a_finished_arm_leaves_no_training_job_and_an_unfinished_one_is_ready_to_train(run, tmp_path):
+    """``training_jobs`` (the trainings ``softrnn reproduce`` runs in the dynamic step's pool): none
+    for a finished arm; for a new one, its data sets and sweep made and its split and config."""
+    out, _ = run
+    mp = pytest.MonkeyPatch()
+    mp.setitem(tendons.CONFIGS, CASE, SMALL)
+    mp.setattr(tendons, "QUICK_STEPS", 8)
+    mp.setitem(tendons.QUICK_SWEEP, "duration_s", 2.0)
+    try:
+        assert tendons.training_jobs(out, quick=True, cases=(CASE,)) == []
+        (job,) = tendons.training_jobs(tmp_path, quick=True, cases=(CASE,))
+    finally:
+        mp.undo()
+    case, folder, split, config = job
+    assert (case, folder, config) == (CASE, tmp_path / "tendons" / CASE, replace(SMALL, steps=8))
+    assert (tmp_path / "data" / f"{CASE}.h5").is_file() and not (folder / "model").exists()
+    assert len(split.heldout) == tendons.QUICK_SWEEP["n_heldout"]
+
+
 def test_the_model_reads_only_the_tensions(run):
     """Recorded forces and torques replaced by noise (or zeros) change nothing; other tensions do."""
     from softrnn.io import read_dataset

@@ -254,6 +254,13 @@ def time_batch(n_rods: int, n_nodes: int, threads: int, reps: int, duration_s: f
     }
 
 
+def warm_batch() -> None:
+    """Compile (or load from numba's cache) the parallel batch kernel that ``time_batch`` times, on
+    the smallest batch (2 rods, 3 samples): cold, it compiles for tens of seconds, which
+    ``softrnn reproduce`` spends early, in a background process (``reproduce.benchmark.warm_start``)."""
+    time_batch(2, 59, 1, 1, 2 * _CANTILEVER_DT)
+
+
 # ---------------------------------------------------------------------------------------------- report
 def _single_rods(sizes, reps: int, duration: float, case_duration: float, tick: Callable[[], None]) -> dict:
     """The single-rod entries (``cantilever50``, ``cantilever_nodes``, ``cases``); numba on 1 thread."""

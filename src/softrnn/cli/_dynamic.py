@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SimulationError, SoftrnnInputError, bad, require_extra
+from ..errors import FileFault, SimulationError, SoftrnnInputError, bad, require_extra
 from ..files import atomic_write_text, json_default, prepare_output
 from ._progress import Bar, stop_code
 from ._vocabulary import deprecate, deprecate_converted, output, settings
@@ -57,9 +57,7 @@ def _as_options():
 # ------------------------------------------------------------------------------------------ train
 def _float_or_off(text: str):
     """A number, or 'off' (the option switched off: None in the config)."""
-    if text.strip().lower() == "off":
-        return _OFF
-    return float(text)
+    return _OFF if text.strip().lower() == "off" else float(text)
 
 
 _float_or_off.__name__ = "number or 'off'"     # argparse names the type in its error
@@ -234,9 +232,7 @@ def _train(args) -> int:
         raise bad("--threads", args.threads, "an integer >= 1")
     with _as_options():
         config = _config(args)
-        fraction = args.train_fraction
-        if fraction is None:
-            fraction = 1.0 if args.validate_on else 0.6
+        fraction = args.train_fraction if args.train_fraction is not None else 1.0 if args.validate_on else 0.6
         split = split_inputs([Path(p).absolute() for p in args.data], heldout=args.heldout,
                              validation=args.validation, train_fraction=fraction,
                              validate_on=[Path(p).absolute() for p in args.validate_on])
@@ -252,7 +248,11 @@ def _train(args) -> int:
         except BaseException:
             run.discard()
             raise
-    save_dynamic(folder, trained, meta)
+    try:
+        save_dynamic(folder, trained, meta)
+    except FileFault as err:        # the last step's checkpoint stays: --resume saves without training again
+        raise FileFault(f"{err}; the training's last checkpoint is kept in {run.checkpoint}: run the same command "
+                        "with --resume to save the model without training again") from None
     print(_train_summary(folder, config, trained.encoding, trained.info, meta["data"]))
     print(f"dynamic train: wrote {folder} (evaluate it with 'softrnn dynamic evaluate {folder} --heldout ...')")
     return 0

@@ -121,8 +121,29 @@ def built_listing() -> list[dict]:
     return [entry(load_scenario(name)) for name in SCENARIO_NAMES]
 
 
+def built_summaries() -> dict:
+    """{name: the lines of ``softrnn scenario show NAME --summary``} of the shipped scenarios, built
+    from them (imports the simulator)."""
+    from ..scenarios.scenario import load_scenario
+
+    return {name: summary(load_scenario(name)).split("\n") for name in SCENARIO_NAMES}
+
+
+SUMMARIES = "scenario-summaries.json"
+"""The kept lines of ``scenario show NAME --summary`` of the shipped scenarios: ``{name: [line, ...]}``
+in the package's ``data/`` folder (``write_listing``)."""
+
+
+def _data_file(name: str):
+    """A file of the package's ``data/`` folder (a ``Traversable``), found without importing the simulator."""
+    from importlib import resources
+
+    return resources.files("softrnn").joinpath("data").joinpath(name)
+
+
 def write_listing() -> None:
-    """Rewrite ``_scenario_list.py`` from the shipped scenarios (after editing one of them)."""
+    """Rewrite the kept lines of ``scenario list`` (``_scenario_list.py``) and of each ``scenario show
+    NAME --summary`` (``data/scenario-summaries.json``) from the shipped scenarios, after editing one."""
     import pprint
 
     path = Path(__file__).with_name("_scenario_list.py")
@@ -130,6 +151,12 @@ def write_listing() -> None:
     head = text[:text.index("SCENARIO_LIST = ")]
     body = pprint.pformat(built_listing(), width=116, sort_dicts=False)
     atomic_write_text(path, f"{head}SCENARIO_LIST = {body}\n")
+    atomic_write_text(Path(__file__).parents[1] / "data" / SUMMARIES, json.dumps(built_summaries(), indent=1) + "\n")
+
+
+def kept_summaries() -> dict:
+    """The kept lines of ``scenario show NAME --summary``: ``{name: [line, ...]}`` (``write_listing``)."""
+    return json.loads(_data_file(SUMMARIES).read_text(encoding="utf-8"))
 
 
 def _list(args) -> int:
@@ -145,7 +172,18 @@ def _list(args) -> int:
 
 
 # ------------------------------------------------------------------------------------------- show
+def shipped_text(name: str) -> str:
+    """The TOML text of the shipped scenario ``name`` as shipped (``scenarios.scenario.scenario_text``),
+    read without importing the simulator."""
+    from importlib import resources
+
+    return resources.files("softrnn").joinpath("scenarios").joinpath(f"{name}.toml").read_text(encoding="utf-8")
+
+
 def _show(args) -> int:
+    if args.name in SCENARIO_NAMES:     # shipped text, kept lines (tests/cli/test_startup.py): no simulator imported
+        _emit("\n".join(kept_summaries()[args.name]) + "\n" if args.summary else shipped_text(args.name))
+        return 0
     sc = _load(args.name)
     if args.summary:
         _emit(summary(sc) + "\n")

@@ -1,5 +1,6 @@
 """The shipped scenarios' lines of ``softrnn scenario list`` (``_scenario.entry`` of each), kept here so
-that listing them imports no numba, SciPy or h5py (building the 19 scenarios does).
+that listing them imports no numba, SciPy or h5py (building the 19 scenarios does); the lines of
+``scenario show NAME --summary`` are kept likewise in ``softrnn/data/scenario-summaries.json``.
 tests/cli/test_startup.py checks that they equal the lines built from the scenarios; after editing a
 shipped scenario, regenerate them with
 ``python -c "from softrnn.cli._scenario import write_listing; write_listing()"``."""

@@ -417,18 +417,25 @@ def _finish_case(job: dict, out: Path, quick: bool) -> dict:
     return save_step(out / "dynamic" / f"{case}.json", entry, quick)
 
 
-def dynamic_step(out: Path, quick: bool, progress_factory=None, *, cases=CASES, workers: int | None = None) -> dict:
+def longest_first(jobs: list) -> list:
+    """Training jobs (case, folder, split, config) ordered by their optimiser steps, most first (in
+    order among equals), so that a pool of workers ends its last trainings close together."""
+    return sorted(jobs, key=lambda job: -job[3].steps)
+
+
+def dynamic_step(out: Path, quick: bool, progress_factory=None, *, cases=CASES, workers: int | None = None,
+                 also=()) -> dict:
     """Every case's whole-manipulator model ({case: entry}; docs/report-format.md), a case skipped
     when its step file ``out/dynamic/CASE.json`` holds a finished result of the same settings
     (``settings``: the sweep and ``CONFIGS[CASE]``): the unfinished cases' sweeps, then their
-    trainings side by side (``train_cases``, ``workers``: default
-    ``TRAIN_WORKERS``), then each one's measurements, alone on the machine (the speed runs time one
-    core each)."""
+    trainings side by side (``train_cases``, ``workers``: default ``TRAIN_WORKERS``; longest first,
+    with the training jobs ``also`` of other steps, e.g. ``reproduce.tendons.training_jobs``), then
+    each case's measurements, alone on the machine (the speed runs time one core each)."""
     out = Path(out)
     done = {case: finished_case(out / "dynamic" / f"{case}.json", out / "dynamic" / case, settings(case, quick),
                                 quick) for case in cases}
     jobs = [_prepare_case(case, out, quick, progress_factory) for case in cases if done[case] is None]
-    train_cases([(j["case"], j["folder"], j["split"], j["config"]) for j in jobs],
+    train_cases(longest_first([(j["case"], j["folder"], j["split"], j["config"]) for j in jobs] + list(also)),
                 TRAIN_WORKERS if workers is None else workers, TRAIN_THREADS, progress_factory)
     for job in jobs:
         done[job["case"]] = _finish_case(job, out, quick)

@@ -42,7 +42,7 @@ from .dynamic import (
     train_case,
     training_split,
 )
-from .stepfiles import save_step
+from .stepfiles import load_step, save_step
 
 CASES = ("tendon-planar", "tendon-spatial")
 """The tendon arms (shipped scenarios with a ``[randomize]`` table)."""
@@ -60,7 +60,7 @@ batch from the trajectories' first steps (docs/guide/dynamic.md, "Tendon-driven 
 QUICK_STEPS = 20
 THREADS = 1
 """PyTorch's threads while training: a small model trains fastest on one (a second thread mostly
-contends for a core, more so on a busy machine)."""
+contends for a core, more so on a busy machine); ``reproduce.dynamic.TRAIN_THREADS`` likewise."""
 SWEEP = {"dt": 0.01, "n_train": 10, "n_validation": 2, "n_heldout": 8, "workers": 2, "duration_s": 21.0}
 """Each case's sweep: variants 0..n_train-1 are trained on, the next n_validation select the weights,
 the last n_heldout are held out; saved every dt [s] for duration_s [s]."""
@@ -114,32 +114,48 @@ def measure(case: str, out: Path, loaded, split) -> dict:
     return entry
 
 
-def tendon_case(case: str, out: Path, quick: bool = False, progress_factory=None) -> dict:
-    """One tendon arm (``CASES``), skipped when its step file ``out/tendons/CASE.json`` holds a
-    finished result of the same settings; returns the step file's dict."""
-    out = Path(out)
-    step_file = out / "tendons" / f"{case}.json"
+def _prepared(case: str, out: Path, quick: bool, progress_factory=None) -> dict | None:
+    """A tendon arm ready to train: its folder (kept only for the same settings), data sets, sweep
+    and split; None when its step file ``out/tendons/CASE.json`` holds a finished result."""
     folder = out / "tendons" / case
     s = settings(case, quick)
-    done = finished_case(step_file, folder, s, quick)
-    if done is not None:
-        return done
+    if finished_case(out / "tendons" / f"{case}.json", folder, s, quick) is not None:
+        return None
     t0 = time.perf_counter()
     _fresh(folder, s)
     simulate_inputs(case, out, quick, progress_factory)
     workers = (QUICK_SWEEP if quick else SWEEP)["workers"]
     sweep_dir = run_case_sweep(case, out, s["sweep"], workers, progress_factory)
-    split = training_split(out, case, sweep_dir, s["sweep"])
-    loaded, train_s = train_case(case, folder, split, config_for(case, quick), progress_factory,
-                                 threads=THREADS)
+    return {"case": case, "folder": folder, "settings": s, "workers": workers, "t0": t0,
+            "split": training_split(out, case, sweep_dir, s["sweep"]), "config": config_for(case, quick)}
+
+
+def training_jobs(out, quick: bool = False, progress_factory=None, cases=CASES) -> list:
+    """(case, folder, split, config) of every unfinished tendon arm, its data sets and sweep made: the
+    trainings for ``reproduce.dynamic.train_cases`` (``softrnn reproduce`` runs them in the dynamic
+    step's pool, beside the paper cases' trainings; ``tendon_case`` then finds each model trained)."""
+    jobs = [_prepared(case, Path(out), quick, progress_factory) for case in cases]
+    return [(j["case"], j["folder"], j["split"], j["config"]) for j in jobs if j is not None]
+
+
+def tendon_case(case: str, out: Path, quick: bool = False, progress_factory=None) -> dict:
+    """One tendon arm (``CASES``), skipped when its step file ``out/tendons/CASE.json`` holds a
+    finished result of the same settings (trained here unless ``training_jobs`` trained it);
+    returns the step file's dict."""
+    out = Path(out)
+    job = _prepared(case, out, quick, progress_factory)
+    if job is None:
+        return load_step(out / "tendons" / f"{case}.json", quick)
+    folder, s, split = job["folder"], job["settings"], job["split"]
+    loaded, train_s = train_case(case, folder, split, job["config"], progress_factory, threads=THREADS)
     t1 = time.perf_counter()
     entry = measure(case, out, loaded, split)
     training = {k: v for k, v in (loaded.meta.get("training") or {}).items() if k != "losses"}
     entry.update(train_seconds=train_s, evaluate_seconds=time.perf_counter() - t1, training=training,
                  train_config=loaded.config.to_dict(), model=str((folder / "model").relative_to(out)),
-                 data=split.describe(), settings=s, step_s=time.perf_counter() - t0,
-                 sweep={"folder": f"sweeps/{case}", **s["sweep"], "workers": workers})
-    return save_step(step_file, entry, quick)
+                 data=split.describe(), settings=s, step_s=time.perf_counter() - job["t0"],
+                 sweep={"folder": f"sweeps/{case}", **s["sweep"], "workers": job["workers"]})
+    return save_step(out / "tendons" / f"{case}.json", entry, quick)
 
 
 def tendon_step(out, quick: bool = False, progress_factory=None, cases=CASES) -> dict:

@@ -10,6 +10,7 @@ existing cluster given by its scheduler address (``tcp://HOST:PORT``); the worke
 installed (same version).
 """
 
+import errno
 import hashlib
 import json
 import time
@@ -94,6 +95,8 @@ def run_variant(text: str, source: str, index: int, path: str, n_samples: int | 
     ``path`` (atomically), ``n_samples`` samples ``dt`` s apart (None: the scenario's), with its
     tendons' tensions as the actuation channels ``tendon_<name>`` [N] and a hub's (``rod.hub``). Runs on a Dask worker;
     returns a small summary."""
+    if not (Path(path).parent / MANIFEST).is_file():    # the folder went: the writers must not make it again
+        raise FileFault(f"cannot write {path}: its sweep folder is gone")
     scenario = parse_scenario(text, source).variant(index)
     config = run_config(scenario.config, n_samples, dt)
     attrs = {"variant_index": index, "sampled": json.dumps(scenario.sampled), "scenario_name": scenario.name}
@@ -230,16 +233,41 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
     start = time.perf_counter()
     try:
         for index in _execute(scenario, todo, out, scheduler, n_workers, n_samples, dt) if todo else ():
+            if not (out / MANIFEST).is_file():
+                raise _Gone
             result.computed.append(index)
             done += 1
             if progress is not None:
                 progress(done, count)
-    except FileFault as err:        # a full disk: the finished variants stay, the rerun continues
+    except (FileFault, _Gone) as err:   # the workers are stopped here
+        if not (out / MANIFEST).is_file():
+            raise _gone(out, todo, done, count) from None
         raise FileFault(str(err).replace(KEPT, f"{KEPT}, and the {done} finished variants are kept in {out}: run the "
                                                f"same command again to continue")) from None
     result.wall_time = time.perf_counter() - start
     result.computed.sort()
     return result
+
+
+class _Gone(Exception):
+    """The sweep folder's manifest is gone: the folder was removed or moved (``_gone``)."""
+
+
+def _gone(out: Path, todo: list, done: int, count: int) -> FileFault:
+    """The one-line fault of a sweep folder removed or moved while the sweep ran (after ``done`` of
+    ``count`` variants): a folder of that name a worker made again meanwhile (without the manifest)
+    is removed with the files of ``todo`` it wrote there."""
+    if out.is_dir() and not (out / MANIFEST).exists():
+        _remove_stale_temporaries(out)
+        for i in todo:
+            trajectory_path(out, i).unlink(missing_ok=True)
+        if not any(out.iterdir()):
+            out.rmdir()
+    fault = FileFault(f"the sweep folder {out} was removed or moved while the sweep ran ({done} of {count} variants "
+                      f"finished); put it back where it was (a moved folder keeps its finished variants) or choose "
+                      f"another output, and run the same command again: finished variants are not computed again")
+    fault.errno = errno.ENOENT
+    return fault
 
 
 def _check_room(scenario, out: Path, count: int, n_samples, dt) -> None:
