@@ -82,8 +82,7 @@ _NETWORK = (
     ("--seed", int, "S", "random seed (default: 0)"),
     ("--ema", float, "D", "decay of the running average of the weights validated beside them (default: 0.995; 0: off)"),
     ("--envelope", _float_or_off, "M", "the network's correction acts within the training data's range of its inputs "
-                                       "and fades to zero M times that range beyond it; 'off': everywhere (default: "
-                                       "0.25)"),
+                                       "and fades to zero M times that range beyond it; 'off': everywhere (0.25)"),
     ("--prior-tau", _float_or_off, "S", "the ridge fit of the linear term is shrunk toward a critically damped "
                                         "relaxation with this time constant [s]; 'off': toward zero (default: 0.5)"),
     ("--ridge", float, "R", "where the ladder of ridge penalties for the linear term's fit starts (relative to the "
@@ -91,8 +90,7 @@ _NETWORK = (
                             "regardless"),
     ("--load-ridge", float, "R", "a separate ridge penalty on the load coefficients of the network's linear term "
                                  "(default: the same as the rest)"),
-    ("--linear-lr", float, "F", "the linear term's learning rate as a fraction of the network's (default: 0.01; 0: "
-                                "frozen)"),
+    ("--linear-lr", float, "F", "the linear term's learning rate as a fraction of the network's (0.01; 0: frozen)"),
 )
 """``dynamic train``'s options of the network and its optimiser, as ``_WINDOW``."""
 
@@ -133,9 +131,8 @@ def _add_train(p):
                    help="report the model's free runs as they are, even where they pass through the obstacles the "
                         "data were simulated with (default: a reported node inside one is moved back to its surface)")
     p.add_argument("--contact-inputs", dest="contact", action="store_true", default=None,
-                   help="where the data record obstacles, give the network's correction each kept node's gap to "
-                        "the nearest obstacle and its normal, measured on the model's own state at every step "
-                        "(default: off)")
+                   help="where the data record obstacles, give the network's correction each kept node's gap to the "
+                        "nearest obstacle and its normal, measured on the model's own state at each step (default off)")
     p.add_argument("--threads", type=int, default=None, metavar="T",
                    help="PyTorch threads while training (default: PyTorch's own choice)")
     again = p.add_mutually_exclusive_group()
@@ -597,8 +594,7 @@ _COMMANDS = (
     ("train", "train a whole-manipulator model on data set files and sweep folders (resumable)", _add_train, _train),
     ("evaluate", "free-running errors at every node on test, held-out and generalisation data beside persistence, "
                  "constant velocity and a linear model", _add_evaluate, _evaluate),
-    ("rollout", "run the model free from a data set's history with its loads and write every node as a data set",
-     _add_rollout, _rollout),
+    ("rollout", "run the model free from a data set's history and loads; write every node", _add_rollout, _rollout),
     ("export", "export one model step to ONNX (with its encoding as a .json sidecar), checked with ONNX Runtime",
      _add_export, _export),
 )
