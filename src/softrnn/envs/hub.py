@@ -9,13 +9,7 @@ at either end); the angle is free.
 import numpy as np
 
 from ..errors import bad, finite
-
-
-def axis_rotations(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """Rotations (K, 3, 3) by ``angles`` (K,) [rad] about the unit ``axis`` (3,) (Rodrigues)."""
-    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    c, s = np.cos(angles)[:, None, None], np.sin(angles)[:, None, None]
-    return np.eye(3) + s * k + (1.0 - c) * (k @ k)
+from ..rod.hub import axis_rotation
 
 
 class HubMotion:
@@ -71,4 +65,4 @@ class HubMotion:
         """Positions (K, 3) [m] and rotations (K, 3, 3) of the hub at times t (K,) [s]."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         positions = self.origin + self.insertion(t)[:, None] * self.axis
-        return positions, axis_rotations(self.axis, self.angle(t)) @ self.rotation
+        return positions, axis_rotation(self.axis, self.angle(t)) @ self.rotation
