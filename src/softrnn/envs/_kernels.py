@@ -64,7 +64,8 @@ def _build(stamp_value):
                         out.reaction_torques[b], out.energy[b]),
                 h, k0, n_steps, stride, s0,
                 ImplicitWork(work.applied[b], work.force[b], work.strain_map[b], work.diag[b], work.upper[b],
-                             work.rhs[b], work.u[b], work.known[b], work.fixed[b], work.pivot[b], work.weighted[b]),
+                             work.rhs[b], work.u[b], work.known[b], work.fixed[b], work.pivot[b], work.weighted[b],
+                             work.contact_tangent[b]),
                 beta, theta, tau)
             status[b, 0] = code
             status[b, 1] = step
