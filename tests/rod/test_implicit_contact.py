@@ -13,6 +13,7 @@ from softrnn.geometry.contact import contact_from_record, contact_record
 from softrnn.rod import Contact, Plane, RodSpec, RunConfig, Setup, Simulator, straight
 from softrnn.rod.contact import step_limit
 from softrnn.rod.implicit import accuracy_step
+from softrnn.scenarios import load_scenario, parse_scenario, scenario_text
 
 G = 9.81
 RADIUS = 0.005
@@ -110,6 +111,15 @@ def test_the_option_round_trips_through_records_and_is_checked():
     assert contact_from_record(record).implicit is True
     with pytest.raises(SoftrnnInputError, match="contact.implicit"):
         Contact(obstacles=(plane,), implicit=1)
+
+
+def test_the_scenario_key_sets_the_option():
+    """``[contact] implicit = true`` sets it; a non-boolean is a one-line error; the default is off."""
+    text = scenario_text("contact-plane")
+    assert parse_scenario(text.replace("[contact]\n", "[contact]\nimplicit = true\n")).setup.contact.implicit
+    with pytest.raises(SoftrnnInputError, match="contact.implicit"):
+        parse_scenario(text.replace("[contact]\n", "[contact]\nimplicit = 1\n"))
+    assert not load_scenario("contact-plane").setup.contact.implicit
 
 
 def test_explicit_integrator_ignores_the_option():

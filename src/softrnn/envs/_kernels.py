@@ -76,7 +76,8 @@ def _build(stamp_value):
 advance_rods = _build(stamp())
 
 
-def stacked_work(n_rods: int, n_nodes: int) -> ImplicitWork:
-    """Zeroed ``ImplicitWork`` arrays for ``n_rods`` rods of ``n_nodes`` nodes, (B, ...) each."""
-    one = implicit.work_arrays(n_nodes)
+def stacked_work(n_rods: int, n_nodes: int, implicit_contact: bool = False) -> ImplicitWork:
+    """Zeroed ``ImplicitWork`` arrays for ``n_rods`` rods of ``n_nodes`` nodes, (B, ...) each
+    (``implicit_contact``: ``implicit.work_arrays``)."""
+    one = implicit.work_arrays(n_nodes, implicit_contact)
     return ImplicitWork(*(np.zeros((n_rods,) + a.shape, dtype=a.dtype) for a in one))
