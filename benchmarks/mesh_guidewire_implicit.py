@@ -21,6 +21,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from softrnn.errors import SimulationError
 from softrnn.geometry.mesh import arch_tree
 from softrnn.rod import Clamp, Contact, Damping, Hub, RunConfig, Setup, Simulator, guidewire
 from softrnn.rod.contact import MeshVessel
@@ -72,7 +73,11 @@ def main(argv=None) -> int:
               for h in sorted(args.steps)]
     ref = None
     for name, setup, substeps in cases:
-        out = run_case(setup, replace(config, substeps=substeps))
+        try:
+            out = run_case(setup, replace(config, substeps=substeps))
+        except SimulationError as err:
+            results["runs"][name] = {"error": str(err)}
+            continue
         if ref is None and name.startswith("implicit"):
             ref = out["tip"]
         out["tip_final_m"] = out["tip"][-1].tolist()

@@ -496,9 +496,10 @@ def _node_contact(a, h, R, r, v, w, rod, inputs, coef_k):
 
 
 @njit(**_INLINE)
-def _keep_contact(a, row, record, save_slot, f0, f1, f2, t0, t1, t2, inputs, work_f):
+def _apply_contact(a, row, record, save_slot, touched, f0, f1, f2, t0, t1, t2, inputs, work_f):
     """At a saved step (``record``) keep node a's applied loads before the contact
-    (inputs.contact_applied) and its contact loads (inputs.contact_samples[row])."""
+    (inputs.contact_applied) and its contact loads (inputs.contact_samples[row]); then work_f[a] +=
+    the contact loads where it ``touched``."""
     if record:
         slot = save_slot[a]
         if slot >= 0:
@@ -511,6 +512,21 @@ def _keep_contact(a, row, record, save_slot, f0, f1, f2, t0, t1, t2, inputs, wor
             smp[row, slot, 3] = t0
             smp[row, slot, 4] = t1
             smp[row, slot, 5] = t2
+    if touched:
+        work_f[a, 0] += f0
+        work_f[a, 1] += f1
+        work_f[a, 2] += f2
+        work_f[a, 3] += t0
+        work_f[a, 4] += t1
+        work_f[a, 5] += t2
+
+
+@njit(**_INLINE)
+def _last_self_contact(row, record, r, v, inputs, save_slot, work_f):
+    """``_self_contact`` when the last obstacle column is SELF."""
+    last = len(inputs.contact_kind) - 1
+    if inputs.contact_kind[last] == SELF:
+        _self_contact(row, record, r, v, int(inputs.contact_geom[last, 0]), inputs, save_slot, work_f)
 
 
 @njit(**_INLINE)
@@ -522,17 +538,8 @@ def _contact_loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
     (inputs.contact_applied) and their contact loads (inputs.contact_samples[row]) are kept."""
     for a in range(len(r)):
         touched, f0, f1, f2, t0, t1, t2, _, _, _, _, _, _ = _node_contact(a, h, R, r, v, w, rod, inputs, 0.0)
-        _keep_contact(a, row, record, save_slot, f0, f1, f2, t0, t1, t2, inputs, work_f)
-        if touched:
-            work_f[a, 0] += f0
-            work_f[a, 1] += f1
-            work_f[a, 2] += f2
-            work_f[a, 3] += t0
-            work_f[a, 4] += t1
-            work_f[a, 5] += t2
-    last = len(inputs.contact_kind) - 1
-    if inputs.contact_kind[last] == SELF:
-        _self_contact(row, record, r, v, int(inputs.contact_geom[last, 0]), inputs, save_slot, work_f)
+        _apply_contact(a, row, record, save_slot, touched, f0, f1, f2, t0, t1, t2, inputs, work_f)
+    _last_self_contact(row, record, r, v, inputs, save_slot, work_f)
 
 
 @njit(**_INLINE)
@@ -543,23 +550,14 @@ def _contact_loads_tangent(row, record, h, R, r, v, w, rod, inputs, save_slot, w
     for a in range(len(r)):
         touched, f0, f1, f2, t0, t1, t2, s00, s11, s22, s01, s02, s12 = _node_contact(a, h, R, r, v, w, rod,
                                                                                       inputs, coef_k)
-        _keep_contact(a, row, record, save_slot, f0, f1, f2, t0, t1, t2, inputs, work_f)
+        _apply_contact(a, row, record, save_slot, touched, f0, f1, f2, t0, t1, t2, inputs, work_f)
         tangent[a, 0] = s00
         tangent[a, 1] = s11
         tangent[a, 2] = s22
         tangent[a, 3] = s01
         tangent[a, 4] = s02
         tangent[a, 5] = s12
-        if touched:
-            work_f[a, 0] += f0
-            work_f[a, 1] += f1
-            work_f[a, 2] += f2
-            work_f[a, 3] += t0
-            work_f[a, 4] += t1
-            work_f[a, 5] += t2
-    last = len(inputs.contact_kind) - 1
-    if inputs.contact_kind[last] == SELF:
-        _self_contact(row, record, r, v, int(inputs.contact_geom[last, 0]), inputs, save_slot, work_f)
+    _last_self_contact(row, record, r, v, inputs, save_slot, work_f)
 
 
 @njit(**_INLINE)
