@@ -454,10 +454,12 @@ def _self_contact(row, record, r, v, gap_index, inputs, save_slot, work_f):
 
 
 @njit(**_INLINE)
-def _node_contact(a, h, R, r, v, w, rod, inputs, coef_k):
+def _node_contact(a, h, R, r, v, w, rod, inputs, coef_k, linear):
     """The contact force and torque (world) of node a (``_contact_loads``), whether it touches, and
     the tangent S = sum over touching obstacles of (coef_k k_a + h c_a) n n^T of its normal spring
-    and damper (six entries: S00, S11, S22, S01, S02, S12)."""
+    and damper (six entries: S00, S11, S22, S01, S02, S12). ``linear``: the normal force
+    -k_a gap - c_a v_n wherever gap < 0, also where the damper makes it negative (the implicit
+    step's linear spring and damper; friction only where it is positive)."""
     node = inputs.contact_node
     fric = inputs.contact_friction
     x0 = r[a, 0]
@@ -471,7 +473,7 @@ def _node_contact(a, h, R, r, v, w, rod, inputs, coef_k):
         gap, n0, n1, n2 = _obstacle_gap(a, o, x0, x1, x2, ra, inputs)
         if gap < 0.0:
             fn = -node[a, 1] * gap - node[a, 2] * (n0 * v[a, 0] + n1 * v[a, 1] + n2 * v[a, 2])
-            if fn > 0.0:
+            if fn > 0.0 or linear:
                 touched = True
                 f0 += fn * n0
                 f1 += fn * n1
@@ -483,7 +485,7 @@ def _node_contact(a, h, R, r, v, w, rod, inputs, coef_k):
                 s01 += q * n0 * n1
                 s02 += q * n0 * n2
                 s12 += q * n1 * n2
-                if fric[o, 0] > 0.0:
+                if fric[o, 0] > 0.0 and fn > 0.0:
                     ft0, ft1, ft2, m0, m1, m2 = _friction(a, h, fric[o, 0], fric[o, 1], fn, ra, n0, n1, n2,
                                                           R, v, w, rod)
                     f0 += ft0
@@ -537,7 +539,7 @@ def _contact_loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
     and w (body). At a saved step (``record``), the saved nodes' applied loads before the contact
     (inputs.contact_applied) and their contact loads (inputs.contact_samples[row]) are kept."""
     for a in range(len(r)):
-        touched, f0, f1, f2, t0, t1, t2, _, _, _, _, _, _ = _node_contact(a, h, R, r, v, w, rod, inputs, 0.0)
+        touched, f0, f1, f2, t0, t1, t2, _, _, _, _, _, _ = _node_contact(a, h, R, r, v, w, rod, inputs, 0.0, False)
         _apply_contact(a, row, record, save_slot, touched, f0, f1, f2, t0, t1, t2, inputs, work_f)
     _last_self_contact(row, record, r, v, inputs, save_slot, work_f)
 
@@ -549,7 +551,7 @@ def _contact_loads_tangent(row, record, h, R, r, v, w, rod, inputs, save_slot, w
     ``rod.implicit``. Self-contact stays explicit."""
     for a in range(len(r)):
         touched, f0, f1, f2, t0, t1, t2, s00, s11, s22, s01, s02, s12 = _node_contact(a, h, R, r, v, w, rod,
-                                                                                      inputs, coef_k)
+                                                                                      inputs, coef_k, True)
         _apply_contact(a, row, record, save_slot, touched, f0, f1, f2, t0, t1, t2, inputs, work_f)
         tangent[a, 0] = s00
         tangent[a, 1] = s11

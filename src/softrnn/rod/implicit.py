@@ -29,7 +29,8 @@ leaves out (the geometric stiffness of the stress, the curvature terms of the st
 stay below 4 M / h^2 + K, so the step is bounded by the loads' geometric stiffness (a string of
 tension N: h < 2 sqrt(m l / N)), never by E or G. Tendon springs, PD gains and applied loads stay
 explicit; so do the contact loads (``rod.contact``), unless ``Contact(implicit=True)``: then each
-touching node's normal spring and damper enter its translational block as the tangent
+node in an obstacle's wall (its normal force then -k g - c v_n, unclamped) has its normal spring and
+damper enter its translational block as the tangent
 S = sum (beta h^2 k + h c) n n^T (and S u^k the right-hand side), the force -S (u^{k+1} - u^k) / h
 joining F_imp, so that the penalty stiffness no longer bounds the step (friction and self-contact
 stay explicit).
