@@ -64,7 +64,8 @@ def _build(stamp_value):
                         out.reaction_torques[b], out.energy[b]),
                 h, k0, n_steps, stride, s0,
                 ImplicitWork(work.applied[b], work.force[b], work.strain_map[b], work.diag[b], work.upper[b],
-                             work.rhs[b], work.u[b], work.known[b], work.fixed[b], work.pivot[b], work.weighted[b]),
+                             work.rhs[b], work.u[b], work.known[b], work.fixed[b], work.pivot[b], work.weighted[b],
+                             work.contact_tangent[b]),
                 beta, theta, tau)
             status[b, 0] = code
             status[b, 1] = step
@@ -75,7 +76,8 @@ def _build(stamp_value):
 advance_rods = _build(stamp())
 
 
-def stacked_work(n_rods: int, n_nodes: int) -> ImplicitWork:
-    """Zeroed ``ImplicitWork`` arrays for ``n_rods`` rods of ``n_nodes`` nodes, (B, ...) each."""
-    one = implicit.work_arrays(n_nodes)
+def stacked_work(n_rods: int, n_nodes: int, implicit_contact: bool = False) -> ImplicitWork:
+    """Zeroed ``ImplicitWork`` arrays for ``n_rods`` rods of ``n_nodes`` nodes, (B, ...) each
+    (``implicit_contact``: ``implicit.work_arrays``)."""
+    one = implicit.work_arrays(n_nodes, implicit_contact)
     return ImplicitWork(*(np.zeros((n_rods,) + a.shape, dtype=a.dtype) for a in one))

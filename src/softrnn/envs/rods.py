@@ -104,7 +104,7 @@ class RodBatch:
         self._samples = empty_samples(np.arange(n, dtype=np.int64), checks, n, lead=(B,))
         self._contact_samples = np.zeros((B, checks, n, 6))
         self._applied = np.zeros((B, n, 6))
-        self._work = stacked_work(B, n)
+        self._work = stacked_work(B, n, len(self._start_work[-1]) > 0)
         for a, start in zip(self._work, self._start_work):
             a[:] = start
         self._status = np.zeros((B, 2), dtype=np.int64)

@@ -48,6 +48,10 @@ class Contact:
     self_contact : bool
         also contact between the rod's own segments (frictionless, with the same stiffness and
         damping per node, in series; ``self_contact_gap``); the obstacles may then be empty
+    implicit : bool
+        with the implicit integrator, take the normal spring and damper of every touching node into
+        its linear solve (linearly implicit contact, docs/guide/simulator.md "Stiff rods"): the contact
+        stiffness no longer bounds the step; ignored by the explicit integrator
     """
 
     obstacles: tuple = ()
@@ -58,6 +62,7 @@ class Contact:
     penetration: float = DEFAULT_PENETRATION
     reference_acceleration: float | None = None
     self_contact: bool = False
+    implicit: bool = False
 
     def __post_init__(self):
         obstacles = (self.obstacles,) if isinstance(self.obstacles, Obstacle) else self.obstacles
@@ -68,6 +73,8 @@ class Contact:
                       "a tuple of Plane, Sphere, Cylinder, Vessel, Bifurcation or MeshVessel") from None
         if not isinstance(self.self_contact, bool):
             raise bad("contact.self_contact", self.self_contact, "true or false")
+        if not isinstance(self.implicit, bool):
+            raise bad("contact.implicit", self.implicit, "true or false")
         if not (obstacles or self.self_contact) or not all(isinstance(o, Obstacle) and o.kind for o in obstacles):
             raise bad("contact.obstacles", self.obstacles,
                       "one or more Plane, Sphere, Cylinder, Vessel, Bifurcation or MeshVessel entries (or none, with "
@@ -126,8 +133,8 @@ def contact_record(contact) -> dict | None:
         the contact law's parameters (``CONTACT_KEYS``: ``friction`` [-], ``slip_velocity`` [m/s],
         ``stiffness`` [N/m^2], ``damping`` [N s/m^2], ``penetration`` [-],
         ``reference_acceleration`` [m/s^2], None for a default rule), ``obstacles`` (each one's
-        ``Obstacle.to_record``, with the friction that applies to it) and ``self_contact`` (true,
-        only where set).
+        ``Obstacle.to_record``, with the friction that applies to it), ``self_contact`` and
+        ``implicit`` (true, only where set).
     """
     if contact is None:
         return None
@@ -140,6 +147,8 @@ def contact_record(contact) -> dict | None:
     record["obstacles"] = [ob.to_record(contact.friction_of(ob)) for ob in contact.obstacles]
     if contact.self_contact:          # only where set: records without it read as before
         record["self_contact"] = True
+    if contact.implicit:
+        record["implicit"] = True
     return record
 
 
@@ -153,6 +162,8 @@ def contact_from_record(record) -> Contact:
     options = {k: record[k] for k in CONTACT_KEYS if record.get(k) is not None}
     if "self_contact" in record:
         options["self_contact"] = record["self_contact"]
+    if "implicit" in record:
+        options["implicit"] = record["implicit"]
     try:
         return Contact(obstacles=tuple(obstacles), **options)
     except TypeError as err:

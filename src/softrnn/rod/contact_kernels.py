@@ -454,61 +454,112 @@ def _self_contact(row, record, r, v, gap_index, inputs, save_slot, work_f):
 
 
 @njit(**_INLINE)
+def _node_contact(a, h, R, r, v, w, rod, inputs, coef_k, linear):
+    """The contact force and torque (world) of node a (``_contact_loads``), whether it touches, and
+    the tangent S = sum over touching obstacles of (coef_k k_a + h c_a) n n^T of its normal spring
+    and damper (six entries: S00, S11, S22, S01, S02, S12). ``linear``: the normal force
+    -k_a gap - c_a v_n wherever gap < 0, also where the damper makes it negative (the implicit
+    step's linear spring and damper; friction only where it is positive)."""
+    node = inputs.contact_node
+    fric = inputs.contact_friction
+    x0 = r[a, 0]
+    x1 = r[a, 1]
+    x2 = r[a, 2]
+    ra = node[a, 0]
+    touched = False
+    f0 = f1 = f2 = t0 = t1 = t2 = 0.0
+    s00 = s11 = s22 = s01 = s02 = s12 = 0.0
+    for o in range(len(inputs.contact_kind)):
+        gap, n0, n1, n2 = _obstacle_gap(a, o, x0, x1, x2, ra, inputs)
+        if gap < 0.0:
+            fn = -node[a, 1] * gap - node[a, 2] * (n0 * v[a, 0] + n1 * v[a, 1] + n2 * v[a, 2])
+            if fn > 0.0 or linear:
+                touched = True
+                f0 += fn * n0
+                f1 += fn * n1
+                f2 += fn * n2
+                q = coef_k * node[a, 1] + h * node[a, 2]
+                s00 += q * n0 * n0
+                s11 += q * n1 * n1
+                s22 += q * n2 * n2
+                s01 += q * n0 * n1
+                s02 += q * n0 * n2
+                s12 += q * n1 * n2
+                if fric[o, 0] > 0.0 and fn > 0.0:
+                    ft0, ft1, ft2, m0, m1, m2 = _friction(a, h, fric[o, 0], fric[o, 1], fn, ra, n0, n1, n2,
+                                                          R, v, w, rod)
+                    f0 += ft0
+                    f1 += ft1
+                    f2 += ft2
+                    t0 += m0
+                    t1 += m1
+                    t2 += m2
+    return touched, f0, f1, f2, t0, t1, t2, s00, s11, s22, s01, s02, s12
+
+
+@njit(**_INLINE)
+def _apply_contact(a, row, record, save_slot, touched, f0, f1, f2, t0, t1, t2, inputs, work_f):
+    """At a saved step (``record``) keep node a's applied loads before the contact
+    (inputs.contact_applied) and its contact loads (inputs.contact_samples[row]); then work_f[a] +=
+    the contact loads where it ``touched``."""
+    if record:
+        slot = save_slot[a]
+        if slot >= 0:
+            for c in range(6):
+                inputs.contact_applied[a, c] = work_f[a, c]
+            smp = inputs.contact_samples
+            smp[row, slot, 0] = f0
+            smp[row, slot, 1] = f1
+            smp[row, slot, 2] = f2
+            smp[row, slot, 3] = t0
+            smp[row, slot, 4] = t1
+            smp[row, slot, 5] = t2
+    if touched:
+        work_f[a, 0] += f0
+        work_f[a, 1] += f1
+        work_f[a, 2] += f2
+        work_f[a, 3] += t0
+        work_f[a, 4] += t1
+        work_f[a, 5] += t2
+
+
+@njit(**_INLINE)
+def _last_self_contact(row, record, r, v, inputs, save_slot, work_f):
+    """``_self_contact`` when the last obstacle column is SELF."""
+    last = len(inputs.contact_kind) - 1
+    if inputs.contact_kind[last] == SELF:
+        _self_contact(row, record, r, v, int(inputs.contact_geom[last, 0]), inputs, save_slot, work_f)
+
+
+@njit(**_INLINE)
 def _contact_loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
     """work_f += the contact force and torque (world) of every node (docs/lgvi.md §2.11): penalty
     normal force fn = max(0, -k_a gap - c_a v_n) along the obstacle normal at the node, and
     friction (``_friction``), from the configuration (R, r) and the staggered velocities v (world)
     and w (body). At a saved step (``record``), the saved nodes' applied loads before the contact
     (inputs.contact_applied) and their contact loads (inputs.contact_samples[row]) are kept."""
-    node = inputs.contact_node
-    fric = inputs.contact_friction
     for a in range(len(r)):
-        x0 = r[a, 0]
-        x1 = r[a, 1]
-        x2 = r[a, 2]
-        ra = node[a, 0]
-        touched = False
-        f0 = f1 = f2 = t0 = t1 = t2 = 0.0
-        for o in range(len(inputs.contact_kind)):
-            gap, n0, n1, n2 = _obstacle_gap(a, o, x0, x1, x2, ra, inputs)
-            if gap < 0.0:
-                fn = -node[a, 1] * gap - node[a, 2] * (n0 * v[a, 0] + n1 * v[a, 1] + n2 * v[a, 2])
-                if fn > 0.0:
-                    touched = True
-                    f0 += fn * n0
-                    f1 += fn * n1
-                    f2 += fn * n2
-                    if fric[o, 0] > 0.0:
-                        ft0, ft1, ft2, m0, m1, m2 = _friction(a, h, fric[o, 0], fric[o, 1], fn, ra, n0, n1, n2,
-                                                              R, v, w, rod)
-                        f0 += ft0
-                        f1 += ft1
-                        f2 += ft2
-                        t0 += m0
-                        t1 += m1
-                        t2 += m2
-        if record:
-            slot = save_slot[a]
-            if slot >= 0:
-                for c in range(6):
-                    inputs.contact_applied[a, c] = work_f[a, c]
-                smp = inputs.contact_samples
-                smp[row, slot, 0] = f0
-                smp[row, slot, 1] = f1
-                smp[row, slot, 2] = f2
-                smp[row, slot, 3] = t0
-                smp[row, slot, 4] = t1
-                smp[row, slot, 5] = t2
-        if touched:
-            work_f[a, 0] += f0
-            work_f[a, 1] += f1
-            work_f[a, 2] += f2
-            work_f[a, 3] += t0
-            work_f[a, 4] += t1
-            work_f[a, 5] += t2
-    last = len(inputs.contact_kind) - 1
-    if inputs.contact_kind[last] == SELF:
-        _self_contact(row, record, r, v, int(inputs.contact_geom[last, 0]), inputs, save_slot, work_f)
+        touched, f0, f1, f2, t0, t1, t2, _, _, _, _, _, _ = _node_contact(a, h, R, r, v, w, rod, inputs, 0.0, False)
+        _apply_contact(a, row, record, save_slot, touched, f0, f1, f2, t0, t1, t2, inputs, work_f)
+    _last_self_contact(row, record, r, v, inputs, save_slot, work_f)
+
+
+@njit(**_INLINE)
+def _contact_loads_tangent(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f, coef_k, tangent):
+    """``_contact_loads``, and tangent (n, 6) <- each node's normal spring and damper tangent
+    (``_node_contact``; zero where it touches nothing) for the linearly implicit contact of
+    ``rod.implicit``. Self-contact stays explicit."""
+    for a in range(len(r)):
+        touched, f0, f1, f2, t0, t1, t2, s00, s11, s22, s01, s02, s12 = _node_contact(a, h, R, r, v, w, rod,
+                                                                                      inputs, coef_k, True)
+        _apply_contact(a, row, record, save_slot, touched, f0, f1, f2, t0, t1, t2, inputs, work_f)
+        tangent[a, 0] = s00
+        tangent[a, 1] = s11
+        tangent[a, 2] = s22
+        tangent[a, 3] = s01
+        tangent[a, 4] = s02
+        tangent[a, 5] = s12
+    _last_self_contact(row, record, r, v, inputs, save_slot, work_f)
 
 
 @njit(**_INLINE)
@@ -534,6 +585,11 @@ def _applied_outputs_if_any(row, inputs, out):
     raise NotImplementedError("compiled code only")
 
 
+def _contact_loads_tangent_if_any(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f, coef_k, tangent):
+    """``_contact_loads_tangent``; nothing for inputs without obstacles. Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
 @overload(_contact_loads_if_any, jit_options=_INLINE)
 def _contact_loads_if_any_impl(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
     if absent(inputs, "contact_kind"):
@@ -552,3 +608,13 @@ def _applied_outputs_if_any_impl(row, inputs, out):
     def outputs(row, inputs, out):
         _applied_outputs(row, inputs, out)
     return outputs
+
+
+@overload(_contact_loads_tangent_if_any, jit_options=_INLINE)
+def _contact_loads_tangent_if_any_impl(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f, coef_k, tangent):
+    if absent(inputs, "contact_kind"):
+        return lambda row, record, h, R, r, v, w, rod, inputs, save_slot, work_f, coef_k, tangent: None
+
+    def loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f, coef_k, tangent):
+        _contact_loads_tangent(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f, coef_k, tangent)
+    return loads

@@ -27,8 +27,13 @@ in central-difference form: no numerical dissipation, second order, stable at an
 beta >= 1/4. beta = 1/2 leaves a margin of 2 on the stiffness: the parts of the true tangent that K
 leaves out (the geometric stiffness of the stress, the curvature terms of the strain map) need only
 stay below 4 M / h^2 + K, so the step is bounded by the loads' geometric stiffness (a string of
-tension N: h < 2 sqrt(m l / N)), never by E or G. Tendon springs, PD gains, applied loads and
-contact loads (``rod.contact``) stay explicit.
+tension N: h < 2 sqrt(m l / N)), never by E or G. Tendon springs, PD gains and applied loads stay
+explicit; so do the contact loads (``rod.contact``), unless ``Contact(implicit=True)``: then each
+node in an obstacle's wall (its normal force then -k g - c v_n, unclamped) has its normal spring and
+damper enter its translational block as the tangent
+S = sum (beta h^2 k + h c) n n^T (and S u^k the right-hand side), the force -S (u^{k+1} - u^k) / h
+joining F_imp, so that the penalty stiffness no longer bounds the step (friction and self-contact
+stay explicit).
 
 The linearised strain map of segment a (nodes a, a + 1; frame of node a; body rotation
 increments eps_a, eps_{a+1}; p = R_a^T (r_{a+1} - r_a), Q = R_a^T R_{a+1}, x = cay^-1(Q),
@@ -51,6 +56,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .contact_kernels import _contact_loads_tangent_if_any
 from .kernel_records import _segment_offset, kernel_stamp
 from .kernels import (
     CLAMPED,
@@ -102,6 +108,9 @@ class ImplicitWork(NamedTuple):
         scratch of the 6 x 6 solves
     weighted : (6, 12)
         scratch: a segment's strain map scaled by its stiffness
+    contact_tangent : (n, 6) or (0, 6)
+        with linearly implicit contact (``Contact.implicit``), each node's contact tangent
+        S = (beta h^2 k + h c) n n^T [kg] (S00, S11, S22, S01, S02, S12); empty: explicit contact
     """
 
     applied: np.ndarray
@@ -115,14 +124,16 @@ class ImplicitWork(NamedTuple):
     fixed: np.ndarray
     pivot: np.ndarray
     weighted: np.ndarray
+    contact_tangent: np.ndarray
 
 
-def work_arrays(n: int) -> ImplicitWork:
-    """Zeroed ``ImplicitWork`` for a rod of n nodes."""
+def work_arrays(n: int, implicit_contact: bool = False) -> ImplicitWork:
+    """Zeroed ``ImplicitWork`` for a rod of n nodes; ``implicit_contact``: with a contact tangent
+    per node (linearly implicit contact)."""
     return ImplicitWork(np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((max(n - 1, 0), 6, 12)),
                         np.zeros((n, 6, 6)), np.zeros((max(n - 1, 0), 6, 6)), np.zeros((n, 6)),
                         np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 6), dtype=np.int64), np.zeros((6, 7)),
-                        np.zeros((6, 12)))
+                        np.zeros((6, 12)), np.zeros((n if implicit_contact else 0, 6)))
 
 
 _INLINE = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
@@ -301,6 +312,8 @@ def _assemble(h, beta, theta, tau, rod, state, work):
             D[a, 3 + c, 3 + c] = rod.inertia[a, c] + h * rod.cr[a]
             rhs[a, c] = m * v[a, c] + h * work.force[a, c]
             rhs[a, 3 + c] = rod.inertia[a, c] * w[a, c] + h * work.force[a, 3 + c]
+    if len(work.contact_tangent) > 0:
+        _add_contact_tangent(n, v, work)
     for a in range(n - 1):
         Ba = B[a]
         for k in range(6):
@@ -335,6 +348,35 @@ def _assemble(h, beta, theta, tau, rod, state, work):
                 else:
                     U[a, i, j - 6] = t
     _fix_known(n, work)
+
+
+@njit(**_INLINE)
+def _add_contact_tangent(n, v, work):
+    """work.diag += S, work.rhs += S v^k: each node's contact tangent S (work.contact_tangent) in its
+    translational block (linearly implicit contact; docs/guide/simulator.md, "Stiff rods")."""
+    S = work.contact_tangent
+    D = work.diag
+    for a in range(n):
+        s00 = S[a, 0]
+        s11 = S[a, 1]
+        s22 = S[a, 2]
+        s01 = S[a, 3]
+        s02 = S[a, 4]
+        s12 = S[a, 5]
+        if s00 == 0.0 and s11 == 0.0 and s22 == 0.0:
+            continue
+        D[a, 0, 0] += s00
+        D[a, 1, 1] += s11
+        D[a, 2, 2] += s22
+        D[a, 0, 1] += s01
+        D[a, 1, 0] += s01
+        D[a, 0, 2] += s02
+        D[a, 2, 0] += s02
+        D[a, 1, 2] += s12
+        D[a, 2, 1] += s12
+        work.rhs[a, 0] += s00 * v[a, 0] + s01 * v[a, 1] + s02 * v[a, 2]
+        work.rhs[a, 1] += s01 * v[a, 0] + s11 * v[a, 1] + s12 * v[a, 2]
+        work.rhs[a, 2] += s02 * v[a, 0] + s12 * v[a, 1] + s22 * v[a, 2]
 
 
 @njit(**_INLINE)
@@ -408,7 +450,7 @@ def _solve_tridiagonal(n, work):
 
 
 @njit(**_INLINE)
-def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
+def _explicit_forces(i, row, record, h, beta, rod, state, inputs, out, work):
     """work.force <- the explicit force (world) and body torque of every node at step i, work.strain_map
     <- the segments' strain maps; the samples' positions, loads and quaternions are written when
     ``record``. ``rod.kv_on`` must be False (the Kelvin-Voigt forces are implicit). Returns False
@@ -422,9 +464,13 @@ def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
         return False, 0.0, 0.0
     if len(inputs.tendon_stiffness) > 0:
         _tendon_springs(i, R, r, rod, inputs)
-    # contact: explicit, with the applied loads (docs/lgvi.md §2.11)
-    _contact_loads_if_any(row, record, h, R, r, state.velocities, state.angular_velocities, rod, inputs,
-                          out.save_slot, work_f)
+    # contact: with the applied loads (docs/lgvi.md §2.11); its tangent for the solve if implicit
+    if len(work.contact_tangent) > 0:
+        _contact_loads_tangent_if_any(row, record, h, R, r, state.velocities, state.angular_velocities, rod,
+                                      inputs, out.save_slot, work_f, beta * h * h, work.contact_tangent)
+    else:
+        _contact_loads_if_any(row, record, h, R, r, state.velocities, state.angular_velocities, rod, inputs,
+                              out.save_slot, work_f)
     n = len(r)
     g0 = rod.gravity[0]
     g1 = rod.gravity[1]
@@ -471,7 +517,8 @@ def _explicit_forces(i, row, record, h, rod, state, inputs, out, work):
 
 @njit(**_INLINE)
 def _add_implicit_forces(h, beta, theta, tau, rod, state, work):
-    """work.force += F_imp = -beta h K (u - u^k) - tau K u with u = work.u, u^k the state's velocities."""
+    """work.force += F_imp = -beta h K (u - u^k) - tau K u with u = work.u, u^k the state's velocities,
+    and the implicit contact's -S (u - u^k) / h (S the contact tangent, translations only)."""
     v = state.velocities
     w = state.angular_velocities
     u = work.u
@@ -490,6 +537,14 @@ def _add_implicit_forces(h, beta, theta, tau, rod, state, work):
             for j in range(6):
                 work.force[a, j] -= Ba[k, j] * s
                 work.force[a + 1, j] -= Ba[k, 6 + j] * s
+    S = work.contact_tangent
+    for a in range(len(S)):
+        d0 = (u[a, 0] - v[a, 0]) / h
+        d1 = (u[a, 1] - v[a, 1]) / h
+        d2 = (u[a, 2] - v[a, 2]) / h
+        work.force[a, 0] -= S[a, 0] * d0 + S[a, 3] * d1 + S[a, 4] * d2
+        work.force[a, 1] -= S[a, 3] * d0 + S[a, 1] * d1 + S[a, 5] * d2
+        work.force[a, 2] -= S[a, 4] * d0 + S[a, 5] * d1 + S[a, 2] * d2
 
 
 @njit(**_INLINE)
@@ -519,7 +574,7 @@ def _build(stamp):
             k = k0 + ii
             record = (k % stride) == 0
             row = k // stride - s0
-            fine, e_el, e_g = _explicit_forces(ii, row, record, h, rod, state, inputs, out, work)
+            fine, e_el, e_g = _explicit_forces(ii, row, record, h, beta, rod, state, inputs, out, work)
             if not fine:
                 return MAGNET_TOO_CLOSE, k
             if not _new_velocities(ii, h, beta, theta, tau, rod, state, inputs, work):
@@ -546,7 +601,7 @@ def _build(stamp):
         step from rest would reach; the state must be at rest. Returns False if singular."""
         if stamp < 0:
             return False
-        fine, _, _ = _explicit_forces(0, 0, False, h, rod, state, inputs, out, work)
+        fine, _, _ = _explicit_forces(0, 0, False, h, beta, rod, state, inputs, out, work)
         if not fine:
             return False
         _known_velocities(0, h, rod, state, inputs, work)

@@ -100,11 +100,11 @@ class Implicit:
 
     def resolve_substeps(self, sim, config) -> int:
         """``config.substeps`` as given, or the steps that resolve the rod's bending modes and keep
-        the explicit contact loads stable."""
+        the explicit contact loads stable (not bounded by linearly implicit contact, ``Contact.implicit``)."""
         if config.substeps is not None:
             return int(config.substeps)
         limit = implicit.accuracy_step(sim.rod, sim.inputs.pd_gain, config.safety)
-        if sim.inputs.contact is not None:  # the contact loads stay explicit
+        if sim.inputs.contact is not None and not sim.setup.contact.implicit:  # explicit contact loads
             limit = min(limit, config.safety * step_limit(sim.inputs.contact["contact_node"], sim.rod.mass))
         return max(1, math.ceil(config.dt / limit * (1 - 1e-12)))
 

@@ -446,7 +446,8 @@ class Simulator:
     def implicit_work(self) -> "implicit.ImplicitWork":
         """The implicit step's scratch arrays, built on first use (``rod.integrators.Implicit``)."""
         if self._work is None:
-            self._work = implicit.work_arrays(self.setup.rod.n_nodes)
+            contact = self.setup.contact
+            self._work = implicit.work_arrays(self.setup.rod.n_nodes, contact is not None and contact.implicit)
             self._elastic = self.rod._replace(kv_on=False)
         return self._work
 

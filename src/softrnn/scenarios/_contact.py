@@ -35,6 +35,8 @@ _CONTACT_KEYS = {
                    "in (0, 1) (default 0.005)",
     "reference_acceleration": "the reference acceleration of the default stiffness in m/s^2 (default: |gravity|)",
     "self_contact": "true: the rod's own segments touch too (frictionless; default false)",
+    "implicit": "true: the implicit integrator takes the contact springs into its solve (larger steps; default "
+                "false)",
 }
 _FRICTION = {"friction": "this obstacle's friction coefficient (>= 0; default: contact.friction)"}
 _OBSTACLE_KEYS = {
@@ -75,6 +77,8 @@ def read_contact(ctx: _Ctx, raw) -> Contact:
                                                         "= true)")
     obstacles = tuple(_obstacle(ctx, o, f"contact.obstacles.{i}") for i, o in enumerate(entries))
     kw = {"friction": t.get("friction", number(nonnegative=True), 0.0), "self_contact": self_contact}
+    if t.has("implicit"):
+        kw["implicit"] = t.get("implicit", boolean)
     for name, conv in (("slip_velocity", number("m/s", positive=True)),
                        ("stiffness", number("N/m^2", positive=True)),
                        ("damping", number("N s/m^2", nonnegative=True)),
