@@ -33,6 +33,7 @@ from dataclasses import replace
 import numpy as np
 from numba import njit
 
+from softrnn.files import atomic_write_text
 from softrnn.geometry.mesh import arch_tree
 from softrnn.rod import Contact, RunConfig, Setup, Simulator, straight
 from softrnn.rod.contact import MeshVessel, initial_segments, kernel_arrays
@@ -129,8 +130,7 @@ def main(argv=None) -> int:
         results["one_metre"] = measure(one_metre(sc.setup), config)
     text = json.dumps(results, indent=2)
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as f:
-            f.write(text + "\n")
+        atomic_write_text(args.json, text + "\n")
     sys.stdout.write(text + "\n")
     return 0
 

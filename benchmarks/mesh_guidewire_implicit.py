@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from softrnn.errors import SimulationError
+from softrnn.files import atomic_write_text
 from softrnn.geometry.mesh import arch_tree
 from softrnn.rod import Clamp, Contact, Damping, Hub, RunConfig, Setup, Simulator, guidewire
 from softrnn.rod.contact import MeshVessel
@@ -88,8 +89,7 @@ def main(argv=None) -> int:
         sys.stderr.write(f"{name}: {json.dumps(out)}\n")
     text = json.dumps(results, indent=2)
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as f:
-            f.write(text + "\n")
+        atomic_write_text(args.json, text + "\n")
     sys.stdout.write(text + "\n")
     return 0
 
