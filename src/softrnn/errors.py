@@ -6,8 +6,7 @@ dataclass checked as its read-only fields."""
 
 import importlib.util
 import math
-
-import numpy as np
+import numbers
 
 
 class SoftrnnInputError(ValueError):
@@ -37,13 +36,14 @@ def one_line(text) -> str:
 
 
 def is_int(value) -> bool:
-    """True for a Python or numpy integer that is not a bool."""
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+    """True for a Python or numpy integer that is not a bool (numpy registers its integers as
+    ``numbers.Integral``, so numpy is not imported here: the CLI starts without it)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
 def is_finite_number(value) -> bool:
     """True for a finite Python or numpy integer or float that is not a bool."""
-    return (isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+    return (isinstance(value, numbers.Real) and not isinstance(value, bool)
             and math.isfinite(value))
 
 

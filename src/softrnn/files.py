@@ -9,12 +9,11 @@ import errno
 import hashlib
 import os
 import shutil
+import sys
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-
-import numpy as np
 
 from .errors import FileFault, bad
 
@@ -255,9 +254,10 @@ def json_default(value):
     sorted lists and dataclass instances as dicts (``dataclasses.asdict``); anything else raises
     the ``TypeError`` that ``json.dumps`` expects. Non-finite floats are ``json.dumps``'s to refuse
     (``allow_nan=False``)."""
-    if isinstance(value, np.generic):
+    np = sys.modules.get("numpy")   # a numpy value exists only once numpy is loaded: the CLI starts without it
+    if np is not None and isinstance(value, np.generic):
         return value.item()
-    if isinstance(value, np.ndarray):
+    if np is not None and isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, Path):
         return str(value)

@@ -16,6 +16,7 @@ import pytest
 import softrnn
 from softrnn.bench.startup import commands_met, format_commands, time_commands
 from softrnn.cli import _names
+from softrnn.cli._lazy import LazyModule
 from softrnn.cli.main import COMMANDS, build_parser
 from softrnn.scenarios import SCENARIO_NAMES
 
@@ -60,6 +61,14 @@ def test_help_and_version_import_no_heavy_library(argv):
     run = _fresh(*argv)
     assert run["code"] == 0
     assert sorted(set(run["modules"]) & set(HEAVY)) == []
+    assert "numpy" not in run["modules"]            # numpy alone is a tenth of a second
+
+
+def test_the_lazy_module_loads_on_first_use():
+    lazy = LazyModule("fractions")
+    assert lazy.Fraction(1, 2) + lazy.Fraction(1, 2) == 1
+    with pytest.raises(AttributeError):
+        lazy.no_such_name
 
 
 def test_bare_softrnn_prints_the_help_and_succeeds(capsys):
@@ -167,7 +176,7 @@ def _top_imports(path: Path) -> list[str]:
     return found
 
 
-LIGHT = {"..errors", "..files", "__future__", "numpy", "softrnn"}
+LIGHT = {"..errors", "..files", "__future__", "softrnn"}
 """What a command-line module may import at its top besides the standard library and its siblings."""
 
 
@@ -178,4 +187,4 @@ def test_the_command_line_modules_import_only_light_parts_at_their_top():
              if m not in LIGHT and m.split(".")[0] not in stdlib and not (m.startswith(".") and not m.startswith(".."))}
     assert heavy == set()
     assert {m.__name__.rpartition(".")[2] for m in COMMANDS} == {p.stem for p in CLI.glob("_*.py")} - {
-        "__init__", "_names", "_progress", "_vocabulary", "_scenario_list"}
+        "__init__", "_lazy", "_names", "_progress", "_vocabulary", "_scenario_list"}

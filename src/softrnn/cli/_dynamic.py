@@ -1,16 +1,17 @@
 """softrnn dynamic train|evaluate|rollout|export: the learned whole-manipulator model (beyond the
 paper; ``softrnn.learned.whole``): one set of weights along the rod, free running at its own step."""
 
+from __future__ import annotations
+
 import json
 import sys
 import time as _time
 from contextlib import contextmanager
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import FileFault, SimulationError, SoftrnnInputError, bad, require_extra
 from ..files import atomic_write_text, json_default, prepare_output
+from ._lazy import numpy as np
 from ._progress import Bar, stop_code
 from ._vocabulary import deprecate, deprecate_converted, output, settings
 
@@ -596,5 +597,4 @@ _COMMANDS = (
                  "constant velocity and a linear model", _add_evaluate, _evaluate),
     ("rollout", "run the model free from a data set's history and loads; write every node", _add_rollout, _rollout),
     ("export", "export one model step to ONNX (with its encoding as a .json sidecar), checked with ONNX Runtime",
-     _add_export, _export),
-)
+     _add_export, _export))

@@ -9,10 +9,9 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from ..errors import SoftrnnInputError, bad
 from ..files import atomic_write_text, prepare_output
+from ._lazy import numpy as np
 from ._names import FAMILIES
 from ._progress import Bar, stop_code
 from ._vocabulary import deprecate, output

@@ -1,13 +1,14 @@
 """softrnn rollout MODEL [MODEL ...] DATA.h5 -o pred.h5: step node models together (paper Fig. 2C),
 free running, and write the predicted trajectory in the data set format."""
 
+from __future__ import annotations
+
 import time as _time
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import SoftrnnInputError, bad
 from ..files import prepare_output
+from ._lazy import numpy as np
 from ._progress import Bar
 
 NAME = "rollout"
