@@ -36,11 +36,15 @@ class NavigateVectorEnv(VectorEnv):
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+    config_type = NavigateConfig
+    """The task's class, its defaults when ``config`` is None."""
+    episodes_type = Episodes
+    """The episodes' class (a subclass for another device)."""
 
     def __init__(self, num_envs: int = 1, config: NavigateConfig | None = None, vessel=None, render_mode=None):
         self.num_envs = integer("num_envs", num_envs, 1)
-        self.config = NavigateConfig() if config is None else config
-        self.episodes = Episodes(self.config, vessel, self.num_envs)
+        self.config = self.config_type() if config is None else config
+        self.episodes = self.episodes_type(self.config, vessel, self.num_envs)
         self.single_action_space, self.single_observation_space = spaces(self.episodes)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
