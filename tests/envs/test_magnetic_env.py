@@ -186,3 +186,14 @@ def test_the_benchmark_reports_the_magnetic_runs_and_the_image_cost():
     assert image["share"] == pytest.approx(image["render_s"] / image["physics_s"])
     table = format_envs_table(result)
     assert "MagneticNavigateEnv" in table and "fluoroscopy image" in table
+
+
+def test_pushing_without_a_field_ends_at_the_carina_not_in_a_branch():
+    """The straight rod pushed without a field runs into the carina's crease, as near one branch as
+    the other: no success for either target (the field is what steers)."""
+    env = MagneticNavigateEnv()
+    env.reset(seed=0, options={"target": "left"})
+    for _ in range(25):
+        _, _, terminated, _, info = env.step(np.array([1.0, 0.0, 0.0, 0.0, 0.0], dtype=np.float32))
+    assert not terminated and not info["success"]
+    assert abs(env.episodes.tip[0, 1]) < 1e-3 and env.episodes.tip[0, 0] > 0.0   # past the junction, on the plane

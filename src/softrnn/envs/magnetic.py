@@ -229,6 +229,21 @@ class MagneticEpisodes(Episodes):
         super().__init__(config, magnetic_vessel() if vessel is None else vessel, n)
         self.scale = np.array([config.max_insertion_speed, config.max_rotation_speed] + 3 * [config.max_field])
 
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``Episodes.step``, with a success only where the tip is clear of the carina: nearer the
+        target's centreline than any other branch's by the rod's radius (the straight, symmetric rod
+        pushed without a field sinks into the carina's crease, as near one branch as the other)."""
+        reward, terminated, truncated = super().step(actions)
+        _, d = self.paths.progress(self.tip)
+        rows = np.arange(len(d))
+        mine = d[rows, self.target]
+        d[rows, self.target] = np.inf
+        blurred = self.outcome[:, 0] & ~(d.min(axis=1) - mine > self.config.device.radius)
+        self.outcome[:, 0] &= ~blurred
+        terminated = terminated & ~blurred
+        return (reward - self.config.success_reward * blurred, terminated,
+                ~terminated & (self.steps >= self.config.max_steps))
+
     def limits(self) -> str:
         """The largest rates and field, as the bounds' error says them."""
         return f"{super().limits()}, {self.config.max_field:g} T"
