@@ -192,12 +192,13 @@ def format_envs_table(result: dict) -> str:
         m = result["magnetic"]
         lines += [f"  {'MagneticNavigateEnv':<22}{1:>6}{m['single']['steps_per_s']:>12.1f}"
                   f"{m['single']['real_time_factor']:>20.3f}",
-                  f"  {'MagneticNavigateVectorEnv':<22}{m['vector']['envs']:>6}{m['vector']['steps_per_s']:>12.1f}"
-                  f"{m['vector']['real_time_factor']:>20.3f}   (rods stepped one after another)"]
+                  f"  {'MagneticNavigateVec..':<22}{m['vector']['envs']:>6}{m['vector']['steps_per_s']:>12.1f}"
+                  f"{m['vector']['real_time_factor']:>20.3f}   (MagneticNavigateVectorEnv: its rods one after "
+                  "another)"]
     if "image" in result:
         im = result["image"]
         lines.append(f"  fluoroscopy image {im['size']}x{im['size']}: {1e6 * im['render_s']:.0f} us per render, "
-                     f"{100 * im['share']:.2f} % of the physics of a step ({1e3 * im['physics_s']:.1f} ms)")
+                     f"{100 * im['share']:.2g} % of the physics of a step ({1e3 * im['physics_s']:.1f} ms)")
     for name, p in result["published"].items():
         figure = "not found" if p["env_steps_per_s"] is None else f"{p['env_steps_per_s']:g} steps/s"
         lines.append(f"  {name}: {figure} ({p['source']})")

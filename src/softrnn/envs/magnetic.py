@@ -126,7 +126,8 @@ class MagneticNavigateConfig(NavigateConfig):
         (100: 10 s)
     contact_stiffness : float
         [N/m^2] (5e4: the rubber rod's weight sinks it 0.1 % of its radius into the wall, the
-        magnets' loads a few %, at a few hundred solver steps per step)
+        magnets' loads up to about 10 % while the scripted controller steers; the solver step is set
+        by the rod's bending modes, not by this)
     goal_depth : float
         [m] (0.012: 12 mm into a 30 mm branch)
     """

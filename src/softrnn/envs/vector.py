@@ -70,7 +70,8 @@ class NavigateVectorEnv(VectorEnv):
         return self.episodes.observe(), self._infos()
 
     def step(self, actions):
-        """One step of every environment with ``actions`` (N, 2) in [-1, 1] (next-step autoreset)."""
+        """One step of every environment with ``actions`` (N, A) in [-1, 1] (A = 2: insertion and rotation;
+        more for another device; next-step autoreset)."""
         a = self.episodes.check_actions(actions, self.num_envs)
         reward, terminated, truncated = self.episodes.step(a)
         for b in np.flatnonzero(self._ended):
