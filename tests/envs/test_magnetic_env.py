@@ -20,6 +20,7 @@ from softrnn.envs import (  # noqa: E402 (after the skip)
     MagneticNavigator,
     MagneticRod,
     NavigateConfig,
+    default_vessel,
 )
 from softrnn.errors import SoftrnnInputError  # noqa: E402
 from softrnn.magnetics import CurrentSchedule, ManipulatorSpec  # noqa: E402
@@ -99,6 +100,13 @@ def test_a_field_beyond_the_coils_limit_and_a_guidewire_are_refused():
         MagneticNavigateConfig(device=Guidewire())
     with pytest.raises(SoftrnnInputError, match="MagneticNavigateConfig"):
         MagneticNavigateEnv(NavigateConfig())
+
+
+def test_a_vessel_that_starts_the_magnets_outside_the_coils_workspace_is_refused():
+    with pytest.raises(SoftrnnInputError) as err:
+        MagneticNavigateEnv(SMALL, vessel=default_vessel())   # its entry is 0.2 m from the coils' centre
+    text = str(err.value)
+    assert text.startswith("vessel") and "workspace" in text and "\n" not in text
 
 
 def _rollout(seed: int, steps: int = 4) -> np.ndarray:

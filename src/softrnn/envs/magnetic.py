@@ -186,8 +186,21 @@ class MagneticRodBatch(RodBatch):
         arrays = load.kernel_arrays(np.zeros(1))
         self._magnets = {k: arrays[k] for k in ("magnet_node", "magnet_body", "source_positions", "source_moments")}
         self._buffers = [load.buffers(config.checks_per_step) for _ in range(n_rods)]  # a row per contact check
+        self._check_workspace(load)
         self.field = np.zeros((n_rods, 3))
         self.currents = np.zeros((n_rods, n_c))
+
+    def _check_workspace(self, load) -> None:
+        """A one-line error unless the magnets start inside the coils' workspace (where the field the
+        action asks for is made)."""
+        r = self._start.positions
+        magnets = (1.0 - load.fractions[:, None]) * r[load.nodes] + load.fractions[:, None] * r[load.nodes + 1]
+        reach = float(np.max(np.linalg.norm(magnets, axis=1)))
+        limit = self.config.device.manipulator.coils.workspace_radius
+        if reach > limit:
+            raise bad("vessel", f"magnets starting {reach:.4g} m from the coils' centre",
+                      f"a vessel whose entry puts the rod's magnets within the coils' workspace of radius {limit:g} m "
+                      "around the origin (e.g. magnetic_vessel())")
 
     def reset(self, b: int) -> None:
         """Rod ``b`` back at its start, its coils off."""
