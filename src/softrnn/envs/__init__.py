@@ -7,9 +7,14 @@ its hub, toward a target branch (docs/guide/envs.md).
   ``Vessel`` or any ``Track`` (its obstacles, branches and centrelines), ``default_vessel()`` by
   default;
 * ``HubMotion``: the hub's insertion and rotation, the clamp motion of the device's node 0;
-* ``ScriptedNavigator``: a hand-written controller, the baseline.
+* ``ScriptedNavigator``: a hand-written controller, the baseline;
+* ``MagneticNavigateEnv``, ``MagneticNavigateVectorEnv`` (``MagneticNavigateConfig``, ``MagneticRod``,
+  ``magnetic_vessel()``, ``MagneticNavigator``): the magnetic manipulator's rod steered by the
+  coils' field;
+* ``Fluoroscopy``: the fluoroscopy image observation's settings (``observation="image"``).
 
-Registered with gymnasium as ``softrnn/Navigate-v0`` (``gymnasium.make`` and ``make_vec``).
+Registered with gymnasium as ``softrnn/Navigate-v0`` and ``softrnn/MagneticNavigate-v0``
+(``gymnasium.make`` and ``make_vec``).
 Needs the optional extra ``envs`` (gymnasium); importing this package without it raises the
 one-line ``missing_extra`` error.
 """
@@ -24,7 +29,14 @@ except ImportError as err:  # pragma: no cover - the extra is installed in the t
 from .config import Guidewire as Guidewire
 from .config import NavigateConfig as NavigateConfig
 from .episodes import Episodes as Episodes
+from .fluoro import Fluoroscopy as Fluoroscopy
 from .hub import HubMotion as HubMotion
+from .magnetic import MagneticNavigateConfig as MagneticNavigateConfig
+from .magnetic import MagneticNavigateEnv as MagneticNavigateEnv
+from .magnetic import MagneticNavigateVectorEnv as MagneticNavigateVectorEnv
+from .magnetic import MagneticNavigator as MagneticNavigator
+from .magnetic import MagneticRod as MagneticRod
+from .magnetic import magnetic_vessel as magnetic_vessel
 from .navigate import NavigateEnv as NavigateEnv
 from .scripted import ScriptedNavigator as ScriptedNavigator
 from .track import BifurcationTrack as BifurcationTrack
@@ -38,3 +50,10 @@ ENV_ID = "softrnn/Navigate-v0"
 if ENV_ID not in gymnasium.registry:
     gymnasium.register(id=ENV_ID, entry_point="softrnn.envs.navigate:NavigateEnv",
                        vector_entry_point="softrnn.envs.vector:NavigateVectorEnv")
+
+MAGNETIC_ENV_ID = "softrnn/MagneticNavigate-v0"
+"""The id the magnetic environments are registered under with gymnasium."""
+
+if MAGNETIC_ENV_ID not in gymnasium.registry:
+    gymnasium.register(id=MAGNETIC_ENV_ID, entry_point="softrnn.envs.magnetic:MagneticNavigateEnv",
+                       vector_entry_point="softrnn.envs.magnetic:MagneticNavigateVectorEnv")

@@ -11,6 +11,10 @@ import numpy as np
 
 from ..errors import bad, integer, nonnegative, positive
 from ..rod import NodeOverride, RodShape, RodSpec, polyline
+from .fluoro import Fluoroscopy
+
+OBSERVATIONS = ("state", "image")
+"""The observations a ``NavigateConfig`` may choose."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -141,6 +145,11 @@ class NavigateConfig:
         samples of the contact forces per step checked for a perforation, >= 1
     target : str or None
         the target branch, or None: one drawn per episode from the vessel's branches
+    observation : str
+        "state" (default: the tip, the hub, the target and the kept nodes, a float vector) or "image"
+        (a fluoroscopy image of the rod in the lumen, uint8, ``image``; ``softrnn.envs.fluoro``)
+    image : Fluoroscopy
+        the image's size and view (used with ``observation="image"``)
     """
 
     device: Guidewire = field(default_factory=Guidewire)
@@ -163,10 +172,20 @@ class NavigateConfig:
     kept_nodes: int = 6
     checks_per_step: int = 10
     target: str | None = None
+    observation: str = "state"
+    image: Fluoroscopy = field(default_factory=Fluoroscopy)
 
-    def __post_init__(self):
+    def _check_device(self) -> None:
+        """A one-line error unless ``device`` is this task's kind of device."""
         if not isinstance(self.device, Guidewire):
             raise bad("device", self.device, "a softrnn.envs.Guidewire")
+
+    def __post_init__(self):
+        self._check_device()
+        if self.observation not in OBSERVATIONS:
+            raise bad("observation", self.observation, f"one of {', '.join(OBSERVATIONS)}")
+        if not isinstance(self.image, Fluoroscopy):
+            raise bad("image", self.image, "a softrnn.envs.Fluoroscopy")
         for name, unit in (("step_time", "s"), ("max_insertion_speed", "m/s"), ("max_rotation_speed", "rad/s"),
                            ("travel", "m"), ("contact_stiffness", "N/m^2"), ("perforation_force", "N"),
                            ("goal_depth", "m"), ("reward_length", "m")):

@@ -7,7 +7,8 @@ last node), the hub's insertion [m] and angle (cos, sin), the target branch one-
 nodes' positions (k, 3) [m], hub to tip, flattened. Reward: the progress along the target's
 centreline per ``reward_length``, less ``wrong_branch_penalty`` per step in another branch, plus
 ``success_reward`` on reaching the target, less ``perforation_penalty`` on a perforation (a contact
-force above ``perforation_force``, or a failed step).
+force above ``perforation_force``, or a failed step). With ``observation="image"`` the observation is
+the fluoroscopy image (H, W, 1) uint8 instead (``softrnn.envs.fluoro``).
 """
 
 import numpy as np
@@ -15,6 +16,7 @@ import numpy as np
 from ..errors import bad
 from ..geometry.obstacles import Bifurcation, Vessel
 from .config import NavigateConfig
+from .fluoro import Fluoroscope
 from .rods import RodBatch
 from .track import BifurcationTrack, Paths, Track, default_vessel
 
@@ -52,7 +54,16 @@ class Episodes:
         the branch the tip is in, -1 before the forks
     steps : (B,) int64
         steps since the episode's reset
+    scale : (A,)
+        the action's units: each component's value at +-1 (insertion [m/s], rotation [rad/s])
+    camera : Fluoroscope or None
+        the image observation's renderer (``observation="image"``), else None
     """
+
+    rod_batch = RodBatch
+    """The physics' class (a subclass for another device)."""
+    actions = "insertion and rotation"
+    """The action's components, as the bounds' error names them."""
 
     def __init__(self, config: NavigateConfig, vessel, n: int):
         self.config = config
@@ -60,9 +71,12 @@ class Episodes:
         self.paths = Paths(self.track)
         if config.target is not None:
             self.paths.index(config.target)
-        self.rods = RodBatch(config, self.track, n)
+        self.rods = self.rod_batch(config, self.track, n)
         self.kept = config.kept()
         self.scale = np.array([config.max_insertion_speed, config.max_rotation_speed])
+        self.camera = None if config.observation != "image" else \
+            Fluoroscope(config.image, self.paths, self.rods.setups[0].contact, self.track.entry_radius,
+                        config.device.radius, config.goal_depth, config.gravity)
         self.target = np.zeros(n, dtype=np.int64)
         self.progress = np.zeros(n)
         self.branch = np.full(n, -1, dtype=np.int64)
@@ -75,19 +89,24 @@ class Episodes:
         """The observation's length: 9 + J + 3 k."""
         return 9 + len(self.paths.branches) + 3 * len(self.kept)
 
+    def limits(self) -> str:
+        """The largest values of the action's components, as the bounds' error says them."""
+        return f"{self.config.max_insertion_speed:g} m/s, {self.config.max_rotation_speed:g} rad/s"
+
     def check_actions(self, actions, n: int) -> np.ndarray:
-        """``actions`` as (n, 2) floats in [-1, 1] (insertion, rotation); a one-line error naming the
-        value and the bounds otherwise."""
+        """``actions`` as (n, A) floats in [-1, 1] (A = len(scale): insertion, rotation, ...); a
+        one-line error naming the value and the bounds otherwise."""
         a = np.asarray(actions, dtype=float)
-        if a.size != 2 * n:
-            raise bad("action", a.tolist(), f"{'2 values' if n == 1 else f'({n}, 2) values'}: insertion and "
-                                            "rotation, each in [-1, 1] (the fractions of the largest rates)")
-        a = a.reshape(n, 2)
+        k = len(self.scale)
+        if a.size != k * n:
+            raise bad("action", a.tolist(), f"{f'{k} values' if n == 1 else f'({n}, {k}) values'}: "
+                                            f"{self.actions}, each in [-1, 1] (the "
+                                            "fractions of the largest rates)")
+        a = a.reshape(n, k)
         if not np.all(np.isfinite(a)) or np.any(np.abs(a) > 1.0 + ACTION_TOLERANCE):
             raise bad("action", a.tolist() if n > 1 else a[0].tolist(),
-                      "insertion and rotation each in [-1, 1], the fractions of the largest rates "
-                      f"({self.config.max_insertion_speed:g} m/s, {self.config.max_rotation_speed:g} rad/s); clip "
-                      "the policy's output to the action space")
+                      f"{self.actions} each in [-1, 1], the fractions of the largest rates ({self.limits()}); "
+                      "clip the policy's output to the action space")
         return np.clip(a, -1.0, 1.0)
 
     def reset(self, b: int, rng: np.random.Generator, target: str | None = None) -> None:
@@ -127,8 +146,10 @@ class Episodes:
         return reward, terminated, ~terminated & (self.steps >= c.max_steps)
 
     def observe(self) -> np.ndarray:
-        """The observations (B, 9 + J + 3 k) float32 (module docstring)."""
+        """The observations (B, 9 + J + 3 k) float32, or the images (B, H, W, 1) uint8 (module docstring)."""
         st, B = self.rods.state, len(self.target)
+        if self.camera is not None:
+            return self.camera.render(st.positions, self.target)
         fine = np.all(np.isfinite(st.positions), axis=(1, 2))
         nodes = np.where(fine[:, None, None], st.positions[:, self.kept], 0.0)
         heading = np.where(fine[:, None], st.rotations[:, -1, :, 2], 0.0)

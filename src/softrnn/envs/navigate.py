@@ -15,7 +15,9 @@ from .episodes import Episodes
 
 def spaces(episodes: Episodes) -> tuple:
     """(action space, observation space) of one environment."""
-    action = gymnasium.spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+    action = gymnasium.spaces.Box(-1.0, 1.0, shape=(len(episodes.scale),), dtype=np.float32)
+    if episodes.camera is not None:
+        return action, gymnasium.spaces.Box(0, 255, shape=episodes.camera.shape, dtype=np.uint8)
     observation = gymnasium.spaces.Box(-np.inf, np.inf, shape=(episodes.size,), dtype=np.float32)
     return action, observation
 
@@ -39,10 +41,14 @@ class NavigateEnv(gymnasium.Env):
     """
 
     metadata = {"render_modes": []}
+    config_type = NavigateConfig
+    """The task's class, its defaults when ``config`` is None."""
+    episodes_type = Episodes
+    """The episodes' class (a subclass for another device)."""
 
     def __init__(self, config: NavigateConfig | None = None, vessel=None, render_mode=None):
-        self.config = NavigateConfig() if config is None else config
-        self.episodes = Episodes(self.config, vessel, 1)
+        self.config = self.config_type() if config is None else config
+        self.episodes = self.episodes_type(self.config, vessel, 1)
         self.action_space, self.observation_space = spaces(self.episodes)
         self.render_mode = render_mode
 
@@ -53,8 +59,8 @@ class NavigateEnv(gymnasium.Env):
         return self.episodes.observe()[0], self.episodes.info(0)
 
     def step(self, action):
-        """One step of ``step_time`` with the hub's rates ``action`` (2,) in [-1, 1]; an action out
-        of bounds is refused with a one-line ``SoftrnnInputError``."""
+        """One step of ``step_time`` with the hub's rates ``action`` (2,) in [-1, 1] (more components
+        for another device); an action out of bounds is refused with a one-line ``SoftrnnInputError``."""
         a = self.episodes.check_actions(action, 1)
         reward, terminated, truncated = self.episodes.step(a)
         return (self.episodes.observe()[0], float(reward[0]), bool(terminated[0]), bool(truncated[0]),

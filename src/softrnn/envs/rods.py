@@ -157,13 +157,18 @@ class RodBatch:
         self._contact_samples[:] = 0.0
         inputs = self._inputs(rates)
         start = time.perf_counter()
-        advance_rods(self.rod, self.state, inputs, self._samples, self.h, 1, self.substeps, stride, 1,
-                     self._work, self._integrator.beta, self._integrator.theta, self._tau, self._status)
+        self._advance(inputs, stride)
         self.kernel_seconds += time.perf_counter() - start
         self._steps += self.substeps
         self.failed = self._status[:, 0] != OK
         force = np.linalg.norm(self._contact_samples[..., :3], axis=-1).max(axis=(1, 2))
         self.contact_force = np.where(self.failed | ~np.isfinite(force), np.inf, force)
+
+    def _advance(self, inputs: StepInputs, stride: int) -> None:
+        """Every rod ``substeps`` solver steps with ``inputs`` in one call of the batched kernel, the
+        contact sampled every ``stride`` steps."""
+        advance_rods(self.rod, self.state, inputs, self._samples, self.h, 1, self.substeps, stride, 1,
+                     self._work, self._integrator.beta, self._integrator.theta, self._tau, self._status)
 
     def gaps(self, b: int) -> np.ndarray:
         """The gaps (n,) [m] of rod ``b``'s surface to the vessel's wall (the least over its

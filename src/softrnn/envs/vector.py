@@ -36,11 +36,15 @@ class NavigateVectorEnv(VectorEnv):
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+    config_type = NavigateConfig
+    """The task's class, its defaults when ``config`` is None."""
+    episodes_type = Episodes
+    """The episodes' class (a subclass for another device)."""
 
     def __init__(self, num_envs: int = 1, config: NavigateConfig | None = None, vessel=None, render_mode=None):
         self.num_envs = integer("num_envs", num_envs, 1)
-        self.config = NavigateConfig() if config is None else config
-        self.episodes = Episodes(self.config, vessel, self.num_envs)
+        self.config = self.config_type() if config is None else config
+        self.episodes = self.episodes_type(self.config, vessel, self.num_envs)
         self.single_action_space, self.single_observation_space = spaces(self.episodes)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -66,7 +70,8 @@ class NavigateVectorEnv(VectorEnv):
         return self.episodes.observe(), self._infos()
 
     def step(self, actions):
-        """One step of every environment with ``actions`` (N, 2) in [-1, 1] (next-step autoreset)."""
+        """One step of every environment with ``actions`` (N, A) in [-1, 1] (A = 2: insertion and rotation;
+        more for another device; next-step autoreset)."""
         a = self.episodes.check_actions(actions, self.num_envs)
         reward, terminated, truncated = self.episodes.step(a)
         for b in np.flatnonzero(self._ended):
