@@ -185,3 +185,23 @@ def test_the_command_line_trains_in_the_vessel_frame_and_refuses_data_without_a_
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "vessel" in err
     assert not (tmp_path / "n" / "model.json").exists()
+
+
+def test_the_projection_and_the_contact_inputs_read_the_world_positions_of_a_framed_state():
+    from softrnn.learned.whole.obstacles import ContactFeatures
+
+    frame = VesselFrame(_bend())
+    data = _slide(frame, 0.2)
+    enc = make_encoding([data], model_dt=0.02, node_stride=2, length=0.08, prescribed=False, obstacles=True,
+                        contact=True, frame="vessel")
+    traj = enc.trajectory(data)
+    state = traj.states[10].copy()
+    state[2, 1] += 0.01                              # 10 mm across: through the wall
+    world = enc.positions(state[None])[0, enc.kept]
+    plain = ContactFeatures(data.contact, np.zeros((enc.n_kept, 3)), ROD_RADIUS, enc.length)
+    assert np.allclose(traj.contact(state), plain(np.concatenate([world, 0 * world], axis=1)), atol=1e-12)
+    before = state.copy()
+    traj.project(state)
+    assert traj.projection.moved == 1 and np.array_equal(np.delete(state, 2, 0), np.delete(before, 2, 0))
+    assert state[2, 1] == pytest.approx(RADIUS - ROD_RADIUS, abs=1e-5)       # back on the wall
+    assert traj.projection.depth(state) < 1e-9 < traj.projection.depth(before)
