@@ -12,7 +12,8 @@ from pathlib import Path
 from ..errors import FileFault, SimulationError, SoftrnnInputError, bad, require_extra
 from ..files import atomic_write_text, json_default, prepare_output
 from ._lazy import numpy as np
-from ._progress import Bar, stop_code
+from ._progress import StepBar as _StepBar
+from ._progress import stop_code
 from ._vocabulary import deprecate, deprecate_converted, output, settings
 
 NAME = "dynamic"
@@ -134,6 +135,9 @@ def _add_train(p):
     p.add_argument("--contact-inputs", dest="contact", action="store_true", default=None,
                    help="where the data record obstacles, give the network's correction each kept node's gap to the "
                         "nearest obstacle and its normal, measured on the model's own state at each step (default off)")
+    p.add_argument("--frame", choices=("world", "vessel"), default=None,
+                   help="the coordinates of the model's state: the world frame (default), or along the centreline "
+                        "of the vessel the data were simulated in (arc parameter and two offsets across it)")
     p.add_argument("--threads", type=int, default=None, metavar="T",
                    help="PyTorch threads while training (default: PyTorch's own choice)")
     again = p.add_mutually_exclusive_group()
@@ -144,22 +148,12 @@ def _add_train(p):
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-class _StepBar(Bar):
-    """The tqdm bar with the training loss and the unroll in its postfix."""
-
-    def __call__(self, done, total, info=None):
-        super().__call__(done, total)
-        if self.bar is not None and info:
-            self.bar.set_postfix_str(f"loss {info.get('loss', float('nan')):.3g} unroll {info.get('unroll')}",
-                                     refresh=False)
-
-
 def _config(args):
     from ..learned.whole.config import DynamicConfig
 
     names = ("model_dt", "node_stride", "history", "memory", "width", "layers", "steps", "unroll", "noise", "seed",
              "ema", "feedback", "drive", "envelope", "prior_tau", "ridge", "load_ridge", "linear_lr", "conv_reads",
-             "start_fraction", "prescribed", "obstacles", "contact")
+             "start_fraction", "prescribed", "obstacles", "contact", "frame")
     given = {k: getattr(args, k) for k in names if getattr(args, k) is not None}
     return DynamicConfig(**{k: (None if v is _OFF else v) for k, v in given.items()})
 

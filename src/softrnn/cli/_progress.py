@@ -41,6 +41,16 @@ class Bar:
         self.close()
 
 
+class StepBar(Bar):
+    """The tqdm bar of a training, with the loss and the unroll (``info``) in its postfix."""
+
+    def __call__(self, done, total, info=None):
+        super().__call__(done, total)
+        if self.bar is not None and info:
+            self.bar.set_postfix_str(f"loss {info.get('loss', float('nan')):.3g} unroll {info.get('unroll')}",
+                                     refresh=False)
+
+
 class DelayedBar(Bar):
     """A ``Bar`` that appears only once its work has run ``after`` seconds, so that a small input is
     handled without one (and an error in it stays one line on the terminal)."""

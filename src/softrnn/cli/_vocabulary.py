@@ -68,7 +68,7 @@ DOMAIN = {
                       "--node-stride", "--history", "--memory", "--width", "--layers", "--steps", "--unroll",
                       "--noise", "--ema", "--envelope", "--prior-tau", "--ridge", "--load-ridge", "--linear-lr",
                       "--conv-reads", "--start-fraction", "--recorded-feedback", "--drive", "--predict-clamps",
-                      "--ignore-obstacles", "--contact-inputs", "--threads"),
+                      "--ignore-obstacles", "--contact-inputs", "--frame", "--threads"),
     "dynamic evaluate": ("--test", "--heldout", "--generalisation"),
     "dynamic rollout": (),
     "dynamic export": ("--onnx",),

@@ -28,6 +28,7 @@ from ..artifacts import ModelFolderError, check_format, open_folder, read_json, 
 from .config import DynamicConfig, linear_config
 from .encoding import Encoding
 from .engine import DynamicEngine
+from .frame import frame_from_dict, frame_to_dict
 
 FORMAT = "softrnn-dynamic-model"
 FORMAT_VERSION = 1
@@ -60,7 +61,8 @@ def encoding_to_dict(enc: Encoding) -> dict:
             "feedback": bool(enc.feedback),
             **({"drive": enc.drive, "channels": list(enc.channels)} if enc.drive != "wrench" else {}),
             **({"prescribed": enc.prescribed.tolist()} if enc.prescribed.any() else {}),
-            **({"obstacles": True} if enc.obstacles else {}), **({"contact": True} if enc.contact else {})}
+            **({"obstacles": True} if enc.obstacles else {}), **({"contact": True} if enc.contact else {}),
+            **({"frame": frame_to_dict(enc.frame)} if enc.frame is not None else {})}
 
 
 def encoding_from_dict(d: dict) -> Encoding:
@@ -71,7 +73,8 @@ def encoding_from_dict(d: dict) -> Encoding:
                     fixed=np.asarray(d["fixed"], dtype=bool), feedback=bool(d.get("feedback", False)),
                     drive=str(d.get("drive", "wrench")), channels=tuple(d.get("channels", ())),
                     prescribed=None if "prescribed" not in d else np.asarray(d["prescribed"], dtype=bool),
-                    obstacles=bool(d.get("obstacles", False)), contact=bool(d.get("contact", False)))
+                    obstacles=bool(d.get("obstacles", False)), contact=bool(d.get("contact", False)),
+                    frame=frame_from_dict(d["frame"]) if "frame" in d else None)
 
 
 def save_dynamic(folder, trained, meta: dict | None = None) -> None:

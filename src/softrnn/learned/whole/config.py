@@ -8,6 +8,8 @@ from ...errors import bad, integer, is_finite_number, nonnegative, positive
 
 MEMORIES = ("window", "lstm")
 CONV_READS = ("all", "displacements", "loads")
+FRAMES = ("world", "vessel")
+"""The coordinates of a model's state (``DynamicConfig.frame``; ``softrnn.learned.whole.frame``)."""
 DRIVES = ("wrench", "actuation", "both")
 """What a model's load input holds: the nodal wrenches, the data's actuation inputs, or both."""
 
@@ -103,6 +105,12 @@ class DynamicConfig:
     channels, measured on the model's own state at every step: ``softrnn.learned.whole.obstacles``
     ``ContactFeatures``); the linear term does not read them. False: the model knows the obstacles
     only through the motion the data show near them."""
+    frame: str = "world"
+    """The coordinates of the model's state: displacements and rotations in the world frame
+    ("world"), or in curvilinear coordinates along the centreline of the vessel the training data
+    were simulated in ("vessel": the arc parameter along it and two offsets across it, the rotation in
+    the frame carried along it; ``softrnn.learned.whole.frame``), so that a node keeping its
+    velocity keeps going along the vessel. "vessel" needs training data recorded in one vessel."""
     envelope: float | None = 0.25
     """Where the network's correction acts (``DynamicNet.envelope_gate``): fully on a node whose
     features lie within the training data's range of each channel, fading linearly to zero at
@@ -154,14 +162,16 @@ class DynamicConfig:
             positive("envelope", self.envelope)
         if self.prior_tau is not None:
             positive("prior_tau", self.prior_tau, "s")
+        if self.frame not in FRAMES:
+            raise bad("frame", self.frame, "'world' (the default) or 'vessel' (along the data's vessel)")
         if self.drive not in DRIVES:
             raise bad("drive", self.drive, "'wrench' (the nodal wrenches), 'actuation' (the data's actuation "
                                            "inputs) or 'both'")
 
     def to_dict(self) -> dict:
         """The fields as a dict (model.json's ``config``); ``drive``, ``start_fraction``,
-        ``load_ridge``, ``prescribed``, ``obstacles`` and ``contact`` only when they are not their defaults (so
-        models, checkpoints and reproduce step files written before them are recorded, and
+        ``load_ridge``, ``prescribed``, ``obstacles``, ``contact`` and ``frame`` only when they are not
+        their defaults (so models, checkpoints and reproduce step files written before them are recorded, and
         resumed, as before)."""
         d = asdict(self)
         for key, default in _LATER_DEFAULTS.items():
@@ -182,7 +192,7 @@ class DynamicConfig:
 
 
 _LATER_DEFAULTS = {"drive": "wrench", "start_fraction": 0.0, "load_ridge": None, "prescribed": True,
-                   "obstacles": True, "contact": False}
+                   "obstacles": True, "contact": False, "frame": "world"}
 """Fields added after models were first saved, left out of ``to_dict`` at their defaults."""
 
 

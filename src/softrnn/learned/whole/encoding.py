@@ -29,8 +29,13 @@ wrench and actuation channels, before the prescribed nodes' ones. A free run mea
 own state at every step (``Trajectory.inputs``); the network's correction reads them, its linear
 term does not.
 
+**The vessel frame** (``Encoding.frame``, a ``frame.VesselFrame``): the displacement and rotation
+columns are taken in curvilinear coordinates along the centreline of the data's vessel instead of
+the world frame (``softrnn.learned.whole.frame``); the loads stay in the world frame.
+
 Decoding interpolates displacements and rotation vectors along the node index with a cubic spline,
-so every node gets a pose and orientations stay unit quaternions by construction.
+so every node gets a pose and orientations stay unit quaternions by construction (in the vessel
+frame the interpolated coordinates are then mapped to the world, so the nodes follow the vessel).
 """
 
 from __future__ import annotations
@@ -45,6 +50,7 @@ from ...errors import SoftrnnInputError, bad
 from ...io.schema import HUB_CHANNELS, hub_inputs
 from .config import path_columns, resolve_stride
 from .feedback import feedback_of, moving_clamps
+from .frame import FramedFeatures, FramedProjection, LocalPose, vessel_frame
 from .obstacles import CONTACT_CHANNELS, ContactFeatures, ObstacleProjection, rod_radius
 
 FIXED_TOLERANCE_M = 1e-9
@@ -196,6 +202,9 @@ class Encoding:
         ``DynamicConfig.drive``
     channels : tuple of str
         the actuation channels read (``Dataset.actuation_names``), () for 'wrench'
+    frame : VesselFrame or None
+        the state's displacements and rotations in curvilinear coordinates along this vessel's
+        centreline (``softrnn.learned.whole.frame``); None: the world frame
     """
 
     n_nodes: int
@@ -212,6 +221,7 @@ class Encoding:
     prescribed: np.ndarray | None = None
     obstacles: bool = False
     contact: bool = False
+    frame: object = None
 
     def __post_init__(self):
         object.__setattr__(self, "channels", tuple(str(a) for a in self.channels))
@@ -230,6 +240,8 @@ class Encoding:
             raise bad("prescribed", presc.tolist(), f"{len(kept)} flags, one per kept node, none on a fixed node")
         object.__setattr__(self, "prescribed", presc)
         object.__setattr__(self, "_lump", lumping_matrix(self.n_nodes, kept))
+        object.__setattr__(self, "_pose", None if self.frame is None else
+                           LocalPose(self.frame, self.ref_positions, _rotation(self.ref_quaternions)))
 
     def stride(self, dt: float) -> int:
         """The model's step in samples of data saved every ``dt`` [s]."""
@@ -287,6 +299,8 @@ class Encoding:
         """Poses of all N nodes (T, N, 3) [m] and (T, N, 4) -> states (T, M, 6)."""
         p = np.asarray(positions, dtype=np.float64)[:, self.kept]
         q = np.asarray(quaternions, dtype=np.float64)[:, self.kept]
+        if self._pose is not None:
+            return self._pose.encode(p, _rotation(q), self.kept)
         T, M = p.shape[:2]
         ref = _rotation(np.broadcast_to(self.ref_quaternions[self.kept], (T, M, 4)))
         theta = (ref.inv() * _rotation(q)).as_rotvec().reshape(T, M, 3)
@@ -303,6 +317,8 @@ class Encoding:
             full = X
         else:
             full = CubicSpline(self.kept, X, axis=1)(np.arange(self.n_nodes))
+        if self._pose is not None:
+            return self._pose.positions(full), _quaternions(self._pose.rotations(full), (T, self.n_nodes))
         positions = self.ref_positions[None] + full[..., :3]
         ref = _rotation(np.broadcast_to(self.ref_quaternions, (T, self.n_nodes, 4)))
         rot = ref * Rotation.from_rotvec(full[..., 3:].reshape(-1, 3))
@@ -312,6 +328,8 @@ class Encoding:
         """Positions of every node (T, N, 3) [m] from states (T, M, 6) (no orientations)."""
         X = np.asarray(states, dtype=np.float64)[..., :3]
         full = X if self.n_kept == self.n_nodes else CubicSpline(self.kept, X, axis=1)(np.arange(self.n_nodes))
+        if self._pose is not None:
+            return self._pose.positions(full)
         return self.ref_positions[None] + full
 
     # ------------------------------------------------------------------ loads
@@ -338,6 +356,9 @@ class Encoding:
         fb, forces = None, dataset.forces
         if self.feedback:
             fb = feedback_of(self, dataset, time)
+            if fb is not None and self.frame is not None:
+                raise bad("frame", "vessel", "data without PD tracking loads, or --recorded-feedback (the laws act "
+                                             "on world positions)")
             if fb is not None:       # the law's recorded force is replaced by the law itself
                 forces = np.array(forces, dtype=np.float64)
                 forces[:, list(fb.nodes)] = 0.0
@@ -353,8 +374,10 @@ class Encoding:
             loads = np.concatenate([loads, self.path_inputs(states)], axis=-1)
         projection = None
         if self.obstacles and dataset.contact is not None:
-            projection = ObstacleProjection(dataset.contact, self.ref_positions[self.kept], rod_radius(dataset),
-                                            ~(self.fixed | self.prescribed))
+            ref = self.ref_positions[self.kept] if self._pose is None else np.zeros((self.n_kept, 3))
+            projection = ObstacleProjection(dataset.contact, ref, rod_radius(dataset), ~(self.fixed | self.prescribed))
+            if self._pose is not None:
+                projection = FramedProjection(projection, self._pose, self.kept)
         return Trajectory(time=time, states=states, loads=loads, name=name, feedback=fb,
                           prescribed=self.prescribed_columns, projection=projection, contact=contact,
                           contact_columns=self.contact_columns)
@@ -363,7 +386,10 @@ class Encoding:
         """(the data set's ``ContactFeatures``, their values along ``states`` (S, M, 6): (S, M, 4)); a
         data set without obstacles has every node out of reach."""
         radius = 0.0 if dataset.contact is None else rod_radius(dataset)
-        features = ContactFeatures(dataset.contact, self.ref_positions[self.kept], radius, self.length)
+        ref = self.ref_positions[self.kept] if self._pose is None else np.zeros((self.n_kept, 3))
+        features = ContactFeatures(dataset.contact, ref, radius, self.length)
+        if self._pose is not None:
+            features = FramedFeatures(features, self._pose, self.kept)
         return features, features(states)
 
     def path_inputs(self, states: np.ndarray) -> np.ndarray:
@@ -401,6 +427,14 @@ def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
         raise bad(argument, f"a data set without the actuation channel {missing[0]!r} (it has "
                             f"{', '.join(have) or 'none'})", f"data recording the model's actuation inputs "
                                                               f"{', '.join(encoding.channels)}")
+    if encoding.frame is not None:
+        try:
+            own = vessel_frame(dataset)
+        except SoftrnnInputError:
+            own = None
+        if not encoding.frame.same(own):
+            raise bad(argument, "a data set not recorded in the model's vessel", "data simulated in the vessel the "
+                                "model was trained in (its frame = 'vessel'), or a model trained in the world frame")
     dt = float(dataset.dt)
     try:
         resolve_stride(encoding.model_dt, dt)
@@ -411,7 +445,7 @@ def check_compatible(encoding: Encoding, dataset, argument: str) -> None:
 
 def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: float,
                   feedback: bool = False, drive: str = "wrench", prescribed: bool = False,
-                  obstacles: bool = False, contact: bool = False) -> Encoding:
+                  obstacles: bool = False, contact: bool = False, frame: str = "world") -> Encoding:
     """The encoding for training on ``datasets`` (each holding every node, the same saved step):
     the reference pose is the first sample of the first one; fixed nodes are those that never move;
     ``feedback``: PD laws act on the model's state (``Encoding.feedback``; 'wrench' drive only);
@@ -421,7 +455,8 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
     in every data set) are inputs, not predicted, and always kept (``Encoding.prescribed``);
     ``obstacles``: free runs keep out of a data set's recorded obstacles, where the first data set
     has some (``Encoding.obstacles``); ``contact``: each kept node's gap and normal to the nearest
-    obstacle are inputs, where the first data set has obstacles (``Encoding.contact``)."""
+    obstacle are inputs, where the first data set has obstacles (``Encoding.contact``); ``frame``:
+    'vessel' takes the state along the first data set's vessel (``Encoding.frame``), 'world' not."""
     if not datasets:
         raise SoftrnnInputError("no training data: give at least one trajectory")
     first = datasets[0]
@@ -438,7 +473,8 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
     kept = np.union1d(kept_nodes(n, node_stride), np.asarray(paths, dtype=np.int64))
     probe = Encoding(n_nodes=n, kept=kept, model_dt=model_dt, data_dt=float(first.dt),
                      length=length, ref_positions=first.positions[0], ref_quaternions=first.quaternions[0],
-                     fixed=np.zeros(len(kept), dtype=bool), drive=drive, channels=channels)
+                     fixed=np.zeros(len(kept), dtype=bool), drive=drive, channels=channels,
+                     frame=vessel_frame(first) if frame == "vessel" else None)
     moved = np.zeros(probe.n_kept)
     for d in datasets:
         check_compatible(probe, d, "training data")
@@ -454,7 +490,7 @@ def make_encoding(datasets: list, *, model_dt: float, node_stride: int, length: 
                     fixed=fixed, feedback=feedback, drive=drive,
                     channels=channels, prescribed=np.isin(probe.kept, paths) & ~fixed,
                     obstacles=bool(obstacles) and first.contact is not None,
-                    contact=bool(contact) and first.contact is not None)
+                    contact=bool(contact) and first.contact is not None, frame=probe.frame)
 
 
 def _channels(names, drive: str) -> tuple:

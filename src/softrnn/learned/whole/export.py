@@ -181,7 +181,7 @@ def describe(model: LoadedDynamic) -> dict:
         "inputs": inputs, "outputs": outputs,
         "units": {"state": "m (columns 0-2), rad (columns 3-5)", "loads": _load_units(enc),
                   "model_dt": "s", "length": "m"},
-        "layout": _LAYOUT,
+        "layout": _LAYOUT if enc.frame is None else {**_LAYOUT, **_FRAME_LAYOUT},
     }
 
 
@@ -218,6 +218,16 @@ _LAYOUT = {
     "memory": "memory = 'lstm' only: feed zeros at the start, then the previous call's memory_*_out",
     "decode": "every node's pose: a cubic spline (scipy CubicSpline, not-a-knot) of the states along the node "
               "index through the kept nodes, then r = r_ref + displacement, R = R_ref exp(rotation vector)",
+}
+
+
+_FRAME_LAYOUT = {
+    "state": "encoding.frame = vessel: state[m] of kept node encoding.kept[m] in curvilinear coordinates along "
+             "the vessel centreline encoding.frame.centreline (softrnn.learned.whole.frame.VesselFrame): tau - "
+             "tau_ref, u - u_ref, w - w_ref (m; tau the spline parameter of the closest centreline point, u, w the "
+             "offsets along the frame's normals), then the rotation vector log(Q_ref^T Q) (rad) of Q = F(tau)^T R",
+    "decode": "as in the world frame, the spline through the kept nodes' states, then each node's (tau, u, w) "
+              "mapped to the world by VesselFrame.world and R = F(tau) Q_ref exp(rotation vector)",
 }
 
 

@@ -29,7 +29,8 @@ def fit(split: Split, config: DynamicConfig, *, progress: Progress | None = None
     encoding = make_encoding(datasets, model_dt=config.model_dt,
                              node_stride=resolve_node_stride(config.node_stride, first.n_nodes),
                              length=rod_length(first), feedback=config.feedback, drive=config.drive,
-                             prescribed=config.prescribed, obstacles=config.obstacles, contact=config.contact)
+                             prescribed=config.prescribed, obstacles=config.obstacles, contact=config.contact,
+                             frame=config.frame)
     trajectories = [encoding.trajectory(d, name=f"{p.path}:{p.group}") for d, p in zip(datasets, split.train)]
     validation = []
     for p in split.validation:
