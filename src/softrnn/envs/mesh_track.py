@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import bad, vec3
 from ..geometry.mesh import ARCH_BRANCHES, ARCH_FILE, MeshVessel, arch_centrelines, load_mesh
+from ..geometry.obstacles import closest_segments
 from .config import NavigateConfig
 
 ENTRY_FIT = 0.03
@@ -57,9 +58,10 @@ def _straight_entry(lines: list[np.ndarray]) -> list[np.ndarray]:
     return out
 
 
-def _fork(lines: list[np.ndarray], j: int) -> float:
-    """Where branch j leaves every other branch of the tree: the arc length [m] of the last point it
-    shares with another (0 for a tree of one branch)."""
+def _fork(lines: list[np.ndarray], j: int, vessel: MeshVessel) -> float:
+    """Where branch j leaves every other branch of the tree [m along it]: its first point, after the
+    last one it shares with another, farther from every other branch's centreline than the lumen's
+    radius where they part (out of the parent's lumen, past the ostium); 0 for a tree of one branch."""
     p = lines[j]
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
     shared = 0
@@ -68,7 +70,12 @@ def _fork(lines: list[np.ndarray], j: int) -> float:
             m = min(len(p), len(q))
             same = np.all(p[:m] == q[:m], axis=1)
             shared = max(shared, m if same.all() else int(np.argmin(same)))
-    return float(arc[shared - 1]) if shared else 0.0
+    if not shared:
+        return 0.0
+    radius = float(vessel.signed_distance(p[shared - 1:shared])[0][0])
+    apart = np.min([closest_segments(q, p[shared:])[1] for k, q in enumerate(lines) if k != j], axis=0)
+    out = np.flatnonzero(apart > radius)
+    return float(arc[shared + out[0]] if len(out) else arc[-1])
 
 
 class MeshTrack:
@@ -113,7 +120,7 @@ class MeshTrack:
         self.obstacles = (vessel,)
         self.branches = tuple(chosen)
         self._lines = {name: lines[i] for name, i in chosen.items()}
-        self._forks = {name: _fork(lines, i) for name, i in chosen.items()}
+        self._forks = {name: _fork(lines, i, vessel) for name, i in chosen.items()}
         start = lines[0]
         arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(start, axis=0), axis=1))])
         probe = start[: max(2, int(np.searchsorted(arc, ENTRY_FIT, side="right")))]
@@ -129,8 +136,8 @@ class MeshTrack:
         return self._lines[branch]
 
     def fork(self, branch: str) -> float:
-        """Where ``branch`` leaves the rest of the tree [m along its centreline] (every path of the
-        tree counts, also one that is not a named branch)."""
+        """Where ``branch`` leaves the rest of the tree [m along its centreline]: past the ostium, out
+        of the parent's lumen (every path of the tree counts, also one that is not a named branch)."""
         if branch not in self._forks:
             raise bad("branch", branch, f"one of {', '.join(self.branches)}")
         return self._forks[branch]

@@ -48,8 +48,8 @@ class ScriptedNavigator:
     def _geometry(self, target: np.ndarray, progress: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The local insertion axis (B, 3): the target centreline's direction where the tip stands on
         it (at most at its fork), the direction (B, 3) to aim the tip at across it: away from another
-        branch whose fork comes first and lies within ``approach`` of the tip, else toward the target
-        branch, and whether it avoids such a branch (B,) bool."""
+        branch whose fork comes first, from 2 ``approach`` before that fork to ``approach`` past it,
+        else toward the target branch, and whether it avoids such a branch (B,) bool."""
         paths = self.episodes.paths
         axis = np.empty((len(target), 3))
         want = np.empty((len(target), 3))
@@ -60,7 +60,7 @@ class ScriptedNavigator:
             axis[i] = (line[k + 1] - line[k]) / np.linalg.norm(line[k + 1] - line[k])
             want[i] = self._branch_direction(j)
             before = [m for m in range(len(paths.branches)) if paths.fork[m] < paths.fork[j] - self.approach
-                      and abs(s - paths.fork[m]) < self.approach]
+                      and -2.0 * self.approach < s - paths.fork[m] < self.approach]
             if before:
                 want[i] = -self._branch_direction(min(before, key=lambda m: abs(s - paths.fork[m])))
                 avoiding[i] = True
@@ -79,15 +79,17 @@ class ScriptedNavigator:
         J = len(self.episodes.paths.branches)
         tip, heading, target = x[:, 0:3], x[:, 3:6], np.argmax(x[:, 9:9 + J], axis=1)
         progress, branch = self.episodes.paths.standing(tip, target)
-        axis, want, avoiding = self._geometry(target, progress)
+        axis, want, _ = self._geometry(target, progress)
         want, have = self._across(want, axis), self._across(heading, axis)
         error = np.arctan2(np.sum(np.cross(have, want) * axis, axis=1), np.sum(have * want, axis=1))
         error = np.where(np.any(want != 0, axis=1) & np.any(have != 0, axis=1), error, 0.0)
         c = self.episodes.config
         turn = np.clip(self.gain * error / (c.max_rotation_speed * c.step_time), -1.0, 1.0)
         fork = self.episodes.paths.fork[target]
-        near = ((progress > fork - self.approach) | avoiding) & (branch != target)
+        near = (progress > fork - self.approach) & (branch != target)
         insert = np.where(near & (np.abs(error) > self.aim), 0.0, 1.0)
         wrong = (branch >= 0) & (branch != target)
-        action = np.stack([np.where(wrong, -1.0, insert), np.where(wrong, 0.0, turn)], axis=1)
+        # out of a wrong branch whose fork comes first (an arch's): turn the tip while pulling back, for another try
+        first = wrong & (self.episodes.paths.fork[np.maximum(branch, 0)] < fork - self.approach)
+        action = np.stack([np.where(wrong, -1.0, insert), np.where(first, 1.0, np.where(wrong, 0.0, turn))], axis=1)
         return action.astype(np.float32).reshape(obs.shape[:-1] + (2,))
