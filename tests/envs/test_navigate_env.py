@@ -24,6 +24,7 @@ from softrnn.envs.track import Paths  # noqa: E402
 from softrnn.errors import SoftrnnInputError  # noqa: E402
 from softrnn.geometry import Vessel  # noqa: E402
 from softrnn.rod import Clamp, Simulator  # noqa: E402
+from softrnn.rod.hub import Hub, axis_rotation  # noqa: E402
 from softrnn.rod.integrators import Implicit  # noqa: E402
 
 SMALL = NavigateConfig(device=Guidewire(length=0.06, n_nodes=13, tip_segments=2, tip_angle=20.0), step_time=0.01,
@@ -108,14 +109,14 @@ def test_the_physics_is_the_simulators():
     env = NavigateEnv(SMALL)
     env.reset(seed=0)
     rods = env.episodes.rods
-    hub = HubMotion(rods.hubs[0].origin, rods.hubs[0].rotation, rods.hubs[0].axis, SMALL.travel)
+    hub = Hub.commanded(rods.hubs[0].entry, rods.hubs[0].axis, rods.hubs[0].rotation0, travel=SMALL.travel)
     sim = Simulator(dataclasses.replace(rods.setups[0], boundary=(Clamp(0, motion=hub),)))
     sim.start(rods.h, Implicit())
     for action in ([1.0, 0.3], [0.5, -1.0], [-0.2, 0.0]):
         action = np.array(action, dtype=np.float32)
         env.step(action)
-        hub.command(sim.state.time, float(action[0]) * SMALL.max_insertion_speed,
-                    float(action[1]) * SMALL.max_rotation_speed)
+        hub.command(sim.state.time, insertion_rate=float(action[0]) * SMALL.max_insertion_speed,
+                    rotation_rate=float(action[1]) * SMALL.max_rotation_speed)
         sim.advance(rods.substeps, rods.h, Implicit())
     np.testing.assert_allclose(rods.state.positions[0], sim.state.positions, rtol=0, atol=1e-12)
     np.testing.assert_allclose(rods.state.rotations[0], sim.state.rotations, rtol=0, atol=1e-12)
@@ -182,3 +183,35 @@ def test_a_track_may_say_where_its_branches_fork():
     paths = Paths(Track())
     np.testing.assert_allclose(paths.fork, [0.199, 0.199])
     assert paths.standing(np.array([[-0.05, 0.0, 0.0]]), np.array([1]))[1].tolist() == [-1]
+
+
+def test_the_environments_hub_is_the_rods_hub_and_moves_piece_by_piece_within_its_travel():
+    """The hub each rod follows (a ``softrnn.rod.Hub`` with a commanded insertion bounded by the
+    travel) holds, to the last bit, the pose of the commanded rates: from where each step starts, the
+    insertion s0 + v (t - t0) clipped to [0, travel] along the axis and the angle a0 + w (t - t0)."""
+    config = dataclasses.replace(SMALL, travel=0.0008)
+    env = NavigateEnv(config)
+    env.reset(seed=2)
+    rods = env.episodes.rods
+    hub = rods.hubs[0]
+    assert isinstance(hub, Hub) and rods.setups[0].boundary[0].motion is hub and rods.travel == 0.0008
+    s0 = a0 = 0.0
+    ends = []
+    for action in ([1.0, 0.5], [1.0, -1.0], [-0.25, 0.0], [0.0, 0.125]):   # exact in float32
+        t0 = float(rods.time[0])
+        obs = env.step(np.array(action, dtype=np.float32))[0]
+        v, w = action[0] * config.max_insertion_speed, action[1] * config.max_rotation_speed
+        t = t0 + rods.h * np.arange(rods.substeps + 1)       # the solver steps' times, as the env takes them
+        t1 = float(rods.time[0])                              # the next piece starts where this one is then
+        t = np.append(t, t1)
+        s = np.clip(s0 + v * (t - t0), 0.0, config.travel)
+        a = a0 + w * (t - t0) if w != 0.0 else np.full(t.size, a0)
+        pos, rot = hub(t[:-1])
+        np.testing.assert_array_equal(pos, np.asarray(hub.entry) + s[:-1, None] * hub.axis)
+        np.testing.assert_array_equal(rot, axis_rotation(hub.axis, a[:-1]) @ hub.rotation0)
+        s0, a0 = float(s[-1]), float(a[-1])
+        assert obs[6] == np.float32(s0) and obs[7] == np.float32(np.cos(a0)) and hub.at(t1) == (s0, a0)
+        ends.append(s0)
+    assert ends[1] == config.travel and ends[2] < config.travel   # it stopped at the end of its travel
+    env.reset(seed=2)
+    assert hub.at(0.5) == (0.0, 0.0)                             # a reset forgets the commands

@@ -1,13 +1,15 @@
-"""simulate_batch: each rod of a batch matches an individual ``simulate`` run; incompatible
-setups are refused with a message naming what differs."""
+"""simulate_batch: each rod of a batch matches an individual ``simulate`` run (each in its own
+meshed vessel too); incompatible setups are refused with a message naming what differs."""
 
 import numpy as np
 import pytest
 
 from softrnn.errors import SimulationError, SoftrnnInputError
+from softrnn.geometry._marching import tube_tree_surface
 from softrnn.rod import (
     Clamp,
     Constant,
+    Contact,
     Damping,
     NodalLoad,
     PDTracking,
@@ -22,6 +24,7 @@ from softrnn.rod import (
 )
 from softrnn.rod import batch as batch_module
 from softrnn.rod import simulation as simulation_module
+from softrnn.rod.contact import MeshVessel, Plane
 
 N = 12
 FIELDS = ("positions", "quaternions", "velocities", "angular_velocities", "forces", "torques",
@@ -146,3 +149,43 @@ def test_divergence_names_the_rod():
     wild = _setup([NodalLoad(-1, force=Constant((0.0, 1e4, 0.0)))])
     with pytest.raises(SimulationError, match=r"setups\[1\]"):
         simulate_batch([ok, wild], RunConfig(dt=0.01, n_samples=11))
+
+
+def _in_tube(mesh, z: float, load: float, obstacles=()) -> Setup:
+    """A short soft rod lying free in a meshed tube along +x (radius 3 mm) at height z [m], pushed
+    sideways at its tip by ``load`` [N]."""
+    rod = RodSpec(length=0.04, radius=0.0005, youngs_modulus=1e7, density=1500.0, n_nodes=9)
+
+    def shape(height):
+        return straight(9, 0.04, origin=(0.01, 0.0, height), direction=(1.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
+    return Setup(rod=rod, reference=shape(-0.002), initial=shape(z), gravity=(0.0, 0.0, -9.81),
+                 loads=(NodalLoad(-1, force=Constant((0.0, load, 0.0))),),
+                 contact=Contact(obstacles=(mesh,) + tuple(obstacles), friction=0.2))
+
+
+def test_a_batch_of_rods_each_in_its_own_meshed_vessel_gives_exactly_their_single_runs(small_chunks):
+    axis = np.array([[0.0, 0.0, 0.0], [0.06, 0.0, 0.0]])
+    fine, coarse = (MeshVessel(*tube_tree_surface([(axis, 0.003)], spacing)) for spacing in (0.0006, 0.0009))
+    assert len(fine.faces) != len(coarse.faces)            # the rods' mesh arrays differ in size
+    setups = [_in_tube(fine, -0.002, 0.0), _in_tube(fine, -0.001, 2e-4), _in_tube(coarse, -0.002, -2e-4)]
+    config = RunConfig(dt=0.005, n_samples=21, save_nodes=(0, 4, -1))
+    batch = simulate_batch(setups, config)
+    for got, want in zip(batch, [simulate(s, config) for s in setups]):
+        assert got.substeps == want.substeps and got.step == want.step
+        for name in FIELDS + ("contact_forces", "contact_torques"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)
+    assert all(np.abs(t.contact_forces[-1]).max() > 1e-6 for t in batch)      # each rests on its wall
+    assert np.abs(batch[0].positions[-1] - batch[2].positions[-1]).max() > 1e-5
+
+
+def test_a_batch_refuses_rods_with_other_numbers_of_obstacles_or_contact_stiffness():
+    axis = np.array([[0.0, 0.0, 0.0], [0.06, 0.0, 0.0]])
+    mesh = MeshVessel(*tube_tree_surface([(axis, 0.003)], 0.0009))
+    first = _in_tube(mesh, -0.002, 0.0)
+    floor = Plane((0.0, 0.0, -0.01), (0.0, 0.0, 1.0))
+    stiffer = Setup(rod=first.rod, reference=first.reference, gravity=first.gravity, loads=first.loads,
+                    contact=Contact(obstacles=(mesh,), friction=0.2, stiffness=1e5))
+    for other, words in ((_in_tube(mesh, -0.002, 0.0, (floor,)), "kernel columns"), (stiffer, "stiffness")):
+        with pytest.raises(SoftrnnInputError) as err:
+            simulate_batch([first, other], RunConfig(dt=0.005, n_samples=3))
+        assert "\n" not in str(err.value) and words in str(err.value) and "setups[1].contact" in str(err.value)

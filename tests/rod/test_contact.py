@@ -334,7 +334,7 @@ def test_nonsense_geometry_is_refused_in_one_line(build):
 
 def test_setups_with_impossible_contact_are_refused_in_one_line():
     """A rod starting inside a sphere, a vessel narrower than the rod, a contact that is not a
-    Contact, and a batch with contact."""
+    Contact, and a batch with contact in one setup only."""
     shape = straight(N, LENGTH, direction=(1.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
     cases = [dict(contact=Contact(obstacles=Sphere((0.1, 0.0, 0.0), 0.05))),
              dict(contact=Contact(obstacles=Vessel(np.array([[-1, 0, 0], [1, 0, 0.0]]), 0.004))),
@@ -345,5 +345,5 @@ def test_setups_with_impossible_contact_are_refused_in_one_line():
         assert "\n" not in str(err.value)
     setup = Setup(rod=_rod(), reference=shape, contact=Contact(obstacles=Plane((0, 0, -1.0), (0, 0, 1))))
     with pytest.raises(SoftrnnInputError, match="contact"):
-        simulate_batch([setup], RunConfig(dt=1e-3, n_samples=2))
+        simulate_batch([setup, replace(setup, contact=None)], RunConfig(dt=1e-3, n_samples=2))
 

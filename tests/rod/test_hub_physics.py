@@ -184,3 +184,35 @@ def test_a_commanded_driven_hub_takes_force_and_torque_commands():
     assert d > 0 and theta > 0 and math.isnan(hub.at(sim.state.time)[0])
     with pytest.raises(SoftrnnInputError, match="insertion_rate=0.1 is invalid"):
         hub.command(sim.state.time, insertion_rate=0.1)
+
+
+def test_a_commanded_insertion_stops_at_the_ends_of_its_travel_and_goes_on_from_there():
+    hub = Hub.commanded((0.0, 0.0, 0.0), tuple(AXIS), REF.rotations[0], travel=0.01)
+    assert hub.insertion.bounds == (0.0, 0.01) and hub.rotation.bounds is None
+    hub.command(0.0, insertion_rate=0.02, rotation_rate=1.0)
+    t = np.array([0.0, 0.25, 0.5, 1.0])
+    np.testing.assert_array_equal(hub.insertion(t), np.clip(0.02 * t, 0.0, 0.01))   # stops at its end
+    np.testing.assert_array_equal(hub.rotation(t), t)                                # the angle is free
+    hub.command(1.0, insertion_rate=-0.01, rotation_rate=0.0)                        # from where it stopped
+    np.testing.assert_array_equal(hub.insertion(np.array([1.0, 1.5, 9.0])), [0.01, 0.01 - 0.01 * 0.5, 0.0])
+    pos, _ = hub(np.array([0.5, 9.0]))
+    np.testing.assert_array_equal(pos, [[0.01, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    hub.reset_commands()                                                             # a new episode
+    assert hub.at(5.0) == (0.0, 0.0)
+    hub.command(0.0, insertion_rate=0.001, rotation_rate=0.0)
+    assert hub.at(2.0) == pytest.approx((0.002, 0.0), abs=1e-18)
+
+
+def test_a_bounded_command_refuses_targets_outside_its_bounds():
+    c = Commanded(0.5, bounds=(0.0, 1.0))
+    c.ramp_to(0.0, 1.0, 1.0)
+    assert c.at(2.0) == 1.0
+    for call, words in ((lambda: c.set(3.0, 1.5), "value=1.5 is invalid"),
+                        (lambda: c.ramp_to(3.0, -0.1, 1.0), "target=-0.1 is invalid"),
+                        (lambda: Commanded(2.0, bounds=(0.0, 1.0)), "Commanded.bounds"),
+                        (lambda: Commanded(bounds=(0.0,)), "Commanded.bounds"),
+                        (lambda: Hub.commanded((0.0, 0.0, 0.0), tuple(AXIS), travel=-0.1), "travel=-0.1 is invalid"),
+                        (lambda: Hub.commanded((0.0, 0.0, 0.0), tuple(AXIS), pushed=True, travel=0.1), "travel")):
+        with pytest.raises(SoftrnnInputError) as err:
+            call()
+        assert "\n" not in str(err.value) and words in str(err.value), str(err.value)

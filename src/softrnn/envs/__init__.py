@@ -6,7 +6,10 @@ its hub, toward a target branch (docs/guide/envs.md).
 * ``NavigateConfig`` (the task) and ``Guidewire`` (the device); the vessel is a ``Bifurcation``, a
   ``Vessel`` or any ``Track`` (its obstacles, branches and centrelines), ``default_vessel()`` by
   default;
-* ``HubMotion``: the hub's insertion and rotation, the clamp motion of the device's node 0;
+* ``MeshTrack``: a vessel from a surface mesh as a ``Track``; ``arch_track()`` the shipped aortic arch
+  with its three branches, ``arch_config()`` a task sized for it;
+* ``HubMotion``: the hub's insertion and rotation (a thin adapter over ``softrnn.rod.Hub.commanded``,
+  which the environments drive);
 * ``ScriptedNavigator``: a hand-written controller, the baseline;
 * ``MagneticNavigateEnv``, ``MagneticNavigateVectorEnv`` (``MagneticNavigateConfig``, ``MagneticRod``,
   ``magnetic_vessel()``, ``MagneticNavigator``): the magnetic manipulator's rod steered by the
@@ -37,6 +40,9 @@ from .magnetic import MagneticNavigateVectorEnv as MagneticNavigateVectorEnv
 from .magnetic import MagneticNavigator as MagneticNavigator
 from .magnetic import MagneticRod as MagneticRod
 from .magnetic import magnetic_vessel as magnetic_vessel
+from .mesh_track import MeshTrack as MeshTrack
+from .mesh_track import arch_config as arch_config
+from .mesh_track import arch_track as arch_track
 from .navigate import NavigateEnv as NavigateEnv
 from .scripted import ScriptedNavigator as ScriptedNavigator
 from .track import BifurcationTrack as BifurcationTrack

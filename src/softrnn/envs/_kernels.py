@@ -17,7 +17,7 @@ from numba import njit, prange
 from ..rod import implicit
 from ..rod.implicit import ImplicitWork, advance_implicit_into
 from ..rod.kernel_records import kernel_stamp
-from ..rod.kernels import Samples, StateArrays, StepInputs
+from ..rod.kernels import rod_inputs, rod_samples, rod_state
 
 
 def stamp() -> int:
@@ -39,33 +39,21 @@ def _build(stamp_value):
 
         state, work (``ImplicitWork``) and out (except save_slot) carry a leading batch axis (B, ...);
         so do inputs' ext_w, pd_target, presc_r, presc_R, tendon_tension, tendon_displacement,
-        contact_segment, contact_samples and contact_applied (the rest is shared). Per rod as
+        contact_segment, contact_samples and contact_applied (the rest, the obstacles included, is
+        shared; each rod's record by ``rod.kernels.rod_inputs``). Per rod as
         ``advance_implicit_into``; status (B, 2) int64 receives (code, step) per rod."""
         if stamp_value < 0:  # never true: references the stamp so that it is a closure variable
             return
-        st = state
         inp = inputs
-        for b in prange(len(st.positions)):
+        for b in prange(len(state.positions)):
+            contact = (inp.contact_kind, inp.contact_geom, inp.contact_range, inp.contact_friction, inp.contact_points,
+                       inp.contact_radii, inp.contact_mesh_index, inp.contact_mesh_values, inp.contact_node,
+                       inp.contact_segment[b], inp.contact_samples[b], inp.contact_applied[b])
             code, step = advance_implicit_into(
-                rod,
-                StateArrays(st.rotations[b], st.positions[b], st.velocities[b], st.angular_velocities[b],
-                            st.prev_curvature[b], st.prev_shear[b]),
-                StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
-                           inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b],
-                           inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b], inp.contact_kind,
-                           inp.contact_geom, inp.contact_range, inp.contact_friction, inp.contact_points,
-                           inp.contact_radii, inp.contact_mesh_index, inp.contact_mesh_values,
-                           inp.contact_node, inp.contact_segment[b], inp.contact_samples[b],
-                           inp.contact_applied[b], inp.magnet_node, inp.magnet_body, inp.source_positions,
-                           inp.source_moments, inp.source_currents, inp.magnet_positions, inp.magnet_rotations,
-                           inp.magnet_fields, inp.magnet_gradients, inp.magnet_wrenches, inp.magnet_failed),
-                Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b],
-                        out.angular_velocities[b], out.forces[b], out.torques[b], out.reaction_forces[b],
-                        out.reaction_torques[b], out.energy[b]),
-                h, k0, n_steps, stride, s0,
-                ImplicitWork(work.applied[b], work.force[b], work.strain_map[b], work.diag[b], work.upper[b],
-                             work.rhs[b], work.u[b], work.known[b], work.fixed[b], work.pivot[b], work.weighted[b],
-                             work.contact_tangent[b]),
+                rod, rod_state(state, b), rod_inputs(inp, b, contact), rod_samples(out, b), h, k0, n_steps, stride,
+                s0, ImplicitWork(work.applied[b], work.force[b], work.strain_map[b], work.diag[b], work.upper[b],
+                                 work.rhs[b], work.u[b], work.known[b], work.fixed[b], work.pivot[b], work.weighted[b],
+                                 work.contact_tangent[b]),
                 beta, theta, tau)
             status[b, 0] = code
             status[b, 1] = step

@@ -108,9 +108,11 @@ class NavigateConfig:
         the hub's insertion rate at action +-1 [m/s] (0.05: a slow manual push)
     max_rotation_speed : float
         the hub's rotation rate at action +-1 [rad/s] (pi: half a turn per second)
-    travel : float
+    travel : float or None
         how far the hub may advance from its start [m] (0.1: the tip then ends short of the default
-        vessel's branch ends); it may come back to the start, not behind
+        vessel's branch ends); it may come back to the start, not behind. None: sized from the
+        vessel (``envs.rods.hub_travel``: until a straight device's tip would reach the end of its
+        longest branch)
     max_steps : int
         steps of an episode before it is truncated
     friction : float
@@ -150,13 +152,16 @@ class NavigateConfig:
         (a fluoroscopy image of the rod in the lumen, uint8, ``image``; ``softrnn.envs.fluoro``)
     image : Fluoroscopy
         the image's size and view (used with ``observation="image"``)
+    implicit_contact : bool
+        the wall's normal force linearly implicit in the solver step (``Contact(implicit=True)``):
+        a longer solver step in a meshed vessel (False: explicit, as the default vessel's figures)
     """
 
     device: Guidewire = field(default_factory=Guidewire)
     step_time: float = 0.1
     max_insertion_speed: float = 0.05
     max_rotation_speed: float = math.pi
-    travel: float = 0.1
+    travel: float | None = 0.1
     max_steps: int = 150
     friction: float = 0.1
     contact_stiffness: float = 2e5
@@ -174,6 +179,7 @@ class NavigateConfig:
     target: str | None = None
     observation: str = "state"
     image: Fluoroscopy = field(default_factory=Fluoroscopy)
+    implicit_contact: bool = False
 
     def _check_device(self) -> None:
         """A one-line error unless ``device`` is this task's kind of device."""
@@ -189,7 +195,10 @@ class NavigateConfig:
         for name, unit in (("step_time", "s"), ("max_insertion_speed", "m/s"), ("max_rotation_speed", "rad/s"),
                            ("travel", "m"), ("contact_stiffness", "N/m^2"), ("perforation_force", "N"),
                            ("goal_depth", "m"), ("reward_length", "m")):
-            positive(name, getattr(self, name), unit)
+            if name != "travel" or self.travel is not None:
+                positive(name, getattr(self, name), unit)
+        if not isinstance(self.implicit_contact, bool):
+            raise bad("implicit_contact", self.implicit_contact, "True or False")
         for name in ("friction", "contact_damping", "drag", "wrong_branch_penalty", "success_reward",
                      "perforation_penalty"):
             nonnegative(name, getattr(self, name))

@@ -154,7 +154,7 @@ class Episodes:
         nodes = np.where(fine[:, None, None], st.positions[:, self.kept], 0.0)
         heading = np.where(fine[:, None], st.rotations[:, -1, :, 2], 0.0)
         t = self.rods.time
-        hub = np.array([[h.insertion(t[b:b + 1])[0], h.angle(t[b:b + 1])[0]] for b, h in enumerate(self.rods.hubs)])
+        hub = np.array([h.at(t[b]) for b, h in enumerate(self.rods.hubs)])
         onehot = np.zeros((B, len(self.paths.branches)))
         onehot[np.arange(B), self.target] = 1.0
         parts = [self.tip, heading, hub[:, :1], np.cos(hub[:, 1:]), np.sin(hub[:, 1:]), onehot,

@@ -1,6 +1,6 @@
 """The physics of the navigation environments: B copies of one device in one vessel, each driven at
-its hub (``HubMotion``), stepped together by one call of the batched implicit kernel
-(``envs._kernels.advance_rods``).
+its hub (``softrnn.rod.hub.Hub.commanded``, its insertion within the travel), stepped together by
+one call of the batched implicit kernel (``envs._kernels.advance_rods``).
 
 Each rod is the ``Setup`` of ``RodBatch.setup`` (the device clamped at node 0 to its hub, the
 vessel's contact, drag and gravity), started as ``softrnn.rod.Simulator`` starts it (at rest, the
@@ -14,13 +14,13 @@ import numpy as np
 
 from ..errors import bad
 from ..geometry.contact import Contact
-from ..rod import Clamp, Damping, RunConfig, Setup, Simulator
+from ..rod import Damping, RunConfig, Setup, Simulator
+from ..rod.hub import Hub
 from ..rod.integrators import Implicit
 from ..rod.kernels import OK, StateArrays, StepInputs
 from ..rod.state import empty_samples
 from ._kernels import advance_rods, stacked_work
 from .config import NavigateConfig
-from .hub import HubMotion
 from .track import Track
 
 START_DEPTH = 0.02
@@ -50,13 +50,30 @@ def start_pose(config: NavigateConfig, track: Track) -> tuple[np.ndarray, np.nda
     return line[0] + START_DEPTH * axis + room * down, axis, -down
 
 
+def hub_travel(config: NavigateConfig, track: Track) -> float:
+    """How far the hub may advance [m]: ``config.travel``, or for None until the tip of the device,
+    straight from its start (``START_DEPTH`` along the entry), would reach the end of the track's
+    longest branch (its centreline's length)."""
+    if config.travel is not None:
+        return config.travel
+    longest = max(float(np.sum(np.linalg.norm(np.diff(np.asarray(track.centreline(b), dtype=float), axis=0), axis=1)))
+                  for b in track.branches)
+    room = longest - START_DEPTH - config.device.length
+    if room <= 0.0:
+        raise bad("travel", None, f"a travel in m: the device ({config.device.length:g} m) reaches past the vessel's "
+                                  f"longest branch ({longest:.3g} m from the entry) from its start")
+    return room
+
+
 class RodBatch:
     """B rods of ``config.device`` in ``track``'s vessel, stepped together.
 
     Attributes
     ----------
-    hubs : list of HubMotion
-        each rod's hub
+    travel : float
+        the hub's travel [m] (``hub_travel``)
+    hubs : list of Hub
+        each rod's hub (``Hub.commanded``: insertion and rotation rates, the insertion in [0, travel])
     setups : list of Setup
         each rod's setup (its ``Clamp`` follows its hub)
     h : float
@@ -81,9 +98,11 @@ class RodBatch:
         origin, axis, bend = start_pose(config, track)
         shape = config.device.shape(origin, axis, bend)
         contact = Contact(obstacles=tuple(track.obstacles), friction=config.friction,
-                          stiffness=config.contact_stiffness, damping=config.contact_damping)
-        self.hubs = [HubMotion(origin, shape.rotations[0], axis, config.travel) for _ in range(n_rods)]
-        self.setups = [Setup(rod=config.device.spec(), reference=shape, boundary=(Clamp(0, motion=hub),),
+                          stiffness=config.contact_stiffness, damping=config.contact_damping,
+                          implicit=config.implicit_contact)
+        self.travel = hub_travel(config, track)
+        self.hubs = [Hub.commanded(origin, axis, shape.rotations[0], travel=self.travel) for _ in range(n_rods)]
+        self.setups = [Setup(rod=config.device.spec(), reference=shape, boundary=(hub.clamp(0),),
                              damping=Damping(translational=config.drag), gravity=config.gravity, contact=contact)
                        for hub in self.hubs]
         sim = Simulator(self.setups[0])
@@ -120,7 +139,7 @@ class RodBatch:
 
     def reset(self, b: int) -> None:
         """Put rod ``b`` back at its start, at rest, its hub still at insertion 0, angle 0."""
-        self.hubs[b].reset()
+        self.hubs[b].reset_commands()
         for a, start in zip(self.state, self._start.arrays()):
             a[b] = start
         self._segment[b] = self._start.contact_segment
@@ -140,7 +159,7 @@ class RodBatch:
         offsets = self.h * np.arange(K + 1)
         for b, hub in enumerate(self.hubs):
             t = self._steps[b] * self.h
-            hub.command(t, rates[b, 0], rates[b, 1])
+            hub.command(t, insertion_rate=rates[b, 0], rotation_rate=rates[b, 1])
             presc_r[b, :, 0], presc_R[b, :, 0] = hub(t + offsets)
         empty = np.zeros((B, K, 0))
         return StepInputs(ext_idx=np.zeros(0, dtype=np.int64), ext_w=np.zeros((B, K, 0, 12)),

@@ -6,10 +6,11 @@ rods must share everything the kernel shares between them: rod spec, stress-free
 boundary node kinds and the nodes with prescribed motion, the PD-tracked nodes and their gains,
 the tendons' routing and which are driven by a displacement (with their stiffness), damping and
 a constant gravity. Initial shapes, nodal loads, PD targets, tendon tensions and displacements,
-prescribed motions and gravities given as time functions (in every setup) may differ. Setups with
-obstacles (``Setup.contact``) are refused.
-Each rod gives the same trajectory as ``simulate`` would (up to rounding in the order of summing
-loads on one node).
+prescribed motions and gravities given as time functions (in every setup) may differ, and so may
+the obstacles (``Setup.contact``, a meshed vessel included): each rod has its own, in every setup or
+in none, with as many kernel columns (``rod.contact.kernel_arrays``) and the same contact stiffness
+and damping per node. Each rod gives the same trajectory as ``simulate`` would (up to rounding in
+the order of summing loads on one node), its contact loads included.
 
 The rods share one ``LumpedRod`` (``rod.lumped``); each rod's inputs (loads, PD targets,
 prescribed poses) are evaluated by its own ``SetupInputs`` chunk by chunk, and each starts as
@@ -30,8 +31,7 @@ from .integrators import Explicit, choose_substeps
 from .kernels import StateArrays, StepInputs
 from .lumped import lumped_rod, node_kinds
 from .magnetic import MagneticDipoles
-from .simulation import RunConfig, Setup, Trajectory, check_run_size, save_nodes, save_slots
-from .stability import stable_step
+from .simulation import RunConfig, Setup, Simulator, Trajectory, check_run_size, save_nodes, save_slots
 from .state import SAMPLE_FIELDS, empty_samples, half_kick, initial_state
 from .status import raise_for_status
 
@@ -90,6 +90,26 @@ def _check_compatible(setups: list[Setup], inputs: list[SetupInputs]) -> None:
         if varying != callable(s0.gravity) or (not varying and s.gravity != s0.gravity):
             raise bad(f"{where}.gravity", s.gravity, f"the same constant gravity as setups[0] ({s0.gravity}), "
                                                      "or a time function in every setup (they may differ)")
+        _check_contact(where, inp.contact, ref.contact)
+
+
+def _check_contact(where: str, contact: dict | None, first: dict | None) -> None:
+    """Refuse a setup whose obstacles the batch cannot step beside setups[0]'s (``SetupInputs.contact``
+    of both): obstacles in one and not the other, another number of kernel columns, another
+    contact stiffness or damping."""
+    if (contact is None) != (first is None):
+        raise bad(f"{where}.contact", "None" if contact is None else "obstacles",
+                  "obstacles in every setup of a batch or in none, as setups[0]")
+    if contact is None:
+        return
+    o, o0 = len(contact["contact_kind"]), len(first["contact_kind"])
+    if o != o0:
+        raise bad(f"{where}.contact", f"{o} kernel columns", f"as many as setups[0] ({o0}; an obstacle is one, a "
+                                                             "bifurcation two, self-contact one): the same number "
+                                                             "of obstacles, their shapes may differ")
+    if not np.array_equal(contact["contact_node"], first["contact_node"]):
+        raise bad(f"{where}.contact", "another contact stiffness or damping", "the same contact stiffness and "
+                                                                              "damping as setups[0]")
 
 
 def _drive(setup: Setup) -> tuple | None:
@@ -106,9 +126,6 @@ def _checked(setups: Sequence[Setup], config: RunConfig) -> list[Setup]:
     for b, s in enumerate(setups):
         if not isinstance(s, Setup):
             raise bad(f"setups[{b}]", type(s).__name__, "a softrnn.rod.Setup")
-        if s.contact is not None:
-            raise bad(f"setups[{b}].contact", "obstacles", "None: a batch has no contact (run setups with "
-                                                           "obstacles one by one with Simulator)")
         if any(isinstance(load, MagneticDipoles) for load in s.loads):
             raise bad(f"setups[{b}].loads", "MagneticDipoles", "no magnetic load in a batch (run such setups one by "
                                                                "one with Simulator)")
@@ -135,13 +152,18 @@ class _Batch:
         states = [initial_state(s, rod, i) for s, i in zip(setups, inputs)]
         # as Simulator.run does for a fresh simulator: the half kick (rest start to second order)
         for st, i in zip(states, inputs):
-            half_kick(rod, st, i.at(np.array([st.time]), h), h)
+            first = i.at(np.array([st.time]), h)
+            if i.contact is not None:
+                first = i.with_contact(first, st.contact_segment, np.zeros((0, 0, 6)))
+            half_kick(rod, st, first, h)
         self.t0 = states[0].time  # fresh states all start at 0
         self.state = StateArrays(*(np.stack(a) for a in zip(*(st.arrays() for st in states))))
         B = len(setups)
         self.out = empty_samples(save_slots(rod.kind.size, nodes), n_samples, nodes.size, lead=(B,))
         self.status = np.zeros((B, 2), dtype=np.int64)
         self.tensions = np.zeros((B, n_samples, len(setups[0].tendons))) if inputs[0].displaced else None
+        self.contact = None if inputs[0].contact is None else _stacked_contact(
+            inputs, [st.contact_segment for st in states], n_samples, nodes.size)
 
     def step_inputs(self, t: np.ndarray) -> StepInputs:
         """Every rod's inputs at times t (K,) [s] in the shared layout, stacked (B, ...)."""
@@ -165,7 +187,7 @@ class _Batch:
                           presc_R=presc_R, tendon_route=self.inputs[0].tendon_route,
                           tendon_end=self.inputs[0].tendon_end, tendon_tension=tension,
                           tendon_stiffness=self.inputs[0].tendon_stiffness, tendon_rest=self.inputs[0].tendon_rest,
-                          tendon_displacement=displacement)
+                          tendon_displacement=displacement, **({} if self.contact is None else self.contact))
 
     def advance(self, state: StateArrays, k0: int, n_steps: int) -> None:
         """Steps k0 .. k0 + n_steps - 1 of every rod; SimulationError naming the first failed rod."""
@@ -182,10 +204,29 @@ class _Batch:
 
     def trajectories(self, times: np.ndarray, nodes: np.ndarray, wall: float) -> list[Trajectory]:
         """One ``Trajectory`` per rod (views of the batch's output buffers)."""
+        loads = self.contact["contact_samples"] if self.contact is not None else None
         return [Trajectory(time=times.copy(), nodes=nodes.copy(), step=self.h, substeps=self.substeps,
                            wall_time=wall, tendon_tensions=None if self.tensions is None else self.tensions[b],
+                           contact_forces=None if loads is None else loads[b, ..., :3],
+                           contact_torques=None if loads is None else loads[b, ..., 3:],
                            **{name: getattr(self.out, name)[b] for name in SAMPLE_FIELDS})
                 for b in range(len(self.inputs))]
+
+
+def _stacked_contact(inputs: list[SetupInputs], segments: list[np.ndarray], n_samples: int, n_saved: int) -> dict:
+    """The rods' contact fields of ``StepInputs``, stacked (B, ...): each rod's static ones
+    (``SetupInputs.contact``), its centrelines and mesh arrays zero-padded to the longest rod's (the
+    kernels reach them through contact_range only), its tracked segments (n, o) (``segments``), the
+    buffer of its contact loads at the samples (S, s, 6) and its scratch (n, 6)."""
+    stacked = {}
+    for name in inputs[0].contact:
+        arrays = [i.contact[name] for i in inputs]
+        size = max(len(a) for a in arrays)
+        stacked[name] = np.stack([np.concatenate([a, np.zeros((size - len(a),) + a.shape[1:], dtype=a.dtype)])
+                                  for a in arrays])
+    B, n = len(inputs), len(segments[0])
+    return dict(stacked, contact_segment=np.stack(segments), contact_samples=np.zeros((B, n_samples, n_saved, 6)),
+                contact_applied=np.zeros((B, n, 6)))
 
 
 def simulate_batch(setups: Sequence[Setup], config: RunConfig,
@@ -194,8 +235,9 @@ def simulate_batch(setups: Sequence[Setup], config: RunConfig,
     at rest; returns one ``Trajectory`` per setup, in order, each equal to ``simulate(setup,
     config)``. ``wall_time`` of every trajectory is the wall time of the whole batch.
 
-    Raises SoftrnnInputError if the setups differ in anything but initial shape, loads, PD targets
-    and prescribed motions; SimulationError (naming the setup) if a rod diverges.
+    Raises SoftrnnInputError if the setups differ in anything but initial shape, loads, PD targets,
+    prescribed motions and obstacles (module docstring); SimulationError (naming the setup) if a rod
+    diverges.
     ``progress(samples_done, n_samples)`` is called after every chunk.
     """
     setups = _checked(setups, config)
@@ -203,13 +245,14 @@ def simulate_batch(setups: Sequence[Setup], config: RunConfig,
     _check_compatible(setups, inputs)
     rod = with_hub(lumped_rod(setups[0]), setups[0])
     B, S = len(setups), config.n_samples
-    substeps = choose_substeps(config, stable_step(rod._asdict(), rod.length, setups[0].damping.kelvin_voigt,
-                                                   config.safety))
+    # the rods' stable step: the rod's, with obstacles their contact springs' too (the same in every rod)
+    substeps = choose_substeps(config, Simulator(setups[0]).stable_step(config.safety))
     nodes = save_nodes(setups[0], config)
     chunk = max(substeps, (_CHUNK_ROD_STEPS // B // substeps) * substeps)
+    contact_bytes = 0 if inputs[0].contact is None else B * S * nodes.size * 6 * 8
     check_run_size(n_samples=S, dt=config.dt, substeps=substeps, n_saved=nodes.size, held_samples=S,
                    chunk_steps=chunk, step_bytes=max(i.step_bytes() for i in inputs), batch=B,
-                   streamable=False, auto_substeps=config.substeps is None)
+                   extra_bytes=contact_bytes, streamable=False, auto_substeps=config.substeps is None)
     batch = _Batch(setups, rod, inputs, config.dt / substeps, substeps, nodes, S)
     total = (S - 1) * substeps
     start = time.perf_counter()

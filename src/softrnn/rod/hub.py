@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import bad, is_finite_number, nonnegative, vec3
+from ..errors import bad, is_finite_number, nonnegative, positive, vec3
 from .boundary import Clamp
 from .kernel_records import CLAMPED, HUB_DRIVEN, HUB_PUSHED, HUB_TWISTED
 from .loads import NodalLoad, Sampled
@@ -81,14 +81,31 @@ class Commanded:
     ``rate(t_now, rate)`` continues from the value at t_now with ``rate`` per second;
     ``set(t_now, value)`` holds ``value`` from t_now on (a step: for forces and torques);
     ``ramp_to(t_now, target, duration)`` moves to ``target`` in ``duration`` [s] and holds it. A
-    command replaces whatever an earlier one planned after t_now; commands come in time order.
+    command replaces whatever an earlier one planned after t_now; commands come in time order;
+    ``reset`` forgets them all. ``bounds`` (low, high), e.g. an insertion's travel: the value stops
+    at either end (a rate continues from where it stopped; ``set`` and ``ramp_to`` targets must lie
+    within); None: unbounded.
     """
 
-    def __init__(self, value: float = 0.0):
+    def __init__(self, value: float = 0.0, bounds: tuple | None = None):
         if not is_finite_number(value):
             raise bad("Commanded.value", value, "a finite start value")
+        if bounds is not None:
+            try:
+                low, high = (float(b) for b in bounds)
+            except (TypeError, ValueError):
+                raise bad("Commanded.bounds", bounds, "(low, high): the least and the largest value") from None
+            if math.isnan(low) or math.isnan(high) or not low <= float(value) <= high:
+                raise bad("Commanded.bounds", bounds, f"(low, high) with low <= the start value {value:g} <= high")
+            bounds = (low, high)
+        self.bounds = bounds
+        self._initial = float(value)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every command: the start value again, at all times."""
         self._start = [-math.inf]      # segment k holds from _start[k]: _value[k] + _rate[k] (t - _start[k])
-        self._value = [float(value)]
+        self._value = [self._initial]
         self._rate = [0.0]
         self._last = -math.inf
         self._arrays = None
@@ -99,7 +116,8 @@ class Commanded:
             self._arrays = tuple(np.array(a) for a in (self._start, self._value, self._rate))
         k = np.searchsorted(self._arrays[0], t, side="right") - 1
         start, value, rate = (a[k] for a in self._arrays)
-        return np.where(rate != 0.0, value + rate * (t - np.where(np.isfinite(start), start, 0.0)), value)
+        out = np.where(rate != 0.0, value + rate * (t - np.where(np.isfinite(start), start, 0.0)), value)
+        return out if self.bounds is None else np.clip(out, *self.bounds)
 
     def at(self, t_now: float) -> float:
         """The value at t_now [s]."""
@@ -124,16 +142,21 @@ class Commanded:
         value = self.at(self._cut(t_now))
         self._append(t_now, value, float(rate))
 
+    def _within(self, name: str, value) -> None:
+        """Refuse a value that is not finite or lies outside ``bounds``."""
+        if not is_finite_number(value):
+            raise bad(name, value, f"a finite {name} value")
+        if self.bounds is not None and not self.bounds[0] <= value <= self.bounds[1]:
+            raise bad(name, value, f"a value within the bounds [{self.bounds[0]:g}, {self.bounds[1]:g}]")
+
     def set(self, t_now: float, value: float) -> None:
         """Hold ``value`` from ``t_now`` [s] on."""
-        if not is_finite_number(value):
-            raise bad("value", value, "a finite value")
+        self._within("value", value)
         self._append(self._cut(t_now), float(value), 0.0)
 
     def ramp_to(self, t_now: float, target: float, duration: float) -> None:
         """Move linearly from the value at ``t_now`` [s] to ``target`` over ``duration`` [s] > 0, then hold."""
-        if not is_finite_number(target):
-            raise bad("target", target, "a finite target value")
+        self._within("target", target)
         if not is_finite_number(duration) or duration <= 0:
             raise bad("duration", duration, "a positive time in s")
         value = self.at(self._cut(t_now))
@@ -267,11 +290,26 @@ class Hub:
 
     @classmethod
     def commanded(cls, entry, axis, rotation0=None, *, pushed: bool = False, twisted: bool = False,
-                  mass: float = 0.0, inertia: float = 0.0) -> "Hub":
+                  mass: float = 0.0, inertia: float = 0.0, travel: float | None = None) -> "Hub":
         """A hub whose inputs are set between runs (``command``): insertion and rotation rates, or with
-        ``pushed`` / ``twisted`` its force [N] / torque [N m] (``Commanded``, all 0 at the start)."""
-        inputs = {("force" if pushed else "insertion"): Commanded(), ("torque" if twisted else "rotation"): Commanded()}
+        ``pushed`` / ``twisted`` its force [N] / torque [N m] (``Commanded``, all 0 at the start);
+        ``travel`` [m] > 0: the commanded insertion stays in [0, travel] (it stops at either end)."""
+        bounds = None
+        if travel is not None:
+            if pushed:
+                raise bad("travel", travel, "None for a hub pushed by a force (the travel bounds a commanded "
+                                            "insertion)")
+            bounds = (0.0, positive("travel", travel, "m"))
+        inputs = {("force" if pushed else "insertion"): Commanded(bounds=bounds),
+                  ("torque" if twisted else "rotation"): Commanded()}
         return cls(entry=entry, axis=axis, rotation0=rotation0, mass=mass, inertia=inertia, **inputs)
+
+    def reset_commands(self) -> None:
+        """Forget the commands of its ``Commanded`` inputs (each back at its start value), e.g. at the
+        start of an episode."""
+        for function in (self.insertion, self.rotation, self.force, self.torque):
+            if isinstance(function, Commanded):
+                function.reset()
 
     @property
     def pushed(self) -> bool:

@@ -152,7 +152,9 @@ class StateArrays(NamedTuple):
 class StepInputs(NamedTuple):
     """Loads and prescribed motions of the K steps of one call (step i at t = (k0 + i) h).
 
-    In ``advance_batch`` ext_w, pd_target, presc_r and presc_R carry a leading batch axis (B, ...).
+    In ``advance_batch`` ext_w, pd_target, presc_r, presc_R, tendon_tension, tendon_displacement and,
+    with obstacles, the contact fields (contact_kind .. contact_applied, each rod its own obstacles)
+    carry a leading batch axis (B, ...); ``kernels.rod_inputs`` builds one rod's record.
 
     Attributes
     ----------

@@ -2,7 +2,8 @@
 
 Per node: explicit translation (T) and a 3-unknown Newton solve on the Cayley vector for the
 rotation (R); segment strains use the SE(3)-Cayley measure (second order in space). One call
-advances many steps; ``advance_batch`` advances many independent rods with ``prange``.
+advances many steps; ``advance_batch`` advances many independent rods with ``prange``, each rod's
+record built by ``rod_inputs`` (shared with the environments' kernel, ``softrnn.envs._kernels``).
 
 The records (``LumpedRod``, ``StateArrays``, ``StepInputs``, ``Samples``) and the constants live in
 ``rod.kernel_records``; the loads of each concept in their own kernel modules (``tendon_kernels``,
@@ -43,9 +44,10 @@ import math
 
 import numpy as np
 from numba import njit, prange
+from numba.extending import overload
 
 from .contact_kernels import _applied_outputs_if_any, _contact_loads, _contact_loads_if_any
-from .kernel_records import _INLINE, _relative_rotation_parts, kernel_stamp
+from .kernel_records import _INLINE, _relative_rotation_parts, absent, kernel_stamp
 from .kernel_records import BIFURCATION as BIFURCATION
 from .kernel_records import BRANCH as BRANCH
 from .kernel_records import CLAMPED as CLAMPED
@@ -79,6 +81,9 @@ from .tendon_kernels import _tendon_springs, _tendon_tangent
 
 _NEWTON_MAX_ITER = 12
 _NEWTON_RTOL = 1e-13
+_ROWS = dict(no_cpython_wrapper=True, no_cfunc_wrapper=True)
+"""The batch's row helpers (``rod_inputs``, ``rod_state``, ``rod_samples``, ``contact_rows``): compiled
+into the batched kernels (they return views, so they keep numba's reference counting)."""
 
 
 @njit(**_INLINE)
@@ -588,39 +593,72 @@ def _build_advance(stamp):
 advance_into = _build_advance(kernel_stamp())
 
 
+def contact_rows(inputs, b):
+    """Rod ``b``'s contact fields (contact_kind .. contact_applied, the 12 of ``StepInputs``) of batched
+    ``inputs`` whose contact fields carry a leading batch axis (``advance_batch``); the shared empty
+    fields for inputs without obstacles. Compiled code only (a numba ``overload``)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(contact_rows, jit_options=_ROWS)
+def _contact_rows_impl(inputs, b):
+    if absent(inputs, "contact_kind"):
+        return lambda inputs, b: (None, inputs.contact_geom, inputs.contact_range, inputs.contact_friction,
+                                  inputs.contact_points, inputs.contact_radii, inputs.contact_mesh_index,
+                                  inputs.contact_mesh_values, inputs.contact_node, inputs.contact_segment,
+                                  inputs.contact_samples, inputs.contact_applied)
+    return lambda inputs, b: (inputs.contact_kind[b], inputs.contact_geom[b], inputs.contact_range[b],
+                              inputs.contact_friction[b], inputs.contact_points[b], inputs.contact_radii[b],
+                              inputs.contact_mesh_index[b], inputs.contact_mesh_values[b], inputs.contact_node[b],
+                              inputs.contact_segment[b], inputs.contact_samples[b], inputs.contact_applied[b])
+
+
+@njit(**_ROWS)
+def rod_inputs(inp, b, contact):
+    """Rod ``b``'s ``StepInputs`` of batched inputs ``inp`` (``advance_batch``, the environments'
+    kernel): rows b of ext_w, pd_target, presc_r, presc_R, tendon_tension and tendon_displacement
+    ((B, ...) in ``inp``), the contact fields ``contact`` passed explicitly per rod (the 12 of
+    contact_kind .. contact_applied, in ``StepInputs`` order: a batch's rows, ``contact_rows``, or
+    arrays the rods share), the rest shared."""
+    kind, geom, rng, friction, points, radii, mesh_index, mesh_values, node, segment, samples, applied = contact
+    return StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
+                      inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b],
+                      inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b], kind, geom, rng, friction,
+                      points, radii, mesh_index, mesh_values, node, segment, samples, applied, inp.magnet_node,
+                      inp.magnet_body, inp.source_positions, inp.source_moments, inp.source_currents,
+                      inp.magnet_positions, inp.magnet_rotations, inp.magnet_fields, inp.magnet_gradients,
+                      inp.magnet_wrenches, inp.magnet_failed)
+
+
+@njit(**_ROWS)
+def rod_state(st, b):
+    """Rod ``b``'s ``StateArrays`` (views) of a batch's states, (B, ...) each."""
+    return StateArrays(st.rotations[b], st.positions[b], st.velocities[b], st.angular_velocities[b],
+                       st.prev_curvature[b], st.prev_shear[b])
+
+
+@njit(**_ROWS)
+def rod_samples(out, b):
+    """Rod ``b``'s ``Samples`` (views) of a batch's outputs, (B, ...) each except save_slot."""
+    return Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b], out.angular_velocities[b],
+                   out.forces[b], out.torques[b], out.reaction_forces[b], out.reaction_torques[b], out.energy[b])
+
+
 def _build_batch(stamp):
     """``advance_batch`` over ``advance_into``, closed over ``stamp`` (see the module docstring)."""
 
     @njit(parallel=True, cache=True)
     def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
         """Advance B independent rods of one ``rod`` (see ``advance_into``): state, inputs (except
-        the node indices and gains, and the contact arrays: a batch has no obstacles) and out (except
-        save_slot) carry a leading batch axis (B, ...).
+        the node indices, gains and tendon routing; the contact fields with obstacles, each rod its
+        own: ``contact_rows``) and out (except save_slot) carry a leading batch axis (B, ...).
         status (B, 2) int64 receives (code, step) per rod."""
         if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return
-        st = state
-        inp = inputs
-        n_batch = len(st.positions)
-        for b in prange(n_batch):
-            work_f = np.empty((st.positions.shape[1], 6))
-            code, step = advance_into(
-                rod,
-                StateArrays(st.rotations[b], st.positions[b], st.velocities[b], st.angular_velocities[b],
-                            st.prev_curvature[b], st.prev_shear[b]),
-                StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
-                           inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b],
-                           inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b], inp.contact_kind,
-                           inp.contact_geom, inp.contact_range, inp.contact_friction, inp.contact_points,
-                           inp.contact_radii, inp.contact_mesh_index, inp.contact_mesh_values,
-                           inp.contact_node, inp.contact_segment, inp.contact_samples,
-                           inp.contact_applied, inp.magnet_node, inp.magnet_body, inp.source_positions,
-                           inp.source_moments, inp.source_currents, inp.magnet_positions, inp.magnet_rotations,
-                           inp.magnet_fields, inp.magnet_gradients, inp.magnet_wrenches, inp.magnet_failed),
-                Samples(out.save_slot, out.positions[b], out.quaternions[b], out.velocities[b],
-                        out.angular_velocities[b], out.forces[b], out.torques[b], out.reaction_forces[b],
-                        out.reaction_torques[b], out.energy[b]),
-                h, k0, n_steps, stride, s0, work_f)
+        for b in prange(len(state.positions)):
+            work_f = np.empty((state.positions.shape[1], 6))
+            code, step = advance_into(rod, rod_state(state, b), rod_inputs(inputs, b, contact_rows(inputs, b)),
+                                      rod_samples(out, b), h, k0, n_steps, stride, s0, work_f)
             status[b, 0] = code
             status[b, 1] = step
 
