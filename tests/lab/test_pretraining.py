@@ -10,12 +10,21 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.lab.families import Physics
+from softrnn.lab.families import Physics, holdout_split
 from softrnn.lab.nets import Hybrid, LearnedMap, NetOptions, Sequence, SequenceOptions
 from softrnn.lab.recording import Recording, read_recording
 from softrnn.lab.synthetic import SyntheticOptions
 from softrnn.lab.tendon_robot import Calibration
-from softrnn.lab.uncertainty import InputDistance, WithInterval, calibrate, conformal_q, with_interval
+from softrnn.lab.uncertainty import (
+    InputDistance,
+    WithInterval,
+    calibrate,
+    conformal_q,
+    cross_fit,
+    quantile,
+    stretches,
+    with_interval,
+)
 
 from helpers import tendon_recording, tendon_robot_truth
 
@@ -249,3 +258,60 @@ def test_calibrate_takes_the_conformal_ranks_of_both_parts():
     assert out["interval_slope"] == math.inf
     assert calibrate(Stub({"fit": errors["fit"], "held": np.full(9, 2.0)}, reach=lambda s: s.inputs[:, 0]), [fit],
                      [zero])["interval_slope"] == 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class _Recalling:
+    """A model that recalls the tip of every row it was fitted on (an overfitted network, a sequence
+    model that learnt its session by heart) and elsewhere gives the mean tip of the fitted rows with the
+    nearest command."""
+
+    seen: dict | None = None
+    levels: np.ndarray | None = None
+    means: np.ndarray | None = None
+    reach: InputDistance | None = None
+    name: str = "recalling"
+
+    def fit(self, sessions):
+        u, tips = np.concatenate([s.inputs[:, 0] for s in sessions]), np.vstack([s.tip for s in sessions])
+        levels = np.unique(u)
+        return replace(self, seen={(s.path, t): tip for s in sessions for t, tip in zip(s.time, s.tip)},
+                       levels=levels, means=np.array([tips[u == v].mean(axis=0) for v in levels]),
+                       reach=InputDistance.of(sessions))
+
+    def predict(self, s):
+        nearest = self.means[np.abs(s.inputs[:, :1] - self.levels[None]).argmin(axis=1)]
+        return np.array([self.seen.get((s.path, t), m) for t, m in zip(s.time, nearest)])
+
+    def describe(self):
+        return {"kind": "recalling"}
+
+
+def _visits(count, seed, path, spread=2e-3, noise=0.2e-3):
+    """A session of ``count`` visits of 30 rows to five command levels (6 rows each, in a random
+    order); the tip (u mm, 0, 0) is off by ``spread`` [m] per axis, drawn anew at each visit (hysteresis),
+    plus marker noise ``noise`` [m] per axis."""
+    rng = np.random.default_rng(seed)
+    u = np.concatenate([np.repeat(rng.permutation(5).astype(float), 6) for _ in range(count)])
+    offset = np.repeat(rng.normal(0.0, spread, (count, 3)), 30, axis=0)
+    tip = np.column_stack([u * 1e-3, np.zeros((u.size, 2))]) + offset + rng.normal(0.0, noise, (u.size, 3))
+    return Recording(path=path, time=np.arange(u.size) * 0.6, inputs=u[:, None], names=("a",), units=("mm",),
+                     tip=tip)
+
+
+def test_intervals_hold_the_spread_between_visits_of_the_same_commands():
+    """A model exact on the rows it was fitted on, off by the spread between visits on any other (2 mm
+    per axis): the quantile over its fitted rows is 0, a radius that holds no row of a fresh session;
+    the cross-fit (refitted on every other stretch, run over those in between, which revisit the same
+    commands) sees the spread, and the ball holds 80-95 % of a fresh session's rows."""
+    train, fresh = _visits(40, 0, "train"), _visits(100, 1, "fresh")
+    fit_part, held = holdout_split([train])
+    family = _Recalling()
+    fitted = WithInterval(family.fit(fit_part), InputDistance.of(fit_part))
+    on_fitted = np.concatenate([np.linalg.norm(fitted.predict(s) - s.tip, axis=1) for s in fit_part])
+    assert quantile(on_fitted) == 0.0
+    ratio, d = cross_fit(fitted, fit_part)
+    assert ratio.size == sum(s.n_rows for s in stretches(fit_part, 1)) and np.all(d == 0.0)
+    model = with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train], fitted=True)
+    assert model.interval_q == quantile(ratio) > 2e-3
+    assert 0.8 <= _coverage(model, fresh) <= 0.95

@@ -237,6 +237,10 @@ class Physics:
                         resets=session_resets([s.n_rows for s in sessions]))
         return replace(self, calibration=cal)
 
+    def refit(self, sessions) -> Physics:
+        """The model calibrated on ``sessions``, refined from this calibration (no multi-start search)."""
+        return replace(self, start=self.calibration.params, calibration=None).fit(sessions)
+
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         key = ("predict", session.commands_key())
@@ -292,6 +296,13 @@ def _runs(session: Recording, edges: np.ndarray, blocks) -> list[Recording]:
     return out
 
 
+def stretch_edges(rows: int) -> np.ndarray:
+    """(K + 1,) the first row of each of the K stretches a session of ``rows`` rows is cut into
+    (``HOLDOUT_BLOCKS``: about one per ``BLOCK_ROWS`` rows), and ``rows``."""
+    low, high = HOLDOUT_BLOCKS
+    return np.linspace(0, rows, min(high, max(low, rows // BLOCK_ROWS)) + 1).round().astype(int)
+
+
 def holdout_split(sessions) -> tuple[list, list]:
     """Training sessions split for choosing options, so that the choice tests a model where its data
     end: (fitting part, held-out part), lists of ``Recording``. With two or more sessions, the session
@@ -303,8 +314,7 @@ def holdout_split(sessions) -> tuple[list, list]:
         far = int(np.argmax(novelty(sessions)))
         return [s for i, s in enumerate(sessions) if i != far], [sessions[far]]
     s = sessions[0]
-    low, high = HOLDOUT_BLOCKS
-    edges = np.linspace(0, s.n_rows, min(high, max(low, s.n_rows // BLOCK_ROWS)) + 1).round().astype(int)
+    edges = stretch_edges(s.n_rows)
     parts = [s.rows(a, b) for a, b in zip(edges[:-1], edges[1:])]
     count = max(1, int(round((1.0 - HOLDOUT_FRACTION) * len(parts))))
     held = set(np.argsort(-novelty(parts), kind="stable")[:count].tolist())

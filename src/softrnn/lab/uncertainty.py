@@ -6,11 +6,15 @@ A model that states an interval has ``predict_interval(session) -> (tip (T, 3) [
 the rows. The radius is the model's own scale of its error per row (``error_scale``: an ensemble's
 spread; 1 where it has none) times q + b d, d the distance of the row's standardised inputs from the
 nearest training row (``InputDistance``: errors grow out of range). ``calibrate`` fits q and b on the
-model fitted without the hold-out rows (two-regime split conformal): q holds 90 % of the rows it was
-fitted on (d = 0), and b, the least growth with which the ball then holds 90 % of the hold-out rows,
-which lie beyond them. Without a fitted b the radius is q (1 + d) (``conformal_q``, q from the
-hold-out alone). ``WithInterval`` gives any fitted model such an interval (the physics, the baselines).
-The benchmark reports the share of validation rows inside (``coverage_90``).
+model fitted without the hold-out rows (two-regime split conformal): q holds 90 % of the rows near the
+data that the model did not see, and b, the least growth with which the ball then holds 90 % of the
+hold-out rows, which lie beyond them. The rows near the data come from a cross-fit (``cross_fit``):
+the model refitted on every other stretch of its fitting rows and run over the stretches in between,
+which revisit the same commands at other times (the spread between visits, hysteresis and drift, that
+the rows a model was fitted on understate); q is never below the quantile on the fitted rows
+themselves. Without a fitted b the radius is q (1 + d) (``conformal_q``, q from the hold-out alone).
+``WithInterval`` gives any fitted model such an interval (the physics, the baselines). The benchmark
+reports the share of validation rows inside (``coverage_90``).
 """
 
 from __future__ import annotations
@@ -20,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
+
+from .families import stretch_edges
 
 COVERAGE = 0.9
 """The share of rows an interval should hold."""
@@ -50,16 +56,50 @@ def conformal_q(model, held) -> float:
     return quantile(_ratios(model, held, model.interval_scale)[0])
 
 
+def stretches(sessions, parity: int) -> list:
+    """Every other stretch of rows of each of ``sessions`` (a list of ``Recording``), cut as
+    ``families.holdout_split`` cuts a session (``stretch_edges``): the even ones (``parity`` 0) or
+    the odd ones (1), each a session of its own."""
+    out = []
+    for s in sessions:
+        edges = stretch_edges(s.n_rows)
+        out += [s.rows(a, b) for k, (a, b) in enumerate(zip(edges[:-1], edges[1:])) if k % 2 == parity]
+    return out
+
+
+def cross_fit(model, fit_part) -> tuple[np.ndarray, np.ndarray] | None:
+    """(|pred - tip| / scale (n,) [1], d (n,) [standard deviations]) over the odd stretches of
+    ``fit_part`` (``stretches``) of ``model`` refitted on the even ones (its ``refit``, else ``fit``;
+    its distance from them): errors where the commands were seen, at other times. None where a half
+    has fewer than ``CROSS_ROWS`` rows, or the model cannot be refitted."""
+    even, odd = stretches(fit_part, 0), stretches(fit_part, 1)
+    if min(sum(s.n_rows for s in half) for half in (even, odd)) < CROSS_ROWS:
+        return None
+    refit = getattr(model, "refit", None) or getattr(model, "fit", None)
+    if refit is None:
+        return None
+    crossed = refit(even)
+    return _ratios(crossed, odd, crossed.error_scale)
+
+
+CROSS_ROWS = 20
+"""The fewest rows each half of the cross-fit (``cross_fit``) needs."""
+
+
 def calibrate(model, fit_part, held) -> dict:
     """The interval of ``model`` (fitted on the sessions ``fit_part``, without ``held``), two-regime
     split conformal: {"interval_q": q, "interval_slope": b} [1, 1 per standard deviation] of the radius
-    error_scale (q + b d). q is the ``COVERAGE`` quantile of |pred - tip| / error_scale over the rows of
-    ``fit_part``; b the same quantile over the hold-out rows of the growth each needs to lie inside,
-    max(0, ratio - q) / d (inf for a row outside at d = 0). inf where there are too few rows. A model
-    without ``reach`` gets b = 0 and the larger q of the two parts."""
+    error_scale (q + b d). q is the ``COVERAGE`` quantile of |pred - tip| / error_scale over the rows
+    near the data the model was not fitted on (``cross_fit``), at least that over the rows of
+    ``fit_part`` themselves; b the same quantile over the hold-out rows of the growth each needs to lie
+    inside, max(0, ratio - q) / d (inf for a row outside at d = 0). inf where there are too few rows.
+    A model without ``reach`` gets b = 0 and the largest q of the parts."""
     q = quantile(_ratios(model, fit_part, model.error_scale)[0])
+    cross = cross_fit(model, fit_part)
+    if cross is not None:
+        q = max(q, quantile(cross[0]))
     ratio, d = _ratios(model, held, model.error_scale)
-    if model.reach is None:                   # no distance: one radius that holds 90 % of both parts
+    if model.reach is None:                   # no distance: one radius that holds 90 % of every part
         return {"interval_q": max(q, quantile(ratio)), "interval_slope": 0.0}
     with np.errstate(divide="ignore", invalid="ignore"):
         need = np.where(ratio <= q, 0.0, (ratio - q) / d)
@@ -149,6 +189,12 @@ class WithInterval(Intervals):
     def predict(self, session) -> np.ndarray:
         """The model's tip (T, 3) [m]."""
         return self.model.predict(session)
+
+    def refit(self, sessions) -> WithInterval:
+        """The model refitted on ``sessions`` (its ``refit``, else ``fit``), its distance from them where
+        it has one, not calibrated (``cross_fit``)."""
+        refit = getattr(self.model, "refit", None) or self.model.fit
+        return WithInterval(refit(sessions), None if self.reach is None else InputDistance.of(sessions))
 
     def error_scale(self, session) -> np.ndarray:
         """(T,) the model's own scale of its error per row (``model.error_scale``; 1 where it has none)."""
