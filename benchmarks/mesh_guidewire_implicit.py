@@ -10,7 +10,9 @@ segments), in ``arch_tree(descending=1.05)`` (as ``benchmarks/mesh_guidewire.py`
 its base held by a ``Hub`` at z = -1.02 m that inserts it 0.05 m and turns it by pi over ``--duration``
 s (smoothstep tables); friction 0.1, stiffness 2e6 N/m^2 per length, the implicit integrator. Runs:
 explicit contact at its automatic step (the step it needs), then implicit contact at each step of
-``--steps``; the reference is the smallest implicit-contact step. A benchmark, not a test.
+``--steps``; the reference is the smallest implicit-contact step. ``--scenario`` also runs the shipped
+``mesh-arch-guidewire-1m`` (the same wire and arch, inserted 0.1 m and turned by pi in 2 s, 2.5 s)
+as shipped and at the automatic step. A benchmark, not a test.
 """
 
 import argparse
@@ -26,6 +28,7 @@ from softrnn.files import atomic_write_text
 from softrnn.geometry.mesh import arch_tree
 from softrnn.rod import Clamp, Contact, Damping, Hub, RunConfig, Setup, Simulator, guidewire
 from softrnn.rod.contact import MeshVessel
+from softrnn.scenarios import load_scenario
 from softrnn.timing import machine_info
 
 
@@ -59,12 +62,38 @@ def run_case(setup: Setup, config: RunConfig) -> dict:
             "tip": traj.positions[:, -1]}
 
 
+SCENARIO = "mesh-arch-guidewire-1m"
+
+
+def scenario_runs(results: dict, substeps=()) -> None:
+    """results["scenario"] <- the shipped ``mesh-arch-guidewire-1m`` as shipped, at the automatic step
+    and at each number of ``substeps`` per saved interval."""
+    sc = load_scenario(SCENARIO)
+    out = {}
+    configs = [("as_shipped", sc.config), ("auto", replace(sc.config, substeps=None))]
+    configs += [(f"substeps_{k}", replace(sc.config, substeps=k)) for k in substeps]
+    for name, config in configs:
+        try:
+            run = run_case(sc.setup, config)
+        except SimulationError as err:
+            out[name] = {"error": str(err)}
+            continue
+        run["tip_final_m"] = run.pop("tip")[-1].tolist()
+        out[name] = run
+        sys.stderr.write(f"{SCENARIO} {name}: {json.dumps(run)}\n")
+    results["scenario"] = {SCENARIO: out}
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--json", help="write the results here")
     parser.add_argument("--duration", type=float, default=1.0, help="simulated time [s]")
     parser.add_argument("--steps", type=float, nargs="+", default=[2e-5, 1e-4, 2.5e-4, 5e-4, 1e-3, 2e-3])
     parser.add_argument("--no-explicit", action="store_true", help="skip the explicit-contact run")
+    parser.add_argument("--scenario", action="store_true", help=f"also run the shipped {SCENARIO}")
+    parser.add_argument("--only-scenario", action="store_true", help=f"run the shipped {SCENARIO} only")
+    parser.add_argument("--scenario-substeps", type=int, nargs="*", default=[],
+                        help="also run the scenario at these solver steps per saved interval")
     args = parser.parse_args(argv)
     dt = max(args.steps)
     config = RunConfig(dt=dt, n_samples=int(round(args.duration / dt)) + 1, integrator="implicit")
@@ -72,6 +101,10 @@ def main(argv=None) -> int:
     cases = [] if args.no_explicit else [("explicit_contact_auto", setup_1m(args.duration, False), None)]
     cases += [(f"implicit_contact_h{h:g}", setup_1m(args.duration, True), int(round(dt / h)))
               for h in sorted(args.steps)]
+    if args.only_scenario:
+        cases = []
+    if args.scenario or args.only_scenario:
+        scenario_runs(results, args.scenario_substeps)
     ref = None
     for name, setup, substeps in cases:
         try:

@@ -68,7 +68,9 @@ def test_a_rod_at_rest_settles_to_the_explicit_contact_penetration():
 def test_a_rod_in_a_meshed_tube_settles_as_with_explicit_contact():
     """A rod dropped onto the floor of a frictionless meshed tube: implicit contact at a 1 ms step
     (over 10x the explicit contact's automatic one) rests at the penetration of explicit contact
-    (to 2 % of it) and at its height (to 1 % of r; it may rest elsewhere across the floor)."""
+    (to 2 % of it) and at its height (to 1 % of r; it may rest elsewhere across the floor). Frictionless,
+    the rod keeps rolling a little across the floor's facets (an undamped mode), each roll over an edge
+    a small impact: the rest penetration is the median over the last 0.1 s."""
     R, r, n, length = 0.003, 0.0005, 9, 0.04
     axis = np.array([[0.0, 0, 0], [0.06, 0, 0]])
     mesh = MeshVessel(*tube_tree_surface([(axis, R)], 0.0006))
@@ -81,7 +83,7 @@ def test_a_rod_in_a_meshed_tube_settles_as_with_explicit_contact():
         runs.append(Simulator(setup).run(RunConfig(dt=0.005, n_samples=61, integrator="implicit", substeps=substeps)))
     assert runs[1].step > 10 * runs[0].step
     assert np.abs(runs[1].positions[-1, :, 2] - runs[0].positions[-1, :, 2]).max() < 0.01 * r
-    gaps = [mesh.gap(t.positions[-1], np.full(n, r))[0] for t in runs]
+    gaps = [np.median([mesh.gap(p, np.full(n, r))[0].min() for p in t.positions[-21:]]) for t in runs]
     assert gaps[0].min() < 0
     assert gaps[1].min() == pytest.approx(gaps[0].min(), rel=REST_RTOL)
 

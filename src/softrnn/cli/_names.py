@@ -6,7 +6,7 @@ SCENARIO_NAMES = ("ellipse", "ellipse-horizontal", "square", "square-circle", "s
                   "semicircle", "semicircle-cosine", "tendon-planar", "tendon-planar-sine", "tendon-spatial",
                   "tendon-spatial-sine", "tendon-displacement", "steel-wire", "nitinol-guidewire", "contact-plane",
                   "vessel-guidewire", "contact-capstan", "magnetic-bifurcation", "vessel-guidewire-twist",
-                  "mesh-arch-guidewire")
+                  "mesh-arch-guidewire", "mesh-arch-guidewire-1m")
 """``softrnn.scenarios.scenario.SCENARIO_NAMES``: the shipped scenarios (``simulate``, ``animate``)."""
 
 INTEGRATORS = ("explicit", "implicit")

@@ -86,6 +86,11 @@ def write_surface(path, vertices: np.ndarray, faces: np.ndarray) -> None:
 
 ARCH_FILE = "mesh-arch.vtu"
 """The shipped mesh of ``arch_tree()`` (its defaults) in ``softrnn/scenarios``, in m."""
+ARCH_LONG_FILE = "mesh-arch-long.vtu"
+"""The shipped mesh of ``arch_tree(descending=ARCH_LONG_DESCENDING)`` in ``softrnn/scenarios``, in m
+(``write_surface``): a descending aorta long enough for a 1 m guidewire."""
+ARCH_LONG_DESCENDING = 1.05
+"""The length [m] of ``ARCH_LONG_FILE``'s descending aorta."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -94,15 +94,13 @@ def _vessel_gap(a, o, x0, x1, x2, ra, inputs):
 def _union_gap(a, o, x0, x1, x2, ra, inputs):
     """Gap [m] and inward unit normal of node a in the union of the vessels of columns o and o + 1
     (a bifurcation, docs/lgvi.md §2.11): the larger of their gaps, so that a node inside either
-    (gap >= 0) touches no wall. Its normal is that vessel's, blended with the other's where their
-    gaps differ by less than UNION_BLEND ra (weights 1 - difference / (UNION_BLEND ra)), so that a
-    node on the crease between the two walls is pushed straight back from it. Both vessels' tracked
-    segments are updated."""
+    (gap >= 0) touches no wall. Its normal (inside too: predictive contact) is that vessel's,
+    blended with the other's where their gaps differ by less than UNION_BLEND ra (weights
+    1 - difference / (UNION_BLEND ra)), so that a node on the crease between the two walls is pushed
+    straight back from it. Both vessels' tracked segments are updated."""
     g, n0, n1, n2 = _vessel_gap(a, o, x0, x1, x2, ra, inputs)
     h, m0, m1, m2 = _vessel_gap(a, o + 1, x0, x1, x2, ra, inputs)
     best = max(g, h)
-    if best >= 0.0:
-        return best, 0.0, 0.0, 0.0
     width = UNION_BLEND * ra
     u = max(0.0, 1.0 - (best - g) / width)
     w = max(0.0, 1.0 - (best - h) / width)
@@ -111,7 +109,7 @@ def _union_gap(a, o, x0, x1, x2, ra, inputs):
     b2 = u * n2 + w * m2
     size = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
     if not size > 0.0:  # opposite normals: no direction to push
-        return 1.0, 0.0, 0.0, 0.0
+        return (best if best >= 0.0 else 1.0), 0.0, 0.0, 0.0
     return best, b0 / size, b1 / size, b2 / size
 
 
@@ -458,8 +456,11 @@ def _node_contact(a, h, R, r, v, w, rod, inputs, coef_k, linear):
     """The contact force and torque (world) of node a (``_contact_loads``), whether it touches, and
     the tangent S = sum over touching obstacles of (coef_k k_a + h c_a) n n^T of its normal spring
     and damper (six entries: S00, S11, S22, S01, S02, S12). ``linear``: the normal force
-    -k_a gap - c_a v_n wherever gap < 0, also where the damper makes it negative (the implicit
-    step's linear spring and damper; friction only where it is positive)."""
+    -k_a (gap + h v_n) - c_a v_n wherever gap < 0, also where it is negative (the implicit step's
+    linear spring on the end-of-step gap and damper; friction from -k_a gap - c_a v_n, where that
+    is positive), and then also the gap
+    [m] and normal of the obstacle the node, not in its wall, nears most within the step (the least
+    gap + h v_n; gap 1 and a zero normal: none), for predictive contact (``rod.implicit``)."""
     node = inputs.contact_node
     fric = inputs.contact_friction
     x0 = r[a, 0]
@@ -469,15 +470,24 @@ def _node_contact(a, h, R, r, v, w, rod, inputs, coef_k, linear):
     touched = False
     f0 = f1 = f2 = t0 = t1 = t2 = 0.0
     s00 = s11 = s22 = s01 = s02 = s12 = 0.0
+    ahead = pg = 1.0
+    p0 = p1 = p2 = 0.0
     for o in range(len(inputs.contact_kind)):
         gap, n0, n1, n2 = _obstacle_gap(a, o, x0, x1, x2, ra, inputs)
-        if gap < 0.0:
+        if gap >= 0.0:
+            if linear and gap + h * (n0 * v[a, 0] + n1 * v[a, 1] + n2 * v[a, 2]) < ahead:
+                ahead = gap + h * (n0 * v[a, 0] + n1 * v[a, 1] + n2 * v[a, 2])
+                pg, p0, p1, p2 = gap, n0, n1, n2
+        else:
             fn = -node[a, 1] * gap - node[a, 2] * (n0 * v[a, 0] + n1 * v[a, 1] + n2 * v[a, 2])
             if fn > 0.0 or linear:
                 touched = True
-                f0 += fn * n0
-                f1 += fn * n1
-                f2 += fn * n2
+                push = fn
+                if linear:  # the spring on the end-of-step gap: its v_n part here, its u_n - v_n the tangent's
+                    push = fn - h * node[a, 1] * (n0 * v[a, 0] + n1 * v[a, 1] + n2 * v[a, 2])
+                f0 += push * n0
+                f1 += push * n1
+                f2 += push * n2
                 q = coef_k * node[a, 1] + h * node[a, 2]
                 s00 += q * n0 * n0
                 s11 += q * n1 * n1
@@ -494,7 +504,7 @@ def _node_contact(a, h, R, r, v, w, rod, inputs, coef_k, linear):
                     t0 += m0
                     t1 += m1
                     t2 += m2
-    return touched, f0, f1, f2, t0, t1, t2, s00, s11, s22, s01, s02, s12
+    return touched, f0, f1, f2, t0, t1, t2, s00, s11, s22, s01, s02, s12, pg, p0, p1, p2
 
 
 @njit(**_INLINE)
@@ -539,19 +549,22 @@ def _contact_loads(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f):
     and w (body). At a saved step (``record``), the saved nodes' applied loads before the contact
     (inputs.contact_applied) and their contact loads (inputs.contact_samples[row]) are kept."""
     for a in range(len(r)):
-        touched, f0, f1, f2, t0, t1, t2, _, _, _, _, _, _ = _node_contact(a, h, R, r, v, w, rod, inputs, 0.0, False)
+        touched, f0, f1, f2, t0, t1, t2, _, _, _, _, _, _, _, _, _, _ = _node_contact(a, h, R, r, v, w, rod,
+                                                                                     inputs, 0.0, False)
         _apply_contact(a, row, record, save_slot, touched, f0, f1, f2, t0, t1, t2, inputs, work_f)
     _last_self_contact(row, record, r, v, inputs, save_slot, work_f)
 
 
 @njit(**_INLINE)
 def _contact_loads_tangent(row, record, h, R, r, v, w, rod, inputs, save_slot, work_f, coef_k, tangent):
-    """``_contact_loads``, and tangent (n, 6) <- each node's normal spring and damper tangent
-    (``_node_contact``; zero where it touches nothing) for the linearly implicit contact of
-    ``rod.implicit``. Self-contact stays explicit."""
+    """``_contact_loads``, and tangent (n, 12)[:, :11] <- each node's normal spring and damper
+    tangent (``_node_contact``; zero where it touches nothing), then the gap [m] and normal of its
+    nearest-ahead obstacle and its stiffness k [N/m], for the linearly implicit and predictive
+    contact of ``rod.implicit``. Self-contact stays explicit."""
+    node = inputs.contact_node
     for a in range(len(r)):
-        touched, f0, f1, f2, t0, t1, t2, s00, s11, s22, s01, s02, s12 = _node_contact(a, h, R, r, v, w, rod,
-                                                                                      inputs, coef_k, True)
+        touched, f0, f1, f2, t0, t1, t2, s00, s11, s22, s01, s02, s12, pg, p0, p1, p2 = _node_contact(
+            a, h, R, r, v, w, rod, inputs, coef_k, True)
         _apply_contact(a, row, record, save_slot, touched, f0, f1, f2, t0, t1, t2, inputs, work_f)
         tangent[a, 0] = s00
         tangent[a, 1] = s11
@@ -559,6 +572,11 @@ def _contact_loads_tangent(row, record, h, R, r, v, w, rod, inputs, save_slot, w
         tangent[a, 3] = s01
         tangent[a, 4] = s02
         tangent[a, 5] = s12
+        tangent[a, 6] = pg
+        tangent[a, 7] = p0
+        tangent[a, 8] = p1
+        tangent[a, 9] = p2
+        tangent[a, 10] = node[a, 1]
     _last_self_contact(row, record, r, v, inputs, save_slot, work_f)
 
 

@@ -28,12 +28,18 @@ beta >= 1/4. beta = 1/2 leaves a margin of 2 on the stiffness: the parts of the 
 leaves out (the geometric stiffness of the stress, the curvature terms of the strain map) need only
 stay below 4 M / h^2 + K, so the step is bounded by the loads' geometric stiffness (a string of
 tension N: h < 2 sqrt(m l / N)), never by E or G. Tendon springs, PD gains and applied loads stay
-explicit; so do the contact loads (``rod.contact``), unless ``Contact(implicit=True)``: then each
-node in an obstacle's wall (its normal force then -k g - c v_n, unclamped) has its normal spring and
-damper enter its translational block as the tangent
-S = sum (beta h^2 k + h c) n n^T (and S u^k the right-hand side), the force -S (u^{k+1} - u^k) / h
-joining F_imp, so that the penalty stiffness no longer bounds the step (friction and self-contact
-stay explicit).
+explicit; so do the contact loads (``rod.contact``), unless ``Contact(implicit=True)``: then the
+normal spring of a node in an obstacle's wall acts on its end-of-step gap, its normal force
+-k (g + h u_n^{k+1}) - c u_n^{k+1} (unclamped; g the gap at q^k, n the normal): its explicit part
+-k (g + h u_n^k) - c u_n^k joins F, the tangent S = sum (h^2 k + h c) n n^T its translational block
+(and S u^k the right-hand side), and -S (u^{k+1} - u^k) / h F_imp, so that the penalty stiffness no
+longer bounds the step (friction and self-contact stay explicit). Contact is also predictive: a
+node outside every wall at q^k whose end-of-step gap g + h u_n^{k+1} (g, n of the obstacle it nears
+most) is negative gets the force -k (g + h u_n^{k+1}) along n (its tangent h^2 k n n^T in the block,
+-h k g n on the right-hand side; no damper, which would push before the wall is reached). The set
+of such nodes starts with g + h u_n^k < 0 and is corrected from the solution until no node changes
+(at most ``CONTACT_SOLVES`` solves), so that no force acts at a positive end-of-step gap
+(docs/guide/simulator.md, "Stiff rods", Contact).
 
 The linearised strain map of segment a (nodes a, a + 1; frame of node a; body rotation
 increments eps_a, eps_{a+1}; p = R_a^T (r_{a+1} - r_a), Q = R_a^T R_{a+1}, x = cay^-1(Q),
@@ -77,6 +83,11 @@ IMPLICIT_BETA = 0.5
 """Weight of the implicit stiffness (Newmark beta, >= 1/4; see the module docstring)."""
 
 IMPLICIT_THETA = 1.0
+CONTACT_SOLVES = 4
+"""Most linear solves of one step with predictive contact (each after the set of nodes predicted
+to reach a wall changed)."""
+CONTACT_COLUMNS = 12
+"""Columns of ``ImplicitWork.contact_tangent`` per node (see there)."""
 SINGULAR = 3
 """Status: the linear system of a step was singular (a rod without mass or stiffness)."""
 
@@ -108,9 +119,12 @@ class ImplicitWork(NamedTuple):
         scratch of the 6 x 6 solves
     weighted : (6, 12)
         scratch: a segment's strain map scaled by its stiffness
-    contact_tangent : (n, 6) or (0, 6)
-        with linearly implicit contact (``Contact.implicit``), each node's contact tangent
-        S = (beta h^2 k + h c) n n^T [kg] (S00, S11, S22, S01, S02, S12); empty: explicit contact
+    contact_tangent : (n, 12) or (0, 12)
+        with linearly implicit contact (``Contact.implicit``), per node its contact tangent
+        S = (h^2 k + h c) n n^T [kg] (S00, S11, S22, S01, S02, S12), then for predictive
+        contact the gap g [m] and unit normal n of the obstacle it nears most (not in its wall; g = 1,
+        n = 0: none), that node's k [N/m], and 1.0 where the predictive spring is in the solve (else
+        0.0); empty: explicit contact
     """
 
     applied: np.ndarray
@@ -133,7 +147,7 @@ def work_arrays(n: int, implicit_contact: bool = False) -> ImplicitWork:
     return ImplicitWork(np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((max(n - 1, 0), 6, 12)),
                         np.zeros((n, 6, 6)), np.zeros((max(n - 1, 0), 6, 6)), np.zeros((n, 6)),
                         np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 6), dtype=np.int64), np.zeros((6, 7)),
-                        np.zeros((6, 12)), np.zeros((n if implicit_contact else 0, 6)))
+                        np.zeros((6, 12)), np.zeros((n if implicit_contact else 0, CONTACT_COLUMNS)))
 
 
 _INLINE = dict(fastmath={"contract"}, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True,
@@ -313,7 +327,7 @@ def _assemble(h, beta, theta, tau, rod, state, work):
             rhs[a, c] = m * v[a, c] + h * work.force[a, c]
             rhs[a, 3 + c] = rod.inertia[a, c] * w[a, c] + h * work.force[a, 3 + c]
     if len(work.contact_tangent) > 0:
-        _add_contact_tangent(n, v, work)
+        _add_contact_tangent(n, h, v, work)
     for a in range(n - 1):
         Ba = B[a]
         for k in range(6):
@@ -351,12 +365,21 @@ def _assemble(h, beta, theta, tau, rod, state, work):
 
 
 @njit(**_INLINE)
-def _add_contact_tangent(n, v, work):
+def _add_contact_tangent(n, h, v, work):
     """work.diag += S, work.rhs += S v^k: each node's contact tangent S (work.contact_tangent) in its
-    translational block (linearly implicit contact; docs/guide/simulator.md, "Stiff rods")."""
+    translational block (linearly implicit contact; docs/guide/simulator.md, "Stiff rods"); and for
+    each predicted contact in the solve, h^2 k n n^T and -h k g n (module docstring)."""
     S = work.contact_tangent
     D = work.diag
     for a in range(n):
+        if S[a, 11] != 0.0:
+            p = (S[a, 7], S[a, 8], S[a, 9])
+            q = h * h * S[a, 10]
+            b = h * S[a, 10] * S[a, 6]
+            for i in range(3):
+                work.rhs[a, i] -= b * p[i]
+                for j in range(3):
+                    D[a, i, j] += q * p[i] * p[j]
         s00 = S[a, 0]
         s11 = S[a, 1]
         s22 = S[a, 2]
@@ -467,7 +490,7 @@ def _explicit_forces(i, row, record, h, beta, rod, state, inputs, out, work):
     # contact: with the applied loads (docs/lgvi.md §2.11); its tangent for the solve if implicit
     if len(work.contact_tangent) > 0:
         _contact_loads_tangent_if_any(row, record, h, R, r, state.velocities, state.angular_velocities, rod,
-                                      inputs, out.save_slot, work_f, beta * h * h, work.contact_tangent)
+                                      inputs, out.save_slot, work_f, h * h, work.contact_tangent)
     else:
         _contact_loads_if_any(row, record, h, R, r, state.velocities, state.angular_velocities, rod, inputs,
                               out.save_slot, work_f)
@@ -518,7 +541,8 @@ def _explicit_forces(i, row, record, h, beta, rod, state, inputs, out, work):
 @njit(**_INLINE)
 def _add_implicit_forces(h, beta, theta, tau, rod, state, work):
     """work.force += F_imp = -beta h K (u - u^k) - tau K u with u = work.u, u^k the state's velocities,
-    and the implicit contact's -S (u - u^k) / h (S the contact tangent, translations only)."""
+    and the implicit contact's -S (u - u^k) / h (S the contact tangent, translations only) and
+    predicted contacts' -k (g + h u_n) n."""
     v = state.velocities
     w = state.angular_velocities
     u = work.u
@@ -545,14 +569,45 @@ def _add_implicit_forces(h, beta, theta, tau, rod, state, work):
         work.force[a, 0] -= S[a, 0] * d0 + S[a, 3] * d1 + S[a, 4] * d2
         work.force[a, 1] -= S[a, 3] * d0 + S[a, 1] * d1 + S[a, 5] * d2
         work.force[a, 2] -= S[a, 4] * d0 + S[a, 5] * d1 + S[a, 2] * d2
+        if S[a, 11] != 0.0:
+            fn = -S[a, 10] * (S[a, 6] + h * (S[a, 7] * u[a, 0] + S[a, 8] * u[a, 1] + S[a, 9] * u[a, 2]))
+            for c in range(3):
+                work.force[a, c] += fn * S[a, 7 + c]
+
+
+@njit(**_INLINE)
+def _predict_contacts(h, u, work, start):
+    """Predictive contact (module docstring): per node with a contact ahead (work.contact_tangent),
+    in the solve where its gap at the end of the step, g + h n . u (u (n, 6) the velocities, [m/s]),
+    is negative; ``start``: set every node so, else only count the nodes whose state would change
+    (and change them). Returns how many changed."""
+    S = work.contact_tangent
+    changed = 0
+    for a in range(len(S)):
+        ahead = S[a, 6] + h * (S[a, 7] * u[a, 0] + S[a, 8] * u[a, 1] + S[a, 9] * u[a, 2])
+        want = 1.0 if ahead < 0.0 else 0.0
+        if start or want != S[a, 11]:
+            changed += int(want != S[a, 11])
+            S[a, 11] = want
+    return changed
 
 
 @njit(**_INLINE)
 def _new_velocities(i, h, beta, theta, tau, rod, state, inputs, work):
-    """work.u <- u^{k+1} of step i (prescribed ones included); False if the system is singular."""
+    """work.u <- u^{k+1} of step i (prescribed ones included), predicted contacts settled (at most
+    ``CONTACT_SOLVES`` solves); False if the system is singular."""
     _known_velocities(i, h, rod, state, inputs, work)
-    _assemble(h, beta, theta, tau, rod, state, work)
-    return _solve_tridiagonal(len(state.positions), work)
+    if len(work.contact_tangent) == 0:
+        _assemble(h, beta, theta, tau, rod, state, work)
+        return _solve_tridiagonal(len(state.positions), work)
+    _predict_contacts(h, state.velocities, work, True)
+    for it in range(CONTACT_SOLVES):
+        _assemble(h, beta, theta, tau, rod, state, work)
+        if not _solve_tridiagonal(len(state.positions), work):
+            return False
+        if it == CONTACT_SOLVES - 1 or _predict_contacts(h, work.u, work, False) == 0:
+            break
+    return True
 
 
 def _build(stamp):
@@ -608,6 +663,7 @@ def _build(stamp):
         for a in range(len(state.positions)):
             for c in range(6):
                 work.known[a, c] = 0.0
+        _predict_contacts(h, state.velocities, work, True)
         _assemble(h, beta, theta, tau, rod, state, work)
         if not _solve_tridiagonal(len(state.positions), work):
             return False

@@ -45,7 +45,8 @@ SCENARIO_NAMES: tuple[str, ...] = ("ellipse", "ellipse-horizontal", "square", "s
                                    "tendon-planar-sine", "tendon-spatial", "tendon-spatial-sine",
                                    "tendon-displacement", "steel-wire", "nitinol-guidewire", "contact-plane",
                                    "vessel-guidewire", "contact-capstan", "magnetic-bifurcation",
-                                   "vessel-guidewire-twist", "mesh-arch-guidewire")
+                                   "vessel-guidewire-twist", "mesh-arch-guidewire",
+                                   "mesh-arch-guidewire-1m")
 FORMAT_VERSION = 1
 BUILTIN_PREFIX = "builtin:"
 
