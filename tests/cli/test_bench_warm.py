@@ -35,6 +35,9 @@ def test_the_integrator_warm_up_runs_what_the_timed_entries_run_first(monkeypatc
     bench_integrators.warm_integrators(0.02, 50, cases=("square",))
     assert [config.integrator for _, config in runs] == [config.integrator for _, config in timed]
     assert runs == timed and len(runs) == len(bench_integrators.INTEGRATORS)
+    runs.clear()
+    bench_integrators.warm_integrators(0.02, 50, cases=("square",), integrators=("implicit",))
+    assert runs == [run for run in timed if run[1].integrator.name == "implicit"] and len(runs) == 1
 
 
 def test_the_contact_warm_up_runs_with_and_without_contact_as_the_timed_entry(monkeypatch):
@@ -50,11 +53,13 @@ def test_a_failing_case_is_skipped_and_the_settings_are_the_benchmarks(monkeypat
     bench_integrators.warm_integrators(0.02, 50, cases=("no-such-scenario",))      # skipped, not raised
     bench_contact.warm_contact_cases(2_000, 0.01, cases=("no-such-scenario",))
     called = []
-    monkeypatch.setattr(bench_simulator, "warm_integrators", lambda *a: called.append(("integrators", a)))
+    monkeypatch.setattr(bench_simulator, "warm_integrators",
+                        lambda *a, integrators: called.append(("integrators", a, integrators)))
     monkeypatch.setattr(bench_simulator, "warm_contact_cases", lambda *a: called.append(("contact", a)))
     monkeypatch.setattr(bench_simulator, "warm_batch", lambda: called.append(("batch", ())))
     for quick in (True, False):
         called.clear()
         bench_simulator.warm_simulator(quick)
         *_, integrators, contact = bench_simulator._settings(quick)
-        assert called == [("integrators", integrators[1:]), ("contact", contact[1:]), ("batch", ())]
+        assert called == [("integrators", integrators[1:], ("implicit",)), ("contact", contact[1:]), ("batch", ()),
+                          ("integrators", integrators[1:], ("explicit",))]          # every integrator, once
