@@ -13,7 +13,6 @@ gymnasium = pytest.importorskip("gymnasium")
 from softrnn.envs import (  # noqa: E402 (after the skip)
     MAGNETIC_ENV_ID,
     Guidewire,
-    HubMotion,
     MagneticNavigateConfig,
     MagneticNavigateEnv,
     MagneticNavigateVectorEnv,
@@ -25,7 +24,7 @@ from softrnn.envs import (  # noqa: E402 (after the skip)
 from softrnn.errors import SoftrnnInputError  # noqa: E402
 from softrnn.magnetics import CurrentSchedule, ManipulatorSpec  # noqa: E402
 from softrnn.magnetics.manipulator import magnetic_load  # noqa: E402
-from softrnn.rod import Clamp, Simulator  # noqa: E402
+from softrnn.rod import Clamp, Hub, Simulator  # noqa: E402
 from softrnn.rod.integrators import Implicit  # noqa: E402
 
 SMALL = MagneticNavigateConfig(device=MagneticRod(manipulator=ManipulatorSpec(n_nodes=14, magnet_stiffness_factor=3.0)),
@@ -138,11 +137,11 @@ def test_the_physics_is_the_simulators_with_the_magnetic_load():
     schedule = CurrentSchedule(np.array([0.0, step - 0.5 * rods.h, step]),
                                np.stack([0 * rods.currents[0], 0 * rods.currents[0], rods.currents[0]]))
     load = magnetic_load(SMALL.device.manipulator, schedule)
-    hub = HubMotion(rods.hubs[0].origin, rods.hubs[0].rotation, rods.hubs[0].axis, SMALL.travel)
+    hub = Hub.commanded(rods.hubs[0].entry, rods.hubs[0].axis, rods.hubs[0].rotation0, travel=SMALL.travel)
     sim = Simulator(dataclasses.replace(rods.setups[0], boundary=(Clamp(0, motion=hub),), loads=(load,)))
     sim.start(rods.h, Implicit())
     for action in actions:
-        hub.command(sim.state.time, float(action[0]) * SMALL.max_insertion_speed, 0.0)
+        hub.command(sim.state.time, insertion_rate=float(action[0]) * SMALL.max_insertion_speed, rotation_rate=0.0)
         sim.advance(rods.substeps, rods.h, Implicit())
     np.testing.assert_allclose(rods.state.positions[0], sim.state.positions, rtol=0, atol=1e-12)
 

@@ -116,8 +116,9 @@ def test_bench_times_a_trained_model_folder(monkeypatch, tmp_path, capsys):
 
 
 def test_the_benchmarks_compile_starts_early_unless_the_benchmark_is_finished(tmp_path, monkeypatch):
-    """``warm_start``: a background process (daemonic, spawned) that compiles the batch kernel into
-    numba's cache; none once ``bench.json`` holds a finished benchmark."""
+    """``warm_start``: a background process (daemonic, spawned) that compiles the benchmark's kernels
+    (of the quick or the full benchmark) into numba's cache; none once ``bench.json`` holds a
+    finished benchmark."""
     from types import SimpleNamespace
 
     from softrnn import __version__
@@ -126,8 +127,9 @@ def test_the_benchmarks_compile_starts_early_unless_the_benchmark_is_finished(tm
     started = []
 
     class Process:
-        def __init__(self, target, name, daemon):
+        def __init__(self, target, name, daemon, args=()):
             started.append((target, daemon))
+            started.append(args)
 
         def start(self):
             started.append("started")
@@ -136,7 +138,7 @@ def test_the_benchmarks_compile_starts_early_unless_the_benchmark_is_finished(tm
     monkeypatch.setattr(rb.multiprocessing, "get_context", lambda kind: kinds.append(kind) or SimpleNamespace(
         Process=Process))
     assert isinstance(rb.warm_start(tmp_path, True), Process)
-    assert started == [(rb._warm, True), "started"] and kinds == ["spawn"]
+    assert started == [(rb._warm, True), (True,), "started"] and kinds == ["spawn"]
     (tmp_path / "bench.json").write_text(json.dumps({"quick": True, "softrnn_version": __version__, "model": {}}))
     assert rb.warm_start(tmp_path, True) is None and rb.warm_start(tmp_path, False) is not None
 

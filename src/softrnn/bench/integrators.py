@@ -88,6 +88,23 @@ def time_integrator(setup: Setup, config: RunConfig, node: int, integrator: str,
     return entry
 
 
+def warm_integrators(span_s: float, fixed_steps: int, cases=INTEGRATOR_CASES, integrators=INTEGRATORS) -> None:
+    """Run the warm-up of every ``time_integrators`` entry of ``integrators`` (``time_integrator``'s
+    first run: its config over 2 samples), untimed: the kernels compile into numba's cache (or load
+    from it), so that a later ``time_integrators`` in another process only loads them. A case that
+    fails is skipped (``time_integrators`` records its error)."""
+    for case in cases:
+        try:
+            scenario = load_scenario(case)
+            node = tracked_node(scenario)
+            for integrator in integrators:
+                _, timed, _, _ = integrator_configs(scenario.setup, scenario.config, node, integrator, span_s,
+                                                    fixed_steps)
+                Simulator(scenario.setup).run(dataclasses.replace(timed, n_samples=2))
+        except Exception:  # noqa: BLE001  # only numba's cache was to be filled
+            continue
+
+
 def time_integrators(reps: int, span_s: float, fixed_steps: int, cases=INTEGRATOR_CASES,
                      tick: Callable[[], None] | None = None) -> dict:
     """``simulator.integrators``: {integrator: {case: entry}} for ``INTEGRATORS`` and ``cases``, plus

@@ -33,8 +33,8 @@ from ..rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, Simulat
 from ..scenarios.cases import build_case
 from ..timing import load_average, machine_info
 from ._runs import covering_samples, goal_mark
-from .contact import CONTACT_CASES, contact_overheads, format_contact, time_contact_cases
-from .integrators import INTEGRATOR_CASES, INTEGRATORS, format_integrators, time_integrators
+from .contact import CONTACT_CASES, contact_overheads, format_contact, time_contact_cases, warm_contact_cases
+from .integrators import INTEGRATOR_CASES, INTEGRATORS, format_integrators, time_integrators, warm_integrators
 from .startup import GOALS as COMMAND_GOALS
 from .startup import commands_met, format_commands, time_commands
 
@@ -261,6 +261,40 @@ def warm_batch() -> None:
     time_batch(2, 59, 1, 1, 2 * _CANTILEVER_DT)
 
 
+def warm_simulator(quick: bool) -> None:
+    """Compile (or load from numba's cache) every kernel ``run_benchmark(quick)`` times, untimed: the
+    integrator entries' and the contact entries' (their warm-up runs, ``warm_integrators``,
+    ``warm_contact_cases``) and the batch kernel (``warm_batch``). Cold, that is most of the
+    benchmark's minute, which ``softrnn reproduce`` spends early, in a background process
+    (``reproduce.benchmark.warm_start``). The implicit integrator's kernels first, the explicit
+    rod step's last: the pipeline's first step compiles that one meanwhile, and this then loads it."""
+    *_, integrator_settings, contact_settings = _settings(quick)
+    previous = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        warm_integrators(*integrator_settings[1:], integrators=("implicit",))
+        warm_contact_cases(*contact_settings[1:])
+        warm_batch()
+        warm_integrators(*integrator_settings[1:], integrators=("explicit",))
+    finally:
+        numba.set_num_threads(previous)
+
+
+def _settings(quick: bool) -> tuple:
+    """(reps, cantilever and batch simulated s, case simulated s at most, batch reps, integrator
+    settings (reps, span [s], fixed solver steps), contact settings (reps, node-steps, max span [s]))
+    of ``run_benchmark``."""
+    # simulated seconds per timed run (fixed, so that every machine times the same work; the cost
+    # per node-step depends on the motion, e.g. on the Newton iterations of fast rotations)
+    reps, duration, case_duration = (5, 1.0, 1.5) if quick else (9, 2.0, 5.0)
+    batch_reps = 3 if quick else 5
+    # integrators: reps, simulated span [s], fixed solver steps where no reference is within reach
+    integrator_settings = (3, 0.1, 10_000) if quick else (5, 0.3, 20_000)
+    # contact: reps, node-steps timed per run, at most the first max_span_s simulated [s] (CONTACT_HOW)
+    contact_settings = (3, 500_000, 1.0) if quick else (5, 2_000_000, 1.0)
+    return reps, duration, case_duration, batch_reps, integrator_settings, contact_settings
+
+
 # ---------------------------------------------------------------------------------------------- report
 def _single_rods(sizes, reps: int, duration: float, case_duration: float, tick: Callable[[], None]) -> dict:
     """The single-rod entries (``cantilever50``, ``cantilever_nodes``, ``cases``); numba on 1 thread."""
@@ -289,14 +323,7 @@ def _single_rods(sizes, reps: int, duration: float, case_duration: float, tick: 
 def run_benchmark(quick: bool = False, progress: Progress | None = None) -> dict:
     """Run all measurements (``quick``: shorter runs, less precise) and return the results as a
     JSON-ready dict. ``progress(items_done, n_items)`` is called after every item."""
-    # simulated seconds per timed run (fixed, so that every machine times the same work; the cost
-    # per node-step depends on the motion, e.g. on the Newton iterations of fast rotations)
-    reps, duration, case_duration = (5, 1.0, 1.5) if quick else (9, 2.0, 5.0)
-    batch_reps = 3 if quick else 5
-    # integrators: reps, simulated span [s], fixed solver steps where no reference is within reach
-    integrator_settings = (3, 0.1, 10_000) if quick else (5, 0.3, 20_000)
-    # contact: reps, node-steps timed per run, at most the first max_span_s simulated [s] (CONTACT_HOW)
-    contact_settings = (3, 500_000, 1.0) if quick else (5, 2_000_000, 1.0)
+    reps, duration, case_duration, batch_reps, integrator_settings, contact_settings = _settings(quick)
     sizes = (50, 59, 101)
     n_items = len(sizes) + len(PAPER_CASES) + len(INTEGRATOR_CASES) + len(CONTACT_CASES) + 3
     tick = Ticks(progress, n_items)

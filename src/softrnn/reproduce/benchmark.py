@@ -1,5 +1,5 @@
 """Reproduce step: ``softrnn bench`` (``softrnn.bench.run_all``) into ``bench.json``; and the
-background process that compiles its slowest kernel early (``warm_start``)."""
+background process that compiles its kernels early (``warm_start``)."""
 
 import json
 import multiprocessing
@@ -8,7 +8,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..bench import run_all
-from ..bench.simulator import warm_batch
+from ..bench.simulator import warm_simulator
 from ..files import atomic_write_text
 from ..progress import ProgressFactory
 from .dynamic import CONFIGS
@@ -34,24 +34,26 @@ def benchmark_step(out: Path, quick: bool, progress_factory: ProgressFactory | N
     return bench
 
 
-def _warm() -> None:
-    """The background process of ``warm_start``: ``bench.simulator.warm_batch``, Ctrl-C left to the
-    parent; a failure changes nothing (the benchmark then compiles the kernel itself)."""
+def _warm(quick: bool) -> None:
+    """The background process of ``warm_start``: ``bench.simulator.warm_simulator``, Ctrl-C left to
+    the parent; a failure changes nothing (the benchmark then compiles the kernels itself)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        warm_batch()
+        warm_simulator(quick)
     except Exception:  # noqa: BLE001  # only numba's cache was to be filled
         pass
 
 
 def warm_start(out: Path, quick: bool):
-    """Start compiling the benchmark's slowest kernel (``bench.simulator.warm_batch``) in a background
-    process, into numba's cache, unless the benchmark is finished: a cold run spends those tens of
-    seconds while its first steps leave a core idle, not in its last step. Returns the process (join
-    it before the benchmark runs: it must not time against it) or None. The figures are unchanged:
-    the same kernel, compiled elsewhere."""
+    """Start compiling the benchmark's kernels (``bench.simulator.warm_simulator``: the batch, the
+    integrator and the contact entries' kernels) in a background process, into numba's cache,
+    unless the benchmark is finished: a cold run spends that minute while its first steps leave a
+    core idle, not in its last step. Returns the process (join it before the benchmark runs: it
+    must not time against it) or None. The figures are unchanged: the same kernels, compiled
+    elsewhere."""
     if _finished(out / "bench.json", quick) is not None:
         return None
-    process = multiprocessing.get_context("spawn").Process(target=_warm, name="softrnn-warm-benchmark", daemon=True)
+    process = multiprocessing.get_context("spawn").Process(target=_warm, args=(quick,), name="softrnn-warm-benchmark",
+                                                           daemon=True)
     process.start()
     return process

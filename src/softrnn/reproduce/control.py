@@ -6,13 +6,16 @@ reference, compared with the other two over the same frames."""
 
 from __future__ import annotations
 
+import multiprocessing
+import signal
 from pathlib import Path
 
 import numpy as np
 
 from ..control.loop import LoopConfig
-from ..control.run import learned_model, run_one
+from ..control.run import MODEL_FILE, learned_model, run_one
 from ..figures.saving import save_figure, subplots
+from ..learned.threads import REPRODUCE_TORCH_THREADS, torch_threads
 from ..progress import ProgressFactory
 from ..sweeps.dask import completed
 from .stepfiles import load_step, save_step
@@ -59,8 +62,7 @@ def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | Non
         return done
     settings = QUICK if quick else FULL
     progress = progress_factory("control") if progress_factory else None
-    model = learned_model(folder, identify_seconds=settings["identify"], config=LoopConfig(), seed=0,
-                          steps=settings["train_steps"])
+    model = _model(folder, settings)
     tasks = _tasks(folder, settings, model)
     jobs = [(_keyed, (key, fn, args), f"softrnn-control-{'-'.join(key)}-{quick}") for key, (fn, args) in tasks]
     if progress is not None:
@@ -82,6 +84,42 @@ def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | Non
     result["model"] = {k: v for k, v in model.meta.items() if k != "settings"}
     result["figure"] = _figure(out, folder)
     return save_step(step_file, result, quick)
+
+
+def _model(folder: Path, settings: dict):
+    """The step's NARX model (``control.run.learned_model``): read from ``folder`` when it was identified
+    there with these settings, else identified, trained and saved there."""
+    return learned_model(folder, identify_seconds=settings["identify"], config=LoopConfig(), seed=0,
+                         steps=settings["train_steps"])
+
+
+def _identify(folder: str, quick: bool) -> None:
+    """The background process of ``model_start``: ``_model`` on PyTorch's threads of the pipeline
+    (``REPRODUCE_TORCH_THREADS``), Ctrl-C left to the parent; a failure changes nothing (the step then
+    identifies the model itself)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import torch  # noqa: F401  # optional extra: learn (PyTorch), loaded so that its threads can be set
+        with torch_threads(REPRODUCE_TORCH_THREADS):
+            _model(Path(folder), QUICK if quick else FULL)
+    except Exception:  # noqa: BLE001  # only the model file was to be written
+        pass
+
+
+def model_start(out: Path, quick: bool):
+    """Start identifying and training the step's model (``_model``) in a background process, unless
+    the step is finished or its model file is there: a cold run spends those seconds while the
+    steps before leave a core idle, not in this step. Returns the process (join it before the step
+    runs) or None. The figures are unchanged: the same model, trained with the same PyTorch threads
+    and numeric code paths (the environment of ``learned.threads.pin_numerics`` is inherited), read
+    back exactly (``NarxModel.save`` keeps the weights' bits)."""
+    folder = out / "control"
+    if load_step(folder / "step.json", quick) is not None or (folder / MODEL_FILE).exists():
+        return None
+    process = multiprocessing.get_context("spawn").Process(target=_identify, args=(str(folder), quick),
+                                                           name="softrnn-control-model", daemon=True)
+    process.start()
+    return process
 
 
 def _keyed(key: tuple, fn, args: tuple) -> tuple:
