@@ -306,7 +306,7 @@ class MagneticNavigator(ScriptedNavigator):
         x = np.atleast_2d(obs)
         paths = self.episodes.paths
         tip, target = x[:, 0:3], np.argmax(x[:, 9:9 + len(paths.branches)], axis=1)
-        axis, across = self._geometry(target)
+        axis, across = self._trunk(target)
         along = np.stack([_unit_or_zero(paths.lines[j][-1] - point_at(paths.lines[j], paths.arc[j], paths.fork[j]))
                           for j in target])
         _, branch = paths.standing(tip, target)
@@ -315,6 +315,16 @@ class MagneticNavigator(ScriptedNavigator):
         direction = np.where(inside[:, None], along, across)
         action = np.concatenate([np.where(wrong, -1.0, 1.0)[:, None], np.zeros((len(x), 1)), direction], axis=1)
         return np.clip(action, -1.0, 1.0).astype(np.float32).reshape(obs.shape[:-1] + (5,))
+
+
+    def _trunk(self, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The trunk's axis (3,) and each target's direction (B, 3) across it, from its fork to its
+        end, unit."""
+        paths = self.episodes.paths
+        axis = _unit_or_zero(paths.lines[0][1] - paths.lines[0][0])
+        want = np.stack([paths.lines[j][-1] - paths.lines[j][np.searchsorted(paths.arc[j], paths.fork[j])]
+                         for j in target])
+        return axis, self._across(want, np.broadcast_to(axis, want.shape))
 
 
 def _unit_or_zero(v: np.ndarray) -> np.ndarray:
