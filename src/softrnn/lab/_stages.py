@@ -21,7 +21,7 @@ from .families import holdout_split
 from .nets import fit_hybrid, fit_learned_map, fit_node, fit_sequence
 from .recording import Recording
 
-LONGEST_FIRST = ("node_lstm", "sequence", "hybrid", "learned_map")
+LONGEST_FIRST = ("sequence", "node_lstm", "learned_map", "hybrid")
 """The learned families in the order they are handed to the workers: the longest first (on the shared
 robot's recordings), so that no core idles while the longest runs at the end."""
 FITS = {"learned_map": fit_learned_map, "hybrid": fit_hybrid, "sequence": fit_sequence, "node_lstm": fit_node}
