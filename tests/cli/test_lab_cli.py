@@ -2,6 +2,12 @@
 recordings: the JSON and figure written; bad input one line, exit 2, nothing written."""
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import pytest
 
@@ -67,6 +73,8 @@ def _bad(args, capsys):
     (["--families", "physics,oracle"], "--families='physics,oracle' is invalid"),
     (["--position-unit", "inch"], "invalid choice"),
     (["--length", "-1"], "--length=-1.0 is invalid"),
+    (["--workers", "0"], "--workers='0' is invalid: a whole number of worker processes >= 1"),
+    (["--workers", "two"], "--workers='two' is invalid"),
 ])
 def test_bad_options_one_line_exit_2_nothing_written(folder, tmp_path, capsys, change, words):
     out = tmp_path / "b.json"
@@ -105,3 +113,55 @@ def test_synthetic_data_without_a_physics_one_line_exit_2(folder, tmp_path, caps
                           "--json", str(out), "--quiet"], capsys)
         assert code == 2 and words in err and "\n" not in err
         assert list(out.parent.iterdir()) == []
+
+
+def _stat(pid) -> list:
+    """The fields of /proc/PID/stat after the command's name (state, parent id...); [] if none."""
+    try:
+        return (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return []
+
+
+def _children(pid: int) -> set:
+    """The ids of the processes whose parent is ``pid`` (Linux: /proc)."""
+    return {int(d.name) for d in Path("/proc").iterdir() if d.name.isdigit() and _stat(d.name)[1:2] == [str(pid)]}
+
+
+def _running(pids) -> set:
+    """Those of ``pids`` still running (a zombie, ended but not yet reaped, is not)."""
+    return {pid for pid in pids if _stat(pid)[:1] not in ([], ["Z"])}
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the processes from /proc (Linux)")
+def test_ctrl_c_stops_the_workers_with_one_line(folder, tmp_path):
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) while the workers fit: one line,
+    exit 130, nothing written, and no worker process left behind."""
+    out = tmp_path / "b.json"
+    script = Path(sys.executable).with_name("softrnn")
+    command = [str(script)] if script.is_file() else [sys.executable, "-m", "softrnn.cli.main"]
+    proc = subprocess.Popen(command + ["lab", "benchmark", "--train", str(folder / "train.csv"), "--validate",
+                                       str(folder / "val.csv"), "--length", "0.08", "--families",
+                                       "physics,learned_map", "--workers", "2", "--json", str(out), "--quiet"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline, workers = time.monotonic() + 300, set()
+        while len(workers) < 2:
+            assert proc.poll() is None and time.monotonic() < deadline, "the workers did not start"
+            workers = _children(proc.pid)
+            time.sleep(0.05)
+        time.sleep(2.0)                                     # into their first fits
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("softrnn: interrupted;") and "Traceback" not in err, err
+    assert not out.exists()
+    deadline = time.monotonic() + 30
+    while _running(workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not _running(workers)

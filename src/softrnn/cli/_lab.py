@@ -83,6 +83,9 @@ def add_args(p):
     b.add_argument("--markdown", default=None, metavar="PATH.md", help="also write the table in Markdown")
     b.add_argument("--resume", action="store_true",
                    help="with --suite: keep the robots an interrupted run finished (same sessions and options)")
+    b.add_argument("--workers", default="2", metavar="N",
+                   help="worker processes the independent fits run in at once (1: one after the other in this "
+                        "process; the figures do not depend on it; default: 2)")
     _recording_args(b, suite=True)
     b.set_defaults(lab_run=_benchmark,
                    lab_single={a.dest: a.default for a in b._actions if a.dest in _SINGLE_ONLY})
@@ -109,6 +112,16 @@ def _lag(text):
         value = -1
     if value < 0:
         raise bad("--lag", text, "a whole number of rows >= 0, or auto")
+    return value
+
+
+def _workers(text) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise bad("--workers", text, "a whole number of worker processes >= 1 (1: none, all in this process)")
     return value
 
 
@@ -165,7 +178,7 @@ def _options(args, families) -> BenchmarkOptions:
         return BenchmarkOptions(length=args.length, lag=_lag(args.lag), segments=_segments(args.segments),
                                 tendons_per_segment=args.tendons_per_segment, routing_radius=args.routing_radius,
                                 families=families, synthetic=_synthetic(getattr(args, "synthetic", None)),
-                                scenario=getattr(args, "scenario", None))
+                                scenario=getattr(args, "scenario", None), workers=_workers(getattr(args, "workers", 1)))
     except SoftrnnInputError as err:
         raise _as_option(err) from None
 
@@ -229,7 +242,7 @@ def _robots_folder(json_path) -> Path:
     return p.with_name(p.stem + "-robots")
 
 
-def _job(suite: Suite, r: SuiteRobot) -> SuiteJob:
+def _job(suite: Suite, r: SuiteRobot, workers: int) -> SuiteJob:
     """The ``SuiteJob`` of a suite file's robot (its options checked; errors name the entry)."""
     from ..lab.benchmark import BenchmarkOptions
     from ..lab.recording import Layout
@@ -243,7 +256,7 @@ def _job(suite: Suite, r: SuiteRobot) -> SuiteJob:
     if r.synthetic is not None:
         given["synthetic"] = SyntheticOptions(amount=r.synthetic)
     try:
-        options = BenchmarkOptions(length=r.length, **given)
+        options = BenchmarkOptions(length=r.length, workers=workers, **given)
         layout = Layout(inputs=r.inputs, tip=r.tip, position_unit=r.position_unit)
     except SoftrnnInputError as err:
         raise SoftrnnInputError(f"{entry}: {err}") from None
@@ -266,7 +279,8 @@ def _suite(args) -> int:
     prepare_output(folder, "--json", kind="folder", overwrite=again,
                    fix="give --resume to keep the robots it finished, or --overwrite to run them again")
     suite = read_suite(args.suite)
-    jobs = [_job(suite, r) for r in suite.robots]
+    workers = _workers(args.workers)
+    jobs = [_job(suite, r, workers) for r in suite.robots]
     with Bar("lab benchmark", unit="stage", enabled=not args.quiet) as bar:
         try:
             result = run_suite(jobs, folder, suite=suite.path, title=suite.title, resume=args.resume, progress=bar)

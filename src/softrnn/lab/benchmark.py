@@ -17,9 +17,10 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from ..errors import SoftrnnInputError, bad, positive
+from ..errors import SoftrnnInputError, bad, integer, positive
 from ..learned.metrics import aligned_tip_errors, coverage, tip_errors
-from .dynamic_families import DynamicHybrid, DynamicPhysics
+from ._pool import WorkerPool
+from ._stages import LONGEST_FIRST, HeldScore, Ran, collect_families, dynamic_models, family_run, run_model
 from .dynamic_physics import DynamicOptions, DynamicRobot
 from .families import (
     HOLDOUT_RULES,
@@ -34,7 +35,7 @@ from .families import (
     holdout_split,
     parsimonious,
 )
-from .nets import NetOptions, SequenceOptions, fit_hybrid, fit_learned_map, fit_node, fit_sequence
+from .nets import NetOptions, SequenceOptions
 from .physics_variants import choose_physics
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .synthetic import SyntheticOptions, pull_limits
@@ -100,6 +101,10 @@ class BenchmarkOptions:
         the ``DYNAMIC_FAMILIES`` are skipped
     dynamic : DynamicOptions
         the options of the dynamic physics and its calibration
+    workers : int
+        worker processes the independent stages run in at once (the physics variants, the learned families;
+        1: one after the other in this process; 2, the cores of a 2-core machine); the figures do not depend on
+        it. The workers are started afresh (``spawn``): a script needs its ``if __name__ == "__main__":`` guard
     """
 
     length: float
@@ -115,9 +120,11 @@ class BenchmarkOptions:
     synthetic: SyntheticOptions | None = None
     scenario: str | None = None
     dynamic: DynamicOptions = DynamicOptions()
+    workers: int = field(default=2, repr=False, compare=False)   # not what is computed: the same figures
 
     def __post_init__(self):
         positive("length", self.length, "m")
+        integer("workers", self.workers, 1)
         if self.lag != "auto" and (not isinstance(self.lag, int) or isinstance(self.lag, bool) or self.lag < 0):
             raise bad("lag", self.lag, "a whole number of rows >= 0, or 'auto'")
         unknown = [f for f in self.families if f not in FAMILIES + DYNAMIC_FAMILIES]
@@ -258,6 +265,10 @@ class BenchmarkResult:
         each model's ``describe()`` (with its hold-out scores); the families skipped and why
     seconds : float
         the wall time [s]
+    workers : int
+        the worker processes it ran in (``BenchmarkOptions.workers``)
+    stage_seconds : dict of str to dict
+        {stage: {"cpu": CPU time [s], "wall": wall time [s]}} of the stages that ran apart (``WorkerPool``)
     predictions : dict of str to ndarray
         each model's and baseline's predicted tip path (T, 3) [m]
     validation : Recording or None
@@ -271,6 +282,8 @@ class BenchmarkResult:
     details: dict[str, dict]
     skipped: dict[str, str]
     seconds: float
+    workers: int = 1
+    stage_seconds: dict[str, dict] = field(default_factory=dict)
     predictions: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     validation: Recording | None = field(default=None, repr=False)
 
@@ -288,7 +301,8 @@ class BenchmarkResult:
                 "best_model": best_model, "best_baseline": best_baseline,
                 "ratio_best_model_to_best_baseline": ratio,
                 "chosen_on_training": {} if self.chosen_on_training is None else asdict(self.chosen_on_training),
-                "skipped": self.skipped, "details": self.details, "seconds": round(self.seconds, 1)}
+                "skipped": self.skipped, "details": self.details, "seconds": round(self.seconds, 1),
+                "workers": self.workers, "stage_seconds": self.stage_seconds}
 
 
 def _physics_reason(sessions, robot_inputs: int) -> str | None:
@@ -399,17 +413,19 @@ class _Table:
         """Run ``model`` over the validation session and score it into ``table`` (``models`` or
         ``baselines``). A model with ``predict_interval(session) -> (tip (T, 3) [m], radius (T,) [m])``
         (the ball that holds the true tip with 90 % probability) is run by it: its tip is the prediction,
-        its radius gives the coverage."""
-        radius = None
-        if hasattr(model, "predict_interval"):
-            pred, radius = model.predict_interval(self.validation)
-        else:
-            pred = model.predict(self.validation)
-        self.predictions[name] = pred
-        table[name] = TipScore.of(pred, self.validation.tip, self.length, radius, self.validation.labels)
-        self.details[name] = model.describe()
-        if holdout_scores is not None:
-            self.details[name]["holdout_rmse_mm"] = holdout_scores
+        its radius gives the coverage (``_stages.run_model``)."""
+        self.add(table, run_model(name, model, self.validation, holdout_scores))
+
+    def add(self, table: dict, ran: Ran) -> None:
+        """Score a model's run over the validation session into ``table`` (``models`` or ``baselines``)."""
+        self.predictions[ran.name] = ran.tip
+        table[ran.name] = TipScore.of(ran.tip, self.validation.tip, self.length, ran.radius, self.validation.labels)
+        self.details[ran.name] = ran.details
+
+    def merge(self, other: _Table) -> None:
+        """Add the models and baselines of ``other`` (a table of the same session), after this one's."""
+        for name in ("models", "baselines", "predictions", "details"):
+            getattr(self, name).update(getattr(other, name))
 
 
 def _baselines(train: list[Recording], split: tuple, out: _Table) -> None:
@@ -431,38 +447,26 @@ def _baselines(train: list[Recording], split: tuple, out: _Table) -> None:
 
 
 def _models(train: list[Recording], split: tuple, families: list, robot, options: BenchmarkOptions, out: _Table,
-            step) -> dict:
-    """Fit each family (its options chosen on the hold-out part, ``split``: fitting part, held part)
-    and run it; returns each family's hold-out score [mm]."""
+            step, pool: WorkerPool) -> tuple[dict, list]:
+    """Fit the physics (its options chosen on the hold-out part, ``split``: fitting part, held part), its
+    variants at once in ``pool``'s workers, run it, and hand the learned families to the workers. Returns
+    the physics' hold-out score [mm] and the families' jobs (``_stages.collect_families`` gathers them)."""
     fit_part, held = split
-    held_ref = np.vstack([s.tip for s in held])
-
-    def held_score(model):
-        return round(tip_errors(np.vstack([model.predict(s) for s in held]), held_ref).rmse_mm, 4)
-
     holdout = {}
     physics = held_physics = None
     syn, no_syn = settle_synthetic(options, robot, train, families)
     if "physics" in families or "hybrid" in families or syn.on:
         # the variant (gravity, friction) chosen on the hold-out, refitted on every training row from there
-        pick = choose_physics(robot, options.calibration, fit_part, held, train)
+        pick = choose_physics(robot, options.calibration, fit_part, held, train, pool=pool)
         held_physics, physics = pick.held, pick.physics
+    jobs = [pool.submit(name, family_run, name, train, (held_physics, physics), syn, no_syn, options, out.validation)
+            for name in LONGEST_FIRST if name in families]
     if "physics" in families:
-        holdout["physics"] = held_score(held_physics)
+        holdout["physics"] = HeldScore(held)(held_physics)
         out.record(out.models, "physics", with_interval(physics, held_physics, *split, train, fitted=True),
                    pick.holdout_rmse_mm)
         step("physics")
-    pair = (held_physics, physics)
-    for name, fit in (("learned_map", fit_learned_map), ("hybrid", fit_hybrid), ("sequence", fit_sequence),
-                      ("node_lstm", fit_node)):
-        if name in families:
-            model, scores = fit(train, pair, syn, options, held_score)
-            holdout[name] = min(scores.values())
-            out.record(out.models, name, model, scores)
-            if no_syn:
-                out.details[name]["synthetic_data"] = f"not used: {no_syn}"
-            step(name)
-    return holdout
+    return holdout, jobs
 
 
 @dataclass(frozen=True)
@@ -518,24 +522,6 @@ def _dynamic_families(options: BenchmarkOptions, sessions) -> tuple[list, dict, 
     return named or list(DYNAMIC_FAMILIES), {}, robot
 
 
-def _dynamic_models(train: list[Recording], families: list, robot, out: _Table, step) -> dict:
-    """The calibrated dynamic physics and the hybrid on it, fitted and run; their hold-out scores [mm]."""
-    holdout = {}
-    if not families:
-        return holdout
-    physics = DynamicPhysics(robot).fit(train)
-    if "dynamic_physics" in families:
-        holdout["dynamic_physics"] = physics.holdout_rmse_mm
-        out.record(out.models, "dynamic_physics", physics)
-        step("dynamic_physics")
-    if "dynamic_hybrid" in families:
-        hybrid = DynamicHybrid(physics).fit(train)
-        holdout["dynamic_hybrid"] = hybrid.holdout_rmse_mm
-        out.record(out.models, "dynamic_hybrid", hybrid, hybrid.holdout_scores)
-        step("dynamic_hybrid")
-    return holdout
-
-
 def prepare(train: list[Recording], validation: Recording, options: BenchmarkOptions) -> Prepared:
     """Check ``train`` and ``validation`` (sessions of one robot) against ``options`` and line them up
     by the lag: one-line ``SoftrnnInputError`` for channels that differ, too few rows, a lag too long, a
@@ -575,12 +561,17 @@ def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -
         if progress is not None:
             progress(done, prepared.stages, {"stage": stage})
 
-    out = _Table(validation, options.length)
+    out, dynamic = _Table(validation, options.length), _Table(validation, options.length)
     split = holdout_split(train)
     _baselines(train, split, out)
     step("baselines")
-    holdout = _models(train, split, families, robot, options, out, step)
-    holdout.update(_dynamic_models(train, list(prepared.dynamic), prepared.dynamic_robot, out, step))
+    with WorkerPool(options.workers) as pool:
+        holdout, jobs = _models(train, split, families, robot, options, out, step, pool)
+        # the dynamic families here, while the workers fit the learned ones
+        dynamic_holdout = dynamic_models(train, list(prepared.dynamic), prepared.dynamic_robot, dynamic, step)
+        holdout.update(collect_families(jobs, pool, out, step))
+    holdout.update(dynamic_holdout)
+    out.merge(dynamic)
     chosen = None
     if holdout:
         ordered = {f: holdout[f] for f in sorted(holdout, key=LEAST_LEARNED.index)}
@@ -595,5 +586,6 @@ def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -
                            tendons_per_segment=None if robot is None else robot.tendons_per_segment)
     return BenchmarkResult(robot=robot_info, models=out.models, baselines=out.baselines,
                            chosen_on_training=chosen, details=out.details, skipped=prepared.skipped,
-                           seconds=prepared.seconds + time.perf_counter() - t0,
+                           seconds=prepared.seconds + time.perf_counter() - t0, workers=pool.workers,
+                           stage_seconds=pool.seconds(),
                            predictions=out.predictions, validation=validation)

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import bad
 from ..learned.metrics import tip_errors
+from ._pool import WorkerPool
 from .families import Physics, held_rows, parsimonious
 from .tendon_robot import CalibrationOptions, TendonRobot
 
@@ -48,23 +49,38 @@ def holdout_rmse_mm(model, held) -> float:
     return round(score, 4) if math.isfinite(score) else math.inf
 
 
+def _calibrated(model: Physics, fit_part: list, held: list) -> tuple[Physics, float]:
+    """``model`` fitted on ``fit_part`` and its hold-out score on ``held`` (``holdout_rmse_mm``; its
+    predictions there kept in the fitted model's memo)."""
+    fitted = model.fit(fit_part)
+    return fitted, holdout_rmse_mm(fitted, held)
+
+
+def _refit(model: Physics, train: list) -> Physics:
+    return model.fit(train)
+
+
 def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: list, held: list, train: list,
-                   variants=tuple(VARIANTS)) -> PhysicsChoice:
+                   variants=tuple(VARIANTS), pool: WorkerPool | None = None) -> PhysicsChoice:
     """Calibrate every variant of ``variants`` on ``fit_part`` (the plain model from its multi-start
     search, the others refined from it), score each on ``held`` and refit the best on ``train``
-    (lists of ``Recording``). ``options``' own gravity and friction are replaced by each variant's."""
+    (lists of ``Recording``). ``options``' own gravity and friction are replaced by each variant's.
+    ``pool``: the variants refined in its workers at once (``softrnn.lab._pool``; None: one by one here)."""
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown or not variants:
         raise bad("variants", ",".join(variants), f"one or more of {', '.join(VARIANTS)}")
-    plain = Physics(robot, replace(options, gravity=False, friction=False)).fit(fit_part)
-    fitted, scores = {}, {}
-    for name in variants:
-        gravity, friction = VARIANTS[name]
-        model = plain if name == "plain" else \
-            Physics(robot, replace(options, gravity=gravity, friction=friction), start=plain.calibration.params
-                    ).fit(fit_part)
-        fitted[name], scores[name] = model, holdout_rmse_mm(model, held)
+    pool = WorkerPool(1) if pool is None else pool
+    plain, score = pool.submit("physics plain", _calibrated, Physics(
+        robot, replace(options, gravity=False, friction=False)), fit_part, held).get()
+    others = [v for v in variants if v != "plain"]
+    refined = pool.map([f"physics {v}" for v in others], _calibrated, [
+        (Physics(robot, replace(options, gravity=VARIANTS[v][0], friction=VARIANTS[v][1]),
+                 start=plain.calibration.params), fit_part, held) for v in others])
+    done = {"plain": (plain, score)} | dict(zip(others, refined))
+    fitted = {v: done[v][0] for v in variants}
+    scores = {v: done[v][1] for v in variants}
     best = parsimonious(scores, held_rows(held))
     chosen = fitted[best]
-    physics = replace(chosen, start=chosen.calibration.params, calibration=None).fit(train)
+    physics = pool.submit("physics refit", _refit, replace(chosen, start=chosen.calibration.params,
+                                                           calibration=None), train).get()
     return PhysicsChoice(variant=best, holdout_rmse_mm=scores, held=chosen, physics=physics)

@@ -1,0 +1,136 @@
+"""The pieces of the real-robot benchmark (``softrnn.lab.benchmark``) that run apart, each in a worker
+process of ``softrnn.lab._pool`` or one after the other here: each learned family with its options
+chosen on the training hold-out and its refit on every training row, run over the validation session
+(``family_run``), which the benchmark scores (``Ran``, ``collect_families``). Each family seeds its own
+random numbers (``seeded``), so that no family's figures depend on which families ran before it in the
+same process. Also the dynamic families, fitted in this process (``dynamic_models``).
+"""
+
+from __future__ import annotations
+
+import zlib
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..learned.metrics import tip_errors
+from ._pool import WorkerPool
+from .dynamic_families import DynamicHybrid, DynamicPhysics
+from .families import holdout_split
+from .nets import fit_hybrid, fit_learned_map, fit_node, fit_sequence
+from .recording import Recording
+
+LONGEST_FIRST = ("sequence", "node_lstm", "learned_map", "hybrid")
+"""The learned families in the order they are handed to the workers: the longest first (on the shared
+robot's recordings), so that no core idles while the longest runs at the end."""
+FITS = {"learned_map": fit_learned_map, "hybrid": fit_hybrid, "sequence": fit_sequence, "node_lstm": fit_node}
+"""The learned families, in report order, and how each is fitted with its options chosen on the hold-out."""
+
+
+@dataclass(frozen=True)
+class Ran:
+    """A fitted model's free run over the validation session.
+
+    Attributes
+    ----------
+    name : str
+        the model or baseline
+    tip : (T, 3) float [m]
+        the predicted tip
+    radius : (T,) float [m] or None
+        the stated 90 % ball (None: the model states no uncertainty)
+    details : dict
+        the model's ``describe()``, with its hold-out scores {candidate: tip RMSE [mm]} where chosen
+    """
+
+    name: str
+    tip: np.ndarray
+    radius: np.ndarray | None
+    details: dict
+
+
+def run_model(name: str, model, session: Recording, holdout_scores: dict | None = None) -> Ran:
+    """``model`` run free over ``session``: by ``predict_interval(session) -> (tip (T, 3) [m], radius (T,)
+    [m])`` where it states a 90 % ball, else by ``predict``; ``holdout_scores`` go to its details."""
+    radius = None
+    if hasattr(model, "predict_interval"):
+        tip, radius = model.predict_interval(session)
+    else:
+        tip = model.predict(session)
+    details = model.describe()
+    if holdout_scores is not None:
+        details["holdout_rmse_mm"] = holdout_scores
+    return Ran(name=name, tip=tip, radius=radius, details=details)
+
+
+class HeldScore:
+    """A model's score on the hold-out part ``held`` (a list of ``Recording``): the tip RMSE [mm] of its
+    free run over each session, rounded to 4 digits."""
+
+    def __init__(self, held: list):
+        self.held, self.reference = list(held), np.vstack([s.tip for s in held])
+
+    def __call__(self, model) -> float:
+        return round(tip_errors(np.vstack([model.predict(s) for s in self.held]), self.reference).rmse_mm, 4)
+
+
+@contextmanager
+def seeded(name: str):
+    """PyTorch's global random numbers seeded from ``name`` inside (where PyTorch is installed), the
+    caller's state restored after: a family's figures do not depend on what ran before it."""
+    try:
+        import torch  # optional extra: learn (PyTorch)
+    except ImportError:
+        yield
+        return
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(zlib.crc32(name.encode()))
+        yield
+
+
+def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, options, validation: Recording
+               ) -> tuple[Ran, float]:
+    """The learned family ``name`` (a key of ``FITS``) fitted on ``train`` with its options chosen on the
+    hold-out part (``pair``: the physics calibrated on the fitting part and on every training row;
+    ``syn``: the synthetic data's options, ``no_syn`` why there are none), run over ``validation``;
+    and its best hold-out score [mm]."""
+    with seeded(name):
+        model, scores = FITS[name](train, pair, syn, options, HeldScore(holdout_split(train)[1]))
+    ran = run_model(name, model, validation, scores)
+    if no_syn:
+        ran.details["synthetic_data"] = f"not used: {no_syn}"
+    return ran, min(scores.values())
+
+
+def collect_families(jobs: list, pool: WorkerPool, out, step) -> dict:
+    """The learned families' runs (the jobs of ``family_run``) scored into ``out`` (the benchmark's table of
+    scores) in report order, ``step(name)`` as each finishes; returns each family's hold-out score [mm]."""
+    runs = {}
+    for job in pool.as_completed(jobs):
+        runs[job.label] = job.get()
+        step(job.label)
+    holdout = {}
+    for name in (f for f in FITS if f in runs):
+        out.add(out.models, runs[name][0])
+        holdout[name] = runs[name][1]
+    return holdout
+
+
+def dynamic_models(train: list[Recording], families: list, robot, out, step) -> dict:
+    """The calibrated dynamic physics and the hybrid on it (those of ``families``), fitted on ``train`` and
+    scored into ``out`` (the benchmark's table), ``step(name)`` after each; their hold-out scores [mm]."""
+    holdout = {}
+    if not families:
+        return holdout
+    physics = DynamicPhysics(robot).fit(train)
+    if "dynamic_physics" in families:
+        holdout["dynamic_physics"] = physics.holdout_rmse_mm
+        out.record(out.models, "dynamic_physics", physics)
+        step("dynamic_physics")
+    if "dynamic_hybrid" in families:
+        hybrid = DynamicHybrid(physics).fit(train)
+        holdout["dynamic_hybrid"] = hybrid.holdout_rmse_mm
+        out.record(out.models, "dynamic_hybrid", hybrid, hybrid.holdout_scores)
+        step("dynamic_hybrid")
+    return holdout

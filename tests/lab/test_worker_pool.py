@@ -1,0 +1,162 @@
+"""The lab benchmark's worker processes: the same figures with one worker (everything in this process)
+and with two (the physics variants and the learned families at once), every stage reported; the pool's
+results, errors, timings and a clean stop on Ctrl-C; a bad worker count refused in one line."""
+
+import dataclasses
+import json
+import os
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from softrnn.errors import SoftrnnInputError
+from softrnn.lab._pool import WorkerPool
+from softrnn.lab._stages import seeded
+from softrnn.lab.benchmark import BenchmarkOptions, run_benchmark
+from softrnn.lab.families import NODE_TRAINING, NodeOptions
+from softrnn.lab.nets import NetOptions, SequenceOptions
+from softrnn.lab.recording import read_recording
+from softrnn.lab.synthetic import SyntheticOptions
+from softrnn.lab.tendon_robot import CalibrationOptions
+
+from helpers import tendon_recording
+
+TINY = dict(nets=NetOptions(members=2, steps=60, hidden=8), sequence=SequenceOptions(epochs=2, hidden=4),
+            node=NodeOptions(units=4, training=dataclasses.replace(NODE_TRAINING, epochs=2, rollout_steps=2)),
+            calibration=CalibrationOptions(quick_evaluations=15, evaluations=60, variant_evaluations=30),
+            synthetic=SyntheticOptions(amount=1.0))
+TIMINGS = ("seconds", "workers", "stage_seconds")
+"""The JSON's keys that say how long it took and in how many processes (a calibration's own ``seconds`` too)."""
+
+
+def _figures(value):
+    """The JSON without its timings, as text (NaN equal to NaN)."""
+    def strip(v):
+        if isinstance(v, dict):
+            return {k: strip(x) for k, x in v.items() if k not in TIMINGS}
+        return [strip(x) for x in v] if isinstance(v, list) else v
+    return json.dumps(strip(value))
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """The benchmark of a small synthetic robot with 1 and with 2 workers: (result, stages reported)."""
+    d = tmp_path_factory.mktemp("rec")
+    tendon_recording(d / "train.csv", rows=100, seed=3)
+    tendon_recording(d / "val.csv", rows=40, seed=4, scale_mm=3.5)
+    train, val = read_recording(d / "train.csv"), read_recording(d / "val.csv")
+    out = {}
+    for workers in (1, 2):
+        stages = []
+        result = run_benchmark([train], val, BenchmarkOptions(length=0.08, workers=workers, **TINY),
+                               progress=lambda done, total, info, s=stages: s.append((done, total, info["stage"])))
+        out[workers] = result, stages
+    return out
+
+
+def test_two_workers_give_the_figures_of_one(runs):
+    """Every key of the JSON but the timings, and every prediction, equal to the last bit."""
+    (one, _), (two, _) = runs[1], runs[2]
+    a, b = one.to_dict(), two.to_dict()
+    assert _figures(a) == _figures(b)
+    assert list(a["models"]) == ["physics", "learned_map", "hybrid", "sequence", "node_lstm"]
+    assert list(a["details"]) == list(b["details"])
+    assert set(one.predictions) == set(two.predictions)
+    for name, tip in one.predictions.items():
+        assert np.array_equal(tip, two.predictions[name]), name
+    assert a["details"]["learned_map"]["holdout_rmse_mm"]            # the families did choose on the hold-out
+    assert (a["workers"], b["workers"]) == (1, 2)
+
+
+def test_every_stage_is_reported_once_with_timings(runs):
+    for result, stages in runs.values():
+        total = 1 + 5
+        assert [d for d, _, _ in stages] == list(range(1, total + 1)) and {t for _, t, _ in stages} == {total}
+        assert sorted(s for _, _, s in stages) == sorted(["baselines", "physics", "learned_map", "hybrid",
+                                                          "sequence", "node_lstm"])
+        seconds = result.to_dict()["stage_seconds"]
+        assert {"physics plain", "physics gravity", "physics friction", "physics gravity+friction",
+                "physics refit", "learned_map", "hybrid", "sequence", "node_lstm"} == set(seconds)
+        assert all(v["cpu"] >= 0 and v["wall"] >= 0 for v in seconds.values())
+
+
+def test_a_family_seeds_its_own_random_numbers():
+    """Inside ``seeded(name)`` PyTorch draws the same numbers whatever was drawn before; the caller's
+    random state is left as it was."""
+    torch = pytest.importorskip("torch")
+    draws = []
+    for before in (0, 5):
+        torch.manual_seed(123)
+        torch.rand(before)
+        state = torch.random.get_rng_state()
+        with seeded("hybrid"):
+            draws.append(torch.rand(4))
+        assert torch.equal(torch.random.get_rng_state(), state)
+    assert torch.equal(draws[0], draws[1])
+    with seeded("sequence"):
+        assert not torch.equal(torch.rand(4), draws[0])
+
+
+def _square(x):
+    return x * x
+
+
+def _fail(x):
+    raise SoftrnnInputError(f"x={x} is invalid: a test error")
+
+
+def _nap(seconds):
+    time.sleep(seconds)
+    return os.getpid()
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_pool_results_in_order_and_errors_raised_here(workers):
+    with WorkerPool(workers) as pool:
+        assert pool.map(["a", "b", "c"], _square, [(2,), (3,), (4,)]) == [4, 9, 16]
+        jobs = [pool.submit(f"j{i}", _square, i) for i in range(4)]
+        assert sorted(job.get() for job in pool.as_completed(jobs)) == [0, 1, 4, 9]
+        assert set(pool.timings) == {"a", "b", "c", "j0", "j1", "j2", "j3"}
+        with pytest.raises(SoftrnnInputError, match="x=7 is invalid"):
+            pool.submit("bad", _fail, 7).get()
+
+
+def test_one_worker_runs_each_job_here_when_asked_for():
+    with WorkerPool(1) as pool:
+        job = pool.submit("pid", _nap, 0.0)
+        assert "pid" not in pool.timings and job.ready()
+        assert job.get() == os.getpid() and "pid" in pool.timings
+
+
+def test_workers_ignore_ctrl_c_and_an_interrupt_terminates_them():
+    """SIGINT sent to the workers (as Ctrl-C reaches the whole process group) stops none of their jobs;
+    a KeyboardInterrupt in this process leaves the block with every worker process ended."""
+    with WorkerPool(2) as pool:
+        jobs = [pool.submit(f"nap {i}", _nap, 1.0) for i in range(2)]
+        for process in pool._pool._pool:
+            os.kill(process.pid, signal.SIGINT)
+        for job in jobs:
+            job.wait(60.0)
+            assert job.ready() and job.get() != os.getpid()
+    processes = []
+    with pytest.raises(KeyboardInterrupt):
+        with WorkerPool(2) as pool:
+            processes = list(pool._pool._pool)
+            pool.submit("long", _nap, 60.0)
+            raise KeyboardInterrupt
+    assert len(processes) == 2 and not any(p.is_alive() for p in processes)
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, "2", True])
+def test_bad_worker_count_one_line(workers):
+    with pytest.raises(SoftrnnInputError, match=r"^workers=.* is invalid: an integer >= 1$"):
+        BenchmarkOptions(length=0.1, workers=workers)
+
+
+def test_worker_count_is_not_part_of_what_is_computed():
+    """Options that differ only in the worker count are equal and print alike (a suite's fingerprint,
+    ``--resume``, does not change with it)."""
+    assert BenchmarkOptions(length=0.1, workers=1) == BenchmarkOptions(length=0.1, workers=3)
+    assert repr(BenchmarkOptions(length=0.1, workers=1)) == repr(BenchmarkOptions(length=0.1, workers=3))
