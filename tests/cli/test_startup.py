@@ -68,7 +68,7 @@ def test_the_lazy_module_loads_on_first_use():
     lazy = LazyModule("fractions")
     assert lazy.Fraction(1, 2) + lazy.Fraction(1, 2) == 1
     with pytest.raises(AttributeError):
-        lazy.no_such_name
+        _ = lazy.no_such_name
 
 
 def test_bare_softrnn_prints_the_help_and_succeeds(capsys):
