@@ -112,9 +112,11 @@ def model_start(out: Path, quick: bool):
     steps before leave a core idle, not in this step. Returns the process (join it before the step
     runs) or None. The figures are unchanged: the same model, trained with the same PyTorch threads
     and numeric code paths (the environment of ``learned.threads.pin_numerics`` is inherited), read
-    back exactly (``NarxModel.save`` keeps the weights' bits)."""
+    back exactly (``NarxModel.save`` keeps the weights' bits). Quick runs only: the full run's node
+    models train on two PyTorch threads, and a second two-thread training beside them oversubscribes
+    two cores (measured: the node models' trainings 3-5x slower, more than the identification saves)."""
     folder = out / "control"
-    if load_step(folder / "step.json", quick) is not None or (folder / MODEL_FILE).exists():
+    if not quick or load_step(folder / "step.json", quick) is not None or (folder / MODEL_FILE).exists():
         return None
     process = multiprocessing.get_context("spawn").Process(target=_identify, args=(str(folder), quick),
                                                            name="softrnn-control-model", daemon=True)
