@@ -149,6 +149,48 @@ def test_the_longest_trainings_go_first():
     assert [job[0] for job in rd.longest_first(jobs)] == ["b", "d", "c", "a"]
 
 
+def test_pool_tasks_go_after_the_trainings():
+    task = rd.PoolTask("control model", print)
+    jobs = [task, ("a", None, None, DynamicConfig(steps=20)), ("b", None, None, DynamicConfig(steps=4000))]
+    assert [rd._job_name(job) for job in rd.longest_first(jobs)] == ["b", "a", "control model"]
+
+
+def test_a_pool_task_makes_what_its_step_would_make(tmp_path):
+    """The control step's model identified and trained as a ``PoolTask`` in the training pool (two
+    workers) equals the one the step makes in its own process with the same PyTorch threads."""
+    import numpy as np
+    import torch
+
+    from softrnn.control.run import MODEL_FILE, learned_model
+    from softrnn.learned.threads import REPRODUCE_TORCH_THREADS, torch_threads
+    from softrnn.reproduce import control as rc
+
+    settings = {**rc.QUICK, "identify": 2.0, "train_steps": 4}
+    kwargs = rc._model_settings(settings)
+    seen = {}
+
+    def factory(desc):
+        return lambda done, total, info=None: seen.setdefault(desc, []).append((done, total))
+
+    tasks = [rd.PoolTask(f"control model {k}", learned_model, (tmp_path / f"pool{k}",), kwargs,
+                         REPRODUCE_TORCH_THREADS) for k in (1, 2)]
+    rd.train_cases(tasks, workers=2, threads=1, progress_factory=factory)
+    with torch_threads(REPRODUCE_TORCH_THREADS):
+        assert torch.get_num_threads() == REPRODUCE_TORCH_THREADS
+        learned_model(tmp_path / "here", **kwargs)
+    with np.load(tmp_path / "here" / MODEL_FILE) as here, np.load(tmp_path / "pool1" / MODEL_FILE) as pool:
+        assert sorted(here.files) == sorted(pool.files)
+        for key in here.files:
+            if here[key].dtype.kind == "U":                               # the model's meta: its seconds differ
+                a, b = (json.loads(str(x[key])) for x in (here, pool))
+                assert a.pop("seconds") > 0 and b.pop("seconds") > 0 and a == b
+            else:
+                np.testing.assert_array_equal(here[key], pool[key])
+    assert seen["control model 1"][-1][0] == seen["control model 1"][-1][1] > 0
+    assert rc.training_jobs(tmp_path, True) == []                   # a quick run identifies it ahead
+    assert rc.training_jobs(tmp_path, False)[0].kwargs == rc._model_settings(rc.FULL)
+
+
 def test_trainings_side_by_side_give_the_weights_of_one_after_the_other(tmp_path):
     """``train_cases`` with two worker processes (one PyTorch thread each) writes the same models as
     training in this process, with progress reported per case; a finished model is not trained again."""

@@ -18,6 +18,7 @@ from ..figures.saving import save_figure, subplots
 from ..learned.threads import REPRODUCE_TORCH_THREADS, torch_threads
 from ..progress import ProgressFactory
 from ..sweeps.dask import completed
+from .dynamic import PoolTask
 from .stepfiles import load_step, save_step
 
 REFERENCES = ("step", "sine", "random")
@@ -51,6 +52,24 @@ def _tasks(folder: Path, settings: dict, model) -> list:
     return tasks
 
 
+def _model_settings(settings: dict) -> dict:
+    """``learned_model``'s keyword arguments for the step's ``settings`` (``FULL`` or ``QUICK``)."""
+    return {"identify_seconds": settings["identify"], "config": LoopConfig(), "seed": 0,
+            "steps": settings["train_steps"]}
+
+
+def training_jobs(out: Path, quick: bool) -> list:
+    """The full run's MPC model identification and training as a ``PoolTask`` for the dynamic step's
+    pool of trainings (``softrnn reproduce`` runs it there, on the worker the last trainings leave
+    idle, with the PyTorch threads of this step; ``control_step`` then reads the model it saved); none
+    with ``quick`` (``model_start`` identifies it ahead), when the step is finished or the model file
+    is there."""
+    folder = out / "control"
+    if quick or load_step(folder / "step.json", quick) is not None or (folder / MODEL_FILE).exists():
+        return []
+    return [PoolTask("control model", learned_model, (folder,), _model_settings(FULL), REPRODUCE_TORCH_THREADS)]
+
+
 def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | None = None, workers: int = 2) -> dict:
     """The control table: ``report["control"][controller][reference]`` and
     ``report["control"]["robustness"][perturbation][reference]`` (``KEYS``), the goals, the model's
@@ -62,7 +81,7 @@ def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | Non
         return done
     settings = QUICK if quick else FULL
     progress = progress_factory("control") if progress_factory else None
-    model = _model(folder, settings)
+    model = _model(folder, settings)            # read when model_start's process or training_jobs' task made it
     tasks = _tasks(folder, settings, model)
     jobs = [(_keyed, (key, fn, args), f"softrnn-control-{'-'.join(key)}-{quick}") for key, (fn, args) in tasks]
     if progress is not None:
@@ -89,8 +108,7 @@ def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | Non
 def _model(folder: Path, settings: dict):
     """The step's NARX model (``control.run.learned_model``): read from ``folder`` when it was identified
     there with these settings, else identified, trained and saved there."""
-    return learned_model(folder, identify_seconds=settings["identify"], config=LoopConfig(), seed=0,
-                         steps=settings["train_steps"])
+    return learned_model(folder, **_model_settings(settings))
 
 
 def _identify(folder: str, quick: bool) -> None:

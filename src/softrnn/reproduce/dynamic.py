@@ -34,7 +34,8 @@ import multiprocessing
 import queue as queues
 import shutil
 import time
-from dataclasses import replace
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +48,7 @@ from ..files import atomic_write_text, json_default
 from ..io.reader import read_dataset
 from ..io.writer import write_dataset
 from ..learned.spans import start_of_test_span
+from ..learned.threads import torch_threads
 from ..learned.whole.artifact import is_dynamic_folder, load_dynamic, save_dynamic
 from ..learned.whole.config import DynamicConfig
 from ..learned.whole.data import split_inputs
@@ -174,6 +176,20 @@ def train_case(case: str, folder: Path, split, config: DynamicConfig, progress_f
     return loaded, float((loaded.meta.get("training") or {}).get("train_seconds", 0.0))
 
 
+@dataclass(frozen=True)
+class PoolTask:
+    """Another step's long work, run in the training pool (``train_cases``) after the trainings, so
+    that it fills a worker the trainings leave idle: ``fn(*args, progress=..., **kwargs)`` with
+    PyTorch on ``threads`` threads (those it has where the step runs it, so its arithmetic is the
+    same), its progress shown under ``name``. ``fn`` keeps its own result (a file the step reads)."""
+
+    name: str
+    fn: Callable
+    args: tuple = ()
+    kwargs: dict = field(default_factory=dict)
+    threads: int = 1
+
+
 _QUEUE = None
 """A training worker's progress queue (``_worker_init``)."""
 _PROGRESS_EVERY = 10
@@ -195,17 +211,40 @@ def _train_job(case: str, folder: str, split, config: DynamicConfig, threads: in
     return case
 
 
+def _run_task(task: PoolTask, progress=None) -> None:
+    """A ``PoolTask`` run here (in a worker or, with one worker, in the step's process)."""
+    import torch  # noqa: F401  # optional extra: learn (PyTorch), loaded so that its threads can be set
+
+    with torch_threads(task.threads):
+        task.fn(*task.args, progress=progress, **task.kwargs)
+
+
+def _task_job(task: PoolTask) -> str:
+    """A ``PoolTask`` in a worker process, its progress sent to the parent as ``_train_job``'s."""
+    def progress(done, total, info=None):
+        if done % _PROGRESS_EVERY == 0 or done == total:
+            _QUEUE.put((task.name, int(done), int(total)))
+
+    _run_task(task, progress if _QUEUE is not None else None)
+    return task.name
+
+
 def train_cases(jobs: list, workers: int = TRAIN_WORKERS, threads: int = TRAIN_THREADS,
                 progress_factory=None) -> None:
     """Train every job (case, folder, split, config) whose ``folder/model`` is missing, ``workers``
     at a time in processes of ``threads`` PyTorch threads (1 worker: one after the other in this
     process, same arithmetic). Each training checkpoints and resumes as ``train_case``'s; an
-    interruption (Ctrl-C, SIGTERM) stops the workers and keeps every finished model."""
-    jobs = [j for j in jobs if not is_dynamic_folder(Path(j[1]) / "model")]
-    bars = {case: progress_factory(f"train dynamic {case}") if progress_factory else None for case, *_ in jobs}
+    interruption (Ctrl-C, SIGTERM) stops the workers and keeps every finished model. ``PoolTask``
+    items among ``jobs`` run in the same pool (``longest_first`` puts them last)."""
+    jobs = [j for j in jobs if isinstance(j, PoolTask) or not is_dynamic_folder(Path(j[1]) / "model")]
+    bars = {_job_name(j): progress_factory(j.name if isinstance(j, PoolTask) else f"train dynamic {j[0]}")
+            if progress_factory else None for j in jobs}
     if workers <= 1 or len(jobs) <= 1:
-        for case, folder, split, config in jobs:
-            _fit_into(Path(folder), split, config, bars[case], threads)
+        for job in jobs:
+            if isinstance(job, PoolTask):
+                _run_task(job, bars[job.name])
+            else:
+                _fit_into(Path(job[1]), job[2], job[3], bars[job[0]], threads)
         return
 
     ctx = multiprocessing.get_context("spawn")      # no fork of a process that holds PyTorch's and numba's threads
@@ -222,8 +261,8 @@ def train_cases(jobs: list, workers: int = TRAIN_WORKERS, threads: int = TRAIN_T
         return True
 
     try:
-        pending = [pool.apply_async(_train_job, (case, str(folder), split, config, threads))
-                   for case, folder, split, config in jobs]
+        pending = [pool.apply_async(_task_job, (job,)) if isinstance(job, PoolTask)
+                   else pool.apply_async(_train_job, (job[0], str(job[1]), job[2], job[3], threads)) for job in jobs]
         while pending:
             relay(0.2)
             for result in [r for r in pending if r.ready()]:
@@ -419,8 +458,14 @@ def _finish_case(job: dict, out: Path, quick: bool) -> dict:
 
 def longest_first(jobs: list) -> list:
     """Training jobs (case, folder, split, config) ordered by their optimiser steps, most first (in
-    order among equals), so that a pool of workers ends its last trainings close together."""
-    return sorted(jobs, key=lambda job: -job[3].steps)
+    order among equals), so that a pool of workers ends its last trainings close together; a
+    ``PoolTask`` after every training (it fills the worker the last trainings leave idle)."""
+    return sorted(jobs, key=lambda job: 1 if isinstance(job, PoolTask) else -job[3].steps)
+
+
+def _job_name(job) -> str:
+    """The name a pool job's progress goes under: a ``PoolTask``'s name, a training's case."""
+    return job.name if isinstance(job, PoolTask) else job[0]
 
 
 def dynamic_step(out: Path, quick: bool, progress_factory=None, *, cases=CASES, workers: int | None = None,

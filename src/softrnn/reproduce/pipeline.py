@@ -34,6 +34,7 @@ from ..timing import machine_info
 from .benchmark import benchmark_step, warm_start
 from .cases import GENERALISATION, case_step
 from .control import control_step, model_start
+from .control import training_jobs as control_jobs
 from .dynamic import dynamic_step
 from .fig13 import fig13_step
 from .fig14 import fig14_step
@@ -72,8 +73,9 @@ def _model_reports(report: dict, out: Path, quick: bool, progress_factory: Progr
 def _dynamic_models(out: Path, quick: bool, progress_factory: ProgressFactory | None) -> dict:
     """The paper cases' whole-manipulator models, with the tendon arms' trainings in the same pool of
     workers (their data sets and sweeps made first, ``tendons.training_jobs``; ``tendon_step`` then
-    measures them)."""
-    return dynamic_step(out, quick, progress_factory, also=training_jobs(out, quick, progress_factory))
+    measures them) and, last, the control step's model (``control.training_jobs``)."""
+    also = training_jobs(out, quick, progress_factory) + control_jobs(out, quick)
+    return dynamic_step(out, quick, progress_factory, also=also)
 
 
 def _control(out: Path, quick: bool, progress_factory: ProgressFactory | None, identifying) -> dict:
