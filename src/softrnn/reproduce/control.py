@@ -15,10 +15,10 @@ import numpy as np
 from ..control.loop import LoopConfig
 from ..control.run import MODEL_FILE, learned_model, run_one
 from ..figures.saving import save_figure, subplots
-from ..learned.threads import REPRODUCE_TORCH_THREADS, torch_threads
+from ..learned.threads import REPRODUCE_TORCH_THREADS
 from ..progress import ProgressFactory
 from ..sweeps.dask import completed
-from .dynamic import PoolTask
+from .dynamic import PoolTask, run_task
 from .stepfiles import load_step, save_step
 
 REFERENCES = ("step", "sine", "random")
@@ -67,7 +67,13 @@ def training_jobs(out: Path, quick: bool) -> list:
     folder = out / "control"
     if quick or load_step(folder / "step.json", quick) is not None or (folder / MODEL_FILE).exists():
         return []
-    return [PoolTask("control model", learned_model, (folder,), _model_settings(FULL), REPRODUCE_TORCH_THREADS)]
+    return [_model_task(folder, FULL)]
+
+
+def _model_task(folder: Path, settings: dict) -> PoolTask:
+    """``_model`` as a ``PoolTask``: the model identified and trained on PyTorch's threads of the
+    pipeline (``REPRODUCE_TORCH_THREADS``), in the dynamic step's pool or in ``model_start``'s process."""
+    return PoolTask("control model", learned_model, (folder,), _model_settings(settings), REPRODUCE_TORCH_THREADS)
 
 
 def control_step(out: Path, quick: bool, progress_factory: ProgressFactory | None = None, workers: int = 2) -> dict:
@@ -117,9 +123,7 @@ def _identify(folder: str, quick: bool) -> None:
     identifies the model itself)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        import torch  # noqa: F401  # optional extra: learn (PyTorch), loaded so that its threads can be set
-        with torch_threads(REPRODUCE_TORCH_THREADS):
-            _model(Path(folder), QUICK if quick else FULL)
+        run_task(_model_task(Path(folder), QUICK if quick else FULL))
     except Exception:  # noqa: BLE001  # only the model file was to be written
         pass
 

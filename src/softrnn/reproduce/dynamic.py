@@ -211,7 +211,7 @@ def _train_job(case: str, folder: str, split, config: DynamicConfig, threads: in
     return case
 
 
-def _run_task(task: PoolTask, progress=None) -> None:
+def run_task(task: PoolTask, progress=None) -> None:
     """A ``PoolTask`` run here (in a worker or, with one worker, in the step's process)."""
     import torch  # noqa: F401  # optional extra: learn (PyTorch), loaded so that its threads can be set
 
@@ -225,7 +225,7 @@ def _task_job(task: PoolTask) -> str:
         if done % _PROGRESS_EVERY == 0 or done == total:
             _QUEUE.put((task.name, int(done), int(total)))
 
-    _run_task(task, progress if _QUEUE is not None else None)
+    run_task(task, progress if _QUEUE is not None else None)
     return task.name
 
 
@@ -242,7 +242,7 @@ def train_cases(jobs: list, workers: int = TRAIN_WORKERS, threads: int = TRAIN_T
     if workers <= 1 or len(jobs) <= 1:
         for job in jobs:
             if isinstance(job, PoolTask):
-                _run_task(job, bars[job.name])
+                run_task(job, bars[job.name])
             else:
                 _fit_into(Path(job[1]), job[2], job[3], bars[job[0]], threads)
         return
