@@ -1,9 +1,11 @@
 """The shipped contact scenarios keep their results to the bit: the first samples of each, run
 through the Python API, hash (SHA-256 of their positions, rotations, velocities, reactions and
-contact loads, float64) to the digests recorded before predictive contact came in (and, for
-mesh-arch-guidewire-1m, when it came in), so that a change of the compiled code that was not meant
-to change the physics (a sum fused or rounded otherwise) fails here, with a few recorded values
-beside it that show how far it moved.
+contact loads, float64) to the digests recorded before predictive contact came in (for
+mesh-arch-guidewire-1m, when it came in). They cover the implicit integrator with explicit contact
+(with Kelvin-Voigt damping in contact-capstan) and with implicit contact, and the explicit integrator
+with contact (contact-plane, the magnetic rod). A change of the compiled code that was not meant
+to change the physics (a sum fused or rounded otherwise) fails here, with the recorded values that
+show how far it moved.
 
 The bits are those of one compiler and CPU: the kernels let LLVM contract a * b + c into one fused
 multiply-add, and which products it fuses is its choice, so another numba or llvmlite, or another
@@ -43,6 +45,12 @@ CASES = {
     "vessel-guidewire-twist": (11, "169c788ac8521a095636b12ecaede5a3e2544c5316a060b27755c8695a52b3f7",
         (-0.16996999260645604, -5.1625865766024994e-05, -0.00254940405094041,
          -0.00033801918366537095, -5.0635082747881097e-05, 0.0036737875767982814)),
+    "contact-plane": (11, "0e91d4d3af82f8c55c67f802a467d3f723045189b336eaaeff2c8f0f8cab618d",
+        (0.25000002747083244, 0.0, 0.004993806301244521,
+         0.0006499945742311433, 0.0, 0.36398649945506617)),
+    "magnetic-bifurcation": (13, "e33e28a5ad5be6b7ddd587519af2a4ed02ee3047f18ef376de09fe1e926c1035",
+        (-8.055663775260453e-06, 0.0, -0.000609499054377808,
+         -0.0008783291742773272, 0.0, 0.0020256587850801915)),
     "mesh-arch-guidewire": (11, "663ea45ad3bbcc2c7659c3598d2f4c08b48fe47507947ca69ab803df86448ffc",
         (-1.668188853239295e-06, -0.0055051493263572416, -0.0999851237086859,
          -2.345481601472976e-06, 0.0017747599396946937, -0.00017700878039399637)),
