@@ -487,10 +487,14 @@ def _explicit_forces(i, row, record, h, beta, rod, state, inputs, out, work):
         return False, 0.0, 0.0
     if len(inputs.tendon_stiffness) > 0:
         _tendon_springs(i, R, r, rod, inputs)
-    # contact: with the applied loads (docs/lgvi.md §2.11); its tangent for the solve if implicit
+    # contact: with the applied loads (docs/lgvi.md §2.11); its tangent for the solve if implicit. Its
+    # h^2 is written (beta h^2) / beta (exact for beta = 1/2): the product beta h^2 is then the one of
+    # _assemble's stiffness weight beta h^2 + h tau, which the compiler computes once and so does not
+    # fuse into that sum; else the weight rounds otherwise and every run with Kelvin-Voigt damping and
+    # explicit contact (contact-capstan) moves in its last bits (tests/rod/test_contact_bits.py).
     if len(work.contact_tangent) > 0:
         _contact_loads_tangent_if_any(row, record, h, R, r, state.velocities, state.angular_velocities, rod,
-                                      inputs, out.save_slot, work_f, h * h, work.contact_tangent)
+                                      inputs, out.save_slot, work_f, beta * h * h / beta, work.contact_tangent)
     else:
         _contact_loads_if_any(row, record, h, R, r, state.velocities, state.angular_velocities, rod, inputs,
                               out.save_slot, work_f)
