@@ -60,6 +60,18 @@ def test_calibrate_with_gravity_and_friction(folder, tmp_path):
     assert robot["validation"]["tip_rmse_mm"] < 1.0
 
 
+def test_calibrate_with_play(folder, tmp_path):
+    """``--play``: the physics with the tendons' play, its width fitted (a robot without play: it comes
+    out small) and named."""
+    out = tmp_path / "robot.json"
+    assert run_cli(["lab", "calibrate", str(folder / "train.csv"), "--validate", str(folder / "val.csv"),
+                    "--length", "0.08", "--lag", "0", "--play", "-o", str(out), "--quiet"]) == 0
+    robot = json.loads(out.read_text())
+    assert robot["variant"] == "play" and "tendon play" in robot["model"]
+    assert 0.0 <= robot["parameters"]["tendon_play_mm"] < 0.1
+    assert robot["validation"]["tip_rmse_mm"] < 0.5
+
+
 def _bad(args, capsys):
     code = run_cli(args)
     err = capsys.readouterr().err.strip()

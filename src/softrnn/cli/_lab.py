@@ -99,6 +99,9 @@ def add_args(p):
                    help="add the backbone's weight to the physics, its direction fitted (default: without)")
     c.add_argument("--friction", action="store_true",
                    help="add friction along the tendons' routing (capstan), its coefficient fitted (default: without)")
+    c.add_argument("--play", action="store_true",
+                   help="add the tendons' play (friction that sticks: a reversal of a servo reaches the robot only "
+                        "after twice the play), its width fitted (default: without)")
     _recording_args(c)
     c.set_defaults(lab_run=_calibrate)
 
@@ -366,7 +369,7 @@ def _calibrate(args) -> int:
         raise bad("--segments", args.segments, f"segments whose tendons ({robot.n_tendons}) match the "
                                                f"{train[0].n_inputs} input columns")
     check_pulls(robot, recordings)
-    physics = dataclasses.replace(options.calibration, gravity=args.gravity, friction=args.friction)
+    physics = dataclasses.replace(options.calibration, gravity=args.gravity, friction=args.friction, play=args.play)
     with Bar("lab calibrate", unit="start", enabled=not args.quiet) as bar:
         cal = calibrate(robot, np.vstack([displacements(r) for r in train]), np.vstack([r.tip for r in train]),
                         physics, progress=bar, resets=session_resets([r.n_rows for r in train]))

@@ -1,5 +1,6 @@
 """The tendon robot's physics variant chosen on the training hold-out: the plain model, with
-gravity, with friction along the routing, or with both (``softrnn.lab.tendon_robot``), each
+gravity, with friction along the routing, or with both (and, asked for, with the tendons' play)
+(``softrnn.lab.tendon_robot``), each
 calibrated on the hold-out's fitting part and scored by its free run over the held part (Euclidean
 tip RMSE); the variant with the lowest score is refitted on every training row."""
 
@@ -16,9 +17,13 @@ from ._pool import WorkerPool
 from .families import Physics, held_rows, parsimonious
 from .tendon_robot import CalibrationOptions, TendonRobot
 
-VARIANTS = {"plain": (False, False), "gravity": (True, False), "friction": (False, True),
-            "gravity+friction": (True, True)}
-"""The physics variants: {name: (gravity, friction)}."""
+VARIANTS = {"plain": (False, False, False), "gravity": (True, False, False), "friction": (False, True, False),
+            "gravity+friction": (True, True, False)}
+"""The physics variants tried by default: {name: (gravity, friction, play)}."""
+MORE_VARIANTS = {"play": (False, False, True), "friction+play": (False, True, True)}
+"""Variants tried where asked for (``choose_physics``' ``variants``): the tendons' play, fitted to zero width
+on the shared robot's training session (its fit there worsens with any play), so not tried by default."""
+_FLAGS = ("gravity", "friction", "play")
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,18 +69,20 @@ def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: li
                    variants=tuple(VARIANTS), pool: WorkerPool | None = None) -> PhysicsChoice:
     """Calibrate every variant of ``variants`` on ``fit_part`` (the plain model from its multi-start
     search, the others refined from it), score each on ``held`` and refit the best on ``train``
-    (lists of ``Recording``). ``options``' own gravity and friction are replaced by each variant's.
+    (lists of ``Recording``). ``options``' own gravity, friction and play are replaced by each
+    variant's.
     ``pool``: the variants refined in its workers at once (``softrnn.lab._pool``; None: one by one here)."""
-    unknown = [v for v in variants if v not in VARIANTS]
+    known = VARIANTS | MORE_VARIANTS
+    unknown = [v for v in variants if v not in known]
     if unknown or not variants:
-        raise bad("variants", ",".join(variants), f"one or more of {', '.join(VARIANTS)}")
+        raise bad("variants", ",".join(variants), f"one or more of {', '.join(known)}")
     pool = WorkerPool(1) if pool is None else pool
     plain, score = pool.submit("physics plain", _calibrated, Physics(
-        robot, replace(options, gravity=False, friction=False)), fit_part, held).get()
+        robot, replace(options, gravity=False, friction=False, play=False)), fit_part, held).get()
     others = [v for v in variants if v != "plain"]
     refined = pool.map([f"physics {v}" for v in others], _calibrated, [
-        (Physics(robot, replace(options, gravity=VARIANTS[v][0], friction=VARIANTS[v][1]),
-                 start=plain.calibration.params), fit_part, held) for v in others])
+        (Physics(robot, replace(options, **dict(zip(_FLAGS, known[v]))), start=plain.calibration.params),
+         fit_part, held) for v in others])
     done = {"plain": (plain, score)} | dict(zip(others, refined))
     fitted = {v: done[v][0] for v in variants}
     scores = {v: done[v][1] for v in variants}

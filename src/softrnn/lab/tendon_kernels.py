@@ -22,6 +22,12 @@ Friction: tendon i's tension in segment s is tau_i exp(-mu d_i phi_s) with phi_s
 the base to the middle of segment s (the bending angles |b| L of the segments before it and half of
 its own) and d_i = +1 while the tendon is pulled in (its command grew since the previous row), -1
 while released, the last direction kept while the command holds (0 at the session's start).
+
+Play (``play``): friction that sticks. A tendon held by friction along its routing does not pass a
+reversal of its servo on to the robot at once: the displacement that reaches the robot, p, stays put
+until the servo has moved back by twice the play w, then follows it at the other side of the band,
+p_k = min(max(p_{k-1}, q_k - w), q_k + w) (the play or backlash operator, the elementary hysteresis of
+Prandtl-Ishlinskii models), p = q at a session's start. w = 0 is no play.
 """
 
 from __future__ import annotations
@@ -306,6 +312,20 @@ def _row(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, 
                 b[s, a] = g[s, a] - gamma * (g[s, a] - g_prev[s, a])
                 g_prev[s, a] = g[s, a]
     return passes
+
+
+@njit(cache=True)
+def play(q, reset, width, out):
+    """The play operator of each column (see the module's docstring): q (K, n) [m] the commands,
+    reset (K,) bool True where a session starts, width (n,) [m] each column's play w >= 0; writes
+    out (K, n) [m], the displacements that reach the robot."""
+    K, n = q.shape
+    for k in range(K):
+        for i in range(n):
+            if k == 0 or reset[k]:
+                out[k, i] = q[k, i]
+            else:
+                out[k, i] = min(max(out[k - 1, i], q[k, i] - width[i]), q[k, i] + width[i])
 
 
 @njit(cache=True)

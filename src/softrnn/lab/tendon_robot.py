@@ -33,10 +33,15 @@ from the base, while it is pulled in, and rises so while it is released (the dir
 change of its command since the previous row: path dependence, hysteresis). With neither, the rows
 are independent and the model is the closed one above.
 
+The tendons' play (an option): friction that sticks, so that after a reversal of a servo the
+displacement that reaches the robot stays put until the servo has moved back by twice the play w (the
+play operator of ``tendon_kernels.play``, one width for every tendon); q above is then that
+displacement. w = 0 is the model without play.
+
 What poses alone can identify: only ratios, never a force or a stiffness by itself (no force is
 recorded): EI_s / k per segment (bending stiffness over the series stiffness), w / k (the weight per
 length over the series stiffness, so w / EI_s = (w / k)(k / EI_s)) with gravity's direction in the
-base frame, and the friction coefficient mu. What the model still misses, the calibration report
+base frame, and the friction coefficient mu (and the play w). What the model still misses, the calibration report
 shows as its error, and a learned residual (``softrnn.lab.families``) takes.
 
 Calibration (``calibrate``): nonlinear least squares (the calibration core's ``multistart``,
@@ -44,8 +49,8 @@ Calibration (``calibrate``): nonlinear least squares (the calibration core's ``m
 training sessions, from several starts (the tendons' angular order and the angle between segments
 are not known in advance), the best refined. Parameters: the tendon angles and offsets, the
 routing radius, EI_s / k per segment, the marker offset and the base pose; with gravity (w / k)
-g_hat (3 values: the weight and its direction) and with friction mu, both refined from the plain
-model's calibration (the weight from zero, mu from 0.01).
+g_hat (3 values: the weight and its direction), with friction mu and with play w, refined from the
+plain model's calibration (the weight from zero, mu from 0.01, w from 2 % of the routing radius).
 """
 
 from __future__ import annotations
@@ -60,7 +65,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import SoftrnnInputError, bad, integer, is_finite_number, positive
 from ..fitting import StartOptions, multistart
-from .tendon_kernels import session_solve
+from .tendon_kernels import play, session_solve
 
 _PGS_ITERATIONS = 200
 _PGS_TOL = 1e-10
@@ -140,6 +145,9 @@ class TendonParameters:
         times the unit direction of gravity in the base frame; None: no gravity in the model
     friction : float or None
         mu, the friction coefficient along the routing (capstan); None: no friction in the model
+    play : float or None
+        w [m], every tendon's play: after a reversal of its servo the displacement that reaches the
+        robot stays put until the servo has moved 2 w (``tendon_kernels.play``); None: no play
     """
 
     angles: np.ndarray
@@ -151,10 +159,11 @@ class TendonParameters:
     base: np.ndarray
     gravity: np.ndarray | None = None
     friction: float | None = None
+    play: float | None = None
 
     @property
     def plain(self) -> bool:
-        """True without gravity and friction (the closed model of the module's docstring)."""
+        """True without gravity and friction (the closed model of the module's docstring, after the play)."""
         return self.gravity is None and self.friction is None
 
     def to_dict(self, robot: TendonRobot) -> dict:
@@ -171,6 +180,8 @@ class TendonParameters:
                          gravity_direction_tracker=(_rotations(self.rotation) @ g_hat).round(6).tolist())
         if self.friction is not None:
             extra["routing_friction"] = round(float(self.friction), 6)
+        if self.play is not None:
+            extra["tendon_play_mm"] = round(float(self.play) * 1e3, 6)
         return {"tendon_angles_deg": np.degrees(wrapped).round(3).tolist(),
                 "tendon_offsets_mm": (self.offsets * 1e3).round(4).tolist(),
                 "routing_radius_mm": round(self.routing_radius * 1e3, 4),
@@ -190,7 +201,8 @@ class TendonParameters:
                    base=np.asarray(d["base_position_mm"]) * 1e-3,
                    gravity=(d["weight_over_series_stiffness"] * np.asarray(d["gravity_direction_base"], dtype=float)
                             if "weight_over_series_stiffness" in d else None),
-                   friction=d.get("routing_friction"))
+                   friction=d.get("routing_friction"),
+                   play=d["tendon_play_mm"] * 1e-3 if "tendon_play_mm" in d else None)
 
 
 # ------------------------------------------------------------------------------------------ physics
@@ -231,7 +243,7 @@ def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray,
     if not params.plain:
         tip, tau, _, _ = solve_rows(robot, params, q, resets)
         return tip, tau
-    q = np.asarray(q, dtype=float)
+    q = reached(params, q, resets)
     seg = robot.segment_of
     L = np.asarray(robot.segment_lengths)
     rho = params.routing_radius * np.stack([np.cos(params.angles), np.sin(params.angles)], axis=1)   # (n, 2)
@@ -261,14 +273,28 @@ def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray,
     return x @ _rotations(params.rotation).T + params.base, tau
 
 
+def reached(params: TendonParameters, q: np.ndarray, resets: np.ndarray | None = None) -> np.ndarray:
+    """The displacements (K, n) [m] that reach the robot for the commands q (K, n) [m]: q through every
+    tendon's play ``params.play`` (``tendon_kernels.play``, restarted where ``resets`` (K,) bool is
+    True; default: the first row only), q itself without play."""
+    q = np.ascontiguousarray(q, dtype=float)
+    if params.play is None:
+        return q
+    out = np.empty_like(q)
+    reset = np.zeros(len(q), dtype=np.bool_) if resets is None else np.asarray(resets, dtype=np.bool_)
+    play(q, reset, np.full(q.shape[1], float(params.play)), out)
+    return out
+
+
 def solve_rows(robot: TendonRobot, params: TendonParameters, q: np.ndarray, resets: np.ndarray | None = None) -> tuple:
-    """The fuller physics (gravity and friction, ``softrnn.lab.tendon_kernels``) row by row in order.
+    """The fuller physics (gravity and friction, ``softrnn.lab.tendon_kernels``; after the play, ``reached``)
+    row by row in order.
 
     Returns the tip (K, 3) [m] in the motion-capture frame, tau / k (K, n) [m] at the base, the
     segments' bending vectors (K, S, 2) [1/m] and the fixed-point passes (K,) of each row; ``resets``
     (K,) bool marks the rows where a session starts (default: the first row only).
     """
-    q = np.ascontiguousarray(q, dtype=float)
+    q = reached(params, q, resets)
     K, n = q.shape
     reset = np.zeros(K, dtype=np.bool_) if resets is None else np.asarray(resets, dtype=np.bool_)
     rho = params.routing_radius * np.stack([np.cos(params.angles), np.sin(params.angles)], axis=1)
@@ -296,20 +322,22 @@ class CalibrationOptions(StartOptions):
     ``evaluations`` for the refinement of the best ``refine`` starts; ``loss_scale`` [m], where the
     soft-L1 loss turns from quadratic to linear (rows farther off than this count less).
     ``gravity`` and ``friction`` add the backbone's weight (its direction fitted) and friction
-    along the routing (mu in 0..``friction_max``) to the model: the plain model is calibrated first,
-    then everything is refined from there with them (``variant_evaluations``). Both off (the
-    default): the plain model alone, as before."""
+    along the routing (mu in 0..``friction_max``) to the model, ``play`` every tendon's play (one width w
+    for all, 0..pi x the routing radius): the plain model is calibrated first, then everything is
+    refined from there with them (``variant_evaluations``). All off (the default): the plain model
+    alone, as before."""
 
     loss_scale: float = 10e-3
     gravity: bool = False
     friction: bool = False
+    play: bool = False
     friction_max: float = 0.5
     variant_evaluations: int = 150
 
     def __post_init__(self):
         super().__post_init__()
         positive("loss_scale", self.loss_scale, "m")
-        for name in ("gravity", "friction"):
+        for name in ("gravity", "friction", "play"):
             if not isinstance(getattr(self, name), bool):
                 raise bad(name, getattr(self, name), "True or False")
         if not is_finite_number(self.friction_max) or not 0.0 < self.friction_max <= 2.0:
@@ -318,8 +346,8 @@ class CalibrationOptions(StartOptions):
 
     @property
     def variant(self) -> str:
-        """``plain``, ``gravity``, ``friction`` or ``gravity+friction``."""
-        return "+".join(n for n in ("gravity", "friction") if getattr(self, n)) or "plain"
+        """``plain``, or those of ``gravity``, ``friction`` and ``play`` on, joined by ``+``."""
+        return "+".join(n for n in ("gravity", "friction", "play") if getattr(self, n)) or "plain"
 
 
 @dataclass(frozen=True)
@@ -341,7 +369,8 @@ class Calibration:
     def to_dict(self) -> dict:
         """JSON-ready: the model, the segments, the parameters, the fit and the starts tried."""
         extra = "".join(t for t, on in ((", gravity", self.params.gravity is not None),
-                                        (", friction along the routing (capstan)", self.params.friction is not None))
+                                        (", friction along the routing (capstan)", self.params.friction is not None),
+                                        (", tendon play", self.params.play is not None))
                         if on)
         return {"model": "piecewise-constant-curvature tendon robot, displacement-driven with series stiffness "
                          f"and slack{extra} (softrnn.lab.tendon_robot)",
@@ -357,29 +386,43 @@ _GRAVITY_UNIT = 1e-4
 
 
 def _pack(p: TendonParameters) -> np.ndarray:
-    # internal units: mm and rad, log compliance (well scaled for least squares); then gravity, friction
+    # internal units: mm and rad, log compliance (well scaled for least squares); then gravity, friction, play
     extra = ([] if p.gravity is None else list(np.asarray(p.gravity) / _GRAVITY_UNIT)) + \
-        ([] if p.friction is None else [p.friction])
+        ([] if p.friction is None else [p.friction]) + ([] if p.play is None else [p.play * 1e3])
     return np.concatenate([p.angles, p.offsets * 1e3, [p.routing_radius * 1e3], np.log(p.compliance * 1e-9),
                            [p.marker * 1e3], p.rotation, p.base * 1e3, extra])
 
 
-def _unpack(x: np.ndarray, robot: TendonRobot, gravity: bool = False, friction: bool = False) -> TendonParameters:
+def _unpack(x: np.ndarray, robot: TendonRobot, gravity: bool = False, friction: bool = False,
+            play: bool = False) -> TendonParameters:
     n, S = robot.n_tendons, robot.n_segments
     end = 2 * n + 8 + S
     return TendonParameters(angles=x[:n], offsets=x[n:2 * n] * 1e-3, routing_radius=x[2 * n] * 1e-3,
                             compliance=np.exp(x[2 * n + 1:2 * n + 1 + S]) * 1e9, marker=x[2 * n + 1 + S] * 1e-3,
                             rotation=x[2 * n + 2 + S:2 * n + 5 + S], base=x[2 * n + 5 + S:end] * 1e-3,
                             gravity=x[end:end + 3] * _GRAVITY_UNIT if gravity else None,
-                            friction=float(x[end + 3 * gravity]) if friction else None)
+                            friction=float(x[end + 3 * gravity]) if friction else None,
+                            play=float(x[end + 3 * gravity + friction]) * 1e-3 if play else None)
 
 
-def _variant_start(start: TendonParameters, options: CalibrationOptions) -> TendonParameters:
-    """``start`` with the gravity and friction of ``options`` (none yet: no weight, mu 0.01), or without."""
+def _variant_start(start: TendonParameters, options: CalibrationOptions, robot: TendonRobot) -> TendonParameters:
+    """``start`` with the gravity, friction and play of ``options`` (none yet: no weight, mu 0.01, a play
+    of ``_PLAY_START`` x the routing radius), or without."""
     gravity = (np.zeros(3) if start.gravity is None else start.gravity) if options.gravity else None
     friction = (0.01 if start.friction is None else min(start.friction, 0.99 * options.friction_max)) \
         if options.friction else None
-    return replace(start, gravity=gravity, friction=friction)
+    play = (_PLAY_START * robot.routing_radius if start.play is None else min(start.play, _play_max(robot))) \
+        if options.play else None
+    return replace(start, gravity=gravity, friction=friction, play=play)
+
+
+_PLAY_START = 0.02
+"""The play's start [routing radii] (a small play: the least squares see its effect from both sides)."""
+
+
+def _play_max(robot: TendonRobot) -> float:
+    """The largest play [m]: pi x the routing radius (a pull that bends a segment by half a turn)."""
+    return math.pi * robot.routing_radius
 
 
 def _base_guess(robot: TendonRobot, q: np.ndarray, tip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -412,10 +455,12 @@ def _bounds(robot: TendonRobot, options: CalibrationOptions) -> tuple[np.ndarray
     inf = np.inf
     lower = np.concatenate([np.full(n, -inf), np.full(n, -inf), [0.2 * robot.routing_radius * 1e3],
                             np.full(S, -inf), [0.0], np.full(3, -inf), np.full(3, -inf),
-                            np.full(3 * options.gravity, -inf), np.zeros(int(options.friction))])
+                            np.full(3 * options.gravity, -inf), np.zeros(int(options.friction)),
+                            np.zeros(int(options.play))])
     upper = np.concatenate([np.full(n, inf), np.full(n, inf), [5.0 * robot.routing_radius * 1e3],
                             np.full(S, inf), [0.5 * robot.length * 1e3], np.full(3, inf), np.full(3, inf),
-                            np.full(3 * options.gravity, inf), np.full(int(options.friction), options.friction_max)])
+                            np.full(3 * options.gravity, inf), np.full(int(options.friction), options.friction_max),
+                            np.full(int(options.play), _play_max(robot) * 1e3)])
     return lower, upper
 
 
@@ -424,8 +469,8 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
     """Fit the robot's parameters to tendon displacements q (K, n) [m] and tips (K, 3) [m]
     (every row of the training sessions, in order; ``resets`` (K,) bool marks where each session
     starts, ``session_resets``). ``progress(done, total)`` after each start. With ``start`` (e.g. a
-    calibration on part of the rows), only the refinement runs, from there. With gravity or friction
-    (``options``) and no ``start``, the plain model is calibrated first (its search on the row-by-row
+    calibration on part of the rows), only the refinement runs, from there. With gravity, friction or
+    play (``options``) and no ``start``, the plain model is calibrated first (its search on the row-by-row
     kernels, faster) and everything refined from there."""
     q = np.asarray(q, dtype=float)
     tip = np.asarray(tip, dtype=float)
@@ -436,11 +481,11 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
     t0 = time.perf_counter()
     earlier = ()
     if options.variant != "plain" and start is None:
-        plain = _search(robot, q, tip, replace(options, gravity=False, friction=False), progress, None, resets,
-                        kernel=True)
+        plain = _search(robot, q, tip, replace(options, gravity=False, friction=False, play=False), progress, None,
+                        resets, kernel=True)
         start, earlier = plain.params, plain.starts
     if start is not None:
-        start = _variant_start(start, options)
+        start = _variant_start(start, options, robot)
     if options.variant != "plain":
         options = replace(options, evaluations=options.variant_evaluations)
     found = _search(robot, q, tip, options, progress, start, resets, kernel=False, label="the plain model's"
@@ -455,7 +500,7 @@ def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calibra
     rotation, base = _base_guess(robot, q, tip)
     n, S = robot.n_tendons, robot.n_segments
     scale = options.loss_scale * 1e3
-    flags = {"gravity": options.gravity, "friction": options.friction}
+    flags = {"gravity": options.gravity, "friction": options.friction, "play": options.play}
 
     def residual(x):
         params = _unpack(x, robot, **flags)
