@@ -110,12 +110,27 @@ class ConstantVelocityFamily(PersistenceFamily):
     """The tip keeps the velocity of the session's first two rows (``learned.baselines.ConstantVelocity``)."""
 
     name: str = "constant_velocity"
+    spread: float = 0.0
+    """The training tips' RMS distance from their mean [m] (``fit``): how far the tip wanders."""
     baseline, kind = ConstantVelocity(), "the first two rows' velocity kept"
 
+    def fit(self, sessions) -> ConstantVelocityFamily:
+        """The fitted model for training sessions (a list of ``Recording``): nothing to fit but the spread
+        of their tips (``error_scale``)."""
+        tip = np.vstack([s.tip for s in sessions])
+        return replace(self, spread=float(np.sqrt(np.mean(np.sum((tip - tip.mean(axis=0)) ** 2, axis=1)))))
+
     def error_scale(self, session: Recording) -> np.ndarray:
-        """(T,) the scale of its error per row [1]: the rows since the session's start (at least 1), as a
-        velocity's error grows the position's linearly in time (``softrnn.lab.uncertainty``)."""
-        return np.maximum(np.arange(session.n_rows, dtype=float), 1.0)
+        """(T,) the scale of its error per row [m]: k |v0| + ``spread``, k the rows since the session's
+        start and v0 its first velocity [m per row]: the run leaves the robot's workspace along v0, and
+        the tip wanders within it (``softrnn.lab.uncertainty``)."""
+        v0 = float(np.linalg.norm(session.tip[1] - session.tip[0])) if session.n_rows > 1 else 0.0
+        return np.arange(session.n_rows, dtype=float) * v0 + self.spread
+
+    def describe(self) -> dict:
+        """What the model is and its error scale, JSON-ready."""
+        return {"kind": self.kind, "error_scale": "rows since the start x |first velocity| + spread",
+                "spread_mm": round(self.spread * 1e3, 4)}
 
 
 @dataclass(frozen=True, eq=False)

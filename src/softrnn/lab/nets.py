@@ -272,6 +272,12 @@ class Hybrid(Intervals):
         return replace(out, floor=float(np.sqrt(np.mean(np.sum(err ** 2, axis=1)))) + 1e-9,
                        physics_rms=float(np.sqrt(np.mean(np.sum(res ** 2, axis=1)))))
 
+    def refit(self, sessions) -> Hybrid:
+        """The model fitted on ``sessions`` with its physics refitted there too (``Physics.refit``, from
+        its calibration): the cross-fit's refit (``uncertainty.cross_fit``) sees the physics' own error
+        on the rows it holds out."""
+        return replace(self, physics=self.physics.refit(list(sessions))).fit(sessions)
+
     def weights(self, session: Recording) -> np.ndarray:
         """(T,) the residual's weight w in [0, 1] per row: 1 on a training row, falling to 0 away from them."""
         if math.isinf(self.gate):

@@ -9,10 +9,13 @@ nearest training row (``InputDistance``: errors grow out of range). ``calibrate`
 model fitted without the hold-out rows (two-regime split conformal): q holds 90 % of the rows near the
 data that the model did not see, and b, the least growth with which the ball then holds 90 % of the
 hold-out rows, which lie beyond them. The rows near the data come from a cross-fit (``cross_fit``):
-the model refitted on every other stretch of its fitting rows and run over the stretches in between,
-which revisit the same commands at other times (the spread between visits, hysteresis and drift, that
-the rows a model was fitted on understate); q is never below the quantile on the fitted rows
-themselves. Without a fitted b the radius is q (1 + d) (``conformal_q``, q from the hold-out alone).
+where the recordings label their patterns, the model refitted without each block of patterns in turn
+(``pattern_folds``: half of the fitting rows, whole patterns recorded beside each other) and run
+over it, as over a new session of other patterns; without labels, the model refitted on every other
+stretch of its fitting rows and run over the stretches in between, which revisit the same commands at
+other times. Either shows the spread between visits, hysteresis and drift, that the rows a model was
+fitted on understate; q is never below the quantile on the fitted rows themselves. Without a fitted b
+the radius is q (1 + d) (``conformal_q``, q from the hold-out alone).
 ``WithInterval`` gives any fitted model such an interval (the physics, the baselines). The benchmark
 reports the share of validation rows inside (``coverage_90``).
 """
@@ -67,30 +70,79 @@ def stretches(sessions, parity: int) -> list:
     return out
 
 
+def pattern_edges(session) -> np.ndarray:
+    """(P + 1,) the first row of each of the P patterns of ``session`` (a ``Recording`` with labels):
+    each run of consecutive rows with one label; and its rows."""
+    labels = np.asarray(session.labels)
+    return np.concatenate([[0], np.flatnonzero(labels[1:] != labels[:-1]) + 1, [session.n_rows]])
+
+
+def _joined(sessions, pieces, keep) -> list:
+    """The rows of ``pieces`` ((session index, first row, stop) each, in order) where ``keep`` (P,) bool,
+    each run of kept pieces of one session joined into a session of its own."""
+    out, run = [], None
+    for (i, a, b), k in zip(pieces, keep):
+        if k and run is not None and run[0] == i and run[2] == a:
+            run = (i, run[1], b)
+            continue
+        if run is not None:
+            out.append(sessions[run[0]].rows(run[1], run[2]))
+        run = (i, a, b) if k else None
+    return out + ([sessions[run[0]].rows(run[1], run[2])] if run is not None else [])
+
+
+def pattern_folds(sessions, folds: int | None = None) -> list[tuple[list, list]]:
+    """The sessions' patterns (``pattern_edges``), in order, cut into ``folds`` (None: ``CROSS_FOLDS``)
+    contiguous blocks of about equal rows at pattern boundaries: [(the other blocks, the block)] per
+    block, each a list of ``Recording`` (each run of rows a session of its own). A block holds whole
+    patterns, and the patterns recorded beside each other: the others meet it as a new session."""
+    folds = CROSS_FOLDS if folds is None else folds
+    pieces = [(i, int(a), int(b)) for i, s in enumerate(sessions)
+              for a, b in zip(pattern_edges(s)[:-1], pattern_edges(s)[1:])]
+    rows = np.array([b - a for _, a, b in pieces], dtype=float)
+    fold = np.minimum(((np.cumsum(rows) - rows / 2) * folds / rows.sum()).astype(int), folds - 1)
+    return [(_joined(sessions, pieces, fold != j), _joined(sessions, pieces, fold == j)) for j in range(folds)]
+
+
+def _cross_splits(fit_part) -> list[tuple[list, list]]:
+    """The cross-fit's (refit on, run over) pairs of ``fit_part``: by patterns (``pattern_folds``)
+    where every session has labels, else the even stretches and the odd ones (``stretches``)."""
+    if fit_part and all(s.labels for s in fit_part):
+        return pattern_folds(fit_part)
+    return [(stretches(fit_part, 0), stretches(fit_part, 1))]
+
+
 def cross_fit(model, fit_part) -> tuple[np.ndarray, np.ndarray] | None:
-    """(|pred - tip| / scale (n,) [1], d (n,) [standard deviations]) over the odd stretches of
-    ``fit_part`` (``stretches``) of ``model`` refitted on the even ones (its ``refit``, else ``fit``;
-    its distance from them): errors where the commands were seen, at other times. None where a half
-    has fewer than ``CROSS_ROWS`` rows, or the model cannot be refitted."""
-    even, odd = stretches(fit_part, 0), stretches(fit_part, 1)
-    if min(sum(s.n_rows for s in half) for half in (even, odd)) < CROSS_ROWS:
-        return None
+    """(|pred - tip| / scale (n,) [1], d (n,) [standard deviations]) of ``model`` refitted without
+    part of ``fit_part`` (its ``refit``, else ``fit``; its distance from the rows it was refitted on)
+    over that part (``_cross_splits``): where the sessions have pattern labels, each block of patterns
+    in turn (``pattern_folds``: errors on patterns the model did not see, as in a new session), else
+    the odd stretches with the model refitted on the even ones (errors where the commands were seen,
+    at other times). None where no split has ``CROSS_ROWS`` rows on both sides, or the model cannot be
+    refitted."""
     refit = getattr(model, "refit", None) or getattr(model, "fit", None)
-    if refit is None:
+    splits = [(a, b) for a, b in _cross_splits(fit_part)
+              if min(sum(s.n_rows for s in half) for half in (a, b)) >= CROSS_ROWS]
+    if refit is None or not splits:
         return None
-    crossed = refit(even)
-    return _ratios(crossed, odd, crossed.error_scale)
+    parts = []
+    for on, over in splits:
+        crossed = refit(on)
+        parts.append(_ratios(crossed, over, crossed.error_scale))
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
 
 CROSS_ROWS = 20
-"""The fewest rows each half of the cross-fit (``cross_fit``) needs."""
+"""The fewest rows each side of a split of the cross-fit (``cross_fit``) needs."""
+CROSS_FOLDS = 2
+"""The blocks of patterns the cross-fit holds out in turn (``pattern_folds``)."""
 
 
 def calibrate(model, fit_part, held) -> dict:
     """The interval of ``model`` (fitted on the sessions ``fit_part``, without ``held``), two-regime
     split conformal: {"interval_q": q, "interval_slope": b} [1, 1 per standard deviation] of the radius
     error_scale (q + b d). q is the ``COVERAGE`` quantile of |pred - tip| / error_scale over the rows
-    near the data the model was not fitted on (``cross_fit``), at least that over the rows of
+    of ``fit_part`` run by the model fitted without them (``cross_fit``), at least that over the rows of
     ``fit_part`` themselves; b the same quantile over the hold-out rows of the growth each needs to lie
     inside, max(0, ratio - q) / d (inf for a row outside at d = 0). inf where there are too few rows.
     A model without ``reach`` gets b = 0 and the largest q of the parts."""
@@ -203,11 +255,14 @@ class WithInterval(Intervals):
 
     def describe(self) -> dict:
         """The model's description and the interval: its radius [mm] on the training rows (where the
-        error scale is 1) and its growth [mm per standard deviation of the distance]."""
+        error scale is 1) and its growth [mm per standard deviation of the distance]; for a model with
+        its own error scale, also q and b (``interval_description``) of the radius scale (q + b d)."""
         out = {**self.model.describe(), "interval_90_radius_mm": _finite(self.interval_q, scale=1e3),
                "interval_grows_with_distance": self.reach is not None}
         if self.interval_slope is not None:
             out["interval_90_growth_mm"] = _finite(self.interval_slope, scale=1e3)
+        if getattr(self.model, "error_scale", None) is not None:     # the radius is q + b d times its own scale
+            out |= self.interval_description()
         return out
 
 

@@ -1,0 +1,135 @@
+"""The 90 % intervals' cross-fit by patterns (``softrnn.lab.uncertainty.pattern_folds``): where the
+recordings label their patterns, the model is refitted without each block of patterns in turn and run
+over it, as over a new session; and the error scales that make one rule fit every model (constant
+velocity's grows along the run with its own first velocity)."""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pytest
+
+from softrnn.lab.families import ConstantVelocityFamily, Physics, holdout_split
+from softrnn.lab.nets import Hybrid, NetOptions
+from softrnn.lab.recording import Recording
+from softrnn.lab.tendon_robot import Calibration
+from softrnn.lab.uncertainty import InputDistance, cross_fit, pattern_edges, pattern_folds, quantile, with_interval
+
+from helpers import tendon_robot_truth
+
+
+def _labelled(lengths, path="", start=0.0):
+    """A recording of patterns of ``lengths`` rows each (labels p0, p1, ...), one input, the tip at 0."""
+    labels = tuple(f"p{i}" for i, n in enumerate(lengths) for _ in range(n))
+    T = len(labels)
+    return Recording(path=path, time=start + np.arange(T) * 0.6, inputs=np.arange(T, dtype=float)[:, None],
+                     names=("a",), units=("mm",), tip=np.zeros((T, 3)), labels=labels)
+
+
+def _times(sessions):
+    return sorted(float(t) for s in sessions for t in s.time)
+
+
+def test_pattern_folds_hold_out_contiguous_blocks_of_whole_patterns():
+    """Two sessions of 10 patterns cut into 3 blocks: each block whole patterns recorded beside each other,
+    about a third of the rows; the others and the block hold every row once; runs are sessions of their own."""
+    sessions = [_labelled([7, 12, 5, 20, 9], "a"), _labelled([11, 3, 16, 8, 13], "b", start=1000.0)]
+    np.testing.assert_array_equal(pattern_edges(sessions[0]), [0, 7, 19, 24, 44, 53])
+    everything = _times(sessions)
+    folds = pattern_folds(sessions, 3)
+    assert len(folds) == 3
+    for others, block in folds:
+        assert _times(others + block) == everything
+        assert abs(sum(s.n_rows for s in block) - len(everything) / 3) <= 20
+        for s in block + others:                              # whole patterns, each run in order
+            assert np.all(np.diff(s.time) == pytest.approx(0.6))
+            source = sessions[0] if s.time[0] < 1000.0 else sessions[1]
+            first = int(round((s.time[0] - source.time[0]) / 0.6))
+            assert first in pattern_edges(source) and first + s.n_rows in pattern_edges(source)
+    blocks = [_times(block) for _, block in folds]
+    assert blocks[0][-1] < blocks[1][0] and blocks[1][-1] < blocks[2][0]      # contiguous, in order
+
+
+@dataclass(frozen=True, eq=False)
+class _Remembering:
+    """A model that gives back the tip of every row it was fitted on (an overfitted network) and elsewhere
+    the mean tip of the fitted rows with the nearest command."""
+
+    seen: dict | None = None
+    levels: np.ndarray | None = None
+    means: np.ndarray | None = None
+    name: str = "remembering"
+
+    def fit(self, sessions):
+        u, tips = np.concatenate([s.inputs[:, 0] for s in sessions]), np.vstack([s.tip for s in sessions])
+        levels = np.unique(u)
+        return replace(self, seen={(s.path, t): tip for s in sessions for t, tip in zip(s.time, s.tip)},
+                       levels=levels, means=np.array([tips[u == v].mean(axis=0) for v in levels]))
+
+    def predict(self, s):
+        nearest = self.means[np.abs(s.inputs[:, :1] - self.levels[None]).argmin(axis=1)]
+        return np.array([self.seen.get((s.path, t), m) for t, m in zip(s.time, nearest)])
+
+    def describe(self):
+        return {"kind": "remembering"}
+
+
+def _patterns(count, seed, path, spread=2e-3, noise=0.2e-3, rows=30):
+    """A session of ``count`` labelled patterns of ``rows`` rows, each at one of five command levels and
+    off by its own offset (hysteresis, drawn anew per pattern, ``spread`` [m] per axis), plus marker
+    noise ``noise`` [m] per axis."""
+    rng = np.random.default_rng(seed)
+    u = np.repeat(rng.integers(0, 5, count).astype(float), rows)
+    offset = np.repeat(rng.normal(0.0, spread, (count, 3)), rows, axis=0)
+    tip = np.column_stack([u * 1e-3, np.zeros((u.size, 2))]) + offset + rng.normal(0.0, noise, (u.size, 3))
+    return Recording(path=path, time=np.arange(u.size) * 0.6, inputs=u[:, None], names=("a",), units=("mm",),
+                     tip=tip, labels=tuple(f"pattern_{k // rows}" for k in range(u.size)))
+
+
+def test_the_pattern_cross_fit_interval_holds_about_90_percent_of_a_new_session():
+    """A model exact on the rows it was fitted on, off by the spread between patterns on any other: the
+    quantile over its fitted rows is 0. The cross-fit by patterns runs it over every fitting row with
+    that row's block of patterns left out (each row once), and the ball calibrated on it holds 80-95 %
+    of a new session's rows."""
+    train, fresh = _patterns(60, 0, "train"), _patterns(200, 1, "fresh")
+    fit_part, held = holdout_split([train])
+    family = _Remembering()
+    fitted = with_interval(family.fit(fit_part), family.fit(fit_part), fit_part, held, fit_part)
+    on_fitted = np.concatenate([np.linalg.norm(fitted.predict(s) - s.tip, axis=1) for s in fit_part])
+    assert quantile(on_fitted) == 0.0
+    ratio, d = cross_fit(fitted, fit_part)
+    assert ratio.size == sum(s.n_rows for s in fit_part) and d.shape == ratio.shape
+    model = with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train], fitted=True)
+    assert model.interval_q == quantile(ratio) > 2e-3
+    tip, radius = model.predict_interval(fresh)
+    assert 0.8 <= np.mean(np.linalg.norm(tip - fresh.tip, axis=1) <= radius) <= 0.95
+
+
+def test_the_hybrid_refits_its_physics_on_the_rows_it_is_refitted_on():
+    """The cross-fit refits the hybrid's physics too (from its calibration), so that the rows it holds out
+    show the physics' own error there."""
+    robot, params = tendon_robot_truth(1)
+    physics = Physics(robot, calibration=Calibration(robot, replace(params, marker=7e-3), 0.0, (), 0.0))
+    rng = np.random.default_rng(0)
+    u = 3.0 * np.sin(0.07 * np.arange(120)[:, None] * (1 + 0.3 * np.arange(3)) + rng.uniform(0, 6, 3)) - 0.5
+    rec = Recording(path="", time=np.arange(120) * 0.6, inputs=u, names=("s1", "s2", "s3"), units=("mm",) * 3,
+                    tip=np.zeros((120, 3)))
+    rec = replace(rec, tip=Physics(robot, calibration=Calibration(robot, params, 0.0, (), 0.0)).predict(rec))
+    hybrid = Hybrid(physics, options=NetOptions(members=1, steps=50, hidden=8), gate=1.0).fit([rec])
+    refitted = hybrid.refit([rec])
+    assert refitted.physics is not hybrid.physics and refitted.physics.calibration.params.marker == pytest.approx(
+        5e-3, abs=0.5e-3)                                      # the true marker offset, refitted from 7 mm
+    assert isinstance(refitted.reach, InputDistance) and refitted.net is not hybrid.net
+
+
+def test_constant_velocity_states_an_interval_that_grows_along_the_run():
+    """Constant velocity's error grows along the run with its first velocity: its radius grows with the
+    rows since the session's start, the faster the larger that velocity."""
+    k = np.arange(50.0)
+    slow = Recording(path="", time=k * 0.6, inputs=np.zeros((50, 1)), names=("a",), units=("mm",),
+                     tip=np.column_stack([k * 1e-3, np.zeros((50, 2))]))
+    fast = replace(slow, tip=slow.tip * 5.0)
+    family = ConstantVelocityFamily().fit([slow, fast])
+    model = with_interval(family, family, [slow], [fast], [slow, fast], fitted=True)
+    r_slow, r_fast = model.predict_interval(slow)[1], model.predict_interval(fast)[1]
+    assert np.all(np.diff(r_slow) > 0) and np.all(np.diff(r_fast) > 0)
+    assert np.all(r_fast[1:] > r_slow[1:])
