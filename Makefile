@@ -57,11 +57,17 @@ results: $(STAMP)
 	$(BIN)/python -c "from softrnn.reproduce.results import update_documents as u; \
 		u('docs/results/reference', 'README.md', 'docs/results/index.md')"
 
+# The suite on TEST_WORKERS pytest-xdist worker processes (make test TEST_WORKERS=4; TEST_WORKERS=0 runs it in
+# one process). --dist loadfile: a test file runs whole on one worker, so its module fixtures are made once.
+# One numba and one OpenMP (PyTorch) thread per worker: the workers, not threads, share the cores.
+TEST_WORKERS ?= 2
+PYTEST := NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 $(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
+
 test: $(STAMP)
-	NUMBA_NUM_THREADS=1 $(BIN)/python -m pytest -q
+	$(PYTEST)
 
 test-all: $(STAMP)
-	NUMBA_NUM_THREADS=1 $(BIN)/python -m pytest -q -m ''
+	$(PYTEST) -m ''
 
 # The learn extra asks for torch>=$(TORCH_LOW),<3 (constraints.txt pins the release the figures were made
 # with): the learned-model tests with each end of that range installed in a venv of its own
