@@ -1,6 +1,8 @@
 """``softrnn reproduce`` pins the numeric libraries' code paths (softrnn.learned.threads.pin_numerics)
 so that its figures do not depend on the processor; a value the user set is kept."""
 
+import os
+
 import pytest
 
 from softrnn.learned import threads
@@ -22,3 +24,31 @@ def test_torch_threads_sets_and_restores_the_count():
     with threads.torch_threads(threads.REPRODUCE_TORCH_THREADS):
         assert torch.get_num_threads() == threads.REPRODUCE_TORCH_THREADS
     assert torch.get_num_threads() == old
+
+
+def _unset(monkeypatch, names):
+    """Each variable unset here and restored after the test (set first, so that monkeypatch records it)."""
+    for name in names:
+        monkeypatch.setenv(name, "")
+        monkeypatch.delenv(name)
+
+
+def test_passive_waits_sets_what_is_unset_and_keeps_what_the_user_set(monkeypatch):
+    _unset(monkeypatch, threads.PASSIVE_WAITS)
+    assert threads.passive_waits() == {"OMP_WAIT_POLICY": "PASSIVE"}
+    monkeypatch.setenv("OMP_WAIT_POLICY", "ACTIVE")
+    assert threads.passive_waits() == {"OMP_WAIT_POLICY": "ACTIVE"}   # the user's
+
+
+def test_reproduce_puts_openmp_waits_to_sleep_before_its_steps_and_reports_it(monkeypatch, tmp_path):
+    pytest.importorskip("torch")
+    from softrnn.reproduce import pipeline
+
+    _unset(monkeypatch, [*threads.PASSIVE_WAITS, *threads.PINNED_NUMERICS])
+    seen = []
+    monkeypatch.setattr(pipeline, "_steps", lambda report, out, quick, factory: seen.append(
+        os.environ.get("OMP_WAIT_POLICY")))
+    monkeypatch.setattr(pipeline, "render_markdown", lambda report: "")
+    report = pipeline.reproduce(tmp_path / "out", quick=True)
+    assert seen == ["PASSIVE"]                       # in force for the steps and the processes they start
+    assert report["machine"]["waits"] == {"OMP_WAIT_POLICY": "PASSIVE"}

@@ -1,5 +1,7 @@
 """PyTorch's intra-op thread count, set for a block of work and restored after; the numeric libraries'
-code paths pinned so that a run's figures do not depend on the machine (``pinned_numerics``)."""
+code paths pinned so that a run's figures do not depend on the machine (``pinned_numerics``); OpenMP's
+idle threads put to sleep, so that processes sharing the cores do not spin against one another
+(``passive_waits``)."""
 
 from __future__ import annotations
 
@@ -14,6 +16,15 @@ results on Intel and other x86 processors), oneDNN's instruction set (its LSTM a
 ATen's vectorised kernels (both AVX2, which every x86-64 processor since 2013 has). Unpinned, MKL and
 oneDNN choose AVX-512 kernels on one processor and AVX2 ones on another, whose float32 sums round
 differently in the last digit; training amplifies that to the 4th-6th digit of its figures."""
+
+PASSIVE_WAITS = {"OMP_WAIT_POLICY": "PASSIVE"}
+"""OpenMP's waiting policy (GNU OpenMP, under PyTorch, MKL, oneDNN and numba's thread pool): a thread
+with no work sleeps instead of spinning. By default each spins for milliseconds after every
+parallel region; ``softrnn reproduce`` runs several processes on the cores at once (background
+compiles, a two-thread PyTorch training, worker pools), and a spinning thread there takes the core
+its partner, or another process, needs: measured on 2 busy cores, the control step's 300-step
+model training took 160 s of CPU spinning instead of 5 s, with bit-identical weights. The work and
+its partition among threads are unchanged, so are the figures."""
 
 REPRODUCE_TORCH_THREADS = 2
 """PyTorch's threads in ``softrnn reproduce`` outside the trainings (which set their own, one each):
@@ -45,3 +56,13 @@ def pin_numerics() -> dict[str, str]:
     for name, value in PINNED_NUMERICS.items():
         os.environ.setdefault(name, value)
     return {name: os.environ[name] for name in PINNED_NUMERICS}
+
+
+def passive_waits() -> dict[str, str]:
+    """Set each variable of ``PASSIVE_WAITS`` that the environment does not set already (a value the
+    user set is kept) and return the values in force. Effective for the OpenMP runtimes loaded after
+    (PyTorch's at its import, numba's pool at its first parallel kernel) and in every process
+    started after (they inherit the environment)."""
+    for name, value in PASSIVE_WAITS.items():
+        os.environ.setdefault(name, value)
+    return {name: os.environ[name] for name in PASSIVE_WAITS}
