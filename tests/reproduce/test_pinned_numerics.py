@@ -44,7 +44,7 @@ def test_reproduce_puts_openmp_waits_to_sleep_before_its_steps_and_reports_it(mo
     pytest.importorskip("torch")
     from softrnn.reproduce import pipeline
 
-    _unset(monkeypatch, [*threads.PASSIVE_WAITS, *threads.PINNED_NUMERICS])
+    _unset(monkeypatch, [*threads.PASSIVE_WAITS, *threads.PINNED_NUMERICS, "OPENBLAS_NUM_THREADS"])
     seen = []
     monkeypatch.setattr(pipeline, "_steps", lambda report, out, quick, factory: seen.append(
         os.environ.get("OMP_WAIT_POLICY")))
@@ -52,3 +52,17 @@ def test_reproduce_puts_openmp_waits_to_sleep_before_its_steps_and_reports_it(mo
     report = pipeline.reproduce(tmp_path / "out", quick=True)
     assert seen == ["PASSIVE"]                       # in force for the steps and the processes they start
     assert report["machine"]["waits"] == {"OMP_WAIT_POLICY": "PASSIVE"}
+    assert report["machine"]["blas_threads"] == threads.REPRODUCE_BLAS_THREADS
+
+
+def test_pin_blas_threads_overrides_the_environment_in_loaded_and_later_libraries(monkeypatch):
+    import numpy  # noqa: F401  # its BLAS loaded before the pin
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "1")
+    with threadpool_limits(limits=1, user_api="blas"):         # a BLAS already on one thread, restored after
+        assert threads.pin_blas_threads() == threads.REPRODUCE_BLAS_THREADS
+        assert os.environ["OPENBLAS_NUM_THREADS"] == str(threads.REPRODUCE_BLAS_THREADS)   # for later ones
+        blas = [i for i in threadpool_info() if i["user_api"] == "blas"]
+        assert blas and all(i["num_threads"] == threads.REPRODUCE_BLAS_THREADS for i in blas)

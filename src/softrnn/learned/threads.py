@@ -9,6 +9,8 @@ import os
 import sys
 from contextlib import contextmanager
 
+from threadpoolctl import threadpool_limits
+
 PINNED_NUMERICS = {"MKL_CBWR": "COMPATIBLE", "ONEDNN_MAX_CPU_ISA": "AVX2", "ATEN_CPU_CAPABILITY": "avx2"}
 """The code path of each numeric library under PyTorch, fixed instead of chosen by the processor: MKL's
 conditional numerical reproducibility branch (``COMPATIBLE``, the one branch that gives the same
@@ -56,6 +58,22 @@ def pin_numerics() -> dict[str, str]:
     for name, value in PINNED_NUMERICS.items():
         os.environ.setdefault(name, value)
     return {name: os.environ[name] for name in PINNED_NUMERICS}
+
+
+REPRODUCE_BLAS_THREADS = 2
+"""The threads of the BLAS libraries under NumPy and SciPy (OpenBLAS) in ``softrnn reproduce``: fixed,
+because a blocked solve or product sums in another order on another thread count (the linear terms'
+ridge solves moved in their last digits with one thread), and the default is the machine's cores or
+``OMP_NUM_THREADS``. Two: the count the committed references were made with, on two cores."""
+
+
+def pin_blas_threads() -> int:
+    """Fix the BLAS threads at ``REPRODUCE_BLAS_THREADS``, whatever the environment says: in the
+    libraries loaded in this process (``threadpoolctl``) and, through ``OPENBLAS_NUM_THREADS``, in
+    those loaded later and in every process started after. Returns the count."""
+    os.environ["OPENBLAS_NUM_THREADS"] = str(REPRODUCE_BLAS_THREADS)
+    threadpool_limits(limits=REPRODUCE_BLAS_THREADS, user_api="blas")
+    return REPRODUCE_BLAS_THREADS
 
 
 def passive_waits() -> dict[str, str]:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..files import atomic_write_text
-from ..learned.threads import REPRODUCE_TORCH_THREADS, passive_waits, pin_numerics, torch_threads
+from ..learned.threads import REPRODUCE_TORCH_THREADS, passive_waits, pin_blas_threads, pin_numerics, torch_threads
 from ..paper import paper_case
 from ..progress import ProgressFactory
 from ..scenarios.cases import ASSUMPTIONS, PAPER_CASES, build_case
@@ -95,10 +95,11 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory: ProgressFactory
     (out / "cases").mkdir(parents=True, exist_ok=True)
     numerics = pin_numerics()       # before PyTorch's first operation: the same figures on every machine
     waits = passive_waits()         # before PyTorch's import: no thread spins against another process
+    blas = pin_blas_threads()       # NumPy's and SciPy's sums in one order on every machine
     import torch  # noqa: F401  # optional extra: learn (PyTorch), loaded so that its threads can be set
     report = {"softrnn_version": __version__, "quick": quick,
               "machine": {**machine_info(), "numerics": numerics, "torch_threads": REPRODUCE_TORCH_THREADS,
-                          "waits": waits},
+                          "blas_threads": blas, "waits": waits},
               "assumptions": ASSUMPTIONS}
     with torch_threads(REPRODUCE_TORCH_THREADS):
         _steps(report, out, quick, progress_factory)
