@@ -47,8 +47,9 @@ shows as its error, and a learned residual (``softrnn.lab.families``) takes.
 Calibration (``calibrate``): nonlinear least squares (the calibration core's ``multistart``,
 ``softrnn.fitting``, with a soft-L1 loss against outlying rows) of the tip over every row of the
 training sessions, from several starts (the tendons' angular order and the angle between segments
-are not known in advance), the best refined. Parameters: the tendon angles and offsets, the
-routing radius, EI_s / k per segment, the marker offset and the base pose; with gravity (w / k)
+are not known in advance: both orders x twists over a full turn, screened briefly), the best
+refined. Parameters: the tendon angles and offsets, the routing radius, EI_s / k per segment, the
+marker offset and the base pose; with gravity (w / k)
 g_hat (3 values: the weight and its direction), with friction mu and with play w, refined from the
 plain model's calibration (the weight from zero, mu from 0.01, w from 2 % of the routing radius).
 """
