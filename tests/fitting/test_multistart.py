@@ -2,6 +2,7 @@
 given point alone, and the records of what was tried."""
 
 import numpy as np
+import pytest
 
 from softrnn.fitting import StartOptions, multistart
 
@@ -33,3 +34,28 @@ def test_a_resumed_fit_refines_its_point_alone():
                        score=_rms, resume=({"start": "given"}, np.array([1.8, 2.0])))
     assert [e["start"] for e in found.tried] == ["given"] and np.isnan(found.tried[0]["score"])
     np.testing.assert_allclose(found.x, [2.0, 3.0], atol=1e-6)
+
+
+def test_a_screen_carries_on_only_the_best_starts():
+    """Screened: every start recorded with its screen score, only the best ``screen_keep`` fitted on
+    (they alone have the quick score) and the best of those refined; progress counts every fit."""
+    starts = [({"start": name}, np.array([x0, 0.0])) for name, x0 in (("far left", -4.0), ("left", -1.5),
+                                                                      ("right", 2.5), ("far right", 6.0))]
+    calls = []
+    found = multistart(_residual, starts, (np.full(2, -np.inf), np.full(2, np.inf)),
+                       options=StartOptions(quick_evaluations=20, evaluations=50, refine=1, screen_evaluations=3,
+                                            screen_keep=2),
+                       score=_rms, key="rms", progress=lambda done, total: calls.append((done, total)))
+    np.testing.assert_allclose(found.x, [2.0, 3.0], atol=1e-6)
+    assert [e["start"] for e in found.tried] == ["far left", "left", "right", "far right"]
+    assert all("screen_rms" in e for e in found.tried) and sum("rms" in e for e in found.tried) == 2
+    kept = sorted(found.tried, key=lambda e: e["screen_rms"])[:2]
+    assert all("rms" in e for e in kept) and sum("refined_rms" in e for e in found.tried) == 1
+    assert calls == [(k, 7) for k in range(1, 8)]
+
+
+def test_a_screen_needs_evaluations():
+    from softrnn.errors import SoftrnnInputError
+
+    with pytest.raises(SoftrnnInputError, match="screen_evaluations"):
+        StartOptions(screen_keep=2)

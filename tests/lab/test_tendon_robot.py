@@ -137,3 +137,35 @@ def test_agrees_with_the_cosserat_statics_of_displacement_tendons():
     assert np.linalg.norm(tip[0]) > 0 and np.linalg.norm(tip[0, :2]) > 0.05 * L2      # well bent
     np.testing.assert_allclose(tip[0], cosserat, atol=1e-7 * L2)
     np.testing.assert_allclose(tau[0] * k, sol.tendon_tensions, rtol=1e-6, atol=1e-9)
+
+
+def _twisted_truth(twist_deg):
+    """A two-segment robot whose second segment's tendons are turned by ``twist_deg`` from the first's,
+    and its noise-free tips for smooth random pulls: (robot, q (K, 6) [m], tip (K, 3) [m])."""
+    robot = TendonRobot((0.08, 0.08), 3, 4e-3)
+    angles = np.radians(np.tile([0.0, 120.0, 240.0], 2) + np.repeat([0.0, twist_deg], 3))
+    truth = TendonParameters(angles=angles, offsets=np.full(6, -0.5e-3), routing_radius=4e-3,
+                             compliance=np.full(2, 1.0 / (4e-3 ** 2 * 0.08)), marker=5e-3, rotation=np.zeros(3),
+                             base=np.array([0.0, 0.0, 0.01]))
+    k = np.arange(200)
+    q = (3.0 * np.sin(0.07 * k[:, None] * (1 + 0.3 * np.arange(6)) + np.arange(6)) - 0.5) * 1e-3
+    return robot, q, tip_positions(robot, truth, q)[0]
+
+
+def test_the_start_search_covers_every_twist_of_a_full_turn():
+    """The segments' tendons turned by 100 deg: the default search (both orders x 18 twists over a
+    full turn, screened, the best six fitted on) finds the robot; from one twist (0) alone the search
+    stops in a worse minimum."""
+    robot, q, tip = _twisted_truth(100.0)
+    found = calibrate(robot, q, tip)
+    one = calibrate(robot, q, tip, CalibrationOptions(twists=1))
+    assert found.rmse_m < 0.1e-3 < one.rmse_m
+    assert len(found.starts) == 36 and sum("rmse_mm" in s for s in found.starts) == 6
+    assert all("screen_rmse_mm" in s for s in found.starts)
+
+
+def test_the_screen_options_are_validated():
+    with pytest.raises(SoftrnnInputError, match="twists"):
+        CalibrationOptions(twists=0)
+    with pytest.raises(SoftrnnInputError, match="screen_evaluations"):
+        CalibrationOptions(screen_evaluations=0, screen_keep=3)

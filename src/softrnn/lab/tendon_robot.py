@@ -47,8 +47,9 @@ shows as its error, and a learned residual (``softrnn.lab.families``) takes.
 Calibration (``calibrate``): nonlinear least squares (the calibration core's ``multistart``,
 ``softrnn.fitting``, with a soft-L1 loss against outlying rows) of the tip over every row of the
 training sessions, from several starts (the tendons' angular order and the angle between segments
-are not known in advance), the best refined. Parameters: the tendon angles and offsets, the
-routing radius, EI_s / k per segment, the marker offset and the base pose; with gravity (w / k)
+are not known in advance: both orders x twists over a full turn, screened briefly), the best
+refined. Parameters: the tendon angles and offsets, the routing radius, EI_s / k per segment, the
+marker offset and the base pose; with gravity (w / k)
 g_hat (3 values: the weight and its direction), with friction mu and with play w, refined from the
 plain model's calibration (the weight from zero, mu from 0.01, w from 2 % of the routing radius).
 """
@@ -317,9 +318,10 @@ def session_resets(lengths) -> np.ndarray:
 # -------------------------------------------------------------------------------------- calibration
 @dataclass(frozen=True)
 class CalibrationOptions(StartOptions):
-    """How ``calibrate`` searches (``softrnn.fitting.StartOptions``): ``starts``: the angular layouts
-    tried (the tendons' order and the angle between segments); ``quick_evaluations`` per start,
-    ``evaluations`` for the refinement of the best ``refine`` starts; ``loss_scale`` [m], where the
+    """How ``calibrate`` searches (``softrnn.fitting.StartOptions``): the starts are the angular
+    layouts (both orders of the tendons, x ``twists`` twists between segments spread over a full
+    turn), each screened with ``screen_evaluations``, the best ``screen_keep`` fitted on with
+    ``quick_evaluations``, the best ``refine`` of those refined with ``evaluations``; ``loss_scale`` [m], where the
     soft-L1 loss turns from quadratic to linear (rows farther off than this count less).
     ``gravity`` and ``friction`` add the backbone's weight (its direction fitted) and friction
     along the routing (mu in 0..``friction_max``) to the model, ``play`` every tendon's play (one width w
@@ -327,6 +329,9 @@ class CalibrationOptions(StartOptions):
     refined from there with them (``variant_evaluations``). All off (the default): the plain model
     alone, as before."""
 
+    screen_evaluations: int = 20
+    screen_keep: int = 6
+    twists: int = 18
     loss_scale: float = 10e-3
     gravity: bool = False
     friction: bool = False
@@ -343,6 +348,7 @@ class CalibrationOptions(StartOptions):
         if not is_finite_number(self.friction_max) or not 0.0 < self.friction_max <= 2.0:
             raise bad("friction_max", self.friction_max, "a friction coefficient in (0, 2]")
         integer("variant_evaluations", self.variant_evaluations)
+        integer("twists", self.twists)
 
     @property
     def variant(self) -> str:
@@ -444,9 +450,12 @@ def _base_guess(robot: TendonRobot, q: np.ndarray, tip: np.ndarray) -> tuple[np.
     return rotation, rest - direction * robot.length
 
 
-def _starts(robot: TendonRobot) -> list[tuple[int, float]]:
-    spacing = 360.0 / robot.tendons_per_segment
-    return [(sign, twist) for twist in (0.0, spacing / 3, -spacing / 3, spacing / 2, -spacing / 2) for sign in (1, -1)]
+def _starts(robot: TendonRobot, twists: int) -> list[tuple[int, float]]:
+    """(order sign, segment twist [deg]): both tendon orders x ``twists`` twists in [-180, 180) deg
+    (the tendons are told apart by their hardware order, so any twist in a full turn is a different
+    layout); one twist (0) for a robot of one segment."""
+    grid = np.arange(twists if robot.n_segments > 1 else 1) * 360.0 / twists
+    return [(sign, float(twist)) for twist in np.where(grid >= 180.0, grid - 360.0, grid) for sign in (1, -1)]
 
 
 def _bounds(robot: TendonRobot, options: CalibrationOptions) -> tuple[np.ndarray, np.ndarray]:
@@ -512,7 +521,7 @@ def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calibra
         return float(np.sqrt(np.mean(np.sum(fun.reshape(-1, 3) ** 2, axis=1))))
 
     starts = []
-    for sign, twist in _starts(robot) if start is None else []:
+    for sign, twist in _starts(robot, options.twists) if start is None else []:
         angles = np.radians(sign * np.tile(np.arange(robot.tendons_per_segment) * 360.0 / robot.tendons_per_segment,
                                            S) + np.repeat(np.arange(S) * twist, robot.tendons_per_segment))
         # compliance start: the tendons as stiff as the backbone's bending over one segment
