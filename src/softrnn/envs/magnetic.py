@@ -316,7 +316,6 @@ class MagneticNavigator(ScriptedNavigator):
         action = np.concatenate([np.where(wrong, -1.0, 1.0)[:, None], np.zeros((len(x), 1)), direction], axis=1)
         return np.clip(action, -1.0, 1.0).astype(np.float32).reshape(obs.shape[:-1] + (5,))
 
-
     def _trunk(self, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The trunk's axis (3,) and each target's direction (B, 3) across it, from its fork to its
         end, unit."""

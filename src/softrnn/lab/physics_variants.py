@@ -15,7 +15,7 @@ from ..errors import bad
 from ..learned.metrics import tip_errors
 from ._pool import WorkerPool
 from .families import Physics, held_rows, parsimonious
-from .tendon_robot import CalibrationOptions, TendonRobot
+from .tendon_robot import PHYSICS_OPTIONS, CalibrationOptions, TendonRobot
 
 VARIANTS = {"plain": (False, False, False), "gravity": (True, False, False), "friction": (False, True, False),
             "gravity+friction": (True, True, False)}
@@ -23,7 +23,6 @@ VARIANTS = {"plain": (False, False, False), "gravity": (True, False, False), "fr
 MORE_VARIANTS = {"play": (False, False, True), "friction+play": (False, True, True)}
 """Variants tried where asked for (``choose_physics``' ``variants``): the tendons' play, fitted to zero width
 on the shared robot's training session (its fit there worsens with any play), so not tried by default."""
-_FLAGS = ("gravity", "friction", "play")
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,7 +80,7 @@ def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: li
         robot, replace(options, gravity=False, friction=False, play=False)), fit_part, held).get()
     others = [v for v in variants if v != "plain"]
     refined = pool.map([f"physics {v}" for v in others], _calibrated, [
-        (Physics(robot, replace(options, **dict(zip(_FLAGS, known[v]))), start=plain.calibration.params),
+        (Physics(robot, replace(options, **dict(zip(PHYSICS_OPTIONS, known[v]))), start=plain.calibration.params),
          fit_part, held) for v in others])
     done = {"plain": (plain, score)} | dict(zip(others, refined))
     fitted = {v: done[v][0] for v in variants}

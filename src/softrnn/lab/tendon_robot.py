@@ -316,6 +316,10 @@ def session_resets(lengths) -> np.ndarray:
 
 
 # -------------------------------------------------------------------------------------- calibration
+PHYSICS_OPTIONS = ("gravity", "friction", "play")
+"""The parts ``CalibrationOptions`` adds to the plain model, each a bool, in the order of a variant's name."""
+
+
 @dataclass(frozen=True)
 class CalibrationOptions(StartOptions):
     """How ``calibrate`` searches (``softrnn.fitting.StartOptions``): the starts are the angular
@@ -342,7 +346,7 @@ class CalibrationOptions(StartOptions):
     def __post_init__(self):
         super().__post_init__()
         positive("loss_scale", self.loss_scale, "m")
-        for name in ("gravity", "friction", "play"):
+        for name in PHYSICS_OPTIONS:
             if not isinstance(getattr(self, name), bool):
                 raise bad(name, getattr(self, name), "True or False")
         if not is_finite_number(self.friction_max) or not 0.0 < self.friction_max <= 2.0:
@@ -353,7 +357,7 @@ class CalibrationOptions(StartOptions):
     @property
     def variant(self) -> str:
         """``plain``, or those of ``gravity``, ``friction`` and ``play`` on, joined by ``+``."""
-        return "+".join(n for n in ("gravity", "friction", "play") if getattr(self, n)) or "plain"
+        return "+".join(n for n in PHYSICS_OPTIONS if getattr(self, n)) or "plain"
 
 
 @dataclass(frozen=True)
@@ -509,7 +513,7 @@ def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calibra
     rotation, base = _base_guess(robot, q, tip)
     n, S = robot.n_tendons, robot.n_segments
     scale = options.loss_scale * 1e3
-    flags = {"gravity": options.gravity, "friction": options.friction, "play": options.play}
+    flags = {name: getattr(options, name) for name in PHYSICS_OPTIONS}
 
     def residual(x):
         params = _unpack(x, robot, **flags)
