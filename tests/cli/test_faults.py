@@ -240,6 +240,26 @@ def test_an_output_folder_removed_while_writing(tmp_path):
     assert _names(tmp_path) == []
 
 
+def test_a_folder_removed_as_the_file_is_made_is_one_line(tmp_path, monkeypatch):
+    """HDF5 reports a folder that vanishes while it makes the file without an error number
+    ("can't retrieve stat info"): the writer still names the vanished folder."""
+    folder = tmp_path / "out"
+    folder.mkdir()
+    real = _h5files._h5open
+
+    def vanish_then_open(path, mode="r"):
+        f = real(path, mode)
+        f.close()
+        shutil.rmtree(folder)
+        raise OSError("Unable to synchronously create file (can't retrieve stat info for file)")
+
+    monkeypatch.setattr("softrnn.io.writer._h5open", vanish_then_open)
+    with pytest.raises(FileFault, match=rf"cannot write {folder / 'run.h5'}: No such file or directory; the folder "
+                                        rf"{folder} was removed or moved"):
+        DatasetWriter(folder / "run.h5", nodes=np.arange(3), n_samples=5, dt=0.01)
+    assert _names(tmp_path) == []
+
+
 def test_simulate_into_a_folder_removed_meanwhile_is_one_line(tmp_path, monkeypatch, capsys):
     folder = tmp_path / "out"
     close = DatasetWriter.close

@@ -49,7 +49,7 @@ def _h5writing(tmp, path) -> Iterator[h5py.File]:
         yield f
         f.flush()           # a full disk fails here, where the file can still be closed
     except (OSError, RuntimeError) as err:
-        code = h5_errno(err)
+        code = write_errno(err, path)
         _discard(f, tmp, failed=code is not None or isinstance(err, OSError))
         if code is None:
             raise
@@ -68,6 +68,15 @@ def h5_errno(err: BaseException) -> int | None:
         found = re.search(r"errno = (\d+)", str(err))
         code = int(found.group(1)) if found else None
     return code if code in errno.errorcode else None
+
+
+def write_errno(err: BaseException, path) -> int | None:
+    """The error number of a failed HDF5 write of ``path``: ``h5_errno(err)``, else ENOENT where
+    ``path``'s folder is gone (HDF5 gives no number when the folder vanishes as it makes the file)."""
+    code = h5_errno(err)
+    if code is None and not Path(path).parent.is_dir():
+        code = errno.ENOENT
+    return code
 
 
 def _to_null(fd: int) -> None:

@@ -16,7 +16,7 @@ from .. import __version__
 from ..errors import SoftrnnInputError, bad, one_line
 from ..files import json_default, temporary_path, write_fault
 from ._checks import _inspect
-from ._h5files import _discard, _h5open, h5_errno
+from ._h5files import _discard, _h5open, write_errno
 from .reader import Dataset
 from .record import RECORD, ScenarioRecord
 from .schema import (
@@ -514,14 +514,15 @@ class DatasetWriter:
         """A write into the file failed (a full disk, a vanished folder): discard the file without
         writing into it again (``_h5files._discard(..., failed=True)``: an HDF5 file whose write
         failed cannot be closed otherwise, and crashes the process at exit), then raise
-        ``files.write_fault`` naming ``path`` (``err`` itself where it has no error number)."""
+        ``files.write_fault`` naming ``path`` (``err`` itself where it has no error number and the
+        folder is still there: HDF5 gives none when the folder vanishes while the file is made)."""
         self._state = "aborted"
         fin = getattr(self, "_finalizer", None)
         if fin is not None:
             fin.detach()
         if self._tmp is not None:
             _discard(self._h5, str(self._tmp), failed=True)
-        code = h5_errno(err)
+        code = write_errno(err, self.path)
         if code is None:
             raise err
         raise write_fault(OSError(code, os.strerror(code)), self.path) from None

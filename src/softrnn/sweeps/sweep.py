@@ -239,9 +239,11 @@ def run_sweep(scenario, count: int, out_dir, *, scheduler: str | None = None, n_
             done += 1
             if progress is not None:
                 progress(done, count)
-    except (FileFault, _Gone) as err:   # the workers are stopped here
+    except (OSError, _Gone) as err:   # the workers are stopped here
         if not (out / MANIFEST).is_file():
             raise _gone(out, todo, done, count) from None
+        if not isinstance(err, (FileFault, _Gone)):
+            raise
         raise FileFault(str(err).replace(KEPT, f"{KEPT}, and the {done} finished variants are kept in {out}: run the "
                                                f"same command again to continue")) from None
     result.wall_time = time.perf_counter() - start
