@@ -216,3 +216,37 @@ def test_tendons_and_weight_together_follow_the_cosserat_statics(gravity):
     motion = tips[1] - tips[0]
     assert np.linalg.norm(motion) > 1e-3
     assert np.linalg.norm(tip - tips[1]) < 0.05 * np.linalg.norm(motion)
+
+
+def _fixed_point_misfit(robot, params, qk, bend_k, tau_k):
+    """max |G(b) - b| [1/m] of one row's bending vectors b (``tendon_kernels._pass`` once from there)."""
+    from softrnn.lab import tendon_kernels as tk
+
+    n, S, P = robot.n_tendons, robot.n_segments, tk.PIECES
+    rho = params.routing_radius * np.stack([np.cos(params.angles), np.sin(params.angles)], axis=1)
+    work = (np.empty((S, P + 1, 3, 3)), np.empty((S, P + 1, 3)), np.empty((S, P, 3)), np.empty((3, 3, 3)),
+            np.zeros(n, dtype=np.bool_), np.empty((n, n + 1)))
+    g = np.empty((S, 2))
+    tk._pass(qk, robot.segment_of, np.asarray(robot.segment_lengths), np.asarray(params.compliance, float), rho,
+             np.asarray(params.offsets, float), 0.0, np.asarray(params.gravity, float), True, bend_k.copy(),
+             tau_k.copy(), np.zeros(n), np.ones((n, S)), np.zeros((2, S, 2)), np.empty((n, n)), np.empty(n), work, g)
+    return np.abs(g - bend_k).max()
+
+
+def test_a_row_the_accelerated_passes_leave_unsettled_is_solved_by_newton():
+    """A heavy hanging robot pulled hard in one row: the Anderson-accelerated passes do not settle
+    (the pass map overshoots), Newton's method does, to a true fixed point b = G(b); a heavy upright
+    robot pulled hard (it buckles: no equilibrium near its start) is reported unsettled (passes < 0)."""
+    from softrnn.lab.tendon_kernels import FIXED_POINT_PASSES
+
+    robot, params = _robot(2, gravity=np.array([0.0, 0.0, 0.01]))
+    q = np.zeros((2, 6))
+    q[1, 0] = 10e-3
+    tip, tau, bend, passes = solve_rows(robot, params, q)
+    assert passes[1] > FIXED_POINT_PASSES
+    assert _fixed_point_misfit(robot, params, q[1], bend[1], tau[1]) < 1e-8
+    assert np.linalg.norm(bend[1], axis=1).min() > 1.0            # it bends
+    robot, params = _robot(3, gravity=np.array([0.0, 0.0, -0.01]))
+    q = np.zeros((2, 9))
+    q[1, 0] = 10e-3
+    assert solve_rows(robot, params, q)[3][1] < 0

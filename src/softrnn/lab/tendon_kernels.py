@@ -7,7 +7,11 @@ the tensions (the complementarity problem of the plain model with those factors 
 bending in its matrix and right side, solved exactly on the active set of the previous solution,
 corrected one tendon at a time); then the new bending vectors. Passes repeat, Anderson-accelerated
 with the previous pass, until b changes by less than ``FIXED_POINT_TOL``, at most
-``FIXED_POINT_PASSES`` times; the first pass of a row starts from the previous row's solution.
+``FIXED_POINT_PASSES`` times; the first pass of a row starts from the previous row's solution. A row
+the passes leave unsettled (a heavy weight far from the rows it was calibrated on makes the pass
+map expand) is solved by Newton's method on b - G(b) = 0 from that start (``NEWTON_STEPS`` steps,
+a finite-difference Jacobian, each step halved until the residual falls); a row that still does not
+settle reports its passes negated.
 
 Gravity: the weight per length w along the backbone, in the base frame gravity = (w / k) g_hat
 (k the series stiffness), the moment about a point of the backbone is that of everything distal
@@ -42,6 +46,10 @@ PIECES = 8
 FIXED_POINT_PASSES = 60
 FIXED_POINT_TOL = 1e-9
 """A row's fixed point is reached when no bending vector changes by more than this [1/m]."""
+NEWTON_STEPS = 30
+"""Newton steps on b - G(b) = 0 for a row the accelerated passes leave unsettled."""
+_NEWTON_HALVINGS = 8
+"""Most halvings of a Newton step until the residual falls."""
 _PGS_ITERATIONS = 200
 _PGS_TOL = 1e-13
 _HOLD = 1e-9
@@ -286,9 +294,11 @@ def _pass(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs,
 def _row(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs, work, acc):
     """One row's fixed point b = G(b) (``_pass``), Anderson-accelerated with one previous pass:
     b (S, 2) [1/m] and tau (n,) [m] updated in place from their warm start; acc (3, S, 2) scratch;
-    returns the passes taken."""
+    returns the passes taken (with Newton's, ``_newton``, where the accelerated ones do not settle),
+    negated where the row did not settle."""
     g, g_prev, r_prev = acc[0], acc[1], acc[2]
     S = b.shape[0]
+    start_b, start_tau = b.copy(), tau.copy()
     passes = 0
     for it in range(FIXED_POINT_PASSES):
         passes += 1
@@ -311,7 +321,79 @@ def _row(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, 
                 r_prev[s, a] = g[s, a] - b[s, a]
                 b[s, a] = g[s, a] - gamma * (g[s, a] - g_prev[s, a])
                 g_prev[s, a] = g[s, a]
+    else:       # unsettled: Newton from the row's start
+        b[:] = start_b
+        tau[:] = start_tau
+        more = _newton(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs, work, g)
+        return passes + more if more > 0 else more - passes
     return passes
+
+
+@njit(cache=True)
+def _misfit(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, x, tau, dirs, f, gb, M, rhs, work, g, out):
+    """out (2 S,) = G(x) - x for the bending vectors x (S, 2) (one ``_pass``, its result in g); its largest size."""
+    _pass(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, x, tau, dirs, f, gb, M, rhs, work, g)
+    worst = 0.0
+    for s in range(x.shape[0]):
+        for a in range(2):
+            out[2 * s + a] = g[s, a] - x[s, a]
+            worst = max(worst, abs(out[2 * s + a]))
+    return worst
+
+
+@njit(cache=True)
+def _newton(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs, work, g):
+    """b (S, 2) [1/m] solving b = G(b) by Newton's method from its value (``NEWTON_STEPS`` steps, a
+    forward-difference Jacobian, each step halved until the residual's norm falls), tau (n,) with it;
+    returns the passes taken, negated where it did not settle."""
+    S = b.shape[0]
+    m = 2 * S
+    F, Fp, step = np.empty(m), np.empty(m), np.empty(m)
+    J = np.empty((m, m))
+    A = np.empty((m, m + 1))
+    every = np.ones(m, dtype=np.bool_)
+    trial = np.empty_like(b)
+    passes = 1
+    worst = _misfit(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs, work, g, F)
+    for _ in range(NEWTON_STEPS):
+        if worst < FIXED_POINT_TOL:
+            b[:] = g
+            return passes
+        for j in range(m):
+            h = 1e-7 * (1.0 + abs(b[j // 2, j % 2]))
+            trial[:] = b
+            trial[j // 2, j % 2] += h
+            passes += 1
+            _misfit(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, trial, tau, dirs, f, gb, M, rhs, work, g,
+                    Fp)
+            for i in range(m):
+                J[i, j] = (Fp[i] - F[i]) / h
+        for i in range(m):
+            F[i] = -F[i]
+        if not _solve_active(J, F, every, step, A):
+            break
+        norm = 0.0
+        for i in range(m):
+            norm += F[i] * F[i]
+        t = 1.0
+        for _ in range(_NEWTON_HALVINGS + 1):
+            for j in range(m):
+                trial[j // 2, j % 2] = b[j // 2, j % 2] + t * step[j]
+            passes += 1
+            worst = _misfit(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, trial, tau, dirs, f, gb, M, rhs,
+                            work, g, Fp)
+            new = 0.0
+            for i in range(m):
+                new += Fp[i] * Fp[i]
+            if new < norm:
+                break
+            t *= 0.5
+        b[:] = trial
+        F[:] = Fp
+    if worst < FIXED_POINT_TOL:
+        b[:] = g
+        return passes
+    return -passes
 
 
 @njit(cache=True)
@@ -343,7 +425,7 @@ def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, 
     compliance (S,) k / EI_s [m^-3]; rho (n, 2) [m] tendon offsets; offsets (n,) [m] slacks; mu the
     friction coefficient; gvec (3,) (w / k) g_hat in the base frame (zeros: no gravity); marker [m].
     Writes tips (K, 3) [m] (base frame), tau_out (K, n) tau / k [m] at the base, bend_out (K, S, 2)
-    [1/m] and passes_out (K,) the fixed-point passes of each row.
+    [1/m] and passes_out (K,) the fixed-point passes of each row (negated: the row did not settle).
     """
     K, n = q.shape
     S = L.size

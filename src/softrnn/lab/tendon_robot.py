@@ -292,7 +292,8 @@ def solve_rows(robot: TendonRobot, params: TendonParameters, q: np.ndarray, rese
     row by row in order.
 
     Returns the tip (K, 3) [m] in the motion-capture frame, tau / k (K, n) [m] at the base, the
-    segments' bending vectors (K, S, 2) [1/m] and the fixed-point passes (K,) of each row; ``resets``
+    segments' bending vectors (K, S, 2) [1/m] and the fixed-point passes (K,) of each row (negated where
+    the row did not settle, ``tendon_kernels``); ``resets``
     (K,) bool marks the rows where a session starts (default: the first row only).
     """
     q = reached(params, q, resets)
