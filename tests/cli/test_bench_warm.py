@@ -3,6 +3,7 @@ reproduce`` runs in a background process while its first steps leave a core idle
 exactly the configurations that the integrator and contact entries run first, so that the timed runs
 find every kernel in numba's cache; and a case that fails is skipped, not raised."""
 
+from softrnn.bench import _runs as bench_runs
 from softrnn.bench import contact as bench_contact
 from softrnn.bench import integrators as bench_integrators
 from softrnn.bench import simulator as bench_simulator
@@ -10,7 +11,8 @@ from softrnn.rod import Simulator
 
 
 def _recorded(monkeypatch, module) -> list:
-    """Every ``Simulator(setup).run(config)`` of ``module``: (whether the setup has contact, config)."""
+    """Every ``Simulator(setup).run(config)`` of ``module`` and of the warm-up runs (``bench._runs``):
+    (whether the setup has contact, config)."""
     runs = []
 
     class Recording(Simulator):
@@ -19,6 +21,7 @@ def _recorded(monkeypatch, module) -> list:
             return super().run(config, *args, **kwargs)
 
     monkeypatch.setattr(module, "Simulator", Recording)
+    monkeypatch.setattr(bench_runs, "Simulator", Recording)
     return runs
 
 

@@ -1,7 +1,11 @@
 """What the simulator benchmark's parts share: the samples a timed span covers, the node an entry
-tracks, the goal mark of a table row."""
+tracks, the warm-up runs that fill numba's cache, the goal mark of a table row."""
 
-from ..rod import RunConfig
+import dataclasses
+from collections.abc import Callable, Iterable
+
+from ..rod import RunConfig, Simulator
+from ..scenarios import load_scenario
 
 
 def covering_samples(config: RunConfig, duration_s: float) -> int:
@@ -18,3 +22,15 @@ def tracked_node(scenario) -> int:
 def goal_mark(flag) -> str:
     """A table's goal column: "-" (not measured), "ok" or "MISS"."""
     return "-" if flag is None else ("ok" if flag else "MISS")
+
+
+def warm_runs(cases, runs: Callable[[object], Iterable[tuple]]) -> None:
+    """Run, untimed, each (setup, config) of ``runs(scenario)`` for the scenario of every one of ``cases``
+    over 2 samples: the kernels compile into numba's cache (or load from it), so that a later timing in
+    another process only loads them. A case that fails is skipped (its timing records the error)."""
+    for case in cases:
+        try:
+            for setup, config in runs(load_scenario(case)):
+                Simulator(setup).run(dataclasses.replace(config, n_samples=2))
+        except Exception:  # noqa: BLE001  # only numba's cache was to be filled
+            continue

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from ..errors import bad
 from ..rod import RunConfig, Setup, Simulator
 from ..scenarios import load_scenario
-from ._runs import covering_samples, goal_mark, tracked_node
+from ._runs import covering_samples, goal_mark, tracked_node, warm_runs
 
 CONTACT_CASES = ("contact-plane", "vessel-guidewire")
 """The shipped contact scenarios whose cost of contact ``simulator.contact`` records."""
@@ -82,18 +82,11 @@ def time_contact(setup: Setup, config: RunConfig, node: int, reps: int, node_ste
 
 def warm_contact_cases(node_steps: int, max_span_s: float, cases=CONTACT_CASES) -> None:
     """Run the warm-up of every ``time_contact_cases`` entry (``time_contact``'s first runs, with and
-    without contact, over 2 samples), untimed: the kernels compile into numba's cache (or load from
-    it), so that a later ``time_contact_cases`` in another process only loads them. A case that
-    fails is skipped (``time_contact_cases`` records its error)."""
-    for case in cases:
-        try:
-            scenario = load_scenario(case)
-            bare, timed = contact_configs(scenario.setup, scenario.config, tracked_node(scenario), node_steps,
-                                          max_span_s)
-            for s in (scenario.setup, bare):
-                Simulator(s).run(dataclasses.replace(timed, n_samples=2))
-        except Exception:  # noqa: BLE001  # only numba's cache was to be filled
-            continue
+    without contact, over 2 samples), untimed (``_runs.warm_runs``)."""
+    def runs(scenario):
+        bare, timed = contact_configs(scenario.setup, scenario.config, tracked_node(scenario), node_steps, max_span_s)
+        return [(scenario.setup, timed), (bare, timed)]
+    warm_runs(cases, runs)
 
 
 def time_contact_cases(reps: int, node_steps: int, max_span_s: float, cases=CONTACT_CASES,

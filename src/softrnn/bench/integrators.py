@@ -15,7 +15,7 @@ import numpy as np
 from ..rod import RunConfig, Setup, Simulator
 from ..scenarios import load_scenario
 from ..scenarios.cases import PAPER_CASES as SCENARIO_PAPER_CASES
-from ._runs import covering_samples, tracked_node
+from ._runs import covering_samples, tracked_node, warm_runs
 
 INTEGRATORS = ("explicit", "implicit")
 INTEGRATOR_CASES = tuple(SCENARIO_PAPER_CASES) + ("steel-wire", "nitinol-guidewire")
@@ -90,19 +90,12 @@ def time_integrator(setup: Setup, config: RunConfig, node: int, integrator: str,
 
 def warm_integrators(span_s: float, fixed_steps: int, cases=INTEGRATOR_CASES, integrators=INTEGRATORS) -> None:
     """Run the warm-up of every ``time_integrators`` entry of ``integrators`` (``time_integrator``'s
-    first run: its config over 2 samples), untimed: the kernels compile into numba's cache (or load
-    from it), so that a later ``time_integrators`` in another process only loads them. A case that
-    fails is skipped (``time_integrators`` records its error)."""
-    for case in cases:
-        try:
-            scenario = load_scenario(case)
-            node = tracked_node(scenario)
-            for integrator in integrators:
-                _, timed, _, _ = integrator_configs(scenario.setup, scenario.config, node, integrator, span_s,
-                                                    fixed_steps)
-                Simulator(scenario.setup).run(dataclasses.replace(timed, n_samples=2))
-        except Exception:  # noqa: BLE001  # only numba's cache was to be filled
-            continue
+    first run: its config over 2 samples), untimed (``_runs.warm_runs``)."""
+    def runs(scenario):
+        node = tracked_node(scenario)
+        return [(scenario.setup, integrator_configs(scenario.setup, scenario.config, node, integrator, span_s,
+                                                    fixed_steps)[1]) for integrator in integrators]
+    warm_runs(cases, runs)
 
 
 def time_integrators(reps: int, span_s: float, fixed_steps: int, cases=INTEGRATOR_CASES,
