@@ -121,34 +121,6 @@ def test_hybrid_is_its_physics_far_from_the_data_and_physics_plus_residual_on_th
     assert "gated off" in hybrid.describe()["kind"] and hybrid.describe()["gate_d0"] == 0.5
 
 
-def test_away_from_its_data_the_hybrid_states_its_physics_interval(two_segments):
-    """With its physics' interval as ``fallback``, the hybrid's radius is w times its own plus (1 - w)
-    times the physics': the physics' radius where the gate is off, its own on its training rows; rows
-    the gate hands to the physics take no part in calibrating the hybrid's own q."""
-    physics, train, _ = two_segments
-    crude = Physics(physics.robot, calibration=replace(
-        physics.calibration, params=replace(physics.calibration.params, marker=8e-3)))
-    fallback = WithInterval(crude, InputDistance.of([train]), interval_q=4e-3, interval_slope=1e-3)
-    hybrid = replace(Hybrid(crude, options=SMALL, gate=0.5, fallback=fallback).fit([train]),
-                     interval_q=2.0, interval_slope=0.5)
-    far = _session(physics, train.inputs + 6.0, 2)
-    tip, radius = hybrid.predict_interval(far)
-    np.testing.assert_array_equal(tip, crude.predict(far))
-    np.testing.assert_allclose(radius, fallback.predict_interval(far)[1], rtol=1e-12)
-    assert np.all(radius > 4e-3 + 1e-3 * InputDistance.of([train])(far) - 1e-12)
-    np.testing.assert_allclose(hybrid.predict_interval(train)[1], 2.0 * hybrid.error_scale(train), rtol=1e-12)
-    near = _session(physics, train.inputs + 0.3, 3)
-    own, w, back = hybrid.interval_parts(near)
-    d = hybrid.reach(near)
-    np.testing.assert_allclose(hybrid.predict_interval(near)[1], w * own * (2.0 + 0.5 * d) + (1 - w) * back,
-                               rtol=1e-12)
-    assert np.all(calibrate(hybrid, [train], [far])["interval_slope"] == 0.0)     # the far rows are the physics'
-    assert "physics' 90 % interval" in hybrid.describe()["interval_where_gated_off"]
-    without = replace(hybrid, fallback=None)
-    np.testing.assert_allclose(without.predict_interval(far)[1],
-                               without.error_scale(far) * (2.0 + 0.5 * without.reach(far)), rtol=1e-12)
-
-
 @pytest.fixture(scope="module")
 def noisy(tmp_path_factory):
     """Sessions of the one-segment robot with 0.5 mm marker noise per axis: fit, hold-out, fresh."""

@@ -92,8 +92,7 @@ def seeded(name: str):
 def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, options, validation: Recording
                ) -> tuple[Ran, float]:
     """The learned family ``name`` (a key of ``FITS``) fitted on ``train`` with its options chosen on the
-    hold-out part (``pair``: the physics calibrated on the fitting part and on every training row, then
-    their 90 % intervals;
+    hold-out part (``pair``: the physics calibrated on the fitting part and on every training row;
     ``syn``: the synthetic data's options, ``no_syn`` why there are none), run over ``validation``;
     and its best hold-out score [mm]."""
     with seeded(name):

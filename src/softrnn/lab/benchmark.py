@@ -13,7 +13,7 @@ suite of robots (``softrnn.lab.suite``) refuses a bad robot before it starts.
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -40,7 +40,7 @@ from .physics_variants import choose_physics
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .synthetic import SyntheticOptions, pull_limits
 from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
-from .uncertainty import InputDistance, with_interval
+from .uncertainty import with_interval
 
 FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
 """softrnn's model families, in the order they are fitted."""
@@ -453,21 +453,18 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
     the physics' hold-out score [mm] and the families' jobs (``_stages.collect_families`` gathers them)."""
     fit_part, held = split
     holdout = {}
-    physics = held_physics = interval = held_interval = None
+    physics = held_physics = None
     syn, no_syn = settle_synthetic(options, robot, train, families)
     if "physics" in families or "hybrid" in families or syn.on:
         # the variant (gravity, friction) chosen on the hold-out, refitted on every training row from there
         pick = choose_physics(robot, options.calibration, fit_part, held, train, pool=pool)
         held_physics, physics = pick.held, pick.physics
-    if "physics" in families or "hybrid" in families:   # the physics' interval, the hybrid's away from its data
-        interval = with_interval(physics, held_physics, *split, train, fitted=True)
-        held_interval = replace(interval, model=held_physics, reach=InputDistance.of(fit_part))
-    pair = (held_physics, physics, held_interval, interval)
-    jobs = [pool.submit(name, family_run, name, train, pair, syn, no_syn, options, out.validation)
+    jobs = [pool.submit(name, family_run, name, train, (held_physics, physics), syn, no_syn, options, out.validation)
             for name in LONGEST_FIRST if name in families]
     if "physics" in families:
         holdout["physics"] = HeldScore(held)(held_physics)
-        out.record(out.models, "physics", interval, pick.holdout_rmse_mm)
+        out.record(out.models, "physics", with_interval(physics, held_physics, *split, train, fitted=True),
+                   pick.holdout_rmse_mm)
         step("physics")
     return holdout, jobs
 

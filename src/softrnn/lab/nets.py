@@ -248,10 +248,6 @@ class Hybrid(Intervals):
     physics_rms: float = 0.0
     interval_q: float | None = None
     interval_slope: float | None = None
-    fallback: object = None
-    """The physics with its 90 % interval (``uncertainty.WithInterval``): where the gate turns the residual
-    off, the hybrid is its physics and states its interval (``interval_parts``); None: its error scale
-    takes the physics' RMS error there."""
 
     def _X(self, s, base):
         return np.hstack([_features(s, self.widths), base])
@@ -294,21 +290,11 @@ class Hybrid(Intervals):
         return base + self.weights(session)[:, None] * self.net(self._X(session, base))
 
     def error_scale(self, session: Recording) -> np.ndarray:
-        """(T,) [m] the training RMS error and the ensemble's spread where the residual acts; where the
-        gate turns it off, the physics' RMS error (without a ``fallback``; with one, its interval
-        takes those rows, ``interval_parts``)."""
-        spread = self.net.spread(self._X(session, self.physics.predict(session)))
-        if self.fallback is not None:
-            return self.floor + spread
+        """(T,) [m] the training RMS error and the ensemble's spread where the residual acts, the
+        physics' RMS error where the gate turns it off."""
         w = self.weights(session)
+        spread = self.net.spread(self._X(session, self.physics.predict(session)))
         return self.floor + w * spread + (1.0 - w) * self.physics_rms
-
-    def interval_parts(self, session: Recording) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(``error_scale``, the gate's weight w, the physics' 90 % radius [m]) with a ``fallback``: the
-        radius is w times the hybrid's own plus (1 - w) times its physics'; without, the hybrid's own."""
-        if self.fallback is None:
-            return super().interval_parts(session)
-        return self.error_scale(session), self.weights(session), self.fallback.predict_interval(session)[1]
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
@@ -316,9 +302,7 @@ class Hybrid(Intervals):
                         (" with a hysteresis state (play operators)" if self.hysteresis else "") +
                         (", gated off away from the training data" if not math.isinf(self.gate) else ""),
                 **{k: v for k, v in vars(self.options).items()}, **_pretraining(self),
-                "gate_d0": None if math.isinf(self.gate) else self.gate,
-                **({} if self.fallback is None else
-                   {"interval_where_gated_off": "the physics' 90 % interval, weighted by 1 - w"})}
+                "gate_d0": None if math.isinf(self.gate) else self.gate}
 
 
 @dataclass(frozen=True)
@@ -464,13 +448,9 @@ def fit_learned_map(train, pair, syn, options, held_score) -> tuple:
 
 def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
     """``Hybrid``: its hysteresis state and mode (``mixed`` with synthetic data) chosen on the hold-out
-    part (``staged``), and its gate: each fit scored there with every gate width of ``GATES``; where
-    ``pair`` also holds its physics' intervals (``pair[2:]``, fitting part and every row), the hybrid
-    states the physics' interval where its gate is off (``Hybrid.fallback``)."""
-    fallbacks = pair[2:4] if len(pair) >= 4 else (None, None)
-    return staged(lambda h, m, i: Hybrid(pair[i], h, options.nets, m, syn, fallback=fallbacks[i]),
-                  ("mixed",) if syn.on else (), train, held_score,
-                  lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES})
+    part (``staged``), and its gate: each fit scored there with every gate width of ``GATES``."""
+    return staged(lambda h, m, i: Hybrid(pair[i], h, options.nets, m, syn), ("mixed",) if syn.on else (),
+                   train, held_score, lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES})
 
 
 def fit_sequence(train, pair, syn, options, held_score) -> tuple:

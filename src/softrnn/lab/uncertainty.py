@@ -15,10 +15,7 @@ over it, as over a new session of other patterns; without labels, the model refi
 stretch of its fitting rows and run over the stretches in between, which revisit the same commands at
 other times. Either shows the spread between visits, hysteresis and drift, that the rows a model was
 fitted on understate; q is never below the quantile on the fitted rows themselves. Without a fitted b
-the radius is q (1 + d) (``conformal_q``, q from the hold-out alone). A model may hand part of a row
-to a fallback (``Intervals.interval_parts``: the hybrid, whose residual fades away from its data, to
-its physics): its radius there is w times its own plus (1 - w) times the fallback's, and q and b are
-calibrated on what its own part must hold beside the fallback's.
+the radius is q (1 + d) (``conformal_q``, q from the hold-out alone).
 ``WithInterval`` gives any fitted model such an interval (the physics, the baselines). The benchmark
 reports the share of validation rows inside (``coverage_90``).
 """
@@ -45,24 +42,12 @@ def quantile(values: np.ndarray) -> float:
     return float(r[rank - 1]) if 0 < rank <= r.size else math.inf
 
 
-GATED_OFF = 1e-3
-"""A row where a model's own part of the radius weighs less than this (``Intervals.interval_parts``) is
-its fallback's: it takes no part in calibrating the model's own q and b."""
-
-
 def _ratios(model, sessions, scale) -> tuple[np.ndarray, np.ndarray]:
-    """(the factor each row needs (n,) [1], d (n,) [standard deviations]) over the rows of ``sessions``:
-    |pred - tip| / scale(s), or where the model hands part of its radius to a fallback radius r
-    (``interval_parts``: weight w < 1) the factor its own part needs beside the fallback's,
-    max(0, |pred - tip| - (1 - w) r) / (w scale(s)); 0 on a row that is the fallback's alone
-    (w < ``GATED_OFF``)."""
+    """(|pred - tip| / scale (n,) [1], d (n,) [standard deviations]) over the rows of ``sessions``."""
     ratios, dist = [], []
-    parts = getattr(model, "interval_parts", None)
     for s in sessions:
         err = np.linalg.norm(model.predict(s) - s.tip, axis=1)
-        w, fallback = (1.0, 0.0) if parts is None else parts(s)[1:]
-        ratio = np.maximum(err - (1.0 - w) * fallback, 0.0) / np.maximum(w * scale(s), 1e-300)
-        ratios.append(np.where(w < GATED_OFF, 0.0, ratio))
+        ratios.append(err / np.maximum(scale(s), 1e-300))
         dist.append(np.zeros(s.n_rows) if model.reach is None else model.reach(s))
     return np.concatenate(ratios), np.concatenate(dist)
 
@@ -208,13 +193,6 @@ class Intervals:
         """(T,) the model's scale of its error per row [m]: 1."""
         return np.ones(session.n_rows)
 
-    def interval_parts(self, session) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(own scale (T,) [m], its weight w (T,) in [0, 1], a fallback radius (T,) [m]): the radius is
-        w times the model's own (its scale times q + b d) plus (1 - w) times the fallback's; here
-        (``error_scale``, 1, 0): the model's own alone. A hybrid that hands a row to its physics hands
-        its radius there too."""
-        return self.error_scale(session), np.ones(session.n_rows), np.zeros(session.n_rows)
-
     def interval_scale(self, session) -> np.ndarray:
         """(T,) ``error_scale`` times 1 + the distance from the training rows (``reach``; 0 without)."""
         d = 0.0 if self.reach is None else self.reach(session)
@@ -226,16 +204,12 @@ class Intervals:
         if self.interval_q is None:
             raise ValueError(f"{self.name}: the interval is not calibrated (dataclasses.replace(model, "
                              "**calibrate(...)))")
-        own, w, fallback = self.interval_parts(session)
-        d = np.zeros(session.n_rows) if self.reach is None else self.reach(session)
         if self.interval_slope is None:
-            radius = own * self.interval_q * (1.0 + d)
-        else:
-            with np.errstate(invalid="ignore"):          # an unbounded slope at d = 0 adds nothing
-                radius = own * (self.interval_q + np.where(d > 0, self.interval_slope * d, 0.0))
-        with np.errstate(invalid="ignore"):              # an unbounded radius of weight 0 is the fallback's
-            radius = np.where(w > 0, w * radius, 0.0) + (1.0 - w) * fallback
-        return self.predict(session), radius
+            return self.predict(session), self.interval_q * self.interval_scale(session)
+        d = 0.0 if self.reach is None else self.reach(session)
+        with np.errstate(invalid="ignore"):          # an unbounded slope at d = 0 adds nothing
+            growth = np.where(d > 0, self.interval_slope * d, 0.0)
+        return self.predict(session), self.error_scale(session) * (self.interval_q + growth)
 
     def interval_description(self) -> dict:
         """The interval's q and slope b, JSON-ready (None where unbounded)."""
