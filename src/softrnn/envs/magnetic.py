@@ -220,9 +220,9 @@ class MagneticRodBatch(RodBatch):
         size = np.linalg.norm(b, axis=1, keepdims=True)
         cap = self.config.max_field
         self.field = b * np.minimum(1.0, np.divide(cap, size, out=np.ones_like(size), where=size > cap))
-        # sum over the field's three components in order, element by element: every rod's currents round
-        # alike in a batch of any size (a BLAS product's rounding depends on its shape)
-        self.currents = sum(self.field[:, k, None] * self._map[:, k] for k in range(3))
+        # row by row, each a fresh (1, 3) product: a BLAS product's rounding depends on its shape, and so
+        # every rod's currents round as a single environment's, in a batch of any size
+        self.currents = np.concatenate([self.field[b:b + 1].copy() @ self._map.T for b in range(len(self.field))])
         super().step(np.ascontiguousarray(rates[:, :2]))
 
     @property
