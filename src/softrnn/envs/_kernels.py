@@ -1,7 +1,8 @@
 """The batched step of the navigation environments: B rods of one design in one vessel, each with
-its own state, hub motion, tracked vessel segments and contact outputs, advanced by the implicit
-integrator (``rod.implicit.advance_implicit_into``) in one call, in parallel over the rods (numba
-``prange``; the thread count is numba's).
+its own state, hub motion, tracked vessel segments and contact outputs (the magnetic rod's also its
+own coil currents and magnet buffers), advanced by the implicit integrator
+(``rod.implicit.advance_implicit_into``) in one call, in parallel over the rods (numba ``prange``;
+the thread count is numba's).
 
 Caching: the kernel compiles the rod kernels' code into itself, so it is built as a closure over a
 hash of their files and of ``rod/implicit.py`` (``stamp``), as ``rod.kernels`` does: an edit of any
@@ -17,7 +18,7 @@ from numba import njit, prange
 from ..rod import implicit
 from ..rod.implicit import ImplicitWork, advance_implicit_into
 from ..rod.kernel_records import kernel_stamp
-from ..rod.kernels import rod_inputs, rod_samples, rod_state
+from ..rod.kernels import magnet_rows, rod_inputs, rod_samples, rod_state
 
 
 def stamp() -> int:
@@ -39,9 +40,10 @@ def _build(stamp_value):
 
         state, work (``ImplicitWork``) and out (except save_slot) carry a leading batch axis (B, ...);
         so do inputs' ext_w, pd_target, presc_r, presc_R, tendon_tension, tendon_displacement,
-        contact_segment, contact_samples and contact_applied (the rest, the obstacles included, is
-        shared; each rod's record by ``rod.kernels.rod_inputs``). Per rod as
-        ``advance_implicit_into``; status (B, 2) int64 receives (code, step) per rod."""
+        contact_segment, contact_samples and contact_applied, and with magnets source_currents and the
+        magnets' buffers magnet_positions .. magnet_failed (``rod.kernels.magnet_rows``; the rest, the
+        obstacles, magnets and coils included, is shared; each rod's record by ``rod.kernels.rod_inputs``).
+        Per rod as ``advance_implicit_into``; status (B, 2) int64 receives (code, step) per rod."""
         if stamp_value < 0:  # never true: references the stamp so that it is a closure variable
             return
         inp = inputs
@@ -50,10 +52,11 @@ def _build(stamp_value):
                        inp.contact_radii, inp.contact_mesh_index, inp.contact_mesh_values, inp.contact_node,
                        inp.contact_segment[b], inp.contact_samples[b], inp.contact_applied[b])
             code, step = advance_implicit_into(
-                rod, rod_state(state, b), rod_inputs(inp, b, contact), rod_samples(out, b), h, k0, n_steps, stride,
-                s0, ImplicitWork(work.applied[b], work.force[b], work.strain_map[b], work.diag[b], work.upper[b],
-                                 work.rhs[b], work.u[b], work.known[b], work.fixed[b], work.pivot[b], work.weighted[b],
-                                 work.contact_tangent[b]),
+                rod, rod_state(state, b), rod_inputs(inp, b, contact, magnet_rows(inp, b)), rod_samples(out, b), h,
+                k0, n_steps, stride, s0,
+                ImplicitWork(work.applied[b], work.force[b], work.strain_map[b], work.diag[b], work.upper[b],
+                             work.rhs[b], work.u[b], work.known[b], work.fixed[b], work.pivot[b], work.weighted[b],
+                             work.contact_tangent[b]),
                 beta, theta, tau)
             status[b, 0] = code
             status[b, 1] = step

@@ -12,10 +12,10 @@ dipole model at every solver step (``rod.magnetic``). Observation: ``NavigateEnv
 applied field (3, fractions of ``max_field``) at its end, or the image. Reward, success,
 perforation and timeout: ``NavigateEnv``'s (``softrnn.envs.episodes``).
 
-The vector environment steps the rods one after another, each by the single-rod step the batched
-kernel runs per rod (``rod.implicit.advance_implicit_into``): the batched kernel shares the coil
-currents and the magnets' scratch buffers between its rods, so it cannot yet give each rod its own
-field (docs/guide/envs.md, Limits).
+The vector environment steps all its rods in one call of the batched kernel, in parallel over the
+rods (``envs._kernels.advance_rods``, as ``NavigateVectorEnv``): each rod has its own coil currents
+and magnet buffers (``rod.kernels.magnet_rows``), the magnets and coils are shared
+(docs/guide/envs.md, Throughput).
 """
 
 import math
@@ -29,8 +29,7 @@ from ..magnetics.coils import unit_field_maps
 from ..magnetics.currents import CurrentSchedule
 from ..magnetics.manipulator import ManipulatorSpec, magnetic_load
 from ..rod import RodShape, RodSpec, straight
-from ..rod.implicit import ImplicitWork, advance_implicit_into
-from ..rod.kernels import Samples, StateArrays, StepInputs
+from ..rod.kernels import StepInputs
 from .config import NavigateConfig
 from .episodes import Episodes
 from .fluoro import point_at
@@ -39,9 +38,6 @@ from .rods import RodBatch
 from .scripted import ScriptedNavigator
 from .vector import NavigateVectorEnv
 
-_BATCHED = ("ext_w", "pd_target", "presc_r", "presc_R", "tendon_tension", "tendon_displacement", "contact_segment",
-            "contact_samples", "contact_applied")
-"""The fields of ``StepInputs`` that carry the batch axis in ``envs._kernels.advance_rods``."""
 MAGNET_STIFFNESS = 10.0
 """The default rod's cap on its magnet segments' Young's modulus, times the rod's (the manipulator's
 default is 100): the implicit integrator's automatic step resolves the stiffest segment's bending
@@ -175,6 +171,11 @@ class MagneticRodBatch(RodBatch):
         each rod's field at the workspace centre [T], held over the last step
     currents : (B, n_c)
         the coils' currents that make it [A]
+    magnet_buffers : dict of (B, ...) arrays
+        each rod's magnet outputs (``StepInputs``' magnet_positions .. magnet_failed): rows 0 ..
+        checks_per_step - 1 at the last step's contact checks, the last row the solver's scratch
+    magnet_failed : (B,) int64
+        each rod's magnet that came too close to a coil, -1: none
     """
 
     def __init__(self, config: MagneticNavigateConfig, track, n_rods: int):
@@ -185,7 +186,8 @@ class MagneticRodBatch(RodBatch):
         load = magnetic_load(device.manipulator, CurrentSchedule(np.zeros(1), np.zeros((1, n_c))))
         arrays = load.kernel_arrays(np.zeros(1))
         self._magnets = {k: arrays[k] for k in ("magnet_node", "magnet_body", "source_positions", "source_moments")}
-        self._buffers = [load.buffers(config.checks_per_step) for _ in range(n_rods)]  # a row per contact check
+        self.magnet_buffers = {k: np.repeat(a[None], n_rods, axis=0)
+                               for k, a in load.buffers(config.checks_per_step).items()}
         self._check_workspace(load)
         self.field = np.zeros((n_rods, 3))
         self.currents = np.zeros((n_rods, n_c))
@@ -203,10 +205,13 @@ class MagneticRodBatch(RodBatch):
                       "around the origin (e.g. magnetic_vessel())")
 
     def reset(self, b: int) -> None:
-        """Rod ``b`` back at its start, its coils off."""
+        """Rod ``b`` back at its start, its coils off, its magnet buffers cleared."""
         super().reset(b)
         self.field[b] = 0.0
         self.currents[b] = 0.0
+        for a in self.magnet_buffers.values():
+            a[b] = 0
+        self.magnet_buffers["magnet_failed"][b] = -1
 
     def step(self, rates: np.ndarray) -> None:
         """Advance every rod one step with (B, 5): the hub's rates [m/s, rad/s] and the field [T]
@@ -215,20 +220,22 @@ class MagneticRodBatch(RodBatch):
         size = np.linalg.norm(b, axis=1, keepdims=True)
         cap = self.config.max_field
         self.field = b * np.minimum(1.0, np.divide(cap, size, out=np.ones_like(size), where=size > cap))
-        self.currents = self.field @ self._map.T
+        # row by row, each a fresh (1, 3) product: a BLAS product's rounding depends on its shape, and so
+        # every rod's currents round as a single environment's, in a batch of any size
+        self.currents = np.concatenate([self.field[b:b + 1].copy() @ self._map.T for b in range(len(self.field))])
         super().step(np.ascontiguousarray(rates[:, :2]))
 
-    def _advance(self, inputs: StepInputs, stride: int) -> None:
-        """Each rod in turn, by the single-rod step of the batched kernel (``advance_implicit_into``),
-        with its own coil currents and magnet buffers."""
-        beta, theta = self._integrator.beta, self._integrator.theta
-        for b in range(len(self.hubs)):
-            one = inputs._replace(**{k: getattr(inputs, k)[b] for k in _BATCHED}, **self._magnets, **self._buffers[b],
-                                  source_currents=np.repeat(self.currents[b][None], self.substeps, axis=0))
-            samples = Samples(self._samples.save_slot, *(a[b] for a in self._samples[1:]))
-            self._status[b] = advance_implicit_into(
-                self.rod, StateArrays(*(a[b] for a in self.state)), one, samples, self.h, 1, self.substeps, stride, 1,
-                ImplicitWork(*(a[b] for a in self._work)), beta, theta, self._tau)
+    @property
+    def magnet_failed(self) -> np.ndarray:
+        """Each rod's magnet (B,) int64 that came too close to a coil (status ``MAGNET_TOO_CLOSE``;
+        -1: none since its reset)."""
+        return self.magnet_buffers["magnet_failed"][:, 0].copy()
+
+    def _inputs(self, rates: np.ndarray) -> StepInputs:
+        """``RodBatch._inputs`` with the magnets and coils, each rod's currents held over the step
+        (B, K, n_c) and its own magnet buffers (``rod.kernels.magnet_rows``)."""
+        currents = np.repeat(self.currents[:, None], self.substeps, axis=1)
+        return super()._inputs(rates)._replace(**self._magnets, **self.magnet_buffers, source_currents=currents)
 
 
 class MagneticEpisodes(Episodes):
@@ -286,8 +293,8 @@ class MagneticNavigateEnv(NavigateEnv):
 
 
 class MagneticNavigateVectorEnv(NavigateVectorEnv):
-    """``num_envs`` copies of ``MagneticNavigateEnv`` (as ``NavigateVectorEnv``; their rods stepped one
-    after another)."""
+    """``num_envs`` copies of ``MagneticNavigateEnv`` (as ``NavigateVectorEnv``: their rods stepped in
+    one call of the batched kernel, each with its own field)."""
 
     config_type = MagneticNavigateConfig
     episodes_type = MagneticEpisodes

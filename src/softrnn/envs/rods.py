@@ -87,7 +87,9 @@ class RodBatch:
     contact_force : (B,)
         the largest contact force on a node [N] at the checks of the last step
     failed : (B,) bool
-        the rods whose last step failed (diverged): to be reset
+        the rods whose last step failed (diverged, a magnet too close to a coil): to be reset
+    status : (B,) int64
+        each rod's kernel status of its last step (OK, or the failure's code)
     kernel_seconds : float
         wall time spent in the kernel so far [s] (what a benchmark splits the physics from the rest by)
     """
@@ -136,6 +138,12 @@ class RodBatch:
     def time(self) -> np.ndarray:
         """Each rod's time since its reset (B,) [s]."""
         return self._steps * self.h
+
+    @property
+    def status(self) -> np.ndarray:
+        """Each rod's kernel status of its last step (B,) int64: ``rod.kernels.OK`` (0), or the code of
+        its failure (``rod.status.KernelStatus``)."""
+        return self._status[:, 0].copy()
 
     def reset(self, b: int) -> None:
         """Put rod ``b`` back at its start, at rest, its hub still at insertion 0, angle 0."""

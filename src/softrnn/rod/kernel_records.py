@@ -152,9 +152,11 @@ class StateArrays(NamedTuple):
 class StepInputs(NamedTuple):
     """Loads and prescribed motions of the K steps of one call (step i at t = (k0 + i) h).
 
-    In ``advance_batch`` ext_w, pd_target, presc_r, presc_R, tendon_tension, tendon_displacement and,
-    with obstacles, the contact fields (contact_kind .. contact_applied, each rod its own obstacles)
-    carry a leading batch axis (B, ...); ``kernels.rod_inputs`` builds one rod's record.
+    In ``advance_batch`` ext_w, pd_target, presc_r, presc_R, tendon_tension, tendon_displacement,
+    with obstacles the contact fields (contact_kind .. contact_applied, each rod its own obstacles)
+    and with magnets source_currents and the magnets' outputs (magnet_positions .. magnet_failed;
+    the magnets and sources shared) carry a leading batch axis (B, ...); ``kernels.rod_inputs``
+    builds one rod's record.
 
     Attributes
     ----------

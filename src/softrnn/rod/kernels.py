@@ -613,21 +613,45 @@ def _contact_rows_impl(inputs, b):
                               inputs.contact_segment[b], inputs.contact_samples[b], inputs.contact_applied[b])
 
 
+def magnet_rows(inputs, b):
+    """Rod ``b``'s magnetic fields (magnet_node .. magnet_failed, the 11 of ``StepInputs``) of batched
+    ``inputs`` with magnets: the magnets and sources shared (magnet_node, magnet_body, source_positions,
+    source_moments: one rod design, one set of coils), rows b of the currents and of the output
+    buffers (source_currents .. magnet_failed, (B, ...) in ``inputs``); the shared empty fields, untouched,
+    for inputs without magnets. Compiled code only (a numba ``overload``)."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(magnet_rows, jit_options=_ROWS)
+def _magnet_rows_impl(inputs, b):
+    if absent(inputs, "magnet_node"):
+        return lambda inputs, b: (None, inputs.magnet_body, inputs.source_positions, inputs.source_moments,
+                                  inputs.source_currents, inputs.magnet_positions, inputs.magnet_rotations,
+                                  inputs.magnet_fields, inputs.magnet_gradients, inputs.magnet_wrenches,
+                                  inputs.magnet_failed)
+    return lambda inputs, b: (inputs.magnet_node, inputs.magnet_body, inputs.source_positions, inputs.source_moments,
+                              inputs.source_currents[b], inputs.magnet_positions[b], inputs.magnet_rotations[b],
+                              inputs.magnet_fields[b], inputs.magnet_gradients[b], inputs.magnet_wrenches[b],
+                              inputs.magnet_failed[b])
+
+
 @njit(**_ROWS)
-def rod_inputs(inp, b, contact):
+def rod_inputs(inp, b, contact, magnets):
     """Rod ``b``'s ``StepInputs`` of batched inputs ``inp`` (``advance_batch``, the environments'
     kernel): rows b of ext_w, pd_target, presc_r, presc_R, tendon_tension and tendon_displacement
     ((B, ...) in ``inp``), the contact fields ``contact`` passed explicitly per rod (the 12 of
     contact_kind .. contact_applied, in ``StepInputs`` order: a batch's rows, ``contact_rows``, or
-    arrays the rods share), the rest shared."""
+    arrays the rods share), the magnetic fields ``magnets`` likewise (the 11 of magnet_node ..
+    magnet_failed: ``magnet_rows``), the rest shared."""
     kind, geom, rng, friction, points, radii, mesh_index, mesh_values, node, segment, samples, applied = contact
+    (m_node, m_body, s_positions, s_moments, s_currents, m_positions, m_rotations, m_fields, m_gradients,
+     m_wrenches, m_failed) = magnets
     return StepInputs(inp.ext_idx, inp.ext_w[b], inp.pd_idx, inp.pd_target[b], inp.pd_gain, inp.presc_idx,
                       inp.presc_r[b], inp.presc_R[b], inp.tendon_route, inp.tendon_end, inp.tendon_tension[b],
                       inp.tendon_stiffness, inp.tendon_rest, inp.tendon_displacement[b], kind, geom, rng, friction,
-                      points, radii, mesh_index, mesh_values, node, segment, samples, applied, inp.magnet_node,
-                      inp.magnet_body, inp.source_positions, inp.source_moments, inp.source_currents,
-                      inp.magnet_positions, inp.magnet_rotations, inp.magnet_fields, inp.magnet_gradients,
-                      inp.magnet_wrenches, inp.magnet_failed)
+                      points, radii, mesh_index, mesh_values, node, segment, samples, applied, m_node, m_body,
+                      s_positions, s_moments, s_currents, m_positions, m_rotations, m_fields, m_gradients,
+                      m_wrenches, m_failed)
 
 
 @njit(**_ROWS)
@@ -651,13 +675,15 @@ def _build_batch(stamp):
     def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
         """Advance B independent rods of one ``rod`` (see ``advance_into``): state, inputs (except
         the node indices, gains and tendon routing; the contact fields with obstacles, each rod its
-        own: ``contact_rows``) and out (except save_slot) carry a leading batch axis (B, ...).
+        own: ``contact_rows``; with magnets, the currents and the magnets' buffers: ``magnet_rows``)
+        and out (except save_slot) carry a leading batch axis (B, ...).
         status (B, 2) int64 receives (code, step) per rod."""
         if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return
         for b in prange(len(state.positions)):
             work_f = np.empty((state.positions.shape[1], 6))
-            code, step = advance_into(rod, rod_state(state, b), rod_inputs(inputs, b, contact_rows(inputs, b)),
+            code, step = advance_into(rod, rod_state(state, b),
+                                      rod_inputs(inputs, b, contact_rows(inputs, b), magnet_rows(inputs, b)),
                                       rod_samples(out, b), h, k0, n_steps, stride, s0, work_f)
             status[b, 0] = code
             status[b, 1] = step
