@@ -64,3 +64,39 @@ def test_a_stop_inside_llvm_is_put_off(monkeypatch):
         cli_main._stop(signal.SIGTERM, sys._getframe())
     with pytest.raises(KeyboardInterrupt):
         cli_main._stop(signal.SIGINT, sys._getframe())
+
+
+_LOST = """
+import os, signal, sys, time, weakref
+from softrnn.cli import main
+from softrnn.cli._progress import Terminated
+
+class Thing:
+    pass
+
+def callback(ref):
+    os.kill(os.getpid(), signal.SIGTERM)
+    for _ in range(100000):     # the stop is raised in here, inside the weakref's callback: Python drops it
+        pass
+
+try:
+    with main.stoppable():
+        thing = Thing()
+        ref = weakref.ref(thing, callback)
+        del thing
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline:
+            time.sleep(0.01)
+        print("ran on", flush=True)
+except Terminated:
+    print("terminated", flush=True)
+"""
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_a_stop_that_lands_in_a_weakref_callback_still_stops_the_job():
+    """SIGTERM handled while Python runs a weakref's callback: the raised stop is printed as "ignored"
+    and lost there, so the command delivers it again (``cli.main._lost_stop``) and the job stops."""
+    done = subprocess.run([sys.executable, "-c", _LOST], capture_output=True, text=True, timeout=TIMEOUT_S)
+    assert done.stdout.strip() == "terminated", done.stdout + done.stderr
+    assert "Exception ignored" not in done.stderr, done.stderr

@@ -5,6 +5,7 @@ import os
 import signal
 import sys
 import threading
+from contextlib import contextmanager
 
 import softrnn
 
@@ -115,6 +116,42 @@ def _stop(signum, frame):
     raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
+def _lost_stop(info) -> None:
+    """``sys.unraisablehook`` while a command runs: a stop (``_stop``) raised while Python ran a
+    callback of its own (a weakref's, a finalizer's) is printed as "ignored" and lost, and the job
+    would run on; deliver the signal again instead. Anything else goes to the hook before."""
+    if isinstance(info.exc_value, KeyboardInterrupt):       # from another thread: not inside this hook
+        signum = signal.SIGTERM if isinstance(info.exc_value, Terminated) else signal.SIGINT
+        threading.Timer(_DEFER_S, os.kill, (os.getpid(), signum)).start()
+        return
+    _HOOKS[-1](info)
+
+
+_HOOKS: list = []
+"""The ``sys.unraisablehook`` each running ``stoppable`` block replaced, innermost last."""
+
+
+@contextmanager
+def stoppable():
+    """Inside: SIGTERM and SIGINT stop the job (``_stop``), a stop lost in a callback is delivered
+    again (``_lost_stop``); the caller's handlers and hook come back afterwards."""
+    previous = {}
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        try:   # only the main thread may set a handler; a caller's own handler comes back afterwards
+            previous[sig] = signal.signal(sig, _stop)
+        except ValueError:
+            pass
+    _HOOKS.append(sys.unraisablehook)
+    sys.unraisablehook = _lost_stop
+    try:
+        yield
+    finally:
+        sys.unraisablehook = _HOOKS.pop()
+        for sig, handler in previous.items():
+            if handler is not None:    # None: a handler set outside Python, which cannot be put back
+                signal.signal(sig, handler)
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(complete=False)
@@ -122,18 +159,8 @@ def main(argv=None) -> int:
         parser.print_help()
         return 0
     args = parser.parse_args(argv)
-    previous = {}
-    for sig in (signal.SIGTERM, signal.SIGINT):
-        try:   # only the main thread may set a handler; a caller's own handler comes back afterwards
-            previous[sig] = signal.signal(sig, _stop)
-        except ValueError:
-            pass
-    try:
+    with stoppable():
         return _main(args)
-    finally:
-        for sig, handler in previous.items():
-            if handler is not None:    # None: a handler set outside Python, which cannot be put back
-                signal.signal(sig, handler)
 
 
 def _main(args) -> int:
