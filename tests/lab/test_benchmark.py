@@ -294,3 +294,39 @@ def test_the_physics_variant_is_chosen_on_the_hold_out(report):
     assert set(scores) == {"plain", "gravity", "friction", "gravity+friction"}
     assert physics["variant"] == min(scores, key=scores.get)
     assert report["chosen_on_training"]["holdout_rmse_mm"]["physics"] == pytest.approx(scores[physics["variant"]])
+
+
+def test_a_node_run_that_diverges_is_nan_from_there_on_and_never_the_best(monkeypatch, sessions):
+    """The per-node LSTM's free run diverging at row 9: the rows before come from the same run stopped
+    there, NaN from row 9 on (not an error that stops the benchmark); a model scored NaN is never the
+    best of its table."""
+    import softrnn.learned.node.rollout as node_rollout
+    from softrnn.lab.benchmark import BenchmarkResult, TipScore
+    from softrnn.learned.horizons import RolloutDiverged
+
+    calls = []
+
+    class _Run:
+        def __init__(self, start, stop):
+            self.rows = np.arange(start, stop, dtype=float)
+
+        def node_positions(self, node):
+            return np.repeat(self.rows[:, None], 3, axis=1) * 1e-3
+
+    def diverging(model, data, start, stop):
+        calls.append((start, stop))
+        if stop > 9:
+            raise RolloutDiverged("diverged", node=1, sample=9, time=5.4)
+        return _Run(start, stop)
+
+    monkeypatch.setattr(node_rollout, "rollout", diverging)
+    val = sessions[1]
+    H = NodeOptions().history
+    tip = NodeFamily(0.08, model=object()).predict(val)
+    assert calls == [(H, val.n_rows), (H, 9)]
+    np.testing.assert_array_equal(tip[:H], val.tip[:H])
+    np.testing.assert_array_equal(tip[H:9], np.repeat(np.arange(H, 9.0)[:, None], 3, axis=1) * 1e-3)
+    assert np.all(np.isnan(tip[9:]))
+    nan, good = TipScore.of(tip, val.tip, 0.08), TipScore.of(val.tip + 1e-3, val.tip, 0.08)
+    assert math.isnan(nan.tip_rmse_mm)
+    assert BenchmarkResult._best({"node_lstm": nan, "physics": good}) == "physics"

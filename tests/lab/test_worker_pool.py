@@ -11,7 +11,8 @@ import time
 import numpy as np
 import pytest
 
-from softrnn.errors import SoftrnnInputError
+from softrnn.errors import SimulationError, SoftrnnInputError
+from softrnn.learned.horizons import RolloutDiverged
 from softrnn.lab._pool import WorkerPool
 from softrnn.lab._stages import seeded
 from softrnn.lab.benchmark import BenchmarkOptions, run_benchmark
@@ -107,6 +108,22 @@ def _fail(x):
     raise SoftrnnInputError(f"x={x} is invalid: a test error")
 
 
+class _Unpicklable(SimulationError):
+    """An error whose constructor takes keyword arguments alone: it does not survive pickling as itself."""
+
+    def __init__(self, message, *, where):
+        super().__init__(message)
+        self.where = where
+
+
+def _fail_unpicklably(x):
+    raise _Unpicklable(f"x={x} went wrong", where=x)
+
+
+def _diverge(x):
+    raise RolloutDiverged(f"diverged at {x}", node=1, sample=x, time=0.5 * x)
+
+
 def _nap(seconds):
     time.sleep(seconds)
     return os.getpid()
@@ -121,6 +138,28 @@ def test_pool_results_in_order_and_errors_raised_here(workers):
         assert set(pool.timings) == {"a", "b", "c", "j0", "j1", "j2", "j3"}
         with pytest.raises(SoftrnnInputError, match="x=7 is invalid"):
             pool.submit("bad", _fail, 7).get()
+
+
+def test_a_worker_error_that_does_not_pickle_comes_back_as_its_base_class_and_the_pool_goes_on():
+    """An error that cannot be unpickled here would stop the pool's result thread and leave every job
+    waiting for ever: it comes back as its nearest base class that pickles, with its message, and the
+    pool's next job runs. A divergence of a learned model's run comes back as itself, where and when."""
+    with WorkerPool(2) as pool:
+        job = pool.submit("bad", _fail_unpicklably, 3)
+        deadline = time.monotonic() + 60.0
+        while not job.ready() and time.monotonic() < deadline:
+            job.wait(0.1)
+        assert job.ready(), "the worker's error never came back"
+        with pytest.raises(SimulationError, match="^x=3 went wrong$") as err:
+            job.get()
+        assert type(err.value) is SimulationError
+        with pytest.raises(RolloutDiverged, match="diverged at 4") as err:
+            pool.submit("diverged", _diverge, 4).get()
+        assert (err.value.node, err.value.sample, err.value.time) == (1, 4, 2.0)
+        assert pool.submit("next", _square, 5).get() == 25
+    with WorkerPool(1) as pool:                 # in this process: the error itself
+        with pytest.raises(_Unpicklable):
+            pool.submit("bad", _fail_unpicklably, 3).get()
 
 
 def test_one_worker_runs_each_job_here_when_asked_for():

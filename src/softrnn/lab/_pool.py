@@ -10,12 +10,15 @@ busy to the end. Every job's CPU and wall time is kept (``timings``).
 
 The workers ignore Ctrl-C (SIGINT reaches the whole foreground process group): this process alone
 stops, and leaving the ``with`` block by an exception (``KeyboardInterrupt`` included) terminates the
-workers at once. An error raised in a worker is raised again here by ``Job.get``.
+workers at once. An error raised in a worker is raised again here by ``Job.get``: as itself, or where
+it cannot be sent between processes (it does not pickle), as the nearest of its base classes that can,
+with its message.
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import pickle
 import signal
 import time
 from contextlib import contextmanager
@@ -41,6 +44,31 @@ def _timed(fn, args) -> tuple:
     return result, time.process_time() - cpu, time.perf_counter() - wall
 
 
+def _sendable(err: BaseException) -> BaseException:
+    """``err`` where it survives pickling, else the first of its base classes that does, made from its
+    message (a worker's error that cannot be unpickled here would stop the pool's result thread and
+    leave ``Job.get`` waiting for ever)."""
+    for cls in type(err).__mro__:
+        try:
+            out = err if cls is type(err) else cls(str(err))
+            pickle.loads(pickle.dumps(out))
+        except Exception:
+            continue
+        return out
+    return RuntimeError(str(err))
+
+
+def _sent(fn, args) -> tuple:
+    """``_timed`` in a worker: an error raised as one that can be sent back (``_sendable``)."""
+    try:
+        return _timed(fn, args)
+    except Exception as err:
+        out = _sendable(err)
+        if out is err:
+            raise
+        raise out from None
+
+
 @contextmanager
 def _sigint_ignored():
     """SIGINT ignored while the workers start, so that they start with it ignored (a process started
@@ -62,7 +90,7 @@ class Job:
 
     def __init__(self, pool: WorkerPool, label: str, fn, args: tuple):
         self.pool, self.label = pool, label
-        self._pending = None if pool._pool is None else pool._pool.apply_async(_timed, (fn, args))
+        self._pending = None if pool._pool is None else pool._pool.apply_async(_sent, (fn, args))
         self._call = (fn, args) if self._pending is None else None
         self._result = None
 

@@ -8,6 +8,7 @@ same process. Also the dynamic families, fitted in this process (``dynamic_model
 
 from __future__ import annotations
 
+import math
 import zlib
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -100,7 +101,7 @@ def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, opt
     ran = run_model(name, model, validation, scores)
     if no_syn:
         ran.details["synthetic_data"] = f"not used: {no_syn}"
-    return ran, min(scores.values())
+    return ran, min(scores.values(), key=lambda v: v if math.isfinite(v) else math.inf)
 
 
 def collect_families(jobs: list, pool: WorkerPool, out, step) -> dict:

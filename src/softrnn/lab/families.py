@@ -477,13 +477,21 @@ class NodeFamily:
         return replace(self, model=model)
 
     def predict(self, session: Recording) -> np.ndarray:
-        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
+        """The tip (T, 3) [m] over ``session``, free running from its start on its inputs; NaN from the
+        row where the run diverges (``learned.horizons.RolloutDiverged``) on."""
+        from ..learned.horizons import RolloutDiverged  # optional extra: learn (PyTorch)
         from ..learned.node.rollout import rollout  # optional extra: learn (PyTorch)
 
         H = self.options.history
         data = as_dataset([session], self.length)
-        result = rollout(self.model, data, H, session.n_rows)
-        return np.vstack([session.tip[:H], result.node_positions(1)])
+        tip = np.full((session.n_rows, 3), np.nan)
+        tip[:H] = session.tip[:H]
+        try:
+            tip[H:] = rollout(self.model, data, H, session.n_rows).node_positions(1)
+        except RolloutDiverged as err:
+            if err.sample > H:                   # the rows before, from the same run stopped there
+                tip[H:err.sample] = rollout(self.model, data, H, err.sample).node_positions(1)
+        return tip
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""

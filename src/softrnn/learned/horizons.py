@@ -15,6 +15,8 @@ model (NumPy only).
 
 from __future__ import annotations
 
+import functools
+
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import final
@@ -55,6 +57,11 @@ class RolloutDiverged(SimulationError):
         super().__init__(message)
         self.node, self.sample, self.time = int(node), int(sample), float(time)
         self.states = states
+
+    def __reduce__(self):
+        """Pickled with its keyword arguments (a worker process raises it in the lab benchmark)."""
+        return functools.partial(type(self), node=self.node, sample=self.sample, time=self.time,
+                                 states=self.states), (str(self),)
 
 
 def free_steps(step: Callable[[int, np.ndarray], np.ndarray | None], state: np.ndarray, history: int) -> int | None:
