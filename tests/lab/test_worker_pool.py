@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SimulationError, SoftrnnInputError
-from softrnn.learned.horizons import RolloutDiverged
 from softrnn.lab._pool import WorkerPool
 from softrnn.lab._stages import seeded
 from softrnn.lab.benchmark import BenchmarkOptions, run_benchmark
@@ -21,6 +20,7 @@ from softrnn.lab.nets import NetOptions, SequenceOptions
 from softrnn.lab.recording import read_recording
 from softrnn.lab.synthetic import SyntheticOptions
 from softrnn.lab.tendon_robot import CalibrationOptions
+from softrnn.learned.horizons import RolloutDiverged
 
 from helpers import tendon_recording
 

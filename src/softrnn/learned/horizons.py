@@ -16,7 +16,6 @@ model (NumPy only).
 from __future__ import annotations
 
 import functools
-
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import final
