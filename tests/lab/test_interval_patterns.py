@@ -12,7 +12,16 @@ from softrnn.lab.families import ConstantVelocityFamily, Physics, holdout_split
 from softrnn.lab.nets import Hybrid, NetOptions
 from softrnn.lab.recording import Recording
 from softrnn.lab.tendon_robot import Calibration
-from softrnn.lab.uncertainty import InputDistance, cross_fit, pattern_edges, pattern_folds, quantile, with_interval
+from softrnn.lab.uncertainty import (
+    InputDistance,
+    WithInterval,
+    calibrate,
+    cross_fit,
+    pattern_edges,
+    pattern_folds,
+    quantile,
+    with_interval,
+)
 
 from helpers import tendon_robot_truth
 
@@ -133,3 +142,60 @@ def test_constant_velocity_states_an_interval_that_grows_along_the_run():
     r_slow, r_fast = model.predict_interval(slow)[1], model.predict_interval(fast)[1]
     assert np.all(np.diff(r_slow) > 0) and np.all(np.diff(r_fast) > 0)
     assert np.all(r_fast[1:] > r_slow[1:])
+
+
+@dataclass(frozen=True, eq=False)
+class _Extrapolating:
+    """A model exact on the commands it was fitted on and wrong by ``c`` [m] per standard deviation of the
+    distance from them (along y), like a learned model out of range."""
+
+    c: float = 20e-3
+    reach: InputDistance | None = None
+    name: str = "extrapolating"
+
+    def fit(self, sessions):
+        return replace(self, reach=InputDistance.of(sessions))
+
+    def predict(self, s):
+        return np.column_stack([s.inputs[:, 0] * 1e-3, self.c * self.reach(s), np.zeros(s.n_rows)])
+
+    def describe(self):
+        return {"kind": "extrapolating"}
+
+
+def _levels(levels, seed, rows=15, noise=0.5e-3):
+    """A session of one pattern per command level of ``levels`` [mm], ``rows`` rows each, the tip at
+    (u mm, 0, 0) plus marker noise ``noise`` [m] per axis."""
+    u = np.repeat(np.asarray(levels, dtype=float), rows)
+    tip = np.column_stack([u * 1e-3, np.zeros((u.size, 2))]) + np.random.default_rng(seed).normal(0, noise, (u.size, 3))
+    return Recording(path=f"levels{seed}", time=np.arange(u.size) * 0.6, inputs=u[:, None], names=("a",),
+                     units=("mm",), tip=tip, labels=tuple(f"level_{k // rows}" for k in range(u.size)))
+
+
+def test_q_comes_from_the_cross_fit_rows_near_the_data_and_the_farther_ones_set_the_growth():
+    """Each half of the fitting patterns revisits eight command levels of the other half and has four of
+    its own. Run by the model refitted on the other half, the revisits show only the noise (d = 0), the
+    own levels the model's growing error. q is the noise's 90 % quantile (0.5 mm x 2.50), not the quantile
+    over every cross-fit row (several times wider); the farther rows and the hold-out set the growth. The
+    ball holds about 90 % of a fresh session on the training levels (all of it with q over every
+    cross-fit row) and at least 90 % of one beyond them."""
+    shared = np.linspace(-3.0, 3.0, 8)
+    first = np.concatenate([shared, [-6.0, -5.0, 5.0, 6.0]])
+    second = np.concatenate([shared[::-1], [-2.6, -1.3, 1.3, 2.6]])
+    train = _levels(np.concatenate([first, second]), 0)
+    held = _levels([6.8, 7.2, 7.6, 8.0], 1)
+    model = WithInterval(_Extrapolating().fit([train]), InputDistance.of([train]))
+    ratio, d = cross_fit(model, [train])
+    assert np.mean(d == 0.0) == pytest.approx(2 / 3)
+    out = calibrate(model, [train], [held])
+    assert out["interval_q"] == pytest.approx(0.5e-3 * 2.5003, rel=0.15)
+    assert quantile(ratio) > 3.0 * out["interval_q"]           # every cross-fit row: the far ones widen q
+    assert 0.0 < out["interval_slope"] <= 1.5 * model.model.c
+    calibrated = replace(WithInterval(_Extrapolating().fit([train, held]), InputDistance.of([train, held])), **out)
+    revisit, beyond = _levels(np.tile(np.unique(first), 3), 2), _levels(np.linspace(8.4, 9.6, 40), 3)
+    inside = [np.mean(np.linalg.norm(tip - s.tip, axis=1) <= radius)
+              for s in (revisit, beyond) for tip, radius in [calibrated.predict_interval(s)]]
+    assert 0.85 <= inside[0] <= 0.95 and inside[1] >= 0.9
+    wide = replace(calibrated, interval_q=quantile(ratio))         # q over every cross-fit row: too wide
+    tip, radius = wide.predict_interval(revisit)
+    assert np.mean(np.linalg.norm(tip - revisit.tip, axis=1) <= radius) == 1.0

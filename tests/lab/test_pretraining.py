@@ -214,7 +214,7 @@ def test_two_regime_intervals_hold_90_percent_near_the_training_rows_and_beyond(
     about 90 % of fresh rows inside and beyond them, however fast the error grows (the q (1 + d) law
     holds 34-74 % of them at c = 0.2 and 1 mm per standard deviation, 100 % at 5 mm)."""
     rng = np.random.default_rng(0)
-    fit, held = _line(rng.uniform(-1, 1, 400), 1), _line(rng.uniform(1, 3, 300), 2)
+    fit, held = _line(rng.uniform(-1, 1, 800), 1), _line(rng.uniform(1, 3, 300), 2)
     family = _Drifting(c)
     model = with_interval(family.fit([fit, held]), family.fit([fit]), [fit], [held], [fit, held], fitted=True)
     assert model.interval_q == pytest.approx(0.5e-3 * 2.5003, rel=0.1)

@@ -8,7 +8,8 @@ spread; 1 where it has none) times q + b d, d the distance of the row's standard
 nearest training row (``InputDistance``: errors grow out of range). ``calibrate`` fits q and b on the
 model fitted without the hold-out rows (two-regime split conformal): q holds 90 % of the rows near the
 data that the model did not see, and b, the least growth with which the ball then holds 90 % of the
-hold-out rows, which lie beyond them. The rows near the data come from a cross-fit (``cross_fit``):
+rows beyond them: the cross-fit's farther half and the hold-out, each. The rows the model did not see come
+from a cross-fit (``cross_fit``):
 where the recordings label their patterns, the model refitted without each block of patterns in turn
 (``pattern_folds``: half of the fitting rows, whole patterns recorded beside each other) and run
 over it, as over a new session of other patterns; without labels, the model refitted on every other
@@ -143,21 +144,35 @@ CROSS_FOLDS = 2
 def calibrate(model, fit_part, held) -> dict:
     """The interval of ``model`` (fitted on the sessions ``fit_part``, without ``held``), two-regime
     split conformal: {"interval_q": q, "interval_slope": b} [1, 1 per standard deviation] of the radius
-    error_scale (q + b d). q is the ``COVERAGE`` quantile of |pred - tip| / error_scale over the rows
-    of ``fit_part`` run by the model fitted without them (``cross_fit``), at least that over the rows of
-    ``fit_part`` themselves; b the same quantile over the hold-out rows of the growth each needs to lie
-    inside, max(0, ratio - q) / d (inf for a row outside at d = 0). inf where there are too few rows.
-    A model without ``reach`` gets b = 0 and the largest q of the parts."""
+    error_scale (q + b d). The rows the model did not see are those of ``fit_part`` run by the model
+    refitted without them (``cross_fit``) and the hold-out rows. The cross-fit's rows are split at their
+    median distance d from the rows the model was refitted on (``NEAR_SHARE``): q is the ``COVERAGE``
+    quantile of |pred - tip| / error_scale over the nearer ones, at least that over the rows of
+    ``fit_part`` themselves; b the least growth with which the ball holds 90 % of the farther ones and
+    90 % of the hold-out rows: the larger of the two parts' same quantile of the growth each row needs
+    to lie inside, max(0, ratio - q) / d (inf for a row outside at d = 0). So q is the error of a new
+    visit near the data (a pattern the model did not see, between patterns it did) and b how it grows
+    beyond them, each from the rows of its own regime. inf where there are too few rows. A model
+    without ``reach`` gets b = 0 and the largest q of the parts."""
     q = quantile(_ratios(model, fit_part, model.error_scale)[0])
-    cross = cross_fit(model, fit_part)
-    if cross is not None:
-        q = max(q, quantile(cross[0]))
     ratio, d = _ratios(model, held, model.error_scale)
+    cross = cross_fit(model, fit_part)
     if model.reach is None:                   # no distance: one radius that holds 90 % of every part
-        return {"interval_q": max(q, quantile(ratio)), "interval_slope": 0.0}
+        parts = [ratio] if cross is None else [ratio, cross[0]]
+        return {"interval_q": max([q] + [quantile(p) for p in parts]), "interval_slope": 0.0}
+    beyond = [(ratio, d)]
+    if cross is not None:
+        near = cross[1] <= np.quantile(cross[1], NEAR_SHARE)
+        q = max(q, quantile(cross[0][near]))
+        beyond.append((cross[0][~near], cross[1][~near]))
     with np.errstate(divide="ignore", invalid="ignore"):
-        need = np.where(ratio <= q, 0.0, (ratio - q) / d)
-    return {"interval_q": q, "interval_slope": quantile(need)}
+        needs = [np.where(r <= q, 0.0, (r - q) / dist) for r, dist in beyond if r.size]
+    return {"interval_q": q, "interval_slope": max(quantile(need) for need in needs)}
+
+
+NEAR_SHARE = 0.5
+"""The share of the cross-fit's rows, the nearest to the rows the model was refitted on, that set the
+interval's q (``calibrate``); the rest, with the hold-out rows, set its growth b."""
 
 
 @dataclass(frozen=True, eq=False)
