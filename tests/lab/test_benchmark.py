@@ -330,3 +330,25 @@ def test_a_node_run_that_diverges_is_nan_from_there_on_and_never_the_best(monkey
     nan, good = TipScore.of(tip, val.tip, 0.08), TipScore.of(val.tip + 1e-3, val.tip, 0.08)
     assert math.isnan(nan.tip_rmse_mm)
     assert BenchmarkResult._best({"node_lstm": nan, "physics": good}) == "physics"
+
+
+def test_the_node_lstm_reads_every_session_at_its_training_step_however_it_is_paced(sessions):
+    """The hold-out rows recorded twice as fast as the fitting rows, the validation rows at 1.5 s: the
+    node LSTM reads each as rows of its training step (a quasi-static recording's rows are steps), instead
+    of refusing the hold-out part as 'sampled unlike the training data'."""
+    train, val = sessions
+    fit_part, held = holdout_split([train])
+    held_start = {float(s.time[0]) for s in held}
+    dt, t = np.full(train.n_rows - 1, 0.6), train.time
+    for k in range(1, train.n_rows):
+        if any(s.time[0] <= t[k] <= s.time[-1] for s in held) and float(t[k]) not in held_start:
+            dt[k - 1] = 0.3
+    paced = dataclasses.replace(train, time=np.concatenate([[0.0], np.cumsum(dt)]))
+    fit2, held2 = holdout_split([paced])
+    assert np.median(np.diff(np.concatenate([s.time for s in held2]))) == pytest.approx(0.3)
+    small = NodeOptions(units=4, training=dataclasses.replace(NODE_TRAINING, epochs=1, rollout_steps=2))
+    model = NodeFamily(0.08, small).fit([paced])
+    assert model.step == pytest.approx(0.6)
+    slow = dataclasses.replace(val, time=np.arange(val.n_rows) * 1.5)
+    tip = model.predict(slow)
+    assert tip.shape == (val.n_rows, 3) and np.all(np.isfinite(tip))

@@ -379,11 +379,12 @@ def choose(candidates: dict, sessions, split: tuple | None = None) -> Choice:
 
 
 # ---------------------------------------------------------------------------------- the node model
-def as_dataset(sessions, length: float):
+def as_dataset(sessions, length: float, dt: float | None = None):
     """The sessions as one ``softrnn.io.Dataset`` of the tip (node 1 of a 2-node rod of ``length``
     [m]) and the inputs as actuation channels: the rows in order, each later session's times
     shifted to follow the previous one's last row by the median interval. The node model reads the
-    rows as steps of the median interval (``dt``)."""
+    rows as steps of ``dt`` [s] (None: the median interval), one row a step: give the training
+    data's to every session the model meets, however its rows are paced."""
     times, offset = [], 0.0
     for s in sessions:
         t = s.time - s.time[0] + offset
@@ -400,7 +401,8 @@ def as_dataset(sessions, length: float):
     return Dataset(time=time, nodes=np.array([1]), positions=tip[:, None, :].astype(np.float32), quaternions=quats,
                    forces=np.zeros((T, 1, 3), np.float32), torques=np.zeros((T, 1, 3), np.float32),
                    attrs={"units": units, "rod": {"length": length}, "n_nodes_total": 2,
-                          "dt": float(np.median(np.diff(time))), "has_orientations": False},
+                          "dt": float(np.median(np.diff(time))) if dt is None else float(dt),
+                          "has_orientations": False},
                    actuation=np.vstack([s.inputs for s in sessions]).astype(np.float32),
                    actuation_units={n: (u or "1") for n, u in zip(first.names, first.units)})
 
@@ -452,6 +454,9 @@ class NodeFamily:
     mode: str = "real"
     synthetic: SyntheticOptions = SyntheticOptions()
     physics: object = None
+    step: float | None = None
+    """The step [s] the model was trained on (``fit``: its training rows' median interval): every
+    session it meets is read as rows of this step (``as_dataset``)."""
 
     def __post_init__(self):
         check_mode(self, ("real", "mixed"))
@@ -471,10 +476,12 @@ class NodeFamily:
         spec = SampleSpec(node=1, neighbours=(), history=o.history, inputs="positions", wrench="none",
                           drive="actuation")
         taught = self._taught(fit_part)
+        data = as_dataset(fit_part + taught, self.length)
+        step = data.attrs["dt"]                  # the held rows read at it too, however they are paced
         with tempfile.TemporaryDirectory() as folder:
-            model = train_node_model(as_dataset(fit_part + taught, self.length), spec, {"lstm_units": o.units},
-                                     o.training, folder, validation=as_dataset(held, self.length))
-        return replace(self, model=model)
+            model = train_node_model(data, spec, {"lstm_units": o.units}, o.training, folder,
+                                     validation=as_dataset(held, self.length, step))
+        return replace(self, model=model, step=step)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs; NaN from the
@@ -483,7 +490,7 @@ class NodeFamily:
         from ..learned.node.rollout import rollout  # optional extra: learn (PyTorch)
 
         H = self.options.history
-        data = as_dataset([session], self.length)
+        data = as_dataset([session], self.length, self.step)
         tip = np.full((session.n_rows, 3), np.nan)
         tip[:H] = session.tip[:H]
         try:
