@@ -4,6 +4,7 @@ checks shared by the two integrators (convergence order, energy error, zero-cros
 ``helpers`` (pytest puts tests/ on sys.path)."""
 
 import contextlib
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -404,3 +405,25 @@ def convergence_order(setup, dt=0.025, n_samples=21, levels=(1, 2, 4, 8), ref=64
     h = np.array([dt / (base * m) for m in levels])
     err = np.array([np.abs(runs[m] - runs[ref]).max() for m in levels])
     return np.polyfit(np.log(h), np.log(err), 1)[0], err
+
+
+@dataclass(frozen=True, eq=False)
+class Drifting:
+    """A lab model (``softrnn.lab``'s fit/predict/reach protocol) exact on the commands it was fitted on
+    and wrong by ``c`` [m] per standard deviation of the distance from them (along y), its first input
+    read as the tip's x [mm]: a learned model extrapolating."""
+
+    c: float = 1e-3
+    reach: object = None
+    name: str = "drifting"
+
+    def fit(self, sessions):
+        from softrnn.lab.uncertainty import InputDistance
+
+        return replace(self, reach=InputDistance.of(sessions))
+
+    def predict(self, s):
+        return np.column_stack([s.inputs[:, 0] * 1e-3, self.c * self.reach(s), np.zeros(s.n_rows)])
+
+    def describe(self):
+        return {"kind": "drifting"}

@@ -23,7 +23,7 @@ from softrnn.lab.uncertainty import (
     with_interval,
 )
 
-from helpers import tendon_robot_truth
+from helpers import Drifting, tendon_robot_truth
 
 
 def _labelled(lengths, path="", start=0.0):
@@ -144,25 +144,6 @@ def test_constant_velocity_states_an_interval_that_grows_along_the_run():
     assert np.all(r_fast[1:] > r_slow[1:])
 
 
-@dataclass(frozen=True, eq=False)
-class _Extrapolating:
-    """A model exact on the commands it was fitted on and wrong by ``c`` [m] per standard deviation of the
-    distance from them (along y), like a learned model out of range."""
-
-    c: float = 20e-3
-    reach: InputDistance | None = None
-    name: str = "extrapolating"
-
-    def fit(self, sessions):
-        return replace(self, reach=InputDistance.of(sessions))
-
-    def predict(self, s):
-        return np.column_stack([s.inputs[:, 0] * 1e-3, self.c * self.reach(s), np.zeros(s.n_rows)])
-
-    def describe(self):
-        return {"kind": "extrapolating"}
-
-
 def _levels(levels, seed, rows=15, noise=0.5e-3):
     """A session of one pattern per command level of ``levels`` [mm], ``rows`` rows each, the tip at
     (u mm, 0, 0) plus marker noise ``noise`` [m] per axis."""
@@ -184,14 +165,14 @@ def test_q_comes_from_the_cross_fit_rows_near_the_data_and_the_farther_ones_set_
     second = np.concatenate([shared[::-1], [-2.6, -1.3, 1.3, 2.6]])
     train = _levels(np.concatenate([first, second]), 0)
     held = _levels([6.8, 7.2, 7.6, 8.0], 1)
-    model = WithInterval(_Extrapolating().fit([train]), InputDistance.of([train]))
+    model = WithInterval(Drifting(20e-3).fit([train]), InputDistance.of([train]))
     ratio, d = cross_fit(model, [train])
     assert np.mean(d == 0.0) == pytest.approx(2 / 3)
     out = calibrate(model, [train], [held])
     assert out["interval_q"] == pytest.approx(0.5e-3 * 2.5003, rel=0.15)
     assert quantile(ratio) > 3.0 * out["interval_q"]           # every cross-fit row: the far ones widen q
     assert 0.0 < out["interval_slope"] <= 1.5 * model.model.c
-    calibrated = replace(WithInterval(_Extrapolating().fit([train, held]), InputDistance.of([train, held])), **out)
+    calibrated = replace(WithInterval(Drifting(20e-3).fit([train, held]), InputDistance.of([train, held])), **out)
     revisit, beyond = _levels(np.tile(np.unique(first), 3), 2), _levels(np.linspace(8.4, 9.6, 40), 3)
     inside = [np.mean(np.linalg.norm(tip - s.tip, axis=1) <= radius)
               for s in (revisit, beyond) for tip, radius in [calibrated.predict_interval(s)]]

@@ -26,7 +26,7 @@ from softrnn.lab.uncertainty import (
     with_interval,
 )
 
-from helpers import tendon_recording, tendon_robot_truth
+from helpers import Drifting, tendon_recording, tendon_robot_truth
 
 SMALL = NetOptions(members=3, steps=300, hidden=16)
 
@@ -182,25 +182,6 @@ def test_too_few_hold_out_rows_for_the_quantile_give_an_unbounded_interval(noisy
     assert np.all(model.predict_interval(fresh)[1] == math.inf)
 
 
-@dataclass(frozen=True, eq=False)
-class _Drifting:
-    """A model exact on its training rows and wrong by ``c`` [m] per standard deviation of the distance
-    from them (along y): a learned model extrapolating."""
-
-    c: float = 1e-3
-    reach: InputDistance | None = None
-    name: str = "drifting"
-
-    def fit(self, sessions):
-        return replace(self, reach=InputDistance.of(sessions))
-
-    def predict(self, s):
-        return np.column_stack([s.inputs[:, 0] * 1e-3, self.c * self.reach(s), np.zeros(s.n_rows)])
-
-    def describe(self):
-        return {"kind": "drifting"}
-
-
 def _line(u, seed, noise=0.5e-3):
     """A recording of the tip (u mm, 0, 0) with ``noise`` [m] per axis, one input ``u`` (T,) [mm]."""
     tip = np.column_stack([u * 1e-3, np.zeros((len(u), 2))]) + np.random.default_rng(seed).normal(0, noise, (len(u), 3))
@@ -215,7 +196,7 @@ def test_two_regime_intervals_hold_90_percent_near_the_training_rows_and_beyond(
     holds 34-74 % of them at c = 0.2 and 1 mm per standard deviation, 100 % at 5 mm)."""
     rng = np.random.default_rng(0)
     fit, held = _line(rng.uniform(-1, 1, 800), 1), _line(rng.uniform(1, 3, 300), 2)
-    family = _Drifting(c)
+    family = Drifting(c)
     model = with_interval(family.fit([fit, held]), family.fit([fit]), [fit], [held], [fit, held], fitted=True)
     assert model.interval_q == pytest.approx(0.5e-3 * 2.5003, rel=0.1)
     assert 0.0 < model.interval_slope <= 1.5 * c

@@ -8,7 +8,6 @@ same process. Also the dynamic families, fitted in this process (``dynamic_model
 
 from __future__ import annotations
 
-import math
 import zlib
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -18,7 +17,7 @@ import numpy as np
 from ..learned.metrics import tip_errors
 from ._pool import WorkerPool
 from .dynamic_families import DynamicHybrid, DynamicPhysics
-from .families import holdout_split
+from .families import finite_or_inf, holdout_split
 from .nets import fit_hybrid, fit_learned_map, fit_node, fit_sequence
 from .recording import Recording
 
@@ -101,7 +100,7 @@ def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, opt
     ran = run_model(name, model, validation, scores)
     if no_syn:
         ran.details["synthetic_data"] = f"not used: {no_syn}"
-    return ran, min(scores.values(), key=lambda v: v if math.isfinite(v) else math.inf)
+    return ran, min(scores.values(), key=finite_or_inf)
 
 
 def collect_families(jobs: list, pool: WorkerPool, out, step) -> dict:

@@ -12,7 +12,6 @@ suite of robots (``softrnn.lab.suite``) refuses a bad robot before it starts.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -32,6 +31,7 @@ from .families import (
     StaticPolynomial,
     choose,
     displacements,
+    finite_or_inf,
     held_rows,
     holdout_split,
     parsimonious,
@@ -250,11 +250,6 @@ class Choice:
     validation_tip_rmse_mm: float | None = None
 
 
-def _finite_or_inf(value: float) -> float:
-    """``value``, inf where it is not finite (a run that diverged scores worst)."""
-    return value if math.isfinite(value) else math.inf
-
-
 @dataclass(frozen=True)
 class BenchmarkResult:
     """What ``run_benchmark`` found (``to_dict()`` for the JSON).
@@ -295,7 +290,7 @@ class BenchmarkResult:
 
     @staticmethod
     def _best(table: dict) -> str | None:
-        return min(table, key=lambda k: _finite_or_inf(table[k].tip_rmse_mm)) if table else None
+        return min(table, key=lambda k: finite_or_inf(table[k].tip_rmse_mm)) if table else None
 
     def to_dict(self) -> dict:
         """The benchmark's JSON (docs/guide/real-robots.md)."""

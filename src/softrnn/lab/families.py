@@ -336,6 +336,11 @@ def holdout_split(sessions) -> tuple[list, list]:
     return _runs(s, edges, set(range(len(parts))) - held), _runs(s, edges, held)
 
 
+def finite_or_inf(value: float) -> float:
+    """``value``, inf where it is not finite: a run that diverged (NaN) scores worst."""
+    return value if math.isfinite(value) else math.inf
+
+
 def parsimonious(scores: dict, rows: int):
     """The label of ``scores`` ({label: hold-out RMSE [mm]}, listed simplest first) to choose, by the
     one-standard-error rule: the first whose score is within one standard error of the best score,
@@ -374,7 +379,7 @@ def choose(candidates: dict, sessions, split: tuple | None = None) -> Choice:
         pred = np.vstack([model.predict(s) for s in held])
         ref = np.vstack([s.tip for s in held])
         score = tip_errors(pred, ref).rmse_mm
-        scores[label] = score if math.isfinite(score) else math.inf
+        scores[label] = finite_or_inf(score)
     return Choice(chosen=parsimonious(scores, held_rows(held)), scores=scores)
 
 
