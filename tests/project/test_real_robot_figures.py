@@ -29,3 +29,14 @@ def test_quoted_figures_equal_the_committed_report(page):
                                      round(e["tip_rmse_pct_of_length"], 2)), name
     ratio = f"{report['ratio_best_model_to_best_baseline']:.2f}"
     assert ratio in (ROOT / page).read_text()
+
+
+def test_quoted_session_agreement_equals_the_committed_report():
+    """The guide's figures of how far the sessions agree are the report's."""
+    agreement = json.loads(REPORT.read_text())["session_agreement"]
+    text = (ROOT / "docs/guide/real-robots.md").read_text()
+    for key in ("training_only", "validation_only", "training_and_validation"):
+        entry = agreement[key]
+        assert f"{entry['validation_tip_rmse_mm']:.2f} mm" in text, key
+        assert f"{entry['validation_tip_mean_aligned_pct_of_length']:.2f} %" in text, key
+    assert f"{agreement['training_and_validation']['training_tip_rmse_mm']:.2f} mm" in text

@@ -341,6 +341,12 @@ def format_benchmark(r: dict) -> str:
         c = r["chosen_on_training"]
         lines.append(f"  chosen on the training sessions' hold-out part: {c['family']} "
                      f"(validation tip RMSE {c['validation_tip_rmse_mm']:.2f} mm)")
+    if r.get("session_agreement"):
+        a = r["session_agreement"]
+        lines.append("  session agreement, the physics' tip RMSE over the validation session calibrated on: "
+                     f"the training sessions {a['training_only']['validation_tip_rmse_mm']:.2f} mm, every session "
+                     f"{a['training_and_validation']['validation_tip_rmse_mm']:.2f} mm, the validation session alone "
+                     f"{a['validation_only']['validation_tip_rmse_mm']:.2f} mm (a diagnostic; no choice reads it)")
     lines.append(f"  {r['seconds']:.0f} s")
     return "\n".join(lines)
 

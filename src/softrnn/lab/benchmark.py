@@ -5,7 +5,9 @@ sessions only, free running over a validation session from its start on the comm
 ``softrnn lab benchmark`` (docs/guide/real-robots.md): the robot, per model and per baseline the
 Euclidean tip RMSE and mean error [mm] and as % of the robot's length, raw and after removing the
 constant offset over the session, the coverage of a stated 90 % uncertainty, the best of each and
-their ratio, the family chosen on the training sessions' hold-out part, and the time taken.
+their ratio, the family chosen on the training sessions' hold-out part, how far the sessions agree
+for the physics' form (``session_agreement``, a diagnostic that reads the validation session and
+feeds no choice), and the time taken.
 ``prepare`` does every check on the input before any fit (``run_prepared`` then runs), so that a
 suite of robots (``softrnn.lab.suite``) refuses a bad robot before it starts.
 """
@@ -28,6 +30,7 @@ from .families import (
     LinearARXFamily,
     NodeOptions,
     PersistenceFamily,
+    Physics,
     StaticPolynomial,
     choose,
     displacements,
@@ -270,6 +273,8 @@ class BenchmarkResult:
         the worker processes it ran in (``BenchmarkOptions.workers``)
     stage_seconds : dict of str to dict
         {stage: {"cpu": CPU time [s], "wall": wall time [s]}} of the stages that ran apart (``WorkerPool``)
+    agreement : dict
+        ``session_agreement``'s report (empty where the physics did not run)
     predictions : dict of str to ndarray
         each model's and baseline's predicted tip path (T, 3) [m]
     validation : Recording or None
@@ -285,6 +290,7 @@ class BenchmarkResult:
     seconds: float
     workers: int = 1
     stage_seconds: dict[str, dict] = field(default_factory=dict)
+    agreement: dict = field(default_factory=dict)
     predictions: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     validation: Recording | None = field(default=None, repr=False)
 
@@ -297,13 +303,15 @@ class BenchmarkResult:
         best_model, best_baseline = self._best(self.models), self._best(self.baselines)
         ratio = (self.models[best_model].tip_rmse_mm / self.baselines[best_baseline].tip_rmse_mm
                  if best_model and best_baseline else None)
-        return {"robot": self.robot.to_dict(), "models": {k: v.to_dict() for k, v in self.models.items()},
-                "baselines": {k: v.to_dict() for k, v in self.baselines.items()},
-                "best_model": best_model, "best_baseline": best_baseline,
-                "ratio_best_model_to_best_baseline": ratio,
-                "chosen_on_training": {} if self.chosen_on_training is None else asdict(self.chosen_on_training),
-                "skipped": self.skipped, "details": self.details, "seconds": round(self.seconds, 1),
-                "workers": self.workers, "stage_seconds": self.stage_seconds}
+        out = {"robot": self.robot.to_dict(), "models": {k: v.to_dict() for k, v in self.models.items()},
+               "baselines": {k: v.to_dict() for k, v in self.baselines.items()},
+               "best_model": best_model, "best_baseline": best_baseline,
+               "ratio_best_model_to_best_baseline": ratio,
+               "chosen_on_training": {} if self.chosen_on_training is None else asdict(self.chosen_on_training)}
+        if self.agreement:
+            out["session_agreement"] = self.agreement
+        return out | {"skipped": self.skipped, "details": self.details, "seconds": round(self.seconds, 1),
+                      "workers": self.workers, "stage_seconds": self.stage_seconds}
 
 
 def _physics_reason(sessions, robot_inputs: int) -> str | None:
@@ -447,11 +455,40 @@ def _baselines(train: list[Recording], split: tuple, out: _Table) -> None:
     record("static_map", StaticPolynomial(int(d), float(r)), c.scores)
 
 
+AGREEMENT = ("how far the sessions agree for the physics' form: the physics calibrated on the training sessions, "
+             "refined on the validation session alone and on every session together, each run over the validation "
+             "session (a diagnostic: it reads the validation session and feeds no choice)")
+"""What ``session_agreement`` reports, in words (its ``what``)."""
+
+
+def session_agreement(physics: Physics, train: list[Recording], validation: Recording, length: float) -> dict:
+    """How far the training sessions and the validation session agree, for the physics' form:
+    ``physics`` (calibrated on ``train``) refined on ``validation`` alone and on ``train`` and
+    ``validation`` together (``Physics.refit``), each run over ``validation`` (and the latter over
+    ``train``). Three figures then split the calibrated physics' validation error: what its form misses
+    on the validation rows alone (``validation_only``), what no one set of its parameters can fit in
+    both at once (``training_and_validation``), and the rest, which a model fitted on the training
+    sessions alone could still gain. It reads the validation session, so nothing is chosen on it.
+    Returns the JSON's ``session_agreement``: the tip RMSE and offset-aligned mean [mm, % of the length]
+    over the validation session per refit, the training rows' tip RMSE [mm] of both refits."""
+    def scores(fitted: Physics) -> dict:
+        s = TipScore.of(fitted.predict(validation), validation.tip, length)
+        fit = tip_errors(np.vstack([fitted.predict(t) for t in train]), np.vstack([t.tip for t in train]))
+        return {"validation_tip_rmse_mm": s.tip_rmse_mm, "validation_tip_mean_aligned_mm": s.tip_mean_aligned_mm,
+                "validation_tip_mean_aligned_pct_of_length": s.tip_mean_aligned_pct_of_length,
+                "training_tip_rmse_mm": round(fit.rmse_mm, 4)}
+    return {"what": AGREEMENT, "variant": physics.options.variant,
+            "training_only": scores(physics),
+            "validation_only": scores(physics.refit([validation])),
+            "training_and_validation": scores(physics.refit(list(train) + [validation]))}
+
+
 def _models(train: list[Recording], split: tuple, families: list, robot, options: BenchmarkOptions, out: _Table,
-            step, pool: WorkerPool) -> tuple[dict, list]:
+            step, pool: WorkerPool) -> tuple[dict, list, object]:
     """Fit the physics (its options chosen on the hold-out part, ``split``: fitting part, held part), its
     variants at once in ``pool``'s workers, run it, and hand the learned families to the workers. Returns
-    the physics' hold-out score [mm] and the families' jobs (``_stages.collect_families`` gathers them)."""
+    the physics' hold-out score [mm], the families' jobs (``_stages.collect_families`` gathers them) and the
+    job of ``session_agreement`` (None where the physics does not run)."""
     fit_part, held = split
     holdout = {}
     physics = held_physics = None
@@ -462,12 +499,15 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
         held_physics, physics = pick.held, pick.physics
     jobs = [pool.submit(name, family_run, name, train, (held_physics, physics), syn, no_syn, options, out.validation)
             for name in LONGEST_FIRST if name in families]
+    agreement = None
     if "physics" in families:
+        agreement = pool.submit("physics session agreement", session_agreement, physics, train, out.validation,
+                                options.length)
         holdout["physics"] = HeldScore(held)(held_physics)
         out.record(out.models, "physics", with_interval(physics, held_physics, *split, train, fitted=True),
                    pick.holdout_rmse_mm)
         step("physics")
-    return holdout, jobs
+    return holdout, jobs, agreement
 
 
 @dataclass(frozen=True)
@@ -567,10 +607,11 @@ def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -
     _baselines(train, split, out)
     step("baselines")
     with WorkerPool(options.workers) as pool:
-        holdout, jobs = _models(train, split, families, robot, options, out, step, pool)
+        holdout, jobs, agreement = _models(train, split, families, robot, options, out, step, pool)
         # the dynamic families here, while the workers fit the learned ones
         dynamic_holdout = dynamic_models(train, list(prepared.dynamic), prepared.dynamic_robot, dynamic, step)
         holdout.update(collect_families(jobs, pool, out, step))
+        agreement = {} if agreement is None else agreement.get()
     holdout.update(dynamic_holdout)
     out.merge(dynamic)
     chosen = None
@@ -588,5 +629,5 @@ def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -
     return BenchmarkResult(robot=robot_info, models=out.models, baselines=out.baselines,
                            chosen_on_training=chosen, details=out.details, skipped=prepared.skipped,
                            seconds=prepared.seconds + time.perf_counter() - t0, workers=pool.workers,
-                           stage_seconds=pool.seconds(),
+                           stage_seconds=pool.seconds(), agreement=agreement,
                            predictions=out.predictions, validation=validation)
