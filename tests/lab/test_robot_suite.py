@@ -67,6 +67,11 @@ def test_suite_runs_every_robot_and_resumes_after_an_interruption(data, tmp_path
     row = next(line for line in md.splitlines() if line.startswith("| a | `physics` |"))
     per_pattern = float(row.split("|")[10])            # the pattern-wise column, after the session-wide one
     assert per_pattern == pytest.approx(a.models["physics"].tip_mean_aligned_per_pattern_pct_of_length, abs=0.006)
+    both = first["session_agreement"]["training_and_validation"]["validation_tip_rmse_mm"]
+    assert a.agreement["training_and_validation"] == both and entry["session_agreement"] == b.agreement
+    head = md.splitlines()[2:5]
+    assert "physics fitted on every session [mm]" in head[0]
+    assert float(head[2].split("|")[9]) == pytest.approx(both, abs=0.006)
 
     # another session for a: its kept report is not reused
     changed = [_job(data, "a", "b.csv", "av.csv"), jobs[1]]

@@ -80,6 +80,10 @@ class SuiteRow:
         the robot's benchmark wall time [s]
     resumed : bool
         kept from an earlier run
+    agreement : dict or None
+        the physics' tip RMSE over the validation session [mm], calibrated on the training sessions,
+        on every session and on the validation session alone (the report's ``session_agreement``; None
+        where the physics did not run)
     """
 
     name: str
@@ -94,6 +98,7 @@ class SuiteRow:
     best_baseline: str | None
     seconds: float
     resumed: bool = False
+    agreement: dict | None = None
 
     @classmethod
     def from_report(cls, name: str, path, report: dict, resumed: bool = False) -> SuiteRow:
@@ -106,7 +111,7 @@ class SuiteRow:
                    baselines={k: TipScore(**v) for k, v in report["baselines"].items()},
                    chosen=Choice(**report["chosen_on_training"]) if report["chosen_on_training"] else None,
                    best_model=report["best_model"], best_baseline=report["best_baseline"],
-                   seconds=report["seconds"], resumed=resumed)
+                   seconds=report["seconds"], resumed=resumed, agreement=_agreement(report))
 
     @property
     def chosen_to_best_baseline(self) -> float | None:
@@ -126,7 +131,14 @@ class SuiteRow:
                 "chosen_on_training": {} if self.chosen is None else {
                     "family": self.chosen.family, "validation_tip_rmse_mm": self.chosen.validation_tip_rmse_mm},
                 "ratio_chosen_to_best_baseline": None if ratio is None else round(ratio, 4),
-                "seconds": self.seconds, "resumed": self.resumed}
+                "session_agreement": self.agreement, "seconds": self.seconds, "resumed": self.resumed}
+
+
+def _agreement(report: dict) -> dict | None:
+    """{calibrated on: the physics' validation tip RMSE [mm]} of a report's ``session_agreement``."""
+    found = report.get("session_agreement")
+    return None if not found else {k: found[k]["validation_tip_rmse_mm"]
+                                   for k in ("training_only", "training_and_validation", "validation_only")}
 
 
 _COLUMNS = (("tip RMSE [mm]", "tip_rmse_mm"), ("mean [mm]", "tip_mean_mm"),
@@ -167,13 +179,14 @@ class SuiteResult:
         every model and baseline of every robot."""
         lines = [f"# {self.title}", "",
                  "| robot | training rows | validation rows | chosen on training | its tip RMSE [mm] "
-                 "| best baseline | chosen / best baseline | best model | time [s] |", "|---" * 9 + "|"]
+                 "| best baseline | chosen / best baseline | best model | physics fitted on every session [mm] "
+                 "| time [s] |", "|---" * 10 + "|"]
         for r in self.rows:
             chosen = r.chosen.family if r.chosen else "–"
             rmse = r.chosen.validation_tip_rmse_mm if r.chosen else None
             lines.append(f"| {r.name} | {r.training_rows} | {r.validation_rows} | {chosen} | {_cell(rmse)} | "
                          f"{r.best_baseline or '–'} | {_cell(r.chosen_to_best_baseline)} | {r.best_model or '–'} | "
-                         f"{r.seconds:.0f} |")
+                         f"{_cell(r.agreement and r.agreement['training_and_validation'])} | {r.seconds:.0f} |")
         lines += ["", "| robot | model | " + " | ".join(t for t, _ in _COLUMNS) + " |",
                   "|---|---|" + "---|" * len(_COLUMNS)]
         for r in self.rows:
@@ -183,6 +196,8 @@ class SuiteResult:
                              else f"{score.coverage_90 * 100:.0f} %" for _, a in _COLUMNS]
                     lines.append(f"| {r.name} | `{name}`{kind} | " + " | ".join(cells) + " |")
         lines += ["", "Free run over each robot's validation session from its start on the commands alone; "
+                      "physics fitted on every session: its tip RMSE over the validation session, calibrated on "
+                      "the training and validation sessions together (how far the sessions agree, a diagnostic); "
                       "aligned: after removing the constant offset between model and measurement over the "
                       "session; per pattern: after removing it over each pattern (each run of rows with one label; "
                       "– where the session has no labels); coverage: the share of rows inside the model's stated 90 % "
