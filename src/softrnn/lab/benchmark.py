@@ -466,9 +466,10 @@ def session_agreement(physics: Physics, train: list[Recording], validation: Reco
     ``physics`` (calibrated on ``train``) refined on ``validation`` alone and on ``train`` and
     ``validation`` together (``Physics.refit``), each run over ``validation`` (and the latter over
     ``train``). Three figures then split the calibrated physics' validation error: what its form misses
-    on the validation rows alone (``validation_only``), what no one set of its parameters can fit in
-    both at once (``training_and_validation``), and the rest, which a model fitted on the training
-    sessions alone could still gain. It reads the validation session, so nothing is chosen on it.
+    on the validation rows alone (``validation_only``), what the parameters that fit every row best
+    leave there (``training_and_validation``), and the calibration on the training sessions alone
+    (``training_only``, the benchmark's physics). It reads the validation session, so nothing is chosen
+    on it.
     Returns the JSON's ``session_agreement``: the tip RMSE and offset-aligned mean [mm, % of the length]
     over the validation session per refit, the training rows' tip RMSE [mm] of both refits."""
     def scores(fitted: Physics) -> dict:
