@@ -183,7 +183,30 @@ def test_the_committed_quick_reference_is_a_pinned_quick_run_of_every_step():
     run = json.loads((folder / "run.json").read_text())
     assert report["quick"] is True, "CI compares a quick run: the quick reference must be one"
     assert report["machine"]["numerics"] == PINNED_NUMERICS, "made without the pinned code paths"
+    assert report["machine"]["numerics_in_force"]["openblas"] == "Haswell"
+    assert "AVX512" not in report["machine"]["numerics_in_force"]["numpy_simd"]
+    assert report["machine"]["numerics_in_force"]["numpy_simd"] != "X86_V4"
     assert set(report["step_seconds"]) == {"cases", "node_models", "manipulator", "dynamic_model", "tendons",
                                            "magnetic", "control", "fig13", "fig14", "benchmark"}
     assert run["commit"] and run["command"].startswith("softrnn reproduce --quick")
     assert len(cmp.figures(report)) > 1000
+
+
+def test_moved_figures_name_the_code_paths_that_differ_from_the_reference(tmp_path):
+    ref = _report()
+    ref["machine"].update(numpy="2.4.6", numerics={"OPENBLAS_CORETYPE": "Haswell"},
+                          numerics_in_force={"numpy_simd": "X86_V3", "openblas": "Haswell"})
+    run = copy.deepcopy(ref)
+    run["machine"].update(cpu="other", numerics_in_force={"numpy_simd": "AVX512_SKX", "openblas": "SkylakeX"})
+    same, text = cmp.check(_write(tmp_path / "run", run), _write(tmp_path / "ref", ref))
+    assert same and "code paths" not in text                     # nothing moved: no diagnosis
+    run["fig14"]["rmse_mm"][0][1] = 0.031
+    same, text = cmp.check(_write(tmp_path / "run", run), _write(tmp_path / "ref", ref))
+    assert not same
+    assert text.splitlines()[-1] == ("the run's numeric code paths differ from the reference's: "
+                                     "numerics_in_force.numpy_simd: X86_V3 -> AVX512_SKX; "
+                                     "numerics_in_force.openblas: Haswell -> SkylakeX; cpu: x86 -> other")
+    assert cmp.code_path_differences(ref, copy.deepcopy(ref)) == []
+    run = copy.deepcopy(ref)
+    run["machine"]["cpu"] = "other"                                # another processor, the same code paths
+    assert cmp.code_path_differences(run, ref) == []

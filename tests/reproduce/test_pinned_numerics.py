@@ -66,3 +66,62 @@ def test_pin_blas_threads_overrides_the_environment_in_loaded_and_later_librarie
         assert os.environ["OPENBLAS_NUM_THREADS"] == str(threads.REPRODUCE_BLAS_THREADS)   # for later ones
         blas = [i for i in threadpool_info() if i["user_api"] == "blas"]
         assert blas and all(i["num_threads"] == threads.REPRODUCE_BLAS_THREADS for i in blas)
+
+
+@pytest.mark.parametrize("release,names", [
+    ("2.4.6", "X86_V4 AVX512_ICL AVX512_SPR"),
+    ("2.1.0", "AVX512F AVX512CD AVX512_KNL AVX512_KNM AVX512_SKX AVX512_CLX AVX512_CNL AVX512_ICL AVX512_SPR"),
+    ("1.26.4", "AVX512F AVX512CD AVX512_KNL AVX512_KNM AVX512_SKX AVX512_CLX AVX512_CNL AVX512_ICL"),
+])
+def test_numpy_avx512_targets_are_named_as_the_installed_release_names_them(monkeypatch, release, names):
+    import importlib.metadata
+
+    monkeypatch.setattr(importlib.metadata, "version", lambda name: release)
+    assert threads._numpy_avx512() == names
+
+
+def test_the_installed_numpy_knows_every_target_it_is_told_to_leave_out():
+    import numpy
+
+    try:
+        from numpy._core._multiarray_umath import __cpu_dispatch__
+    except ImportError:
+        from numpy.core._multiarray_umath import __cpu_dispatch__
+    assert set(threads._numpy_avx512().split()) <= set(__cpu_dispatch__), numpy.__version__
+
+
+_PINS_FIRST = """
+import json, sys
+from softrnn.learned import threads
+threads.PINNED_NUMERICS.update(NPY_DISABLE_CPU_FEATURES=sys.argv[1], OPENBLAS_CORETYPE="Sandybridge")
+assert "numpy" not in sys.modules
+from softrnn.cli.main import main
+try:
+    main(["reproduce", "--quick", "-o", sys.argv[2], "--compare", sys.argv[3]])  # refused: no such reference
+except SystemExit:
+    pass
+print(json.dumps(threads.numerics_in_force()))
+"""
+
+
+def test_softrnn_reproduce_pins_numpy_and_openblas_before_numpy_loads(tmp_path):
+    """The command sets the pins before anything it runs imports NumPy: pins it could only set after
+    would leave NumPy on the processor's code paths. Pins that every processor obeys stand in for the
+    real ones here (every dispatch target off, OpenBLAS's Sandybridge kernels)."""
+    import subprocess
+    import sys
+
+    import numpy
+
+    try:
+        from numpy._core._multiarray_umath import __cpu_dispatch__
+    except ImportError:
+        from numpy.core._multiarray_umath import __cpu_dispatch__
+    env = {k: v for k, v in os.environ.items() if k not in threads.PINNED_NUMERICS}
+    done = subprocess.run([sys.executable, "-c", _PINS_FIRST, " ".join(__cpu_dispatch__), str(tmp_path / "out"),
+                           str(tmp_path / "nowhere")], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    import json
+
+    in_force = json.loads(done.stdout.strip().splitlines()[-1])
+    assert in_force == {"numpy_simd": "baseline", "openblas": "Sandybridge"}, numpy.__version__

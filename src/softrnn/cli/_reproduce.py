@@ -24,6 +24,14 @@ def add_args(p):
                         "folder or report.json REF (e.g. docs/results/reference-quick); exit 1 if one moved")
 
 
+def before_libraries() -> None:
+    """Pin the numeric libraries' code paths (``learned.threads.pin_numerics``) before the command
+    imports NumPy, which reads two of them when it loads; the report says which held."""
+    from ..learned.threads import pin_numerics
+
+    pin_numerics()
+
+
 def run(args) -> int:
     # resumable by design: its own folder is continued, anything else is refused
     for extra in ("learn", "dask"):     # every step is needed: refuse before the first one runs

@@ -164,8 +164,11 @@ def main(argv=None) -> int:
 
 
 def _main(args) -> int:
+    module = sys.modules.get(args.func.__module__)
     try:
-        if getattr(sys.modules.get(args.func.__module__), "READS_DATASETS", True):
+        if hasattr(module, "before_libraries"):    # what must precede NumPy's import (reproduce's pins)
+            module.before_libraries()
+        if getattr(module, "READS_DATASETS", True):
             # imported when a command runs: registers the scenario-record builder that reads older data files
             from .. import scenarios  # noqa: F401
 

@@ -11,13 +11,43 @@ from contextlib import contextmanager
 
 from threadpoolctl import threadpool_limits
 
-PINNED_NUMERICS = {"MKL_CBWR": "COMPATIBLE", "ONEDNN_MAX_CPU_ISA": "AVX2", "ATEN_CPU_CAPABILITY": "avx2"}
-"""The code path of each numeric library under PyTorch, fixed instead of chosen by the processor: MKL's
-conditional numerical reproducibility branch (``COMPATIBLE``, the one branch that gives the same
-results on Intel and other x86 processors), oneDNN's instruction set (its LSTM and linear kernels) and
-ATen's vectorised kernels (both AVX2, which every x86-64 processor since 2013 has). Unpinned, MKL and
-oneDNN choose AVX-512 kernels on one processor and AVX2 ones on another, whose float32 sums round
-differently in the last digit; training amplifies that to the 4th-6th digit of its figures."""
+
+def _numpy_avx512() -> str:
+    """NumPy's AVX-512 dispatch targets, by the names of the NumPy installed (read from its metadata,
+    not imported: the variable naming them is read when NumPy loads). NumPy 2.4 groups them by
+    x86-64 level (``X86_V4``); earlier releases name each extension. NumPy warns (an ``ImportWarning``,
+    silent by default) of a name it does not know, so each release is given only its own."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        major, minor = (int(part) for part in version("numpy").split(".")[:2])
+    except (PackageNotFoundError, ValueError):
+        major, minor = 2, 4
+    if (major, minor) >= (2, 4):
+        return "X86_V4 AVX512_ICL AVX512_SPR"
+    return "AVX512F AVX512CD AVX512_KNL AVX512_KNM AVX512_SKX AVX512_CLX AVX512_CNL AVX512_ICL" + (
+        " AVX512_SPR" if major >= 2 else "")
+
+
+PINNED_NUMERICS = {"MKL_CBWR": "COMPATIBLE", "ONEDNN_MAX_CPU_ISA": "AVX2", "ATEN_CPU_CAPABILITY": "avx2",
+                   "NPY_DISABLE_CPU_FEATURES": _numpy_avx512(), "OPENBLAS_CORETYPE": "Haswell"}
+"""The code path of each numeric library, fixed instead of chosen by the processor. Under PyTorch:
+MKL's conditional numerical reproducibility branch (``COMPATIBLE``, the one branch that gives the
+same results on Intel and other x86 processors), oneDNN's instruction set (its LSTM and linear
+kernels) and ATen's vectorised kernels (both AVX2, which every x86-64 processor since 2013 has).
+Under NumPy and SciPy: NumPy's universal functions (``sin``, ``exp``, ``tanh``, ``arctan2``, ...)
+without their AVX-512 versions, which round differently in the last bit from the AVX2 ones, and
+OpenBLAS's kernels (its matrix products, and the LAPACK solves, least squares and eigenvalues built
+on them) at Haswell's, the AVX2 kernels, where it would take its AVX-512 (SkylakeX) kernels on a
+processor that has them. Unpinned, a processor with AVX-512 and one without give float sums and
+functions that differ in the last digit; training and fits amplify that to the 4th-6th digit of
+their figures, and a choice on a near tie (a ridge penalty) flips. ``NPY_DISABLE_CPU_FEATURES``
+and ``OPENBLAS_CORETYPE`` are read when NumPy loads: ``softrnn reproduce`` sets them before
+(``pin_numerics`` at the command's start); ``numerics_in_force`` tells what a process has."""
+
+IMPORT_TIME_NUMERICS = ("NPY_DISABLE_CPU_FEATURES", "OPENBLAS_CORETYPE")
+"""The pins of ``PINNED_NUMERICS`` read once, when NumPy (and its OpenBLAS) loads."""
+
 
 PASSIVE_WAITS = {"OMP_WAIT_POLICY": "PASSIVE"}
 """OpenMP's waiting policy (GNU OpenMP, under PyTorch, MKL, oneDNN and numba's thread pool): a thread
@@ -53,11 +83,28 @@ def torch_threads(threads: int | None):
 
 def pin_numerics() -> dict[str, str]:
     """Set each variable of ``PINNED_NUMERICS`` that the environment does not set already (a value
-    the user set is kept) and return the values in force. Effective only before PyTorch's first
-    operation in this process; processes started after inherit them."""
+    the user set is kept) and return the values asked for. Effective only before PyTorch's first
+    operation in this process, and for ``IMPORT_TIME_NUMERICS`` before NumPy's import; processes
+    started after inherit them."""
     for name, value in PINNED_NUMERICS.items():
         os.environ.setdefault(name, value)
     return {name: os.environ[name] for name in PINNED_NUMERICS}
+
+
+def numerics_in_force() -> dict[str, str | None]:
+    """The code paths NumPy and its BLAS took in this process: ``numpy_simd``, NumPy's highest
+    dispatched instruction set found (e.g. ``X86_V3``, ``AVX512_SKX``), and ``openblas``, the
+    kernels of each OpenBLAS loaded (e.g. ``Haswell``; None where threadpoolctl does not tell)."""
+    from threadpoolctl import threadpool_info
+
+    try:
+        from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    except ImportError:      # NumPy 1.x
+        from numpy.core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    found = [name for name in __cpu_dispatch__ if __cpu_features__.get(name)]
+    kernels = sorted({str(info.get("architecture")) for info in threadpool_info()
+                      if info.get("internal_api") == "openblas"})
+    return {"numpy_simd": found[-1] if found else "baseline", "openblas": ",".join(kernels) or None}
 
 
 REPRODUCE_BLAS_THREADS = 2

@@ -161,7 +161,33 @@ def check(run_path, reference_path) -> tuple[bool, str]:
         return False, (f"{run_path} is a {kinds.get(run.get('quick'))} run but {reference_path} a "
                        f"{kinds.get(ref.get('quick'))} one: compare like with like")
     moved = compare(run, ref)
-    return not moved, summary(moved, len(set(figures(run)) | set(figures(ref))))
+    text = summary(moved, len(set(figures(run)) | set(figures(ref))))
+    differences = code_path_differences(run, ref)
+    if moved and differences:
+        text += "\nthe run's numeric code paths differ from the reference's: " + "; ".join(differences)
+    return not moved, text
+
+
+CODE_PATHS = ("numpy", "numba", "torch", "python", "numerics", "numerics_in_force", "torch_threads", "blas_threads")
+"""The entries of a report's ``machine`` that decide its figures' last digits (libraries' versions,
+the pinned and the actual code paths, thread counts), named when figures moved (``check``)."""
+
+
+def code_path_differences(run: dict, reference: dict) -> list[str]:
+    """``entry: reference -> run`` for each entry of ``CODE_PATHS`` (and each of its keys) in which
+    the two reports' ``machine`` differ; the processor's name too when anything else does."""
+    a, b = reference.get("machine") or {}, run.get("machine") or {}
+    out = []
+    for name in CODE_PATHS:
+        x, y = a.get(name, MISSING), b.get(name, MISSING)
+        if isinstance(x, dict) and isinstance(y, dict):
+            out += [f"{name}.{k}: {x.get(k, MISSING)} -> {y.get(k, MISSING)}"
+                    for k in sorted(set(x) | set(y)) if x.get(k, MISSING) != y.get(k, MISSING)]
+        elif x != y:
+            out.append(f"{name}: {x} -> {y}")
+    if out and a.get("cpu") != b.get("cpu"):
+        out.append(f"cpu: {a.get('cpu', MISSING)} -> {b.get('cpu', MISSING)}")
+    return out
 
 
 def _commit() -> str:

@@ -26,7 +26,14 @@ from pathlib import Path
 
 from .. import __version__
 from ..files import atomic_write_text
-from ..learned.threads import REPRODUCE_TORCH_THREADS, passive_waits, pin_blas_threads, pin_numerics, torch_threads
+from ..learned.threads import (
+    REPRODUCE_TORCH_THREADS,
+    numerics_in_force,
+    passive_waits,
+    pin_blas_threads,
+    pin_numerics,
+    torch_threads,
+)
 from ..paper import paper_case
 from ..progress import ProgressFactory
 from ..scenarios.cases import ASSUMPTIONS, PAPER_CASES, build_case
@@ -98,7 +105,8 @@ def reproduce(out_dir, *, quick: bool = False, progress_factory: ProgressFactory
     blas = pin_blas_threads()       # NumPy's and SciPy's sums in one order on every machine
     import torch  # noqa: F401  # optional extra: learn (PyTorch), loaded so that its threads can be set
     report = {"softrnn_version": __version__, "quick": quick,
-              "machine": {**machine_info(), "numerics": numerics, "torch_threads": REPRODUCE_TORCH_THREADS,
+              "machine": {**machine_info(), "numerics": numerics, "numerics_in_force": numerics_in_force(),
+                          "torch_threads": REPRODUCE_TORCH_THREADS,
                           "blas_threads": blas, "waits": waits},
               "assumptions": ASSUMPTIONS}
     with torch_threads(REPRODUCE_TORCH_THREADS):
