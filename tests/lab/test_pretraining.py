@@ -84,6 +84,25 @@ def test_pretraining_on_the_physics_carries_to_unrecorded_combinations(two_segme
     assert seq.predict(test).shape == test.tip.shape and seq.describe()["mode"] == "finetune"
 
 
+def test_the_sequence_refit_trains_the_real_rows_again_from_its_pretraining(two_segments, monkeypatch):
+    """The cross-fit's refit starts from the network the synthetic sessions pretrained: on the rows the
+    model was fitted on it gives the model again, to the last bit, and it draws no synthetic session."""
+    from softrnn.lab import nets
+
+    physics, train, test = two_segments
+    seq = Sequence(SequenceOptions(epochs=3, hidden=8), mode="finetune", synthetic=SyntheticOptions(amount=2.0),
+                   physics=physics).fit([train])
+    drawn = []
+    monkeypatch.setattr(nets, "taught_sessions", lambda *a, **k: drawn.append(a) or [])
+    again = seq.refit([train])
+    assert np.array_equal(again.predict(test), seq.predict(test)) and drawn == []
+    half = seq.refit([train.rows(0, train.n_rows // 2)])
+    assert not np.array_equal(half.predict(test), seq.predict(test)) and drawn == []
+    real = Sequence(SequenceOptions(epochs=3, hidden=8)).fit([train])
+    assert real.pretrained is None
+    assert np.array_equal(real.refit([train]).predict(test), real.predict(test))    # mode real: fit again
+
+
 def test_modes_need_a_physics_and_synthetic_data(two_segments):
     physics, train, _ = two_segments
     without = "mode='mixed' is invalid: 'real' for the learned_map family without a calibrated physics"

@@ -80,7 +80,7 @@ def test_every_stage_is_reported_once_with_timings(runs):
         seconds = result.to_dict()["stage_seconds"]
         assert {"physics plain", "physics gravity", "physics friction", "physics gravity+friction",
                 "physics refit", "physics session agreement", "learned_map", "hybrid", "sequence",
-                "node_lstm"} == set(seconds)
+                "sequence mode=real", "node_lstm"} == set(seconds)
         assert all(v["cpu"] >= 0 and v["wall"] >= 0 for v in seconds.values())
 
 

@@ -18,7 +18,7 @@ from ..learned.metrics import tip_errors
 from ._pool import WorkerPool
 from .dynamic_families import DynamicHybrid, DynamicPhysics
 from .families import finite_or_inf, holdout_split
-from .nets import fit_hybrid, fit_learned_map, fit_node, fit_sequence
+from .nets import fit_hybrid, fit_learned_map, fit_node, fit_sequence, sequence_candidate
 from .recording import Recording
 
 LONGEST_FIRST = ("sequence", "node_lstm", "learned_map", "hybrid")
@@ -26,6 +26,10 @@ LONGEST_FIRST = ("sequence", "node_lstm", "learned_map", "hybrid")
 robot's recordings), so that no core idles while the longest runs at the end."""
 FITS = {"learned_map": fit_learned_map, "hybrid": fit_hybrid, "sequence": fit_sequence, "node_lstm": fit_node}
 """The learned families, in report order, and how each is fitted with its options chosen on the hold-out."""
+EARLY = {"sequence": ("mode=real", sequence_candidate, "real")}
+"""The candidates that need no physics, of the families on the benchmark's longest chain (the physics'
+calibration, then the sequence model): {family: (candidate, fit, its first argument)}, each fitted in a
+job of its own that the workers take while the physics calibrates, then handed to ``family_run``."""
 
 
 @dataclass(frozen=True)
@@ -89,14 +93,16 @@ def seeded(name: str):
         yield
 
 
-def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, options, validation: Recording
-               ) -> tuple[Ran, float]:
+def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, options, validation: Recording,
+               early: dict | None = None) -> tuple[Ran, float]:
     """The learned family ``name`` (a key of ``FITS``) fitted on ``train`` with its options chosen on the
     hold-out part (``pair``: the physics calibrated on the fitting part and on every training row;
     ``syn``: the synthetic data's options, ``no_syn`` why there are none), run over ``validation``;
-    and its best hold-out score [mm]."""
+    and its best hold-out score [mm]. ``early``: candidates fitted before, in jobs of their own
+    (``EARLY``: {candidate: model})."""
+    more = {"early": early} if early else {}
     with seeded(name):
-        model, scores = FITS[name](train, pair, syn, options, HeldScore(holdout_split(train)[1]))
+        model, scores = FITS[name](train, pair, syn, options, HeldScore(holdout_split(train)[1]), **more)
     ran = run_model(name, model, validation, scores)
     if no_syn:
         ran.details["synthetic_data"] = f"not used: {no_syn}"

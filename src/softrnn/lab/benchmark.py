@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import SoftrnnInputError, bad, integer, positive
 from ..learned.metrics import aligned_tip_errors, coverage, tip_errors
 from ._pool import WorkerPool
-from ._stages import LONGEST_FIRST, HeldScore, Ran, collect_families, dynamic_models, family_run, run_model
+from ._stages import EARLY, LONGEST_FIRST, HeldScore, Ran, collect_families, dynamic_models, family_run, run_model
 from .dynamic_physics import DynamicOptions, DynamicRobot
 from .families import (
     HOLDOUT_RULES,
@@ -494,11 +494,18 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
     holdout = {}
     physics = held_physics = None
     syn, no_syn = settle_synthetic(options, robot, train, families)
+    early = {}
+
+    def meanwhile():    # the candidates that need no physics, queued behind its calibration
+        for name in (f for f in EARLY if f in families):
+            label, fit, first = EARLY[name]
+            early[name] = (label, pool.submit(f"{name} {label}", fit, first, train, syn, options))
     if "physics" in families or "hybrid" in families or syn.on:
         # the variant (gravity, friction) chosen on the hold-out, refitted on every training row from there
-        pick = choose_physics(robot, options.calibration, fit_part, held, train, pool=pool)
+        pick = choose_physics(robot, options.calibration, fit_part, held, train, pool=pool, meanwhile=meanwhile)
         held_physics, physics = pick.held, pick.physics
-    jobs = [pool.submit(name, family_run, name, train, (held_physics, physics), syn, no_syn, options, out.validation)
+    jobs = [pool.submit(name, family_run, name, train, (held_physics, physics), syn, no_syn, options, out.validation,
+                        {early[name][0]: early[name][1].get()} if name in early else None)
             for name in LONGEST_FIRST if name in families]
     agreement = None
     if "physics" in families:

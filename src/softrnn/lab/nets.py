@@ -25,6 +25,7 @@ training rows, q and b calibrated on the hold-out split (``uncertainty.calibrate
 
 from __future__ import annotations
 
+import copy
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
@@ -344,6 +345,7 @@ class Sequence(Intervals):
     reach: InputDistance | None = None
     interval_q: float | None = None
     interval_slope: float | None = None
+    pretrained: object = None
 
     def _inputs(self, s: Recording) -> np.ndarray:
         u = s.inputs
@@ -351,7 +353,9 @@ class Sequence(Intervals):
         return np.hstack([u, u - _previous(u), np.log(dt)[:, None]])
 
     def fit(self, sessions) -> Sequence:
-        """The model fitted on training sessions (a list of ``Recording``)."""
+        """The model fitted on training sessions (a list of ``Recording``): in mode ``finetune``
+        pretrained on the physics' synthetic sessions, then trained on the real rows; the pretrained
+        network is kept (``pretrained``) for ``refit``."""
         import torch  # optional extra: learn (PyTorch)
 
         sessions = list(sessions)
@@ -366,11 +370,31 @@ class Sequence(Intervals):
         xs = [torch.tensor((x - mu) / sd, dtype=torch.float32)[None] for x in X]
         ys = [torch.tensor(y / scale, dtype=torch.float32)[None] for y in Y]
         n = len(sessions)
+        pretrained = None
         with _serial():
-            pre = replace(self.options, max_steps=self.options.max_steps // 2)
-            net = _train_gru(pre, xs[n:], ys[n:], allX.shape[1]) if syn else None
-            net = _train_gru(self.options, xs[:n], ys[:n], allX.shape[1], net)
-        return replace(self, net=net, offset=offset, mu=mu, sd=sd, scale=scale, reach=InputDistance.of(sessions))
+            if syn:
+                pre = replace(self.options, max_steps=self.options.max_steps // 2)
+                pretrained = _train_gru(pre, xs[n:], ys[n:], allX.shape[1])
+            net = _train_gru(self.options, xs[:n], ys[:n], allX.shape[1], copy.deepcopy(pretrained))
+        return replace(self, net=net, offset=offset, mu=mu, sd=sd, scale=scale, reach=InputDistance.of(sessions),
+                       pretrained=pretrained)
+
+    def refit(self, sessions) -> Sequence:
+        """The model trained anew on the real rows of ``sessions`` from its pretrained network, with the
+        pretraining's standardisation (``fit`` in mode ``real``, or before a fit): the cross-fit's refit
+        (``uncertainty.cross_fit``). The physics' lesson stays what it was; only the real rows change,
+        and the pretraining, most of a fit's cost, is not repeated. The real-row training draws no
+        random numbers, so ``refit`` on the rows the model was fitted on gives the model again."""
+        if self.pretrained is None:
+            return self.fit(sessions)
+        import torch  # optional extra: learn (PyTorch)
+
+        sessions = list(sessions)
+        xs = [torch.tensor((self._inputs(s) - self.mu) / self.sd, dtype=torch.float32)[None] for s in sessions]
+        ys = [torch.tensor((s.tip - self.offset) / self.scale, dtype=torch.float32)[None] for s in sessions]
+        with _serial():
+            net = _train_gru(self.options, xs, ys, xs[0].shape[-1], copy.deepcopy(self.pretrained))
+        return replace(self, net=net, reach=InputDistance.of(sessions), interval_q=None, interval_slope=None)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
@@ -453,11 +477,20 @@ def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
                    train, held_score, lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES})
 
 
-def fit_sequence(train, pair, syn, options, held_score) -> tuple:
+def sequence_candidate(mode: str, train, syn, options, physics=None) -> Sequence:
+    """The ``Sequence`` of ``mode`` fitted on the hold-out split's fitting part of ``train`` (a candidate
+    of ``fit_sequence``): a job of its own, which in mode ``real`` needs no physics and so can run
+    while the physics calibrates."""
+    return Sequence(options.sequence, mode, syn, physics).fit(holdout_split(train)[0])
+
+
+def fit_sequence(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
     """``Sequence``, pretrained on the synthetic sessions or not as the hold-out part prefers, its
-    interval calibrated on the hold-out split."""
+    interval calibrated on the hold-out split; ``early``: candidates fitted already
+    ({``mode=...``: ``sequence_candidate``}, e.g. in mode ``real`` during the physics' calibration)."""
     fit_part, held = holdout_split(train)
-    fitted = {f"mode={m}": Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
+    early = early or {}
+    fitted = {f"mode={m}": early.get(f"mode={m}") or sequence_candidate(m, train, syn, options, pair[0])
               for m in (("real", "finetune") if syn.on else ("real",))}
     scores = {k: held_score(v) for k, v in fitted.items()}
     best = parsimonious(scores, held_rows(held))

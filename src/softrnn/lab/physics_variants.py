@@ -65,19 +65,24 @@ def _refit(model: Physics, train: list) -> Physics:
 
 
 def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: list, held: list, train: list,
-                   variants=tuple(VARIANTS), pool: WorkerPool | None = None) -> PhysicsChoice:
+                   variants=tuple(VARIANTS), pool: WorkerPool | None = None, meanwhile=None) -> PhysicsChoice:
     """Calibrate every variant of ``variants`` on ``fit_part`` (the plain model from its multi-start
     search, the others refined from it), score each on ``held`` and refit the best on ``train``
     (lists of ``Recording``). ``options``' own gravity, friction and play are replaced by each
     variant's.
-    ``pool``: the variants refined in its workers at once (``softrnn.lab._pool``; None: one by one here)."""
+    ``pool``: the variants refined in its workers at once (``softrnn.lab._pool``; None: one by one here).
+    ``meanwhile()``: called once the plain calibration is handed to the pool, to queue work behind it
+    that needs no physics (the jobs go to the workers in the order submitted)."""
     known = VARIANTS | MORE_VARIANTS
     unknown = [v for v in variants if v not in known]
     if unknown or not variants:
         raise bad("variants", ",".join(variants), f"one or more of {', '.join(known)}")
     pool = WorkerPool(1) if pool is None else pool
-    plain, score = pool.submit("physics plain", _calibrated, Physics(
-        robot, replace(options, gravity=False, friction=False, play=False)), fit_part, held).get()
+    plain = pool.submit("physics plain", _calibrated, Physics(
+        robot, replace(options, gravity=False, friction=False, play=False)), fit_part, held)
+    if meanwhile is not None:
+        meanwhile()
+    plain, score = plain.get()
     others = [v for v in variants if v != "plain"]
     refined = pool.map([f"physics {v}" for v in others], _calibrated, [
         (Physics(robot, replace(options, **dict(zip(PHYSICS_OPTIONS, known[v]))), start=plain.calibration.params),
