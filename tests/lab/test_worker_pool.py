@@ -13,10 +13,9 @@ import pytest
 
 from softrnn.errors import SimulationError, SoftrnnInputError
 from softrnn.lab._pool import WorkerPool
-from softrnn.lab._stages import seeded
 from softrnn.lab.benchmark import BenchmarkOptions, run_benchmark
 from softrnn.lab.families import NODE_TRAINING, NodeOptions
-from softrnn.lab.nets import NetOptions, SequenceOptions
+from softrnn.lab.nets import NetOptions, SequenceOptions, early_candidates, seeded
 from softrnn.lab.recording import read_recording
 from softrnn.lab.synthetic import SyntheticOptions
 from softrnn.lab.tendon_robot import CalibrationOptions
@@ -80,8 +79,34 @@ def test_every_stage_is_reported_once_with_timings(runs):
         seconds = result.to_dict()["stage_seconds"]
         assert {"physics plain", "physics gravity", "physics friction", "physics gravity+friction",
                 "physics refit", "physics session agreement", "learned_map", "hybrid", "sequence",
-                "sequence mode=real", "node_lstm"} == set(seconds)
+                "node_lstm", "sequence early", "node_lstm early", "learned_map early"} == set(seconds)
         assert all(v["cpu"] >= 0 and v["wall"] >= 0 for v in seconds.values())
+
+
+@pytest.mark.parametrize("name", ["sequence", "node_lstm", "learned_map"])
+def test_a_family_fits_the_same_with_its_candidates_fitted_early_in_another_process(tmp_path, name):
+    """The candidates that need no physics, fitted in a job of their own before the family's
+    (``early_candidates``), give the family's scores and model to the last bit."""
+    from softrnn.lab._stages import FITS, HeldScore
+    from softrnn.lab.families import Physics, holdout_split
+    from softrnn.lab.tendon_robot import TendonRobot
+
+    tendon_recording(tmp_path / "train.csv", rows=100, seed=3)
+    train = [read_recording(tmp_path / "train.csv")]
+    options = BenchmarkOptions(length=0.08, **TINY)
+    physics = Physics(TendonRobot((0.08,), 3), options.calibration).fit(holdout_split(train)[0])
+    syn = dataclasses.replace(options.synthetic, amount=0.5)
+    held = HeldScore(holdout_split(train)[1])
+    with WorkerPool(2) as pool:
+        early = pool.submit("early", early_candidates, name, train, syn, options).get()
+    assert early and all(label.endswith("mode=real") for label in early)
+    runs = []
+    for given in (None, early):
+        with seeded(name):
+            model, scores = FITS[name](train, (physics, physics), syn, options, held, early=given)
+        runs.append((scores, model.predict(train[0])))
+    assert runs[0][0] == runs[1][0] and set(early) < set(runs[0][0])
+    assert np.array_equal(runs[0][1], runs[1][1], equal_nan=True)
 
 
 def test_a_family_seeds_its_own_random_numbers():

@@ -8,8 +8,6 @@ same process. Also the dynamic families, fitted in this process (``dynamic_model
 
 from __future__ import annotations
 
-import zlib
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,7 +16,7 @@ from ..learned.metrics import tip_errors
 from ._pool import WorkerPool
 from .dynamic_families import DynamicHybrid, DynamicPhysics
 from .families import finite_or_inf, holdout_split
-from .nets import fit_hybrid, fit_learned_map, fit_node, fit_sequence, sequence_candidate
+from .nets import fit_hybrid, fit_learned_map, fit_node, fit_sequence, seeded
 from .recording import Recording
 
 LONGEST_FIRST = ("sequence", "node_lstm", "learned_map", "hybrid")
@@ -26,10 +24,10 @@ LONGEST_FIRST = ("sequence", "node_lstm", "learned_map", "hybrid")
 robot's recordings), so that no core idles while the longest runs at the end."""
 FITS = {"learned_map": fit_learned_map, "hybrid": fit_hybrid, "sequence": fit_sequence, "node_lstm": fit_node}
 """The learned families, in report order, and how each is fitted with its options chosen on the hold-out."""
-EARLY = {"sequence": ("mode=real", sequence_candidate, "real")}
-"""The candidates that need no physics, of the families on the benchmark's longest chain (the physics'
-calibration, then the sequence model): {family: (candidate, fit, its first argument)}, each fitted in a
-job of its own that the workers take while the physics calibrates, then handed to ``family_run``."""
+EARLY = ("sequence", "node_lstm", "learned_map")
+"""The families with candidates that need no physics (``nets.early_candidates``: those on the real rows
+alone), each family's fitted in a job of its own that the workers take while the physics calibrates,
+then handed to ``family_run``: the longest first, as ``LONGEST_FIRST``."""
 
 
 @dataclass(frozen=True)
@@ -79,27 +77,13 @@ class HeldScore:
         return round(tip_errors(np.vstack([model.predict(s) for s in self.held]), self.reference).rmse_mm, 4)
 
 
-@contextmanager
-def seeded(name: str):
-    """PyTorch's global random numbers seeded from ``name`` inside (where PyTorch is installed), the
-    caller's state restored after: a family's figures do not depend on what ran before it."""
-    try:
-        import torch  # optional extra: learn (PyTorch)
-    except ImportError:
-        yield
-        return
-    with torch.random.fork_rng(devices=[]):
-        torch.manual_seed(zlib.crc32(name.encode()))
-        yield
-
-
 def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, options, validation: Recording,
                early: dict | None = None) -> tuple[Ran, float]:
     """The learned family ``name`` (a key of ``FITS``) fitted on ``train`` with its options chosen on the
     hold-out part (``pair``: the physics calibrated on the fitting part and on every training row;
     ``syn``: the synthetic data's options, ``no_syn`` why there are none), run over ``validation``;
-    and its best hold-out score [mm]. ``early``: candidates fitted before, in jobs of their own
-    (``EARLY``: {candidate: model})."""
+    and its best hold-out score [mm]. ``early``: candidates fitted before, in a job of their own
+    (``EARLY``, ``nets.early_candidates``: {candidate: model})."""
     more = {"early": early} if early else {}
     with seeded(name):
         model, scores = FITS[name](train, pair, syn, options, HeldScore(holdout_split(train)[1]), **more)

@@ -39,7 +39,7 @@ from .families import (
     holdout_split,
     parsimonious,
 )
-from .nets import NetOptions, SequenceOptions
+from .nets import NetOptions, SequenceOptions, early_candidates
 from .physics_variants import choose_physics
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .synthetic import SyntheticOptions, pull_limits
@@ -498,14 +498,13 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
 
     def meanwhile():    # the candidates that need no physics, queued behind its calibration
         for name in (f for f in EARLY if f in families):
-            label, fit, first = EARLY[name]
-            early[name] = (label, pool.submit(f"{name} {label}", fit, first, train, syn, options))
+            early[name] = pool.submit(f"{name} early", early_candidates, name, train, syn, options)
     if "physics" in families or "hybrid" in families or syn.on:
         # the variant (gravity, friction) chosen on the hold-out, refitted on every training row from there
         pick = choose_physics(robot, options.calibration, fit_part, held, train, pool=pool, meanwhile=meanwhile)
         held_physics, physics = pick.held, pick.physics
     jobs = [pool.submit(name, family_run, name, train, (held_physics, physics), syn, no_syn, options, out.validation,
-                        {early[name][0]: early[name][1].get()} if name in early else None)
+                        early[name].get() if name in early else None)
             for name in LONGEST_FIRST if name in families]
     agreement = None
     if "physics" in families:

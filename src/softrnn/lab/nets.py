@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import copy
 import math
+import zlib
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
@@ -438,18 +439,40 @@ def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple
 
 # ------------------------------------------------------------------ fitted with their options chosen
 
-def staged(make, modes, train, held_score, variants=lambda model: {"": model}) -> tuple:
+@contextmanager
+def seeded(name: str):
+    """PyTorch's global random numbers seeded from ``name`` inside (where PyTorch is installed), the
+    caller's state restored after: a family's (or a candidate's) figures do not depend on what ran
+    before it, nor in which process."""
+    try:
+        import torch  # optional extra: learn (PyTorch)
+    except ImportError:
+        yield
+        return
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(zlib.crc32(name.encode()))
+        yield
+
+
+def staged(make, modes, train, held_score, variants=lambda model: {"": model}, name: str = "",
+           early: dict | None = None) -> tuple:
     """A learned family's options chosen on the hold-out part in two stages (``make(hysteresis, mode,
     i)`` a family with the physics ``pair[i]``): the hysteresis state on the real rows alone, then
     ``modes`` of the physics' synthetic data with that state, each fit scored in its ``variants``
     ({label suffix: model}); the winner refitted on every training row, its 90 % interval calibrated
-    on the hold-out split (``uncertainty.calibrate``). Returns (model, {candidate: hold-out RMSE [mm]})."""
+    on the hold-out split (``uncertainty.calibrate``). Each candidate's fit is seeded by its label
+    (``seeded``, with the family's ``name``); ``early``: candidates fitted already ({label: model},
+    ``early_candidates``). Returns (model, {candidate: hold-out RMSE [mm]})."""
     fit_part, held = holdout_split(train)
-    scores, fitted = {}, {}
+    scores, fitted, early = {}, {}, dict(early or {})
 
     def attempt(h, m):
-        for suffix, model in variants(make(h, m, 0).fit(fit_part)).items():
-            label = f"hysteresis={h},mode={m}{suffix}"
+        base = f"hysteresis={h},mode={m}"
+        if base not in early:
+            with seeded(f"{name} {base}"):
+                early[base] = make(h, m, 0).fit(fit_part)
+        for suffix, model in variants(early[base]).items():
+            label = base + suffix
             fitted[label] = (h, m, suffix, model)
             scores[label] = held_score(model)
     for h in (False, True):
@@ -463,49 +486,67 @@ def staged(make, modes, train, held_score, variants=lambda model: {"": model}) -
     return replace(final, **calibrate(model, fit_part, held)), scores
 
 
-def fit_learned_map(train, pair, syn, options, held_score) -> tuple:
+def early_candidates(name: str, train, syn, options) -> dict:
+    """The candidates of the learned family ``name`` that need no physics (on the real rows alone),
+    fitted on the hold-out split's fitting part of ``train``, each seeded by its label as the family's
+    own fit seeds it (``staged``, ``fit_node``; the sequence model seeds itself): {label: model}. A job
+    of its own, which the workers take while the physics calibrates; {} for a family without any."""
+    fit_part = holdout_split(train)[0]
+    if name == "sequence":
+        return {"mode=real": Sequence(options.sequence, "real", syn).fit(fit_part)}
+    out = {}
+    if name == "learned_map":
+        for h in (False, True):
+            with seeded(f"{name} hysteresis={h},mode=real"):
+                out[f"hysteresis={h},mode=real"] = LearnedMap(h, options.nets, "real", syn).fit(fit_part)
+    elif name == "node_lstm":
+        with seeded(f"{name} mode=real"):
+            out["mode=real"] = NodeFamily(options.length, options.node, mode="real", synthetic=syn).fit(fit_part)
+    return out
+
+
+def fit_learned_map(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
     """``LearnedMap``: its hysteresis state and mode (``finetune``, ``mixed`` with synthetic data) chosen
     on the hold-out part (``staged``)."""
     return staged(lambda h, m, i: LearnedMap(h, options.nets, m, syn, pair[i]),
-                   ("finetune", "mixed") if syn.on else (), train, held_score)
+                   ("finetune", "mixed") if syn.on else (), train, held_score, name="learned_map", early=early)
 
 
 def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
     """``Hybrid``: its hysteresis state and mode (``mixed`` with synthetic data) chosen on the hold-out
     part (``staged``), and its gate: each fit scored there with every gate width of ``GATES``."""
     return staged(lambda h, m, i: Hybrid(pair[i], h, options.nets, m, syn), ("mixed",) if syn.on else (),
-                   train, held_score, lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES})
-
-
-def sequence_candidate(mode: str, train, syn, options, physics=None) -> Sequence:
-    """The ``Sequence`` of ``mode`` fitted on the hold-out split's fitting part of ``train`` (a candidate
-    of ``fit_sequence``): a job of its own, which in mode ``real`` needs no physics and so can run
-    while the physics calibrates."""
-    return Sequence(options.sequence, mode, syn, physics).fit(holdout_split(train)[0])
+                   train, held_score, lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES},
+                   name="hybrid")
 
 
 def fit_sequence(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
     """``Sequence``, pretrained on the synthetic sessions or not as the hold-out part prefers, its
-    interval calibrated on the hold-out split; ``early``: candidates fitted already
-    ({``mode=...``: ``sequence_candidate``}, e.g. in mode ``real`` during the physics' calibration)."""
+    interval calibrated on the hold-out split; ``early``: candidates fitted already ({label: model},
+    ``early_candidates``)."""
     fit_part, held = holdout_split(train)
-    early = early or {}
-    fitted = {f"mode={m}": early.get(f"mode={m}") or sequence_candidate(m, train, syn, options, pair[0])
-              for m in (("real", "finetune") if syn.on else ("real",))}
+    fitted = dict(early or {})
+    for m in ("real", "finetune") if syn.on else ("real",):
+        if f"mode={m}" not in fitted:
+            fitted[f"mode={m}"] = Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
     scores = {k: held_score(v) for k, v in fitted.items()}
     best = parsimonious(scores, held_rows(held))
     interval = calibrate(fitted[best], fit_part, held)
     return replace(Sequence(options.sequence, best.split("=")[1], syn, pair[1]).fit(train), **interval), scores
 
 
-def fit_node(train, pair, syn, options, held_score) -> tuple:
+def fit_node(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
     """``NodeFamily`` (``options.node``), taught by the physics' synthetic sessions (mode ``mixed``) or
-    not, as the hold-out part prefers; the winner refitted on every training row, with a 90 % interval
-    (``uncertainty.WithInterval``) calibrated on the hold-out split."""
+    not, as the hold-out part prefers, each candidate seeded by its label (``seeded``); the winner
+    refitted on every training row, with a 90 % interval (``uncertainty.WithInterval``) calibrated on
+    the hold-out split. ``early``: candidates fitted already ({label: model}, ``early_candidates``)."""
     fit_part, held = holdout_split(train)
-    modes = ("real", "mixed") if syn.on else ("real",)
-    fitted = {f"mode={m}": NodeFamily(options.length, options.node, mode=m, synthetic=syn, physics=pair[0]
-                                      ).fit(fit_part) for m in modes}
+    fitted = dict(early or {})
+    for m in ("real", "mixed") if syn.on else ("real",):
+        if f"mode={m}" not in fitted:
+            with seeded(f"node_lstm mode={m}"):
+                fitted[f"mode={m}"] = NodeFamily(options.length, options.node, mode=m, synthetic=syn,
+                                                 physics=pair[0]).fit(fit_part)
     scores = {k: held_score(v) for k, v in fitted.items()}
     best = parsimonious(scores, held_rows(held))
     interval = calibrate(WithInterval(fitted[best], InputDistance.of(fit_part)), fit_part, held)
