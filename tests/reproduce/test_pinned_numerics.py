@@ -74,9 +74,7 @@ def test_pin_blas_threads_overrides_the_environment_in_loaded_and_later_librarie
     ("1.26.4", "AVX512F AVX512CD AVX512_KNL AVX512_KNM AVX512_SKX AVX512_CLX AVX512_CNL AVX512_ICL"),
 ])
 def test_numpy_avx512_targets_are_named_as_the_installed_release_names_them(monkeypatch, release, names):
-    import importlib.metadata
-
-    monkeypatch.setattr(importlib.metadata, "version", lambda name: release)
+    monkeypatch.setattr(threads, "version", lambda name: release)
     assert threads._numpy_avx512() == names
 
 

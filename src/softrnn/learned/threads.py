@@ -8,8 +8,9 @@ from __future__ import annotations
 import os
 import sys
 from contextlib import contextmanager
+from importlib.metadata import PackageNotFoundError, version
 
-from threadpoolctl import threadpool_limits
+from threadpoolctl import threadpool_info, threadpool_limits
 
 
 def _numpy_avx512() -> str:
@@ -17,8 +18,6 @@ def _numpy_avx512() -> str:
     not imported: the variable naming them is read when NumPy loads). NumPy 2.4 groups them by
     x86-64 level (``X86_V4``); earlier releases name each extension. NumPy warns (an ``ImportWarning``,
     silent by default) of a name it does not know, so each release is given only its own."""
-    from importlib.metadata import PackageNotFoundError, version
-
     try:
         major, minor = (int(part) for part in version("numpy").split(".")[:2])
     except (PackageNotFoundError, ValueError):
@@ -95,12 +94,10 @@ def numerics_in_force() -> dict[str, str | None]:
     """The code paths NumPy and its BLAS took in this process: ``numpy_simd``, NumPy's highest
     dispatched instruction set found (e.g. ``X86_V3``, ``AVX512_SKX``), and ``openblas``, the
     kernels of each OpenBLAS loaded (e.g. ``Haswell``; None where threadpoolctl does not tell)."""
-    from threadpoolctl import threadpool_info
-
-    try:
-        from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    try:     # NumPy, which this module must not load at its top: its pins are set before NumPy loads
+        from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__  # heavy: see above
     except ImportError:      # NumPy 1.x
-        from numpy.core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+        from numpy.core._multiarray_umath import __cpu_dispatch__, __cpu_features__  # heavy: see above
     found = [name for name in __cpu_dispatch__ if __cpu_features__.get(name)]
     kernels = sorted({str(info.get("architecture")) for info in threadpool_info()
                       if info.get("internal_api") == "openblas"})
