@@ -232,10 +232,12 @@ def test_study_hparams(dataset, work):
 
 
 # ------------------------------------------------------------------------------ magnetic, bench
+@pytest.mark.slow
 @needs_learn
 def test_magnetic_experiment(work):
     """--quick with fewer samples and one epoch (60: a margin above the fewest that training accepts
-    with its default multi-step loss, about 45)."""
+    with its default multi-step loss, about 45). Slow: CI's cold quick reproduce runs the same
+    experiment (``run_experiment`` in its quick form) in a fresh process with an empty cache."""
     out = work / "magnetic"
     _softrnn(["magnetic", "experiment", "-o", out, "--quick", "--samples", 60, "--epochs", 1, "--json",
               work / "magnetic.json", "--quiet"], work, "magnetic experiment")
@@ -254,9 +256,12 @@ def test_magnetic_compare(work):
     _png(out / "fig12.png")
 
 
+@pytest.mark.slow
 @needs_learn
 def test_bench_quick(work):
-    """All three parts (learned model, simulator, static solver), each compiling its own kernels."""
+    """All three parts (learned model, simulator, static solver), each compiling its own kernels.
+    Slow: CI's cold quick reproduce runs the same benchmarks (``bench.run_all`` in its quick form) in
+    a fresh process with an empty cache."""
     _softrnn(["bench", "--quick", "--json", work / "bench.json"], work)
     result = json.loads((work / "bench.json").read_text())
     assert {"model", "simulator", "statics"} <= set(result)

@@ -83,22 +83,32 @@ def test_every_stage_is_reported_once_with_timings(runs):
         assert all(v["cpu"] >= 0 and v["wall"] >= 0 for v in seconds.values())
 
 
-@pytest.mark.parametrize("name", ["sequence", "node_lstm", "learned_map"])
-def test_a_family_fits_the_same_with_its_candidates_fitted_early_in_another_process(tmp_path, name):
-    """The candidates that need no physics, fitted in a job of their own before the family's
-    (``early_candidates``), give the family's scores and model to the last bit."""
-    from softrnn.lab._stages import FITS, HeldScore
+@pytest.fixture(scope="module")
+def fitted_physics(tmp_path_factory):
+    """A small robot's training session, the benchmark's options and a physics calibrated on the
+    hold-out split's fitting part."""
     from softrnn.lab.families import Physics, holdout_split
     from softrnn.lab.tendon_robot import TendonRobot
 
-    tendon_recording(tmp_path / "train.csv", rows=100, seed=3)
-    train = [read_recording(tmp_path / "train.csv")]
+    d = tmp_path_factory.mktemp("early")
+    tendon_recording(d / "train.csv", rows=100, seed=3)
+    train = [read_recording(d / "train.csv")]
     options = BenchmarkOptions(length=0.08, **TINY)
-    physics = Physics(TendonRobot((0.08,), 3), options.calibration).fit(holdout_split(train)[0])
+    return train, options, Physics(TendonRobot((0.08,), 3), options.calibration).fit(holdout_split(train)[0])
+
+
+@pytest.mark.parametrize("name", ["sequence", "node_lstm", "learned_map"])
+def test_a_family_fits_the_same_with_its_candidates_fitted_early(fitted_physics, name):
+    """The candidates that need no physics, fitted before the family's job (``early_candidates``, in a
+    job of their own while the physics calibrates), give the family's scores and model to the last
+    bit; that job in a worker process gives the figures of one worker (above)."""
+    from softrnn.lab._stages import FITS, HeldScore
+    from softrnn.lab.families import holdout_split
+
+    train, options, physics = fitted_physics
     syn = dataclasses.replace(options.synthetic, amount=0.5)
     held = HeldScore(holdout_split(train)[1])
-    with WorkerPool(2) as pool:
-        early = pool.submit("early", early_candidates, name, train, syn, options).get()
+    early = early_candidates(name, train, syn, options)
     assert early and all(label.endswith("mode=real") for label in early)
     runs = []
     for given in (None, early):
