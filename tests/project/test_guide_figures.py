@@ -131,7 +131,8 @@ FIGURES = [
      tuple((f, f"tendons/tendon-{arm}/horizons/{h}/constant_velocity", ".3g")
            for arm, figures in (("planar", ("6.85", "62.1", "-")), ("spatial", ("15.3", "140", "-")))
            for h, f in zip((10, 100, 1000), figures))),
-    ("dynamic.md", "Every goal is met on the spatial arm, narrowly at 10 steps (0.625 against the linear model's 0.635)",
+    ("dynamic.md", "Every goal is met on the spatial arm, narrowly at 10 steps (0.625 against the linear "
+                   "model's 0.635)",
      (("0.625", "tendons/tendon-spatial/horizons/10/model", ".3g"),
       ("0.635", "tendons/tendon-spatial/horizons/10/linear", ".3g"))),
     ("dynamic.md", "10 steps after a start the linear model is closer (0.305 against the model's 0.378); further on "
@@ -139,8 +140,8 @@ FIGURES = [
      (("0.305", "tendons/tendon-planar/horizons/10/linear", ".3g"),
       ("0.378", "tendons/tendon-planar/horizons/10/model", ".3g"),
       ("5.67", "ratio(tendons/tendon-planar/horizons/100/linear, tendons/tendon-planar/horizons/100/model)", ".3g"))),
-    ("dynamic.md", "Validation keeps step 700 on the planar arm and the last, 1,000, on the spatial arm (2.19 and 5.5 mm "
-                   "against the linear start's 7.88 and 9.33 mm)",
+    ("dynamic.md", "Validation keeps step 700 on the planar arm and the last, 1,000, on the spatial arm "
+                   "(2.19 and 5.5 mm against the linear start's 7.88 and 9.33 mm)",
      (("700", "tendons/tendon-planar/training/selected_step", ","),
       ("1,000", "tendons/tendon-spatial/training/selected_step", ","),
       ("1,000", "tendons/tendon-spatial/train_config/steps", ","),
