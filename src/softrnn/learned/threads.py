@@ -44,8 +44,6 @@ their figures, and a choice on a near tie (a ridge penalty) flips. ``NPY_DISABLE
 and ``OPENBLAS_CORETYPE`` are read when NumPy loads: ``softrnn reproduce`` sets them before
 (``pin_numerics`` at the command's start); ``numerics_in_force`` tells what a process has."""
 
-IMPORT_TIME_NUMERICS = ("NPY_DISABLE_CPU_FEATURES", "OPENBLAS_CORETYPE")
-"""The pins of ``PINNED_NUMERICS`` read once, when NumPy (and its OpenBLAS) loads."""
 
 
 PASSIVE_WAITS = {"OMP_WAIT_POLICY": "PASSIVE"}
@@ -83,8 +81,8 @@ def torch_threads(threads: int | None):
 def pin_numerics() -> dict[str, str]:
     """Set each variable of ``PINNED_NUMERICS`` that the environment does not set already (a value
     the user set is kept) and return the values asked for. Effective only before PyTorch's first
-    operation in this process, and for ``IMPORT_TIME_NUMERICS`` before NumPy's import; processes
-    started after inherit them."""
+    operation in this process, and for ``NPY_DISABLE_CPU_FEATURES`` and ``OPENBLAS_CORETYPE`` before
+    NumPy's import; processes started after inherit them."""
     for name, value in PINNED_NUMERICS.items():
         os.environ.setdefault(name, value)
     return {name: os.environ[name] for name in PINNED_NUMERICS}
