@@ -59,3 +59,27 @@ def test_a_screen_needs_evaluations():
 
     with pytest.raises(SoftrnnInputError, match="screen_evaluations"):
         StartOptions(screen_keep=2)
+
+
+def test_spread_pieces_give_the_same_fit_to_the_bit():
+    """Each stage cut into interleaved pieces (as a pool's workers would run them) gives the same
+    point, scores and records as the fits one by one; the spread sees each stage once."""
+    starts = [({"start": k}, np.array([x0, 0.5 * k])) for k, x0 in enumerate((-4.0, -1.5, 0.3, 2.5, 6.0))]
+    options = StartOptions(quick_evaluations=6, evaluations=30, refine=2, screen_evaluations=2, screen_keep=3)
+    free = (np.full(2, -np.inf), np.full(2, np.inf))
+    one = multistart(_residual, starts, free, options=options, score=_rms, key="rms")
+    stages = []
+
+    def spread(stage, fn, arguments):
+        stages.append((stage, [len(a[1]) for a in arguments]))
+        return [fn(*a) for a in reversed(arguments)][::-1]       # any order of running
+
+    calls = []
+    two = multistart(_residual, starts, free, options=options, score=_rms, key="rms", spread=spread, pieces=2,
+                     progress=lambda done, total: calls.append((done, total)))
+    assert np.array_equal(one.x, two.x) and one.score == two.score
+    for a, b in zip(one.tried, two.tried, strict=True):
+        assert a.keys() == b.keys() and np.array_equal(a["x"], b["x"])
+        assert all(a[k] == b[k] for k in a if k != "x")
+    assert stages == [("screen", [3, 2]), ("fit", [2, 1]), ("refine", [1, 1])]
+    assert calls == [(5, 10), (8, 10), (10, 10)]

@@ -198,6 +198,30 @@ def test_a_worker_error_that_does_not_pickle_comes_back_as_its_base_class_and_th
             pool.submit("bad", _fail_unpicklably, 3).get()
 
 
+def _blas_threads():
+    import numpy as np  # noqa: F401  (loads NumPy's BLAS in a fresh worker)
+    from threadpoolctl import threadpool_info
+
+    return sorted({info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas"})
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_jobs_run_blas_on_one_thread_and_repeated_labels_add_up(workers):
+    """Every job, in a worker or here, runs the BLAS libraries on one thread (a blocked solve sums in
+    another order on another thread count), and this process's own count comes back after; the jobs of
+    one label add their times."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=2, user_api="blas"):
+        with WorkerPool(workers) as pool:
+            assert pool.map(["blas", "blas"], _blas_threads, [(), ()]) == [[1], [1]]
+            assert list(pool.timings) == ["blas"]
+            first = pool.timings["blas"]
+            pool.submit("blas", _nap, 0.05).get()
+            assert pool.timings["blas"][1] >= first[1] + 0.05
+        assert _blas_threads() == [2]
+
+
 def test_one_worker_runs_each_job_here_when_asked_for():
     with WorkerPool(1) as pool:
         job = pool.submit("pid", _nap, 0.0)

@@ -2,7 +2,8 @@
 screen carried on), the best few refined (``multistart``), for
 a residual cheap enough to differentiate by ``least_squares``' own finite differences and a cost
 with local minima (e.g. an unknown order or angle of the parts of a model). Resuming from an earlier
-fit refines that point alone."""
+fit refines that point alone. The starts are independent: ``multistart``'s ``spread`` can fit them in
+other processes (each start's fit is the same to the bit wherever it runs)."""
 
 from __future__ import annotations
 
@@ -59,8 +60,23 @@ class MultiStart:
     tried: list
 
 
+def here(stage: str, fn, arguments: list) -> list:
+    """``multistart``'s default ``spread``: [fn(*args) for args in ``arguments``], in this process."""
+    return [fn(*args) for args in arguments]
+
+
+def fit_each(residual, starts: list, bounds, evaluations: int, score, solver: dict) -> list:
+    """[(x (n,) where the fit ended, score(residual there))] of each (record, x0) of ``starts``, fitted
+    with ``evaluations``: one piece of ``multistart``'s work (module-level, so a worker can run it)."""
+    out = []
+    for _, x0 in starts:
+        sol = solve(residual, x0, bounds, evaluations, **solver)
+        out.append((sol.x, score(sol.fun)))
+    return out
+
+
 def multistart(residual, starts, bounds, *, options: StartOptions, score, key: str = "score", resume=None,
-               progress=None, **solver) -> MultiStart:
+               progress=None, spread=here, pieces: int = 1, **solver) -> MultiStart:
     """Fit ``residual(x)`` -> (m,) from every start, then refine the best.
 
     ``starts`` is a list of (record dict, x0 (n,)); each is fitted with
@@ -69,7 +85,13 @@ def multistart(residual, starts, bounds, *, options: StartOptions, score, key: s
     score wins. With ``options.screen_keep`` the starts are screened first (``StartOptions``). With
     ``resume`` = (record dict, x (n,)) (an earlier fit), the starts are skipped and that point alone
     is refined. ``bounds`` and ``solver`` (``loss``, ``f_scale``,
-    ``x_scale``...) go to ``solve``; ``progress(done, total)`` after each fit.
+    ``x_scale``...) go to ``solve``; ``progress(done, total)`` after each fit (spread: after each stage).
+
+    ``spread(stage, fn, arguments)`` -> [fn(*args) for args in arguments] runs each stage's fits
+    (``stage``: ``"screen"``, ``"fit"``, ``"refine"``), cut into at most ``pieces`` calls of ``fit_each``
+    (every ``pieces``-th start in each): e.g. in a pool's workers, where ``residual`` and ``score``
+    must pickle (module-level functions, or instances of module-level classes). The result does not
+    depend on ``pieces`` or on where the pieces run.
     """
     tried = [] if resume is None else [{**resume[0], "x": np.asarray(resume[1]), key: float("nan")}]
     starts = list(starts) if resume is None else []
@@ -79,39 +101,43 @@ def multistart(residual, starts, bounds, *, options: StartOptions, score, key: s
     total = len(starts) * screened + quick + refine
     done = 0
 
-    def step():
+    def run(stage: str, entries: list, evaluations: int) -> list:
+        """[(x, score)] of each (record, x0) of ``entries``, fitted in ``pieces`` interleaved calls."""
         nonlocal done
-        done += 1
+        if spread is here:                  # one start at a time, progress after each
+            out = []
+            for entry in entries:
+                out += fit_each(residual, [entry], bounds, evaluations, score, solver)
+                done += 1
+                if progress is not None:
+                    progress(done, total)
+            return out
+        cut = [list(range(i, len(entries), pieces)) for i in range(min(pieces, len(entries)))]
+        results = spread(stage, fit_each, [(residual, [entries[k] for k in c], bounds, evaluations, score, solver)
+                                           for c in cut])
+        out = [None] * len(entries)
+        for c, result in zip(cut, results):
+            for k, r in zip(c, result):
+                out[k] = r
+        done += len(entries)
         if progress is not None:
             progress(done, total)
+        return out
 
     if screened:
-        starts = _screen(residual, starts, bounds, options, score, key, tried, step, solver)
-    for record, x0 in starts:
-        sol = solve(residual, x0, bounds, options.quick_evaluations, **solver)
-        entry = record if screened else dict(record)   # a screened start's record is already in tried
-        entry.update({"x": sol.x, key: score(sol.fun)})
-        if not screened:
-            tried.append(entry)
-        step()
+        for (record, _), (x, value) in zip(starts, run("screen", starts, options.screen_evaluations)):
+            tried.append({**record, "x": x, "screen_" + key: value})
+        kept = sorted(tried, key=lambda e: e["screen_" + key])[:options.screen_keep]
+        starts = [(entry, entry["x"]) for entry in kept]     # a screened start's record is already in tried
+    else:
+        starts = [(dict(record), x0) for record, x0 in starts]
+        tried.extend(record for record, _ in starts)
+    for (entry, _), (x, value) in zip(starts, run("fit", starts, options.quick_evaluations)):
+        entry.update({"x": x, key: value})
     best = None
-    for entry in sorted((e for e in tried if key in e), key=lambda e: e[key])[:refine]:
-        sol = solve(residual, entry["x"], bounds, options.evaluations, **solver)
-        entry["refined_" + key] = value = score(sol.fun)
+    chosen = sorted((e for e in tried if key in e), key=lambda e: e[key])[:refine]
+    for entry, (x, value) in zip(chosen, run("refine", [(e, e["x"]) for e in chosen], options.evaluations)):
+        entry["refined_" + key] = value
         if best is None or value < best[0]:
-            best = (value, sol.x)
-        step()
+            best = (value, x)
     return MultiStart(x=best[1], score=best[0], tried=tried)
-
-
-def _screen(residual, starts, bounds, options: StartOptions, score, key: str, tried: list, step, solver) -> list:
-    """Fit every start with ``options.screen_evaluations``, record each in ``tried`` (its score under
-    ``"screen_" + key``); the best ``options.screen_keep`` as (their record, where the screen ended)."""
-    ended = []
-    for record, x0 in starts:
-        sol = solve(residual, x0, bounds, options.screen_evaluations, **solver)
-        entry = {**record, "x": sol.x, "screen_" + key: score(sol.fun)}
-        tried.append(entry)
-        ended.append((entry, sol.x))
-        step()
-    return sorted(ended, key=lambda e: e[0]["screen_" + key])[:options.screen_keep]

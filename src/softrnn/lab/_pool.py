@@ -2,9 +2,13 @@
 
 ``WorkerPool(workers)`` runs functions (module-level, with picklable arguments and results) in
 ``workers`` processes started by ``spawn`` (no fork of a process that holds PyTorch's and numba's
-threads), PyTorch on one thread in each; with ``workers`` 1 each runs in this process when its result
-is asked for, in the order asked. The arithmetic is the same either way (every piece seeds its own
-random numbers and runs PyTorch on one thread), so the results do not depend on the worker count.
+threads), PyTorch and the BLAS libraries (OpenBLAS under NumPy and SciPy) on one thread in each; with
+``workers`` 1 each runs in this process when its result is asked for, in the order asked, BLAS on one
+thread during it. The arithmetic is the same either way (every piece seeds its own random numbers and
+runs PyTorch and BLAS on one thread: a blocked solve sums in another order on another thread count), so
+the results depend neither on the worker count nor on the machine's cores. One thread each is also the
+faster: the workers are the parallelism, and BLAS threads beside them only contend for the cores (the
+shared robot's calibration took 60 % more CPU time with two).
 Jobs go to the workers in the order they are submitted: submitting the longest first keeps the cores
 busy to the end. Every job's CPU and wall time is kept (``timings``).
 
@@ -18,18 +22,23 @@ with its message.
 from __future__ import annotations
 
 import multiprocessing
+import os
 import pickle
 import signal
 import time
 from contextlib import contextmanager
+
+from threadpoolctl import threadpool_limits
 
 WAIT_S = 0.05
 """How often ``WorkerPool.as_completed`` looks for a finished job [s]."""
 
 
 def _init_worker() -> None:
-    """A worker's start: Ctrl-C left to the parent, PyTorch (where installed) on one thread."""
+    """A worker's start: Ctrl-C left to the parent, the BLAS libraries (loaded after this) and PyTorch
+    (where installed) on one thread."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
     try:
         import torch  # optional extra: learn (PyTorch)
     except ImportError:
@@ -38,9 +47,11 @@ def _init_worker() -> None:
 
 
 def _timed(fn, args) -> tuple:
-    """(fn(*args), CPU time of this process [s], wall time [s]) of the call."""
+    """(fn(*args), CPU time of this process [s], wall time [s]) of the call, the BLAS libraries loaded
+    on one thread during it."""
     cpu, wall = time.process_time(), time.perf_counter()
-    result = fn(*args)
+    with threadpool_limits(limits=1, user_api="blas"):
+        result = fn(*args)
     return result, time.process_time() - cpu, time.perf_counter() - wall
 
 
@@ -108,11 +119,11 @@ class Job:
         if self._call is not None:
             self._result, cpu, wall = _timed(*self._call)
             self._call = None
-            self.pool.timings[self.label] = (cpu, wall)
+            self.pool.timed(self.label, cpu, wall)
         elif self._pending is not None:
             self._result, cpu, wall = self._pending.get()
             self._pending = None
-            self.pool.timings[self.label] = (cpu, wall)
+            self.pool.timed(self.label, cpu, wall)
         return self._result
 
 
@@ -125,7 +136,8 @@ class WorkerPool:
     workers : int
         the worker processes (1: every job runs in this process)
     timings : dict of str to (float, float)
-        {job label: (CPU time [s], wall time [s])} of every finished job, in the order finished
+        {job label: (CPU time [s], wall time [s])} of every finished job, in the order finished; the
+        jobs of one label summed (their wall times too: worker-seconds)
     """
 
     def __init__(self, workers: int = 1):
@@ -148,6 +160,11 @@ class WorkerPool:
             self._pool.terminate()
         self._pool.join()
         self._pool = None
+
+    def timed(self, label: str, cpu: float, wall: float) -> None:
+        """Add a finished job's CPU and wall time [s] to ``timings[label]``."""
+        c, w = self.timings.get(label, (0.0, 0.0))
+        self.timings[label] = (c + cpu, w + wall)
 
     def seconds(self) -> dict:
         """``timings``, JSON-ready: {label: {"cpu": CPU time [s], "wall": wall time [s]}}, rounded to 0.1 s."""

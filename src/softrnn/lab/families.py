@@ -36,6 +36,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import SoftrnnInputError, nonnegative
+from ..fitting.starts import here
 from ..io.reader import Dataset
 from ..learned.baselines import ConstantVelocity, Persistence, free_run
 from ..learned.linear import LinearARX
@@ -245,11 +246,12 @@ class Physics:
     """The predictions (and synthetic sessions, ``softrnn.lab.synthetic``) of this calibration already
     computed, by ``Recording.commands_key``: the hold-out's candidates run it over the same sessions."""
 
-    def fit(self, sessions) -> Physics:
-        """The model calibrated on training sessions (a list of ``Recording``, each solved from its start)."""
+    def fit(self, sessions, spread=here, pieces: int = 1) -> Physics:
+        """The model calibrated on training sessions (a list of ``Recording``, each solved from its start);
+        ``spread``, ``pieces``: where its search's fits run (``softrnn.fitting.multistart``)."""
         q, tip = np.vstack([displacements(s) for s in sessions]), np.vstack([s.tip for s in sessions])
         cal = calibrate(self.robot, q, tip, self.options, progress=self.progress, start=self.start,
-                        resets=session_resets([s.n_rows for s in sessions]))
+                        resets=session_resets([s.n_rows for s in sessions]), spread=spread, pieces=pieces)
         return replace(self, calibration=cal)
 
     def refit(self, sessions) -> Physics:

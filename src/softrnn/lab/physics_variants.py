@@ -70,19 +70,28 @@ def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: li
     search, the others refined from it), score each on ``held`` and refit the best on ``train``
     (lists of ``Recording``). ``options``' own gravity, friction and play are replaced by each
     variant's.
-    ``pool``: the variants refined in its workers at once (``softrnn.lab._pool``; None: one by one here).
-    ``meanwhile()``: called once the plain calibration is handed to the pool, to queue work behind it
-    that needs no physics (the jobs go to the workers in the order submitted)."""
+    ``pool``: the plain model's search cut into one piece per worker at each of its stages, and the
+    variants refined in its workers at once (``softrnn.lab._pool``; None: one by one here).
+    ``meanwhile()``: called once the plain search's first stage is handed to the pool, to queue work
+    behind it that needs no physics (the jobs go to the workers in the order submitted)."""
     known = VARIANTS | MORE_VARIANTS
     unknown = [v for v in variants if v not in known]
     if unknown or not variants:
         raise bad("variants", ",".join(variants), f"one or more of {', '.join(known)}")
     pool = WorkerPool(1) if pool is None else pool
-    plain = pool.submit("physics plain", _calibrated, Physics(
-        robot, replace(options, gravity=False, friction=False, play=False)), fit_part, held)
-    if meanwhile is not None:
-        meanwhile()
-    plain, score = plain.get()
+    queued = meanwhile is None
+
+    def spread(stage, fn, arguments):    # the plain search's fits, in the workers
+        nonlocal queued
+        jobs = [pool.submit("physics plain", fn, *args) for args in arguments]
+        if not queued:                   # the first of them handed out: the work that needs no physics behind
+            queued = True
+            meanwhile()
+        return [job.get() for job in jobs]
+
+    plain = Physics(robot, replace(options, gravity=False, friction=False, play=False)).fit(fit_part, spread,
+                                                                                           pool.workers)
+    score = holdout_rmse_mm(plain, held)
     others = [v for v in variants if v != "plain"]
     refined = pool.map([f"physics {v}" for v in others], _calibrated, [
         (Physics(robot, replace(options, **dict(zip(PHYSICS_OPTIONS, known[v]))), start=plain.calibration.params),

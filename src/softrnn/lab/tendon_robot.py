@@ -66,6 +66,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import SoftrnnInputError, bad, integer, is_finite_number, positive
 from ..fitting import StartOptions, multistart
+from ..fitting.starts import here
 from .tendon_kernels import play, session_solve
 
 _PGS_ITERATIONS = 200
@@ -479,13 +480,15 @@ def _bounds(robot: TendonRobot, options: CalibrationOptions) -> tuple[np.ndarray
 
 
 def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: CalibrationOptions = CalibrationOptions(),
-              progress=None, start: TendonParameters | None = None, resets: np.ndarray | None = None) -> Calibration:
+              progress=None, start: TendonParameters | None = None, resets: np.ndarray | None = None, spread=here,
+              pieces: int = 1) -> Calibration:
     """Fit the robot's parameters to tendon displacements q (K, n) [m] and tips (K, 3) [m]
     (every row of the training sessions, in order; ``resets`` (K,) bool marks where each session
     starts, ``session_resets``). ``progress(done, total)`` after each start. With ``start`` (e.g. a
     calibration on part of the rows), only the refinement runs, from there. With gravity, friction or
     play (``options``) and no ``start``, the plain model is calibrated first (its search on the row-by-row
-    kernels, faster) and everything refined from there."""
+    kernels, faster) and everything refined from there. ``spread`` and ``pieces``: where the search's
+    fits run (``softrnn.fitting.multistart``; e.g. a pool's workers); the result is the same to the bit."""
     q = np.asarray(q, dtype=float)
     tip = np.asarray(tip, dtype=float)
     if q.ndim != 2 or q.shape[1] != robot.n_tendons:
@@ -496,35 +499,54 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
     earlier = ()
     if options.variant != "plain" and start is None:
         plain = _search(robot, q, tip, replace(options, gravity=False, friction=False, play=False), progress, None,
-                        resets, kernel=True)
+                        resets, kernel=True, spread=spread, pieces=pieces)
         start, earlier = plain.params, plain.starts
     if start is not None:
         start = _variant_start(start, options, robot)
     if options.variant != "plain":
         options = replace(options, evaluations=options.variant_evaluations)
     found = _search(robot, q, tip, options, progress, start, resets, kernel=False, label="the plain model's"
-                    if earlier else "given")
+                    if earlier else "given", spread=spread, pieces=pieces)
     return replace(found, starts=earlier + found.starts, seconds=time.perf_counter() - t0)
 
 
+@dataclass(frozen=True, eq=False)
+class _TipResidual:
+    """The calibration's residual: the model's tips minus the measured ones (K * 3,) [mm] at packed
+    parameters x; ``flags``: ((option, bool), ...) of ``PHYSICS_OPTIONS``; ``kernel``: the plain model
+    on the row-by-row kernels. A class, so that it pickles (``multistart``'s ``spread``)."""
+
+    robot: TendonRobot
+    q: np.ndarray
+    tip: np.ndarray
+    resets: np.ndarray | None
+    flags: tuple
+    kernel: bool
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        with np.errstate(over="ignore"):    # a trial step's compliance beyond any float: the solver rejects it
+            params = _unpack(x, self.robot, **dict(self.flags))
+        if self.kernel and params.plain:
+            params = replace(params, friction=0.0)
+        return ((tip_positions(self.robot, params, self.q, self.resets)[0] - self.tip) * 1e3).ravel()
+
+
+def _rmse_mm(fun: np.ndarray) -> float:
+    """The tip RMSE [mm] of a residual (K * 3,) [mm]."""
+    return float(np.sqrt(np.mean(np.sum(fun.reshape(-1, 3) ** 2, axis=1))))
+
+
 def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: CalibrationOptions, progress,
-            start: TendonParameters | None, resets, kernel: bool, label: str = "given") -> Calibration:
+            start: TendonParameters | None, resets, kernel: bool, label: str = "given", spread=here,
+            pieces: int = 1) -> Calibration:
     """``calibrate``'s multi-start search (``start`` None) or refinement from ``start``; ``kernel``:
-    the plain model on the row-by-row kernels (mu = 0, the same model to their tolerances)."""
+    the plain model on the row-by-row kernels (mu = 0, the same model to their tolerances); ``spread``
+    and ``pieces`` as ``multistart``'s."""
     rotation, base = _base_guess(robot, q, tip)
     n, S = robot.n_tendons, robot.n_segments
     scale = options.loss_scale * 1e3
     flags = {name: getattr(options, name) for name in PHYSICS_OPTIONS}
-
-    def residual(x):
-        params = _unpack(x, robot, **flags)
-        if kernel and params.plain:
-            params = replace(params, friction=0.0)
-        return ((tip_positions(robot, params, q, resets)[0] - tip) * 1e3).ravel()
-
-    def rmse_mm(fun):
-        return float(np.sqrt(np.mean(np.sum(fun.reshape(-1, 3) ** 2, axis=1))))
-
+    residual = _TipResidual(robot, q, tip, resets, tuple(flags.items()), kernel)
     starts = []
     for sign, twist in _starts(robot, options.twists) if start is None else []:
         angles = np.radians(sign * np.tile(np.arange(robot.tendons_per_segment) * 360.0 / robot.tendons_per_segment,
@@ -537,8 +559,9 @@ def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calibra
                         "segment_twist_deg": twist}, _pack(guess)))
     resume = None if start is None else ({"tendon_order": label, "segment_twist_deg": None}, _pack(start))
     t0 = time.perf_counter()
-    found = multistart(residual, starts, _bounds(robot, options), options=options, score=rmse_mm, key="rmse_mm",
-                       resume=resume, progress=progress, loss="soft_l1", f_scale=scale, x_scale="jac")
+    found = multistart(residual, starts, _bounds(robot, options), options=options, score=_rmse_mm, key="rmse_mm",
+                       resume=resume, progress=progress, spread=spread, pieces=pieces, loss="soft_l1", f_scale=scale,
+                       x_scale="jac")
     starts_out = tuple({key: (round(v, 4) if isinstance(v, float) else v) for key, v in e.items() if key != "x"}
                        for e in found.tried)
     return Calibration(robot=robot, params=_unpack(found.x, robot, **flags), rmse_m=found.score * 1e-3,
