@@ -21,7 +21,7 @@ A slack tendon carries nothing (the max), which is what lets one servo release w
 pulls. With tau' = tau / k [m], these conditions are the linear complementarity problem
 tau' >= 0, w = (I + A) tau' - (q - c) >= 0, tau' . w = 0, with A_ij = sum_{s <= min(e_i, e_j)}
 (k L_s / EI_s) rho_i . rho_j symmetric positive semi-definite, so I + A is positive definite and
-the solution is unique; it is solved by projected Gauss-Seidel (``_tensions``). The tip is then
+the solution is unique; it is solved exactly by principal pivoting (``_tensions``). The tip is then
 the end of the chain of constant-curvature arcs (no twist between segments), plus a marker offset
 d along the last tangent, seen from the motion-capture frame through a rigid base pose.
 
@@ -69,8 +69,13 @@ from ..fitting import StartOptions, multistart
 from ..fitting.starts import here
 from .tendon_kernels import play, session_solve
 
+_PIVOTS = 1000
+"""Most pivots of the tensions' exact solve per row (``_tensions``; a few from the row before's set)."""
 _PGS_ITERATIONS = 200
 _PGS_TOL = 1e-10
+"""The sweeps and tolerance [m] of the tensions' iterative solve, where the exact one cannot go."""
+_LCP_TOL = 1e-12
+"""The tensions' conditions hold to this share of the row's largest displacement (round-off)."""
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
 """Input units read as tendon displacements, with their factor to m."""
 
@@ -208,28 +213,152 @@ class TendonParameters:
 
 
 # ------------------------------------------------------------------------------------------ physics
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _tensions(M, b, out):
-    """Projected Gauss-Seidel for tau >= 0, M tau - b >= 0, tau (M tau - b) = 0, row by row:
-    M (n, n) positive definite, b (K, n), out (K, n) the solutions (tau / k [m])."""
+    """The LCP tau >= 0, M tau - b >= 0, tau (M tau - b) = 0 for each row of b (K, n), M (n, n)
+    positive definite, solved exactly by principal pivoting (Murty's least-index rule, finite for a
+    P-matrix): guess which tendons are taut (each row starts from the row before's set), solve
+    M_TT tau_T = b_T for them (Cholesky), and flip the first tendon that breaks a condition (a taut one
+    with tau < 0, a slack one with M tau - b < 0) until none does. out (K, n) [m]: the solutions; where
+    M_TT is not positive definite in floating point, the row by projected Gauss-Seidel (``_gauss_seidel``)."""
     K, n = b.shape
+    taut = np.ones(n, dtype=np.bool_)
+    idx = np.empty(n, dtype=np.int64)
+    L = np.empty((n, n))
+    y = np.empty(n)
     for k in range(K):
-        for i in range(n):
-            out[k, i] = 0.0
-        for _ in range(_PGS_ITERATIONS):
-            change = 0.0
+        for _ in range(_PIVOTS):
+            m = 0
             for i in range(n):
-                r = b[k, i]
-                for j in range(n):
-                    if j != i:
-                        r -= M[i, j] * out[k, j]
-                v = r / M[i, i]
-                if v < 0.0:
-                    v = 0.0
-                change = max(change, abs(v - out[k, i]))
-                out[k, i] = v
-            if change < _PGS_TOL:
+                out[k, i] = 0.0
+                if taut[i]:
+                    idx[m] = i
+                    m += 1
+            singular = False
+            for a in range(m):                    # Cholesky of M_TT, then the two triangular solves
+                for c in range(a + 1):
+                    v = M[idx[a], idx[c]]
+                    for j in range(c):
+                        v -= L[a, j] * L[c, j]
+                    if a == c and not v > 0.0:
+                        singular = True
+                    L[a, c] = math.sqrt(v) if a == c else v / L[c, c]
+            if singular:
                 break
+            for a in range(m):
+                v = b[k, idx[a]]
+                for j in range(a):
+                    v -= L[a, j] * y[j]
+                y[a] = v / L[a, a]
+            for a in range(m - 1, -1, -1):
+                v = y[a]
+                for j in range(a + 1, m):
+                    v -= L[j, a] * out[k, idx[j]]
+                out[k, idx[a]] = v / L[a, a]
+            tol = 0.0
+            for i in range(n):
+                tol = max(tol, abs(b[k, i]))
+            tol *= _LCP_TOL                       # round-off: a condition broken by less is met
+            flip = -1
+            for i in range(n):
+                if not math.isfinite(out[k, i]):
+                    singular = True
+                    break
+                if taut[i]:
+                    if out[k, i] < -tol:
+                        flip = i
+                        break
+                else:
+                    w = -b[k, i]
+                    for j in range(n):
+                        w += M[i, j] * out[k, j]
+                    if w < -tol:
+                        flip = i
+                        break
+            if flip < 0 or singular:
+                break
+            taut[flip] = not taut[flip]
+        else:
+            singular = True
+        if singular:                    # M_TT not positive definite in floating point (a compliance past
+            _gauss_seidel(M, b[k], out[k])     # ~1e16 x the tendons'), or no end: the iterative solve
+            for i in range(n):
+                taut[i] = out[k, i] > 0.0
+
+
+@njit(cache=True)
+def _gauss_seidel(M, b, out):
+    """Projected Gauss-Seidel for one row's tensions (``_tensions``' fallback): out (n,) from 0, at most
+    ``_PGS_ITERATIONS`` sweeps, until no entry changes by ``_PGS_TOL`` [m]."""
+    n = b.size
+    for i in range(n):
+        out[i] = 0.0
+    for _ in range(_PGS_ITERATIONS):
+        change = 0.0
+        for i in range(n):
+            r = b[i]
+            for j in range(n):
+                if j != i:
+                    r -= M[i, j] * out[j]
+            v = max(r / M[i, i], 0.0)
+            change = max(change, abs(v - out[i]))
+            out[i] = v
+        if change < _PGS_TOL:
+            break
+
+
+@njit(cache=True)
+def _arcs(tau, rho, seg, L, compliance, marker, x):
+    """The tip (K, 3) [m] in the base frame into ``x``: the chain of constant-curvature arcs of the
+    segments, each bent by compliance_s sum over the tendons that reach it (``seg`` (n,) >= s) of
+    tau_i rho_i (tau (K, n) [m], rho (n, 2) [m], L (S,) [m]), plus ``marker`` [m] along the last tangent."""
+    K, n = tau.shape
+    R = np.empty((3, 3))
+    Q = np.empty((3, 3))
+    T = np.empty((3, 3))
+    for k in range(K):
+        for i in range(3):
+            x[k, i] = 0.0
+            for j in range(3):
+                R[i, j] = 1.0 if i == j else 0.0
+        for s in range(L.size):
+            bx, by = 0.0, 0.0
+            for i in range(n):
+                if seg[i] >= s:
+                    bx += tau[k, i] * rho[i, 0]
+                    by += tau[k, i] * rho[i, 1]
+            bx *= compliance[s]
+            by *= compliance[s]                                    # bending (2,) [1/m]
+            kappa = math.hypot(bx, by)
+            angle = kappa * L[s]
+            if kappa < 1e-9:
+                dx, dy = 1.0, 0.0
+                lateral, axial = 0.5 * kappa * L[s] ** 2, L[s]
+            else:
+                dx, dy = bx / kappa, by / kappa
+                lateral, axial = (1.0 - math.cos(angle)) / kappa, math.sin(angle) / kappa
+            for i in range(3):
+                x[k, i] += R[i, 0] * dx * lateral + R[i, 1] * dy * lateral + R[i, 2] * axial
+            # the arc's rotation about (-dy, dx, 0) by the angle (Rodrigues), R <- R Q
+            c, sn = math.cos(angle), math.sin(angle)
+            ux, uy = -dy, dx
+            Q[0, 0] = c + ux * ux * (1.0 - c)
+            Q[0, 1] = ux * uy * (1.0 - c)
+            Q[0, 2] = uy * sn
+            Q[1, 0] = ux * uy * (1.0 - c)
+            Q[1, 1] = c + uy * uy * (1.0 - c)
+            Q[1, 2] = -ux * sn
+            Q[2, 0] = -uy * sn
+            Q[2, 1] = ux * sn
+            Q[2, 2] = c
+            for i in range(3):
+                for j in range(3):
+                    T[i, j] = R[i, 0] * Q[0, j] + R[i, 1] * Q[1, j] + R[i, 2] * Q[2, j]
+            for i in range(3):
+                for j in range(3):
+                    R[i, j] = T[i, j]
+        for i in range(3):
+            x[k, i] += R[i, 2] * marker
 
 
 def _rotations(axis_angle: np.ndarray) -> np.ndarray:
@@ -254,24 +383,8 @@ def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray,
     M = np.eye(robot.n_tendons) + A
     tau = np.empty_like(q)
     _tensions(M, np.ascontiguousarray(q - params.offsets), tau)
-    K = q.shape[0]
-    R = np.broadcast_to(np.eye(3), (K, 3, 3)).copy()
-    x = np.zeros((K, 3))
-    for s in range(robot.n_segments):
-        on = seg >= s
-        bend = params.compliance[s] * (tau[:, on] @ rho[on])           # (K, 2) [1/m]
-        kappa = np.hypot(bend[:, 0], bend[:, 1])
-        small = kappa < 1e-9
-        safe = np.where(small, 1.0, kappa)
-        direction = np.where(small[:, None], np.array([1.0, 0.0]), bend / safe[:, None])
-        angle = kappa * L[s]
-        lateral = np.where(small, 0.5 * kappa * L[s] ** 2, (1.0 - np.cos(angle)) / safe)
-        axial = np.where(small, L[s], np.sin(angle) / safe)
-        local = np.column_stack([direction * lateral[:, None], axial])
-        x += np.einsum("kij,kj->ki", R, local)
-        axis = np.column_stack([-direction[:, 1], direction[:, 0], np.zeros(K)])
-        R = R @ _rotations(axis * angle[:, None])
-    x += R[:, :, 2] * params.marker
+    x = np.empty((q.shape[0], 3))
+    _arcs(tau, rho, seg, L, np.asarray(params.compliance, dtype=float), float(params.marker), x)
     return x @ _rotations(params.rotation).T + params.base, tau
 
 
