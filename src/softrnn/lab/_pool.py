@@ -175,6 +175,13 @@ class WorkerPool:
         process when its result is asked for."""
         return Job(self, label, fn, args)
 
+    def here(self, label: str, fn, *args):
+        """``fn(*args)`` run now in this process, as a job named ``label`` that waits for no other (its
+        times in ``timings``, BLAS on one thread)."""
+        result, cpu, wall = _timed(fn, args)
+        self.timed(label, cpu, wall)
+        return result
+
     def map(self, labels, fn, arguments) -> list:
         """[fn(*args) for args in ``arguments``], the calls (named by ``labels``) spread over the workers."""
         return [job.get() for job in [self.submit(label, fn, *args) for label, args in zip(labels, arguments)]]

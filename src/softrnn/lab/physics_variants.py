@@ -71,7 +71,8 @@ def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: li
     (lists of ``Recording``). ``options``' own gravity, friction and play are replaced by each
     variant's.
     ``pool``: the plain model's search cut into one piece per worker at each of its stages, and the
-    variants refined in its workers at once (``softrnn.lab._pool``; None: one by one here).
+    variants refined in its workers at once (``softrnn.lab._pool``; None: one by one here); the refit
+    in this process, so that it waits for no job queued before it.
     ``meanwhile()``: called once the plain search's first stage is handed to the pool, to queue work
     behind it that needs no physics (the jobs go to the workers in the order submitted)."""
     known = VARIANTS | MORE_VARIANTS
@@ -93,14 +94,13 @@ def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: li
                                                                                            pool.workers)
     score = holdout_rmse_mm(plain, held)
     others = [v for v in variants if v != "plain"]
-    refined = pool.map([f"physics {v}" for v in others], _calibrated, [
-        (Physics(robot, replace(options, **dict(zip(PHYSICS_OPTIONS, known[v]))), start=plain.calibration.params),
-         fit_part, held) for v in others])
-    done = {"plain": (plain, score)} | dict(zip(others, refined))
+    jobs = [pool.submit(f"physics {v}", _calibrated, Physics(robot, replace(options, **dict(zip(
+        PHYSICS_OPTIONS, known[v]))), start=plain.calibration.params), fit_part, held) for v in others]
+    done = {"plain": (plain, score)} | dict(zip(others, [job.get() for job in jobs]))
     fitted = {v: done[v][0] for v in variants}
     scores = {v: done[v][1] for v in variants}
     best = parsimonious(scores, held_rows(held))
     chosen = fitted[best]
-    physics = pool.submit("physics refit", _refit, replace(chosen, start=chosen.calibration.params,
-                                                           calibration=None), train).get()
+    physics = pool.here("physics refit", _refit, replace(chosen, start=chosen.calibration.params,
+                                                         calibration=None), train)
     return PhysicsChoice(variant=best, holdout_rmse_mm=scores, held=chosen, physics=physics)
