@@ -169,3 +169,43 @@ def test_the_screen_options_are_validated():
         CalibrationOptions(twists=0)
     with pytest.raises(SoftrnnInputError, match="screen_evaluations"):
         CalibrationOptions(screen_evaluations=0, screen_keep=3)
+
+
+def _lcp_by_enumeration(M, b):
+    """The LCP's solution found by trying every set of taut tendons (the one whose solve meets every
+    condition)."""
+    n = b.size
+    for mask in range(2 ** n):
+        taut = np.array([(mask >> i) & 1 for i in range(n)], dtype=bool)
+        tau = np.zeros(n)
+        if taut.any():
+            tau[taut] = np.linalg.solve(M[np.ix_(taut, taut)], b[taut])
+        w = M @ tau - b
+        if (tau >= -1e-13).all() and (w[~taut] >= -1e-13).all():
+            return tau
+    raise AssertionError("no solution")
+
+
+def test_the_tensions_solve_the_complementarity_problem_exactly():
+    """Random positive definite I + A (rank-deficient A, as the routing's) and loads: the pivoting solve
+    equals the solution found by enumerating every set of taut tendons, row after row (each row starting
+    from the row before's set), with M tau - b >= 0, tau >= 0 and tau (M tau - b) = 0 to round-off; a
+    matrix that is singular in floating point falls back to Gauss-Seidel and stays finite."""
+    from softrnn.lab.tendon_robot import _tensions
+
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        rho = rng.normal(size=(6, 2)) * 4e-3
+        M = np.eye(6) + rng.uniform(1e3, 1e5) * (rho @ rho.T)
+        b = rng.normal(scale=5e-3, size=(40, 6))
+        tau = np.empty_like(b)
+        _tensions(M, b, tau)
+        for k in range(len(b)):
+            np.testing.assert_allclose(tau[k], _lcp_by_enumeration(M, b[k]), rtol=1e-9, atol=1e-15)
+            w = M @ tau[k] - b[k]
+            assert (tau[k] >= 0).all() and (w >= -1e-15).all() and abs(tau[k] @ w) < 1e-15
+    rho = np.array([[1.0, 0.0], [-0.5, 0.8], [-0.5, -0.8]]) * 4e-3
+    M = np.eye(3) + 1e25 * (rho @ rho.T)                    # I lost against A: singular in floating point
+    tau = np.empty((2, 3))
+    _tensions(M, np.array([[1e-3, 0.0, 0.0], [2e-3, 1e-3, 0.0]]), tau)
+    assert np.isfinite(tau).all() and (tau >= 0).all()

@@ -599,8 +599,8 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
     (every row of the training sessions, in order; ``resets`` (K,) bool marks where each session
     starts, ``session_resets``). ``progress(done, total)`` after each start. With ``start`` (e.g. a
     calibration on part of the rows), only the refinement runs, from there. With gravity, friction or
-    play (``options``) and no ``start``, the plain model is calibrated first (its search on the row-by-row
-    kernels, faster) and everything refined from there. ``spread`` and ``pieces``: where the search's
+    play (``options``) and no ``start``, the plain model is calibrated first (its search on the closed
+    model, faster) and everything refined from there. ``spread`` and ``pieces``: where the search's
     fits run (``softrnn.fitting.multistart``; e.g. a pool's workers); the result is the same to the bit."""
     q = np.asarray(q, dtype=float)
     tip = np.asarray(tip, dtype=float)
@@ -612,13 +612,13 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
     earlier = ()
     if options.variant != "plain" and start is None:
         plain = _search(robot, q, tip, replace(options, gravity=False, friction=False, play=False), progress, None,
-                        resets, kernel=True, spread=spread, pieces=pieces)
+                        resets, spread=spread, pieces=pieces)
         start, earlier = plain.params, plain.starts
     if start is not None:
         start = _variant_start(start, options, robot)
     if options.variant != "plain":
         options = replace(options, evaluations=options.variant_evaluations)
-    found = _search(robot, q, tip, options, progress, start, resets, kernel=False, label="the plain model's"
+    found = _search(robot, q, tip, options, progress, start, resets, label="the plain model's"
                     if earlier else "given", spread=spread, pieces=pieces)
     return replace(found, starts=earlier + found.starts, seconds=time.perf_counter() - t0)
 
@@ -626,21 +626,18 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
 @dataclass(frozen=True, eq=False)
 class _TipResidual:
     """The calibration's residual: the model's tips minus the measured ones (K * 3,) [mm] at packed
-    parameters x; ``flags``: ((option, bool), ...) of ``PHYSICS_OPTIONS``; ``kernel``: the plain model
-    on the row-by-row kernels. A class, so that it pickles (``multistart``'s ``spread``)."""
+    parameters x; ``flags``: ((option, bool), ...) of ``PHYSICS_OPTIONS``. A class, so that it pickles
+    (``multistart``'s ``spread``)."""
 
     robot: TendonRobot
     q: np.ndarray
     tip: np.ndarray
     resets: np.ndarray | None
     flags: tuple
-    kernel: bool
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         with np.errstate(over="ignore"):    # a trial step's compliance beyond any float: the solver rejects it
             params = _unpack(x, self.robot, **dict(self.flags))
-        if self.kernel and params.plain:
-            params = replace(params, friction=0.0)
         return ((tip_positions(self.robot, params, self.q, self.resets)[0] - self.tip) * 1e3).ravel()
 
 
@@ -650,16 +647,15 @@ def _rmse_mm(fun: np.ndarray) -> float:
 
 
 def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: CalibrationOptions, progress,
-            start: TendonParameters | None, resets, kernel: bool, label: str = "given", spread=here,
+            start: TendonParameters | None, resets, label: str = "given", spread=here,
             pieces: int = 1) -> Calibration:
-    """``calibrate``'s multi-start search (``start`` None) or refinement from ``start``; ``kernel``:
-    the plain model on the row-by-row kernels (mu = 0, the same model to their tolerances); ``spread``
-    and ``pieces`` as ``multistart``'s."""
+    """``calibrate``'s multi-start search (``start`` None) or refinement from ``start``; ``spread`` and
+    ``pieces`` as ``multistart``'s."""
     rotation, base = _base_guess(robot, q, tip)
     n, S = robot.n_tendons, robot.n_segments
     scale = options.loss_scale * 1e3
     flags = {name: getattr(options, name) for name in PHYSICS_OPTIONS}
-    residual = _TipResidual(robot, q, tip, resets, tuple(flags.items()), kernel)
+    residual = _TipResidual(robot, q, tip, resets, tuple(flags.items()))
     starts = []
     for sign, twist in _starts(robot, options.twists) if start is None else []:
         angles = np.radians(sign * np.tile(np.arange(robot.tendons_per_segment) * 360.0 / robot.tendons_per_segment,
