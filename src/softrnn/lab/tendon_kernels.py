@@ -52,6 +52,10 @@ _NEWTON_HALVINGS = 8
 """Most halvings of a Newton step until the residual falls."""
 _PGS_ITERATIONS = 200
 _PGS_TOL = 1e-13
+_PIVOTS = 1000
+"""Most pivots of a row's exact tension solve (``_lcp``; a few from the row before's set)."""
+_LCP_TOL = 1e-12
+"""The tensions' conditions hold to this share of the row's largest right side (rounding)."""
 _HOLD = 1e-9
 """A command change under this [m] holds the tendon's friction direction."""
 
@@ -219,31 +223,82 @@ def _solve_active(M, rhs, active, tau, A):
 
 
 @njit(cache=True)
-def _lcp(M, rhs, tau, active, A):
-    """tau >= 0, M tau - rhs >= 0, tau (M tau - rhs) = 0 (M (n, n) a P-matrix): the active set
-    of the warm start tau (n,) [m], corrected one index at a time (the most violated) until it holds
-    (exact up to rounding); projected Gauss-Seidel if that does not settle within 4 n changes."""
+def _solve_taut(M, rhs, active, tau, A, idx) -> bool:
+    """tau (n,) = the solution of M_AA tau_A = rhs_A on the active set (others 0), M positive definite,
+    by Cholesky in A (n, n+1) scratch (its factor, then the forward solve in its last column; idx (n,)
+    int scratch); False where M_AA is not positive definite in floating point."""
     n = rhs.size
+    m = 0
+    for i in range(n):
+        tau[i] = 0.0
+        if active[i]:
+            idx[m] = i
+            m += 1
+    for a in range(m):
+        for c in range(a + 1):
+            v = M[idx[a], idx[c]]
+            for j in range(c):
+                v -= A[a, j] * A[c, j]
+            if a == c:
+                if not v > 0.0:
+                    return False
+                A[a, a] = math.sqrt(v)
+            else:
+                A[a, c] = v / A[c, c]
+    for a in range(m):
+        v = rhs[idx[a]]
+        for j in range(a):
+            v -= A[a, j] * A[j, n]
+        A[a, n] = v / A[a, a]
+    for a in range(m - 1, -1, -1):
+        v = A[a, n]
+        for j in range(a + 1, m):
+            v -= A[j, a] * tau[idx[j]]
+        tau[idx[a]] = v / A[a, a]
+    return True
+
+
+@njit(cache=True)
+def _lcp(M, rhs, tau, active, A, idx):
+    """tau >= 0, M tau - rhs >= 0, tau (M tau - rhs) = 0 (M (n, n) positive definite), exactly:
+    principal pivoting from the active set of the warm start tau (n,) [m] (the tendons with tau > 0),
+    each set solved by Cholesky (``_solve_taut``), the first index that breaks a condition (an active
+    one with tau < 0, an inactive one with M tau - rhs < 0; to ``_LCP_TOL`` of the largest |rhs|) flipped
+    until none does (Murty's least-index rule: finite for a P-matrix). Projected Gauss-Seidel from zero
+    where a set's matrix is not positive definite in floating point or ``_PIVOTS`` run out. ``active`` (n,)
+    bool, ``A`` (n, n + 1) and ``idx`` (n,) int: scratch."""
+    n = rhs.size
+    tol = 0.0
     for i in range(n):
         active[i] = tau[i] > 0.0
-    for _ in range(4 * n):
-        if not _solve_active(M, rhs, active, tau, A):
+        tol = max(tol, abs(rhs[i]))
+    tol *= _LCP_TOL
+    for _ in range(_PIVOTS):
+        if not _solve_taut(M, rhs, active, tau, A, idx):
             break
-        worst, which = 0.0, -1
+        flip = -1
         for i in range(n):
+            if not math.isfinite(tau[i]):
+                flip = -2
+                break
             if active[i]:
-                v = tau[i]
+                if tau[i] < -tol:
+                    flip = i
+                    break
             else:
-                v = -rhs[i]
+                w = -rhs[i]
                 for j in range(n):
-                    v += M[i, j] * tau[j]
-            if v < worst:
-                worst, which = v, i
-        if which < 0:
+                    w += M[i, j] * tau[j]
+                if w < -tol:
+                    flip = i
+                    break
+        if flip == -1:
             return
-        active[which] = not active[which]
+        if flip == -2:
+            break
+        active[flip] = not active[flip]
     for i in range(n):
-        tau[i] = max(tau[i], 0.0)
+        tau[i] = 0.0
     _pgs(M, rhs, tau)
 
 
@@ -280,7 +335,7 @@ def _pass(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs,
             for s in range(min(seg[i], seg[j]) + 1):
                 acc += L[s] * compliance[s] * f[j, s] * dot
             M[i, j] = acc
-    _lcp(M, rhs, tau, work[4], work[5])
+    _lcp(M, rhs, tau, work[4], work[5], work[6])
     for s in range(S):
         for a in range(2):
             v = gb[0, s, a]
@@ -417,6 +472,15 @@ def _flush(v):
 
 
 @njit(cache=True)
+def scratch(n: int, S: int) -> tuple:
+    """The work arrays of ``_pass`` for n tendons and S segments: the gravity moment's frames, nodes,
+    masses and rotations, then the tension solve's active set, matrix and indices (``_lcp``)."""
+    P = PIECES
+    return (np.empty((S, P + 1, 3, 3)), np.empty((S, P + 1, 3)), np.empty((S, P, 3)), np.empty((3, 3, 3)),
+            np.zeros(n, dtype=np.bool_), np.empty((n, n + 1)), np.empty(n, dtype=np.int64))
+
+
+@njit(cache=True)
 def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, tips, tau_out, bend_out, passes_out):
     """Solve every row of a session in order (see the module's docstring).
 
@@ -429,7 +493,6 @@ def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, 
     """
     K, n = q.shape
     S = L.size
-    P = PIECES
     gravity = gvec[0] != 0.0 or gvec[1] != 0.0 or gvec[2] != 0.0
     b = np.zeros((S, 2))
     tau = np.zeros(n)
@@ -438,8 +501,7 @@ def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, 
     gb = np.zeros((2, S, 2))
     M = np.empty((n, n))
     rhs = np.empty(n)
-    work = (np.empty((S, P + 1, 3, 3)), np.empty((S, P + 1, 3)), np.empty((S, P, 3)), np.empty((3, 3, 3)),
-            np.zeros(n, dtype=np.bool_), np.empty((n, n + 1)))
+    work = scratch(n, S)
     acc = np.zeros((3, S, 2))
     R = np.empty((3, 3))
     R0 = np.empty((3, 3))

@@ -21,7 +21,7 @@ A slack tendon carries nothing (the max), which is what lets one servo release w
 pulls. With tau' = tau / k [m], these conditions are the linear complementarity problem
 tau' >= 0, w = (I + A) tau' - (q - c) >= 0, tau' . w = 0, with A_ij = sum_{s <= min(e_i, e_j)}
 (k L_s / EI_s) rho_i . rho_j symmetric positive semi-definite, so I + A is positive definite and
-the solution is unique; it is solved exactly by principal pivoting (``_tensions``). The tip is then
+the solution is unique; it is solved exactly by an active-set method (``_tensions``). The tip is then
 the end of the chain of constant-curvature arcs (no twist between segments), plus a marker offset
 d along the last tangent, seen from the motion-capture frame through a rigid base pose.
 
@@ -67,15 +67,8 @@ from scipy.spatial.transform import Rotation
 from ..errors import SoftrnnInputError, bad, integer, is_finite_number, positive
 from ..fitting import StartOptions, multistart
 from ..fitting.starts import here
-from .tendon_kernels import play, session_solve
+from .tendon_kernels import _lcp, play, session_solve
 
-_PIVOTS = 1000
-"""Most pivots of the tensions' exact solve per row (``_tensions``; a few from the row before's set)."""
-_PGS_ITERATIONS = 200
-_PGS_TOL = 1e-10
-"""The sweeps and tolerance [m] of the tensions' iterative solve, where the exact one cannot go."""
-_LCP_TOL = 1e-12
-"""The tensions' conditions hold to this share of the row's largest displacement (round-off)."""
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
 """Input units read as tendon displacements, with their factor to m."""
 
@@ -213,98 +206,21 @@ class TendonParameters:
 
 
 # ------------------------------------------------------------------------------------------ physics
-@njit(cache=True, error_model="numpy")
+@njit(cache=True)
 def _tensions(M, b, out):
     """The LCP tau >= 0, M tau - b >= 0, tau (M tau - b) = 0 for each row of b (K, n), M (n, n)
-    positive definite, solved exactly by principal pivoting (Murty's least-index rule, finite for a
-    P-matrix): guess which tendons are taut (each row starts from the row before's set), solve
-    M_TT tau_T = b_T for them (Cholesky), and flip the first tendon that breaks a condition (a taut one
-    with tau < 0, a slack one with M tau - b < 0) until none does. out (K, n) [m]: the solutions; where
-    M_TT is not positive definite in floating point, the row by projected Gauss-Seidel (``_gauss_seidel``)."""
+    positive definite, into out (K, n) [m]: each row solved exactly by ``tendon_kernels``' active-set
+    solve (which tendons are taut, corrected one at a time; projected Gauss-Seidel where that does not
+    settle), warm-started from the row before's tensions."""
     K, n = b.shape
-    taut = np.ones(n, dtype=np.bool_)
+    tau = np.zeros(n)
+    active = np.empty(n, dtype=np.bool_)
+    A = np.empty((n, n + 1))
     idx = np.empty(n, dtype=np.int64)
-    L = np.empty((n, n))
-    y = np.empty(n)
     for k in range(K):
-        for _ in range(_PIVOTS):
-            m = 0
-            for i in range(n):
-                out[k, i] = 0.0
-                if taut[i]:
-                    idx[m] = i
-                    m += 1
-            singular = False
-            for a in range(m):                    # Cholesky of M_TT, then the two triangular solves
-                for c in range(a + 1):
-                    v = M[idx[a], idx[c]]
-                    for j in range(c):
-                        v -= L[a, j] * L[c, j]
-                    if a == c and not v > 0.0:
-                        singular = True
-                    L[a, c] = math.sqrt(v) if a == c else v / L[c, c]
-            if singular:
-                break
-            for a in range(m):
-                v = b[k, idx[a]]
-                for j in range(a):
-                    v -= L[a, j] * y[j]
-                y[a] = v / L[a, a]
-            for a in range(m - 1, -1, -1):
-                v = y[a]
-                for j in range(a + 1, m):
-                    v -= L[j, a] * out[k, idx[j]]
-                out[k, idx[a]] = v / L[a, a]
-            tol = 0.0
-            for i in range(n):
-                tol = max(tol, abs(b[k, i]))
-            tol *= _LCP_TOL                       # round-off: a condition broken by less is met
-            flip = -1
-            for i in range(n):
-                if not math.isfinite(out[k, i]):
-                    singular = True
-                    break
-                if taut[i]:
-                    if out[k, i] < -tol:
-                        flip = i
-                        break
-                else:
-                    w = -b[k, i]
-                    for j in range(n):
-                        w += M[i, j] * out[k, j]
-                    if w < -tol:
-                        flip = i
-                        break
-            if flip < 0 or singular:
-                break
-            taut[flip] = not taut[flip]
-        else:
-            singular = True
-        if singular:                    # M_TT not positive definite in floating point (a compliance past
-            _gauss_seidel(M, b[k], out[k])     # ~1e16 x the tendons'), or no end: the iterative solve
-            for i in range(n):
-                taut[i] = out[k, i] > 0.0
-
-
-@njit(cache=True)
-def _gauss_seidel(M, b, out):
-    """Projected Gauss-Seidel for one row's tensions (``_tensions``' fallback): out (n,) from 0, at most
-    ``_PGS_ITERATIONS`` sweeps, until no entry changes by ``_PGS_TOL`` [m]."""
-    n = b.size
-    for i in range(n):
-        out[i] = 0.0
-    for _ in range(_PGS_ITERATIONS):
-        change = 0.0
+        _lcp(M, b[k], tau, active, A, idx)
         for i in range(n):
-            r = b[i]
-            for j in range(n):
-                if j != i:
-                    r -= M[i, j] * out[j]
-            v = max(r / M[i, i], 0.0)
-            change = max(change, abs(v - out[i]))
-            out[i] = v
-        if change < _PGS_TOL:
-            break
+            out[k, i] = tau[i]
 
 
 @njit(cache=True)
