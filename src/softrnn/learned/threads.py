@@ -44,8 +44,6 @@ their figures, and a choice on a near tie (a ridge penalty) flips. ``NPY_DISABLE
 and ``OPENBLAS_CORETYPE`` are read when NumPy loads: ``softrnn reproduce`` sets them before
 (``pin_numerics`` at the command's start); ``numerics_in_force`` tells what a process has."""
 
-
-
 PASSIVE_WAITS = {"OMP_WAIT_POLICY": "PASSIVE"}
 """OpenMP's waiting policy (GNU OpenMP, under PyTorch, MKL, oneDNN and numba's thread pool): a thread
 with no work sleeps instead of spinning. By default each spins for milliseconds after every
