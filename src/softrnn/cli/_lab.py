@@ -352,13 +352,12 @@ def format_benchmark(r: dict) -> str:
 
 
 def _calibrate(args) -> int:
-    from threadpoolctl import threadpool_limits
-
     from ..lab.benchmark import check_pulls, robot_for, settle_lag
     from ..lab.families import displacements
     from ..lab.recording import shift_inputs
     from ..lab.tendon_robot import calibrate, session_resets
     from ..learned.metrics import tip_errors
+    from ..learned.threads import one_blas_thread
 
     prepare_output(args.output, "-o", overwrite=args.overwrite)
     options = _options(args, ("physics",))
@@ -378,10 +377,8 @@ def _calibrate(args) -> int:
                                                f"{train[0].n_inputs} input columns")
     check_pulls(robot, recordings)
     physics = dataclasses.replace(options.calibration, gravity=args.gravity, friction=args.friction, play=args.play)
-    # BLAS on one thread, as in the benchmark's workers: the same calibration on every machine (a blocked
-    # solve sums in another order on another thread count), and no threads contending over small matrices
-    with Bar("lab calibrate", unit="start", enabled=not args.quiet) as bar, \
-            threadpool_limits(limits=1, user_api="blas"):
+    # BLAS on one thread, as in the benchmark's workers: the same calibration on every machine
+    with Bar("lab calibrate", unit="start", enabled=not args.quiet) as bar, one_blas_thread():
         cal = calibrate(robot, np.vstack([displacements(r) for r in train]), np.vstack([r.tip for r in train]),
                         physics, progress=bar, resets=session_resets([r.n_rows for r in train]))
     report = {**cal.to_dict(), "variant": physics.variant, "lag_rows": lag, "sessions": [r.path for r in train]}

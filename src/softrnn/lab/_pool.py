@@ -28,7 +28,7 @@ import signal
 import time
 from contextlib import contextmanager
 
-from threadpoolctl import threadpool_limits
+from ..learned.threads import one_blas_thread
 
 WAIT_S = 0.05
 """How often ``WorkerPool.as_completed`` looks for a finished job [s]."""
@@ -50,7 +50,7 @@ def _timed(fn, args) -> tuple:
     """(fn(*args), CPU time of this process [s], wall time [s]) of the call, the BLAS libraries loaded
     on one thread during it."""
     cpu, wall = time.process_time(), time.perf_counter()
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         result = fn(*args)
     return result, time.process_time() - cpu, time.perf_counter() - wall
 

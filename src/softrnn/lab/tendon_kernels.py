@@ -87,6 +87,24 @@ def _arc(bx, by, sigma, R0, p0, R, p):
 
 
 @njit(cache=True)
+def chain_tip(b, L, marker, frames, points, tip):
+    """The tip (3,) [m] in the base frame into ``tip``: the chain of constant-curvature arcs of
+    bending vectors b (S, 2) [1/m] and lengths L (S,) [m] from the base, plus ``marker`` [m] along
+    the last tangent. frames (2, 3, 3) and points (2, 3) are work arrays."""
+    R0, R, p0, p = frames[0], frames[1], points[0], points[1]
+    R0[:] = 0.0
+    for a in range(3):
+        R0[a, a] = 1.0
+    p0[:] = 0.0
+    for s in range(L.size):
+        _arc(b[s, 0], b[s, 1], L[s], R0, p0, R, p)
+        R0[:] = R
+        p0[:] = p
+    for a in range(3):
+        tip[a] = p0[a] + R0[a, 2] * marker
+
+
+@njit(cache=True)
 def _shape(b, L, frames, nodes, masses, scratch):
     """The backbone of bending vectors b (S, 2): node frames (S, P+1, 3, 3), node positions
     (S, P+1, 3) and piece midpoints (S, P, 3) [m], in the base frame; scratch (4, 3, 3)."""
@@ -503,10 +521,9 @@ def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, 
     rhs = np.empty(n)
     work = scratch(n, S)
     acc = np.zeros((3, S, 2))
-    R = np.empty((3, 3))
-    R0 = np.empty((3, 3))
-    p = np.empty(3)
-    p0 = np.empty(3)
+    frames = np.empty((2, 3, 3))
+    points = np.empty((2, 3))
+    tip = np.empty(3)
     for k in range(K):
         if k == 0 or reset[k]:
             b[:] = 0.0
@@ -522,16 +539,9 @@ def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, 
                     dirs[i] = -1.0
         passes_out[k] = _row(q[k], seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs,
                              work, acc)
-        R0[:] = 0.0
+        chain_tip(b, L, marker, frames, points, tip)
         for a in range(3):
-            R0[a, a] = 1.0
-        p0[:] = 0.0
-        for s in range(S):
-            _arc(b[s, 0], b[s, 1], L[s], R0, p0, R, p)
-            R0[:] = R
-            p0[:] = p
-        for a in range(3):
-            tips[k, a] = _flush(p0[a] + R0[a, 2] * marker)
+            tips[k, a] = _flush(tip[a])
         for i in range(n):
             tau_out[k, i] = _flush(tau[i])
         for s in range(S):

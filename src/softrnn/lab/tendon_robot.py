@@ -67,7 +67,7 @@ from scipy.spatial.transform import Rotation
 from ..errors import SoftrnnInputError, bad, integer, is_finite_number, positive
 from ..fitting import StartOptions, multistart
 from ..fitting.starts import here
-from .tendon_kernels import _lcp, play, session_solve
+from .tendon_kernels import _lcp, chain_tip, play, session_solve
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
 """Input units read as tendon displacements, with their factor to m."""
@@ -225,56 +225,25 @@ def _tensions(M, b, out):
 
 @njit(cache=True)
 def _arcs(tau, rho, seg, L, compliance, marker, x):
-    """The tip (K, 3) [m] in the base frame into ``x``: the chain of constant-curvature arcs of the
-    segments, each bent by compliance_s sum over the tendons that reach it (``seg`` (n,) >= s) of
-    tau_i rho_i (tau (K, n) [m], rho (n, 2) [m], L (S,) [m]), plus ``marker`` [m] along the last tangent."""
+    """The tip (K, 3) [m] in the base frame into ``x``: the chain of constant-curvature arcs
+    (``tendon_kernels.chain_tip``) of the segments, each bent by compliance_s sum over the tendons
+    that reach it (``seg`` (n,) >= s) of tau_i rho_i (tau (K, n) [m], rho (n, 2) [m], L (S,) [m]),
+    plus ``marker`` [m] along the last tangent."""
     K, n = tau.shape
-    R = np.empty((3, 3))
-    Q = np.empty((3, 3))
-    T = np.empty((3, 3))
+    S = L.size
+    b = np.empty((S, 2))
+    frames = np.empty((2, 3, 3))
+    points = np.empty((2, 3))
     for k in range(K):
-        for i in range(3):
-            x[k, i] = 0.0
-            for j in range(3):
-                R[i, j] = 1.0 if i == j else 0.0
-        for s in range(L.size):
+        for s in range(S):
             bx, by = 0.0, 0.0
             for i in range(n):
                 if seg[i] >= s:
                     bx += tau[k, i] * rho[i, 0]
                     by += tau[k, i] * rho[i, 1]
-            bx *= compliance[s]
-            by *= compliance[s]                                    # bending (2,) [1/m]
-            kappa = math.hypot(bx, by)
-            angle = kappa * L[s]
-            if kappa < 1e-9:
-                dx, dy = 1.0, 0.0
-                lateral, axial = 0.5 * kappa * L[s] ** 2, L[s]
-            else:
-                dx, dy = bx / kappa, by / kappa
-                lateral, axial = (1.0 - math.cos(angle)) / kappa, math.sin(angle) / kappa
-            for i in range(3):
-                x[k, i] += R[i, 0] * dx * lateral + R[i, 1] * dy * lateral + R[i, 2] * axial
-            # the arc's rotation about (-dy, dx, 0) by the angle (Rodrigues), R <- R Q
-            c, sn = math.cos(angle), math.sin(angle)
-            ux, uy = -dy, dx
-            Q[0, 0] = c + ux * ux * (1.0 - c)
-            Q[0, 1] = ux * uy * (1.0 - c)
-            Q[0, 2] = uy * sn
-            Q[1, 0] = ux * uy * (1.0 - c)
-            Q[1, 1] = c + uy * uy * (1.0 - c)
-            Q[1, 2] = -ux * sn
-            Q[2, 0] = -uy * sn
-            Q[2, 1] = ux * sn
-            Q[2, 2] = c
-            for i in range(3):
-                for j in range(3):
-                    T[i, j] = R[i, 0] * Q[0, j] + R[i, 1] * Q[1, j] + R[i, 2] * Q[2, j]
-            for i in range(3):
-                for j in range(3):
-                    R[i, j] = T[i, j]
-        for i in range(3):
-            x[k, i] += R[i, 2] * marker
+            b[s, 0] = compliance[s] * bx
+            b[s, 1] = compliance[s] * by                           # bending (2,) [1/m]
+        chain_tip(b, L, marker, frames, points, x[k])
 
 
 def _rotations(axis_angle: np.ndarray) -> np.ndarray:

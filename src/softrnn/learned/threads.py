@@ -116,6 +116,13 @@ def pin_blas_threads() -> int:
     return REPRODUCE_BLAS_THREADS
 
 
+def one_blas_thread():
+    """A context in which the BLAS libraries under NumPy and SciPy run on one thread (``threadpoolctl``),
+    restored after: a worker's job, or a calibration, gives the same figures on every machine (a blocked
+    solve sums in another order on another thread count) and no threads contend over small matrices."""
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def passive_waits() -> dict[str, str]:
     """Set each variable of ``PASSIVE_WAITS`` that the environment does not set already (a value the
     user set is kept) and return the values in force. Effective for the OpenMP runtimes loaded after
