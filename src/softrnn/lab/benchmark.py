@@ -44,7 +44,7 @@ from .physics_variants import choose_physics
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .synthetic import SyntheticOptions, pull_limits
 from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
-from .uncertainty import with_interval
+from .uncertainty import REFIT_FOLDS, with_interval
 
 FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
 """softrnn's model families, in the order they are fitted."""
@@ -437,22 +437,32 @@ class _Table:
             getattr(self, name).update(getattr(other, name))
 
 
-def _baselines(train: list[Recording], split: tuple, out: _Table) -> None:
-    """Persistence, constant velocity, the linear ARX model and the static polynomial map, their options
-    chosen on the training sessions' hold-out part (``split``: fitting part, held part), each with a 90 %
-    interval calibrated there (``uncertainty.calibrate``)."""
-    def record(name, family, scores=None):
-        model = with_interval(family.fit(train), family.fit(split[0]), *split, train, fitted=True)
-        out.record(out.baselines, name, model, scores)
-    record("persistence", PersistenceFamily())
-    record("constant_velocity", ConstantVelocityFamily())
+def baseline_families(train: list[Recording], split: tuple) -> dict:
+    """{name: family} of the baselines: persistence, constant velocity, the linear ARX model and the static
+    polynomial map, their options chosen on the training sessions' hold-out part (``split``: fitting
+    part, held part); with the hold-out scores of those chosen ({name: {candidate: mm}})."""
+    out = {"persistence": (PersistenceFamily(), None), "constant_velocity": (ConstantVelocityFamily(), None)}
     c = choose({f"na={a},nb={b}": (lambda a=a, b=b: LinearARXFamily(a, b)) for a, b in ARX_ORDERS}, train, split)
     a, b = (int(x.split("=")[1]) for x in c.chosen.split(","))
-    record("linear_arx", LinearARXFamily(a, b), c.scores)
+    out["linear_arx"] = (LinearARXFamily(a, b), c.scores)
     c = choose({f"degree={d},ridge={r:g}": (lambda d=d, r=r: StaticPolynomial(d, r)) for d, r in POLY_CANDIDATES},
                train, split)
     d, r = (x.split("=")[1] for x in c.chosen.split(","))
-    record("static_map", StaticPolynomial(int(d), float(r)), c.scores)
+    out["static_map"] = (StaticPolynomial(int(d), float(r)), c.scores)
+    return out
+
+
+def baseline_with_interval(family, train: list[Recording], split: tuple):
+    """The baseline ``family`` fitted on ``train`` with its 90 % interval calibrated on ``split`` (fitting
+    part, held part; ``uncertainty.calibrate``), scaled by its refits' spread where it has no error scale
+    of its own (``uncertainty.RefitSpread``)."""
+    return with_interval(family.fit(train), family.fit(split[0]), *split, train, fitted=True, refits=REFIT_FOLDS)
+
+
+def _baselines(train: list[Recording], split: tuple, out: _Table) -> None:
+    """The baselines (``baseline_families``), each with a 90 % interval (``baseline_with_interval``)."""
+    for name, (family, scores) in baseline_families(train, split).items():
+        out.record(out.baselines, name, baseline_with_interval(family, train, split), scores)
 
 
 AGREEMENT = ("how far the sessions agree for the physics' form: the physics calibrated on the training sessions, "
@@ -511,7 +521,8 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
         agreement = pool.submit("physics session agreement", session_agreement, physics, train, out.validation,
                                 options.length)
         holdout["physics"] = HeldScore(held)(held_physics)
-        out.record(out.models, "physics", with_interval(physics, held_physics, *split, train, fitted=True),
+        out.record(out.models, "physics", with_interval(physics, held_physics, *split, train, fitted=True,
+                                                        refits=REFIT_FOLDS),
                    pick.holdout_rmse_mm)
         step("physics")
     return holdout, jobs, agreement

@@ -17,6 +17,8 @@ stretch of its fitting rows and run over the stretches in between, which revisit
 other times. Either shows the spread between visits, hysteresis and drift, that the rows a model was
 fitted on understate; q is never below the quantile on the fitted rows themselves. Without a fitted b
 the radius is q (1 + d) (``conformal_q``, q from the hold-out alone).
+A model without an error scale of its own can be given one (``RefitSpread``): the jackknife spread of
+the model refitted without each block of its training patterns, with its residual over those rows.
 ``WithInterval`` gives any fitted model such an interval (the physics, the baselines). The benchmark
 reports the share of validation rows inside (``coverage_90``).
 """
@@ -98,10 +100,12 @@ def pattern_folds(sessions, folds: int | None = None) -> list[tuple[list, list]]
     """The sessions' patterns (``pattern_edges``), in order, cut into ``folds`` (None: ``CROSS_FOLDS``)
     contiguous blocks of about equal rows at pattern boundaries: [(the other blocks, the block)] per
     block, each a list of ``Recording`` (each run of rows a session of its own). A block holds whole
-    patterns, and the patterns recorded beside each other: the others meet it as a new session."""
+    patterns, and the patterns recorded beside each other: the others meet it as a new session.
+    Sessions without labels are cut at their stretches' edges instead (``stretch_edges``)."""
     folds = CROSS_FOLDS if folds is None else folds
-    pieces = [(i, int(a), int(b)) for i, s in enumerate(sessions)
-              for a, b in zip(pattern_edges(s)[:-1], pattern_edges(s)[1:])]
+    labelled = all(s.labels for s in sessions)
+    cuts = [pattern_edges(s) if labelled else stretch_edges(s.n_rows) for s in sessions]
+    pieces = [(i, int(a), int(b)) for i, e in enumerate(cuts) for a, b in zip(e[:-1], e[1:])]
     rows = np.array([b - a for _, a, b in pieces], dtype=float)
     fold = np.minimum(((np.cumsum(rows) - rows / 2) * folds / rows.sum()).astype(int), folds - 1)
     return [(_joined(sessions, pieces, fold != j), _joined(sessions, pieces, fold == j)) for j in range(folds)]
@@ -196,6 +200,70 @@ class InputDistance:
         return self.tree.query((session.inputs - self.mu) / self.sd, k=1)[0]
 
 
+REFIT_FOLDS = 4
+"""The blocks of patterns (of stretches, without labels) that ``RefitSpread`` refits its model without,
+one at a time."""
+
+
+@dataclass(frozen=True, eq=False)
+class RefitSpread:
+    """A fitted model (``model``: ``predict``, ``describe``, ``name``, ``refit`` or ``fit``) whose scale of
+    its error per row (``error_scale``) is the jackknife spread of its predictions over ``refits``, the
+    model refitted without each block of its training rows in turn (``pattern_folds``: whole patterns
+    recorded beside each other), combined with ``residual`` [m], the RMS of its error over those rows:
+    sqrt(s_J^2 + residual^2), s_J^2 = (K - 1) / K sum_k |p_k - mean p|^2 over the K refits. Where the rows
+    of one block are what sets a parameter, the refit without it moves the parameter, and the refits
+    disagree where that parameter matters: combinations of commands that no block shows alone. A row
+    where a refit's run is not finite gets an unbounded scale (``of``)."""
+
+    model: object
+    refits: tuple
+    residual: float
+    folds: int = REFIT_FOLDS
+
+    @classmethod
+    def of(cls, model, sessions, folds: int = REFIT_FOLDS) -> RefitSpread:
+        """``model`` (fitted on ``sessions``) with its refits on ``folds`` blocks of them (``pattern_folds``;
+        a block or its complement of fewer than ``CROSS_ROWS`` rows is left out) and its residual."""
+        refit = getattr(model, "refit", None) or model.fit
+        pairs = [(on, out) for on, out in pattern_folds(sessions, folds)
+                 if min(sum(s.n_rows for s in part) for part in (on, out)) >= CROSS_ROWS]
+        err = np.concatenate([np.linalg.norm(model.predict(s) - s.tip, axis=1) for s in sessions])
+        residual = float(np.sqrt(np.mean(err ** 2))) if np.all(np.isfinite(err)) else math.inf
+        return cls(model, tuple(refit(on) for on, _ in pairs), residual, folds)
+
+    @property
+    def name(self) -> str:
+        """The model's name."""
+        return self.model.name
+
+    def predict(self, session) -> np.ndarray:
+        """The model's tip (T, 3) [m]."""
+        return self.model.predict(session)
+
+    def error_scale(self, session) -> np.ndarray:
+        """(T,) sqrt(s_J^2 + residual^2) [m] (see the class); the residual alone with fewer than two refits."""
+        K = len(self.refits)
+        spread = np.zeros(session.n_rows)
+        if K >= 2:
+            p = np.stack([r.predict(session) for r in self.refits])            # (K, T, 3)
+            with np.errstate(invalid="ignore"):
+                spread = (K - 1) / K * np.sum((p - p.mean(axis=0)) ** 2, axis=(0, 2))
+            spread[~np.isfinite(spread)] = math.inf
+        return np.sqrt(spread + self.residual ** 2)
+
+    def refit(self, sessions) -> RefitSpread:
+        """The model refitted on ``sessions`` (its ``refit``, else ``fit``), with refits of its own."""
+        refit = getattr(self.model, "refit", None) or self.model.fit
+        return RefitSpread.of(refit(sessions), sessions, self.folds)
+
+    def describe(self) -> dict:
+        """The model's description and its error scale's: the refits and the residual [mm]."""
+        return {**self.model.describe(), "error_scale": f"jackknife spread of {len(self.refits)} refits, each "
+                "without a block of the training patterns, with the residual over the training rows",
+                "error_scale_residual_mm": _finite(self.residual, scale=1e3)}
+
+
 class Intervals:
     """What a family with an interval shares: the fields ``interval_q`` (None until calibrated),
     ``interval_slope`` (None: the radius grows as q (1 + d)) and ``reach`` (an ``InputDistance`` of its
@@ -271,24 +339,29 @@ class WithInterval(Intervals):
         return np.ones(session.n_rows) if own is None else own(session)
 
     def describe(self) -> dict:
-        """The model's description and the interval: its radius [mm] on the training rows (where the
-        error scale is 1) and its growth [mm per standard deviation of the distance]; for a model with
-        its own error scale, also q and b (``interval_description``) of the radius scale (q + b d)."""
-        out = {**self.model.describe(), "interval_90_radius_mm": _finite(self.interval_q, scale=1e3),
-               "interval_grows_with_distance": self.reach is not None}
+        """The model's description and the interval: its radius [mm] on the training rows and its growth
+        [mm per standard deviation of the distance]; for a model with its own error scale, q and b
+        (``interval_description``) of the radius error_scale (q + b d) instead."""
+        out = {**self.model.describe(), "interval_grows_with_distance": self.reach is not None}
+        if getattr(self.model, "error_scale", None) is not None:     # the radius is q + b d times its own scale
+            return out | self.interval_description()
+        out["interval_90_radius_mm"] = _finite(self.interval_q, scale=1e3)
         if self.interval_slope is not None:
             out["interval_90_growth_mm"] = _finite(self.interval_slope, scale=1e3)
-        if getattr(self.model, "error_scale", None) is not None:     # the radius is q + b d times its own scale
-            out |= self.interval_description()
         return out
 
 
-def with_interval(model, held_model, fit_part, held, train=None, fitted: bool = False) -> WithInterval:
+def with_interval(model, held_model, fit_part, held, train=None, fitted: bool = False,
+                  refits: int = 0) -> WithInterval:
     """``model`` (fitted on ``train``) with a 90 % interval calibrated on the hold-out sessions ``held``
     by ``held_model`` (the same family fitted on ``fit_part``): a constant radius when ``train`` is
     None, else growing with the distance from the training rows, as q (1 + d) with q from the hold-out
-    alone (``conformal_q``), or ``fitted``: as q + b d with q and b from both parts (``calibrate``)."""
+    alone (``conformal_q``), or ``fitted``: as q + b d with q and b from both parts (``calibrate``).
+    ``refits`` > 0 (with ``train``): a model without an error scale of its own gets the spread of that
+    many refits (``RefitSpread``; the held model's refits on ``fit_part``)."""
     reach = (lambda s: None) if train is None else InputDistance.of
+    if refits and train is not None and getattr(model, "error_scale", None) is None:
+        model, held_model = RefitSpread.of(model, train, refits), RefitSpread.of(held_model, fit_part, refits)
     held_model = WithInterval(held_model, reach(fit_part))
     if fitted:
         return WithInterval(model, reach(train), **calibrate(held_model, fit_part, held))

@@ -1,0 +1,128 @@
+"""A model's error scale from its refits (``softrnn.lab.uncertainty.RefitSpread``): the jackknife spread
+of the model refitted without each block of its training patterns, with its residual over those rows."""
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pytest
+
+from softrnn.lab.families import PersistenceFamily, StaticPolynomial, stretch_edges
+from softrnn.lab.recording import Recording
+from softrnn.lab.uncertainty import REFIT_FOLDS, RefitSpread, WithInterval, pattern_folds, with_interval
+
+
+def _line(u, seed, noise=0.5e-3, rows=20, path="line"):
+    """Patterns of ``rows`` rows at the command levels ``u`` (P,) [mm] (one input), the tip at (u mm, 0, 0)
+    plus marker noise ``noise`` [m] per axis, each pattern labelled."""
+    u = np.repeat(np.asarray(u, dtype=float), rows)
+    tip = np.column_stack([u * 1e-3, np.zeros((u.size, 2))]) + np.random.default_rng(seed).normal(0, noise, (u.size, 3))
+    return Recording(path=path, time=np.arange(u.size) * 0.6, inputs=u[:, None], names=("a",), units=("mm",),
+                     tip=tip, labels=tuple(f"level_{k // rows}" for k in range(u.size)))
+
+
+def _at(u):
+    """A session of one row per command of ``u`` [mm], the tip at its true place."""
+    u = np.asarray(u, dtype=float)
+    return Recording(path="at", time=np.arange(u.size) * 0.6, inputs=u[:, None], names=("a",), units=("mm",),
+                     tip=np.column_stack([u * 1e-3, np.zeros((u.size, 2))]))
+
+
+def test_the_spread_is_the_jackknife_of_the_refits_with_the_residual():
+    """The scale is sqrt((K - 1) / K sum_k |p_k - mean p|^2 + r^2), K the refits (each without one of
+    ``REFIT_FOLDS`` blocks of patterns), r the RMS of the model's error over its training rows."""
+    train = _line(np.linspace(-1, 1, 12), 0)
+    model = StaticPolynomial(1).fit([train])
+    spread = RefitSpread.of(model, [train])
+    assert len(spread.refits) == REFIT_FOLDS
+    for (on, _), refit in zip(pattern_folds([train], REFIT_FOLDS), spread.refits):
+        np.testing.assert_array_equal(refit.W, StaticPolynomial(1).fit(on).W)
+    err = np.linalg.norm(model.predict(train) - train.tip, axis=1)
+    assert spread.residual == pytest.approx(np.sqrt(np.mean(err ** 2)), rel=1e-12)
+    probe = _at([-3.0, 0.0, 0.4, 3.0])
+    p = np.stack([r.predict(probe) for r in spread.refits])
+    expected = np.sqrt(0.75 * np.sum((p - p.mean(axis=0)) ** 2, axis=(0, 2)) + spread.residual ** 2)
+    np.testing.assert_allclose(spread.error_scale(probe), expected, rtol=1e-12)
+    np.testing.assert_array_equal(spread.predict(probe), model.predict(probe))
+
+
+def test_the_spread_grows_where_the_training_data_end():
+    """A line fitted on commands in [-1, 1]: its refits agree near the data and fan out beyond them, so the
+    scale grows with the distance from the data and is the residual's size in the middle."""
+    spread = RefitSpread.of(StaticPolynomial(1).fit([train := _line(np.linspace(-1, 1, 12), 1)]), [train])
+    scale = spread.error_scale(_at([0.0, 4.0, 16.0, 64.0]))
+    assert np.all(np.diff(scale) > 0)
+    assert scale[0] == pytest.approx(spread.residual, rel=0.05) and scale[-1] > 2.0 * spread.residual
+
+
+def test_a_model_that_learns_nothing_has_its_residual_as_scale():
+    """Persistence fits nothing: its refits agree everywhere, and its scale is its residual on every row."""
+    train = _line(np.linspace(-1, 1, 12), 2)
+    spread = RefitSpread.of(PersistenceFamily().fit([train]), [train])
+    np.testing.assert_array_equal(spread.error_scale(_at(np.linspace(-5, 5, 9))), spread.residual)
+
+
+def test_sessions_without_labels_are_cut_at_their_stretches():
+    """Without pattern labels, the blocks are whole stretches of rows (``stretch_edges``), in order."""
+    train = replace(_line(np.linspace(-1, 1, 12), 3), labels=())
+    edges = stretch_edges(train.n_rows)
+    for others, block in pattern_folds([train], REFIT_FOLDS):
+        for s in block + others:
+            first = int(round(s.time[0] / 0.6))
+            assert first in edges and first + s.n_rows in edges
+    assert len(RefitSpread.of(StaticPolynomial(1).fit([train]), [train]).refits) == REFIT_FOLDS
+
+
+def test_blocks_too_small_to_refit_are_left_out():
+    """A session of fewer rows than two blocks need: no refit, the residual alone."""
+    tiny = _line([0.0, 1.0], 4, rows=10)
+    spread = RefitSpread.of(StaticPolynomial(1).fit([tiny]), [tiny])
+    assert spread.refits == () and np.all(spread.error_scale(tiny) == spread.residual)
+
+
+@dataclass(frozen=True, eq=False)
+class _Unstable:
+    """A line whose refit on fewer than ``rows`` rows runs away (NaN) beyond u = 1."""
+
+    rows: int = 200
+    fitted_on: int = 0
+    name: str = "unstable"
+
+    def fit(self, sessions):
+        return replace(self, fitted_on=sum(s.n_rows for s in sessions))
+
+    def predict(self, s):
+        tip = np.column_stack([s.inputs[:, 0] * 1e-3, np.zeros((s.n_rows, 2))])
+        if self.fitted_on < self.rows:
+            tip[s.inputs[:, 0] > 1.0] = np.nan
+        return tip
+
+    def describe(self):
+        return {"kind": "unstable"}
+
+
+def test_a_refit_that_runs_away_makes_the_scale_unbounded_there():
+    train = _line(np.linspace(-1, 1, 12), 5)
+    spread = RefitSpread.of(_Unstable().fit([train]), [train])
+    scale = spread.error_scale(_at([0.0, 0.5, 2.0]))
+    assert np.all(np.isfinite(scale[:2])) and scale[2] == math.inf
+
+
+def test_the_refits_give_the_benchmark_s_interval_its_scale():
+    """``with_interval(refits=...)``: the model and the held model carry their refits' spread (each refitted on
+    its own rows); the radius is that scale times q + b d, and the description names the scale."""
+    train = _line(np.linspace(-1, 1, 12), 6)
+    fit_part, held = [train.rows(0, 180)], [train.rows(180, 240)]
+    family = StaticPolynomial(1)
+    model = with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train], fitted=True,
+                          refits=REFIT_FOLDS)
+    assert isinstance(model, WithInterval) and isinstance(model.model, RefitSpread)
+    probe = _at([0.0, 3.0])
+    tip, radius = model.predict_interval(probe)
+    d = model.reach(probe)
+    np.testing.assert_allclose(radius, model.model.error_scale(probe) * (model.interval_q + model.interval_slope * d))
+    described = model.describe()
+    assert "jackknife" in described["error_scale"] and described["interval_90_q"] > 0
+    assert "interval_90_radius_mm" not in described
+    plain = with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train], fitted=True)
+    assert not isinstance(plain.model, RefitSpread) and plain.describe()["interval_90_radius_mm"] > 0
