@@ -7,9 +7,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pytest
 
-from softrnn.lab.families import PersistenceFamily, StaticPolynomial, stretch_edges
+from softrnn.lab.families import PersistenceFamily, Physics, StaticPolynomial, stretch_edges
+from softrnn.lab.nets import Hybrid, NetOptions
 from softrnn.lab.recording import Recording
+from softrnn.lab.tendon_robot import Calibration
 from softrnn.lab.uncertainty import REFIT_FOLDS, RefitSpread, WithInterval, pattern_folds, with_interval
+
+from helpers import tendon_robot_truth
 
 
 def _line(u, seed, noise=0.5e-3, rows=20, path="line"):
@@ -126,3 +130,24 @@ def test_the_refits_give_the_benchmark_s_interval_its_scale():
     assert "interval_90_radius_mm" not in described
     plain = with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train], fitted=True)
     assert not isinstance(plain.model, RefitSpread) and plain.describe()["interval_90_radius_mm"] > 0
+
+
+def test_the_hybrid_s_scale_is_its_physics_refit_spread_plus_its_ensemble_s_where_the_residual_acts():
+    """Out of range (gate off) the hybrid is its physics, and so is its scale: the physics' ``RefitSpread``
+    over the hybrid's training sessions; on the training rows the ensemble's spread adds to it."""
+    robot, params = tendon_robot_truth(1)
+    truth = Physics(robot, calibration=Calibration(robot, params, 0.0, (), 0.0))
+    start = Physics(robot, calibration=Calibration(robot, replace(params, marker=7e-3), 0.0, (), 0.0))
+    k = np.arange(160)
+    u = 3.0 * np.sin(0.07 * k[:, None] * (1 + 0.3 * np.arange(3)) + np.array([0.0, 2.0, 4.0])) - 0.5
+    rec = Recording(path="", time=k * 0.6, inputs=u, names=("s1", "s2", "s3"), units=("mm",) * 3,
+                    tip=np.zeros((160, 3)), labels=tuple(f"p{i // 20}" for i in k))
+    rec = replace(rec, tip=truth.predict(rec) + np.random.default_rng(0).normal(0, 0.2e-3, (160, 3)))
+    hybrid = Hybrid(start.refit([rec]), options=NetOptions(members=2, steps=50, hidden=8), gate=0.5).fit([rec])
+    physics = RefitSpread.of(hybrid.physics, [rec])
+    far = replace(rec, inputs=rec.inputs + 20.0)
+    assert np.all(hybrid.weights(far) < 1e-12)
+    np.testing.assert_allclose(hybrid.error_scale(far), physics.error_scale(far), rtol=1e-12)
+    near = hybrid.error_scale(rec)
+    assert np.all(near >= physics.error_scale(rec)) and np.any(near > physics.error_scale(rec))
+    assert "refit spread" in hybrid.describe()["error_scale"]

@@ -18,9 +18,10 @@ real ones (for the hybrid they teach a zero residual where no real row is); ``re
 The benchmark chooses the mode, the hysteresis state and the gate on the training hold-out.
 
 Every family states a 90 % interval per row (``predict_interval``, ``softrnn.lab.uncertainty``): an
-error scale (the map's ensemble spread plus its training error, for the hybrid the physics' error where
-the gate is off, for the sequence model and the node LSTM 1) times q + b d, d the distance from the
-training rows, q and b calibrated on the hold-out split (``uncertainty.calibrate``).
+error scale (the map's ensemble spread plus its training error, for the hybrid its physics' refit
+spread plus its ensemble's spread where the residual acts, for the sequence model and the node LSTM
+1) times q + b d, d the distance from the training rows, q and b calibrated on the hold-out split
+(``uncertainty.calibrate``).
 """
 
 from __future__ import annotations
@@ -29,14 +30,14 @@ import copy
 import math
 import zlib
 from contextlib import contextmanager
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .families import PLAY_WIDTHS, NodeFamily, Physics, _previous, held_rows, holdout_split, parsimonious, play
 from .recording import Recording
 from .synthetic import SyntheticOptions, taught_sessions
-from .uncertainty import InputDistance, Intervals, WithInterval, calibrate
+from .uncertainty import InputDistance, Intervals, RefitSpread, WithInterval, calibrate
 
 """How a family uses the physics' synthetic sessions (module docstring)."""
 GATES = (0.5, 1.0, 2.0, 4.0, 8.0)
@@ -246,10 +247,12 @@ class Hybrid(Intervals):
     net: object = None
     widths: object = None
     reach: InputDistance | None = None
-    floor: float = 0.0
-    physics_rms: float = 0.0
+    sessions: tuple = ()
+    """The training sessions (``Recording``) it was fitted on: its physics' refits (``error_scale``)."""
     interval_q: float | None = None
     interval_slope: float | None = None
+    memo: dict = field(default_factory=dict, init=False, repr=False)
+    """Its physics' refits (``RefitSpread``), made the first time ``error_scale`` is asked for."""
 
     def _X(self, s, base):
         return np.hstack([_features(s, self.widths), base])
@@ -267,12 +270,8 @@ class Hybrid(Intervals):
             bases = [physics.predict(s) for s in group]
             return (np.vstack([out._X(s, b) for s, b in zip(group, bases)]),
                     np.vstack([s.tip - b for s, b in zip(group, bases)]))
-        out = replace(out, net=_train(self.options, self.mode, self.synthetic.weight, data(sessions), data(syn)),
-                      reach=InputDistance.of(sessions))
-        res = np.vstack([s.tip - physics.predict(s) for s in sessions])
-        err = np.vstack([out.predict(s) - s.tip for s in sessions])
-        return replace(out, floor=float(np.sqrt(np.mean(np.sum(err ** 2, axis=1)))) + 1e-9,
-                       physics_rms=float(np.sqrt(np.mean(np.sum(res ** 2, axis=1)))))
+        return replace(out, net=_train(self.options, self.mode, self.synthetic.weight, data(sessions), data(syn)),
+                       reach=InputDistance.of(sessions), sessions=tuple(sessions))
 
     def refit(self, sessions) -> Hybrid:
         """The model fitted on ``sessions`` with its physics refitted there too (``Physics.refit``, from
@@ -284,7 +283,8 @@ class Hybrid(Intervals):
         """(T,) the residual's weight w in [0, 1] per row: 1 on a training row, falling to 0 away from them."""
         if math.isinf(self.gate):
             return np.ones(session.n_rows)
-        return np.exp(-(self.reach(session) / self.gate) ** 2)
+        with np.errstate(under="ignore"):                 # far out: w = 0
+            return np.exp(-(self.reach(session) / self.gate) ** 2)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
@@ -292,11 +292,16 @@ class Hybrid(Intervals):
         return base + self.weights(session)[:, None] * self.net(self._X(session, base))
 
     def error_scale(self, session: Recording) -> np.ndarray:
-        """(T,) [m] the training RMS error and the ensemble's spread where the residual acts, the
-        physics' RMS error where the gate turns it off."""
+        """(T,) [m] the physics' error scale, the spread of its refits without each block of the training
+        patterns with its RMS error over the training rows (``uncertainty.RefitSpread``, made here the
+        first time), plus the ensemble's spread w s where the residual acts. The hybrid is its physics
+        plus a small correction: where the gate is off it is the physics, and near the data the new
+        patterns' error is the physics' own, which the hybrid's error on its training rows understates."""
+        if "refits" not in self.memo:
+            self.memo["refits"] = RefitSpread.of(self.physics, list(self.sessions))
         w = self.weights(session)
         spread = self.net.spread(self._X(session, self.physics.predict(session)))
-        return self.floor + w * spread + (1.0 - w) * self.physics_rms
+        return self.memo["refits"].error_scale(session) + w * spread
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
@@ -304,7 +309,9 @@ class Hybrid(Intervals):
                         (" with a hysteresis state (play operators)" if self.hysteresis else "") +
                         (", gated off away from the training data" if not math.isinf(self.gate) else ""),
                 **{k: v for k, v in vars(self.options).items()}, **_pretraining(self),
-                "gate_d0": None if math.isinf(self.gate) else self.gate}
+                "gate_d0": None if math.isinf(self.gate) else self.gate,
+                "error_scale": "the physics' refit spread (jackknife, with its residual over the training rows) "
+                               "plus the ensemble's spread where the residual acts"}
 
 
 @dataclass(frozen=True)
@@ -454,6 +461,12 @@ def seeded(name: str):
         yield
 
 
+def candidate(mode: str, hysteresis: bool | None = None) -> str:
+    """A candidate's label in the hold-out scores and its seed: its hysteresis state (None: the family
+    has none) and its mode, e.g. ``hysteresis=False,mode=real`` or ``mode=finetune``."""
+    return f"mode={mode}" if hysteresis is None else f"hysteresis={hysteresis},mode={mode}"
+
+
 def staged(make, modes, train, held_score, variants=lambda model: {"": model}, name: str = "",
            early: dict | None = None) -> tuple:
     """A learned family's options chosen on the hold-out part in two stages (``make(hysteresis, mode,
@@ -467,7 +480,7 @@ def staged(make, modes, train, held_score, variants=lambda model: {"": model}, n
     scores, fitted, early = {}, {}, dict(early or {})
 
     def attempt(h, m):
-        base = f"hysteresis={h},mode={m}"
+        base = candidate(m, h)
         if base not in early:
             with seeded(f"{name} {base}"):
                 early[base] = make(h, m, 0).fit(fit_part)
@@ -493,15 +506,15 @@ def early_candidates(name: str, train, syn, options) -> dict:
     of its own, which the workers take while the physics calibrates; {} for a family without any."""
     fit_part = holdout_split(train)[0]
     if name == "sequence":
-        return {"mode=real": Sequence(options.sequence, "real", syn).fit(fit_part)}
+        return {candidate("real"): Sequence(options.sequence, "real", syn).fit(fit_part)}
     out = {}
     if name == "learned_map":
         for h in (False, True):
-            with seeded(f"{name} hysteresis={h},mode=real"):
-                out[f"hysteresis={h},mode=real"] = LearnedMap(h, options.nets, "real", syn).fit(fit_part)
+            with seeded(f"{name} {candidate('real', h)}"):
+                out[candidate("real", h)] = LearnedMap(h, options.nets, "real", syn).fit(fit_part)
     elif name == "node_lstm":
-        with seeded(f"{name} mode=real"):
-            out["mode=real"] = NodeFamily(options.length, options.node, mode="real", synthetic=syn).fit(fit_part)
+        with seeded(f"{name} {candidate('real')}"):
+            out[candidate("real")] = NodeFamily(options.length, options.node, mode="real", synthetic=syn).fit(fit_part)
     return out
 
 
@@ -527,8 +540,8 @@ def fit_sequence(train, pair, syn, options, held_score, early: dict | None = Non
     fit_part, held = holdout_split(train)
     fitted = dict(early or {})
     for m in ("real", "finetune") if syn.on else ("real",):
-        if f"mode={m}" not in fitted:
-            fitted[f"mode={m}"] = Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
+        if candidate(m) not in fitted:
+            fitted[candidate(m)] = Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
     scores = {k: held_score(v) for k, v in fitted.items()}
     best = parsimonious(scores, held_rows(held))
     interval = calibrate(fitted[best], fit_part, held)
@@ -543,9 +556,9 @@ def fit_node(train, pair, syn, options, held_score, early: dict | None = None) -
     fit_part, held = holdout_split(train)
     fitted = dict(early or {})
     for m in ("real", "mixed") if syn.on else ("real",):
-        if f"mode={m}" not in fitted:
-            with seeded(f"node_lstm mode={m}"):
-                fitted[f"mode={m}"] = NodeFamily(options.length, options.node, mode=m, synthetic=syn,
+        if candidate(m) not in fitted:
+            with seeded(f"node_lstm {candidate(m)}"):
+                fitted[candidate(m)] = NodeFamily(options.length, options.node, mode=m, synthetic=syn,
                                                  physics=pair[0]).fit(fit_part)
     scores = {k: held_score(v) for k, v in fitted.items()}
     best = parsimonious(scores, held_rows(held))
