@@ -110,6 +110,11 @@ def test_a_refit_that_runs_away_makes_the_scale_unbounded_there():
     spread = RefitSpread.of(_Unstable().fit([train]), [train])
     scale = spread.error_scale(_at([0.0, 0.5, 2.0]))
     assert np.all(np.isfinite(scale[:2])) and scale[2] == math.inf
+    fit_part, held = [train.rows(0, 200)], [train.rows(200, 240)]
+    model = with_interval(_Unstable().fit([train]), _Unstable().fit(fit_part), fit_part, held, [train], fitted=True,
+                          refits=REFIT_FOLDS)
+    radius = model.predict_interval(_at([0.0, 2.0]))[1]
+    assert np.isfinite(radius[0]) and radius[1] == math.inf            # the ball is unbounded where a refit runs away
 
 
 def test_the_refits_give_the_benchmark_s_interval_its_scale():

@@ -210,7 +210,8 @@ class RefitSpread:
     """A fitted model (``model``: ``predict``, ``describe``, ``name``, ``refit`` or ``fit``) whose scale of
     its error per row (``error_scale``) is the jackknife spread of its predictions over ``refits``, the
     model refitted without each block of its training rows in turn (``pattern_folds``: whole patterns
-    recorded beside each other), combined with ``residual`` [m], the RMS of its error over those rows:
+    recorded beside each other), combined with ``residual`` [m], the RMS of its error over those rows
+    (those where its run is finite):
     sqrt(s_J^2 + residual^2), s_J^2 = (K - 1) / K sum_k |p_k - mean p|^2 over the K refits. Where the rows
     of one block are what sets a parameter, the refit without it moves the parameter, and the refits
     disagree where that parameter matters: combinations of commands that no block shows alone. A row
@@ -229,7 +230,8 @@ class RefitSpread:
         pairs = [(on, out) for on, out in pattern_folds(sessions, folds)
                  if min(sum(s.n_rows for s in part) for part in (on, out)) >= CROSS_ROWS]
         err = np.concatenate([np.linalg.norm(model.predict(s) - s.tip, axis=1) for s in sessions])
-        residual = float(np.sqrt(np.mean(err ** 2))) if np.all(np.isfinite(err)) else math.inf
+        finite = err[np.isfinite(err)]          # rows where the model's own run diverged: the cross-fit's inf
+        residual = float(np.sqrt(np.mean(finite ** 2))) if finite.size else math.inf
         return cls(model, tuple(refit(on) for on, _ in pairs), residual, folds)
 
     @property
@@ -294,7 +296,9 @@ class Intervals:
         d = 0.0 if self.reach is None else self.reach(session)
         with np.errstate(invalid="ignore"):          # an unbounded slope at d = 0 adds nothing
             growth = np.where(d > 0, self.interval_slope * d, 0.0)
-        return self.predict(session), self.error_scale(session) * (self.interval_q + growth)
+        scale = self.error_scale(session)
+        with np.errstate(invalid="ignore"):          # an unbounded scale is an unbounded radius, even at q = 0
+            return self.predict(session), np.where(np.isinf(scale), math.inf, scale * (self.interval_q + growth))
 
     def interval_description(self) -> dict:
         """The interval's q and slope b, JSON-ready (None where unbounded)."""
