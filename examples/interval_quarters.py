@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from softrnn.errors import SoftrnnInputError
 from softrnn.lab.benchmark import BenchmarkOptions, baseline_families, prepare
 from softrnn.lab.families import Physics, holdout_split
 from softrnn.lab.recording import read_recording
@@ -55,10 +56,14 @@ def main() -> None:
     parser.add_argument("--json", type=Path, help="where to write the coverages")
     args = parser.parse_args()
     options = BenchmarkOptions(length=args.length, segments=tuple(float(x) for x in args.segments.split(",")))
-    session = read_recording(args.session)
+    try:
+        session = read_recording(args.session)
+        prepared = prepare([session], session, options)
+    except SoftrnnInputError as err:
+        parser.exit(2, f"interval_quarters.py: {err}\n")
     if not session.labels:
-        parser.error(f"session: {args.session} has no pattern labels; give a session with a pattern_label column")
-    prepared = prepare([session], session, options)
+        parser.exit(2, f"interval_quarters.py: session {args.session} has no pattern labels; give a session "
+                       "with a pattern_label column\n")
     out = {}
     with one_blas_thread():
         for j, (train, block) in enumerate(pattern_folds(list(prepared.train), 4)):

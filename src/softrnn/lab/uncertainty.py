@@ -119,6 +119,12 @@ def _cross_splits(fit_part) -> list[tuple[list, list]]:
     return [(stretches(fit_part, 0), stretches(fit_part, 1))]
 
 
+def refitter(model):
+    """How ``model`` is fitted again on other sessions: its ``refit`` (from where it is), else its ``fit``;
+    None for a model that has neither."""
+    return getattr(model, "refit", None) or getattr(model, "fit", None)
+
+
 def cross_fit(model, fit_part) -> tuple[np.ndarray, np.ndarray] | None:
     """(|pred - tip| / scale (n,) [1], d (n,) [standard deviations]) of ``model`` refitted without
     part of ``fit_part`` (its ``refit``, else ``fit``; its distance from the rows it was refitted on)
@@ -127,7 +133,7 @@ def cross_fit(model, fit_part) -> tuple[np.ndarray, np.ndarray] | None:
     the odd stretches with the model refitted on the even ones (errors where the commands were seen,
     at other times). None where no split has ``CROSS_ROWS`` rows on both sides, or the model cannot be
     refitted."""
-    refit = getattr(model, "refit", None) or getattr(model, "fit", None)
+    refit = refitter(model)
     splits = [(a, b) for a, b in _cross_splits(fit_part)
               if min(sum(s.n_rows for s in half) for half in (a, b)) >= CROSS_ROWS]
     if refit is None or not splits:
@@ -226,7 +232,7 @@ class RefitSpread:
     def of(cls, model, sessions, folds: int = REFIT_FOLDS) -> RefitSpread:
         """``model`` (fitted on ``sessions``) with its refits on ``folds`` blocks of them (``pattern_folds``;
         a block or its complement of fewer than ``CROSS_ROWS`` rows is left out) and its residual."""
-        refit = getattr(model, "refit", None) or model.fit
+        refit = refitter(model)
         pairs = [(on, out) for on, out in pattern_folds(sessions, folds)
                  if min(sum(s.n_rows for s in part) for part in (on, out)) >= CROSS_ROWS]
         err = np.concatenate([np.linalg.norm(model.predict(s) - s.tip, axis=1) for s in sessions])
@@ -256,8 +262,7 @@ class RefitSpread:
 
     def refit(self, sessions) -> RefitSpread:
         """The model refitted on ``sessions`` (its ``refit``, else ``fit``), with refits of its own."""
-        refit = getattr(self.model, "refit", None) or self.model.fit
-        return RefitSpread.of(refit(sessions), sessions, self.folds)
+        return RefitSpread.of(refitter(self.model)(sessions), sessions, self.folds)
 
     def describe(self) -> dict:
         """The model's description and its error scale's: the refits and the residual [mm]."""
@@ -334,8 +339,7 @@ class WithInterval(Intervals):
     def refit(self, sessions) -> WithInterval:
         """The model refitted on ``sessions`` (its ``refit``, else ``fit``), its distance from them where
         it has one, not calibrated (``cross_fit``)."""
-        refit = getattr(self.model, "refit", None) or self.model.fit
-        return WithInterval(refit(sessions), None if self.reach is None else InputDistance.of(sessions))
+        return WithInterval(refitter(self.model)(sessions), None if self.reach is None else InputDistance.of(sessions))
 
     def error_scale(self, session) -> np.ndarray:
         """(T,) the model's own scale of its error per row (``model.error_scale``; 1 where it has none)."""
