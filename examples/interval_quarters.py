@@ -5,18 +5,22 @@ patterns recorded beside each other). Each quarter in turn is a validation sessi
 are the training sessions, split into a fitting part and a held part as ``softrnn lab benchmark`` splits
 them; the calibrated physics (plain) and the four baselines are fitted there with their intervals
 calibrated, and the share of the quarter's rows inside each model's 90 % ball is counted, once with
-the benchmark's scale from refits (``uncertainty.RefitSpread``) and once with none (scale 1). No row of
-another session is read, so the rule can be judged without a validation session.
+the benchmark's scale from refits (``uncertainty.RefitSpread``) and once with none (scale 1). With
+``--sequence``, the sequence model too (pretrained on the physics' synthetic sessions), once with its
+scale from the physics (``nets.Sequence.error_scale``) and once with none. No row of another session is
+read, so the rule can be judged without a validation session.
 
     python examples/interval_quarters.py data/opencr-tdcr-v6/train.csv --length 0.222 \\
         --segments 0.1,0.1,0.022 --json out/interval-quarters.json
 
 Prints one line per quarter and model, and writes the coverages (shares of rows) to ``--json``.
-About 4 minutes on 2 cores for the shared robot (the physics' multi-start search, once per quarter).
+About 4 minutes on 2 cores for the shared robot (the physics' multi-start search, once per quarter);
+with ``--sequence`` about 20 (four trainings of the GRU per quarter).
 """
 
 import argparse
 import json
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +28,10 @@ import numpy as np
 from softrnn.errors import SoftrnnInputError
 from softrnn.lab.benchmark import BenchmarkOptions, baseline_families, prepare
 from softrnn.lab.families import Physics, holdout_split
+from softrnn.lab.nets import Sequence
 from softrnn.lab.recording import read_recording
-from softrnn.lab.uncertainty import REFIT_FOLDS, pattern_folds, with_interval
+from softrnn.lab.synthetic import SyntheticOptions
+from softrnn.lab.uncertainty import REFIT_FOLDS, Intervals, calibrate, pattern_folds, with_interval
 from softrnn.learned.threads import one_blas_thread
 
 
@@ -36,16 +42,63 @@ def coverage(model, sessions) -> float:
     return float(np.mean(np.concatenate(inside)))
 
 
-def quarter(robot, options, train, block) -> dict:
-    """{model: {"refits": share, "none": share}} of the rows of ``block`` inside each model's ball."""
+@dataclass(frozen=True, eq=False)
+class Scaled(Intervals):
+    """A fitted ``model`` (``predict``, ``reach``, ``refit``, ``error_scale``) with its own error scale
+    (``own``) or the scale 1, not calibrated until ``interval_q`` and ``interval_slope`` are given; its
+    refits are kept in ``refits`` (by rows), so the two scales share the cross-fit's trainings."""
+
+    model: object
+    own: bool
+    refits: dict
+    interval_q: float | None = None
+    interval_slope: float | None = None
+
+    @property
+    def name(self):
+        return self.model.name
+
+    @property
+    def reach(self):
+        return self.model.reach
+
+    def predict(self, session):
+        return self.model.predict(session)
+
+    def error_scale(self, session):
+        return self.model.error_scale(session) if self.own else np.ones(session.n_rows)
+
+    def refit(self, sessions):
+        key = tuple((s.n_rows, float(s.time[0]), float(s.time[-1])) for s in sessions)
+        if key not in self.refits:
+            self.refits[key] = self.model.refit(sessions)
+        return Scaled(self.refits[key], self.own, self.refits)
+
+
+def sequence(options, split, train, physics) -> tuple:
+    """The sequence model (mode ``finetune``) fitted on ``train`` and on the fitting part ``split[0]``, each
+    with the physics fitted on the same rows (``physics``: (held, final))."""
+    make = [Sequence(options.sequence, "finetune", SyntheticOptions(), p) for p in physics]
+    return make[1].fit(train), make[0].fit(split[0])
+
+
+def quarter(robot, options, train, block, with_sequence) -> dict:
+    """{model: {"refits" or "physics": share, "none": share}} of the rows of ``block`` inside each
+    model's ball."""
     split = holdout_split(train)
     held_physics = Physics(robot, options.calibration).fit(split[0])
     fitted = {"physics": (held_physics.refit(train), held_physics)}
     for name, (family, _) in baseline_families(train, split).items():
         fitted[name] = (family.fit(train), family.fit(split[0]))
-    return {name: {label: round(coverage(with_interval(model, held, *split, train, fitted=True, refits=k), block), 4)
-                   for label, k in (("refits", REFIT_FOLDS), ("none", 0))}
-            for name, (model, held) in fitted.items()}
+    out = {name: {label: round(coverage(with_interval(model, held, *split, train, fitted=True, refits=k), block), 4)
+                  for label, k in (("refits", REFIT_FOLDS), ("none", 0))}
+           for name, (model, held) in fitted.items()}
+    if with_sequence:
+        final, held = sequence(options, split, train, (held_physics, fitted["physics"][0]))
+        refits = {}
+        out["sequence"] = {label: round(coverage(replace(Scaled(final, own, {}), **calibrate(
+            Scaled(held, own, refits), *split)), block), 4) for label, own in (("physics", True), ("none", False))}
+    return out
 
 
 def main() -> None:
@@ -54,6 +107,7 @@ def main() -> None:
     parser.add_argument("--length", type=float, required=True, help="the robot's length [m]")
     parser.add_argument("--segments", required=True, help="the segments' lengths [m], comma-separated")
     parser.add_argument("--json", type=Path, help="where to write the coverages")
+    parser.add_argument("--sequence", action="store_true", help="also the sequence model (about 20 minutes)")
     args = parser.parse_args()
     options = BenchmarkOptions(length=args.length, segments=tuple(float(x) for x in args.segments.split(",")))
     try:
@@ -67,14 +121,18 @@ def main() -> None:
     out = {}
     with one_blas_thread():
         for j, (train, block) in enumerate(pattern_folds(list(prepared.train), 4)):
-            out[f"quarter {j}"] = quarter(prepared.robot, options, train, block)
+            out[f"quarter {j}"] = quarter(prepared.robot, options, train, block, args.sequence)
             for name, share in out[f"quarter {j}"].items():
-                print(f"quarter {j}  {name:18s} refits {share['refits']:6.1%}  none {share['none']:6.1%}", flush=True)
-    for label in ("refits", "none"):
-        shares = [s[label] for q in out.values() for s in q.values()]
-        inside = sum(0.8 <= s <= 0.95 for s in shares)
-        print(f"{label}: {inside} of {len(shares)} inside 80-95 %, mean distance from 90 %: "
-              f"{100 * np.mean(np.abs(np.array(shares) - 0.9)):.1f} points")
+                print(f"quarter {j}  {name:18s} " + "  ".join(f"{k} {v:6.1%}" for k, v in share.items()), flush=True)
+    groups = {"physics and baselines": [n for n in out["quarter 0"] if n != "sequence"]}
+    if args.sequence:
+        groups["sequence"] = ["sequence"]
+    for group, names in groups.items():
+        for label in out["quarter 0"][names[0]]:
+            shares = [q[n][label] for q in out.values() for n in names]
+            inside = sum(0.8 <= s <= 0.95 for s in shares)
+            print(f"{group}, {label}: {inside} of {len(shares)} inside 80-95 %, mean distance from 90 %: "
+                  f"{100 * np.mean(np.abs(np.array(shares) - 0.9)):.1f} points")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         tmp = args.json.with_suffix(".tmp")

@@ -103,6 +103,25 @@ def test_the_sequence_refit_trains_the_real_rows_again_from_its_pretraining(two_
     assert np.array_equal(real.refit([train]).predict(test), real.predict(test))    # mode real: fit again
 
 
+def test_the_sequence_error_scale_is_its_distance_from_the_physics_plus_the_physics_error(two_segments):
+    """|GRU tip - physics tip| + the physics' RMS error over the training rows (here the marker noise,
+    sqrt(3) x 0.1 mm), recomputed over the rows of a refit; 1 per row without a physics."""
+    physics, train, test = two_segments
+    seq = Sequence(SequenceOptions(epochs=2, hidden=8), physics=physics).fit([train])
+    rms = float(np.sqrt(np.mean(np.sum((physics.predict(train) - train.tip) ** 2, axis=1))))
+    assert seq.physics_rms == pytest.approx(rms, rel=1e-12) and rms == pytest.approx(math.sqrt(3) * 1e-4, rel=0.15)
+    gap = np.linalg.norm(seq.predict(test) - physics.predict(test), axis=1)
+    np.testing.assert_allclose(seq.error_scale(test), gap + rms, rtol=1e-12)
+    assert seq.describe()["error_scale_physics_rms_mm"] == pytest.approx(rms * 1e3, abs=1e-4)
+    half = train.rows(0, 150)
+    refitted = seq.refit([half])
+    assert refitted.physics_rms == pytest.approx(
+        float(np.sqrt(np.mean(np.sum((physics.predict(half) - half.tip) ** 2, axis=1)))), rel=1e-12)
+    alone = Sequence(SequenceOptions(epochs=2, hidden=8)).fit([train])
+    assert alone.physics_rms is None and np.array_equal(alone.error_scale(test), np.ones(test.n_rows))
+    assert "error_scale" not in alone.describe()
+
+
 def test_modes_need_a_physics_and_synthetic_data(two_segments):
     physics, train, _ = two_segments
     without = "mode='mixed' is invalid: 'real' for the learned_map family without a calibrated physics"

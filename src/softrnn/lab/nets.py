@@ -19,8 +19,9 @@ The benchmark chooses the mode, the hysteresis state and the gate on the trainin
 
 Every family states a 90 % interval per row (``predict_interval``, ``softrnn.lab.uncertainty``): an
 error scale (the map's ensemble spread plus its training error, for the hybrid its physics' refit
-spread plus its ensemble's spread where the residual acts, for the sequence model and the node LSTM
-1) times q + b d, d the distance from the training rows, q and b calibrated on the hold-out split
+spread plus its ensemble's spread where the residual acts, for the sequence model its distance from
+the physics' tip plus the physics' RMS error over the training rows, for the node LSTM 1) times
+q + b d, d the distance from the training rows, q and b calibrated on the hold-out split
 (``uncertainty.calibrate``).
 """
 
@@ -37,7 +38,7 @@ import numpy as np
 from .families import PLAY_WIDTHS, NodeFamily, Physics, _previous, held_rows, holdout_split, parsimonious, play
 from .recording import Recording
 from .synthetic import SyntheticOptions, taught_sessions
-from .uncertainty import InputDistance, Intervals, RefitSpread, WithInterval, calibrate
+from .uncertainty import InputDistance, Intervals, RefitSpread, WithInterval, calibrate, rms_error
 
 """How a family uses the physics' synthetic sessions (module docstring)."""
 GATES = (0.5, 1.0, 2.0, 4.0, 8.0)
@@ -338,7 +339,9 @@ class SequenceOptions:
 class Sequence(Intervals):
     """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s]) and
     writing the tip: a dynamic model of the commands alone, run free from a zero state; ``mode``
-    ``real`` or ``finetune`` (pretrained on the physics' synthetic sessions, module docstring)."""
+    ``real`` or ``finetune`` (pretrained on the physics' synthetic sessions, module docstring). With a
+    fitted ``physics``, its error scale is its distance from the physics' tip plus the physics' RMS error
+    over the training rows (``error_scale``)."""
 
     options: SequenceOptions = SequenceOptions()
     mode: str = "real"
@@ -354,6 +357,8 @@ class Sequence(Intervals):
     interval_q: float | None = None
     interval_slope: float | None = None
     pretrained: object = None
+    physics_rms: float | None = None
+    """The physics' RMS tip error [m] over the training rows (``error_scale``; None without a fitted physics)."""
 
     def _inputs(self, s: Recording) -> np.ndarray:
         u = s.inputs
@@ -385,7 +390,7 @@ class Sequence(Intervals):
                 pretrained = _train_gru(pre, xs[n:], ys[n:], allX.shape[1])
             net = _train_gru(self.options, xs[:n], ys[:n], allX.shape[1], copy.deepcopy(pretrained))
         return replace(self, net=net, offset=offset, mu=mu, sd=sd, scale=scale, reach=InputDistance.of(sessions),
-                       pretrained=pretrained)
+                       pretrained=pretrained, physics_rms=self._physics_rms(sessions))
 
     def refit(self, sessions) -> Sequence:
         """The model trained anew on the real rows of ``sessions`` from its pretrained network, with the
@@ -402,7 +407,22 @@ class Sequence(Intervals):
         ys = [torch.tensor((s.tip - self.offset) / self.scale, dtype=torch.float32)[None] for s in sessions]
         with _serial():
             net = _train_gru(self.options, xs, ys, xs[0].shape[-1], copy.deepcopy(self.pretrained))
-        return replace(self, net=net, reach=InputDistance.of(sessions), interval_q=None, interval_slope=None)
+        return replace(self, net=net, reach=InputDistance.of(sessions), interval_q=None, interval_slope=None,
+                       physics_rms=self._physics_rms(sessions))
+
+    def _physics_rms(self, sessions) -> float | None:
+        fitted = self.physics is not None and self.physics.calibration is not None
+        return rms_error(self.physics, sessions) if fitted else None
+
+    def error_scale(self, session: Recording) -> np.ndarray:
+        """(T,) [m] the scale of its error per row: |tip - the physics' tip| + the physics' RMS error over
+        the training rows (``physics_rms``); 1 without a fitted physics. The GRU's error is at most its
+        distance from the physics plus the physics' own error: where the GRU leaves the physics (commands
+        its real rows do not show), its interval widens; where they agree, the physics' error is the
+        measure. Its error on its training rows would understate a new session's."""
+        if self.physics_rms is None:
+            return np.ones(session.n_rows)
+        return np.linalg.norm(self.predict(session) - self.physics.predict(session), axis=1) + self.physics_rms
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
@@ -416,8 +436,12 @@ class Sequence(Intervals):
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
-        return {"kind": "GRU of the commands and intervals", **{k: v for k, v in vars(self.options).items()},
-                **_pretraining(self)}
+        out = {"kind": "GRU of the commands and intervals", **{k: v for k, v in vars(self.options).items()},
+               **_pretraining(self)}
+        if self.physics_rms is not None:
+            out |= {"error_scale": "|tip - the physics' tip| + the physics' RMS error over the training rows",
+                    "error_scale_physics_rms_mm": round(self.physics_rms * 1e3, 4)}
+        return out
 
 
 def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple | None = None) -> tuple:

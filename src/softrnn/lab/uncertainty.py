@@ -206,6 +206,14 @@ class InputDistance:
         return self.tree.query((session.inputs - self.mu) / self.sd, k=1)[0]
 
 
+def rms_error(model, sessions) -> float:
+    """The RMS [m] of ``model``'s tip error over the rows of ``sessions`` where its run is finite (rows
+    where it diverged are the cross-fit's inf); inf where there is none."""
+    err = np.concatenate([np.linalg.norm(model.predict(s) - s.tip, axis=1) for s in sessions])
+    finite = err[np.isfinite(err)]
+    return float(np.sqrt(np.mean(finite ** 2))) if finite.size else math.inf
+
+
 REFIT_FOLDS = 4
 """The blocks of patterns (of stretches, without labels) that ``RefitSpread`` refits its model without,
 one at a time."""
@@ -235,10 +243,7 @@ class RefitSpread:
         refit = refitter(model)
         pairs = [(on, out) for on, out in pattern_folds(sessions, folds)
                  if min(sum(s.n_rows for s in part) for part in (on, out)) >= CROSS_ROWS]
-        err = np.concatenate([np.linalg.norm(model.predict(s) - s.tip, axis=1) for s in sessions])
-        finite = err[np.isfinite(err)]          # rows where the model's own run diverged: the cross-fit's inf
-        residual = float(np.sqrt(np.mean(finite ** 2))) if finite.size else math.inf
-        return cls(model, tuple(refit(on) for on, _ in pairs), residual, folds)
+        return cls(model, tuple(refit(on) for on, _ in pairs), rms_error(model, sessions), folds)
 
     @property
     def name(self) -> str:
