@@ -117,6 +117,16 @@ def test_the_sequence_error_scale_is_its_distance_from_the_physics_plus_the_phys
     refitted = seq.refit([half])
     assert refitted.physics_rms == pytest.approx(
         float(np.sqrt(np.mean(np.sum((physics.predict(half) - half.tip) ** 2, axis=1)))), rel=1e-12)
+    @dataclass(frozen=True)
+    class Diverged:                                   # a physics whose run leaves the numbers after row 10
+        calibration: object = physics.calibration
+
+        def predict(self, session):
+            tip = physics.predict(session)
+            tip[10:] = np.nan
+            return tip
+    scale = replace(seq, physics=Diverged()).error_scale(test)
+    assert np.all(np.isfinite(scale[:10])) and np.all(np.isinf(scale[10:]))
     alone = Sequence(SequenceOptions(epochs=2, hidden=8)).fit([train])
     assert alone.physics_rms is None and np.array_equal(alone.error_scale(test), np.ones(test.n_rows))
     assert "error_scale" not in alone.describe()

@@ -419,10 +419,12 @@ class Sequence(Intervals):
         the training rows (``physics_rms``); 1 without a fitted physics. The GRU's error is at most its
         distance from the physics plus the physics' own error: where the GRU leaves the physics (commands
         its real rows do not show), its interval widens; where they agree, the physics' error is the
-        measure. Its error on its training rows would understate a new session's."""
+        measure. Its error on its training rows would understate a new session's. A row where either run
+        is not finite gets an unbounded scale."""
         if self.physics_rms is None:
             return np.ones(session.n_rows)
-        return np.linalg.norm(self.predict(session) - self.physics.predict(session), axis=1) + self.physics_rms
+        gap = np.linalg.norm(self.predict(session) - self.physics.predict(session), axis=1)
+        return np.where(np.isfinite(gap), gap, math.inf) + self.physics_rms
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
