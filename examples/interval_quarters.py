@@ -15,7 +15,7 @@ read, so the rule can be judged without a validation session.
 
 Prints one line per quarter and model, and writes the coverages (shares of rows) to ``--json``.
 About 4 minutes on 2 cores for the shared robot (the physics' multi-start search, once per quarter);
-with ``--sequence`` about 20 (four trainings of the GRU per quarter).
+with ``--sequence`` about 25 (four trainings of the GRU per quarter).
 """
 
 import argparse
@@ -107,7 +107,7 @@ def main() -> None:
     parser.add_argument("--length", type=float, required=True, help="the robot's length [m]")
     parser.add_argument("--segments", required=True, help="the segments' lengths [m], comma-separated")
     parser.add_argument("--json", type=Path, help="where to write the coverages")
-    parser.add_argument("--sequence", action="store_true", help="also the sequence model (about 20 minutes)")
+    parser.add_argument("--sequence", action="store_true", help="also the sequence model (about 25 minutes)")
     args = parser.parse_args()
     options = BenchmarkOptions(length=args.length, segments=tuple(float(x) for x in args.segments.split(",")))
     try:
