@@ -132,6 +132,29 @@ def test_the_sequence_error_scale_is_its_distance_from_the_physics_plus_the_phys
     assert "error_scale" not in alone.describe()
 
 
+def test_an_early_sequence_candidate_is_calibrated_with_the_scale_of_its_final_fit(two_segments):
+    """The candidate of mode ``real`` fitted before the physics was calibrated (no physics, scale 1) is
+    calibrated with the physics' scale, as the final model (fitted with the physics) states it: its q is
+    that of the same candidate given the physics, not of the scale 1."""
+    from types import SimpleNamespace
+
+    from softrnn.lab.nets import candidate, fit_sequence
+
+    physics, train, _ = two_segments
+    options = SimpleNamespace(sequence=SequenceOptions(epochs=2, hidden=8))
+    fit_part, held = holdout_split([train])
+    early = Sequence(options.sequence).fit(fit_part)
+    assert early.physics is None and early.physics_rms is None
+    model, _ = fit_sequence([train], (physics, physics), SyntheticOptions(amount=0.0), options, lambda m: 1.0,
+                            {candidate("real"): early})
+    anchored = early.anchored(physics, fit_part)
+    assert anchored.physics_rms == pytest.approx(
+        float(np.sqrt(np.mean(np.sum((physics.predict(fit_part[0]) - fit_part[0].tip) ** 2, axis=1)))))
+    assert model.physics_rms is not None
+    assert model.interval_q == calibrate(anchored, fit_part, held)["interval_q"]
+    assert model.interval_q != calibrate(early, fit_part, held)["interval_q"]
+
+
 def test_modes_need_a_physics_and_synthetic_data(two_segments):
     physics, train, _ = two_segments
     without = "mode='mixed' is invalid: 'real' for the learned_map family without a calibrated physics"

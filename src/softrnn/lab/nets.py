@@ -414,6 +414,13 @@ class Sequence(Intervals):
         fitted = self.physics is not None and self.physics.calibration is not None
         return rms_error(self.physics, sessions) if fitted else None
 
+    def anchored(self, physics, sessions) -> Sequence:
+        """The fitted model with ``physics`` (fitted, or None) as its error scale's (``error_scale``), its
+        RMS error taken over ``sessions``, the rows the model was fitted on: a candidate of mode ``real``
+        fitted before the physics was calibrated (``early_candidates``) gets the scale its final fit has."""
+        out = replace(self, physics=physics)
+        return replace(out, physics_rms=out._physics_rms(sessions))
+
     def error_scale(self, session: Recording) -> np.ndarray:
         """(T,) [m] the scale of its error per row: |tip - the physics' tip| + the physics' RMS error over
         the training rows (``physics_rms``); 1 without a fitted physics. The GRU's error is at most its
@@ -570,7 +577,7 @@ def fit_sequence(train, pair, syn, options, held_score, early: dict | None = Non
             fitted[candidate(m)] = Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
     scores = {k: held_score(v) for k, v in fitted.items()}
     best = parsimonious(scores, held_rows(held))
-    interval = calibrate(fitted[best], fit_part, held)
+    interval = calibrate(fitted[best].anchored(pair[0], fit_part), fit_part, held)
     return replace(Sequence(options.sequence, best.split("=")[1], syn, pair[1]).fit(train), **interval), scores
 
 
