@@ -390,7 +390,7 @@ class Sequence(Intervals):
                 pretrained = _train_gru(pre, xs[n:], ys[n:], allX.shape[1])
             net = _train_gru(self.options, xs[:n], ys[:n], allX.shape[1], copy.deepcopy(pretrained))
         return replace(self, net=net, offset=offset, mu=mu, sd=sd, scale=scale, reach=InputDistance.of(sessions),
-                       pretrained=pretrained, physics_rms=self._physics_rms(sessions))
+                       pretrained=pretrained).anchored(self.physics, sessions)
 
     def refit(self, sessions) -> Sequence:
         """The model trained anew on the real rows of ``sessions`` from its pretrained network, with the
@@ -407,19 +407,16 @@ class Sequence(Intervals):
         ys = [torch.tensor((s.tip - self.offset) / self.scale, dtype=torch.float32)[None] for s in sessions]
         with _serial():
             net = _train_gru(self.options, xs, ys, xs[0].shape[-1], copy.deepcopy(self.pretrained))
-        return replace(self, net=net, reach=InputDistance.of(sessions), interval_q=None, interval_slope=None,
-                       physics_rms=self._physics_rms(sessions))
-
-    def _physics_rms(self, sessions) -> float | None:
-        fitted = self.physics is not None and self.physics.calibration is not None
-        return rms_error(self.physics, sessions) if fitted else None
+        return replace(self, net=net, reach=InputDistance.of(sessions), interval_q=None,
+                       interval_slope=None).anchored(self.physics, sessions)
 
     def anchored(self, physics, sessions) -> Sequence:
         """The fitted model with ``physics`` (fitted, or None) as its error scale's (``error_scale``), its
-        RMS error taken over ``sessions``, the rows the model was fitted on: a candidate of mode ``real``
-        fitted before the physics was calibrated (``early_candidates``) gets the scale its final fit has."""
-        out = replace(self, physics=physics)
-        return replace(out, physics_rms=out._physics_rms(sessions))
+        RMS error taken over ``sessions``, the rows the model was fitted on (``fit``, ``refit``); also a
+        candidate of mode ``real`` fitted before the physics was calibrated (``early_candidates``), so
+        that it states the scale its final fit has."""
+        fitted = physics is not None and physics.calibration is not None
+        return replace(self, physics=physics, physics_rms=rms_error(physics, sessions) if fitted else None)
 
     def error_scale(self, session: Recording) -> np.ndarray:
         """(T,) [m] the scale of its error per row: |tip - the physics' tip| + the physics' RMS error over
