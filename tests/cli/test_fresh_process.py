@@ -331,7 +331,15 @@ _DASK_THEN_COMPILE = textwrap.dedent("""
         config = RunConfig(dt=0.01, n_samples=5)
         threads = int(numba.config.NUMBA_NUM_THREADS)
 
-        simulate_batch(setups, config)                    # a parallel kernel: numba's thread pool starts
+        @numba.njit(parallel=True, cache=False)
+        def total(x):
+            s = 0.0
+            for i in numba.prange(x.size):
+                s += x[i]
+            return s
+
+        simulate_batch(setups, config)
+        first_sum = float(total(np.ones(64)))             # a parallel function: numba's thread pool starts
         launched = bool(numba_parallel._is_initialized)
 
         before = dict(os.environ)
@@ -345,14 +353,14 @@ _DASK_THEN_COMPILE = textwrap.dedent("""
         run_all(("statics",), quick=True)
 
         @numba.njit(parallel=True, cache=False)
-        def total(x):
+        def doubled_total(x):
             s = 0.0
             for i in numba.prange(x.size):
-                s += x[i]
+                s += 2.0 * x[i]
             return s
 
         numba.set_num_threads(threads)
-        parallel_sum = float(total(np.ones(64)))
+        parallel_sum = float(doubled_total(np.ones(64))) - first_sum
         simulate_batch(setups, config)
         print("RESULT " + json.dumps({"threads": threads, "launched": launched, "environ_changed": changed,
                                       "threads_after": int(numba.config.NUMBA_NUM_THREADS),

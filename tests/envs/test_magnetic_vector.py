@@ -3,13 +3,13 @@ the rods (softrnn.envs.MagneticNavigateVectorEnv): each rod with its own field g
 what a single environment gives with the same actions and seed, and a rod whose magnet comes too
 close to a coil fails alone."""
 
-import numba
 import numpy as np
 import pytest
 
 gymnasium = pytest.importorskip("gymnasium")
 
 import softrnn.envs.rods as rods_module  # noqa: E402 (after the skip)
+import softrnn.rod.threads as threads_module  # noqa: E402
 from softrnn.envs import MagneticNavigateConfig, MagneticNavigateEnv, MagneticNavigateVectorEnv, MagneticRod  # noqa: E402
 from softrnn.magnetics import CurrentSchedule, ManipulatorSpec  # noqa: E402
 from softrnn.magnetics.manipulator import magnetic_load  # noqa: E402
@@ -25,24 +25,23 @@ ACTIONS = np.array([[1.0, 0.0, 0.0, 1.0, 0.0], [0.5, 0.2, 0.0, -1.0, 0.3], [0.8,
 
 
 @pytest.fixture
-def all_threads():
-    """numba's every thread for the batched kernel (as many as NUMBA_NUM_THREADS allows), so that rods
-    sharing a buffer would race."""
-    before = numba.get_num_threads()
-    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-    yield
-    numba.set_num_threads(before)
+def all_threads(monkeypatch):
+    """One thread per rod for the batched kernel (whatever numba's thread count), so that rods sharing
+    a buffer would race."""
+    monkeypatch.setattr(threads_module, "thread_count", lambda n_rods: n_rods)
 
 
 def _counting(monkeypatch) -> list:
-    """The rods' batch sizes of every call of the batched kernel from now on."""
+    """The rods' batch sizes of every call of the batched kernel from now on (one call: its blocks of
+    rods run at once on numba's threads)."""
     calls = []
-    kernel = rods_module.advance_rods
+    run = rods_module.over_rods
 
-    def counted(rod, state, *args):
-        calls.append(len(state.positions))
-        return kernel(rod, state, *args)
-    monkeypatch.setattr(rods_module, "advance_rods", counted)
+    def counted(kernel, n_rods, *args):
+        assert kernel is rods_module.advance_rods
+        calls.append(n_rods)
+        return run(kernel, n_rods, *args)
+    monkeypatch.setattr(rods_module, "over_rods", counted)
     return calls
 
 

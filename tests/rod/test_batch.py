@@ -24,6 +24,7 @@ from softrnn.rod import (
 )
 from softrnn.rod import batch as batch_module
 from softrnn.rod import simulation as simulation_module
+from softrnn.rod import threads as threads_module
 from softrnn.rod.contact import MeshVessel, Plane
 
 N = 12
@@ -189,3 +190,26 @@ def test_a_batch_refuses_rods_with_other_numbers_of_obstacles_or_contact_stiffne
         with pytest.raises(SoftrnnInputError) as err:
             simulate_batch([first, other], RunConfig(dt=0.005, n_samples=3))
         assert "\n" not in str(err.value) and words in str(err.value) and "setups[1].contact" in str(err.value)
+
+
+@pytest.mark.parametrize("threads", [2, 3])
+def test_rods_on_several_threads_give_the_one_thread_figures_to_the_bit(threads, monkeypatch):
+    """The blocks of rods run at once on threads (rod.threads.over_rods), each rod's arithmetic as on
+    one thread: every sample of every rod equals the one-thread run's, to the bit."""
+    setups = [_setup([NodalLoad(-1, force=Constant((0.0, 0.002 * (b + 1), 0.001 * b)))]) for b in range(5)]
+    config = RunConfig(dt=0.01, n_samples=11, save_nodes=(0, 5, -1))
+    monkeypatch.setattr(threads_module, "thread_count", lambda n_rods: 1)
+    alone = simulate_batch(setups, config)
+    blocks_run = []
+    run = threads_module.over_rods
+
+    def counted(kernel, n_rods, *args):
+        blocks_run.append(min(threads, n_rods))
+        return run(kernel, n_rods, *args)
+    monkeypatch.setattr(threads_module, "thread_count", lambda n_rods: min(threads, n_rods))
+    monkeypatch.setattr(batch_module, "over_rods", counted)
+    together = simulate_batch(setups, config)
+    assert blocks_run and set(blocks_run) == {threads}
+    for got, want in zip(together, alone):
+        for name in ("positions", "quaternions", "velocities", "angular_velocities", "forces", "torques"):
+            assert np.array_equal(getattr(got, name), getattr(want, name)), name

@@ -1,8 +1,8 @@
 """The batched step of the navigation environments: B rods of one design in one vessel, each with
 its own state, hub motion, tracked vessel segments and contact outputs (the magnetic rod's also its
 own coil currents and magnet buffers), advanced by the implicit integrator
-(``rod.implicit.advance_implicit_into``) in one call, in parallel over the rods (numba ``prange``;
-the thread count is numba's).
+(``rod.implicit.advance_implicit_into``) in one call, in parallel over the rods (blocks of rods on
+threads, ``rod.threads.over_rods``; the thread count is numba's).
 
 Caching: the kernel compiles the rod kernels' code into itself, so it is built as a closure over a
 hash of their files and of ``rod/implicit.py`` (``stamp``), as ``rod.kernels`` does: an edit of any
@@ -13,7 +13,7 @@ import hashlib
 from pathlib import Path
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ..rod import implicit
 from ..rod.implicit import ImplicitWork, advance_implicit_into
@@ -34,9 +34,10 @@ def stamp() -> int:
 def _build(stamp_value):
     """``advance_rods`` closed over ``stamp_value``."""
 
-    @njit(parallel=True, cache=True)
-    def advance_rods(rod, state, inputs, out, h, k0, n_steps, stride, s0, work, beta, theta, tau, status):
-        """Advance B rods of one ``rod`` (an elastic ``LumpedRod``) by ``n_steps`` implicit steps.
+    @njit(nogil=True, cache=True)
+    def advance_rods(rod, state, inputs, out, h, k0, n_steps, stride, s0, work, beta, theta, tau, status, b0, b1):
+        """Advance rods b0 .. b1 - 1 of B rods of one ``rod`` (an elastic ``LumpedRod``) by ``n_steps``
+        implicit steps, without the GIL (``rod.threads.over_rods`` runs blocks of rods at once).
 
         state, work (``ImplicitWork``) and out (except save_slot) carry a leading batch axis (B, ...);
         so do inputs' ext_w, pd_target, presc_r, presc_R, tendon_tension, tendon_displacement,
@@ -47,7 +48,7 @@ def _build(stamp_value):
         if stamp_value < 0:  # never true: references the stamp so that it is a closure variable
             return
         inp = inputs
-        for b in prange(len(state.positions)):
+        for b in range(b0, b1):
             contact = (inp.contact_kind, inp.contact_geom, inp.contact_range, inp.contact_friction, inp.contact_points,
                        inp.contact_radii, inp.contact_mesh_index, inp.contact_mesh_values, inp.contact_node,
                        inp.contact_segment[b], inp.contact_samples[b], inp.contact_applied[b])

@@ -19,6 +19,7 @@ from ..rod.hub import Hub
 from ..rod.integrators import Implicit
 from ..rod.kernels import OK, StateArrays, StepInputs
 from ..rod.state import empty_samples
+from ..rod.threads import over_rods
 from ._kernels import advance_rods, stacked_work
 from .config import NavigateConfig
 from .track import Track
@@ -194,8 +195,9 @@ class RodBatch:
     def _advance(self, inputs: StepInputs, stride: int) -> None:
         """Every rod ``substeps`` solver steps with ``inputs`` in one call of the batched kernel, the
         contact sampled every ``stride`` steps."""
-        advance_rods(self.rod, self.state, inputs, self._samples, self.h, 1, self.substeps, stride, 1,
-                     self._work, self._integrator.beta, self._integrator.theta, self._tau, self._status)
+        over_rods(advance_rods, len(self.state.positions), self.rod, self.state, inputs, self._samples, self.h, 1,
+                  self.substeps, stride, 1, self._work, self._integrator.beta, self._integrator.theta, self._tau,
+                  self._status)
 
     def gaps(self, b: int) -> np.ndarray:
         """The gaps (n,) [m] of rod ``b``'s surface to the vessel's wall (the least over its

@@ -1,7 +1,7 @@
 """Batched simulation: many independent rods of the same design advanced together.
 
-``simulate_batch`` runs ``kernels.advance_batch``, which steps the rods in parallel (numba
-``prange``, one rod per iteration; set the thread count with ``numba.set_num_threads``). The
+``simulate_batch`` runs ``kernels.advance_batch``, which steps the rods in parallel (blocks of rods
+on threads, ``rod.threads.over_rods``; set the thread count with ``numba.set_num_threads``). The
 rods must share everything the kernel shares between them: rod spec, stress-free reference shape,
 boundary node kinds and the nodes with prescribed motion, the PD-tracked nodes and their gains,
 the tendons' routing and which are driven by a displacement (with their stiffness), damping and
@@ -34,6 +34,7 @@ from .magnetic import MagneticDipoles
 from .simulation import RunConfig, Setup, Simulator, Trajectory, check_run_size, save_nodes, save_slots
 from .state import SAMPLE_FIELDS, empty_samples, half_kick, initial_state
 from .status import raise_for_status
+from .threads import over_rods
 
 # rod-steps per kernel call: the per-chunk input arrays hold B x K steps (ext_w alone is
 # B K m 12 doubles), so the steps per chunk shrink as the batch grows
@@ -194,7 +195,8 @@ class _Batch:
         t = self.t0 + (k0 + np.arange(n_steps)) * self.h
         self.status[:] = 0
         inputs = self.step_inputs(t)
-        kernels.advance_batch(self.rod, state, inputs, self.out, self.h, k0, n_steps, self.substeps, 0, self.status)
+        over_rods(kernels.advance_batch, len(self.inputs), self.rod, state, inputs, self.out, self.h, k0, n_steps,
+                  self.substeps, 0, self.status)
         for b, (code, step) in enumerate(self.status):
             raise_for_status(int(code), step=int(step), t0=self.t0, h=self.h, where=f"setups[{b}]: ")
         if self.tensions is not None:  # the tensions applied at the saved steps

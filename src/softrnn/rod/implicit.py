@@ -660,10 +660,13 @@ def _build(stamp):
         step from rest would reach; the state must be at rest. Returns False if singular."""
         if stamp < 0:
             return False
-        fine, _, _ = _explicit_forces(0, 0, False, h, beta, rod, state, inputs, out, work)
+        # step 0, row 0, nothing recorded; typed int64 and bool (a literal 0 or False would compile the
+        # whole load tree a second time, specialised on it, beside advance_implicit_into's)
+        first, no_record = np.int64(0), np.bool_(False)
+        fine, _, _ = _explicit_forces(first, first, no_record, h, beta, rod, state, inputs, out, work)
         if not fine:
             return False
-        _known_velocities(0, h, rod, state, inputs, work)
+        _known_velocities(first, h, rod, state, inputs, work)
         for a in range(len(state.positions)):
             for c in range(6):
                 work.known[a, c] = 0.0

@@ -2,8 +2,9 @@
 
 Per node: explicit translation (T) and a 3-unknown Newton solve on the Cayley vector for the
 rotation (R); segment strains use the SE(3)-Cayley measure (second order in space). One call
-advances many steps; ``advance_batch`` advances many independent rods with ``prange``, each rod's
-record built by ``rod_inputs`` (shared with the environments' kernel, ``softrnn.envs._kernels``).
+advances many steps; ``advance_batch`` advances a block of independent rods without the GIL
+(``rod.threads.over_rods`` runs the blocks at once on threads), each rod's record built by
+``rod_inputs`` (shared with the environments' kernel, ``softrnn.envs._kernels``).
 
 The records (``LumpedRod``, ``StateArrays``, ``StepInputs``, ``Samples``) and the constants live in
 ``rod.kernel_records``; the loads of each concept in their own kernel modules (``tendon_kernels``,
@@ -43,7 +44,7 @@ so an edit of any of them recompiles the entry points (``rod.implicit`` does the
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 from numba.extending import overload
 
 from .contact_kernels import _applied_outputs_if_any, _contact_loads, _contact_loads_if_any
@@ -671,16 +672,17 @@ def rod_samples(out, b):
 def _build_batch(stamp):
     """``advance_batch`` over ``advance_into``, closed over ``stamp`` (see the module docstring)."""
 
-    @njit(parallel=True, cache=True)
-    def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status):
-        """Advance B independent rods of one ``rod`` (see ``advance_into``): state, inputs (except
-        the node indices, gains and tendon routing; the contact fields with obstacles, each rod its
-        own: ``contact_rows``; with magnets, the currents and the magnets' buffers: ``magnet_rows``)
-        and out (except save_slot) carry a leading batch axis (B, ...).
-        status (B, 2) int64 receives (code, step) per rod."""
+    @njit(nogil=True, cache=True)
+    def advance_batch(rod, state, inputs, out, h, k0, n_steps, stride, s0, status, b0, b1):
+        """Advance rods b0 .. b1 - 1 of a batch of B independent rods of one ``rod`` (see
+        ``advance_into``): state, inputs (except the node indices, gains and tendon routing; the
+        contact fields with obstacles, each rod its own: ``contact_rows``; with magnets, the currents
+        and the magnets' buffers: ``magnet_rows``) and out (except save_slot) carry a leading batch
+        axis (B, ...). status (B, 2) int64 receives (code, step) per rod. Without the GIL: blocks of
+        rods run at once on threads (``rod.threads.over_rods``)."""
         if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return
-        for b in prange(len(state.positions)):
+        for b in range(b0, b1):
             work_f = np.empty((state.positions.shape[1], 6))
             code, step = advance_into(rod, rod_state(state, b),
                                       rod_inputs(inputs, b, contact_rows(inputs, b), magnet_rows(inputs, b)),
@@ -705,7 +707,9 @@ def _build_wrenches(stamp):
         ``StepInputs`` with contact; its tracked vessel segments are updated). For the start at rest."""
         if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return
-        _contact_loads(0, False, h, R, r, v, w, rod, inputs, inputs.contact_kind, work_f)
+        # step 0, nothing recorded; typed int64 and bool, so that advance_into's compiled loads serve
+        # (a literal 0 or False would compile them again, specialised on it)
+        _contact_loads(np.int64(0), np.bool_(False), h, R, r, v, w, rod, inputs, inputs.contact_kind, work_f)
 
     @njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
     def magnet_wrench_into(R, r, inputs, work_f):
@@ -715,7 +719,8 @@ def _build_wrenches(stamp):
         source. For the start at rest."""
         if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return -2
-        return _magnet_loads(0, 0, False, R, r, inputs, work_f)
+        first = np.int64(0)   # step 0, row 0, nothing recorded: typed as advance_into's (see contact_wrench_into)
+        return _magnet_loads(first, first, np.bool_(False), R, r, inputs, work_f)
 
     return contact_wrench_into, magnet_wrench_into
 
