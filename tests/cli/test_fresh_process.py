@@ -349,18 +349,12 @@ _DASK_THEN_COMPILE = textwrap.dedent("""
                    if before.get(k) != after.get(k)}
 
         # numba compiles in this process after the Dask step (the workers cached only the single-rod
-        # kernel): the static solver's kernels, then a parallel function that no cache can hold
+        # kernel): the static solver's kernels, then the parallel function again (no cache holds it)
         run_all(("statics",), quick=True)
 
-        @numba.njit(parallel=True, cache=False)
-        def doubled_total(x):
-            s = 0.0
-            for i in numba.prange(x.size):
-                s += 2.0 * x[i]
-            return s
-
         numba.set_num_threads(threads)
-        parallel_sum = float(doubled_total(np.ones(64))) - first_sum
+        parallel_sum = float(total(np.ones(64, dtype=np.float32)))   # a new signature: compiled here, now
+        assert first_sum == 64.0
         simulate_batch(setups, config)
         print("RESULT " + json.dumps({"threads": threads, "launched": launched, "environ_changed": changed,
                                       "threads_after": int(numba.config.NUMBA_NUM_THREADS),

@@ -3,9 +3,9 @@ with ``nogil=True``) is called on contiguous blocks of rods, one block per threa
 thread taking the first.
 
 Why not numba's ``prange``: a ``parallel=True`` kernel outlines its loop body into a function of its
-own and optimises the whole inlined integrator once more there; a cold compile of the batched
-kernels took 50 s (explicit) and 130 s (implicit, the environments') with it, against 17 s and 60 s
-now. The work per rod is the same either way, so every rod's results are the same to the bit.
+own and optimises the whole inlined integrator once more there; on an empty cache the first call
+of the batched kernels took 52 s (explicit) and 131 s (implicit, the environments') with it, against
+21 s and 64-68 s now. The work per rod is the same either way, so every rod's results are the same to the bit.
 
 The thread count is numba's (``numba.get_num_threads()``; ``numba.set_num_threads`` or
 ``NUMBA_NUM_THREADS`` sets it), at most one thread per rod.
@@ -13,7 +13,7 @@ The thread count is numba's (``numba.get_num_threads()``; ``numba.set_num_thread
 
 import os
 import threading
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
 import numba
 
@@ -57,7 +57,6 @@ def over_rods(kernel, n_rods: int, *args) -> None:
     try:
         kernel(*args, *spans[0])
     finally:
-        for future in futures:
-            future.exception()   # waits: no block still runs on the caller's arrays when this returns
+        wait(futures)   # no block still runs on the caller's arrays when this returns
     for future in futures:
         future.result()
