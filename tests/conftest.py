@@ -23,3 +23,27 @@ pin_numerics()
 def _strict_floating_point():
     with np.errstate(all="raise"):
         yield
+
+
+# Test modules that one process runs, one after the other, when the tests are spread over processes
+# (``make test``: pytest-xdist, ``--dist loadfile``). Each of these pairs compiles the same kernels on
+# first use: on two processes at once, both would compile them on a cold cache (over a minute each);
+# in one, the second module loads what the first compiled.
+SAME_PROCESS = (("tests/lab/test_benchmark.py", "tests/lab/test_worker_pool.py"),)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadfile`` with the modules of each ``SAME_PROCESS`` group as one unit of work."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    first = {module: group[0] for group in SAME_PROCESS for module in group}
+
+    class GroupedFiles(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            scope = super()._split_scope(nodeid)
+            return first.get(scope, scope)
+
+    return GroupedFiles(config, log)

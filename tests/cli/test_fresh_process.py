@@ -11,7 +11,10 @@ newcomer's first ``make reproduce`` hit exactly that. Here each subprocess gets 
 
 The small data set and model are made once per module (simulate and train, each itself cold) and
 used by the later tests. ``softrnn reproduce --quick`` is not here: CI runs it with empty caches
-(.ci/run). Every subprocess has a timeout, so a hang fails instead of blocking CI.
+(.ci/run). The subcommands whose work that run already does cold, in a fresh process, are marked
+slow (run them with ``make test-all``): the magnetic experiment and its comparison, the benchmark, the
+Fig. 14 study on Dask and the whole-manipulator model. Every subprocess has a timeout, so a hang fails
+instead of blocking CI.
 """
 
 import importlib.util
@@ -217,11 +220,14 @@ def test_export(model, work):
     torch.jit.load(str(_nonempty(work / "model.pt")))
 
 
+@pytest.mark.slow
 @needs_learn
 @needs_dask
 def test_study_hparams(dataset, work):
     """A one-point grid on the default local Dask cluster; the bandwidth is then measured in the
-    calling process, i.e. numba compiles there after the Dask step."""
+    calling process, i.e. numba compiles there after the Dask step. Slow: CI's cold quick reproduce
+    runs the same study (``run_study`` on a local Dask cluster, then the bandwidth) in a fresh process
+    with an empty cache."""
     out = work / "study"
     _softrnn(["study", "hparams", dataset, "--node", NODE, "-o", out, "--units", 4, "--history", 2, "--epochs", 1,
               "--bandwidth-steps", 10, "--json", work / "study.json", "--quiet"], work, "study hparams")
@@ -247,8 +253,12 @@ def test_magnetic_experiment(work):
     assert read_dataset(out / "robot.h5").n_samples > 0
 
 
+@pytest.mark.slow
 @needs_learn
 def test_magnetic_compare(work):
+    """Slow: CI's cold quick reproduce runs the same comparison (``compare``: the static model and the
+    LSTM against the record, Table 1) on its simulated record, in a fresh process with an empty cache;
+    reading a lab CSV is tested on a warm cache (tests/experiments/test_magnetic_experiment.py)."""
     out = work / "magnetic-compare"
     _softrnn(["magnetic", "compare", MAGNETIC_CSV, "-o", out, "--epochs", 1, "--quiet"], work, "magnetic compare")
     table = json.loads((out / "table1.json").read_text())
@@ -277,11 +287,14 @@ def test_bench_quick(work):
     assert integrators["implicit"]["steel-wire"]["tip_error_pct_of_length"] is not None
 
 
+@pytest.mark.slow
 @needs_learn
 @needs_dask
 def test_dynamic_train_evaluate_rollout(simulated, work):
     """The whole-manipulator model: trained on the sweep's first variant and the data set's first
-    60 % (a 0.2 ms model step: the data are 20 ms long), then evaluated and run free, each cold."""
+    60 % (a 0.2 ms model step: the data are 20 ms long), then evaluated and run free, each cold.
+    Slow: CI's cold quick reproduce trains, evaluates and runs free the same model (its dynamic step)
+    in a fresh process with an empty cache."""
     sweep = work / "sweep"
     if not (sweep / "traj-00001.h5").is_file():
         _softrnn(["sweep", SCENARIO, "--count", 2, "--samples", 50, "-o", sweep, "--quiet"], work, "sweep for dynamic")

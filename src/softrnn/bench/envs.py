@@ -139,9 +139,9 @@ def _magnetic(config: MagneticNavigateConfig, n_envs: int, span_s: float) -> dic
 def run_envs_benchmark(quick: bool = False, span_s: float | None = None, config: NavigateConfig | None = None,
                        n_envs: int = VECTOR_ENVS, magnetic: MagneticNavigateConfig | None = None) -> dict:
     """The ``envs`` part of ``softrnn bench`` (``HOW``): one environment, then ``n_envs``, each stepped
-    for ``span_s`` [s] of wall (None: 15 s, 4 s ``quick``), with ``config`` (None: the defaults); the
+    for ``span_s`` [s] of wall (None: 15 s, 2 s ``quick``), with ``config`` (None: the defaults); the
     same for the magnetic environments with ``magnetic`` (None: their defaults); the image's cost."""
-    span = (4.0 if quick else 15.0) if span_s is None else float(span_s)
+    span = (2.0 if quick else 15.0) if span_s is None else float(span_s)
     config = NavigateConfig() if config is None else config
     usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = max(1, min(GOAL_CORES, usable, numba.config.NUMBA_NUM_THREADS))

@@ -28,7 +28,7 @@ PERTURBATIONS = {"+10%": 1.1, "-10%": 0.9}
 """Robustness: the plant's stiffness and remanence multiplied further by these factors."""
 
 FULL = {"duration": 30.0, "physics_duration": 10.0, "identify": 90.0, "train_steps": 2000}
-QUICK = {"duration": 4.0, "physics_duration": 1.0, "identify": 15.0, "train_steps": 300}
+QUICK = {"duration": 2.0, "physics_duration": 0.5, "identify": 15.0, "train_steps": 300}
 KEYS = ("rms_deg", "max_deg", "limit_violations", "compute_ms_median", "compute_ms_p99", "stable")
 
 

@@ -28,6 +28,8 @@ QUICK_SAMPLES = 240
 QUICK_EPOCHS = 8
 FULL_SAMPLES = 669
 FULL_EPOCHS = 25
+QUICK_CALIBRATION_EVALUATIONS = 5
+FULL_CALIBRATION_EVALUATIONS = 12
 
 ROBOT_FILE = "robot.h5"
 TABLE_FILE = "table1.json"
@@ -122,9 +124,11 @@ class ExperimentConfig:
         paper-length record; enough to fix stiffness and remanence to 0.1 % and damping to a few %;
         each trial simulates the span at a 3 us step).
     calibration_evaluations : int
-        Largest number of points the calibration's optimiser evaluates (``FitOptions.max_evaluations``).
+        Largest number of points the calibration's optimiser evaluates (``FitOptions.max_evaluations``;
+        None: 12, or ``QUICK_CALIBRATION_EVALUATIONS`` = 5 with ``quick``: the fit may stop before it
+        converges). Each point costs four simulations of the calibration span.
     quick : bool
-        Fewer samples and epochs (a smoke test under a minute).
+        Fewer samples, epochs and calibration points (a smoke test of about two minutes on 2 cores).
     """
 
     samples: int | None = None
@@ -154,7 +158,7 @@ class ExperimentConfig:
     output: str = "increment"
     calibrate: bool = True
     calibration_fraction: float = 0.5
-    calibration_evaluations: int = 12
+    calibration_evaluations: int | None = None
     quick: bool = False
 
     def __post_init__(self):
@@ -219,8 +223,10 @@ class ExperimentConfig:
         object.__setattr__(self, "calibrate", bool(self.calibrate))
         number("calibration_fraction", self.calibration_fraction, low=0.05, high=1.0,
                unit="(leading fraction of the training span)")
-        object.__setattr__(self, "calibration_evaluations",
-                           integer("calibration_evaluations", self.calibration_evaluations, 2))
+        evaluations = self.calibration_evaluations
+        if evaluations is None:
+            evaluations = QUICK_CALIBRATION_EVALUATIONS if self.quick else FULL_CALIBRATION_EVALUATIONS
+        object.__setattr__(self, "calibration_evaluations", integer("calibration_evaluations", evaluations, 2))
         if self.output not in ("increment", "pose"):
             raise bad("output", self.output, "'increment' (next minus last orientation) or 'pose' (next orientation)")
 
