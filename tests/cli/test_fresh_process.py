@@ -330,18 +330,12 @@ _DASK_THEN_COMPILE = textwrap.dedent("""
     import numpy as np
     from numba.np.ufunc import parallel as numba_parallel
 
-    from softrnn.bench import run_all
-    from softrnn.rod import Clamp, Constant, NodalLoad, RodSpec, RunConfig, Setup, simulate_batch, straight
+    from softrnn.rod.magnetic import currents_into
     from softrnn.scenarios.scenario import load_scenario
     from softrnn.sweeps.sweep import run_sweep
 
 
     def main():
-        rod = RodSpec(length=0.5, radius=0.01, youngs_modulus=1e6, density=1000.0, n_nodes=8)
-        shape = straight(8, 0.5, direction=(1.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
-        setups = [Setup(rod=rod, reference=shape, boundary=(Clamp(0),),
-                        loads=(NodalLoad(-1, force=Constant((0.0, 0.0, f))),)) for f in (0.01, -0.01)]
-        config = RunConfig(dt=0.01, n_samples=5)
         threads = int(numba.config.NUMBA_NUM_THREADS)
 
         @numba.njit(parallel=True, cache=False)
@@ -351,7 +345,6 @@ _DASK_THEN_COMPILE = textwrap.dedent("""
                 s += x[i]
             return s
 
-        simulate_batch(setups, config)
         first_sum = float(total(np.ones(64)))             # a parallel function: numba's thread pool starts
         launched = bool(numba_parallel._is_initialized)
 
@@ -361,17 +354,16 @@ _DASK_THEN_COMPILE = textwrap.dedent("""
         changed = {k: [before.get(k), after.get(k)] for k in sorted(set(before) | set(after))
                    if before.get(k) != after.get(k)}
 
-        # numba compiles in this process after the Dask step (the workers cached only the single-rod
-        # kernel): the static solver's kernels, then the parallel function again (no cache holds it)
-        run_all(("statics",), quick=True)
-
+        # numba compiles in this process after the Dask step (the workers compiled only the rod's
+        # kernel): cached kernels of softrnn's (the coil currents' interpolation), then the parallel
+        # function again (a new signature, compiled here, now)
+        currents = currents_into(np.array([0.0, 0.5, 2.0]), np.array([0.0, 1.0]), np.array([[0.0], [2.0]]))
         numba.set_num_threads(threads)
-        parallel_sum = float(total(np.ones(64, dtype=np.float32)))   # a new signature: compiled here, now
+        parallel_sum = float(total(np.ones(64, dtype=np.float32)))
         assert first_sum == 64.0
-        simulate_batch(setups, config)
         print("RESULT " + json.dumps({"threads": threads, "launched": launched, "environ_changed": changed,
                                       "threads_after": int(numba.config.NUMBA_NUM_THREADS),
-                                      "parallel_sum": parallel_sum}))
+                                      "parallel_sum": parallel_sum, "currents": currents[:, 0].tolist()}))
 
 
     if __name__ == "__main__":   # Dask's worker processes import this file again
@@ -398,3 +390,4 @@ def test_dask_step_then_numba_compiles_in_the_same_process(tmp_path):
     assert result["environ_changed"] == {}, f"the Dask step changed this process's environment: {result}"
     assert result["threads_after"] == result["threads"], result
     assert result["parallel_sum"] == 64.0, result
+    assert result["currents"] == [0.0, 1.0, 2.0], result

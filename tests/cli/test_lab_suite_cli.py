@@ -2,11 +2,30 @@
 robot's report written; a second run refused, resumed or rerun; bad input one line naming the suite
 file's entry, exit 2, nothing written."""
 
+import dataclasses
 import json
 
 import pytest
 
+import softrnn.lab.benchmark as lab_benchmark
+from softrnn.lab.tendon_robot import CalibrationOptions
+
 from helpers import run_cli, tendon_recording
+
+SMALL_SEARCH = CalibrationOptions(twists=4, quick_evaluations=15, evaluations=60, variant_evaluations=30)
+"""The physics' calibration with a small search: these tests check the command's files, lines and errors,
+not how well it fits (tests/lab/test_tendon_robot.py does)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class _SmallSearch(lab_benchmark.BenchmarkOptions):
+    calibration: CalibrationOptions = SMALL_SEARCH
+
+
+@pytest.fixture(autouse=True)
+def _small_search(monkeypatch):
+    """The options the command builds (``softrnn.cli._lab`` imports the class when it runs) search less."""
+    monkeypatch.setattr(lab_benchmark, "BenchmarkOptions", _SmallSearch)
 
 SUITE = """title = "stand-ins"
 [robots.one]

@@ -184,10 +184,14 @@ class Engine:
         """
         H, P, W = self.history, self.pose_features, self.wrench_features
         X = np.ascontiguousarray(poses, dtype=np.float32)
+        if not X.flags.writeable:   # the kernel's one signature (a read-only array compiles another)
+            X = X.copy()
         if X.ndim != 3 or X.shape[1:] != (H, P):
             raise bad("poses", f"array of shape {np.shape(poses)}", f"shape (B, {H}, {P})")
         B = X.shape[0]
         Wr = np.zeros((B, H, 0), np.float32) if wrenches is None else np.ascontiguousarray(wrenches, np.float32)
+        if not Wr.flags.writeable:
+            Wr = Wr.copy()
         if Wr.shape != (B, H, W):
             raise bad("wrenches", f"array of shape {Wr.shape}", f"shape {(B, H, W)}")
         which = np.zeros(B, np.int64) if which is None else np.ascontiguousarray(which, dtype=np.int64)
