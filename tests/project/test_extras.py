@@ -42,10 +42,11 @@ def test_simulate_runs_without_the_optional_packages(tmp_path):
     (["bench", "--quick", "--json", "b.json"], "learn"),
 ])
 def test_a_command_needing_a_missing_extra_names_it_in_one_line(tmp_path, argv, extra):
-    made = _python("from softrnn.cli.main import main\n"
-                   "sys.exit(main(['simulate', 'semicircle', '--samples', '30', '-o', 'd.h5', '--quiet']))\n",
-                   tmp_path)
-    assert made.returncode == 0, made.stderr[-3000:]
+    if "d.h5" in argv:   # a data set to read, made without the extras
+        made = _python("from softrnn.cli.main import main\n"
+                       "sys.exit(main(['simulate', 'semicircle', '--samples', '30', '-o', 'd.h5', '--quiet']))\n",
+                       tmp_path)
+        assert made.returncode == 0, made.stderr[-3000:]
     done = _python(f"from softrnn.cli.main import main\nsys.exit(main({argv!r}))\n", tmp_path)
     assert done.returncode == 2, done.stderr[-3000:]
     lines = done.stderr.strip().splitlines()
