@@ -183,15 +183,11 @@ class Engine:
             The predicted position of each window's node.
         """
         H, P, W = self.history, self.pose_features, self.wrench_features
-        X = np.ascontiguousarray(poses, dtype=np.float32)
-        if not X.flags.writeable:   # the kernel's one signature (a read-only array compiles another)
-            X = X.copy()
+        X = np.require(poses, np.float32, ["C", "W"])   # writable: a read-only array compiles the kernel again
         if X.ndim != 3 or X.shape[1:] != (H, P):
             raise bad("poses", f"array of shape {np.shape(poses)}", f"shape (B, {H}, {P})")
         B = X.shape[0]
-        Wr = np.zeros((B, H, 0), np.float32) if wrenches is None else np.ascontiguousarray(wrenches, np.float32)
-        if not Wr.flags.writeable:
-            Wr = Wr.copy()
+        Wr = np.zeros((B, H, 0), np.float32) if wrenches is None else np.require(wrenches, np.float32, ["C", "W"])
         if Wr.shape != (B, H, W):
             raise bad("wrenches", f"array of shape {Wr.shape}", f"shape {(B, H, W)}")
         which = np.zeros(B, np.int64) if which is None else np.ascontiguousarray(which, dtype=np.int64)
