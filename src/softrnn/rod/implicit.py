@@ -90,6 +90,8 @@ CONTACT_COLUMNS = 12
 """Columns of ``ImplicitWork.contact_tangent`` per node (see there)."""
 SINGULAR = 3
 """Status: the linear system of a step was singular (a rod without mass or stiffness)."""
+HALF_KICK = -1
+"""``n_steps`` of ``advance_implicit_into`` that asks for the start at rest (the half kick) instead of steps."""
 
 
 class ImplicitWork(NamedTuple):
@@ -597,10 +599,15 @@ def _predict_contacts(h, u, work, start):
 
 
 @njit(**_INLINE)
-def _new_velocities(i, h, beta, theta, tau, rod, state, inputs, work):
+def _new_velocities(i, h, beta, theta, tau, rod, state, inputs, work, kick):
     """work.u <- u^{k+1} of step i (prescribed ones included), predicted contacts settled (at most
-    ``CONTACT_SOLVES`` solves); False if the system is singular."""
+    ``CONTACT_SOLVES`` solves); ``kick``: the step from rest of the half kick instead (nothing known
+    moves, the contacts predicted from rest, one solve). False if the system is singular."""
     _known_velocities(i, h, rod, state, inputs, work)
+    if kick:
+        for a in range(len(state.positions)):
+            for c in range(6):
+                work.known[a, c] = 0.0
     if len(work.contact_tangent) == 0:
         _assemble(h, beta, theta, tau, rod, state, work)
         return _solve_tridiagonal(len(state.positions), work)
@@ -609,13 +616,13 @@ def _new_velocities(i, h, beta, theta, tau, rod, state, inputs, work):
         _assemble(h, beta, theta, tau, rod, state, work)
         if not _solve_tridiagonal(len(state.positions), work):
             return False
-        if it == CONTACT_SOLVES - 1 or _predict_contacts(h, work.u, work, False) == 0:
+        if kick or it == CONTACT_SOLVES - 1 or _predict_contacts(h, work.u, work, False) == 0:
             break
     return True
 
 
 def _build(stamp):
-    """The cached kernels, closed over ``stamp`` (``kernel_stamp()``, see the module docstring)."""
+    """The cached kernel, closed over ``stamp`` (``kernel_stamp()``, see the module docstring)."""
 
     @njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
     def advance_implicit_into(rod, state, inputs, out, h, k0, n_steps, stride, s0, work, beta, theta, tau):
@@ -625,19 +632,34 @@ def _build(stamp):
         ``ImplicitWork``, ``beta`` the Newmark weight and ``tau`` the Kelvin-Voigt retardation time
         [s]; ``rod.kv_on`` must be False. status is OK, DIVERGED, NEWTON_FAILED, SINGULAR or
         MAGNET_TOO_CLOSE.
+
+        ``n_steps`` = ``HALF_KICK`` (with ``k0`` 0, ``stride`` 1, ``s0`` 0): start the rod at rest to
+        second order instead (``rod.state.half_kick`` for this step): the staggered velocities of the
+        free degrees of freedom become -u/2, with u the velocities one implicit step from rest would
+        reach; the state must be at rest, nothing is recorded. One kernel for both, so that its load
+        tree compiles once.
         """
         if stamp < 0:  # never true: references the stamp so that it is a closure variable
             return -1, k0
         n = len(state.positions)
-        for ii in range(n_steps):
+        kick = n_steps == HALF_KICK
+        for ii in range(1 if kick else n_steps):
             k = k0 + ii
-            record = (k % stride) == 0
+            record = (k % stride) == 0 and not kick
             row = k // stride - s0
             fine, e_el, e_g = _explicit_forces(ii, row, record, h, beta, rod, state, inputs, out, work)
             if not fine:
                 return MAGNET_TOO_CLOSE, k
-            if not _new_velocities(ii, h, beta, theta, tau, rod, state, inputs, work):
+            if not _new_velocities(ii, h, beta, theta, tau, rod, state, inputs, work, kick):
                 return SINGULAR, k
+            if kick:
+                for a in range(n):
+                    for c in range(3):
+                        if work.fixed[a, c] == 0:
+                            state.velocities[a, c] = -0.5 * work.u[a, c]
+                        if work.fixed[a, 3 + c] == 0:
+                            state.angular_velocities[a, c] = -0.5 * work.u[a, 3 + c]
+                return OK, k0
             _add_implicit_forces(h, beta, theta, tau, rod, state, work)
             e_kin = 0.0
             f = work.force
@@ -653,39 +675,10 @@ def _build(stamp):
                 out.energy[row, 2] = e_g
         return OK, k0 + n_steps
 
-    @njit(fastmath={"contract"}, error_model="numpy", cache=True, no_cfunc_wrapper=True, no_rewrites=True)
-    def implicit_half_kick(rod, state, inputs, out, h, work, beta, theta, tau):
-        """Start at rest to second order (``rod.state.half_kick`` for this step): the staggered
-        velocities of the free degrees of freedom become -u/2, with u the velocities one implicit
-        step from rest would reach; the state must be at rest. Returns False if singular."""
-        if stamp < 0:
-            return False
-        # step 0, row 0, nothing recorded; typed int64 and bool (a literal 0 or False would compile the
-        # whole load tree a second time, specialised on it, beside advance_implicit_into's)
-        first, no_record = np.int64(0), np.bool_(False)
-        fine, _, _ = _explicit_forces(first, first, no_record, h, beta, rod, state, inputs, out, work)
-        if not fine:
-            return False
-        _known_velocities(first, h, rod, state, inputs, work)
-        for a in range(len(state.positions)):
-            for c in range(6):
-                work.known[a, c] = 0.0
-        _predict_contacts(h, state.velocities, work, True)
-        _assemble(h, beta, theta, tau, rod, state, work)
-        if not _solve_tridiagonal(len(state.positions), work):
-            return False
-        for a in range(len(state.positions)):
-            for c in range(3):
-                if work.fixed[a, c] == 0:
-                    state.velocities[a, c] = -0.5 * work.u[a, c]
-                if work.fixed[a, 3 + c] == 0:
-                    state.angular_velocities[a, c] = -0.5 * work.u[a, 3 + c]
-        return True
-
-    return advance_implicit_into, implicit_half_kick
+    return advance_implicit_into
 
 
-advance_implicit_into, implicit_half_kick = _build(kernel_stamp())
+advance_implicit_into = _build(kernel_stamp())
 
 
 def advance(rod, tau, state, inputs, out, h, k0, n_steps, stride, s0, work):

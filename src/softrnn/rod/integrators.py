@@ -112,9 +112,9 @@ class Implicit:
         """Start ``sim.state`` (at rest) to second order: -u/2 of one implicit step from rest."""
         work, tau = sim.implicit_work(), sim.setup.damping.kelvin_voigt
         out = empty_samples(np.full(sim.setup.rod.n_nodes, -1, dtype=np.int64), 1, 0)
-        if not implicit.implicit_half_kick(sim.elastic_rod, sim.state.arrays(), inputs, out, h, work,
-                                           self.beta, self.theta, tau):
-            raise_for_status(implicit.SINGULAR, step=0, t0=sim.state.time, h=h)
+        code, _ = implicit.advance_implicit_into(sim.elastic_rod, sim.state.arrays(), inputs, out, h, 0,
+                                                 implicit.HALF_KICK, 1, 0, work, self.beta, self.theta, tau)
+        raise_for_status(code, step=0, t0=sim.state.time, h=h)
 
     def advance(self, sim, st, inputs, out, h, k0, n_steps, stride, s0) -> tuple[int, int]:
         """Steps k0 .. k0 + n_steps - 1 of ``st`` (a ``RodState``) into ``out``; (status, step)."""
