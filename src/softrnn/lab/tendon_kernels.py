@@ -61,6 +61,22 @@ _HOLD = 1e-9
 
 
 @njit(cache=True)
+def _copy1(src, dst):
+    """dst (m,) <- src (m,), element by element (an array assignment would compile numba's shape-checked
+    copy, whose error message alone takes seconds to compile in every fresh process)."""
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
+
+
+@njit(cache=True)
+def _copy2(src, dst):
+    """dst (m, k) <- src (m, k), element by element (``_copy1``)."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            dst[i, j] = src[i, j]
+
+
+@njit(cache=True)
 def _arc(bx, by, sigma, R0, p0, R, p):
     """Frame R (3, 3) and position p (3,) at arclength sigma [m] of an arc with bending vector
     (bx, by) [1/m] in the frame R0 (3, 3) at p0 (3,) of its start."""
@@ -98,8 +114,8 @@ def chain_tip(b, L, marker, frames, points, tip):
     p0[:] = 0.0
     for s in range(L.size):
         _arc(b[s, 0], b[s, 1], L[s], R0, p0, R, p)
-        R0[:] = R
-        p0[:] = p
+        _copy2(R, R0)
+        _copy1(p, p0)
     for a in range(3):
         tip[a] = p0[a] + R0[a, 2] * marker
 
@@ -120,11 +136,11 @@ def _shape(b, L, frames, nodes, masses, scratch):
         _arc(b[s, 0], b[s, 1], h, eye, origin, piece, step)       # one piece, in its own frame
         _arc(b[s, 0], b[s, 1], 0.5 * h, eye, origin, half, mid)
         if s == 0:
-            frames[0, 0] = eye
-            nodes[0, 0] = origin
+            _copy2(eye, frames[0, 0])
+            _copy1(origin, nodes[0, 0])
         else:
-            frames[s, 0] = frames[s - 1, P]
-            nodes[s, 0] = nodes[s - 1, P]
+            _copy2(frames[s - 1, P], frames[s, 0])
+            _copy1(nodes[s - 1, P], nodes[s, 0])
         for k in range(P):
             R = frames[s, k]
             for a in range(3):
@@ -132,7 +148,7 @@ def _shape(b, L, frames, nodes, masses, scratch):
                 masses[s, k, a] = nodes[s, k, a] + R[a, 0] * mid[0] + R[a, 1] * mid[1] + R[a, 2] * mid[2]
                 for c in range(3):
                     rot[a, c] = R[a, 0] * piece[0, c] + R[a, 1] * piece[1, c] + R[a, 2] * piece[2, c]
-            frames[s, k + 1] = rot
+            _copy2(rot, frames[s, k + 1])
 
 
 @njit(cache=True)
@@ -386,7 +402,7 @@ def _row(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, 
                 num += dr * r
                 den += dr * dr
         if change < FIXED_POINT_TOL or (not gravity and mu == 0.0):
-            b[:] = g
+            _copy2(g, b)
             break
         gamma = num / den if it > 0 and den > 0.0 else 0.0
         for s in range(S):
@@ -395,8 +411,8 @@ def _row(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, 
                 b[s, a] = g[s, a] - gamma * (g[s, a] - g_prev[s, a])
                 g_prev[s, a] = g[s, a]
     else:       # unsettled: Newton from the row's start
-        b[:] = start_b
-        tau[:] = start_tau
+        _copy2(start_b, b)
+        _copy1(start_tau, tau)
         more = _newton(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs, work, g)
         return passes + more if more > 0 else more - passes
     return passes
@@ -430,11 +446,11 @@ def _newton(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dir
     worst = _misfit(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs, work, g, F)
     for _ in range(NEWTON_STEPS):
         if worst < FIXED_POINT_TOL:
-            b[:] = g
+            _copy2(g, b)
             return passes
         for j in range(m):
             h = 1e-7 * (1.0 + abs(b[j // 2, j % 2]))
-            trial[:] = b
+            _copy2(b, trial)
             trial[j // 2, j % 2] += h
             passes += 1
             _misfit(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, trial, tau, dirs, f, gb, M, rhs, work, g,
@@ -461,10 +477,10 @@ def _newton(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dir
             if new < norm:
                 break
             t *= 0.5
-        b[:] = trial
-        F[:] = Fp
+        _copy2(trial, b)
+        _copy1(Fp, F)
     if worst < FIXED_POINT_TOL:
-        b[:] = g
+        _copy2(g, b)
         return passes
     return -passes
 
