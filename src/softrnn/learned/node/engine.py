@@ -190,7 +190,7 @@ class Engine:
         Wr = np.zeros((B, H, 0), np.float32) if wrenches is None else np.require(wrenches, np.float32, ["C", "W"])
         if Wr.shape != (B, H, W):
             raise bad("wrenches", f"array of shape {Wr.shape}", f"shape {(B, H, W)}")
-        which = np.zeros(B, np.int64) if which is None else np.ascontiguousarray(which, dtype=np.int64)
+        which = np.zeros(B, np.int64) if which is None else np.require(which, np.int64, ["C", "W"])
         if which.shape != (B,) or (B and (which.min() < 0 or which.max() >= len(self))):
             raise bad("which", which.tolist(), f"B = {B} model indices in [0, {len(self) - 1}]")
         out = np.empty((B, 3))
