@@ -27,7 +27,7 @@ def test_benchmark_writes_its_json_and_figure(folder, tmp_path, capsys):
     out = tmp_path / "b.json"
     code = run_cli(["lab", "benchmark", "--train", str(folder / "train.csv"), str(folder / "train2.csv"),
                     "--validate", str(folder / "val.csv"), "--length", "0.08", "--families", "physics",
-                    "--json", str(out), "--figure", str(tmp_path / "b.png"), "--quiet"])
+                    "--json", str(out), "--figure", str(tmp_path / "b.png"), "--quiet", "--workers", "1"])
     assert code == 0
     report = json.loads(out.read_text())
     assert set(report["models"]) == {"physics"} and report["best_model"] == "physics"

@@ -65,7 +65,8 @@ def _write(folder, name, text):
 def test_suite_writes_one_table_and_resumes(folder, tmp_path, capsys):
     suite = _write(folder, "suite.toml", SUITE)
     out = tmp_path / "s.json"
-    args = ["lab", "benchmark", "--suite", suite, "--json", str(out), "--markdown", str(tmp_path / "s.md"), "--quiet"]
+    args = ["lab", "benchmark", "--suite", suite, "--json", str(out), "--markdown", str(tmp_path / "s.md"), "--quiet",
+            "--workers", "1"]   # in this process: the figures do not depend on it (tests/lab/test_worker_pool.py)
     assert run_cli(args) == 0
     table = json.loads(out.read_text())
     assert table["title"] == "stand-ins" and list(table["robots"]) == ["one", "two"]
@@ -127,7 +128,7 @@ def test_one_robot_prints_and_writes_the_aligned_figures(folder, tmp_path, capsy
     out = tmp_path / "b.json"
     assert run_cli(["lab", "benchmark", "--train", str(folder / "one" / "train.csv"), "--validate",
                     str(folder / "one" / "val.csv"), "--length", "0.08", "--lag", "0", "--families", "physics",
-                    "--json", str(out), "--markdown", str(tmp_path / "b.md"), "--quiet"]) == 0
+                    "--json", str(out), "--markdown", str(tmp_path / "b.md"), "--quiet", "--workers", "1"]) == 0
     report = json.loads(out.read_text())
     physics = report["models"]["physics"]
     text = capsys.readouterr().out

@@ -34,7 +34,8 @@ from helpers import tendon_recording, tendon_robot_truth
 
 FAST = dict(nets=NetOptions(members=1, steps=150, hidden=16), sequence=SequenceOptions(epochs=3, hidden=8),
             node=NodeOptions(units=8, training=dataclasses.replace(NODE_TRAINING, epochs=2, rollout_steps=2)),
-            calibration=CalibrationOptions(quick_evaluations=25, evaluations=150))
+            calibration=CalibrationOptions(quick_evaluations=25, evaluations=150),
+            workers=1)   # in this process: the figures do not depend on it (tests/lab/test_worker_pool.py)
 
 
 @pytest.fixture(scope="module")
@@ -48,9 +49,7 @@ def sessions(tmp_path_factory):
 @pytest.fixture(scope="module")
 def report(sessions):
     train, val = sessions
-    # in this process (workers=1: the figures do not depend on it, tests/lab/test_worker_pool.py): on a cold
-    # cache two workers would each compile the tendon kernels
-    return run_benchmark([train], val, BenchmarkOptions(length=0.08, workers=1, **FAST)).to_dict()
+    return run_benchmark([train], val, BenchmarkOptions(length=0.08, **FAST)).to_dict()
 
 
 def test_report_has_the_documented_keys(report):

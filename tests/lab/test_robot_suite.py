@@ -28,7 +28,8 @@ def data(tmp_path_factory):
 def _job(data, name, train, val, **options):
     return SuiteJob(name=name, entry=f"suite.toml: robots.{name}", train=(str(data / train),),
                     validation=str(data / val), layout=Layout(),
-                    options=BenchmarkOptions(length=0.08, lag=0, families=("physics",), calibration=QUICK, **options))
+                    options=BenchmarkOptions(length=0.08, lag=0, families=("physics",), calibration=QUICK, workers=1,
+                                             **options))
 
 
 def test_suite_runs_every_robot_and_resumes_after_an_interruption(data, tmp_path):

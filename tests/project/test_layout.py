@@ -6,6 +6,7 @@ the same table."""
 
 import ast
 import difflib
+import functools
 import re
 from pathlib import Path
 
@@ -81,7 +82,13 @@ def _resolve(module: str, is_package: bool, node: ast.ImportFrom) -> str:
 
 
 def import_graph() -> dict[str, set[str]]:
-    """Module -> the softrnn modules it imports (anywhere in its body)."""
+    """Module -> the softrnn modules it imports (anywhere in its body): a fresh copy of the graph, which
+    is read from the sources once per process (``_parsed_graph``)."""
+    return {name: set(edges) for name, edges in _parsed_graph().items()}
+
+
+@functools.cache
+def _parsed_graph() -> dict[str, set[str]]:
     files = {_module_name(p): p for p in ROOT.rglob("*.py")}
     graph: dict[str, set[str]] = {}
     for name, path in files.items():

@@ -521,7 +521,8 @@ class _TipResidual:
     flags: tuple
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        with np.errstate(over="ignore"):    # a trial step's compliance beyond any float: the solver rejects it
+        # a trial step's compliance beyond any float (the solver rejects it) or below the smallest (0: rigid)
+        with np.errstate(over="ignore", under="ignore"):
             params = _unpack(x, self.robot, **dict(self.flags))
         return ((tip_positions(self.robot, params, self.q, self.resets)[0] - self.tip) * 1e3).ravel()
 

@@ -260,7 +260,8 @@ class StaticSolver:
         grid_arrays, mags, loads = arrays
         r = np.empty(6)
         lengths = np.empty(len(self.rod.tendons))
-        kernels.tendon_lengths(xi, self._base, grid_arrays, mags, loads, r, lengths)
+        # writable, as every other caller's: a read-only xi would compile the kernel a second time
+        kernels.tendon_lengths(np.require(xi, np.float64, ["C", "W"]), self._base, grid_arrays, mags, loads, r, lengths)
         return r, lengths
 
     def _compliance(self, grid: Grid, arrays) -> np.ndarray:
