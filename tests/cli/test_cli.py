@@ -76,7 +76,7 @@ def _light_steps(monkeypatch):
     monkeypatch.setattr(reproduce_mod, "control_step", fake("control", None))
     monkeypatch.setattr(reproduce_mod, "fig13_step", fake("fig13", None))
     monkeypatch.setattr(reproduce_mod, "fig14_step", fake("fig14", None))
-    monkeypatch.setattr(reproduce_mod, "warm_start", lambda out, quick: None)   # the benchmark's compile: not run
+    monkeypatch.setattr(reproduce_mod, "warm_start", lambda out, quick, part="simulator": None)  # not compiled
     monkeypatch.setattr(reproduce_mod, "model_start", lambda out, quick: None)  # the control model's: not run
     return calls
 

@@ -117,8 +117,8 @@ def test_bench_times_a_trained_model_folder(monkeypatch, tmp_path, capsys):
 
 def test_the_benchmarks_compile_starts_early_unless_the_benchmark_is_finished(tmp_path, monkeypatch):
     """``warm_start``: a background process (daemonic, spawned) that compiles the benchmark's kernels
-    (of the quick or the full benchmark) into numba's cache; none once ``bench.json`` holds a
-    finished benchmark."""
+    (the simulator's or the model's, of the quick or the full benchmark) into numba's cache; none once
+    ``bench.json`` holds a finished benchmark."""
     from types import SimpleNamespace
 
     from softrnn import __version__
@@ -138,9 +138,15 @@ def test_the_benchmarks_compile_starts_early_unless_the_benchmark_is_finished(tm
     monkeypatch.setattr(rb.multiprocessing, "get_context", lambda kind: kinds.append(kind) or SimpleNamespace(
         Process=Process))
     assert isinstance(rb.warm_start(tmp_path, True), Process)
-    assert started == [(rb._warm, True), (True,), "started"] and kinds == ["spawn"]
+    assert started == [(rb._warm, True), (True, "simulator"), "started"] and kinds == ["spawn"]
+    started.clear()
+    assert isinstance(rb.warm_start(tmp_path, False, "model"), Process)
+    assert started == [(rb._warm, True), (False, "model"), "started"]
+    with pytest.raises(ValueError, match="part='gpu'"):
+        rb.warm_start(tmp_path, True, "gpu")
     (tmp_path / "bench.json").write_text(json.dumps({"quick": True, "softrnn_version": __version__, "model": {}}))
-    assert rb.warm_start(tmp_path, True) is None and rb.warm_start(tmp_path, False) is not None
+    assert rb.warm_start(tmp_path, True) is None and rb.warm_start(tmp_path, True, "model") is None
+    assert rb.warm_start(tmp_path, False) is not None
 
 
 def test_the_longest_trainings_go_first():
@@ -230,3 +236,17 @@ def test_trainings_side_by_side_give_the_weights_of_one_after_the_other(tmp_path
     seen.clear()
     rd.train_cases(jobs(tmp_path / "pool"), workers=2, threads=1, progress_factory=factory)
     assert seen == {}                                                 # nothing left to train
+
+
+def test_the_model_warm_up_runs_every_manipulator_case_the_model_benchmark_times(monkeypatch):
+    """``bench.model.warm_manipulator`` (the ``model`` part of ``warm_start``) steps each case of
+    ``manipulator_cases``, the list ``run_model_benchmark`` times, with a short run."""
+    from softrnn.bench import model as bm
+
+    seen = []
+    monkeypatch.setattr(bm, "time_manipulator", lambda config, threads, n, shared=False: seen.append(
+        (config, threads, n, shared)))
+    bm.warm_manipulator()
+    cases = bm.manipulator_cases()
+    assert seen == [(config, threads, 1, shared) for _, config, threads, shared in cases]
+    assert {shared for *_, shared in cases} == {False, True} and {name for name, *_ in cases} == {"default", "compact"}

@@ -179,6 +179,27 @@ def time_manipulator(config: dict | None, threads: int, n: int, n_nodes: int = M
     return out
 
 
+def manipulator_cases() -> list:
+    """The ``time_manipulator`` cases of ``run_model_benchmark``: (architecture name, config or None,
+    threads, shared), on one thread and, where numba has more, on all of them."""
+    all_threads = max(1, numba.config.NUMBA_NUM_THREADS)
+    cases = [("default", None, 1, False), ("compact", COMPACT, 1, False)]
+    if all_threads > 1:
+        cases += [("compact", COMPACT, all_threads, False), ("default", None, all_threads, False)]
+    cases += [("default", None, 1, True), ("compact", COMPACT, 1, True)]
+    if all_threads > 1:
+        cases += [("compact", COMPACT, all_threads, True), ("default", None, all_threads, True)]
+    return cases
+
+
+def warm_manipulator() -> None:
+    """Compile (or load from numba's cache) the kernels of every ``manipulator_cases`` entry, untimed (a
+    few steps each): cold, about 12 s of the model benchmark on a 2-core machine, which ``softrnn
+    reproduce`` spends in a background process while a core is idle (``reproduce.benchmark.warm_start``)."""
+    for _, config, threads, shared in manipulator_cases():
+        time_manipulator(config, threads, 1, shared=shared)
+
+
 def _arch(model: NodeModel) -> dict:
     c = model.config
     return {"lstm_layers": c.lstm_layers, "lstm_units": c.lstm_units, "dense_units": list(c.dense_units),
@@ -195,13 +216,7 @@ def run_model_benchmark(quick: bool = False, model: NodeModel | None = None, pro
     n_node, n_torch, n_manip = (5000, 1000, 500) if quick else (30000, 3000, 2000)
     node_model = model if model is not None else synthetic_model()
     items = [("node", None), ("torch", None)]
-    all_threads = max(1, numba.config.NUMBA_NUM_THREADS)
-    manip_cases = [("default", None, 1, False), ("compact", COMPACT, 1, False)]
-    if all_threads > 1:
-        manip_cases += [("compact", COMPACT, all_threads, False), ("default", None, all_threads, False)]
-    manip_cases += [("default", None, 1, True), ("compact", COMPACT, 1, True)]
-    if all_threads > 1:
-        manip_cases += [("compact", COMPACT, all_threads, True), ("default", None, all_threads, True)]
+    manip_cases = manipulator_cases()
     total = len(items) + len(manip_cases)
     tick = Ticks(progress, total)
 

@@ -1,5 +1,5 @@
 """Reproduce step: ``softrnn bench`` (``softrnn.bench.run_all``) into ``bench.json``; and the
-background process that compiles its kernels early (``warm_start``)."""
+background processes that compile its kernels early (``warm_start``)."""
 
 import json
 import multiprocessing
@@ -8,6 +8,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..bench import run_all
+from ..bench.model import warm_manipulator
 from ..bench.simulator import warm_simulator
 from ..files import atomic_write_text
 from ..progress import ProgressFactory
@@ -34,26 +35,34 @@ def benchmark_step(out: Path, quick: bool, progress_factory: ProgressFactory | N
     return bench
 
 
-def _warm(quick: bool) -> None:
-    """The background process of ``warm_start``: ``bench.simulator.warm_simulator``, Ctrl-C left to
+WARM_PARTS = ("simulator", "model")
+"""What ``warm_start`` compiles: the simulator benchmark's kernels (``bench.simulator.warm_simulator``:
+the batch, the integrator and the contact entries') or the model benchmark's manipulator kernels
+(``bench.model.warm_manipulator``)."""
+
+
+def _warm(quick: bool, part: str = "simulator") -> None:
+    """The background process of ``warm_start``: ``part``'s warm-up (``WARM_PARTS``), Ctrl-C left to
     the parent; a failure changes nothing (the benchmark then compiles the kernels itself)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        warm_simulator(quick)
+        warm_simulator(quick) if part == "simulator" else warm_manipulator()
     except Exception:  # noqa: BLE001  # only numba's cache was to be filled
         pass
 
 
-def warm_start(out: Path, quick: bool):
-    """Start compiling the benchmark's kernels (``bench.simulator.warm_simulator``: the batch, the
-    integrator and the contact entries' kernels) in a background process, into numba's cache,
-    unless the benchmark is finished: a cold run spends that minute while its first steps leave a
-    core idle, not in its last step. Returns the process (join it before the benchmark runs: it
-    must not time against it) or None. The figures are unchanged: the same kernels, compiled
-    elsewhere."""
+def warm_start(out: Path, quick: bool, part: str = "simulator"):
+    """Start compiling the kernels of the benchmark's ``part`` (``WARM_PARTS``) in a background process,
+    into numba's cache, unless the benchmark is finished: a cold run spends that time where a step leaves
+    a core idle (the simulator's minute while the first steps run, the model's while the magnetic step
+    starts), not in its last step, which runs on one core. Returns the process (join it before the
+    benchmark runs: it must not time against it) or None. The figures are unchanged: the same kernels,
+    compiled elsewhere."""
+    if part not in WARM_PARTS:
+        raise ValueError(f"part={part!r}: one of {WARM_PARTS}")
     if _finished(out / "bench.json", quick) is not None:
         return None
-    process = multiprocessing.get_context("spawn").Process(target=_warm, args=(quick,), name="softrnn-warm-benchmark",
-                                                           daemon=True)
+    process = multiprocessing.get_context("spawn").Process(target=_warm, args=(quick, part),
+                                                           name=f"softrnn-warm-benchmark-{part}", daemon=True)
     process.start()
     return process
