@@ -244,9 +244,12 @@ def test_the_model_warm_up_runs_every_manipulator_case_the_model_benchmark_times
     from softrnn.bench import model as bm
 
     seen = []
-    monkeypatch.setattr(bm, "time_manipulator", lambda config, threads, n, shared=False: seen.append(
-        (config, threads, n, shared)))
+    monkeypatch.setattr(bm, "time_manipulator", lambda config, threads, n, n_nodes, shared=False: seen.append(
+        (config, threads, n, n_nodes, shared)))
     bm.warm_manipulator()
     cases = bm.manipulator_cases()
-    assert seen == [(config, threads, 1, shared) for _, config, threads, shared in cases]
+    assert [(config, threads, n, shared) for config, threads, n, _, shared in seen] == [
+        (config, threads, 1, shared) for _, config, threads, shared in cases]
+    # short rods, long enough for the parallel kernels' path: two modelled nodes per thread, the ends aside
+    assert all(n_nodes >= bm.WARM_NODES and n_nodes - 2 >= 2 * threads for _, threads, _, n_nodes, _ in seen)
     assert {shared for *_, shared in cases} == {False, True} and {name for name, *_ in cases} == {"default", "compact"}

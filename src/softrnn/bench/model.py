@@ -192,12 +192,18 @@ def manipulator_cases() -> list:
     return cases
 
 
+WARM_NODES = 8
+"""The nodes of ``warm_manipulator``'s rods, at least: the kernels are those of any node count, and a short
+rod's models are quick to build (the parallel ones need two modelled nodes per thread: more on more threads)."""
+
+
 def warm_manipulator() -> None:
     """Compile (or load from numba's cache) the kernels of every ``manipulator_cases`` entry, untimed (a
-    few steps each): cold, about 12 s of the model benchmark on a 2-core machine, which ``softrnn
-    reproduce`` spends in a background process while a core is idle (``reproduce.benchmark.warm_start``)."""
+    few steps each, on a rod of ``WARM_NODES``): cold, about 12 s of the model benchmark on a 2-core
+    machine, which ``softrnn reproduce`` spends in a background process while a core is idle
+    (``reproduce.benchmark.warm_start``)."""
     for _, config, threads, shared in manipulator_cases():
-        time_manipulator(config, threads, 1, shared=shared)
+        time_manipulator(config, threads, 1, n_nodes=max(WARM_NODES, 2 * threads + 2), shared=shared)
 
 
 def _arch(model: NodeModel) -> dict:
