@@ -8,6 +8,7 @@ from dataclasses import replace
 import pytest
 
 from softrnn.bench import dynamic as bench_dynamic
+from softrnn.errors import SoftrnnInputError
 from softrnn.learned.whole.config import DynamicConfig
 from softrnn.reproduce import dynamic as rd
 from softrnn.reproduce.report import _dynamic_lines
@@ -142,7 +143,7 @@ def test_the_benchmarks_compile_starts_early_unless_the_benchmark_is_finished(tm
     started.clear()
     assert isinstance(rb.warm_start(tmp_path, False, "model"), Process)
     assert started == [(rb._warm, True), (False, "model"), "started"]
-    with pytest.raises(ValueError, match="part='gpu'"):
+    with pytest.raises(SoftrnnInputError, match="^part='gpu' is invalid: one of simulator, model$"):
         rb.warm_start(tmp_path, True, "gpu")
     (tmp_path / "bench.json").write_text(json.dumps({"quick": True, "softrnn_version": __version__, "model": {}}))
     assert rb.warm_start(tmp_path, True) is None and rb.warm_start(tmp_path, True, "model") is None

@@ -10,6 +10,7 @@ from .. import __version__
 from ..bench import run_all
 from ..bench.model import warm_manipulator
 from ..bench.simulator import warm_simulator
+from ..errors import bad
 from ..files import atomic_write_text
 from ..progress import ProgressFactory
 from .dynamic import CONFIGS
@@ -59,7 +60,7 @@ def warm_start(out: Path, quick: bool, part: str = "simulator"):
     benchmark runs: it must not time against it) or None. The figures are unchanged: the same kernels,
     compiled elsewhere."""
     if part not in WARM_PARTS:
-        raise ValueError(f"part={part!r}: one of {WARM_PARTS}")
+        raise bad("part", part, f"one of {', '.join(WARM_PARTS)}")
     if _finished(out / "bench.json", quick) is not None:
         return None
     process = multiprocessing.get_context("spawn").Process(target=_warm, args=(quick, part),
