@@ -4,19 +4,22 @@ The numba kernels do not consult NumPy's error state, so this tightens the Pytho
 helpers that call SciPy integrators relax underflow locally (tests/helpers.py).
 
 Every test process runs with the numeric code paths ``softrnn reproduce`` pins
-(``softrnn.learned.threads.pin_numerics``), set here before PyTorch loads: a worker process that a
-test starts inherits the environment, and PyTorch reads it once, at its first operation, so a test
-process that took it up only later (after a test that pinned it) would compute in other kernels than
-its workers. With the tests spread over several processes (``make test``), which test runs first in
-a process varies; pinned from the start, each process and its workers compute alike whatever the order.
+(``softrnn.learned.threads.pin_numerics``), set here before NumPy and PyTorch load: a worker process
+that a test starts inherits the environment, and NumPy reads it at its import, PyTorch once, at its first
+operation, so a test process that took it up only later (after a test that pinned it, or after its own
+NumPy import) would compute in other kernels than its workers. With the tests spread over several
+processes (``make test``), which test runs first in a process varies; pinned from the start, each process
+and its workers compute alike whatever the order, and so does a plain ``pytest`` run in one process.
 """
-
-import numpy as np
-import pytest
 
 from softrnn.learned.threads import pin_numerics
 
+# before NumPy's import, which reads NPY_DISABLE_CPU_FEATURES (and OpenBLAS OPENBLAS_CORETYPE) once: imported
+# first, this process would take other code paths than the workers it starts, which inherit the pins
 pin_numerics()
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
