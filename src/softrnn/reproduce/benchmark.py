@@ -47,7 +47,10 @@ def _warm(quick: bool, part: str = "simulator") -> None:
     the parent; a failure changes nothing (the benchmark then compiles the kernels itself)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        warm_simulator(quick) if part == "simulator" else warm_manipulator()
+        if part == "simulator":
+            warm_simulator(quick)
+        else:
+            warm_manipulator()
     except Exception:  # noqa: BLE001  # only numba's cache was to be filled
         pass
 
