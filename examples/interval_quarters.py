@@ -3,7 +3,8 @@
 The session's patterns are cut into four quarters (``softrnn.lab.uncertainty.pattern_folds``: whole
 patterns recorded beside each other). Each quarter in turn is a validation session: the other three
 are the training sessions, split into a fitting part and a held part as ``softrnn lab benchmark`` splits
-them; the calibrated physics (plain) and the four baselines are fitted there with their intervals
+them; the calibrated physics (plain, or with ``--creep`` the tendons' creep, run through the held rows as
+the benchmark runs it) and the four baselines are fitted there with their intervals
 calibrated, and the share of the quarter's rows inside each model's 90 % ball is counted, once with
 the benchmark's scale from refits (``uncertainty.RefitSpread``) and once with none (scale 1). With
 ``--sequence``, the sequence model too (pretrained on the physics' synthetic sessions), once with its
@@ -27,7 +28,7 @@ import numpy as np
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.lab.benchmark import BenchmarkOptions, baseline_families, prepare
-from softrnn.lab.families import Physics, holdout_split
+from softrnn.lab.families import Physics, holdout_split, masked
 from softrnn.lab.nets import Sequence
 from softrnn.lab.recording import read_recording
 from softrnn.lab.synthetic import SyntheticOptions
@@ -86,7 +87,10 @@ def quarter(robot, options, train, block, with_sequence) -> dict:
     """{model: {"refits" or "physics": share, "none": share}} of the rows of ``block`` inside each
     model's ball."""
     split = holdout_split(train)
-    held_physics = Physics(robot, options.calibration).fit(split[0])
+    plain = Physics(robot, replace(options.calibration, creep=False)).fit(split[0])
+    held_physics = plain if not options.calibration.creep else replace(
+        plain, options=options.calibration, start=plain.calibration.params, calibration=None).fit(
+        masked(train, split[1]))
     fitted = {"physics": (held_physics.refit(train), held_physics)}
     for name, (family, _) in baseline_families(train, split).items():
         fitted[name] = (family.fit(train), family.fit(split[0]))
@@ -108,8 +112,10 @@ def main() -> None:
     parser.add_argument("--segments", required=True, help="the segments' lengths [m], comma-separated")
     parser.add_argument("--json", type=Path, help="where to write the coverages")
     parser.add_argument("--sequence", action="store_true", help="also the sequence model (about 25 minutes)")
+    parser.add_argument("--creep", action="store_true", help="the physics with the tendons' creep")
     args = parser.parse_args()
     options = BenchmarkOptions(length=args.length, segments=tuple(float(x) for x in args.segments.split(",")))
+    options = replace(options, calibration=replace(options.calibration, creep=args.creep))
     try:
         session = read_recording(args.session)
         prepared = prepare([session], session, options)

@@ -72,6 +72,19 @@ def test_calibrate_with_play(folder, tmp_path):
     assert robot["validation"]["tip_rmse_mm"] < 0.5
 
 
+def test_calibrate_with_creep(folder, tmp_path):
+    """``--creep``: the physics with the tendons' creep over the rows' times, its rate fitted (a robot without
+    creep: it comes out small) and named, with the slack the training left."""
+    out = tmp_path / "robot.json"
+    assert run_cli(["lab", "calibrate", str(folder / "train.csv"), "--validate", str(folder / "val.csv"),
+                    "--length", "0.08", "--lag", "0", "--creep", "-o", str(out), "--quiet"]) == 0
+    robot = json.loads(out.read_text())
+    assert robot["variant"] == "creep" and "tendon creep" in robot["model"]
+    assert 0.0 <= robot["parameters"]["creep_rate_per_s"] < 1e-4
+    assert robot["creep_slack_first_row_mm"] == 0.0 and 0.0 <= robot["creep_slack_end_mm"] < 0.05
+    assert robot["validation"]["tip_rmse_mm"] < 0.5
+
+
 def _bad(args, capsys):
     code = run_cli(args)
     err = capsys.readouterr().err.strip()

@@ -292,7 +292,7 @@ def test_the_physics_variant_is_chosen_on_the_hold_out(report):
     """Every physics variant's hold-out score is reported; the lowest is the one used."""
     physics = report["details"]["physics"]
     scores = physics["holdout_rmse_mm"]
-    assert set(scores) == {"plain", "gravity", "friction", "gravity+friction"}
+    assert set(scores) == {"plain", "gravity", "friction", "creep", "gravity+friction"}
     assert physics["variant"] == min(scores, key=scores.get)
     assert report["chosen_on_training"]["holdout_rmse_mm"]["physics"] == pytest.approx(scores[physics["variant"]])
 

@@ -72,7 +72,7 @@ def test_cantilever_under_its_own_weight_matches_the_cosserat_statics(segments, 
     params = TendonParameters(angles=np.radians(np.tile([0.0, 120.0, 240.0], segments)),
                               offsets=np.ones(3 * segments), routing_radius=R, compliance=np.full(segments, 1 / EI),
                               marker=0.0, rotation=np.zeros(3), base=np.zeros(3), gravity=np.array([-w, 0.0, 0.0]))
-    tip, tau, _, _ = solve_rows(robot, params, np.zeros((1, 3 * segments)))
+    tip, tau, _, _, _ = solve_rows(robot, params, np.zeros((1, 3 * segments)))
     deflection = w * L ** 4 / (8 * EI)
     assert np.all(tau == 0.0)
     assert np.linalg.norm(tip[0] - cosserat) < tolerance * abs(cosserat[0])
@@ -93,12 +93,12 @@ def test_capstan_ratio_of_a_known_wrap(rows, sign):
     that in segment 1 is exp(-+ mu phi), phi the wrap between the segments' middles (half of each
     one's bending angle); frictionless, the two segments bend alike."""
     mu, L = 0.3, 0.1
-    _, _, (_, _, bend, _) = _bends(mu, rows)
+    _, _, (_, _, bend, _, _) = _bends(mu, rows)
     kappa = np.linalg.norm(bend[-1], axis=1)
     wrap = 0.5 * (kappa[0] + kappa[1]) * L
     assert wrap > 0.1
     np.testing.assert_allclose(kappa[1] / kappa[0], np.exp(-sign * mu * wrap), rtol=1e-7)
-    _, _, (_, _, still, _) = _bends(0.0, rows)
+    _, _, (_, _, still, _, _) = _bends(0.0, rows)
     np.testing.assert_allclose(*np.linalg.norm(still[-1], axis=1), rtol=1e-9)
 
 
@@ -241,7 +241,7 @@ def test_a_row_the_accelerated_passes_leave_unsettled_is_solved_by_newton():
     robot, params = _robot(2, gravity=np.array([0.0, 0.0, 0.01]))
     q = np.zeros((2, 6))
     q[1, 0] = 10e-3
-    tip, tau, bend, passes = solve_rows(robot, params, q)
+    tip, tau, bend, passes, _ = solve_rows(robot, params, q)
     assert passes[1] > FIXED_POINT_PASSES
     assert _fixed_point_misfit(robot, params, q[1], bend[1], tau[1]) < 1e-8
     assert np.linalg.norm(bend[1], axis=1).min() > 1.0            # it bends

@@ -77,7 +77,8 @@ def test_every_stage_is_reported_once_with_timings(runs):
         assert sorted(s for _, _, s in stages) == sorted(["baselines", "physics", "learned_map", "hybrid",
                                                           "sequence", "node_lstm"])
         seconds = result.to_dict()["stage_seconds"]
-        assert {"physics plain", "physics gravity", "physics friction", "physics gravity+friction",
+        assert {"physics plain", "physics gravity", "physics friction", "physics creep",
+                "physics gravity+friction",
                 "physics refit", "physics session agreement", "learned_map", "hybrid", "sequence",
                 "node_lstm", "sequence early", "node_lstm early", "learned_map early"} == set(seconds)
         assert all(v["cpu"] >= 0 and v["wall"] >= 0 for v in seconds.values())

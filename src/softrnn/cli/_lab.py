@@ -102,6 +102,9 @@ def add_args(p):
     c.add_argument("--play", action="store_true",
                    help="add the tendons' play (friction that sticks: a reversal of a servo reaches the robot only "
                         "after twice the play), its width fitted (default: without)")
+    c.add_argument("--creep", action="store_true",
+                   help="add the tendons' creep (every tendon's slack grows under load over the rows' times), its "
+                        "rate fitted (default: without)")
     _recording_args(c)
     c.set_defaults(lab_run=_calibrate)
 
@@ -376,15 +379,17 @@ def _calibrate(args) -> int:
         raise bad("--segments", args.segments, f"segments whose tendons ({robot.n_tendons}) match the "
                                                f"{train[0].n_inputs} input columns")
     check_pulls(robot, recordings)
-    physics = dataclasses.replace(options.calibration, gravity=args.gravity, friction=args.friction, play=args.play)
+    physics = dataclasses.replace(options.calibration, gravity=args.gravity, friction=args.friction, play=args.play,
+                                  creep=args.creep)
     # BLAS on one thread, as in the benchmark's workers: the same calibration on every machine
     with Bar("lab calibrate", unit="start", enabled=not args.quiet) as bar, one_blas_thread():
         cal = calibrate(robot, np.vstack([displacements(r) for r in train]), np.vstack([r.tip for r in train]),
-                        physics, progress=bar, resets=session_resets([r.n_rows for r in train]))
+                        physics, progress=bar, resets=session_resets([r.n_rows for r in train]),
+                        times=np.concatenate([r.time for r in train]))
     report = {**cal.to_dict(), "variant": physics.variant, "lag_rows": lag, "sessions": [r.path for r in train]}
     if args.validate:
         v = recordings[-1]
-        err = tip_errors(cal.predict(displacements(v)), v.tip).tip_summary()
+        err = tip_errors(cal.predict(displacements(v), times=v.time), v.tip).tip_summary()
         report["validation"] = {"path": v.path, **{k: round(x, 4) for k, x in err.items()},
                                 "tip_rmse_pct_of_length": round(err["tip_rmse_mm"] / (args.length * 1e3) * 100, 4)}
     atomic_write_text(args.output, json.dumps(report, indent=2) + "\n")

@@ -247,12 +247,20 @@ class Physics:
     computed, by ``Recording.commands_key``: the hold-out's candidates run it over the same sessions."""
 
     def fit(self, sessions, spread=here, pieces: int = 1) -> Physics:
-        """The model calibrated on training sessions (a list of ``Recording``, each solved from its start);
-        ``spread``, ``pieces``: where its search's fits run (``softrnn.fitting.multistart``)."""
+        """The model calibrated on training sessions (a list of ``Recording``, each solved from its start,
+        in order; rows whose tip is NaN are run but not fitted, ``masked``); ``spread``, ``pieces``: where
+        its search's fits run (``softrnn.fitting.multistart``)."""
         q, tip = np.vstack([displacements(s) for s in sessions]), np.vstack([s.tip for s in sessions])
         cal = calibrate(self.robot, q, tip, self.options, progress=self.progress, start=self.start,
-                        resets=session_resets([s.n_rows for s in sessions]), spread=spread, pieces=pieces)
+                        resets=session_resets([s.n_rows for s in sessions]), spread=spread, pieces=pieces,
+                        times=np.concatenate([s.time for s in sessions]))
         return replace(self, calibration=cal)
+
+    @property
+    def runs_through(self) -> bool:
+        """Whether the model runs through every row in order, its state carried along (the tendons' creep):
+        it is then refitted without rows by masking their tips (``masked``), not by cutting them out."""
+        return self.options.creep
 
     def refit(self, sessions) -> Physics:
         """The model calibrated on ``sessions``, refined from this calibration (no multi-start search)."""
@@ -264,7 +272,7 @@ class Physics:
         if key not in self.memo:
             if len(self.memo) > MEMO_SIZE:
                 self.memo.clear()
-            self.memo[key] = self.calibration.predict(displacements(session))
+            self.memo[key] = self.calibration.predict(displacements(session), times=session.time)
         return self.memo[key].copy()
 
     def describe(self) -> dict:
@@ -336,6 +344,23 @@ def holdout_split(sessions) -> tuple[list, list]:
     count = max(1, int(round((1.0 - HOLDOUT_FRACTION) * len(parts))))
     held = set(np.argsort(-novelty(parts), kind="stable")[:count].tolist())
     return _runs(s, edges, set(range(len(parts))) - held), _runs(s, edges, held)
+
+
+def masked(sessions, held) -> list[Recording]:
+    """``sessions`` (a list of ``Recording``) with the tips of the rows of ``held`` (pieces of them, e.g.
+    ``holdout_split``'s held part: the same path and times) set to NaN: a model with memory (the tendons'
+    creep) is then fitted on the other rows while it runs through every row in order, the held ones
+    included, as the robot did."""
+    out = []
+    for s in sessions:
+        hide = np.zeros(s.n_rows, dtype=bool)
+        for h in held:
+            if h.path == s.path:
+                hide |= np.isin(s.time, h.time)
+        tip = s.tip.copy()
+        tip[hide] = np.nan
+        out.append(replace(s, tip=tip))
+    return out
 
 
 def finite_or_inf(value: float) -> float:

@@ -1,8 +1,10 @@
 """The tendon robot's physics variant chosen on the training hold-out: the plain model, with
-gravity, with friction along the routing, or with both (and, asked for, with the tendons' play)
-(``softrnn.lab.tendon_robot``), each
-calibrated on the hold-out's fitting part and scored by its free run over the held part (Euclidean
-tip RMSE); the variant with the lowest score is refitted on every training row."""
+gravity, with friction along the routing, with both, or with the tendons' creep (and, asked for, with
+the tendons' play) (``softrnn.lab.tendon_robot``), each calibrated on the hold-out's fitting part and
+scored by its free run over the held part (Euclidean tip RMSE); the simplest within one standard
+error of the best (``families.parsimonious``) is refitted on every training row. A variant with creep
+runs through the held rows too while it is fitted (``families.masked``): the tendons crept while the
+robot ran them, and a held stretch starts from the slack it had then."""
 
 from __future__ import annotations
 
@@ -14,13 +16,16 @@ import numpy as np
 from ..errors import bad
 from ..learned.metrics import tip_errors
 from ._pool import WorkerPool
-from .families import Physics, held_rows, parsimonious
+from .families import Physics, held_rows, masked, parsimonious
 from .tendon_robot import PHYSICS_OPTIONS, CalibrationOptions, TendonRobot
 
-VARIANTS = {"plain": (False, False, False), "gravity": (True, False, False), "friction": (False, True, False),
-            "gravity+friction": (True, True, False)}
-"""The physics variants tried by default: {name: (gravity, friction, play)}."""
-MORE_VARIANTS = {"play": (False, False, True), "friction+play": (False, True, True)}
+VARIANTS = {"plain": (False, False, False, False), "gravity": (True, False, False, False),
+            "friction": (False, True, False, False), "creep": (False, False, False, True),
+            "gravity+friction": (True, True, False, False)}
+"""The physics variants tried by default, simplest first: {name: (gravity, friction, play, creep)}
+(``PHYSICS_OPTIONS``)."""
+MORE_VARIANTS = {"play": (False, False, True, False), "friction+play": (False, True, True, False),
+                 "friction+creep": (False, True, False, True)}
 """Variants tried where asked for (``choose_physics``' ``variants``): the tendons' play, fitted to zero width
 on the shared robot's training session (its fit there worsens with any play), so not tried by default."""
 
@@ -60,6 +65,12 @@ def _calibrated(model: Physics, fit_part: list, held: list) -> tuple[Physics, fl
     return fitted, holdout_rmse_mm(fitted, held)
 
 
+def _fitting_rows(options, fit_part: list, held: list, train: list) -> list:
+    """What a variant is fitted on for the hold-out: ``fit_part``, or with creep the training sessions
+    with the held rows' tips masked (``masked``)."""
+    return masked(train, held) if options.creep else fit_part
+
+
 def _refit(model: Physics, train: list) -> Physics:
     return model.fit(train)
 
@@ -68,7 +79,7 @@ def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: li
                    variants=tuple(VARIANTS), pool: WorkerPool | None = None, meanwhile=None) -> PhysicsChoice:
     """Calibrate every variant of ``variants`` on ``fit_part`` (the plain model from its multi-start
     search, the others refined from it), score each on ``held`` and refit the best on ``train``
-    (lists of ``Recording``). ``options``' own gravity, friction and play are replaced by each
+    (lists of ``Recording``). ``options``' own gravity, friction, play and creep are replaced by each
     variant's.
     ``pool``: the plain model's search cut into one piece per worker at each of its stages, and the
     variants refined in its workers at once (``softrnn.lab._pool``; None: one by one here); the refit
@@ -90,12 +101,13 @@ def choose_physics(robot: TendonRobot, options: CalibrationOptions, fit_part: li
             meanwhile()
         return [job.get() for job in jobs]
 
-    plain = Physics(robot, replace(options, gravity=False, friction=False, play=False)).fit(fit_part, spread,
-                                                                                           pool.workers)
+    plain = Physics(robot, replace(options, **dict.fromkeys(PHYSICS_OPTIONS, False))).fit(fit_part, spread,
+                                                                                          pool.workers)
     score = holdout_rmse_mm(plain, held)
     others = [v for v in variants if v != "plain"]
-    jobs = [pool.submit(f"physics {v}", _calibrated, Physics(robot, replace(options, **dict(zip(
-        PHYSICS_OPTIONS, known[v]))), start=plain.calibration.params), fit_part, held) for v in others]
+    variant_options = {v: replace(options, **dict(zip(PHYSICS_OPTIONS, known[v]))) for v in others}
+    jobs = [pool.submit(f"physics {v}", _calibrated, Physics(robot, variant_options[v], start=plain.calibration.params),
+                        _fitting_rows(variant_options[v], fit_part, held, train), held) for v in others]
     done = {"plain": (plain, score)} | dict(zip(others, [job.get() for job in jobs]))
     fitted = {v: done[v][0] for v in variants}
     scores = {v: done[v][1] for v in variants}

@@ -1,5 +1,5 @@
-"""Numba kernels of the tendon robot's fuller physics (``softrnn.lab.tendon_robot``): gravity and
-friction along the routing (capstan), solved row by row along a session.
+"""Numba kernels of the tendon robot's fuller physics (``softrnn.lab.tendon_robot``): gravity,
+friction along the routing (capstan) and the tendons' creep, solved row by row along a session.
 
 Each row is a fixed point of the segments' bending vectors b (S, 2) [1/m]: from the current shape,
 the capstan factors of every tendon in every segment and the gravity curvature of every segment; then
@@ -32,6 +32,12 @@ reversal of its servo on to the robot at once: the displacement that reaches the
 until the servo has moved back by twice the play w, then follows it at the other side of the band,
 p_k = min(max(p_{k-1}, q_k - w), q_k + w) (the play or backlash operator, the elementary hysteresis of
 Prandtl-Ishlinskii models), p = q at a session's start. w = 0 is no play.
+
+Creep (``creep``): the tendons lengthen slowly under load (the cables' and their anchorages' creep), so
+every tendon's slack grows by the same s(t), at a rate proportional to the mean tendon tension,
+ds/dt = gamma mean_i(tau_i / k), explicit in time: row k sees the slack that the rows before it left,
+s_{k+1} = s_k + gamma mean_i(tau_k,i / k) dt_k. The slack carries over from one session to the next
+(creep stays); no creep is counted across the gap between two sessions. gamma = 0 is no creep.
 """
 
 from __future__ import annotations
@@ -515,18 +521,24 @@ def scratch(n: int, S: int) -> tuple:
 
 
 @njit(cache=True)
-def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, tips, tau_out, bend_out, passes_out):
+def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, creep, dt, slack0, tips, tau_out,
+                  bend_out, passes_out, slack_out):
     """Solve every row of a session in order (see the module's docstring).
 
     q (K, n) [m] tendon displacements; reset (K,) bool, True where a session starts (straight
     warm start, friction directions 0); seg (n,) int the segment each tendon ends at; L (S,) [m];
     compliance (S,) k / EI_s [m^-3]; rho (n, 2) [m] tendon offsets; offsets (n,) [m] slacks; mu the
-    friction coefficient; gvec (3,) (w / k) g_hat in the base frame (zeros: no gravity); marker [m].
+    friction coefficient; gvec (3,) (w / k) g_hat in the base frame (zeros: no gravity); marker [m];
+    creep [1/s] the creep rate, dt (K,) [s] how long each row's load acts before the next row (0 where
+    a session ends) and slack0 [m] the creep slack at the first row (see the module's docstring).
     Writes tips (K, 3) [m] (base frame), tau_out (K, n) tau / k [m] at the base, bend_out (K, S, 2)
-    [1/m] and passes_out (K,) the fixed-point passes of each row (negated: the row did not settle).
+    [1/m], passes_out (K,) the fixed-point passes of each row (negated: the row did not settle) and
+    slack_out (K,) [m] the creep slack each row saw.
     """
     K, n = q.shape
     S = L.size
+    slack = slack0
+    off = np.empty(n)
     gravity = gvec[0] != 0.0 or gvec[1] != 0.0 or gvec[2] != 0.0
     b = np.zeros((S, 2))
     tau = np.zeros(n)
@@ -553,8 +565,15 @@ def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, 
                     dirs[i] = 1.0
                 elif dq < -_HOLD:
                     dirs[i] = -1.0
-        passes_out[k] = _row(q[k], seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs,
+        for i in range(n):
+            off[i] = offsets[i] + slack
+        passes_out[k] = _row(q[k], seg, L, compliance, rho, off, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs,
                              work, acc)
+        slack_out[k] = slack
+        load = 0.0
+        for i in range(n):
+            load += tau[i]
+        slack += creep * (load / n) * dt[k]
         chain_tip(b, L, marker, frames, points, tip)
         for a in range(3):
             tips[k, a] = _flush(tip[a])

@@ -38,11 +38,20 @@ displacement that reaches the robot stays put until the servo has moved back by 
 play operator of ``tendon_kernels.play``, one width for every tendon); q above is then that
 displacement. w = 0 is the model without play.
 
+The tendons' creep (an option): under load the tendons lengthen slowly (the cables' and their
+anchorages' creep), so every tendon's slack grows with time by the same s(t), at a rate gamma times
+the mean tension over the series stiffness (``tendon_kernels``' docstring); q above is then q - s.
+Creep makes the model depend on the rows' times and on the whole history since the calibration's
+first row: ``Calibration`` keeps where the creep stood at each of its rows (``CreepTimeline``), so
+that a session recorded within them starts from the slack it had then, and any other from the slack
+the calibration's last row left (the robot as its training left it).
+
 What poses alone can identify: only ratios, never a force or a stiffness by itself (no force is
 recorded): EI_s / k per segment (bending stiffness over the series stiffness), w / k (the weight per
 length over the series stiffness, so w / EI_s = (w / k)(k / EI_s)) with gravity's direction in the
-base frame, and the friction coefficient mu (and the play w). What the model still misses, the calibration report
-shows as its error, and a learned residual (``softrnn.lab.families``) takes.
+base frame, the friction coefficient mu (and the play w), and the creep rate gamma. What the model
+still misses, the calibration report shows as its error, and a learned residual
+(``softrnn.lab.families``) takes.
 
 Calibration (``calibrate``): nonlinear least squares (the calibration core's ``multistart``,
 ``softrnn.fitting``, with a soft-L1 loss against outlying rows) of the tip over every row of the
@@ -50,8 +59,10 @@ training sessions, from several starts (the tendons' angular order and the angle
 are not known in advance: both orders x twists over a full turn, screened briefly), the best
 refined. Parameters: the tendon angles and offsets, the routing radius, EI_s / k per segment, the
 marker offset and the base pose; with gravity (w / k)
-g_hat (3 values: the weight and its direction), with friction mu and with play w, refined from the
-plain model's calibration (the weight from zero, mu from 0.01, w from 2 % of the routing radius).
+g_hat (3 values: the weight and its direction), with friction mu, with play w and with creep gamma,
+refined from the plain model's calibration (the weight from zero, mu from 0.01, w from 2 % of the
+routing radius, gamma from ``_CREEP_START``). Rows without a measured tip (NaN) are run through the
+model but not fitted: their commands still load the tendons (creep) and set the friction's state.
 """
 
 from __future__ import annotations
@@ -148,6 +159,9 @@ class TendonParameters:
     play : float or None
         w [m], every tendon's play: after a reversal of its servo the displacement that reaches the
         robot stays put until the servo has moved 2 w (``tendon_kernels.play``); None: no play
+    creep : float or None
+        gamma [1/s], the creep rate: every tendon's slack grows at gamma times the mean tension over the
+        series stiffness (``tendon_kernels``); None: no creep
     """
 
     angles: np.ndarray
@@ -160,11 +174,13 @@ class TendonParameters:
     gravity: np.ndarray | None = None
     friction: float | None = None
     play: float | None = None
+    creep: float | None = None
 
     @property
     def plain(self) -> bool:
-        """True without gravity and friction (the closed model of the module's docstring, after the play)."""
-        return self.gravity is None and self.friction is None
+        """True without gravity, friction and creep (the closed model of the module's docstring, after the
+        play): the rows are independent."""
+        return self.gravity is None and self.friction is None and self.creep is None
 
     def to_dict(self, robot: TendonRobot) -> dict:
         """JSON-ready, in mm and degrees, with the stiffness ratio k r^2 L_s / EI_s per segment."""
@@ -182,6 +198,8 @@ class TendonParameters:
             extra["routing_friction"] = round(float(self.friction), 6)
         if self.play is not None:
             extra["tendon_play_mm"] = round(float(self.play) * 1e3, 6)
+        if self.creep is not None:
+            extra["creep_rate_per_s"] = float(f"{self.creep:.6g}")
         return {"tendon_angles_deg": np.degrees(wrapped).round(3).tolist(),
                 "tendon_offsets_mm": (self.offsets * 1e3).round(4).tolist(),
                 "routing_radius_mm": round(self.routing_radius * 1e3, 4),
@@ -202,7 +220,8 @@ class TendonParameters:
                    gravity=(d["weight_over_series_stiffness"] * np.asarray(d["gravity_direction_base"], dtype=float)
                             if "weight_over_series_stiffness" in d else None),
                    friction=d.get("routing_friction"),
-                   play=d["tendon_play_mm"] * 1e-3 if "tendon_play_mm" in d else None)
+                   play=d["tendon_play_mm"] * 1e-3 if "tendon_play_mm" in d else None,
+                   creep=d.get("creep_rate_per_s"))
 
 
 # ------------------------------------------------------------------------------------------ physics
@@ -251,13 +270,15 @@ def _rotations(axis_angle: np.ndarray) -> np.ndarray:
 
 
 def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray,
-                  resets: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                  resets: np.ndarray | None = None, times: np.ndarray | None = None,
+                  slack: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """The tip (K, 3) [m] in the motion-capture frame and the tensions over the series
-    stiffness tau / k (K, n) [m] (at the base) for tendon displacements q (K, n) [m]. With gravity
-    or friction (``params``), the rows are solved in order (``solve_rows``): ``resets`` (K,) bool
-    marks the rows where a session starts (default: the first row only)."""
+    stiffness tau / k (K, n) [m] (at the base) for tendon displacements q (K, n) [m]. With gravity,
+    friction or creep (``params``), the rows are solved in order (``solve_rows``): ``resets`` (K,) bool
+    marks the rows where a session starts (default: the first row only); with creep, ``times`` (K,) [s]
+    are the rows' times and ``slack`` [m] the creep slack at the first row."""
     if not params.plain:
-        tip, tau, _, _ = solve_rows(robot, params, q, resets)
+        tip, tau, _, _, _ = solve_rows(robot, params, q, resets, times, slack)
         return tip, tau
     q = reached(params, q, resets)
     seg = robot.segment_of
@@ -286,26 +307,46 @@ def reached(params: TendonParameters, q: np.ndarray, resets: np.ndarray | None =
     return out
 
 
-def solve_rows(robot: TendonRobot, params: TendonParameters, q: np.ndarray, resets: np.ndarray | None = None) -> tuple:
-    """The fuller physics (gravity and friction, ``softrnn.lab.tendon_kernels``; after the play, ``reached``)
-    row by row in order.
+def solve_rows(robot: TendonRobot, params: TendonParameters, q: np.ndarray, resets: np.ndarray | None = None,
+               times: np.ndarray | None = None, slack: float = 0.0) -> tuple:
+    """The fuller physics (gravity, friction and creep, ``softrnn.lab.tendon_kernels``; after the play,
+    ``reached``) row by row in order.
 
     Returns the tip (K, 3) [m] in the motion-capture frame, tau / k (K, n) [m] at the base, the
-    segments' bending vectors (K, S, 2) [1/m] and the fixed-point passes (K,) of each row (negated where
-    the row did not settle, ``tendon_kernels``); ``resets``
-    (K,) bool marks the rows where a session starts (default: the first row only).
+    segments' bending vectors (K, S, 2) [1/m], the fixed-point passes (K,) of each row (negated where
+    the row did not settle, ``tendon_kernels``) and the creep slack (K,) [m] each row saw (zeros without
+    creep); ``resets`` (K,) bool marks the rows where a session starts (default: the first row only);
+    with creep, ``times`` (K,) [s] are the rows' times (``row_intervals``) and ``slack`` [m] the creep
+    slack at the first row.
     """
     q = reached(params, q, resets)
     K, n = q.shape
     reset = np.zeros(K, dtype=np.bool_) if resets is None else np.asarray(resets, dtype=np.bool_)
+    if params.creep is None:
+        rate, dt, slack = 0.0, np.zeros(K), 0.0
+    elif times is None:
+        raise bad("times", None, "the rows' times [s]: the tendons' creep runs in time")
+    else:
+        rate, dt = float(params.creep), row_intervals(times, reset)
     rho = params.routing_radius * np.stack([np.cos(params.angles), np.sin(params.angles)], axis=1)
     gvec = np.zeros(3) if params.gravity is None else np.asarray(params.gravity, dtype=float)
     tips, tau = np.empty((K, 3)), np.empty((K, n))
-    bend, passes = np.empty((K, robot.n_segments, 2)), np.empty(K, dtype=np.int64)
+    bend, passes, seen = np.empty((K, robot.n_segments, 2)), np.empty(K, dtype=np.int64), np.empty(K)
     session_solve(q, reset, robot.segment_of, np.asarray(robot.segment_lengths), np.asarray(params.compliance, float),
                   rho, np.asarray(params.offsets, float), float(params.friction or 0.0), gvec, float(params.marker),
-                  tips, tau, bend, passes)
-    return tips @ _rotations(params.rotation).T + params.base, tau, bend, passes
+                  rate, dt, float(slack), tips, tau, bend, passes, seen)
+    return tips @ _rotations(params.rotation).T + params.base, tau, bend, passes, seen
+
+
+def row_intervals(times: np.ndarray, reset: np.ndarray) -> np.ndarray:
+    """(K,) [s] how long each row's load acts before the next row: the time to the next row of the same
+    session, 0 at a session's last row (``reset`` (K,) bool, True at each session's first row; no
+    creep across the gap between two sessions)."""
+    times = np.asarray(times, dtype=float)
+    dt = np.zeros(times.size)
+    dt[:-1] = np.diff(times)
+    dt[:-1][np.asarray(reset, dtype=bool)[1:]] = 0.0
+    return np.maximum(dt, 0.0)
 
 
 def session_resets(lengths) -> np.ndarray:
@@ -316,7 +357,7 @@ def session_resets(lengths) -> np.ndarray:
 
 
 # -------------------------------------------------------------------------------------- calibration
-PHYSICS_OPTIONS = ("gravity", "friction", "play")
+PHYSICS_OPTIONS = ("gravity", "friction", "play", "creep")
 """The parts ``CalibrationOptions`` adds to the plain model, each a bool, in the order of a variant's name."""
 
 
@@ -329,9 +370,9 @@ class CalibrationOptions(StartOptions):
     soft-L1 loss turns from quadratic to linear (rows farther off than this count less).
     ``gravity`` and ``friction`` add the backbone's weight (its direction fitted) and friction
     along the routing (mu in 0..``friction_max``) to the model, ``play`` every tendon's play (one width w
-    for all, 0..pi x the routing radius): the plain model is calibrated first, then everything is
-    refined from there with them (``variant_evaluations``). All off (the default): the plain model
-    alone, as before."""
+    for all, 0..pi x the routing radius), ``creep`` the tendons' creep (its rate gamma in 0..``_CREEP_MAX``;
+    the rows' times needed): the plain model is calibrated first, then everything is refined from there
+    with them (``variant_evaluations``). All off (the default): the plain model alone."""
 
     screen_evaluations: int = 20
     screen_keep: int = 6
@@ -340,6 +381,7 @@ class CalibrationOptions(StartOptions):
     gravity: bool = False
     friction: bool = False
     play: bool = False
+    creep: bool = False
     friction_max: float = 0.5
     variant_evaluations: int = 150
 
@@ -356,31 +398,75 @@ class CalibrationOptions(StartOptions):
 
     @property
     def variant(self) -> str:
-        """``plain``, or those of ``gravity``, ``friction`` and ``play`` on, joined by ``+``."""
+        """``plain``, or those of ``gravity``, ``friction``, ``play`` and ``creep`` on, joined by ``+``."""
         return "+".join(n for n in PHYSICS_OPTIONS if getattr(self, n)) or "plain"
+
+
+@dataclass(frozen=True, eq=False)
+class CreepTimeline:
+    """Where the tendons' creep stood along a calibration's rows, so that a prediction starts from the
+    slack its session had.
+
+    Attributes
+    ----------
+    times : (K,) [s]
+        the calibration's rows' times, in its rows' order
+    slack : (K,) [m]
+        the creep slack each of those rows saw
+    end : float [m]
+        the slack the last row left: the robot as its training left it
+    """
+
+    times: np.ndarray
+    slack: np.ndarray
+    end: float
+
+    def at(self, start: float) -> float:
+        """The slack [m] at a session whose first row is at ``start`` [s]: on a clock the rows share
+        (their times in order), the slack of the first row at or after ``start`` where it lies within
+        the rows' span; else the slack of a row at exactly ``start``; else ``end``: a session recorded
+        outside the calibration's span runs on the robot as the training left it."""
+        times = self.times
+        if times.size and np.all(np.diff(times) >= 0.0):
+            if times[0] <= start <= times[-1]:
+                return float(self.slack[np.searchsorted(times, start)])
+            return self.end
+        exact = np.flatnonzero(times == start)
+        return float(self.slack[exact[0]]) if exact.size else self.end
+
+    def to_dict(self) -> dict:
+        """JSON-ready: the slack at the first and the last row [mm]."""
+        return {"creep_slack_first_row_mm": round(float(self.slack[0]) * 1e3, 4) if self.slack.size else 0.0,
+                "creep_slack_end_mm": round(self.end * 1e3, 4)}
 
 
 @dataclass(frozen=True)
 class Calibration:
     """A calibrated tendon robot: ``robot``, ``params``, the tip RMSE on the fitted rows [m]
-    (Euclidean) and what the search tried (``starts``: one dict per start)."""
+    (Euclidean), what the search tried (``starts``: one dict per start) and, with creep, where it
+    stood along the fitted rows (``timeline``, ``CreepTimeline``; None without creep)."""
 
     robot: TendonRobot
     params: TendonParameters
     rmse_m: float
     starts: tuple
     seconds: float
+    timeline: CreepTimeline | None = None
 
-    def predict(self, q: np.ndarray, resets: np.ndarray | None = None) -> np.ndarray:
+    def predict(self, q: np.ndarray, resets: np.ndarray | None = None, times: np.ndarray | None = None) -> np.ndarray:
         """The tip (K, 3) [m] for tendon displacements q (K, n) [m], the rows of one session in order
-        (friction reads each tendon's previous row; ``resets`` (K,) bool marks where another starts)."""
-        return tip_positions(self.robot, self.params, q, resets)[0]
+        (friction reads each tendon's previous row; ``resets`` (K,) bool marks where another starts);
+        with creep, ``times`` (K,) [s] are the rows' times and the session starts from the slack the
+        calibration's timeline gives its first row (``CreepTimeline.at``)."""
+        slack = 0.0 if self.timeline is None or times is None else self.timeline.at(float(np.asarray(times)[0]))
+        return tip_positions(self.robot, self.params, q, resets, times, slack)[0]
 
     def to_dict(self) -> dict:
         """JSON-ready: the model, the segments, the parameters, the fit and the starts tried."""
         extra = "".join(t for t, on in ((", gravity", self.params.gravity is not None),
                                         (", friction along the routing (capstan)", self.params.friction is not None),
-                                        (", tendon play", self.params.play is not None))
+                                        (", tendon play", self.params.play is not None),
+                                        (", tendon creep", self.params.creep is not None))
                         if on)
         return {"model": "piecewise-constant-curvature tendon robot, displacement-driven with series stiffness "
                          f"and slack{extra} (softrnn.lab.tendon_robot)",
@@ -388,23 +474,32 @@ class Calibration:
                 "tendons_per_segment": self.robot.tendons_per_segment,
                 "parameters": self.params.to_dict(self.robot),
                 "fit_tip_rmse_mm": round(self.rmse_m * 1e3, 4), "starts": list(self.starts),
-                "seconds": round(self.seconds, 2)}
+                "seconds": round(self.seconds, 2)} | ({} if self.timeline is None else self.timeline.to_dict())
 
 
 _GRAVITY_UNIT = 1e-4
 """The internal unit of w / k in the least squares."""
+_CREEP_UNIT = 1e-3
+"""The internal unit of the creep rate [1/s] in the least squares (per 1000 s)."""
+_CREEP_START = 0.1
+_CREEP_MAX = 20.0
+"""The creep rate's start and upper bound [``_CREEP_UNIT``]: at the bound, a tendon pulled to 1 mm past its
+slack lengthens by 20 mm in 1000 s, far beyond any cable's creep."""
 
 
 def _pack(p: TendonParameters) -> np.ndarray:
-    # internal units: mm and rad, log compliance (well scaled for least squares); then gravity, friction, play
+    # internal units: mm and rad, log compliance (well scaled for least squares); then gravity, friction, play, creep
     extra = ([] if p.gravity is None else list(np.asarray(p.gravity) / _GRAVITY_UNIT)) + \
-        ([] if p.friction is None else [p.friction]) + ([] if p.play is None else [p.play * 1e3])
-    return np.concatenate([p.angles, p.offsets * 1e3, [p.routing_radius * 1e3], np.log(p.compliance * 1e-9),
+        ([] if p.friction is None else [p.friction]) + ([] if p.play is None else [p.play * 1e3]) + \
+        ([] if p.creep is None else [p.creep / _CREEP_UNIT])
+    # a compliance that underflowed to 0 (a segment the rows leave free, fitted rigid) packs as the smallest one
+    log_compliance = np.log(np.maximum(np.asarray(p.compliance, dtype=float) * 1e-9, np.finfo(float).tiny))
+    return np.concatenate([p.angles, p.offsets * 1e3, [p.routing_radius * 1e3], log_compliance,
                            [p.marker * 1e3], p.rotation, p.base * 1e3, extra])
 
 
 def _unpack(x: np.ndarray, robot: TendonRobot, gravity: bool = False, friction: bool = False,
-            play: bool = False) -> TendonParameters:
+            play: bool = False, creep: bool = False) -> TendonParameters:
     n, S = robot.n_tendons, robot.n_segments
     end = 2 * n + 8 + S
     return TendonParameters(angles=x[:n], offsets=x[n:2 * n] * 1e-3, routing_radius=x[2 * n] * 1e-3,
@@ -412,18 +507,21 @@ def _unpack(x: np.ndarray, robot: TendonRobot, gravity: bool = False, friction: 
                             rotation=x[2 * n + 2 + S:2 * n + 5 + S], base=x[2 * n + 5 + S:end] * 1e-3,
                             gravity=x[end:end + 3] * _GRAVITY_UNIT if gravity else None,
                             friction=float(x[end + 3 * gravity]) if friction else None,
-                            play=float(x[end + 3 * gravity + friction]) * 1e-3 if play else None)
+                            play=float(x[end + 3 * gravity + friction]) * 1e-3 if play else None,
+                            creep=float(x[end + 3 * gravity + friction + play]) * _CREEP_UNIT if creep else None)
 
 
 def _variant_start(start: TendonParameters, options: CalibrationOptions, robot: TendonRobot) -> TendonParameters:
-    """``start`` with the gravity, friction and play of ``options`` (none yet: no weight, mu 0.01, a play
-    of ``_PLAY_START`` x the routing radius), or without."""
+    """``start`` with the gravity, friction, play and creep of ``options`` (none yet: no weight, mu 0.01, a
+    play of ``_PLAY_START`` x the routing radius, a creep rate of ``_CREEP_START``), or without."""
     gravity = (np.zeros(3) if start.gravity is None else start.gravity) if options.gravity else None
     friction = (0.01 if start.friction is None else min(start.friction, 0.99 * options.friction_max)) \
         if options.friction else None
     play = (_PLAY_START * robot.routing_radius if start.play is None else min(start.play, _play_max(robot))) \
         if options.play else None
-    return replace(start, gravity=gravity, friction=friction, play=play)
+    creep = (_CREEP_START * _CREEP_UNIT if start.creep is None else min(start.creep, _CREEP_MAX * _CREEP_UNIT)) \
+        if options.creep else None
+    return replace(start, gravity=gravity, friction=friction, play=play, creep=creep)
 
 
 _PLAY_START = 0.02
@@ -469,34 +567,39 @@ def _bounds(robot: TendonRobot, options: CalibrationOptions) -> tuple[np.ndarray
     lower = np.concatenate([np.full(n, -inf), np.full(n, -inf), [0.2 * robot.routing_radius * 1e3],
                             np.full(S, -inf), [0.0], np.full(3, -inf), np.full(3, -inf),
                             np.full(3 * options.gravity, -inf), np.zeros(int(options.friction)),
-                            np.zeros(int(options.play))])
+                            np.zeros(int(options.play)), np.zeros(int(options.creep))])
     upper = np.concatenate([np.full(n, inf), np.full(n, inf), [5.0 * robot.routing_radius * 1e3],
                             np.full(S, inf), [0.5 * robot.length * 1e3], np.full(3, inf), np.full(3, inf),
                             np.full(3 * options.gravity, inf), np.full(int(options.friction), options.friction_max),
-                            np.full(int(options.play), _play_max(robot) * 1e3)])
+                            np.full(int(options.play), _play_max(robot) * 1e3),
+                            np.full(int(options.creep), _CREEP_MAX)])
     return lower, upper
 
 
 def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: CalibrationOptions = CalibrationOptions(),
               progress=None, start: TendonParameters | None = None, resets: np.ndarray | None = None, spread=here,
-              pieces: int = 1) -> Calibration:
+              pieces: int = 1, times: np.ndarray | None = None) -> Calibration:
     """Fit the robot's parameters to tendon displacements q (K, n) [m] and tips (K, 3) [m]
     (every row of the training sessions, in order; ``resets`` (K,) bool marks where each session
-    starts, ``session_resets``). ``progress(done, total)`` after each start. With ``start`` (e.g. a
-    calibration on part of the rows), only the refinement runs, from there. With gravity, friction or
-    play (``options``) and no ``start``, the plain model is calibrated first (its search on the closed
-    model, faster) and everything refined from there. ``spread`` and ``pieces``: where the search's
-    fits run (``softrnn.fitting.multistart``; e.g. a pool's workers); the result is the same to the bit."""
+    starts, ``session_resets``; a row whose tip is NaN is run but not fitted). ``progress(done, total)``
+    after each start. With ``start`` (e.g. a calibration on part of the rows), only the refinement runs,
+    from there. With gravity, friction, play or creep (``options``) and no ``start``, the plain model is
+    calibrated first (its search on the closed model, faster) and everything refined from there. With
+    creep, ``times`` (K,) [s] are the rows' times. ``spread`` and ``pieces``: where the search's fits run
+    (``softrnn.fitting.multistart``; e.g. a pool's workers); the result is the same to the bit."""
     q = np.asarray(q, dtype=float)
     tip = np.asarray(tip, dtype=float)
     if q.ndim != 2 or q.shape[1] != robot.n_tendons:
         raise SoftrnnInputError(f"the recording has {q.shape[-1]} inputs but the robot {robot.n_segments} segments "
                                 f"x {robot.tendons_per_segment} tendons = {robot.n_tendons}; give --segments and "
                                 "--tendons-per-segment that match the input columns (segment order)")
+    if options.creep and (times is None or np.shape(times) != (q.shape[0],)):
+        raise bad("times", None if times is None else np.shape(times), f"the {q.shape[0]} rows' times [s]: the "
+                                                                       "tendons' creep runs in time")
     t0 = time.perf_counter()
     earlier = ()
     if options.variant != "plain" and start is None:
-        plain = _search(robot, q, tip, replace(options, gravity=False, friction=False, play=False), progress, None,
+        plain = _search(robot, q, tip, replace(options, **dict.fromkeys(PHYSICS_OPTIONS, False)), progress, None,
                         resets, spread=spread, pieces=pieces)
         start, earlier = plain.params, plain.starts
     if start is not None:
@@ -504,8 +607,13 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
     if options.variant != "plain":
         options = replace(options, evaluations=options.variant_evaluations)
     found = _search(robot, q, tip, options, progress, start, resets, label="the plain model's"
-                    if earlier else "given", spread=spread, pieces=pieces)
-    return replace(found, starts=earlier + found.starts, seconds=time.perf_counter() - t0)
+                    if earlier else "given", spread=spread, pieces=pieces, times=times)
+    timeline = None
+    if found.params.creep is not None:
+        seen = solve_rows(robot, found.params, q, resets, times)[4]
+        # the last row's load acts for no time (no row follows it): the training leaves the slack it saw
+        timeline = CreepTimeline(times=np.asarray(times, dtype=float).copy(), slack=seen, end=float(seen[-1]))
+    return replace(found, starts=earlier + found.starts, seconds=time.perf_counter() - t0, timeline=timeline)
 
 
 @dataclass(frozen=True, eq=False)
@@ -519,12 +627,18 @@ class _TipResidual:
     tip: np.ndarray
     resets: np.ndarray | None
     flags: tuple
+    times: np.ndarray | None = None
+    fitted: np.ndarray | None = None
+    """(K,) bool: the rows whose tips are fitted (None: all); the others are run (creep, friction) only."""
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         # a trial step's compliance beyond any float (the solver rejects it) or below the smallest (0: rigid)
         with np.errstate(over="ignore", under="ignore"):
             params = _unpack(x, self.robot, **dict(self.flags))
-        return ((tip_positions(self.robot, params, self.q, self.resets)[0] - self.tip) * 1e3).ravel()
+        tips = tip_positions(self.robot, params, self.q, self.resets, self.times)[0]
+        if self.fitted is not None:
+            tips = tips[self.fitted]
+        return ((tips - self.tip) * 1e3).ravel()
 
 
 def _rmse_mm(fun: np.ndarray) -> float:
@@ -534,14 +648,22 @@ def _rmse_mm(fun: np.ndarray) -> float:
 
 def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: CalibrationOptions, progress,
             start: TendonParameters | None, resets, label: str = "given", spread=here,
-            pieces: int = 1) -> Calibration:
+            pieces: int = 1, times: np.ndarray | None = None) -> Calibration:
     """``calibrate``'s multi-start search (``start`` None) or refinement from ``start``; ``spread`` and
     ``pieces`` as ``multistart``'s."""
-    rotation, base = _base_guess(robot, q, tip)
+    measured = np.all(np.isfinite(tip), axis=1)
+    if not measured.any():
+        raise bad("tip", "no finite row", "at least one row with a measured tip to fit")
+    fitted = None if measured.all() else measured
+    rotation, base = _base_guess(robot, q[measured], tip[measured])
     n, S = robot.n_tendons, robot.n_segments
     scale = options.loss_scale * 1e3
     flags = {name: getattr(options, name) for name in PHYSICS_OPTIONS}
-    residual = _TipResidual(robot, q, tip, resets, tuple(flags.items()))
+    if fitted is not None and not any(flags.values()):     # the closed model: its rows are independent
+        q, tip, resets, times, fitted = q[measured], tip[measured], None if resets is None else resets[measured], \
+            None if times is None else times[measured], None
+    residual = _TipResidual(robot, q, tip[measured] if fitted is not None else tip, resets, tuple(flags.items()),
+                            times, fitted)
     starts = []
     for sign, twist in _starts(robot, options.twists) if start is None else []:
         angles = np.radians(sign * np.tile(np.arange(robot.tendons_per_segment) * 360.0 / robot.tendons_per_segment,

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .families import stretch_edges
+from .families import masked, stretch_edges
 
 COVERAGE = 0.9
 """The share of rows an interval should hold."""
@@ -125,6 +125,14 @@ def refitter(model):
     return getattr(model, "refit", None) or getattr(model, "fit", None)
 
 
+def refit_without(model, refit, on: list, out: list, everything: list):
+    """``model`` refitted (``refit``) without the rows of ``out``: on ``on``, the other rows; or, for a model
+    that runs through every row in order (``runs_through``: the tendons' creep), on ``everything`` with the
+    tips of ``out`` masked (``families.masked``), so that it is fitted without them while its state
+    passes through them, as the robot's did."""
+    return refit(masked(everything, out)) if getattr(model, "runs_through", False) else refit(on)
+
+
 def cross_fit(model, fit_part) -> tuple[np.ndarray, np.ndarray] | None:
     """(|pred - tip| / scale (n,) [1], d (n,) [standard deviations]) of ``model`` refitted without
     part of ``fit_part`` (its ``refit``, else ``fit``; its distance from the rows it was refitted on)
@@ -140,7 +148,7 @@ def cross_fit(model, fit_part) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     parts = []
     for on, over in splits:
-        crossed = refit(on)
+        crossed = refit_without(model, refit, on, over, fit_part)
         parts.append(_ratios(crossed, over, crossed.error_scale))
     return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
@@ -196,8 +204,9 @@ class InputDistance:
 
     @classmethod
     def of(cls, sessions) -> InputDistance:
-        """The distance from the rows of training ``sessions`` (a list of ``Recording``)."""
-        u = np.vstack([s.inputs for s in sessions])
+        """The distance from the rows of training ``sessions`` (a list of ``Recording``) with a measured tip
+        (the rows a model was fitted on: not those masked, ``families.masked``)."""
+        u = np.vstack([s.inputs[np.all(np.isfinite(s.tip), axis=1)] for s in sessions])
         mu, sd = u.mean(axis=0), u.std(axis=0) + 1e-12
         return cls(cKDTree((u - mu) / sd), mu, sd)
 
@@ -243,12 +252,18 @@ class RefitSpread:
         refit = refitter(model)
         pairs = [(on, out) for on, out in pattern_folds(sessions, folds)
                  if min(sum(s.n_rows for s in part) for part in (on, out)) >= CROSS_ROWS]
-        return cls(model, tuple(refit(on) for on, _ in pairs), rms_error(model, sessions), folds)
+        return cls(model, tuple(refit_without(model, refit, on, out, sessions) for on, out in pairs),
+                   rms_error(model, sessions), folds)
 
     @property
     def name(self) -> str:
         """The model's name."""
         return self.model.name
+
+    @property
+    def runs_through(self) -> bool:
+        """Whether the model runs through every row in order (``refit_without``)."""
+        return getattr(self.model, "runs_through", False)
 
     def predict(self, session) -> np.ndarray:
         """The model's tip (T, 3) [m]."""
@@ -336,6 +351,11 @@ class WithInterval(Intervals):
     def name(self) -> str:
         """The model's name."""
         return self.model.name
+
+    @property
+    def runs_through(self) -> bool:
+        """Whether the model runs through every row in order (``refit_without``)."""
+        return getattr(self.model, "runs_through", False)
 
     def predict(self, session) -> np.ndarray:
         """The model's tip (T, 3) [m]."""

@@ -1,0 +1,178 @@
+"""The tendons' creep in the tendon robot's physics: the slack's closed form under a held pull, the
+equivalence with the plain model shifted by the slack each row saw, no creep across the gap
+between sessions, the timeline a prediction starts from, the calibration recovering a known
+creep rate (with rows that run but are not fitted), and its errors."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from softrnn.errors import SoftrnnInputError
+from softrnn.lab.families import Physics, masked
+from softrnn.lab.recording import Recording
+from softrnn.lab.tendon_robot import (
+    CalibrationOptions,
+    CreepTimeline,
+    TendonParameters,
+    TendonRobot,
+    calibrate,
+    session_resets,
+    solve_rows,
+    tip_positions,
+)
+
+L, R = 0.1, 4e-3
+
+
+def _robot(n_segments=1, creep=None, offsets=None):
+    robot = TendonRobot(tuple([L] * n_segments), 3, R)
+    angles = np.radians(np.tile([0.0, 120.0, 240.0], n_segments) + np.repeat(np.arange(n_segments) * 40.0, 3))
+    params = TendonParameters(angles=angles, offsets=np.zeros(3 * n_segments) if offsets is None else offsets,
+                              routing_radius=R, compliance=np.full(n_segments, 1.0 / (R ** 2 * L)), marker=2e-3,
+                              rotation=np.array([0.1, -0.2, 0.3]), base=np.array([0.01, 0.0, 0.02]), creep=creep)
+    return robot, params
+
+
+def test_a_held_pull_creeps_as_the_closed_form():
+    """One tendon of one segment held at q (the others slack): tau' = (q - s) / (1 + a), a = beta r^2 L
+    with beta = k / EI, and s_{k+1} = s_k + gamma dt tau'_k / n, so s_k = q (1 - (1 - h)^k) with
+    h = gamma dt / (n (1 + a)): the slack each row sees, and the tension that follows it."""
+    gamma, dt, rows, q = 2e-2, 0.5, 400, 3e-3
+    robot, params = _robot(creep=gamma)
+    a = params.compliance[0] * R ** 2 * L
+    command = np.tile([q, -5e-3, -5e-3], (rows, 1))
+    _, tau, _, _, slack = solve_rows(robot, params, command, times=np.arange(rows) * dt)
+    h = gamma * dt / (3 * (1 + a))
+    expected = q * (1 - (1 - h) ** np.arange(rows))
+    np.testing.assert_allclose(slack, expected, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(tau[:, 0], (q - expected) / (1 + a), rtol=1e-9)
+    assert slack[-1] > 0.1 * q                                  # it crept a good part of the pull
+
+
+def test_creep_is_the_plain_model_with_the_slack_each_row_saw():
+    """Two segments, random commands and intervals: each row of the creeping model equals the plain model
+    with every offset grown by that row's slack, and the slack grows by gamma x the mean tension x the
+    time to the next row."""
+    rng = np.random.default_rng(4)
+    robot, params = _robot(2, creep=5e-3, offsets=rng.uniform(-1e-3, 0.5e-3, 6))
+    q = rng.uniform(-2e-3, 4e-3, (50, 6))
+    times = np.cumsum(rng.uniform(0.2, 3.0, 50))
+    tip, tau, _, _, slack = solve_rows(robot, params, q, times=times, slack=1e-4)
+    assert slack[0] == 1e-4
+    plain = dataclasses.replace(params, creep=None)
+    for k in (0, 17, 49):
+        shifted = dataclasses.replace(plain, offsets=params.offsets + slack[k])
+        tip_k, tau_k = tip_positions(robot, shifted, q[k:k + 1])
+        np.testing.assert_allclose(tip[k], tip_k[0], atol=1e-12)
+        np.testing.assert_allclose(tau[k], tau_k[0], atol=1e-12)
+    np.testing.assert_allclose(np.diff(slack), 5e-3 * tau[:-1].mean(axis=1) * np.diff(times), rtol=1e-10, atol=1e-18)
+
+
+def test_no_creep_rate_is_the_plain_model():
+    robot, params = _robot(2, creep=0.0)
+    q = np.random.default_rng(2).uniform(-3e-3, 4e-3, (40, 6))
+    tip, _ = tip_positions(robot, params, q, times=np.arange(40.0))
+    np.testing.assert_allclose(tip, tip_positions(robot, dataclasses.replace(params, creep=None), q)[0], atol=1e-13)
+
+
+def test_no_creep_across_the_gap_between_sessions():
+    """Two sessions an hour apart: the second's first row sees the slack the first's last row saw (its
+    load acts for no time), and the slack carries on from there."""
+    robot, params = _robot(creep=4e-3)
+    q = np.tile([3e-3, -5e-3, -5e-3], (20, 1))
+    times = np.concatenate([np.arange(10.0), 3600.0 + np.arange(10.0)])
+    slack = solve_rows(robot, params, q, session_resets([10, 10]), times)[4]
+    assert slack[10] == slack[9] > 0.0
+    assert slack[11] > slack[10]
+
+
+def test_the_timeline_gives_a_session_the_slack_it_had():
+    line = CreepTimeline(times=np.array([10.0, 11.0, 12.0, 20.0]), slack=np.array([0.0, 1.0, 2.0, 3.0]), end=3.5)
+    assert line.at(11.0) == 1.0                 # a row of the timeline
+    assert line.at(15.0) == 3.0                 # in a gap: the slack the next known row saw
+    assert line.at(25.0) == 3.5 and line.at(0.0) == 3.5     # outside: as the training left the robot
+    relative = CreepTimeline(times=np.array([0.0, 1.0, 0.0, 1.0]), slack=np.array([0.0, 1.0, 2.0, 3.0]), end=4.0)
+    assert relative.at(1.0) == 1.0 and relative.at(0.5) == 4.0     # sessions on their own clocks: exact times only
+
+
+def _recording(robot, params, q, times, path="a.csv"):
+    tip = tip_positions(robot, params, q, times=times)[0]
+    names = tuple(f"t{i}" for i in range(q.shape[1]))
+    return Recording(path=path, time=times, inputs=q * 1e3, names=names, units=("mm",) * q.shape[1], tip=tip)
+
+
+def _pulls(rows, seed):
+    """Ramps of one tendon at a time from slack, as a lab records them: a common slack shows where each pull
+    starts to bend the robot."""
+    rng = np.random.default_rng(seed)
+    q = np.full((rows, 3), -1e-3)
+    for start in range(0, rows, 20):
+        q[start:start + 20, rng.integers(3)] += np.linspace(0.0, rng.uniform(3e-3, 5e-3), 20)[:rows - start]
+    return q, np.cumsum(rng.uniform(0.5, 2.0, rows))
+
+
+def test_calibration_recovers_a_known_creep_rate_with_held_rows_run_but_not_fitted():
+    """Noise-free poses of a creeping robot with a quarter of the rows' tips hidden (NaN): the fit from a
+    plain start recovers the creep rate, and a held stretch predicted on its own starts from the slack
+    the timeline kept for it, where the robot was."""
+    robot, truth = _robot(creep=3e-3, offsets=np.array([-0.5e-3, -0.4e-3, -0.6e-3]))
+    q, times = _pulls(240, 1)
+    rec = _recording(robot, truth, q, times)
+    held = [rec.rows(120, 180)]
+    physics = Physics(robot, CalibrationOptions(creep=True, variant_evaluations=200),
+                      start=dataclasses.replace(truth, creep=None, offsets=truth.offsets + 0.2e-3)).fit(
+        masked([rec], held))
+    cal = physics.calibration
+    assert cal.params.creep == pytest.approx(3e-3, rel=0.02)
+    assert cal.timeline.end > 0.0 and np.all(np.diff(cal.timeline.slack) >= 0.0)
+    np.testing.assert_allclose(physics.predict(held[0]), held[0].tip, atol=0.05e-3)
+    no_creep = Physics(robot, CalibrationOptions(), start=truth).fit(masked([rec], held))
+    assert np.abs(no_creep.predict(held[0]) - held[0].tip).max() > 10 * np.abs(
+        physics.predict(held[0]) - held[0].tip).max()
+
+
+def test_masked_hides_the_held_rows_tips_only():
+    robot, truth = _robot()
+    q, times = _pulls(30, 2)
+    rec = _recording(robot, truth, q, times)
+    other = dataclasses.replace(rec, path="b.csv")
+    out = masked([rec, other], [rec.rows(5, 9)])
+    hidden = np.isnan(out[0].tip).all(axis=1)
+    assert hidden.tolist() == [5 <= k < 9 for k in range(30)]
+    np.testing.assert_array_equal(out[0].tip[~hidden], rec.tip[~hidden])
+    np.testing.assert_array_equal(out[1].tip, other.tip)          # another session, though its times match
+
+
+def test_the_parameters_round_trip_with_the_creep_rate():
+    robot, params = _robot(creep=1.25e-3)
+    back = TendonParameters.from_dict(params.to_dict(robot))
+    assert back.creep == pytest.approx(1.25e-3)
+    assert TendonParameters.from_dict(dataclasses.replace(params, creep=None).to_dict(robot)).creep is None
+
+
+def test_creep_without_the_rows_times_is_refused():
+    robot, params = _robot(creep=1e-3)
+    q = np.zeros((5, 3))
+    with pytest.raises(SoftrnnInputError, match="times=None is invalid: the rows' times"):
+        tip_positions(robot, params, q)
+    with pytest.raises(SoftrnnInputError, match="times=None is invalid: the 5 rows' times"):
+        calibrate(robot, q, np.zeros((5, 3)), CalibrationOptions(creep=True), start=params)
+    with pytest.raises(SoftrnnInputError, match="tip='no finite row' is invalid"):
+        calibrate(robot, q, np.full((5, 3), np.nan), CalibrationOptions(), start=params)
+
+
+def test_a_rigid_segment_refits_from_where_it_is():
+    """A calibration that left a segment rigid (its compliance underflowed to 0, a segment its rows do not
+    bend) is a finite start for a refit: the least squares would stop at a NaN step otherwise."""
+    from softrnn.lab.tendon_robot import _pack
+
+    robot, params = _robot(2)
+    x = _pack(dataclasses.replace(params, compliance=np.array([0.0, 1.0 / (R ** 2 * L)])))
+    assert np.all(np.isfinite(x))
+    q, times = _pulls(40, 3)
+    rigid = dataclasses.replace(params, compliance=np.array([0.0, 1.0 / (R ** 2 * L)]))
+    tip = tip_positions(robot, rigid, np.hstack([q, q]))[0]
+    cal = calibrate(robot, np.hstack([q, q]), tip, CalibrationOptions(), start=rigid)
+    assert cal.rmse_m < 1e-9
+
