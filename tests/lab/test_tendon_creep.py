@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.lab.families import Physics, masked
+from softrnn.lab.families import Physics, displacements, masked
 from softrnn.lab.recording import Recording
 from softrnn.lab.tendon_robot import (
     CalibrationOptions,
@@ -88,12 +88,16 @@ def test_no_creep_across_the_gap_between_sessions():
 
 
 def test_the_timeline_gives_a_session_the_slack_it_had():
-    line = CreepTimeline(times=np.array([10.0, 11.0, 12.0, 20.0]), slack=np.array([0.0, 1.0, 2.0, 3.0]), end=3.5)
-    assert line.at(11.0) == 1.0                 # a row of the timeline
-    assert line.at(15.0) == 3.0                 # in a gap: the slack the next known row saw
-    assert line.at(25.0) == 3.5 and line.at(0.0) == 3.5     # outside: as the training left the robot
-    relative = CreepTimeline(times=np.array([0.0, 1.0, 0.0, 1.0]), slack=np.array([0.0, 1.0, 2.0, 3.0]), end=4.0)
-    assert relative.at(1.0) == 1.0 and relative.at(0.5) == 4.0     # sessions on their own clocks: exact times only
+    q = np.array([[0.0], [1.0], [2.0], [3.0]])
+    line = CreepTimeline(times=np.array([10.0, 11.0, 12.0, 20.0]), q=q, slack=np.array([0.0, 1.0, 2.0, 3.0]), end=3.5)
+    assert line.at([11.0, 12.0], [[1.0], [2.0]]) == 1.0     # rows of the timeline
+    assert line.at([15.0], [[9.0]]) == 3.0                   # in a gap: the slack the next known row saw
+    assert line.at([25.0], [[1.0]]) == 3.5 and line.at([0.0], [[0.0]]) == 3.5   # outside: as training left it
+    relative = CreepTimeline(times=np.array([0.0, 1.0, 0.0, 1.0]), q=np.array([[0.0], [1.0], [0.0], [3.0]]),
+                             slack=np.array([0.0, 1.0, 2.0, 3.0]), end=4.0)
+    assert relative.at([0.0, 1.0], [[0.0], [3.0]]) == 2.0     # sessions on clocks of their own: the rows that match
+    assert relative.at([0.0, 1.0], [[0.0], [1.0]]) == 0.0
+    assert relative.at([0.5], [[0.0]]) == 4.0 and relative.at([0.0, 1.0], [[0.0], [7.0]]) == 4.0   # none: the end
 
 
 def _recording(robot, params, q, times, path="a.csv"):
@@ -130,6 +134,24 @@ def test_calibration_recovers_a_known_creep_rate_with_held_rows_run_but_not_fitt
     no_creep = Physics(robot, CalibrationOptions(), start=truth).fit(masked([rec], held))
     assert np.abs(no_creep.predict(held[0]) - held[0].tip).max() > 10 * np.abs(
         physics.predict(held[0]) - held[0].tip).max()
+
+
+def test_sessions_on_clocks_of_their_own_start_where_they_were():
+    """Two sessions whose clocks both start at 0 (the same times, other commands): the creep carries from
+    the first into the second, and a held stretch of the second, predicted on its own, starts from the
+    slack the second session had there, told apart from the first by its commands."""
+    robot, truth = _robot(creep=3e-3, offsets=np.array([-0.5e-3, -0.4e-3, -0.6e-3]))
+    qa, times = _pulls(80, 5)
+    qb = _pulls(80, 6)[0]
+    tips = tip_positions(robot, truth, np.vstack([qa, qb]), session_resets([80, 80]), np.concatenate([times, times]))[0]
+    names = ("t0", "t1", "t2")
+    a, b = (Recording(path=p, time=times, inputs=q * 1e3, names=names, units=("mm",) * 3, tip=t)
+            for p, q, t in (("a.csv", qa, tips[:80]), ("b.csv", qb, tips[80:])))
+    held = b.rows(40, 60)
+    physics = Physics(robot, CalibrationOptions(creep=True), start=truth).fit(masked([a, b], [held]))
+    np.testing.assert_allclose(physics.predict(held), held.tip, atol=1e-9)
+    line, other = physics.calibration.timeline, a.rows(40, 60)
+    assert line.at(held.time, displacements(held)) > line.at(other.time, displacements(other)) > 0.0
 
 
 def test_masked_hides_the_held_rows_tips_only():

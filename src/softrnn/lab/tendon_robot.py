@@ -411,6 +411,8 @@ class CreepTimeline:
     ----------
     times : (K,) [s]
         the calibration's rows' times, in its rows' order
+    q : (K, n) [m]
+        their tendon displacements
     slack : (K,) [m]
         the creep slack each of those rows saw
     end : float [m]
@@ -418,21 +420,26 @@ class CreepTimeline:
     """
 
     times: np.ndarray
+    q: np.ndarray
     slack: np.ndarray
     end: float
 
-    def at(self, start: float) -> float:
-        """The slack [m] at a session whose first row is at ``start`` [s]: on a clock the rows share
-        (their times in order), the slack of the first row at or after ``start`` where it lies within
-        the rows' span; else the slack of a row at exactly ``start``; else ``end``: a session recorded
-        outside the calibration's span runs on the robot as the training left it."""
-        times = self.times
-        if times.size and np.all(np.diff(times) >= 0.0):
-            if times[0] <= start <= times[-1]:
-                return float(self.slack[np.searchsorted(times, start)])
-            return self.end
-        exact = np.flatnonzero(times == start)
-        return float(self.slack[exact[0]]) if exact.size else self.end
+    def at(self, times: np.ndarray, q: np.ndarray) -> float:
+        """The slack [m] at the first row of a session of rows at ``times`` (T,) [s] with displacements
+        ``q`` (T, n) [m]: that of the calibration's run of rows with the same times and displacements (a
+        session, or a stretch of one, that the calibration ran through); else, where the calibration's
+        rows share one clock (their times in order) and the session starts within their span, that of
+        the first row after its start; else ``end``: a session recorded outside the calibration's span
+        (or on a clock of its own) runs on the robot as the training left it."""
+        times, q = np.asarray(times, dtype=float), np.asarray(q, dtype=float)
+        for j in np.flatnonzero(self.times == times[0]):
+            m = min(times.size, self.times.size - j)
+            if np.array_equal(self.times[j:j + m], times[:m]) and np.array_equal(self.q[j:j + m], q[:m]):
+                return float(self.slack[j])
+        own = self.times
+        if own.size and np.all(np.diff(own) >= 0.0) and own[0] <= times[0] <= own[-1]:
+            return float(self.slack[np.searchsorted(own, times[0])])
+        return self.end
 
     def to_dict(self) -> dict:
         """JSON-ready: the slack at the first and the last row [mm]."""
@@ -458,7 +465,7 @@ class Calibration:
         (friction reads each tendon's previous row; ``resets`` (K,) bool marks where another starts);
         with creep, ``times`` (K,) [s] are the rows' times and the session starts from the slack the
         calibration's timeline gives its first row (``CreepTimeline.at``)."""
-        slack = 0.0 if self.timeline is None or times is None else self.timeline.at(float(np.asarray(times)[0]))
+        slack = 0.0 if self.timeline is None or times is None else self.timeline.at(times, q)
         return tip_positions(self.robot, self.params, q, resets, times, slack)[0]
 
     def to_dict(self) -> dict:
@@ -612,7 +619,8 @@ def calibrate(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calib
     if found.params.creep is not None:
         seen = solve_rows(robot, found.params, q, resets, times)[4]
         # the last row's load acts for no time (no row follows it): the training leaves the slack it saw
-        timeline = CreepTimeline(times=np.asarray(times, dtype=float).copy(), slack=seen, end=float(seen[-1]))
+        timeline = CreepTimeline(times=np.asarray(times, dtype=float).copy(), q=q.copy(), slack=seen,
+                                 end=float(seen[-1]))
     return replace(found, starts=earlier + found.starts, seconds=time.perf_counter() - t0, timeline=timeline)
 
 
