@@ -164,6 +164,9 @@ def test_masked_hides_the_held_rows_tips_only():
     assert hidden.tolist() == [5 <= k < 9 for k in range(30)]
     np.testing.assert_array_equal(out[0].tip[~hidden], rec.tip[~hidden])
     np.testing.assert_array_equal(out[1].tip, other.tip)          # another session, though its times match
+    unnamed = [dataclasses.replace(rec, path=""), dataclasses.replace(rec, path="", inputs=rec.inputs + 1.0)]
+    out = masked(unnamed, [unnamed[1].rows(5, 9)])               # sessions built in memory: told by their inputs
+    assert not np.isnan(out[0].tip).any() and np.isnan(out[1].tip).all(axis=1).sum() == 4
 
 
 def test_the_parameters_round_trip_with_the_creep_rate():

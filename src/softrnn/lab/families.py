@@ -348,15 +348,13 @@ def holdout_split(sessions) -> tuple[list, list]:
 
 def masked(sessions, held) -> list[Recording]:
     """``sessions`` (a list of ``Recording``) with the tips of the rows of ``held`` (pieces of them, e.g.
-    ``holdout_split``'s held part: the same path and times) set to NaN: a model with memory (the tendons'
-    creep) is then fitted on the other rows while it runs through every row in order, the held ones
-    included, as the robot did."""
+    ``holdout_split``'s held part: rows of the same path, time and inputs) set to NaN: a model with memory
+    (the tendons' creep) is then fitted on the other rows while it runs through every row in order, the
+    held ones included, as the robot did."""
+    keys = {(h.path, t, row.tobytes()) for h in held for t, row in zip(h.time, h.inputs)}
     out = []
     for s in sessions:
-        hide = np.zeros(s.n_rows, dtype=bool)
-        for h in held:
-            if h.path == s.path:
-                hide |= np.isin(s.time, h.time)
+        hide = np.array([(s.path, t, row.tobytes()) in keys for t, row in zip(s.time, s.inputs)], dtype=bool)
         tip = s.tip.copy()
         tip[hide] = np.nan
         out.append(replace(s, tip=tip))
