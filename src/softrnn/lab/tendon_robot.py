@@ -667,11 +667,7 @@ def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calibra
     n, S = robot.n_tendons, robot.n_segments
     scale = options.loss_scale * 1e3
     flags = {name: getattr(options, name) for name in PHYSICS_OPTIONS}
-    if fitted is not None and not any(flags.values()):     # the closed model: its rows are independent
-        q, tip, resets, times, fitted = q[measured], tip[measured], None if resets is None else resets[measured], \
-            None if times is None else times[measured], None
-    residual = _TipResidual(robot, q, tip[measured] if fitted is not None else tip, resets, tuple(flags.items()),
-                            times, fitted)
+    residual = _TipResidual(robot, q, tip[measured], resets, tuple(flags.items()), times, fitted)
     starts = []
     for sign, twist in _starts(robot, options.twists) if start is None else []:
         angles = np.radians(sign * np.tile(np.arange(robot.tendons_per_segment) * 360.0 / robot.tendons_per_segment,
