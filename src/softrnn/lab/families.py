@@ -137,12 +137,15 @@ class ConstantVelocityFamily(PersistenceFamily):
 @dataclass(frozen=True, eq=False)
 class LinearARXFamily:
     """The tip as a linear ARX model of the commands (``learned.linear.LinearARX``, ``na`` tip lags,
-    ``nb`` input lags), free running."""
+    ``nb`` input lags), free running: from the session's first ``history`` measured tips, or with
+    ``from_rest`` from its first row alone, the robot taken at rest there (the commands and the tip held
+    at the first row's before it), so that every row is predicted."""
 
     na: int = 1
     nb: int = 1
     name: str = "linear_arx"
     arx: LinearARX | None = None
+    from_rest: bool = False
 
     @property
     def W(self) -> np.ndarray:
@@ -157,11 +160,17 @@ class LinearARXFamily:
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
-        return self.arx.run(session.tip, session.inputs)
+        with np.errstate(over="ignore", invalid="ignore"):      # a run that diverges scores inf (``choose``)
+            if not self.from_rest:
+                return self.arx.run(session.tip, session.inputs)
+            m = self.arx.history
+            u = np.vstack([np.repeat(session.inputs[:1], m, axis=0), session.inputs])
+            return self.arx.run(np.repeat(session.tip[:1], m, axis=0), u)[m:]
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
-        return {"kind": "linear ARX, least squares, free running", "na": self.na, "nb": self.nb}
+        return {"kind": "linear ARX, least squares, free running" + (" from rest" if self.from_rest else ""),
+                "na": self.na, "nb": self.nb}
 
 
 def _monomials(u: np.ndarray, degree: int) -> np.ndarray:

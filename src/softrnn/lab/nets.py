@@ -8,7 +8,10 @@ recordings do not reach.
   d0: w = exp(-(d / d0)^2), d the distance of the row's standardised inputs to the nearest training
   row), so that out of range the hybrid is its physics.
 * ``Sequence``: a GRU reading the commands and the interval since the previous row (lag, creep,
-  hysteresis); it runs free from a zero state.
+  hysteresis); it runs free from a zero state. With ``linear``, it learns what a linear ARX model of
+  the commands, run free from rest, leaves: the robot's linear dynamics (a lightly damped swing, a
+  slow settling) from the linear model, fitted by least squares on every row, and the nonlinear rest
+  from the GRU.
 
 Physics-pretrained learning (``mode``): with a fitted ``physics`` (``families.Physics``) and
 ``SyntheticOptions``, a family draws synthetic sessions from the physics (``synthetic_sessions``) and
@@ -35,7 +38,18 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .families import PLAY_WIDTHS, NodeFamily, Physics, _previous, held_rows, holdout_split, parsimonious, play
+from .families import (
+    PLAY_WIDTHS,
+    LinearARXFamily,
+    NodeFamily,
+    Physics,
+    _previous,
+    choose,
+    held_rows,
+    holdout_split,
+    parsimonious,
+    play,
+)
 from .recording import Recording
 from .synthetic import SyntheticOptions, taught_sessions
 from .uncertainty import InputDistance, Intervals, RefitSpread, WithInterval, calibrate, rms_error
@@ -335,13 +349,41 @@ class SequenceOptions:
     """PyTorch's seed."""
 
 
+LINEAR_ORDERS = (2, 4, 8, 16)
+"""The orders n (na = nb = n rows) of the ``Sequence`` model's linear base tried on the hold-out, simplest
+first."""
+
+
+def linear_base(sessions, order: int | None = None) -> tuple[LinearARXFamily, dict]:
+    """The linear base of a ``Sequence`` model fitted on ``sessions`` (a list of ``Recording``): a linear
+    ARX model of the tip driven by the commands, na = nb = ``order`` rows, run free from rest
+    (``families.LinearARXFamily``, ``from_rest``); ``order`` None: the order of ``LINEAR_ORDERS`` chosen on
+    a hold-out of ``sessions`` (``families.choose``: the simplest whose free run over the held rows is
+    within one standard error of the best), among those that the fitting part has at least twice as
+    many rows as coefficients for. Returns (the base, {candidate: hold-out RMSE [mm]})."""
+    sessions = list(sessions)
+    if order is not None:
+        return LinearARXFamily(order, order, from_rest=True).fit(sessions), {}
+    split = holdout_split(sessions)
+    m = sessions[0].n_inputs
+
+    def enough(n):
+        return sum(max(0, s.n_rows - n) for s in split[0]) >= 2 * (n * (3 + m) + 1)
+    orders = [n for n in LINEAR_ORDERS if enough(n)] or list(LINEAR_ORDERS[:1])
+    c = choose({f"order={n}": (lambda n=n: LinearARXFamily(n, n, from_rest=True)) for n in orders}, sessions, split)
+    n = int(c.chosen.split("=")[1])
+    return LinearARXFamily(n, n, from_rest=True).fit(sessions), c.scores
+
+
 @dataclass(frozen=True, eq=False)
 class Sequence(Intervals):
     """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s]) and
     writing the tip: a dynamic model of the commands alone, run free from a zero state; ``mode``
-    ``real`` or ``finetune`` (pretrained on the physics' synthetic sessions, module docstring). With a
-    fitted ``physics``, its error scale is its distance from the physics' tip plus the physics' RMS error
-    over the training rows (``error_scale``)."""
+    ``real`` or ``finetune`` (pretrained on the physics' synthetic sessions, module docstring). With
+    ``linear``, the tip is a linear model's free run from rest (``base``, ``linear_base``) plus the GRU's
+    output, the base's tip one more of the GRU's inputs. With a fitted ``physics``, its error scale is
+    its distance from the physics' tip plus the physics' RMS error over the training rows
+    (``error_scale``)."""
 
     options: SequenceOptions = SequenceOptions()
     mode: str = "real"
@@ -359,11 +401,22 @@ class Sequence(Intervals):
     pretrained: object = None
     physics_rms: float | None = None
     """The physics' RMS tip error [m] over the training rows (``error_scale``; None without a fitted physics)."""
+    linear: bool = False
+    """Whether the GRU learns what a linear model of the commands leaves (``base``)."""
+    base: LinearARXFamily | None = None
+    """The fitted linear base (``linear_base``; None before the fit and without ``linear``); a refit keeps
+    its order."""
+    base_scores: dict = field(default_factory=dict)
+    """The hold-out scores of the base's orders {candidate: tip RMSE [mm]} (``linear_base``)."""
 
-    def _inputs(self, s: Recording) -> np.ndarray:
+    def _base(self, s: Recording) -> np.ndarray:
+        """(T, 3) [m] the linear base's tip over ``s`` (zeros without one)."""
+        return np.zeros((s.n_rows, 3)) if self.base is None else self.base.predict(s)
+
+    def _inputs(self, s: Recording, base: np.ndarray) -> np.ndarray:
         u = s.inputs
         dt = np.concatenate([[np.median(np.diff(s.time))], np.diff(s.time)])
-        return np.hstack([u, u - _previous(u), np.log(dt)[:, None]])
+        return np.hstack([u, u - _previous(u), np.log(dt)[:, None]] + ([base] if self.linear else []))
 
     def fit(self, sessions) -> Sequence:
         """The model fitted on training sessions (a list of ``Recording``): in mode ``finetune``
@@ -373,10 +426,12 @@ class Sequence(Intervals):
 
         sessions = list(sessions)
         syn = taught_sessions(self, sessions, ("real", "finetune"))
+        model = self._with_base(sessions)
         torch.manual_seed(self.options.seed)
-        offset = np.mean(np.vstack([s.tip for s in sessions]), axis=0)
-        X = [self._inputs(s) for s in sessions + syn]
-        Y = [s.tip - offset for s in sessions + syn]
+        bases = [model._base(s) for s in sessions + syn]
+        offset = np.mean(np.vstack([s.tip - b for s, b in zip(sessions, bases)]), axis=0)
+        X = [model._inputs(s, b) for s, b in zip(sessions + syn, bases)]
+        Y = [s.tip - b - offset for s, b in zip(sessions + syn, bases)]
         allX = np.vstack(X)
         mu, sd = allX.mean(axis=0), allX.std(axis=0) + 1e-9
         scale = float(np.sqrt(np.mean(np.vstack(Y) ** 2))) or 1.0
@@ -389,25 +444,38 @@ class Sequence(Intervals):
                 pre = replace(self.options, max_steps=self.options.max_steps // 2)
                 pretrained = _train_gru(pre, xs[n:], ys[n:], allX.shape[1])
             net = _train_gru(self.options, xs[:n], ys[:n], allX.shape[1], copy.deepcopy(pretrained))
-        return replace(self, net=net, offset=offset, mu=mu, sd=sd, scale=scale, reach=InputDistance.of(sessions),
+        return replace(model, net=net, offset=offset, mu=mu, sd=sd, scale=scale, reach=InputDistance.of(sessions),
                        pretrained=pretrained).anchored(self.physics, sessions)
+
+    def _with_base(self, sessions) -> Sequence:
+        """The model with its linear base fitted on ``sessions`` (``linear_base``: the order chosen there, or
+        a fitted base's order kept); the model itself without ``linear``."""
+        if not self.linear:
+            return self
+        base, scores = linear_base(sessions, None if self.base is None else self.base.na)
+        return replace(self, base=base, base_scores=scores or self.base_scores)
 
     def refit(self, sessions) -> Sequence:
         """The model trained anew on the real rows of ``sessions`` from its pretrained network, with the
         pretraining's standardisation (``fit`` in mode ``real``, or before a fit): the cross-fit's refit
         (``uncertainty.cross_fit``). The physics' lesson stays what it was; only the real rows change,
         and the pretraining, most of a fit's cost, is not repeated. The real-row training draws no
-        random numbers, so ``refit`` on the rows the model was fitted on gives the model again."""
+        random numbers, so ``refit`` on the rows the model was fitted on gives the model again. With
+        ``linear``, the linear base is refitted first, of the same order."""
         if self.pretrained is None:
             return self.fit(sessions)
         import torch  # optional extra: learn (PyTorch)
 
         sessions = list(sessions)
-        xs = [torch.tensor((self._inputs(s) - self.mu) / self.sd, dtype=torch.float32)[None] for s in sessions]
-        ys = [torch.tensor((s.tip - self.offset) / self.scale, dtype=torch.float32)[None] for s in sessions]
+        model = self._with_base(sessions)
+        bases = [model._base(s) for s in sessions]
+        xs = [torch.tensor((model._inputs(s, b) - self.mu) / self.sd, dtype=torch.float32)[None]
+              for s, b in zip(sessions, bases)]
+        ys = [torch.tensor((s.tip - b - self.offset) / self.scale, dtype=torch.float32)[None]
+              for s, b in zip(sessions, bases)]
         with _serial():
             net = _train_gru(self.options, xs, ys, xs[0].shape[-1], copy.deepcopy(self.pretrained))
-        return replace(self, net=net, reach=InputDistance.of(sessions), interval_q=None,
+        return replace(model, net=net, reach=InputDistance.of(sessions), interval_q=None,
                        interval_slope=None).anchored(self.physics, sessions)
 
     def anchored(self, physics, sessions) -> Sequence:
@@ -435,15 +503,20 @@ class Sequence(Intervals):
         import torch  # optional extra: learn (PyTorch)
 
         gru, head = self.net
+        base = self._base(session)
         with torch.no_grad(), _serial():
-            out, _ = gru(torch.tensor((self._inputs(session) - self.mu) / self.sd, dtype=torch.float32)[None])
+            out, _ = gru(torch.tensor((self._inputs(session, base) - self.mu) / self.sd, dtype=torch.float32)[None])
             y = head(out)[0].numpy().astype(float) * self.scale
-        return y + self.offset
+        return y + self.offset + base
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
-        out = {"kind": "GRU of the commands and intervals", **{k: v for k, v in vars(self.options).items()},
-               **_pretraining(self)}
+        out = {"kind": "GRU of the commands and intervals" + (", over a linear ARX model's free run from rest"
+                                                               if self.linear else ""),
+               **{k: v for k, v in vars(self.options).items()}, **_pretraining(self)}
+        if self.base is not None:
+            out |= {"linear_order": self.base.na, "linear_holdout_rmse_mm": {
+                k: round(v, 4) if math.isfinite(v) else None for k, v in self.base_scores.items()}}
         if self.physics_rms is not None:
             out |= {"error_scale": "|tip - the physics' tip| + the physics' RMS error over the training rows",
                     "error_scale_physics_rms_mm": round(self.physics_rms * 1e3, 4)}
@@ -536,7 +609,8 @@ def early_candidates(name: str, train, syn, options) -> dict:
     of its own, which the workers take while the physics calibrates; {} for a family without any."""
     fit_part = holdout_split(train)[0]
     if name == "sequence":
-        return {candidate("real"): Sequence(options.sequence, "real", syn).fit(fit_part)}
+        return {label: Sequence(options.sequence, mode, syn, linear=linear).fit(fit_part)
+                for label, (mode, linear) in sequence_candidates(syn).items() if mode == "real"}
     out = {}
     if name == "learned_map":
         for h in (False, True):
@@ -563,19 +637,28 @@ def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
                    name="hybrid")
 
 
+def sequence_candidates(syn) -> dict:
+    """The ``Sequence`` model's candidates {label: (mode, linear)}, simplest first: the GRU alone, the GRU
+    over a linear base (``linear``), and, where there are synthetic sessions (``syn``), the GRU pretrained
+    on them (mode ``finetune``)."""
+    out = {candidate("real"): ("real", False), candidate("real") + ",linear": ("real", True)}
+    return out | ({candidate("finetune"): ("finetune", False)} if syn.on else {})
+
+
 def fit_sequence(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
-    """``Sequence``, pretrained on the synthetic sessions or not as the hold-out part prefers, its
-    interval calibrated on the hold-out split; ``early``: candidates fitted already ({label: model},
-    ``early_candidates``)."""
+    """``Sequence``: alone, over a linear base, or pretrained on the synthetic sessions, as the hold-out
+    part prefers (``sequence_candidates``), its interval calibrated on the hold-out split; ``early``:
+    candidates fitted already ({label: model}, ``early_candidates``)."""
     fit_part, held = holdout_split(train)
-    fitted = dict(early or {})
-    for m in ("real", "finetune") if syn.on else ("real",):
-        if candidate(m) not in fitted:
-            fitted[candidate(m)] = Sequence(options.sequence, m, syn, pair[0]).fit(fit_part)
-    scores = {k: held_score(v) for k, v in fitted.items()}
+    fitted, candidates = dict(early or {}), sequence_candidates(syn)
+    for label, (mode, linear) in candidates.items():
+        if label not in fitted:
+            fitted[label] = Sequence(options.sequence, mode, syn, pair[0], linear=linear).fit(fit_part)
+    scores = {label: held_score(fitted[label]) for label in candidates}
     best = parsimonious(scores, held_rows(held))
     interval = calibrate(fitted[best].anchored(pair[0], fit_part), fit_part, held)
-    return replace(Sequence(options.sequence, best.split("=")[1], syn, pair[1]).fit(train), **interval), scores
+    mode, linear = candidates[best]
+    return replace(Sequence(options.sequence, mode, syn, pair[1], linear=linear).fit(train), **interval), scores
 
 
 def fit_node(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
