@@ -186,6 +186,26 @@ def test_fit_returns_a_new_frozen_model_and_leaves_the_family_as_it_was(sessions
     assert arx.fit([train]).arx.na == 2 and arx.arx is None
 
 
+def test_a_baseline_that_runs_away_is_a_miss_not_a_crash():
+    """Constant velocity from a fast first step leaves the free run's bounds (16 m) within the session:
+    its tip is NaN from there on, its score null in the JSON (every key kept), and the best baseline is
+    another."""
+    rows = 40
+    tip = np.zeros((rows, 3))
+    tip[1] = [2.0, 0.0, 0.0]                      # 2 m in the first row: 16 m after eight more
+    s = Recording(path="", time=np.arange(rows) * 0.1, inputs=np.zeros((rows, 1)), names=("p",), units=("kPa",),
+                  tip=tip)
+    run = ConstantVelocityFamily().fit([s]).predict(s)
+    assert np.isfinite(run[:8]).all() and np.isnan(run[-1]).all()
+    out = _Table(s, 0.3)
+    out.record(out.baselines, "constant_velocity", ConstantVelocityFamily().fit([s]))
+    out.record(out.baselines, "persistence", PersistenceFamily().fit([s]))
+    entry = out.baselines["constant_velocity"].to_dict()
+    assert entry["tip_rmse_mm"] is None and entry["tip_mean_aligned_pct_of_length"] is None
+    assert set(entry) == set(out.baselines["persistence"].to_dict())
+    assert math.isfinite(out.baselines["persistence"].tip_rmse_mm)
+
+
 def test_report_has_the_fields_metrics(report, sessions):
     """Per model and baseline: RMSE and mean, raw and after removing the session's constant offset, in mm
     and % of the length; the chosen family's validation RMSE; the coverage of the 90 % interval every

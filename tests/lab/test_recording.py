@@ -31,6 +31,16 @@ def test_layout_options_pick_columns_and_units(tmp_path):
         read_recording(tmp_path / "a.csv", Layout(inputs="motor_*"))
 
 
+def test_a_unit_suffix_in_any_case_is_spelled_as_the_known_unit(tmp_path):
+    """Pressures and currents named with a unit suffix (``chamber_a_kpa``, ``coil_MA``) read with the
+    unit's spelling, so that every later stage (the node data sets' channels) knows them."""
+    path = tmp_path / "p.csv"
+    rows = "\n".join(f"{0.1 * k:.1f},{k},0,300,{10 + k},{20 - k},{0.5 * k}" for k in range(8))
+    path.write_text("timestamp,tip_x,tip_y,tip_z,chamber_a_kpa,chamber_b_KPA,coil_MA\n" + rows + "\n")
+    rec = read_recording(path, Layout(inputs="chamber_*,coil_*"))
+    assert rec.names == ("chamber_a", "chamber_b", "coil") and rec.units == ("kPa", "kPa", "mA")
+
+
 @pytest.mark.parametrize("swap, words", [((5, 4), "goes back from"), ((5, 5), "repeats")])
 def test_unsorted_or_duplicated_rows_are_refused(tmp_path, swap, words):
     tendon_recording(tmp_path / "a.csv", rows=20)

@@ -14,6 +14,7 @@ suite of robots (``softrnn.lab.suite``) refuses a bad robot before it starts.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -195,8 +196,9 @@ class TipScore:
         return cls(**{k: round(v, 4) for k, v in values.items()}, coverage_90=cover)
 
     def to_dict(self) -> dict:
-        """The JSON of one model or baseline (``coverage_90`` only where the model states an uncertainty)."""
-        return {k: v for k, v in asdict(self).items() if v is not None}
+        """The JSON of one model or baseline (``coverage_90`` only where the model states an uncertainty); a
+        figure that is not finite (a free run that diverged) is null."""
+        return {k: v if math.isfinite(v) else None for k, v in asdict(self).items() if v is not None}
 
 
 @dataclass(frozen=True, kw_only=True)

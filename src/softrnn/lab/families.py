@@ -39,6 +39,7 @@ from ..errors import SoftrnnInputError, nonnegative
 from ..fitting.starts import here
 from ..io.reader import Dataset
 from ..learned.baselines import ConstantVelocity, Persistence, free_run
+from ..learned.horizons import RolloutDiverged
 from ..learned.linear import LinearARX
 from ..learned.metrics import tip_errors
 from ..learned.node.train_config import TrainConfig
@@ -96,9 +97,13 @@ class PersistenceFamily:
         return self
 
     def predict(self, session: Recording) -> np.ndarray:
-        """The tip (T, 3) [m] over ``session``, free running from its first ``history`` rows."""
+        """The tip (T, 3) [m] over ``session``, free running from its first ``history`` rows; NaN from the
+        row where the run left the bounds of ``learned.baselines.free_run`` (it diverged: scored as a miss)."""
         H, T = self.baseline.history, session.n_rows
-        run = free_run(self.baseline, session.tip[:, None], None, H, T)[:, 0] if T > H else session.tip[H:]
+        try:
+            run = free_run(self.baseline, session.tip[:, None], None, H, T)[:, 0] if T > H else session.tip[H:]
+        except RolloutDiverged as err:
+            run = err.states[:, 0]
         return np.concatenate([session.tip[:H], run])                              # (T, 3)
 
     def describe(self) -> dict:

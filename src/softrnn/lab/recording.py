@@ -40,6 +40,10 @@ DEFAULT_INPUTS = ("act_*", "servo_*")
 POSITION_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
 """Units the tip may be given in, with their factor to m."""
 _UNIT_SUFFIX = re.compile(r"_(mm|m|deg|rad|n|a|ma|v|kpa|pa)$", re.IGNORECASE)
+_SUFFIX_UNITS = {"mm": "mm", "m": "m", "deg": "deg", "rad": "rad", "n": "N", "a": "A", "ma": "mA", "v": "V",
+                 "kpa": "kPa", "pa": "Pa"}
+"""A unit suffix of a column name (``servo_1_mm``, ``chamber_a_kpa``), in any case, as the unit is spelled
+(``io.schema.ACTUATION_UNITS``)."""
 _NODE = re.compile(r"^n(0|[1-9][0-9]*)_([xyz])$")
 _CELL = "line {line}, column {name!r}: {text} is not a finite number; fix or remove the row"
 WORDS = CellWords(width="line {line}: {cells} cells for {width} columns; every row needs one value per header column",
@@ -173,7 +177,7 @@ def _split_unit(column: str) -> tuple[str, str]:
         return m.group(1).lower(), (m.group(2) or "")
     m = _UNIT_SUFFIX.search(column)
     if m:
-        return column[:m.start()], m.group(1)
+        return column[:m.start()], _SUFFIX_UNITS[m.group(1).lower()]
     return column, ""
 
 

@@ -118,7 +118,8 @@ class SuiteRow:
         """The chosen family's validation tip RMSE over the best baseline's (None: no family)."""
         if self.chosen is None or self.best_baseline is None:
             return None
-        return self.models[self.chosen.family].tip_rmse_mm / self.baselines[self.best_baseline].tip_rmse_mm
+        chosen, best = self.models[self.chosen.family].tip_rmse_mm, self.baselines[self.best_baseline].tip_rmse_mm
+        return None if chosen is None or best is None else chosen / best      # None: a run that diverged
 
     def to_dict(self) -> dict:
         """The robot's entry of the suite's JSON."""
