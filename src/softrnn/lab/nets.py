@@ -8,7 +8,8 @@ recordings do not reach.
   d0: w = exp(-(d / d0)^2), d the distance of the row's standardised inputs to the nearest training
   row), so that out of range the hybrid is its physics.
 * ``Sequence``: a GRU reading the commands and the interval since the previous row (lag, creep,
-  hysteresis); it runs free from a zero state. With ``linear``, it learns what a linear ARX model of
+  hysteresis), and optionally the hysteresis state of the map; it runs free from a zero state. With
+  ``linear``, it learns what a linear ARX model of
   the commands, run free from rest, leaves: the robot's linear dynamics (a lightly damped swing, a
   slow settling) from the linear model, fitted by least squares on every row, and the nonlinear rest
   from the GRU.
@@ -377,8 +378,9 @@ def linear_base(sessions, order: int | None = None) -> tuple[LinearARXFamily, di
 
 @dataclass(frozen=True, eq=False)
 class Sequence(Intervals):
-    """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s]) and
-    writing the tip: a dynamic model of the commands alone, run free from a zero state; ``mode``
+    """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s][, hysteresis
+    state: the play operators of each input, as ``LearnedMap``'s]) and writing the tip: a dynamic model
+    of the commands alone, run free from a zero state; ``mode``
     ``real`` or ``finetune`` (pretrained on the physics' synthetic sessions, module docstring). With
     ``linear``, the tip is a linear model's free run from rest (``base``, ``linear_base``) plus the GRU's
     output, the base's tip one more of the GRU's inputs. With a fitted ``physics``, its error scale is
@@ -403,6 +405,12 @@ class Sequence(Intervals):
     """The physics' RMS tip error [m] over the training rows (``error_scale``; None without a fitted physics)."""
     linear: bool = False
     """Whether the GRU learns what a linear model of the commands leaves (``base``)."""
+    hysteresis: bool = False
+    """Whether the GRU also reads the hysteresis state (play operators of each input, ``widths``): friction's
+    path dependence, which a GRU learns poorly from the commands alone."""
+    widths: object = None
+    """The play operators' widths (``PLAY_WIDTHS`` of each input's range over the training rows; None
+    without ``hysteresis``)."""
     base: LinearARXFamily | None = None
     """The fitted linear base (``linear_base``; None before the fit and without ``linear``); a refit keeps
     its order."""
@@ -416,7 +424,8 @@ class Sequence(Intervals):
     def _inputs(self, s: Recording, base: np.ndarray) -> np.ndarray:
         u = s.inputs
         dt = np.concatenate([[np.median(np.diff(s.time))], np.diff(s.time)])
-        return np.hstack([u, u - _previous(u), np.log(dt)[:, None]] + ([base] if self.linear else []))
+        state = [] if self.widths is None else [play(u, w) - u for w in self.widths]
+        return np.hstack([u, u - _previous(u), np.log(dt)[:, None]] + state + ([base] if self.linear else []))
 
     def fit(self, sessions) -> Sequence:
         """The model fitted on training sessions (a list of ``Recording``): in mode ``finetune``
@@ -426,7 +435,7 @@ class Sequence(Intervals):
 
         sessions = list(sessions)
         syn = taught_sessions(self, sessions, ("real", "finetune"))
-        model = self._with_base(sessions)
+        model = replace(self._with_base(sessions), widths=_widths(sessions, self.hysteresis))
         torch.manual_seed(self.options.seed)
         bases = [model._base(s) for s in sessions + syn]
         offset = np.mean(np.vstack([s.tip - b for s, b in zip(sessions, bases)]), axis=0)
@@ -511,8 +520,9 @@ class Sequence(Intervals):
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
-        out = {"kind": "GRU of the commands and intervals" + (", over a linear ARX model's free run from rest"
-                                                               if self.linear else ""),
+        out = {"kind": "GRU of the commands and intervals" +
+                       (" and a hysteresis state (play operators)" if self.hysteresis else "") +
+                       (", over a linear ARX model's free run from rest" if self.linear else ""),
                **{k: v for k, v in vars(self.options).items()}, **_pretraining(self)}
         if self.base is not None:
             out |= {"linear_order": self.base.na, "linear_holdout_rmse_mm": {
@@ -609,8 +619,8 @@ def early_candidates(name: str, train, syn, options) -> dict:
     of its own, which the workers take while the physics calibrates; {} for a family without any."""
     fit_part = holdout_split(train)[0]
     if name == "sequence":
-        return {label: Sequence(options.sequence, mode, syn, linear=linear).fit(fit_part)
-                for label, (mode, linear) in sequence_candidates(syn).items() if mode == "real"}
+        return {label: Sequence(options.sequence, mode, syn, hysteresis=h, linear=linear).fit(fit_part)
+                for label, (h, mode, linear) in sequence_candidates(syn).items()}
     out = {}
     if name == "learned_map":
         for h in (False, True):
@@ -637,28 +647,38 @@ def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
                    name="hybrid")
 
 
-def sequence_candidates(syn) -> dict:
-    """The ``Sequence`` model's candidates {label: (mode, linear)}, simplest first: the GRU alone, the GRU
-    over a linear base (``linear``), and, where there are synthetic sessions (``syn``), the GRU pretrained
-    on them (mode ``finetune``)."""
-    out = {candidate("real"): ("real", False), candidate("real") + ",linear": ("real", True)}
-    return out | ({candidate("finetune"): ("finetune", False)} if syn.on else {})
+def sequence_candidates(syn, hysteresis: bool | None = None) -> dict:
+    """The ``Sequence`` model's candidates {label: (hysteresis, mode, linear)}, simplest first, in two
+    stages: (``hysteresis`` None) the GRU on the real rows without and with the hysteresis state; then,
+    with the state the first stage chose, the GRU over a linear base (``linear``) and, where there are
+    synthetic sessions (``syn``), the GRU pretrained on them (mode ``finetune``)."""
+    if hysteresis is None:
+        return {candidate("real", h): (h, "real", False) for h in (False, True)}
+    out = {candidate("real", hysteresis) + ",linear": (hysteresis, "real", True)}
+    return out | ({candidate("finetune", hysteresis): (hysteresis, "finetune", False)} if syn.on else {})
 
 
 def fit_sequence(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
-    """``Sequence``: alone, over a linear base, or pretrained on the synthetic sessions, as the hold-out
-    part prefers (``sequence_candidates``), its interval calibrated on the hold-out split; ``early``:
+    """``Sequence``: its hysteresis state chosen on the hold-out part first (on the real rows), then with
+    that state alone, over a linear base, or pretrained on the synthetic sessions, as the hold-out part
+    prefers (``sequence_candidates``); its interval calibrated on the hold-out split. ``early``:
     candidates fitted already ({label: model}, ``early_candidates``)."""
     fit_part, held = holdout_split(train)
-    fitted, candidates = dict(early or {}), sequence_candidates(syn)
-    for label, (mode, linear) in candidates.items():
-        if label not in fitted:
-            fitted[label] = Sequence(options.sequence, mode, syn, pair[0], linear=linear).fit(fit_part)
-    scores = {label: held_score(fitted[label]) for label in candidates}
+    fitted, scores, options_of = dict(early or {}), {}, {}
+
+    def attempt(candidates):
+        for label, (h, mode, linear) in candidates.items():
+            if label not in fitted:
+                family = Sequence(options.sequence, mode, syn, pair[0], hysteresis=h, linear=linear)
+                fitted[label] = family.fit(fit_part)
+            scores[label], options_of[label] = held_score(fitted[label]), (h, mode, linear)
+    attempt(sequence_candidates(syn))
+    attempt(sequence_candidates(syn, options_of[parsimonious(scores, held_rows(held))][0]))
     best = parsimonious(scores, held_rows(held))
     interval = calibrate(fitted[best].anchored(pair[0], fit_part), fit_part, held)
-    mode, linear = candidates[best]
-    return replace(Sequence(options.sequence, mode, syn, pair[1], linear=linear).fit(train), **interval), scores
+    h, mode, linear = options_of[best]
+    final = Sequence(options.sequence, mode, syn, pair[1], hysteresis=h, linear=linear).fit(train)
+    return replace(final, **interval), scores
 
 
 def fit_node(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
