@@ -1,8 +1,9 @@
-"""The sequence model over a linear base (``softrnn.lab.nets.Sequence``, ``linear``): a robot whose
-dynamics are a lightly damped swing of its tip under its two inputs, seen through a mild nonlinearity.
-The linear ARX model run free from rest (``families.LinearARXFamily``, ``from_rest``) predicts every
-row from the first one alone; its order is chosen on a hold-out of the training rows; the GRU over it
-leaves far less than the GRU alone on a session it never saw, and a refit keeps the base's order."""
+"""The sequence model's options (``softrnn.lab.nets.Sequence``). Over a linear base (``linear``): a robot
+whose dynamics are a lightly damped swing of its tip under its two inputs, seen through a mild
+nonlinearity; the linear ARX model run free from rest (``families.LinearARXFamily``, ``from_rest``)
+predicts every row from the first one alone; its order is chosen on a hold-out of the training rows;
+the GRU over it leaves far less than the GRU alone on a session it never saw, and a refit keeps the
+base's order. With the hysteresis state (``hysteresis``): a backlash the GRU alone cannot hold."""
 
 import numpy as np
 import pytest
