@@ -9,10 +9,9 @@ recordings do not reach.
   row), so that out of range the hybrid is its physics.
 * ``Sequence``: a GRU reading the commands and the interval since the previous row (lag, creep,
   hysteresis), and optionally the hysteresis state of the map; it runs free from a zero state. With
-  ``linear``, it learns what a linear ARX model of
-  the commands, run free from rest, leaves: the robot's linear dynamics (a lightly damped swing, a
-  slow settling) from the linear model, fitted by least squares on every row, and the nonlinear rest
-  from the GRU.
+  ``linear``, it learns what a linear ARX model of the commands, run free from rest, leaves: the
+  robot's linear dynamics (a lightly damped swing, a slow settling) from the linear model, fitted by
+  least squares on every row, and the nonlinear rest from the GRU.
 
 Physics-pretrained learning (``mode``): with a fitted ``physics`` (``families.Physics``) and
 ``SyntheticOptions``, a family draws synthetic sessions from the physics (``synthetic_sessions``) and
@@ -380,8 +379,8 @@ def linear_base(sessions, order: int | None = None) -> tuple[LinearARXFamily, di
 class Sequence(Intervals):
     """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s][, hysteresis
     state: the play operators of each input, as ``LearnedMap``'s]) and writing the tip: a dynamic model
-    of the commands alone, run free from a zero state; ``mode``
-    ``real`` or ``finetune`` (pretrained on the physics' synthetic sessions, module docstring). With
+    of the commands alone, run free from a zero state; ``mode`` ``real`` or ``finetune`` (pretrained on
+    the physics' synthetic sessions, module docstring). With
     ``linear``, the tip is a linear model's free run from rest (``base``, ``linear_base``) plus the GRU's
     output, the base's tip one more of the GRU's inputs. With a fitted ``physics``, its error scale is
     its distance from the physics' tip plus the physics' RMS error over the training rows
