@@ -223,13 +223,34 @@ def rms_error(model, sessions) -> float:
     return float(np.sqrt(np.mean(finite ** 2))) if finite.size else math.inf
 
 
+class _Wrapper:
+    """What a wrapper of a fitted ``model`` passes on from it: its name, its tip and whether it runs through
+    every row in order (``refit_without``)."""
+
+    model: object
+
+    @property
+    def name(self) -> str:
+        """The model's name."""
+        return self.model.name
+
+    @property
+    def runs_through(self) -> bool:
+        """Whether the model runs through every row in order (``refit_without``)."""
+        return getattr(self.model, "runs_through", False)
+
+    def predict(self, session) -> np.ndarray:
+        """The model's tip (T, 3) [m]."""
+        return self.model.predict(session)
+
+
 REFIT_FOLDS = 4
 """The blocks of patterns (of stretches, without labels) that ``RefitSpread`` refits its model without,
 one at a time."""
 
 
 @dataclass(frozen=True, eq=False)
-class RefitSpread:
+class RefitSpread(_Wrapper):
     """A fitted model (``model``: ``predict``, ``describe``, ``name``, ``refit`` or ``fit``) whose scale of
     its error per row (``error_scale``) is the jackknife spread of its predictions over ``refits``, the
     model refitted without each block of its training rows in turn (``pattern_folds``: whole patterns
@@ -254,20 +275,6 @@ class RefitSpread:
                  if min(sum(s.n_rows for s in part) for part in (on, out)) >= CROSS_ROWS]
         return cls(model, tuple(refit_without(model, refit, on, out, sessions) for on, out in pairs),
                    rms_error(model, sessions), folds)
-
-    @property
-    def name(self) -> str:
-        """The model's name."""
-        return self.model.name
-
-    @property
-    def runs_through(self) -> bool:
-        """Whether the model runs through every row in order (``refit_without``)."""
-        return getattr(self.model, "runs_through", False)
-
-    def predict(self, session) -> np.ndarray:
-        """The model's tip (T, 3) [m]."""
-        return self.model.predict(session)
 
     def error_scale(self, session) -> np.ndarray:
         """(T,) sqrt(s_J^2 + residual^2) [m] (see the class); the residual alone with fewer than two refits."""
@@ -336,7 +343,7 @@ def _finite(value, digits: int = 4, scale: float = 1.0):
 
 
 @dataclass(frozen=True, eq=False)
-class WithInterval(Intervals):
+class WithInterval(_Wrapper, Intervals):
     """A fitted model (``model``: ``predict``, ``describe``, ``name``, optionally ``error_scale``) with a
     90 % radius: ``interval_q`` [m] (times the model's error scale where it has one), growing with the
     distance d from ``reach`` where given, by ``interval_slope`` d [m] (None: times 1 + d):
@@ -346,20 +353,6 @@ class WithInterval(Intervals):
     reach: InputDistance | None = None
     interval_q: float | None = None
     interval_slope: float | None = None
-
-    @property
-    def name(self) -> str:
-        """The model's name."""
-        return self.model.name
-
-    @property
-    def runs_through(self) -> bool:
-        """Whether the model runs through every row in order (``refit_without``)."""
-        return getattr(self.model, "runs_through", False)
-
-    def predict(self, session) -> np.ndarray:
-        """The model's tip (T, 3) [m]."""
-        return self.model.predict(session)
 
     def refit(self, sessions) -> WithInterval:
         """The model refitted on ``sessions`` (its ``refit``, else ``fit``), its distance from them where
