@@ -46,14 +46,16 @@ def coverage(model, sessions) -> float:
 @dataclass(frozen=True, eq=False)
 class Scaled(Intervals):
     """A fitted ``model`` (``predict``, ``reach``, ``refit``, ``error_scale``) with its own error scale
-    (``own``) or the scale 1, not calibrated until ``interval_q`` and ``interval_slope`` are given; its
-    refits are kept in ``refits`` (by rows), so the two scales share the cross-fit's trainings."""
+    (``own``) or the scale 1, not calibrated until ``interval_q``, ``interval_slope`` and ``interval_knee``
+    are given; its refits are kept in ``refits`` (by rows), so the two scales share the cross-fit's
+    trainings."""
 
     model: object
     own: bool
     refits: dict
     interval_q: float | None = None
     interval_slope: float | None = None
+    interval_knee: float = 0.0
 
     @property
     def name(self):

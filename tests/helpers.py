@@ -427,3 +427,32 @@ class Drifting:
 
     def describe(self):
         return {"kind": "drifting"}
+
+
+@dataclass(frozen=True, eq=False)
+class Recalling:
+    """A model that recalls the tip of every row it was fitted on (an overfitted network, a sequence
+    model that learnt its session by heart) and elsewhere gives the mean tip of the fitted rows with the
+    nearest command."""
+
+    seen: dict | None = None
+    levels: np.ndarray | None = None
+    means: np.ndarray | None = None
+    reach: object = None
+    name: str = "recalling"
+
+    def fit(self, sessions):
+        from softrnn.lab.uncertainty import InputDistance
+
+        u, tips = np.concatenate([s.inputs[:, 0] for s in sessions]), np.vstack([s.tip for s in sessions])
+        levels = np.unique(u)
+        return replace(self, seen={(s.path, t): tip for s in sessions for t, tip in zip(s.time, s.tip)},
+                       levels=levels, means=np.array([tips[u == v].mean(axis=0) for v in levels]),
+                       reach=InputDistance.of(sessions))
+
+    def predict(self, s):
+        nearest = self.means[np.abs(s.inputs[:, :1] - self.levels[None]).argmin(axis=1)]
+        return np.array([self.seen.get((s.path, t), m) for t, m in zip(s.time, nearest)])
+
+    def describe(self):
+        return {"kind": "recalling"}

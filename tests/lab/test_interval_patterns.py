@@ -180,3 +180,48 @@ def test_q_comes_from_the_cross_fit_rows_near_the_data_and_the_farther_ones_set_
     wide = replace(calibrated, interval_q=quantile(ratio))         # q over every cross-fit row: too wide
     tip, radius = wide.predict_interval(revisit)
     assert np.mean(np.linalg.norm(tip - revisit.tip, axis=1) <= radius) == 1.0
+
+
+def test_the_interval_holds_q_up_to_the_knee_and_grows_beyond_it():
+    """A model off by 1 mm up to the distance d0 that splits the cross-fit's rows in halves and by 3 mm
+    more per standard deviation beyond: the nearer half sets q = 1 mm, held up to d0, and the farther half
+    and the hold-out the growth b = 3 mm per standard deviation beyond d0, so the ball is as wide as the
+    error at every distance (grown from d = 0 instead, it would be too wide near the data)."""
+    knee = []
+
+    def err(d):                     # before the knee is known: none
+        return 1e-3 * (1.0 + 3.0 * np.maximum(d - knee[0], 0.0)) if knee else np.zeros_like(d)
+
+    @dataclass(frozen=True, eq=False)
+    class Kinked:                   # exact on the rows it was fitted on; d: the row's input
+        seen: frozenset = frozenset()
+        name: str = "kinked"
+
+        def fit(self, sessions):
+            return replace(self, seen=frozenset(t for s in sessions for t in s.time))
+
+        def reach(self, s):
+            return s.inputs[:, 0]
+
+        def predict(self, s):
+            off = np.array([0.0 if t in self.seen else e for t, e in zip(s.time, err(s.inputs[:, 0]))])
+            return s.tip + np.column_stack([off, np.zeros((s.n_rows, 2))])
+
+        def error_scale(self, s):
+            return np.ones(s.n_rows)
+
+    def at(d):
+        d = np.asarray(d, dtype=float)
+        return Recording(path="", time=np.arange(d.size) * 0.6, inputs=d[:, None], names=("d",), units=("mm",),
+                         tip=np.zeros((d.size, 3)))
+    fit = at(np.random.default_rng(0).permutation(np.linspace(0.0, 2.0, 401)))
+    knee.append(float(np.median(cross_fit(Kinked().fit([fit]), [fit])[1])))
+    held = replace(at(np.linspace(2.0, 3.0, 50)), time=np.arange(50) * 0.6 + 1e3)
+    out = calibrate(Kinked().fit([fit]), [fit], [held])
+    assert out["interval_knee"] == knee[0] and 0.8 < knee[0] < 1.2
+    assert out["interval_q"] == pytest.approx(1e-3, rel=1e-9) and out["interval_slope"] == pytest.approx(3e-3, rel=1e-6)
+    model = replace(WithInterval(Kinked(), Kinked().reach), **out)
+    probe = replace(at([0.0, 0.5, knee[0], 2.0, 3.0]), time=np.arange(5) * 0.6 + 2e3)
+    np.testing.assert_allclose(model.predict_interval(probe)[1], err(probe.inputs[:, 0]), rtol=1e-6)
+    from_zero = replace(model, interval_knee=0.0)
+    assert np.all(from_zero.predict_interval(probe)[1][1:3] > 1.3e-3)       # near the data: too wide

@@ -26,7 +26,7 @@ from softrnn.lab.uncertainty import (
     with_interval,
 )
 
-from helpers import Drifting, tendon_recording, tendon_robot_truth
+from helpers import Drifting, Recalling, tendon_recording, tendon_robot_truth
 
 SMALL = NetOptions(members=3, steps=300, hidden=16)
 
@@ -275,8 +275,10 @@ def test_two_regime_intervals_hold_90_percent_near_the_training_rows_and_beyond(
     assert _coverage(held_model, fit) >= 0.9 and _coverage(held_model, held) >= 0.9
     for low, high in ((-1, 3), (-2, 4.5)):
         assert 0.85 <= _coverage(model, _line(rng.uniform(low, high, 3000), 3)) <= 0.95
-    d = model.reach(held)
-    np.testing.assert_allclose(model.predict_interval(held)[1], model.interval_q + model.interval_slope * d)
+    probe = _line(np.linspace(3.5, 6.0, 40), 4)
+    beyond = np.maximum(model.reach(probe) - model.interval_knee, 0.0)
+    assert np.all(beyond > 0.0)
+    np.testing.assert_allclose(model.predict_interval(probe)[1], model.interval_q + model.interval_slope * beyond)
     assert model.describe()["interval_90_growth_mm"] == pytest.approx(model.interval_slope * 1e3, abs=1e-4)
 
 
@@ -302,41 +304,14 @@ def test_calibrate_takes_the_conformal_ranks_of_both_parts():
     fit, held = part("fit", np.zeros(9)), part("held", np.arange(1.0, 10.0))
     errors = {"fit": np.arange(1.0, 10.0) * 2.0, "held": 2.0 * (9.0 + np.arange(1.0, 10.0) ** 2)}
     out = calibrate(Stub(errors, reach=lambda s: s.inputs[:, 0]), [fit], [held])
-    assert out == {"interval_q": 9.0, "interval_slope": 9.0}            # ratio - q = d^2: need d, rank 9
-    assert calibrate(Stub(errors), [fit], [held]) == {"interval_q": 90.0, "interval_slope": 0.0}
+    assert out == {"interval_q": 9.0, "interval_slope": 9.0, "interval_knee": 0.0}   # ratio - q = d^2: need d, rank 9
+    assert calibrate(Stub(errors), [fit], [held]) == {"interval_q": 90.0, "interval_slope": 0.0, "interval_knee": 0.0}
     zero = part("held", [0.0] * 9)
     out = calibrate(Stub({"fit": errors["fit"], "held": np.full(9, 30.0)}, reach=lambda s: s.inputs[:, 0]), [fit],
                     [zero])
     assert out["interval_slope"] == math.inf
     assert calibrate(Stub({"fit": errors["fit"], "held": np.full(9, 2.0)}, reach=lambda s: s.inputs[:, 0]), [fit],
                      [zero])["interval_slope"] == 0.0
-
-
-@dataclass(frozen=True, eq=False)
-class _Recalling:
-    """A model that recalls the tip of every row it was fitted on (an overfitted network, a sequence
-    model that learnt its session by heart) and elsewhere gives the mean tip of the fitted rows with the
-    nearest command."""
-
-    seen: dict | None = None
-    levels: np.ndarray | None = None
-    means: np.ndarray | None = None
-    reach: InputDistance | None = None
-    name: str = "recalling"
-
-    def fit(self, sessions):
-        u, tips = np.concatenate([s.inputs[:, 0] for s in sessions]), np.vstack([s.tip for s in sessions])
-        levels = np.unique(u)
-        return replace(self, seen={(s.path, t): tip for s in sessions for t, tip in zip(s.time, s.tip)},
-                       levels=levels, means=np.array([tips[u == v].mean(axis=0) for v in levels]),
-                       reach=InputDistance.of(sessions))
-
-    def predict(self, s):
-        nearest = self.means[np.abs(s.inputs[:, :1] - self.levels[None]).argmin(axis=1)]
-        return np.array([self.seen.get((s.path, t), m) for t, m in zip(s.time, nearest)])
-
-    def describe(self):
-        return {"kind": "recalling"}
 
 
 def _visits(count, seed, path, spread=2e-3, noise=0.2e-3):
@@ -358,7 +333,7 @@ def test_intervals_hold_the_spread_between_visits_of_the_same_commands():
     commands) sees the spread, and the ball holds 80-95 % of a fresh session's rows."""
     train, fresh = _visits(40, 0, "train"), _visits(100, 1, "fresh")
     fit_part, held = holdout_split([train])
-    family = _Recalling()
+    family = Recalling()
     fitted = WithInterval(family.fit(fit_part), InputDistance.of(fit_part))
     on_fitted = np.concatenate([np.linalg.norm(fitted.predict(s) - s.tip, axis=1) for s in fit_part])
     assert quantile(on_fitted) == 0.0

@@ -1,5 +1,6 @@
 """A model's error scale from its refits (``softrnn.lab.uncertainty.RefitSpread``): the jackknife spread
-of the model refitted without each block of its training patterns, with its residual over those rows."""
+of the model refitted without each block of its training patterns, with the refits' residual over the rows
+each was fitted without."""
 
 import math
 from dataclasses import dataclass, replace
@@ -13,7 +14,7 @@ from softrnn.lab.recording import Recording
 from softrnn.lab.tendon_robot import Calibration
 from softrnn.lab.uncertainty import REFIT_FOLDS, RefitSpread, WithInterval, pattern_folds, with_interval
 
-from helpers import tendon_robot_truth
+from helpers import Recalling, tendon_robot_truth
 
 
 def _line(u, seed, noise=0.5e-3, rows=20, path="line"):
@@ -34,15 +35,19 @@ def _at(u):
 
 def test_the_spread_is_the_jackknife_of_the_refits_with_the_residual():
     """The scale is sqrt((K - 1) / K sum_k |p_k - mean p|^2 + r^2), K the refits (each without one of
-    ``REFIT_FOLDS`` blocks of patterns), r the RMS of the model's error over its training rows."""
+    ``REFIT_FOLDS`` blocks of patterns), r the median of each refit's error over the block it was fitted
+    without."""
     train = _line(np.linspace(-1, 1, 12), 0)
     model = StaticPolynomial(1).fit([train])
     spread = RefitSpread.of(model, [train])
     assert len(spread.refits) == REFIT_FOLDS
     for (on, _), refit in zip(pattern_folds([train], REFIT_FOLDS), spread.refits):
         np.testing.assert_array_equal(refit.W, StaticPolynomial(1).fit(on).W)
-    err = np.linalg.norm(model.predict(train) - train.tip, axis=1)
-    assert spread.residual == pytest.approx(np.sqrt(np.mean(err ** 2)), rel=1e-12)
+    blocks = [block for _, block in pattern_folds([train], REFIT_FOLDS)]
+    err = np.concatenate([np.linalg.norm(refit.predict(s) - s.tip, axis=1)
+                          for refit, block in zip(spread.refits, blocks) for s in block])
+    assert err.size == train.n_rows
+    assert spread.residual == pytest.approx(np.median(err), rel=1e-12)
     probe = _at([-3.0, 0.0, 0.4, 3.0])
     p = np.stack([r.predict(probe) for r in spread.refits])
     expected = np.sqrt(0.75 * np.sum((p - p.mean(axis=0)) ** 2, axis=(0, 2)) + spread.residual ** 2)
@@ -78,10 +83,55 @@ def test_sessions_without_labels_are_cut_at_their_stretches():
 
 
 def test_blocks_too_small_to_refit_are_left_out():
-    """A session of fewer rows than two blocks need: no refit, the residual alone."""
+    """A session of fewer rows than two blocks need: no refit, the residual alone, over the training rows."""
     tiny = _line([0.0, 1.0], 4, rows=10)
-    spread = RefitSpread.of(StaticPolynomial(1).fit([tiny]), [tiny])
+    model = StaticPolynomial(1).fit([tiny])
+    spread = RefitSpread.of(model, [tiny])
     assert spread.refits == () and np.all(spread.error_scale(tiny) == spread.residual)
+    assert spread.residual == pytest.approx(np.sqrt(np.mean(np.sum((model.predict(tiny) - tiny.tip) ** 2, axis=1))))
+
+
+def test_the_residual_is_the_error_on_rows_the_refits_did_not_see():
+    """A model that recalls every row it was fitted on has no error over them; its residual is its
+    refits' error over the patterns each did not see, which grows as the model sees fewer rows."""
+    train = _line(np.linspace(-1, 1, 16), 7)
+    model = Recalling().fit([train])
+    assert np.all(model.predict(train) == train.tip)
+    spread = RefitSpread.of(model, [train])
+    assert spread.residual > 0.5e-3
+    fewer = RefitSpread.of(model, [train], folds=2)                 # each refit sees half the rows, not 3/4
+    assert fewer.residual > spread.residual
+
+
+@dataclass(frozen=True, eq=False)
+class _FarOff:
+    """Exact, except 1 m off at u > 0.9 when fitted without those commands (a linear model's refit that
+    drifts far over the block it did not see)."""
+
+    reaches: bool = True
+    name: str = "far off"
+
+    def fit(self, sessions):
+        return replace(self, reaches=any(np.any(s.inputs[:, 0] > 0.9) for s in sessions))
+
+    def predict(self, s):
+        tip = np.column_stack([s.inputs[:, 0] * 1e-3, np.zeros((s.n_rows, 2))])
+        tip[:, 1] += np.where(s.inputs[:, 0] > 0.9, 0.0 if self.reaches else 1.0, 0.0)
+        return tip
+
+    def describe(self):
+        return {"kind": "far off"}
+
+
+def test_one_refit_far_off_over_a_few_rows_does_not_set_the_scale_of_every_row():
+    """One of twelve levels is 1 m off in the refit that did not see it: the residual stays the noise's
+    median error (about 0.77 mm), where an RMS would be about 0.29 m; the refits' spread widens the
+    scale at that level alone."""
+    train = _line(np.linspace(-1, 1, 12), 8)
+    spread = RefitSpread.of(_FarOff().fit([train]), [train])
+    assert spread.residual < 2e-3
+    scale = spread.error_scale(_at([0.0, 1.0]))
+    assert scale[0] < 2e-3 and scale[1] > 0.3
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,7 +169,7 @@ def test_a_refit_that_runs_away_makes_the_scale_unbounded_there():
 
 def test_the_refits_give_the_benchmark_s_interval_its_scale():
     """``with_interval(refits=...)``: the model and the held model carry their refits' spread (each refitted on
-    its own rows); the radius is that scale times q + b d, and the description names the scale."""
+    its own rows); the radius is that scale times q + b max(0, d - d0), and the description names the scale."""
     train = _line(np.linspace(-1, 1, 12), 6)
     fit_part, held = [train.rows(0, 180)], [train.rows(180, 240)]
     family = StaticPolynomial(1)
@@ -129,7 +179,9 @@ def test_the_refits_give_the_benchmark_s_interval_its_scale():
     probe = _at([0.0, 3.0])
     tip, radius = model.predict_interval(probe)
     d = model.reach(probe)
-    np.testing.assert_allclose(radius, model.model.error_scale(probe) * (model.interval_q + model.interval_slope * d))
+    beyond = np.maximum(d - model.interval_knee, 0.0)
+    expected = model.model.error_scale(probe) * (model.interval_q + model.interval_slope * beyond)
+    np.testing.assert_allclose(radius, expected)
     described = model.describe()
     assert "jackknife" in described["error_scale"] and described["interval_90_q"] > 0
     assert "interval_90_radius_mm" not in described

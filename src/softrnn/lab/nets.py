@@ -24,8 +24,8 @@ Every family states a 90 % interval per row (``predict_interval``, ``softrnn.lab
 error scale (the map's ensemble spread plus its training error, for the hybrid its physics' refit
 spread plus its ensemble's spread where the residual acts, for the sequence model its distance from
 the physics' tip plus the physics' RMS error over the training rows, for the node LSTM 1) times
-q + b d, d the distance from the training rows, q and b calibrated on the hold-out split
-(``uncertainty.calibrate``).
+q + b max(0, d - d0), d the distance from the training rows, q, b and d0 calibrated on the hold-out
+split (``uncertainty.calibrate``).
 """
 
 from __future__ import annotations
@@ -214,6 +214,7 @@ class LearnedMap(Intervals):
     reach: InputDistance | None = None
     interval_q: float | None = None
     interval_slope: float | None = None
+    interval_knee: float = 0.0
 
     def fit(self, sessions) -> LearnedMap:
         """The model fitted on training sessions (a list of ``Recording``)."""
@@ -266,6 +267,7 @@ class Hybrid(Intervals):
     """The training sessions (``Recording``) it was fitted on: its physics' refits (``error_scale``)."""
     interval_q: float | None = None
     interval_slope: float | None = None
+    interval_knee: float = 0.0
     memo: dict = field(default_factory=dict, init=False, repr=False)
     """Its physics' refits (``RefitSpread``), made the first time ``error_scale`` is asked for."""
 
@@ -399,6 +401,7 @@ class Sequence(Intervals):
     reach: InputDistance | None = None
     interval_q: float | None = None
     interval_slope: float | None = None
+    interval_knee: float = 0.0
     pretrained: object = None
     physics_rms: float | None = None
     """The physics' RMS tip error [m] over the training rows (``error_scale``; None without a fitted physics)."""
@@ -484,7 +487,7 @@ class Sequence(Intervals):
         with _serial():
             net = _train_gru(self.options, xs, ys, xs[0].shape[-1], copy.deepcopy(self.pretrained))
         return replace(model, net=net, reach=InputDistance.of(sessions), interval_q=None,
-                       interval_slope=None).anchored(self.physics, sessions)
+                       interval_slope=None, interval_knee=0.0).anchored(self.physics, sessions)
 
     def anchored(self, physics, sessions) -> Sequence:
         """The fitted model with ``physics`` (fitted, or None) as its error scale's (``error_scale``), its

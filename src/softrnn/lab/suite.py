@@ -194,7 +194,7 @@ class SuiteResult:
             for kind, table in (("", r.models), (" (baseline)", r.baselines)):
                 for name, score in table.items():
                     cells = [_cell(getattr(score, a)) if a != "coverage_90" or score.coverage_90 is None
-                             else f"{score.coverage_90 * 100:.0f} %" for _, a in _COLUMNS]
+                             else f"{score.coverage_90 * 100:.1f} %" for _, a in _COLUMNS]
                     lines.append(f"| {r.name} | `{name}`{kind} | " + " | ".join(cells) + " |")
         lines += ["", "Free run over each robot's validation session from its start on the commands alone; "
                       "physics fitted on every session: its tip RMSE over the validation session, calibrated on "

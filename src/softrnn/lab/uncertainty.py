@@ -4,21 +4,22 @@ on the training sessions' hold-out part (split conformal prediction).
 A model that states an interval has ``predict_interval(session) -> (tip (T, 3) [m], radius (T,) [m])``:
 ``tip`` is ``predict(session)`` and the ball of ``radius`` around it should hold the true tip in 90 % of
 the rows. The radius is the model's own scale of its error per row (``error_scale``: an ensemble's
-spread; 1 where it has none) times q + b d, d the distance of the row's standardised inputs from the
-nearest training row (``InputDistance``: errors grow out of range). ``calibrate`` fits q and b on the
-model fitted without the hold-out rows (two-regime split conformal): q holds 90 % of the rows near the
-data that the model did not see, and b, the least growth with which the ball then holds 90 % of the
-rows beyond them: the cross-fit's farther half and the hold-out, each. The rows the model did not see come
-from a cross-fit (``cross_fit``):
-where the recordings label their patterns, the model refitted without each block of patterns in turn
-(``pattern_folds``: half of the fitting rows, whole patterns recorded beside each other) and run
-over it, as over a new session of other patterns; without labels, the model refitted on every other
-stretch of its fitting rows and run over the stretches in between, which revisit the same commands at
-other times. Either shows the spread between visits, hysteresis and drift, that the rows a model was
-fitted on understate; q is never below the quantile on the fitted rows themselves. Without a fitted b
-the radius is q (1 + d) (``conformal_q``, q from the hold-out alone).
+spread; 1 where it has none) times q + b max(0, d - d0), d the distance of the row's standardised
+inputs from the nearest training row (``InputDistance``: errors grow out of range). ``calibrate`` fits
+q, b and d0 on the model fitted without the hold-out rows (two-regime split conformal): q holds 90 % of
+the rows near the data that the model did not see, up to the distance d0 that bounds them, and b, the
+least growth beyond d0 with which the ball then holds 90 % of the rows beyond them: the cross-fit's
+farther half and the hold-out, each. The rows the model did not see come from a cross-fit
+(``cross_fit``): where the recordings label their patterns, the model refitted without each block of
+patterns in turn (``pattern_folds``: half of the fitting rows, whole patterns recorded beside each
+other) and run over it, as over a new session of other patterns; without labels, the model refitted
+on every other stretch of its fitting rows and run over the stretches in between, which revisit the
+same commands at other times. Either shows the spread between visits, hysteresis and drift, that the
+rows a model was fitted on understate; q is never below the quantile on the fitted rows themselves.
+Without a fitted b the radius is q (1 + d) (``conformal_q``, q from the hold-out alone).
 A model without an error scale of its own can be given one (``RefitSpread``): the jackknife spread of
-the model refitted without each block of its training patterns, with its residual over those rows.
+the model refitted without each block of its training patterns, with their median error over the rows
+each was fitted without.
 ``WithInterval`` gives any fitted model such an interval (the physics, the baselines). The benchmark
 reports the share of validation rows inside (``coverage_90``).
 """
@@ -161,36 +162,40 @@ CROSS_FOLDS = 2
 
 def calibrate(model, fit_part, held) -> dict:
     """The interval of ``model`` (fitted on the sessions ``fit_part``, without ``held``), two-regime
-    split conformal: {"interval_q": q, "interval_slope": b} [1, 1 per standard deviation] of the radius
-    error_scale (q + b d). The rows the model did not see are those of ``fit_part`` run by the model
-    refitted without them (``cross_fit``) and the hold-out rows. The cross-fit's rows are split at their
-    median distance d from the rows the model was refitted on (``NEAR_SHARE``): q is the ``COVERAGE``
-    quantile of |pred - tip| / error_scale over the nearer ones, at least that over the rows of
-    ``fit_part`` themselves; b the least growth with which the ball holds 90 % of the farther ones and
-    90 % of the hold-out rows: the larger of the two parts' same quantile of the growth each row needs
-    to lie inside, max(0, ratio - q) / d (inf for a row outside at d = 0). So q is the error of a new
-    visit near the data (a pattern the model did not see, between patterns it did) and b how it grows
-    beyond them, each from the rows of its own regime. inf where there are too few rows. A model
-    without ``reach`` gets b = 0 and the largest q of the parts."""
+    split conformal: {"interval_q": q, "interval_slope": b, "interval_knee": d0} [1, 1 per standard
+    deviation, standard deviations] of the radius error_scale (q + b max(0, d - d0)). The rows the model
+    did not see are those of ``fit_part`` run by the model refitted without them (``cross_fit``) and the
+    hold-out rows. The cross-fit's rows are split at their median distance d0 from the rows the model
+    was refitted on (``NEAR_SHARE``): q is the ``COVERAGE`` quantile of |pred - tip| / error_scale over
+    the nearer ones, at least that over the rows of ``fit_part`` themselves; b the least growth beyond
+    d0 with which the ball holds 90 % of the farther ones and 90 % of the hold-out rows: the larger of
+    the two parts' same quantile of the growth each row needs to lie inside, max(0, ratio - q) /
+    (d - d0) (inf for a row outside at d <= d0). So q is the error of a new visit as near the data as
+    the nearer half (a pattern the model did not see, between patterns it did), held up to that
+    distance, and b how it grows beyond, each from the rows of its own regime. Without a cross-fit,
+    d0 = 0. inf where there are too few rows. A model without ``reach`` gets b = 0, d0 = 0 and the
+    largest q of the parts."""
     q = quantile(_ratios(model, fit_part, model.error_scale)[0])
     ratio, d = _ratios(model, held, model.error_scale)
     cross = cross_fit(model, fit_part)
     if model.reach is None:                   # no distance: one radius that holds 90 % of every part
         parts = [ratio] if cross is None else [ratio, cross[0]]
-        return {"interval_q": max([q] + [quantile(p) for p in parts]), "interval_slope": 0.0}
-    beyond = [(ratio, d)]
+        return {"interval_q": max([q] + [quantile(p) for p in parts]), "interval_slope": 0.0, "interval_knee": 0.0}
+    beyond, knee = [(ratio, d)], 0.0
     if cross is not None:
-        near = cross[1] <= np.quantile(cross[1], NEAR_SHARE)
+        knee = float(np.quantile(cross[1], NEAR_SHARE))
+        near = cross[1] <= knee
         q = max(q, quantile(cross[0][near]))
         beyond.append((cross[0][~near], cross[1][~near]))
     with np.errstate(divide="ignore", invalid="ignore"):
-        needs = [np.where(r <= q, 0.0, (r - q) / dist) for r, dist in beyond if r.size]
-    return {"interval_q": q, "interval_slope": max(quantile(need) for need in needs)}
+        needs = [np.where(r <= q, 0.0, (r - q) / np.maximum(dist - knee, 0.0)) for r, dist in beyond if r.size]
+    return {"interval_q": q, "interval_slope": max(quantile(need) for need in needs), "interval_knee": knee}
 
 
 NEAR_SHARE = 0.5
 """The share of the cross-fit's rows, the nearest to the rows the model was refitted on, that set the
-interval's q (``calibrate``); the rest, with the hold-out rows, set its growth b."""
+interval's q and the distance d0 up to which it holds (``calibrate``); the rest, with the hold-out rows,
+set its growth b beyond d0."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -254,12 +259,17 @@ class RefitSpread(_Wrapper):
     """A fitted model (``model``: ``predict``, ``describe``, ``name``, ``refit`` or ``fit``) whose scale of
     its error per row (``error_scale``) is the jackknife spread of its predictions over ``refits``, the
     model refitted without each block of its training rows in turn (``pattern_folds``: whole patterns
-    recorded beside each other), combined with ``residual`` [m], the RMS of its error over those rows
-    (those where its run is finite):
-    sqrt(s_J^2 + residual^2), s_J^2 = (K - 1) / K sum_k |p_k - mean p|^2 over the K refits. Where the rows
-    of one block are what sets a parameter, the refit without it moves the parameter, and the refits
-    disagree where that parameter matters: combinations of commands that no block shows alone. A row
-    where a refit's run is not finite gets an unbounded scale (``of``)."""
+    recorded beside each other), combined with ``residual`` [m], the median of the refits' errors over
+    the rows each was fitted without (those where its run is finite; the model's RMS error over its
+    training rows where there is none): sqrt(s_J^2 + residual^2), s_J^2 = (K - 1) / K sum_k |p_k - mean
+    p|^2 over the K refits. Where the rows of one block are what sets a parameter, the refit without it
+    moves the parameter, and the refits disagree where that parameter matters: combinations of commands
+    that no block shows alone. The residual is the error on patterns a model did not see, at the amount
+    of data it was fitted on: a model fitted on fewer rows errs more on new ones than over its own, and
+    its scale says so, so that the ratio of error to scale that ``calibrate`` measures on a model
+    refitted on part of the rows holds for the model fitted on all of them. The median, not the RMS: a
+    refit that drifts far over its block (a linear model near instability) would set the scale of every
+    row. A row where a refit's run is not finite gets an unbounded scale (``of``)."""
 
     model: object
     refits: tuple
@@ -273,8 +283,12 @@ class RefitSpread(_Wrapper):
         refit = refitter(model)
         pairs = [(on, out) for on, out in pattern_folds(sessions, folds)
                  if min(sum(s.n_rows for s in part) for part in (on, out)) >= CROSS_ROWS]
-        return cls(model, tuple(refit_without(model, refit, on, out, sessions) for on, out in pairs),
-                   rms_error(model, sessions), folds)
+        refits = tuple(refit_without(model, refit, on, out, sessions) for on, out in pairs)
+        err = np.concatenate([np.zeros(0)] + [np.linalg.norm(r.predict(s) - s.tip, axis=1)
+                                              for r, (_, out) in zip(refits, pairs) for s in out])
+        err = err[np.isfinite(err)]
+        residual = float(np.median(err)) if err.size else rms_error(model, sessions)
+        return cls(model, refits, residual, folds)
 
     def error_scale(self, session) -> np.ndarray:
         """(T,) sqrt(s_J^2 + residual^2) [m] (see the class); the residual alone with fewer than two refits."""
@@ -294,18 +308,21 @@ class RefitSpread(_Wrapper):
     def describe(self) -> dict:
         """The model's description and its error scale's: the refits and the residual [mm]."""
         return {**self.model.describe(), "error_scale": f"jackknife spread of {len(self.refits)} refits, each "
-                "without a block of the training patterns, with the residual over the training rows",
+                "without a block of the training patterns, with the refits' median error over the rows each was "
+                "fitted without",
                 "error_scale_residual_mm": _finite(self.residual, scale=1e3)}
 
 
 class Intervals:
     """What a family with an interval shares: the fields ``interval_q`` (None until calibrated),
-    ``interval_slope`` (None: the radius grows as q (1 + d)) and ``reach`` (an ``InputDistance`` of its
+    ``interval_slope`` (None: the radius grows as q (1 + d)), ``interval_knee`` (the distance d0 beyond
+    which it grows by the slope: q + b max(0, d - d0)) and ``reach`` (an ``InputDistance`` of its
     training rows, or None), and ``error_scale(session)`` (T,) (here 1: a radius of ``interval_q`` m,
     growing with the distance)."""
 
     interval_q: float | None
     interval_slope: float | None
+    interval_knee: float
     reach: InputDistance | None
 
     def error_scale(self, session) -> np.ndarray:
@@ -325,16 +342,17 @@ class Intervals:
                              "**calibrate(...)))")
         if self.interval_slope is None:
             return self.predict(session), self.interval_q * self.interval_scale(session)
-        d = 0.0 if self.reach is None else self.reach(session)
-        with np.errstate(invalid="ignore"):          # an unbounded slope at d = 0 adds nothing
-            growth = np.where(d > 0, self.interval_slope * d, 0.0)
+        beyond = 0.0 if self.reach is None else np.maximum(self.reach(session) - self.interval_knee, 0.0)
+        with np.errstate(invalid="ignore"):          # an unbounded slope within the knee adds nothing
+            growth = np.where(beyond > 0, self.interval_slope * beyond, 0.0)
         scale = self.error_scale(session)
         with np.errstate(invalid="ignore"):          # an unbounded scale is an unbounded radius, even at q = 0
             return self.predict(session), np.where(np.isinf(scale), math.inf, scale * (self.interval_q + growth))
 
     def interval_description(self) -> dict:
-        """The interval's q and slope b, JSON-ready (None where unbounded)."""
-        return {"interval_90_q": _finite(self.interval_q), "interval_90_slope": _finite(self.interval_slope)}
+        """The interval's q, slope b and knee d0, JSON-ready (None where unbounded)."""
+        return {"interval_90_q": _finite(self.interval_q), "interval_90_slope": _finite(self.interval_slope),
+                "interval_90_knee": _finite(self.interval_knee)}
 
 
 def _finite(value, digits: int = 4, scale: float = 1.0):
@@ -353,6 +371,7 @@ class WithInterval(_Wrapper, Intervals):
     reach: InputDistance | None = None
     interval_q: float | None = None
     interval_slope: float | None = None
+    interval_knee: float = 0.0
 
     def refit(self, sessions) -> WithInterval:
         """The model refitted on ``sessions`` (its ``refit``, else ``fit``), its distance from them where
@@ -365,15 +384,17 @@ class WithInterval(_Wrapper, Intervals):
         return np.ones(session.n_rows) if own is None else own(session)
 
     def describe(self) -> dict:
-        """The model's description and the interval: its radius [mm] on the training rows and its growth
-        [mm per standard deviation of the distance]; for a model with its own error scale, q and b
-        (``interval_description``) of the radius error_scale (q + b d) instead."""
+        """The model's description and the interval: its radius [mm] on the training rows, its growth
+        [mm per standard deviation of the distance] and the distance beyond which it grows [standard
+        deviations]; for a model with its own error scale, q, b and d0 (``interval_description``) of the
+        radius error_scale (q + b max(0, d - d0)) instead."""
         out = {**self.model.describe(), "interval_grows_with_distance": self.reach is not None}
-        if getattr(self.model, "error_scale", None) is not None:     # the radius is q + b d times its own scale
+        if getattr(self.model, "error_scale", None) is not None:     # the radius is q + b (d - d0) times its scale
             return out | self.interval_description()
         out["interval_90_radius_mm"] = _finite(self.interval_q, scale=1e3)
         if self.interval_slope is not None:
             out["interval_90_growth_mm"] = _finite(self.interval_slope, scale=1e3)
+            out["interval_90_knee"] = _finite(self.interval_knee)
         return out
 
 
@@ -382,7 +403,8 @@ def with_interval(model, held_model, fit_part, held, train=None, fitted: bool = 
     """``model`` (fitted on ``train``) with a 90 % interval calibrated on the hold-out sessions ``held``
     by ``held_model`` (the same family fitted on ``fit_part``): a constant radius when ``train`` is
     None, else growing with the distance from the training rows, as q (1 + d) with q from the hold-out
-    alone (``conformal_q``), or ``fitted``: as q + b d with q and b from both parts (``calibrate``).
+    alone (``conformal_q``), or ``fitted``: as q + b max(0, d - d0) with q, b and d0 from both parts
+    (``calibrate``).
     ``refits`` > 0 (with ``train``): a model without an error scale of its own gets the spread of that
     many refits (``RefitSpread``; the held model's refits on ``fit_part``)."""
     reach = (lambda s: None) if train is None else InputDistance.of
