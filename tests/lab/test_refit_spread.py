@@ -65,10 +65,17 @@ def test_the_spread_grows_where_the_training_data_end():
 
 
 def test_a_model_that_learns_nothing_has_its_residual_as_scale():
-    """Persistence fits nothing: its refits agree everywhere, and its scale is its residual on every row."""
+    """Persistence fits nothing: its refits agree everywhere, and its scale is its residual on every row:
+    the median error of its run over the whole session (each refit runs as the model runs, from the
+    session's start, and is scored on its block), not of runs restarted at each block."""
     train = _line(np.linspace(-1, 1, 12), 2)
-    spread = RefitSpread.of(PersistenceFamily().fit([train]), [train])
+    model = PersistenceFamily().fit([train])
+    spread = RefitSpread.of(model, [train])
     np.testing.assert_array_equal(spread.error_scale(_at(np.linspace(-5, 5, 9))), spread.residual)
+    assert spread.residual == pytest.approx(np.median(np.linalg.norm(model.predict(train) - train.tip, axis=1)))
+    restarted = np.concatenate([np.linalg.norm(model.predict(s) - s.tip, axis=1)
+                                for _, block in pattern_folds([train], REFIT_FOLDS) for s in block])
+    assert np.median(restarted) < 0.75 * spread.residual
 
 
 def test_sessions_without_labels_are_cut_at_their_stretches():

@@ -97,6 +97,16 @@ def _joined(sessions, pieces, keep) -> list:
     return out + ([sessions[run[0]].rows(run[1], run[2])] if run is not None else [])
 
 
+def _blocks(sessions, folds: int) -> tuple[list, np.ndarray]:
+    """(pieces, block): the runs of rows (session index, first row, stop) that ``pattern_folds`` cuts the
+    ``sessions`` into, in order, and the block (P,) of each."""
+    labelled = all(s.labels for s in sessions)
+    cuts = [pattern_edges(s) if labelled else stretch_edges(s.n_rows) for s in sessions]
+    pieces = [(i, int(a), int(b)) for i, e in enumerate(cuts) for a, b in zip(e[:-1], e[1:])]
+    rows = np.array([b - a for _, a, b in pieces], dtype=float)
+    return pieces, np.minimum(((np.cumsum(rows) - rows / 2) * folds / rows.sum()).astype(int), folds - 1)
+
+
 def pattern_folds(sessions, folds: int | None = None) -> list[tuple[list, list]]:
     """The sessions' patterns (``pattern_edges``), in order, cut into ``folds`` (None: ``CROSS_FOLDS``)
     contiguous blocks of about equal rows at pattern boundaries: [(the other blocks, the block)] per
@@ -104,12 +114,19 @@ def pattern_folds(sessions, folds: int | None = None) -> list[tuple[list, list]]
     patterns, and the patterns recorded beside each other: the others meet it as a new session.
     Sessions without labels are cut at their stretches' edges instead (``stretch_edges``)."""
     folds = CROSS_FOLDS if folds is None else folds
-    labelled = all(s.labels for s in sessions)
-    cuts = [pattern_edges(s) if labelled else stretch_edges(s.n_rows) for s in sessions]
-    pieces = [(i, int(a), int(b)) for i, e in enumerate(cuts) for a, b in zip(e[:-1], e[1:])]
-    rows = np.array([b - a for _, a, b in pieces], dtype=float)
-    fold = np.minimum(((np.cumsum(rows) - rows / 2) * folds / rows.sum()).astype(int), folds - 1)
-    return [(_joined(sessions, pieces, fold != j), _joined(sessions, pieces, fold == j)) for j in range(folds)]
+    pieces, block = _blocks(sessions, folds)
+    return [(_joined(sessions, pieces, block != j), _joined(sessions, pieces, block == j)) for j in range(folds)]
+
+
+def block_rows(sessions, folds: int | None = None) -> list[list[np.ndarray]]:
+    """The rows of each block of ``pattern_folds(sessions, folds)``, per session: [[(T_i,) bool] per
+    block]."""
+    folds = CROSS_FOLDS if folds is None else folds
+    pieces, block = _blocks(sessions, folds)
+    out = [[np.zeros(s.n_rows, dtype=bool) for s in sessions] for _ in range(folds)]
+    for (i, a, b), j in zip(pieces, block):
+        out[j][i][a:b] = True
+    return out
 
 
 def _cross_splits(fit_part) -> list[tuple[list, list]]:
@@ -165,16 +182,18 @@ def calibrate(model, fit_part, held) -> dict:
     split conformal: {"interval_q": q, "interval_slope": b, "interval_knee": d0} [1, 1 per standard
     deviation, standard deviations] of the radius error_scale (q + b max(0, d - d0)). The rows the model
     did not see are those of ``fit_part`` run by the model refitted without them (``cross_fit``) and the
-    hold-out rows. The cross-fit's rows are split at their median distance d0 from the rows the model
-    was refitted on (``NEAR_SHARE``): q is the ``COVERAGE`` quantile of |pred - tip| / error_scale over
-    the nearer ones, at least that over the rows of ``fit_part`` themselves; b the least growth beyond
-    d0 with which the ball holds 90 % of the farther ones and 90 % of the hold-out rows: the larger of
-    the two parts' same quantile of the growth each row needs to lie inside, max(0, ratio - q) /
-    (d - d0) (inf for a row outside at d <= d0). So q is the error of a new visit as near the data as
-    the nearer half (a pattern the model did not see, between patterns it did), held up to that
-    distance, and b how it grows beyond, each from the rows of its own regime. Without a cross-fit,
-    d0 = 0. inf where there are too few rows. A model without ``reach`` gets b = 0, d0 = 0 and the
-    largest q of the parts."""
+    hold-out rows. d0 is the median distance d of the cross-fit's rows from the rows the model was
+    refitted on (``NEAR_SHARE``); the rows of each part within d0 are near the data, the others beyond.
+    q is the ``COVERAGE`` quantile of |pred - tip| / error_scale over the cross-fit's near rows, at least
+    that over the rows of ``fit_part`` themselves and that over the near hold-out rows (where there are
+    ``CROSS_ROWS`` of them); b the least growth beyond d0 with which the ball holds 90 % of the cross-fit's
+    farther rows and 90 % of the hold-out rows: the larger of the two parts' same quantile of the growth
+    each row needs to lie inside, max(0, ratio - q) / (d - d0) (inf for a row outside at d <= d0). So q
+    is the error of a new visit as near the data as the nearer half (a pattern the model did not see,
+    between patterns it did; a session the model did not see, where its commands are those of the
+    others), held up to that distance, and b how it grows beyond, each from the rows of its own regime.
+    Without a cross-fit, d0 = 0. inf where there are too few rows. A model without ``reach`` gets b = 0,
+    d0 = 0 and the largest q of the parts."""
     q = quantile(_ratios(model, fit_part, model.error_scale)[0])
     ratio, d = _ratios(model, held, model.error_scale)
     cross = cross_fit(model, fit_part)
@@ -187,6 +206,8 @@ def calibrate(model, fit_part, held) -> dict:
         near = cross[1] <= knee
         q = max(q, quantile(cross[0][near]))
         beyond.append((cross[0][~near], cross[1][~near]))
+    if np.count_nonzero(d <= knee) >= CROSS_ROWS:
+        q = max(q, quantile(ratio[d <= knee]))
     with np.errstate(divide="ignore", invalid="ignore"):
         needs = [np.where(r <= q, 0.0, (r - q) / np.maximum(dist - knee, 0.0)) for r, dist in beyond if r.size]
     return {"interval_q": q, "interval_slope": max(quantile(need) for need in needs), "interval_knee": knee}
@@ -260,7 +281,8 @@ class RefitSpread(_Wrapper):
     its error per row (``error_scale``) is the jackknife spread of its predictions over ``refits``, the
     model refitted without each block of its training rows in turn (``pattern_folds``: whole patterns
     recorded beside each other), combined with ``residual`` [m], the median of the refits' errors over
-    the rows each was fitted without (those where its run is finite; the model's RMS error over its
+    the rows each was fitted without (``block_rows``; each refit run over every training session, as the
+    model runs, and scored there; the rows where its run is finite; the model's RMS error over its
     training rows where there is none): sqrt(s_J^2 + residual^2), s_J^2 = (K - 1) / K sum_k |p_k - mean
     p|^2 over the K refits. Where the rows of one block are what sets a parameter, the refit without it
     moves the parameter, and the refits disagree where that parameter matters: combinations of commands
@@ -281,11 +303,14 @@ class RefitSpread(_Wrapper):
         """``model`` (fitted on ``sessions``) with its refits on ``folds`` blocks of them (``pattern_folds``;
         a block or its complement of fewer than ``CROSS_ROWS`` rows is left out) and its residual."""
         refit = refitter(model)
-        pairs = [(on, out) for on, out in pattern_folds(sessions, folds)
+        cuts = zip(pattern_folds(sessions, folds), block_rows(sessions, folds))
+        pairs = [(on, out, block) for (on, out), block in cuts
                  if min(sum(s.n_rows for s in part) for part in (on, out)) >= CROSS_ROWS]
-        refits = tuple(refit_without(model, refit, on, out, sessions) for on, out in pairs)
-        err = np.concatenate([np.zeros(0)] + [np.linalg.norm(r.predict(s) - s.tip, axis=1)
-                                              for r, (_, out) in zip(refits, pairs) for s in out])
+        refits = tuple(refit_without(model, refit, on, out, sessions) for on, out, _ in pairs)
+        # each refit run over every session, as the model runs, and scored on the rows of its block
+        err = np.concatenate([np.zeros(0)] + [np.linalg.norm(r.predict(s) - s.tip, axis=1)[block[i]]
+                                              for r, (_, _, block) in zip(refits, pairs)
+                                              for i, s in enumerate(sessions)])
         err = err[np.isfinite(err)]
         residual = float(np.median(err)) if err.size else rms_error(model, sessions)
         return cls(model, refits, residual, folds)
