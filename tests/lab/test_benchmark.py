@@ -403,3 +403,24 @@ def test_session_agreement_tells_a_robot_that_changed_between_sessions_from_one_
     assert both["training_tip_rmse_mm"] > 4 * first["training_tip_rmse_mm"]
     assert first["validation_tip_rmse_mm"] > both["validation_tip_rmse_mm"]
     assert first["validation_tip_mean_aligned_pct_of_length"] > 0
+
+
+def test_the_node_lstm_s_error_scale_is_its_distance_from_the_physics_plus_the_physics_error(sessions, monkeypatch):
+    """Fitted with a calibrated physics, the node LSTM states the sequence model's scale: |tip - physics
+    tip| + the physics' RMS error over the rows it was fitted on (``families.Anchored``); without one, 1."""
+    import softrnn.learned.node.train as node_train
+
+    train, val = sessions
+    physics = Physics(TendonRobot((0.08,), 3, 4e-3), FAST["calibration"]).fit([train])
+    monkeypatch.setattr(node_train, "train_node_model", lambda *a, **k: "trained")
+    monkeypatch.setattr(NodeFamily, "predict", lambda self, s: s.tip + 2e-3)
+    model = NodeFamily(0.08, physics=physics).fit([train])
+    rms = float(np.sqrt(np.mean(np.sum((physics.predict(train) - train.tip) ** 2, axis=1))))
+    assert model.model == "trained" and model.physics_rms == pytest.approx(rms, rel=1e-12)
+    gap = np.linalg.norm(val.tip + 2e-3 - physics.predict(val), axis=1)
+    np.testing.assert_allclose(model.error_scale(val), gap + rms, rtol=1e-12)
+    assert model.describe()["error_scale_physics_rms_mm"] == pytest.approx(rms * 1e3, abs=1e-4)
+    alone = NodeFamily(0.08).fit([train])
+    assert alone.physics_rms is None and np.array_equal(alone.error_scale(val), np.ones(val.n_rows))
+    assert "error_scale" not in alone.describe()
+    assert alone.anchored(physics, [train]).physics_rms == pytest.approx(rms, rel=1e-12)

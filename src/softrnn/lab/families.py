@@ -482,8 +482,49 @@ class NodeOptions:
                 "epochs": t.epochs, "patience": t.patience, "seed": t.seed}
 
 
+def rms_error(model, sessions) -> float:
+    """The RMS [m] of ``model``'s tip error over the rows of ``sessions`` where its run is finite (rows
+    where it diverged are the cross-fit's inf); inf where there is none."""
+    err = np.concatenate([np.linalg.norm(model.predict(s) - s.tip, axis=1) for s in sessions])
+    finite = err[np.isfinite(err)]
+    return float(np.sqrt(np.mean(finite ** 2))) if finite.size else math.inf
+
+
+class Anchored:
+    """What a learned model anchored on a physics shares (``Sequence``, ``NodeFamily``): its fields
+    ``physics`` (a fitted ``Physics``, or None) and ``physics_rms`` (the physics' RMS tip error [m] over
+    the rows the model was fitted on; None without a fitted physics), and its ``predict``."""
+
+    def anchored(self, physics, sessions):
+        """The fitted model with ``physics`` (fitted, or None) as its error scale's (``error_scale``), its
+        RMS error taken over ``sessions``, the rows the model was fitted on; also a candidate fitted
+        before the physics was calibrated, so that it states the scale its final fit has."""
+        fitted = physics is not None and getattr(physics, "calibration", None) is not None
+        return replace(self, physics=physics, physics_rms=rms_error(physics, sessions) if fitted else None)
+
+    def error_scale(self, session: Recording) -> np.ndarray:
+        """(T,) [m] the scale of its error per row: |tip - the physics' tip| + the physics' RMS error over
+        the training rows (``physics_rms``); 1 without a fitted physics. A learned model's error is at most
+        its distance from the physics plus the physics' own error: where it leaves the physics (commands
+        its real rows do not show), its interval widens; where they agree, the physics' error is the
+        measure (its error on its training rows would understate a new session's). A row where either run
+        is not finite gets an unbounded scale."""
+        if self.physics_rms is None:
+            return np.ones(session.n_rows)
+        gap = np.linalg.norm(self.predict(session) - self.physics.predict(session), axis=1)
+        return np.where(np.isfinite(gap), gap, math.inf) + self.physics_rms
+
+    def anchor_description(self) -> dict:
+        """The error scale's description and the physics' RMS error [mm], JSON-ready ({} without a fitted
+        physics)."""
+        if self.physics_rms is None:
+            return {}
+        return {"error_scale": "distance from the physics' tip plus the physics' RMS error over the training rows",
+                "error_scale_physics_rms_mm": round(self.physics_rms * 1e3, 4)}
+
+
 @dataclass(frozen=True, eq=False)
-class NodeFamily:
+class NodeFamily(Anchored):
     """softrnn's per-node LSTM (``softrnn train --drive actuation``, the paper's model driven by the
     inputs alone): trained on the fitting part of the training sessions and stopped early on the
     hold-out part (``holdout_split``), run free over a session from its first ``history`` rows
@@ -501,6 +542,9 @@ class NodeFamily:
     step: float | None = None
     """The step [s] the model was trained on (``fit``: its training rows' median interval): every
     session it meets is read as rows of this step (``as_dataset``)."""
+    physics_rms: float | None = None
+    """The physics' RMS tip error [m] over the rows it was fitted on (``error_scale``; None without a fitted
+    physics)."""
 
     def __post_init__(self):
         check_mode(self, ("real", "mixed"))
@@ -525,7 +569,7 @@ class NodeFamily:
         with tempfile.TemporaryDirectory() as folder:
             model = train_node_model(data, spec, {"lstm_units": o.units}, o.training, folder,
                                      validation=as_dataset(held, self.length, step))
-        return replace(self, model=model, step=step)
+        return replace(self, model=model, step=step).anchored(self.physics, sessions)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs; NaN from the
@@ -551,4 +595,4 @@ class NodeFamily:
         if self.mode != "real":
             out["synthetic"] = self.synthetic.describe() | {"amount_x_real_rows": min(
                 self.synthetic.amount, self.options.synthetic_amount)}
-        return out
+        return out | self.anchor_description()

@@ -22,8 +22,9 @@ The benchmark chooses the mode, the hysteresis state and the gate on the trainin
 
 Every family states a 90 % interval per row (``predict_interval``, ``softrnn.lab.uncertainty``): an
 error scale (the map's ensemble spread plus its training error, for the hybrid its physics' refit
-spread plus its ensemble's spread where the residual acts, for the sequence model its distance from
-the physics' tip plus the physics' RMS error over the training rows, for the node LSTM 1) times
+spread plus its ensemble's spread where the residual acts, for the sequence model and the node LSTM
+their distance from the physics' tip plus the physics' RMS error over the training rows,
+``families.Anchored``; 1 without a calibrated physics) times
 q + b max(0, d - d0), d the distance from the training rows, q, b and d0 calibrated on the hold-out
 split (``uncertainty.calibrate``).
 """
@@ -40,6 +41,7 @@ import numpy as np
 
 from .families import (
     PLAY_WIDTHS,
+    Anchored,
     LinearARXFamily,
     NodeFamily,
     Physics,
@@ -52,7 +54,7 @@ from .families import (
 )
 from .recording import Recording
 from .synthetic import SyntheticOptions, taught_sessions
-from .uncertainty import InputDistance, Intervals, RefitSpread, WithInterval, calibrate, rms_error
+from .uncertainty import InputDistance, Intervals, RefitSpread, WithInterval, calibrate
 
 """How a family uses the physics' synthetic sessions (module docstring)."""
 GATES = (0.5, 1.0, 2.0, 4.0, 8.0)
@@ -327,8 +329,8 @@ class Hybrid(Intervals):
                         (", gated off away from the training data" if not math.isinf(self.gate) else ""),
                 **{k: v for k, v in vars(self.options).items()}, **_pretraining(self),
                 "gate_d0": None if math.isinf(self.gate) else self.gate,
-                "error_scale": "the physics' refit spread (jackknife, with its residual over the training rows) "
-                               "plus the ensemble's spread where the residual acts"}
+                "error_scale": "the physics' refit spread (jackknife, with the refits' median error over the rows "
+                               "each was fitted without) plus the ensemble's spread where the residual acts"}
 
 
 @dataclass(frozen=True)
@@ -378,7 +380,7 @@ def linear_base(sessions, order: int | None = None) -> tuple[LinearARXFamily, di
 
 
 @dataclass(frozen=True, eq=False)
-class Sequence(Intervals):
+class Sequence(Anchored, Intervals):
     """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s][, hysteresis
     state: the play operators of each input, as ``LearnedMap``'s]) and writing the tip: a dynamic model
     of the commands alone, run free from a zero state; ``mode`` ``real`` or ``finetune`` (pretrained on
@@ -489,26 +491,6 @@ class Sequence(Intervals):
         return replace(model, net=net, reach=InputDistance.of(sessions), interval_q=None,
                        interval_slope=None, interval_knee=0.0).anchored(self.physics, sessions)
 
-    def anchored(self, physics, sessions) -> Sequence:
-        """The fitted model with ``physics`` (fitted, or None) as its error scale's (``error_scale``), its
-        RMS error taken over ``sessions``, the rows the model was fitted on (``fit``, ``refit``); also a
-        candidate of mode ``real`` fitted before the physics was calibrated (``early_candidates``), so
-        that it states the scale its final fit has."""
-        fitted = physics is not None and physics.calibration is not None
-        return replace(self, physics=physics, physics_rms=rms_error(physics, sessions) if fitted else None)
-
-    def error_scale(self, session: Recording) -> np.ndarray:
-        """(T,) [m] the scale of its error per row: |tip - the physics' tip| + the physics' RMS error over
-        the training rows (``physics_rms``); 1 without a fitted physics. The GRU's error is at most its
-        distance from the physics plus the physics' own error: where the GRU leaves the physics (commands
-        its real rows do not show), its interval widens; where they agree, the physics' error is the
-        measure. Its error on its training rows would understate a new session's. A row where either run
-        is not finite gets an unbounded scale."""
-        if self.physics_rms is None:
-            return np.ones(session.n_rows)
-        gap = np.linalg.norm(self.predict(session) - self.physics.predict(session), axis=1)
-        return np.where(np.isfinite(gap), gap, math.inf) + self.physics_rms
-
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
         import torch  # optional extra: learn (PyTorch)
@@ -529,10 +511,7 @@ class Sequence(Intervals):
         if self.base is not None:
             out |= {"linear_order": self.base.na, "linear_holdout_rmse_mm": {
                 k: round(v, 4) if math.isfinite(v) else None for k, v in self.base_scores.items()}}
-        if self.physics_rms is not None:
-            out |= {"error_scale": "|tip - the physics' tip| + the physics' RMS error over the training rows",
-                    "error_scale_physics_rms_mm": round(self.physics_rms * 1e3, 4)}
-        return out
+        return out | self.anchor_description()
 
 
 def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple | None = None) -> tuple:
@@ -686,8 +665,9 @@ def fit_sequence(train, pair, syn, options, held_score, early: dict | None = Non
 def fit_node(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
     """``NodeFamily`` (``options.node``), taught by the physics' synthetic sessions (mode ``mixed``) or
     not, as the hold-out part prefers, each candidate seeded by its label (``seeded``); the winner
-    refitted on every training row, with a 90 % interval (``uncertainty.WithInterval``) calibrated on
-    the hold-out split. ``early``: candidates fitted already ({label: model}, ``early_candidates``)."""
+    refitted on every training row, with a 90 % interval (``uncertainty.WithInterval``, its scale from
+    the physics: ``families.Anchored``) calibrated on the hold-out split. ``early``: candidates fitted
+    already ({label: model}, ``early_candidates``)."""
     fit_part, held = holdout_split(train)
     fitted = dict(early or {})
     for m in ("real", "mixed") if syn.on else ("real",):
@@ -697,6 +677,7 @@ def fit_node(train, pair, syn, options, held_score, early: dict | None = None) -
                                                  physics=pair[0]).fit(fit_part)
     scores = {k: held_score(v) for k, v in fitted.items()}
     best = parsimonious(scores, held_rows(held))
-    interval = calibrate(WithInterval(fitted[best], InputDistance.of(fit_part)), fit_part, held)
+    interval = calibrate(WithInterval(fitted[best].anchored(pair[0], fit_part), InputDistance.of(fit_part)),
+                         fit_part, held)
     final = NodeFamily(options.length, options.node, mode=best.split("=")[1], synthetic=syn, physics=pair[1])
     return WithInterval(final.fit(train), InputDistance.of(train), **interval), scores

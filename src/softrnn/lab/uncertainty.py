@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .families import masked, stretch_edges
+from .families import masked, rms_error, stretch_edges
 
 COVERAGE = 0.9
 """The share of rows an interval should hold."""
@@ -239,14 +239,6 @@ class InputDistance:
     def __call__(self, session) -> np.ndarray:
         """(T,) the distance of each row of ``session`` [standard deviations]."""
         return self.tree.query((session.inputs - self.mu) / self.sd, k=1)[0]
-
-
-def rms_error(model, sessions) -> float:
-    """The RMS [m] of ``model``'s tip error over the rows of ``sessions`` where its run is finite (rows
-    where it diverged are the cross-fit's inf); inf where there is none."""
-    err = np.concatenate([np.linalg.norm(model.predict(s) - s.tip, axis=1) for s in sessions])
-    finite = err[np.isfinite(err)]
-    return float(np.sqrt(np.mean(finite ** 2))) if finite.size else math.inf
 
 
 class _Wrapper:
