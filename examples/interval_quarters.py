@@ -8,15 +8,16 @@ the benchmark runs it) and the four baselines are fitted there with their interv
 calibrated, and the share of the quarter's rows inside each model's 90 % ball is counted, once with
 the benchmark's scale from refits (``uncertainty.RefitSpread``) and once with none (scale 1). With
 ``--sequence``, the sequence model too (pretrained on the physics' synthetic sessions), once with its
-scale from the physics (``nets.Sequence.error_scale``) and once with none. No row of another session is
-read, so the rule can be judged without a validation session.
+scale from the physics (``nets.Sequence.error_scale``) and once with none; with ``--node``, the node LSTM
+(mode ``mixed``, taught by the physics' synthetic sessions) the same way (``families.NodeFamily``). No
+row of another session is read, so the rule can be judged without a validation session.
 
     python examples/interval_quarters.py data/opencr-tdcr-v6/train.csv --length 0.222 \\
         --segments 0.1,0.1,0.022 --json out/interval-quarters.json
 
 Prints one line per quarter and model, and writes the coverages (shares of rows) to ``--json``.
 About 4 minutes on 2 cores for the shared robot (the physics' multi-start search, once per quarter);
-with ``--sequence`` about 25 (four trainings of the GRU per quarter).
+with ``--sequence`` about 25 (four trainings of the GRU per quarter), with ``--node`` about 5 more.
 """
 
 import argparse
@@ -28,11 +29,19 @@ import numpy as np
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.lab.benchmark import BenchmarkOptions, baseline_families, prepare
-from softrnn.lab.families import Physics, holdout_split, masked
+from softrnn.lab.families import NodeFamily, Physics, holdout_split, masked
 from softrnn.lab.nets import Sequence
 from softrnn.lab.recording import read_recording
 from softrnn.lab.synthetic import SyntheticOptions
-from softrnn.lab.uncertainty import REFIT_FOLDS, Intervals, calibrate, pattern_folds, with_interval
+from softrnn.lab.uncertainty import (
+    REFIT_FOLDS,
+    InputDistance,
+    Intervals,
+    calibrate,
+    pattern_folds,
+    refitter,
+    with_interval,
+)
 from softrnn.learned.threads import one_blas_thread
 
 
@@ -74,7 +83,7 @@ class Scaled(Intervals):
     def refit(self, sessions):
         key = tuple((s.n_rows, float(s.time[0]), float(s.time[-1])) for s in sessions)
         if key not in self.refits:
-            self.refits[key] = self.model.refit(sessions)
+            self.refits[key] = refitter(self.model)(sessions)
         return Scaled(self.refits[key], self.own, self.refits)
 
 
@@ -85,7 +94,38 @@ def sequence(options, split, train, physics) -> tuple:
     return make[1].fit(train), make[0].fit(split[0])
 
 
-def quarter(robot, options, train, block, with_sequence) -> dict:
+def node(options, split, train, physics) -> tuple:
+    """The node LSTM (mode ``mixed``) fitted on ``train`` and on the fitting part ``split[0]``, each with the
+    physics fitted on the same rows (``physics``: (held, final)), each with its distance from its rows."""
+    make = [NodeFamily(options.length, options.node, mode="mixed", synthetic=SyntheticOptions(), physics=p)
+            for p in physics]
+    final, held = make[1].fit(train), make[0].fit(split[0])
+    return (Reaching(final, InputDistance.of(train)), Reaching(held, InputDistance.of(split[0])))
+
+
+@dataclass(frozen=True, eq=False)
+class Reaching:
+    """A fitted ``model`` without a distance of its own (``NodeFamily``) given ``reach``; its refits get
+    theirs from the rows they are fitted on."""
+
+    model: object
+    reach: object
+
+    @property
+    def name(self):
+        return self.model.name
+
+    def predict(self, session):
+        return self.model.predict(session)
+
+    def error_scale(self, session):
+        return self.model.error_scale(session)
+
+    def refit(self, sessions):
+        return Reaching(refitter(self.model)(sessions), InputDistance.of(sessions))
+
+
+def quarter(robot, options, train, block, with_sequence, with_node=False) -> dict:
     """{model: {"refits" or "physics": share, "none": share}} of the rows of ``block`` inside each
     model's ball."""
     split = holdout_split(train)
@@ -104,6 +144,11 @@ def quarter(robot, options, train, block, with_sequence) -> dict:
         refits = {}
         out["sequence"] = {label: round(coverage(replace(Scaled(final, own, {}), **calibrate(
             Scaled(held, own, refits), *split)), block), 4) for label, own in (("physics", True), ("none", False))}
+    if with_node:
+        final, held = node(options, split, train, (held_physics, fitted["physics"][0]))
+        refits = {}
+        out["node_lstm"] = {label: round(coverage(replace(Scaled(final, own, {}), **calibrate(
+            Scaled(held, own, refits), *split)), block), 4) for label, own in (("physics", True), ("none", False))}
     return out
 
 
@@ -114,6 +159,7 @@ def main() -> None:
     parser.add_argument("--segments", required=True, help="the segments' lengths [m], comma-separated")
     parser.add_argument("--json", type=Path, help="where to write the coverages")
     parser.add_argument("--sequence", action="store_true", help="also the sequence model (about 25 minutes)")
+    parser.add_argument("--node", action="store_true", help="also the node LSTM (about 5 minutes)")
     parser.add_argument("--creep", action="store_true", help="the physics with the tendons' creep")
     args = parser.parse_args()
     options = BenchmarkOptions(length=args.length, segments=tuple(float(x) for x in args.segments.split(",")))
@@ -129,12 +175,13 @@ def main() -> None:
     out = {}
     with one_blas_thread():
         for j, (train, block) in enumerate(pattern_folds(list(prepared.train), 4)):
-            out[f"quarter {j}"] = quarter(prepared.robot, options, train, block, args.sequence)
+            out[f"quarter {j}"] = quarter(prepared.robot, options, train, block, args.sequence, args.node)
             for name, share in out[f"quarter {j}"].items():
                 print(f"quarter {j}  {name:18s} " + "  ".join(f"{k} {v:6.1%}" for k, v in share.items()), flush=True)
-    groups = {"physics and baselines": [n for n in out["quarter 0"] if n != "sequence"]}
-    if args.sequence:
-        groups["sequence"] = ["sequence"]
+    groups = {"physics and baselines": [n for n in out["quarter 0"] if n not in ("sequence", "node_lstm")]}
+    for name, asked in (("sequence", args.sequence), ("node_lstm", args.node)):
+        if asked:
+            groups[name] = [name]
     for group, names in groups.items():
         for label in out["quarter 0"][names[0]]:
             shares = [q[n][label] for q in out.values() for n in names]

@@ -342,3 +342,26 @@ def test_intervals_hold_the_spread_between_visits_of_the_same_commands():
     model = with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train], fitted=True)
     assert model.interval_q == quantile(ratio) > 2e-3
     assert 0.8 <= _coverage(model, fresh) <= 0.95
+
+
+def test_a_run_that_diverges_lies_in_no_ball_even_where_its_scale_is_unbounded():
+    """Where a model's run is not finite, its scale from the physics or its refits is unbounded too
+    (inf / inf): the row needs an unbounded ball, not a NaN that would make q NaN and every radius NaN."""
+    @dataclass(frozen=True, eq=False)
+    class Diverging:
+        reach: object = None
+        name: str = "diverging"
+
+        def predict(self, s):
+            tip = s.tip + np.column_stack([np.full(s.n_rows, 1e-3), np.zeros((s.n_rows, 2))])
+            tip[s.inputs[:, 0] > 8.5] = np.nan
+            return tip
+
+        def error_scale(self, s):
+            return np.where(s.inputs[:, 0] > 8.5, math.inf, 1.0)
+
+    rows = Recording(path="", time=np.arange(20.0), inputs=np.arange(20.0)[:, None] / 2, names=("a",),
+                     units=("mm",), tip=np.zeros((20, 3)))
+    out = calibrate(Diverging(), [rows], [rows])
+    assert out["interval_q"] == math.inf                     # 2 of 20 rows off without bound: rank 19 of 20
+    assert calibrate(Diverging(), [rows.rows(0, 18)], [rows.rows(0, 18)])["interval_q"] == pytest.approx(1e-3)

@@ -48,12 +48,16 @@ def quantile(values: np.ndarray) -> float:
 
 def _ratios(model, sessions, scale) -> tuple[np.ndarray, np.ndarray]:
     """(|pred - tip| / scale (n,) [1], d (n,) [standard deviations]) over the rows of ``sessions``; inf
-    where the model's prediction is NaN (its run diverged)."""
+    where the model's prediction is NaN (its run diverged), whatever the scale there (a NaN tip lies in
+    no ball, an unbounded one too)."""
     ratios, dist = [], []
     for s in sessions:
         err = np.linalg.norm(model.predict(s) - s.tip, axis=1)
         err[np.isnan(err)] = np.inf                 # a run that diverged is off without bound there
-        ratios.append(err / np.maximum(scale(s), 1e-300))
+        with np.errstate(invalid="ignore"):         # inf / inf: set below
+            ratio = err / np.maximum(scale(s), 1e-300)
+        ratio[np.isinf(err)] = np.inf
+        ratios.append(ratio)
         dist.append(np.zeros(s.n_rows) if model.reach is None else model.reach(s))
     return np.concatenate(ratios), np.concatenate(dist)
 
