@@ -37,6 +37,7 @@ from softrnn.lab.uncertainty import (
     REFIT_FOLDS,
     InputDistance,
     Intervals,
+    WithInterval,
     calibrate,
     pattern_folds,
     refitter,
@@ -87,42 +88,17 @@ class Scaled(Intervals):
         return Scaled(self.refits[key], self.own, self.refits)
 
 
-def sequence(options, split, train, physics) -> tuple:
-    """The sequence model (mode ``finetune``) fitted on ``train`` and on the fitting part ``split[0]``, each
-    with the physics fitted on the same rows (``physics``: (held, final))."""
-    make = [Sequence(options.sequence, "finetune", SyntheticOptions(), p) for p in physics]
-    return make[1].fit(train), make[0].fit(split[0])
-
-
-def node(options, split, train, physics) -> tuple:
-    """The node LSTM (mode ``mixed``) fitted on ``train`` and on the fitting part ``split[0]``, each with the
-    physics fitted on the same rows (``physics``: (held, final)), each with its distance from its rows."""
+def learned(name, options, split, train, physics) -> tuple:
+    """The sequence model (mode ``finetune``) or the node LSTM (mode ``mixed``, with its distance from its
+    rows: ``uncertainty.WithInterval``), fitted on ``train`` and on the fitting part ``split[0]``, each
+    with the physics fitted on the same rows (``physics``: (held, final)): (final, held)."""
+    if name == "sequence":
+        make = [Sequence(options.sequence, "finetune", SyntheticOptions(), p) for p in physics]
+        return make[1].fit(train), make[0].fit(split[0])
     make = [NodeFamily(options.length, options.node, mode="mixed", synthetic=SyntheticOptions(), physics=p)
             for p in physics]
-    final, held = make[1].fit(train), make[0].fit(split[0])
-    return (Reaching(final, InputDistance.of(train)), Reaching(held, InputDistance.of(split[0])))
-
-
-@dataclass(frozen=True, eq=False)
-class Reaching:
-    """A fitted ``model`` without a distance of its own (``NodeFamily``) given ``reach``; its refits get
-    theirs from the rows they are fitted on."""
-
-    model: object
-    reach: object
-
-    @property
-    def name(self):
-        return self.model.name
-
-    def predict(self, session):
-        return self.model.predict(session)
-
-    def error_scale(self, session):
-        return self.model.error_scale(session)
-
-    def refit(self, sessions):
-        return Reaching(refitter(self.model)(sessions), InputDistance.of(sessions))
+    return (WithInterval(make[1].fit(train), InputDistance.of(train)),
+            WithInterval(make[0].fit(split[0]), InputDistance.of(split[0])))
 
 
 def quarter(robot, options, train, block, with_sequence, with_node=False) -> dict:
@@ -139,15 +115,10 @@ def quarter(robot, options, train, block, with_sequence, with_node=False) -> dic
     out = {name: {label: round(coverage(with_interval(model, held, *split, train, fitted=True, refits=k), block), 4)
                   for label, k in (("refits", REFIT_FOLDS), ("none", 0))}
            for name, (model, held) in fitted.items()}
-    if with_sequence:
-        final, held = sequence(options, split, train, (held_physics, fitted["physics"][0]))
+    for name in [n for n, asked in (("sequence", with_sequence), ("node_lstm", with_node)) if asked]:
+        final, held = learned(name, options, split, train, (held_physics, fitted["physics"][0]))
         refits = {}
-        out["sequence"] = {label: round(coverage(replace(Scaled(final, own, {}), **calibrate(
-            Scaled(held, own, refits), *split)), block), 4) for label, own in (("physics", True), ("none", False))}
-    if with_node:
-        final, held = node(options, split, train, (held_physics, fitted["physics"][0]))
-        refits = {}
-        out["node_lstm"] = {label: round(coverage(replace(Scaled(final, own, {}), **calibrate(
+        out[name] = {label: round(coverage(replace(Scaled(final, own, {}), **calibrate(
             Scaled(held, own, refits), *split)), block), 4) for label, own in (("physics", True), ("none", False))}
     return out
 

@@ -82,12 +82,15 @@ class NetOptions:
     """Seed of member m: seed * 1000 + m."""
 
 
+def _play_state(u: np.ndarray, widths) -> list:
+    """The hysteresis state of the inputs ``u`` (T, m): each play operator's output less ``u``, one (T, m)
+    per width of ``widths`` ([] for None)."""
+    return [] if widths is None else [play(u, w) - u for w in widths]
+
+
 def _features(session: Recording, widths: np.ndarray | None) -> np.ndarray:
     u = session.inputs
-    parts = [u, _previous(u)]
-    if widths is not None:
-        parts += [play(u, w) - u for w in widths]
-    return np.hstack(parts)
+    return np.hstack([u, _previous(u)] + _play_state(u, widths))
 
 
 class _Ensemble:
@@ -428,8 +431,8 @@ class Sequence(Anchored, Intervals):
     def _inputs(self, s: Recording, base: np.ndarray) -> np.ndarray:
         u = s.inputs
         dt = np.concatenate([[np.median(np.diff(s.time))], np.diff(s.time)])
-        state = [] if self.widths is None else [play(u, w) - u for w in self.widths]
-        return np.hstack([u, u - _previous(u), np.log(dt)[:, None]] + state + ([base] if self.linear else []))
+        return np.hstack([u, u - _previous(u), np.log(dt)[:, None]] + _play_state(u, self.widths) +
+                         ([base] if self.linear else []))
 
     def fit(self, sessions) -> Sequence:
         """The model fitted on training sessions (a list of ``Recording``): in mode ``finetune``

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import SoftrnnInputError, bad, is_int
 from ..io.csv_table import ACTUATION_COLUMN, CellWords, parse_cells, read_csv_lines, shown, time_steps
+from ..io.schema import ACTUATION_UNITS
 
 TIME_COLUMNS = ("time", "timestamp")
 """Accepted names of the time column [s], first match wins."""
@@ -39,9 +40,9 @@ DEFAULT_INPUTS = ("act_*", "servo_*")
 """Input patterns tried in turn when none are given: the first that matches any column is used."""
 POSITION_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
 """Units the tip may be given in, with their factor to m."""
-_UNIT_SUFFIX = re.compile(r"_(mm|m|deg|rad|n|a|ma|v|kpa|pa)$", re.IGNORECASE)
-_SUFFIX_UNITS = {"mm": "mm", "m": "m", "deg": "deg", "rad": "rad", "n": "N", "a": "A", "ma": "mA", "v": "V",
-                 "kpa": "kPa", "pa": "Pa"}
+_SUFFIXES = ("mm", "m", "deg", "rad", "n", "a", "ma", "v", "kpa", "pa")
+_UNIT_SUFFIX = re.compile(r"_(" + "|".join(_SUFFIXES) + r")$", re.IGNORECASE)
+_SUFFIX_UNITS = {u.lower(): u for u in ACTUATION_UNITS if u.lower() in _SUFFIXES}
 """A unit suffix of a column name (``servo_1_mm``, ``chamber_a_kpa``), in any case, as the unit is spelled
 (``io.schema.ACTUATION_UNITS``)."""
 _NODE = re.compile(r"^n(0|[1-9][0-9]*)_([xyz])$")
