@@ -39,6 +39,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..errors import integer
 from .families import (
     PLAY_WIDTHS,
     Anchored,
@@ -66,20 +67,29 @@ physics there (an ungated residual, d0 = inf, can still be built by hand)."""
 @dataclass(frozen=True)
 class NetOptions:
     """The networks' size and training (``LearnedMap``, ``Hybrid``): an ensemble of two-layer tanh
-    MLPs, averaged, each trained full batch with AdamW."""
+    MLPs, averaged, each trained with AdamW on all its rows per step, or on a random draw of ``batch``
+    of them where it has more."""
 
     hidden: int = 64
     """Units in each of the two tanh layers."""
     members: int = 3
     """Networks in the ensemble."""
     steps: int = 1500
-    """Full-batch AdamW steps per network (and again for the fine-tuning on the real rows)."""
+    """AdamW steps per network (and again for the fine-tuning on the real rows)."""
+    batch: int = 2048
+    """Most rows per step: a recording of more rows (a dynamic arm at 20 Hz: 15,000) takes a random draw
+    of this many at each step, a step then costs what it costs on this many rows, and the steps together
+    still see every row many times over (1,500 x 2,048 rows); fewer rows are taken whole."""
     lr: float = 3e-3
     """Learning rate."""
     weight_decay: float = 0.1
     """AdamW's weight decay."""
     seed: int = 0
     """Seed of member m: seed * 1000 + m."""
+
+    def __post_init__(self):
+        for name in ("hidden", "members", "steps", "batch"):
+            integer(name, getattr(self, name), 1)
 
 
 def _play_state(u: np.ndarray, widths) -> list:
@@ -103,9 +113,9 @@ class _Ensemble:
     def fit(self, X: np.ndarray, Y: np.ndarray, pool: tuple | None = None, weight: float = 0.0,
             batch: int | None = None, warm: bool = False) -> _Ensemble:
         """Train the members on features ``X`` (M, F) and targets ``Y`` (M, D), each step on a random
-        ``batch`` of their rows (None: all), plus ``weight`` times the loss on a random batch of
-        the rows of ``pool`` (Xp, Yp) as large; ``warm``: continue training the members (and keep the
-        scaling) from an earlier ``fit``. Returns itself."""
+        ``batch`` of their rows (None: all), at most the options' ``batch``, plus ``weight`` times the loss
+        on a random batch of the rows of ``pool`` (Xp, Yp) as large; ``warm``: continue training the
+        members (and keep the scaling) from an earlier ``fit``. Returns itself."""
         import torch  # optional extra: learn (PyTorch)
 
         o = self.options
@@ -122,7 +132,7 @@ class _Ensemble:
                         torch.nn.Tanh(), torch.nn.Linear(o.hidden, Y.shape[1])))
             x, y = self._tensors(X, Y)
             xp, yp = self._tensors(*pool) if pool is not None else (None, None)
-            size = min(batch or len(X), len(X))
+            size = min(batch or len(X), o.batch, len(X))
             draw = torch.Generator().manual_seed(o.seed)
             for net in self.members:
                 opt = torch.optim.AdamW(net.parameters(), lr=o.lr, weight_decay=o.weight_decay)
@@ -131,7 +141,7 @@ class _Ensemble:
                     rows = torch.randint(len(X), (size,), generator=draw) if size < len(X) else slice(None)
                     loss = torch.mean((net(x[rows]) - y[rows]) ** 2)
                     if xp is not None:
-                        k = torch.randint(len(xp), (min(len(X), len(xp)),), generator=draw)
+                        k = torch.randint(len(xp), (min(size, len(xp)),), generator=draw)
                         loss = loss + weight * torch.mean((net(xp[k]) - yp[k]) ** 2)
                     loss.backward()
                     opt.step()
