@@ -260,6 +260,11 @@ def test_learned_families_say_their_mode_and_interval(report):
         assert "synthetic_data" not in details[name]
     assert {"hysteresis=False,mode=real", "hysteresis=True,mode=real"} <= set(details["learned_map"]["holdout_rmse_mm"])
     assert any("mode=mixed" in k for k in details["learned_map"]["holdout_rmse_mm"])
+    # the dense candidate: mixed on 4x the synthetic rows, its amount in the description where it wins
+    for name in ("learned_map", "hybrid"):
+        assert any(",mode=mixed,synthetic=x4" in k for k in details[name]["holdout_rmse_mm"])
+        if details[name]["mode"] == "mixed":
+            assert details[name]["synthetic"]["amount_x_real_rows"] in (5.0, 20.0)
     gates = {k.rsplit("gate=", 1)[1] for k in details["hybrid"]["holdout_rmse_mm"]}
     assert gates == {"0.5", "1", "2", "4", "8"}            # always finite: the hybrid follows its physics far out
     sequence = set(details["sequence"]["holdout_rmse_mm"])
