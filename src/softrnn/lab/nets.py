@@ -654,9 +654,8 @@ def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
     """``Hybrid``: its hysteresis state and mode (``mixed``, ``DENSE_MODE`` with synthetic data) chosen on
     the hold-out part (``staged``), and its gate: each fit scored there with every gate width of ``GATES``."""
     return staged(lambda h, m, i: Hybrid(pair[i], h, options.nets, *_synthetic_mode(m, syn)),
-                  ("mixed", DENSE_MODE) if syn.on else (),
-                   train, held_score, lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES},
-                   name="hybrid")
+                  ("mixed", DENSE_MODE) if syn.on else (), train, held_score,
+                  lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES}, name="hybrid")
 
 
 def sequence_candidates(syn, hysteresis: bool | None = None) -> dict:
