@@ -132,6 +132,23 @@ def test_the_sequence_error_scale_is_its_distance_from_the_physics_plus_the_phys
     assert "error_scale" not in alone.describe()
 
 
+def test_a_sequence_over_the_physics_learns_what_it_leaves(two_segments):
+    """``on_physics``: the GRU adds to a physics that misses (its marker 8 mm off) and reads its tip. On the
+    unrecorded combinations (both segments at once) it leaves far less than that physics and than the GRU
+    alone, which never saw them; without a calibrated physics it refuses in one line."""
+    physics, train, test = two_segments
+    crude = Physics(physics.robot, calibration=replace(
+        physics.calibration, params=replace(physics.calibration.params, marker=8e-3)))
+    options = SequenceOptions(epochs=60, hidden=16)
+    over = Sequence(options, physics=crude, on_physics=True).fit([train])
+    alone = Sequence(options).fit([train])
+    assert _rmse_mm(over, test) < 0.5 * _rmse_mm(crude, test) and _rmse_mm(over, test) < 0.5 * _rmse_mm(alone, test)
+    assert "over the calibrated physics' tip" in over.describe()["kind"]
+    assert np.allclose(over.refit([train]).predict(test), over.predict(test), atol=1e-6)   # real rows: fit again
+    with pytest.raises(SoftrnnInputError, match="on_physics=True is invalid: a calibrated physics"):
+        Sequence(options, on_physics=True).fit([train])
+
+
 def test_an_early_sequence_candidate_is_calibrated_with_the_scale_of_its_final_fit(two_segments):
     """The candidate of mode ``real`` fitted before the physics was calibrated (no physics, scale 1) is
     calibrated with the physics' scale, as the final model (fitted with the physics) states it: its q is

@@ -116,12 +116,15 @@ def test_refit_keeps_the_base_order_and_is_deterministic(swing_models):
 
 def test_sequence_candidates_simplest_first():
     """The hold-out tries the GRU without and with the hysteresis state first, then, with the state it
-    chose, over the linear base and pretrained where there is synthetic data."""
+    chose, over the linear base, pretrained where there is synthetic data, and over the physics' tip
+    where there is a calibrated physics."""
     assert sequence_candidates(SyntheticOptions(amount=0.0)) == {
-        "hysteresis=False,mode=real": (False, "real", False), "hysteresis=True,mode=real": (True, "real", False)}
+        "hysteresis=False,mode=real": (False, "real", None), "hysteresis=True,mode=real": (True, "real", None)}
     assert list(sequence_candidates(SyntheticOptions(amount=0.0), True)) == ["hysteresis=True,mode=real,linear"]
     pretrained = sequence_candidates(SyntheticOptions(), False)
-    assert pretrained["hysteresis=False,mode=finetune"] == (False, "finetune", False)
+    assert pretrained["hysteresis=False,mode=finetune"] == (False, "finetune", None)
+    assert list(sequence_candidates(SyntheticOptions(), True, physics=True)) == [
+        "hysteresis=True,mode=real,linear", "hysteresis=True,mode=finetune", "hysteresis=True,mode=real,physics"]
 
 
 def _backlash_session(seed: int, rows: int = 500) -> Recording:

@@ -11,7 +11,8 @@ recordings do not reach.
   hysteresis), and optionally the hysteresis state of the map; it runs free from a zero state. With
   ``linear``, it learns what a linear ARX model of the commands, run free from rest, leaves: the
   robot's linear dynamics (a lightly damped swing, a slow settling) from the linear model, fitted by
-  least squares on every row, and the nonlinear rest from the GRU.
+  least squares on every row, and the nonlinear rest from the GRU. With ``on_physics``, it learns what
+  the calibrated physics leaves, the physics' tip its base in the same way.
 
 Physics-pretrained learning (``mode``): with a fitted ``physics`` (``families.Physics``) and
 ``SyntheticOptions``, a family draws synthetic sessions from the physics (``synthetic_sessions``) and
@@ -40,7 +41,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import integer
+from ..errors import bad, integer
 from .families import (
     PLAY_WIDTHS,
     Anchored,
@@ -400,7 +401,8 @@ class Sequence(Anchored, Intervals):
     of the commands alone, run free from a zero state; ``mode`` ``real`` or ``finetune`` (pretrained on
     the physics' synthetic sessions, module docstring). With
     ``linear``, the tip is a linear model's free run from rest (``base``, ``linear_base``) plus the GRU's
-    output, the base's tip one more of the GRU's inputs. With a fitted ``physics``, its error scale is
+    output, the base's tip one more of the GRU's inputs; with ``on_physics``, the same over the fitted
+    ``physics``' tip (the GRU learns what the physics leaves). With a fitted ``physics``, its error scale is
     its distance from the physics' tip plus the physics' RMS error over the training rows
     (``error_scale``)."""
 
@@ -423,6 +425,9 @@ class Sequence(Anchored, Intervals):
     """The physics' RMS tip error [m] over the training rows (``error_scale``; None without a fitted physics)."""
     linear: bool = False
     """Whether the GRU learns what a linear model of the commands leaves (``base``)."""
+    on_physics: bool = False
+    """Whether the GRU learns what the fitted ``physics`` leaves: its tip is the base, as a linear model's
+    is with ``linear``."""
     hysteresis: bool = False
     """Whether the GRU also reads the hysteresis state (play operators of each input, ``widths``): friction's
     path dependence, which a GRU learns poorly from the commands alone."""
@@ -436,14 +441,16 @@ class Sequence(Anchored, Intervals):
     """The hold-out scores of the base's orders {candidate: tip RMSE [mm]} (``linear_base``)."""
 
     def _base(self, s: Recording) -> np.ndarray:
-        """(T, 3) [m] the linear base's tip over ``s`` (zeros without one)."""
+        """(T, 3) [m] the base's tip over ``s``: the physics' (``on_physics``), the linear base's, or zeros."""
+        if self.on_physics:
+            return self.physics.predict(s)
         return np.zeros((s.n_rows, 3)) if self.base is None else self.base.predict(s)
 
     def _inputs(self, s: Recording, base: np.ndarray) -> np.ndarray:
         u = s.inputs
         dt = np.concatenate([[np.median(np.diff(s.time))], np.diff(s.time)])
         return np.hstack([u, u - _previous(u), np.log(dt)[:, None]] + _play_state(u, self.widths) +
-                         ([base] if self.linear else []))
+                         ([base] if self.linear or self.on_physics else []))
 
     def fit(self, sessions) -> Sequence:
         """The model fitted on training sessions (a list of ``Recording``): in mode ``finetune``
@@ -452,6 +459,8 @@ class Sequence(Anchored, Intervals):
         import torch  # optional extra: learn (PyTorch)
 
         sessions = list(sessions)
+        if self.on_physics and getattr(self.physics, "calibration", None) is None:
+            raise bad("on_physics", True, "a calibrated physics to learn what it leaves (Physics fitted), or False")
         syn = taught_sessions(self, sessions, ("real", "finetune"))
         model = replace(self._with_base(sessions), widths=_widths(sessions, self.hysteresis))
         torch.manual_seed(self.options.seed)
@@ -520,7 +529,8 @@ class Sequence(Anchored, Intervals):
         """What the model is and its options, JSON-ready."""
         out = {"kind": "GRU of the commands and intervals" +
                        (" and a hysteresis state (play operators)" if self.hysteresis else "") +
-                       (", over a linear ARX model's free run from rest" if self.linear else ""),
+                       (", over a linear ARX model's free run from rest" if self.linear else "") +
+                       (", over the calibrated physics' tip" if self.on_physics else ""),
                **{k: v for k, v in vars(self.options).items()}, **_pretraining(self)}
         if self.base is not None:
             out |= {"linear_order": self.base.na, "linear_holdout_rmse_mm": {
@@ -614,8 +624,8 @@ def early_candidates(name: str, train, syn, options) -> dict:
     of its own, which the workers take while the physics calibrates; {} for a family without any."""
     fit_part = holdout_split(train)[0]
     if name == "sequence":
-        return {label: Sequence(options.sequence, mode, syn, hysteresis=h, linear=linear).fit(fit_part)
-                for label, (h, mode, linear) in sequence_candidates(syn).items()}
+        return {label: _sequence(options, mode, syn, None, h, base).fit(fit_part)
+                for label, (h, mode, base) in sequence_candidates(syn).items()}
     out = {}
     if name == "learned_map":
         for h in (False, True):
@@ -658,15 +668,24 @@ def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
                   lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES}, name="hybrid")
 
 
-def sequence_candidates(syn, hysteresis: bool | None = None) -> dict:
-    """The ``Sequence`` model's candidates {label: (hysteresis, mode, linear)}, simplest first, in two
+def sequence_candidates(syn, hysteresis: bool | None = None, physics: bool = False) -> dict:
+    """The ``Sequence`` model's candidates {label: (hysteresis, mode, base)}, simplest first, in two
     stages: (``hysteresis`` None) the GRU on the real rows without and with the hysteresis state; then,
-    with the state the first stage chose, the GRU over a linear base (``linear``) and, where there are
-    synthetic sessions (``syn``), the GRU pretrained on them (mode ``finetune``)."""
+    with the state the first stage chose, the GRU over a linear base (base ``linear``), where there are
+    synthetic sessions (``syn``) the GRU pretrained on them (mode ``finetune``), and where there is a
+    calibrated ``physics`` the GRU over its tip (base ``physics``, ``Sequence.on_physics``); base None:
+    the GRU alone."""
     if hysteresis is None:
-        return {candidate("real", h): (h, "real", False) for h in (False, True)}
-    out = {candidate("real", hysteresis) + ",linear": (hysteresis, "real", True)}
-    return out | ({candidate("finetune", hysteresis): (hysteresis, "finetune", False)} if syn.on else {})
+        return {candidate("real", h): (h, "real", None) for h in (False, True)}
+    out = {candidate("real", hysteresis) + ",linear": (hysteresis, "real", "linear")}
+    out |= {candidate("finetune", hysteresis): (hysteresis, "finetune", None)} if syn.on else {}
+    return out | ({candidate("real", hysteresis) + ",physics": (hysteresis, "real", "physics")} if physics else {})
+
+
+def _sequence(options, mode, syn, physics, h, base) -> Sequence:
+    """The ``Sequence`` family of a candidate (``sequence_candidates``: ``h``, ``mode``, ``base``)."""
+    return Sequence(options.sequence, mode, syn, physics, hysteresis=h, linear=base == "linear",
+                    on_physics=base == "physics")
 
 
 def fit_sequence(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
@@ -678,17 +697,17 @@ def fit_sequence(train, pair, syn, options, held_score, early: dict | None = Non
     fitted, scores, options_of = dict(early or {}), {}, {}
 
     def attempt(candidates):
-        for label, (h, mode, linear) in candidates.items():
+        for label, (h, mode, base) in candidates.items():
             if label not in fitted:
-                family = Sequence(options.sequence, mode, syn, pair[0], hysteresis=h, linear=linear)
-                fitted[label] = family.fit(fit_part)
-            scores[label], options_of[label] = held_score(fitted[label]), (h, mode, linear)
+                fitted[label] = _sequence(options, mode, syn, pair[0], h, base).fit(fit_part)
+            scores[label], options_of[label] = held_score(fitted[label]), (h, mode, base)
     attempt(sequence_candidates(syn))
-    attempt(sequence_candidates(syn, options_of[parsimonious(scores, held_rows(held))][0]))
+    calibrated = all(p is not None and getattr(p, "calibration", None) is not None for p in pair)
+    attempt(sequence_candidates(syn, options_of[parsimonious(scores, held_rows(held))][0], calibrated))
     best = parsimonious(scores, held_rows(held))
     interval = calibrate(fitted[best].anchored(pair[0], fit_part), fit_part, held)
-    h, mode, linear = options_of[best]
-    final = Sequence(options.sequence, mode, syn, pair[1], hysteresis=h, linear=linear).fit(train)
+    h, mode, base = options_of[best]
+    final = _sequence(options, mode, syn, pair[1], h, base).fit(train)
     return replace(final, **interval), scores
 
 
