@@ -690,8 +690,9 @@ def _sequence(options, mode, syn, physics, h, base) -> Sequence:
 
 def fit_sequence(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
     """``Sequence``: its hysteresis state chosen on the hold-out part first (on the real rows), then with
-    that state alone, over a linear base, or pretrained on the synthetic sessions, as the hold-out part
-    prefers (``sequence_candidates``); its interval calibrated on the hold-out split. ``early``:
+    that state alone, over a linear base, pretrained on the synthetic sessions, or over the calibrated
+    physics' tip (where ``pair`` holds calibrated physics), as the hold-out part prefers
+    (``sequence_candidates``); its interval calibrated on the hold-out split. ``early``:
     candidates fitted already ({label: model}, ``early_candidates``)."""
     fit_part, held = holdout_split(train)
     fitted, scores, options_of = dict(early or {}), {}, {}
