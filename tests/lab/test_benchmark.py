@@ -268,9 +268,9 @@ def test_learned_families_say_their_mode_and_interval(report):
     gates = {k.rsplit("gate=", 1)[1] for k in details["hybrid"]["holdout_rmse_mm"]}
     assert gates == {"0.5", "1", "2", "4", "8"}            # always finite: the hybrid follows its physics far out
     sequence = set(details["sequence"]["holdout_rmse_mm"])
-    assert {"hysteresis=False,mode=real", "hysteresis=True,mode=real"} < sequence and len(sequence) == 5
-    assert {k.split(",", 1)[1] for k in sequence} == {"mode=real", "mode=real,linear", "mode=finetune",
-                                                      "mode=real,physics"}
+    assert {"hysteresis=False,mode=real", "hysteresis=True,mode=real"} < sequence and len(sequence) == 9
+    assert {k.split(",", 1)[1] for k in sequence} == {"mode=real", "mode=real,linear", "mode=finetune"} | {
+        f"mode=real,physics,gate={g}" for g in ("0.5", "1", "2", "4", "8")}
     assert details["physics"]["interval_90_q"] > 0 and "jackknife" in details["physics"]["error_scale"]
     hybrid = details["hybrid"]["holdout_rmse_mm"]
     assert report["chosen_on_training"]["holdout_rmse_mm"]["hybrid"] == min(hybrid.values())

@@ -135,7 +135,8 @@ def test_the_sequence_error_scale_is_its_distance_from_the_physics_plus_the_phys
 def test_a_sequence_over_the_physics_learns_what_it_leaves(two_segments):
     """``on_physics``: the GRU adds to a physics that misses (its marker 8 mm off) and reads its tip. On the
     unrecorded combinations (both segments at once) it leaves far less than that physics and than the GRU
-    alone, which never saw them; without a calibrated physics it refuses in one line."""
+    alone, which never saw them; gated (``gate``), it is its physics far from the data and itself on them;
+    without a calibrated physics it refuses in one line."""
     physics, train, test = two_segments
     crude = Physics(physics.robot, calibration=replace(
         physics.calibration, params=replace(physics.calibration.params, marker=8e-3)))
@@ -145,6 +146,11 @@ def test_a_sequence_over_the_physics_learns_what_it_leaves(two_segments):
     assert _rmse_mm(over, test) < 0.5 * _rmse_mm(crude, test) and _rmse_mm(over, test) < 0.5 * _rmse_mm(alone, test)
     assert "over the calibrated physics' tip" in over.describe()["kind"]
     assert np.allclose(over.refit([train]).predict(test), over.predict(test), atol=1e-6)   # real rows: fit again
+    gated = replace(over, gate=0.5)                    # the hybrid's gate: its physics away from the data
+    far = _session(physics, train.inputs + 6.0, 2)
+    np.testing.assert_array_equal(gated.predict(far), crude.predict(far))
+    np.testing.assert_allclose(gated.predict(train), over.predict(train), rtol=0, atol=1e-12)
+    assert "gated off away from the training data" in gated.describe()["kind"]
     with pytest.raises(SoftrnnInputError, match="on_physics=True is invalid: a calibrated physics"):
         Sequence(options, on_physics=True).fit([train])
 

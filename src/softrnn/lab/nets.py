@@ -94,6 +94,16 @@ class NetOptions:
             integer(name, getattr(self, name), 1)
 
 
+def gate_weights(reach: InputDistance, gate: float, session: Recording) -> np.ndarray:
+    """(T,) a learned residual's weight w = exp(-(d / ``gate``)^2) in [0, 1] per row of ``session``, d the
+    distance of its standardised inputs from the nearest training row (``reach``): 1 on a training row,
+    falling to 0 away from them; 1 everywhere where ``gate`` is inf."""
+    if math.isinf(gate):
+        return np.ones(session.n_rows)
+    with np.errstate(under="ignore"):                 # far out: w = 0
+        return np.exp(-(reach(session) / gate) ** 2)
+
+
 def _play_state(u: np.ndarray, widths) -> list:
     """The hysteresis state of the inputs ``u`` (T, m): each play operator's output less ``u``, one (T, m)
     per width of ``widths`` ([] for None)."""
@@ -315,10 +325,7 @@ class Hybrid(Intervals):
 
     def weights(self, session: Recording) -> np.ndarray:
         """(T,) the residual's weight w in [0, 1] per row: 1 on a training row, falling to 0 away from them."""
-        if math.isinf(self.gate):
-            return np.ones(session.n_rows)
-        with np.errstate(under="ignore"):                 # far out: w = 0
-            return np.exp(-(self.reach(session) / self.gate) ** 2)
+        return gate_weights(self.reach, self.gate, session)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
@@ -428,6 +435,9 @@ class Sequence(Anchored, Intervals):
     on_physics: bool = False
     """Whether the GRU learns what the fitted ``physics`` leaves: its tip is the base, as a linear model's
     is with ``linear``."""
+    gate: float = math.inf
+    """With ``on_physics``: the GRU's part weighs w = exp(-(d / gate)^2) per row (``gate_weights``, the
+    hybrid's gate), so that away from the training rows the model is its physics; inf: not gated."""
     hysteresis: bool = False
     """Whether the GRU also reads the hysteresis state (play operators of each input, ``widths``): friction's
     path dependence, which a GRU learns poorly from the commands alone."""
@@ -523,6 +533,8 @@ class Sequence(Anchored, Intervals):
         with torch.no_grad(), _serial():
             out, _ = gru(torch.tensor((self._inputs(session, base) - self.mu) / self.sd, dtype=torch.float32)[None])
             y = head(out)[0].numpy().astype(float) * self.scale
+        if self.on_physics:
+            return base + gate_weights(self.reach, self.gate, session)[:, None] * (y + self.offset)
         return y + self.offset + base
 
     def describe(self) -> dict:
@@ -530,7 +542,8 @@ class Sequence(Anchored, Intervals):
         out = {"kind": "GRU of the commands and intervals" +
                        (" and a hysteresis state (play operators)" if self.hysteresis else "") +
                        (", over a linear ARX model's free run from rest" if self.linear else "") +
-                       (", over the calibrated physics' tip" if self.on_physics else ""),
+                       (", over the calibrated physics' tip" if self.on_physics else "") +
+                       (", gated off away from the training data" if not math.isinf(self.gate) else ""),
                **{k: v for k, v in vars(self.options).items()}, **_pretraining(self)}
         if self.base is not None:
             out |= {"linear_order": self.base.na, "linear_holdout_rmse_mm": {
@@ -701,14 +714,19 @@ def fit_sequence(train, pair, syn, options, held_score, early: dict | None = Non
         for label, (h, mode, base) in candidates.items():
             if label not in fitted:
                 fitted[label] = _sequence(options, mode, syn, pair[0], h, base).fit(fit_part)
-            scores[label], options_of[label] = held_score(fitted[label]), (h, mode, base)
+            # over the physics, the GRU's part is gated as the hybrid's residual (GATES, no refit)
+            gates = GATES if base == "physics" else (math.inf,)
+            for g in gates:
+                key = label + (f",gate={g:g}" if base == "physics" else "")
+                fitted[key] = replace(fitted[label], gate=g)
+                scores[key], options_of[key] = held_score(fitted[key]), (h, mode, base, g)
     attempt(sequence_candidates(syn))
     calibrated = all(p is not None and getattr(p, "calibration", None) is not None for p in pair)
     attempt(sequence_candidates(syn, options_of[parsimonious(scores, held_rows(held))][0], calibrated))
     best = parsimonious(scores, held_rows(held))
     interval = calibrate(fitted[best].anchored(pair[0], fit_part), fit_part, held)
-    h, mode, base = options_of[best]
-    final = _sequence(options, mode, syn, pair[1], h, base).fit(train)
+    h, mode, base, gate = options_of[best]
+    final = replace(_sequence(options, mode, syn, pair[1], h, base).fit(train), gate=gate)
     return replace(final, **interval), scores
 
 
