@@ -150,7 +150,7 @@ def test_a_sequence_over_the_physics_learns_what_it_leaves(two_segments):
     far = _session(physics, train.inputs + 6.0, 2)
     np.testing.assert_array_equal(gated.predict(far), crude.predict(far))
     np.testing.assert_allclose(gated.predict(train), over.predict(train), rtol=0, atol=1e-12)
-    assert "gated off away from the training data" in gated.describe()["kind"]
+    assert "gated off away from the training data" in gated.describe()["kind"] and gated.describe()["gate_d0"] == 0.5
     with pytest.raises(SoftrnnInputError, match="on_physics=True is invalid: a calibrated physics"):
         Sequence(options, on_physics=True).fit([train])
 

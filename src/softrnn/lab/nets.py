@@ -545,6 +545,8 @@ class Sequence(Anchored, Intervals):
                        (", over the calibrated physics' tip" if self.on_physics else "") +
                        (", gated off away from the training data" if not math.isinf(self.gate) else ""),
                **{k: v for k, v in vars(self.options).items()}, **_pretraining(self)}
+        if self.on_physics:
+            out["gate_d0"] = None if math.isinf(self.gate) else self.gate
         if self.base is not None:
             out |= {"linear_order": self.base.na, "linear_holdout_rmse_mm": {
                 k: round(v, 4) if math.isfinite(v) else None for k, v in self.base_scores.items()}}
