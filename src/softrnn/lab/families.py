@@ -490,6 +490,11 @@ def rms_error(model, sessions) -> float:
     return float(np.sqrt(np.mean(finite ** 2))) if finite.size else math.inf
 
 
+def calibrated(physics) -> bool:
+    """Whether ``physics`` is a fitted ``Physics`` (not None, its calibration done)."""
+    return getattr(physics, "calibration", None) is not None
+
+
 class Anchored:
     """What a learned model anchored on a physics shares (``Sequence``, ``NodeFamily``): its fields
     ``physics`` (a fitted ``Physics``, or None) and ``physics_rms`` (the physics' RMS tip error [m] over
@@ -499,8 +504,7 @@ class Anchored:
         """The fitted model with ``physics`` (fitted, or None) as its error scale's (``error_scale``), its
         RMS error taken over ``sessions``, the rows the model was fitted on; also a candidate fitted
         before the physics was calibrated, so that it states the scale its final fit has."""
-        fitted = physics is not None and getattr(physics, "calibration", None) is not None
-        return replace(self, physics=physics, physics_rms=rms_error(physics, sessions) if fitted else None)
+        return replace(self, physics=physics, physics_rms=rms_error(physics, sessions) if calibrated(physics) else None)
 
     def error_scale(self, session: Recording) -> np.ndarray:
         """(T,) [m] the scale of its error per row: |tip - the physics' tip| + the physics' RMS error over

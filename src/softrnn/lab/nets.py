@@ -49,6 +49,7 @@ from .families import (
     NodeFamily,
     Physics,
     _previous,
+    calibrated,
     choose,
     held_rows,
     holdout_split,
@@ -469,7 +470,7 @@ class Sequence(Anchored, Intervals):
         import torch  # optional extra: learn (PyTorch)
 
         sessions = list(sessions)
-        if self.on_physics and getattr(self.physics, "calibration", None) is None:
+        if self.on_physics and not calibrated(self.physics):
             raise bad("on_physics", True, "a calibrated physics to learn what it leaves (Physics fitted), or False")
         syn = taught_sessions(self, sessions, ("real", "finetune"))
         model = replace(self._with_base(sessions), widths=_widths(sessions, self.hysteresis))
@@ -543,7 +544,8 @@ class Sequence(Anchored, Intervals):
                        (" and a hysteresis state (play operators)" if self.hysteresis else "") +
                        (", over a linear ARX model's free run from rest" if self.linear else "") +
                        (", over the calibrated physics' tip" if self.on_physics else "") +
-                       (", gated off away from the training data" if not math.isinf(self.gate) else ""),
+                       (", gated off away from the training data" if self.on_physics and not math.isinf(self.gate)
+                        else ""),
                **{k: v for k, v in vars(self.options).items()}, **_pretraining(self)}
         if self.on_physics:
             out["gate_d0"] = None if math.isinf(self.gate) else self.gate
@@ -679,8 +681,13 @@ def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
     """``Hybrid``: its hysteresis state and mode (``mixed``, ``DENSE_MODE`` with synthetic data) chosen on
     the hold-out part (``staged``), and its gate: each fit scored there with every gate width of ``GATES``."""
     return staged(lambda h, m, i: Hybrid(pair[i], h, options.nets, *_synthetic_mode(m, syn)),
-                  ("mixed", DENSE_MODE) if syn.on else (), train, held_score,
-                  lambda model: {f",gate={g:g}": replace(model, gate=g) for g in GATES}, name="hybrid")
+                  ("mixed", DENSE_MODE) if syn.on else (), train, held_score, _gated, name="hybrid")
+
+
+def _gated(model) -> dict:
+    """{label suffix: ``model`` with that gate}: every gate width of ``GATES`` (the hybrid's residual, the
+    sequence model's GRU over the physics), scored on the hold-out without refitting."""
+    return {f",gate={g:g}": replace(model, gate=g) for g in GATES}
 
 
 def sequence_candidates(syn, hysteresis: bool | None = None, physics: bool = False) -> dict:
@@ -716,15 +723,13 @@ def fit_sequence(train, pair, syn, options, held_score, early: dict | None = Non
         for label, (h, mode, base) in candidates.items():
             if label not in fitted:
                 fitted[label] = _sequence(options, mode, syn, pair[0], h, base).fit(fit_part)
-            # over the physics, the GRU's part is gated as the hybrid's residual (GATES, no refit)
-            gates = GATES if base == "physics" else (math.inf,)
-            for g in gates:
-                key = label + (f",gate={g:g}" if base == "physics" else "")
-                fitted[key] = replace(fitted[label], gate=g)
-                scores[key], options_of[key] = held_score(fitted[key]), (h, mode, base, g)
+            # over the physics, the GRU's part is gated as the hybrid's residual (no refit)
+            for suffix, model in (_gated(fitted[label]) if base == "physics" else {"": fitted[label]}).items():
+                fitted[label + suffix] = model
+                scores[label + suffix], options_of[label + suffix] = held_score(model), (h, mode, base, model.gate)
     attempt(sequence_candidates(syn))
-    calibrated = all(p is not None and getattr(p, "calibration", None) is not None for p in pair)
-    attempt(sequence_candidates(syn, options_of[parsimonious(scores, held_rows(held))][0], calibrated))
+    attempt(sequence_candidates(syn, options_of[parsimonious(scores, held_rows(held))][0],
+                                all(calibrated(p) for p in pair)))
     best = parsimonious(scores, held_rows(held))
     interval = calibrate(fitted[best].anchored(pair[0], fit_part), fit_part, held)
     h, mode, base, gate = options_of[best]
