@@ -85,6 +85,21 @@ def test_calibrate_with_creep(folder, tmp_path):
     assert robot["validation"]["tip_rmse_mm"] < 0.5
 
 
+def test_calibrate_with_the_turn_with_creep(folder, tmp_path, capsys):
+    """``--creep --twist``: the creeping physics that also turns about its axis as it creeps, the turn fitted
+    and named; ``--twist`` alone is refused in one line, nothing written."""
+    out = tmp_path / "robot.json"
+    args = ["lab", "calibrate", str(folder / "train.csv"), "--length", "0.08", "--lag", "0", "-o", str(out), "--quiet"]
+    assert run_cli([*args, "--creep", "--twist"]) == 0
+    robot = json.loads(out.read_text())
+    assert robot["variant"] == "creep+twist" and "turn with its creep" in robot["model"]
+    assert "creep_turn_deg_per_mm" in robot["parameters"]
+    out.unlink()
+    code, err = _bad([*args, "--twist"], capsys)
+    assert code == 2 and err.count("\n") == 0 and "--twist=True is invalid: give --creep with it" in err
+    assert not out.exists()
+
+
 def _bad(args, capsys):
     code = run_cli(args)
     err = capsys.readouterr().err.strip()

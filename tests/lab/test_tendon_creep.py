@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from softrnn.errors import SoftrnnInputError
 from softrnn.lab.families import Physics, displacements, masked
@@ -201,3 +202,48 @@ def test_a_rigid_segment_refits_from_where_it_is():
     cal = calibrate(robot, np.hstack([q, q]), tip, CalibrationOptions(), start=rigid)
     assert cal.rmse_m < 1e-9
 
+
+
+def test_the_turn_with_creep_is_the_creeping_tip_turned_about_the_base_axis():
+    """With a turn chi, each row's tip is the creeping model's tip turned about the base's axis (through
+    the base) by chi x the slack that row saw: the distance from the axis and the height along it stay,
+    the angle about it grows by chi s; chi = 0 is the creeping model."""
+    rng = np.random.default_rng(7)
+    robot, params = _robot(2, creep=5e-3, offsets=rng.uniform(-1e-3, 0.5e-3, 6))
+    q = rng.uniform(-2e-3, 4e-3, (40, 6))
+    times = np.cumsum(rng.uniform(0.2, 3.0, 40))
+    tip, _, _, _, slack = solve_rows(robot, params, q, times=times, slack=2e-4)
+    chi = 0.5 / 1e-3                                             # half a radian per mm of slack
+    turned = solve_rows(robot, dataclasses.replace(params, twist=chi), q, times=times, slack=2e-4)[0]
+    Rb = Rotation.from_rotvec(params.rotation).as_matrix()
+    a, b = (tip - params.base) @ Rb, (turned - params.base) @ Rb   # in the base frame
+    np.testing.assert_allclose(np.hypot(b[:, 0], b[:, 1]), np.hypot(a[:, 0], a[:, 1]), rtol=1e-12)
+    np.testing.assert_allclose(b[:, 2], a[:, 2], atol=1e-15)
+    angle = np.angle(np.exp(1j * (np.arctan2(b[:, 1], b[:, 0]) - np.arctan2(a[:, 1], a[:, 0]))))
+    np.testing.assert_allclose(angle, chi * slack, atol=1e-9)
+    assert angle.max() > 0.1
+    still = solve_rows(robot, dataclasses.replace(params, twist=0.0), q, times=times, slack=2e-4)[0]
+    np.testing.assert_allclose(still, tip, atol=1e-15)
+
+
+def test_calibration_recovers_a_known_turn_with_creep():
+    """Noise-free poses of a robot that turns as it creeps: the fit from a start without the turn recovers
+    it and the creep rate; the parameters round-trip with it."""
+    robot, truth = _robot(creep=3e-3, offsets=np.array([-0.5e-3, -0.4e-3, -0.6e-3]))
+    truth = dataclasses.replace(truth, twist=0.2 / 1e-3)
+    q, times = _pulls(240, 1)
+    rec = _recording(robot, truth, q, times)
+    physics = Physics(robot, CalibrationOptions(creep=True, twist=True, variant_evaluations=300),
+                      start=dataclasses.replace(truth, twist=None)).fit([rec])
+    assert physics.calibration.params.twist == pytest.approx(0.2 / 1e-3, rel=0.02)
+    assert physics.calibration.params.creep == pytest.approx(3e-3, rel=0.02)
+    assert physics.calibration.rmse_m < 1e-6
+    assert "turn with its creep" in physics.calibration.to_dict()["model"]
+    back = TendonParameters.from_dict(truth.to_dict(robot))
+    assert back.twist == pytest.approx(truth.twist)
+
+
+def test_a_turn_without_creep_is_refused():
+    with pytest.raises(SoftrnnInputError, match="twist=True is invalid: twist=True with creep=True"):
+        CalibrationOptions(twist=True)
+    assert CalibrationOptions(creep=True, twist=True).variant == "creep+twist"

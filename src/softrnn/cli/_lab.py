@@ -105,6 +105,9 @@ def add_args(p):
     c.add_argument("--creep", action="store_true",
                    help="add the tendons' creep (every tendon's slack grows under load over the rows' times), its "
                         "rate fitted (default: without)")
+    c.add_argument("--twist", action="store_true",
+                   help="with --creep: the robot also turns about its axis as its tendons creep, the turn per mm of "
+                        "creep slack fitted (default: without)")
     _recording_args(c)
     c.set_defaults(lab_run=_calibrate)
 
@@ -355,11 +358,10 @@ def format_benchmark(r: dict) -> str:
 
 
 def _calibrate(args) -> int:
-    from ..lab.benchmark import check_pulls, robot_for, settle_lag
+    from ..lab.benchmark import TipScore, check_pulls, robot_for, settle_lag
     from ..lab.families import displacements
     from ..lab.recording import shift_inputs
     from ..lab.tendon_robot import calibrate, session_resets
-    from ..learned.metrics import tip_errors
     from ..learned.threads import one_blas_thread
 
     prepare_output(args.output, "-o", overwrite=args.overwrite)
@@ -379,8 +381,10 @@ def _calibrate(args) -> int:
         raise bad("--segments", args.segments, f"segments whose tendons ({robot.n_tendons}) match the "
                                                f"{train[0].n_inputs} input columns")
     check_pulls(robot, recordings)
+    if args.twist and not args.creep:
+        raise bad("--twist", True, "give --creep with it: the robot turns as its tendons creep")
     physics = dataclasses.replace(options.calibration, gravity=args.gravity, friction=args.friction, play=args.play,
-                                  creep=args.creep)
+                                  creep=args.creep, twist=args.twist)
     # BLAS on one thread, as in the benchmark's workers: the same calibration on every machine
     with Bar("lab calibrate", unit="start", enabled=not args.quiet) as bar, one_blas_thread():
         cal = calibrate(robot, np.vstack([displacements(r) for r in train]), np.vstack([r.tip for r in train]),
@@ -389,9 +393,8 @@ def _calibrate(args) -> int:
     report = {**cal.to_dict(), "variant": physics.variant, "lag_rows": lag, "sessions": [r.path for r in train]}
     if args.validate:
         v = recordings[-1]
-        err = tip_errors(cal.predict(displacements(v), times=v.time), v.tip).tip_summary()
-        report["validation"] = {"path": v.path, **{k: round(x, 4) for k, x in err.items()},
-                                "tip_rmse_pct_of_length": round(err["tip_rmse_mm"] / (args.length * 1e3) * 100, 4)}
+        score = TipScore.of(cal.predict(displacements(v), times=v.time), v.tip, args.length, labels=v.labels)
+        report["validation"] = {"path": v.path, **score.to_dict()}
     atomic_write_text(args.output, json.dumps(report, indent=2) + "\n")
     print(f"lab calibrate: tip RMSE on the fitted rows {cal.rmse_m * 1e3:.2f} mm ({cal.seconds:.0f} s)")
     if args.validate:

@@ -81,7 +81,8 @@ DOMAIN = {
                       "--position-unit", "--lag", "--segments", "--tendons-per-segment", "--routing-radius",
                       "--suite", "--markdown", "--synthetic", "--scenario"),
     "lab calibrate": ("--validate", "--length", "--inputs", "--tip", "--position-unit", "--lag", "--segments",
-                      "--tendons-per-segment", "--routing-radius", "--gravity", "--friction", "--play", "--creep"),
+                      "--tendons-per-segment", "--routing-radius", "--gravity", "--friction", "--play", "--creep",
+                      "--twist"),
     "lab-example": ("--scenarios", "--duration", "--rate", "--noise"),
 }
 """Each command's own options beyond the vocabulary (the command as typed after ``softrnn``)."""

@@ -19,15 +19,16 @@ from ._pool import WorkerPool
 from .families import Physics, held_rows, masked, parsimonious
 from .tendon_robot import PHYSICS_OPTIONS, CalibrationOptions, TendonRobot
 
-VARIANTS = {"plain": (False, False, False, False), "gravity": (True, False, False, False),
-            "friction": (False, True, False, False), "creep": (False, False, False, True),
-            "gravity+friction": (True, True, False, False)}
-"""The physics variants tried by default, simplest first: {name: (gravity, friction, play, creep)}
+VARIANTS = {"plain": (False, False, False, False, False), "gravity": (True, False, False, False, False),
+            "friction": (False, True, False, False, False), "creep": (False, False, False, True, False),
+            "gravity+friction": (True, True, False, False, False)}
+"""The physics variants tried by default, simplest first: {name: (gravity, friction, play, creep, twist)}
 (``PHYSICS_OPTIONS``)."""
-MORE_VARIANTS = {"play": (False, False, True, False), "friction+play": (False, True, True, False),
-                 "friction+creep": (False, True, False, True)}
-"""Variants tried where asked for (``choose_physics``' ``variants``): the tendons' play, fitted to zero width
-on the shared robot's training session (its fit there worsens with any play), so not tried by default."""
+MORE_VARIANTS = {"play": (False, False, True, False, False), "friction+play": (False, True, True, False, False),
+                 "friction+creep": (False, True, False, True, False), "creep+twist": (False, False, False, True, True)}
+"""Variants tried where asked for (``choose_physics``' ``variants``), not by default: the tendons' play, fitted
+to zero width on the shared robot's training session (its fit there worsens with any play); the robot's turn
+with its creep, which does not carry forward along that session reliably (docs/guide/real-robots.md)."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -41,6 +41,10 @@ displacement. w = 0 is the model without play.
 The tendons' creep (an option): under load the tendons lengthen slowly (the cables' and their
 anchorages' creep), so every tendon's slack grows with time by the same s(t), at a rate gamma times
 the mean tension over the series stiffness (``tendon_kernels``' docstring); q above is then q - s.
+The robot's turn with its creep (an option, with creep): the robot turns about its own axis as the
+tendons creep, by an angle chi s (the creep slack s above): the torsional creep of the backbone and of
+the tendons' anchorages and mount under the same load, which a tendon's lengthening alone does not
+show. The tip is turned about the base's axis through the base before the base pose places it.
 Creep makes the model depend on the rows' times and on the whole history since the calibration's
 first row: ``Calibration`` keeps where the creep stood at each of its rows (``CreepTimeline``), so
 that a session recorded within them starts from the slack it had then, and any other from the slack
@@ -162,6 +166,8 @@ class TendonParameters:
     creep : float or None
         gamma [1/s], the creep rate: every tendon's slack grows at gamma times the mean tension over the
         series stiffness (``tendon_kernels``); None: no creep
+    twist : float or None
+        chi [rad/m], the robot's turn about its axis per metre of creep slack (with creep); None: no turn
     """
 
     angles: np.ndarray
@@ -175,12 +181,13 @@ class TendonParameters:
     friction: float | None = None
     play: float | None = None
     creep: float | None = None
+    twist: float | None = None
 
     @property
     def plain(self) -> bool:
         """True without gravity, friction and creep (the closed model of the module's docstring, after the
         play): the rows are independent."""
-        return self.gravity is None and self.friction is None and self.creep is None
+        return self.gravity is None and self.friction is None and self.creep is None and self.twist is None
 
     def to_dict(self, robot: TendonRobot) -> dict:
         """JSON-ready, in mm and degrees, with the stiffness ratio k r^2 L_s / EI_s per segment."""
@@ -200,6 +207,8 @@ class TendonParameters:
             extra["tendon_play_mm"] = round(float(self.play) * 1e3, 6)
         if self.creep is not None:
             extra["creep_rate_per_s"] = float(f"{self.creep:.6g}")
+        if self.twist is not None:
+            extra["creep_turn_deg_per_mm"] = round(math.degrees(self.twist) * 1e-3, 6)
         return {"tendon_angles_deg": np.degrees(wrapped).round(3).tolist(),
                 "tendon_offsets_mm": (self.offsets * 1e3).round(4).tolist(),
                 "routing_radius_mm": round(self.routing_radius * 1e3, 4),
@@ -221,7 +230,8 @@ class TendonParameters:
                             if "weight_over_series_stiffness" in d else None),
                    friction=d.get("routing_friction"),
                    play=d["tendon_play_mm"] * 1e-3 if "tendon_play_mm" in d else None,
-                   creep=d.get("creep_rate_per_s"))
+                   creep=d.get("creep_rate_per_s"),
+                   twist=math.radians(d["creep_turn_deg_per_mm"]) * 1e3 if "creep_turn_deg_per_mm" in d else None)
 
 
 # ------------------------------------------------------------------------------------------ physics
@@ -335,7 +345,15 @@ def solve_rows(robot: TendonRobot, params: TendonParameters, q: np.ndarray, rese
     session_solve(q, reset, robot.segment_of, np.asarray(robot.segment_lengths), np.asarray(params.compliance, float),
                   rho, np.asarray(params.offsets, float), float(params.friction or 0.0), gvec, float(params.marker),
                   rate, dt, float(slack), tips, tau, bend, passes, seen)
+    if params.twist is not None:
+        tips = _turned(tips, params.twist * seen)
     return tips @ _rotations(params.rotation).T + params.base, tau, bend, passes, seen
+
+
+def _turned(points: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """points (K, 3) [m] in the base frame turned about its axis (z) by ``angle`` (K,) [rad], row by row."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * points[:, 0] - s * points[:, 1], s * points[:, 0] + c * points[:, 1], points[:, 2]], axis=1)
 
 
 def row_intervals(times: np.ndarray, reset: np.ndarray) -> np.ndarray:
@@ -357,7 +375,7 @@ def session_resets(lengths) -> np.ndarray:
 
 
 # -------------------------------------------------------------------------------------- calibration
-PHYSICS_OPTIONS = ("gravity", "friction", "play", "creep")
+PHYSICS_OPTIONS = ("gravity", "friction", "play", "creep", "twist")
 """The parts ``CalibrationOptions`` adds to the plain model, each a bool, in the order of a variant's name."""
 
 
@@ -371,7 +389,8 @@ class CalibrationOptions(StartOptions):
     ``gravity`` and ``friction`` add the backbone's weight (its direction fitted) and friction
     along the routing (mu in 0..``friction_max``) to the model, ``play`` every tendon's play (one width w
     for all, 0..pi x the routing radius), ``creep`` the tendons' creep (its rate gamma in 0..``_CREEP_MAX``;
-    the rows' times needed): the plain model is calibrated first, then everything is refined from there
+    the rows' times needed), ``twist`` with creep the robot's turn about its axis as it creeps (chi in
+    +-``_TWIST_MAX``): the plain model is calibrated first, then everything is refined from there
     with them (``variant_evaluations``). All off (the default): the plain model alone."""
 
     screen_evaluations: int = 20
@@ -382,6 +401,7 @@ class CalibrationOptions(StartOptions):
     friction: bool = False
     play: bool = False
     creep: bool = False
+    twist: bool = False
     friction_max: float = 0.5
     variant_evaluations: int = 150
 
@@ -391,6 +411,8 @@ class CalibrationOptions(StartOptions):
         for name in PHYSICS_OPTIONS:
             if not isinstance(getattr(self, name), bool):
                 raise bad(name, getattr(self, name), "True or False")
+        if self.twist and not self.creep:
+            raise bad("twist", self.twist, "twist=True with creep=True: the robot turns as its tendons creep")
         if not is_finite_number(self.friction_max) or not 0.0 < self.friction_max <= 2.0:
             raise bad("friction_max", self.friction_max, "a friction coefficient in (0, 2]")
         integer("variant_evaluations", self.variant_evaluations)
@@ -398,7 +420,7 @@ class CalibrationOptions(StartOptions):
 
     @property
     def variant(self) -> str:
-        """``plain``, or those of ``gravity``, ``friction``, ``play`` and ``creep`` on, joined by ``+``."""
+        """``plain``, or those of ``gravity``, ``friction``, ``play``, ``creep`` and ``twist`` on, joined by ``+``."""
         return "+".join(n for n in PHYSICS_OPTIONS if getattr(self, n)) or "plain"
 
 
@@ -473,7 +495,8 @@ class Calibration:
         extra = "".join(t for t, on in ((", gravity", self.params.gravity is not None),
                                         (", friction along the routing (capstan)", self.params.friction is not None),
                                         (", tendon play", self.params.play is not None),
-                                        (", tendon creep", self.params.creep is not None))
+                                        (", tendon creep", self.params.creep is not None),
+                                        (", the robot's turn with its creep", self.params.twist is not None))
                         if on)
         return {"model": "piecewise-constant-curvature tendon robot, displacement-driven with series stiffness "
                          f"and slack{extra} (softrnn.lab.tendon_robot)",
@@ -492,13 +515,17 @@ _CREEP_START = 0.1
 _CREEP_MAX = 20.0
 """The creep rate's start and upper bound [``_CREEP_UNIT``]: at the bound, a tendon pulled to 1 mm past its
 slack lengthens by 20 mm in 1000 s, far beyond any cable's creep."""
+_TWIST_UNIT = math.radians(1.0) * 1e3
+"""The internal unit of the turn with creep [rad/m] in the least squares (degrees per mm of creep slack)."""
+_TWIST_MAX = 90.0
+"""The turn's bound [``_TWIST_UNIT``]: a quarter turn per mm of creep slack."""
 
 
 def _pack(p: TendonParameters) -> np.ndarray:
     # internal units: mm and rad, log compliance (well scaled for least squares); then gravity, friction, play, creep
     extra = ([] if p.gravity is None else list(np.asarray(p.gravity) / _GRAVITY_UNIT)) + \
         ([] if p.friction is None else [p.friction]) + ([] if p.play is None else [p.play * 1e3]) + \
-        ([] if p.creep is None else [p.creep / _CREEP_UNIT])
+        ([] if p.creep is None else [p.creep / _CREEP_UNIT]) + ([] if p.twist is None else [p.twist / _TWIST_UNIT])
     # a compliance that underflowed to 0 (a segment the rows leave free, fitted rigid) packs as the smallest one
     log_compliance = np.log(np.maximum(np.asarray(p.compliance, dtype=float) * 1e-9, np.finfo(float).tiny))
     return np.concatenate([p.angles, p.offsets * 1e3, [p.routing_radius * 1e3], log_compliance,
@@ -506,21 +533,23 @@ def _pack(p: TendonParameters) -> np.ndarray:
 
 
 def _unpack(x: np.ndarray, robot: TendonRobot, gravity: bool = False, friction: bool = False,
-            play: bool = False, creep: bool = False) -> TendonParameters:
+            play: bool = False, creep: bool = False, twist: bool = False) -> TendonParameters:
     n, S = robot.n_tendons, robot.n_segments
     end = 2 * n + 8 + S
+    turn = end + 3 * gravity + friction + play + creep
     return TendonParameters(angles=x[:n], offsets=x[n:2 * n] * 1e-3, routing_radius=x[2 * n] * 1e-3,
                             compliance=np.exp(x[2 * n + 1:2 * n + 1 + S]) * 1e9, marker=x[2 * n + 1 + S] * 1e-3,
                             rotation=x[2 * n + 2 + S:2 * n + 5 + S], base=x[2 * n + 5 + S:end] * 1e-3,
                             gravity=x[end:end + 3] * _GRAVITY_UNIT if gravity else None,
                             friction=float(x[end + 3 * gravity]) if friction else None,
                             play=float(x[end + 3 * gravity + friction]) * 1e-3 if play else None,
-                            creep=float(x[end + 3 * gravity + friction + play]) * _CREEP_UNIT if creep else None)
+                            creep=float(x[end + 3 * gravity + friction + play]) * _CREEP_UNIT if creep else None,
+                            twist=float(x[turn]) * _TWIST_UNIT if twist else None)
 
 
 def _variant_start(start: TendonParameters, options: CalibrationOptions, robot: TendonRobot) -> TendonParameters:
-    """``start`` with the gravity, friction, play and creep of ``options`` (none yet: no weight, mu 0.01, a
-    play of ``_PLAY_START`` x the routing radius, a creep rate of ``_CREEP_START``), or without."""
+    """``start`` with the gravity, friction, play, creep and turn of ``options`` (none yet: no weight, mu 0.01,
+    a play of ``_PLAY_START`` x the routing radius, a creep rate of ``_CREEP_START``, no turn), or without."""
     gravity = (np.zeros(3) if start.gravity is None else start.gravity) if options.gravity else None
     friction = (0.01 if start.friction is None else min(start.friction, 0.99 * options.friction_max)) \
         if options.friction else None
@@ -528,7 +557,9 @@ def _variant_start(start: TendonParameters, options: CalibrationOptions, robot: 
         if options.play else None
     creep = (_CREEP_START * _CREEP_UNIT if start.creep is None else min(start.creep, _CREEP_MAX * _CREEP_UNIT)) \
         if options.creep else None
-    return replace(start, gravity=gravity, friction=friction, play=play, creep=creep)
+    twist = (0.0 if start.twist is None else float(np.clip(start.twist, -_TWIST_MAX * _TWIST_UNIT,
+                                                           _TWIST_MAX * _TWIST_UNIT))) if options.twist else None
+    return replace(start, gravity=gravity, friction=friction, play=play, creep=creep, twist=twist)
 
 
 _PLAY_START = 0.02
@@ -574,12 +605,13 @@ def _bounds(robot: TendonRobot, options: CalibrationOptions) -> tuple[np.ndarray
     lower = np.concatenate([np.full(n, -inf), np.full(n, -inf), [0.2 * robot.routing_radius * 1e3],
                             np.full(S, -inf), [0.0], np.full(3, -inf), np.full(3, -inf),
                             np.full(3 * options.gravity, -inf), np.zeros(int(options.friction)),
-                            np.zeros(int(options.play)), np.zeros(int(options.creep))])
+                            np.zeros(int(options.play)), np.zeros(int(options.creep)),
+                            np.full(int(options.twist), -_TWIST_MAX)])
     upper = np.concatenate([np.full(n, inf), np.full(n, inf), [5.0 * robot.routing_radius * 1e3],
                             np.full(S, inf), [0.5 * robot.length * 1e3], np.full(3, inf), np.full(3, inf),
                             np.full(3 * options.gravity, inf), np.full(int(options.friction), options.friction_max),
                             np.full(int(options.play), _play_max(robot) * 1e3),
-                            np.full(int(options.creep), _CREEP_MAX)])
+                            np.full(int(options.creep), _CREEP_MAX), np.full(int(options.twist), _TWIST_MAX)])
     return lower, upper
 
 
