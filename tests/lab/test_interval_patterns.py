@@ -232,8 +232,9 @@ def test_the_interval_holds_q_up_to_the_knee_and_grows_beyond_it():
 
 def test_hold_out_rows_near_the_data_raise_q():
     """A hold-out session on the training commands (d <= d0), off by 3 mm where the cross-fit shows 1 mm:
-    q holds 90 % of those rows too, as it would a new session's rows there; with fewer than
-    ``CROSS_ROWS`` of them, they are left to the growth."""
+    q holds 90 % of those rows too, as it would a new session's rows there; fewer than ``CROSS_ROWS`` of
+    them leave q the cross-fit's, and since no growth reaches a row within d0, the growth holds 90 % of
+    the hold-out rows beyond d0 (all of them outside q: unbounded everywhere otherwise)."""
     @dataclass(frozen=True, eq=False)
     class Offset:                   # 1 mm off on rows it did not see; 3 mm on the session "other"
         seen: frozenset = frozenset()
@@ -261,4 +262,8 @@ def test_hold_out_rows_near_the_data_raise_q():
     out = calibrate(Offset().fit([fit]), [fit], [at(np.zeros(40), "other")])
     assert out["interval_q"] == pytest.approx(3e-3)
     few = calibrate(Offset().fit([fit]), [fit], [at(np.zeros(CROSS_ROWS - 1), "other")])
-    assert few["interval_q"] == pytest.approx(1e-3) and few["interval_slope"] == math.inf
+    assert few["interval_q"] == pytest.approx(1e-3) and few["interval_slope"] == out["interval_slope"] == 0.0
+    beside = calibrate(Offset().fit([fit]), [fit], [at(np.r_[np.zeros(CROSS_ROWS - 1), np.full(30, 5.0)], "other")])
+    assert beside["interval_q"] == pytest.approx(1e-3)         # 3 mm off beyond d0: a finite growth holds them
+    assert 0.0 < beside["interval_slope"] < math.inf
+    assert beside["interval_slope"] == pytest.approx(2e-3 / (5.0 - beside["interval_knee"]), rel=1e-6)

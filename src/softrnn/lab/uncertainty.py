@@ -192,7 +192,9 @@ def calibrate(model, fit_part, held) -> dict:
     that over the rows of ``fit_part`` themselves and that over the near hold-out rows (where there are
     ``CROSS_ROWS`` of them); b the least growth beyond d0 with which the ball holds 90 % of the cross-fit's
     farther rows and 90 % of the hold-out rows: the larger of the two parts' same quantile of the growth
-    each row needs to lie inside, max(0, ratio - q) / (d - d0) (inf for a row outside at d <= d0). So q
+    each row needs to lie inside, max(0, ratio - q) / (d - d0) (inf for a row outside at d <= d0, which no
+    growth reaches: a miss). Where such misses are more than a tenth of the hold-out, no growth holds 90 %
+    of it; b then holds 90 % of the hold-out rows beyond d0 instead (not an unbounded ball everywhere). So q
     is the error of a new visit as near the data as the nearer half (a pattern the model did not see,
     between patterns it did; a session the model did not see, where its commands are those of the
     others), held up to that distance, and b how it grows beyond, each from the rows of its own regime.
@@ -204,7 +206,7 @@ def calibrate(model, fit_part, held) -> dict:
     if model.reach is None:                   # no distance: one radius that holds 90 % of every part
         parts = [ratio] if cross is None else [ratio, cross[0]]
         return {"interval_q": max([q] + [quantile(p) for p in parts]), "interval_slope": 0.0, "interval_knee": 0.0}
-    beyond, knee = [(ratio, d)], 0.0
+    beyond, knee = [], 0.0
     if cross is not None:
         knee = float(np.quantile(cross[1], NEAR_SHARE))
         near = cross[1] <= knee
@@ -212,9 +214,14 @@ def calibrate(model, fit_part, held) -> dict:
         beyond.append((cross[0][~near], cross[1][~near]))
     if np.count_nonzero(d <= knee) >= CROSS_ROWS:
         q = max(q, quantile(ratio[d <= knee]))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        needs = [np.where(r <= q, 0.0, (r - q) / np.maximum(dist - knee, 0.0)) for r, dist in beyond if r.size]
-    return {"interval_q": q, "interval_slope": max(quantile(need) for need in needs), "interval_knee": knee}
+    def need(r, dist):              # the growth each row needs to lie inside (inf: outside at d <= d0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(r <= q, 0.0, (r - q) / np.maximum(dist - knee, 0.0))
+    held_need = need(ratio, d)
+    if cross is not None and quantile(held_need) == math.inf:   # the rows within d0 outside q: a miss each
+        held_need = held_need[d > knee]
+    needs = [held_need] + [need(r, dist) for r, dist in beyond if r.size]
+    return {"interval_q": q, "interval_slope": max(quantile(n) for n in needs if n.size), "interval_knee": knee}
 
 
 NEAR_SHARE = 0.5
