@@ -153,6 +153,8 @@ def test_a_sequence_over_the_physics_learns_what_it_leaves(two_segments):
     assert "gated off away from the training data" in gated.describe()["kind"] and gated.describe()["gate_d0"] == 0.5
     with pytest.raises(SoftrnnInputError, match="on_physics=True is invalid: a calibrated physics"):
         Sequence(options, on_physics=True).fit([train])
+    with pytest.raises(SoftrnnInputError, match="linear=True is invalid: linear=False with on_physics=True"):
+        Sequence(options, physics=crude, on_physics=True, linear=True)
 
 
 def test_an_early_sequence_candidate_is_calibrated_with_the_scale_of_its_final_fit(two_segments):

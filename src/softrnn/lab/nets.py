@@ -451,6 +451,11 @@ class Sequence(Anchored, Intervals):
     base_scores: dict = field(default_factory=dict)
     """The hold-out scores of the base's orders {candidate: tip RMSE [mm]} (``linear_base``)."""
 
+    def __post_init__(self):
+        if self.linear and self.on_physics:
+            raise bad("linear", True, "linear=False with on_physics=True: the base is the physics' tip or a "
+                                      "linear model's, not both")
+
     def _base(self, s: Recording) -> np.ndarray:
         """(T, 3) [m] the base's tip over ``s``: the physics' (``on_physics``), the linear base's, or zeros."""
         if self.on_physics:
