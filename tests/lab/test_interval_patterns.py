@@ -267,3 +267,6 @@ def test_hold_out_rows_near_the_data_raise_q():
     assert beside["interval_q"] == pytest.approx(1e-3)         # 3 mm off beyond d0: a finite growth holds them
     assert 0.0 < beside["interval_slope"] < math.inf
     assert beside["interval_slope"] == pytest.approx(2e-3 / (5.0 - beside["interval_knee"]), rel=1e-6)
+    flat = at(np.zeros(401), "fit")                              # every row at d = 0: no row beyond d0 anywhere
+    none = calibrate(Offset().fit([flat]), [flat], [at(np.zeros(CROSS_ROWS - 1), "other")])
+    assert none["interval_knee"] == 0.0 and none["interval_slope"] == math.inf

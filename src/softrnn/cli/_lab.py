@@ -364,6 +364,8 @@ def _calibrate(args) -> int:
     from ..lab.tendon_robot import calibrate, session_resets
     from ..learned.threads import one_blas_thread
 
+    if args.twist and not args.creep:
+        raise bad("--twist", True, "give --creep with it: the robot turns as its tendons creep")
     prepare_output(args.output, "-o", overwrite=args.overwrite)
     options = _options(args, ("physics",))
     recordings = _read(args.recordings + ([args.validate] if args.validate else []), _layout(args))
@@ -381,8 +383,6 @@ def _calibrate(args) -> int:
         raise bad("--segments", args.segments, f"segments whose tendons ({robot.n_tendons}) match the "
                                                f"{train[0].n_inputs} input columns")
     check_pulls(robot, recordings)
-    if args.twist and not args.creep:
-        raise bad("--twist", True, "give --creep with it: the robot turns as its tendons creep")
     physics = dataclasses.replace(options.calibration, gravity=args.gravity, friction=args.friction, play=args.play,
                                   creep=args.creep, twist=args.twist)
     # BLAS on one thread, as in the benchmark's workers: the same calibration on every machine

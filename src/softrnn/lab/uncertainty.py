@@ -221,7 +221,8 @@ def calibrate(model, fit_part, held) -> dict:
     if cross is not None and quantile(held_need) == math.inf:   # the rows within d0 outside q: a miss each
         held_need = held_need[d > knee]
     needs = [held_need] + [need(r, dist) for r, dist in beyond if r.size]
-    return {"interval_q": q, "interval_slope": max(quantile(n) for n in needs if n.size), "interval_knee": knee}
+    slopes = [quantile(n) for n in needs if n.size] or [math.inf]    # no row beyond d0 anywhere: unknown growth
+    return {"interval_q": q, "interval_slope": max(slopes), "interval_knee": knee}
 
 
 NEAR_SHARE = 0.5
