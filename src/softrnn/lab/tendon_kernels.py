@@ -225,11 +225,11 @@ def _pgs(M, rhs, tau):
 
 
 @njit(cache=True)
-def _solve_active(M, rhs, active, tau, A):
-    """tau (n,) = the solution of M_AA tau_A = rhs_A on the active set (others 0), by Gaussian
-    elimination with partial pivoting in A (n, n+1) scratch; False where singular."""
+def _solve_active(M, rhs, active, tau, A, idx):
+    """tau (n,) = the solution of M_AA tau_A = rhs_A on the active set (others 0), M any matrix, by
+    Gaussian elimination with partial pivoting in A (n, n+1) scratch (idx (n,) int scratch); False where
+    singular."""
     n = rhs.size
-    idx = np.empty(n, dtype=np.int64)
     m = 0
     for i in range(n):
         if active[i]:
@@ -300,21 +300,28 @@ def _solve_taut(M, rhs, active, tau, A, idx) -> bool:
 
 @njit(cache=True)
 def _lcp(M, rhs, tau, active, A, idx):
-    """tau >= 0, M tau - rhs >= 0, tau (M tau - rhs) = 0 (M (n, n) positive definite), exactly:
-    principal pivoting from the active set of the warm start tau (n,) [m] (the tendons with tau > 0),
-    each set solved by Cholesky (``_solve_taut``), the first index that breaks a condition (an active
-    one with tau < 0, an inactive one with M tau - rhs < 0; to ``_LCP_TOL`` of the largest |rhs|) flipped
-    until none does (Murty's least-index rule: finite for a P-matrix). Projected Gauss-Seidel from zero
-    where a set's matrix is not positive definite in floating point or ``_PIVOTS`` run out. ``active`` (n,)
-    bool, ``A`` (n, n + 1) and ``idx`` (n,) int: scratch."""
+    """tau >= 0, M tau - rhs >= 0, tau (M tau - rhs) = 0 (M (n, n) a P-matrix: positive definite, or
+    with friction I + A F, the capstan factors F making it unsymmetric), exactly: principal pivoting from
+    the active set of the warm start tau (n,) [m] (the tendons with tau > 0), each set solved by Cholesky
+    where M is symmetric (``_solve_taut``), else by Gaussian elimination with partial pivoting
+    (``_solve_active``), the first index that breaks a condition (an active one with tau < 0, an inactive
+    one with M tau - rhs < 0; to ``_LCP_TOL`` of the largest |rhs|) flipped until none does (Murty's
+    least-index rule: finite for a P-matrix). Projected Gauss-Seidel from zero where a set's matrix is
+    singular (not positive definite) in floating point or ``_PIVOTS`` run out. ``active`` (n,) bool, ``A``
+    (n, n + 1) and ``idx`` (n,) int: scratch."""
     n = rhs.size
     tol = 0.0
+    symmetric = True
     for i in range(n):
         active[i] = tau[i] > 0.0
         tol = max(tol, abs(rhs[i]))
+        for j in range(i):
+            if M[i, j] != M[j, i]:
+                symmetric = False
     tol *= _LCP_TOL
     for _ in range(_PIVOTS):
-        if not _solve_taut(M, rhs, active, tau, A, idx):
+        solved = _solve_taut(M, rhs, active, tau, A, idx) if symmetric else _solve_active(M, rhs, active, tau, A, idx)
+        if not solved:
             break
         flip = -1
         for i in range(n):
@@ -447,6 +454,7 @@ def _newton(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dir
     J = np.empty((m, m))
     A = np.empty((m, m + 1))
     every = np.ones(m, dtype=np.bool_)
+    order = np.empty(m, dtype=np.int64)
     trial = np.empty_like(b)
     passes = 1
     worst = _misfit(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs, work, g, F)
@@ -465,7 +473,7 @@ def _newton(qk, seg, L, compliance, rho, offsets, mu, gvec, gravity, b, tau, dir
                 J[i, j] = (Fp[i] - F[i]) / h
         for i in range(m):
             F[i] = -F[i]
-        if not _solve_active(J, F, every, step, A):
+        if not _solve_active(J, F, every, step, A, order):
             break
         norm = 0.0
         for i in range(m):
