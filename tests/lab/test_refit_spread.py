@@ -215,3 +215,36 @@ def test_the_hybrid_s_scale_is_its_physics_refit_spread_plus_its_ensemble_s_wher
     near = hybrid.error_scale(rec)
     assert np.all(near >= physics.error_scale(rec)) and np.any(near > physics.error_scale(rec))
     assert "refit spread" in hybrid.describe()["error_scale"]
+
+
+def test_a_physics_refit_is_made_once_per_process_and_carried_to_another():
+    """``Physics.refit`` keeps its refits (``families.REFITS``) by the robot, options, start and rows: the
+    same rows give the same refit without fitting again; other rows (a tip masked) another refit; a refit
+    made afresh equals the kept one to the bit (a fit is deterministic); and a process that takes another's
+    refits (``shared_refits``, ``remember_refits``) uses them as its own."""
+    from softrnn.lab import families
+
+    robot, params = tendon_robot_truth(1)
+    truth = Physics(robot, calibration=Calibration(robot, params, 0.0, (), 0.0))
+    start = Physics(robot, calibration=Calibration(robot, replace(params, marker=7e-3), 0.0, (), 0.0))
+    k = np.arange(80)
+    u = 3.0 * np.sin(0.07 * k[:, None] * (1 + 0.3 * np.arange(3)) + np.array([0.0, 2.0, 4.0])) - 0.5
+    rec = Recording(path="", time=k * 0.6, inputs=u, names=("s1", "s2", "s3"), units=("mm",) * 3,
+                    tip=np.zeros((80, 3)))
+    rec = replace(rec, tip=truth.predict(rec) + np.random.default_rng(1).normal(0, 0.2e-3, (80, 3)))
+    families.REFITS.clear()
+    first = start.refit([rec])
+    assert start.refit([rec]) is first and len(families.REFITS) == 1
+    masked = replace(rec, tip=np.where(np.arange(80)[:, None] < 40, rec.tip, np.nan))
+    other = start.refit([masked])
+    assert other is not first and not np.array_equal(other.calibration.params.base, first.calibration.params.base)
+    kept = families.shared_refits()
+    families.REFITS.clear()
+    again = start.refit([rec])
+    assert again is not first
+    for name in ("angles", "offsets", "compliance", "rotation", "base"):
+        np.testing.assert_array_equal(getattr(again.calibration.params, name), getattr(first.calibration.params, name))
+    families.REFITS.clear()
+    families.remember_refits(kept)
+    assert start.refit([rec]) is kept[start.refit_key([rec])] and start.refit([masked]) is other
+    families.REFITS.clear()

@@ -15,7 +15,7 @@ import numpy as np
 from ..learned.metrics import tip_errors
 from ._pool import WorkerPool
 from .dynamic_families import DynamicHybrid, DynamicPhysics
-from .families import finite_or_inf, holdout_split
+from .families import finite_or_inf, holdout_split, remember_refits
 from .nets import fit_hybrid, fit_learned_map, fit_node, fit_sequence, seeded
 from .recording import Recording
 
@@ -78,12 +78,14 @@ class HeldScore:
 
 
 def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, options, validation: Recording,
-               early: dict | None = None) -> tuple[Ran, float]:
+               early: dict | None = None, refits: dict | None = None) -> tuple[Ran, float]:
     """The learned family ``name`` (a key of ``FITS``) fitted on ``train`` with its options chosen on the
     hold-out part (``pair``: the physics calibrated on the fitting part and on every training row;
     ``syn``: the synthetic data's options, ``no_syn`` why there are none), run over ``validation``;
     and its best hold-out score [mm]. ``early``: candidates fitted before, in a job of their own
-    (``EARLY``, ``nets.early_candidates``: {candidate: model})."""
+    (``EARLY``, ``nets.early_candidates``: {candidate: model}); ``refits``: the physics' refits made
+    before (``families.shared_refits``: the physics' interval's, which the hybrid's interval makes again)."""
+    remember_refits(refits)
     more = {"early": early} if early else {}
     with seeded(name):
         model, scores = FITS[name](train, pair, syn, options, HeldScore(holdout_split(train)[1]), **more)

@@ -39,6 +39,7 @@ from .families import (
     held_rows,
     holdout_split,
     parsimonious,
+    shared_refits,
 )
 from .nets import NetOptions, SequenceOptions, early_candidates
 from .physics_variants import choose_physics
@@ -515,9 +516,11 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
         # the variant (gravity, friction) chosen on the hold-out, refitted on every training row from there
         pick = choose_physics(robot, options.calibration, fit_part, held, train, pool=pool, meanwhile=meanwhile)
         held_physics, physics = pick.held, pick.physics
-    jobs = [pool.submit(name, family_run, name, train, (held_physics, physics), syn, no_syn, options, out.validation,
-                        early[name].get() if name in early else None)
-            for name in LONGEST_FIRST if name in families]
+    def submit(name, refits=None):
+        return pool.submit(name, family_run, name, train, (held_physics, physics), syn, no_syn, options,
+                           out.validation, early[name].get() if name in early else None, refits)
+    # the hybrid after the physics' interval: its interval refits the physics as that one did (shared_refits)
+    jobs = [submit(name) for name in LONGEST_FIRST if name in families and name != "hybrid"]
     agreement = None
     if "physics" in families:
         agreement = pool.submit("physics session agreement", session_agreement, physics, train, out.validation,
@@ -527,6 +530,7 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
                                                         refits=REFIT_FOLDS),
                    pick.holdout_rmse_mm)
         step("physics")
+    jobs += [submit("hybrid", shared_refits())] if "hybrid" in families else []
     return holdout, jobs, agreement
 
 

@@ -27,6 +27,7 @@ training sessions (``choose``), never on the session a model is reported on.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import tempfile
 from dataclasses import dataclass, field, replace
@@ -45,7 +46,7 @@ from ..learned.metrics import tip_errors
 from ..learned.node.train_config import TrainConfig
 from .recording import Recording
 from .synthetic import SyntheticOptions, check_mode, taught_sessions
-from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate, session_resets
+from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, _pack, calibrate, session_resets
 
 PLAY_WIDTHS = (0.05, 0.15)
 """Widths of the play operators of the hysteresis state, as fractions of each input's range in
@@ -244,6 +245,39 @@ def displacements(session: Recording) -> np.ndarray:
 MEMO_SIZE = 256
 """Most entries a model's memo keeps before it starts again."""
 
+REFITS: dict = {}
+"""The physics' refits made in this process (``Physics.refit``), by what determines them (``refit_key``):
+the intervals' refits of the physics and of the hybrid (its physics refitted without the same blocks of
+patterns, ``softrnn.lab.uncertainty``) are the same fits, made once. A fit is deterministic, so a refit
+taken from here is the one a new fit would make. ``shared_refits`` and ``remember_refits`` carry them to
+another process."""
+REFITS_SIZE = 64
+"""Most refits ``REFITS`` keeps before it starts again."""
+
+
+def sessions_key(sessions) -> str:
+    """A digest of what a fit on ``sessions`` (a list of ``Recording``) reads: each session's commands
+    (``Recording.commands_key``) and tips (NaN where masked)."""
+    h = hashlib.sha256()
+    for s in sessions:
+        h.update(s.commands_key().encode())
+        h.update(np.ascontiguousarray(s.tip, dtype=float).tobytes())
+    return h.hexdigest()
+
+
+def shared_refits() -> dict:
+    """The physics' refits made in this process so far ({key: ``Physics``}, ``REFITS``), to hand to another
+    (``remember_refits``)."""
+    return dict(REFITS)
+
+
+def remember_refits(refits: dict | None) -> None:
+    """Take the physics' refits another process made (``shared_refits``) as this process's own."""
+    if refits:
+        if len(REFITS) + len(refits) > REFITS_SIZE:
+            REFITS.clear()
+        REFITS.update(refits)
+
 
 @dataclass(frozen=True, eq=False)
 class Physics:
@@ -277,8 +311,19 @@ class Physics:
         return self.options.creep
 
     def refit(self, sessions) -> Physics:
-        """The model calibrated on ``sessions``, refined from this calibration (no multi-start search)."""
-        return replace(self, start=self.calibration.params, calibration=None).fit(sessions)
+        """The model calibrated on ``sessions``, refined from this calibration (no multi-start search); a
+        refit made before in this process (``REFITS``) is taken from there."""
+        key = self.refit_key(sessions)
+        if key not in REFITS:
+            if len(REFITS) >= REFITS_SIZE:
+                REFITS.clear()
+            REFITS[key] = replace(self, start=self.calibration.params, calibration=None).fit(list(sessions))
+        return REFITS[key]
+
+    def refit_key(self, sessions) -> tuple:
+        """What determines ``refit(sessions)``: the robot, the options, this calibration's parameters (the
+        refinement's start) and the sessions (``sessions_key``)."""
+        return (self.robot, self.options, self.name, _pack(self.calibration.params).tobytes(), sessions_key(sessions))
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""
