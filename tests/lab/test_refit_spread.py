@@ -196,17 +196,23 @@ def test_the_refits_give_the_benchmark_s_interval_its_scale():
     assert not isinstance(plain.model, RefitSpread) and plain.describe()["interval_90_radius_mm"] > 0
 
 
-def test_the_hybrid_s_scale_is_its_physics_refit_spread_plus_its_ensemble_s_where_the_residual_acts():
-    """Out of range (gate off) the hybrid is its physics, and so is its scale: the physics' ``RefitSpread``
-    over the hybrid's training sessions; on the training rows the ensemble's spread adds to it."""
+def _tendon_session(rows: int, seed: int) -> tuple:
+    """(a physics to refit from, its marker off by 3 mm; a session of ``rows`` rows of three tendons' sines,
+    patterns of 20 rows, the tip the true physics' plus 0.2 mm of noise per axis)."""
     robot, params = tendon_robot_truth(1)
     truth = Physics(robot, calibration=Calibration(robot, params, 0.0, (), 0.0))
     start = Physics(robot, calibration=Calibration(robot, replace(params, marker=7e-3), 0.0, (), 0.0))
-    k = np.arange(160)
+    k = np.arange(rows)
     u = 3.0 * np.sin(0.07 * k[:, None] * (1 + 0.3 * np.arange(3)) + np.array([0.0, 2.0, 4.0])) - 0.5
     rec = Recording(path="", time=k * 0.6, inputs=u, names=("s1", "s2", "s3"), units=("mm",) * 3,
-                    tip=np.zeros((160, 3)), labels=tuple(f"p{i // 20}" for i in k))
-    rec = replace(rec, tip=truth.predict(rec) + np.random.default_rng(0).normal(0, 0.2e-3, (160, 3)))
+                    tip=np.zeros((rows, 3)), labels=tuple(f"p{i // 20}" for i in k))
+    return start, replace(rec, tip=truth.predict(rec) + np.random.default_rng(seed).normal(0, 0.2e-3, (rows, 3)))
+
+
+def test_the_hybrid_s_scale_is_its_physics_refit_spread_plus_its_ensemble_s_where_the_residual_acts():
+    """Out of range (gate off) the hybrid is its physics, and so is its scale: the physics' ``RefitSpread``
+    over the hybrid's training sessions; on the training rows the ensemble's spread adds to it."""
+    start, rec = _tendon_session(160, 0)
     hybrid = Hybrid(start.refit([rec]), options=NetOptions(members=2, steps=50, hidden=8), gate=0.5).fit([rec])
     physics = RefitSpread.of(hybrid.physics, [rec])
     far = replace(rec, inputs=rec.inputs + 20.0)
@@ -224,14 +230,7 @@ def test_a_physics_refit_is_made_once_per_process_and_carried_to_another():
     refits (``shared_refits``, ``remember_refits``) uses them as its own."""
     from softrnn.lab import families
 
-    robot, params = tendon_robot_truth(1)
-    truth = Physics(robot, calibration=Calibration(robot, params, 0.0, (), 0.0))
-    start = Physics(robot, calibration=Calibration(robot, replace(params, marker=7e-3), 0.0, (), 0.0))
-    k = np.arange(80)
-    u = 3.0 * np.sin(0.07 * k[:, None] * (1 + 0.3 * np.arange(3)) + np.array([0.0, 2.0, 4.0])) - 0.5
-    rec = Recording(path="", time=k * 0.6, inputs=u, names=("s1", "s2", "s3"), units=("mm",) * 3,
-                    tip=np.zeros((80, 3)))
-    rec = replace(rec, tip=truth.predict(rec) + np.random.default_rng(1).normal(0, 0.2e-3, (80, 3)))
+    start, rec = _tendon_session(80, 1)
     families.REFITS.clear()
     first = start.refit([rec])
     assert start.refit([rec]) is first and len(families.REFITS) == 1
