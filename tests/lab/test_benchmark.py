@@ -272,6 +272,9 @@ def test_learned_families_say_their_mode_and_interval(report):
     assert {k.split(",", 1)[1] for k in sequence} == {"mode=real", "mode=real,linear", "mode=finetune"} | {
         f"mode=real,physics,gate={g}" for g in ("0.5", "1", "2", "4", "8")}
     assert details["physics"]["interval_90_q"] > 0 and "jackknife" in details["physics"]["error_scale"]
+    # the hybrid states its physics' interval where its gate is off; the sequence model too, over the physics
+    assert "physics' interval" in details["hybrid"]["interval_90_beyond_gate"]
+    assert ("interval_90_beyond_gate" in details["sequence"]) == ("physics" in details["sequence"]["kind"])
     hybrid = details["hybrid"]["holdout_rmse_mm"]
     assert report["chosen_on_training"]["holdout_rmse_mm"]["hybrid"] == min(hybrid.values())
     node = details["node_lstm"]

@@ -151,6 +151,18 @@ def test_a_sequence_over_the_physics_learns_what_it_leaves(two_segments):
     np.testing.assert_array_equal(gated.predict(far), crude.predict(far))
     np.testing.assert_allclose(gated.predict(train), over.predict(train), rtol=0, atol=1e-12)
     assert "gated off away from the training data" in gated.describe()["kind"] and gated.describe()["gate_d0"] == 0.5
+    # where the gate is off it states its physics' interval too (FollowsPhysics), its own on the data
+    own = WithInterval(crude, InputDistance.of([train]), interval_q=2e-3, interval_slope=1e-3, interval_knee=0.0)
+    stated = replace(gated, interval_q=3.0, interval_slope=0.5, interval_knee=0.0)
+    follows = replace(stated, physics_interval=own)
+    farther = _session(physics, train.inputs + 60.0, 4)
+    np.testing.assert_allclose(follows.predict_interval(farther)[1], own.predict_interval(farther)[1], rtol=1e-12)
+    np.testing.assert_allclose(follows.predict_interval(train)[1], stated.predict_interval(train)[1], rtol=1e-12)
+    assert "interval_90_beyond_gate" in follows.describe()
+    alone_stated = replace(alone, interval_q=3.0, interval_slope=0.5, interval_knee=0.0)
+    assert alone_stated.physics_weights(train) is None                               # no physics to follow
+    np.testing.assert_array_equal(replace(alone_stated, physics_interval=own).predict_interval(farther)[1],
+                                  alone_stated.predict_interval(farther)[1])
     with pytest.raises(SoftrnnInputError, match="on_physics=True is invalid: a calibrated physics"):
         Sequence(options, on_physics=True).fit([train])
     with pytest.raises(SoftrnnInputError, match="linear=True is invalid: linear=False with on_physics=True"):
@@ -237,6 +249,33 @@ def test_hybrid_is_its_physics_far_from_the_data_and_physics_plus_residual_on_th
     base = crude.predict(far)
     np.testing.assert_allclose(ungated.predict(far), base + ungated.net(ungated._X(far, base)))
     assert "gated off" in hybrid.describe()["kind"] and hybrid.describe()["gate_d0"] == 0.5
+
+
+def test_where_the_gate_is_off_the_hybrid_states_its_physics_interval(two_segments):
+    physics, train, _ = two_segments
+    crude = Physics(physics.robot, calibration=replace(
+        physics.calibration, params=replace(physics.calibration.params, marker=8e-3)))
+    hybrid = replace(Hybrid(crude, options=SMALL, gate=0.5).fit([train]), interval_q=3.0, interval_slope=0.5,
+                     interval_knee=0.0)
+    own = WithInterval(crude, InputDistance.of([train]), interval_q=2e-3, interval_slope=1e-3, interval_knee=0.0)
+    blended = replace(hybrid, physics_interval=own)
+    far, near = _session(physics, train.inputs + 6.0, 2), _session(physics, train.inputs + 0.3, 3)
+    for s in (far, near, train):
+        w = hybrid.weights(s)
+        tip, r = blended.predict_interval(s)
+        np.testing.assert_array_equal(tip, hybrid.predict(s))
+        mine, theirs = hybrid.predict_interval(s)[1], own.predict_interval(s)[1]
+        np.testing.assert_allclose(r, (1 - w) * theirs + w * mine, rtol=1e-12)
+    np.testing.assert_allclose(blended.predict_interval(far)[1], own.predict_interval(far)[1], rtol=1e-12)
+    np.testing.assert_allclose(blended.predict_interval(train)[1], hybrid.predict_interval(train)[1], rtol=1e-12)
+    # an unbounded radius of one part counts only where its weight is not zero
+    unbounded = replace(blended, interval_q=math.inf)
+    farther = _session(physics, train.inputs + 60.0, 4)
+    assert np.all(hybrid.weights(farther) == 0.0)
+    np.testing.assert_allclose(unbounded.predict_interval(farther)[1], own.predict_interval(farther)[1], rtol=1e-12)
+    assert np.all(unbounded.predict_interval(train)[1] == math.inf)
+    assert "physics' interval" in blended.describe()["interval_90_beyond_gate"]
+    assert "interval_90_beyond_gate" not in hybrid.describe()
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ same process. Also the dynamic families, fitted in this process (``dynamic_model
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -16,7 +16,7 @@ from ..learned.metrics import tip_errors
 from ._pool import WorkerPool
 from .dynamic_families import DynamicHybrid, DynamicPhysics
 from .families import finite_or_inf, holdout_split, remember_refits
-from .nets import fit_hybrid, fit_learned_map, fit_node, fit_sequence, seeded
+from .nets import FollowsPhysics, fit_hybrid, fit_learned_map, fit_node, fit_sequence, seeded
 from .recording import Recording
 
 LONGEST_FIRST = ("sequence", "node_lstm", "learned_map", "hybrid")
@@ -78,13 +78,15 @@ class HeldScore:
 
 
 def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, options, validation: Recording,
-               early: dict | None = None, refits: dict | None = None) -> tuple[Ran, float]:
+               early: dict | None = None, refits: dict | None = None) -> tuple[Ran, float, object]:
     """The learned family ``name`` (a key of ``FITS``) fitted on ``train`` with its options chosen on the
     hold-out part (``pair``: the physics calibrated on the fitting part and on every training row;
     ``syn``: the synthetic data's options, ``no_syn`` why there are none), run over ``validation``;
     and its best hold-out score [mm]. ``early``: candidates fitted before, in a job of their own
     (``EARLY``, ``nets.early_candidates``: {candidate: model}); ``refits``: the physics' refits made
-    before (``families.shared_refits``: the physics' interval's, which the hybrid's interval makes again)."""
+    before (``families.shared_refits``: the physics' interval's, which the hybrid's interval makes again).
+    Also the fitted model where it follows its physics (``nets.FollowsPhysics``: the hybrid, the sequence
+    model over the physics), whose interval ``collect_families`` blends with the physics' (None otherwise)."""
     remember_refits(refits)
     more = {"early": early} if early else {}
     with seeded(name):
@@ -92,20 +94,28 @@ def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, opt
     ran = run_model(name, model, validation, scores)
     if no_syn:
         ran.details["synthetic_data"] = f"not used: {no_syn}"
-    return ran, min(scores.values(), key=finite_or_inf)
+    follows = isinstance(model, FollowsPhysics) and model.physics_weights(validation) is not None
+    return ran, min(scores.values(), key=finite_or_inf), model if follows else None
 
 
-def collect_families(jobs: list, pool: WorkerPool, out, step) -> dict:
+def collect_families(jobs: list, pool: WorkerPool, out, step, physics_interval=None) -> dict:
     """The learned families' runs (the jobs of ``family_run``) scored into ``out`` (the benchmark's table of
-    scores) in report order, ``step(name)`` as each finishes; returns each family's hold-out score [mm]."""
+    scores) in report order, ``step(name)`` as each finishes; returns each family's hold-out score [mm].
+    ``physics_interval``: the physics with its calibrated interval (``uncertainty.with_interval``), which a
+    model that follows its physics (``nets.FollowsPhysics``) states where its learned part is off."""
     runs = {}
     for job in pool.as_completed(jobs):
         runs[job.label] = job.get()
         step(job.label)
     holdout = {}
     for name in (f for f in FITS if f in runs):
-        out.add(out.models, runs[name][0])
-        holdout[name] = runs[name][1]
+        ran, score, follows = runs[name]
+        if follows is not None and physics_interval is not None:
+            blended = replace(follows, physics_interval=physics_interval)
+            ran = replace(ran, radius=blended.predict_interval(out.validation)[1],
+                          details=ran.details | blended.follows_description())
+        out.add(out.models, ran)
+        holdout[name] = score
     return holdout
 
 

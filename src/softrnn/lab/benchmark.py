@@ -498,11 +498,12 @@ def session_agreement(physics: Physics, train: list[Recording], validation: Reco
 
 
 def _models(train: list[Recording], split: tuple, families: list, robot, options: BenchmarkOptions, out: _Table,
-            step, pool: WorkerPool) -> tuple[dict, list, object]:
+            step, pool: WorkerPool) -> tuple[dict, list, object, object]:
     """Fit the physics (its options chosen on the hold-out part, ``split``: fitting part, held part), its
     variants at once in ``pool``'s workers, run it, and hand the learned families to the workers. Returns
-    the physics' hold-out score [mm], the families' jobs (``_stages.collect_families`` gathers them) and the
-    job of ``session_agreement`` (None where the physics does not run)."""
+    the physics' hold-out score [mm], the families' jobs (``_stages.collect_families`` gathers them), the
+    job of ``session_agreement`` (None where the physics does not run) and the physics with its interval
+    (``uncertainty.with_interval``; None without a physics)."""
     fit_part, held = split
     holdout = {}
     physics = held_physics = None
@@ -521,17 +522,19 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
                            out.validation, early[name].get() if name in early else None, refits)
     # the hybrid after the physics' interval: its interval refits the physics as that one did (shared_refits)
     jobs = [submit(name) for name in LONGEST_FIRST if name in families and name != "hybrid"]
-    agreement = None
+    agreement = physics_interval = None
     if "physics" in families:
         agreement = pool.submit("physics session agreement", session_agreement, physics, train, out.validation,
                                 options.length)
+    if physics is not None and {"physics", "hybrid", "sequence"} & set(families):
+        # also the interval of the hybrid and of the sequence model over the physics where their gate is off
+        physics_interval = with_interval(physics, held_physics, *split, train, fitted=True, refits=REFIT_FOLDS)
+    if "physics" in families:
         holdout["physics"] = HeldScore(held)(held_physics)
-        out.record(out.models, "physics", with_interval(physics, held_physics, *split, train, fitted=True,
-                                                        refits=REFIT_FOLDS),
-                   pick.holdout_rmse_mm)
+        out.record(out.models, "physics", physics_interval, pick.holdout_rmse_mm)
         step("physics")
     jobs += [submit("hybrid", shared_refits())] if "hybrid" in families else []
-    return holdout, jobs, agreement
+    return holdout, jobs, agreement, physics_interval
 
 
 @dataclass(frozen=True)
@@ -631,10 +634,10 @@ def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -
     _baselines(train, split, out)
     step("baselines")
     with WorkerPool(options.workers) as pool:
-        holdout, jobs, agreement = _models(train, split, families, robot, options, out, step, pool)
+        holdout, jobs, agreement, physics_interval = _models(train, split, families, robot, options, out, step, pool)
         # the dynamic families here, while the workers fit the learned ones
         dynamic_holdout = dynamic_models(train, list(prepared.dynamic), prepared.dynamic_robot, dynamic, step)
-        holdout.update(collect_families(jobs, pool, out, step))
+        holdout.update(collect_families(jobs, pool, out, step, physics_interval))
         agreement = {} if agreement is None else agreement.get()
     holdout.update(dynamic_holdout)
     out.merge(dynamic)

@@ -105,6 +105,39 @@ def gate_weights(reach: InputDistance, gate: float, session: Recording) -> np.nd
         return np.exp(-(reach(session) / gate) ** 2)
 
 
+class FollowsPhysics(Intervals):
+    """What a model shares that is its calibrated physics where the weight w of its learned part falls to 0
+    (``Hybrid``; ``Sequence`` over the physics): with ``physics_interval``, its physics with the physics' own
+    calibrated 90 % interval (``uncertainty.with_interval``, as ``lab benchmark`` scores the physics), the
+    radius is (1 - w) r_physics + w r_own per row. Where the gate is off the model is its physics, and so
+    is its interval; its own q and b, calibrated where its learned part acts and errs on patterns it did
+    not see, would widen the physics' ball there."""
+
+    physics_interval: object
+
+    def physics_weights(self, session: Recording) -> np.ndarray | None:
+        """(T,) the learned part's weight w in [0, 1] per row, or None: the model does not follow a physics."""
+        return None
+
+    def predict_interval(self, session: Recording) -> tuple[np.ndarray, np.ndarray]:
+        """The tip (T, 3) [m] and the radius (T,) [m] of its 90 % ball: its own (``Intervals``), or with
+        ``physics_interval`` (1 - w) r_physics + w r_own (``physics_weights``)."""
+        tip, own = super().predict_interval(session)
+        w = None if self.physics_interval is None else self.physics_weights(session)
+        if w is None:
+            return tip, own
+        physics = self.physics_interval.predict_interval(session)[1]
+        with np.errstate(invalid="ignore"):         # an unbounded radius counts only where its weight is not zero
+            return tip, np.where(w < 1.0, (1.0 - w) * physics, 0.0) + np.where(w > 0.0, w * own, 0.0)
+
+    def follows_description(self) -> dict:
+        """The interval's blend with the physics', JSON-ready ({} without ``physics_interval``)."""
+        if self.physics_interval is None:
+            return {}
+        return {"interval_90_beyond_gate": "the physics' interval: the radius (1 - w) r_physics + w r_own, w the "
+                                           "learned part's weight"}
+
+
 def _play_state(u: np.ndarray, widths) -> list:
     """The hysteresis state of the inputs ``u`` (T, m): each play operator's output less ``u``, one (T, m)
     per width of ``widths`` ([] for None)."""
@@ -275,7 +308,7 @@ class LearnedMap(Intervals):
 
 
 @dataclass(frozen=True, eq=False)
-class Hybrid(Intervals):
+class Hybrid(FollowsPhysics):
     """Calibrated physics plus a gated learned residual: tip = physics(u_k) + w(u_k) MLP(u_k, u_{k-1}[,
     hysteresis state], physics(u_k)), w = exp(-(d / ``gate``)^2) with d the distance of the
     standardised u_k to the nearest training row (``gate`` inf: w = 1); ``physics`` fitted
@@ -298,6 +331,8 @@ class Hybrid(Intervals):
     interval_knee: float = 0.0
     memo: dict = field(default_factory=dict, init=False, repr=False)
     """Its physics' refits (``RefitSpread``), made the first time ``error_scale`` is asked for."""
+    physics_interval: object = None
+    """Its physics with the physics' own 90 % interval, or None (``FollowsPhysics``)."""
 
     def _X(self, s, base):
         return np.hstack([_features(s, self.widths), base])
@@ -345,6 +380,10 @@ class Hybrid(Intervals):
         spread = self.net.spread(self._X(session, self.physics.predict(session)))
         return self.memo["refits"].error_scale(session) + w * spread
 
+    def physics_weights(self, session: Recording) -> np.ndarray:
+        """(T,) the residual's weight (``weights``): where it is 0 the hybrid is its physics."""
+        return self.weights(session)
+
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
         return {"kind": "calibrated physics + MLP residual" +
@@ -353,7 +392,8 @@ class Hybrid(Intervals):
                 **{k: v for k, v in vars(self.options).items()}, **_pretraining(self),
                 "gate_d0": None if math.isinf(self.gate) else self.gate,
                 "error_scale": "the physics' refit spread (jackknife, with the refits' median error over the rows "
-                               "each was fitted without) plus the ensemble's spread where the residual acts"}
+                               "each was fitted without) plus the ensemble's spread where the residual acts",
+                **self.follows_description()}
 
 
 @dataclass(frozen=True)
@@ -403,7 +443,7 @@ def linear_base(sessions, order: int | None = None) -> tuple[LinearARXFamily, di
 
 
 @dataclass(frozen=True, eq=False)
-class Sequence(Anchored, Intervals):
+class Sequence(Anchored, FollowsPhysics):
     """A GRU reading (u_k, u_k - u_{k-1}, log of the interval since the previous row [s][, hysteresis
     state: the play operators of each input, as ``LearnedMap``'s]) and writing the tip: a dynamic model
     of the commands alone, run free from a zero state; ``mode`` ``real`` or ``finetune`` (pretrained on
@@ -450,6 +490,8 @@ class Sequence(Anchored, Intervals):
     its order."""
     base_scores: dict = field(default_factory=dict)
     """The hold-out scores of the base's orders {candidate: tip RMSE [mm]} (``linear_base``)."""
+    physics_interval: object = None
+    """With ``on_physics``: its physics with the physics' own 90 % interval, or None (``FollowsPhysics``)."""
 
     def __post_init__(self):
         if self.linear and self.on_physics:
@@ -543,6 +585,10 @@ class Sequence(Anchored, Intervals):
             return base + gate_weights(self.reach, self.gate, session)[:, None] * (y + self.offset)
         return y + self.offset + base
 
+    def physics_weights(self, session: Recording) -> np.ndarray | None:
+        """(T,) the GRU's weight w per row over the physics (``gate_weights``); None without ``on_physics``."""
+        return gate_weights(self.reach, self.gate, session) if self.on_physics else None
+
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
         out = {"kind": "GRU of the commands and intervals" +
@@ -557,7 +603,7 @@ class Sequence(Anchored, Intervals):
         if self.base is not None:
             out |= {"linear_order": self.base.na, "linear_holdout_rmse_mm": {
                 k: round(v, 4) if math.isfinite(v) else None for k, v in self.base_scores.items()}}
-        return out | self.anchor_description()
+        return out | self.anchor_description() | (self.follows_description() if self.on_physics else {})
 
 
 def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple | None = None) -> tuple:
