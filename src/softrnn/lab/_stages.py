@@ -16,7 +16,16 @@ from ..learned.metrics import tip_errors
 from ._pool import WorkerPool
 from .dynamic_families import DynamicHybrid, DynamicPhysics
 from .families import finite_or_inf, holdout_split, remember_refits
-from .nets import FollowsPhysics, fit_hybrid, fit_learned_map, fit_node, fit_sequence, seeded
+from .nets import (
+    BEYOND_GATE,
+    FollowsPhysics,
+    fit_hybrid,
+    fit_learned_map,
+    fit_node,
+    fit_sequence,
+    follow_physics,
+    seeded,
+)
 from .recording import Recording
 
 LONGEST_FIRST = ("sequence", "node_lstm", "learned_map", "hybrid")
@@ -78,15 +87,16 @@ class HeldScore:
 
 
 def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, options, validation: Recording,
-               early: dict | None = None, refits: dict | None = None) -> tuple[Ran, float, object]:
+               early: dict | None = None, refits: dict | None = None) -> tuple[Ran, float, np.ndarray | None]:
     """The learned family ``name`` (a key of ``FITS``) fitted on ``train`` with its options chosen on the
     hold-out part (``pair``: the physics calibrated on the fitting part and on every training row;
     ``syn``: the synthetic data's options, ``no_syn`` why there are none), run over ``validation``;
     and its best hold-out score [mm]. ``early``: candidates fitted before, in a job of their own
     (``EARLY``, ``nets.early_candidates``: {candidate: model}); ``refits``: the physics' refits made
     before (``families.shared_refits``: the physics' interval's, which the hybrid's interval makes again).
-    Also the fitted model where it follows its physics (``nets.FollowsPhysics``: the hybrid, the sequence
-    model over the physics), whose interval ``collect_families`` blends with the physics' (None otherwise)."""
+    Also, where the model follows its physics (``nets.FollowsPhysics``: the hybrid, the sequence model over
+    the physics), its learned part's weight (T,) over ``validation``, with which ``collect_families`` blends
+    its interval with the physics' (None otherwise)."""
     remember_refits(refits)
     more = {"early": early} if early else {}
     with seeded(name):
@@ -94,8 +104,8 @@ def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, opt
     ran = run_model(name, model, validation, scores)
     if no_syn:
         ran.details["synthetic_data"] = f"not used: {no_syn}"
-    follows = isinstance(model, FollowsPhysics) and model.physics_weights(validation) is not None
-    return ran, min(scores.values(), key=finite_or_inf), model if follows else None
+    weights = model.physics_weights(validation) if isinstance(model, FollowsPhysics) else None
+    return ran, min(scores.values(), key=finite_or_inf), weights
 
 
 def collect_families(jobs: list, pool: WorkerPool, out, step, physics_interval=None) -> dict:
@@ -107,13 +117,14 @@ def collect_families(jobs: list, pool: WorkerPool, out, step, physics_interval=N
     for job in pool.as_completed(jobs):
         runs[job.label] = job.get()
         step(job.label)
-    holdout = {}
+    holdout, physics_radius = {}, None
     for name in (f for f in FITS if f in runs):
-        ran, score, follows = runs[name]
-        if follows is not None and physics_interval is not None:
-            blended = replace(follows, physics_interval=physics_interval)
-            ran = replace(ran, radius=blended.predict_interval(out.validation)[1],
-                          details=ran.details | blended.follows_description())
+        ran, score, weights = runs[name]
+        if weights is not None and physics_interval is not None:
+            if physics_radius is None:
+                physics_radius = physics_interval.predict_interval(out.validation)[1]
+            ran = replace(ran, radius=follow_physics(weights, physics_radius, ran.radius),
+                          details=ran.details | BEYOND_GATE)
         out.add(out.models, ran)
         holdout[name] = score
     return holdout

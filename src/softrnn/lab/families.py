@@ -271,11 +271,16 @@ def shared_refits() -> dict:
     return dict(REFITS)
 
 
+def _room_for_refits(n: int) -> None:
+    """``REFITS`` emptied where ``n`` more would take it beyond ``REFITS_SIZE``."""
+    if len(REFITS) + n > REFITS_SIZE:
+        REFITS.clear()
+
+
 def remember_refits(refits: dict | None) -> None:
     """Take the physics' refits another process made (``shared_refits``) as this process's own."""
     if refits:
-        if len(REFITS) + len(refits) > REFITS_SIZE:
-            REFITS.clear()
+        _room_for_refits(len(refits))
         REFITS.update(refits)
 
 
@@ -315,8 +320,7 @@ class Physics:
         refit made before in this process (``REFITS``) is taken from there."""
         key = self.refit_key(sessions)
         if key not in REFITS:
-            if len(REFITS) >= REFITS_SIZE:
-                REFITS.clear()
+            _room_for_refits(1)
             REFITS[key] = replace(self, start=self.calibration.params, calibration=None).fit(list(sessions))
         return REFITS[key]
 

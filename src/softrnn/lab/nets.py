@@ -105,6 +105,19 @@ def gate_weights(reach: InputDistance, gate: float, session: Recording) -> np.nd
         return np.exp(-(reach(session) / gate) ** 2)
 
 
+BEYOND_GATE = {"interval_90_beyond_gate": "the physics' interval: the radius (1 - w) r_physics + w r_own, w the "
+                                         "learned part's weight"}
+"""What a model that follows its physics (``FollowsPhysics``) with the physics' interval says of it, JSON-ready."""
+
+
+def follow_physics(w: np.ndarray, physics: np.ndarray, own: np.ndarray) -> np.ndarray:
+    """(T,) [m] the radius (1 - w) r_physics + w r_own per row: the physics' ball ``physics`` (T,) [m] where the
+    learned part's weight ``w`` (T,) is 0, the model's own ``own`` (T,) [m] where it is 1; an unbounded radius
+    counts only where its weight is not zero."""
+    with np.errstate(invalid="ignore"):
+        return np.where(w < 1.0, (1.0 - w) * physics, 0.0) + np.where(w > 0.0, w * own, 0.0)
+
+
 class FollowsPhysics(Intervals):
     """What a model shares that is its calibrated physics where the weight w of its learned part falls to 0
     (``Hybrid``; ``Sequence`` over the physics): with ``physics_interval``, its physics with the physics' own
@@ -126,16 +139,11 @@ class FollowsPhysics(Intervals):
         w = None if self.physics_interval is None else self.physics_weights(session)
         if w is None:
             return tip, own
-        physics = self.physics_interval.predict_interval(session)[1]
-        with np.errstate(invalid="ignore"):         # an unbounded radius counts only where its weight is not zero
-            return tip, np.where(w < 1.0, (1.0 - w) * physics, 0.0) + np.where(w > 0.0, w * own, 0.0)
+        return tip, follow_physics(w, self.physics_interval.predict_interval(session)[1], own)
 
     def follows_description(self) -> dict:
         """The interval's blend with the physics', JSON-ready ({} without ``physics_interval``)."""
-        if self.physics_interval is None:
-            return {}
-        return {"interval_90_beyond_gate": "the physics' interval: the radius (1 - w) r_physics + w r_own, w the "
-                                           "learned part's weight"}
+        return {} if self.physics_interval is None else dict(BEYOND_GATE)
 
 
 def _play_state(u: np.ndarray, widths) -> list:
