@@ -125,6 +125,8 @@ BAD = {
                         ["b.csv", "line 6", "repeats", "drop duplicated rows"]),
     "other channels": (lambda t: recording_csv(t / "b.csv", servos=(1, 20, 4)), [],
                        ["b.csv", "servo_4_mm", "differ", "same input columns"]),
+    "a part of another": (lambda t: _rows(t / "b.csv", lambda ls: (t / "a.csv").read_text().splitlines()[:21]), [],
+                          ["b.csv", "repeats 20 of its 20 rows of", "a.csv", "pass each recorded row once"]),
     "lag too long": (lambda t: recording_csv(t / "b.csv", rows=6), ["--lag", "4"],
                      ["--lag=4", "b.csv", "6 rows", "at most 3"]),
     "unknown position unit": (lambda t: None, ["--position-unit", "inch"], ["--position-unit='inch'", "mm"]),
@@ -134,7 +136,7 @@ BAD = {
 }
 
 
-@pytest.mark.parametrize("case, several", [(c, False) for c in BAD if c != "other channels"]
+@pytest.mark.parametrize("case, several", [(c, False) for c in BAD if c not in ("other channels", "a part of another")]
                          + [(c, True) for c in BAD])
 def test_bad_input_one_line_exit_2_no_output(tmp_path, capsys, case, several):
     """One file (-o FILE) or two sessions (-o FOLDER) whose second is bad: nothing is written."""

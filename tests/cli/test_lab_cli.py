@@ -141,14 +141,15 @@ def test_bad_recordings_one_line_exit_2_nothing_written(folder, tmp_path, capsys
 
 
 def test_synthetic_data_without_a_physics_one_line_exit_2(folder, tmp_path, capsys):
-    tendon_recording(tmp_path / "kpa.csv", rows=40, header=["timestamp", "pattern_label", "p_1_kpa", "p_2_kpa",
-                                                           "p_3_kpa", "tip_x", "tip_y", "tip_z"])
+    header = ["timestamp", "pattern_label", "p_1_kpa", "p_2_kpa", "p_3_kpa", "tip_x", "tip_y", "tip_z"]
+    tendon_recording(tmp_path / "kpa.csv", rows=40, header=header)
+    tendon_recording(tmp_path / "kpa2.csv", rows=40, seed=1, header=header)
     out = tmp_path / "out" / "b.json"
     out.parent.mkdir()
     for synthetic, words in (("3", "--synthetic=3.0 is invalid: synthetic data need the calibrated tendon physics"),
                              ("-1", "--synthetic=-1.0 is invalid")):
-        kpa = str(tmp_path / "kpa.csv")
-        code, err = _bad(["lab", "benchmark", "--train", kpa, "--validate", kpa,
+        kpa, kpa2 = str(tmp_path / "kpa.csv"), str(tmp_path / "kpa2.csv")
+        code, err = _bad(["lab", "benchmark", "--train", kpa, "--validate", kpa2,
                           "--length", "0.08", "--inputs", "p_*", "--families", "learned_map", "--synthetic", synthetic,
                           "--json", str(out), "--quiet"], capsys)
         assert code == 2 and words in err and "\n" not in err

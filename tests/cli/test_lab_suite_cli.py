@@ -91,6 +91,8 @@ def test_suite_writes_one_table_and_resumes(folder, tmp_path, capsys):
     ('validate = "one/val.csv"', 'validate = "one/gone.csv"', (": robots.one.validate: no session file",)),
     ('validate = "one/val.csv"', 'validate = "one/other.csv"',
      (": robots.one: ", "every session of a robot needs the same input columns")),
+    ('validate = "one/val.csv"', 'validate = "one/train.csv"',
+     (": robots.one: ", "train.csv: repeats 90 of its 90 rows of", "pass each recorded row once")),
     ("lag = 0\n", "lagg = 0\n", (": unknown key 'robots.one.lagg'",)),
     ('validate = "one/val.csv"', 'validate = "one/far.csv"', (": robots.one: ", "beyond what the routing allows")),
     ('families = ["physics"]\n\n', 'families = ["oracle"]\n\n', (": robots.one: families='oracle' is invalid",)),

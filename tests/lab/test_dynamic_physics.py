@@ -181,11 +181,12 @@ def test_the_benchmark_refuses_a_scenario_that_does_not_fit(tmp_path, sessions, 
     for k, s in enumerate(sessions):
         _csv(tmp_path / f"n{k}.csv", s)
         _csv(tmp_path / f"m{k}.csv", s, unit="mm")
-    two = Recording(path="", time=sessions[0].time, inputs=sessions[0].inputs[:, :2], names=("a", "b"),
-                    units=("N", "N"), tip=sessions[0].tip)
-    _csv(tmp_path / "two.csv", two)
+    for k in (0, 1):
+        two = Recording(path="", time=sessions[k].time, inputs=sessions[k].inputs[:, :2], names=("a", "b"),
+                        units=("N", "N"), tip=sessions[k].tip)
+        _csv(tmp_path / f"two{k}.csv", two)
     out = tmp_path / "dyn.json"
-    for train, val in (("m0", "m1"), ("two", "two")):
+    for train, val in (("m0", "m1"), ("two0", "two1")):
         args = ["lab", "benchmark", "--train", str(tmp_path / f"{train}.csv"), "--validate",
                 str(tmp_path / f"{val}.csv"), "--length", "0.4", "--families", "dynamic_physics", "--scenario",
                 str(scenario_file), "--json", str(out), "--quiet"]

@@ -1,6 +1,8 @@
 """A robot's recording read as it comes: columns, units, irregular times kept, labels; the
 command-to-response lag shifted and estimated; bad recordings refused in one line."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -58,10 +60,31 @@ def test_sessions_with_other_channels_are_refused(tmp_path):
     tendon_recording(tmp_path / "a.csv", rows=20)
     tendon_recording(tmp_path / "b.csv", rows=20, header=["timestamp", "pattern_label", "servo_1_mm", "servo_20_mm",
                                                           "servo_7_mm", "tip_x", "tip_y", "tip_z"])
-    a, b = read_recording(tmp_path / "a.csv"), read_recording(tmp_path / "b.csv")
-    check_sessions([a, a])
+    tendon_recording(tmp_path / "c.csv", rows=20, seed=1)
+    a, b, c = (read_recording(tmp_path / f"{name}.csv") for name in "abc")
+    check_sessions([a, c])
     with pytest.raises(SoftrnnInputError, match="differ from those of"):
         check_sessions([a, b])
+
+
+def test_a_session_that_repeats_rows_of_another_is_refused(tmp_path):
+    """An excerpt of a recording passed beside it (the same rows: time, inputs and tip) would count its
+    rows twice: refused in one line naming both files, whichever comes first; the same commands at
+    other times, or another recording of them, are not a repeat."""
+    tendon_recording(tmp_path / "a.csv", rows=40)
+    lines = (tmp_path / "a.csv").read_text().splitlines()
+    (tmp_path / "part.csv").write_text("\n".join(lines[:1] + lines[11:21]) + "\n")
+    a, part = read_recording(tmp_path / "a.csv"), read_recording(tmp_path / "part.csv")
+    for order in ([a, part], [part, a]):
+        with pytest.raises(SoftrnnInputError, match=r"repeats 10 of its (10|40) rows of .*\.csv .*pass each recorded "
+                                                    r"row once") as err:
+            check_sessions(order)
+        assert "\n" not in str(err.value) and str(order[1].path) in str(err.value)
+    with pytest.raises(SoftrnnInputError, match="repeats 40 of its 40 rows"):
+        check_sessions([a, a])
+    later = replace(a, time=a.time + 1000.0)                 # the same commands and tips, recorded later
+    noisy = replace(a, tip=a.tip + 1e-6)                     # the same commands at the same times, measured anew
+    check_sessions([a, later, noisy])
 
 
 def test_lag_is_shifted_and_estimated(tmp_path):

@@ -15,13 +15,15 @@ The layout (docs/csv-format.md, "Robot recordings"): a header line, then one lin
   called ``pattern_label`` or ``label``, otherwise ignored.
 
 Several sessions of one robot are several files; ``check_sessions`` refuses a set whose input
-channels differ. ``shift_inputs`` lines a command up with a response that lags it by whole rows.
+channels differ, or where one repeats rows of another. ``shift_inputs`` lines a command up with a
+response that lags it by whole rows.
 """
 
 from __future__ import annotations
 
 import fnmatch
 import hashlib
+import math
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -252,8 +254,16 @@ def read_recording(path, layout: Layout = Layout()) -> Recording:
                      columns=tuple(header[j] for j in icols))
 
 
+REPEATED_SHARE = 0.1
+"""``check_sessions`` refuses two sessions that share this share of the shorter one's rows, or more (and
+two rows at least): a file that is part of another. Simulated sessions may share a row or a few (each
+starting at rest at time 0, noise-free), which is no repeat of a recording."""
+
+
 def check_sessions(recordings) -> None:
-    """Refuse sessions of one robot whose input channels differ (names or units, in order)."""
+    """Refuse sessions of one robot whose input channels differ (names or units, in order), and two sessions
+    that share rows (``shared_rows``, ``REPEATED_SHARE``): a file that is part of another (a recording's
+    excerpt passed beside it) would count its rows twice, in training, or in training and validation."""
     first = recordings[0]
     for rec in recordings[1:]:
         if rec.names != first.names or rec.units != first.units:
@@ -261,6 +271,24 @@ def check_sessions(recordings) -> None:
             ours = ", ".join(first.columns or first.names)
             raise _fail(rec.path, f"its input channels ({theirs}) differ from those of {first.path} ({ours}); "
                                   "every session of a robot needs the same input columns in the same order")
+    for j, rec in enumerate(recordings):
+        for other in recordings[:j]:
+            shared = shared_rows(rec, other)
+            if shared >= max(2, math.ceil(REPEATED_SHARE * min(rec.n_rows, other.n_rows))):
+                raise _fail(rec.path, f"repeats {shared} of its {rec.n_rows} rows of {other.path or 'another session'} "
+                                      "(the same time, inputs and tip); pass each recorded row once: leave out "
+                                      "the file that is part of the other, or the rows they share")
+
+
+def shared_rows(a: Recording, b: Recording) -> int:
+    """How many rows of ``a`` are also rows of ``b``: the same time, inputs and tip, to the bit (a copy of
+    a recording, or of part of it; two recordings of a robot never measure the very same tip)."""
+    def keys(r):
+        return {row.tobytes() for row in np.hstack([r.time[:, None], r.inputs, r.tip])}
+    if a.n_inputs != b.n_inputs:
+        return 0
+    theirs = keys(b)
+    return sum(k in theirs for k in keys(a))
 
 
 def shift_inputs(recording: Recording, lag: int) -> Recording:
