@@ -113,6 +113,8 @@ def _bad(args, capsys):
     (["--families", "physics,oracle"], "--families='physics,oracle' is invalid"),
     (["--position-unit", "inch"], "invalid choice"),
     (["--length", "-1"], "--length=-1.0 is invalid"),
+    (["--position-unit", "m"], "--length=0.08 is invalid: the robot's length in m: the tip moves up to"),  # mm as m
+    (["--length", "80"], "--length=80.0 is invalid: the robot's length in m: the tip moves at most"),      # mm as m
     (["--workers", "0"], "--workers='0' is invalid: a whole number of worker processes >= 1"),
     (["--workers", "two"], "--workers='two' is invalid"),
 ])
@@ -121,6 +123,15 @@ def test_bad_options_one_line_exit_2_nothing_written(folder, tmp_path, capsys, c
     code, err = _bad(["lab", "benchmark", "--train", str(folder / "train.csv"), "--validate", str(folder / "val.csv"),
                       "--length", "0.08", "--families", "physics", "--json", str(out), "--quiet", *change], capsys)
     assert code == 2 and words in err and "\n" not in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_calibrate_refuses_positions_in_another_unit(folder, tmp_path, capsys):
+    """Positions in mm read as m move the tip farther than the robot reaches: refused in one line (the
+    benchmark too, above), nothing written."""
+    code, err = _bad(["lab", "calibrate", str(folder / "train.csv"), "--length", "0.08", "--position-unit", "m",
+                      "-o", str(tmp_path / "robot.json"), "--quiet"], capsys)
+    assert code == 2 and "--length=0.08 is invalid" in err and "drop --position-unit m" in err and "\n" not in err
     assert list(tmp_path.iterdir()) == []
 
 

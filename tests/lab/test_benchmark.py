@@ -9,7 +9,16 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.lab.benchmark import BASELINES, FAMILIES, BenchmarkOptions, _Table, run_benchmark, session_agreement
+from softrnn.lab.benchmark import (
+    BASELINES,
+    FAMILIES,
+    TIP_REACH,
+    BenchmarkOptions,
+    _Table,
+    check_reach,
+    run_benchmark,
+    session_agreement,
+)
 from softrnn.lab.families import (
     NODE_TRAINING,
     ConstantVelocityFamily,
@@ -433,3 +442,24 @@ def test_the_node_lstm_s_error_scale_is_its_distance_from_the_physics_plus_the_p
     assert alone.physics_rms is None and np.array_equal(alone.error_scale(val), np.ones(val.n_rows))
     assert "error_scale" not in alone.describe()
     assert alone.anchored(physics, [train]).physics_rms == pytest.approx(rms, rel=1e-12)
+
+
+def test_a_tip_that_moves_beyond_the_robots_reach_or_hardly_at_all_is_refused():
+    """The tip's largest distance from its mean position, against the length: a tip on a sphere of the
+    length's radius around its base (the farthest a robot reaches) passes, as does one that moves by 2 % of
+    the length; 2.6 times the length (positions in mm read as m move 1000 times farther) and 0.5 % (m read
+    as mm: 1000 times less) are refused, naming the length and the unit to give."""
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(400, 3))
+    sphere = 0.2 * v / np.linalg.norm(v, axis=1, keepdims=True)
+
+    def session(tip):
+        return Recording(path="s.csv", time=np.arange(len(tip)) * 0.5, inputs=np.zeros((len(tip), 1)), names=("a",),
+                         units=("mm",), tip=tip)
+    check_reach([session(sphere)], 0.2)
+    check_reach([session(sphere * 0.02)], 0.2)
+    for scale, words in ((2.6, "drop --position-unit m"), (0.005, "pass --position-unit m")):
+        with pytest.raises(SoftrnnInputError, match=f"length=0.2 is invalid: .*{words}") as err:
+            check_reach([session(sphere * scale), session(sphere[:5] * scale)], 0.2)
+        assert "\n" not in str(err.value)
+    assert TIP_REACH[0] < 0.02 and TIP_REACH[1] > 1.0

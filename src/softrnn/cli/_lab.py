@@ -358,7 +358,7 @@ def format_benchmark(r: dict) -> str:
 
 
 def _calibrate(args) -> int:
-    from ..lab.benchmark import TipScore, check_pulls, robot_for, settle_lag
+    from ..lab.benchmark import TipScore, check_pulls, check_reach, robot_for, settle_lag
     from ..lab.families import displacements
     from ..lab.recording import shift_inputs
     from ..lab.tendon_robot import calibrate, session_resets
@@ -383,6 +383,10 @@ def _calibrate(args) -> int:
         raise bad("--segments", args.segments, f"segments whose tendons ({robot.n_tendons}) match the "
                                                f"{train[0].n_inputs} input columns")
     check_pulls(robot, recordings)
+    try:
+        check_reach(recordings, args.length)
+    except SoftrnnInputError as err:
+        raise _as_option(err) from None
     physics = dataclasses.replace(options.calibration, gravity=args.gravity, friction=args.friction, play=args.play,
                                   creep=args.creep, twist=args.twist)
     # BLAS on one thread, as in the benchmark's workers: the same calibration on every machine

@@ -364,6 +364,33 @@ def check_rows(sessions) -> None:
                                     "rows in every session: give a longer recording")
 
 
+TIP_REACH = (0.01, 2.5)
+"""``check_reach``: the tip's largest distance from its mean position over the sessions, as a share of the
+robot's length, below which or above which the positions' unit (or the length) is refused as wrong."""
+
+
+def check_reach(sessions, length: float) -> None:
+    """Refuse sessions whose tip moves farther than a robot of ``length`` [m] reaches, or hardly at all: the
+    tip's largest distance from its mean position over every row is at most twice the length (the tip stays
+    within the length of its base), ``TIP_REACH``'s upper share with a margin for noise; under its lower
+    share (1 %: 2 mm for a 0.2 m robot, over every session) the recording shows no motion to model. Both
+    are what positions in m read as mm (or the reverse) look like: one line naming the length and the fix."""
+    tips = np.vstack([s.tip for s in sessions])
+    tips = tips[np.all(np.isfinite(tips), axis=1)]
+    if tips.shape[0] < 2:
+        return
+    reach = float(np.linalg.norm(tips - tips.mean(axis=0), axis=1).max())
+    low, high = TIP_REACH
+    if reach > high * length:
+        raise bad("length", length, f"the robot's length in m: the tip moves up to {reach:.4g} m from its mean "
+                                    "position over the sessions, beyond what a robot of that length reaches "
+                                    f"({high:g} x its length); if the positions are in mm, drop --position-unit m")
+    if reach < low * length:
+        raise bad("length", length, f"the robot's length in m: the tip moves at most {reach * 1e3:.3g} mm from its "
+                                    f"mean position over the sessions, under {low:.0%} of that length; if the "
+                                    "positions are in m, pass --position-unit m")
+
+
 def settle_lag(train: list[Recording], options: BenchmarkOptions) -> tuple[int, dict]:
     """The lag in rows (``options.lag``, or estimated on ``train``) and what to report of it."""
     if options.lag != "auto":
@@ -600,6 +627,7 @@ def prepare(train: list[Recording], validation: Recording, options: BenchmarkOpt
     train = [shift_inputs(s, lag) for s in train]
     validation = shift_inputs(validation, lag)
     check_rows(train + [validation])
+    check_reach(train + [validation], options.length)
     robot = robot_for(options, validation.n_inputs)
     families, skipped = _families(options, robot, train + [validation])
     dynamic, dynamic_skipped, dynamic_robot = _dynamic_families(options, train + [validation])
