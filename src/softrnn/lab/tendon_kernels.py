@@ -529,6 +529,67 @@ def scratch(n: int, S: int) -> tuple:
 
 
 @njit(cache=True)
+def _directions(q, reset, k, dirs):
+    """The friction directions dirs (n,) at row k of q (K, n): 0 where a session starts (``reset``), else
+    +1 (-1) where the command grew (fell) by more than ``_HOLD`` since row k - 1, the last one kept."""
+    if k == 0 or reset[k]:
+        dirs[:] = 0.0
+        return
+    for i in range(q.shape[1]):
+        dq = q[k, i] - q[k - 1, i]
+        if dq > _HOLD:
+            dirs[i] = 1.0
+        elif dq < -_HOLD:
+            dirs[i] = -1.0
+
+
+@njit(cache=True)
+def session_passes(q, reset, seg, L, compliance, rho, offsets, mu, gvec, bend, tau, out):
+    """One fixed-point pass (``_pass``) of every row of a session from given bending vectors bend (K, S, 2)
+    [1/m] and tensions tau (K, n) [m] (a solution's, ``session_solve``'s, or one near it): out (K, S, 2)
+    [1/m] = G(bend) row by row, with the friction directions of the commands q (K, n) [m] (``reset`` as
+    ``session_solve``'s) and the other arguments as there (no creep: the offsets are the slacks). Where
+    bend is the rows' fixed point, out's change with a parameter or with bend gives the fixed point's
+    sensitivity (``tendon_robot``'s implicit Jacobian)."""
+    K, n = q.shape
+    S = L.size
+    gravity = gvec[0] != 0.0 or gvec[1] != 0.0 or gvec[2] != 0.0
+    b = np.empty((S, 2))
+    t = np.empty(n)
+    dirs = np.zeros(n)
+    f = np.ones((n, S))
+    gb = np.zeros((2, S, 2))
+    M = np.empty((n, n))
+    rhs = np.empty(n)
+    work = scratch(n, S)
+    g = np.empty((S, 2))
+    for k in range(K):
+        _directions(q, reset, k, dirs)
+        for a in range(S):
+            b[a, 0] = bend[k, a, 0]
+            b[a, 1] = bend[k, a, 1]
+        for i in range(n):
+            t[i] = tau[k, i]
+        _pass(q[k], seg, L, compliance, rho, offsets, mu, gvec, gravity, b, t, dirs, f, gb, M, rhs, work, g)
+        for a in range(S):
+            out[k, a, 0] = g[a, 0]
+            out[k, a, 1] = g[a, 1]
+
+
+@njit(cache=True)
+def session_tips(bend, L, marker, tips):
+    """tips (K, 3) [m] in the base frame: the chain tip (``chain_tip``) of each row's bending vectors bend
+    (K, S, 2) [1/m]."""
+    frames = np.empty((2, 3, 3))
+    points = np.empty((2, 3))
+    tip = np.empty(3)
+    for k in range(bend.shape[0]):
+        chain_tip(bend[k], L, marker, frames, points, tip)
+        for a in range(3):
+            tips[k, a] = tip[a]
+
+
+@njit(cache=True)
 def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, creep, dt, slack0, tips, tau_out,
                   bend_out, passes_out, slack_out):
     """Solve every row of a session in order (see the module's docstring).
@@ -564,15 +625,8 @@ def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, 
         if k == 0 or reset[k]:
             b[:] = 0.0
             tau[:] = 0.0
-            dirs[:] = 0.0
             gb[:] = 0.0
-        else:
-            for i in range(n):
-                dq = q[k, i] - q[k - 1, i]
-                if dq > _HOLD:
-                    dirs[i] = 1.0
-                elif dq < -_HOLD:
-                    dirs[i] = -1.0
+        _directions(q, reset, k, dirs)
         for i in range(n):
             off[i] = offsets[i] + slack
         passes_out[k] = _row(q[k], seg, L, compliance, rho, off, mu, gvec, gravity, b, tau, dirs, f, gb, M, rhs,

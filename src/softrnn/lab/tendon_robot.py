@@ -67,6 +67,10 @@ g_hat (3 values: the weight and its direction), with friction mu, with play w an
 refined from the plain model's calibration (the weight from zero, mu from 0.01, w from 2 % of the
 routing radius, gamma from ``_CREEP_START``). Rows without a measured tip (NaN) are run through the
 model but not fitted: their commands still load the tendons (creep) and set the friction's state.
+With gravity or friction (and neither creep, play nor a turn, which tie the rows together) the
+least squares' derivatives come from implicit differentiation of each row's fixed point
+(``_TipResidual.jacobian``: a single pass per parameter at the rows' solution), not from differences
+of the whole solve: as accurate, and a refinement 3-9 times faster.
 """
 
 from __future__ import annotations
@@ -82,7 +86,7 @@ from scipy.spatial.transform import Rotation
 from ..errors import SoftrnnInputError, bad, integer, is_finite_number, positive
 from ..fitting import StartOptions, multistart
 from ..fitting.starts import here
-from .tendon_kernels import _lcp, chain_tip, play, session_solve
+from .tendon_kernels import _lcp, chain_tip, play, session_passes, session_solve, session_tips
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2}
 """Input units read as tendon displacements, with their factor to m."""
@@ -670,15 +674,87 @@ class _TipResidual:
     times: np.ndarray | None = None
     fitted: np.ndarray | None = None
     """(K,) bool: the rows whose tips are fitted (None: all); the others are run (creep, friction) only."""
+    upper: np.ndarray | None = None
+    """(p,) the packed parameters' upper bounds: ``jacobian``'s differences step back from them."""
 
-    def __call__(self, x: np.ndarray) -> np.ndarray:
+    def _params(self, x: np.ndarray) -> TendonParameters:
         # a trial step's compliance beyond any float (the solver rejects it) or below the smallest (0: rigid)
         with np.errstate(over="ignore", under="ignore"):
-            params = _unpack(x, self.robot, **dict(self.flags))
-        tips = tip_positions(self.robot, params, self.q, self.resets, self.times)[0]
+            return _unpack(x, self.robot, **dict(self.flags))
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        return self._residual(tip_positions(self.robot, self._params(x), self.q, self.resets, self.times)[0])
+
+    def _residual(self, tips: np.ndarray) -> np.ndarray:
+        """(K * 3,) [mm] the fitted rows' tips (K, 3) [m] minus the measured ones."""
         if self.fitted is not None:
             tips = tips[self.fitted]
         return ((tips - self.tip) * 1e3).ravel()
+
+    @property
+    def implicit(self) -> bool:
+        """Whether ``jacobian`` applies: each row a fixed point solved by passes (gravity or friction) and
+        the rows independent of each other's tips (no creep, play or turn)."""
+        flags = dict(self.flags)
+        return bool(flags.get("gravity") or flags.get("friction")) and not any(
+            flags.get(name) for name in ("creep", "play", "twist"))
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """(K * 3, p) the residual's derivatives at x by implicit differentiation of each row's fixed point
+        b = G(b; x) (``implicit``): db/dx = (I - dG/db)^-1 dG/dx, both from single passes
+        (``tendon_kernels.session_passes``) at the rows' solution, differenced with ``least_squares``' own
+        2-point steps (sqrt(eps) max(1, |x_j|) with x_j's sign, backward where it would pass ``upper``), and
+        the tip moved along (h e_j, h db/dx_j). A difference of the whole solve converges each perturbed row
+        from the previous row again (several passes, each to the passes' tolerance, which a step of
+        sqrt(eps) barely exceeds); this costs one pass per parameter and per bending component."""
+        robot, p0 = self.robot, self._params(x)
+        _, tau, bend, _, _ = solve_rows(robot, p0, self.q, self.resets, self.times)
+        reset = np.zeros(self.q.shape[0], dtype=np.bool_) if self.resets is None else np.asarray(self.resets, bool)
+        K, S = bend.shape[0], robot.n_segments
+
+        def passes(params, b):
+            b = np.ascontiguousarray(b.reshape(K, S, 2))
+            out = np.empty_like(b)
+            rho = params.routing_radius * np.stack([np.cos(params.angles), np.sin(params.angles)], axis=1)
+            gvec = np.zeros(3) if params.gravity is None else np.asarray(params.gravity, dtype=float)
+            session_passes(np.ascontiguousarray(self.q), reset, robot.segment_of, np.asarray(robot.segment_lengths),
+                           np.asarray(params.compliance, float), rho, np.asarray(params.offsets, float),
+                           float(params.friction or 0.0), gvec, b, tau, out)
+            return out.reshape(K, 2 * S)
+
+        def tips(params, b):
+            out = np.empty((K, 3))
+            session_tips(np.ascontiguousarray(b.reshape(K, S, 2)), np.asarray(robot.segment_lengths),
+                         float(params.marker), out)
+            return out @ _rotations(params.rotation).T + params.base
+
+        g0, flat = passes(p0, bend), bend.reshape(K, 2 * S)
+        G_b = np.empty((K, 2 * S, 2 * S))
+        for c in range(2 * S):
+            h = _FD_STEP * max(1.0, float(np.abs(flat[:, c]).max()))
+            moved = flat.copy()
+            moved[:, c] += h
+            G_b[:, :, c] = (passes(p0, moved) - g0) / h
+        upper = np.full(x.size, np.inf) if self.upper is None else self.upper
+        steps, G_x = np.empty(x.size), np.empty((K, 2 * S, x.size))
+        for j in range(x.size):
+            h = _FD_STEP * (1.0 if x[j] >= 0 else -1.0) * max(1.0, abs(x[j]))
+            xj = x.copy()
+            xj[j] = x[j] + (h if x[j] + h <= upper[j] else -h)
+            steps[j] = xj[j] - x[j]
+            G_x[:, :, j] = (passes(self._params(xj), flat) - g0) / steps[j]
+        db = np.linalg.solve(np.eye(2 * S) - G_b, G_x)                  # (K, 2S, p)
+        t0 = self._residual(tips(p0, flat))
+        J = np.empty((t0.size, x.size))
+        for j in range(x.size):
+            xj = x.copy()
+            xj[j] = x[j] + steps[j]
+            J[:, j] = (self._residual(tips(self._params(xj), flat + steps[j] * db[:, :, j])) - t0) / steps[j]
+        return J
+
+
+_FD_STEP = float(np.finfo(float).eps) ** 0.5
+"""The differences' relative step (``_TipResidual.jacobian``): ``least_squares``' own."""
 
 
 def _rmse_mm(fun: np.ndarray) -> float:
@@ -699,7 +775,8 @@ def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calibra
     n, S = robot.n_tendons, robot.n_segments
     scale = options.loss_scale * 1e3
     flags = {name: getattr(options, name) for name in PHYSICS_OPTIONS}
-    residual = _TipResidual(robot, q, tip[measured], resets, tuple(flags.items()), times, fitted)
+    bounds = _bounds(robot, options)
+    residual = _TipResidual(robot, q, tip[measured], resets, tuple(flags.items()), times, fitted, bounds[1])
     starts = []
     for sign, twist in _starts(robot, options.twists) if start is None else []:
         angles = np.radians(sign * np.tile(np.arange(robot.tendons_per_segment) * 360.0 / robot.tendons_per_segment,
@@ -712,9 +789,10 @@ def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calibra
                         "segment_twist_deg": twist}, _pack(guess)))
     resume = None if start is None else ({"tendon_order": label, "segment_twist_deg": None}, _pack(start))
     t0 = time.perf_counter()
-    found = multistart(residual, starts, _bounds(robot, options), options=options, score=_rmse_mm, key="rmse_mm",
+    jac = {"jac": residual.jacobian} if residual.implicit else {}     # rows solved by passes: implicit derivatives
+    found = multistart(residual, starts, bounds, options=options, score=_rmse_mm, key="rmse_mm",
                        resume=resume, progress=progress, spread=spread, pieces=pieces, loss="soft_l1", f_scale=scale,
-                       x_scale="jac")
+                       x_scale="jac", **jac)
     starts_out = tuple({key: (round(v, 4) if isinstance(v, float) else v) for key, v in e.items() if key != "x"}
                        for e in found.tried)
     return Calibration(robot=robot, params=_unpack(found.x, robot, **flags), rmse_m=found.score * 1e-3,
