@@ -743,7 +743,11 @@ class _TipResidual:
             xj[j] = x[j] + (h if x[j] + h <= upper[j] else -h)
             steps[j] = xj[j] - x[j]
             G_x[:, :, j] = (passes(self._params(xj), flat) - g0) / steps[j]
-        db = np.linalg.solve(np.eye(2 * S) - G_b, G_x)                  # (K, 2S, p)
+        try:
+            db = np.linalg.solve(np.eye(2 * S) - G_b, G_x)              # (K, 2S, p)
+        except np.linalg.LinAlgError:   # a row at a fork of its fixed point (a buckling trial): whole solves
+            f0 = self(x)
+            return np.stack([(self(x + steps[j] * np.eye(x.size)[j]) - f0) / steps[j] for j in range(x.size)], axis=1)
         t0 = self._residual(tips(p0, flat))
         J = np.empty((t0.size, x.size))
         for j in range(x.size):
