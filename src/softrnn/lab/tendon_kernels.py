@@ -529,6 +529,15 @@ def scratch(n: int, S: int) -> tuple:
 
 
 @njit(cache=True)
+def _row_arrays(n: int, S: int) -> tuple:
+    """A row's state and work arrays for n tendons and S segments: the bending vectors b (S, 2), the tensions
+    (n,) and the friction directions (n,) at zero, the capstan factors (n, S) at one, the gravity bending
+    (2, S, 2) at zero, the tension solve's matrix (n, n) and right side (n,), and ``scratch``."""
+    return (np.zeros((S, 2)), np.zeros(n), np.zeros(n), np.ones((n, S)), np.zeros((2, S, 2)), np.empty((n, n)),
+            np.empty(n), scratch(n, S))
+
+
+@njit(cache=True)
 def _directions(q, reset, k, dirs):
     """The friction directions dirs (n,) at row k of q (K, n): 0 where a session starts (``reset``), else
     +1 (-1) where the command grew (fell) by more than ``_HOLD`` since row k - 1, the last one kept."""
@@ -554,14 +563,7 @@ def session_passes(q, reset, seg, L, compliance, rho, offsets, mu, gvec, bend, t
     K, n = q.shape
     S = L.size
     gravity = gvec[0] != 0.0 or gvec[1] != 0.0 or gvec[2] != 0.0
-    b = np.empty((S, 2))
-    t = np.empty(n)
-    dirs = np.zeros(n)
-    f = np.ones((n, S))
-    gb = np.zeros((2, S, 2))
-    M = np.empty((n, n))
-    rhs = np.empty(n)
-    work = scratch(n, S)
+    b, t, dirs, f, gb, M, rhs, work = _row_arrays(n, S)
     g = np.empty((S, 2))
     for k in range(K):
         _directions(q, reset, k, dirs)
@@ -609,14 +611,7 @@ def session_solve(q, reset, seg, L, compliance, rho, offsets, mu, gvec, marker, 
     slack = slack0
     off = np.empty(n)
     gravity = gvec[0] != 0.0 or gvec[1] != 0.0 or gvec[2] != 0.0
-    b = np.zeros((S, 2))
-    tau = np.zeros(n)
-    dirs = np.zeros(n)
-    f = np.ones((n, S))
-    gb = np.zeros((2, S, 2))
-    M = np.empty((n, n))
-    rhs = np.empty(n)
-    work = scratch(n, S)
+    b, tau, dirs, f, gb, M, rhs, work = _row_arrays(n, S)
     acc = np.zeros((3, S, 2))
     frames = np.empty((2, 3, 3))
     points = np.empty((2, 3))
