@@ -77,7 +77,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numba import njit
@@ -676,6 +676,9 @@ class _TipResidual:
     """(K,) bool: the rows whose tips are fitted (None: all); the others are run (creep, friction) only."""
     upper: np.ndarray | None = None
     """(p,) the packed parameters' upper bounds: ``jacobian``'s differences step back from them."""
+    last: dict = field(default_factory=dict, repr=False)
+    """With ``implicit``: the rows' solution (tau / k, bending vectors) at the x of the last call, which the
+    optimiser then asks the derivatives at (``jacobian``)."""
 
     def _params(self, x: np.ndarray) -> TendonParameters:
         # a trial step's compliance beyond any float (the solver rejects it) or below the smallest (0: rigid)
@@ -683,7 +686,12 @@ class _TipResidual:
             return _unpack(x, self.robot, **dict(self.flags))
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        return self._residual(tip_positions(self.robot, self._params(x), self.q, self.resets, self.times)[0])
+        if not self.implicit:
+            return self._residual(tip_positions(self.robot, self._params(x), self.q, self.resets, self.times)[0])
+        tips, tau, bend, _, _ = solve_rows(self.robot, self._params(x), self.q, self.resets, self.times)
+        self.last.clear()
+        self.last[x.tobytes()] = (tau, bend)
+        return self._residual(tips)
 
     def _residual(self, tips: np.ndarray) -> np.ndarray:
         """(K * 3,) [mm] the fitted rows' tips (K, 3) [m] minus the measured ones."""
@@ -708,7 +716,9 @@ class _TipResidual:
         from the previous row again (several passes, each to the passes' tolerance, which a step of
         sqrt(eps) barely exceeds); this costs one pass per parameter and per bending component."""
         robot, p0 = self.robot, self._params(x)
-        _, tau, bend, _, _ = solve_rows(robot, p0, self.q, self.resets, self.times)
+        if x.tobytes() not in self.last:
+            self(x)
+        tau, bend = self.last[x.tobytes()]
         reset = np.zeros(self.q.shape[0], dtype=np.bool_) if self.resets is None else np.asarray(self.resets, bool)
         K, S = bend.shape[0], robot.n_segments
 
@@ -736,25 +746,21 @@ class _TipResidual:
             moved[:, c] += h
             G_b[:, :, c] = (passes(p0, moved) - g0) / h
         upper = np.full(x.size, np.inf) if self.upper is None else self.upper
-        steps, G_x = np.empty(x.size), np.empty((K, 2 * S, x.size))
+        points = []                                                     # (x_j, its step, its parameters)
         for j in range(x.size):
             h = _FD_STEP * (1.0 if x[j] >= 0 else -1.0) * max(1.0, abs(x[j]))
             xj = x.copy()
             xj[j] = x[j] + (h if x[j] + h <= upper[j] else -h)
-            steps[j] = xj[j] - x[j]
-            G_x[:, :, j] = (passes(self._params(xj), flat) - g0) / steps[j]
+            points.append((xj, xj[j] - x[j], self._params(xj)))
+        G_x = np.stack([(passes(pj, flat) - g0) / step for _, step, pj in points], axis=2)
         try:
             db = np.linalg.solve(np.eye(2 * S) - G_b, G_x)              # (K, 2S, p)
         except np.linalg.LinAlgError:   # a row at a fork of its fixed point (a buckling trial): whole solves
             f0 = self(x)
-            return np.stack([(self(x + steps[j] * np.eye(x.size)[j]) - f0) / steps[j] for j in range(x.size)], axis=1)
+            return np.stack([(self(xj) - f0) / step for xj, step, _ in points], axis=1)
         t0 = self._residual(tips(p0, flat))
-        J = np.empty((t0.size, x.size))
-        for j in range(x.size):
-            xj = x.copy()
-            xj[j] = x[j] + steps[j]
-            J[:, j] = (self._residual(tips(self._params(xj), flat + steps[j] * db[:, :, j])) - t0) / steps[j]
-        return J
+        return np.stack([(self._residual(tips(pj, flat + step * db[:, :, j])) - t0) / step
+                         for j, (_, step, pj) in enumerate(points)], axis=1)
 
 
 _FD_STEP = float(np.finfo(float).eps) ** 0.5
