@@ -70,7 +70,7 @@ model but not fitted: their commands still load the tendons (creep) and set the 
 With gravity or friction (and neither creep, play nor a turn, which tie the rows together) the
 least squares' derivatives come from implicit differentiation of each row's fixed point
 (``_TipResidual.jacobian``: a single pass per parameter at the rows' solution), not from differences
-of the whole solve: as accurate, and a refinement 3-9 times faster.
+of the whole solve: as accurate, and a refinement 3-11 times faster.
 """
 
 from __future__ import annotations
