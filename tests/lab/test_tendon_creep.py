@@ -191,10 +191,10 @@ def test_creep_without_the_rows_times_is_refused():
 def test_a_rigid_segment_refits_from_where_it_is():
     """A calibration that left a segment rigid (its compliance underflowed to 0, a segment its rows do not
     bend) is a finite start for a refit: the least squares would stop at a NaN step otherwise."""
-    from softrnn.lab.tendon_robot import _pack
+    from softrnn.lab.tendon_robot import pack
 
     robot, params = _robot(2)
-    x = _pack(dataclasses.replace(params, compliance=np.array([0.0, 1.0 / (R ** 2 * L)])))
+    x = pack(dataclasses.replace(params, compliance=np.array([0.0, 1.0 / (R ** 2 * L)])))
     assert np.all(np.isfinite(x))
     q, times = _pulls(40, 3)
     rigid = dataclasses.replace(params, compliance=np.array([0.0, 1.0 / (R ** 2 * L)]))

@@ -264,7 +264,7 @@ def test_the_implicit_jacobian_matches_central_differences_of_the_whole_solve(gr
     other, and the optimiser differences the solve itself."""
     from scipy.optimize._numdiff import approx_derivative
 
-    from softrnn.lab.tendon_robot import PHYSICS_OPTIONS, _bounds, _pack, _TipResidual
+    from softrnn.lab.tendon_robot import PHYSICS_OPTIONS, _bounds, _TipResidual, pack
 
     robot, plain = tendon_robot_truth(2)
     params = dataclasses.replace(plain, gravity=np.array([1e-4, -2e-4, 3e-4]) if gravity else None,
@@ -276,7 +276,7 @@ def test_the_implicit_jacobian_matches_central_differences_of_the_whole_solve(gr
     flags = tuple((name, getattr(options, name)) for name in PHYSICS_OPTIONS)
     residual = _TipResidual(robot, q, tip, None, flags, upper=_bounds(robot, options)[1])
     assert residual.implicit
-    x = _pack(params)
+    x = pack(params)
     reference = approx_derivative(residual, x, method="3-point", rel_step=1e-5)
     column = np.linalg.norm(reference, axis=0)
     assert np.all(column > 0)

@@ -46,7 +46,7 @@ from ..learned.metrics import tip_errors
 from ..learned.node.train_config import TrainConfig
 from .recording import Recording
 from .synthetic import SyntheticOptions, check_mode, taught_sessions
-from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, _pack, calibrate, session_resets
+from .tendon_robot import LENGTH_UNITS, Calibration, CalibrationOptions, TendonRobot, calibrate, pack, session_resets
 
 PLAY_WIDTHS = (0.05, 0.15)
 """Widths of the play operators of the hysteresis state, as fractions of each input's range in
@@ -327,7 +327,7 @@ class Physics:
     def refit_key(self, sessions) -> tuple:
         """What determines ``refit(sessions)``: the robot, the options, this calibration's parameters (the
         refinement's start) and the sessions (``sessions_key``)."""
-        return (self.robot, self.options, self.name, _pack(self.calibration.params).tobytes(), sessions_key(sessions))
+        return (self.robot, self.options, self.name, pack(self.calibration.params).tobytes(), sessions_key(sessions))
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs."""

@@ -525,8 +525,10 @@ _TWIST_MAX = 90.0
 """The turn's bound [``_TWIST_UNIT``]: a quarter turn per mm of creep slack."""
 
 
-def _pack(p: TendonParameters) -> np.ndarray:
-    # internal units: mm and rad, log compliance (well scaled for least squares); then gravity, friction, play, creep
+def pack(p: TendonParameters) -> np.ndarray:
+    """The parameters as the calibration's vector (what its least squares fits; ``_bounds``): in mm and rad,
+    the compliance's log (well scaled), then gravity, friction, play, creep and the turn where ``p`` has
+    them. Equal parameters pack to equal vectors, so its bytes key a calibration."""
     extra = ([] if p.gravity is None else list(np.asarray(p.gravity) / _GRAVITY_UNIT)) + \
         ([] if p.friction is None else [p.friction]) + ([] if p.play is None else [p.play * 1e3]) + \
         ([] if p.creep is None else [p.creep / _CREEP_UNIT]) + ([] if p.twist is None else [p.twist / _TWIST_UNIT])
@@ -603,7 +605,7 @@ def _starts(robot: TendonRobot, twists: int) -> list[tuple[int, float]]:
 
 
 def _bounds(robot: TendonRobot, options: CalibrationOptions) -> tuple[np.ndarray, np.ndarray]:
-    """(lower, upper) of the packed parameters (``_pack``) for ``options``' variant."""
+    """(lower, upper) of the packed parameters (``pack``) for ``options``' variant."""
     n, S = robot.n_tendons, robot.n_segments
     inf = np.inf
     lower = np.concatenate([np.full(n, -inf), np.full(n, -inf), [0.2 * robot.routing_radius * 1e3],
@@ -796,8 +798,8 @@ def _search(robot: TendonRobot, q: np.ndarray, tip: np.ndarray, options: Calibra
                                  compliance=np.full(S, 1.0 / (robot.routing_radius ** 2 * robot.length / S)),
                                  marker=0.0, rotation=rotation, base=base)
         starts.append(({"tendon_order": "counter-clockwise" if sign > 0 else "clockwise",
-                        "segment_twist_deg": twist}, _pack(guess)))
-    resume = None if start is None else ({"tendon_order": label, "segment_twist_deg": None}, _pack(start))
+                        "segment_twist_deg": twist}, pack(guess)))
+    resume = None if start is None else ({"tendon_order": label, "segment_twist_deg": None}, pack(start))
     t0 = time.perf_counter()
     jac = {"jac": residual.jacobian} if residual.implicit else {}     # rows solved by passes: implicit derivatives
     found = multistart(residual, starts, bounds, options=options, score=_rmse_mm, key="rmse_mm",
