@@ -287,7 +287,9 @@ def test_learned_families_say_their_mode_and_interval(report):
     hybrid = details["hybrid"]["holdout_rmse_mm"]
     assert report["chosen_on_training"]["holdout_rmse_mm"]["hybrid"] == min(hybrid.values())
     node = details["node_lstm"]
-    assert set(node["holdout_rmse_mm"]) == {"mode=real", "mode=mixed"} and node["mode"] in ("real", "mixed")
+    assert set(node["holdout_rmse_mm"]) == {"mode=real", "mode=mixed"} | {
+        f"mode=real,physics,gate={g}" for g in ("0.5", "1", "2", "4", "8")} and node["mode"] in ("real", "mixed")
+    assert ("gate_d0" in node) == ("physics' tip leaves" in node["kind"])
     assert report["chosen_on_training"]["holdout_rmse_mm"]["node_lstm"] == min(node["holdout_rmse_mm"].values())
 
 

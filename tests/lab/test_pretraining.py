@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from softrnn.errors import SoftrnnInputError
-from softrnn.lab.families import Physics, holdout_split
+from softrnn.lab.families import NODE_TRAINING, NodeFamily, NodeOptions, Physics, holdout_split
 from softrnn.lab.nets import Hybrid, LearnedMap, NetOptions, Sequence, SequenceOptions
 from softrnn.lab.recording import Recording, read_recording
 from softrnn.lab.synthetic import SyntheticOptions
@@ -167,6 +167,31 @@ def test_a_sequence_over_the_physics_learns_what_it_leaves(two_segments):
         Sequence(options, on_physics=True).fit([train])
     with pytest.raises(SoftrnnInputError, match="linear=True is invalid: linear=False with on_physics=True"):
         Sequence(options, physics=crude, on_physics=True, linear=True)
+
+
+def test_a_node_lstm_over_the_physics_learns_what_it_leaves_from_the_commands_alone(two_segments):
+    """``NodeFamily(on_physics=True)``: the node LSTM learns the residual of a physics that misses (its marker
+    8 mm off). On the unrecorded combinations it leaves far less than that physics; it reads no recorded tip
+    (its run starts from a zero residual); gated, it is its physics far from the data; it refuses without a
+    calibrated physics and with the physics' synthetic sessions, which have no residual to learn."""
+    physics, train, test = two_segments
+    crude = Physics(physics.robot, calibration=replace(
+        physics.calibration, params=replace(physics.calibration.params, marker=8e-3)))
+    options = NodeOptions(units=16, training=replace(NODE_TRAINING, epochs=30))
+    over = NodeFamily(0.08, options, physics=crude, on_physics=True).fit([train])
+    assert _rmse_mm(over, test) < 0.5 * _rmse_mm(crude, test)
+    np.testing.assert_array_equal(over.predict(replace(test, tip=test.tip + 0.05)), over.predict(test))
+    np.testing.assert_array_equal(over.predict(test)[:options.history], crude.predict(test)[:options.history])
+    assert "of what the calibrated physics' tip leaves" in over.describe()["kind"]
+    gated = replace(over, gate=0.5)
+    far = _session(physics, train.inputs + 6.0, 2)
+    np.testing.assert_array_equal(gated.predict(far), crude.predict(far))
+    np.testing.assert_allclose(gated.predict(train), over.predict(train), rtol=0, atol=1e-12)
+    assert "gated off away from the training data" in gated.describe()["kind"] and gated.describe()["gate_d0"] == 0.5
+    with pytest.raises(SoftrnnInputError, match="on_physics=True is invalid: a calibrated physics"):
+        NodeFamily(0.08, options, on_physics=True).fit([train])
+    with pytest.raises(SoftrnnInputError, match="mode='mixed' is invalid: 'real' with on_physics=True"):
+        NodeFamily(0.08, options, mode="mixed", physics=crude, on_physics=True)
 
 
 def test_an_early_sequence_candidate_is_calibrated_with_the_scale_of_its_final_fit(two_segments):

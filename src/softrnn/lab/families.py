@@ -36,7 +36,7 @@ from typing import Protocol
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import SoftrnnInputError, nonnegative
+from ..errors import SoftrnnInputError, bad, nonnegative
 from ..fitting.starts import here
 from ..io.reader import Dataset
 from ..learned.baselines import ConstantVelocity, Persistence, free_run
@@ -542,6 +542,17 @@ def rms_error(model, sessions) -> float:
     return float(np.sqrt(np.mean(finite ** 2))) if finite.size else math.inf
 
 
+def gate_weights(reach, gate: float, session: Recording) -> np.ndarray:
+    """(T,) a learned residual's weight w = exp(-(d / ``gate``)^2) in [0, 1] per row of ``session``, d the
+    distance of its standardised inputs from the nearest training row (``reach``, an
+    ``uncertainty.InputDistance``): 1 on a training row, falling to 0 away from them; 1 everywhere where
+    ``gate`` is inf."""
+    if math.isinf(gate):
+        return np.ones(session.n_rows)
+    with np.errstate(under="ignore"):                 # far out: w = 0
+        return np.exp(-(reach(session) / gate) ** 2)
+
+
 def calibrated(physics) -> bool:
     """Whether ``physics`` is a fitted ``Physics`` (not None, its calibration done)."""
     return getattr(physics, "calibration", None) is not None
@@ -586,7 +597,14 @@ class NodeFamily(Anchored):
     hold-out part (``holdout_split``), run free over a session from its first ``history`` rows
     (the recorded tips there are its initial condition). ``mode`` ``mixed``: the calibrated
     ``physics``' synthetic sessions (``softrnn.lab.synthetic``, ``synthetic`` with at most
-    ``options.synthetic_amount`` rows per real row) join its training rows."""
+    ``options.synthetic_amount`` rows per real row) join its training rows.
+
+    ``on_physics`` (mode ``real``): the node learns what the calibrated ``physics`` leaves. Its node is
+    the residual tip - physics' tip (plus ``anchor``, the physics' mean tip over the training rows, so
+    that it lies where a tip does), written as the next pose itself (the node model's ``output``
+    ``pose``), and its tip the physics' plus w times the residual's free run, w =
+    exp(-(d / ``gate``)^2) per row (``gate_weights``: the hybrid's gate), so that away from the training
+    rows it is its physics. The run starts from a zero residual: no recorded tip is read."""
 
     length: float
     options: NodeOptions = NodeOptions()
@@ -601,9 +619,24 @@ class NodeFamily(Anchored):
     physics_rms: float | None = None
     """The physics' RMS tip error [m] over the rows it was fitted on (``error_scale``; None without a fitted
     physics)."""
+    on_physics: bool = False
+    """Whether the node learns the residual of the fitted ``physics`` (the class docstring)."""
+    gate: float = math.inf
+    """With ``on_physics``: the residual's gate width d0 (``gate_weights``); inf: not gated."""
+    reach: object = None
+    """With ``on_physics``: the distance from the training rows' inputs (``uncertainty.InputDistance``)."""
+    anchor: np.ndarray | None = None
+    """With ``on_physics``: (3,) [m] the physics' mean tip over the training rows, where a zero residual lies."""
 
     def __post_init__(self):
         check_mode(self, ("real", "mixed"))
+        if self.on_physics and self.mode != "real":
+            raise bad("mode", self.mode, "'real' with on_physics=True: the physics' synthetic sessions have no "
+                                         "residual to learn")
+
+    def _residual(self, sessions) -> list[Recording]:
+        """``sessions`` with the tip replaced by tip - the physics' tip + ``anchor`` (``on_physics``)."""
+        return [replace(s, tip=s.tip - self.physics.predict(s) + self.anchor) for s in sessions]
 
     def _taught(self, sessions) -> list:
         """The synthetic sessions of mode ``mixed`` ([] in mode ``real``) for training on ``sessions``."""
@@ -616,16 +649,29 @@ class NodeFamily(Anchored):
         from ..learned.node.train import train_node_model  # optional extra: learn (PyTorch)
 
         o = self.options
-        fit_part, held = holdout_split(sessions)
+        sessions = list(sessions)
+        model = self
+        if self.on_physics:
+            from .uncertainty import InputDistance  # uncertainty imports this module
+
+            if not calibrated(self.physics):
+                raise bad("on_physics", True, "a calibrated physics to learn what it leaves (Physics fitted), "
+                                              "or False")
+            anchor = np.mean(np.vstack([self.physics.predict(s) for s in sessions]), axis=0)
+            model = replace(self, anchor=anchor, reach=InputDistance.of(sessions))
+        fit_part, held = holdout_split(model._residual(sessions) if self.on_physics else sessions)
         spec = SampleSpec(node=1, neighbours=(), history=o.history, inputs="positions", wrench="none",
                           drive="actuation")
         taught = self._taught(fit_part)
         data = as_dataset(fit_part + taught, self.length)
         step = data.attrs["dt"]                  # the held rows read at it too, however they are paced
+        # over the physics the node writes the residual itself, not its increment: integrated along a free
+        # run, an increment's small bias adds up without bound, while a residual stays where the data put it
+        config = {"lstm_units": o.units} | ({"output": "pose"} if self.on_physics else {})
         with tempfile.TemporaryDirectory() as folder:
-            model = train_node_model(data, spec, {"lstm_units": o.units}, o.training, folder,
-                                     validation=as_dataset(held, self.length, step))
-        return replace(self, model=model, step=step).anchored(self.physics, sessions)
+            net = train_node_model(data, spec, config, o.training, folder,
+                                   validation=as_dataset(held, self.length, step))
+        return replace(model, model=net, step=step).anchored(self.physics, sessions)
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs; NaN from the
@@ -634,20 +680,30 @@ class NodeFamily(Anchored):
         from ..learned.node.rollout import rollout  # optional extra: learn (PyTorch)
 
         H = self.options.history
-        data = as_dataset([session], self.length, self.step)
+        start = replace(session, tip=np.broadcast_to(self.anchor, session.tip.shape)) if self.on_physics else session
+        data = as_dataset([start], self.length, self.step)
         tip = np.full((session.n_rows, 3), np.nan)
-        tip[:H] = session.tip[:H]
+        tip[:H] = start.tip[:H]
         try:
             tip[H:] = rollout(self.model, data, H, session.n_rows).node_positions(1)
         except RolloutDiverged as err:
             if err.sample > H:                   # the rows before, from the same run stopped there
                 tip[H:err.sample] = rollout(self.model, data, H, err.sample).node_positions(1)
-        return tip
+        if not self.on_physics:
+            return tip
+        w = gate_weights(self.reach, self.gate, session)[:, None]
+        with np.errstate(invalid="ignore"):      # a diverged run counts only where its weight is not zero
+            return self.physics.predict(session) + np.where(w > 0.0, w * (tip - self.anchor), 0.0)
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
-        out = {"kind": "per-node LSTM driven by the inputs alone (softrnn train --drive actuation)",
+        out = {"kind": "per-node LSTM driven by the inputs alone (softrnn train --drive actuation)" +
+                       (", of what the calibrated physics' tip leaves" if self.on_physics else "") +
+                       (", gated off away from the training data" if self.on_physics and not math.isinf(self.gate)
+                        else ""),
                **self.options.describe(), "mode": self.mode}
+        if self.on_physics:
+            out["gate_d0"] = None if math.isinf(self.gate) else self.gate
         if self.mode != "real":
             out["synthetic"] = self.synthetic.describe() | {"amount_x_real_rows": min(
                 self.synthetic.amount, self.options.synthetic_amount)}

@@ -51,6 +51,7 @@ from .families import (
     _previous,
     calibrated,
     choose,
+    gate_weights,
     held_rows,
     holdout_split,
     parsimonious,
@@ -93,16 +94,6 @@ class NetOptions:
     def __post_init__(self):
         for name in ("hidden", "members", "steps", "batch"):
             integer(name, getattr(self, name), 1)
-
-
-def gate_weights(reach: InputDistance, gate: float, session: Recording) -> np.ndarray:
-    """(T,) a learned residual's weight w = exp(-(d / ``gate``)^2) in [0, 1] per row of ``session``, d the
-    distance of its standardised inputs from the nearest training row (``reach``): 1 on a training row,
-    falling to 0 away from them; 1 everywhere where ``gate`` is inf."""
-    if math.isinf(gate):
-        return np.ones(session.n_rows)
-    with np.errstate(under="ignore"):                 # far out: w = 0
-        return np.exp(-(reach(session) / gate) ** 2)
 
 
 BEYOND_GATE = {"interval_90_beyond_gate": "the physics' interval: the radius (1 - w) r_physics + w r_own, w the "
@@ -745,7 +736,7 @@ def fit_hybrid(train, pair, syn, options, held_score) -> tuple:
 
 def _gated(model) -> dict:
     """{label suffix: ``model`` with that gate}: every gate width of ``GATES`` (the hybrid's residual, the
-    sequence model's GRU over the physics), scored on the hold-out without refitting."""
+    sequence model's GRU and the node LSTM over the physics), scored on the hold-out without refitting."""
     return {f",gate={g:g}": replace(model, gate=g) for g in GATES}
 
 
@@ -798,7 +789,9 @@ def fit_sequence(train, pair, syn, options, held_score, early: dict | None = Non
 
 def fit_node(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
     """``NodeFamily`` (``options.node``), taught by the physics' synthetic sessions (mode ``mixed``) or
-    not, as the hold-out part prefers, each candidate seeded by its label (``seeded``); the winner
+    not, or (where ``pair`` holds calibrated physics) learning what the physics leaves, its residual gated
+    with each width of ``GATES`` (``NodeFamily.on_physics``; tried last, ``mode=real,physics,gate=...``),
+    as the hold-out part prefers, each candidate seeded by its label (``seeded``); the winner
     refitted on every training row, with a 90 % interval (``uncertainty.WithInterval``, its scale from
     the physics: ``families.Anchored``) calibrated on the hold-out split. ``early``: candidates fitted
     already ({label: model}, ``early_candidates``)."""
@@ -809,9 +802,14 @@ def fit_node(train, pair, syn, options, held_score, early: dict | None = None) -
             with seeded(f"node_lstm {candidate(m)}"):
                 fitted[candidate(m)] = NodeFamily(options.length, options.node, mode=m, synthetic=syn,
                                                  physics=pair[0]).fit(fit_part)
+    if all(calibrated(p) for p in pair):
+        label = candidate("real") + ",physics"
+        with seeded(f"node_lstm {label}"):
+            over = NodeFamily(options.length, options.node, physics=pair[0], on_physics=True).fit(fit_part)
+        fitted |= {label + suffix: model for suffix, model in _gated(over).items()}
     scores = {k: held_score(v) for k, v in fitted.items()}
-    best = parsimonious(scores, held_rows(held))
-    interval = calibrate(WithInterval(fitted[best].anchored(pair[0], fit_part), InputDistance.of(fit_part)),
-                         fit_part, held)
-    final = NodeFamily(options.length, options.node, mode=best.split("=")[1], synthetic=syn, physics=pair[1])
+    best = fitted[parsimonious(scores, held_rows(held))]
+    interval = calibrate(WithInterval(best.anchored(pair[0], fit_part), InputDistance.of(fit_part)), fit_part, held)
+    final = NodeFamily(options.length, options.node, mode=best.mode, synthetic=syn, physics=pair[1],
+                       on_physics=best.on_physics, gate=best.gate)
     return WithInterval(final.fit(train), InputDistance.of(train), **interval), scores

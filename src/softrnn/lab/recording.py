@@ -271,9 +271,10 @@ def check_sessions(recordings) -> None:
             ours = ", ".join(first.columns or first.names)
             raise _fail(rec.path, f"its input channels ({theirs}) differ from those of {first.path} ({ours}); "
                                   "every session of a robot needs the same input columns in the same order")
+    keys = [_row_keys(rec) for rec in recordings]
     for j, rec in enumerate(recordings):
-        for other in recordings[:j]:
-            shared = shared_rows(rec, other)
+        for i, other in enumerate(recordings[:j]):
+            shared = len(keys[j] & keys[i]) if rec.n_inputs == other.n_inputs else 0
             if shared >= max(2, math.ceil(REPEATED_SHARE * min(rec.n_rows, other.n_rows))):
                 raise _fail(rec.path, f"repeats {shared} of its {rec.n_rows} rows of {other.path or 'another session'} "
                                       "(the same time, inputs and tip); pass each recorded row once: leave out "
@@ -283,12 +284,12 @@ def check_sessions(recordings) -> None:
 def shared_rows(a: Recording, b: Recording) -> int:
     """How many rows of ``a`` are also rows of ``b``: the same time, inputs and tip, to the bit (a copy of
     a recording, or of part of it; two recordings of a robot never measure the very same tip)."""
-    def keys(r):
-        return {row.tobytes() for row in np.hstack([r.time[:, None], r.inputs, r.tip])}
-    if a.n_inputs != b.n_inputs:
-        return 0
-    theirs = keys(b)
-    return sum(k in theirs for k in keys(a))
+    return len(_row_keys(a) & _row_keys(b)) if a.n_inputs == b.n_inputs else 0
+
+
+def _row_keys(r: Recording) -> set:
+    """The distinct rows of ``r`` (time, inputs, tip) as bytes."""
+    return {row.tobytes() for row in np.hstack([r.time[:, None], r.inputs, r.tip])}
 
 
 def shift_inputs(recording: Recording, lag: int) -> Recording:
