@@ -9,15 +9,18 @@ calibrated, and the share of the quarter's rows inside each model's 90 % ball is
 the benchmark's scale from refits (``uncertainty.RefitSpread``) and once with none (scale 1). With
 ``--sequence``, the sequence model too (pretrained on the physics' synthetic sessions), once with its
 scale from the physics (``nets.Sequence.error_scale``) and once with none; with ``--node``, the node LSTM
-(mode ``mixed``, taught by the physics' synthetic sessions) the same way (``families.NodeFamily``). No
-row of another session is read, so the rule can be judged without a validation session.
+(mode ``mixed``, taught by the physics' synthetic sessions) the same way (``families.NodeFamily``), with
+``--node-over-physics`` the node LSTM that learns what the physics leaves (``on_physics``, the narrowest
+gate of ``nets.GATES``). No row of another session is read, so the rule can be judged without a
+validation session.
 
     python examples/interval_quarters.py data/opencr-tdcr-v6/train.csv --length 0.222 \\
         --segments 0.1,0.1,0.022 --json out/interval-quarters.json
 
 Prints one line per quarter and model, and writes the coverages (shares of rows) to ``--json``.
 About 4 minutes on 2 cores for the shared robot (the physics' multi-start search, once per quarter);
-with ``--sequence`` about 25 (four trainings of the GRU per quarter), with ``--node`` about 5 more.
+with ``--sequence`` about 25 (four trainings of the GRU per quarter), with ``--node`` or
+``--node-over-physics`` about 5 more each.
 """
 
 import argparse
@@ -30,7 +33,7 @@ import numpy as np
 from softrnn.errors import SoftrnnInputError
 from softrnn.lab.benchmark import BenchmarkOptions, baseline_families, prepare
 from softrnn.lab.families import NodeFamily, Physics, holdout_split, masked
-from softrnn.lab.nets import Sequence
+from softrnn.lab.nets import GATES, Sequence
 from softrnn.lab.recording import read_recording
 from softrnn.lab.synthetic import SyntheticOptions
 from softrnn.lab.uncertainty import (
@@ -89,19 +92,23 @@ class Scaled(Intervals):
 
 
 def learned(name, options, split, train, physics) -> tuple:
-    """The sequence model (mode ``finetune``) or the node LSTM (mode ``mixed``, with its distance from its
-    rows: ``uncertainty.WithInterval``), fitted on ``train`` and on the fitting part ``split[0]``, each
-    with the physics fitted on the same rows (``physics``: (held, final)): (final, held)."""
+    """The sequence model (mode ``finetune``) or the node LSTM (mode ``mixed``, or over the physics with the
+    narrowest gate; with its distance from its rows: ``uncertainty.WithInterval``), fitted on ``train``
+    and on the fitting part ``split[0]``, each with the physics fitted on the same rows (``physics``:
+    (held, final)): (final, held)."""
     if name == "sequence":
         make = [Sequence(options.sequence, "finetune", SyntheticOptions(), p) for p in physics]
         return make[1].fit(train), make[0].fit(split[0])
-    make = [NodeFamily(options.length, options.node, mode="mixed", synthetic=SyntheticOptions(), physics=p)
-            for p in physics]
+    if name == "node_lstm_over_physics":
+        make = [NodeFamily(options.length, options.node, physics=p, on_physics=True, gate=GATES[0]) for p in physics]
+    else:
+        make = [NodeFamily(options.length, options.node, mode="mixed", synthetic=SyntheticOptions(), physics=p)
+                for p in physics]
     return (WithInterval(make[1].fit(train), InputDistance.of(train)),
             WithInterval(make[0].fit(split[0]), InputDistance.of(split[0])))
 
 
-def quarter(robot, options, train, block, with_sequence, with_node=False) -> dict:
+def quarter(robot, options, train, block, with_sequence, with_node=False, with_node_over=False) -> dict:
     """{model: {"refits" or "physics": share, "none": share}} of the rows of ``block`` inside each
     model's ball."""
     split = holdout_split(train)
@@ -115,7 +122,8 @@ def quarter(robot, options, train, block, with_sequence, with_node=False) -> dic
     out = {name: {label: round(coverage(with_interval(model, held, *split, train, fitted=True, refits=k), block), 4)
                   for label, k in (("refits", REFIT_FOLDS), ("none", 0))}
            for name, (model, held) in fitted.items()}
-    for name in [n for n, asked in (("sequence", with_sequence), ("node_lstm", with_node)) if asked]:
+    asked = (("sequence", with_sequence), ("node_lstm", with_node), ("node_lstm_over_physics", with_node_over))
+    for name in [n for n, wanted in asked if wanted]:
         final, held = learned(name, options, split, train, (held_physics, fitted["physics"][0]))
         refits = {}
         out[name] = {label: round(coverage(replace(Scaled(final, own, {}), **calibrate(
@@ -131,6 +139,8 @@ def main() -> None:
     parser.add_argument("--json", type=Path, help="where to write the coverages")
     parser.add_argument("--sequence", action="store_true", help="also the sequence model (about 25 minutes)")
     parser.add_argument("--node", action="store_true", help="also the node LSTM (about 5 minutes)")
+    parser.add_argument("--node-over-physics", action="store_true",
+                        help="also the node LSTM over the physics (about 5 minutes)")
     parser.add_argument("--creep", action="store_true", help="the physics with the tendons' creep")
     args = parser.parse_args()
     options = BenchmarkOptions(length=args.length, segments=tuple(float(x) for x in args.segments.split(",")))
@@ -146,12 +156,14 @@ def main() -> None:
     out = {}
     with one_blas_thread():
         for j, (train, block) in enumerate(pattern_folds(list(prepared.train), 4)):
-            out[f"quarter {j}"] = quarter(prepared.robot, options, train, block, args.sequence, args.node)
+            out[f"quarter {j}"] = quarter(prepared.robot, options, train, block, args.sequence, args.node,
+                                          args.node_over_physics)
             for name, share in out[f"quarter {j}"].items():
                 print(f"quarter {j}  {name:18s} " + "  ".join(f"{k} {v:6.1%}" for k, v in share.items()), flush=True)
-    groups = {"physics and baselines": [n for n in out["quarter 0"] if n not in ("sequence", "node_lstm")]}
-    for name, asked in (("sequence", args.sequence), ("node_lstm", args.node)):
-        if asked:
+    learned_names = ("sequence", "node_lstm", "node_lstm_over_physics")
+    groups = {"physics and baselines": [n for n in out["quarter 0"] if n not in learned_names]}
+    for name, wanted in zip(learned_names, (args.sequence, args.node, args.node_over_physics)):
+        if wanted:
             groups[name] = [name]
     for group, names in groups.items():
         for label in out["quarter 0"][names[0]]:

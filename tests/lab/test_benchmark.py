@@ -289,7 +289,7 @@ def test_learned_families_say_their_mode_and_interval(report):
     node = details["node_lstm"]
     assert set(node["holdout_rmse_mm"]) == {"mode=real", "mode=mixed"} | {
         f"mode=real,physics,gate={g}" for g in ("0.5", "1", "2", "4", "8")} and node["mode"] in ("real", "mixed")
-    assert ("gate_d0" in node) == ("physics' tip leaves" in node["kind"])
+    assert ("gate_d0" in node) == ("physics' tip leaves" in node["kind"]) == ("interval_90_beyond_gate" in node)
     assert report["chosen_on_training"]["holdout_rmse_mm"]["node_lstm"] == min(node["holdout_rmse_mm"].values())
 
 

@@ -188,6 +188,11 @@ def test_a_node_lstm_over_the_physics_learns_what_it_leaves_from_the_commands_al
     np.testing.assert_array_equal(gated.predict(far), crude.predict(far))
     np.testing.assert_allclose(gated.predict(train), over.predict(train), rtol=0, atol=1e-12)
     assert "gated off away from the training data" in gated.describe()["kind"] and gated.describe()["gate_d0"] == 0.5
+    # the benchmark blends its interval with the physics' by the residual's weight, as the hybrid's
+    stated = WithInterval(gated, InputDistance.of([train]))
+    assert np.all(stated.physics_weights(far) < 1e-60)
+    np.testing.assert_allclose(stated.physics_weights(train), 1.0, atol=1e-12)
+    assert WithInterval(NodeFamily(0.08, options)).physics_weights(train) is None
     with pytest.raises(SoftrnnInputError, match="on_physics=True is invalid: a calibrated physics"):
         NodeFamily(0.08, options, on_physics=True).fit([train])
     with pytest.raises(SoftrnnInputError, match="mode='mixed' is invalid: 'real' with on_physics=True"):

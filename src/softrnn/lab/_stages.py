@@ -18,7 +18,6 @@ from .dynamic_families import DynamicHybrid, DynamicPhysics
 from .families import finite_or_inf, holdout_split, remember_refits
 from .nets import (
     BEYOND_GATE,
-    FollowsPhysics,
     fit_hybrid,
     fit_learned_map,
     fit_node,
@@ -95,8 +94,9 @@ def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, opt
     (``EARLY``, ``nets.early_candidates``: {candidate: model}); ``refits``: the physics' refits made
     before (``families.shared_refits``: the physics' interval's, which the hybrid's interval makes again).
     Also, where the model follows its physics (``nets.FollowsPhysics``: the hybrid, the sequence model over
-    the physics), its learned part's weight (T,) over ``validation``, with which ``collect_families`` blends
-    its interval with the physics' (None otherwise)."""
+    the physics; the node LSTM over the physics, ``families.NodeFamily.physics_weights``), its learned part's
+    weight (T,) over ``validation``, with which ``collect_families`` blends its interval with the physics'
+    (None otherwise)."""
     remember_refits(refits)
     more = {"early": early} if early else {}
     with seeded(name):
@@ -104,7 +104,7 @@ def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, opt
     ran = run_model(name, model, validation, scores)
     if no_syn:
         ran.details["synthetic_data"] = f"not used: {no_syn}"
-    weights = model.physics_weights(validation) if isinstance(model, FollowsPhysics) else None
+    weights = model.physics_weights(validation) if hasattr(model, "physics_weights") else None
     return ran, min(scores.values(), key=finite_or_inf), weights
 
 
@@ -112,7 +112,8 @@ def collect_families(jobs: list, pool: WorkerPool, out, step, physics_interval=N
     """The learned families' runs (the jobs of ``family_run``) scored into ``out`` (the benchmark's table of
     scores) in report order, ``step(name)`` as each finishes; returns each family's hold-out score [mm].
     ``physics_interval``: the physics with its calibrated interval (``uncertainty.with_interval``), which a
-    model that follows its physics (``nets.FollowsPhysics``) states where its learned part is off."""
+    model that follows its physics (one with ``physics_weights``: ``nets.FollowsPhysics``, the node LSTM over
+    the physics) states where its learned part is off."""
     runs = {}
     for job in pool.as_completed(jobs):
         runs[job.label] = job.get()

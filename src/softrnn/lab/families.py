@@ -695,6 +695,11 @@ class NodeFamily(Anchored):
         with np.errstate(invalid="ignore"):      # a diverged run counts only where its weight is not zero
             return self.physics.predict(session) + np.where(w > 0.0, w * (tip - self.anchor), 0.0)
 
+    def physics_weights(self, session: Recording) -> np.ndarray | None:
+        """(T,) the residual's weight w per row over the physics (``gate_weights``; ``on_physics``), with which
+        ``lab benchmark`` blends its interval with the physics' as the hybrid's; None without ``on_physics``."""
+        return gate_weights(self.reach, self.gate, session) if self.on_physics else None
+
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
         out = {"kind": "per-node LSTM driven by the inputs alone (softrnn train --drive actuation)" +

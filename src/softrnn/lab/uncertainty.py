@@ -412,6 +412,12 @@ class WithInterval(_Wrapper, Intervals):
         own = getattr(self.model, "error_scale", None)
         return np.ones(session.n_rows) if own is None else own(session)
 
+    def physics_weights(self, session) -> np.ndarray | None:
+        """(T,) the weight of the model's learned part over its physics per row (``model.physics_weights``),
+        or None: the model does not follow a physics (``lab benchmark`` then states its own ball alone)."""
+        own = getattr(self.model, "physics_weights", None)
+        return None if own is None else own(session)
+
     def describe(self) -> dict:
         """The model's description and the interval: its radius [mm] on the training rows, its growth
         [mm per standard deviation of the distance] and the distance beyond which it grows [standard
