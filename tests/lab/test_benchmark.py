@@ -373,6 +373,19 @@ def test_a_node_run_that_diverges_is_nan_from_there_on_and_never_the_best(monkey
     nan, good = TipScore.of(tip, val.tip, 0.08), TipScore.of(val.tip + 1e-3, val.tip, 0.08)
     assert math.isnan(nan.tip_rmse_mm)
     assert BenchmarkResult._best({"node_lstm": nan, "physics": good}) == "physics"
+    # over the physics, a diverged residual counts only where its weight is not zero: elsewhere the physics
+
+    class Reach:                                        # rows 12 on are far from the training rows (w = 0)
+        def __call__(self, session):
+            return np.where(np.arange(session.n_rows) < 12, 0.0, np.inf)
+
+    physics = Physics(TendonRobot((0.08,), 3, 4e-3), FAST["calibration"]).fit([sessions[0]])
+    over = NodeFamily(0.08, model=object(), physics=physics, on_physics=True, gate=1.0, reach=Reach(),
+                      anchor=np.zeros(3))
+    tip = over.predict(val)
+    base = physics.predict(val)
+    np.testing.assert_array_equal(tip[:H], base[:H])               # from a zero residual, no recorded tip
+    assert np.all(np.isnan(tip[9:12])) and np.array_equal(tip[12:], base[12:])
 
 
 def test_the_node_lstm_reads_every_session_at_its_training_step_however_it_is_paced(sessions):

@@ -675,7 +675,8 @@ class NodeFamily(Anchored):
 
     def predict(self, session: Recording) -> np.ndarray:
         """The tip (T, 3) [m] over ``session``, free running from its start on its inputs; NaN from the
-        row where the run diverges (``learned.horizons.RolloutDiverged``) on."""
+        row where the run diverges (``learned.horizons.RolloutDiverged``) on (over the physics: where the
+        residual's weight is not zero; elsewhere the physics' tip)."""
         from ..learned.horizons import RolloutDiverged  # optional extra: learn (PyTorch)
         from ..learned.node.rollout import rollout  # optional extra: learn (PyTorch)
 
