@@ -147,7 +147,7 @@ def main() -> None:
     options = replace(options, calibration=replace(options.calibration, creep=args.creep))
     try:
         session = read_recording(args.session)
-        prepared = prepare([session], session, options)
+        prepared = prepare([session], None, options)
     except SoftrnnInputError as err:
         parser.exit(2, f"interval_quarters.py: {err}\n")
     if not session.labels:

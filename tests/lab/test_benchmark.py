@@ -16,6 +16,7 @@ from softrnn.lab.benchmark import (
     BenchmarkOptions,
     _Table,
     check_reach,
+    prepare,
     run_benchmark,
     session_agreement,
 )
@@ -182,6 +183,17 @@ def test_a_pull_beyond_the_routing_is_refused(sessions):
     far = type(val)(**{**vars(val), "inputs": val.inputs * 10})
     with pytest.raises(SoftrnnInputError, match="beyond what the routing allows"):
         run_benchmark([train], far, BenchmarkOptions(length=0.08, families=("physics",), **FAST))
+
+
+def test_training_sessions_are_checked_alone_without_a_validation_session(sessions):
+    """``prepare(train, None, options)`` checks and lines up the training sessions alone (as a check on
+    the training session alone makes); a validation session that is the training session is refused."""
+    train, _ = sessions
+    options = BenchmarkOptions(length=0.08, **FAST)
+    alone = prepare([train], None, options)
+    assert alone.validation is None and alone.robot is not None and alone.train[0].n_rows == train.n_rows
+    with pytest.raises(SoftrnnInputError, match="repeats"):
+        prepare([train], train, options)
 
 
 def test_fit_returns_a_new_frozen_model_and_leaves_the_family_as_it_was(sessions):

@@ -571,8 +571,8 @@ class Prepared:
 
     Attributes
     ----------
-    train, validation : tuple of Recording, Recording
-        the sessions, shifted by the lag
+    train, validation : tuple of Recording, Recording or None
+        the sessions, shifted by the lag (validation None: the training sessions checked alone)
     lag_info : dict
         what to report of the lag (``settle_lag``)
     robot : TendonRobot or None
@@ -617,20 +617,23 @@ def _dynamic_families(options: BenchmarkOptions, sessions) -> tuple[list, dict, 
     return named or list(DYNAMIC_FAMILIES), {}, robot
 
 
-def prepare(train: list[Recording], validation: Recording, options: BenchmarkOptions) -> Prepared:
+def prepare(train: list[Recording], validation: Recording | None, options: BenchmarkOptions) -> Prepared:
     """Check ``train`` and ``validation`` (sessions of one robot) against ``options`` and line them up
-    by the lag: one-line ``SoftrnnInputError`` for channels that differ, too few rows, a lag too long, a
-    pull beyond the routing."""
+    by the lag: one-line ``SoftrnnInputError`` for channels that differ, sessions that share rows, too few
+    rows, a lag too long, a pull beyond the routing. ``validation`` None: the training sessions alone (a
+    check of them with the benchmark's options, as ``examples/interval_quarters.py`` makes; not to be
+    run)."""
     t0 = time.perf_counter()
-    check_sessions(list(train) + [validation])
+    check_sessions(list(train) + ([] if validation is None else [validation]))
     lag, lag_info = settle_lag(train, options)
     train = [shift_inputs(s, lag) for s in train]
-    validation = shift_inputs(validation, lag)
-    check_rows(train + [validation])
-    check_reach(train + [validation], options.length)
-    robot = robot_for(options, validation.n_inputs)
-    families, skipped = _families(options, robot, train + [validation])
-    dynamic, dynamic_skipped, dynamic_robot = _dynamic_families(options, train + [validation])
+    validation = None if validation is None else shift_inputs(validation, lag)
+    every = train + ([] if validation is None else [validation])
+    check_rows(every)
+    check_reach(every, options.length)
+    robot = robot_for(options, every[0].n_inputs)
+    families, skipped = _families(options, robot, every)
+    dynamic, dynamic_skipped, dynamic_robot = _dynamic_families(options, every)
     families = [f for f in families if f not in DYNAMIC_FAMILIES]
     skipped.update(dynamic_skipped)
     return Prepared(train=tuple(train), validation=validation, lag_info=lag_info, robot=robot,

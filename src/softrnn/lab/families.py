@@ -542,10 +542,32 @@ def rms_error(model, sessions) -> float:
     return float(np.sqrt(np.mean(finite ** 2))) if finite.size else math.inf
 
 
-def gate_weights(reach, gate: float, session: Recording) -> np.ndarray:
+@dataclass(frozen=True, eq=False)
+class InputDistance:
+    """The distance of a row's inputs from the nearest training row, each input standardised by
+    its training mean ``mu`` and deviation ``sd`` (``of(sessions)``)."""
+
+    tree: cKDTree
+    mu: np.ndarray
+    sd: np.ndarray
+
+    @classmethod
+    def of(cls, sessions) -> InputDistance:
+        """The distance from the rows of training ``sessions`` (a list of ``Recording``) with a measured tip
+        (the rows a model was fitted on: not those masked, ``families.masked``)."""
+        u = np.vstack([s.inputs[np.all(np.isfinite(s.tip), axis=1)] for s in sessions])
+        mu, sd = u.mean(axis=0), u.std(axis=0) + 1e-12
+        return cls(cKDTree((u - mu) / sd), mu, sd)
+
+    def __call__(self, session) -> np.ndarray:
+        """(T,) the distance of each row of ``session`` [standard deviations]."""
+        return self.tree.query((session.inputs - self.mu) / self.sd, k=1)[0]
+
+
+def gate_weights(reach: InputDistance, gate: float, session: Recording) -> np.ndarray:
     """(T,) a learned residual's weight w = exp(-(d / ``gate``)^2) in [0, 1] per row of ``session``, d the
     distance of its standardised inputs from the nearest training row (``reach``, an
-    ``uncertainty.InputDistance``): 1 on a training row, falling to 0 away from them; 1 everywhere where
+    ``InputDistance``): 1 on a training row, falling to 0 away from them; 1 everywhere where
     ``gate`` is inf."""
     if math.isinf(gate):
         return np.ones(session.n_rows)
@@ -623,8 +645,8 @@ class NodeFamily(Anchored):
     """Whether the node learns the residual of the fitted ``physics`` (the class docstring)."""
     gate: float = math.inf
     """With ``on_physics``: the residual's gate width d0 (``gate_weights``); inf: not gated."""
-    reach: object = None
-    """With ``on_physics``: the distance from the training rows' inputs (``uncertainty.InputDistance``)."""
+    reach: InputDistance | None = None
+    """With ``on_physics``: the distance from the training rows' inputs (``InputDistance``)."""
     anchor: np.ndarray | None = None
     """With ``on_physics``: (3,) [m] the physics' mean tip over the training rows, where a zero residual lies."""
 
@@ -652,8 +674,6 @@ class NodeFamily(Anchored):
         sessions = list(sessions)
         model = self
         if self.on_physics:
-            from .uncertainty import InputDistance  # uncertainty imports this module
-
             if not calibrated(self.physics):
                 raise bad("on_physics", True, "a calibrated physics to learn what it leaves (Physics fitted), "
                                               "or False")

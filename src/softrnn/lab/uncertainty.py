@@ -4,25 +4,23 @@ on the training sessions' hold-out part (split conformal prediction).
 A model that states an interval has ``predict_interval(session) -> (tip (T, 3) [m], radius (T,) [m])``:
 ``tip`` is ``predict(session)`` and the ball of ``radius`` around it should hold the true tip in 90 % of
 the rows. The radius is the model's own scale of its error per row (``error_scale``: an ensemble's
-spread; 1 where it has none) times q + b max(0, d - d0), d the distance of the row's standardised
-inputs from the nearest training row (``InputDistance``: errors grow out of range). ``calibrate`` fits
-q, b and d0 on the model fitted without the hold-out rows (two-regime split conformal): q holds 90 % of
-the rows near the data that the model did not see, up to the distance d0 that bounds them, and b, the
-least growth beyond d0 with which the ball then holds 90 % of the rows beyond them: the cross-fit's
-farther half and the hold-out, each. The rows the model did not see come from a cross-fit
-(``cross_fit``): where the recordings label their patterns, the model refitted without each block of
-patterns in turn (``pattern_folds``: half of the fitting rows, whole patterns recorded beside each
-other) and run over it, as over a new session of other patterns; without labels, the model refitted
-on every other stretch of its fitting rows and run over the stretches in between, which revisit the
-same commands at other times. Either shows the spread between visits, hysteresis and drift, that the
-rows a model was fitted on understate; q is never below the quantile on the fitted rows themselves.
-Without a fitted b the radius is q (1 + d) (``conformal_q``, q from the hold-out alone).
-A model without an error scale of its own can be given one (``RefitSpread``): the jackknife spread of
-the model refitted without each block of its training patterns, with their median error over the rows
-each was fitted without.
+spread; 1 where it has none) times q + b max(0, d - d0), d the distance of the row's standardised inputs
+from the nearest training row (``families.InputDistance``, also importable from here: errors grow out of
+range). ``calibrate`` fits q, b and d0 on the model fitted without the hold-out rows (two-regime split
+conformal): q holds 90 % of the rows near the data that the model did not see, up to the distance d0 that
+bounds them, and b, the least growth beyond d0 with which the ball then holds 90 % of the rows beyond
+them: the cross-fit's farther half and the hold-out, each. The rows the model did not see come from a
+cross-fit (``cross_fit``): where the recordings label their patterns, the model refitted without each
+block of patterns in turn (``pattern_folds``: half of the fitting rows, whole patterns recorded beside
+each other) and run over it, as over a new session of other patterns; without labels, the model refitted
+on every other stretch of its fitting rows and run over the stretches in between, which revisit the same
+commands at other times. Either shows the spread between visits, hysteresis and drift, that the rows a
+model was fitted on understate; q is never below the quantile on the fitted rows themselves. Without a
+fitted b the radius is q (1 + d) (``conformal_q``, q from the hold-out alone). A model without an error
+scale of its own can be given one (``RefitSpread``): the jackknife spread of the model refitted without
+each block of its training patterns, with their median error over the rows each was fitted without.
 ``WithInterval`` gives any fitted model such an interval (the physics, the baselines). The benchmark
-reports the share of validation rows inside (``coverage_90``).
-"""
+reports the share of validation rows inside (``coverage_90``)."""
 
 from __future__ import annotations
 
@@ -30,9 +28,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
-from .families import masked, rms_error, stretch_edges
+from .families import InputDistance, masked, rms_error, stretch_edges
 
 COVERAGE = 0.9
 """The share of rows an interval should hold."""
@@ -229,28 +226,6 @@ NEAR_SHARE = 0.5
 """The share of the cross-fit's rows, the nearest to the rows the model was refitted on, that set the
 interval's q and the distance d0 up to which it holds (``calibrate``); the rest, with the hold-out rows,
 set its growth b beyond d0."""
-
-
-@dataclass(frozen=True, eq=False)
-class InputDistance:
-    """The distance of a row's inputs from the nearest training row, each input standardised by
-    its training mean ``mu`` and deviation ``sd`` (``of(sessions)``)."""
-
-    tree: cKDTree
-    mu: np.ndarray
-    sd: np.ndarray
-
-    @classmethod
-    def of(cls, sessions) -> InputDistance:
-        """The distance from the rows of training ``sessions`` (a list of ``Recording``) with a measured tip
-        (the rows a model was fitted on: not those masked, ``families.masked``)."""
-        u = np.vstack([s.inputs[np.all(np.isfinite(s.tip), axis=1)] for s in sessions])
-        mu, sd = u.mean(axis=0), u.std(axis=0) + 1e-12
-        return cls(cKDTree((u - mu) / sd), mu, sd)
-
-    def __call__(self, session) -> np.ndarray:
-        """(T,) the distance of each row of ``session`` [standard deviations]."""
-        return self.tree.query((session.inputs - self.mu) / self.sd, k=1)[0]
 
 
 class _Wrapper:
