@@ -393,7 +393,7 @@ def test_a_node_run_that_diverges_is_nan_from_there_on_and_never_the_best(monkey
 
     physics = Physics(TendonRobot((0.08,), 3, 4e-3), FAST["calibration"]).fit([sessions[0]])
     over = NodeFamily(0.08, model=object(), physics=physics, on_physics=True, gate=1.0, reach=Reach(),
-                      anchor=np.zeros(3))
+                      anchor=np.zeros(3), low=np.full(val.n_inputs, -np.inf), high=np.full(val.n_inputs, np.inf))
     tip = over.predict(val)
     base = physics.predict(val)
     np.testing.assert_array_equal(tip[:H], base[:H])               # from a zero residual, no recorded tip

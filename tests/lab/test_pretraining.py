@@ -182,6 +182,13 @@ def test_a_node_lstm_over_the_physics_learns_what_it_leaves_from_the_commands_al
     assert _rmse_mm(over, test) < 0.5 * _rmse_mm(crude, test)
     np.testing.assert_array_equal(over.predict(replace(test, tip=test.tip + 0.05)), over.predict(test))
     np.testing.assert_array_equal(over.predict(test)[:options.history], crude.predict(test)[:options.history])
+    # it reads the commands clipped to their training range: a servo pulled far beyond it drives the
+    # physics, not the node's run (whose state would carry to the rows after)
+    pulled = replace(test, inputs=test.inputs + np.where(np.arange(test.n_rows)[:, None] < 50, 40.0, 0.0))
+    clipped = replace(pulled, inputs=np.clip(pulled.inputs, over.low, over.high))
+    np.testing.assert_allclose(over.predict(pulled) - crude.predict(pulled),
+                               over.predict(clipped) - crude.predict(clipped), rtol=0, atol=1e-15)
+    assert np.all(over.low <= train.inputs) and np.all(train.inputs <= over.high)
     assert "of what the calibrated physics' tip leaves" in over.describe()["kind"]
     gated = replace(over, gate=0.5)
     far = _session(physics, train.inputs + 6.0, 2)

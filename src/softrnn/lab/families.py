@@ -626,7 +626,10 @@ class NodeFamily(Anchored):
     that it lies where a tip does), written as the next pose itself (the node model's ``output``
     ``pose``), and its tip the physics' plus w times the residual's free run, w =
     exp(-(d / ``gate``)^2) per row (``gate_weights``: the hybrid's gate), so that away from the training
-    rows it is its physics. The run starts from a zero residual: no recorded tip is read."""
+    rows it is its physics. The run starts from a zero residual: no recorded tip is read. The node reads
+    the commands clipped to their training range (``low``, ``high``): its run feeds its own predictions
+    back, so a command no training row reached (a servo held still through the training, moved later)
+    would drive it where no row took it and spoil the rows after it, where the gate lets it act again."""
 
     length: float
     options: NodeOptions = NodeOptions()
@@ -649,6 +652,10 @@ class NodeFamily(Anchored):
     """With ``on_physics``: the distance from the training rows' inputs (``InputDistance``)."""
     anchor: np.ndarray | None = None
     """With ``on_physics``: (3,) [m] the physics' mean tip over the training rows, where a zero residual lies."""
+    low: np.ndarray | None = None
+    high: np.ndarray | None = None
+    """With ``on_physics``: (m,) the training rows' least and greatest command of each input, the range the
+    node reads them clipped to."""
 
     def __post_init__(self):
         check_mode(self, ("real", "mixed"))
@@ -678,7 +685,9 @@ class NodeFamily(Anchored):
                 raise bad("on_physics", True, "a calibrated physics to learn what it leaves (Physics fitted), "
                                               "or False")
             anchor = np.mean(np.vstack([self.physics.predict(s) for s in sessions]), axis=0)
-            model = replace(self, anchor=anchor, reach=InputDistance.of(sessions))
+            u = np.vstack([s.inputs for s in sessions])
+            model = replace(self, anchor=anchor, reach=InputDistance.of(sessions), low=u.min(axis=0),
+                            high=u.max(axis=0))
         fit_part, held = holdout_split(model._residual(sessions) if self.on_physics else sessions)
         spec = SampleSpec(node=1, neighbours=(), history=o.history, inputs="positions", wrench="none",
                           drive="actuation")
@@ -701,7 +710,10 @@ class NodeFamily(Anchored):
         from ..learned.node.rollout import rollout  # optional extra: learn (PyTorch)
 
         H = self.options.history
-        start = replace(session, tip=np.broadcast_to(self.anchor, session.tip.shape)) if self.on_physics else session
+        start = session
+        if self.on_physics:                      # from a zero residual, on the commands in their training range
+            start = replace(session, tip=np.broadcast_to(self.anchor, session.tip.shape),
+                            inputs=np.clip(session.inputs, self.low, self.high))
         data = as_dataset([start], self.length, self.step)
         tip = np.full((session.n_rows, 3), np.nan)
         tip[:H] = start.tip[:H]
