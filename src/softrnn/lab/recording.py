@@ -262,8 +262,9 @@ starting at rest at time 0, noise-free), which is no repeat of a recording."""
 
 def check_sessions(recordings) -> None:
     """Refuse sessions of one robot whose input channels differ (names or units, in order), and two sessions
-    that share rows (``shared_rows``, ``REPEATED_SHARE``): a file that is part of another (a recording's
-    excerpt passed beside it) would count its rows twice, in training, or in training and validation."""
+    that share rows (the same time, inputs and tip, to the bit, ``_row_keys``; ``REPEATED_SHARE``): a file
+    that is part of another (a recording's excerpt passed beside it) would count its rows twice, in
+    training, or in training and validation."""
     first = recordings[0]
     for rec in recordings[1:]:
         if rec.names != first.names or rec.units != first.units:
@@ -281,14 +282,9 @@ def check_sessions(recordings) -> None:
                                       "the file that is part of the other, or the rows they share")
 
 
-def shared_rows(a: Recording, b: Recording) -> int:
-    """How many rows of ``a`` are also rows of ``b``: the same time, inputs and tip, to the bit (a copy of
-    a recording, or of part of it; two recordings of a robot never measure the very same tip)."""
-    return len(_row_keys(a) & _row_keys(b)) if a.n_inputs == b.n_inputs else 0
-
-
 def _row_keys(r: Recording) -> set:
-    """The distinct rows of ``r`` (time, inputs, tip) as bytes."""
+    """The distinct rows of ``r`` (time, inputs, tip) as bytes: a copy of a recording, or of part of it, shares
+    them; two recordings of a robot never measure the very same tip."""
     return {row.tobytes() for row in np.hstack([r.time[:, None], r.inputs, r.tip])}
 
 

@@ -193,6 +193,18 @@ class TendonParameters:
         play): the rows are independent."""
         return self.gravity is None and self.friction is None and self.creep is None and self.twist is None
 
+    def routing(self) -> np.ndarray:
+        """(n, 2) [m] each tendon's position in the cross-section, r (cos theta_i, sin theta_i)."""
+        return self.routing_radius * np.stack([np.cos(self.angles), np.sin(self.angles)], axis=1)
+
+    def gravity_vector(self) -> np.ndarray:
+        """(3,) (w / k) g_hat in the base frame, zeros without gravity in the model."""
+        return np.zeros(3) if self.gravity is None else np.asarray(self.gravity, dtype=float)
+
+    def in_tracker(self, points: np.ndarray) -> np.ndarray:
+        """points (K, 3) [m] in the base frame placed in the motion-capture frame by the base pose."""
+        return points @ _rotations(self.rotation).T + self.base
+
     def to_dict(self, robot: TendonRobot) -> dict:
         """JSON-ready, in mm and degrees, with the stiffness ratio k r^2 L_s / EI_s per segment."""
         ratio = [float(self.compliance[s] * self.routing_radius ** 2 * L)
@@ -297,7 +309,7 @@ def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray,
     q = reached(params, q, resets)
     seg = robot.segment_of
     L = np.asarray(robot.segment_lengths)
-    rho = params.routing_radius * np.stack([np.cos(params.angles), np.sin(params.angles)], axis=1)   # (n, 2)
+    rho = params.routing()
     cum = np.cumsum(L * params.compliance)
     A = cum[np.minimum(seg[:, None], seg[None, :])] * (rho @ rho.T)
     M = np.eye(robot.n_tendons) + A
@@ -305,7 +317,12 @@ def tip_positions(robot: TendonRobot, params: TendonParameters, q: np.ndarray,
     _tensions(M, np.ascontiguousarray(q - params.offsets), tau)
     x = np.empty((q.shape[0], 3))
     _arcs(tau, rho, seg, L, np.asarray(params.compliance, dtype=float), float(params.marker), x)
-    return x @ _rotations(params.rotation).T + params.base, tau
+    return params.in_tracker(x), tau
+
+
+def _reset_rows(resets: np.ndarray | None, K: int) -> np.ndarray:
+    """(K,) bool: the rows where a session starts (``resets``; None: none marked, the kernels start the first)."""
+    return np.zeros(K, dtype=np.bool_) if resets is None else np.asarray(resets, dtype=np.bool_)
 
 
 def reached(params: TendonParameters, q: np.ndarray, resets: np.ndarray | None = None) -> np.ndarray:
@@ -316,7 +333,7 @@ def reached(params: TendonParameters, q: np.ndarray, resets: np.ndarray | None =
     if params.play is None:
         return q
     out = np.empty_like(q)
-    reset = np.zeros(len(q), dtype=np.bool_) if resets is None else np.asarray(resets, dtype=np.bool_)
+    reset = _reset_rows(resets, len(q))
     play(q, reset, np.full(q.shape[1], float(params.play)), out)
     return out
 
@@ -335,23 +352,22 @@ def solve_rows(robot: TendonRobot, params: TendonParameters, q: np.ndarray, rese
     """
     q = reached(params, q, resets)
     K, n = q.shape
-    reset = np.zeros(K, dtype=np.bool_) if resets is None else np.asarray(resets, dtype=np.bool_)
+    reset = _reset_rows(resets, K)
     if params.creep is None:
         rate, dt, slack = 0.0, np.zeros(K), 0.0
     elif times is None:
         raise bad("times", None, "the rows' times [s]: the tendons' creep runs in time")
     else:
         rate, dt = float(params.creep), row_intervals(times, reset)
-    rho = params.routing_radius * np.stack([np.cos(params.angles), np.sin(params.angles)], axis=1)
-    gvec = np.zeros(3) if params.gravity is None else np.asarray(params.gravity, dtype=float)
     tips, tau = np.empty((K, 3)), np.empty((K, n))
     bend, passes, seen = np.empty((K, robot.n_segments, 2)), np.empty(K, dtype=np.int64), np.empty(K)
     session_solve(q, reset, robot.segment_of, np.asarray(robot.segment_lengths), np.asarray(params.compliance, float),
-                  rho, np.asarray(params.offsets, float), float(params.friction or 0.0), gvec, float(params.marker),
+                  params.routing(), np.asarray(params.offsets, float), float(params.friction or 0.0),
+                  params.gravity_vector(), float(params.marker),
                   rate, dt, float(slack), tips, tau, bend, passes, seen)
     if params.twist is not None:
         tips = _turned(tips, params.twist * seen)
-    return tips @ _rotations(params.rotation).T + params.base, tau, bend, passes, seen
+    return params.in_tracker(tips), tau, bend, passes, seen
 
 
 def _turned(points: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -721,24 +737,22 @@ class _TipResidual:
         if x.tobytes() not in self.last:
             self(x)
         tau, bend = self.last[x.tobytes()]
-        reset = np.zeros(self.q.shape[0], dtype=np.bool_) if self.resets is None else np.asarray(self.resets, bool)
+        reset = _reset_rows(self.resets, self.q.shape[0])
         K, S = bend.shape[0], robot.n_segments
 
         def passes(params, b):
             b = np.ascontiguousarray(b.reshape(K, S, 2))
             out = np.empty_like(b)
-            rho = params.routing_radius * np.stack([np.cos(params.angles), np.sin(params.angles)], axis=1)
-            gvec = np.zeros(3) if params.gravity is None else np.asarray(params.gravity, dtype=float)
             session_passes(np.ascontiguousarray(self.q), reset, robot.segment_of, np.asarray(robot.segment_lengths),
-                           np.asarray(params.compliance, float), rho, np.asarray(params.offsets, float),
-                           float(params.friction or 0.0), gvec, b, tau, out)
+                           np.asarray(params.compliance, float), params.routing(), np.asarray(params.offsets, float),
+                           float(params.friction or 0.0), params.gravity_vector(), b, tau, out)
             return out.reshape(K, 2 * S)
 
         def tips(params, b):
             out = np.empty((K, 3))
             session_tips(np.ascontiguousarray(b.reshape(K, S, 2)), np.asarray(robot.segment_lengths),
                          float(params.marker), out)
-            return out @ _rotations(params.rotation).T + params.base
+            return params.in_tracker(out)
 
         g0, flat = passes(p0, bend), bend.reshape(K, 2 * S)
         G_b = np.empty((K, 2 * S, 2 * S))
