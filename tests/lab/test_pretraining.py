@@ -146,6 +146,22 @@ def test_a_sequence_over_the_physics_learns_what_it_leaves(two_segments):
     assert _rmse_mm(over, test) < 0.5 * _rmse_mm(crude, test) and _rmse_mm(over, test) < 0.5 * _rmse_mm(alone, test)
     assert "over the calibrated physics' tip" in over.describe()["kind"]
     assert np.allclose(over.refit([train]).predict(test), over.predict(test), atol=1e-6)   # real rows: fit again
+    # the GRU reads the commands clipped to their training range (its state would carry a command no
+    # training row reached to the rows after); the physics reads them as they are
+    assert np.all(over.low <= train.inputs) and np.all(train.inputs <= over.high)
+    pulled = replace(test, inputs=test.inputs + np.where(np.arange(test.n_rows)[:, None] < 50, 40.0, 0.0))
+    clipped = replace(pulled, inputs=np.clip(pulled.inputs, over.low, over.high))
+
+    @dataclass(frozen=True)
+    class Still:                                      # a physics whose tip ignores the commands
+        calibration: object = crude.calibration
+
+        def predict(self, session):
+            return crude.predict(test)
+    np.testing.assert_array_equal(replace(over, physics=Still()).predict(pulled),
+                                  replace(over, physics=Still()).predict(clipped))
+    assert not np.array_equal(over.predict(pulled), over.predict(clipped))         # the physics reads them all
+    assert Sequence(options).fit([train]).low is None                                # the GRU alone: not clipped
     gated = replace(over, gate=0.5)                    # the hybrid's gate: its physics away from the data
     far = _session(physics, train.inputs + 6.0, 2)
     np.testing.assert_array_equal(gated.predict(far), crude.predict(far))

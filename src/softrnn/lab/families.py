@@ -575,6 +575,13 @@ def gate_weights(reach: InputDistance, gate: float, session: Recording) -> np.nd
         return np.exp(-(reach(session) / gate) ** 2)
 
 
+def command_range(sessions) -> tuple[np.ndarray, np.ndarray]:
+    """((m,), (m,)): the least and greatest command of each input over the rows of ``sessions`` (a list of
+    ``Recording``), the range a learned model that carries a state reads its commands clipped to."""
+    u = np.vstack([s.inputs for s in sessions])
+    return u.min(axis=0), u.max(axis=0)
+
+
 def calibrated(physics) -> bool:
     """Whether ``physics`` is a fitted ``Physics`` (not None, its calibration done)."""
     return getattr(physics, "calibration", None) is not None
@@ -685,9 +692,8 @@ class NodeFamily(Anchored):
                 raise bad("on_physics", True, "a calibrated physics to learn what it leaves (Physics fitted), "
                                               "or False")
             anchor = np.mean(np.vstack([self.physics.predict(s) for s in sessions]), axis=0)
-            u = np.vstack([s.inputs for s in sessions])
-            model = replace(self, anchor=anchor, reach=InputDistance.of(sessions), low=u.min(axis=0),
-                            high=u.max(axis=0))
+            low, high = command_range(sessions)
+            model = replace(self, anchor=anchor, reach=InputDistance.of(sessions), low=low, high=high)
         fit_part, held = holdout_split(model._residual(sessions) if self.on_physics else sessions)
         spec = SampleSpec(node=1, neighbours=(), history=o.history, inputs="positions", wrench="none",
                           drive="actuation")

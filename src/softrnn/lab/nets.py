@@ -51,6 +51,7 @@ from .families import (
     _previous,
     calibrated,
     choose,
+    command_range,
     gate_weights,
     held_rows,
     holdout_split,
@@ -491,6 +492,13 @@ class Sequence(Anchored, FollowsPhysics):
     """The hold-out scores of the base's orders {candidate: tip RMSE [mm]} (``linear_base``)."""
     physics_interval: object = None
     """With ``on_physics``: its physics with the physics' own 90 % interval, or None (``FollowsPhysics``)."""
+    low: np.ndarray | None = None
+    high: np.ndarray | None = None
+    """With ``on_physics``: (m,) the training rows' least and greatest command of each input, the range the
+    GRU reads them clipped to (``families.command_range``; None: not clipped). Its state carries from row
+    to row, so a command no training row reached (a servo held still through the training, moved later)
+    would drive it where no row took it and spoil the rows after it, where the gate lets it act again;
+    the physics reads the commands as they are."""
 
     def __post_init__(self):
         if self.linear and self.on_physics:
@@ -504,7 +512,7 @@ class Sequence(Anchored, FollowsPhysics):
         return np.zeros((s.n_rows, 3)) if self.base is None else self.base.predict(s)
 
     def _inputs(self, s: Recording, base: np.ndarray) -> np.ndarray:
-        u = s.inputs
+        u = s.inputs if self.low is None else np.clip(s.inputs, self.low, self.high)
         dt = np.concatenate([[np.median(np.diff(s.time))], np.diff(s.time)])
         return np.hstack([u, u - _previous(u), np.log(dt)[:, None]] + _play_state(u, self.widths) +
                          ([base] if self.linear or self.on_physics else []))
@@ -519,7 +527,8 @@ class Sequence(Anchored, FollowsPhysics):
         if self.on_physics and not calibrated(self.physics):
             raise bad("on_physics", True, "a calibrated physics to learn what it leaves (Physics fitted), or False")
         syn = taught_sessions(self, sessions, ("real", "finetune"))
-        model = replace(self._with_base(sessions), widths=_widths(sessions, self.hysteresis))
+        model = replace(self._with_base(sessions), widths=_widths(sessions, self.hysteresis),
+                        **self._range(sessions))
         torch.manual_seed(self.options.seed)
         bases = [model._base(s) for s in sessions + syn]
         offset = np.mean(np.vstack([s.tip - b for s, b in zip(sessions, bases)]), axis=0)
@@ -539,6 +548,11 @@ class Sequence(Anchored, FollowsPhysics):
             net = _train_gru(self.options, xs[:n], ys[:n], allX.shape[1], copy.deepcopy(pretrained))
         return replace(model, net=net, offset=offset, mu=mu, sd=sd, scale=scale, reach=InputDistance.of(sessions),
                        pretrained=pretrained).anchored(self.physics, sessions)
+
+    def _range(self, sessions) -> dict:
+        """{"low": ..., "high": ...}: the command range of ``sessions`` that the GRU reads its commands
+        clipped to (``on_physics``); {} otherwise."""
+        return dict(zip(("low", "high"), command_range(sessions))) if self.on_physics else {}
 
     def _with_base(self, sessions) -> Sequence:
         """The model with its linear base fitted on ``sessions`` (``linear_base``: the order chosen there, or
@@ -560,7 +574,7 @@ class Sequence(Anchored, FollowsPhysics):
         import torch  # optional extra: learn (PyTorch)
 
         sessions = list(sessions)
-        model = self._with_base(sessions)
+        model = replace(self._with_base(sessions), **self._range(sessions))
         bases = [model._base(s) for s in sessions]
         xs = [torch.tensor((model._inputs(s, b) - self.mu) / self.sd, dtype=torch.float32)[None]
               for s, b in zip(sessions, bases)]
