@@ -8,8 +8,9 @@ base's order. With the hysteresis state (``hysteresis``): a backlash the GRU alo
 import numpy as np
 import pytest
 
+from softrnn.errors import SoftrnnInputError
 from softrnn.lab.families import LinearARXFamily, play
-from softrnn.lab.nets import LINEAR_ORDERS, Sequence, SequenceOptions, linear_base, sequence_candidates
+from softrnn.lab.nets import LINEAR_ORDERS, Sequence, SequenceOptions, _lanes, linear_base, sequence_candidates
 from softrnn.lab.recording import Recording
 from softrnn.lab.synthetic import SyntheticOptions
 
@@ -142,8 +143,24 @@ def test_the_hysteresis_state_lets_the_gru_hold_a_backlash():
     """With the play operators of its inputs among its inputs (``hysteresis``), the GRU holds a backlash
     on a session it never saw far better than the GRU of the commands alone (same network and training)."""
     train, test = [_backlash_session(0), _backlash_session(1)], _backlash_session(2)
-    options = SequenceOptions(hidden=16, epochs=20, max_steps=600)
+    options = SequenceOptions(hidden=16, epochs=80, max_steps=600)
     alone, held = Sequence(options).fit(train), Sequence(options, hysteresis=True).fit(train)
     e_alone, e_held = _rmse_mm(alone.predict(test), test), _rmse_mm(held.predict(test), test)
     assert e_held < 0.5 * e_alone
     assert held.widths is not None and alone.widths is None and "hysteresis" in held.describe()["kind"]
+
+
+def test_the_lanes_cover_every_row_once_in_whole_windows():
+    """``_lanes``: each session cut into contiguous lanes of at most ``lane_windows`` windows, of about equal
+    length, starting on a window's first row, that together hold each of its rows exactly once."""
+    o = SequenceOptions(window=10, lane_windows=3)
+    xs = [np.zeros((1, 95, 2)), np.zeros((1, 7, 2)), np.zeros((1, 30, 2))]
+    lanes = _lanes(o, xs)
+    for i, x in enumerate(xs):
+        mine = [(a, b) for j, a, b in lanes if j == i]
+        assert mine[0][0] == 0 and mine[-1][1] == x.shape[1]
+        assert all(b == c for (_, b), (c, _) in zip(mine[:-1], mine[1:]))         # contiguous, no row twice
+        assert all(a % o.window == 0 and b - a <= o.lane_windows * o.window for a, b in mine)
+    assert [len([1 for j, _, _ in lanes if j == i]) for i in range(3)] == [4, 1, 1]
+    with pytest.raises(SoftrnnInputError, match="lane_windows=0 is invalid"):
+        SequenceOptions(lane_windows=0)

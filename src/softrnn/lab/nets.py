@@ -408,6 +408,14 @@ class SequenceOptions:
     """Passes over the sessions, or fewer where that would take more than ``max_steps``."""
     max_steps: int = 6000
     """Most optimiser steps (long recordings; the pretraining on synthetic sessions has half as many)."""
+    lane_windows: int = 4
+    """Most windows per lane: each session is cut into contiguous lanes of this many windows, trained side
+    by side (``_train_gru``), so that an epoch takes at most this many steps however long the sessions
+    are, each about as costly as one window alone."""
+
+    def __post_init__(self):
+        for name in ("hidden", "window", "epochs", "max_steps", "lane_windows"):
+            integer(name, getattr(self, name), 1)
     lr: float = 3e-3
     """Learning rate."""
     weight_decay: float = 1e-3
@@ -619,27 +627,56 @@ class Sequence(Anchored, FollowsPhysics):
         return out | self.anchor_description() | (self.follows_description() if self.on_physics else {})
 
 
+def _lanes(o: SequenceOptions, xs: list) -> list[tuple[int, int, int]]:
+    """The lanes of ``_train_gru``: (session, first row, end row) of each session's contiguous pieces, as
+    few as hold at most ``o.lane_windows`` windows of ``o.window`` rows each, of about equal length, each
+    of whole windows but the session's last."""
+    out = []
+    for i, x in enumerate(xs):
+        windows = -(-x.shape[1] // o.window)
+        cuts = np.linspace(0, windows, -(-windows // o.lane_windows) + 1).round().astype(int) * o.window
+        out += [(i, int(a), int(min(b, x.shape[1]))) for a, b in zip(cuts[:-1], cuts[1:])]
+    return out
+
+
 def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple | None = None) -> tuple:
     """(GRU, linear head) trained on the sessions' standardised inputs ``xs`` and scaled tips ``ys``
-    (each a (1, T, .) float32 tensor), windows of ``o.window`` rows carrying the state; ``net``: a
-    (GRU, head) to continue training (None: new ones)."""
+    (each a (1, T, .) float32 tensor); ``net``: a (GRU, head) to continue training (None: new ones).
+
+    Each session is cut into contiguous lanes of at most ``o.lane_windows`` windows (``_lanes``), all
+    trained side by side as one batch, window after window of ``o.window`` rows, each lane carrying its
+    state from window to window. A lane starts each epoch from the state that the whole session's run
+    (without gradients, with the epoch's first weights) reaches at its first row, so that every row is
+    learnt from the state its session's free run carries there, as ``Sequence.predict`` runs it. Side
+    by side, a step costs about what one window alone costs (a small GRU's step is spent on its per-row
+    overhead), and an epoch takes at most ``o.lane_windows`` steps however long the sessions are."""
     import torch  # optional extra: learn (PyTorch)
 
     gru, head = net if net is not None else (torch.nn.GRU(n_inputs, o.hidden, batch_first=True),
                                              torch.nn.Linear(o.hidden, 3))
     params = list(gru.parameters()) + list(head.parameters())
     opt = torch.optim.AdamW(params, lr=o.lr, weight_decay=o.weight_decay)
-    per_epoch = sum(-(-x.shape[1] // o.window) for x in xs)
+    lanes = _lanes(o, xs)
+    rows = max(b - a for _, a, b in lanes)
+    per_epoch = -(-rows // o.window)
+    # the lanes side by side, padded past their ends with rows masked out of the loss
+    X = torch.zeros(len(lanes), per_epoch * o.window, n_inputs)
+    Y = torch.zeros(len(lanes), per_epoch * o.window, 3)
+    mask = torch.zeros(len(lanes), per_epoch * o.window, 1)
+    for k, (i, a, b) in enumerate(lanes):
+        X[k, :b - a], Y[k, :b - a], mask[k, :b - a] = xs[i][0, a:b], ys[i][0, a:b], 1.0
     for _ in range(max(1, min(o.epochs, o.max_steps // per_epoch))):
-        for x, y in zip(xs, ys):
-            h = None
-            for a in range(0, x.shape[1], o.window):
-                out, h = gru(x[:, a:a + o.window], h)
-                loss = torch.mean((head(out) - y[:, a:a + o.window]) ** 2)
-                opt.zero_grad()
-                loss.backward()
-                opt.step()
-                h = h.detach()
+        with torch.no_grad():                     # each lane's state at its first row, from its session's run
+            runs = [gru(x)[0][0] for x in xs]
+            h = torch.stack([runs[i][a - 1] if a else torch.zeros(o.hidden) for i, a, _ in lanes])[None]
+        for a in range(0, X.shape[1], o.window):
+            m = mask[:, a:a + o.window]
+            out, h = gru(X[:, a:a + o.window], h)
+            loss = torch.sum(m * (head(out) - Y[:, a:a + o.window]) ** 2) / (3.0 * torch.sum(m))
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            h = h.detach()
     return gru, head
 
 
