@@ -38,7 +38,7 @@ OLD = ("Generator", "Generator.get_state", "Tensor", "are_deterministic_algorith
        "cat", "clamp", "cumsum", "equal", "eye", "float32", "from_numpy", "full", "get_num_threads", "isfinite",
        "jit.load", "jit.save", "jit.trace", "load", "manual_seed", "maximum", "mean", "minimum", "nn.LSTM",
        "nn.Linear", "nn.Module", "nn.Parameter", "nn.Sequential", "nn.Tanh", "no_grad", "ones", "onnx.export",
-       "optim.Adam", "optim.Optimizer", "randint", "randn", "randperm", "save", "set_num_threads", "stack", "tanh",
+       "optim.Adam", "optim.Optimizer", "randint", "randn", "randperm", "save", "set_num_threads", "stack", "sum",
        "tensor", "uint8", "use_deterministic_algorithms", "where", "zeros", "zeros_like", "export")
 """APIs of every torch 2 release (``torch.export``: only named in a comment)."""
 

@@ -408,7 +408,7 @@ class SequenceOptions:
     """Passes over the sessions, or fewer where that would take more than ``max_steps``."""
     max_steps: int = 6000
     """Most optimiser steps (long recordings; the pretraining on synthetic sessions has half as many)."""
-    lane_windows: int = 4
+    lane_windows: int = 2
     """Most windows per lane: each session is cut into contiguous lanes of this many windows, trained side
     by side (``_train_gru``), so that an epoch takes at most this many steps however long the sessions
     are, each about as costly as one window alone."""
@@ -665,10 +665,17 @@ def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple
     mask = torch.zeros(len(lanes), per_epoch * o.window, 1)
     for k, (i, a, b) in enumerate(lanes):
         X[k, :b - a], Y[k, :b - a], mask[k, :b - a] = xs[i][0, a:b], ys[i][0, a:b], 1.0
+    # the sessions side by side up to their last lane's first row, padded past their ends (a GRU's state
+    # at a row depends on the rows before it alone), for the lanes' first states
+    reach = max(1, max(a for _, a, _ in lanes))
+    runs = torch.zeros(len(xs), reach, n_inputs)
+    for i, x in enumerate(xs):
+        runs[i, :min(reach, x.shape[1])] = x[0, :reach]
+    first = [(i, a) for i, a, _ in lanes]
     for _ in range(max(1, min(o.epochs, o.max_steps // per_epoch))):
         with torch.no_grad():                     # each lane's state at its first row, from its session's run
-            runs = [gru(x)[0][0] for x in xs]
-            h = torch.stack([runs[i][a - 1] if a else torch.zeros(o.hidden) for i, a, _ in lanes])[None]
+            states = gru(runs)[0]
+            h = torch.stack([states[i, a - 1] if a else torch.zeros(o.hidden) for i, a in first])[None]
         for a in range(0, X.shape[1], o.window):
             m = mask[:, a:a + o.window]
             out, h = gru(X[:, a:a + o.window], h)
