@@ -39,7 +39,7 @@ OLD = ("Generator", "Generator.get_state", "Tensor", "are_deterministic_algorith
        "jit.load", "jit.save", "jit.trace", "load", "manual_seed", "maximum", "mean", "minimum", "nn.LSTM",
        "nn.Linear", "nn.Module", "nn.Parameter", "nn.Sequential", "nn.Tanh", "no_grad", "ones", "onnx.export",
        "optim.Adam", "optim.Optimizer", "randint", "randn", "randperm", "save", "set_num_threads", "stack", "sum",
-       "tensor", "uint8", "use_deterministic_algorithms", "where", "zeros", "zeros_like", "export")
+       "tanh", "tensor", "uint8", "use_deterministic_algorithms", "where", "zeros", "zeros_like", "export")
 """APIs of every torch 2 release (``torch.export``: only named in a comment)."""
 
 API = {**SINCE, **{f"torch.{name}": "2.0" for name in OLD}}
