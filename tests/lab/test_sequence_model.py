@@ -164,3 +164,5 @@ def test_the_lanes_cover_every_row_once_in_whole_windows():
     assert [len([1 for j, _, _ in lanes if j == i]) for i in range(3)] == [4, 1, 1]
     with pytest.raises(SoftrnnInputError, match="lane_windows=0 is invalid"):
         SequenceOptions(lane_windows=0)
+    with pytest.raises(SoftrnnInputError, match="state_runs=0 is invalid"):
+        SequenceOptions(state_runs=0)

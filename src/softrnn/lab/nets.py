@@ -412,16 +412,20 @@ class SequenceOptions:
     """Most windows per lane: each session is cut into contiguous lanes of this many windows, trained side
     by side (``_train_gru``), so that an epoch takes at most this many steps however long the sessions
     are, each about as costly as one window alone."""
-
-    def __post_init__(self):
-        for name in ("hidden", "window", "epochs", "max_steps", "lane_windows"):
-            integer(name, getattr(self, name), 1)
+    state_runs: int = 20
+    """Epochs between the runs of the whole sessions (without gradients) that give each lane the state at
+    its first row; in the epochs between, a lane starts from the state the lane before it in its session
+    reached at its last row in the epoch before (a long session's run costs a step per row)."""
     lr: float = 3e-3
     """Learning rate."""
     weight_decay: float = 1e-3
     """AdamW's weight decay."""
     seed: int = 0
     """PyTorch's seed."""
+
+    def __post_init__(self):
+        for name in ("hidden", "window", "epochs", "max_steps", "lane_windows", "state_runs"):
+            integer(name, getattr(self, name), 1)
 
 
 LINEAR_ORDERS = (2, 4, 8, 16)
@@ -645,9 +649,11 @@ def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple
 
     Each session is cut into contiguous lanes of at most ``o.lane_windows`` windows (``_lanes``), all
     trained side by side as one batch, window after window of ``o.window`` rows, each lane carrying its
-    state from window to window. A lane starts each epoch from the state that the whole session's run
-    (without gradients, with the epoch's first weights) reaches at its first row, so that every row is
-    learnt from the state its session's free run carries there, as ``Sequence.predict`` runs it. Side
+    state from window to window. A lane starts an epoch from the state that the whole session's run
+    (without gradients, with the epoch's first weights) reaches at its first row, every ``o.state_runs``
+    epochs, and in the epochs between from the state the lane before it reached at its last row in the
+    epoch before: every row is learnt from about the state its session's free run carries there, as
+    ``Sequence.predict`` runs it. Side
     by side, a step costs about what one window alone costs (a small GRU's step is spent on its per-row
     overhead), and an epoch takes at most ``o.lane_windows`` steps however long the sessions are."""
     import torch  # optional extra: learn (PyTorch)
@@ -672,10 +678,17 @@ def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple
     for i, x in enumerate(xs):
         runs[i, :min(reach, x.shape[1])] = x[0, :reach]
     first = [(i, a) for i, a, _ in lanes]
-    for _ in range(max(1, min(o.epochs, o.max_steps // per_epoch))):
-        with torch.no_grad():                     # each lane's state at its first row, from its session's run
-            states = gru(runs)[0]
-            h = torch.stack([states[i, a - 1] if a else torch.zeros(o.hidden) for i, a in first])[None]
+    # the lane before each lane in its session (-1: none), and where each lane's last row lies
+    before = torch.tensor([k - 1 if a else -1 for k, (_, a, _) in enumerate(lanes)])
+    last = [((b - a - 1) // o.window * o.window, (b - a - 1) % o.window) for _, a, b in lanes]
+    ends = torch.zeros(len(lanes), o.hidden)                      # each lane's state at its last row
+    for epoch in range(max(1, min(o.epochs, o.max_steps // per_epoch))):
+        if epoch % o.state_runs == 0:
+            with torch.no_grad():                 # each lane's state at its first row, from its session's run
+                states = gru(runs)[0]
+                h = torch.stack([states[i, a - 1] if a else torch.zeros(o.hidden) for i, a in first])[None]
+        else:                                     # the state the lane before it ended the last epoch with
+            h = torch.where((before >= 0)[:, None], ends[before.clamp(min=0)], 0.0)[None]
         for a in range(0, X.shape[1], o.window):
             m = mask[:, a:a + o.window]
             out, h = gru(X[:, a:a + o.window], h)
@@ -684,6 +697,9 @@ def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple
             loss.backward()
             opt.step()
             h = h.detach()
+            for k, (w, r) in enumerate(last):
+                if w == a:
+                    ends[k] = out[k, r].detach()
     return gru, head
 
 
