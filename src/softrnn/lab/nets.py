@@ -653,9 +653,9 @@ def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple
     (without gradients, with the epoch's first weights) reaches at its first row, every ``o.state_runs``
     epochs, and in the epochs between from the state the lane before it reached at its last row in the
     epoch before: every row is learnt from about the state its session's free run carries there, as
-    ``Sequence.predict`` runs it. Side
-    by side, a step costs about what one window alone costs (a small GRU's step is spent on its per-row
-    overhead), and an epoch takes at most ``o.lane_windows`` steps however long the sessions are."""
+    ``Sequence.predict`` runs it. Side by side, a step costs about what one window alone costs (a small
+    GRU's step is spent on its per-row overhead), and an epoch takes at most ``o.lane_windows`` steps
+    however long the sessions are."""
     import torch  # optional extra: learn (PyTorch)
 
     gru, head = net if net is not None else (torch.nn.GRU(n_inputs, o.hidden, batch_first=True),
