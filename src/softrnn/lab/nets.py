@@ -681,6 +681,9 @@ def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple
     # the lane before each lane in its session (-1: none), and where each lane's last row lies
     before = torch.tensor([k - 1 if a else -1 for k, (_, a, _) in enumerate(lanes)])
     last = [((b - a - 1) // o.window * o.window, (b - a - 1) % o.window) for _, a, b in lanes]
+    # per window: the lanes whose last row lies in it, and that row's place in the window
+    ending = {w: (torch.tensor([k for k, (v, _) in enumerate(last) if v == w]),
+                  torch.tensor([r for v, r in last if v == w])) for w in {v for v, _ in last}}
     ends = torch.zeros(len(lanes), o.hidden)                      # each lane's state at its last row
     for epoch in range(max(1, min(o.epochs, o.max_steps // per_epoch))):
         if epoch % o.state_runs == 0:
@@ -697,9 +700,9 @@ def _train_gru(o: SequenceOptions, xs: list, ys: list, n_inputs: int, net: tuple
             loss.backward()
             opt.step()
             h = h.detach()
-            for k, (w, r) in enumerate(last):
-                if w == a:
-                    ends[k] = out[k, r].detach()
+            if a in ending:
+                k, r = ending[a]
+                ends[k] = out[k, r].detach()
     return gru, head
 
 
