@@ -1,8 +1,13 @@
 """The lab workflow on the lab-like example (docs/guide/lab-workflow.md): generate -> import-csv ->
 train --drive actuation on the tip alone -> evaluate beside the baselines -> export -> step the
-exported model; the generator's determinism and its one-line errors. Tiny data, few steps."""
+exported model, and the guide's control loop (examples/lab_control_loop.py) on it; the generator's
+determinism and its one-line errors. Tiny data, few steps."""
 
 import json
+import re
+import runpy
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -88,3 +93,18 @@ def test_workflow_generate_import_train_evaluate_export(tmp_path, capsys):
     tensions = np.full((1, 4, 3), 5.0, np.float32)
     nxt = session.run(None, {"poses": window, "wrenches": tensions})[0]
     assert nxt.shape == (1, 3) and np.all(np.isfinite(nxt))
+    capsys.readouterr()
+    # the guide's control loop steps the ONNX file and the compiled engine over the same free run
+    example = Path(__file__).resolve().parents[2] / "examples" / "lab_control_loop.py"
+    argv = [str(example), str(d / "tip.onnx"), str(d / "lab.h5"), "--model", str(d / "tip")]
+    old, sys.argv = sys.argv, argv
+    try:
+        runpy.run_path(str(example), run_name="__main__")
+    finally:
+        sys.argv = old
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert [line.split(":")[0] for line in lines] == ["ONNX Runtime", "compiled engine"]
+    steps = [int(re.search(r"(\d+) steps free running", line).group(1)) for line in lines]
+    rmse = [float(re.search(r"RMSE ([0-9.e+-]+) mm", line).group(1)) for line in lines]
+    assert steps[0] == steps[1] == 240 - int(0.6 * 241) - 1         # from 60 % of the record to its end
+    assert np.isfinite(rmse).all() and rmse[1] == pytest.approx(rmse[0], rel=1e-3)   # one model, two engines
