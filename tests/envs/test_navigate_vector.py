@@ -90,6 +90,19 @@ def test_the_scripted_navigator_reaches_either_branch():
     assert success.all()
 
 
+def test_the_examples_success_rate_counts_each_episode_once():
+    """examples/navigate_rl.py's evaluation: with episodes of at most 3 steps and a policy that never
+    reaches the target, every one of the episodes asked for ends truncated at 3 steps, counted once,
+    though the environments keep running past the count (an odd count over 2 environments)."""
+    import runpy
+    from pathlib import Path
+
+    example = runpy.run_path(str(Path(__file__).resolve().parents[2] / "examples" / "navigate_rl.py"))
+    envs = NavigateVectorEnv(2, SMALL)
+    held = np.zeros((2, 2), np.float32)
+    assert example["success_rate"](envs, lambda obs: held[: len(obs)], 5) == (0.0, 3.0)
+
+
 def test_the_benchmark_reports_both_runs_and_the_goal():
     from softrnn.bench.envs import PUBLISHED, format_envs_table, run_envs_benchmark
 
