@@ -115,6 +115,9 @@ def _bad(args, capsys):
     (["--length", "-1"], "--length=-1.0 is invalid"),
     (["--position-unit", "m"], "--length=0.08 is invalid: the robot's length in m: the tip moves up to"),  # mm as m
     (["--length", "80"], "--length=80.0 is invalid: the robot's length in m: the tip moves at most"),      # mm as m
+    (["--routing-radius", "4.5"], "--routing-radius=4.5 is invalid: the tendons' distance from the backbone in m, "
+                                  "below the robot's length (0.08 m), e.g. 0.0045 for 4.5 mm"),             # mm as m
+    (["--routing-radius", "0"], "--routing-radius=0.0 is invalid: a positive finite number in m"),
     (["--workers", "0"], "--workers='0' is invalid: a whole number of worker processes >= 1"),
     (["--workers", "two"], "--workers='two' is invalid"),
 ])

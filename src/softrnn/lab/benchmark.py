@@ -87,7 +87,7 @@ class BenchmarkOptions:
     tendons_per_segment : int
         tendons of each segment
     routing_radius : float
-        the tendons' start distance from the backbone [m]
+        the tendons' start distance from the backbone [m], below ``length``
     families : tuple
         which of ``FAMILIES`` to run
     nets : NetOptions
@@ -130,6 +130,11 @@ class BenchmarkOptions:
 
     def __post_init__(self):
         positive("length", self.length, "m")
+        positive("routing_radius", self.routing_radius, "m")
+        if self.routing_radius >= self.length:       # mm read as m: the calibration starts from nonsense
+            raise bad("routing_radius", self.routing_radius,
+                      f"the tendons' distance from the backbone in m, below the robot's length ({self.length:g} m), "
+                      f"e.g. {self.routing_radius * 1e-3:g} for {self.routing_radius:g} mm")
         integer("workers", self.workers, 1)
         if self.lag != "auto" and (not isinstance(self.lag, int) or isinstance(self.lag, bool) or self.lag < 0):
             raise bad("lag", self.lag, "a whole number of rows >= 0, or 'auto'")
