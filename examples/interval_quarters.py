@@ -6,7 +6,8 @@ are the training sessions, split into a fitting part and a held part as ``softrn
 them; the calibrated physics (plain, or with ``--creep`` the tendons' creep, run through the held rows as
 the benchmark runs it) and the four baselines are fitted there with their intervals
 calibrated, and the share of the quarter's rows inside each model's 90 % ball is counted, once with
-the benchmark's scale from refits (``uncertainty.RefitSpread``) and once with none (scale 1). With
+the benchmark's scale from refits (``uncertainty.RefitSpread``; for the baselines with their distance
+from the physics' tip, ``uncertainty.PhysicsGap``) and once with none (scale 1). With
 ``--sequence``, the sequence model too (pretrained on the physics' synthetic sessions), once with its
 scale from the physics (``nets.Sequence.error_scale``) and once with none; with ``--node``, the node LSTM
 (mode ``mixed``, taught by the physics' synthetic sessions) the same way (``families.NodeFamily``), with
@@ -119,7 +120,10 @@ def quarter(robot, options, train, block, with_sequence, with_node=False, with_n
     fitted = {"physics": (held_physics.refit(train), held_physics)}
     for name, (family, _) in baseline_families(train, split).items():
         fitted[name] = (family.fit(train), family.fit(split[0]))
-    out = {name: {label: round(coverage(with_interval(model, held, *split, train, fitted=True, refits=k), block), 4)
+    # the baselines' refits' scale also holds their distance from the physics' tip, as in the benchmark
+    pair = (held_physics, fitted["physics"][0])
+    out = {name: {label: round(coverage(with_interval(model, held, *split, train, fitted=True, refits=k,
+                                                      physics=None if name == "physics" else pair), block), 4)
                   for label, k in (("refits", REFIT_FOLDS), ("none", 0))}
            for name, (model, held) in fitted.items()}
     asked = (("sequence", with_sequence), ("node_lstm", with_node), ("node_lstm_over_physics", with_node_over))

@@ -487,17 +487,20 @@ def baseline_families(train: list[Recording], split: tuple) -> dict:
     return out
 
 
-def baseline_with_interval(family, train: list[Recording], split: tuple):
+def baseline_with_interval(family, train: list[Recording], split: tuple, physics: tuple | None = None):
     """The baseline ``family`` fitted on ``train`` with its 90 % interval calibrated on ``split`` (fitting
     part, held part; ``uncertainty.calibrate``), scaled by its refits' spread where it has no error scale
-    of its own (``uncertainty.RefitSpread``)."""
-    return with_interval(family.fit(train), family.fit(split[0]), *split, train, fitted=True, refits=REFIT_FOLDS)
+    of its own (``uncertainty.RefitSpread``), and then, with ``physics`` (the calibrated physics fitted on
+    the fitting part and on ``train``), by its distance from the physics' tip too (``uncertainty.PhysicsGap``)."""
+    return with_interval(family.fit(train), family.fit(split[0]), *split, train, fitted=True, refits=REFIT_FOLDS,
+                         physics=physics)
 
 
-def _baselines(train: list[Recording], split: tuple, out: _Table) -> None:
-    """The baselines (``baseline_families``), each with a 90 % interval (``baseline_with_interval``)."""
+def _baselines(train: list[Recording], split: tuple, out: _Table, physics: tuple | None) -> None:
+    """The baselines (``baseline_families``), each with a 90 % interval (``baseline_with_interval``; with the
+    calibrated ``physics`` pair, or None)."""
     for name, (family, scores) in baseline_families(train, split).items():
-        out.record(out.baselines, name, baseline_with_interval(family, train, split), scores)
+        out.record(out.baselines, name, baseline_with_interval(family, train, split, physics), scores)
 
 
 AGREEMENT = ("how far the sessions agree for the physics' form: the physics calibrated on the training sessions, "
@@ -530,12 +533,13 @@ def session_agreement(physics: Physics, train: list[Recording], validation: Reco
 
 
 def _models(train: list[Recording], split: tuple, families: list, robot, options: BenchmarkOptions, out: _Table,
-            step, pool: WorkerPool) -> tuple[dict, list, object, object]:
+            step, pool: WorkerPool) -> tuple[dict, list, object, object, tuple | None]:
     """Fit the physics (its options chosen on the hold-out part, ``split``: fitting part, held part), its
     variants at once in ``pool``'s workers, run it, and hand the learned families to the workers. Returns
     the physics' hold-out score [mm], the families' jobs (``_stages.collect_families`` gathers them), the
-    job of ``session_agreement`` (None where the physics does not run) and the physics with its interval
-    (``uncertainty.with_interval``; None without a physics)."""
+    job of ``session_agreement`` (None where the physics does not run), the physics with its interval
+    (``uncertainty.with_interval``; None without a physics) and the calibrated physics pair (on the fitting
+    part, on every training row; None without one)."""
     fit_part, held = split
     holdout = {}
     physics = held_physics = None
@@ -566,7 +570,7 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
         out.record(out.models, "physics", physics_interval, pick.holdout_rmse_mm)
         step("physics")
     jobs += [submit("hybrid", shared_refits())] if "hybrid" in families else []
-    return holdout, jobs, agreement, physics_interval
+    return holdout, jobs, agreement, physics_interval, None if physics is None else (held_physics, physics)
 
 
 @dataclass(frozen=True)
@@ -667,10 +671,12 @@ def run_prepared(prepared: Prepared, options: BenchmarkOptions, progress=None) -
 
     out, dynamic = _Table(validation, options.length), _Table(validation, options.length)
     split = holdout_split(train)
-    _baselines(train, split, out)
-    step("baselines")
     with WorkerPool(options.workers) as pool:
-        holdout, jobs, agreement, physics_interval = _models(train, split, families, robot, options, out, step, pool)
+        holdout, jobs, agreement, physics_interval, pair = _models(train, split, families, robot, options, out,
+                                                                   step, pool)
+        # the baselines here, while the workers fit the learned families: their scales read the physics
+        _baselines(train, split, out, pair)
+        step("baselines")
         # the dynamic families here, while the workers fit the learned ones
         dynamic_holdout = dynamic_models(train, list(prepared.dynamic), prepared.dynamic_robot, dynamic, step)
         holdout.update(collect_families(jobs, pool, out, step, physics_interval))

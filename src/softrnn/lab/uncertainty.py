@@ -317,6 +317,34 @@ class RefitSpread(_Wrapper):
                 "error_scale_residual_mm": _finite(self.residual, scale=1e3)}
 
 
+@dataclass(frozen=True, eq=False)
+class PhysicsGap(_Wrapper):
+    """A fitted model with an error scale (``model``: a ``RefitSpread``) whose scale also holds its distance
+    from a calibrated ``physics``' tip (fitted on the same rows): sqrt(s^2 + |tip - physics' tip|^2), s the
+    model's own scale. Where a model leaves the regime its rows show (a polynomial's cross terms or an ARX
+    model's coefficients that no training row sets, which its refits share and get wrong together), the
+    physics, fitted on the same rows with the robot's form, tells it apart; where the two agree, the model's
+    own scale is the measure. A row where either run is not finite gets an unbounded scale."""
+
+    model: object
+    physics: object
+
+    def error_scale(self, session) -> np.ndarray:
+        """(T,) sqrt(own^2 + gap^2) [m] (see the class)."""
+        gap = np.linalg.norm(self.model.predict(session) - self.physics.predict(session), axis=1)
+        return np.sqrt(self.model.error_scale(session) ** 2 + np.where(np.isfinite(gap), gap, math.inf) ** 2)
+
+    def refit(self, sessions) -> PhysicsGap:
+        """The model refitted on ``sessions`` (``cross_fit``), the physics kept."""
+        return PhysicsGap(refitter(self.model)(sessions), self.physics)
+
+    def describe(self) -> dict:
+        """The model's description, its scale's with the distance from the physics."""
+        out = self.model.describe()
+        return out | {"error_scale": out.get("error_scale", "1") + ", and the distance from the calibrated physics' "
+                                                                    "tip (root sum of squares)"}
+
+
 class Intervals:
     """What a family with an interval shares: the fields ``interval_q`` (None until calibrated),
     ``interval_slope`` (None: the radius grows as q (1 + d)), ``interval_knee`` (the distance d0 beyond
@@ -409,17 +437,21 @@ class WithInterval(_Wrapper, Intervals):
 
 
 def with_interval(model, held_model, fit_part, held, train=None, fitted: bool = False,
-                  refits: int = 0) -> WithInterval:
+                  refits: int = 0, physics: tuple | None = None) -> WithInterval:
     """``model`` (fitted on ``train``) with a 90 % interval calibrated on the hold-out sessions ``held``
     by ``held_model`` (the same family fitted on ``fit_part``): a constant radius when ``train`` is
     None, else growing with the distance from the training rows, as q (1 + d) with q from the hold-out
     alone (``conformal_q``), or ``fitted``: as q + b max(0, d - d0) with q, b and d0 from both parts
     (``calibrate``).
     ``refits`` > 0 (with ``train``): a model without an error scale of its own gets the spread of that
-    many refits (``RefitSpread``; the held model's refits on ``fit_part``)."""
+    many refits (``RefitSpread``; the held model's refits on ``fit_part``), and with ``physics`` (the
+    calibrated physics fitted on ``fit_part`` and on ``train``) its distance from the physics' tip too
+    (``PhysicsGap``)."""
     reach = (lambda s: None) if train is None else InputDistance.of
     if refits and train is not None and getattr(model, "error_scale", None) is None:
         model, held_model = RefitSpread.of(model, train, refits), RefitSpread.of(held_model, fit_part, refits)
+        if physics is not None:
+            model, held_model = PhysicsGap(model, physics[1]), PhysicsGap(held_model, physics[0])
     held_model = WithInterval(held_model, reach(fit_part))
     if fitted:
         return WithInterval(model, reach(train), **calibrate(held_model, fit_part, held))
