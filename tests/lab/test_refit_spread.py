@@ -12,7 +12,7 @@ from softrnn.lab.families import PersistenceFamily, Physics, StaticPolynomial, s
 from softrnn.lab.nets import Hybrid, NetOptions
 from softrnn.lab.recording import Recording
 from softrnn.lab.tendon_robot import Calibration
-from softrnn.lab.uncertainty import REFIT_FOLDS, RefitSpread, WithInterval, pattern_folds, with_interval
+from softrnn.lab.uncertainty import REFIT_FOLDS, PhysicsGap, RefitSpread, WithInterval, pattern_folds, with_interval
 
 from helpers import Recalling, tendon_robot_truth
 
@@ -194,6 +194,50 @@ def test_the_refits_give_the_benchmark_s_interval_its_scale():
     assert "interval_90_radius_mm" not in described
     plain = with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train], fitted=True)
     assert not isinstance(plain.model, RefitSpread) and plain.describe()["interval_90_radius_mm"] > 0
+
+
+class _Bent:
+    """A physics stand-in for ``_line``'s robot: its tip, bent in y by 5 mm per mm of command beyond 1 mm
+    either way (a regime the training rows in [-1, 1] mm never show); NaN at commands beyond 10 mm."""
+
+    def predict(self, session):
+        u = session.inputs[:, 0]
+        tip = np.column_stack([u * 1e-3, 5e-3 * np.maximum(np.abs(u) - 1.0, 0.0), np.zeros(u.size)])
+        tip[np.abs(u) > 10.0] = np.nan
+        return tip
+
+
+def test_the_distance_from_the_physics_joins_the_refits_scale():
+    """``with_interval(physics=...)``: the refits' scale s of a model without one of its own becomes
+    sqrt(s^2 + gap^2), gap its distance from the physics' tip (``PhysicsGap``; the held model's from the
+    physics fitted on the fitting part). Where the robot leaves the training rows' regime as the physics
+    says (a bend the line's rows never show), the line's refits agree and are wrong together: without
+    the physics its ball misses those tips, with it the ball holds them. Refitted, it keeps its physics;
+    where the physics' run is not finite, its scale is unbounded."""
+    train = _line(np.linspace(-1, 1, 12), 6)
+    fit_part, held = [train.rows(0, 180)], [train.rows(180, 240)]
+    family, physics = StaticPolynomial(1), _Bent()
+    model = with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train], fitted=True,
+                          refits=REFIT_FOLDS, physics=(physics, physics))
+    assert isinstance(model.model, PhysicsGap) and isinstance(model.model.model, RefitSpread)
+    probe = _at([0.0, 0.5, 3.0, -4.0, 12.0])
+    own = model.model.model.error_scale(probe)
+    gap = np.linalg.norm(model.predict(probe) - physics.predict(probe), axis=1)
+    np.testing.assert_allclose(model.model.error_scale(probe)[:4], np.sqrt(own ** 2 + gap ** 2)[:4], rtol=1e-12)
+    assert model.model.error_scale(probe)[4] == math.inf
+    bent = replace(probe.rows(0, 4), tip=physics.predict(probe.rows(0, 4)))
+    plain = with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train], fitted=True,
+                          refits=REFIT_FOLDS)
+    for stated, holds in ((model, [True] * 4), (plain, [True, True, False, False])):
+        tip, radius = stated.predict_interval(bent)
+        assert list(np.linalg.norm(tip - bent.tip, axis=1) <= radius) == holds
+    refitted = model.model.refit(fit_part)
+    assert isinstance(refitted, PhysicsGap) and refitted.physics is physics
+    np.testing.assert_array_equal(refitted.predict(probe), family.fit(fit_part).predict(probe))
+    assert "distance from the calibrated physics' tip" in model.describe()["error_scale"]
+    # a model without the refits' scale (refits=0) is not given one
+    assert not isinstance(with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train],
+                                        fitted=True, physics=(physics, physics)).model, PhysicsGap)
 
 
 def _tendon_session(rows: int, seed: int) -> tuple:

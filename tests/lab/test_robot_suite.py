@@ -43,7 +43,7 @@ def test_suite_runs_every_robot_and_resumes_after_an_interruption(data, tmp_path
 
     with pytest.raises(KeyboardInterrupt):
         run_suite(jobs, tmp_path / "robots", progress=stop_at_b)
-    assert seen[:2] == [(1, 4, "a: baselines"), (2, 4, "a: physics")]
+    assert seen[:2] == [(1, 4, "a: physics"), (2, 4, "a: baselines")]      # the baselines read the physics
     assert sorted(p.name for p in (tmp_path / "robots").iterdir()) == ["a.json"]
     first = json.loads((tmp_path / "robots" / "a.json").read_text())
     assert first["suite"]["entry"] == "suite.toml: robots.a"
@@ -51,7 +51,7 @@ def test_suite_runs_every_robot_and_resumes_after_an_interruption(data, tmp_path
     stages = []
     result = run_suite(jobs, tmp_path / "robots", suite="suite.toml", title="t", resume=True,
                        progress=lambda d, t, i: stages.append(i["stage"]))
-    assert stages == ["b: baselines", "b: physics"]                      # a is kept, not run again
+    assert stages == ["b: physics", "b: baselines"]                      # a is kept, not run again
     a, b = result.rows
     assert a.resumed and not b.resumed and a.models["physics"].tip_rmse_mm == first["models"]["physics"]["tip_rmse_mm"]
     table = result.to_dict()
@@ -78,7 +78,7 @@ def test_suite_runs_every_robot_and_resumes_after_an_interruption(data, tmp_path
     changed = [_job(data, "a", "b.csv", "av.csv"), jobs[1]]
     stages.clear()
     run_suite(changed, tmp_path / "robots", resume=True, progress=lambda d, t, i: stages.append(i["stage"]))
-    assert stages == ["a: baselines", "a: physics"]
+    assert stages == ["a: physics", "a: baselines"]
 
 
 def test_a_bad_robot_stops_the_suite_before_anything_runs(data, tmp_path):
