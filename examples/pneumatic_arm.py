@@ -117,8 +117,11 @@ def main():
     ap.add_argument("--duration", type=float, default=300.0, help="each session's length [s]")
     ap.add_argument("--rate", type=float, default=20.0, help="rows per second [Hz]")
     args = ap.parse_args()
-    if args.duration <= 0 or args.rate <= 0:
-        ap.error(f"--duration={args.duration:g} and --rate={args.rate:g} must be positive")
+    bad = ([f"--duration={args.duration:g} is invalid: a positive length in s"] * (args.duration <= 0)
+           + [f"--rate={args.rate:g} is invalid: rows per second in (0, 1000] Hz (the arm is integrated at 1 ms)"]
+           * (not 0 < args.rate <= 1000) + [f"--seeds={s} is invalid: seeds >= 0" for s in args.seeds if s < 0])
+    if bad:
+        ap.exit(2, f"pneumatic_arm.py: {bad[0]}\n")
     args.out.mkdir(parents=True, exist_ok=True)
     for seed in args.seeds:
         path = args.out / f"session{seed}.csv"

@@ -58,7 +58,7 @@ def test_lab_example_bad_input_is_one_line_exit_2(tmp_path, argv, words, capsys)
     assert not (tmp_path / "d" / "tendon-spatial.csv").exists()
 
 
-def test_workflow_generate_import_train_evaluate_export(tmp_path, capsys):
+def test_workflow_generate_import_train_evaluate_export(tmp_path, capsys, monkeypatch):
     ort = pytest.importorskip("onnxruntime")
     d = tmp_path
     assert run_cli(["lab-example", "-o", str(d / "csv"), "--scenarios", "tendon-spatial", "--duration", "12",
@@ -96,12 +96,8 @@ def test_workflow_generate_import_train_evaluate_export(tmp_path, capsys):
     capsys.readouterr()
     # the guide's control loop steps the ONNX file and the compiled engine over the same free run
     example = Path(__file__).resolve().parents[2] / "examples" / "lab_control_loop.py"
-    argv = [str(example), str(d / "tip.onnx"), str(d / "lab.h5"), "--model", str(d / "tip")]
-    old, sys.argv = sys.argv, argv
-    try:
-        runpy.run_path(str(example), run_name="__main__")
-    finally:
-        sys.argv = old
+    monkeypatch.setattr(sys, "argv", [str(example), str(d / "tip.onnx"), str(d / "lab.h5"), "--model", str(d / "tip")])
+    runpy.run_path(str(example), run_name="__main__")
     lines = capsys.readouterr().out.strip().splitlines()
     assert [line.split(":")[0] for line in lines] == ["ONNX Runtime", "compiled engine"]
     steps = [int(re.search(r"(\d+) steps free running", line).group(1)) for line in lines]

@@ -4,6 +4,7 @@ toward its chamber, the play holds the tip where the pressure came from, the ses
 deterministic, and the lab reads what it writes."""
 
 import runpy
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,8 @@ import pytest
 
 from softrnn.lab.recording import read_recording
 
-EXAMPLE = runpy.run_path(str(Path(__file__).resolve().parents[2] / "examples" / "pneumatic_arm.py"))
+PATH = Path(__file__).resolve().parents[2] / "examples" / "pneumatic_arm.py"
+EXAMPLE = runpy.run_path(str(PATH))
 ARM = EXAMPLE["PneumaticArm"]()
 
 
@@ -61,3 +63,16 @@ def test_a_held_pressure_settles_on_its_pose_and_the_play_holds_it():
     assert from_below == pytest.approx(ARM.pose(np.array([0.5 - w, 0.0, 0.0])), abs=5e-5)
     assert from_above == pytest.approx(ARM.pose(np.array([0.5 + w, 0.0, 0.0])), abs=5e-5)
     assert np.linalg.norm(from_above - from_below) > 2e-3          # the play's width shows at the tip
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--duration", "0"], "--duration=0 is invalid: a positive length in s"),
+    (["--rate", "5000"], "--rate=5000 is invalid: rows per second in (0, 1000] Hz"),
+    (["--seeds", "1", "-2"], "--seeds=-2 is invalid: seeds >= 0"),
+])
+def test_bad_options_are_one_line_exit_2_nothing_written(tmp_path, monkeypatch, capsys, args, words):
+    monkeypatch.setattr(sys, "argv", [str(PATH), str(tmp_path / "out"), *args])
+    with pytest.raises(SystemExit) as stop:
+        runpy.run_path(str(PATH), run_name="__main__")
+    err = capsys.readouterr().err.strip()
+    assert stop.value.code == 2 and words in err and "\n" not in err and not (tmp_path / "out").exists()

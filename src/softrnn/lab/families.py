@@ -587,6 +587,13 @@ def calibrated(physics) -> bool:
     return getattr(physics, "calibration", None) is not None
 
 
+def physics_distance(tip: np.ndarray, physics, session: Recording) -> np.ndarray:
+    """(T,) [m] the distance of ``tip`` (T, 3) [m], a model's run over ``session``, from the fitted
+    ``physics``' tip there, row by row; inf where either run is not finite."""
+    gap = np.linalg.norm(tip - physics.predict(session), axis=1)
+    return np.where(np.isfinite(gap), gap, math.inf)
+
+
 class Anchored:
     """What a learned model anchored on a physics shares (``Sequence``, ``NodeFamily``): its fields
     ``physics`` (a fitted ``Physics``, or None) and ``physics_rms`` (the physics' RMS tip error [m] over
@@ -607,8 +614,7 @@ class Anchored:
         is not finite gets an unbounded scale."""
         if self.physics_rms is None:
             return np.ones(session.n_rows)
-        gap = np.linalg.norm(self.predict(session) - self.physics.predict(session), axis=1)
-        return np.where(np.isfinite(gap), gap, math.inf) + self.physics_rms
+        return physics_distance(self.predict(session), self.physics, session) + self.physics_rms
 
     def anchor_description(self) -> dict:
         """The error scale's description and the physics' RMS error [mm], JSON-ready ({} without a fitted

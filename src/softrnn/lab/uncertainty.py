@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .families import InputDistance, masked, rms_error, stretch_edges
+from .families import InputDistance, masked, physics_distance, rms_error, stretch_edges
 
 COVERAGE = 0.9
 """The share of rows an interval should hold."""
@@ -331,8 +331,8 @@ class PhysicsGap(_Wrapper):
 
     def error_scale(self, session) -> np.ndarray:
         """(T,) sqrt(own^2 + gap^2) [m] (see the class)."""
-        gap = np.linalg.norm(self.model.predict(session) - self.physics.predict(session), axis=1)
-        return np.sqrt(self.model.error_scale(session) ** 2 + np.where(np.isfinite(gap), gap, math.inf) ** 2)
+        gap = physics_distance(self.model.predict(session), self.physics, session)
+        return np.sqrt(self.model.error_scale(session) ** 2 + gap ** 2)
 
     def refit(self, sessions) -> PhysicsGap:
         """The model refitted on ``sessions`` (``cross_fit``), the physics kept."""
