@@ -34,7 +34,7 @@ import numpy as np
 from softrnn.errors import SoftrnnInputError
 from softrnn.lab.benchmark import BenchmarkOptions, baseline_families, prepare
 from softrnn.lab.families import NodeFamily, Physics, holdout_split, masked
-from softrnn.lab.nets import GATES, Sequence
+from softrnn.lab.nets import GATES, LearnedMap, Sequence, seeded
 from softrnn.lab.recording import read_recording
 from softrnn.lab.synthetic import SyntheticOptions
 from softrnn.lab.uncertainty import (
@@ -83,6 +83,8 @@ class Scaled(Intervals):
         return self.model.predict(session)
 
     def error_scale(self, session):
+        if self.own == "no physics":          # the learned map's own scale without its distance from the physics
+            return replace(self.model, physics=None).error_scale(session)
         return self.model.error_scale(session) if self.own else np.ones(session.n_rows)
 
     def refit(self, sessions):
@@ -100,6 +102,10 @@ def learned(name, options, split, train, physics) -> tuple:
     if name == "sequence":
         make = [Sequence(options.sequence, "finetune", SyntheticOptions(), p) for p in physics]
         return make[1].fit(train), make[0].fit(split[0])
+    if name == "learned_map":
+        make = [LearnedMap(options=options.nets, physics=p) for p in physics]
+        with seeded("learned_map"):
+            return make[1].fit(train), make[0].fit(split[0])
     if name == "node_lstm_over_physics":
         make = [NodeFamily(options.length, options.node, physics=p, on_physics=True, gate=GATES[0]) for p in physics]
     else:
@@ -109,7 +115,8 @@ def learned(name, options, split, train, physics) -> tuple:
             WithInterval(make[0].fit(split[0]), InputDistance.of(split[0])))
 
 
-def quarter(robot, options, train, block, with_sequence, with_node=False, with_node_over=False) -> dict:
+def quarter(robot, options, train, block, with_sequence, with_node=False, with_node_over=False,
+            with_map=False) -> dict:
     """{model: {"refits" or "physics": share, "none": share}} of the rows of ``block`` inside each
     model's ball."""
     split = holdout_split(train)
@@ -126,12 +133,16 @@ def quarter(robot, options, train, block, with_sequence, with_node=False, with_n
                                                       physics=None if name == "physics" else pair), block), 4)
                   for label, k in (("refits", REFIT_FOLDS), ("none", 0))}
            for name, (model, held) in fitted.items()}
-    asked = (("sequence", with_sequence), ("node_lstm", with_node), ("node_lstm_over_physics", with_node_over))
+    asked = (("sequence", with_sequence), ("node_lstm", with_node), ("node_lstm_over_physics", with_node_over),
+             ("learned_map", with_map))
     for name in [n for n, wanted in asked if wanted]:
         final, held = learned(name, options, split, train, (held_physics, fitted["physics"][0]))
         refits = {}
+        scales = (("physics", True), ("none", False))
+        if name == "learned_map":           # its spread with and without its distance from the physics
+            scales = (("physics", True), ("no physics", "no physics"), ("none", False))
         out[name] = {label: round(coverage(replace(Scaled(final, own, {}), **calibrate(
-            Scaled(held, own, refits), *split)), block), 4) for label, own in (("physics", True), ("none", False))}
+            Scaled(held, own, refits), *split)), block), 4) for label, own in scales}
     return out
 
 
@@ -145,6 +156,9 @@ def main() -> None:
     parser.add_argument("--node", action="store_true", help="also the node LSTM (about 5 minutes)")
     parser.add_argument("--node-over-physics", action="store_true",
                         help="also the node LSTM over the physics (about 5 minutes)")
+    parser.add_argument("--learned-map", action="store_true",
+                        help="also the learned map (mode real), its scale with and without its distance from the "
+                             "physics (about 5 minutes)")
     parser.add_argument("--creep", action="store_true", help="the physics with the tendons' creep")
     args = parser.parse_args()
     options = BenchmarkOptions(length=args.length, segments=tuple(float(x) for x in args.segments.split(",")))
@@ -161,12 +175,12 @@ def main() -> None:
     with one_blas_thread():
         for j, (train, block) in enumerate(pattern_folds(list(prepared.train), 4)):
             out[f"quarter {j}"] = quarter(prepared.robot, options, train, block, args.sequence, args.node,
-                                          args.node_over_physics)
+                                          args.node_over_physics, args.learned_map)
             for name, share in out[f"quarter {j}"].items():
                 print(f"quarter {j}  {name:18s} " + "  ".join(f"{k} {v:6.1%}" for k, v in share.items()), flush=True)
-    learned_names = ("sequence", "node_lstm", "node_lstm_over_physics")
+    learned_names = ("sequence", "node_lstm", "node_lstm_over_physics", "learned_map")
     groups = {"physics and baselines": [n for n in out["quarter 0"] if n not in learned_names]}
-    for name, wanted in zip(learned_names, (args.sequence, args.node, args.node_over_physics)):
+    for name, wanted in zip(learned_names, (args.sequence, args.node, args.node_over_physics, args.learned_map)):
         if wanted:
             groups[name] = [name]
     for group, names in groups.items():

@@ -293,6 +293,8 @@ def test_learned_families_say_their_mode_and_interval(report):
     assert {k.split(",", 1)[1] for k in sequence} == {"mode=real", "mode=real,linear", "mode=finetune"} | {
         f"mode=real,physics,gate={g}" for g in ("0.5", "1", "2", "4", "8")}
     assert details["physics"]["interval_90_q"] > 0 and "jackknife" in details["physics"]["error_scale"]
+    # the learned map's scale holds its distance from the calibrated physics (its candidates fitted early too)
+    assert "distance from the calibrated physics' tip" in details["learned_map"]["error_scale"]
     # the hybrid states its physics' interval where its gate is off; the sequence model too, over the physics
     assert "physics' interval" in details["hybrid"]["interval_90_beyond_gate"]
     assert ("interval_90_beyond_gate" in details["sequence"]) == ("physics" in details["sequence"]["kind"])
@@ -334,6 +336,7 @@ def test_synthetic_data_without_a_physics_is_refused_or_left_out(sessions, tmp_p
     out = run_benchmark([as_kpa[0]], as_kpa[1], BenchmarkOptions(length=0.08, families=("learned_map",), **fast))
     assert out.details["learned_map"]["synthetic_data"].startswith("not used: no calibrated physics")
     assert out.details["learned_map"]["mode"] == "real"
+    assert "distance" not in out.details["learned_map"]["error_scale"]
     off = run_benchmark([train], val, BenchmarkOptions(length=0.08, families=("learned_map",), **fast,
                                                        synthetic=SyntheticOptions(amount=0.0)))
     assert set(off.details["learned_map"]["holdout_rmse_mm"]) == {"hysteresis=False,mode=real",

@@ -9,10 +9,18 @@ import numpy as np
 import pytest
 
 from softrnn.lab.families import PersistenceFamily, Physics, StaticPolynomial, stretch_edges
-from softrnn.lab.nets import Hybrid, NetOptions
+from softrnn.lab.nets import Hybrid, LearnedMap, NetOptions, seeded
 from softrnn.lab.recording import Recording
 from softrnn.lab.tendon_robot import Calibration
-from softrnn.lab.uncertainty import REFIT_FOLDS, PhysicsGap, RefitSpread, WithInterval, pattern_folds, with_interval
+from softrnn.lab.uncertainty import (
+    REFIT_FOLDS,
+    PhysicsGap,
+    RefitSpread,
+    WithInterval,
+    calibrate,
+    pattern_folds,
+    with_interval,
+)
 
 from helpers import Recalling, tendon_robot_truth
 
@@ -238,6 +246,43 @@ def test_the_distance_from_the_physics_joins_the_refits_scale():
     # a model without the refits' scale (refits=0) is not given one
     assert not isinstance(with_interval(family.fit([train]), family.fit(fit_part), fit_part, held, [train],
                                         fitted=True, physics=(physics, physics)).model, PhysicsGap)
+
+
+class _BentCalibrated(_Bent):
+    """``_Bent`` as a calibrated physics (``families.calibrated``)."""
+
+    calibration = "calibrated"
+
+
+def test_the_learned_map_s_scale_holds_its_distance_from_a_calibrated_physics():
+    """The learned map's scale s, its training RMS error plus its ensemble's spread, becomes
+    sqrt(s^2 + gap^2) with a calibrated physics fitted on its rows (gap its distance from the physics'
+    tip), unbounded where the physics' run is not finite; without a calibrated physics it is s. Where the
+    robot bends as the physics says beyond the training rows, the map's members agree on a straight line
+    and its ball, calibrated on the same hold-out, misses those tips without the physics and holds them
+    with it."""
+    train = _line(np.linspace(-1, 1, 12), 7)
+    fit_part, held = [train.rows(0, 180)], [train.rows(180, 240)]
+    nets, physics = NetOptions(members=3, steps=300, hidden=16), _BentCalibrated()
+    probe = _at([0.0, 0.5, 3.0, -4.0, 12.0])
+    bent = replace(probe.rows(0, 4), tip=physics.predict(probe.rows(0, 4)))
+    stated = {}
+    for label, phys in (("gap", physics), ("own", None), ("uncalibrated", _Bent())):
+        family = LearnedMap(options=nets, physics=phys)
+        with seeded("map"):
+            model, held_model = family.fit([train]), family.fit(fit_part)
+        stated[label] = replace(model, **calibrate(held_model, fit_part, held))
+    own = replace(stated["gap"], physics=None).error_scale(probe)
+    np.testing.assert_array_equal(stated["uncalibrated"].error_scale(probe), stated["own"].error_scale(probe))
+    gap = np.linalg.norm(stated["gap"].predict(probe) - physics.predict(probe), axis=1)
+    scale = stated["gap"].error_scale(probe)
+    np.testing.assert_allclose(scale[:4], np.sqrt(own ** 2 + gap ** 2)[:4], rtol=1e-12)
+    assert scale[4] == math.inf and np.all(np.isfinite(own))
+    for label, holds in (("gap", [True] * 4), ("own", [True, True, False, False])):
+        tip, radius = stated[label].predict_interval(bent)
+        assert list(np.linalg.norm(tip - bent.tip, axis=1) <= radius) == holds, label
+    assert "distance from the calibrated physics' tip" in stated["gap"].describe()["error_scale"]
+    assert "distance" not in stated["own"].describe()["error_scale"]
 
 
 def _tendon_session(rows: int, seed: int) -> tuple:

@@ -56,6 +56,7 @@ from .families import (
     held_rows,
     holdout_split,
     parsimonious,
+    physics_distance,
     play,
 )
 from .recording import Recording
@@ -297,14 +298,24 @@ class LearnedMap(Intervals):
         return self.net(_features(session, self.widths)) + self.offset
 
     def error_scale(self, session: Recording) -> np.ndarray:
-        """(T,) [m] the training RMS error plus the ensemble's spread."""
-        return self.floor + self.net.spread(_features(session, self.widths))
+        """(T,) [m] the training RMS error plus the ensemble's spread, s; with a calibrated ``physics``
+        (fitted on the same rows), sqrt(s^2 + |tip - physics' tip|^2): the ensemble's members agree where
+        no training row sets them (combinations of commands the rows do not show) and are wrong together
+        there, where the physics, fitted with the robot's form, tells the map apart (as the baselines'
+        ``uncertainty.PhysicsGap``). A row where either run is not finite gets an unbounded scale."""
+        own = self.floor + self.net.spread(_features(session, self.widths))
+        if not calibrated(self.physics):
+            return own
+        return np.sqrt(own ** 2 + physics_distance(self.predict(session), self.physics, session) ** 2)
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
         return {"kind": "MLP ensemble of the current and previous inputs" +
                         (" and a hysteresis state (play operators)" if self.hysteresis else ""),
-                **{k: v for k, v in vars(self.options).items()}, **_pretraining(self)}
+                **{k: v for k, v in vars(self.options).items()}, **_pretraining(self),
+                "error_scale": "training RMS error plus the ensemble's spread" + (
+                    ", and the distance from the calibrated physics' tip (root sum of squares)"
+                    if calibrated(self.physics) else "")}
 
 
 @dataclass(frozen=True, eq=False)
@@ -798,7 +809,10 @@ def _synthetic_mode(mode: str, syn: SyntheticOptions) -> tuple[str, SyntheticOpt
 
 def fit_learned_map(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
     """``LearnedMap``: its hysteresis state and mode (``finetune``, ``mixed``, ``DENSE_MODE`` with
-    synthetic data) chosen on the hold-out part (``staged``)."""
+    synthetic data) chosen on the hold-out part (``staged``); each with the physics of ``pair`` fitted on
+    its rows, which its error scale reads where calibrated (``LearnedMap.error_scale``)."""
+    # the candidates fitted before the physics was calibrated state their distance from it too
+    early = {label: replace(model, physics=pair[0]) for label, model in (early or {}).items()}
     return staged(lambda h, m, i: LearnedMap(h, options.nets, *_synthetic_mode(m, syn), pair[i]),
                   ("finetune", "mixed", DENSE_MODE) if syn.on else (), train, held_score, name="learned_map",
                   early=early)
