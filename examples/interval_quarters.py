@@ -12,8 +12,9 @@ from the physics' tip, ``uncertainty.PhysicsGap``) and once with none (scale 1).
 scale from the physics (``nets.Sequence.error_scale``) and once with none; with ``--node``, the node LSTM
 (mode ``mixed``, taught by the physics' synthetic sessions) the same way (``families.NodeFamily``), with
 ``--node-over-physics`` the node LSTM that learns what the physics leaves (``on_physics``, the narrowest
-gate of ``nets.GATES``). No row of another session is read, so the rule can be judged without a
-validation session.
+gate of ``nets.GATES``); with ``--learned-map``, the learned map (mode ``real``) with its scale, with and
+without its distance from the physics' tip (``nets.LearnedMap.error_scale``), and with none. No row of
+another session is read, so the rule can be judged without a validation session.
 
     python examples/interval_quarters.py data/opencr-tdcr-v6/train.csv --length 0.222 \\
         --segments 0.1,0.1,0.022 --json out/interval-quarters.json
@@ -21,7 +22,7 @@ validation session.
 Prints one line per quarter and model, and writes the coverages (shares of rows) to ``--json``.
 About 4 minutes on 2 cores for the shared robot (the physics' multi-start search, once per quarter);
 with ``--sequence`` about 25 (four trainings of the GRU per quarter), with ``--node`` or
-``--node-over-physics`` about 5 more each.
+``--node-over-physics`` about 5 more each, with ``--learned-map`` about 4 more.
 """
 
 import argparse
@@ -158,7 +159,7 @@ def main() -> None:
                         help="also the node LSTM over the physics (about 5 minutes)")
     parser.add_argument("--learned-map", action="store_true",
                         help="also the learned map (mode real), its scale with and without its distance from the "
-                             "physics (about 5 minutes)")
+                             "physics (about 4 minutes)")
     parser.add_argument("--creep", action="store_true", help="the physics with the tendons' creep")
     args = parser.parse_args()
     options = BenchmarkOptions(length=args.length, segments=tuple(float(x) for x in args.segments.split(",")))
