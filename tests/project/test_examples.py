@@ -1,9 +1,15 @@
 """The examples run: each is run as a user runs it, on a small synthetic stand-in of its input."""
 
+import importlib.util
 import json
 import subprocess
 import sys
 from pathlib import Path
+
+from softrnn.lab.benchmark import BenchmarkOptions, prepare
+from softrnn.lab.nets import NetOptions
+from softrnn.lab.recording import read_recording
+from softrnn.lab.uncertainty import pattern_folds
 
 from helpers import tendon_recording
 
@@ -13,6 +19,21 @@ ROOT = Path(__file__).resolve().parents[2]
 def _example(name: str, *args, cwd) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, str(ROOT / "examples" / name), *map(str, args)], cwd=cwd,
                           capture_output=True, text=True, timeout=600)
+
+
+def test_interval_quarters_checks_the_learned_map_s_three_scales(tmp_path):
+    """``--learned-map``: one quarter's coverage of the learned map with its scale with and without its
+    distance from the physics, and with none (small networks, through the example's ``quarter``)."""
+    spec = importlib.util.spec_from_file_location("interval_quarters", ROOT / "examples" / "interval_quarters.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    tendon_recording(tmp_path / "rec.csv", rows=160, seed=1)
+    options = BenchmarkOptions(length=0.08, segments=(0.08,), nets=NetOptions(members=2, steps=100, hidden=8))
+    prepared = prepare([read_recording(tmp_path / "rec.csv")], None, options)
+    train, block = pattern_folds(list(prepared.train), 4)[0]
+    out = example.quarter(prepared.robot, options, train, block, False, with_map=True)
+    assert set(out["learned_map"]) == {"physics", "no physics", "none"}
+    assert all(0.0 <= share <= 1.0 for share in out["learned_map"].values())
 
 
 def test_interval_quarters_checks_the_intervals_on_a_training_session_alone(tmp_path):
