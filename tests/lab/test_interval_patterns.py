@@ -19,6 +19,7 @@ from softrnn.lab.uncertainty import (
     WithInterval,
     calibrate,
     cross_fit,
+    held_sessions,
     pattern_edges,
     pattern_folds,
     quantile,
@@ -270,3 +271,46 @@ def test_hold_out_rows_near_the_data_raise_q():
     flat = at(np.zeros(401), "fit")                              # every row at d = 0: no row beyond d0 anywhere
     none = calibrate(Offset().fit([flat]), [flat], [at(np.zeros(CROSS_ROWS - 1), "other")])
     assert none["interval_knee"] == 0.0 and none["interval_slope"] == math.inf
+
+
+def test_a_held_session_near_the_data_sets_q_where_the_cross_fit_s_weaker_model_would_widen_it():
+    """A model that errs by 1 mm on a session it was not fitted on, fitted on every fitting row, and by
+    3 mm where it was fitted on half of them (the cross-fit's refits): where the hold-out is a session of
+    its own (``held_sessions``) with ``CROSS_ROWS`` rows or more near the data, q holds 90 % of those rows
+    and the fitted rows (1 mm), as the final model meets a validation session; where the hold-out is
+    stretches of the fitting session itself (one path), or too few of its rows lie near the data, the
+    cross-fit's rows set q (3 mm)."""
+    @dataclass(frozen=True, eq=False)
+    class Weaker:                   # 0 on rows it saw; 1 mm elsewhere fitted on 401 rows, 3 mm on fewer
+        seen: frozenset = frozenset()
+        name: str = "weaker"
+
+        def fit(self, sessions):
+            return replace(self, seen=frozenset((s.path, t) for s in sessions for t in s.time))
+
+        def reach(self, s):
+            return s.inputs[:, 0]
+
+        def predict(self, s):
+            miss = 1e-3 if len(self.seen) >= 401 else 3e-3
+            off = np.array([0.0 if (s.path, t) in self.seen else miss for t in s.time])
+            return s.tip + np.column_stack([off, np.zeros((s.n_rows, 2))])
+
+        def error_scale(self, s):
+            return np.ones(s.n_rows)
+
+    def at(d, path, t0=0.0):
+        d = np.asarray(d, dtype=float)
+        return Recording(path=path, time=t0 + np.arange(d.size) * 0.6, inputs=d[:, None], names=("d",),
+                         units=("mm",), tip=np.zeros((d.size, 3)))
+    fit = at(np.random.default_rng(0).permutation(np.linspace(0.0, 2.0, 401)), "fit")
+    near = np.zeros(40)
+    assert held_sessions([fit], [at(near, "other")]) and not held_sessions([fit], [at(near, "fit", 1e3)])
+    session = calibrate(Weaker().fit([fit]), [fit], [at(near, "other")])
+    assert session["interval_q"] == pytest.approx(1e-3)
+    stretches = calibrate(Weaker().fit([fit]), [fit], [at(near, "fit", 1e3)])
+    assert stretches["interval_q"] == pytest.approx(3e-3)
+    few = calibrate(Weaker().fit([fit]), [fit], [at(np.zeros(CROSS_ROWS - 1), "other")])
+    assert few["interval_q"] == pytest.approx(3e-3)
+    # the cross-fit still sets d0 and the growth: the same in both
+    assert session["interval_knee"] == stretches["interval_knee"] > 0.0

@@ -195,8 +195,12 @@ def calibrate(model, fit_part, held) -> dict:
     is the error of a new visit as near the data as the nearer half (a pattern the model did not see,
     between patterns it did; a session the model did not see, where its commands are those of the
     others), held up to that distance, and b how it grows beyond, each from the rows of its own regime.
-    Without a cross-fit, d0 = 0. inf where there are too few rows. A model without ``reach`` gets b = 0,
-    d0 = 0 and the largest q of the parts."""
+    Where the hold-out is whole sessions of their own (``held_sessions``: two or more training sessions)
+    with ``CROSS_ROWS`` rows within d0, those rows and the fitted rows alone set q: the model met a
+    session it was not fitted on there, as it meets a validation session, while the cross-fit's model,
+    fitted on half the fitting rows in stretches, is weaker than one fitted on whole sessions and would
+    widen every ball (the cross-fit still sets d0 and b). Without a cross-fit, d0 = 0. inf where there
+    are too few rows. A model without ``reach`` gets b = 0, d0 = 0 and the largest q of the parts."""
     q = quantile(_ratios(model, fit_part, model.error_scale)[0])
     ratio, d = _ratios(model, held, model.error_scale)
     cross = cross_fit(model, fit_part)
@@ -207,7 +211,8 @@ def calibrate(model, fit_part, held) -> dict:
     if cross is not None:
         knee = float(np.quantile(cross[1], NEAR_SHARE))
         near = cross[1] <= knee
-        q = max(q, quantile(cross[0][near]))
+        if not (held_sessions(fit_part, held) and np.count_nonzero(d <= knee) >= CROSS_ROWS):
+            q = max(q, quantile(cross[0][near]))
         beyond.append((cross[0][~near], cross[1][~near]))
     if np.count_nonzero(d <= knee) >= CROSS_ROWS:
         q = max(q, quantile(ratio[d <= knee]))
@@ -220,6 +225,13 @@ def calibrate(model, fit_part, held) -> dict:
     needs = [held_need] + [need(r, dist) for r, dist in beyond if r.size]
     slopes = [quantile(n) for n in needs if n.size] or [math.inf]    # no row beyond d0 anywhere: unknown growth
     return {"interval_q": q, "interval_slope": max(slopes), "interval_knee": knee}
+
+
+def held_sessions(fit_part, held) -> bool:
+    """Whether the hold-out ``held`` is whole sessions of their own: no recording of it shares its path with
+    one of ``fit_part`` (``families.holdout_split`` holds out a session where there are two or more, and
+    stretches of the one session otherwise)."""
+    return not ({h.path for h in held} & {s.path for s in fit_part})
 
 
 NEAR_SHARE = 0.5
