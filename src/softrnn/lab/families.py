@@ -594,6 +594,17 @@ def physics_distance(tip: np.ndarray, physics, session: Recording) -> np.ndarray
     return np.where(np.isfinite(gap), gap, math.inf)
 
 
+PHYSICS_GAP = "the distance from the calibrated physics' tip (root sum of squares)"
+"""What a scale that holds its distance from the physics (``with_physics_gap``) says of it, JSON-ready."""
+
+
+def with_physics_gap(scale: np.ndarray, tip: np.ndarray, physics, session: Recording) -> np.ndarray:
+    """(T,) [m] a model's own error ``scale`` (T,) [m] combined with the distance of its run ``tip`` (T, 3)
+    [m] over ``session`` from the fitted ``physics``' tip (``physics_distance``): sqrt(scale^2 + gap^2);
+    unbounded where either run is not finite."""
+    return np.sqrt(scale ** 2 + physics_distance(tip, physics, session) ** 2)
+
+
 class Anchored:
     """What a learned model anchored on a physics shares (``Sequence``, ``NodeFamily``): its fields
     ``physics`` (a fitted ``Physics``, or None) and ``physics_rms`` (the physics' RMS tip error [m] over

@@ -43,6 +43,7 @@ import numpy as np
 
 from ..errors import bad, integer
 from .families import (
+    PHYSICS_GAP,
     PLAY_WIDTHS,
     Anchored,
     LinearARXFamily,
@@ -56,8 +57,8 @@ from .families import (
     held_rows,
     holdout_split,
     parsimonious,
-    physics_distance,
     play,
+    with_physics_gap,
 )
 from .recording import Recording
 from .synthetic import SyntheticOptions, taught_sessions
@@ -306,7 +307,7 @@ class LearnedMap(Intervals):
         own = self.floor + self.net.spread(_features(session, self.widths))
         if not calibrated(self.physics):
             return own
-        return np.sqrt(own ** 2 + physics_distance(self.predict(session), self.physics, session) ** 2)
+        return with_physics_gap(own, self.predict(session), self.physics, session)
 
     def describe(self) -> dict:
         """What the model is and its options, JSON-ready."""
@@ -314,8 +315,7 @@ class LearnedMap(Intervals):
                         (" and a hysteresis state (play operators)" if self.hysteresis else ""),
                 **{k: v for k, v in vars(self.options).items()}, **_pretraining(self),
                 "error_scale": "training RMS error plus the ensemble's spread" + (
-                    ", and the distance from the calibrated physics' tip (root sum of squares)"
-                    if calibrated(self.physics) else "")}
+                    ", and " + PHYSICS_GAP if calibrated(self.physics) else "")}
 
 
 @dataclass(frozen=True, eq=False)

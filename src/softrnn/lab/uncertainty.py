@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .families import InputDistance, masked, physics_distance, rms_error, stretch_edges
+from .families import PHYSICS_GAP, InputDistance, masked, rms_error, stretch_edges, with_physics_gap
 
 COVERAGE = 0.9
 """The share of rows an interval should hold."""
@@ -343,8 +343,7 @@ class PhysicsGap(_Wrapper):
 
     def error_scale(self, session) -> np.ndarray:
         """(T,) sqrt(own^2 + gap^2) [m] (see the class)."""
-        gap = physics_distance(self.model.predict(session), self.physics, session)
-        return np.sqrt(self.model.error_scale(session) ** 2 + gap ** 2)
+        return with_physics_gap(self.model.error_scale(session), self.model.predict(session), self.physics, session)
 
     def refit(self, sessions) -> PhysicsGap:
         """The model refitted on ``sessions`` (``cross_fit``), the physics kept."""
@@ -353,8 +352,7 @@ class PhysicsGap(_Wrapper):
     def describe(self) -> dict:
         """The model's description, its scale's with the distance from the physics."""
         out = self.model.describe()
-        return out | {"error_scale": out.get("error_scale", "1") + ", and the distance from the calibrated physics' "
-                                                                    "tip (root sum of squares)"}
+        return out | {"error_scale": out.get("error_scale", "1") + ", and " + PHYSICS_GAP}
 
 
 class Intervals:
