@@ -127,6 +127,7 @@ def _check_dynamic(out, report):
 
 def test_reproduce_writes_report_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(reproduce_cases, "QUICK_FRACTION", 0.002)
+    monkeypatch.setattr(reproduce_cases, "ANIMATION_FRAMES", 4)
     steps = _light_steps(monkeypatch)
     _tiny_dynamic(monkeypatch)
     out = tmp_path / "rep"

@@ -12,9 +12,9 @@ newcomer's first ``make reproduce`` hit exactly that. Here each subprocess gets 
 The small data set and model are made once per module (simulate and train, each itself cold) and
 used by the later tests. ``softrnn reproduce --quick`` is not here: CI runs it with empty caches
 (.ci/run). The subcommands whose work that run already does cold, in a fresh process, are marked
-slow (run them with ``make test-all``): the magnetic experiment and its comparison, the benchmark, the
-Fig. 14 study on Dask and the whole-manipulator model. Every subprocess has a timeout, so a hang fails
-instead of blocking CI.
+slow (run them with ``make test-all``): the sweep on Dask, the magnetic experiment and its comparison,
+the benchmark, the Fig. 14 study on Dask and the whole-manipulator model. Every subprocess has a
+timeout, so a hang fails instead of blocking CI.
 """
 
 import importlib.util
@@ -169,10 +169,13 @@ def test_import_csv(work):
     assert read_dataset(work / "lab.h5").n_samples > 0
 
 
+@pytest.mark.slow
 @needs_dask
 def test_sweep(work):
     """Two variants on the default local Dask cluster (two workers compiling at once into one
-    empty cache), merged into one file."""
+    empty cache), merged into one file. Slow: CI's cold quick reproduce runs sweeps on two local Dask
+    workers (``run_sweep``, its dynamic step) in a fresh process with an empty cache; the merge is
+    tested on a warm cache (tests/sweeps)."""
     out = work / "sweep"
     _softrnn(["sweep", SCENARIO, "--count", 2, "--samples", 50, "-o", out, "--merge", work / "sweep.h5", "--quiet"],
              work)

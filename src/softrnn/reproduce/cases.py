@@ -21,6 +21,7 @@ from .stepfiles import load_step
 
 QUICK_FRACTION = 0.1  # --quick simulates this fraction of each case's duration
 N_SNAPSHOTS = 6
+ANIMATION_FRAMES = 120  # the most frames of each case's animation
 GENERALISATION = {"ellipse": "ellipse-horizontal", "square": "square-figure8", "semicircle": "semicircle-cosine"}
 
 
@@ -58,7 +59,7 @@ def _figures(case: Case, data_path: Path, series: dict, fig_dir: Path) -> list[s
     save_figure(fig, fig_dir / f"{case.name}_rod.png")
     fig = plotting.energy(t, series["energy"], f"{case.name}: energy")
     save_figure(fig, fig_dir / f"{case.name}_energy.png")
-    animate(load(data_path), fig_dir / f"{case.name}.gif", node=case.node_of_interest, max_frames=120)
+    animate(load(data_path), fig_dir / f"{case.name}.gif", node=case.node_of_interest, max_frames=ANIMATION_FRAMES)
     return [f"{case.name}_node.png", f"{case.name}_rod.png", f"{case.name}_energy.png", f"{case.name}.gif"]
 
 
