@@ -120,6 +120,32 @@ def test_a_family_fits_the_same_with_its_candidates_fitted_early(fitted_physics,
     assert np.array_equal(runs[0][1], runs[1][1], equal_nan=True)
 
 
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_single_node_candidate_refits_beside_its_choice_with_the_figures_of_one_job(fitted_physics, workers):
+    """Without a calibrated physics or synthetic rows the node LSTM has one candidate: its refit on every
+    training row (``node_final``) runs as a job of its own beside the choice, and gives the model, the
+    hold-out scores, the interval and the run over a session of the one job (``fit_node``) to the last bit.
+    With a calibrated physics there is a choice, and the refit waits for it."""
+    from softrnn.lab._pool import WorkerPool
+    from softrnn.lab._stages import FITS, HeldScore, Joined, submit_family
+    from softrnn.lab.families import holdout_split
+    from softrnn.lab.nets import NODE_FINAL, node_single
+
+    train, options, physics = fitted_physics
+    syn = dataclasses.replace(options.synthetic, amount=0.0)
+    assert node_single((None, None), syn) and not node_single((physics, physics), syn)
+    with seeded("node_lstm"):
+        model, scores = FITS["node_lstm"](train, (None, None), syn, options, HeldScore(holdout_split(train)[1]))
+    tip, radius = model.predict_interval(train[0])
+    with WorkerPool(workers) as pool:
+        job = submit_family(pool, "node_lstm", train, (None, None), syn, None, options, train[0])
+        assert isinstance(job, Joined) and list(pool.as_completed([job])) == [job]
+        ran, score, weights = job.get()
+        assert {"node_lstm", NODE_FINAL} == set(pool.timings)
+    assert ran.details["holdout_rmse_mm"] == scores and score == min(scores.values()) and weights is None
+    assert np.array_equal(ran.tip, tip, equal_nan=True) and np.array_equal(ran.radius, radius, equal_nan=True)
+
+
 def test_a_family_seeds_its_own_random_numbers():
     """Inside ``seeded(name)`` PyTorch draws the same numbers whatever was drawn before; the caller's
     random state is left as it was."""

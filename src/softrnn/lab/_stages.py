@@ -18,14 +18,19 @@ from .dynamic_families import DynamicHybrid, DynamicPhysics
 from .families import finite_or_inf, holdout_split, remember_refits
 from .nets import (
     BEYOND_GATE,
+    NODE_FINAL,
     fit_hybrid,
     fit_learned_map,
     fit_node,
     fit_sequence,
     follow_physics,
+    node_choice,
+    node_final,
+    node_single,
     seeded,
 )
 from .recording import Recording
+from .uncertainty import InputDistance, WithInterval
 
 LONGEST_FIRST = ("sequence", "node_lstm", "learned_map", "hybrid")
 """The learned families in the order they are handed to the workers: the longest first (on the shared
@@ -101,11 +106,66 @@ def family_run(name: str, train: list, pair: tuple, syn, no_syn: str | None, opt
     more = {"early": early} if early else {}
     with seeded(name):
         model, scores = FITS[name](train, pair, syn, options, HeldScore(holdout_split(train)[1]), **more)
+    return _ran(name, model, scores, validation, no_syn)
+
+
+def _ran(name: str, model, scores: dict, validation: Recording, no_syn: str | None) -> tuple:
+    """``family_run``'s result for the fitted ``model`` of family ``name`` and its candidates' hold-out
+    ``scores`` [mm]."""
     ran = run_model(name, model, validation, scores)
     if no_syn:
         ran.details["synthetic_data"] = f"not used: {no_syn}"
     weights = model.physics_weights(validation) if hasattr(model, "physics_weights") else None
     return ran, min(scores.values(), key=finite_or_inf), weights
+
+
+def node_choice_run(train: list, pair: tuple, syn, options, early: dict | None = None) -> tuple:
+    """The node LSTM's choice (``nets.node_choice``) as a job, seeded as ``family_run`` seeds the family: (its
+    interval's parameters, the candidates' hold-out scores [mm])."""
+    with seeded("node_lstm"):
+        _, interval, scores = node_choice(train, pair, syn, options, HeldScore(holdout_split(train)[1]), early)
+    return interval, scores
+
+
+class Joined:
+    """Jobs of one family that run apart (the node LSTM's choice and its refit on every training row), seen as
+    one job named ``label`` (``WorkerPool.as_completed``): ready when every one is; ``get()`` hands their
+    results to ``combine`` here, once."""
+
+    def __init__(self, label: str, jobs: tuple, combine):
+        self.label, self.jobs, self.combine = label, tuple(jobs), combine
+        self._result, self._done = None, False
+
+    def ready(self) -> bool:
+        """Whether every job has finished (or, in this process, can run now)."""
+        return all(job.ready() for job in self.jobs)
+
+    def wait(self, timeout: float) -> None:
+        """Wait at most ``timeout`` [s] for the first job that has not finished."""
+        next((job for job in self.jobs if not job.ready()), self.jobs[0]).wait(timeout)
+
+    def get(self):
+        """The combined result."""
+        if not self._done:
+            self._result, self._done = self.combine(*(job.get() for job in self.jobs)), True
+        return self._result
+
+
+def submit_family(pool: WorkerPool, name: str, train: list, pair: tuple, syn, no_syn: str | None, options,
+                  validation: Recording, early: dict | None = None, refits: dict | None = None):
+    """The learned family ``name``'s job (``family_run``, the same arguments) in ``pool``. The node LSTM with a
+    single candidate (``nets.node_single``) as two jobs side by side, its choice and its refit on every
+    training row (``nets.node_final``, which waits for no choice), joined here (``Joined``): the same figures,
+    the longest family's time shared between two workers."""
+    if name != "node_lstm" or not node_single(pair, syn):
+        return pool.submit(name, family_run, name, train, pair, syn, no_syn, options, validation, early, refits)
+    choice = pool.submit(name, node_choice_run, train, pair, syn, options, early)
+    final = pool.submit(NODE_FINAL, node_final, train, pair, syn, options)
+
+    def combine(chosen: tuple, model) -> tuple:
+        interval, scores = chosen
+        return _ran(name, WithInterval(model, InputDistance.of(train), **interval), scores, validation, no_syn)
+    return Joined(name, (choice, final), combine)
 
 
 def collect_families(jobs: list, pool: WorkerPool, out, step, physics_interval=None) -> dict:

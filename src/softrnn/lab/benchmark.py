@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import SoftrnnInputError, bad, integer, positive
 from ..learned.metrics import aligned_tip_errors, coverage, tip_errors
 from ._pool import WorkerPool
-from ._stages import EARLY, LONGEST_FIRST, HeldScore, Ran, collect_families, dynamic_models, family_run, run_model
+from ._stages import EARLY, LONGEST_FIRST, HeldScore, Ran, collect_families, dynamic_models, run_model, submit_family
 from .dynamic_physics import DynamicOptions, DynamicRobot
 from .families import (
     HOLDOUT_RULES,
@@ -554,8 +554,8 @@ def _models(train: list[Recording], split: tuple, families: list, robot, options
         pick = choose_physics(robot, options.calibration, fit_part, held, train, pool=pool, meanwhile=meanwhile)
         held_physics, physics = pick.held, pick.physics
     def submit(name, refits=None):
-        return pool.submit(name, family_run, name, train, (held_physics, physics), syn, no_syn, options,
-                           out.validation, early[name].get() if name in early else None, refits)
+        return submit_family(pool, name, train, (held_physics, physics), syn, no_syn, options, out.validation,
+                             early[name].get() if name in early else None, refits)
     # the hybrid after the physics' interval: its interval refits the physics as that one did (shared_refits)
     jobs = [submit(name) for name in LONGEST_FIRST if name in families and name != "hybrid"]
     agreement = physics_interval = None

@@ -898,7 +898,25 @@ def fit_node(train, pair, syn, options, held_score, early: dict | None = None) -
     as the hold-out part prefers, each candidate seeded by its label (``seeded``); the winner
     refitted on every training row, with a 90 % interval (``uncertainty.WithInterval``, its scale from
     the physics: ``families.Anchored``) calibrated on the hold-out split. ``early``: candidates fitted
-    already ({label: model}, ``early_candidates``)."""
+    already ({label: model}, ``early_candidates``). With a single candidate (``node_single``) the refit
+    is ``node_final``'s, which a job of its own can run beside this choice (``node_choice``)."""
+    best, interval, scores = node_choice(train, pair, syn, options, held_score, early)
+    if node_single(pair, syn):
+        final = node_final(train, pair, syn, options)
+    else:
+        final = _node_refit(best, pair, syn, options).fit(train)
+    return WithInterval(final, InputDistance.of(train), **interval), scores
+
+
+def node_single(pair, syn) -> bool:
+    """Whether ``fit_node`` has one candidate alone, the node on the real rows (no synthetic data, no calibrated
+    physics in ``pair``): then its refit on every training row waits for no choice (``node_final``)."""
+    return not syn.on and not all(calibrated(p) for p in pair)
+
+
+def node_choice(train, pair, syn, options, held_score, early: dict | None = None) -> tuple:
+    """``fit_node``'s choice: (the candidate the hold-out part prefers, fitted on the fitting part; its
+    interval's parameters, calibrated on the hold-out split; the candidates' hold-out scores [mm])."""
     fit_part, held = holdout_split(train)
     fitted = dict(early or {})
     for m in ("real", "mixed") if syn.on else ("real",):
@@ -914,6 +932,23 @@ def fit_node(train, pair, syn, options, held_score, early: dict | None = None) -
     scores = {k: held_score(v) for k, v in fitted.items()}
     best = fitted[parsimonious(scores, held_rows(held))]
     interval = calibrate(WithInterval(best.anchored(pair[0], fit_part), InputDistance.of(fit_part)), fit_part, held)
-    final = NodeFamily(options.length, options.node, mode=best.mode, synthetic=syn, physics=pair[1],
-                       on_physics=best.on_physics, gate=best.gate)
-    return WithInterval(final.fit(train), InputDistance.of(train), **interval), scores
+    return best, interval, scores
+
+
+def _node_refit(best, pair, syn, options) -> NodeFamily:
+    """The node model of ``best``'s candidate, with the physics fitted on every training row (``pair[1]``),
+    to be fitted on every training row."""
+    return NodeFamily(options.length, options.node, mode=best.mode, synthetic=syn, physics=pair[1],
+                      on_physics=best.on_physics, gate=best.gate)
+
+
+NODE_FINAL = "node_lstm final"
+"""The label of ``node_final``: its job's and its random numbers' (``seeded``)."""
+
+
+def node_final(train, pair, syn, options) -> NodeFamily:
+    """The single candidate of ``fit_node`` (``node_single``: the node on the real rows) fitted on every
+    training row, seeded by its own label (``NODE_FINAL``): the same model whether it runs after the choice or
+    beside it, in a job of its own."""
+    with seeded(NODE_FINAL):
+        return _node_refit(NodeFamily(options.length, options.node), pair, syn, options).fit(train)
