@@ -32,10 +32,7 @@ def _strict_floating_point():
 # (``make test``: pytest-xdist, ``--dist loadfile``). Each of these pairs compiles the same kernels on
 # first use: on two processes at once, both would compile them on a cold cache (over a minute each);
 # in one, the second module loads what the first compiled.
-SAME_PROCESS = (("tests/lab/test_benchmark.py", "tests/lab/test_worker_pool.py"),
-                # the magnetic manipulator in a vessel: the explicit rod kernel with magnets and contact
-                ("tests/scenarios/test_magnetic_scenario.py", "tests/scenarios/test_scenario.py",
-                 "tests/magnetics/test_navigation.py", "tests/magnetics/test_advance.py"))
+SAME_PROCESS = (("tests/lab/test_benchmark.py", "tests/lab/test_worker_pool.py"),)
 
 
 @pytest.hookimpl(optionalhook=True)

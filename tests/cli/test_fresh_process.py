@@ -12,8 +12,9 @@ newcomer's first ``make reproduce`` hit exactly that. Here each subprocess gets 
 The small data set and model are made once per module (simulate and train, each itself cold) and
 used by the later tests. ``softrnn reproduce --quick`` is not here: CI runs it with empty caches
 (.ci/run). The subcommands whose work that run already does cold, in a fresh process, are marked
-slow (run them with ``make test-all``): the sweep on Dask, the magnetic experiment and its comparison,
-the benchmark, the Fig. 14 study on Dask and the whole-manipulator model. Every subprocess has a
+slow (run them with ``make test-all``): the sweep on Dask, the node model's evaluation and free run, the
+magnetic experiment and its comparison, the benchmark, the Fig. 14 study on Dask and the whole-manipulator
+model. Every subprocess has a
 timeout, so a hang fails instead of blocking CI.
 """
 
@@ -193,8 +194,12 @@ def test_train(trained, model):
         _nonempty(model / name)
 
 
+@pytest.mark.slow
 @needs_learn
 def test_evaluate(model, dataset, work):
+    """Slow: CI's cold quick reproduce evaluates node models (one step ahead and free running, the compiled
+    engine) in a fresh process with an empty cache; the command runs on a warm cache in the README's tour
+    (tests/project/test_tour.py)."""
     _softrnn(["evaluate", model, dataset, "--json", work / "evaluate.json", "--figures", work / "evaluate",
               "--quiet"], work)
     report = json.loads((work / "evaluate.json").read_text())
@@ -204,8 +209,11 @@ def test_evaluate(model, dataset, work):
     _nonempty(work / "evaluate" / "rmse_t.csv")
 
 
+@pytest.mark.slow
 @needs_learn
 def test_rollout(model, dataset, work):
+    """Slow: CI's cold quick reproduce runs node models free on the compiled engine in a fresh process with
+    an empty cache; the command runs on a warm cache in the README's tour (tests/project/test_tour.py)."""
     _softrnn(["rollout", model, dataset, "-o", work / "rollout.h5", "--figure", work / "rollout.png", "--quiet"],
              work)
     assert read_dataset(work / "rollout.h5").n_samples > 0

@@ -162,12 +162,15 @@ def test_the_record_holds_the_advancing_base_as_a_moving_clamp_and_a_fixed_base_
     assert fixed.magnetic.spec.advance is None and fixed.record.moving_clamps == ()
 
 
+@pytest.mark.slow
 def test_the_implicit_integrator_runs_it_and_agrees_with_the_explicit_within_its_own_error(scenario, tmp_path,
                                                                                             capsys):
     """Settling, the ramp and the start of the advance (0.3 s) with both integrators: the implicit
     step (first order, its step 3x the explicit one) differs from the explicit run by at most its
     own error, estimated as twice the change of its run when its step is halved (4.7e-5 m against
-    2 x 3.6e-5 m), and the halved step comes closer to the explicit run."""
+    2 x 3.6e-5 m), and the halved step comes closer to the explicit run. Slow: most of its minute compiles
+    the implicit kernel with magnets and contact together; each with the implicit integrator is tested apart
+    (tests/magnetics/test_magnetic_load.py, tests/rod/test_contact_predictive.py)."""
     config = dataclasses.replace(scenario.config, n_samples=31)
     explicit = simulate_magnetic(scenario.magnetic, config)
     implicit_text = _text("nodes_of_interest", "integrator = \"implicit\"\nnodes_of_interest")
