@@ -120,8 +120,7 @@ def test_a_family_fits_the_same_with_its_candidates_fitted_early(fitted_physics,
     assert np.array_equal(runs[0][1], runs[1][1], equal_nan=True)
 
 
-@pytest.mark.parametrize("workers", [1, 2])
-def test_a_single_node_candidate_refits_beside_its_choice_with_the_figures_of_one_job(fitted_physics, workers):
+def test_a_single_node_candidate_refits_beside_its_choice_with_the_figures_of_one_job(fitted_physics):
     """Without a calibrated physics or synthetic rows the node LSTM has one candidate: its refit on every
     training row (``node_final``) runs as a job of its own beside the choice, and gives the model, the
     hold-out scores, the interval and the run over a session of the one job (``fit_node``) to the last bit.
@@ -137,7 +136,7 @@ def test_a_single_node_candidate_refits_beside_its_choice_with_the_figures_of_on
     with seeded("node_lstm"):
         model, scores = FITS["node_lstm"](train, (None, None), syn, options, HeldScore(holdout_split(train)[1]))
     tip, radius = model.predict_interval(train[0])
-    with WorkerPool(workers) as pool:
+    with WorkerPool(2) as pool:
         job = submit_family(pool, "node_lstm", train, (None, None), syn, None, options, train[0])
         assert isinstance(job, Joined) and list(pool.as_completed([job])) == [job]
         ran, score, weights = job.get()
