@@ -231,45 +231,54 @@ def test_the_interval_holds_q_up_to_the_knee_and_grows_beyond_it():
     assert np.all(from_zero.predict_interval(probe)[1][1:3] > 1.3e-3)       # near the data: too wide
 
 
+@dataclass(frozen=True, eq=False)
+class _Seen:
+    """A model exact on the rows it was fitted on (by path and time), its distance the one input, its scale
+    1 m; a subclass's ``off(session)`` says how far off along x [m] it is on that session's other rows."""
+    seen: frozenset = frozenset()
+    name: str = "seen"
+
+    def fit(self, sessions):
+        return replace(self, seen=frozenset((s.path, t) for s in sessions for t in s.time))
+
+    def reach(self, s):
+        return s.inputs[:, 0]
+
+    def predict(self, s):
+        off = np.array([0.0 if (s.path, t) in self.seen else self.off(s) for t in s.time])
+        return s.tip + np.column_stack([off, np.zeros((s.n_rows, 2))])
+
+    def error_scale(self, s):
+        return np.ones(s.n_rows)
+
+
+def _at(d, path, t0=0.0):
+    """A session of rows 0.6 s apart from ``t0`` at the distances ``d`` (the one input), its tip at 0."""
+    d = np.asarray(d, dtype=float)
+    return Recording(path=path, time=t0 + np.arange(d.size) * 0.6, inputs=d[:, None], names=("d",), units=("mm",),
+                     tip=np.zeros((d.size, 3)))
+
+
 def test_hold_out_rows_near_the_data_raise_q():
     """A hold-out session on the training commands (d <= d0), off by 3 mm where the cross-fit shows 1 mm:
     q holds 90 % of those rows too, as it would a new session's rows there; fewer than ``CROSS_ROWS`` of
     them leave q the cross-fit's, and since no growth reaches a row within d0, the growth holds 90 % of
     the hold-out rows beyond d0 (all of them outside q: unbounded everywhere otherwise)."""
-    @dataclass(frozen=True, eq=False)
-    class Offset:                   # 1 mm off on rows it did not see; 3 mm on the session "other"
-        seen: frozenset = frozenset()
-        name: str = "offset"
+    class Offset(_Seen):            # 1 mm off on rows it did not see; 3 mm on the session "other"
+        def off(self, s):
+            return 3e-3 if s.path == "other" else 1e-3
 
-        def fit(self, sessions):
-            return replace(self, seen=frozenset((s.path, t) for s in sessions for t in s.time))
-
-        def reach(self, s):
-            return s.inputs[:, 0]
-
-        def predict(self, s):
-            off = np.array([0.0 if (s.path, t) in self.seen else (3e-3 if s.path == "other" else 1e-3)
-                            for t in s.time])
-            return s.tip + np.column_stack([off, np.zeros((s.n_rows, 2))])
-
-        def error_scale(self, s):
-            return np.ones(s.n_rows)
-
-    def at(d, path):
-        d = np.asarray(d, dtype=float)
-        return Recording(path=path, time=np.arange(d.size) * 0.6, inputs=d[:, None], names=("d",), units=("mm",),
-                         tip=np.zeros((d.size, 3)))
-    fit = at(np.random.default_rng(0).permutation(np.linspace(0.0, 2.0, 401)), "fit")
-    out = calibrate(Offset().fit([fit]), [fit], [at(np.zeros(40), "other")])
+    fit = _at(np.random.default_rng(0).permutation(np.linspace(0.0, 2.0, 401)), "fit")
+    out = calibrate(Offset().fit([fit]), [fit], [_at(np.zeros(40), "other")])
     assert out["interval_q"] == pytest.approx(3e-3)
-    few = calibrate(Offset().fit([fit]), [fit], [at(np.zeros(CROSS_ROWS - 1), "other")])
+    few = calibrate(Offset().fit([fit]), [fit], [_at(np.zeros(CROSS_ROWS - 1), "other")])
     assert few["interval_q"] == pytest.approx(1e-3) and few["interval_slope"] == out["interval_slope"] == 0.0
-    beside = calibrate(Offset().fit([fit]), [fit], [at(np.r_[np.zeros(CROSS_ROWS - 1), np.full(30, 5.0)], "other")])
+    beside = calibrate(Offset().fit([fit]), [fit], [_at(np.r_[np.zeros(CROSS_ROWS - 1), np.full(30, 5.0)], "other")])
     assert beside["interval_q"] == pytest.approx(1e-3)         # 3 mm off beyond d0: a finite growth holds them
     assert 0.0 < beside["interval_slope"] < math.inf
     assert beside["interval_slope"] == pytest.approx(2e-3 / (5.0 - beside["interval_knee"]), rel=1e-6)
-    flat = at(np.zeros(401), "fit")                              # every row at d = 0: no row beyond d0 anywhere
-    none = calibrate(Offset().fit([flat]), [flat], [at(np.zeros(CROSS_ROWS - 1), "other")])
+    flat = _at(np.zeros(401), "fit")                              # every row at d = 0: no row beyond d0 anywhere
+    none = calibrate(Offset().fit([flat]), [flat], [_at(np.zeros(CROSS_ROWS - 1), "other")])
     assert none["interval_knee"] == 0.0 and none["interval_slope"] == math.inf
 
 
@@ -280,37 +289,18 @@ def test_a_held_session_near_the_data_sets_q_where_the_cross_fit_s_weaker_model_
     and the fitted rows (1 mm), as the final model meets a validation session; where the hold-out is
     stretches of the fitting session itself (one path), or too few of its rows lie near the data, the
     cross-fit's rows set q (3 mm)."""
-    @dataclass(frozen=True, eq=False)
-    class Weaker:                   # 0 on rows it saw; 1 mm elsewhere fitted on 401 rows, 3 mm on fewer
-        seen: frozenset = frozenset()
-        name: str = "weaker"
+    class Weaker(_Seen):            # 0 on rows it saw; 1 mm elsewhere fitted on 401 rows, 3 mm on fewer
+        def off(self, s):
+            return 1e-3 if len(self.seen) >= 401 else 3e-3
 
-        def fit(self, sessions):
-            return replace(self, seen=frozenset((s.path, t) for s in sessions for t in s.time))
-
-        def reach(self, s):
-            return s.inputs[:, 0]
-
-        def predict(self, s):
-            miss = 1e-3 if len(self.seen) >= 401 else 3e-3
-            off = np.array([0.0 if (s.path, t) in self.seen else miss for t in s.time])
-            return s.tip + np.column_stack([off, np.zeros((s.n_rows, 2))])
-
-        def error_scale(self, s):
-            return np.ones(s.n_rows)
-
-    def at(d, path, t0=0.0):
-        d = np.asarray(d, dtype=float)
-        return Recording(path=path, time=t0 + np.arange(d.size) * 0.6, inputs=d[:, None], names=("d",),
-                         units=("mm",), tip=np.zeros((d.size, 3)))
-    fit = at(np.random.default_rng(0).permutation(np.linspace(0.0, 2.0, 401)), "fit")
+    fit = _at(np.random.default_rng(0).permutation(np.linspace(0.0, 2.0, 401)), "fit")
     near = np.zeros(40)
-    assert held_sessions([fit], [at(near, "other")]) and not held_sessions([fit], [at(near, "fit", 1e3)])
-    session = calibrate(Weaker().fit([fit]), [fit], [at(near, "other")])
+    assert held_sessions([fit], [_at(near, "other")]) and not held_sessions([fit], [_at(near, "fit", 1e3)])
+    session = calibrate(Weaker().fit([fit]), [fit], [_at(near, "other")])
     assert session["interval_q"] == pytest.approx(1e-3)
-    stretches = calibrate(Weaker().fit([fit]), [fit], [at(near, "fit", 1e3)])
+    stretches = calibrate(Weaker().fit([fit]), [fit], [_at(near, "fit", 1e3)])
     assert stretches["interval_q"] == pytest.approx(3e-3)
-    few = calibrate(Weaker().fit([fit]), [fit], [at(np.zeros(CROSS_ROWS - 1), "other")])
+    few = calibrate(Weaker().fit([fit]), [fit], [_at(np.zeros(CROSS_ROWS - 1), "other")])
     assert few["interval_q"] == pytest.approx(3e-3)
     # the cross-fit still sets d0 and the growth: the same in both
     assert session["interval_knee"] == stretches["interval_knee"] > 0.0
