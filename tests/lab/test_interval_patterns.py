@@ -287,7 +287,7 @@ def test_a_held_session_near_the_data_sets_q_where_the_cross_fit_s_weaker_model_
     3 mm where it was fitted on half of them (the cross-fit's refits): where the hold-out is a session of
     its own (``held_sessions``) with ``CROSS_ROWS`` rows or more near the data, q holds 90 % of those rows
     and the fitted rows (1 mm), as the final model meets a validation session; where the hold-out is
-    stretches of the fitting session itself (one path), or too few of its rows lie near the data, the
+    stretches of the fitting session itself (``Recording.stretch``), or too few of its rows lie near the data, the
     cross-fit's rows set q (3 mm)."""
     class Weaker(_Seen):            # 0 on rows it saw; 1 mm elsewhere fitted on 401 rows, 3 mm on fewer
         def off(self, s):
@@ -295,12 +295,29 @@ def test_a_held_session_near_the_data_sets_q_where_the_cross_fit_s_weaker_model_
 
     fit = _at(np.random.default_rng(0).permutation(np.linspace(0.0, 2.0, 401)), "fit")
     near = np.zeros(40)
-    assert held_sessions([fit], [_at(near, "other")]) and not held_sessions([fit], [_at(near, "fit", 1e3)])
+    stretch = replace(_at(near, "fit", 1e3), stretch=True)
+    assert held_sessions([_at(near, "other")]) and not held_sessions([stretch])
     session = calibrate(Weaker().fit([fit]), [fit], [_at(near, "other")])
     assert session["interval_q"] == pytest.approx(1e-3)
-    stretches = calibrate(Weaker().fit([fit]), [fit], [_at(near, "fit", 1e3)])
+    stretches = calibrate(Weaker().fit([fit]), [fit], [stretch])
     assert stretches["interval_q"] == pytest.approx(3e-3)
     few = calibrate(Weaker().fit([fit]), [fit], [_at(np.zeros(CROSS_ROWS - 1), "other")])
     assert few["interval_q"] == pytest.approx(3e-3)
     # the cross-fit still sets d0 and the growth: the same in both
     assert session["interval_knee"] == stretches["interval_knee"] > 0.0
+
+
+def test_the_split_says_whether_it_holds_out_whole_sessions():
+    """``holdout_split`` marks the stretches it cuts out of a sole session (``Recording.stretch``), so that
+    ``held_sessions`` tells a held session from a held stretch by the split itself, not by the files: two
+    sessions built in memory (no path) hold out a whole session, one session read twice from one file too,
+    and a sole session's held stretches are stretches, as are the rows kept to fit."""
+    rng = np.random.default_rng(3)
+    first, second = (_at(rng.uniform(0.0, 2.0, 120), "", t0) for t0 in (0.0, 1e3))
+    fit_part, held = holdout_split([first, second])
+    assert held_sessions(held) and len(held) == 1 and not held[0].stretch
+    assert held_sessions(holdout_split([_at(first.inputs[:, 0], "same.csv"), _at(second.inputs[:, 0], "same.csv")])[1])
+    fit_part, held = holdout_split([first])
+    assert not held_sessions(held) and all(p.stretch for p in fit_part + held)
+    assert sum(p.n_rows for p in fit_part + held) == first.n_rows
+    assert not held_sessions([])

@@ -373,13 +373,13 @@ def novelty(parts) -> np.ndarray:
 
 def _runs(session: Recording, edges: np.ndarray, blocks) -> list[Recording]:
     """The rows of ``session`` in the stretches ``blocks`` (indices into ``edges``' stretches), joined
-    where consecutive."""
+    where consecutive, each marked a stretch (``Recording.stretch``)."""
     out, start = [], None
     for b in range(len(edges) - 1):
         if b in blocks and start is None:
             start = edges[b]
         if start is not None and b + 1 not in blocks:
-            out.append(session.rows(start, edges[b + 1]))
+            out.append(replace(session.rows(start, edges[b + 1]), stretch=True))
             start = None
     return out
 
@@ -396,7 +396,9 @@ def holdout_split(sessions) -> tuple[list, list]:
     end: (fitting part, held-out part), lists of ``Recording``. With two or more sessions, the session
     farthest from the others in command space (``novelty``) is held out; with one, the session is cut
     into stretches of rows (``HOLDOUT_BLOCKS``) and the quarter of them farthest from the rest is held
-    out, each run of held or kept stretches a session of its own (rows in order, never shuffled)."""
+    out, each run of held or kept stretches a session of its own (rows in order, never shuffled) and
+    marked a stretch (``Recording.stretch``), so that what is held out tells whether it is whole sessions
+    (``uncertainty.held_sessions``)."""
     sessions = list(sessions)
     if len(sessions) >= 2:
         far = int(np.argmax(novelty(sessions)))

@@ -115,6 +115,9 @@ class Recording:
         the row labels (``pattern_label`` column), or () when there are none
     lag : int
         rows the inputs were shifted by (``shift_inputs``), 0 as read
+    stretch : bool
+        whether this is a stretch of rows cut out of a sole session to hold part of it out
+        (``families.holdout_split``), not a session of its own; False as read
     """
 
     path: str
@@ -126,6 +129,7 @@ class Recording:
     labels: tuple = ()
     lag: int = 0
     columns: tuple = field(default=(), repr=False)
+    stretch: bool = False
 
     @property
     def n_rows(self) -> int:

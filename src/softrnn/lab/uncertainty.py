@@ -211,7 +211,7 @@ def calibrate(model, fit_part, held) -> dict:
     if cross is not None:
         knee = float(np.quantile(cross[1], NEAR_SHARE))
         near = cross[1] <= knee
-        if not (held_sessions(fit_part, held) and np.count_nonzero(d <= knee) >= CROSS_ROWS):
+        if not (held_sessions(held) and np.count_nonzero(d <= knee) >= CROSS_ROWS):
             q = max(q, quantile(cross[0][near]))
         beyond.append((cross[0][~near], cross[1][~near]))
     if np.count_nonzero(d <= knee) >= CROSS_ROWS:
@@ -227,11 +227,11 @@ def calibrate(model, fit_part, held) -> dict:
     return {"interval_q": q, "interval_slope": max(slopes), "interval_knee": knee}
 
 
-def held_sessions(fit_part, held) -> bool:
-    """Whether the hold-out ``held`` is whole sessions of their own: no recording of it shares its path with
-    one of ``fit_part`` (``families.holdout_split`` holds out a session where there are two or more, and
-    stretches of the one session otherwise)."""
-    return not ({h.path for h in held} & {s.path for s in fit_part})
+def held_sessions(held) -> bool:
+    """Whether the hold-out ``held`` (a list of ``Recording``) is whole sessions of their own: none of it a
+    stretch of rows (``Recording.stretch``; ``families.holdout_split`` holds out a session where there are
+    two or more, and stretches of the one session otherwise)."""
+    return bool(held) and not any(h.stretch for h in held)
 
 
 NEAR_SHARE = 0.5
