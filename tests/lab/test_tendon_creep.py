@@ -97,7 +97,8 @@ def test_the_timeline_gives_a_session_the_slack_it_had():
     assert line.at([11.5, 12.5], [[9.0], [9.0]]) == 3.5      # a row of the calibration within: a clock of its own
     one = CreepTimeline(times=np.arange(100.0), q=np.zeros((100, 1)), slack=np.linspace(0.0, 5.0, 100), end=5.5)
     assert one.at(np.arange(30.0), np.ones((30, 1))) == 5.5  # a session timed from zero, as the training was
-    assert line.at([25.0], [[1.0]]) == 3.5 and line.at([0.0], [[0.0]]) == 3.5   # outside: as training left it
+    assert line.at([25.0], [[1.0]]) == 3.5                   # after: as the training left it
+    assert line.at([0.0, 9.0], [[0.0], [0.0]]) == 0.0         # before: as at the first row (creep only grows)
     relative = CreepTimeline(times=np.array([0.0, 1.0, 0.0, 1.0]), q=np.array([[0.0], [1.0], [0.0], [3.0]]),
                              slack=np.array([0.0, 1.0, 2.0, 3.0]), end=4.0)
     assert relative.at([0.0, 1.0], [[0.0], [3.0]]) == 2.0     # sessions on clocks of their own: the rows that match

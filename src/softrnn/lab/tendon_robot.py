@@ -470,18 +470,19 @@ class CreepTimeline:
         """The slack [m] at the first row of a session of rows at ``times`` (T,) [s] with displacements
         ``q`` (T, n) [m]: that of the calibration's run of rows with the same times and displacements (a
         session, or a stretch of one, that the calibration ran through); else, where the calibration's
-        rows share one clock (their times in order) and the session lies between two of them (no row of
-        the calibration within its span), that of the first row after it; else ``end``: a session
-        recorded outside the calibration's span, or on a clock of its own (its span holds rows of the
-        calibration that are not its own: times that start again from zero in each session, say), runs
-        on the robot as the training left it."""
+        rows share one clock (their times in order) and the session lies before the first of them or
+        between two (no row of the calibration within its span), that of the first row after it: creep
+        only grows, and the robot had crept no further then; else ``end``: a session recorded after the
+        calibration's rows, or on a clock of its own (its span holds rows of the calibration that are
+        not its own: times that start again from zero in each session, say), runs on the robot as the
+        training left it."""
         times, q = np.asarray(times, dtype=float), np.asarray(q, dtype=float)
         for j in np.flatnonzero(self.times == times[0]):
             m = min(times.size, self.times.size - j)
             if np.array_equal(self.times[j:j + m], times[:m]) and np.array_equal(self.q[j:j + m], q[:m]):
                 return float(self.slack[j])
         own = self.times
-        if own.size and np.all(np.diff(own) >= 0.0) and own[0] <= times[0] <= own[-1]:
+        if own.size and np.all(np.diff(own) >= 0.0) and times[0] <= own[-1]:
             after = int(np.searchsorted(own, times[0]))
             if own[after] > times[-1]:
                 return float(self.slack[after])
