@@ -53,7 +53,7 @@ def folder(tmp_path_factory):
             tendon_recording(d / robot / f"{name}.csv", rows=rows, seed=seed)
     tendon_recording(d / "one" / "other.csv", rows=40, seed=6, header=[
         "timestamp", "pattern_label", "servo_1_mm", "servo_20_mm", "servo_99_mm", "tip_x", "tip_y", "tip_z"])
-    tendon_recording(d / "one" / "far.csv", rows=40, seed=7, scale_mm=40.0)
+    tendon_recording(d / "one" / "far.csv", rows=40, seed=7, scale_mm=80.0)
     return d
 
 

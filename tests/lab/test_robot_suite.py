@@ -83,7 +83,7 @@ def test_suite_runs_every_robot_and_resumes_after_an_interruption(data, tmp_path
 
 def test_a_bad_robot_stops_the_suite_before_anything_runs(data, tmp_path):
     far = tmp_path / "far.csv"
-    tendon_recording(far, rows=40, seed=5, scale_mm=40.0)
+    tendon_recording(far, rows=40, seed=5, scale_mm=80.0)      # beyond the widest routing the calibration fits
     jobs = [_job(data, "a", "a.csv", "av.csv"), _job(data, "far", "a.csv", str(far))]
     with pytest.raises(SoftrnnInputError, match=r"^suite.toml: robots.far: .*beyond what the routing allows"):
         run_suite(jobs, tmp_path / "robots")

@@ -41,9 +41,11 @@ def _recording_args(q, suite: bool = False):
                         "--tendons-per-segment, of equal length)")
     q.add_argument("--tendons-per-segment", type=int, default=3, metavar="N",
                    help="tendons per segment; the inputs are in segment order (default: 3)")
-    q.add_argument("--routing-radius", type=float, default=4.5e-3, metavar="M",
-                   help="the tendons' distance from the backbone in m, a start value the calibration fits "
-                        "(default: 0.0045)")
+    q.add_argument("--routing-radius", type=float, default=None, metavar="M",
+                   help="the tendons' distance from the backbone in m, a start value the calibration fits; a "
+                        "pull beyond pi x it per segment the tendon runs through is refused (default: not known: "
+                        "0.0045 to start from, and only a pull beyond what the widest routing the calibration "
+                        "fits allows is refused)")
     q.add_argument("--overwrite", action="store_true", help="replace the output files if they exist (default: refuse)")
     q.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -382,7 +384,7 @@ def _calibrate(args) -> int:
     if robot.n_tendons != train[0].n_inputs:
         raise bad("--segments", args.segments, f"segments whose tendons ({robot.n_tendons}) match the "
                                                f"{train[0].n_inputs} input columns")
-    check_pulls(robot, recordings)
+    check_pulls(robot, recordings, options.routing_radius is not None)
     try:
         check_reach(recordings, args.length)
     except SoftrnnInputError as err:

@@ -45,7 +45,7 @@ from .nets import NetOptions, SequenceOptions, early_candidates
 from .physics_variants import choose_physics
 from .recording import Recording, check_sessions, estimate_lag, shift_inputs
 from .synthetic import SyntheticOptions, pull_limits
-from .tendon_robot import LENGTH_UNITS, CalibrationOptions, TendonRobot
+from .tendon_robot import LENGTH_UNITS, ROUTING_RANGE, CalibrationOptions, TendonRobot
 from .uncertainty import REFIT_FOLDS, with_interval
 
 FAMILIES = ("physics", "learned_map", "hybrid", "sequence", "node_lstm")
@@ -64,6 +64,9 @@ LEAST_LEARNED = ("physics", "dynamic_physics", "hybrid", "dynamic_hybrid", "lear
 """The families from the one that leans least on learned parts to the one that leans most: the order
 in which the hold-out's family choice prefers them (``parsimonious``): the physics extrapolates by
 construction, a learned part only as far as its data reach."""
+ROUTING_RADIUS = 4.5e-3
+"""The routing radius [m] the calibration starts from where the robot's is not given (``BenchmarkOptions``):
+the shared robot's, 4.5 mm."""
 MIN_ROWS = 10
 """Fewest rows of every session (after the lag) the benchmark runs on: the baselines, the families and
 their hold-out split (a quarter of a sole training session, in stretches of rows) need that many; a 3-row session
@@ -86,8 +89,11 @@ class BenchmarkOptions:
         ``tendons_per_segment``, of equal length)
     tendons_per_segment : int
         tendons of each segment
-    routing_radius : float
-        the tendons' start distance from the backbone [m], below ``length``
+    routing_radius : float or None
+        the tendons' distance from the backbone [m], below ``length``: the calibration's start value (it
+        fits 0.2-5 times it, ``tendon_robot.ROUTING_RANGE``), and a pull beyond pi times it per segment
+        the tendon runs through is refused (``check_pulls``). None: not known; the calibration starts
+        from ``ROUTING_RADIUS`` and a pull is refused only beyond what the widest routing it fits allows
     families : tuple
         which of ``FAMILIES`` to run
     nets : NetOptions
@@ -117,7 +123,7 @@ class BenchmarkOptions:
     lag: object = "auto"
     segments: tuple | None = None
     tendons_per_segment: int = 3
-    routing_radius: float = 4.5e-3
+    routing_radius: float | None = None
     families: tuple = FAMILIES
     nets: NetOptions = NetOptions()
     sequence: SequenceOptions = SequenceOptions()
@@ -130,11 +136,8 @@ class BenchmarkOptions:
 
     def __post_init__(self):
         positive("length", self.length, "m")
-        positive("routing_radius", self.routing_radius, "m")
-        if self.routing_radius >= self.length:       # mm read as m: the calibration starts from nonsense
-            raise bad("routing_radius", self.routing_radius,
-                      f"the tendons' distance from the backbone in m, below the robot's length ({self.length:g} m), "
-                      f"e.g. {self.routing_radius * 1e-3:g} for {self.routing_radius:g} mm")
+        if self.routing_radius is not None:
+            self._check_routing()
         integer("workers", self.workers, 1)
         if self.lag != "auto" and (not isinstance(self.lag, int) or isinstance(self.lag, bool) or self.lag < 0):
             raise bad("lag", self.lag, "a whole number of rows >= 0, or 'auto'")
@@ -143,6 +146,18 @@ class BenchmarkOptions:
             raise bad("families", ",".join(self.families), f"one or more of {', '.join(FAMILIES + DYNAMIC_FAMILIES)}")
         if self.synthetic is not None and not isinstance(self.synthetic, SyntheticOptions):
             raise bad("synthetic", self.synthetic, "a SyntheticOptions, or None")
+
+    @property
+    def radius(self) -> float:
+        """The routing radius the calibration starts from [m]: ``routing_radius``, else ``ROUTING_RADIUS``."""
+        return ROUTING_RADIUS if self.routing_radius is None else self.routing_radius
+
+    def _check_routing(self) -> None:
+        positive("routing_radius", self.routing_radius, "m")
+        if self.routing_radius >= self.length:       # mm read as m: the calibration starts from nonsense
+            raise bad("routing_radius", self.routing_radius,
+                      f"the tendons' distance from the backbone in m, below the robot's length ({self.length:g} m), "
+                      f"e.g. {self.routing_radius * 1e-3:g} for {self.routing_radius:g} mm")
 
 
 @dataclass(frozen=True)
@@ -337,27 +352,32 @@ def robot_for(options: BenchmarkOptions, n_inputs: int) -> TendonRobot | None:
     """The tendon robot of ``options`` for ``n_inputs`` tendon inputs (equal segments unless
     ``options.segments``); None where the inputs do not split into segments."""
     if options.segments is not None:
-        return TendonRobot(options.segments, options.tendons_per_segment, options.routing_radius)
+        return TendonRobot(options.segments, options.tendons_per_segment, options.radius)
     if n_inputs % options.tendons_per_segment:
         return None
     S = n_inputs // options.tendons_per_segment
-    return TendonRobot(tuple([options.length / S] * S), options.tendons_per_segment, options.routing_radius)
+    return TendonRobot(tuple([options.length / S] * S), options.tendons_per_segment, options.radius)
 
 
-def check_pulls(robot: TendonRobot, sessions) -> None:
+def check_pulls(robot: TendonRobot, sessions, given: bool = True) -> None:
     """Refuse a pull the routing cannot take: more than pi r per segment the tendon runs through
-    (a pull beyond bending every segment it spans by half a turn)."""
+    (a pull beyond bending every segment it spans by half a turn). ``given``: whether r, ``robot``'s
+    routing radius, is the robot's own; else (a start value) the widest routing the calibration fits
+    (``tendon_robot.ROUTING_RANGE``) sets the limit, so that only a pull no fit could take is refused."""
+    widest = 1.0 if given else ROUTING_RANGE[1]
+    limit = pull_limits(robot) * widest
+    radius = (f"routing radius {robot.routing_radius * 1e3:g} mm" if given else
+              f"the widest routing radius the calibration fits, {widest:g} x {robot.routing_radius * 1e3:g} mm")
     for s in sessions:
         q = displacements(s)
-        limit = pull_limits(robot)
         over = q > limit
         if np.any(over):
             k, i = np.argwhere(over)[0]
             raise SoftrnnInputError(
                 f"{s.path}: row {k + 1}, input {s.columns[i] if s.columns else s.names[i]!r}: a pull of "
-                f"{q[k, i] * 1e3:.4g} mm is beyond what the routing allows (pi x routing radius "
-                f"{robot.routing_radius * 1e3:g} mm per segment it runs through = {limit[i] * 1e3:.4g} mm); "
-                "check the units and the column order, or give the robot's --routing-radius")
+                f"{q[k, i] * 1e3:.4g} mm is beyond what the routing allows (pi x {radius} per segment it "
+                f"runs through = {limit[i] * 1e3:.4g} mm); check the units and the column order"
+                + ("" if given else ", or give the robot's --routing-radius"))
 
 
 def check_rows(sessions) -> None:
@@ -439,7 +459,7 @@ def _families(options: BenchmarkOptions, robot, sessions) -> tuple[list, dict]:
                 families.remove(f)
                 skipped[f] = reason
     elif "physics" in families or "hybrid" in families or syn.on:
-        check_pulls(robot, sessions)
+        check_pulls(robot, sessions, options.routing_radius is not None)
     return families, skipped
 
 

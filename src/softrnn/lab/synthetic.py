@@ -147,7 +147,7 @@ class CommandStatistics:
 
 def _limits(stats: CommandStatistics, options: SyntheticOptions, robot: TendonRobot, units) -> tuple:
     """(low, high) (m,) of each input in its units: the options' or the recorded range, the pulls
-    clipped to the routing's limit."""
+    clipped to the routing's limit (``pull_limits``) or the input's largest recorded pull, the larger."""
     m = stats.low.size
     if options.limits is not None:
         pairs = np.asarray(options.limits, dtype=float)
@@ -159,7 +159,7 @@ def _limits(stats: CommandStatistics, options: SyntheticOptions, robot: TendonRo
     else:
         low, high = stats.low.copy(), stats.high.copy()
     factor = np.array([LENGTH_UNITS[u] for u in units])
-    high = np.minimum(high, pull_limits(robot) / factor)
+    high = np.minimum(high, np.maximum(pull_limits(robot) / factor, stats.high))
     return low, np.maximum(high, low)
 
 

@@ -625,16 +625,20 @@ def _starts(robot: TendonRobot, twists: int) -> list[tuple[int, float]]:
     return [(sign, float(twist)) for twist in np.where(grid >= 180.0, grid - 360.0, grid) for sign in (1, -1)]
 
 
+ROUTING_RANGE = (0.2, 5.0)
+"""The routing radii the calibration fits, as multiples of the robot's (its start value, ``TendonRobot``)."""
+
+
 def _bounds(robot: TendonRobot, options: CalibrationOptions) -> tuple[np.ndarray, np.ndarray]:
     """(lower, upper) of the packed parameters (``pack``) for ``options``' variant."""
     n, S = robot.n_tendons, robot.n_segments
     inf = np.inf
-    lower = np.concatenate([np.full(n, -inf), np.full(n, -inf), [0.2 * robot.routing_radius * 1e3],
+    lower = np.concatenate([np.full(n, -inf), np.full(n, -inf), [ROUTING_RANGE[0] * robot.routing_radius * 1e3],
                             np.full(S, -inf), [0.0], np.full(3, -inf), np.full(3, -inf),
                             np.full(3 * options.gravity, -inf), np.zeros(int(options.friction)),
                             np.zeros(int(options.play)), np.zeros(int(options.creep)),
                             np.full(int(options.twist), -_TWIST_MAX)])
-    upper = np.concatenate([np.full(n, inf), np.full(n, inf), [5.0 * robot.routing_radius * 1e3],
+    upper = np.concatenate([np.full(n, inf), np.full(n, inf), [ROUTING_RANGE[1] * robot.routing_radius * 1e3],
                             np.full(S, inf), [0.5 * robot.length * 1e3], np.full(3, inf), np.full(3, inf),
                             np.full(3 * options.gravity, inf), np.full(int(options.friction), options.friction_max),
                             np.full(int(options.play), _play_max(robot) * 1e3),
