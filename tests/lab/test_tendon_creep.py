@@ -4,6 +4,7 @@ between sessions, the timeline a prediction starts from, the calibration recover
 creep rate (with rows that run but are not fitted), and its errors."""
 
 import dataclasses
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from scipy.spatial.transform import Rotation
 from softrnn.errors import SoftrnnInputError
 from softrnn.lab.families import Physics, displacements, masked
 from softrnn.lab.recording import Recording
+from softrnn.lab.synthetic import _after_calibration
 from softrnn.lab.tendon_robot import (
     CalibrationOptions,
     CreepTimeline,
@@ -86,6 +88,20 @@ def test_no_creep_across_the_gap_between_sessions():
     slack = solve_rows(robot, params, q, session_resets([10, 10]), times)[4]
     assert slack[10] == slack[9] > 0.0
     assert slack[11] > slack[10]
+
+
+def test_synthetic_sessions_run_on_the_robot_as_the_training_left_it():
+    """The physics' synthetic sessions start a recorded interval after the last row of its calibration
+    (``synthetic._after_calibration``): the timeline gives them the slack the training left, not that of
+    its first row, which a session timed from zero, before the training's Unix times, would get."""
+    line = CreepTimeline(times=1.7e9 + np.arange(50.0), q=np.zeros((50, 1)), slack=np.linspace(0.0, 1e-3, 50),
+                         end=1.1e-3)
+    stats = SimpleNamespace(intervals=np.array([0.5, 0.7]))
+    start = _after_calibration(SimpleNamespace(calibration=SimpleNamespace(timeline=line)), stats)
+    assert start == pytest.approx(1.7e9 + 49.6)
+    assert line.at(start + np.arange(3.0), np.ones((3, 1))) == 1.1e-3
+    assert line.at(np.arange(3.0), np.ones((3, 1))) == 0.0
+    assert _after_calibration(SimpleNamespace(calibration=SimpleNamespace(timeline=None)), stats) == 0.0
 
 
 def test_the_timeline_gives_a_session_the_slack_it_had():

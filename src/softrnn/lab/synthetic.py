@@ -213,6 +213,16 @@ def synthetic_sessions(physics, sessions, options: SyntheticOptions = SyntheticO
     return out
 
 
+def _after_calibration(physics, stats: CommandStatistics) -> float:
+    """The time [s] the synthetic sessions start at: a recorded interval after the last row of the physics'
+    calibration where it keeps a timeline (creep, ``tendon_robot.CreepTimeline``), so that each runs on the
+    robot as the training left it, as a session recorded after the training does; else 0."""
+    timeline = getattr(getattr(physics, "calibration", None), "timeline", None)
+    if timeline is None or not timeline.times.size:
+        return 0.0
+    return float(timeline.times.max()) + float(np.median(stats.intervals))
+
+
 def _synthesize(physics, sessions: list, options: SyntheticOptions) -> list[Recording]:
     """``synthetic_sessions`` computed."""
     real = sum(s.n_rows for s in sessions)
@@ -229,11 +239,12 @@ def _synthesize(physics, sessions: list, options: SyntheticOptions) -> list[Reco
         res = np.vstack([physics.predict(s) - s.tip for s in sessions])
         sigma = options.noise * np.sqrt(np.mean(res ** 2, axis=0))             # (3,) [m]
     length = max(10, int(round(real / len(sessions))))
+    start = _after_calibration(physics, stats)
     out = []
     for i, a in enumerate(range(0, total, length)):
         n = min(length, total - a)
         u = _commands(rng, stats, low, high, group, n)
-        t = np.concatenate([[0.0], np.cumsum(rng.choice(stats.intervals, size=n - 1))])
+        t = start + np.concatenate([[0.0], np.cumsum(rng.choice(stats.intervals, size=n - 1))])
         rec = Recording(path=f"synthetic:{i}", time=t, inputs=u, names=first.names, units=first.units,
                         tip=np.zeros((n, 3)), columns=first.columns)
         tip = physics.predict(rec) + rng.normal(0.0, 1.0, (n, 3)) * sigma
