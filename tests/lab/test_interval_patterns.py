@@ -308,10 +308,11 @@ def test_a_held_session_near_the_data_sets_q_where_the_cross_fit_s_weaker_model_
 
 
 def test_the_split_says_whether_it_holds_out_whole_sessions():
-    """``holdout_split`` marks the stretches it cuts out of a sole session (``Recording.stretch``), so that
-    ``held_sessions`` tells a held session from a held stretch by the split itself, not by the files: two
-    sessions built in memory (no path) hold out a whole session, one session read twice from one file too,
-    and a sole session's held stretches are stretches, as are the rows kept to fit."""
+    """A session cut to fewer rows is a stretch (``Recording.rows``, ``Recording.stretch``), so that
+    ``held_sessions`` tells a held session from a held stretch by the recordings themselves, not by their
+    files: two sessions built in memory (no path) hold out a whole session, one session read twice from one
+    file too; a sole session's held stretches are stretches, as are the rows kept to fit, and so is a
+    session's fold of patterns held out of its other folds."""
     rng = np.random.default_rng(3)
     first, second = (_at(rng.uniform(0.0, 2.0, 120), "", t0) for t0 in (0.0, 1e3))
     fit_part, held = holdout_split([first, second])
@@ -321,3 +322,6 @@ def test_the_split_says_whether_it_holds_out_whole_sessions():
     assert not held_sessions(held) and all(p.stretch for p in fit_part + held)
     assert sum(p.n_rows for p in fit_part + held) == first.n_rows
     assert not held_sessions([])
+    assert not first.rows(0, first.n_rows).stretch and first.rows(0, 50).rows(0, 50).stretch
+    pieces = [first.rows(0, 40), first.rows(40, 80), first.rows(80, 120)]
+    assert not held_sessions(holdout_split(pieces)[1])

@@ -373,13 +373,13 @@ def novelty(parts) -> np.ndarray:
 
 def _runs(session: Recording, edges: np.ndarray, blocks) -> list[Recording]:
     """The rows of ``session`` in the stretches ``blocks`` (indices into ``edges``' stretches), joined
-    where consecutive, each marked a stretch (``Recording.stretch``)."""
+    where consecutive."""
     out, start = [], None
     for b in range(len(edges) - 1):
         if b in blocks and start is None:
             start = edges[b]
         if start is not None and b + 1 not in blocks:
-            out.append(replace(session.rows(start, edges[b + 1]), stretch=True))
+            out.append(session.rows(start, edges[b + 1]))
             start = None
     return out
 
@@ -396,8 +396,8 @@ def holdout_split(sessions) -> tuple[list, list]:
     end: (fitting part, held-out part), lists of ``Recording``. With two or more sessions, the session
     farthest from the others in command space (``novelty``) is held out; with one, the session is cut
     into stretches of rows (``HOLDOUT_BLOCKS``) and the quarter of them farthest from the rest is held
-    out, each run of held or kept stretches a session of its own (rows in order, never shuffled) and
-    marked a stretch (``Recording.stretch``), so that what is held out tells whether it is whole sessions
+    out, each run of held or kept stretches a session of its own (rows in order, never shuffled) and a
+    stretch (``Recording.stretch``), so that what is held out tells whether it is whole sessions
     (``uncertainty.held_sessions``)."""
     sessions = list(sessions)
     if len(sessions) >= 2:

@@ -116,8 +116,9 @@ class Recording:
     lag : int
         rows the inputs were shifted by (``shift_inputs``), 0 as read
     stretch : bool
-        whether this is a stretch of rows cut out of a sole session to hold part of it out
-        (``families.holdout_split``), not a session of its own; False as read
+        whether this is a stretch of rows cut out of a session (``rows``: the hold-out's stretches of a
+        sole session, ``families.holdout_split``, or a fold of its patterns), not a session of its own;
+        False as read
     """
 
     path: str
@@ -147,9 +148,12 @@ class Recording:
         return np.diff(self.time)
 
     def rows(self, start: int, stop: int) -> Recording:
-        """The recording cut to rows ``start`` to ``stop`` (a Python slice of the rows)."""
-        return replace(self, time=self.time[start:stop], inputs=self.inputs[start:stop], tip=self.tip[start:stop],
-                       labels=self.labels[start:stop] if self.labels else ())
+        """The recording cut to rows ``start`` to ``stop`` (a Python slice of the rows), a ``stretch`` where
+        that leaves rows out."""
+        time = self.time[start:stop]
+        return replace(self, time=time, inputs=self.inputs[start:stop], tip=self.tip[start:stop],
+                       labels=self.labels[start:stop] if self.labels else (),
+                       stretch=self.stretch or time.size < self.time.size)
 
     def commands_key(self) -> str:
         """A digest of what a model driven by the commands reads of the recording (its times, inputs,

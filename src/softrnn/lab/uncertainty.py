@@ -229,8 +229,8 @@ def calibrate(model, fit_part, held) -> dict:
 
 def held_sessions(held) -> bool:
     """Whether the hold-out ``held`` (a list of ``Recording``) is whole sessions of their own: none of it a
-    stretch of rows (``Recording.stretch``; ``families.holdout_split`` holds out a session where there are
-    two or more, and stretches of the one session otherwise)."""
+    stretch of rows cut out of a session (``Recording.stretch``; ``families.holdout_split`` holds out a
+    session where there are two or more, and stretches of the one session otherwise)."""
     return bool(held) and not any(h.stretch for h in held)
 
 
