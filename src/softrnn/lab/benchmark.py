@@ -64,9 +64,6 @@ LEAST_LEARNED = ("physics", "dynamic_physics", "hybrid", "dynamic_hybrid", "lear
 """The families from the one that leans least on learned parts to the one that leans most: the order
 in which the hold-out's family choice prefers them (``parsimonious``): the physics extrapolates by
 construction, a learned part only as far as its data reach."""
-ROUTING_RADIUS = 4.5e-3
-"""The routing radius [m] the calibration starts from where the robot's is not given (``BenchmarkOptions``):
-the shared robot's, 4.5 mm."""
 MIN_ROWS = 10
 """Fewest rows of every session (after the lag) the benchmark runs on: the baselines, the families and
 their hold-out split (a quarter of a sole training session, in stretches of rows) need that many; a 3-row session
@@ -93,7 +90,8 @@ class BenchmarkOptions:
         the tendons' distance from the backbone [m], below ``length``: the calibration's start value (it
         fits 0.2-5 times it, ``tendon_robot.ROUTING_RANGE``), and a pull beyond pi times it per segment
         the tendon runs through is refused (``check_pulls``). None: not known; the calibration starts
-        from ``ROUTING_RADIUS`` and a pull is refused only beyond what the widest routing it fits allows
+        from ``TendonRobot``'s default (4.5 mm, the shared robot's) and a pull is refused only beyond what
+        the widest routing it fits allows
     families : tuple
         which of ``FAMILIES`` to run
     nets : NetOptions
@@ -146,11 +144,6 @@ class BenchmarkOptions:
             raise bad("families", ",".join(self.families), f"one or more of {', '.join(FAMILIES + DYNAMIC_FAMILIES)}")
         if self.synthetic is not None and not isinstance(self.synthetic, SyntheticOptions):
             raise bad("synthetic", self.synthetic, "a SyntheticOptions, or None")
-
-    @property
-    def radius(self) -> float:
-        """The routing radius the calibration starts from [m]: ``routing_radius``, else ``ROUTING_RADIUS``."""
-        return ROUTING_RADIUS if self.routing_radius is None else self.routing_radius
 
     def _check_routing(self) -> None:
         positive("routing_radius", self.routing_radius, "m")
@@ -350,13 +343,15 @@ def _physics_reason(sessions, robot_inputs: int) -> str | None:
 
 def robot_for(options: BenchmarkOptions, n_inputs: int) -> TendonRobot | None:
     """The tendon robot of ``options`` for ``n_inputs`` tendon inputs (equal segments unless
-    ``options.segments``); None where the inputs do not split into segments."""
+    ``options.segments``; the routing radius ``TendonRobot``'s default where ``options`` give none); None where
+    the inputs do not split into segments."""
+    radius = {} if options.routing_radius is None else {"routing_radius": options.routing_radius}
     if options.segments is not None:
-        return TendonRobot(options.segments, options.tendons_per_segment, options.radius)
+        return TendonRobot(options.segments, options.tendons_per_segment, **radius)
     if n_inputs % options.tendons_per_segment:
         return None
     S = n_inputs // options.tendons_per_segment
-    return TendonRobot(tuple([options.length / S] * S), options.tendons_per_segment, options.radius)
+    return TendonRobot(tuple([options.length / S] * S), options.tendons_per_segment, **radius)
 
 
 def check_pulls(robot: TendonRobot, sessions, given: bool = True) -> None:
